@@ -1,0 +1,30 @@
+# Two entry points on a fresh machine (Python 3.11+): `make run` and `make test`.
+# Each creates .venv on first use and installs what it needs.
+PY ?= python3
+VENV := .venv
+BIN := $(VENV)/bin
+
+.PHONY: run test bench gui clean
+
+$(BIN)/.installed: pyproject.toml
+	$(PY) -m venv $(VENV)
+	$(BIN)/python -m pip install --quiet --upgrade pip
+	$(BIN)/python -m pip install --quiet -e '.[test]'
+	touch $@
+
+# Main job: a full headless photon-transfer scan on the simulated sensor.
+run: $(BIN)/.installed
+	$(BIN)/ares run scans/photon_transfer.xml --out runs
+
+# All tests (offscreen Qt; two workers for the two cores).
+test: $(BIN)/.installed
+	QT_QPA_PLATFORM=offscreen $(BIN)/python -m pytest -n 2 -q
+
+bench: $(BIN)/.installed
+	$(BIN)/python benchmarks/run_all.py
+
+gui: $(BIN)/.installed
+	$(BIN)/ares gui
+
+clean:
+	rm -rf $(VENV) runs

@@ -1,0 +1,56 @@
+"""``ares`` command line: a thin dispatcher over ``ares.commands.*``.
+
+Each command module defines ``NAME``, ``HELP``, ``add_arguments(parser)`` and
+``run(args) -> int``. User errors (``AresError``) print one sentence and exit with the
+error's code; nothing else is caught here, so a real bug still shows its traceback.
+"""
+
+from __future__ import annotations
+
+import argparse
+import importlib
+import importlib.util
+import sys
+
+from ares import __version__
+from ares.errors import AresError
+
+COMMANDS = ["run", "validate", "rerun", "analyze", "emva", "defects", "report", "sim", "gui", "bench"]
+
+
+def _modules():
+    for name in COMMANDS:
+        modname = f"ares.commands.{name}"
+        if importlib.util.find_spec(modname) is not None:
+            yield importlib.import_module(modname)
+
+
+def build_parser() -> argparse.ArgumentParser:
+    parser = argparse.ArgumentParser(prog="ares", description="Image-sensor characterization bench")
+    parser.add_argument("--version", action="version", version=f"ares {__version__}")
+    sub = parser.add_subparsers(dest="command", metavar="COMMAND")
+    for mod in _modules():
+        p = sub.add_parser(mod.NAME, help=mod.HELP, description=mod.HELP)
+        mod.add_arguments(p)
+        p.set_defaults(_run=mod.run)
+    return parser
+
+
+def main(argv: list[str] | None = None) -> int:
+    parser = build_parser()
+    args = parser.parse_args(argv)
+    if not getattr(args, "_run", None):
+        parser.print_help()
+        return 2
+    try:
+        return int(args._run(args) or 0)
+    except AresError as exc:
+        print(f"ares {args.command}: {exc}", file=sys.stderr)
+        return exc.exit_code
+    except KeyboardInterrupt:
+        print(f"ares {args.command}: interrupted", file=sys.stderr)
+        return 130
+
+
+if __name__ == "__main__":  # pragma: no cover
+    sys.exit(main())

@@ -1,0 +1,1 @@
+"""One module per ``ares`` sub-command (see ares/cli.py)."""

@@ -1,0 +1,51 @@
+"""Errors a user can cause, each with the exit code the CLI returns for it.
+
+Every error carries one plain sentence that names the file/line or the device; the CLI
+prints ``str(error)`` and exits with ``error.exit_code`` -- never a traceback.
+"""
+
+
+class AresError(Exception):
+    """Base of all errors that the CLI reports as one sentence."""
+
+    exit_code = 1
+
+
+class InputError(AresError):
+    """Invalid input: malformed XML, bad value, unknown register, missing file."""
+
+    exit_code = 2
+
+
+class HardwareError(AresError):
+    """A device failed: gone, timed out, returned a short or corrupt frame."""
+
+    exit_code = 3
+
+
+class LimitsFailed(AresError):
+    """A scan finished but one or more pass/fail limits failed."""
+
+    exit_code = 4
+
+
+class Interrupted(AresError):
+    """The user stopped or aborted the run (completed stages are kept)."""
+
+    exit_code = 130
+
+
+class UnknownRegister(InputError):
+    """A register field name that the register map does not declare."""
+
+
+class ValueOutOfRange(InputError):
+    """A value outside a field's declared limits or bit width."""
+
+
+class DeviceGone(HardwareError):
+    """A device stopped answering (unplugged, bus error)."""
+
+
+class FrameError(HardwareError):
+    """A frame was short, of the wrong shape, or corrupt."""

@@ -1,0 +1,39 @@
+"""Read one recorded image (PNG/TIFF, 8-16 bit, grayscale) into a 2-D unsigned array.
+
+Shared by every replay source (image lists, EMVA 1288 descriptors). Errors name the file.
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+
+from ares.errors import InputError
+
+
+def read_image(path: str | Path) -> np.ndarray:
+    path = Path(path)
+    if not path.is_file():
+        raise InputError(f"{path}: image file not found")
+    from PIL import Image, UnidentifiedImageError
+
+    try:
+        with Image.open(path) as im:
+            im.load()
+            if im.mode in ("RGB", "RGBA", "P", "CMYK"):
+                raise InputError(f"{path}: colour image (mode {im.mode}); ARES reads raw grayscale data only")
+            arr = np.asarray(im)
+    except (UnidentifiedImageError, OSError) as exc:
+        raise InputError(f"{path}: not a readable image ({exc})") from None
+    if arr.ndim != 2:
+        raise InputError(f"{path}: expected a 2-D grayscale image, got shape {arr.shape}")
+    if arr.dtype.kind == "b":
+        arr = arr.astype(np.uint8)
+    if arr.dtype.kind == "i":
+        if arr.min() < 0:
+            raise InputError(f"{path}: negative pixel values; raw sensor data are unsigned")
+        arr = arr.astype(np.uint16 if arr.max() < 65536 else np.uint32)
+    if arr.dtype.kind not in "u":
+        raise InputError(f"{path}: pixel type {arr.dtype} is not raw integer data")
+    return arr

@@ -1,0 +1,87 @@
+"""The interfaces every backend implements: I2C/USB/serial hardware, replay, simulator.
+
+Shapes only; no backend code here. A ``Bench`` is the composition a system XML declares.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from typing import Iterator, Protocol, runtime_checkable
+
+import numpy as np
+
+
+@runtime_checkable
+class RegisterBus(Protocol):
+    """Raw register access (I2C, SPI, a simulator's register file)."""
+
+    name: str
+
+    def read(self, address: int) -> int: ...
+
+    def write(self, address: int, value: int) -> None: ...
+
+
+@dataclass
+class Frame:
+    """One frame: 2-D unsigned integer data in DN plus metadata."""
+
+    data: np.ndarray
+    index: int = 0
+    timestamp: float = 0.0
+    meta: dict = field(default_factory=dict)
+
+
+@runtime_checkable
+class FrameSource(Protocol):
+    """Delivers frames of a fixed shape; raises ``FrameError``/``DeviceGone`` on faults."""
+
+    name: str
+    shape: tuple[int, int]
+    bit_depth: int
+
+    def grab(self, n: int) -> Iterator[Frame]: ...
+
+
+@runtime_checkable
+class LightSource(Protocol):
+    """A light source; ``level`` is in the unit the system XML declares
+    (the simulator uses photons per pixel per second at the sensor)."""
+
+    name: str
+
+    def set_level(self, level: float) -> None: ...
+
+    def get_level(self) -> float: ...
+
+    def settle(self) -> None: ...
+
+
+@runtime_checkable
+class Chamber(Protocol):
+    """A thermal chamber; temperatures in degrees Celsius."""
+
+    name: str
+
+    def set_temperature(self, celsius: float) -> None: ...
+
+    def get_temperature(self) -> float: ...
+
+    def settle(self) -> None: ...
+
+
+@dataclass
+class Bench:
+    """What a scan drives: the sensor's registers, a frame source, optional instruments."""
+
+    registers: "RegisterFile"  # noqa: F821 -- ares.hardware.registers.RegisterFile
+    frames: FrameSource
+    light: LightSource | None = None
+    chamber: Chamber | None = None
+    info: dict = field(default_factory=dict)
+
+    def close(self) -> None:
+        for dev in (self.frames, self.light, self.chamber, self.registers.bus):
+            close = getattr(dev, "close", None)
+            if callable(close):
+                close()

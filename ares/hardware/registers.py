@@ -1,0 +1,146 @@
+"""Named register fields over a raw ``RegisterBus``.
+
+A field occupies bits ``lsb..msb`` of a value made of ``count`` consecutive registers
+(combined big- or little-endian, as the map declares), and maps its raw integer to a
+physical value as ``physical = offset + scale * raw``. Limits are physical.
+Pure Python: the XML loader in ``ares.protocol`` builds these objects.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+from ares.errors import UnknownRegister, ValueOutOfRange, InputError
+
+
+@dataclass(frozen=True)
+class Field:
+    name: str
+    address: int
+    lsb: int = 0
+    msb: int = 7
+    count: int = 1  # number of consecutive registers the value spans
+    access: str = "rw"  # "rw", "ro" or "wo"
+    scale: float = 1.0
+    offset: float = 0.0
+    unit: str = ""
+    minimum: float | None = None  # physical
+    maximum: float | None = None  # physical
+    default: int = 0  # raw
+    description: str = ""
+
+    @property
+    def width(self) -> int:
+        return self.msb - self.lsb + 1
+
+    @property
+    def mask(self) -> int:
+        return ((1 << self.width) - 1) << self.lsb
+
+    def to_raw(self, physical: float) -> int:
+        """Physical value -> raw integer, range-checked (one clear sentence on failure)."""
+        if self.minimum is not None and physical < self.minimum - 1e-12 * max(1.0, abs(self.minimum)):
+            raise ValueOutOfRange(
+                f"register field '{self.name}': {physical:g} {self.unit} is below its minimum {self.minimum:g}".rstrip()
+            )
+        if self.maximum is not None and physical > self.maximum + 1e-12 * max(1.0, abs(self.maximum)):
+            raise ValueOutOfRange(
+                f"register field '{self.name}': {physical:g} {self.unit} is above its maximum {self.maximum:g}".rstrip()
+            )
+        raw = round((physical - self.offset) / self.scale)
+        if raw < 0 or raw >= (1 << self.width):
+            raise ValueOutOfRange(
+                f"register field '{self.name}': {physical:g} needs raw value {raw}, "
+                f"which does not fit in {self.width} bits"
+            )
+        return int(raw)
+
+    def to_physical(self, raw: int) -> float:
+        return self.offset + self.scale * raw
+
+
+@dataclass(frozen=True)
+class RegisterMap:
+    address_bits: int = 16
+    value_bits: int = 16
+    endian: str = "big"  # order of multi-register values: "big" = lowest address is most significant
+    fields: tuple[Field, ...] = ()
+
+    def __post_init__(self):
+        names = [f.name for f in self.fields]
+        dup = {n for n in names if names.count(n) > 1}
+        if dup:
+            raise InputError(f"register map declares field(s) {sorted(dup)} more than once")
+        for f in self.fields:
+            if f.msb >= self.value_bits * f.count or f.lsb < 0 or f.lsb > f.msb:
+                raise InputError(
+                    f"register field '{f.name}': bits {f.lsb}..{f.msb} do not fit in "
+                    f"{f.count} register(s) of {self.value_bits} bits"
+                )
+            if f.address < 0 or f.address + f.count > (1 << self.address_bits):
+                raise InputError(f"register field '{f.name}': address 0x{f.address:x} is out of the address space")
+
+    def field(self, name: str) -> Field:
+        for f in self.fields:
+            if f.name == name:
+                return f
+        known = ", ".join(f.name for f in self.fields)
+        raise UnknownRegister(f"unknown register field '{name}' (known: {known})")
+
+    def names(self) -> list[str]:
+        return [f.name for f in self.fields]
+
+
+class RegisterFile:
+    """Read/write named fields through a bus (read-modify-write for partial fields)."""
+
+    def __init__(self, regmap: RegisterMap, bus):
+        self.map = regmap
+        self.bus = bus
+
+    def _addresses(self, f: Field) -> list[int]:
+        addrs = [f.address + i for i in range(f.count)]
+        return addrs if self.map.endian == "big" else addrs[::-1]  # most significant first
+
+    def _read_value(self, f: Field) -> int:
+        v = 0
+        for a in self._addresses(f):
+            v = (v << self.map.value_bits) | int(self.bus.read(a))
+        return v
+
+    def _write_value(self, f: Field, value: int) -> None:
+        bits = self.map.value_bits
+        words = []
+        for _ in range(f.count):
+            words.append(value & ((1 << bits) - 1))
+            value >>= bits
+        for a, w in zip(self._addresses(f), reversed(words)):
+            self.bus.write(a, w)
+
+    def get_raw(self, name: str) -> int:
+        f = self.map.field(name)
+        if f.access == "wo":
+            raise InputError(f"register field '{name}' is write-only and cannot be read")
+        return (self._read_value(f) & f.mask) >> f.lsb
+
+    def set_raw(self, name: str, raw: int) -> None:
+        f = self.map.field(name)
+        if f.access == "ro":
+            raise InputError(f"register field '{name}' is read-only and cannot be written")
+        if raw < 0 or raw >= (1 << f.width):
+            raise ValueOutOfRange(f"register field '{name}': raw value {raw} does not fit in {f.width} bits")
+        full = f.width == f.count * self.map.value_bits
+        old = 0 if (full or f.access == "wo") else self._read_value(f)
+        self._write_value(f, (old & ~f.mask) | (raw << f.lsb))
+
+    def get(self, name: str) -> float:
+        f = self.map.field(name)
+        return f.to_physical(self.get_raw(name))
+
+    def set(self, name: str, physical: float) -> None:
+        f = self.map.field(name)
+        self.set_raw(name, f.to_raw(physical))
+
+    def snapshot(self) -> dict[str, float]:
+        """Every readable field's physical value (for run-directory provenance)."""
+        return {f.name: self.get(f.name) for f in self.map.fields if f.access != "wo"}
