@@ -1,0 +1,67 @@
+"""Run every benchmarks/bench_*.py pinned to one core and rebuild benchmarks/README.md.
+
+Each bench script measures its own baseline in the same run (figures are ratios, since
+these machines are shared and noisy) and writes its table to benchmarks/<topic>.md;
+this script runs them and concatenates the tables under a common header.
+
+    python benchmarks/run_all.py [--only sim,accumulate] [--no-run]
+"""
+
+from __future__ import annotations
+
+import argparse
+import os
+import platform
+import shutil
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+HERE = Path(__file__).resolve().parent
+HEADER = """# ARES benchmarks
+
+Speed and memory are measured here, never asserted in tests. Every figure is a median of
+repeated runs on ONE core (`taskset -c 0`, BLAS/OpenMP threads = 1), reported next to a
+baseline measured in the same run, because the machines are shared and noisy. Re-run
+with `make bench` (or `python benchmarks/run_all.py --only TOPIC`).
+
+"""
+
+
+def main() -> int:
+    ap = argparse.ArgumentParser()
+    ap.add_argument("--only", default="", help="comma-separated topics (bench_<topic>.py)")
+    ap.add_argument("--no-run", action="store_true", help="only rebuild README.md from the topic tables")
+    args = ap.parse_args()
+    only = {t for t in args.only.split(",") if t}
+    scripts = sorted(HERE.glob("bench_*.py"))
+    env = dict(os.environ, OMP_NUM_THREADS="1", OPENBLAS_NUM_THREADS="1", MKL_NUM_THREADS="1")
+    pin = ["taskset", "-c", "0"] if shutil.which("taskset") else []
+    failed = []
+    if not args.no_run:
+        for script in scripts:
+            topic = script.stem.removeprefix("bench_")
+            if only and topic not in only:
+                continue
+            print(f"== {script.name}", flush=True)
+            t0 = time.perf_counter()
+            rc = subprocess.call(pin + [sys.executable, str(script)], env=env, cwd=HERE.parent)
+            print(f"   ({time.perf_counter() - t0:.0f} s, exit {rc})", flush=True)
+            if rc:
+                failed.append(script.name)
+    parts = [HEADER, f"Last run: {time.strftime('%Y-%m-%d')} on {platform.machine()}, "
+             f"Python {platform.python_version()}, {os.cpu_count()} cores (one used).\n"]
+    for md in sorted(HERE.glob("*.md")):
+        if md.name == "README.md":
+            continue
+        parts.append("\n" + md.read_text().strip() + "\n")
+    (HERE / "README.md").write_text("\n".join(parts))
+    if failed:
+        print("failed:", ", ".join(failed), file=sys.stderr)
+        return 1
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
