@@ -1,0 +1,191 @@
+"""The EMVA 1288 parameter set with the standard's own definitions (Release 3.0, as
+used for the published results of the EMVA reference data sets).
+
+Kept apart from ARES's own (unbiased, weighted) estimators in ``ptc.py``: these are
+the numbers a data sheet quotes. Definitions (Release 3.0 and the EMVA reference
+implementation; each verified on the reference CCD, see tests/test_emva_reference.py):
+
+- temporal variance of a pair: ``mean((A-B)^2)/2`` -- no mean-difference term in 3.0
+  (``offset_correction=True`` gives the Release 4.0 form);
+- saturation: the level of maximum temporal variance, searched from the top;
+- ``K``: unweighted origin fit of ``s2_y - s2_y.dark`` vs ``mu_y - mu_y.dark`` over the
+  levels from the first up to the last with signal <= 70 % of the saturation signal;
+- ``R`` (responsivity): the same origin fit of ``mu_y - mu_y.dark`` vs ``mu_p``;
+  ``QE = R/K``;
+- ``sigma_y.dark``: intercept at t = 0 of a line of ``s2_y.dark`` vs exposure (one
+  exposure: its value); at least sqrt(0.24) DN;
+- ``mu_e.sat = QE * mu_p.sat`` (photons at saturation times QE -- *not* the dark-
+  subtracted signal over K, which is ~0.8 % lower on the reference CCD);
+- ``SNR_max = sqrt(mu_e.sat)``; ``mu_p.min = (sigma_y.dark/K + 1/2)/QE``;
+  ``DR = mu_p.sat/mu_p.min``;
+- ``u_I_mean``: slope of ``mu_y.dark`` vs exposure / K (e-/s);
+  ``u_I_var``: sqrt(slope of ``s2_y.dark`` vs exposure)/K;
+- ``DSNU1288 = sqrt(s2_y.dark)/K`` with ``s2 = var(avg image, ddof=1) - mean(pixel
+  temporal var)/L``; ``PRNU1288 = sqrt(s2_y - s2_y.dark)/(mu_y - mu_y.dark)`` in %, from
+  the L-image stacks with no high-pass (Release 3.0);
+- linearity: weighted fit between 5 % and 95 % of saturation minimising relative
+  deviations; ``LE_min``/``LE_max`` the extreme relative deviations in %.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from typing import Sequence
+
+import numpy as np
+
+from ares.analysis.estimate import Estimate
+from ares.analysis.levels import SpatialStats, pair_stats, spatial_stats
+from ares.analysis.ptc_fit import line_fit, origin_fit
+from ares.analysis.saturation import index_max_variance
+
+S2Q = 1.0 / 12.0
+ATTRIBUTION = "EMVA 1288 reference data set, (C) 2011 Basler AG, CC BY-SA 3.0"
+REFERENCE_NAMES = ("K", "sigma_y_dark", "u_e_sat", "QE", "SNR_max", "DR", "u_I_mean",
+                   "DSNU1288", "PRNU1288", "LE_min", "LE_max")
+
+
+@dataclass(frozen=True)
+class TemporalData:
+    """Per bright level (sorted by exposure): exposure (s), photons, mean and variance of
+    the bright pair and of the dark pair at the same exposure."""
+
+    texp_s: np.ndarray
+    u_p: np.ndarray
+    u_y: np.ndarray
+    s2_y: np.ndarray
+    u_ydark: np.ndarray
+    s2_ydark: np.ndarray
+    n_pixels: int = 0
+
+
+def temporal_from_pairs(bright_pairs: Sequence[np.ndarray], dark_pairs: Sequence[np.ndarray],
+                        texp_s: Sequence[float], photons: Sequence[float],
+                        offset_correction: bool = False) -> TemporalData:
+    """Build the temporal data from (2, rows, cols) pairs; Release 3.0 variance by default."""
+    b = [pair_stats(p[0], p[1], offset_correction=offset_correction) for p in bright_pairs]
+    d = [pair_stats(p[0], p[1], offset_correction=offset_correction) for p in dark_pairs]
+    t = np.asarray(texp_s, float)
+    order = np.argsort(t, kind="stable")
+
+    def arr(xs):
+        return np.asarray(xs, float)[order]
+
+    return TemporalData(t[order], arr(photons), arr([x.mean for x in b]), arr([x.var for x in b]),
+                        arr([x.mean for x in d]), arr([x.var for x in d]), b[0].n_pixels if b else 0)
+
+
+@dataclass
+class Emva1288Result:
+    values: dict[str, Estimate]
+    index_u_ysat: int
+    index_sensitivity_max: int
+    linearity_deviation_pct: np.ndarray
+    temporal: TemporalData
+    extra: dict[str, Estimate]
+
+    def to_json(self) -> dict:
+        return {k: self.values[k].to_dict() for k in REFERENCE_NAMES if k in self.values}
+
+
+def _line_b0(x, y):
+    lf = origin_fit(x, y)
+    return lf.slope, lf.slope_se
+
+
+def emva1288_results(temporal: TemporalData, spatial_bright: SpatialStats | None = None,
+                     spatial_dark: SpatialStats | None = None,
+                     index_u_ysat: int | None = None) -> Emva1288Result:
+    td = temporal
+    Y = td.u_y - td.u_ydark
+    V = td.s2_y - td.s2_ydark
+    isat = index_u_ysat if index_u_ysat is not None else index_max_variance(td.s2_y)
+    imax = int(np.max(np.nonzero(Y <= 0.7 * Y[isat])[0]))
+    sl = slice(0, imax + 1)
+    K, K_se = _line_b0(Y[sl], V[sl])
+    R, R_se = _line_b0(td.u_p[sl], Y[sl])
+    QE = R / K
+    QE_se = QE * math.hypot(R_se / R, K_se / K)
+    vals: dict[str, Estimate] = {}
+    extra: dict[str, Estimate] = {}
+    vals["K"] = Estimate(K, K_se, "DN/e-", "origin fit of s2_y-s2_y.dark vs mu_y-mu_y.dark up to 70 % sat")
+    extra["R"] = Estimate(R, R_se, "DN/p", "responsivity, origin fit")
+    vals["QE"] = Estimate(100 * QE, 100 * QE_se, "%", "R/K")
+
+    nexp = np.unique(td.texp_s).size
+    if nexp <= 2:
+        s2d, s2d_se = float(td.s2_ydark[0]), math.nan
+    else:
+        lf = line_fit(td.texp_s, td.s2_ydark)
+        s2d, s2d_se = lf.intercept, lf.intercept_se
+    note = "intercept of s2_y.dark vs exposure"
+    if s2d < 0.24:
+        s2d, note = 0.24, "lower limit 0.24 DN^2 (quantization-dominated)"
+    syd = math.sqrt(s2d)
+    vals["sigma_y_dark"] = Estimate(syd, s2d_se / (2 * syd), "DN", note)
+    sigma_d = math.sqrt(s2d - S2Q) / K
+    extra["sigma_d"] = Estimate(sigma_d, sigma_d * K_se / K, "e-", "sqrt(sigma_y.dark^2 - 1/12)/K")
+
+    u_p_sat = float(td.u_p[isat])
+    u_e_sat = QE * u_p_sat
+    vals["u_e_sat"] = Estimate(u_e_sat, u_e_sat * QE_se / QE, "e-", "QE * mu_p.sat (EMVA 1288 3.0)")
+    extra["u_p_sat"] = Estimate(u_p_sat, math.nan, "p", "photons at the maximum-variance level")
+    extra["u_e_sat_signal"] = Estimate(Y[isat] / K, Y[isat] / K * K_se / K, "e-",
+                                       "(mu_y.sat - mu_y.dark)/K (alternative definition)")
+    vals["SNR_max"] = Estimate(math.sqrt(u_e_sat), 0.5 * math.sqrt(u_e_sat) * QE_se / QE, "", "sqrt(mu_e.sat)")
+    extra["SNR_max_dB"] = Estimate(20 * math.log10(math.sqrt(u_e_sat)), math.nan, "dB", "")
+    u_p_min = (syd / K + 0.5) / QE
+    extra["u_p_min"] = Estimate(u_p_min, math.nan, "p", "(sigma_y.dark/K + 1/2)/QE")
+    extra["u_e_min"] = Estimate(QE * u_p_min, math.nan, "e-", "QE * mu_p.min")
+    DR = u_p_sat / u_p_min
+    vals["DR"] = Estimate(DR, math.nan, "", "mu_p.sat / mu_p.min")
+    extra["DR_dB"] = Estimate(20 * math.log10(DR), math.nan, "dB", "")
+
+    if nexp <= 2:
+        vals["u_I_mean"] = Estimate.na("needs more than two exposure times", "e-/s")
+    else:
+        lf = line_fit(td.texp_s, td.u_ydark)
+        vals["u_I_mean"] = Estimate(lf.slope / K, math.hypot(lf.slope_se / K, lf.slope * K_se / K**2), "e-/s",
+                                    "slope of mu_y.dark vs exposure / K")
+        lv = line_fit(td.texp_s, td.s2_ydark)
+        extra["u_I_var"] = (Estimate(math.sqrt(lv.slope) / K, math.nan, "e-/s", "sqrt(slope of s2_y.dark)/K")
+                            if lv.slope > 0 else Estimate.na("dark variance does not grow with exposure", "e-/s"))
+
+    if spatial_dark is not None:
+        s2yd = spatial_dark.s2_spatial
+        vals["DSNU1288"] = (Estimate(math.sqrt(s2yd) / K, math.sqrt(s2yd) / K * K_se / K, "e-",
+                                     "sqrt(s2_y.dark spatial)/K, stack average, temporal/L removed")
+                            if s2yd >= 0 else Estimate.na("negative dark spatial variance", "e-"))
+        extra["DSNU1288_DN"] = Estimate(math.sqrt(max(s2yd, 0)), math.nan, "DN", "")
+    else:
+        vals["DSNU1288"] = Estimate.na("no dark stack", "e-")
+    if spatial_bright is not None and spatial_dark is not None:
+        d2 = spatial_bright.s2_spatial - spatial_dark.s2_spatial
+        sig = spatial_bright.mean - spatial_dark.mean
+        vals["PRNU1288"] = (Estimate(100 * math.sqrt(d2) / sig, math.nan, "%",
+                                     "sqrt(s2_y - s2_y.dark)/(mu_y - mu_y.dark), no high-pass (3.0)")
+                            if d2 > 0 and sig > 0 else Estimate.na("no spatial signal variance above dark", "%"))
+    else:
+        vals["PRNU1288"] = Estimate.na("no bright and dark stacks", "%")
+
+    # linearity: 5..95 % of saturation, fit minimising relative deviations (reference implementation)
+    vmin, vmax = 0.05 * Y[isat], 0.95 * Y[isat]
+    lo = int(np.min(np.nonzero(Y >= vmin)[0]))
+    hi = int(np.max(np.nonzero(Y <= vmax)[0]))
+    X_, Y_ = td.u_p[lo:hi + 1], Y[lo:hi + 1]
+    xy = np.sum(X_ / Y_)
+    xy2 = np.sum(X_ / Y_**2)
+    x2y2 = np.sum((X_ / Y_) ** 2)
+    _y = np.sum(1 / Y_)
+    _y2 = np.sum(1 / Y_**2)
+    b = (xy * xy2 - x2y2 * _y) / (xy2**2 - x2y2 * _y2)
+    a = (xy - b * xy2) / x2y2
+    dev = 100 * (Y - (a * td.u_p + b)) / (a * td.u_p + b)
+    vals["LE_min"] = Estimate(float(np.min(dev[lo:hi + 1])), math.nan, "%", "5-95 % of saturation")
+    vals["LE_max"] = Estimate(float(np.max(dev[lo:hi + 1])), math.nan, "%", "5-95 % of saturation")
+    return Emva1288Result(vals, isat, imax, dev, td, extra)
+
+
+def spatial_from_stacks(bright: np.ndarray, dark: np.ndarray) -> tuple[SpatialStats, SpatialStats]:
+    return spatial_stats(bright), spatial_stats(dark)

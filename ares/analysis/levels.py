@@ -1,0 +1,132 @@
+"""Per-level statistics for photon transfer: mean and temporal variance of one level.
+
+Pure numpy. A *level* is a set of frames taken at one illumination/exposure setting:
+a pair (EMVA 1288) or a longer stack.
+
+- Pair, EMVA 1288 Release 4.0: ``s2 = mean((A-B)^2)/2 - (mu_A-mu_B)^2/2`` -- the second
+  term removes a frame-to-frame offset change. Release 3.0 (and its reference data
+  set's published numbers) omits it: ``offset_correction=False``.
+- Stack: per-pixel temporal variance (ddof=1) averaged over pixels ("pixel-temporal
+  mean square"); frame-global offsets are removed first when ``offset_correction``.
+
+Accumulation is exact: int64 for integer data, float64 on data shifted by its mean.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+
+
+@dataclass(frozen=True)
+class LevelStats:
+    mean: float  # DN, over all pixels and frames
+    var: float  # temporal variance, DN^2
+    n_pixels: int
+    n_frames: int
+    frac_at_max: float = 0.0  # fraction of samples at the maximum code (0 if max_code unknown)
+    frac_at_min: float = 0.0  # fraction of samples at code 0 (clipped black)
+    spatial_var: float = float("nan")  # spatial variance of the frame average, temporal/F removed
+
+    @property
+    def dof(self) -> float:
+        """Degrees of freedom behind ``var`` (pair: one per pixel)."""
+        return float(self.n_pixels * max(self.n_frames - 1, 1))
+
+    @property
+    def var_se(self) -> float:
+        """Standard error of ``var`` for Gaussian data: ``sqrt(2/dof) * var``."""
+        return math.sqrt(2.0 / self.dof) * abs(self.var)
+
+
+def _clip_fractions(frames: np.ndarray, max_code: int | None) -> tuple[float, float]:
+    n = frames.size
+    at_min = float(np.count_nonzero(frames == 0)) / n if frames.dtype.kind in "ui" else 0.0
+    if max_code is None:
+        return 0.0, at_min
+    return float(np.count_nonzero(frames >= max_code)) / n, at_min
+
+
+def pair_stats(a: np.ndarray, b: np.ndarray, max_code: int | None = None,
+               offset_correction: bool = True) -> LevelStats:
+    """Mean and temporal variance of a flat (or dark) pair."""
+    a = np.asarray(a)
+    b = np.asarray(b)
+    if a.shape != b.shape:
+        raise ValueError(f"pair frames differ in shape: {a.shape} vs {b.shape}")
+    if a.dtype.kind in "ui":
+        ai, bi = a.astype(np.int64), b.astype(np.int64)
+        d = ai - bi
+        sa, sb = int(ai.sum()), int(bi.sum())
+        sdd = int(np.sum(d * d))
+    else:
+        ai, bi = a.astype(np.float64), b.astype(np.float64)
+        d = ai - bi
+        sa, sb = float(ai.sum()), float(bi.sum())
+        sdd = float(np.sum(d * d))
+    n = a.size
+    mu_a, mu_b = sa / n, sb / n
+    var = sdd / n / 2.0
+    if offset_correction:
+        var -= (mu_a - mu_b) ** 2 / 2.0
+    fmax, fmin = _clip_fractions(np.stack([a, b]), max_code)
+    avg = (ai + bi).astype(np.float64) * 0.5
+    spatial = float(np.var(avg, ddof=1)) - var / 2.0
+    return LevelStats((sa + sb) / (2.0 * n), var, n, 2, fmax, fmin, spatial)
+
+
+def stack_stats(stack: np.ndarray, max_code: int | None = None,
+                offset_correction: bool = True) -> LevelStats:
+    """Mean and pixel-temporal mean-square variance of a (frames, rows, cols) stack."""
+    s = np.asarray(stack)
+    if s.ndim != 3 or s.shape[0] < 2:
+        raise ValueError("a stack needs shape (frames>=2, rows, cols)")
+    f = s.shape[0]
+    x = s.astype(np.float64)
+    m = x.mean()
+    x -= m
+    if offset_correction:
+        x -= x.mean(axis=(1, 2), keepdims=True)
+    var = float(np.mean(np.var(x, axis=0, ddof=1)))
+    spatial = float(np.var(x.mean(axis=0), ddof=1)) - var / f
+    fmax, fmin = _clip_fractions(s, max_code)
+    return LevelStats(float(m), var, s.shape[1] * s.shape[2], f, fmax, fmin, spatial)
+
+
+def level_stats(frames: np.ndarray, max_code: int | None = None,
+                offset_correction: bool = True) -> LevelStats:
+    """Pair formula for two frames, stack formula otherwise."""
+    frames = np.asarray(frames)
+    if frames.ndim == 3 and frames.shape[0] == 2:
+        return pair_stats(frames[0], frames[1], max_code, offset_correction)
+    return stack_stats(frames, max_code, offset_correction)
+
+
+@dataclass(frozen=True)
+class SpatialStats:
+    """Spatial statistics of a stack's averaged image (EMVA 1288 non-uniformity)."""
+
+    mean: float
+    s2_measured: float  # spatial variance of the averaged image (ddof=1)
+    s2_temporal: float  # mean per-pixel temporal variance (ddof=1)
+    n_frames: int
+    n_pixels: int
+
+    @property
+    def s2_spatial(self) -> float:
+        """Spatial variance with the residual temporal part ``s2_temporal/L`` removed."""
+        return self.s2_measured - self.s2_temporal / self.n_frames
+
+
+def spatial_stats(stack: np.ndarray) -> SpatialStats:
+    s = np.asarray(stack)
+    if s.ndim != 3 or s.shape[0] < 2:
+        raise ValueError("a stack needs shape (frames>=2, rows, cols)")
+    x = s.astype(np.float64)
+    m = x.mean()
+    x -= m
+    avg = x.mean(axis=0)
+    return SpatialStats(float(m), float(np.var(avg, ddof=1)), float(np.mean(np.var(x, axis=0, ddof=1))),
+                        s.shape[0], avg.size)

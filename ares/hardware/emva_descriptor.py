@@ -1,0 +1,246 @@
+"""EMVA 1288 descriptor files: reader and a replay ``FrameSource``.
+
+Descriptor format (EMVA 1288 Release 3.0 reference data sets), one record a line,
+``#`` starts a comment line:
+
+- ``v VERSION``; ``n BITS WIDTH HEIGHT`` (once);
+- ``b EXPOSURE_NS PHOTONS_PER_PIXEL`` then its images (``i PATH``) -- bright level;
+- ``d EXPOSURE_NS`` then its images -- dark level;
+- ``i PATH`` image of the level opened by the previous ``b``/``d`` record; paths may use
+  backslashes and are relative to the descriptor's folder.
+
+A level with two images belongs to the photon-transfer (temporal) series; one with more
+belongs to the spatial non-uniformity stacks -- the convention of the EMVA reference
+implementation. Every malformed record raises ``InputError`` naming ``file:line``.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+from pathlib import Path, PureWindowsPath
+from typing import Iterator, Sequence
+
+import numpy as np
+
+from ares.errors import InputError
+from ares.hardware.imagefile import read_image
+from ares.hardware.interfaces import Frame
+
+
+@dataclass(frozen=True)
+class EmvaLevel:
+    """One ``b``/``d`` record with its images."""
+
+    dark: bool
+    exposure_ns: float
+    photons: float  # mean photons per pixel during the exposure; 0 for dark
+    images: tuple[Path, ...]
+    line: int  # line number of the b/d record in the descriptor
+
+    @property
+    def exposure_s(self) -> float:
+        return self.exposure_ns * 1e-9
+
+    @property
+    def kind(self) -> str:
+        """``"temporal"`` (a pair) or ``"spatial"`` (a longer stack)."""
+        return "temporal" if len(self.images) == 2 else "spatial"
+
+
+@dataclass(frozen=True)
+class EmvaDescriptor:
+    path: Path
+    version: str
+    bits: int
+    width: int
+    height: int
+    levels: tuple[EmvaLevel, ...] = field(default_factory=tuple)
+
+    def select(self, kind: str, dark: bool) -> list[EmvaLevel]:
+        return [lv for lv in self.levels if lv.kind == kind and lv.dark == dark]
+
+    @property
+    def temporal_bright(self) -> list[EmvaLevel]:
+        return sorted(self.select("temporal", False), key=lambda lv: (lv.exposure_ns, lv.photons))
+
+    @property
+    def temporal_dark(self) -> list[EmvaLevel]:
+        return sorted(self.select("temporal", True), key=lambda lv: lv.exposure_ns)
+
+    @property
+    def spatial_bright(self) -> list[EmvaLevel]:
+        return self.select("spatial", False)
+
+    @property
+    def spatial_dark(self) -> list[EmvaLevel]:
+        return self.select("spatial", True)
+
+    def dark_for(self, level: EmvaLevel, kind: str | None = None) -> EmvaLevel:
+        """The dark level recorded at the same exposure as ``level``."""
+        kind = kind or level.kind
+        for lv in self.select(kind, True):
+            if math.isclose(lv.exposure_ns, level.exposure_ns, rel_tol=1e-9):
+                return lv
+        raise InputError(
+            f"{self.path}:{level.line}: no {kind} dark level at exposure {level.exposure_ns:g} ns"
+        )
+
+
+def _num(tok: str, where: str, what: str) -> float:
+    try:
+        v = float(tok.replace(",", "."))
+    except ValueError:
+        raise InputError(f"{where}: {what} {tok!r} is not a number") from None
+    if not math.isfinite(v) or v < 0:
+        raise InputError(f"{where}: {what} {tok!r} must be a finite non-negative number")
+    return v
+
+
+def read_descriptor(path: str | Path, check_files: bool = True) -> EmvaDescriptor:
+    """Parse an EMVA 1288 descriptor file; image paths are resolved, optionally checked."""
+    path = Path(path)
+    if not path.is_file():
+        raise InputError(f"{path}: descriptor file not found")
+    try:
+        text = path.read_text(encoding="utf-8", errors="replace")
+    except OSError as exc:
+        raise InputError(f"{path}: cannot read descriptor ({exc})") from None
+    base = path.parent
+    version = ""
+    fmt: tuple[int, int, int] | None = None
+    levels: list[EmvaLevel] = []
+    cur: dict | None = None
+
+    def close(where_line: int) -> None:
+        nonlocal cur
+        if cur is None:
+            return
+        if len(cur["images"]) < 2:
+            raise InputError(
+                f"{path}:{cur['line']}: a level needs at least two images ('i PATH' records), "
+                f"found {len(cur['images'])}"
+            )
+        levels.append(EmvaLevel(cur["dark"], cur["exp"], cur["photons"], tuple(cur["images"]), cur["line"]))
+        cur = None
+
+    for lineno, raw in enumerate(text.splitlines(), start=1):
+        line = raw.strip()
+        if not line or line.startswith("#"):
+            continue
+        where = f"{path}:{lineno}"
+        tok = line.split()
+        rec = tok[0]
+        if rec == "i":
+            if len(tok) < 2:
+                raise InputError(f"{where}: 'i' record needs an image path")
+            if cur is None:
+                raise InputError(f"{where}: image record before any 'b' or 'd' level record")
+            rel = line[1:].strip()
+            p = base.joinpath(*PureWindowsPath(rel).parts) if "\\" in rel else base / rel
+            if check_files and not p.is_file():
+                raise InputError(f"{where}: image file {p} not found")
+            cur["images"].append(p)
+            continue
+        close(lineno)
+        if rec == "v":
+            if len(tok) != 2:
+                raise InputError(f"{where}: expected 'v VERSION'")
+            version = tok[1]
+        elif rec == "n":
+            if len(tok) != 4:
+                raise InputError(f"{where}: expected 'n BITS WIDTH HEIGHT'")
+            if fmt is not None:
+                raise InputError(f"{where}: only one 'n' record is allowed")
+            try:
+                bits, w, h = (int(t) for t in tok[1:])
+            except ValueError:
+                raise InputError(f"{where}: 'n' record values must be integers") from None
+            if not (1 <= bits <= 16) or w <= 0 or h <= 0:
+                raise InputError(f"{where}: bits must be 1..16 and width/height positive")
+            fmt = (bits, w, h)
+        elif rec == "b":
+            if len(tok) != 3:
+                raise InputError(f"{where}: expected 'b EXPOSURE_NS PHOTONS'")
+            cur = {"dark": False, "exp": _num(tok[1], where, "exposure"),
+                   "photons": _num(tok[2], where, "photon count"), "images": [], "line": lineno}
+        elif rec == "d":
+            if len(tok) != 2:
+                raise InputError(f"{where}: expected 'd EXPOSURE_NS'")
+            cur = {"dark": True, "exp": _num(tok[1], where, "exposure"), "photons": 0.0,
+                   "images": [], "line": lineno}
+        else:
+            raise InputError(f"{where}: unknown record type {rec!r} (expected v, n, b, d or i)")
+    close(0)
+    if fmt is None:
+        raise InputError(f"{path}: missing 'n BITS WIDTH HEIGHT' record")
+    if not levels:
+        raise InputError(f"{path}: no 'b' or 'd' levels")
+    seen: set[tuple] = set()
+    for lv in levels:
+        key = (lv.kind, lv.dark, lv.exposure_ns, lv.photons)
+        if key in seen:
+            raise InputError(f"{path}:{lv.line}: duplicate {lv.kind} level at exposure {lv.exposure_ns:g} ns")
+        seen.add(key)
+    return EmvaDescriptor(path, version, fmt[0], fmt[1], fmt[2], tuple(levels))
+
+
+def load_level(desc: EmvaDescriptor, level: EmvaLevel) -> np.ndarray:
+    """All images of one level as a (n, rows, cols) uint16 stack, checked against ``n``."""
+    imgs = []
+    for p in level.images:
+        a = read_image(p)
+        if a.shape != (desc.height, desc.width):
+            raise InputError(
+                f"{p}: image is {a.shape[1]}x{a.shape[0]}, descriptor {desc.path} declares "
+                f"{desc.width}x{desc.height}"
+            )
+        if int(a.max()) >= (1 << desc.bits):
+            raise InputError(f"{p}: pixel value {int(a.max())} exceeds the declared {desc.bits} bits")
+        imgs.append(a)
+    return np.stack(imgs).astype(np.uint16, copy=False)
+
+
+class EmvaReplaySource:
+    """Replays a descriptor's images as a ``FrameSource``.
+
+    ``set_level(i)`` (or the ``levels`` given at construction) chooses what ``grab``
+    delivers; frames cycle through the level's images and carry ``exposure_s``,
+    ``photons``, ``dark`` and ``level`` in ``Frame.meta``.
+    """
+
+    def __init__(self, descriptor: EmvaDescriptor | str | Path, levels: Sequence[EmvaLevel] | None = None):
+        self.descriptor = descriptor if isinstance(descriptor, EmvaDescriptor) else read_descriptor(descriptor)
+        d = self.descriptor
+        self.name = f"emva:{d.path.name}"
+        self.shape = (d.height, d.width)
+        self.bit_depth = d.bits
+        self.levels = list(levels) if levels is not None else list(d.levels)
+        self._level = 0
+        self._pos = 0
+        self._count = 0
+
+    def set_level(self, index: int) -> None:
+        if not 0 <= index < len(self.levels):
+            raise InputError(f"{self.name}: level {index} out of range 0..{len(self.levels) - 1}")
+        self._level, self._pos = index, 0
+
+    @property
+    def level(self) -> EmvaLevel:
+        return self.levels[self._level]
+
+    def grab(self, n: int) -> Iterator[Frame]:
+        lv = self.level
+        for _ in range(n):
+            p = lv.images[self._pos % len(lv.images)]
+            self._pos += 1
+            data = read_image(p)
+            if data.shape != self.shape:
+                raise InputError(f"{p}: image shape {data.shape} differs from {self.shape}")
+            meta = {"exposure_s": lv.exposure_s, "photons": lv.photons, "dark": lv.dark,
+                    "level": self._level, "path": str(p)}
+            yield Frame(data=data, index=self._count, timestamp=float(self._count), meta=meta)
+            self._count += 1
+
+    def close(self) -> None:
+        pass
