@@ -1,0 +1,328 @@
+"""Defect classification of one region/channel from per-pixel statistics (pure numpy).
+
+Pass 1 uses only per-pixel mean and temporal-variance maps of one or more dark levels
+(and optional flat levels); pass 2 (RTS) looks at the time series of the noisy
+candidates only, obtained through ``rts_series`` -- a callable ``(rows, cols) -> (F, n)``
+(e.g. slicing a recorded stack) or a :class:`~.stats.SeriesCollector` filled during a
+second streaming pass. See :mod:`.params` for every class definition and default.
+"""
+
+from __future__ import annotations
+
+import math
+from typing import Callable, Sequence
+
+import numpy as np
+from scipy import stats as sps
+
+from .clusters import find_clusters
+from .histograms import deviation_histograms
+from .lines import LineFlags, line_z
+from .params import DefectThresholds
+from .result import BITS, DEFECT_DTYPE, PIXEL_BITS, PIXEL_CLASSES, DefectResult, primary_class
+from .robust import block_median_background, remove_lines, robust_sigma
+from .rts import detect_rts
+from .stats import PixelStats, SeriesCollector
+
+RtsSource = Callable[[np.ndarray, np.ndarray], np.ndarray] | SeriesCollector
+
+
+class _Dark:
+    """Per-level dark quantities (one exposure)."""
+
+    def __init__(self, st: PixelStats, gain: float | None) -> None:
+        self.st = st
+        self.res, self.col_off, self.row_off, self.level = remove_lines(st.mean)
+        self.sigma = robust_sigma(self.res, floor=1e-9)
+        self.z = self.res / self.sigma
+        t = st.exposure_s
+        self.rate = self.res / (gain * t) if gain and t else None
+        dof = st.n_frames - 1
+        self.pop_var = float(np.median(st.var)) / (sps.chi2.median(dof) / dof)
+        self.expected = self.pop_var + (gain * np.maximum(self.res, 0.0) if gain else 0.0)
+        self.var_ratio = st.var / np.maximum(self.expected, 1e-12)
+        self.col_var = np.median(self.var_ratio, axis=0)
+        self.row_var = np.median(self.var_ratio, axis=1)
+
+
+class _Flat:
+    """Per-level response (flat minus dark) relative to the local median response."""
+
+    def __init__(self, st: PixelStats, dark: PixelStats, block: int) -> None:
+        self.st = st
+        resp = st.mean - dark.mean
+        self.median = float(np.median(resp))
+        self.resp = resp
+        self.bg = block_median_background(resp, block)
+        with np.errstate(divide="ignore", invalid="ignore"):
+            self.ratio = np.where(self.bg > 0, resp / self.bg, np.nan)
+        # the deviation must be significant against the noise of the two averaged means
+        self.noise = np.sqrt(st.var / st.n_frames + dark.var / dark.n_frames)
+        self.col_ratio = np.nanmedian(self.ratio, axis=0) if self.ratio.size else self.ratio
+        self.row_ratio = np.nanmedian(self.ratio, axis=1) if self.ratio.size else self.ratio
+
+
+def _levels(x: PixelStats | Sequence[PixelStats] | None) -> list[PixelStats]:
+    if x is None:
+        return []
+    if isinstance(x, PixelStats):
+        return [x]
+    return list(x)
+
+
+def _match_dark(flat: PixelStats, darks: list[PixelStats]) -> PixelStats:
+    if flat.exposure_s is not None:
+        known = [d for d in darks if d.exposure_s is not None]
+        if known:
+            return min(known, key=lambda d: abs(d.exposure_s - flat.exposure_s))
+    return darks[0]
+
+
+def _need(n: int, fraction: float) -> int:
+    return max(1, int(math.ceil(fraction * n - 1e-9)))
+
+
+def classify_defects(
+    dark: PixelStats | Sequence[PixelStats],
+    flats: PixelStats | Sequence[PixelStats] | None = None,
+    *,
+    gain_dn_per_e: float | None = None,
+    thresholds: DefectThresholds | None = None,
+    rts_series: RtsSource | None = None,
+    origin: tuple[int, int] = (0, 0),
+    step: tuple[int, int] = (1, 1),
+) -> DefectResult:
+    """Classify the defective pixels and lines of one region/channel.
+
+    ``dark``: one or more dark levels (``exposure_s`` set on each for rates); ``flats``:
+    optional illuminated levels (each is dark-subtracted with the dark of the nearest
+    exposure); ``gain_dn_per_e``: K, enables the e-/s hot/warm criteria and the
+    dark-shot-noise allowance of the noisy test; ``origin``/``step``: where local
+    (row, col) sit in the full frame, for the defect list coordinates.
+    """
+    th = thresholds or DefectThresholds()
+    darks = _levels(dark)
+    flat_levels = _levels(flats)
+    if not darks:
+        raise ValueError("defect classification needs at least one dark level")
+    shape = darks[0].shape
+    for s in darks + flat_levels:
+        if s.shape != shape:
+            raise ValueError(f"all levels must have the same shape: {s.shape} != {shape}")
+    if gain_dn_per_e is not None and not gain_dn_per_e > 0:
+        raise ValueError("gain_dn_per_e must be positive")
+    notes: list[str] = []
+    nrow, ncol = shape
+    D = [_Dark(s, gain_dn_per_e) for s in darks]
+    rate_mode = all(d.rate is not None for d in D)
+    if not rate_mode:
+        why = "no gain" if not gain_dn_per_e else "no exposure time on every dark level"
+        notes.append(f"hot/warm classified by robust z of the averaged dark ({why}): "
+                     f"warm z > {th.warm_z}, hot z > {th.hot_z}")
+    F = []
+    for s in flat_levels:
+        fl = _Flat(s, _match_dark(s, darks), th.background_block_px)
+        if not fl.median > 0:
+            notes.append(f"a flat level with median response {fl.median:.3g} DN was skipped (no light)")
+            continue
+        F.append(fl)
+
+    def pixel_flags(col_var: np.ndarray, row_var: np.ndarray, col_resp: np.ndarray, row_resp: np.ndarray):
+        """All pixel flags, given per-line factors that bad lines divide out (1 elsewhere)."""
+        nd = len(D)
+        hot_n = np.zeros(shape, np.int16)
+        warm_n = np.zeros(shape, np.int16)
+        noisy_n = np.zeros(shape, np.int16)
+        stuck_n = np.zeros(shape, np.int16)
+        hot_stat = np.full(shape, -np.inf)
+        noisy_stat = np.zeros(shape)
+        line_var = col_var[None, :] * row_var[:, None]
+        for d in D:
+            sig = d.z > th.warm_z
+            if rate_mode:
+                hot = sig & (d.rate > th.hot_e_per_s)
+                warm = sig & (d.rate > th.warm_e_per_s) & ~hot
+                np.maximum(hot_stat, d.rate, out=hot_stat)
+            else:
+                hot = d.z > th.hot_z
+                warm = sig & ~hot
+                np.maximum(hot_stat, d.z, out=hot_stat)
+            hot_n += hot
+            warm_n += warm
+            dof = d.st.n_frames - 1
+            vr = d.var_ratio / line_var
+            noisy_n += vr > sps.chi2.isf(th.noisy_p_fa, dof) / dof
+            np.maximum(noisy_stat, vr, out=noisy_stat)
+            stuck_n += (d.st.var < th.stuck_var_dn2) & (d.st.var < d.pop_var * sps.chi2.ppf(th.noisy_p_fa, dof) / dof)
+        need = _need(nd, th.confirm_fraction)
+        flags = {"hot": hot_n >= need}
+        flags["warm"] = ((hot_n + warm_n) >= need) & ~flags["hot"]
+        flags["noisy"] = noisy_n >= need
+        stuck = stuck_n >= need
+        stats = {"hot": hot_stat, "warm": hot_stat, "noisy": noisy_stat}
+        dead = np.zeros(shape, bool)
+        low = np.zeros(shape, bool)
+        high = np.zeros(shape, bool)
+        ratio_stat = np.ones(shape)
+        if F:
+            line_resp = col_resp[None, :] * row_resp[:, None]
+            nf = len(F)
+            dn = np.zeros(shape, np.int16)
+            ln = np.zeros(shape, np.int16)
+            hn = np.zeros(shape, np.int16)
+            sn = np.zeros(shape, np.int16)
+            acc = np.zeros(shape)
+            for fl in F:
+                r = np.nan_to_num(fl.ratio / line_resp, nan=1.0)
+                sig = np.abs(fl.resp - fl.bg * line_resp) > th.warm_z * fl.noise
+                dn += sig & (r < th.dead_fraction)
+                ln += sig & (r < th.low_response_fraction)
+                hn += sig & (r > th.high_response_fraction)
+                sn += (fl.st.var < th.stuck_var_dn2) & (np.abs(fl.resp) < th.stuck_response_dn)
+                acc += r
+            needf = _need(nf, th.confirm_fraction)
+            dead = dn >= needf
+            low = (ln >= needf) & ~dead
+            high = hn >= needf
+            stuck |= sn >= needf
+            ratio_stat = acc / nf
+        flags.update(dead=dead, low_response=low, high_response=high, stuck=stuck)
+        stats.update(dead=ratio_stat, low_response=ratio_stat, high_response=ratio_stat)
+        stats["stuck"] = np.minimum.reduce([d.st.var for d in D])
+        return flags, stats
+
+    ones_c, ones_r = np.ones(ncol), np.ones(nrow)
+    flags, stats = pixel_flags(ones_c, ones_r, ones_c, ones_r)
+
+    # ---- lines
+    lines = {}
+    line_factors = {}
+    for axis, name, n_other in ((0, "bad_column", nrow), (1, "bad_row", ncol)):
+        n = ncol if axis == 0 else nrow
+        lf = LineFlags(n)
+        hw = (flags["hot"] | flags["warm"]).sum(axis=axis)
+        lf.add(hw >= th.line_hot_count, "hot pixel count", hw)
+        dl = (flags["dead"] | flags["low_response"] | flags["stuck"]).sum(axis=axis)
+        lf.add(dl >= th.line_dead_count, "dead pixel count", dl)
+        dref = max(D, key=lambda d: d.st.exposure_s or 0.0)
+        off = dref.col_off if axis == 0 else dref.row_off
+        zo = line_z(off, dref.sigma, n_other)
+        lf.add(np.abs(zo) > th.line_z, "dark offset z", zo)
+        vals = dref.col_var if axis == 0 else dref.row_var
+        zv = line_z(vals, math.sqrt(2.0 / (dref.st.n_frames - 1)), n_other)
+        lf.add(np.abs(zv) > th.line_z, "temporal variance z", zv)
+        factor_var = np.where(lf.bad, vals, 1.0)
+        factor_resp = np.ones(n)
+        if F:
+            fref = max(F, key=lambda f: f.median)
+            rr = fref.col_ratio if axis == 0 else fref.row_ratio
+            zr = line_z(rr, robust_sigma(fref.ratio, floor=1e-9), n_other)
+            lf.add(np.abs(zr) > th.line_z, "response z", zr)
+            factor_resp = np.where(lf.bad & np.isfinite(rr) & (rr > 0), rr, 1.0)
+        lines[name] = lf
+        line_factors[name] = (np.maximum(factor_var, 1e-6), factor_resp)
+    if lines["bad_column"].bad.any() or lines["bad_row"].bad.any():
+        (cv, cr), (rv, rr_) = line_factors["bad_column"], line_factors["bad_row"]
+        flags, stats = pixel_flags(cv, rv, cr, rr_)
+
+    # ---- RTS (pass 2 on the noisy candidates)
+    cand = flags["noisy"] & ~flags["stuck"]
+    crow, ccol = np.nonzero(cand)
+    rts = np.zeros(shape, bool)
+    rts_stat = np.zeros(shape)
+    rts_available, rts_note = False, ""
+    if rts_series is None:
+        rts_note = "RTS not available: no time series of the candidate pixels was given"
+    else:
+        if isinstance(rts_series, SeriesCollector):
+            keyed = {(int(r), int(c)): i for i, (r, c) in enumerate(zip(rts_series.rows, rts_series.cols))}
+            have = np.array([(int(r), int(c)) in keyed for r, c in zip(crow, ccol)], dtype=bool)
+            missing = int((~have).sum())
+            crow, ccol = crow[have], ccol[have]
+            idx = np.array([keyed[(int(r), int(c))] for r, c in zip(crow, ccol)], dtype=np.intp)
+            series = rts_series.series[:, idx] if idx.size else np.empty((rts_series.n_frames, 0))
+            if missing:
+                notes.append(f"{missing} RTS candidates had no time series and were not tested")
+        else:
+            series = np.asarray(rts_series(crow, ccol))
+        nfr = series.shape[0] if series.ndim == 2 else 0
+        if series.ndim != 2 or series.shape[1] != crow.size:
+            raise ValueError(f"rts_series returned shape {series.shape}, expected (frames, {crow.size})")
+        if nfr < th.rts_min_frames:
+            rts_note = (f"RTS not available: {nfr} frames in the time series, "
+                        f"at least rts_min_frames={th.rts_min_frames} are needed")
+        else:
+            is_rts, sep = detect_rts(series, th.rts_min_separation, th.rts_min_occupancy)
+            rts[crow[is_rts], ccol[is_rts]] = True
+            rts_stat[crow, ccol] = sep
+            rts_available = True
+            rts_note = f"{crow.size} noisy candidates tested over {nfr} frames"
+    flags["rts"] = rts
+    stats["rts"] = rts_stat
+
+    # ---- mask, primary classes, list
+    mask = np.zeros(shape, np.uint16)
+    for c in PIXEL_CLASSES:
+        mask[flags[c]] |= BITS[c]
+    mask[:, lines["bad_column"].bad] |= BITS["bad_column"]
+    mask[lines["bad_row"].bad, :] |= BITS["bad_row"]
+    prim = primary_class(mask)
+    rows, cols = np.nonzero(prim >= 0)
+    pcls = prim[rows, cols]
+    defects = np.empty(rows.size, DEFECT_DTYPE)
+    defects["x"] = origin[1] + step[1] * cols
+    defects["y"] = origin[0] + step[0] * rows
+    names = np.array(PIXEL_CLASSES)
+    defects["cls"] = names[pcls]
+    st = np.empty(rows.size)
+    for i, c in enumerate(PIXEL_CLASSES):
+        sel = pcls == i
+        st[sel] = stats[c][rows[sel], cols[sel]]
+    defects["statistic"] = st
+    counts = {c: int((pcls == i).sum()) for i, c in enumerate(PIXEL_CLASSES)}
+    flag_counts = {c: int(flags[c].sum()) for c in PIXEL_CLASSES}
+    bad_columns = [dict(r, x=int(origin[1] + step[1] * r.pop("index"))) for r in lines["bad_column"].records()]
+    bad_rows = [dict(r, y=int(origin[0] + step[0] * r.pop("index"))) for r in lines["bad_row"].records()]
+    clusters = find_clusters(prim >= 0, th.cluster_min_size)
+    clusters.pop("labels")
+    for cl in clusters["clusters"]:
+        cl.update(x0=origin[1] + step[1] * cl.pop("col0"), x1=origin[1] + step[1] * cl.pop("col1"),
+                  y0=origin[0] + step[0] * cl.pop("row0"), y1=origin[0] + step[0] * cl.pop("row1"))
+    counts.update(bad_columns=len(bad_columns), bad_rows=len(bad_rows), clusters=len(clusters["clusters"]),
+                  total=int(rows.size))
+    count_for_limit = dict(counts, cluster_size=max((c["size"] for c in clusters["clusters"]), default=0))
+    if not rts_available:
+        counts["rts"] = None  # type: ignore[assignment]
+        flag_counts["rts"] = None  # type: ignore[assignment]
+    limits = []
+    for name, mx in th.limits().items():
+        cnt = count_for_limit.get(name)
+        limits.append({"name": name, "count": cnt, "max": mx,
+                       "passed": None if cnt is None else bool(cnt <= mx)})
+    # an unavailable count (RTS without series) cannot pass a limit
+    limits = [dict(lim, passed=bool(lim["passed"])) for lim in limits]
+
+    # ---- histograms
+    dref = max(D, key=lambda d: d.st.exposure_s or 0.0)
+    hists = {}
+    if rate_mode:
+        hists["dark_signal"] = deviation_histograms(dref.rate, "e-/s")
+    else:
+        hists["dark_signal"] = deviation_histograms(dref.res, "DN")
+    if F:
+        fref = max(F, key=lambda f: f.median)
+        hists["response"] = deviation_histograms(100.0 * (fref.ratio - 1.0), "%")
+    statistics = {
+        "stuck": "minimum temporal variance over the dark levels (DN^2)",
+        "rts": "level separation / within-level noise",
+        "hot": "excess dark rate (e-/s)" if rate_mode else "robust z of the averaged dark",
+        "noisy": "temporal variance / expected population variance",
+        "dead": "response / local median response",
+    }
+    statistics.update(warm=statistics["hot"], low_response=statistics["dead"], high_response=statistics["dead"])
+    return DefectResult(
+        shape=shape, origin=tuple(origin), step=tuple(step), mask=mask, counts=counts,
+        flag_counts=flag_counts, defects=defects, statistics=statistics,
+        bad_columns=bad_columns, bad_rows=bad_rows, clusters=clusters, histograms=hists,
+        rts_available=rts_available, rts_note=rts_note, rts_candidates=(crow, ccol),
+        limits=limits, thresholds=th, notes=tuple(notes))

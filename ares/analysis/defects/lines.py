@@ -1,0 +1,42 @@
+"""Defective columns and rows.
+
+A line (column or row) is bad when it holds >= ``line_hot_count`` hot/warm pixels or
+>= ``line_dead_count`` dead/low-response pixels, or when one of its line statistics (the
+median dark offset, the median temporal variance, the median response ratio) lies more
+than ``line_z`` robust sigmas from the lines' median. The robust sigma is floored by the
+scatter a line median has from pixel noise alone (1.2533 * sigma_pixel / sqrt(n)), so a
+perfectly uniform sensor does not turn every tiny offset into a bad line.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from .robust import robust_sigma
+
+
+def line_z(values: np.ndarray, pixel_sigma: float, n_per_line: int) -> np.ndarray:
+    """Robust z-scores of per-line statistics."""
+    v = np.asarray(values, dtype=np.float64)
+    floor = 1.2533 * pixel_sigma / np.sqrt(max(n_per_line, 1)) if np.isfinite(pixel_sigma) else 0.0
+    s = robust_sigma(v, floor=max(floor, 1e-12))
+    return (v - np.median(v)) / s
+
+
+class LineFlags:
+    """Collects, per line, whether it is bad and the first statistic that said so."""
+
+    def __init__(self, n: int) -> None:
+        self.bad = np.zeros(n, dtype=bool)
+        self.reason = np.full(n, "", dtype=object)
+        self.value = np.full(n, np.nan)
+
+    def add(self, flags: np.ndarray, reason: str, values: np.ndarray) -> None:
+        new = flags & ~self.bad
+        self.reason[new] = reason
+        self.value[new] = np.asarray(values, dtype=np.float64)[new]
+        self.bad |= flags
+
+    def records(self) -> list[dict]:
+        return [{"index": int(i), "reason": str(self.reason[i]), "statistic": float(self.value[i])}
+                for i in np.flatnonzero(self.bad)]

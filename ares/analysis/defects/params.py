@@ -1,0 +1,164 @@
+"""Every defect threshold and pass/fail limit, as one frozen dataclass.
+
+Defaults follow ``SCIENCE.md`` (section Defects) and EMVA 1288 4.0 practice; each one is a
+named field so a scan XML ``<defects hot_e_per_s="5" max_hot="100" .../>`` can set it
+through :meth:`DefectThresholds.from_attrs`.
+
+Class definitions (a pixel is compared with the robust statistics of its own region and
+channel; "z" is a robust z-score, sigma = 1.4826 * MAD):
+
+* hot / warm -- with gain and exposure: excess dark rate over the typical (median) pixel
+  above ``hot_e_per_s`` / ``warm_e_per_s`` AND significant (z > ``warm_z``); without
+  them: z of the averaged dark above ``hot_z`` / ``warm_z``.  ``warm_z`` = 4.8 is the
+  detectability floor: a Gaussian population gives < 1 false alarm per megapixel there.
+  With several dark levels a pixel is confirmed when flagged in >= ``confirm_fraction``.
+* dead / low-response / high-response -- dark-subtracted flat response divided by the
+  local (block-median) response of the neighbourhood: below ``dead_fraction`` (0.5) is
+  dead, below ``low_response_fraction`` (0.8) low-response, above
+  ``high_response_fraction`` (1.2) high-response ("bright").
+* stuck -- no temporal variation: per-pixel temporal variance below ``stuck_var_dn2``
+  (1/12 DN^2, the quantization floor) in the darks, or in a flat while responding less
+  than ``stuck_response_dn`` to the light.
+* noisy -- per-pixel temporal variance s2 fails a chi-square test with F-1 degrees of
+  freedom against the robust population variance at false-alarm probability
+  ``noisy_p_fa`` per pixel.
+* rts -- a noisy pixel whose time series splits into two levels separated by at least
+  ``rts_min_separation`` times the within-level noise, each level holding at least
+  ``rts_min_occupancy`` of the frames; needs >= ``rts_min_frames`` frames.
+* bad columns / rows -- >= ``line_hot_count`` hot/warm or >= ``line_dead_count``
+  dead/low-response pixels in the line, or a line's median dark offset, median temporal
+  variance or median response beyond ``line_z`` robust sigmas of all lines.
+* clusters -- 8-connected groups of >= ``cluster_min_size`` defective pixels.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+from dataclasses import dataclass
+from typing import Mapping
+
+from ares.errors import InputError
+
+#: pass/fail limit fields (max count per class); None = no limit
+LIMIT_FIELDS = (
+    "max_hot", "max_warm", "max_dead", "max_low_response", "max_high_response",
+    "max_stuck", "max_noisy", "max_rts", "max_bad_columns", "max_bad_rows",
+    "max_clusters", "max_cluster_size", "max_total",
+)
+
+
+@dataclass(frozen=True)
+class DefectThresholds:
+    # hot / warm (dark signal)
+    hot_e_per_s: float = 5.0
+    warm_e_per_s: float = 1.0
+    hot_z: float = 20.0
+    warm_z: float = 4.8
+    confirm_fraction: float = 0.7
+    # response (flat minus dark) relative to the local median response
+    dead_fraction: float = 0.5
+    low_response_fraction: float = 0.8
+    high_response_fraction: float = 1.2
+    background_block_px: int = 16
+    # stuck
+    stuck_var_dn2: float = 1.0 / 12.0
+    stuck_response_dn: float = 0.5
+    # noisy (chi-square, F-1 dof)
+    noisy_p_fa: float = 1e-6
+    # random telegraph signal
+    rts_min_frames: int = 100
+    rts_min_separation: float = 4.0
+    rts_min_occupancy: float = 0.03
+    # lines
+    line_hot_count: int = 20
+    line_dead_count: int = 100
+    line_z: float = 6.0
+    # clusters
+    cluster_min_size: int = 2
+    # pass/fail limits (max counts); None means "no limit"
+    max_hot: int | None = None
+    max_warm: int | None = None
+    max_dead: int | None = None
+    max_low_response: int | None = None
+    max_high_response: int | None = None
+    max_stuck: int | None = None
+    max_noisy: int | None = None
+    max_rts: int | None = None
+    max_bad_columns: int | None = None
+    max_bad_rows: int | None = None
+    max_clusters: int | None = None
+    max_cluster_size: int | None = None
+    max_total: int | None = None
+
+    def __post_init__(self) -> None:
+        def bad(name: str, why: str) -> InputError:
+            return InputError(f"defect parameter {name}={getattr(self, name)!r} {why}")
+
+        for f in dataclasses.fields(self):
+            v = getattr(self, f.name)
+            if v is None and f.name in LIMIT_FIELDS:
+                continue
+            if isinstance(v, bool) or not isinstance(v, (int, float)) or not math.isfinite(v):
+                raise bad(f.name, "is not a finite number")
+            if v < 0:
+                raise bad(f.name, "must not be negative")
+        for name in ("confirm_fraction", "noisy_p_fa", "rts_min_occupancy"):
+            if not 0 < getattr(self, name) <= 1:
+                raise bad(name, "must be in (0, 1]")
+        if not 0 <= self.dead_fraction <= self.low_response_fraction <= 1 <= self.high_response_fraction:
+            raise InputError(
+                "defect parameters must satisfy 0 <= dead_fraction <= low_response_fraction <= 1 "
+                f"<= high_response_fraction (got {self.dead_fraction}, {self.low_response_fraction}, "
+                f"{self.high_response_fraction})")
+        if self.warm_e_per_s > self.hot_e_per_s or self.warm_z > self.hot_z:
+            raise InputError("defect parameters warm_e_per_s and warm_z must not exceed hot_e_per_s and hot_z")
+        if self.rts_min_frames < 3:
+            raise bad("rts_min_frames", "must be at least 3")
+        if self.background_block_px < 3:
+            raise bad("background_block_px", "must be at least 3")
+
+    @classmethod
+    def from_attrs(cls, attrs: Mapping[str, object], where: str = "defects") -> "DefectThresholds":
+        """Build from XML attribute values (strings or numbers); unknown names are an error."""
+        fields = {f.name: f for f in dataclasses.fields(cls)}
+        kwargs: dict[str, object] = {}
+        for name, raw in attrs.items():
+            if name not in fields:
+                known = ", ".join(sorted(fields))
+                raise InputError(f"{where}: unknown defect parameter {name!r} (known: {known})")
+            kwargs[name] = _convert(name, raw, where, integer=_is_int_field(fields[name]))
+        return cls(**kwargs)
+
+    def to_dict(self) -> dict:
+        return dataclasses.asdict(self)
+
+    def limits(self) -> dict[str, int]:
+        """The set pass/fail limits, keyed by the counted class (``max_hot`` -> ``hot``)."""
+        return {n.removeprefix("max_"): getattr(self, n) for n in LIMIT_FIELDS if getattr(self, n) is not None}
+
+
+def _is_int_field(f: dataclasses.Field) -> bool:
+    return str(f.type).startswith("int")
+
+
+def _convert(name: str, raw: object, where: str, integer: bool) -> float | int | None:
+    if isinstance(raw, str):
+        text = raw.strip()
+        if name in LIMIT_FIELDS and text.lower() in ("", "none"):
+            return None
+        try:
+            value = float(text)
+        except ValueError:
+            raise InputError(f"{where}: defect parameter {name}={raw!r} is not a number") from None
+    elif isinstance(raw, (int, float)) and not isinstance(raw, bool):
+        value = float(raw)
+    elif raw is None and name in LIMIT_FIELDS:
+        return None
+    else:
+        raise InputError(f"{where}: defect parameter {name}={raw!r} is not a number")
+    if integer:
+        if not value.is_integer():
+            raise InputError(f"{where}: defect parameter {name}={raw!r} must be a whole number")
+        return int(value)
+    return value

@@ -1,0 +1,63 @@
+"""Robust statistics shared by the defect classifiers (median, MAD, line offsets, background)."""
+
+from __future__ import annotations
+
+import numpy as np
+
+MAD_TO_SIGMA = 1.4826  # sigma = 1.4826 * MAD for a Gaussian
+
+
+def robust_sigma(x: np.ndarray, floor: float = 0.0) -> float:
+    x = np.asarray(x, dtype=np.float64).ravel()
+    x = x[np.isfinite(x)]
+    if x.size == 0:
+        return float("nan")
+    med = np.median(x)
+    return max(MAD_TO_SIGMA * float(np.median(np.abs(x - med))), floor)
+
+
+def remove_lines(img: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray, float]:
+    """Split ``img`` into level + column offsets + row offsets + residual, by medians.
+
+    Returns (residual, col_offsets, row_offsets, level); the residual is what a pixel
+    deviates from its own row and column -- immune to column/row fixed-pattern noise.
+    """
+    level = float(np.median(img))
+    a = img - level
+    col = np.median(a, axis=0)
+    a = a - col[None, :]
+    row = np.median(a, axis=1)
+    a -= row[:, None]
+    return a, col, row, level
+
+
+def _interp_matrix(n: int, centers: np.ndarray) -> np.ndarray:
+    """(n, len(centers)) weights of linear interpolation (constant beyond the ends)."""
+    x = np.arange(n, dtype=np.float64)
+    m = len(centers)
+    w = np.zeros((n, m))
+    if m == 1:
+        w[:, 0] = 1.0
+        return w
+    j = np.clip(np.searchsorted(centers, x) - 1, 0, m - 2)
+    t = np.clip((x - centers[j]) / (centers[j + 1] - centers[j]), 0.0, 1.0)
+    w[np.arange(n), j] = 1.0 - t
+    w[np.arange(n), j + 1] = t
+    return w
+
+
+def block_median_background(img: np.ndarray, block: int) -> np.ndarray:
+    """Local median background: medians of ``block`` x ``block`` tiles, bilinearly interpolated.
+
+    A fast stand-in for a sliding median filter: a defect (or a small cluster) cannot move
+    a tile median, and smooth illumination gradients are followed.
+    """
+    r, c = img.shape
+    b_r, b_c = min(block, r), min(block, c)
+    nr, nc = -(-r // b_r), -(-c // b_c)
+    padded = np.pad(img, ((0, nr * b_r - r), (0, nc * b_c - c)), mode="reflect" if min(r, c) > 1 else "edge")
+    tiles = padded.reshape(nr, b_r, nc, b_c).transpose(0, 2, 1, 3).reshape(nr, nc, b_r * b_c)
+    med = np.median(tiles, axis=2)
+    rc = np.minimum(np.arange(nr) * b_r + (b_r - 1) / 2.0, r - 1)
+    cc = np.minimum(np.arange(nc) * b_c + (b_c - 1) / 2.0, c - 1)
+    return _interp_matrix(r, rc) @ med @ _interp_matrix(c, cc).T
