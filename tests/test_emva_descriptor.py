@@ -1,0 +1,117 @@
+"""EMVA 1288 descriptor reader and replay FrameSource on small generated data sets."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+from PIL import Image
+
+from ares.errors import InputError
+from ares.hardware.emva_descriptor import EmvaReplaySource, load_level, read_descriptor
+from ares.hardware.interfaces import FrameSource
+
+
+def _png(path, arr):
+    path.parent.mkdir(parents=True, exist_ok=True)
+    Image.fromarray(arr.astype(np.uint16)).save(path)
+
+
+def make_set(tmp_path, levels=4, rows=6, cols=8, bits=12, stack=3, seed=0):
+    rng = np.random.default_rng(seed)
+    lines = ["# test set", "v 3.0", f"n {bits} {cols} {rows}"]
+    for k in range(levels):
+        t = 1000.0 * (k + 1)
+        lines.append(f"b {t} {100.0 * (k + 1)}")
+        for j in range(2):
+            name = f"images\\b_{k:03d}_{j}.png"
+            _png(tmp_path / "images" / f"b_{k:03d}_{j}.png", rng.poisson(50 * (k + 1), (rows, cols)) + 100)
+            lines.append(f"i {name}")
+    lines.append("b 2500.0 250.0")
+    for j in range(stack):
+        _png(tmp_path / "images" / f"bs_{j}.png", rng.poisson(120, (rows, cols)) + 100)
+        lines.append(f"i images\\bs_{j}.png")
+    for k in range(levels):
+        lines.append(f"d {1000.0 * (k + 1)}")
+        for j in range(2):
+            _png(tmp_path / "images" / f"d_{k:03d}_{j}.png", rng.poisson(3, (rows, cols)) + 100)
+            lines.append(f"i images\\d_{k:03d}_{j}.png")
+    lines.append("d 2500.0")
+    for j in range(stack):
+        _png(tmp_path / "images" / f"ds_{j}.png", rng.poisson(3, (rows, cols)) + 100)
+        lines.append(f"i images\\ds_{j}.png")
+    p = tmp_path / "data.txt"
+    p.write_text("\n".join(lines) + "\n")
+    return p
+
+
+def test_reads_levels_and_kinds(tmp_path):
+    d = read_descriptor(make_set(tmp_path))
+    assert (d.version, d.bits, d.width, d.height) == ("3.0", 12, 8, 6)
+    assert len(d.temporal_bright) == 4 and len(d.temporal_dark) == 4
+    assert len(d.spatial_bright) == 1 and len(d.spatial_bright[0].images) == 3
+    lv = d.temporal_bright[1]
+    assert lv.exposure_s == pytest.approx(2e-6) and lv.photons == 200.0
+    assert d.dark_for(lv).exposure_ns == lv.exposure_ns and d.dark_for(lv).dark
+    stack = load_level(d, lv)
+    assert stack.shape == (2, 6, 8) and stack.dtype == np.uint16
+
+
+def test_replay_source_is_a_frame_source(tmp_path):
+    d = read_descriptor(make_set(tmp_path))
+    src = EmvaReplaySource(d, d.temporal_bright)
+    assert isinstance(src, FrameSource)
+    assert src.shape == (6, 8) and src.bit_depth == 12
+    src.set_level(2)
+    frames = list(src.grab(3))
+    assert [f.meta["level"] for f in frames] == [2, 2, 2]
+    assert frames[0].meta["photons"] == 300.0 and not frames[0].meta["dark"]
+    np.testing.assert_array_equal(frames[0].data, frames[2].data)  # cycles through the pair
+    with pytest.raises(InputError):
+        src.set_level(9)
+
+
+@pytest.mark.parametrize("bad, expect", [
+    ("b 1000.0", "expected 'b EXPOSURE_NS PHOTONS'"),
+    ("b abc 10", "not a number"),
+    ("x 1 2", "unknown record type"),
+    ("n 12 8", "expected 'n BITS WIDTH HEIGHT'"),
+    ("d -5", "non-negative"),
+])
+def test_bad_record_names_file_and_line(tmp_path, bad, expect):
+    p = make_set(tmp_path)
+    lines = p.read_text().splitlines()
+    lines.insert(3, bad)
+    p.write_text("\n".join(lines))
+    with pytest.raises(InputError) as ei:
+        read_descriptor(p)
+    assert f"{p}:4" in str(ei.value) and expect in str(ei.value)
+
+
+def test_missing_image_and_single_image_level(tmp_path):
+    p = make_set(tmp_path)
+    text = p.read_text()
+    p.write_text(text.replace("images\\b_000_0.png", "images\\nothere.png"))
+    with pytest.raises(InputError, match="not found"):
+        read_descriptor(p)
+    lines = make_set(tmp_path).read_text().splitlines()
+    i = lines.index("b 1000.0 100.0")
+    del lines[i + 2]
+    p.write_text("\n".join(lines))
+    with pytest.raises(InputError, match=r":4: a level needs at least two images"):
+        read_descriptor(p)
+
+
+def test_image_larger_than_declared_bits(tmp_path):
+    p = make_set(tmp_path, bits=6)
+    d = read_descriptor(p)
+    with pytest.raises(InputError, match="exceeds the declared 6 bits"):
+        load_level(d, d.temporal_bright[0])
+
+
+def test_emva_command_on_small_set(tmp_path, capsys):
+    from ares.cli import main
+
+    p = make_set(tmp_path, levels=6)
+    assert main(["emva", str(p)]) == 0
+    out = capsys.readouterr().out
+    assert "K" in out and "data:" in out
