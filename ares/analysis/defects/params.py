@@ -65,7 +65,7 @@ class DefectThresholds:
     stuck_var_dn2: float = 1.0 / 12.0
     stuck_response_dn: float = 0.5
     # noisy (chi-square, F-1 dof)
-    noisy_p_fa: float = 1e-6
+    noisy_p_fa: float = 1e-7
     # random telegraph signal
     rts_min_frames: int = 100
     rts_min_separation: float = 4.0

@@ -32,7 +32,7 @@ def remove_lines(img: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray, f
 
 
 def _interp_matrix(n: int, centers: np.ndarray) -> np.ndarray:
-    """(n, len(centers)) weights of linear interpolation (constant beyond the ends)."""
+    """(n, len(centers)) weights of linear interpolation (extrapolated beyond the ends)."""
     x = np.arange(n, dtype=np.float64)
     m = len(centers)
     w = np.zeros((n, m))
@@ -40,7 +40,7 @@ def _interp_matrix(n: int, centers: np.ndarray) -> np.ndarray:
         w[:, 0] = 1.0
         return w
     j = np.clip(np.searchsorted(centers, x) - 1, 0, m - 2)
-    t = np.clip((x - centers[j]) / (centers[j + 1] - centers[j]), 0.0, 1.0)
+    t = (x - centers[j]) / (centers[j + 1] - centers[j])  # linear extrapolation at the edges
     w[np.arange(n), j] = 1.0 - t
     w[np.arange(n), j + 1] = t
     return w
