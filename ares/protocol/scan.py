@@ -1,0 +1,336 @@
+"""Scan definition (``scans/*.xml``) as frozen dataclasses.
+
+``load_scan(path, system=None)`` validates the scan against ``schemas/scan.xsd``, loads
+the system XML it names (or the one given), and checks every setting and sweep point
+against that system's register fields and instruments before any hardware is touched.
+Setting keys: the quantities ``exposure`` (s), ``light`` (photons/pixel/s or the light
+source's unit), ``temperature`` (deg C), ``analog_gain`` (x), or ``reg:<field>`` for a
+register field in its physical unit.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+from lxml import etree
+
+from ares.errors import InputError
+from ares.protocol import xmlsafe
+from ares.protocol.system import Region, System, _check_region, _region, _set, load_system
+from ares.protocol.xmlsafe import fail
+
+QUANTITIES = ("exposure", "light", "temperature", "analog_gain")
+ANALYSES = ("decomposition", "ptc", "dark_current", "temperature", "gain_split", "adc_linearity", "lag", "defects")
+MAX_STAGES = 10000
+
+
+@dataclass(frozen=True)
+class Setting:
+    key: str  # a quantity name or "reg:<field>"
+    value: float
+
+    @property
+    def is_field(self) -> bool:
+        return self.key.startswith("reg:")
+
+    @property
+    def field_name(self) -> str:
+        return self.key[4:]
+
+
+@dataclass(frozen=True)
+class Axis:
+    key: str
+    kind: str  # "values", "linear" or "log"
+    values: tuple[float, ...] = ()
+    start: float | None = None
+    stop: float | None = None
+    points: int | None = None
+
+    def grid(self) -> tuple[float, ...]:
+        if self.kind == "values":
+            return self.values
+        if self.kind == "linear":
+            return tuple(float(v) for v in np.linspace(self.start, self.stop, self.points))
+        return tuple(float(v) for v in np.geomspace(self.start, self.stop, self.points))
+
+
+@dataclass(frozen=True)
+class StageSpec:
+    name: str
+    scene: str  # "dark" or "flat"
+    frames: int | None = None  # None: the scan's <frames>
+    dark: str = "none"  # "matched": also grab a dark stack at the same settings
+    dark_frames: int | None = None
+    settings: tuple[Setting, ...] = ()
+    axes: tuple[Axis, ...] = ()  # empty: one stage; 1 or 2 axes: a sweep (first axis outermost)
+    sweep: bool = False
+
+
+@dataclass(frozen=True)
+class Limit:
+    quantity: str
+    min: float | None = None
+    max: float | None = None
+
+    def check(self, value: float) -> bool:
+        if value is None or not math.isfinite(value):
+            return False
+        return (self.min is None or value >= self.min) and (self.max is None or value <= self.max)
+
+
+@dataclass(frozen=True)
+class Output:
+    raw_frames: bool = False
+    hdf5: bool = True
+    csv: bool = True
+    pdf: bool = False
+
+
+@dataclass(frozen=True)
+class Scan:
+    name: str
+    system_href: str
+    frames: int
+    stages: tuple[StageSpec, ...]
+    system: System = field(compare=False, repr=False, default=None)
+    version: int = 1
+    description: str = ""
+    settings: tuple[Setting, ...] = ()
+    regions: tuple[Region, ...] = ()
+    analyses: tuple[str, ...] = ()
+    defects: tuple[tuple[str, float], ...] = ()
+    limits: tuple[Limit, ...] = ()
+    output: Output = Output()
+    source: Path | None = field(default=None, compare=False)
+    system_path: Path | None = field(default=None, compare=False)
+
+
+# ---------------------------------------------------------------- loading
+
+def _setting_key(path, el) -> str:
+    q, f = el.get("quantity"), el.get("field")
+    if (q is None) == (f is None):
+        raise fail(path, el.sourceline, f"<{el.tag}> needs exactly one of quantity= or field=")
+    return q if q is not None else f"reg:{f}"
+
+
+def _settings(path, parent) -> tuple[Setting, ...]:
+    out, seen = [], set()
+    for el in parent.iterfind("set"):
+        key = _setting_key(path, el)
+        if key in seen:
+            raise fail(path, el.sourceline, f"'{key.removeprefix('reg:')}' is set twice")
+        seen.add(key)
+        out.append(Setting(key, float(el.get("value"))))
+    return tuple(out)
+
+
+def _axis(path, el) -> Axis:
+    key = _setting_key(path, el)
+    v = el.find("values")
+    if v is not None:
+        vals = tuple(float(x) for x in (v.text or "").split())
+        if not vals:
+            raise fail(path, v.sourceline, f"sweep axis '{key.removeprefix('reg:')}' has no points")
+        return Axis(key, "values", vals)
+    r = el.find("linear")
+    kind = "linear" if r is not None else "log"
+    r = r if r is not None else el.find("log")
+    a = Axis(key, kind, (), float(r.get("start")), float(r.get("stop")), int(r.get("points")))
+    if kind == "log" and (a.start <= 0 or a.stop <= 0):
+        raise fail(path, r.sourceline, f"<log> sweep of '{key.removeprefix('reg:')}' needs start and stop > 0, "
+                                       f"got {a.start:g} and {a.stop:g}")
+    return a
+
+
+class _Checker:
+    """Checks setting values against the system (fields, limits, instruments)."""
+
+    def __init__(self, path, system: System):
+        self.path, self.system = path, system
+
+    def __call__(self, el, key: str, value: float) -> None:
+        sy, line = self.system, el.sourceline
+        if not math.isfinite(value):
+            raise fail(self.path, line, f"'{key}' must be a finite number, got {value}")
+        if key.startswith("reg:"):
+            name = key[4:]
+            if name not in sy.registers.names():
+                raise fail(self.path, line, f"unknown register field '{name}' (system '{sy.name}' has: "
+                                            f"{', '.join(sy.registers.names())})")
+            f = sy.registers.field(name)
+            if f.access == "ro":
+                raise fail(self.path, line, f"register field '{name}' is read-only and cannot be set")
+        elif key in ("exposure", "analog_gain"):
+            f = sy.control_field(key)
+            if f is None:
+                raise fail(self.path, line, f"system '{sy.name}' declares no register field for {key} "
+                                            f"(add <controls {key}=...>)")
+        elif key == "light":
+            f = None
+            if value < 0:
+                raise fail(self.path, line, f"light level must be >= 0, got {value:g}")
+            ls = sy.light_source
+            if ls is None and sy.simulator is None:
+                raise fail(self.path, line, f"system '{sy.name}' has no light source")
+            if ls is not None and ls.max is not None and value > ls.max:
+                raise fail(self.path, line, f"light level {value:g} is above the light source's maximum {ls.max:g}")
+        else:  # temperature
+            f = None
+            ch = sy.chamber
+            if ch is None and sy.simulator is None:
+                raise fail(self.path, line, f"system '{sy.name}' has no thermal chamber")
+            if ch is not None and ((ch.min is not None and value < ch.min) or (ch.max is not None and value > ch.max)):
+                raise fail(self.path, line, f"temperature {value:g} C is outside the chamber's range "
+                                            f"{ch.min:g}..{ch.max:g} C")
+        if f is not None:
+            try:
+                f.to_raw(value)
+            except InputError as exc:
+                raise fail(self.path, line, str(exc)) from None
+
+
+def scan_from_tree(tree, path, system: System | None = None, system_path=None) -> Scan:
+    root = tree.getroot()
+    sys_el = root.find("system")
+    href = sys_el.get("href")
+    if system is None:
+        if system_path is None:
+            system_path = Path(path).parent / href
+        if not Path(system_path).is_file():
+            raise fail(path, sys_el.sourceline, f"system file '{href}' not found (looked for {system_path})")
+        system = load_system(system_path)
+    check = _Checker(path, system)
+    settings = _settings(path, root.find("settings")) if root.find("settings") is not None else ()
+    for el, s in zip(root.iterfind("settings/set"), settings):
+        check(el, s.key, s.value)
+    stages, total = [], 0
+    for el in root.find("stages"):
+        if not isinstance(el.tag, str):
+            continue
+        st_settings = _settings(path, el)
+        for sel, s in zip(el.iterfind("set"), st_settings):
+            check(sel, s.key, s.value)
+        axes = tuple(_axis(path, a) for a in el.iterfind("axis"))
+        if len(axes) == 2 and axes[0].key == axes[1].key:
+            raise fail(path, el.sourceline, f"sweep '{el.get('name')}' sweeps '{axes[0].key.removeprefix('reg:')}' on both axes")
+        n = 1
+        for a_el, a in zip(el.iterfind("axis"), axes):
+            if a.key in {s.key for s in st_settings}:
+                raise fail(path, a_el.sourceline, f"'{a.key.removeprefix('reg:')}' is both set and swept in '{el.get('name')}'")
+            for v in a.grid():
+                check(a_el, a.key, v)
+            n *= len(a.grid())
+        total += n
+        scene, dark = el.get("scene"), el.get("dark", "none")
+        if scene == "dark" and dark == "matched":
+            raise fail(path, el.sourceline, f"stage '{el.get('name')}': dark='matched' only applies to a flat scene")
+        if scene == "dark" and any(a.key == "light" for a in axes):
+            raise fail(path, el.sourceline, f"stage '{el.get('name')}' is dark but sweeps the light level")
+        fr, dfr = el.get("frames"), el.get("dark_frames")
+        stages.append(StageSpec(el.get("name"), scene, int(fr) if fr else None, dark, int(dfr) if dfr else None,
+                                st_settings, axes, el.tag == "sweep"))
+    if total > MAX_STAGES:
+        raise fail(path, root.find("stages").sourceline, f"scan expands to {total} stages (at most {MAX_STAGES})")
+    regions = []
+    for el in root.iterfind("regions/region"):
+        r = _region(el)
+        _check_region(path, el, r, system.sensor.rows, system.sensor.cols, "region")
+        regions.append(r)
+    limits = []
+    for el in root.iterfind("limits/limit"):
+        lo, hi = el.get("min"), el.get("max")
+        if lo is None and hi is None:
+            raise fail(path, el.sourceline, f"limit on '{el.get('quantity')}' needs min= or max=")
+        lim = Limit(el.get("quantity"), None if lo is None else float(lo), None if hi is None else float(hi))
+        if lim.min is not None and lim.max is not None and lim.min > lim.max:
+            raise fail(path, el.sourceline, f"limit on '{lim.quantity}': min {lim.min:g} is above max {lim.max:g}")
+        limits.append(lim)
+    analyses = tuple(el.get("name") for el in root.iterfind("analyses/analysis"))
+    out = root.find("output")
+    output = Output() if out is None else Output(
+        *(out.get(k, d) in ("true", "1") for k, d in
+          (("raw_frames", "false"), ("hdf5", "true"), ("csv", "true"), ("pdf", "false"))))
+    desc = root.find("description")
+    return Scan(
+        name=root.get("name"), version=int(root.get("version", 1)), system_href=href,
+        description=(desc.text or "").strip() if desc is not None else "",
+        frames=int(root.findtext("frames")), settings=settings, stages=tuple(stages), regions=tuple(regions),
+        analyses=analyses, defects=tuple((el.get("name"), float(el.get("value"))) for el in root.iterfind("defects/threshold")),
+        limits=tuple(limits), output=output, system=system, source=Path(path),
+        system_path=Path(system_path) if system_path else system.source,
+    )
+
+
+def load_scan(path: str | Path, system: System | None = None, system_path: str | Path | None = None) -> Scan:
+    """Load and check a scan XML and its system (or ``system``/``system_path`` instead of its href)."""
+    tree = xmlsafe.load(path, "scan")
+    if system is None and system_path is not None and not Path(system_path).is_file():
+        raise InputError(f"{system_path}: system file not found")
+    return scan_from_tree(tree, path, system, system_path)
+
+
+# ---------------------------------------------------------------- saving
+
+def _set_el(parent, tag, key: str, value=None):
+    el = etree.SubElement(parent, tag)
+    if key.startswith("reg:"):
+        el.set("field", key[4:])
+    else:
+        el.set("quantity", key)
+    if value is not None:
+        el.set("value", repr(float(value)))
+    return el
+
+
+def scan_to_tree(sc: Scan) -> etree._ElementTree:
+    root = _set(etree.Element("scan"), name=sc.name, version=sc.version)
+    if sc.description:
+        etree.SubElement(root, "description").text = sc.description
+    _set(etree.SubElement(root, "system"), href=sc.system_href)
+    if sc.settings:
+        se = etree.SubElement(root, "settings")
+        for s in sc.settings:
+            _set_el(se, "set", s.key, s.value)
+    etree.SubElement(root, "frames").text = str(sc.frames)
+    st = etree.SubElement(root, "stages")
+    for s in sc.stages:
+        el = _set(etree.SubElement(st, "sweep" if s.sweep else "stage"), name=s.name, scene=s.scene, frames=s.frames,
+                  dark=s.dark, dark_frames=s.dark_frames)
+        for x in s.settings:
+            _set_el(el, "set", x.key, x.value)
+        for a in s.axes:
+            ax = _set_el(el, "axis", a.key)
+            if a.kind == "values":
+                etree.SubElement(ax, "values").text = " ".join(repr(float(v)) for v in a.values)
+            else:
+                _set(etree.SubElement(ax, a.kind), start=float(a.start), stop=float(a.stop), points=a.points)
+    if sc.regions:
+        rg = etree.SubElement(root, "regions")
+        for r in sc.regions:
+            _set(etree.SubElement(rg, "region"), name=r.name, x=r.x, y=r.y, width=r.width, height=r.height)
+    if sc.analyses:
+        an = etree.SubElement(root, "analyses")
+        for a in sc.analyses:
+            _set(etree.SubElement(an, "analysis"), name=a)
+    if sc.defects:
+        de = etree.SubElement(root, "defects")
+        for k, v in sc.defects:
+            _set(etree.SubElement(de, "threshold"), name=k, value=float(v))
+    if sc.limits:
+        li = etree.SubElement(root, "limits")
+        for lim in sc.limits:
+            _set(etree.SubElement(li, "limit"), quantity=lim.quantity, min=lim.min, max=lim.max)
+    o = sc.output
+    _set(etree.SubElement(root, "output"), raw_frames=o.raw_frames, hdf5=o.hdf5, csv=o.csv, pdf=o.pdf)
+    return etree.ElementTree(root)
+
+
+def save_scan(sc: Scan, path: str | Path) -> None:
+    tree = scan_to_tree(sc)
+    etree.indent(tree, space="  ")
+    Path(path).write_bytes(etree.tostring(tree, xml_declaration=True, encoding="UTF-8", pretty_print=True))

@@ -1,0 +1,349 @@
+"""Physical-system description (``protocols/*.xml``) as frozen dataclasses.
+
+``load_system(path) -> System`` validates the file against ``schemas/system.xsd`` and
+checks what a schema cannot (register fields fit, controls name real fields, regions
+fit the array); ``save_system(system, path)`` writes an equivalent file.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from pathlib import Path
+
+from lxml import etree
+
+from ares.errors import InputError
+from ares.hardware.registers import Field, RegisterMap
+from ares.protocol import xmlsafe
+from ares.protocol.xmlsafe import fail
+
+
+@dataclass(frozen=True)
+class Region:
+    name: str
+    x: int
+    y: int
+    width: int
+    height: int
+
+    def slices(self) -> tuple[slice, slice]:
+        """(rows, cols) slices into a frame."""
+        return slice(self.y, self.y + self.height), slice(self.x, self.x + self.width)
+
+
+@dataclass(frozen=True)
+class Sensor:
+    name: str
+    rows: int
+    cols: int
+    cfa: str = "mono"
+    adc_bits: int = 12
+    adc_channels: int = 1
+    adc_interleave: str = "none"
+    pixel_pitch_um: float | None = None
+    vendor: str | None = None
+    part: str | None = None
+    optical_black: tuple[Region, ...] = ()
+
+
+@dataclass(frozen=True)
+class Controls:
+    """Which register fields carry the scan quantities ``exposure``/``analog_gain``/``black_level``."""
+
+    exposure: str | None = None
+    analog_gain: str | None = None
+    black_level: str | None = None
+
+
+@dataclass(frozen=True)
+class Timing:
+    readout_s: float = 0.0  # per frame, on top of the exposure (for duration estimates)
+    settle_s: float = 0.0  # after settings change
+
+
+@dataclass(frozen=True)
+class I2CBus:
+    name: str
+    bus: int
+    address: int
+    speed_hz: int = 400000
+
+
+@dataclass(frozen=True)
+class UsbGrabber:
+    name: str
+    vid: int
+    pid: int
+    endpoint: int
+    format: str
+    header_bytes: int = 0
+    timeout_ms: int = 1000
+
+
+@dataclass(frozen=True)
+class SerialInstrument:
+    name: str
+    port: str
+    baud: int = 9600
+    bytesize: int = 8
+    parity: str = "N"
+    stopbits: int = 1
+    timeout_s: float = 1.0
+    min: float | None = None
+    max: float | None = None
+    unit: str | None = None
+    settle_s: float = 0.0
+
+
+@dataclass(frozen=True)
+class Simulator:
+    seed: int = 0
+    params: dict = field(default_factory=dict)  # typed values for ares.sim.SensorParams.from_dict
+
+
+@dataclass(frozen=True)
+class System:
+    name: str
+    sensor: Sensor
+    registers: RegisterMap
+    version: int = 1
+    description: str = ""
+    controls: Controls = Controls()
+    timing: Timing = Timing()
+    buses: tuple[I2CBus, ...] = ()
+    usb_grabber: UsbGrabber | None = None
+    light_source: SerialInstrument | None = None
+    chamber: SerialInstrument | None = None
+    simulator: Simulator | None = None
+    source: Path | None = field(default=None, compare=False)
+
+    def control_field(self, quantity: str) -> Field | None:
+        name = getattr(self.controls, quantity, None)
+        return self.registers.field(name) if name else None
+
+
+# ---------------------------------------------------------------- loading
+
+def _int(s: str | None, default=None):
+    if s is None:
+        return default
+    s = s.strip()
+    return int(s, 16) if s.lower().startswith("0x") else int(s)
+
+
+def _float(s: str | None, default=None):
+    return default if s is None else float(s)
+
+
+def _bool(s: str | None, default=None):
+    return default if s is None else s.strip() in ("true", "1")
+
+
+def _region(el) -> Region:
+    return Region(el.get("name"), int(el.get("x")), int(el.get("y")), int(el.get("width")), int(el.get("height")))
+
+
+def _check_region(path, el, r: Region, rows: int, cols: int, what: str):
+    if r.x + r.width > cols or r.y + r.height > rows:
+        raise fail(path, el.sourceline, f"{what} '{r.name}' ({r.x},{r.y} {r.width}x{r.height}) "
+                                        f"does not fit in the {cols}x{rows} array")
+
+
+def _param(path, el):
+    name, value, typ = el.get("name"), el.get("value"), el.get("type")
+    try:
+        if typ == "int":
+            return name, _int(value)
+        if typ == "float":
+            return name, float(value)
+        if typ == "bool":
+            if value.strip() not in ("true", "false", "1", "0"):
+                raise ValueError
+            return name, value.strip() in ("true", "1")
+    except ValueError:
+        raise fail(path, el.sourceline, f"simulator parameter '{name}' must be of type {typ}, got '{value}'") from None
+    return name, value
+
+
+def _fields(path, reg_el, address_bits: int, value_bits: int) -> tuple[Field, ...]:
+    out = []
+    for el in reg_el.iterfind("field"):
+        f = Field(
+            name=el.get("name"), address=_int(el.get("address")), lsb=_int(el.get("lsb"), 0),
+            msb=_int(el.get("msb")), count=_int(el.get("count"), 1), access=el.get("access", "rw"),
+            scale=_float(el.get("scale"), 1.0), offset=_float(el.get("offset"), 0.0), unit=el.get("unit", ""),
+            minimum=_float(el.get("min")), maximum=_float(el.get("max")), default=_int(el.get("default"), 0),
+            description=el.get("description", ""),
+        )
+        line = el.sourceline
+        if f.lsb > f.msb:
+            raise fail(path, line, f"register field '{f.name}': lsb {f.lsb} is above msb {f.msb}")
+        if f.msb >= value_bits * f.count:
+            raise fail(path, line, f"register field '{f.name}': bit {f.msb} does not fit in {f.count} "
+                                   f"register(s) of {value_bits} bits")
+        if f.address + f.count > (1 << address_bits):
+            raise fail(path, line, f"register field '{f.name}': address 0x{f.address:x} is outside the "
+                                   f"{address_bits}-bit address space")
+        if f.scale == 0:
+            raise fail(path, line, f"register field '{f.name}': scale must not be 0")
+        if f.minimum is not None and f.maximum is not None and f.minimum > f.maximum:
+            raise fail(path, line, f"register field '{f.name}': min {f.minimum:g} is above max {f.maximum:g}")
+        if f.default >= (1 << f.width):
+            raise fail(path, line, f"register field '{f.name}': default {f.default} does not fit in {f.width} bits")
+        out.append(f)
+    return tuple(out)
+
+
+def _serial(el) -> SerialInstrument | None:
+    if el is None:
+        return None
+    return SerialInstrument(
+        name=el.get("name"), port=el.get("port"), baud=_int(el.get("baud"), 9600), bytesize=_int(el.get("bytesize"), 8),
+        parity=el.get("parity", "N"), stopbits=_int(el.get("stopbits"), 1), timeout_s=_float(el.get("timeout_s"), 1.0),
+        min=_float(el.get("min")), max=_float(el.get("max")), unit=el.get("unit"), settle_s=_float(el.get("settle_s"), 0.0),
+    )
+
+
+def system_from_tree(tree, path) -> System:
+    root = tree.getroot()
+    s = root.find("sensor")
+    arr = s.find("array")
+    rows, cols = int(arr.get("rows")), int(arr.get("cols"))
+    ob = []
+    for el in s.iterfind("optical_black/region"):
+        r = _region(el)
+        _check_region(path, el, r, rows, cols, "optical-black region")
+        ob.append(r)
+    adc = s.find("adc")
+    sensor = Sensor(
+        name=s.get("name"), rows=rows, cols=cols, cfa=s.find("cfa").get("pattern"),
+        adc_bits=int(adc.get("bits")), adc_channels=int(adc.get("channels", 1)),
+        adc_interleave=adc.get("interleave", "none"), pixel_pitch_um=_float(arr.get("pixel_pitch_um")),
+        vendor=s.get("vendor"), part=s.get("part"), optical_black=tuple(ob),
+    )
+    if sensor.adc_channels > 1 and sensor.adc_interleave == "none":
+        raise fail(path, adc.sourceline, f"<adc> has {sensor.adc_channels} channels but interleave='none'; "
+                                         "say how they share the array (column, row or pixel)")
+    reg = root.find("registers")
+    abits, vbits = int(reg.get("address_bits")), int(reg.get("value_bits"))
+    fields = _fields(path, reg, abits, vbits)
+    try:
+        regmap = RegisterMap(abits, vbits, reg.get("endian", "big"), fields)
+    except InputError as exc:
+        raise fail(path, reg.sourceline, str(exc)) from None
+    ctl = root.find("controls")
+    controls = Controls()
+    if ctl is not None:
+        controls = Controls(ctl.get("exposure"), ctl.get("analog_gain"), ctl.get("black_level"))
+        for q in ("exposure", "analog_gain", "black_level"):
+            name = getattr(controls, q)
+            if name and name not in regmap.names():
+                raise fail(path, ctl.sourceline, f"<controls {q}='{name}'> names no register field "
+                                                 f"(known: {', '.join(regmap.names())})")
+    tim = root.find("timing")
+    timing = Timing() if tim is None else Timing(_float(tim.get("readout_s"), 0.0), _float(tim.get("settle_s"), 0.0))
+    buses = tuple(I2CBus(el.get("name"), int(el.get("bus")), _int(el.get("address")), _int(el.get("speed_hz"), 400000))
+                  for el in root.iterfind("buses/i2c"))
+    for el, b in zip(root.iterfind("buses/i2c"), buses):
+        if b.address > 0x7F:
+            raise fail(path, el.sourceline, f"I2C bus '{b.name}': address 0x{b.address:x} is not a 7-bit address")
+    g = root.find("devices/usb_grabber")
+    grabber = None
+    if g is not None:
+        grabber = UsbGrabber(g.get("name"), _int(g.get("vid")), _int(g.get("pid")), _int(g.get("endpoint")),
+                             g.get("format"), _int(g.get("header_bytes"), 0), _int(g.get("timeout_ms"), 1000))
+        if grabber.vid > 0xFFFF or grabber.pid > 0xFFFF:
+            raise fail(path, g.sourceline, "USB vid/pid must be 16-bit numbers")
+    sim_el = root.find("simulator")
+    sim = None
+    if sim_el is not None:
+        sim = Simulator(_int(sim_el.get("seed"), 0), dict(_param(path, p) for p in sim_el.iterfind("param")))
+    desc = root.find("description")
+    return System(
+        name=root.get("name"), version=_int(root.get("version"), 1),
+        description=(desc.text or "").strip() if desc is not None else "",
+        sensor=sensor, registers=regmap, controls=controls, timing=timing, buses=buses, usb_grabber=grabber,
+        light_source=_serial(root.find("devices/light_source")), chamber=_serial(root.find("devices/chamber")),
+        simulator=sim, source=Path(path),
+    )
+
+
+def load_system(path: str | Path) -> System:
+    """Load and check a system XML; raises ``InputError`` with ``file:line: sentence``."""
+    return system_from_tree(xmlsafe.load(path, "system"), path)
+
+
+# ---------------------------------------------------------------- saving
+
+def fmt(v) -> str:
+    if isinstance(v, bool):
+        return "true" if v else "false"
+    if isinstance(v, float):
+        return repr(v)
+    return str(v)
+
+
+def _set(el, **attrs):
+    for k, v in attrs.items():
+        if v is not None:
+            el.set(k, fmt(v))
+    return el
+
+
+def _serial_el(parent, tag, s: SerialInstrument):
+    _set(etree.SubElement(parent, tag), name=s.name, port=s.port, baud=s.baud, bytesize=s.bytesize, parity=s.parity,
+         stopbits=s.stopbits, timeout_s=s.timeout_s, min=s.min, max=s.max, unit=s.unit, settle_s=s.settle_s)
+
+
+def system_to_tree(sy: System) -> etree._ElementTree:
+    root = _set(etree.Element("system"), name=sy.name, version=sy.version)
+    if sy.description:
+        etree.SubElement(root, "description").text = sy.description
+    s = sy.sensor
+    se = _set(etree.SubElement(root, "sensor"), name=s.name, vendor=s.vendor, part=s.part)
+    _set(etree.SubElement(se, "array"), rows=s.rows, cols=s.cols, pixel_pitch_um=s.pixel_pitch_um)
+    if s.optical_black:
+        ob = etree.SubElement(se, "optical_black")
+        for r in s.optical_black:
+            _set(etree.SubElement(ob, "region"), name=r.name, x=r.x, y=r.y, width=r.width, height=r.height)
+    _set(etree.SubElement(se, "cfa"), pattern=s.cfa)
+    _set(etree.SubElement(se, "adc"), bits=s.adc_bits, channels=s.adc_channels, interleave=s.adc_interleave)
+    m = sy.registers
+    re_ = _set(etree.SubElement(root, "registers"), address_bits=m.address_bits, value_bits=m.value_bits, endian=m.endian)
+    for f in m.fields:
+        _set(etree.SubElement(re_, "field"), name=f.name, address=f"0x{f.address:04X}", lsb=f.lsb, msb=f.msb,
+             count=f.count, access=f.access, scale=float(f.scale), offset=float(f.offset), unit=f.unit or None,
+             min=None if f.minimum is None else float(f.minimum), max=None if f.maximum is None else float(f.maximum),
+             default=f.default, description=f.description or None)
+    c = sy.controls
+    if c != Controls():
+        _set(etree.SubElement(root, "controls"), exposure=c.exposure, analog_gain=c.analog_gain, black_level=c.black_level)
+    if sy.timing != Timing():
+        _set(etree.SubElement(root, "timing"), readout_s=float(sy.timing.readout_s), settle_s=float(sy.timing.settle_s))
+    if sy.buses:
+        b = etree.SubElement(root, "buses")
+        for bus in sy.buses:
+            _set(etree.SubElement(b, "i2c"), name=bus.name, bus=bus.bus, address=f"0x{bus.address:02X}",
+                 speed_hz=bus.speed_hz)
+    if sy.usb_grabber or sy.light_source or sy.chamber:
+        d = etree.SubElement(root, "devices")
+        g = sy.usb_grabber
+        if g:
+            _set(etree.SubElement(d, "usb_grabber"), name=g.name, vid=f"0x{g.vid:04X}", pid=f"0x{g.pid:04X}",
+                 endpoint=f"0x{g.endpoint:02X}", format=g.format, header_bytes=g.header_bytes, timeout_ms=g.timeout_ms)
+        if sy.light_source:
+            _serial_el(d, "light_source", sy.light_source)
+        if sy.chamber:
+            _serial_el(d, "chamber", sy.chamber)
+    if sy.simulator:
+        sim = _set(etree.SubElement(root, "simulator"), seed=sy.simulator.seed)
+        for k, v in sy.simulator.params.items():
+            t = {bool: "bool", int: "int", float: "float"}.get(type(v), "str")
+            _set(etree.SubElement(sim, "param"), name=k, value=v, type=t)
+    return etree.ElementTree(root)
+
+
+def save_system(sy: System, path: str | Path) -> None:
+    tree = system_to_tree(sy)
+    etree.indent(tree, space="  ")
+    Path(path).write_bytes(etree.tostring(tree, xml_declaration=True, encoding="UTF-8", pretty_print=True))
