@@ -1,0 +1,83 @@
+"""The ADC: two column-interleaved channels, quantization, INL/DNL, clipping.
+
+Input ``x`` is the analog value in LSB (= DN) at the ADC. Channel ``c % 2`` applies
+``gain[ch] * x + offset[ch]``; the black-level pedestal is added before quantization;
+the code is clipped to ``[0, 2**bits - 1]``.
+
+Ideal transfer: code k for ``k - 0.5 <= x < k + 0.5``. With INL/DNL the transition
+levels ``T_k`` (k = 1 .. max_code, where the code changes from k-1 to k) are drawn once:
+code widths ``1 + adc_dnl_lsb * N(0,1)`` (clipped at 0, so codes may go missing),
+rescaled so ``T_1 = 0.5`` and ``T_max = max - 0.5`` (endpoint fit), then a smooth bow
+``adc_inl_lsb * sin(pi * (T - 0.5) / (max - 1))`` is added. The code is the number of
+transition levels at or below x (a per-code lookup, exact).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from ares.sim.params import SensorParams
+
+
+class Adc:
+    def __init__(self, p: SensorParams, rng: np.random.Generator):
+        self.bits = p.adc_bits
+        self.max_code = p.max_code
+        ch = np.arange(p.cols) % 2
+        self.offset_col = np.asarray(p.adc_offset_dn, np.float32)[ch]
+        self.gain_col = np.asarray(p.adc_gain, np.float32)[ch]
+        self.unit_gain = bool(np.all(self.gain_col == 1.0))
+        self.thresholds = None  # transition levels T_1..T_max (float64), None = ideal
+        m = self.max_code
+        if (p.adc_inl_lsb > 0 or p.adc_dnl_lsb > 0) and m >= 2:
+            w = np.clip(1.0 + p.adc_dnl_lsb * rng.standard_normal(m - 1), 0.0, None)
+            w *= (m - 1) / w.sum()
+            t = 0.5 + np.concatenate(([0.0], np.cumsum(w)))
+            t += p.adc_inl_lsb * np.sin(np.pi * (t - 0.5) / (m - 1))
+            self.thresholds = np.maximum.accumulate(t)
+
+    # -- truth -------------------------------------------------------------------
+    def inl_lsb(self) -> np.ndarray:
+        """Transition-level INL per code k = 1..max (index k-1): T_k - (k - 0.5)."""
+        ideal = np.arange(1, self.max_code + 1) - 0.5
+        return np.zeros(self.max_code) if self.thresholds is None else self.thresholds - ideal
+
+    def dnl_lsb(self) -> np.ndarray:
+        """DNL per code 0..max: width - 1 LSB; NaN for the open-ended codes 0 and max."""
+        d = np.full(self.max_code + 1, np.nan)
+        d[1:-1] = 0.0 if self.thresholds is None else np.diff(self.thresholds) - 1.0
+        return d
+
+    # -- conversion -----------------------------------------------------------------
+    def apply_channels(self, x: np.ndarray, black_level_dn: float) -> np.ndarray:
+        """In place: per-channel gain and offset, plus the black-level pedestal."""
+        if not self.unit_gain:
+            x *= self.gain_col
+        x += self.offset_col + np.float32(black_level_dn)
+        return x
+
+    def quantize(self, x: np.ndarray) -> np.ndarray:
+        """Codes (uint16) of analog values already through ``apply_channels``.
+
+        Modifies ``x`` in place (it is scratch memory).
+        """
+        if self.thresholds is not None:
+            codes = np.searchsorted(self.thresholds, x, side="right")
+            return codes.astype(np.uint16)
+        x += np.float32(0.5)
+        np.clip(x, 0.0, self.max_code, out=x)
+        return x.astype(np.uint16)
+
+    def ramp(self, n: int, shape: tuple[int, int], rng: np.random.Generator) -> np.ndarray:
+        """ADC test input (test_mode 2): a linear ramp from -1 to max+1 LSB across each
+        frame (row-major), with a random sub-step phase per frame, converted by the
+        ADC alone (no pixel, no channel offsets). Code histograms over frames give the
+        code widths, i.e. the DNL."""
+        size = shape[0] * shape[1]
+        span = self.max_code + 2.0
+        k = np.arange(size, dtype=np.float64)
+        out = np.empty((n, *shape), np.uint16)
+        for i in range(n):
+            x = -1.0 + span * (k + rng.random()) / size
+            out[i] = self.quantize(x).reshape(shape)
+        return out

@@ -1,0 +1,230 @@
+"""The simulated bench: a register file, a frame grabber, a light source and a chamber.
+
+Everything is driven the way a real bench is: by named register fields through a
+``RegisterFile`` over ``SIM_REGISTER_MAP``. At each ``grab`` the frame source reads
+exposure, analog_gain, black_level, test_mode, streaming, sf_bias and tx_low:
+
+* sf_bias (V) scales the pixel read noise by ``1 + ((V - V0) / 0.8)**2``, V0 = default;
+* tx_low (V) scales dark current by ``2**((V - V0) / 0.25)`` and image lag by
+  ``2**(-(V - V0) / 0.25)`` (a deeper transfer-gate low level suppresses dark current
+  and holds back more charge), V0 = default.
+
+Fault injection (for scan tests): ``faults={"disconnect_after_frames": N}`` raises
+``DeviceGone`` when frame N+1 is requested; ``{"short_frame_at": N}`` raises
+``FrameError`` for the frame with 0-based index N.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from ares.errors import DeviceGone, FrameError, InputError, ValueOutOfRange
+from ares.hardware.interfaces import Bench, Frame
+from ares.hardware.registers import RegisterFile
+from ares.sim.params import SensorParams
+from ares.sim.regmap import SIM_REGISTER_MAP
+from ares.sim.sensor import SimSensor
+
+_FAULTS = ("disconnect_after_frames", "short_frame_at")
+_CHUNK = 16  # frames rendered at a time inside grab()
+
+
+class SimRegisterBus:
+    """16-bit register file with SIM_REGISTER_MAP's defaults; read-only fields refuse writes."""
+
+    def __init__(self, regmap=SIM_REGISTER_MAP, name: str = "sim-i2c"):
+        self.name = name
+        self.map = regmap
+        self._bits = regmap.value_bits
+        self._regs: dict[int, int] = {}
+        self._ro: dict[int, str] = {}
+        for f in regmap.fields:
+            raw = f.default << f.lsb
+            for i in reversed(range(f.count)):  # big-endian: lowest address most significant
+                addr = f.address + i
+                word = (raw >> (self._bits * (f.count - 1 - i))) & ((1 << self._bits) - 1)
+                self._regs[addr] = self._regs.get(addr, 0) | word
+                if f.access == "ro":
+                    self._ro[addr] = f.name
+        self.writes = 0
+
+    def _check(self, address: int) -> int:
+        if isinstance(address, bool) or not isinstance(address, (int, np.integer)):
+            raise InputError(f"{self.name}: register address must be an integer, not {address!r}")
+        if not 0 <= address < (1 << self.map.address_bits):
+            raise ValueOutOfRange(f"{self.name}: register address 0x{address:x} is outside the address space")
+        return int(address)
+
+    def read(self, address: int) -> int:
+        return self._regs.get(self._check(address), 0)
+
+    def write(self, address: int, value: int) -> None:
+        address = self._check(address)
+        if address in self._ro:
+            raise InputError(f"{self.name}: register 0x{address:04x} ({self._ro[address]}) is read-only")
+        if isinstance(value, bool) or not isinstance(value, (int, np.integer)) or not 0 <= value < (1 << self._bits):
+            raise ValueOutOfRange(f"{self.name}: value {value!r} does not fit a {self._bits}-bit register")
+        self._regs[address] = int(value)
+        self.writes += 1
+
+    def close(self) -> None:
+        pass
+
+
+class SimLightSource:
+    """Uniform illumination; level in photons per pixel per second at the sensor."""
+
+    def __init__(self, name: str = "sim-light", level: float = 0.0):
+        self.name = name
+        self._level = 0.0
+        self.set_level(level)
+
+    def set_level(self, level: float) -> None:
+        try:
+            v = float(level)
+        except (TypeError, ValueError):
+            raise ValueOutOfRange(f"{self.name}: light level must be a number, not {level!r}") from None
+        if not math.isfinite(v) or v < 0:
+            raise ValueOutOfRange(f"{self.name}: light level {level!r} photons/pixel/s must be finite and >= 0")
+        self._level = v
+
+    def get_level(self) -> float:
+        return self._level
+
+    def settle(self) -> None:
+        pass
+
+    def close(self) -> None:
+        pass
+
+
+class SimChamber:
+    """Thermal chamber with instant settling, -40 .. 125 C."""
+
+    MIN_C, MAX_C = -40.0, 125.0
+
+    def __init__(self, name: str = "sim-chamber", temperature_c: float = 25.0):
+        self.name = name
+        self._t = 25.0
+        self.set_temperature(temperature_c)
+
+    def set_temperature(self, celsius: float) -> None:
+        try:
+            v = float(celsius)
+        except (TypeError, ValueError):
+            raise ValueOutOfRange(f"{self.name}: temperature must be a number, not {celsius!r}") from None
+        if not math.isfinite(v) or not self.MIN_C <= v <= self.MAX_C:
+            raise ValueOutOfRange(f"{self.name}: temperature {celsius!r} C is outside {self.MIN_C:g} .. {self.MAX_C:g} C")
+        self._t = v
+
+    def get_temperature(self) -> float:
+        return self._t
+
+    def settle(self) -> None:
+        pass
+
+    def close(self) -> None:
+        pass
+
+
+class SimFrameSource:
+    """Frame grabber over a ``SimSensor``, configured by the registers at each grab."""
+
+    def __init__(self, sensor: SimSensor, registers: RegisterFile, light: SimLightSource | None = None,
+                 chamber: SimChamber | None = None, faults: dict | None = None, name: str = "sim grabber"):
+        self.name = name
+        self.sensor = sensor
+        self.registers = registers
+        self.light = light
+        self.chamber = chamber
+        self.shape = sensor.shape
+        self.bit_depth = sensor.params.adc_bits
+        faults = dict(faults or {})
+        unknown = sorted(set(faults) - set(_FAULTS))
+        if unknown:
+            raise InputError(f"sim bench: unknown fault(s) {unknown} (known: {', '.join(_FAULTS)})")
+        self.faults = faults
+        self.frames_delivered = 0
+        self._short_fired = False
+        self.clock_s = 0.0  # simulated time: sum of exposures
+        self._sf0 = SIM_REGISTER_MAP.field("sf_bias").to_physical(SIM_REGISTER_MAP.field("sf_bias").default)
+        self._tx0 = SIM_REGISTER_MAP.field("tx_low").to_physical(SIM_REGISTER_MAP.field("tx_low").default)
+
+    def settings(self) -> dict:
+        """The operating point the registers and instruments define now."""
+        r = self.registers
+        sf, tx = r.get("sf_bias"), r.get("tx_low")
+        return dict(
+            exposure_s=r.get("exposure"),
+            analog_gain=r.get("analog_gain"),
+            black_level_dn=r.get("black_level"),
+            test_mode=int(r.get("test_mode")),
+            streaming=int(r.get("streaming")),
+            photon_flux=self.light.get_level() if self.light is not None else 0.0,
+            temperature_c=self.chamber.get_temperature() if self.chamber is not None else 25.0,
+            read_noise_scale=1.0 + ((sf - self._sf0) / 0.8) ** 2,
+            dark_current_scale=2.0 ** ((tx - self._tx0) / 0.25),
+            lag_scale=2.0 ** (-(tx - self._tx0) / 0.25),
+        )
+
+    def grab(self, n: int):
+        """Yield ``n`` frames (ares.hardware.interfaces.Frame, uint16 data)."""
+        if isinstance(n, bool) or not isinstance(n, (int, np.integer)) or n < 0:
+            raise InputError(f"{self.name}: the number of frames must be a non-negative integer, not {n!r}")
+        s = self.settings()
+        if s["streaming"] != 1:
+            raise FrameError(f"{self.name}: no frames arrive because the sensor is not streaming (register field 'streaming' is 0)")
+        mode = s.pop("test_mode")
+        s.pop("streaming")
+        meta = dict(s, test_mode=mode)
+        left = int(n)
+        while left:
+            k = min(left, _CHUNK, self._frames_until_fault())
+            if k == 0:
+                self._raise_fault()
+            if mode == 2:
+                data = self.sensor.render_ramp(k)
+            else:
+                data = self.sensor.render(k, dark=(mode == 1), **s)
+            for frame in data:
+                yield Frame(data=frame, index=self.frames_delivered, timestamp=self.clock_s, meta=dict(meta))
+                self.frames_delivered += 1
+                self.clock_s += s["exposure_s"]
+            left -= k
+
+    def _frames_until_fault(self) -> int:
+        lim = []
+        if "disconnect_after_frames" in self.faults:
+            lim.append(int(self.faults["disconnect_after_frames"]) - self.frames_delivered)
+        if ("short_frame_at" in self.faults and not self._short_fired
+                and self.frames_delivered <= int(self.faults["short_frame_at"])):
+            lim.append(int(self.faults["short_frame_at"]) - self.frames_delivered)
+        return max(0, min(lim)) if lim else 1 << 62
+
+    def _raise_fault(self):
+        d = self.faults.get("disconnect_after_frames")
+        if d is not None and self.frames_delivered >= int(d):
+            raise DeviceGone(f"{self.name}: device disconnected after {int(d)} frames")
+        rows, cols = self.shape
+        expected = rows * cols * 2
+        self._short_fired = True  # the short frame is consumed; later grabs go on
+        self.frames_delivered += 1
+        raise FrameError(f"{self.name}: frame {self.frames_delivered - 1} arrived short "
+                         f"({expected // 2} of {expected} bytes)")
+
+    def close(self) -> None:
+        pass
+
+
+def make_sim_bench(params: SensorParams | None = None, seed: int = 0, faults: dict | None = None) -> Bench:
+    """A complete simulated bench; ``bench.info["sensor"]`` is the SimSensor (for truth)."""
+    sensor = SimSensor(params, seed)
+    bus = SimRegisterBus()
+    regs = RegisterFile(SIM_REGISTER_MAP, bus)
+    light, chamber = SimLightSource(), SimChamber()
+    frames = SimFrameSource(sensor, regs, light, chamber, faults)
+    return Bench(registers=regs, frames=frames, light=light, chamber=chamber,
+                 info={"simulator": True, "seed": int(seed), "sensor": sensor,
+                       "params": sensor.params.to_dict(), "chip_id": regs.get("chip_id")})

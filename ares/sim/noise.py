@@ -1,0 +1,80 @@
+"""Temporal random draws: per-frame streams, fast Gaussian deviates, shot noise.
+
+Every frame ``f`` of a sensor with seed ``s`` draws from its own stream
+``SeedSequence(s, spawn_key=(1, f))``, so frame f is the same whatever was rendered
+before it (state-carrying processes — RTS, lag — excepted).
+
+Two generators of N(0,1) deviates:
+
+* ``exact``: numpy's ziggurat (``Generator.standard_normal``).
+* ``fast``: a 2**16-entry inverse-CDF table indexed by random 16-bit words
+  (about 4x faster). The table holds the normal quantiles at (i + 0.5) / 2**16, rescaled
+  to unit variance, so mean and variance are exact; tails are cut at 4.3 sigma and the
+  kurtosis is 2.99 instead of 3. Measured in ``benchmarks/sim.md``.
+
+Shot noise (Poisson of mean ``m`` e-): exact ``Generator.poisson``, or the Gaussian
+``m + sqrt(m) * z`` (same mean and variance; skewness 0 instead of ``1/sqrt(m)``). The
+``auto`` mode uses the Gaussian for a pixel only where the pixel's total temporal
+distribution (Poisson + Gaussian read/chain/quantization noise of variance ``s2`` in e-^2)
+would have skewness ``m / (m + s2)**1.5`` below ``AUTO_SKEW_TOLERANCE`` — i.e. where
+no measurement could tell the difference — and exact Poisson elsewhere.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+from scipy.special import ndtri
+
+AUTO_SKEW_TOLERANCE = 0.05
+SHOT_MODES = ("auto", "exact", "gaussian")
+
+_TABLE = ndtri((np.arange(1 << 16) + 0.5) / (1 << 16))
+_TABLE = (_TABLE / np.sqrt(np.mean(_TABLE**2))).astype(np.float32)
+
+
+def frame_rng(seed: int, frame: int) -> np.random.Generator:
+    """The random stream of one frame."""
+    return np.random.Generator(np.random.SFC64(np.random.SeedSequence(seed, spawn_key=(1, int(frame)))))
+
+
+def normal(rng: np.random.Generator, shape, fast: bool) -> np.ndarray:
+    """float32 N(0,1) deviates of the given shape."""
+    if fast:
+        idx = rng.integers(0, 1 << 16, size=shape, dtype=np.uint16)
+        return np.take(_TABLE, idx)
+    return rng.standard_normal(size=shape, dtype=np.float32)
+
+
+def shot_skewness(mean_e, gauss_var_e2):
+    """Skewness of Poisson(mean) + N(0, gauss_var): mean / (mean + var)**1.5."""
+    m = np.asarray(mean_e, np.float64)
+    tot = m + gauss_var_e2
+    with np.errstate(divide="ignore", invalid="ignore"):
+        return np.where(tot > 0, m / np.maximum(tot, 1e-300) ** 1.5, 0.0)
+
+
+def exact_mask(mean_e, gauss_var_e2, mode: str):
+    """Where shot noise must be drawn exactly: bool (scalar) or bool map."""
+    if mode == "exact":
+        return True
+    if mode == "gaussian":
+        return False
+    mask = shot_skewness(mean_e, gauss_var_e2) > AUTO_SKEW_TOLERANCE
+    return bool(mask) if np.ndim(mask) == 0 else mask
+
+
+def shot(rng: np.random.Generator, mean_e, exact, shape, fast: bool) -> np.ndarray:
+    """One realization of q + delta (float32, e-) for mean ``mean_e`` (scalar or map).
+
+    ``exact`` is True/False or a boolean map choosing exact Poisson per pixel.
+    """
+    mean_arr = np.broadcast_to(np.asarray(mean_e, np.float32), shape)
+    if exact is True:
+        return rng.poisson(mean_arr).astype(np.float32)
+    out = normal(rng, shape, fast)
+    out *= np.sqrt(mean_arr)
+    out += mean_arr
+    if exact is not False and exact.any():
+        sel = np.broadcast_to(exact, shape)
+        out[sel] = rng.poisson(mean_arr[sel])
+    return out

@@ -1,0 +1,225 @@
+"""Parameters of the simulated sensor (ARTEMIS "Pixel", "Analog" and "ADC" tabs).
+
+One frozen dataclass, ``SensorParams``. Field names carry their unit. Electrons (e-)
+are pixel-domain quantities; they reach the output through the system gain
+``G [DN/e-] = conversion_gain_uv_per_e * analog_gain / adc_lsb_uv``. DN quantities are
+at the ADC input (after the analog gain), so they do not scale with the analog gain.
+
+Defaults describe a plausible small CMOS sensor: 640x480, 3.3 um pixels, 12 ke- full
+well, 70 uV/e-, 2.5 e- read noise, 12-bit ADC with a 250 uV LSB (G = 0.28 DN/e- at x1).
+Dark-current figures are given at ``dark_ref_temp_c`` (60 C) and double every
+``dark_doubling_c`` (8 C): ``X(T) = X_60 * 2**((T - 60) / 8)`` (seed 001).
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+from dataclasses import dataclass, fields
+
+from ares.errors import InputError
+
+#: Bayer patterns accepted for ``cfa``; the letters name phases (0,0), (0,1), (1,0), (1,1)
+#: as (row % 2, column % 2).
+CFA_PATTERNS = ("RGGB", "GRBG", "GBRG", "BGGR")
+
+# Fields that must be >= 0 (noise sigmas, rates, amplitudes, ...).
+_NON_NEGATIVE = (
+    "pixel_pitch_um", "read_noise_e", "chain_noise_dn", "col_fpn_dn", "row_fpn_dn",
+    "pixel_fpn_e", "col_temporal_dn", "row_temporal_dn", "frame_global_dn",
+    "dark_current_e_per_s", "dsnu_e_per_s", "dark_tail_e_per_s", "col_gain_pct",
+    "row_gain_pct", "hot_rate_ppm", "hot_mean_e_per_s", "warm_rate_ppm",
+    "warm_mean_e_per_s", "rts_rate_ppm", "rts_amplitude_e", "dead_rate_ppm",
+    "stuck_rate_ppm", "noisy_rate_ppm", "bad_column_offset_dn", "crosstalk_pct",
+    "adc_inl_lsb", "adc_dnl_lsb", "lag_fraction",
+)
+_POSITIVE = ("full_well_e", "conversion_gain_uv_per_e", "adc_lsb_uv", "qe", "dark_doubling_c")
+_PPM = ("hot_rate_ppm", "warm_rate_ppm", "rts_rate_ppm", "dead_rate_ppm", "stuck_rate_ppm", "noisy_rate_ppm")
+
+
+@dataclass(frozen=True)
+class SensorParams:
+    """Every knob of the Monte Carlo sensor (see the module docstring for units)."""
+
+    # --- geometry ---------------------------------------------------------------
+    rows: int = 480
+    cols: int = 640
+    pixel_pitch_um: float = 3.3
+    ob_columns: int = 0  # optically black columns on the left: dark current, no photo-charge
+
+    # --- pixel: charge and conversion --------------------------------------------
+    full_well_e: float = 12000.0  # pixel charge clips here (photo + dark)
+    conversion_gain_uv_per_e: float = 70.0
+    qe: float = 0.6  # photo-electrons per photon at the pixel
+    crosstalk_pct: float = 1.0  # % of mean photo-charge spread to the 4 nearest neighbours
+    lag_fraction: float = 0.0  # fraction of a frame's photo-charge read out in the next frame
+
+    # --- temporal noise ---------------------------------------------------------------
+    read_noise_e: float = 2.5  # pixel temporal noise (before the analog gain), Gaussian
+    chain_noise_dn: float = 0.5  # analog chain + ADC temporal noise (after the gain), Gaussian
+    col_temporal_dn: float = 0.3  # Ct: per column and frame
+    row_temporal_dn: float = 0.4  # Rt: per row and frame
+    frame_global_dn: float = 0.2  # whole-frame offset per frame (flicker, clamp drift)
+
+    # --- offset fixed-pattern noise ------------------------------------------------------
+    col_fpn_dn: float = 1.0  # Cs: column offset FPN sigma
+    row_fpn_dn: float = 0.5  # Rs: row offset FPN sigma
+    pixel_fpn_e: float = 1.0  # Ps1: "minimal" pixel offset FPN (ARTEMIS MPFPN), Gaussian
+
+    # --- dark current (at dark_ref_temp_c) --------------------------------------------------
+    dark_current_e_per_s: float = 50.0  # mean dark current
+    dsnu_e_per_s: float = 10.0  # Ps2: Gaussian spread of the pixel dark current
+    dark_tail_e_per_s: float = 5.0  # Ps3: exponential tail (mean of the zero-centred exponential)
+    dark_ref_temp_c: float = 60.0
+    dark_doubling_c: float = 8.0
+
+    # --- gain non-uniformity ----------------------------------------------------------------
+    prnu_pct: tuple = (1.0, 1.0, 1.0, 1.0)  # Pg sigma per Bayer phase (r%2,c%2): ee, eo, oe, oo
+    col_gain_pct: float = 0.2  # Cg sigma
+    row_gain_pct: float = 0.1  # Rg sigma
+    cfa: str | None = None  # None (monochrome) or one of CFA_PATTERNS
+    cfa_response: tuple = (1.0, 1.0, 1.0, 1.0)  # response factor per phase (used when cfa is set)
+
+    # --- defects ------------------------------------------------------------------------
+    hot_rate_ppm: float = 50.0
+    hot_mean_e_per_s: float = 2000.0  # extra dark current, uniform in [0.5, 1.5] x mean (at 60 C)
+    warm_rate_ppm: float = 200.0
+    warm_mean_e_per_s: float = 300.0
+    rts_rate_ppm: float = 100.0
+    rts_amplitude_e: float = 20.0  # bistable amplitude, uniform in [0.5, 1.5] x mean
+    rts_switch_prob: float = 0.1  # probability per frame that an RTS pixel changes state
+    dead_rate_ppm: float = 20.0
+    dead_response: float = 0.3  # photo-response fraction of a dead pixel
+    stuck_rate_ppm: float = 5.0
+    stuck_code_dn: int | None = None  # None: each stuck pixel gets a random code
+    noisy_rate_ppm: float = 100.0
+    noisy_factor: float = 5.0  # read-noise multiplier of a noisy pixel
+    bad_columns: int = 0
+    bad_column_offset_dn: float = 20.0
+
+    # --- ADC ----------------------------------------------------------------------------
+    adc_bits: int = 12
+    adc_lsb_uv: float = 250.0
+    adc_offset_dn: tuple = (0.0, 1.5)  # ADC channel 0 (even columns), 1 (odd columns)
+    adc_gain: tuple = (1.0, 1.0)
+    adc_inl_lsb: float = 0.0  # amplitude of a smooth (half-sine) INL bow, in LSB
+    adc_dnl_lsb: float = 0.0  # sigma of the random per-code width error, in LSB
+
+    # ------------------------------------------------------------------------------
+    def __post_init__(self):
+        for name in ("prnu_pct", "cfa_response", "adc_offset_dn", "adc_gain"):
+            value = getattr(self, name)
+            if isinstance(value, (int, float)):
+                value = (value,) * (4 if name in ("prnu_pct", "cfa_response") else 2)
+            try:
+                value = tuple(float(v) for v in value)
+            except (TypeError, ValueError):
+                raise InputError(f"simulator parameter '{name}' must be a list of numbers") from None
+            object.__setattr__(self, name, value)
+        self._validate()
+
+    def _fail(self, name: str, why: str):
+        raise InputError(f"simulator parameter '{name}' = {getattr(self, name)!r} {why}")
+
+    def _validate(self):
+        for f in fields(self):
+            v = getattr(self, f.name)
+            if isinstance(v, float) and not math.isfinite(v):
+                self._fail(f.name, "is not a finite number")
+            if isinstance(v, tuple) and not all(math.isfinite(x) for x in v):
+                self._fail(f.name, "holds a value that is not a finite number")
+        for name in ("rows", "cols", "adc_bits", "ob_columns", "bad_columns"):
+            if not isinstance(getattr(self, name), int) or isinstance(getattr(self, name), bool):
+                self._fail(name, "must be an integer")
+        if self.rows < 2 or self.cols < 2:
+            self._fail("rows" if self.rows < 2 else "cols", "must be at least 2")
+        if not 1 <= self.adc_bits <= 16:
+            self._fail("adc_bits", "must be between 1 and 16")
+        for name in _NON_NEGATIVE:
+            if getattr(self, name) < 0:
+                self._fail(name, "must not be negative")
+        for name in _POSITIVE:
+            if getattr(self, name) <= 0:
+                self._fail(name, "must be greater than zero")
+        if self.qe > 1:
+            self._fail("qe", "must not exceed 1")
+        if not 0 <= self.ob_columns < self.cols:
+            self._fail("ob_columns", "must be between 0 and cols - 1")
+        if not 0 <= self.bad_columns <= self.cols - self.ob_columns:
+            self._fail("bad_columns", "must be between 0 and the number of active columns")
+        if self.crosstalk_pct >= 50:
+            self._fail("crosstalk_pct", "must be below 50 %")
+        if self.lag_fraction >= 1:
+            self._fail("lag_fraction", "must be below 1")
+        if not 0 <= self.dead_response < 1:
+            self._fail("dead_response", "must be in [0, 1)")
+        if not 0 <= self.rts_switch_prob <= 1:
+            self._fail("rts_switch_prob", "must be in [0, 1]")
+        if self.noisy_factor < 1:
+            self._fail("noisy_factor", "must be at least 1")
+        if sum(getattr(self, n) for n in _PPM) > 1e6:
+            self._fail("hot_rate_ppm", "plus the other defect rates exceeds 1e6 ppm")
+        if len(self.prnu_pct) != 4 or min(self.prnu_pct) < 0:
+            self._fail("prnu_pct", "must be four non-negative percentages (one per Bayer phase)")
+        if len(self.cfa_response) != 4 or min(self.cfa_response) < 0:
+            self._fail("cfa_response", "must be four non-negative response factors (one per Bayer phase)")
+        if len(self.adc_offset_dn) != 2:
+            self._fail("adc_offset_dn", "must be two offsets (even, odd columns)")
+        if len(self.adc_gain) != 2 or min(self.adc_gain) <= 0:
+            self._fail("adc_gain", "must be two positive gains (even, odd columns)")
+        if self.cfa is not None and self.cfa not in CFA_PATTERNS:
+            self._fail("cfa", f"must be None or one of {', '.join(CFA_PATTERNS)}")
+        if self.stuck_code_dn is not None and not 0 <= self.stuck_code_dn < (1 << self.adc_bits):
+            self._fail("stuck_code_dn", "must be None or a code of the ADC")
+
+    # ------------------------------------------------------------------------------
+    @property
+    def max_code(self) -> int:
+        """Largest ADC output code, 2**adc_bits - 1."""
+        return (1 << self.adc_bits) - 1
+
+    def gain_dn_per_e(self, analog_gain: float = 1.0) -> float:
+        """System gain G in DN/e- = conversion_gain_uv_per_e * analog_gain / adc_lsb_uv."""
+        return self.conversion_gain_uv_per_e * analog_gain / self.adc_lsb_uv
+
+    def dark_scale(self, temperature_c: float) -> float:
+        """Factor 2**((T - T_ref) / T_doubling) applied to every dark-current figure."""
+        return 2.0 ** ((temperature_c - self.dark_ref_temp_c) / self.dark_doubling_c)
+
+    def to_dict(self) -> dict:
+        """Plain dict of every field (tuples become lists), inverse of ``from_dict``."""
+        return {k: (list(v) if isinstance(v, tuple) else v) for k, v in dataclasses.asdict(self).items()}
+
+    @classmethod
+    def from_dict(cls, d: dict) -> "SensorParams":
+        """Build from a dict; unknown keys raise one InputError naming them."""
+        known = {f.name for f in fields(cls)}
+        unknown = sorted(set(d) - known)
+        if unknown:
+            names = ", ".join(f"'{u}'" for u in unknown)
+            s = "s" if len(unknown) > 1 else ""
+            raise InputError(f"unknown simulator parameter{s} {names}")
+        return cls(**d)
+
+    def replace(self, **changes) -> "SensorParams":
+        """A copy with some fields changed (validated; unknown names raise InputError)."""
+        return SensorParams.from_dict({**self.to_dict(), **changes})
+
+    def without_defects(self) -> "SensorParams":
+        """A copy with every defect class switched off (clean truth for noise analyses)."""
+        return self.replace(hot_rate_ppm=0.0, warm_rate_ppm=0.0, rts_rate_ppm=0.0, dead_rate_ppm=0.0,
+                            stuck_rate_ppm=0.0, noisy_rate_ppm=0.0, bad_columns=0)
+
+    def noiseless(self) -> "SensorParams":
+        """A copy with every random component (temporal, fixed pattern, defect) at zero.
+
+        Shot noise remains (it is physics, switched by ``render(shot_noise=...)`` only
+        through ``photon_flux``); useful to isolate one component in tests.
+        """
+        zero = {n: 0.0 for n in ("read_noise_e", "chain_noise_dn", "col_temporal_dn", "row_temporal_dn",
+                                 "frame_global_dn", "col_fpn_dn", "row_fpn_dn", "pixel_fpn_e",
+                                 "dark_current_e_per_s", "dsnu_e_per_s", "dark_tail_e_per_s",
+                                 "col_gain_pct", "row_gain_pct", "crosstalk_pct", "adc_inl_lsb", "adc_dnl_lsb",
+                                 "lag_fraction")}
+        zero.update(prnu_pct=(0.0,) * 4, adc_offset_dn=(0.0, 0.0), adc_gain=(1.0, 1.0))
+        return self.without_defects().replace(**zero)

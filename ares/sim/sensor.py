@@ -1,0 +1,224 @@
+"""``SimSensor``: the ARTEMIS Monte Carlo sensor (seed 001).
+
+Per pixel (column c, row r, frame f), before the ADC::
+
+    v = o + Cs[c] + Ct[c,f] + Rs[r] + Rt[r,f] + Ps[c,r] + Pt[c,r,f] + g[f]
+        + G * Cg[c] * Rg[r] * Pg[c,r] * (q[c,r] + delta[c,r,f])
+
+``o`` holds the black level, the ADC channel offsets' mean and the mean dark charge;
+``Ps`` the pixel offset FPN and dark-current non-uniformity; ``Pt`` read noise, chain
+noise and dark shot noise; ``g`` a frame-global offset. The pixel charge (photo
+``Pg*(q+delta)`` plus dark) clips at the full well; the ADC adds its channel
+offsets/gains, quantizes (with INL/DNL if set) and clips to ``[0, 2**bits-1]``.
+Defects, lag and crosstalk are described in ``defects.py`` and ``scene.py``.
+
+Two paths, chosen per call: when no pixel needs exact Poisson, there is no lag and no
+pixel can reach the full well, all per-pixel temporal terms are combined into one
+Gaussian draw of per-pixel sigma (fast path); otherwise photo and dark charge are drawn
+separately (exact Poisson where needed), lag and full-well clipping are applied.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from ares.errors import InputError
+from ares.sim import noise
+from ares.sim.params import SensorParams
+from ares.sim.patterns import FixedPatterns
+from ares.sim.scene import Scene, resolve_scene
+
+_F32 = np.float32
+
+
+class SimSensor:
+    """A simulated sensor; fixed patterns drawn once from ``seed``."""
+
+    def __init__(self, params: SensorParams | None = None, seed: int = 0):
+        if params is None:
+            params = SensorParams()
+        if not isinstance(params, SensorParams):
+            raise InputError("simulator: params must be a SensorParams (use SensorParams.from_dict for a dict)")
+        self.params = params
+        self.seed = int(seed)
+        self.patterns = FixedPatterns(params, self.seed)
+        self.frame_index = 0  # index of the next frame
+        self._lag_e: np.ndarray | None = None  # photo-charge (e-) left behind by the last frame
+        self._cache_key = None
+        self._cache = None
+
+    @property
+    def shape(self) -> tuple[int, int]:
+        return (self.params.rows, self.params.cols)
+
+    def reset_state(self) -> None:
+        """Forget image lag (as after a long dark pause); RTS states stay."""
+        self._lag_e = None
+
+    # ------------------------------------------------------------------------------
+    def scene(self, *, exposure_s=0.01, photon_flux=0.0, temperature_c=25.0, analog_gain=1.0,
+              black_level_dn=64, dark=False, shot_noise="auto", read_noise_scale=1.0,
+              dark_current_scale=1.0, lag_scale=1.0) -> Scene:
+        return resolve_scene(self.params, self.patterns, exposure_s=exposure_s, photon_flux=photon_flux,
+                             temperature_c=temperature_c, analog_gain=analog_gain,
+                             black_level_dn=black_level_dn, dark=dark, shot_noise=shot_noise,
+                             read_noise_scale=read_noise_scale, dark_current_scale=dark_current_scale,
+                             lag_scale=lag_scale)
+
+    def render(self, n: int, *, exposure_s=0.01, photon_flux=0.0, temperature_c=25.0, analog_gain=1.0,
+               black_level_dn=64, dark=False, shot_noise="auto", start_frame=None, read_noise_scale=1.0,
+               dark_current_scale=1.0, lag_scale=1.0) -> np.ndarray:
+        """``n`` frames (uint16, shape (n, rows, cols)).
+
+        exposure_s: integration time; photon_flux: photons/pixel/s at the sensor, a number
+        or a (rows, cols) map; temperature_c: die temperature (dark current); analog_gain:
+        gain after the pixel; black_level_dn: digital pedestal; dark: no photons at all;
+        shot_noise: "auto" (exact Poisson only where it is distinguishable), "exact",
+        "gaussian"; start_frame: frame index of the first frame (default: continue);
+        read_noise_scale / dark_current_scale / lag_scale: bias-dependent factors (the
+        register bench derives them from sf_bias and tx_low).
+        """
+        if isinstance(n, bool) or not isinstance(n, (int, np.integer)) or n < 0:
+            raise InputError(f"simulator: the number of frames must be a non-negative integer, not {n!r}")
+        kw = dict(exposure_s=exposure_s, temperature_c=temperature_c, analog_gain=analog_gain,
+                  black_level_dn=black_level_dn, dark=dark, shot_noise=shot_noise,
+                  read_noise_scale=read_noise_scale, dark_current_scale=dark_current_scale, lag_scale=lag_scale)
+        key = None if np.ndim(photon_flux) else (float(photon_flux), tuple(sorted(kw.items())))
+        if key is not None and key == self._cache_key:
+            sc, plan = self._cache
+        else:
+            sc = self.scene(photon_flux=photon_flux, **kw)
+            plan = self._plan(sc)
+            self._cache_key, self._cache = key, (sc, plan)
+        if start_frame is not None:
+            self.frame_index = int(start_frame)
+        out = np.empty((n, *self.shape), np.uint16)
+        for i in range(n):
+            rng = noise.frame_rng(self.seed, self.frame_index)
+            out[i] = self._frame(sc, plan, rng)
+            self.frame_index += 1
+        return out
+
+    def render_ramp(self, n: int, *, start_frame=None) -> np.ndarray:
+        """ADC test frames (test_mode 2): a linear ramp over the ADC range, see ``Adc.ramp``."""
+        if start_frame is not None:
+            self.frame_index = int(start_frame)
+        out = np.empty((n, *self.shape), np.uint16)
+        for i in range(n):
+            out[i] = self.patterns.adc.ramp(1, self.shape, noise.frame_rng(self.seed, self.frame_index))[0]
+            self.frame_index += 1
+        return out
+
+    def truth(self, **kw) -> dict:
+        """Ground truth at an operating point (same keywords as ``render``); see ``ares.sim.truth``."""
+        from ares.sim.truth import build_truth
+
+        kw.pop("start_frame", None)
+        return build_truth(self, self.scene(**kw))
+
+    # ------------------------------------------------------------------------------
+    def _plan(self, sc: Scene) -> dict:
+        """Per-call precomputation: fixed DN maps, per-pixel sigmas, path choice."""
+        p, fp = self.params, self.patterns
+        G = sc.G
+        adc = fp.adc
+        # Offsets in DN before the ADC channels: Cs + bad columns + Rs + G * Ps1.
+        offs = (fp.col_fpn_dn + fp.bad_column_offset_dn)[None, :] + fp.row_fpn_dn[:, None]
+        if p.pixel_fpn_e > 0:
+            offs = offs + _F32(G) * fp.pixel_offset_e
+        offs = np.broadcast_to(offs, self.shape).astype(_F32)
+        if adc.unit_gain:  # fold channel offsets and black level into the fixed map
+            offs += adc.offset_col + _F32(sc.black_level_dn)
+        gmap = _F32(G) * fp.col_gain[None, :] * fp.row_gain[:, None] * fp.pixel_gain * fp.response
+        rn = _F32(G * sc.read_noise_e) * fp.read_noise_factor
+        var_rc = rn * rn + _F32(p.chain_noise_dn**2)  # read + chain noise, DN^2 (map)
+        has_q = np.any(np.asarray(sc.q) > 0)
+        s2_e = sc.read_noise_e**2 + (p.chain_noise_dn**2 + 1 / 12) / G**2
+        mask_q = noise.exact_mask(sc.q, s2_e, sc.shot_noise) if has_q else False
+        mask_d = noise.exact_mask(sc.dark_e, s2_e, sc.shot_noise) if sc.dark_e is not None else False
+        pg_max = float(np.max(fp.pixel_gain * fp.response))
+        q_max = float(np.max(sc.q))
+        d_max = float(np.max(sc.dark_e)) if sc.dark_e is not None else 0.0
+        hi = pg_max * q_max + d_max + 6 * np.sqrt(pg_max**2 * q_max + d_max) + 6 * sc.read_noise_e
+        fast = (not np.any(mask_q) and not np.any(mask_d) and sc.lag == 0 and hi < p.full_well_e)
+        plan = dict(fast=fast, gauss_fast=sc.shot_noise != "exact", offs=offs)
+        if fast:
+            base = offs
+            var = var_rc
+            if sc.dark_e is not None:
+                base = base + _F32(G) * sc.dark_e
+                var = var + _F32(G * G) * sc.dark_e
+            if has_q:
+                base = base + gmap * _F32(sc.q) if np.ndim(sc.q) == 0 else base + gmap * sc.q
+                var = var + gmap * gmap * sc.q
+            plan.update(base=base.astype(_F32), sigma=np.sqrt(var).astype(_F32))
+        else:
+            sigma_rc = np.sqrt(var_rc).astype(_F32)
+            plan.update(has_q=has_q, mask_q=mask_q, mask_d=mask_d, sigma=sigma_rc,
+                        pgr=fp.pixel_gain * fp.response, cgrg=_F32(G) * fp.col_gain[None, :] * fp.row_gain[:, None])
+        return plan
+
+    def _frame(self, sc: Scene, plan: dict, rng: np.random.Generator) -> np.ndarray:
+        p, fp = self.params, self.patterns
+        shape = self.shape
+        fastz = plan["gauss_fast"]
+        x = noise.normal(rng, shape, fastz)
+        x *= plan["sigma"]
+        if plan["fast"]:
+            x += plan["base"]
+        else:
+            x += plan["offs"]
+            self._add_charge(x, sc, plan, rng, fastz)
+        line = None  # per-row terms: Rt + frame-global
+        if p.row_temporal_dn > 0:
+            line = p.row_temporal_dn * noise.normal(rng, (shape[0],), fastz)
+        if p.frame_global_dn > 0:
+            g = _F32(p.frame_global_dn * rng.standard_normal())
+            line = g if line is None else line + g
+        if line is not None:
+            x += np.reshape(line, (-1, 1)) if np.ndim(line) else line
+        if p.col_temporal_dn > 0:
+            x += p.col_temporal_dn * noise.normal(rng, (shape[1],), fastz)
+        rts = fp.defects.index["rts"]
+        if len(rts):
+            st = fp.rts_state
+            flip = rng.random(len(rts)) < p.rts_switch_prob
+            st[flip] = 1.0 - st[flip]
+            x.ravel()[rts] += _F32(sc.G) * fp.defects.rts_amplitude_e * st
+        if not fp.adc.unit_gain:
+            fp.adc.apply_channels(x, sc.black_level_dn)
+        codes = fp.adc.quantize(x)
+        stuck = fp.defects.index["stuck"]
+        if len(stuck):
+            codes.ravel()[stuck] = fp.defects.stuck_code
+        return codes
+
+    def _add_charge(self, x, sc: Scene, plan: dict, rng, fastz: bool) -> None:
+        """General path: photo and dark charge drawn separately, lag, full-well clip."""
+        p = self.params
+        shape = self.shape
+        photo = None
+        if plan["has_q"]:
+            photo = noise.shot(rng, sc.q, plan["mask_q"], shape, fastz)
+        if sc.lag > 0:
+            left = self._lag_e
+            if photo is None:
+                photo = left
+                self._lag_e = None
+            else:
+                self._lag_e = _F32(sc.lag) * photo
+                photo = photo - self._lag_e
+                if left is not None:
+                    photo += left
+        else:
+            self._lag_e = None
+        fw = _F32(p.full_well_e)
+        dark = None
+        if sc.dark_e is not None:
+            dark = noise.shot(rng, sc.dark_e, plan["mask_d"], shape, fastz)
+            np.minimum(dark, fw, out=dark)
+            x += _F32(sc.G) * dark
+        if photo is not None:
+            pix = plan["pgr"] * photo
+            np.minimum(pix, fw - dark if dark is not None else fw, out=pix)
+            x += plan["cgrg"] * pix
