@@ -35,7 +35,7 @@ class Injected:
 
 def inject(rows=240, cols=320, frames=100, flat_frames=20, seed=0, *, rate_ppm=1000.0,
            offset=200.0, temporal_dn=2.0, pixel_fpn_dn=1.0, col_fpn_dn=1.0, gain=0.5,
-           exposure_s=10.0, hot_e_per_s=(8.0, 40.0), warm_e_per_s=(1.5, 4.0),
+           exposure_s=10.0, hot_e_per_s=(8.0, 40.0), warm_e_per_s=(2.0, 4.0),
            rts_amp_sigma=(5.0, 10.0), rts_switch=0.1, noisy_factor=5.0, dead_response=0.3,
            flat_level=2000.0, prnu=0.01, bad_columns=2, bad_column_offset=20.0,
            rates: dict | None = None) -> Injected:

@@ -32,6 +32,12 @@ class PixelStats:
     def shape(self) -> tuple[int, int]:
         return self.mean.shape  # type: ignore[return-value]
 
+    @classmethod
+    def from_accumulator(cls, acc, exposure_s: float | None = None) -> "PixelStats":
+        """From a streaming ``StackAccumulator`` (``mean_map``, ``temporal_var_map``, ``n_frames``)."""
+        return cls(np.asarray(acc.mean_map(), dtype=np.float64), np.asarray(acc.temporal_var_map(), dtype=np.float64),
+                   int(acc.n_frames), exposure_s)
+
     def region(self, rows: slice, cols: slice) -> "PixelStats":
         return PixelStats(self.mean[rows, cols], self.var[rows, cols], self.n_frames, self.exposure_s)
 
