@@ -1,0 +1,121 @@
+"""Photon transfer on a small local synthetic sensor (hand-checked truth)."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+
+from ares.analysis.levels import pair_stats, stack_stats
+from ares.analysis.ptc import analyze_ptc, loglog_slopes
+from ares.analysis.ptc_fit import astier_fit, astier_model, origin_fit, wls_line
+
+
+def synth_pair(rng, n_e, shape, K=0.25, read_e=3.0, fw=16000.0, prnu=0.01, offset=100.0, bits=12,
+               gain_map=None):
+    g = gain_map if gain_map is not None else 1.0
+    out = []
+    for _ in range(2):
+        q = rng.poisson(n_e * g, shape).astype(float)
+        q = np.minimum(q, fw)
+        v = K * (q + rng.normal(0, read_e, shape)) + offset
+        out.append(np.clip(np.round(v), 0, (1 << bits) - 1).astype(np.uint16))
+    return np.stack(out)
+
+
+def make_ptc(seed=1, shape=(128, 128), levels=None, **kw):
+    rng = np.random.default_rng(seed)
+    gm = 1 + 0.01 * rng.standard_normal(shape)
+    levels = np.geomspace(30, 24000, 28) if levels is None else levels
+    bits = kw.get("bits", 12)
+    dark = [pair_stats(*synth_pair(rng, 0.0, shape, gain_map=gm, **kw), max_code=(1 << bits) - 1)
+            for _ in levels]
+    bright = [pair_stats(*synth_pair(rng, n, shape, gain_map=gm, **kw), max_code=(1 << bits) - 1)
+              for n in levels]
+    return bright, dark, np.asarray(levels)
+
+
+def test_pair_formula_removes_offset_change():
+    rng = np.random.default_rng(0)
+    a = rng.normal(1000, 5, (200, 200))
+    b = rng.normal(1000, 5, (200, 200)) + 3.0  # offset jump between frames
+    s4 = pair_stats(a, b)
+    s3 = pair_stats(a, b, offset_correction=False)
+    assert s4.var == pytest.approx(25, rel=0.02)
+    assert s3.var == pytest.approx(25 + 4.5, rel=0.02)
+    st = stack_stats(np.stack([a, b, a + 1, b - 1]))
+    assert st.var > 0 and st.n_frames == 4
+
+
+def test_fits_recover_line_and_astier_reduces_to_line():
+    s = np.linspace(100, 3000, 20)
+    v = 0.25 * s + 2.0
+    lf = wls_line(s, v, 1e5)
+    assert lf.slope == pytest.approx(0.25, rel=1e-9) and lf.intercept == pytest.approx(2.0, rel=1e-6)
+    assert origin_fit(s, 0.25 * s).slope == pytest.approx(0.25)
+    af = astier_fit(s, v, 1e5)
+    assert af.gain_dn_per_e == pytest.approx(0.25, rel=1e-6) and abs(af.a00) < 1e-9
+    # brighter-fatter curvature
+    vb = astier_model(s, 2e-6, 4.0, 10.0)
+    af = astier_fit(s, vb, 1e6)
+    assert af.gain_e_per_dn == pytest.approx(4.0, rel=1e-4) and af.a00 == pytest.approx(2e-6, rel=1e-3)
+
+
+def test_ptc_gain_read_noise_full_well_and_exclusions():
+    bright, dark, ne = make_ptc()
+    r = analyze_ptc(bright, dark, photons=ne)
+    K = 0.25
+    for e in (r.gain_dn_per_e, r.gain_origin_dn_per_e):
+        assert abs(e.value - K) < 4 * e.se and abs(e.value / K - 1) < 0.01
+    assert r.read_noise_e.value == pytest.approx(3.0, rel=0.03)
+    assert r.conversion_gain_uv_per_e.available is False
+    # levels above the 16000 e- full well are excluded, each with a reason
+    ex = dict(r.excluded())
+    assert ex and all(ex.values())
+    assert all(ne[i] > 13000 for i in ex)
+    assert r.full_well_e["max_variance"].value == pytest.approx(16000, rel=0.1)
+    for name in ("max_variance", "max_code", "ptc_turnoff", "linearity_1pct"):
+        assert name in r.full_well_e and r.full_well_e[name].note
+    assert set(r.gain_vs_range) == {"0-30%", "0-50%", "0-70%"}
+    assert r.noise_model["prnu_pct"].value == pytest.approx(1.0, rel=0.2)
+    assert r.dynamic_range_db.available and r.sensitivity_threshold_e.available
+
+
+def test_clipped_and_nonmonotonic_levels_are_excluded_with_reason():
+    ne = np.array([100, 300, 600, 1000, 1500, 2000, 2600, 3200, 4000, 4800, 5600, 6400, 7000, 7750, 8200.0])
+    bright, dark, _ = make_ptc(levels=ne, shape=(64, 64), bits=11, fw=1e6)  # ADC clips near 7800 e-
+    # a light-source glitch: level 6 gets the illumination of level 2
+    rng = np.random.default_rng(5)
+    bright[6] = pair_stats(*synth_pair(rng, 600.0, (64, 64), bits=11, fw=1e6), max_code=2047)
+    r = analyze_ptc(bright, dark, photons=ne)
+    st = {lv.index: (lv.status, lv.reason) for lv in r.levels}
+    assert st[6][0] == "excluded" and st[6][1].startswith("non-monotonic")
+    clipped = [i for i, (s, why) in st.items() if why.startswith("clipped")]
+    assert clipped and all(ne[i] >= 7700 for i in clipped)
+    assert all(lv.status != "fit" or not lv.reason for lv in r.levels)
+    assert 6 not in [lv.index for lv in r.used("fit")]
+    assert r.gain_dn_per_e.value == pytest.approx(0.25, rel=0.02)
+
+
+def test_read_noise_upper_limit_when_quantization_dominates():
+    rng = np.random.default_rng(3)
+    shape = (64, 64)
+    dark = [pair_stats(*synth_pair(rng, 0.0, shape, read_e=0.5, K=0.5)) for _ in range(6)]
+    bright = [pair_stats(*synth_pair(rng, n, shape, read_e=0.5, K=0.5)) for n in (200, 400, 800, 1600, 2400, 3200)]
+    r = analyze_ptc(bright, dark)
+    assert r.read_noise_is_upper_limit
+    assert "upper limit" in r.read_noise_e.note and not math.isfinite(r.read_noise_e.se)
+
+
+def test_conversion_gain_units_and_zones():
+    bright, dark, ne = make_ptc(shape=(64, 64))
+    r = analyze_ptc(bright, dark, photons=ne, adc_lsb_uv=250.0, analog_gain=2.0)
+    assert r.conversion_gain_uv_per_e.value == pytest.approx(r.gain_dn_per_e.value * 125.0)
+    assert r.gain_e_per_dn.value == pytest.approx(1 / r.gain_dn_per_e.value)
+    good = r.used("fit") + r.used("valid")
+    sig = np.array([lv.signal for lv in good])
+    noise = np.sqrt([lv.variance for lv in good])
+    slopes = loglog_slopes(sig, noise)
+    assert slopes[len(slopes) // 2] == pytest.approx(0.5, abs=0.1)
+    assert r.zones["read_to_shot_e"].value == pytest.approx(r.noise_model["sensor_noise_e"].value ** 2)
