@@ -1,0 +1,74 @@
+"""The events the GUI draws from (no Qt).
+
+These mirror what the scan runner emits (DESIGN.md, data flow step 3): stage started,
+frame preview, stage result, progress with time remaining, done, failed -- plus
+stopped. ``ares.gui.engine`` turns runner events into these, so the views depend on
+this one small vocabulary only.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+
+
+@dataclass(frozen=True)
+class StageStarted:
+    stage: int  # 1-based
+    total: int
+    name: str = ""
+    frames: int = 0
+    settings: dict = field(default_factory=dict)
+
+
+@dataclass(frozen=True)
+class FramePreview:
+    stage: int
+    frame: int  # 1-based within the stage
+    frames: int
+    image: np.ndarray
+
+
+@dataclass(frozen=True)
+class StageResult:
+    """Per-pixel temporal mean and variance (DN, DN²) of a finished stage."""
+
+    stage: int
+    name: str
+    mean: np.ndarray
+    variance: np.ndarray
+    frames: int = 0
+    dark: bool = False
+    settings: dict = field(default_factory=dict)
+    defects: dict | None = None  # {class name: count}
+    summary: dict = field(default_factory=dict)
+
+
+@dataclass(frozen=True)
+class Progress:
+    stage: int
+    total: int
+    fraction: float
+    seconds_remaining: float | None = None
+
+
+@dataclass(frozen=True)
+class Done:
+    run_dir: str | None = None
+    summary: dict = field(default_factory=dict)  # e.g. gain_e_per_dn, defects
+
+
+@dataclass(frozen=True)
+class Stopped:
+    message: str = "stopped"
+    aborted: bool = False
+    run_dir: str | None = None
+
+
+@dataclass(frozen=True)
+class Failed:
+    message: str  # one sentence, never a traceback
+
+
+GuiEvent = StageStarted | FramePreview | StageResult | Progress | Done | Stopped | Failed

@@ -1,0 +1,256 @@
+"""The ARES main window: scan controls and tabs on the left with the live image, the
+progress line and the result tabs on the right."""
+
+from __future__ import annotations
+
+from pathlib import Path
+from typing import Callable
+
+from PySide6.QtCore import Qt, QTimer
+from PySide6.QtGui import QAction, QKeySequence
+from PySide6.QtWidgets import (QFileDialog, QMainWindow, QMessageBox, QSplitter, QTabWidget, QVBoxLayout,
+                               QWidget)
+
+from ares.errors import AresError
+
+from . import engine
+from .events import Failed, Stopped
+from .info_panel import InfoPanel, versions
+from .models import progress as P
+from .models.session import SessionModel
+from .plots.defects_view import DefectCountsView
+from .plots.distributions_view import DistributionsView
+from .plots.image_view import ImagePlot
+from .plots.profile_view import ProfilesView
+from .plots.ptc_view import PTCView
+from .results_panel import ResultsTab
+from .scan_panel import ControlTabs, ProgressLine, ScanButtons
+from .worker import ScanThread, one_sentence
+
+RESULT_TABS = ("Results", "Pixel Distributions", "Profiles", "Signal Map", "Noise Map", "PTC",
+               "Defect Counts", "Information")
+SCAN_FILTER = "Scan files (*.xml);;All files (*)"
+
+
+class MainWindow(QMainWindow):
+    def __init__(self, session: SessionModel | None = None) -> None:
+        super().__init__()
+        self.setWindowTitle("ARES — image sensor characterization")
+        self.session = session or SessionModel()
+        self.scan_path: str | None = None
+        self.job_factory: Callable[[], engine.Job] = engine.DemoScan
+        self.scan_thread: ScanThread | None = None
+        self.last_error: str | None = None
+        self.error_box: QMessageBox | None = None
+        self.runs_started = 0
+
+        s = self.session
+        self.buttons = ScanButtons()
+        self.controls = ControlTabs(s)
+        self.preview = ImagePlot(s.preview)
+        self.progress_line = ProgressLine(s.progress)
+        self.results = ResultsTab(s)
+        self.distributions = DistributionsView(s)
+        self.profiles = ProfilesView(s.profiles)
+        self.signal_map = ImagePlot(s.signal_map)
+        self.noise_map = ImagePlot(s.noise_map)
+        self.ptc = PTCView(s.ptc)
+        self.defects = DefectCountsView(s.defects)
+        self.info = InfoPanel(s.info)
+        self.result_tabs = QTabWidget()
+        for w, name in zip((self.results, self.distributions, self.profiles, self.signal_map, self.noise_map,
+                            self.ptc, self.defects, self.info), RESULT_TABS):
+            self.result_tabs.addTab(w, name)
+
+        left = QSplitter(Qt.Orientation.Vertical)
+        top = QWidget()
+        tl = QVBoxLayout(top)
+        tl.setContentsMargins(0, 0, 0, 0)
+        tl.addWidget(self.buttons)
+        tl.addWidget(self.controls)
+        left.addWidget(top)
+        left.addWidget(self.preview)
+        left.setSizes([400, 450])
+        right = QWidget()
+        rl = QVBoxLayout(right)
+        rl.setContentsMargins(0, 0, 0, 0)
+        rl.addWidget(self.progress_line)
+        rl.addWidget(self.result_tabs, 1)
+        split = QSplitter(Qt.Orientation.Horizontal)
+        split.addWidget(left)
+        split.addWidget(right)
+        split.setSizes([560, 840])
+        self.setCentralWidget(split)
+        self._menus()
+        self.statusBar().showMessage("Ready.")
+
+        self.buttons.start.clicked.connect(self.start_scan)
+        self.buttons.stop.clicked.connect(self.stop_scan)
+        self.buttons.pause.toggled.connect(self.pause_scan)
+        self.buttons.abort.clicked.connect(self.abort_scan)
+        self.controls.scan.open_requested.connect(self._open_dialog)
+        self.controls.regions.error.connect(self.show_error)
+        self.controls.inputs.image_requested.connect(self.show_image_file)
+        s.info.update(versions())
+        self._show_job_info(engine.DemoScan())
+
+    def _menus(self) -> None:
+        file_menu = self.menuBar().addMenu("&File")
+        for text, slot, key in (("&Open Scan…", self._open_dialog, QKeySequence.StandardKey.Open),
+                                ("&Load RoA File…", self.controls.regions._load_clicked, None),
+                                ("&Save RoA File…", self.controls.regions._save_clicked, None),
+                                ("E&xit", self.close, QKeySequence.StandardKey.Quit)):
+            act = QAction(text, self)
+            if key is not None:
+                act.setShortcut(key)
+            act.triggered.connect(slot)
+            file_menu.addAction(act)
+        scan_menu = self.menuBar().addMenu("&Scan")
+        for text, slot in (("Start Scan", self.start_scan), ("Stop Scan", self.stop_scan),
+                           ("Abort", self.abort_scan)):
+            act = QAction(text, self)
+            act.triggered.connect(slot)
+            scan_menu.addAction(act)
+
+    # ---- scan loading -----------------------------------------------------------------
+    def _open_dialog(self) -> None:
+        path, _ = QFileDialog.getOpenFileName(self, "Open Scan", "scans", SCAN_FILTER)
+        if path:
+            self.load_scan(path)
+
+    def load_scan(self, path: str | Path) -> bool:
+        """Prepare a scan XML for Start Scan; a bad file shows one sentence."""
+        try:
+            job = engine.open_scan(path)
+        except AresError as exc:
+            self.show_error(str(exc))
+            return False
+        except Exception as exc:  # noqa: BLE001 -- one sentence, never a traceback dialog
+            self.show_error(one_sentence(exc))
+            return False
+        self.scan_path = str(path)
+        self.job_factory = lambda: engine.open_scan(path)
+        self._show_job_info(job)
+        self.statusBar().showMessage(f"Loaded {path}.")
+        return True
+
+    def set_job_factory(self, factory: Callable[[], engine.Job], path: str | None = None) -> None:
+        """Use ``factory()`` to make the job each Start Scan (and each Auto Repeat) runs."""
+        self.job_factory = factory
+        self.scan_path = path
+        self._show_job_info(factory())
+
+    def _show_job_info(self, job) -> None:
+        info = dict(getattr(job, "info", {}) or {})
+        self.controls.scan.show_job(self.scan_path, getattr(job, "title", ""), info)
+        self.controls.instruments.show_instruments(info.get("instruments", {}) or
+                                                   {"sensor": info.get("system", "unknown")})
+        self.session.info.update({"scan": self.scan_path or getattr(job, "title", ""),
+                                  "system": info.get("system", "unknown")})
+        source = info.get("frame source") or info.get("system")
+        if source:
+            self.controls.inputs.source.setText(f"Frame source: {source}")
+
+    # ---- run control ------------------------------------------------------------------
+    @property
+    def running(self) -> bool:
+        return self.scan_thread is not None
+
+    def start_scan(self) -> None:
+        if self.running:
+            return
+        try:
+            job = self.job_factory()
+            options = getattr(job, "set_output", None)
+            if callable(options):
+                options(self.controls.output.directory.text(), self.controls.output.save_frames.isChecked())
+        except AresError as exc:
+            self.show_error(str(exc))
+            return
+        except Exception as exc:  # noqa: BLE001
+            self.show_error(one_sentence(exc))
+            return
+        self.last_error = None
+        self.runs_started += 1
+        self.session.begin_run(getattr(job, "title", ""))
+        self.scan_thread = ScanThread(job, self)
+        self.scan_thread.event.connect(self._on_event)
+        self.scan_thread.finished.connect(self._on_finished)
+        self.buttons.set_running(True)
+        self.statusBar().showMessage(f"Running {getattr(job, 'title', 'scan')}…")
+        self.scan_thread.start()
+
+    def stop_scan(self) -> None:
+        if self.scan_thread is not None:
+            self.scan_thread.stop()
+            self.session.progress.update(state=P.STOPPING)
+            self.statusBar().showMessage("Stopping after the stage in flight…")
+
+    def pause_scan(self, paused: bool) -> None:
+        if self.scan_thread is None:
+            return
+        if paused:
+            self.scan_thread.pause()
+            self.session.progress.update(state=P.PAUSED)
+        else:
+            self.scan_thread.resume()
+            self.session.progress.update(state=P.RUNNING)
+        self.buttons.pause.setText("Resume" if paused else "Pause")
+
+    def abort_scan(self) -> None:
+        if self.scan_thread is not None:
+            self.scan_thread.abort()
+            self.statusBar().showMessage("Aborting…")
+
+    def _on_event(self, ev) -> None:
+        self.session.handle(ev)
+        if isinstance(ev, Failed):
+            self.show_error(ev.message)
+        elif isinstance(ev, Stopped):
+            self.statusBar().showMessage(ev.message)
+
+    def _on_finished(self) -> None:
+        thread, self.scan_thread = self.scan_thread, None
+        if thread is not None:
+            thread.wait()
+            thread.deleteLater()
+        self.buttons.set_running(False)
+        state = self.session.progress.state
+        if state == P.RUNNING:  # the job returned without Done/Stopped
+            self.session.progress.update(state=P.DONE)
+            state = P.DONE
+        if state == P.DONE:
+            self.statusBar().showMessage("Scan finished.")
+            if self.buttons.auto_repeat.isChecked():
+                QTimer.singleShot(0, self.start_scan)
+
+    # ---- messages and images ----------------------------------------------------------
+    def show_error(self, message: str) -> None:
+        """One sentence in the status bar and a (non-blocking) message box."""
+        self.last_error = message
+        self.statusBar().showMessage(message)
+        if self.error_box is None:
+            self.error_box = QMessageBox(QMessageBox.Icon.Warning, "ARES", message,
+                                         QMessageBox.StandardButton.Ok, self)
+            self.error_box.setModal(False)
+        self.error_box.setText(message)
+        self.error_box.show()
+
+    def show_image_file(self, path: str) -> None:
+        from ares.hardware.imagefile import read_image
+
+        try:
+            image = read_image(path)
+        except AresError as exc:
+            self.show_error(str(exc))
+            return
+        from .events import FramePreview
+
+        self.session.handle(FramePreview(0, 1, 1, image))
+        self.session.preview.set_image(image, Path(path).name)
+
+    def closeEvent(self, event) -> None:  # noqa: N802 -- Qt name
+        if self.scan_thread is not None:
+            self.scan_thread.abort()
+            self.scan_thread.wait(5000)
+        super().closeEvent(event)

@@ -1,0 +1,46 @@
+"""Image models: the live preview and the signal / noise maps (no Qt).
+
+An image model holds the array to show, the display levels, and the rectangles to
+outline (regions with Draw ticked, or all active regions).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from .observable import Observable
+from .regions import Region
+
+
+def robust_levels(image: np.ndarray, lo_pct: float = 0.5, hi_pct: float = 99.5) -> tuple[float, float]:
+    """Display levels that ignore the few hottest/coldest pixels."""
+    v = np.asarray(image, dtype=np.float64)
+    v = v[np.isfinite(v)]
+    if v.size == 0:
+        return (0.0, 1.0)
+    lo, hi = (float(x) for x in np.percentile(v, [lo_pct, hi_pct]))
+    if not hi > lo:
+        lo, hi = lo - 0.5, hi + 0.5
+    return lo, hi
+
+
+class ImageModel(Observable):
+    def __init__(self, title: str = "") -> None:
+        super().__init__()
+        self.title = title
+        self.image: np.ndarray | None = None
+        self.levels: tuple[float, float] = (0.0, 1.0)
+        self.rectangles: list[tuple[int, Region]] = []
+        self.caption = ""
+
+    def set_image(self, image: np.ndarray | None, caption: str = "",
+                  levels: tuple[float, float] | None = None) -> None:
+        self.image = None if image is None else np.asarray(image)
+        self.caption = caption
+        if self.image is not None:
+            self.levels = levels if levels is not None else robust_levels(self.image)
+        self._changed()
+
+    def set_rectangles(self, rectangles: list[tuple[int, Region]]) -> None:
+        self.rectangles = list(rectangles)
+        self._changed()

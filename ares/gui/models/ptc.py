@@ -1,0 +1,75 @@
+"""Photon-transfer-curve plot model: one point per finished stage (no Qt).
+
+Each point is (mean signal above dark, temporal variance) in DN / DN² for the region
+the PTC follows. When the engine supplies a fitted gain the model keeps it so the view
+can draw the shot-noise line ``variance = signal / gain_e_per_dn``; the model never
+fits anything itself.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+
+from .observable import Observable
+
+
+@dataclass(frozen=True)
+class PTCPoint:
+    stage: int
+    label: str
+    signal_dn: float
+    variance_dn2: float
+
+
+class PTCModel(Observable):
+    def __init__(self) -> None:
+        super().__init__()
+        self.points: list[PTCPoint] = []
+        self.dark_dn: float | None = None
+        self.gain_e_per_dn: float = math.nan
+        self.fit_note = ""
+
+    def clear(self) -> None:
+        self.points, self.dark_dn = [], None
+        self.gain_e_per_dn, self.fit_note = math.nan, ""
+        self._changed()
+
+    def set_dark(self, dark_dn: float) -> None:
+        self.dark_dn = float(dark_dn)
+        self._changed()
+
+    def add(self, stage: int, label: str, mean_dn: float, variance_dn2: float) -> None:
+        """A stage's raw mean and temporal variance; the dark level (when known) is
+        subtracted from the mean."""
+        self.points.append(PTCPoint(stage, label, float(mean_dn), float(variance_dn2)))
+        self._changed()
+
+    def set_fit(self, gain_e_per_dn: float, note: str = "") -> None:
+        self.gain_e_per_dn = float(gain_e_per_dn)
+        self.fit_note = note
+        self._changed()
+
+    def xy(self) -> tuple[np.ndarray, np.ndarray]:
+        """Signal above dark and variance of the points, as arrays."""
+        dark = self.dark_dn or 0.0
+        x = np.array([p.signal_dn - dark for p in self.points], dtype=np.float64)
+        y = np.array([p.variance_dn2 for p in self.points], dtype=np.float64)
+        return x, y
+
+    def loglog(self) -> tuple[np.ndarray, np.ndarray]:
+        """log10 of the points that can be drawn on log-log axes (both > 0)."""
+        x, y = self.xy()
+        ok = (x > 0) & (y > 0)
+        return np.log10(x[ok]), np.log10(y[ok])
+
+    def fit_line(self) -> tuple[np.ndarray, np.ndarray] | None:
+        """Shot-noise line over the points' signal range, when a gain is known."""
+        x, _ = self.xy()
+        x = x[x > 0]
+        if x.size == 0 or not (math.isfinite(self.gain_e_per_dn) and self.gain_e_per_dn > 0):
+            return None
+        xs = np.array([x.min(), x.max()])
+        return xs, xs / self.gain_e_per_dn

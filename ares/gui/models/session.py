@@ -1,0 +1,193 @@
+"""The whole window's state as plain models, fed by engine events (no Qt).
+
+``SessionModel.handle(event)`` is the only entry point the worker's events reach; each
+Qt view subscribes to one sub-model. Tests drive this class directly, without a GUI.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from ..events import Done, Failed, FramePreview, Progress, StageResult, StageStarted, Stopped
+from . import progress as P
+from .defects import DefectCountsModel
+from .image import ImageModel
+from .observable import Observable
+from .profiles import ProfilesModel
+from .ptc import PTCModel
+from .regions import Region, RegionSet, full_frame
+from .stats import StatsPanelModel
+
+PANELS = ("MEAN SIGNAL", "NOISE", "COLUMNS", "ROWS")
+
+
+class InfoModel(Observable):
+    def __init__(self) -> None:
+        super().__init__()
+        self.items: dict[str, str] = {}
+
+    def update(self, mapping: dict | None = None, **items) -> None:
+        """Add or replace items; keyword names use ``_`` for spaces."""
+        self.items.update({str(k): str(v) for k, v in (mapping or {}).items()})
+        self.items.update({k.replace("_", " "): str(v) for k, v in items.items()})
+        self._changed()
+
+
+class SessionModel:
+    def __init__(self, regions: RegionSet | None = None) -> None:
+        self.regions = regions or RegionSet()
+        self.selected: int | None = None  # region row the panels follow; None = auto
+        self.progress = P.ProgressModel()
+        self.preview = ImageModel("Live image")
+        self.signal_map = ImageModel("Signal map (mean, DN)")
+        self.noise_map = ImageModel("Noise map (temporal sigma, DN)")
+        self.panels = {name: StatsPanelModel(name) for name in PANELS}
+        self.distributions: dict[int, StatsPanelModel] = {}
+        self.distributions_changed = Observable()
+        self.profiles = ProfilesModel()
+        self.ptc = PTCModel()
+        self.defects = DefectCountsModel()
+        self.info = InfoModel()
+        self.last_frame: np.ndarray | None = None
+        self.last_result: StageResult | None = None
+        self.regions.subscribe(lambda _: self._regions_changed())
+
+    # ---- region the panels follow -----------------------------------------------------
+    def analysis_region(self, shape: tuple[int, int]) -> tuple[int | None, Region]:
+        active = self.regions.active()
+        if self.selected is not None:
+            for i, r in active:
+                if i == self.selected:
+                    return i, r
+        if active:
+            return active[0]
+        return None, full_frame(shape)
+
+    def region_label(self, shape: tuple[int, int]) -> str:
+        i, _ = self.analysis_region(shape)
+        return "full frame" if i is None else f"region {i + 1}"
+
+    def select_region(self, index: int | None) -> None:
+        self.selected = index
+        self._refresh_result()
+
+    def _drawn(self) -> list[tuple[int, Region]]:
+        return self.regions.drawn() or self.regions.active()
+
+    def _regions_changed(self) -> None:
+        rects = self._drawn()
+        for m in (self.preview, self.signal_map, self.noise_map):
+            m.set_rectangles(rects)
+        if self.last_frame is not None:
+            self._update_distributions(self.last_frame)
+        self._refresh_result()
+
+    # ---- run lifecycle ----------------------------------------------------------------
+    def begin_run(self, title: str = "") -> None:
+        self.progress.reset()
+        self.progress.update(state=P.RUNNING, message=f"Running {title}".strip())
+        self.ptc.clear()
+        self.defects.clear()
+        self.last_result = None
+        self.last_frame = None
+
+    def handle(self, ev) -> None:
+        if isinstance(ev, StageStarted):
+            self.progress.update(stage=ev.stage, total=ev.total, stage_name=ev.name,
+                                 frame=0, frames=ev.frames, state=P.RUNNING)
+        elif isinstance(ev, FramePreview):
+            self.last_frame = ev.image
+            self.preview.set_image(ev.image, f"stage {ev.stage}, frame {ev.frame} of {ev.frames}")
+            self.preview.set_rectangles(self._drawn())
+            self._update_distributions(ev.image)
+            self.progress.update(frame=ev.frame, frames=ev.frames)
+        elif isinstance(ev, StageResult):
+            self._stage_result(ev)
+        elif isinstance(ev, Progress):
+            self.progress.update(stage=ev.stage, total=ev.total, fraction=ev.fraction,
+                                 seconds_remaining=ev.seconds_remaining)
+        elif isinstance(ev, Done):
+            self._summary(ev.summary)
+            if ev.run_dir:
+                self.info.update(run_directory=ev.run_dir)
+            self.progress.update(state=P.DONE, fraction=1.0, seconds_remaining=0.0,
+                                 message="Scan finished.")
+        elif isinstance(ev, Stopped):
+            if ev.run_dir:
+                self.info.update(run_directory=ev.run_dir)
+            self.progress.update(state=P.STOPPED, seconds_remaining=None,
+                                 message=ev.message)
+        elif isinstance(ev, Failed):
+            self.progress.update(state=P.FAILED, seconds_remaining=None, message=ev.message)
+
+    # ---- per-event updates ------------------------------------------------------------
+    def _update_distributions(self, image: np.ndarray) -> None:
+        active = self.regions.active() or [(-1, full_frame(image.shape))]
+        keys = {i for i, _ in active}
+        changed = set(self.distributions) != keys
+        for i, region in active:
+            model = self.distributions.get(i)
+            if model is None:
+                title = "Full frame" if i < 0 else f"Region {i + 1}"
+                model = self.distributions[i] = StatsPanelModel(title)
+            model.set_values(region.crop(image))
+        for i in set(self.distributions) - keys:
+            del self.distributions[i]
+        if changed:
+            self.distributions_changed._changed()
+
+    def _stage_result(self, ev: StageResult) -> None:
+        self.last_result = ev
+        noise = np.sqrt(np.clip(ev.variance, 0, None))
+        self.signal_map.set_image(ev.mean, f"stage {ev.stage}: {ev.name}")
+        self.noise_map.set_image(noise, f"stage {ev.stage}: {ev.name}")
+        for m in (self.signal_map, self.noise_map):
+            m.set_rectangles(self._drawn())
+        self._refresh_result()
+        _, region = self.analysis_region(ev.mean.shape)
+        mean = region.crop(ev.mean)
+        var = region.crop(ev.variance)
+        if mean is not None and mean.size:
+            if ev.dark:
+                self.ptc.set_dark(float(mean.mean()))
+            else:
+                self.ptc.add(ev.stage, ev.name, float(mean.mean()), float(var.mean()))
+        if ev.defects is not None:
+            self.defects.set_counts(ev.defects, ev.mean.size, caption=f"stage {ev.stage}: {ev.name}")
+        if ev.summary:
+            self._summary(ev.summary)
+
+    def _refresh_result(self) -> None:
+        ev = self.last_result
+        if ev is None:
+            for m in self.panels.values():
+                m.clear()
+            self.profiles.update(None, [])
+            return
+        _, region = self.analysis_region(ev.mean.shape)
+        mean = region.crop(ev.mean)
+        var = region.crop(ev.variance)
+        if mean is None:
+            for m in self.panels.values():
+                m.clear()
+        else:
+            self.panels["MEAN SIGNAL"].set_values(mean)
+            self.panels["NOISE"].set_values(np.sqrt(np.clip(var, 0, None)))
+            self.panels["COLUMNS"].set_values(mean.mean(axis=0))
+            self.panels["ROWS"].set_values(mean.mean(axis=1))
+        self.profiles.update(ev.mean, self.regions.active() or [(-1, full_frame(ev.mean.shape))])
+
+    def _summary(self, summary: dict) -> None:
+        gain = summary.get("gain_e_per_dn")
+        if gain is not None:
+            value = getattr(gain, "value", gain)
+            if value is not None and math.isfinite(float(value)):
+                self.ptc.set_fit(float(value), summary.get("gain_note", ""))
+        defects = summary.get("defects")
+        if isinstance(defects, dict) and defects:
+            total = int(summary.get("pixels", 0)) or (
+                self.last_result.mean.size if self.last_result is not None else 1)
+            self.defects.set_counts(defects, total, summary.get("defect_criteria"),
+                                    caption=summary.get("defect_caption", "scan summary"))

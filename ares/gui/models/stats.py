@@ -1,0 +1,177 @@
+"""Statistics panel model: MEAN SIGNAL / NOISE / COLUMNS / ROWS (no Qt).
+
+Given the values a panel shows (per-pixel means, per-pixel temporal sigmas, column or
+row means of a region), it keeps the display range (From/To, set by a range mode or by
+hand), the histogram over that range, and the numbers ARES prints under it: Mean,
+Sigma, Fitted Mean, Fitted Sigma (a Gaussian fitted to the histogram), Lowest, Highest.
+
+Range modes:
+- "Peak to Peak": From/To = Lowest/Highest widened by 15 % of the peak-to-peak span on
+  each side (the margins in the ARES screenshots: 32.20..37.80 -> 31.36..38.64).
+- "Mean ± 3 Sigma", "Mean ± 5 Sigma": centred on the mean of all values.
+- "Manual": From/To as typed; ``restore()`` returns to Peak to Peak.
+
+Mean, Sigma, Lowest and Highest use the values inside [From, To] (all of them in the
+automatic modes), so a manual range can exclude outliers. Sigma uses ddof=1.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+
+from .observable import Observable
+
+PEAK_TO_PEAK = "Peak to Peak"
+MEAN_3_SIGMA = "Mean ± 3 Sigma"
+MEAN_5_SIGMA = "Mean ± 5 Sigma"
+MANUAL = "Manual"
+RANGE_MODES = (PEAK_TO_PEAK, MEAN_3_SIGMA, MEAN_5_SIGMA, MANUAL)
+PEAK_MARGIN = 0.15
+DEFAULT_BINS = 64
+
+
+@dataclass(frozen=True)
+class PanelStats:
+    n: int = 0
+    mean: float = math.nan
+    sigma: float = math.nan
+    fitted_mean: float = math.nan
+    fitted_sigma: float = math.nan
+    lowest: float = math.nan
+    highest: float = math.nan
+
+
+def auto_range(values: np.ndarray, mode: str) -> tuple[float, float]:
+    v = np.asarray(values, dtype=np.float64).ravel()
+    v = v[np.isfinite(v)]
+    if v.size == 0:
+        return (0.0, 1.0)
+    lo, hi = float(v.min()), float(v.max())
+    if mode in (MEAN_3_SIGMA, MEAN_5_SIGMA):
+        k = 3.0 if mode == MEAN_3_SIGMA else 5.0
+        m = float(v.mean())
+        s = float(v.std(ddof=1)) if v.size > 1 else 0.0
+        frm, to = m - k * s, m + k * s
+    else:
+        span = hi - lo
+        frm, to = lo - PEAK_MARGIN * span, hi + PEAK_MARGIN * span
+    if not to > frm:  # constant data: a unit-wide window around it
+        frm, to = frm - 0.5, to + 0.5
+    return frm, to
+
+
+def bins_for(n: int, most: int = DEFAULT_BINS) -> int:
+    """Bins for ``n`` values: about 2*sqrt(n), between 8 and ``most`` (a 20-column
+    region gets 8 bins, not 64 mostly empty ones)."""
+    return int(min(most, max(8, round(2 * math.sqrt(max(n, 0))))))
+
+
+def histogram(values: np.ndarray, frm: float, to: float, bins: int = DEFAULT_BINS,
+              integer: bool = False) -> tuple[np.ndarray, np.ndarray]:
+    """(edges, counts) over [frm, to]. For integer data the bins are whole numbers of DN
+    wide and centred on integers, so no bin is systematically empty."""
+    v = np.asarray(values).ravel()
+    if integer:
+        width = max(1, math.ceil((to - frm) / bins))
+        start = math.floor(frm) - 0.5
+        n = max(1, math.ceil((to + 0.5 - start) / width))
+        edges = start + width * np.arange(n + 1, dtype=np.float64)
+    else:
+        edges = np.linspace(frm, to, bins + 1)
+    counts, edges = np.histogram(v.astype(np.float64), bins=edges)
+    return edges, counts
+
+
+def gaussian_fit(edges: np.ndarray, counts: np.ndarray) -> tuple[float, float]:
+    """Mean and sigma of a Gaussian least-squares fitted to a histogram (nan, nan when
+    there is too little to fit)."""
+    centres = 0.5 * (edges[:-1] + edges[1:])
+    counts = np.asarray(counts, dtype=np.float64)
+    total = counts.sum()
+    if total <= 0:
+        return math.nan, math.nan
+    m0 = float((centres * counts).sum() / total)
+    s0 = float(math.sqrt(max((((centres - m0) ** 2) * counts).sum() / total, 0.0)))
+    if np.count_nonzero(counts) < 3 or s0 == 0.0:
+        return m0, s0
+    from scipy.optimize import curve_fit
+
+    def g(x, a, mu, sig):
+        return a * np.exp(-0.5 * ((x - mu) / sig) ** 2)
+
+    try:
+        (a, mu, sig), _ = curve_fit(g, centres, counts, p0=(counts.max(), m0, s0), maxfev=2000)
+    except (RuntimeError, ValueError):
+        return m0, s0
+    if not (np.isfinite(mu) and np.isfinite(sig)):
+        return m0, s0
+    return float(mu), float(abs(sig))
+
+
+class StatsPanelModel(Observable):
+    """One panel: its values, display range, histogram and statistics."""
+
+    def __init__(self, title: str, unit: str = "DN", bins: int = DEFAULT_BINS) -> None:
+        super().__init__()
+        self.title = title
+        self.unit = unit
+        self.bins = bins
+        self.range_mode = PEAK_TO_PEAK
+        self.values = np.zeros(0)
+        self.range = (0.0, 1.0)
+        self.edges = np.linspace(0.0, 1.0, bins + 1)
+        self.counts = np.zeros(bins, dtype=np.int64)
+        self.stats = PanelStats()
+
+    # ---- inputs ---------------------------------------------------------------------
+    def set_values(self, values: np.ndarray | None) -> None:
+        v = np.zeros(0) if values is None else np.asarray(values).ravel()
+        self.values = v[np.isfinite(v)] if v.dtype.kind == "f" else v
+        self._recompute()
+
+    def set_range_mode(self, mode: str) -> None:
+        if mode not in RANGE_MODES:
+            raise ValueError(f"unknown range mode {mode!r}")
+        self.range_mode = mode
+        self._recompute()
+
+    def set_range(self, frm: float, to: float) -> None:
+        """A hand-typed From/To (switches to Manual)."""
+        if not to > frm:
+            frm, to = min(frm, to), max(frm, to) + (0.0 if to != frm else 1.0)
+        self.range_mode = MANUAL
+        self.range = (float(frm), float(to))
+        self._recompute()
+
+    def restore(self) -> None:
+        self.set_range_mode(PEAK_TO_PEAK)
+
+    def clear(self) -> None:
+        self.set_values(None)
+
+    # ---- derived --------------------------------------------------------------------
+    def _recompute(self) -> None:
+        v = self.values
+        if self.range_mode != MANUAL:
+            self.range = auto_range(v, self.range_mode)
+        frm, to = self.range
+        integer = v.dtype.kind in "iu"
+        self.edges, self.counts = histogram(v, frm, to, bins_for(v.size, self.bins), integer=integer)
+        inside = v[(v >= frm) & (v <= to)].astype(np.float64) if v.size else np.zeros(0)
+        if inside.size == 0:
+            self.stats = PanelStats()
+        else:
+            fm, fs = gaussian_fit(self.edges, self.counts)
+            self.stats = PanelStats(
+                n=int(inside.size),
+                mean=float(inside.mean()),
+                sigma=float(inside.std(ddof=1)) if inside.size > 1 else math.nan,
+                fitted_mean=fm,
+                fitted_sigma=fs,
+                lowest=float(inside.min()),
+                highest=float(inside.max()),
+            )
+        self._changed()

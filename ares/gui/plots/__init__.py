@@ -1,0 +1,17 @@
+"""pyqtgraph views; each draws one model from ``ares.gui.models`` and holds no data of
+its own beyond what it shows."""
+
+from .. import qtfix  # noqa: F401 -- before any signal carries a bool
+import pyqtgraph as pg
+
+pg.setConfigOptions(imageAxisOrder="row-major", antialias=True, background="w", foreground="k")
+
+# One colour per RoA table row (cycled), used for outlines, histograms and profiles.
+REGION_COLORS = [
+    (220, 40, 40), (30, 120, 220), (20, 160, 60), (230, 140, 0), (150, 60, 200),
+    (0, 170, 170), (200, 60, 140), (120, 120, 0),
+]
+
+
+def region_color(index: int) -> tuple[int, int, int]:
+    return (60, 60, 60) if index < 0 else REGION_COLORS[index % len(REGION_COLORS)]

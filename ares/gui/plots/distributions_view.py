@@ -1,0 +1,40 @@
+"""Pixel Distributions tab: the latest frame's histogram in each active region."""
+
+from __future__ import annotations
+
+from PySide6.QtWidgets import QGridLayout, QGroupBox, QLabel, QVBoxLayout, QWidget
+
+from ..models.session import SessionModel
+from . import region_color
+from .histogram_view import HistogramPlot
+
+
+class DistributionsView(QWidget):
+    def __init__(self, session: SessionModel, parent=None) -> None:
+        super().__init__(parent)
+        self.session = session
+        self.plots: dict[int, HistogramPlot] = {}
+        self.grid = QGridLayout()
+        self.empty = QLabel("No frame yet: the histograms of each active region's pixels appear with the first frame.")
+        lay = QVBoxLayout(self)
+        lay.addWidget(self.empty)
+        lay.addLayout(self.grid, 1)
+        session.distributions_changed.subscribe(lambda _: self.rebuild())
+        self.rebuild()
+
+    def rebuild(self) -> None:
+        while self.grid.count():
+            w = self.grid.takeAt(0).widget()
+            if w is not None:
+                w.setParent(None)
+                w.deleteLater()
+        self.plots = {}
+        items = sorted(self.session.distributions.items())
+        self.empty.setVisible(not items)
+        cols = 2 if len(items) > 1 else 1
+        for k, (i, model) in enumerate(items):
+            box = QGroupBox(model.title)
+            plot = HistogramPlot(model, color=region_color(i), xlabel="pixel value (DN)")
+            QVBoxLayout(box).addWidget(plot)
+            self.grid.addWidget(box, k // cols, k % cols)
+            self.plots[i] = plot

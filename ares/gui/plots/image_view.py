@@ -1,0 +1,69 @@
+"""Image view: live preview / signal map / noise map with region outlines."""
+
+from __future__ import annotations
+
+import numpy as np
+import pyqtgraph as pg
+from PySide6.QtCore import QRectF
+from PySide6.QtWidgets import QGraphicsRectItem, QLabel, QVBoxLayout, QWidget
+
+from ..models.image import ImageModel
+from . import region_color
+
+
+class ImagePlot(QWidget):
+    def __init__(self, model: ImageModel, parent: QWidget | None = None, colorbar: bool = True) -> None:
+        super().__init__(parent)
+        self.model = model
+        self.caption = QLabel(model.title)
+        self.plot = pg.PlotWidget()
+        self.plot.setAspectLocked(True)
+        self.plot.invertY(True)
+        self.plot.setLabel("bottom", "column")
+        self.plot.setLabel("left", "row")
+        self.image_item = pg.ImageItem()
+        self.plot.addItem(self.image_item)
+        self.colorbar = None
+        if colorbar:
+            self.colorbar = pg.ColorBarItem(colorMap=pg.colormap.get("viridis"), interactive=False, width=12)
+            self.colorbar.setImageItem(self.image_item, insert_in=self.plot.getPlotItem())
+        self._rects: list = []
+        lay = QVBoxLayout(self)
+        lay.setContentsMargins(2, 2, 2, 2)
+        lay.addWidget(self.caption)
+        lay.addWidget(self.plot, 1)
+        self._shape = None
+        model.subscribe(lambda _: self.refresh())
+        self.refresh()
+
+    def refresh(self) -> None:
+        m = self.model
+        self.caption.setText(f"{m.title}" + (f" — {m.caption}" if m.caption else ""))
+        if m.image is not None:
+            self.image_item.setImage(np.asarray(m.image, dtype=np.float32), autoLevels=False, levels=m.levels)
+            if self.colorbar is not None:
+                self.colorbar.setLevels(m.levels)
+            if m.image.shape != self._shape:
+                self._shape = m.image.shape
+                self.plot.getPlotItem().autoRange()
+        self._draw_rectangles()
+
+    def _draw_rectangles(self) -> None:
+        for item in self._rects:
+            self.plot.removeItem(item)
+        self._rects = []
+        for i, r in self.model.rectangles:
+            color = region_color(i)
+            rect = QGraphicsRectItem(QRectF(r.x, r.y, r.width, r.height))
+            pen = pg.mkPen(color, width=2)
+            pen.setCosmetic(True)
+            rect.setPen(pen)
+            label = pg.TextItem(str(i + 1), color=color, anchor=(0, 1))
+            label.setPos(r.x, r.y)
+            for item in (rect, label):
+                self.plot.addItem(item)
+                self._rects.append(item)
+
+    @property
+    def rectangle_count(self) -> int:
+        return sum(isinstance(i, QGraphicsRectItem) for i in self._rects)

@@ -1,0 +1,149 @@
+"""MEAN SIGNAL / NOISE / COLUMNS / ROWS panels: histogram, range mode, statistics."""
+
+from __future__ import annotations
+
+import math
+
+from PySide6.QtCore import Qt
+from PySide6.QtWidgets import (QComboBox, QDoubleSpinBox, QGridLayout, QGroupBox, QHBoxLayout, QLabel,
+                               QPushButton, QVBoxLayout, QWidget)
+
+from .models.session import PANELS, SessionModel
+from .models.stats import RANGE_MODES, StatsPanelModel
+from .plots.histogram_view import HistogramPlot
+
+STAT_FIELDS = (("Mean", "mean"), ("Sigma", "sigma"), ("Fitted Mean", "fitted_mean"),
+               ("Fitted Sigma", "fitted_sigma"), ("Lowest", "lowest"), ("Highest", "highest"))
+
+
+def fmt(x: float) -> str:
+    return "n/a" if not math.isfinite(x) else f"{x:.2f}"
+
+
+class StatsPanel(QGroupBox):
+    """One ARES statistics panel, a view of a ``StatsPanelModel``."""
+
+    def __init__(self, model: StatsPanelModel, xlabel: str = "DN", parent=None) -> None:
+        super().__init__(model.title, parent)
+        self.model = model
+        self.setStyleSheet("QGroupBox { font-weight: bold; }")
+        self.histogram = HistogramPlot(model, xlabel=xlabel)
+        self.histogram.setMinimumHeight(120)
+        self.mode = QComboBox()
+        self.mode.addItems(RANGE_MODES)
+        self.frm = self._spin()
+        self.to = self._spin()
+        self.restore_button = QPushButton("Restore")
+        self.labels = {attr: QLabel("n/a") for _, attr in STAT_FIELDS}
+
+        controls = QHBoxLayout()
+        controls.addWidget(QLabel("Range Mode:"))
+        controls.addWidget(self.mode)
+        controls.addWidget(QLabel("From:"))
+        controls.addWidget(self.frm)
+        controls.addWidget(QLabel("To:"))
+        controls.addWidget(self.to)
+        controls.addWidget(self.restore_button)
+        controls.addStretch(1)
+        stats = QGridLayout()
+        for k, (name, attr) in enumerate(STAT_FIELDS):
+            stats.addWidget(QLabel(name + ":"), k // 3, 2 * (k % 3), Qt.AlignmentFlag.AlignRight)
+            self.labels[attr].setTextInteractionFlags(Qt.TextInteractionFlag.TextSelectableByMouse)
+            stats.addWidget(self.labels[attr], k // 3, 2 * (k % 3) + 1)
+        lay = QVBoxLayout(self)
+        lay.setContentsMargins(4, 4, 4, 4)
+        lay.addWidget(self.histogram, 1)
+        lay.addLayout(controls)
+        lay.addLayout(stats)
+        for w in self.findChildren(QLabel):
+            w.setStyleSheet("font-weight: normal;")
+
+        self.mode.currentTextChanged.connect(self._mode_chosen)
+        self.frm.editingFinished.connect(self._range_typed)
+        self.to.editingFinished.connect(self._range_typed)
+        self.restore_button.clicked.connect(model.restore)
+        model.subscribe(lambda _: self.refresh())
+        self.refresh()
+
+    @staticmethod
+    def _spin() -> QDoubleSpinBox:
+        s = QDoubleSpinBox()
+        s.setRange(-1e9, 1e9)
+        s.setDecimals(2)
+        s.setKeyboardTracking(False)
+        s.setMinimumWidth(80)
+        return s
+
+    def _mode_chosen(self, mode: str) -> None:
+        if mode != self.model.range_mode:
+            if mode == "Manual":
+                self.model.set_range(*self.model.range)
+            else:
+                self.model.set_range_mode(mode)
+
+    def _range_typed(self) -> None:
+        frm, to = self.frm.value(), self.to.value()
+        if (round(frm, 2), round(to, 2)) != tuple(round(v, 2) for v in self.model.range):
+            self.model.set_range(frm, to)
+
+    def refresh(self) -> None:
+        m = self.model
+        for w, v in ((self.frm, m.range[0]), (self.to, m.range[1])):
+            w.blockSignals(True)
+            w.setValue(v)
+            w.blockSignals(False)
+        self.mode.blockSignals(True)
+        self.mode.setCurrentText(m.range_mode)
+        self.mode.blockSignals(False)
+        for _, attr in STAT_FIELDS:
+            self.labels[attr].setText(fmt(getattr(m.stats, attr)))
+
+
+class ResultsTab(QWidget):
+    """The Results tab: which region the panels follow, then the four panels."""
+
+    def __init__(self, session: SessionModel, parent=None) -> None:
+        super().__init__(parent)
+        self.session = session
+        self.region = QComboBox()
+        self.region.setMinimumWidth(200)
+        self.caption = QLabel()
+        top = QHBoxLayout()
+        top.addWidget(QLabel("Region:"))
+        top.addWidget(self.region)
+        top.addWidget(self.caption, 1)
+        grid = QGridLayout()
+        xlabels = {"MEAN SIGNAL": "mean signal (DN)", "NOISE": "temporal sigma (DN)",
+                   "COLUMNS": "column mean (DN)", "ROWS": "row mean (DN)"}
+        self.panels = {name: StatsPanel(session.panels[name], xlabels[name]) for name in PANELS}
+        for k, name in enumerate(PANELS):
+            grid.addWidget(self.panels[name], k // 2, k % 2)
+        lay = QVBoxLayout(self)
+        lay.addLayout(top)
+        lay.addLayout(grid, 1)
+        self.region.currentIndexChanged.connect(self._region_chosen)
+        session.regions.subscribe(lambda _: self._fill_regions())
+        session.panels["MEAN SIGNAL"].subscribe(lambda _: self._caption())
+        self._fill_regions()
+
+    def _fill_regions(self) -> None:
+        current = self.region.currentData()
+        self.region.blockSignals(True)
+        self.region.clear()
+        self.region.addItem("Automatic (first active region, else full frame)", None)
+        for i, r in self.session.regions.active():
+            self.region.addItem(f"Region {i + 1}: {r.width} x {r.height} at ({r.x}, {r.y})", i)
+        idx = self.region.findData(current)
+        self.region.setCurrentIndex(max(idx, 0))
+        self.region.blockSignals(False)
+
+    def _region_chosen(self) -> None:
+        self.session.select_region(self.region.currentData())
+
+    def _caption(self) -> None:
+        ev = self.session.last_result
+        if ev is None:
+            self.caption.setText("No stage result yet.")
+        else:
+            self.caption.setText(f"Stage {ev.stage} ({ev.name}), {ev.frames} frames, "
+                                 f"{self.session.region_label(ev.mean.shape)}")

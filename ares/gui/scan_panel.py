@@ -1,0 +1,182 @@
+"""Scan controls: Start/Stop/Pause/Abort/Auto Repeat, the control tabs (Scan, Regions
+of Analysis, Output Options, Input Images, Instrumentation) and the progress line."""
+
+from __future__ import annotations
+
+from PySide6.QtCore import Signal
+from PySide6.QtWidgets import (QCheckBox, QFileDialog, QFormLayout, QHBoxLayout, QHeaderView, QLabel,
+                               QLineEdit, QPlainTextEdit, QProgressBar, QPushButton, QTableWidget,
+                               QTableWidgetItem, QTabWidget, QVBoxLayout, QWidget)
+
+from .models import progress as P
+from .models.progress import ProgressModel
+from .models.session import SessionModel
+from .regions_table import RegionsTable
+
+CONTROL_TABS = ("Scan", "Regions of Analysis", "Output Options", "Input Images", "Instrumentation")
+
+
+class ScanButtons(QWidget):
+    def __init__(self, parent=None) -> None:
+        super().__init__(parent)
+        self.start = QPushButton("Start Scan")
+        self.stop = QPushButton("Stop Scan")
+        self.stop.setToolTip("Finish the stage in flight, keep it, then stop.")
+        self.pause = QPushButton("Pause")
+        self.pause.setCheckable(True)
+        self.abort = QPushButton("Abort")
+        self.abort.setToolTip("Stop now; the stage in flight is dropped, completed stages are kept.")
+        self.auto_repeat = QCheckBox("Auto Repeat")
+        self.start.setStyleSheet("font-weight: bold;")
+        lay = QHBoxLayout(self)
+        lay.setContentsMargins(0, 0, 0, 0)
+        for w in (self.start, self.stop, self.pause, self.abort, self.auto_repeat):
+            lay.addWidget(w)
+        lay.addStretch(1)
+        self.set_running(False)
+
+    def set_running(self, running: bool) -> None:
+        self.start.setEnabled(not running)
+        for w in (self.stop, self.pause, self.abort):
+            w.setEnabled(running)
+        if not running:
+            self.pause.setChecked(False)
+            self.pause.setText("Pause")
+
+
+class ScanTab(QWidget):
+    open_requested = Signal()
+
+    def __init__(self, parent=None) -> None:
+        super().__init__(parent)
+        self.file = QLabel("No scan file loaded: Start Scan runs the built-in demo scan.")
+        self.file.setWordWrap(True)
+        self.open_button = QPushButton("Open Scan…")
+        self.details = QPlainTextEdit()
+        self.details.setReadOnly(True)
+        top = QHBoxLayout()
+        top.addWidget(self.file, 1)
+        top.addWidget(self.open_button)
+        lay = QVBoxLayout(self)
+        lay.addLayout(top)
+        lay.addWidget(self.details)
+        self.open_button.clicked.connect(self.open_requested)
+
+    def show_job(self, path: str | None, title: str, info: dict) -> None:
+        self.file.setText(f"Scan file: {path}" if path else f"Built-in: {title}")
+        self.details.setPlainText("\n".join(f"{k}: {v}" for k, v in info.items()))
+
+
+class OutputOptionsTab(QWidget):
+    """Where the run directory goes; handed to the runner with the job."""
+
+    def __init__(self, parent=None) -> None:
+        super().__init__(parent)
+        self.directory = QLineEdit("runs")
+        browse = QPushButton("Browse…")
+        browse.clicked.connect(self._browse)
+        row = QHBoxLayout()
+        row.addWidget(self.directory, 1)
+        row.addWidget(browse)
+        self.save_frames = QCheckBox("Keep raw frames in the run directory")
+        form = QFormLayout(self)
+        form.addRow("Run directory root:", row)
+        form.addRow("", self.save_frames)
+        note = QLabel("Each run writes its XML files, settings, per-stage results and versions "
+                      "to a new directory under this root; CSV/HDF5/PDF reports are made from it "
+                      "with `ares report`.")
+        note.setWordWrap(True)
+        form.addRow(note)
+
+    def _browse(self) -> None:
+        d = QFileDialog.getExistingDirectory(self, "Run directory root", self.directory.text())
+        if d:
+            self.directory.setText(d)
+
+
+class InputImagesTab(QWidget):
+    image_requested = Signal(str)
+
+    def __init__(self, parent=None) -> None:
+        super().__init__(parent)
+        self.source = QLabel("Frames come from the bench the scan's system XML declares.")
+        self.source.setWordWrap(True)
+        self.load_button = QPushButton("Display an Image File…")
+        self.load_button.setToolTip("Show a recorded PNG/TIFF frame in the live image with its distributions.")
+        self.load_button.clicked.connect(self._choose)
+        lay = QVBoxLayout(self)
+        lay.addWidget(self.source)
+        lay.addWidget(self.load_button)
+        lay.addStretch(1)
+
+    def _choose(self) -> None:
+        path, _ = QFileDialog.getOpenFileName(self, "Display an image", "", "Images (*.png *.tif *.tiff);;All files (*)")
+        if path:
+            self.image_requested.emit(path)
+
+
+class InstrumentationTab(QWidget):
+    def __init__(self, parent=None) -> None:
+        super().__init__(parent)
+        self.table = QTableWidget(0, 2)
+        self.table.setHorizontalHeaderLabels(("Instrument", "Description"))
+        self.table.horizontalHeader().setSectionResizeMode(QHeaderView.ResizeMode.Stretch)
+        self.table.setEditTriggers(QTableWidget.EditTrigger.NoEditTriggers)
+        lay = QVBoxLayout(self)
+        lay.addWidget(self.table)
+
+    def show_instruments(self, instruments: dict) -> None:
+        self.table.setRowCount(len(instruments))
+        for r, (k, v) in enumerate(instruments.items()):
+            self.table.setItem(r, 0, QTableWidgetItem(str(k)))
+            self.table.setItem(r, 1, QTableWidgetItem(str(v)))
+
+
+class ControlTabs(QTabWidget):
+    def __init__(self, session: SessionModel, parent=None) -> None:
+        super().__init__(parent)
+        self.scan = ScanTab()
+        self.regions = RegionsTable(session.regions)
+        self.output = OutputOptionsTab()
+        self.inputs = InputImagesTab()
+        self.instruments = InstrumentationTab()
+        for w, name in zip((self.scan, self.regions, self.output, self.inputs, self.instruments), CONTROL_TABS):
+            self.addTab(w, name)
+
+
+class ProgressLine(QWidget):
+    """``Current Stage: … Time Remaining: H : MM : SS`` and a progress bar."""
+
+    def __init__(self, model: ProgressModel, parent=None) -> None:
+        super().__init__(parent)
+        self.model = model
+        self.stage = QLabel()
+        self.remaining = QLabel()
+        self.state = QLabel()
+        self.bar = QProgressBar()
+        self.bar.setRange(0, 1000)
+        self.bar.setTextVisible(False)
+        self.bar.setMaximumWidth(220)
+        lay = QHBoxLayout(self)
+        lay.setContentsMargins(0, 0, 0, 0)
+        lay.addWidget(QLabel("<b>Current Stage:</b>"))
+        lay.addWidget(self.stage)
+        lay.addSpacing(16)
+        lay.addWidget(QLabel("<b>Time Remaining:</b>"))
+        lay.addWidget(self.remaining)
+        lay.addSpacing(16)
+        lay.addWidget(self.bar)
+        lay.addWidget(self.state)
+        lay.addStretch(1)
+        model.subscribe(lambda _: self.refresh())
+        self.refresh()
+
+    def refresh(self) -> None:
+        m = self.model
+        stage = m.stage_text
+        if m.frames and m.state in (P.RUNNING, P.PAUSED):
+            stage += f", frame {m.frame}/{m.frames}"
+        self.stage.setText(stage)
+        self.remaining.setText(m.remaining_text)
+        self.bar.setValue(int(round(1000 * max(0.0, min(1.0, m.fraction)))))
+        self.state.setText(m.state)
