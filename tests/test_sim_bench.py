@@ -1,0 +1,144 @@
+"""The register-driven simulated bench and its fault injection."""
+
+import numpy as np
+import pytest
+
+from ares.errors import DeviceGone, FrameError, InputError, ValueOutOfRange
+from ares.hardware.interfaces import Bench, Chamber, FrameSource, LightSource, RegisterBus
+from ares.sim import (SensorParams, SimChamber, SimFrameSource, SimLightSource, SimRegisterBus,
+                      make_sim_bench)
+from ares.sim.regmap import CHIP_ID, SIM_REGISTER_MAP
+
+P = SensorParams(rows=48, cols=64)
+
+
+def grab(bench, n):
+    return np.stack([f.data for f in bench.frames.grab(n)]).astype(np.float64)
+
+
+def test_bench_implements_the_interfaces():
+    b = make_sim_bench(P, seed=1)
+    assert isinstance(b, Bench)
+    assert isinstance(b.registers.bus, RegisterBus) and isinstance(b.registers.bus, SimRegisterBus)
+    assert isinstance(b.frames, FrameSource) and isinstance(b.frames, SimFrameSource)
+    assert isinstance(b.light, LightSource) and isinstance(b.light, SimLightSource)
+    assert isinstance(b.chamber, Chamber) and isinstance(b.chamber, SimChamber)
+    assert b.frames.shape == (48, 64) and b.frames.bit_depth == 12
+    assert b.info["sensor"].params == P
+    b.close()
+
+
+def test_register_defaults_and_read_only_chip_id():
+    b = make_sim_bench(P)
+    r = b.registers
+    assert r.get_raw("chip_id") == CHIP_ID
+    assert r.get("exposure") == pytest.approx(0.01)
+    assert r.get("analog_gain") == 1.0 and r.get("black_level") == 64
+    snap = r.snapshot()
+    assert set(snap) == set(SIM_REGISTER_MAP.names())
+    with pytest.raises(InputError, match="read-only"):
+        r.set("chip_id", 1)
+    with pytest.raises(InputError, match="read-only"):
+        b.registers.bus.write(0x0000, 1)
+    with pytest.raises(ValueOutOfRange):
+        b.registers.bus.write(0x0010, 1 << 16)
+
+
+def test_exposure_register_changes_the_signal():
+    b = make_sim_bench(P, seed=2)
+    b.light.set_level(1e5)
+    b.registers.set("exposure", 0.01)
+    s1 = grab(b, 2).mean() - 64
+    b.registers.set("exposure", 0.04)
+    s4 = grab(b, 2).mean() - 64
+    assert s4 / s1 == pytest.approx(4.0, rel=0.02)
+    frames = list(b.frames.grab(2))
+    assert frames[0].meta["exposure_s"] == pytest.approx(0.04)
+    assert frames[1].index == frames[0].index + 1 and frames[1].timestamp > frames[0].timestamp
+
+
+def test_gain_black_level_test_modes_and_streaming():
+    b = make_sim_bench(P, seed=2)
+    b.light.set_level(1e5)
+    b.registers.set("black_level", 200)
+    base = grab(b, 2).mean()
+    b.registers.set("analog_gain", 2.0)
+    assert (grab(b, 2).mean() - 200) / (base - 200) == pytest.approx(2.0, rel=0.02)
+    b.registers.set("test_mode", 1)  # dark: no photo-charge
+    assert grab(b, 2).mean() == pytest.approx(200, abs=2)
+    b.registers.set("test_mode", 2)  # ADC ramp
+    ramp = grab(b, 1)[0].ravel()
+    assert ramp[0] == 0 and ramp[-1] == 4095 and np.all(np.diff(ramp) >= 0)
+    b.registers.set("streaming", 0)
+    with pytest.raises(FrameError, match="not streaming"):
+        grab(b, 1)
+
+
+def test_out_of_range_register_write_raises():
+    b = make_sim_bench(P)
+    with pytest.raises(ValueOutOfRange, match="exposure"):
+        b.registers.set("exposure", 1000.0)
+    with pytest.raises(ValueOutOfRange):
+        b.registers.set("analog_gain", 0.5)
+    with pytest.raises(ValueOutOfRange):
+        b.light.set_level(-1)
+    with pytest.raises(ValueOutOfRange):
+        b.chamber.set_temperature(500)
+
+
+def test_chamber_temperature_raises_dark_signal():
+    p = P.replace(dark_current_e_per_s=500.0)
+    b = make_sim_bench(p, seed=3)
+    b.registers.set("exposure", 1.0)
+    b.registers.set("test_mode", 1)
+    b.chamber.set_temperature(52.0)
+    b.chamber.settle()
+    lo = grab(b, 2).mean() - 64
+    b.chamber.set_temperature(60.0)
+    hi = grab(b, 2).mean() - 64
+    assert hi / lo == pytest.approx(2.0, rel=0.05)
+
+
+def test_bias_registers_shape_noise_and_dark_current():
+    b = make_sim_bench(P.replace(read_noise_e=4.0, dark_current_e_per_s=500.0), seed=4)
+    b.registers.set("test_mode", 1)
+    b.registers.set("exposure", 0.001)
+    noise = {}
+    for v in (0.0, 1.65, 3.3):
+        b.registers.set("sf_bias", v)
+        noise[v] = grab(b, 8).std(axis=0, ddof=1).mean()
+    assert noise[0.0] > 2 * noise[1.65] and noise[3.3] > 2 * noise[1.65]
+    b.registers.set("sf_bias", 1.65)
+    b.registers.set("exposure", 1.0)
+    b.chamber.set_temperature(60.0)
+    dark = {}
+    for v in (-1.0, -0.5, 0.0):
+        b.registers.set("tx_low", v)
+        dark[v] = grab(b, 2).mean() - 64
+    assert dark[-1.0] < dark[-0.5] < dark[0.0]
+
+
+def test_disconnect_fault():
+    b = make_sim_bench(P, faults={"disconnect_after_frames": 5})
+    got = []
+    with pytest.raises(DeviceGone, match="disconnected after 5 frames"):
+        for f in b.frames.grab(10):
+            got.append(f.index)
+    assert got == [0, 1, 2, 3, 4]
+    with pytest.raises(DeviceGone):
+        list(b.frames.grab(1))
+
+
+def test_short_frame_fault():
+    b = make_sim_bench(P, faults={"short_frame_at": 3})
+    got = []
+    with pytest.raises(FrameError, match="frame 3 arrived short"):
+        for f in b.frames.grab(10):
+            got.append(f.index)
+    assert got == [0, 1, 2]
+    assert len(list(b.frames.grab(2))) == 2  # the device goes on afterwards
+
+
+def test_unknown_fault_is_rejected():
+    with pytest.raises(InputError, match="unknown fault"):
+        make_sim_bench(P, faults={"explode": 1})
