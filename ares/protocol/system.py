@@ -156,6 +156,8 @@ def _param(path, el):
             return name, _int(value)
         if typ == "float":
             return name, float(value)
+        if typ == "floats":
+            return name, tuple(float(x) for x in value.split())
         if typ == "bool":
             if value.strip() not in ("true", "false", "1", "0"):
                 raise ValueError
@@ -338,7 +340,8 @@ def system_to_tree(sy: System) -> etree._ElementTree:
     if sy.simulator:
         sim = _set(etree.SubElement(root, "simulator"), seed=sy.simulator.seed)
         for k, v in sy.simulator.params.items():
-            t = {bool: "bool", int: "int", float: "float"}.get(type(v), "str")
+            t = {bool: "bool", int: "int", float: "float", tuple: "floats"}.get(type(v), "str")
+            v = " ".join(repr(float(x)) for x in v) if t == "floats" else v
             _set(etree.SubElement(sim, "param"), name=k, value=v, type=t)
     return etree.ElementTree(root)
 

@@ -91,7 +91,7 @@ TYPE_WORDS = {
     "Quantity": "one of exposure, light, temperature, analog_gain",
     "Analysis": "one of decomposition, ptc, dark_current, temperature, gain_split, adc_linearity, lag, defects",
     "DarkMode": "one of none, matched", "Parity": "one of N, E, O", "StopBits": "1 or 2",
-    "ByteSize": "7 or 8", "FrameFormat": "one of mono8, mono16le, mono16be", "ParamType": "one of int, float, bool, str",
+    "ByteSize": "7 or 8", "FrameFormat": "one of mono8, mono16le, mono16be", "ParamType": "one of int, float, bool, str, floats",
     "NumberList": "a list of numbers separated by spaces", "PositiveNumber": "a number > 0",
 }
 

@@ -1,0 +1,32 @@
+"""Apply a stage's resolved settings to a bench (slow instruments first, light last)."""
+
+from __future__ import annotations
+
+from ares.errors import InputError
+
+
+def apply_settings(bench, system, settings: dict, previous: dict | None = None) -> None:
+    """Write every setting; instruments only settle when their value changed."""
+    prev = previous or {}
+    for key, value in settings.items():
+        changed = prev.get(key) != value
+        if key == "temperature":
+            if bench.chamber is None:
+                raise InputError(f"system '{system.name}' has no thermal chamber to set {value:g} C")
+            if changed:
+                bench.chamber.set_temperature(value)
+                bench.chamber.settle()
+        elif key == "light":
+            if bench.light is None:
+                if value == 0:
+                    continue
+                raise InputError(f"system '{system.name}' has no light source to set level {value:g}")
+            if changed:
+                bench.light.set_level(value)
+                bench.light.settle()
+        elif key in ("exposure", "analog_gain"):
+            bench.registers.set(getattr(system.controls, key), value)
+        elif key.startswith("reg:"):
+            bench.registers.set(key[4:], value)
+        else:  # the protocol layer admits no other key
+            raise InputError(f"unknown setting '{key}'")

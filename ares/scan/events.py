@@ -1,0 +1,86 @@
+"""Events the runner emits to its listeners (plain callables; no Qt).
+
+Order for a run: ``RunStarted``, then per stage ``StageStarted``, ``FramePreview`` and
+``Progress`` per frame (also for a matched dark, ``dark=True``), ``StageFinished``; at
+the end exactly one of ``Done`` (status done/stopped/aborted) or ``Failed``.
+``Paused``/``Resumed`` bracket a pause. Stage indices are 0-based.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+
+
+@dataclass(frozen=True)
+class RunStarted:
+    run_dir: str | None
+    total_stages: int
+    total_frames: int
+    estimated_s: float
+
+
+@dataclass(frozen=True)
+class StageStarted:
+    index: int
+    total: int
+    stage: object  # ares.scan.stages.Stage
+
+
+@dataclass(frozen=True)
+class FramePreview:
+    index: int  # stage
+    frame: int  # 0-based within the stack
+    frames: int
+    data: np.ndarray = field(repr=False)
+    dark: bool = False  # frame of the matched dark stack
+
+
+@dataclass(frozen=True)
+class Progress:
+    index: int  # current stage
+    total: int  # stages
+    frames_done: int  # in the whole run
+    frames_total: int
+    frames_per_s: float
+    remaining_s: float | None
+
+    @property
+    def fraction(self) -> float:
+        return self.frames_done / self.frames_total if self.frames_total else 1.0
+
+
+@dataclass(frozen=True)
+class StageFinished:
+    index: int
+    total: int
+    stage: object
+    result: dict  # JSON-able stage result (see ares.scan.results)
+    arrays: dict = field(default_factory=dict, repr=False)  # mean/variance maps etc.
+
+
+@dataclass(frozen=True)
+class Paused:
+    index: int
+
+
+@dataclass(frozen=True)
+class Resumed:
+    index: int
+
+
+@dataclass(frozen=True)
+class Done:
+    status: str  # "done", "stopped" or "aborted"
+    run_dir: str | None
+    stages_completed: int
+    scan_results: dict = field(default_factory=dict)
+    limit_failures: tuple = ()
+
+
+@dataclass(frozen=True)
+class Failed:
+    message: str
+    run_dir: str | None
+    stages_completed: int

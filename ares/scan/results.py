@@ -1,0 +1,183 @@
+"""Stage results from accumulators, the scan-level analysis hook, and limit checks.
+
+A stage result is a JSON-able dict::
+
+    {"index", "name", "group", "scene", "frames", "dark_frames", "settings", "coords",
+     "views": {view: {"level": {...}, "components": {name: Estimate dict},
+                      "dark_level": {...}, "dark_components": {...}}}}
+
+Views are ``full``, each scan region, each CFA phase (``cfa_R`` ...) and each ADC channel
+(``adc0``, ``adc1`` ... for interleaved ADCs). ``level`` holds mean (DN), temporal
+variance (DN^2, frame-global offset removed, as ``ares.analysis.levels.stack_stats``),
+spatial variance and clip fractions. ``components`` is ``decompose_flat(flat, dark)`` for
+a flat stage with a matched dark, else ``decompose_dark`` (the ANOVA of the stack).
+"""
+
+from __future__ import annotations
+
+import math
+from typing import Callable
+
+import numpy as np
+
+from ares.analysis import StackAccumulator, anova_table, decompose_dark
+
+FULL = (slice(None), slice(None))
+
+
+def views(scan) -> dict[str, tuple[slice, slice]]:
+    sensor = scan.system.sensor
+    v = {"full": FULL}
+    for r in scan.regions:
+        v[r.name] = r.slices()
+    if sensor.cfa != "mono":
+        for k, letter in enumerate(sensor.cfa):
+            name = {"G": "Gr" if k < 2 else "Gb"}.get(letter, letter)
+            v[f"cfa_{name}"] = (slice(k // 2, None, 2), slice(k % 2, None, 2))
+    n = sensor.adc_channels
+    if n > 1:
+        for k in range(n):
+            if sensor.adc_interleave == "row":
+                v[f"adc{k}"] = (slice(k, None, n), slice(None))
+            else:  # column (ping-pong) and pixel interleave: alternate columns
+                v[f"adc{k}"] = (slice(None), slice(k, None, n))
+    return v
+
+
+class StackSet:
+    """One accumulator per view, plus clip counters."""
+
+    def __init__(self, shape, views_: dict, max_code: int):
+        self.views = views_
+        self.max_code = max_code
+        dummy = np.empty(shape, dtype=np.uint8)
+        self.acc = {k: StackAccumulator(dummy[s].shape) for k, s in views_.items()}
+        self.at_max = {k: 0 for k in views_}
+        self.at_min = {k: 0 for k in views_}
+
+    def add(self, data: np.ndarray) -> None:
+        for k, s in self.views.items():
+            d = data[s]
+            self.acc[k].add(d)
+            self.at_max[k] += int(np.count_nonzero(d >= self.max_code))
+            self.at_min[k] += int(np.count_nonzero(d == 0))
+
+    @property
+    def n_frames(self) -> int:
+        return self.acc["full"].n_frames
+
+
+def level(ss: StackSet, view: str) -> dict:
+    acc = ss.acc[view]
+    F = acc.n_frames
+    R, C = acc.shape
+    n = F * R * C
+    mean_map = acc.mean_map()
+    out = {"mean_dn": float(acc.mean()), "n_pixels": R * C, "n_frames": F,
+           "frac_at_max": ss.at_max[view] / n, "frac_at_min": ss.at_min[view] / n}
+    if F >= 2:
+        ss_f = anova_table(acc).ss["F"]
+        var = (float(np.nanmean(acc.temporal_var_map())) * (F - 1) * R * C - ss_f) / (R * C * (F - 1))
+        out["var_dn2"] = var
+        out["spatial_var_dn2"] = float(np.var(mean_map, ddof=1)) - var / F if R * C > 1 else math.nan
+    else:
+        out["var_dn2"] = out["spatial_var_dn2"] = math.nan
+    return out
+
+
+def _components(flat: StackAccumulator, dark: StackAccumulator | None) -> dict:
+    if dark is not None:
+        try:
+            from ares.analysis import decompose_flat
+        except ImportError:
+            decompose_flat = None
+        if decompose_flat is not None:
+            return {k: e.to_dict() for k, e in decompose_flat(flat, dark).items()}
+    return {k: e.to_dict() for k, e in decompose_dark(flat).items()}
+
+
+def analyze_stage(stage, flat: StackSet, dark: StackSet | None) -> tuple[dict, dict]:
+    """(JSON-able result, arrays for HDF5) of one finished stage."""
+    res = {"index": stage.index, "name": stage.name, "group": stage.group, "scene": stage.scene,
+           "frames": flat.n_frames, "dark_frames": dark.n_frames if dark else 0,
+           "dark_source": stage.dark_source, "settings": dict(stage.settings), "coords": list(stage.coords),
+           "views": {}}
+    for v in flat.views:
+        r = {"level": level(flat, v),
+             "components": _components(flat.acc[v], dark.acc[v] if dark else None)}
+        if dark is not None:
+            r["dark_level"] = level(dark, v)
+            r["dark_components"] = {k: e.to_dict() for k, e in decompose_dark(dark.acc[v]).items()}
+        res["views"][v] = r
+    full = flat.acc["full"]
+    arrays = {"mean": full.mean_map().astype(np.float32),
+              "variance": full.temporal_var_map().astype(np.float32),
+              "frame_means": np.asarray(full.frame_means(), dtype=np.float64)}
+    if dark is not None:
+        arrays["dark_mean"] = dark.acc["full"].mean_map().astype(np.float32)
+    return res, arrays
+
+
+# ------------------------------------------------------------ scan-level analyses
+
+SCAN_ANALYSES: dict[str, Callable] = {}
+
+
+def register_scan_analysis(name: str):
+    """Decorator: ``fn(run) -> dict`` runs when a scan lists ``<analysis name=...>``.
+
+    ``run`` is an :class:`ares.scan.rundir.RunRecord` (scan, system, stage results,
+    arrays loader), so the same function works live and from a run directory alone.
+    """
+
+    def deco(fn):
+        SCAN_ANALYSES[name] = fn
+        return fn
+
+    return deco
+
+
+def scan_level_results(run) -> dict:
+    """Call every registered analysis the scan asks for; a missing one says so."""
+    out = {}
+    for name in run.scan.analyses:
+        fn = SCAN_ANALYSES.get(name)
+        if fn is None:
+            out[name] = {"status": "not available", "note": f"no scan-level analysis registered for '{name}'"}
+            continue
+        try:
+            out[name] = fn(run)
+        except Exception as exc:  # an analysis bug must not lose the run: record it
+            out[name] = {"status": "error", "note": f"{type(exc).__name__}: {exc}"}
+    return out
+
+
+def flatten(results: dict, prefix: str = "") -> dict[str, float]:
+    """``{"ptc": {"read_noise_e": {"value": 3}}}`` -> ``{"ptc.read_noise_e": 3, ...}``."""
+    out = {}
+    for k, v in results.items():
+        key = f"{prefix}{k}"
+        if isinstance(v, dict) and "value" in v and not isinstance(v["value"], dict):
+            out[key] = v["value"]
+        elif isinstance(v, dict):
+            out.update(flatten(v, key + "."))
+        elif isinstance(v, (int, float)) and not isinstance(v, bool):
+            out[key] = v
+    return out
+
+
+def check_limits(scan, results: dict) -> list[str]:
+    """One sentence per failed limit; a quantity no analysis produced fails too."""
+    flat = flatten(results)
+    fails = []
+    for lim in scan.limits:
+        hits = [v for k, v in flat.items() if k == lim.quantity or k.endswith("." + lim.quantity)]
+        if not hits:
+            fails.append(f"limit on '{lim.quantity}': no analysis produced this quantity")
+            continue
+        v = hits[0]
+        if v is None or not lim.check(float(v)):
+            rng = " and ".join(x for x in (f">= {lim.min:g}" if lim.min is not None else "",
+                                            f"<= {lim.max:g}" if lim.max is not None else "") if x)
+            fails.append(f"{lim.quantity} = {'n/a' if v is None else format(float(v), '.4g')} is not {rng}")
+    return fails

@@ -1,0 +1,302 @@
+"""The run directory: everything a run produced, written as it goes.
+
+Layout (all paths relative to the run directory)::
+
+    run.json            provenance: scan/system names, original paths, SHA-256 of the
+                        verbatim XML, seed, frame override, argv, software and dependency
+                        versions, start/end time, status (running/done/stopped/aborted/
+                        failed), message, stages completed. Rewritten atomically.
+    xml/<scan file>     the scan XML, byte for byte
+    xml/<system file>   the system XML, byte for byte (``ares rerun`` loads these two)
+    stages/NNNN.json    per completed stage: resolved settings, register snapshots
+                        before/after, timing, results per view (see ares.scan.results)
+    results.h5          HDF5: /stages/NNNN/{mean, variance, frame_means, dark_mean}
+                        (chunked) + attrs (name, scene, settings JSON, result JSON);
+                        rewritten per stage by copy -> append -> rename, so a SIGKILL at
+                        any time leaves the previous complete file
+    frames/NNNN.h5      raw frames (only with <output raw_frames="true">): dataset
+                        "frames" (F, rows, cols) chunked per frame, "dark" likewise;
+                        written as NNNN.h5.partial and renamed when the stage completes
+    summary.csv         one row per completed stage: index, name, scene, frames,
+                        settings..., mean/variance and the main components of view
+                        "full" (rewritten atomically per stage)
+    scan_results.json   scan-level analyses (PTC fit ...) and limit checks, at the end
+
+Each stage's files are flushed (fsync) before the next stage starts, so killing a run
+after k stages leaves k complete, readable stages.
+"""
+
+from __future__ import annotations
+
+import csv
+import hashlib
+import io
+import json
+import math
+import os
+import platform
+import shutil
+import sys
+import time
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+
+from ares.errors import InputError
+
+SUMMARY_COMPONENTS = ("o", "Pt", "Ps", "Rt", "Rs", "Ct", "Cs", "frame_global")
+
+
+def sha256(data: bytes) -> str:
+    return hashlib.sha256(data).hexdigest()
+
+
+def versions() -> dict:
+    import importlib.metadata as md
+
+    out = {"python": sys.version.split()[0], "platform": platform.platform()}
+    for pkg in ("ares", "numpy", "scipy", "lxml", "h5py", "pyserial", "pyusb", "smbus2"):
+        try:
+            out[pkg] = md.version(pkg)
+        except md.PackageNotFoundError:
+            out[pkg] = None
+    from ares import __version__
+
+    out["ares_source"] = __version__
+    return out
+
+
+def _json_default(o):
+    if isinstance(o, np.generic):
+        return o.item()
+    if isinstance(o, np.ndarray):
+        return o.tolist()
+    if isinstance(o, Path):
+        return str(o)
+    raise TypeError(f"not JSON-able: {type(o).__name__}")
+
+
+def _clean(o):
+    """NaN/inf -> None so the JSON is strict."""
+    if isinstance(o, float):
+        return o if math.isfinite(o) else None
+    if isinstance(o, dict):
+        return {k: _clean(v) for k, v in o.items()}
+    if isinstance(o, (list, tuple)):
+        return [_clean(v) for v in o]
+    return o
+
+
+def write_atomic(path: Path, data: bytes) -> None:
+    tmp = path.with_name(path.name + ".tmp")
+    with open(tmp, "wb") as f:
+        f.write(data)
+        f.flush()
+        os.fsync(f.fileno())
+    os.replace(tmp, path)
+
+
+def dump_json(path: Path, obj) -> None:
+    write_atomic(path, json.dumps(_clean(obj), indent=1, default=_json_default, allow_nan=False).encode())
+
+
+class RunWriter:
+    """Writes one run directory (see the module docstring)."""
+
+    def __init__(self, out_dir: str | Path, scan, *, seed: int | None, frames_override: int | None,
+                 argv: list[str] | None = None, save_frames: bool = False):
+        self.dir = Path(out_dir)
+        if self.dir.exists() and any(self.dir.iterdir()):
+            raise InputError(f"{self.dir}: output directory exists and is not empty")
+        for sub in ("xml", "stages"):
+            (self.dir / sub).mkdir(parents=True, exist_ok=True)
+        self.scan = scan
+        self.save_frames = save_frames
+        self.rows: list[dict] = []
+        scan_bytes = Path(scan.source).read_bytes()
+        sys_path = Path(scan.system_path or scan.system.source)
+        sys_bytes = sys_path.read_bytes()
+        scan_name = Path(scan.source).name
+        sys_name = sys_path.name if sys_path.name != scan_name else "system_" + sys_path.name
+        write_atomic(self.dir / "xml" / scan_name, scan_bytes)
+        write_atomic(self.dir / "xml" / sys_name, sys_bytes)
+        self.meta = {
+            "format": "ares-run/1", "scan_name": scan.name, "system_name": scan.system.name,
+            "scan_file": f"xml/{scan_name}", "system_file": f"xml/{sys_name}",
+            "scan_source": str(scan.source), "system_source": str(sys_path), "system_href": scan.system_href,
+            "scan_sha256": sha256(scan_bytes), "system_sha256": sha256(sys_bytes),
+            "seed": seed, "frames_override": frames_override, "argv": argv or [],
+            "versions": versions(), "started": time.strftime("%Y-%m-%dT%H:%M:%S%z"),
+            "finished": None, "status": "running", "message": "", "stages_completed": 0, "stages_total": None,
+            "save_frames": save_frames,
+        }
+        self._write_meta()
+
+    def _write_meta(self) -> None:
+        dump_json(self.dir / "run.json", self.meta)
+
+    def set_total(self, n: int) -> None:
+        self.meta["stages_total"] = n
+        self._write_meta()
+
+    # -- raw frames ------------------------------------------------------------
+    def frame_writer(self, index: int, shape, dtype) -> "FrameWriter | None":
+        if not self.save_frames:
+            return None
+        (self.dir / "frames").mkdir(exist_ok=True)
+        return FrameWriter(self.dir / "frames" / f"{index:04d}.h5", shape, dtype)
+
+    # -- per stage ------------------------------------------------------------
+    def add_stage(self, result: dict, arrays: dict, registers_before: dict, registers_after: dict,
+                  timing: dict) -> None:
+        i = result["index"]
+        record = dict(result, registers_before=registers_before, registers_after=registers_after, timing=timing)
+        dump_json(self.dir / "stages" / f"{i:04d}.json", record)
+        if self.scan.output.hdf5:
+            self._append_h5(i, result, arrays)
+        self.rows.append(summary_row(result))
+        if self.scan.output.csv:
+            write_atomic(self.dir / "summary.csv", summary_csv(self.rows))
+        self.meta["stages_completed"] = len(self.rows)
+        self._write_meta()
+
+    def _append_h5(self, i: int, result: dict, arrays: dict) -> None:
+        import h5py
+
+        path = self.dir / "results.h5"
+        tmp = path.with_name("results.h5.tmp")
+        if path.exists():
+            shutil.copyfile(path, tmp)
+        with h5py.File(tmp, "a") as f:
+            if "stages" not in f:
+                f.attrs["scan_name"] = self.scan.name
+                f.attrs["format"] = "ares-run/1"
+                f.create_group("stages")
+            g = f["stages"].create_group(f"{i:04d}")
+            for k, a in arrays.items():
+                a = np.asarray(a)
+                g.create_dataset(k, data=a, chunks=a.shape if a.ndim >= 1 and a.size else None,
+                                 compression="gzip" if a.ndim == 2 else None)
+            g.attrs["name"] = result["name"]
+            g.attrs["scene"] = result["scene"]
+            g.attrs["settings"] = json.dumps(_clean(result["settings"]))
+            g.attrs["result"] = json.dumps(_clean(result), default=_json_default)
+        with open(tmp, "rb+") as fh:
+            os.fsync(fh.fileno())
+        os.replace(tmp, path)
+
+    # -- end ------------------------------------------------------------------
+    def finish(self, status: str, message: str = "", scan_results: dict | None = None,
+               limit_failures: list | None = None) -> None:
+        if scan_results is not None or limit_failures:
+            dump_json(self.dir / "scan_results.json",
+                      {"analyses": scan_results or {}, "limit_failures": list(limit_failures or [])})
+        self.meta.update(status=status, message=message, finished=time.strftime("%Y-%m-%dT%H:%M:%S%z"))
+        self._write_meta()
+
+
+class FrameWriter:
+    """Raw frames of one stage (chunked per frame), renamed into place on ``close``."""
+
+    def __init__(self, path: Path, shape, dtype):
+        import h5py
+
+        self.path = path
+        self.partial = path.with_name(path.name + ".partial")
+        self.f = h5py.File(self.partial, "w")
+        self.ds = {}
+        self.shape, self.dtype = tuple(shape), dtype
+
+    def add(self, data: np.ndarray, dark: bool = False) -> None:
+        key = "dark" if dark else "frames"
+        ds = self.ds.get(key)
+        if ds is None:
+            ds = self.ds[key] = self.f.create_dataset(key, shape=(0, *self.shape), maxshape=(None, *self.shape),
+                                                      dtype=data.dtype, chunks=(1, *self.shape))
+        ds.resize(ds.shape[0] + 1, axis=0)
+        ds[-1] = data
+
+    def close(self, keep: bool = True) -> None:
+        self.f.close()
+        if keep:
+            os.replace(self.partial, self.path)
+        else:
+            self.partial.unlink(missing_ok=True)
+
+
+def summary_row(result: dict) -> dict:
+    row = {"index": result["index"], "name": result["name"], "scene": result["scene"], "frames": result["frames"],
+           "dark_frames": result["dark_frames"]}
+    for k, v in result["settings"].items():
+        row[k] = v
+    full = result["views"]["full"]
+    row["mean_dn"] = full["level"]["mean_dn"]
+    row["var_dn2"] = full["level"]["var_dn2"]
+    if "dark_level" in full:
+        row["dark_mean_dn"] = full["dark_level"]["mean_dn"]
+        row["dark_var_dn2"] = full["dark_level"]["var_dn2"]
+    for k, e in full["components"].items():
+        row[k] = e.get("value")
+        row[f"{k}_se"] = e.get("se")
+    return row
+
+
+def summary_csv(rows: list[dict]) -> bytes:
+    cols: list[str] = []
+    for r in rows:
+        cols += [k for k in r if k not in cols]
+    buf = io.StringIO()
+    w = csv.DictWriter(buf, fieldnames=cols, lineterminator="\n")
+    w.writeheader()
+    for r in rows:
+        w.writerow({k: ("" if v is None else (repr(v) if isinstance(v, float) else v)) for k, v in r.items()})
+    return buf.getvalue().encode()
+
+
+# ------------------------------------------------------------------ reading
+
+@dataclass
+class RunRecord:
+    """A run as the directory holds it (or as the runner holds it live)."""
+
+    dir: Path | None
+    meta: dict
+    scan: object  # ares.protocol.Scan
+    stages: list[dict] = field(default_factory=list)
+
+    @property
+    def system(self):
+        return self.scan.system
+
+    def arrays(self, index: int) -> dict:
+        """Arrays of stage ``index`` from results.h5 (empty if none)."""
+        import h5py
+
+        if self.dir is None or not (self.dir / "results.h5").exists():
+            return {}
+        with h5py.File(self.dir / "results.h5", "r") as f:
+            g = f.get(f"stages/{index:04d}")
+            return {} if g is None else {k: g[k][()] for k in g}
+
+
+def load_run(run_dir: str | Path) -> RunRecord:
+    """Read a run directory (also one whose run was killed) into a ``RunRecord``."""
+    from ares.protocol import load_scan
+
+    d = Path(run_dir)
+    if not (d / "run.json").is_file():
+        raise InputError(f"{d}: not an ARES run directory (no run.json)")
+    try:
+        meta = json.loads((d / "run.json").read_text())
+    except json.JSONDecodeError as exc:
+        raise InputError(f"{d / 'run.json'}: unreadable ({exc})") from None
+    for key in ("scan_file", "system_file"):
+        p = d / meta[key]
+        if not p.is_file():
+            raise InputError(f"{d}: {meta[key]} is missing")
+        if sha256(p.read_bytes()) != meta[key.replace("_file", "_sha256")]:
+            raise InputError(f"{p}: SHA-256 differs from the one recorded in run.json (file was modified)")
+    scan = load_scan(d / meta["scan_file"], system_path=d / meta["system_file"])
+    stages = [json.loads(p.read_text()) for p in sorted((d / "stages").glob("[0-9][0-9][0-9][0-9].json"))]
+    return RunRecord(d, meta, scan, stages)

@@ -1,0 +1,263 @@
+"""The scan runner: stages -> settings -> frames -> accumulators -> results -> run directory.
+
+::
+
+    runner = Runner(scan, out_dir="runs/x", seed=1)       # bench built from the system XML
+    runner.add_listener(print)                             # any callable taking an event
+    outcome = runner.run()                                 # RunOutcome(status, run_dir, ...)
+
+Control (thread-safe, also from inside a listener): ``pause()``/``resume()`` take effect
+between frames; ``stop()`` finishes the current stage and keeps everything; ``abort()``
+ends now, discarding only the stage in flight. A hardware fault (``HardwareError``:
+timeout, disconnect, short frame) ends the run: the run directory is closed with status
+``failed`` and every completed stage, then the error is re-raised with the stage named.
+"""
+
+from __future__ import annotations
+
+import threading
+import time
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Callable
+
+from ares.errors import AresError, FrameError, HardwareError, InputError
+from ares.scan import events as ev
+from ares.scan.apply import apply_settings
+from ares.scan.results import StackSet, analyze_stage, check_limits, scan_level_results, views
+from ares.scan.rundir import RunRecord, RunWriter
+from ares.scan.stages import Stage, estimate_seconds, expand
+
+
+@dataclass
+class RunOutcome:
+    status: str  # "done", "stopped", "aborted" or "failed"
+    run_dir: Path | None
+    stages: list[dict] = field(default_factory=list)
+    scan_results: dict = field(default_factory=dict)
+    limit_failures: list[str] = field(default_factory=list)
+    message: str = ""
+    seed: int | None = None
+
+
+class _Aborted(Exception):
+    pass
+
+
+class Runner:
+    def __init__(self, scan, *, bench=None, out_dir: str | Path | None = None, seed: int | None = None,
+                 frames: int | None = None, faults: dict | None = None, argv: list[str] | None = None,
+                 listeners: tuple[Callable, ...] = ()):
+        self.scan = scan
+        self.system = scan.system
+        self.frames_override = frames
+        self.stages: list[Stage] = expand(scan, frames)
+        if seed is None and self.system.simulator is not None:
+            seed = self.system.simulator.seed
+        self.seed = seed
+        self.faults = faults
+        self._bench = bench
+        self.out_dir = Path(out_dir) if out_dir else None
+        self.argv = argv
+        self.listeners: list[Callable] = list(listeners)
+        self._pause = threading.Event()
+        self._stop = threading.Event()
+        self._abort = threading.Event()
+        self.state = "idle"
+
+    # -- control ----------------------------------------------------------
+    def add_listener(self, fn: Callable) -> None:
+        self.listeners.append(fn)
+
+    def pause(self) -> None:
+        self._pause.set()
+
+    def resume(self) -> None:
+        self._pause.clear()
+
+    def stop(self) -> None:
+        """Finish the current stage, keep everything, end."""
+        self._stop.set()
+
+    def abort(self) -> None:
+        """End now; completed stages are kept, the stage in flight is dropped."""
+        self._abort.set()
+        self._pause.clear()
+
+    @property
+    def paused(self) -> bool:
+        return self._pause.is_set()
+
+    def estimate_seconds(self) -> float:
+        return estimate_seconds(self.scan, self.stages)
+
+    def _emit(self, event) -> None:
+        for fn in list(self.listeners):
+            fn(event)
+
+    # -- the run ------------------------------------------------------------
+    def run(self) -> RunOutcome:
+        if self.state != "idle":
+            raise RuntimeError("a Runner runs once; make a new one to repeat")
+        self.state = "running"
+        own = self._bench is None
+        bench = self._bench
+        writer = None
+        completed: list[dict] = []
+        try:
+            if own:
+                from ares.hardware.factory import build_bench
+
+                bench = build_bench(self.system, seed=self.seed, faults=self.faults)
+            shape = tuple(bench.frames.shape)
+            want = (self.system.sensor.rows, self.system.sensor.cols)
+            if shape != want:
+                raise InputError(f"system '{self.system.name}' declares a {want[1]}x{want[0]} array but the frame "
+                                 f"source '{bench.frames.name}' delivers {shape[1]}x{shape[0]}")
+            if self.out_dir is not None:
+                writer = RunWriter(self.out_dir, self.scan, seed=self.seed, frames_override=self.frames_override,
+                                   argv=self.argv, save_frames=self.scan.output.raw_frames)
+                writer.set_total(len(self.stages))
+            return self._run(bench, writer, completed)
+        except AresError as exc:
+            msg = str(exc)
+            if isinstance(exc, HardwareError) and writer is not None:
+                msg = (f"{exc} (during stage {len(completed)} of {len(self.stages)}; "
+                       f"{len(completed)} completed stage(s) saved in {writer.dir})")
+                exc = type(exc)(msg)
+            if writer is not None:
+                writer.finish("failed", msg)
+            self.state = "failed"
+            self._emit(ev.Failed(msg, str(writer.dir) if writer else None, len(completed)))
+            raise exc from None
+        except BaseException as exc:
+            if writer is not None:
+                writer.finish("failed", f"{type(exc).__name__}: {exc}")
+            self.state = "failed"
+            raise
+        finally:
+            if own and bench is not None:
+                bench.close()
+
+    def _run(self, bench, writer, completed) -> RunOutcome:
+        scan, system, stages = self.scan, self.system, self.stages
+        vw = views(scan)
+        max_code = (1 << int(bench.frames.bit_depth)) - 1
+        self._frames_total = sum(s.frames_to_grab() for s in stages)
+        self._frames_done = 0
+        self._t0 = time.monotonic()
+        self._est = self.estimate_seconds()
+        run_dir = str(writer.dir) if writer else None
+        self._emit(ev.RunStarted(run_dir, len(stages), self._frames_total, self._est))
+        cache = None  # last dark StackSet that a matched dark may reuse
+        applied: dict | None = None
+        status = "done"
+        for st in stages:
+            if self._stop.is_set() or self._abort.is_set():
+                status = "aborted" if self._abort.is_set() else "stopped"
+                break
+            self._emit(ev.StageStarted(st.index, len(stages), st))
+            t_start = time.time()
+            before = bench.registers.snapshot()
+            fw = writer.frame_writer(st.index, bench.frames.shape, None) if writer else None
+            try:
+                dark = None
+                if st.dark_source == "grab":
+                    apply_settings(bench, system, st.dark_settings, applied)
+                    applied = st.dark_settings
+                    dark = self._grab(bench, st, st.dark_frames, vw, max_code, fw, dark=True)
+                elif st.dark_source == "reuse":
+                    dark = cache
+                apply_settings(bench, system, st.settings, applied)
+                applied = dict(st.settings)
+                flat = self._grab(bench, st, st.frames, vw, max_code, fw, dark=False)
+            except _Aborted:
+                if fw is not None:
+                    fw.close(keep=False)
+                status = "aborted"
+                break
+            except BaseException:
+                if fw is not None:
+                    fw.close(keep=False)
+                raise
+            if fw is not None:
+                fw.close(keep=True)
+            if st.scene == "dark":
+                cache = flat
+            elif st.dark_source == "grab":
+                cache = dark
+            after = bench.registers.snapshot()
+            result, arrays = analyze_stage(st, flat, dark)
+            timing = {"started": t_start, "finished": time.time(), "seconds": time.time() - t_start}
+            if writer:
+                writer.add_stage(result, arrays, before, after, timing)
+            completed.append(dict(result, registers_before=before, registers_after=after, timing=timing))
+            self._emit(ev.StageFinished(st.index, len(stages), st, result, arrays))
+        else:
+            if self._stop.is_set():
+                status = "done"  # stop during the last stage: the scan is complete anyway
+        scan_results, fails = {}, []
+        if completed:
+            record = RunRecord(writer.dir if writer else None, writer.meta if writer else {}, scan, completed)
+            scan_results = scan_level_results(record)
+            if status == "done":
+                fails = check_limits(scan, scan_results)
+        if writer:
+            writer.finish(status, "; ".join(fails), scan_results, fails)
+        self.state = status
+        self._emit(ev.Done(status, run_dir, len(completed), scan_results, tuple(fails)))
+        return RunOutcome(status, writer.dir if writer else None, completed, scan_results, fails, seed=self.seed)
+
+    def _grab(self, bench, st: Stage, n: int, vw, max_code, fw, dark: bool) -> StackSet:
+        src = bench.frames
+        shape = tuple(src.shape)
+        ss = StackSet(shape, vw, max_code)
+        it = src.grab(n)
+        try:
+            for k in range(n):
+                if self._pause.is_set():
+                    self._emit(ev.Paused(st.index))
+                    while self._pause.is_set() and not self._abort.is_set():
+                        time.sleep(0.02)
+                    self._emit(ev.Resumed(st.index))
+                if self._abort.is_set():
+                    raise _Aborted
+                try:
+                    frame = next(it)
+                except StopIteration:
+                    raise FrameError(f"{src.name}: delivered only {k} of {n} frames") from None
+                data = frame.data
+                if data.shape != shape:
+                    raise FrameError(f"{src.name}: short frame {k} (shape {data.shape[1] if data.ndim > 1 else '?'}x"
+                                     f"{data.shape[0]}, expected {shape[1]}x{shape[0]})")
+                ss.add(data)
+                if fw is not None:
+                    fw.add(data, dark=dark)
+                self._frames_done += 1
+                elapsed = time.monotonic() - self._t0
+                fps = self._frames_done / elapsed if elapsed > 0 else 0.0
+                left = self._frames_total - self._frames_done
+                remaining = left / fps if fps > 0 else None
+                self._emit(ev.FramePreview(st.index, k, n, data, dark))
+                self._emit(ev.Progress(st.index, len(self.stages), self._frames_done, self._frames_total, fps,
+                                       remaining))
+        finally:
+            close = getattr(it, "close", None)
+            if close:
+                close()
+        return ss
+
+
+def auto_repeat(make_runner: Callable[[int], Runner], count: int = 0,
+                should_continue: Callable[[], bool] = lambda: True) -> list[RunOutcome]:
+    """Run ``make_runner(i)`` for i = 0, 1, ... (``count`` times, 0 = until a run is
+    stopped/aborted or ``should_continue()`` says no): the GUI's "Auto Repeat"."""
+    out = []
+    i = 0
+    while (count == 0 or i < count) and should_continue():
+        o = make_runner(i).run()
+        out.append(o)
+        if o.status != "done":
+            break
+        i += 1
+    return out
