@@ -148,7 +148,9 @@ def classify_levels(bright: Sequence[LevelStats], dark: Sequence[LevelStats],
         elif b.frac_at_min > clip_limit:
             status[i], reason[i] = "excluded", f"clipped: {100 * b.frac_at_min:.3g} % of samples at code 0"
         elif not S[i] > 0 or not V[i] > 0:
-            status[i], reason[i] = "excluded", f"no signal above dark (S = {S[i]:.4g} DN, V = {V[i]:.4g} DN^2)"
+            status[i], reason[i] = "excluded", (
+                f"no signal above dark (S = {S[i]:.4g} DN)" if not S[i] > 0 else
+                f"no temporal variance above dark (V = {V[i]:.3g} DN^2): fully saturated or stuck")
     # non-monotonic: signal must rise with the nominal illumination
     best, best_i = -math.inf, -1
     for i in order:
@@ -242,9 +244,13 @@ def analyze_ptc(bright: Sequence[LevelStats], dark: Sequence[LevelStats], *, exp
     fw["max_variance"] = fw_est(sat, "EMVA 1288 3.0: signal at the level of maximum temporal variance")
     order = np.argsort(allS)
     frac = np.array([levels[i].frac_at_max for i in order])
-    im = index_max_code(frac, clip_limit)
-    fw["max_code"] = fw_est(int(order[im]) if im >= 0 else -1,
-                            f"EMVA 1288 4.0: highest level with <= {100 * clip_limit:g} % of pixels at max code")
+    if not np.any(frac > 0):
+        fw["max_code"] = Estimate.na("no level reaches the ADC maximum code (see 'plateau')", "e-")
+    else:
+        im = index_max_code(frac, clip_limit)
+        fw["max_code"] = fw_est(int(order[im]) if im >= 0 else -1,
+                                f"EMVA 1288 4.0: highest level with <= {100 * clip_limit:g} % of pixels at max code")
+    fw["plateau"] = _plateau(levels, gain, sat)
     cand = [lv for lv in levels if lv.signal > 0 and lv.variance > 0
             and not lv.reason.startswith(("non-monotonic", "clipped"))]
     if len(cand) >= 4:
@@ -313,6 +319,28 @@ def analyze_ptc(bright: Sequence[LevelStats], dark: Sequence[LevelStats], *, exp
     nm, zones = noise_model(good, dark, gain)
     return PtcResult(levels, gain, e_per_dn, cg, k_org, k_ast, ast, gvr, rn_dn, rn_e, upper, sat, fw, drn,
                      drdb, sens, qe, le, snr, nm, zones)
+
+
+def _plateau(levels: Sequence[PtcLevel], gain: Estimate, sat: int) -> Estimate:
+    """Full well from the saturated plateau: the dark-subtracted signal of the levels
+    above saturation whose temporal variance has collapsed (every pixel clipped at its
+    full-well charge) -- the charge capacity itself, not the variance peak below it."""
+    if sat < 0 or not gain.available:
+        return Estimate.na("no saturation in the data", "e-")
+    vpk = levels[sat].variance
+    top = [lv for lv in levels if lv.signal > levels[sat].signal and lv.variance < 0.1 * vpk
+           and not lv.reason.startswith("non-monotonic")]
+    if not top:
+        return Estimate.na("no level beyond saturation with collapsed variance (all pixels clipped)", "e-")
+    smax = max(lv.signal for lv in top)
+    top = [lv for lv in top if lv.signal >= 0.995 * smax]
+    if np.median([lv.frac_at_max for lv in top]) > 0.5:
+        return Estimate.na("the plateau is at the ADC maximum code: ADC-limited, not the pixel full well", "e-")
+    sv = np.array([lv.signal for lv in top])
+    v = float(np.median(sv)) / gain.value
+    spread = float(np.std(sv, ddof=1) / math.sqrt(sv.size)) / gain.value if sv.size > 1 else 0.0
+    return Estimate(v, math.hypot(spread, v * gain.se / gain.value), "e-",
+                    f"saturated plateau: median signal of {sv.size} fully clipped level(s) / K")
 
 
 def noise_model(good: Sequence[PtcLevel], dark: Sequence[LevelStats], gain: Estimate):

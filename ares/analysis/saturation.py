@@ -60,21 +60,35 @@ def index_ptc_turnoff(signal, var, dof, nsigma: float = 5.0, gap_factor: float =
     v = np.asarray(var, float)
     dof = np.broadcast_to(np.asarray(dof, float), s.shape)
     order = np.argsort(s)
-    keep = np.ones(s.size, bool)
-    keep &= (s > 0) & (v > 0)
+    keep = (s > 0) & (v > 0)
+    # pre-cut (LSST "variance pivot"): nothing above the level of maximum variance
+    if keep.any():
+        imax = order[np.argmax(np.where(keep[order], v[order], -np.inf))]
+        keep &= s <= s[imax]
+    # initial model: origin line through the lower half of the kept levels
+    ks = np.sort(s[keep])
+    if ks.size < 3:
+        return (int(order[np.nonzero(keep[order])[0][-1]]) if keep.any() else -1), keep
+    low = keep & (s <= ks[ks.size // 2])
+    k0 = float(np.sum(s[low] * v[low]) / np.sum(s[low] ** 2))
+    coef = np.array([0.0, k0, 0.0])
     for _ in range(max_iter):
         if keep.sum() < 3:
             break
-        # quadratic through the kept points (allows mild brighter-fatter curvature)
+        model = np.maximum(np.polyval(coef, s), 1e-12)
+        sig = np.sqrt(2.0 / dof) * model  # weights from the model, never from the data
         deg = 2 if keep.sum() >= 6 else 1
-        w = np.sqrt(dof[keep] / 2.0) / v[keep]
-        coef = np.polyfit(s[keep], v[keep], deg, w=w)
-        sig = np.sqrt(2.0 / dof) * np.maximum(np.polyval(coef, s), 1e-12)
-        r = (v - np.polyval(coef, s)) / sig
-        scale = max(1.0, 1.4826 * float(np.median(np.abs(r[keep] - np.median(r[keep])))))
-        if np.max(np.abs(r[keep])) <= nsigma * scale:
+        coef = np.polyfit(s[keep], v[keep], deg, w=1.0 / sig[keep])
+        if deg == 1:
+            coef = np.concatenate(([0.0], coef))
+        model = np.maximum(np.polyval(coef, s), 1e-12)
+        sig = np.sqrt(2.0 / dof) * model
+        r = (v - model) / sig
+        rk = r[keep]
+        scale = max(1.0, 1.4826 * float(np.median(np.abs(rk - np.median(rk)))))
+        if np.max(np.abs(rk)) <= nsigma * scale:
             break
-        # drop only the worst point per iteration (robust against a far-off cluster)
+        # drop only the worst point per iteration
         worst = np.argmax(np.where(keep, np.abs(r), -1))
         keep[worst] = False
     kept_sorted = [i for i in order if keep[i]]
