@@ -2,21 +2,26 @@
 
 ``StackAccumulator(shape)`` keeps, for a stack of F frames of R x C pixels:
 
-* per-pixel sum and sum of squares (R x C each),
-* per-(frame, row) sums (F x R) and per-(frame, column) sums (F x C),
+* per-pixel sum and sum of squares (R x C each);
+* the frame sums (F numbers) and, for the ANOVA, exact running sums of squares of the
+  per-(frame,row) and per-(frame,column) sums taken relative to the first frame's
+  (so the ANOVA needs no per-frame arrays and memory does not grow with F);
+* optionally (``keep_profiles=True``, the default) the per-(frame,row) and
+  per-(frame,column) sums themselves (F x R and F x C) for row/column time series.
 
-so memory is O(R*C + F*(R+C)) whatever the frame count, and every quantity of the
-three-way ANOVA (frames x rows x columns, see ``anova.py``), the mean map, the per-pixel
-temporal variance map, the row/column profiles and the frame means follow exactly.
+Every quantity of the three-way ANOVA (frames x rows x columns, ``anova.py``), the mean
+map, the per-pixel temporal variance map, the profiles and frame means follow exactly.
 
-Numerics (SCIENCE.md "Numerics"): integer frames (8/16-bit, or wider up to 2**24) are
-accumulated *exactly* in int64 -- float32 sum-of-squares on 16-bit data gives negative
-variances. The fast path buffers ``batch`` frames and walks the buffer in cache-sized
-blocks of rows; inside a block the partial sums over <= 64 frames are formed in float64,
-which is exact for 16-bit data (64 * 65535**2 < 2**53), then moved to the int64 totals.
-Float frames are accumulated in float64 on data shifted by the first frame (per pixel),
-which keeps the sum of squares well conditioned. NaN/inf and shape changes are refused
-with an ``InputError`` naming the frame.
+Numerics (SCIENCE.md "Numerics"): integer frames are accumulated *exactly* -- in int64
+per pixel and in Python integers for the scalar sums of squares -- float32
+sum-of-squares on 16-bit data gives negative variances. The fast path for 8/16-bit
+frames buffers ``batch`` frames and walks the buffer in cache-sized blocks of rows;
+inside a block the sums over the batch are formed in float64 (BLAS and einsum), which is
+exact because every partial sum of 16-bit values and squares stays below 2**53; the
+float64 totals are moved to int64 long before they could reach 2**53. Float frames are
+accumulated in float64 on data shifted by the first frame (per pixel), which keeps the
+sums of squares well conditioned. NaN/inf and shape changes are refused with an
+``InputError`` naming the frame.
 """
 
 from __future__ import annotations
@@ -27,27 +32,55 @@ from ares.errors import InputError
 
 __all__ = ["StackAccumulator"]
 
-_BLOCK_BYTES = 384 * 1024  # float64 working block, sized to stay in a 512 KiB-1 MiB L2
+_BLOCK_BYTES = 2 << 20  # float64 working block (batch x rows x cols); tuned on 1920x1080
+_FLOAT_FLUSH = 1 << 20  # 16-bit frames whose float64 per-pixel totals stay exact (< 2**53)
 
 
 def _as_frames(frames) -> np.ndarray:
     a = np.asarray(frames)
+    if a.dtype.kind == "b":
+        return a.astype(np.uint8)
     if a.dtype.kind not in "uif":
-        if a.dtype.kind == "b":
-            return a.astype(np.uint8)
         raise InputError(f"frames of type {a.dtype} are not numeric image data")
     return a
+
+
+def _isum(a) -> int:
+    """Exact sum of an integer array as a Python int."""
+    a = np.asarray(a)
+    if a.size == 0:
+        return 0
+    m = int(np.abs(a).max())
+    if m * a.size < 2**62:
+        return int(a.sum(dtype=np.int64))
+    return int(sum(int(v) for v in a.ravel()))
+
+
+def _isumsq(a) -> int:
+    """Exact sum of squares of an integer array as a Python int."""
+    a = np.asarray(a, np.int64)
+    if a.size == 0:
+        return 0
+    m = int(np.abs(a).max())
+    if m * m * a.size < 2**62:
+        a = a.ravel()
+        return int(np.dot(a, a))
+    return sum(int(v) * int(v) for v in a.ravel())
+
+
+def _idot(a, b) -> int:
+    return sum(int(x) * int(y) for x, y in zip(np.ravel(a), np.ravel(b)))
 
 
 class StackAccumulator:
     """Streaming sums of a frame stack; see the module docstring.
 
-    ``add(frame)`` / ``add_batch(frames)`` feed frames, ``merge(other)`` combines two
-    accumulators of the same frame shape (frames of ``other`` follow those of ``self``),
-    ``n_frames`` counts frames. Accessors return float64 arrays.
+    ``add(frame)`` / ``add_batch(frames)`` feed frames, ``merge(other)`` appends the
+    frames of another accumulator of the same frame shape, ``n_frames`` counts frames.
+    Accessors return float64 arrays and raise ``InputError`` on an empty stack.
     """
 
-    def __init__(self, shape, batch: int = 16):
+    def __init__(self, shape, batch: int = 16, keep_profiles: bool = True):
         try:
             shape = tuple(int(s) for s in shape)
         except TypeError:
@@ -58,23 +91,38 @@ class StackAccumulator:
             raise InputError(f"batch must be 1..64 frames, got {batch}")
         self.shape = shape
         self.batch = int(batch)
-        r, c = shape
-        self._float = False  # False: exact int64 sums; True: float64 sums of x - x0
+        self.keep_profiles = bool(keep_profiles)
+        self._float = False  # False: exact integer sums; True: float64 sums of x - x0
         self._x0 = None  # float mode: per-pixel shift (the first float frame)
         self._s1 = np.zeros(shape, np.int64)
         self._s2 = np.zeros(shape, np.int64)
-        self._fr: list[np.ndarray] = []  # chunks of per-(frame,row) sums
-        self._fc: list[np.ndarray] = []  # chunks of per-(frame,col) sums
         self._nf = 0  # frames folded into the sums
-        self._buf = None  # (batch, R, C) buffer of small-integer frames
+        # scalar ANOVA sums relative to the first frame's row/col sums (a, b)
+        self._a = self._b = None
+        self._qfr = 0  # sum_fr (FR - a_r)^2
+        self._qfc = 0  # sum_fc (FC - b_c)^2
+        self._tot: list[np.ndarray] = []  # chunks of per-frame totals (representation space)
+        self._fr: list[np.ndarray] = []  # chunks of per-(frame,row) sums (keep_profiles)
+        self._fc: list[np.ndarray] = []
+        # fast path state
+        self._buf = None  # up to `batch` small-integer frames waiting to be folded
+        self._store = None  # (batch, R, C) storage of the copied frames
+        self._buf_dtype = None
         self._nbuf = 0
         self._tmp = None  # float64 working block
+        self._f1 = self._f2 = None  # exact float64 partial totals of the fast path
+        self._nfloat = 0
         self._cache: dict = {}
 
     # ------------------------------------------------------------------ feeding
     @property
     def n_frames(self) -> int:
         return self._nf + self._nbuf
+
+    @property
+    def exact(self) -> bool:
+        """True while the sums are exact integers (integer input only)."""
+        return not self._float
 
     def _check(self, a: np.ndarray, first_index: int) -> None:
         if a.shape[-2:] != self.shape:
@@ -84,35 +132,50 @@ class StackAccumulator:
         if a.dtype.kind == "f":
             ok = np.isfinite(a)
             if not ok.all():
-                bad = first_index + (int(np.argmin(ok.reshape(len(a), -1).all(axis=1))) if a.ndim == 3 else 0)
+                bad = first_index
+                if a.ndim == 3:
+                    bad += int(np.argmin(ok.reshape(len(a), -1).all(axis=1)))
                 raise InputError(f"frame {bad} contains NaN/inf")
 
-    def add(self, frame) -> None:
-        """Add one 2-D frame (integer or finite float)."""
+    def add(self, frame, copy: bool = True) -> None:
+        """Add one 2-D frame (integer or finite float).
+
+        8/16-bit frames are buffered (``batch`` of them) and folded together, which is
+        several times faster than folding each frame. ``copy=False`` keeps a reference
+        instead of copying the frame into the buffer: only for producers that never
+        reuse a frame's memory (the frame must not change until ``batch`` more frames
+        were added or an accessor was called).
+        """
         a = _as_frames(frame)
         if a.ndim != 2:
             raise InputError(f"frame {self.n_frames} must be 2-D (rows, cols), got shape {a.shape}")
         self._check(a, self.n_frames)
         self._cache.clear()
         if a.dtype.kind in "ui" and a.dtype.itemsize <= 2 and not self._float:
-            if self._buf is None or self._buf.dtype != a.dtype:
-                self._flush()
-                self._buf = np.empty((self.batch,) + self.shape, a.dtype)
-            self._buf[self._nbuf] = a
+            if self._buf is None or self._buf_dtype != a.dtype:
+                self._flush_buffer()
+                self._buf = [None] * self.batch
+                self._store = np.empty((self.batch,) + self.shape, a.dtype)
+                self._buf_dtype = a.dtype
+            if copy:
+                self._store[self._nbuf] = a
+                self._buf[self._nbuf] = self._store[self._nbuf]
+            else:
+                self._buf[self._nbuf] = a
             self._nbuf += 1
             if self._nbuf == self.batch:
-                self._flush()
+                self._flush_buffer()
         else:
-            self._flush()
+            self._flush_buffer()
             self._fold(a[None])
 
     def add_batch(self, frames) -> None:
-        """Add a 3-D array (frames, rows, cols) or an iterable of frames."""
-        a = _as_frames(frames) if isinstance(frames, np.ndarray) else None
-        if a is None:
+        """Add a 3-D array (frames, rows, cols) or an iterable of 2-D frames."""
+        if not isinstance(frames, np.ndarray):
             for f in frames:
                 self.add(f)
             return
+        a = _as_frames(frames)
         if a.ndim == 2:
             self.add(a)
             return
@@ -122,52 +185,106 @@ class StackAccumulator:
             return
         self._check(a, self.n_frames)
         self._cache.clear()
-        self._flush()
-        step = 64 if (a.dtype.kind in "ui" and a.dtype.itemsize <= 2) else 16
+        self._flush_buffer()
+        step = 32 if (a.dtype.kind in "ui" and a.dtype.itemsize <= 2) else 16
         for i in range(0, len(a), step):
             self._fold(a[i : i + step])
 
-    def _flush(self) -> None:
+    def _flush_buffer(self) -> None:
         if self._nbuf:
             n = self._nbuf
             self._nbuf = 0
-            self._fold(self._buf[:n])
+            frames = self._buf[:n]
+            self._buf[:n] = [None] * n
+            if all(f.base is self._store for f in frames):
+                self._fold(self._store[:n])  # one conversion call per block
+            else:
+                self._fold(frames)
+
+    def _flush(self) -> None:
+        self._flush_buffer()
+        self._move_float_totals()
 
     # ------------------------------------------------------------------ kernels
-    def _fold(self, x: np.ndarray) -> None:
-        """Fold a 3-D block of frames into the sums."""
-        if x.dtype.kind == "f" and not self._float:
+    def _fold(self, x) -> None:
+        """Fold a 3-D block (or a list of same-type 2-D frames) into the sums."""
+        if isinstance(x, list) and (self._float or x[0].dtype.itemsize > 2):
+            x = np.stack(x)
+        if not isinstance(x, list) and x.dtype.kind == "f" and not self._float:
             self._to_float()
         if self._float:
-            self._fold_float(x)
-        elif x.dtype.itemsize <= 2:
-            self._fold_small_int(x)
+            fr, fc = self._fold_float(x)
+        elif isinstance(x, list) or x.dtype.itemsize <= 2:
+            fr, fc = self._fold_small_int(x)
         else:
-            self._fold_wide_int(x)
+            fr, fc = self._fold_wide_int(x)
+        self._fold_profiles(fr, fc)
         self._nf += len(x)
 
-    def _fold_small_int(self, x: np.ndarray) -> None:
-        # exact: |x| < 2**16, so b <= 64 squares sum below 2**53 in float64
-        b, r, c = x.shape
+    def _fold_profiles(self, fr: np.ndarray, fc: np.ndarray) -> None:
+        """Update the scalar ANOVA sums with the (b, R) row sums and (b, C) column sums."""
+        if self._a is None:
+            self._a = fr[0].copy()
+            self._b = fc[0].copy()
+        dr = fr - self._a
+        dc = fc - self._b
+        if self._float:
+            self._qfr += float(np.einsum("ij,ij->", dr, dr))
+            self._qfc += float(np.einsum("ij,ij->", dc, dc))
+        else:
+            self._qfr += _isumsq(dr)
+            self._qfc += _isumsq(dc)
+        self._tot.append(fr.sum(axis=1))
+        if self.keep_profiles:
+            self._fr.append(fr)
+            self._fc.append(fc)
+
+    def _fold_small_int(self, x):
+        # Exact: |x| < 2**16, so partial sums over <= 64 frames of values and squares,
+        # and row/column sums of one block, stay below 2**53 in float64.
+        b = len(x)
+        r, c = self.shape
         rb = max(1, min(r, _BLOCK_BYTES // (8 * b * c)))
         if self._tmp is None or self._tmp.shape[0] < b or self._tmp.shape[1] < rb:
             self._tmp = np.empty((max(b, self.batch), rb, c), np.float64)
-        fr = np.empty((b, r), np.int64)
+            self._ones_c = np.ones(c)
+            self._ones_r = np.ones(rb)
+            self._ones_b = np.ones(self._tmp.shape[0])
+        if self._f1 is None:
+            self._f1 = np.zeros(self.shape)
+            self._f2 = np.zeros(self.shape)
+        fr = np.empty((b, r), np.float64)
         fc = np.zeros((b, c), np.float64)
-        s1, s2 = self._s1, self._s2
+        f1, f2 = self._f1, self._f2
+        ones_c, ones_b = self._ones_c, self._ones_b[:b]
+        listed = isinstance(x, list)
         for r0 in range(0, r, rb):
             r1 = min(r, r0 + rb)
-            t = self._tmp[:b, : r1 - r0]
-            np.copyto(t, x[:, r0:r1], casting="unsafe")
-            fr[:, r0:r1] = t.sum(axis=2)
-            fc += t.sum(axis=1)
-            s1[r0:r1] += np.add.reduce(t, axis=0).astype(np.int64)
-            np.multiply(t, t, out=t)
-            s2[r0:r1] += np.add.reduce(t, axis=0).astype(np.int64)
-        self._fr.append(fr)
-        self._fc.append(fc.astype(np.int64))
+            n = r1 - r0
+            t = self._tmp[:b, :n]
+            if listed:
+                for i, frame in enumerate(x):
+                    np.copyto(t[i], frame[r0:r1], casting="unsafe")
+            else:
+                np.copyto(t, x[:, r0:r1], casting="unsafe")
+            fr[:, r0:r1] = (t.reshape(b * n, c) @ ones_c).reshape(b, n)
+            fc += np.matmul(self._ones_r[:n], t)
+            f1[r0:r1] += (ones_b @ t.reshape(b, n * c)).reshape(n, c)
+            f2[r0:r1] += np.einsum("fij,fij->ij", t, t)
+        self._nfloat += b
+        if self._nfloat >= _FLOAT_FLUSH:
+            self._move_float_totals()
+        return fr.astype(np.int64), fc.astype(np.int64)
 
-    def _fold_wide_int(self, x: np.ndarray) -> None:
+    def _move_float_totals(self) -> None:
+        if self._f1 is not None and self._nfloat:
+            self._s1 += self._f1.astype(np.int64)
+            self._s2 += self._f2.astype(np.int64)
+            self._f1.fill(0.0)
+            self._f2.fill(0.0)
+        self._nfloat = 0
+
+    def _fold_wide_int(self, x: np.ndarray):
         x = x.astype(np.int64)
         lim = 1 << 24
         if x.size and (x.max() >= lim or x.min() <= -lim):
@@ -177,17 +294,15 @@ class StackAccumulator:
             )
         self._s1 += x.sum(axis=0)
         self._s2 += np.einsum("fij,fij->ij", x, x)
-        self._fr.append(x.sum(axis=2))
-        self._fc.append(x.sum(axis=1))
+        return x.sum(axis=2), x.sum(axis=1)
 
-    def _fold_float(self, x: np.ndarray) -> None:
+    def _fold_float(self, x: np.ndarray):
         if self._x0 is None:
             self._x0 = np.asarray(x[0], np.float64).copy()
-        d = x.astype(np.float64) - self._x0
+        d = np.asarray(x, np.float64) - self._x0
         self._s1 += d.sum(axis=0)
         self._s2 += np.einsum("fij,fij->ij", d, d)
-        self._fr.append(d.sum(axis=2))
-        self._fc.append(d.sum(axis=1))
+        return d.sum(axis=2), d.sum(axis=1)
 
     def _to_float(self) -> None:
         """Switch from exact integer sums to float64 sums (shift 0)."""
@@ -196,12 +311,21 @@ class StackAccumulator:
         self._x0 = np.zeros(self.shape, np.float64)
         self._s1 = self._s1.astype(np.float64)
         self._s2 = self._s2.astype(np.float64)
+        self._qfr = float(self._qfr)
+        self._qfc = float(self._qfc)
+        if self._a is not None:
+            self._a = self._a.astype(np.float64)
+            self._b = self._b.astype(np.float64)
+        self._tot = [t.astype(np.float64) for t in self._tot]
         self._fr = [a.astype(np.float64) for a in self._fr]
         self._fc = [a.astype(np.float64) for a in self._fc]
 
     # ------------------------------------------------------------------ merging
     def merge(self, other: "StackAccumulator") -> "StackAccumulator":
-        """Add the frames of ``other`` after those of ``self`` (in place; returns self)."""
+        """Append the frames of ``other`` after those of ``self`` (in place; returns self).
+
+        Exact for integer data: the result equals one pass over both stacks.
+        """
         if not isinstance(other, StackAccumulator):
             raise InputError(f"can only merge another StackAccumulator, not {type(other).__name__}")
         if other.shape != self.shape:
@@ -213,50 +337,81 @@ class StackAccumulator:
         self._cache.clear()
         if other._nf == 0:
             return self
-        if self._nf == 0 and not self._float and not other._float:
-            self._s1 = other._s1.copy()
-            self._s2 = other._s2.copy()
-        elif not self._float and not other._float:
-            self._s1 += other._s1
-            self._s2 += other._s2
-        else:
-            if not self._float:
-                self._to_float()
-            if self._nf == 0:
-                self._x0 = other._x0.copy() if other._float else np.zeros(self.shape)
+        if other._float and not self._float:
+            self._to_float()
+        if self._nf == 0:
+            self._copy_from(other)
+            return self
+        nb = other._nf
+        if self._float:
+            # other's representation relative to ours: d_b + delta per pixel
             x0b = other._x0 if other._float else np.zeros(self.shape)
-            delta = x0b - self._x0  # other's data relative to our shift: d_b + delta
+            delta = x0b - self._x0
             s1b = np.asarray(other._s1, np.float64)
             s2b = np.asarray(other._s2, np.float64)
-            nb = other._nf
             self._s1 = self._s1 + s1b + nb * delta
             self._s2 = self._s2 + s2b + 2.0 * delta * s1b + nb * delta * delta
-            dr, dc = delta.sum(axis=1), delta.sum(axis=0)
-            self._fr += [np.asarray(a, np.float64) + dr for a in other._fr]
-            self._fc += [np.asarray(a, np.float64) + dc for a in other._fc]
-            self._nf += nb
-            return self
-        self._fr += [a.copy() for a in other._fr]
-        self._fc += [a.copy() for a in other._fc]
-        self._nf += other._nf
+            sr, sc = delta.sum(axis=1), delta.sum(axis=0)
+            ab = np.asarray(other._a, np.float64) + sr - self._a  # row-sum shift
+            bb = np.asarray(other._b, np.float64) + sc - self._b
+            ur = s1b.sum(axis=1) - nb * np.asarray(other._a, np.float64)  # sum_f (FR_b - a_b)
+            vc = s1b.sum(axis=0) - nb * np.asarray(other._b, np.float64)
+            self._qfr += float(other._qfr) + 2.0 * float(ab @ ur) + nb * float(ab @ ab)
+            self._qfc += float(other._qfc) + 2.0 * float(bb @ vc) + nb * float(bb @ bb)
+            tshift = float(sr.sum())
+            self._tot += [np.asarray(t, np.float64) + tshift for t in other._tot]
+            if self.keep_profiles and other.keep_profiles:
+                self._fr += [np.asarray(a, np.float64) + sr for a in other._fr]
+                self._fc += [np.asarray(a, np.float64) + sc for a in other._fc]
+            else:
+                self._drop_profiles()
+        else:
+            self._s1 += other._s1
+            self._s2 += other._s2
+            ab = other._a - self._a
+            bb = other._b - self._b
+            ur = other._s1.sum(axis=1) - nb * other._a
+            vc = other._s1.sum(axis=0) - nb * other._b
+            self._qfr += other._qfr + 2 * _idot(ab, ur) + nb * _isumsq(ab)
+            self._qfc += other._qfc + 2 * _idot(bb, vc) + nb * _isumsq(bb)
+            self._tot += [t.copy() for t in other._tot]
+            if self.keep_profiles and other.keep_profiles:
+                self._fr += [a.copy() for a in other._fr]
+                self._fc += [a.copy() for a in other._fc]
+            else:
+                self._drop_profiles()
+        self._nf += nb
         return self
 
+    def _drop_profiles(self) -> None:
+        self.keep_profiles = False
+        self._fr, self._fc = [], []
+
+    def _copy_from(self, other: "StackAccumulator") -> None:
+        f = np.float64 if self._float else None
+        cv = (lambda a: np.asarray(a, f).copy()) if f else (lambda a: a.copy())
+        if self._float:
+            self._x0 = other._x0.copy() if other._float else np.zeros(self.shape)
+        self._s1, self._s2 = cv(other._s1), cv(other._s2)
+        self._a, self._b = cv(other._a), cv(other._b)
+        self._qfr = float(other._qfr) if self._float else other._qfr
+        self._qfc = float(other._qfc) if self._float else other._qfc
+        self._tot = [cv(t) for t in other._tot]
+        if self.keep_profiles and other.keep_profiles:
+            self._fr = [cv(a) for a in other._fr]
+            self._fc = [cv(a) for a in other._fc]
+        else:
+            self._drop_profiles()
+        self._nf = other._nf
+
     # ------------------------------------------------------------------ accessors
-    def _ready(self) -> None:
+    def _cached(self, key, fn):
         self._flush()
         if self._nf == 0:
             raise InputError("no frames were accumulated")
-
-    def _cached(self, key, fn):
-        self._ready()
         if key not in self._cache:
             self._cache[key] = fn()
         return self._cache[key]
-
-    @property
-    def exact(self) -> bool:
-        """True while the sums are exact integers (integer input only)."""
-        return not self._float
 
     def pixel_sum(self) -> np.ndarray:
         """Sum over frames of each pixel (float64, R x C)."""
@@ -277,57 +432,54 @@ class StackAccumulator:
         def f():
             n = self._nf
             if self._float:
-                ss = self._s2 - self._s1 * self._s1 / n
-                return np.maximum(ss, 0.0)
+                return np.maximum(self._s2 - self._s1 * self._s1 / n, 0.0)
             s1, s2 = self._s1, self._s2
             # n*S2 - S1**2 exactly in int64 when it fits, else in extended precision
-            if s1.size == 0:
-                return np.zeros(self.shape)
-            big = max(int(np.abs(s1).max()), 1) ** 2 >= 2**62 or n * int(s2.max()) >= 2**62
-            if not big:
+            if int(np.abs(s1).max()) ** 2 < 2**62 and n * int(s2.max()) < 2**62:
                 num = n * s2 - s1 * s1
             else:
-                num = n * s2.astype(np.longdouble) - s1.astype(np.longdouble) ** 2
-                num = np.maximum(num, 0)
+                num = np.maximum(n * s2.astype(np.longdouble) - s1.astype(np.longdouble) ** 2, 0)
             return (num / n).astype(np.float64)
 
         return self._cached("pss", f)
 
     def temporal_var_map(self, ddof: int = 1) -> np.ndarray:
         """Per-pixel temporal variance over frames (ddof=1 by default); NaN if F <= ddof."""
-        n = self.n_frames
+        pss = self.pixel_ss()
+        n = self._nf
         if n <= ddof:
-            self._ready()
             return np.full(self.shape, np.nan)
-        return self.pixel_ss() / (n - ddof)
+        return pss / (n - ddof)
 
-    def frame_row_sums(self) -> np.ndarray:
-        """(F, R) per-frame row sums (float64, shift added back)."""
-
-        def f():
-            a = np.concatenate(self._fr).astype(np.float64)
-            return a + self._x0.sum(axis=1) if self._float else a
-
-        return self._cached("fr", f)
-
-    def frame_col_sums(self) -> np.ndarray:
-        """(F, C) per-frame column sums (float64, shift added back)."""
+    def frame_sums(self) -> np.ndarray:
+        """(F,) sum of each frame."""
 
         def f():
-            a = np.concatenate(self._fc).astype(np.float64)
-            return a + self._x0.sum(axis=0) if self._float else a
+            t = np.concatenate(self._tot).astype(np.float64)
+            return t + float(self._x0.sum()) if self._float else t
 
-        return self._cached("fc", f)
-
-    def frame_row_means(self) -> np.ndarray:
-        return self.frame_row_sums() / self.shape[1]
-
-    def frame_col_means(self) -> np.ndarray:
-        return self.frame_col_sums() / self.shape[0]
+        return self._cached("fs", f)
 
     def frame_means(self) -> np.ndarray:
         """(F,) mean of each frame."""
-        return self._cached("fm", lambda: self.frame_row_sums().sum(axis=1) / (self.shape[0] * self.shape[1]))
+        return self.frame_sums() / (self.shape[0] * self.shape[1])
+
+    def _profiles(self, which: str) -> np.ndarray:
+        if not self.keep_profiles:
+            raise InputError("per-frame row/column sums were not kept (keep_profiles=False)")
+        chunks = self._fr if which == "r" else self._fc
+        a = np.concatenate(chunks).astype(np.float64)
+        if self._float:
+            a = a + self._x0.sum(axis=1 if which == "r" else 0)
+        return a
+
+    def frame_row_means(self) -> np.ndarray:
+        """(F, R) mean of each row in each frame (needs keep_profiles)."""
+        return self._cached("frm", lambda: self._profiles("r") / self.shape[1])
+
+    def frame_col_means(self) -> np.ndarray:
+        """(F, C) mean of each column in each frame (needs keep_profiles)."""
+        return self._cached("fcm", lambda: self._profiles("c") / self.shape[0])
 
     def row_profile(self) -> np.ndarray:
         """(R,) mean of each row over frames and columns."""
@@ -339,6 +491,51 @@ class StackAccumulator:
 
     def mean(self) -> float:
         return float(self.mean_map().mean())
+
+    def temporal_sums(self) -> dict:
+        """Exact temporal sums of squares for the ANOVA (see anova.py).
+
+        ``ss_f``, ``ss_fr``, ``ss_fc``: SS of the frame main effect and of the
+        frame x row, frame x column interactions; ``w``: sum over pixels of the
+        within-pixel SS (= SS_F + SS_FR + SS_FC + SS_E).
+        """
+
+        def f():
+            F = self._nf
+            R, C = self.shape
+            tot = np.concatenate(self._tot)
+            if self._float:
+                A = float(self._a.sum())
+                t = tot - A
+                st, qt = float(t.sum()), float(t @ t)
+                u = self._s1.sum(axis=1) - F * self._a
+                v = self._s1.sum(axis=0) - F * self._b
+                qu, qv = float(u @ u), float(v @ v)
+                w = float(self.pixel_ss().sum())
+                ss_fr = (F * R * self._qfr - F * qt - R * qu + st * st) / (F * R * C)
+                ss_fc = (F * C * self._qfc - F * qt - C * qv + st * st) / (F * R * C)
+                ss_f = (F * qt - st * st) / (F * R * C)
+            else:
+                A = _isum(self._a)
+                t = tot - A
+                st, qt = _isum(t), _isumsq(t)
+                u = self._s1.sum(axis=1) - F * self._a
+                v = self._s1.sum(axis=0) - F * self._b
+                qu, qv = _isumsq(u), _isumsq(v)
+                num_fr = F * R * self._qfr - F * qt - R * qu + st * st
+                num_fc = F * C * self._qfc - F * qt - C * qv + st * st
+                num_f = F * qt - st * st
+                ss_fr, ss_fc, ss_f = (num / (F * R * C) for num in (num_fr, num_fc, num_f))
+                w = float(self.pixel_ss().sum())
+            return {"ss_f": ss_f, "ss_fr": ss_fr, "ss_fc": ss_fc, "w": w}
+
+        return self._cached("tsums", f)
+
+    def nbytes(self) -> int:
+        """Bytes held by the accumulator's arrays (state, buffers, profiles)."""
+        arrays = [self._s1, self._s2, self._store, self._tmp, self._f1, self._f2, self._x0, self._a, self._b]
+        arrays += self._tot + self._fr + self._fc
+        return int(sum(a.nbytes for a in arrays if isinstance(a, np.ndarray)))
 
     def __repr__(self) -> str:
         return f"StackAccumulator(shape={self.shape}, n_frames={self.n_frames})"

@@ -63,30 +63,24 @@ def anova_table(acc: StackAccumulator) -> AnovaTable:
     F = acc.n_frames
     R, C = acc.shape
     mrc = acc.mean_map()
-    # temporal marginals; subtracting a constant first keeps them well conditioned
-    fr = acc.frame_row_sums()
-    fc = acc.frame_col_sums()
     m = float(mrc.mean())
-    mfr = fr / C - m
-    mfc = fc / R - m
-    mf = mfr.mean(axis=1)  # (F,)
-    mr = mfr.mean(axis=0)  # (R,)  == row means of the mean map
-    mc = mfc.mean(axis=0)  # (C,)
     d_rc = mrc - m
-    mr2 = d_rc.mean(axis=1)
-    mc2 = d_rc.mean(axis=0)
+    mr = d_rc.mean(axis=1)
+    mc = d_rc.mean(axis=0)
+    ts = acc.temporal_sums()  # exact frame, frame x row, frame x column SS
     ss = {
-        "F": R * C * float(np.sum(mf**2)),
-        "R": F * C * float(np.sum(mr2**2)),
-        "C": F * R * float(np.sum(mc2**2)),
-        "FR": C * float(np.sum((mfr - mf[:, None] - mr[None, :]) ** 2)),
-        "FC": R * float(np.sum((mfc - mf[:, None] - mc[None, :]) ** 2)),
-        "RC": F * float(np.sum((d_rc - mr2[:, None] - mc2[None, :]) ** 2)),
+        "F": float(ts["ss_f"]),
+        "R": F * C * float(np.sum(mr**2)),
+        "C": F * R * float(np.sum(mc**2)),
+        "FR": float(ts["ss_fr"]),
+        "FC": float(ts["ss_fc"]),
+        "RC": F * float(np.sum((d_rc - mr[:, None] - mc[None, :]) ** 2)),
     }
-    w = float(acc.pixel_ss().sum())  # sum_frc (x - m_rc)^2 = SS_F + SS_FR + SS_FC + SS_E
-    ss["E"] = w - ss["F"] - ss["FR"] - ss["FC"]
-    if ss["E"] < 0:  # rounding only (exact data give >= 0)
-        ss["E"] = 0.0
+    # sum_frc (x - m_rc)^2 = SS_F + SS_FR + SS_FC + SS_E
+    ss["E"] = ts["w"] - ss["F"] - ss["FR"] - ss["FC"]
+    for k in ss:  # exact data give >= 0; clamp rounding residue only
+        if ss[k] < 0:
+            ss[k] = 0.0
     df = {
         "F": F - 1,
         "R": R - 1,
