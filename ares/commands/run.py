@@ -1,0 +1,238 @@
+"""``ares run SCAN``: run a scan (simulated bench by default), write a run directory.
+
+Exit codes: 0 success, 2 invalid input, 3 hardware failure, 4 failed limits,
+130 stopped/aborted (Ctrl-C once = stop after the current stage, twice = abort).
+"""
+
+from __future__ import annotations
+
+import json
+import math
+import signal
+import sys
+import time
+from pathlib import Path
+
+from ares.errors import InputError
+
+NAME = "run"
+HELP = "run a scan XML on its system (the simulator by default) and write a run directory"
+
+
+def add_arguments(parser) -> None:
+    parser.add_argument("scan", metavar="SCAN", help="scan XML file")
+    add_common(parser)
+    parser.add_argument("--system", metavar="PROTOCOL", help="system XML to use instead of the scan's <system href>")
+    parser.add_argument("--frames", type=int, metavar="N", help="override every stage's frame count (N >= 2)")
+    parser.add_argument("--seed", type=int, metavar="N", help="simulator seed (default: the system's <simulator seed>)")
+    parser.add_argument("--dry-run", action="store_true", help="list the stages and estimate the duration; touch nothing")
+    parser.add_argument("--repeat", type=int, default=1, metavar="N",
+                        help="auto-repeat: run the scan N times (0 = until stopped), one run directory each")
+    parser.add_argument("--sim-fault", action="append", default=[], metavar="KEY=N",
+                        help="inject a simulator fault (disconnect_after_frames=N, short_frame_at=N); for tests")
+
+
+def add_common(parser) -> None:
+    parser.add_argument("--out", metavar="DIR", help="run directory (default: runs/<scan>_<time>)")
+    parser.add_argument("--quiet", "-q", action="store_true", help="no progress bar")
+    parser.add_argument("--json", action="store_true", help="print the final summary as JSON on stdout")
+
+
+def _faults(items: list[str]) -> dict | None:
+    out = {}
+    for it in items:
+        k, _, v = it.partition("=")
+        try:
+            out[k.strip()] = int(v)
+        except ValueError:
+            raise InputError(f"--sim-fault expects KEY=N, got '{it}'") from None
+    return out or None
+
+
+def default_out(scan_name: str) -> Path:
+    base = Path("runs") / f"{scan_name}_{time.strftime('%Y%m%d-%H%M%S')}"
+    p, k = base, 1
+    while p.exists():
+        k += 1
+        p = base.with_name(f"{base.name}_{k}")
+    return p
+
+
+def fmt_s(s: float | None) -> str:
+    if s is None or not math.isfinite(s):
+        return "--:--:--"
+    s = int(round(s))
+    return f"{s // 3600}:{s // 60 % 60:02d}:{s % 60:02d}"
+
+
+class ProgressBar:
+    """Listener drawing ``stage i/n name [####....] 42% 120 frames/s ETA h:mm:ss`` on stderr."""
+
+    def __init__(self, stream=sys.stderr, width: int = 24):
+        self.stream, self.width = stream, width
+        self.tty = getattr(stream, "isatty", lambda: False)()
+        self.last = 0.0
+        self.stage = None
+
+    def __call__(self, e) -> None:
+        from ares.scan import events as ev
+
+        if isinstance(e, ev.StageStarted):
+            self.stage = e
+            if not self.tty:
+                self.stream.write(f"stage {e.index + 1}/{e.total} {e.stage.name} ({e.stage.scene}, "
+                                  f"{e.stage.frames} frames)\n")
+                self.stream.flush()
+        elif isinstance(e, ev.Progress) and self.tty:
+            now = time.monotonic()
+            if now - self.last < 0.1 and e.frames_done < e.frames_total:
+                return
+            self.last = now
+            n = int(self.width * e.fraction)
+            name = self.stage.stage.name if self.stage else ""
+            self.stream.write(f"\rstage {e.index + 1}/{e.total} {name:<14.14} [{'#' * n}{'.' * (self.width - n)}] "
+                              f"{100 * e.fraction:3.0f}% {e.frames_per_s:6.1f} frames/s ETA {fmt_s(e.remaining_s)}")
+            self.stream.flush()
+        elif isinstance(e, (ev.Done, ev.Failed)) and self.tty:
+            self.stream.write("\n")
+            self.stream.flush()
+
+
+def dry_run(scan, frames: int | None, out=sys.stdout) -> None:
+    from ares.scan import estimate_seconds, expand
+
+    stages = expand(scan, frames)
+    out.write(f"scan '{scan.name}' on system '{scan.system.name}' "
+              f"({scan.system.sensor.cols}x{scan.system.sensor.rows}): {len(stages)} stages\n")
+    total = 0
+    for s in stages:
+        dark = ""
+        if s.dark_source == "grab":
+            dark = f" + {s.dark_frames} dark"
+        elif s.dark_source == "reuse":
+            dark = " + dark (reused)"
+        sets = ", ".join(f"{k.removeprefix('reg:')}={v:g}" for k, v in s.settings.items())
+        out.write(f"  {s.index:4d}  {s.name:<18} {s.scene:<4} {s.frames:4d} frames{dark:<18} {sets}\n")
+        total += s.frames_to_grab()
+    est = estimate_seconds(scan, stages)
+    out.write(f"total: {total} frames, estimated {fmt_s(est)} ({est:.1f} s) of exposure, readout and settling\n")
+
+
+def _num(d) -> str:
+    if not isinstance(d, dict) or d.get("value") is None:
+        return "n/a"
+    s = f"{d['value']:.4g}"
+    if d.get("se") is not None:
+        s += f" ± {d['se']:.2g}"
+    return f"{s} {d.get('unit', '')}".rstrip()
+
+
+def print_summary(outcome, scan, seconds: float, out=sys.stdout) -> None:
+    res = outcome.scan_results
+    out.write(f"\n{scan.name}: {outcome.status}, {len(outcome.stages)} stage(s) in {seconds:.1f} s"
+              f"{', seed ' + str(outcome.seed) if outcome.seed is not None else ''}\n")
+    if outcome.run_dir:
+        out.write(f"run directory: {outcome.run_dir}\n")
+    p = res.get("ptc")
+    if isinstance(p, dict) and "gain_dn_per_e" in p:
+        out.write("photon transfer:\n")
+        for label, key in (("conversion gain", "conversion_gain_uv_per_e"), ("system gain K", "gain_dn_per_e"),
+                           ("1/K", "gain_e_per_dn"), ("read noise", "read_noise_e"),
+                           ("read noise (output)", "read_noise_dn"), ("full well (max variance)", "full_well_e"),
+                           ("dynamic range", "dynamic_range_db")):
+            out.write(f"  {label:<26} {_num(p.get(key))}\n")
+    elif isinstance(p, dict):
+        out.write(f"photon transfer: {p.get('note', p.get('status'))}\n")
+    d = res.get("decomposition")
+    if isinstance(d, dict) and "components" in d:
+        sets = ", ".join(f"{k.removeprefix('reg:')}={v:g}" for k, v in d["settings"].items())
+        out.write(f"noise components at stage {d['stage']} ({sets}):\n")
+        for k, v in d["components"].items():
+            out.write(f"  {k:<26} {_num(v)}\n")
+    for name, r in res.items():
+        if name not in ("ptc", "decomposition") and isinstance(r, dict) and r.get("status"):
+            out.write(f"{name}: {r['status']}{' (' + r['note'] + ')' if r.get('note') else ''}\n")
+    for f in outcome.limit_failures:
+        out.write(f"LIMIT FAILED: {f}\n")
+    if outcome.status == "done" and scan.limits and not outcome.limit_failures:
+        out.write(f"all {len(scan.limits)} limit(s) passed\n")
+
+
+def execute(scan, args, *, seed, frames, faults=None, argv=None, out_dir=None) -> int:
+    """Run ``scan`` with the CLI's progress, Ctrl-C handling, summary and exit code."""
+    from ares.scan import Runner
+
+    out_dir = Path(out_dir) if out_dir else default_out(scan.name)
+    runner = Runner(scan, out_dir=out_dir, seed=seed, frames=frames, faults=faults, argv=argv)
+    if not args.quiet:
+        runner.add_listener(ProgressBar())
+    hits = []
+
+    def on_sigint(signum, frame):
+        hits.append(1)
+        if len(hits) == 1:
+            sys.stderr.write("\nstopping after the current stage (Ctrl-C again to abort)\n")
+            runner.stop()
+        else:
+            runner.abort()
+
+    old = signal.signal(signal.SIGINT, on_sigint) if _main_thread() else None
+    t0 = time.monotonic()
+    try:
+        outcome = runner.run()
+    finally:
+        if old is not None:
+            signal.signal(signal.SIGINT, old)
+    seconds = time.monotonic() - t0
+    if args.json:
+        json.dump(_json_summary(outcome, scan, seconds), sys.stdout, indent=1, default=str)
+        sys.stdout.write("\n")
+    else:
+        print_summary(outcome, scan, seconds)
+    if outcome.status in ("stopped", "aborted"):
+        sys.stderr.write(f"ares run: {outcome.status} after {len(outcome.stages)} stage(s); "
+                         f"completed stages are kept in {outcome.run_dir}\n")
+        return 130
+    if outcome.limit_failures:
+        sys.stderr.write(f"ares run: {len(outcome.limit_failures)} limit(s) failed: "
+                         f"{'; '.join(outcome.limit_failures)}\n")
+        return 4
+    return 0
+
+
+def _main_thread() -> bool:
+    import threading
+
+    return threading.current_thread() is threading.main_thread()
+
+
+def _json_summary(outcome, scan, seconds) -> dict:
+    from ares.scan.rundir import _clean
+
+    return _clean({"scan": scan.name, "status": outcome.status, "run_dir": str(outcome.run_dir),
+                   "seed": outcome.seed, "stages": len(outcome.stages), "seconds": seconds,
+                   "scan_results": outcome.scan_results, "limit_failures": outcome.limit_failures})
+
+
+def run(args) -> int:
+    from ares.protocol import load_scan
+
+    if args.frames is not None and args.frames < 2:
+        raise InputError(f"--frames must be an integer >= 2, got {args.frames}")
+    scan = load_scan(args.scan, system_path=args.system)
+    if args.dry_run:
+        dry_run(scan, args.frames)
+        return 0
+    faults = _faults(args.sim_fault)
+    argv = ["run", *sys.argv[2:]] if sys.argv[1:2] == ["run"] else None
+    if args.repeat == 1:
+        return execute(scan, args, seed=args.seed, frames=args.frames, faults=faults, argv=argv, out_dir=args.out)
+    rc, i = 0, 0
+    base = Path(args.out) if args.out else default_out(scan.name)
+    while args.repeat == 0 or i < args.repeat:
+        rc = execute(scan, args, seed=args.seed, frames=args.frames, faults=faults, argv=argv,
+                     out_dir=base / f"repeat_{i + 1:03d}")
+        if rc == 130:
+            break
+        i += 1
+    return rc
