@@ -308,7 +308,8 @@ class StackAccumulator:
         """Switch from exact integer sums to float64 sums (shift 0)."""
         self._flush()
         self._float = True
-        self._x0 = np.zeros(self.shape, np.float64)
+        # an empty stack takes its shift from its first frame (see _fold_float)
+        self._x0 = np.zeros(self.shape, np.float64) if self._nf else None
         self._s1 = self._s1.astype(np.float64)
         self._s2 = self._s2.astype(np.float64)
         self._qfr = float(self._qfr)
@@ -426,30 +427,35 @@ class StackAccumulator:
         """Time-averaged frame (float64, R x C)."""
         return self._cached("mean", lambda: self.pixel_sum() / self._nf)
 
-    def pixel_ss(self) -> np.ndarray:
-        """Per-pixel sum over frames of squared deviations from the pixel's mean (>= 0)."""
+    def _pss_num(self):
+        """n * (per-pixel within SS): exact integers (int64 or longdouble) in int mode."""
 
         def f():
             n = self._nf
             if self._float:
-                return np.maximum(self._s2 - self._s1 * self._s1 / n, 0.0)
+                return np.maximum(n * self._s2 - self._s1 * self._s1, 0.0)
             s1, s2 = self._s1, self._s2
-            # n*S2 - S1**2 exactly in int64 when it fits, else in extended precision
             if int(np.abs(s1).max()) ** 2 < 2**62 and n * int(s2.max()) < 2**62:
-                num = n * s2 - s1 * s1
-            else:
-                num = np.maximum(n * s2.astype(np.longdouble) - s1.astype(np.longdouble) ** 2, 0)
-            return (num / n).astype(np.float64)
+                return n * s2 - s1 * s1
+            return np.maximum(n * s2.astype(np.longdouble) - s1.astype(np.longdouble) ** 2, 0)
 
-        return self._cached("pss", f)
+        return self._cached("pssnum", f)
+
+    def pixel_ss(self) -> np.ndarray:
+        """Per-pixel sum over frames of squared deviations from the pixel's mean (>= 0)."""
+        return self._cached("pss", lambda: (self._pss_num() / self._nf).astype(np.float64))
 
     def temporal_var_map(self, ddof: int = 1) -> np.ndarray:
-        """Per-pixel temporal variance over frames (ddof=1 by default); NaN if F <= ddof."""
-        pss = self.pixel_ss()
+        """Per-pixel temporal variance over frames (ddof=1 by default); NaN if F <= ddof.
+
+        For integer data this is the exactly rounded value of the exact rational
+        (n*S2 - S1**2) / (n*(n-ddof)).
+        """
+        num = self._pss_num()
         n = self._nf
         if n <= ddof:
             return np.full(self.shape, np.nan)
-        return pss / (n - ddof)
+        return (num / (n * (n - ddof))).astype(np.float64)
 
     def frame_sums(self) -> np.ndarray:
         """(F,) sum of each frame."""
