@@ -203,7 +203,8 @@ def analyze_ptc(bright: Sequence[LevelStats], dark: Sequence[LevelStats], *, exp
 
     k_wls = est_k(wls_line(S, V, N), "WLS line of V vs S, w = N/(2V^2), up to "
                   f"{100 * fit_fraction:g} % of saturation")
-    k_org = est_k(origin_fit(S, V), f"EMVA 1288 origin fit up to {100 * fit_fraction:g} % of saturation")
+    k_org = est_k(origin_fit(S, V, [lv.variance_se for lv in fit]),
+                  f"EMVA 1288 origin fit up to {100 * fit_fraction:g} % of saturation")
     ast = astier_fit(S, V, N) if S.size >= 4 else None
     if ast is not None and math.isfinite(ast.gain_e_per_dn) and ast.gain_e_per_dn > 0:
         k_ast = Estimate(1 / ast.gain_e_per_dn, ast.gain_se / ast.gain_e_per_dn**2, "DN/e-",
@@ -224,7 +225,8 @@ def analyze_ptc(bright: Sequence[LevelStats], dark: Sequence[LevelStats], *, exp
         s_sat = levels[sat].signal
         for f in (0.3, 0.5, 0.7):
             sel = [lv for lv in good if lv.signal <= f * s_sat]
-            gvr[f"0-{int(f * 100)}%"] = est_k(origin_fit([lv.signal for lv in sel], [lv.variance for lv in sel]),
+            gvr[f"0-{int(f * 100)}%"] = est_k(origin_fit([lv.signal for lv in sel], [lv.variance for lv in sel],
+                                                         [lv.variance_se for lv in sel]),
                                               f"origin fit 0-{int(f * 100)} % of saturation")
 
     rd = list(read_dark) if read_dark is not None else list(dark)

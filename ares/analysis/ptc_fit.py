@@ -31,8 +31,13 @@ class LineFit:
     n: int = 0
 
 
-def origin_fit(x, y) -> LineFit:
-    """Unweighted least squares ``y = k x`` (the EMVA 1288 fit); SE from the residuals."""
+def origin_fit(x, y, y_se=None) -> LineFit:
+    """Unweighted least squares ``y = k x`` (the EMVA 1288 fit).
+
+    SE: with ``y_se`` (per-point errors) the propagated ``sqrt(sum x^2 s^2)/sum x^2``,
+    scaled by the reduced chi-square when above one -- residual-only SEs understate the
+    error when the errors grow with ``y`` (as variances do); without ``y_se`` from the
+    residuals."""
     x = np.asarray(x, float)
     y = np.asarray(y, float)
     if x.size < 1 or not np.any(x):
@@ -40,6 +45,11 @@ def origin_fit(x, y) -> LineFit:
     sxx = float(np.sum(x * x))
     k = float(np.sum(x * y)) / sxx
     r = y - k * x
+    if y_se is not None and x.size > 1:
+        e = np.broadcast_to(np.asarray(y_se, float), x.shape)
+        chi2 = float(np.sum((r / e) ** 2)) / (x.size - 1)
+        se = math.sqrt(float(np.sum(x * x * e * e))) / sxx * math.sqrt(max(chi2, 1.0))
+        return LineFit(k, se, 0.0, 0.0, chi2, x.size)
     se = math.sqrt(float(np.sum(r * r)) / (x.size - 1) / sxx) if x.size > 1 else math.nan
     return LineFit(k, se, 0.0, 0.0, math.nan, x.size)
 
