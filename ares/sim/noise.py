@@ -12,17 +12,25 @@ Two generators of N(0,1) deviates:
   to unit variance, so mean and variance are exact; tails are cut at 4.3 sigma and the
   kurtosis is 2.99 instead of 3. Measured in ``benchmarks/sim.md``.
 
-Shot noise (Poisson of mean ``m`` e-): exact ``Generator.poisson``, or the Gaussian
+Shot noise (Poisson of mean ``m`` e-): exact, or the Gaussian
 ``m + sqrt(m) * z`` (same mean and variance; skewness 0 instead of ``1/sqrt(m)``). The
 ``auto`` mode uses the Gaussian for a pixel only where the pixel's total temporal
 distribution (Poisson + Gaussian read/chain/quantization noise of variance ``s2`` in e-^2)
 would have skewness ``m / (m + s2)**1.5`` below ``AUTO_SKEW_TOLERANCE`` — i.e. where
 no measurement could tell the difference — and exact Poisson elsewhere.
+
+Exact Poisson of one mean for many pixels (a flat) uses Walker's alias method over the
+pmf on ``m +- 12 sqrt(m)`` (mass outside < 1e-30; probabilities in float64): two table
+look-ups per pixel, 3-5x faster than ``Generator.poisson``. Per-pixel means (maps) use
+``Generator.poisson``.
 """
 
 from __future__ import annotations
 
+from functools import lru_cache
+
 import numpy as np
+from scipy import stats
 from scipy.special import ndtri
 
 AUTO_SKEW_TOLERANCE = 0.05
@@ -60,7 +68,46 @@ def exact_mask(mean_e, gauss_var_e2, mode: str):
     if mode == "gaussian":
         return False
     mask = shot_skewness(mean_e, gauss_var_e2) > AUTO_SKEW_TOLERANCE
-    return bool(mask) if np.ndim(mask) == 0 else mask
+    if np.ndim(mask) == 0 or mask.all() or not mask.any():
+        return bool(np.all(mask))
+    return mask
+
+
+@lru_cache(maxsize=16)
+def _alias_table(lam: float):
+    """(lo, prob, alias) of Walker's alias method for Poisson(lam) on [lo, lo + K)."""
+    sd = np.sqrt(lam)
+    lo = int(max(0.0, np.floor(lam - 12 * sd - 10)))
+    hi = int(np.ceil(lam + 12 * sd + 20))
+    p = stats.poisson.pmf(np.arange(lo, hi + 1), lam)
+    p = p / p.sum()
+    k = len(p)
+    scaled = p * k
+    prob = np.ones(k)
+    alias = np.arange(k)
+    small = [i for i in range(k) if scaled[i] < 1.0]
+    large = [i for i in range(k) if scaled[i] >= 1.0]
+    while small and large:
+        s_, l_ = small.pop(), large.pop()
+        prob[s_], alias[s_] = scaled[s_], l_
+        scaled[l_] += scaled[s_] - 1.0
+        (small if scaled[l_] < 1.0 else large).append(l_)
+    return lo, prob, alias.astype(np.int32)
+
+
+def poisson_scalar(rng: np.random.Generator, lam: float, shape) -> np.ndarray:
+    """Exact Poisson(lam) deviates (float32) for one mean, by the alias method."""
+    if lam <= 0:
+        return np.zeros(shape, np.float32)
+    if lam > 1e6:
+        return rng.poisson(lam, size=shape).astype(np.float32)
+    lo, prob, alias = _alias_table(float(lam))
+    idx = rng.integers(0, len(prob), size=shape, dtype=np.int32)
+    u = rng.random(size=shape)
+    k = np.where(u < prob[idx], idx, alias[idx]).astype(np.float32)
+    if lo:
+        k += np.float32(lo)
+    return k
 
 
 def shot(rng: np.random.Generator, mean_e, exact, shape, fast: bool) -> np.ndarray:
@@ -68,9 +115,11 @@ def shot(rng: np.random.Generator, mean_e, exact, shape, fast: bool) -> np.ndarr
 
     ``exact`` is True/False or a boolean map choosing exact Poisson per pixel.
     """
-    mean_arr = np.broadcast_to(np.asarray(mean_e, np.float32), shape)
     if exact is True:
-        return rng.poisson(mean_arr).astype(np.float32)
+        if np.ndim(mean_e) == 0:
+            return poisson_scalar(rng, float(mean_e), shape)
+        return rng.poisson(mean_e, size=shape).astype(np.float32)
+    mean_arr = np.broadcast_to(np.asarray(mean_e, np.float32), shape)
     out = normal(rng, shape, fast)
     out *= np.sqrt(mean_arr)
     out += mean_arr
