@@ -225,8 +225,10 @@ def classify_defects(
         (cv, cr), (rv, rr_) = line_factors["bad_column"], line_factors["bad_row"]
         flags, stats = pixel_flags(cv, rv, cr, rr_)
 
-    # ---- RTS (pass 2 on the noisy candidates)
-    cand = flags["noisy"] & ~flags["stuck"]
+    # ---- RTS (pass 2 on the candidates: noisy pixels, and hot/warm ones -- an RTS that
+    # sits mostly in its high state looks like a warm pixel whose variance the
+    # dark-shot-noise allowance explains)
+    cand = (flags["noisy"] | flags["hot"] | flags["warm"]) & ~flags["stuck"]
     crow, ccol = np.nonzero(cand)
     rts = np.zeros(shape, bool)
     rts_stat = np.zeros(shape)
@@ -256,7 +258,7 @@ def classify_defects(
             rts[crow[is_rts], ccol[is_rts]] = True
             rts_stat[crow, ccol] = sep
             rts_available = True
-            rts_note = f"{crow.size} noisy candidates tested over {nfr} frames"
+            rts_note = f"{crow.size} candidates (noisy, hot, warm) tested over {nfr} frames"
     flags["rts"] = rts
     stats["rts"] = rts_stat
 
