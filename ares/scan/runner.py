@@ -212,9 +212,10 @@ class Runner:
         src = bench.frames
         shape = tuple(src.shape)
         ss = StackSet(shape, vw, max_code)
-        it = src.grab(n)
+        it = iter(src.grab(n))
+        k = 0
         try:
-            for k in range(n):
+            while True:
                 if self._pause.is_set():
                     self._emit(ev.Paused(st.index))
                     while self._pause.is_set() and not self._abort.is_set():
@@ -223,9 +224,11 @@ class Runner:
                 if self._abort.is_set():
                     raise _Aborted
                 try:
-                    frame = next(it)
+                    frame = next(it)  # run the source to its end (it may count frames after a yield)
                 except StopIteration:
-                    raise FrameError(f"{src.name}: delivered only {k} of {n} frames") from None
+                    break
+                if k >= n:
+                    raise FrameError(f"{src.name}: delivered more than the {n} frames asked for")
                 data = frame.data
                 if data.shape != shape:
                     raise FrameError(f"{src.name}: short frame {k} (shape {data.shape[1] if data.ndim > 1 else '?'}x"
@@ -241,10 +244,13 @@ class Runner:
                 self._emit(ev.FramePreview(st.index, k, n, data, dark))
                 self._emit(ev.Progress(st.index, len(self.stages), self._frames_done, self._frames_total, fps,
                                        remaining))
+                k += 1
         finally:
             close = getattr(it, "close", None)
             if close:
                 close()
+        if k < n:
+            raise FrameError(f"{src.name}: delivered only {k} of {n} frames")
         return ss
 
 
