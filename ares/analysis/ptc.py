@@ -307,11 +307,11 @@ def analyze_ptc(bright: Sequence[LevelStats], dark: Sequence[LevelStats], *, exp
         if len(sel) >= 3:
             x = xs[[lv.index for lv in sel]]
             y = np.array([lv.signal for lv in sel])
-            a, b = np.polyfit(x, y, 1)
+            a, b = np.polyfit(x, y, 1, w=1.0 / y)  # minimises relative deviations (as EMVA 1288)
             dev = 100 * (y - (a * x + b)) / (a * x + b)
             le = Estimate(float(np.max(np.abs(dev))), math.nan, "%",
-                          f"max |deviation| from a line, 5-95 % of saturation (min {dev.min():.3g}, "
-                          f"max {dev.max():.3g})")
+                          f"max |relative deviation| from a line fitted on 5-95 % of saturation "
+                          f"(min {dev.min():.3g}, max {dev.max():.3g})")
 
     snr = {
         "signal_dn": np.array([lv.signal for lv in good]),
