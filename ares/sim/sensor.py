@@ -92,6 +92,8 @@ class SimSensor:
             self._cache_key, self._cache = key, (sc, plan)
         if start_frame is not None:
             self.frame_index = int(start_frame)
+        if sc.lag == 0:
+            self._lag_e = None
         out = np.empty((n, *self.shape), np.uint16)
         for i in range(n):
             rng = noise.frame_rng(self.seed, self.frame_index)
@@ -151,10 +153,12 @@ class SimSensor:
             if has_q:
                 base = base + gmap * _F32(sc.q) if np.ndim(sc.q) == 0 else base + gmap * sc.q
                 var = var + gmap * gmap * sc.q
-            plan.update(base=base.astype(_F32), sigma=np.sqrt(var).astype(_F32))
+            sigma = np.sqrt(var).astype(_F32)
+            plan.update(base=base.astype(_F32), sigma=sigma if np.any(sigma) else None)
         else:
             sigma_rc = np.sqrt(var_rc).astype(_F32)
-            plan.update(has_q=has_q, mask_q=mask_q, mask_d=mask_d, sigma=sigma_rc,
+            plan.update(base=offs, has_q=has_q, mask_q=mask_q, mask_d=mask_d,
+                        sigma=sigma_rc if np.any(sigma_rc) else None,
                         pgr=fp.pixel_gain * fp.response, cgrg=_F32(G) * fp.col_gain[None, :] * fp.row_gain[:, None])
         return plan
 
@@ -162,12 +166,17 @@ class SimSensor:
         p, fp = self.params, self.patterns
         shape = self.shape
         fastz = plan["gauss_fast"]
-        x = noise.normal(rng, shape, fastz)
-        x *= plan["sigma"]
-        if plan["fast"]:
-            x += plan["base"]
+        if plan["sigma"] is None:  # no per-pixel temporal noise at all
+            x = plan["base"].copy()
         else:
-            x += plan["offs"]
+            x = noise.normal(rng, shape, fastz)
+            x *= plan["sigma"]
+        if plan["fast"]:
+            if plan["sigma"] is not None:
+                x += plan["base"]
+        else:
+            if plan["sigma"] is not None:
+                x += plan["offs"]
             self._add_charge(x, sc, plan, rng, fastz)
         line = None  # per-row terms: Rt + frame-global
         if p.row_temporal_dn > 0:
