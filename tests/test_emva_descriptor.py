@@ -115,3 +115,21 @@ def test_emva_command_on_small_set(tmp_path, capsys):
     assert main(["emva", str(p)]) == 0
     out = capsys.readouterr().out
     assert "K" in out and "data:" in out
+
+
+def test_replay_select_by_exposure_and_light(tmp_path):
+    from ares.hardware.emva_descriptor import EmvaReplayLight
+    from ares.hardware.interfaces import LightSource
+
+    d = read_descriptor(make_set(tmp_path))
+    src = EmvaReplaySource(d)
+    light = EmvaReplayLight(src)
+    assert isinstance(light, LightSource)
+    src.select(exposure_s=3e-6, photons=300.0)
+    assert src.level.photons == 300.0 and not src.level.dark
+    light.set_level(0)
+    assert src.level.dark and src.level.exposure_ns == 3000.0
+    frame = next(src.grab(1))
+    assert frame.meta["dark"] and frame.meta["exposure_s"] == pytest.approx(3e-6)
+    with pytest.raises(InputError, match="no recorded 999 photons/pixel level"):
+        light.set_level(999)

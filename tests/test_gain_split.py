@@ -5,7 +5,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from ares.analysis.gain_split import input_referred_noise_e, split_noise
+from ares.analysis.gain_split import input_referred_noise_e, pixel_noise_uv, split_noise
 from ares.analysis.levels import pair_stats
 
 
@@ -25,6 +25,7 @@ def test_split_recovers_pixel_and_chain_noise():
     assert r.pixel_noise_e.value == pytest.approx(pix_e, rel=0.03)
     assert r.chain_noise_dn.value == pytest.approx(chain_dn, rel=0.03)
     assert r.crossover_gain_dn_per_e.value == pytest.approx(chain_dn / pix_e, rel=0.05)
+    assert pixel_noise_uv(r, 70.0).value == pytest.approx(70.0 * r.pixel_noise_e.value)
     model = input_referred_noise_e(r, K1 * gains)
     assert model[0] > model[-1]  # chain noise dominates input-referred noise at low gain
 

@@ -61,6 +61,15 @@ def split_noise(gain_dn_per_e, dark_var_dn2, dark_var_se=None, subtract_quantiza
     return GainSplit(pix, ch, cross, chi2)
 
 
+def pixel_noise_uv(split: GainSplit, conversion_gain_uv_per_e: float) -> Estimate:
+    """Pixel noise as a voltage at the sense node (the seed's sigma_pixel; g_c in uV/e-)."""
+    e = split.pixel_noise_e
+    if not e.available:
+        return Estimate.na(e.note, "uV")
+    return Estimate(e.value * conversion_gain_uv_per_e, e.se * conversion_gain_uv_per_e, "uV",
+                    "pixel noise x conversion gain")
+
+
 def input_referred_noise_e(split: GainSplit, gain_dn_per_e) -> np.ndarray:
     """Model input-referred noise (e-) at the given system gains."""
     k = np.asarray(gain_dn_per_e, float)

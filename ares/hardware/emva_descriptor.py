@@ -242,5 +242,37 @@ class EmvaReplaySource:
             yield Frame(data=data, index=self._count, timestamp=float(self._count), meta=meta)
             self._count += 1
 
+    def select(self, exposure_s: float | None = None, photons: float = 0.0, kind: str | None = None) -> EmvaLevel:
+        """Choose the level recorded at ``exposure_s`` (default: the current one) and
+        ``photons`` per pixel (0 = dark); raises ``InputError`` when none was recorded."""
+        exp_ns = self.level.exposure_ns if exposure_s is None else exposure_s * 1e9
+        for i, lv in enumerate(self.levels):
+            if (kind is None or lv.kind == kind) and math.isclose(lv.exposure_ns, exp_ns, rel_tol=1e-6) \
+                    and (lv.dark if photons == 0 else math.isclose(lv.photons, photons, rel_tol=1e-6)):
+                self.set_level(i)
+                return lv
+        what = "dark" if photons == 0 else f"{photons:g} photons/pixel"
+        raise InputError(f"{self.descriptor.path}: no recorded {what} level at exposure {exp_ns:g} ns")
+
     def close(self) -> None:
+        pass
+
+
+class EmvaReplayLight:
+    """``LightSource`` for a replay bench: the level is photons per pixel, and setting it
+    selects the recorded level at the source's current exposure (0 = the dark level)."""
+
+    def __init__(self, source: EmvaReplaySource):
+        self.name = f"{source.name}:light"
+        self.source = source
+        self._level = 0.0
+
+    def set_level(self, level: float) -> None:
+        self.source.select(None, float(level))
+        self._level = float(level)
+
+    def get_level(self) -> float:
+        return self._level
+
+    def settle(self) -> None:
         pass
