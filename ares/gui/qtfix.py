@@ -1,13 +1,15 @@
 """Work around a PySide6 reference-count bug seen with PySide6 6.12 on CPython 3.11.
 
-Each time a Python ``bool`` passes through a Qt signal to a Python slot, PySide6 drops
-one reference to ``True``/``False`` that it never took. pyqtgraph passes bools through
-signals on every redraw, so after a few thousand redraws the interpreter aborts with
-"Fatal Python error: bool_dealloc" (usually at exit). CPython 3.12+ makes ``True`` and
-``False`` immortal, which hides the bug there.
+That build returns ``True``/``False``/``None`` from some calls without taking a
+reference (measured: every ``Signal.emit()`` drops one reference to ``True``; every
+``processEvents()``, ``deleteLater()`` and Python slot call drops one to ``None``).
+pyqtgraph emits signals on every redraw, so after a few thousand redraws the interpreter
+aborts with "Fatal Python error: bool_dealloc" / "none_dealloc". CPython 3.12+ makes
+these singletons immortal, which hides the bug there.
 
-``apply()`` detects the bug (one signal emission, refcount before/after) and, only if
-it is present, raises the two refcounts by a margin that no session can use up.
+``apply()`` detects the bug (ten emissions, refcount of ``True`` before/after) and, only
+if it is present, raises the three singletons' refcounts by a margin that no session
+can use up.
 """
 
 from __future__ import annotations
@@ -42,7 +44,7 @@ def apply() -> bool:
         return False
     if not bug_present():
         return False
-    for obj in (True, False):
+    for obj in (True, False, None):
         ctypes.c_ssize_t.from_address(id(obj)).value += _MARGIN
     _applied = True
     return True

@@ -18,6 +18,7 @@ automatic modes), so a manual range can exclude outliers. Sigma uses ddof=1.
 from __future__ import annotations
 
 import math
+import warnings
 from dataclasses import dataclass
 
 import numpy as np
@@ -103,7 +104,9 @@ def gaussian_fit(edges: np.ndarray, counts: np.ndarray) -> tuple[float, float]:
         return a * np.exp(-0.5 * ((x - mu) / sig) ** 2)
 
     try:
-        (a, mu, sig), _ = curve_fit(g, centres, counts, p0=(counts.max(), m0, s0), maxfev=2000)
+        with warnings.catch_warnings(), np.errstate(all="ignore"):
+            warnings.simplefilter("ignore")  # covariance not estimable: we use only the fit
+            (a, mu, sig), _ = curve_fit(g, centres, counts, p0=(counts.max(), m0, s0), maxfev=2000)
     except (RuntimeError, ValueError):
         return m0, s0
     if not (np.isfinite(mu) and np.isfinite(sig)):

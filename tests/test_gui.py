@@ -1,0 +1,229 @@
+"""The ARES window under pytest-qt (QT_QPA_PLATFORM=offscreen): build, RoA table, a
+scan from the Start button to done, stop/pause/abort, auto repeat, errors."""
+
+from __future__ import annotations
+
+import os
+
+import numpy as np
+import pytest
+
+os.environ.setdefault("QT_QPA_PLATFORM", "offscreen")
+pytest.importorskip("PySide6")
+pytest.importorskip("pyqtgraph")
+
+from PySide6.QtCore import Qt  # noqa: E402
+
+from ares.errors import AresError, HardwareError, InputError  # noqa: E402
+from ares.gui import events as E  # noqa: E402
+from ares.gui.engine import DemoScan  # noqa: E402
+from ares.gui.main_window import RESULT_TABS, MainWindow  # noqa: E402
+from ares.gui.models import progress as P  # noqa: E402
+from ares.gui.models.regions import Region  # noqa: E402
+from ares.gui.scan_panel import CONTROL_TABS  # noqa: E402
+
+pytestmark = pytest.mark.gui
+TIMEOUT_MS = 30000  # a bound on waiting, not a speed requirement
+
+
+@pytest.fixture
+def window(qtbot):
+    w = MainWindow()
+    qtbot.addWidget(w)
+    w.resize(1400, 900)
+    w.show()
+    yield w
+    if w.running:
+        w.abort_scan()
+        qtbot.waitUntil(lambda: not w.running, timeout=TIMEOUT_MS)
+
+
+def tiny(**kw):
+    args = dict(shape=(12, 16), frames=3, levels_e=(0, 100, 400))
+    args.update(kw)
+    return lambda: DemoScan(**args)
+
+
+def run_to_end(qtbot, w):
+    qtbot.mouseClick(w.buttons.start, Qt.MouseButton.LeftButton)
+    assert w.running
+    qtbot.waitUntil(lambda: not w.running, timeout=TIMEOUT_MS)
+
+
+def test_window_builds_with_ares_tabs_and_controls(window):
+    c = window.controls
+    assert [c.tabText(i) for i in range(c.count())] == list(CONTROL_TABS)
+    r = window.result_tabs
+    assert [r.tabText(i) for i in range(r.count())] == list(RESULT_TABS)
+    b = window.buttons
+    assert (b.start.text(), b.stop.text(), b.auto_repeat.text()) == ("Start Scan", "Stop Scan", "Auto Repeat")
+    assert b.start.isEnabled() and not b.stop.isEnabled()
+    assert window.progress_line.stage.text() == "0 0"
+    assert set(window.results.panels) == {"MEAN SIGNAL", "NOISE", "COLUMNS", "ROWS"}
+    assert window.session.info.items["ARES version"]
+
+
+def test_roa_table_add_edit_toggle_and_file_round_trip(window, qtbot, tmp_path):
+    table = window.controls.regions
+    regions = window.session.regions
+    table.add_region(Region(True, False, 4, 6, 128, 108))
+    assert table.table.item(0, 2).text() == "4"
+    table.set_cell(0, 4, 64)  # edit Width in the table
+    assert regions[0].width == 64
+    table.set_cell(0, 0, False)  # On/Off
+    table.set_cell(0, 1, True)  # Draw
+    assert (regions[0].on, regions[0].draw) == (False, True)
+    with qtbot.waitSignal(table.error) as blocker:
+        table.set_cell(0, 3, "six")
+    assert blocker.args == ["Region 1: Y must be a whole number."]
+    assert table.table.item(0, 3).text() == "6" and regions[0].y == 6
+    table.set_cell(1, 0, True)
+    table.set_cell(1, 4, 10)
+    table.set_cell(1, 5, 5)
+    path = tmp_path / "regions.xml"
+    assert table.save(str(path))
+    saved = list(regions.regions)
+    regions.replace_all([])
+    assert table.table.item(0, 4).text() == "0"
+    assert table.load(str(path))
+    assert regions.regions == saved and table.table.item(0, 4).text() == "64"
+    bad = tmp_path / "bad.csv"
+    bad.write_text("on,draw,x,y,width,height\n2,0,0,0,1,1\n")
+    assert not table.load(str(bad))
+    assert window.last_error == f"{bad}, line 2: on must be 0 or 1, not 2."
+
+
+def test_scan_runs_from_start_button_to_done(window, qtbot):
+    window.set_job_factory(tiny())
+    window.session.regions.add(Region(True, True, 2, 3, 10, 6))
+    window.session.regions.add(Region(True, False, 0, 0, 16, 12))
+    stages = []
+    window.session.progress.subscribe(lambda m: stages.append(window.progress_line.stage.text()))
+    run_to_end(qtbot, window)
+    s = window.session
+    assert s.progress.state == P.DONE
+    assert window.progress_line.stage.text() == "3 of 3 (400 e-)"
+    assert window.progress_line.remaining.text() == "0 : 00 : 00"
+    assert any(t.startswith("1 of 3") for t in stages) and any(t.startswith("2 of 3") for t in stages)
+    # plots received data: pixel distributions hold every ROI pixel of the last frame
+    assert {i: int(m.counts.sum()) for i, m in s.distributions.items()} == {0: 60, 1: 192}
+    assert set(window.distributions.plots) == {0, 1}
+    assert s.panels["MEAN SIGNAL"].counts.sum() == 60
+    assert window.results.panels["MEAN SIGNAL"].labels["mean"].text() != "n/a"
+    assert len(s.ptc.points) == 2 and window.ptc.points.xData is not None
+    assert window.preview.image_item.image is not None and window.preview.rectangle_count == 1
+    assert window.signal_map.image_item.image.shape == (12, 16)
+    assert sorted(s.profiles.columns) == [0, 1]
+    assert window.buttons.start.isEnabled() and not window.buttons.abort.isEnabled()
+    assert window.last_error is None
+
+
+def test_results_panel_range_controls(window, qtbot):
+    window.set_job_factory(tiny())
+    run_to_end(qtbot, window)
+    panel = window.results.panels["NOISE"]
+    model = panel.model
+    n = model.stats.n
+    panel.to.setValue(model.stats.lowest + 0.5 * (model.stats.highest - model.stats.lowest))
+    panel.to.editingFinished.emit()
+    assert model.range_mode == "Manual" and model.stats.n < n
+    assert panel.mode.currentText() == "Manual"
+    qtbot.mouseClick(panel.restore_button, Qt.MouseButton.LeftButton)
+    assert model.range_mode == "Peak to Peak" and model.stats.n == n
+    panel.mode.setCurrentText("Mean ± 3 Sigma")
+    assert model.range_mode == "Mean ± 3 Sigma"
+
+
+def test_stop_finishes_stage_in_flight_then_stops(window, qtbot):
+    window.set_job_factory(tiny(frames=4, levels_e=(0, 10, 20, 30, 40, 50, 60, 70), frame_delay_s=0.02))
+    qtbot.mouseClick(window.buttons.start, Qt.MouseButton.LeftButton)
+    qtbot.waitUntil(lambda: window.session.progress.stage >= 1, timeout=TIMEOUT_MS)
+    qtbot.mouseClick(window.buttons.stop, Qt.MouseButton.LeftButton)
+    qtbot.waitUntil(lambda: not window.running, timeout=TIMEOUT_MS)
+    s = window.session
+    assert s.progress.state == P.STOPPED
+    assert s.last_result is not None and s.last_result.stage < 8
+    assert "completed stages are kept" in window.statusBar().currentMessage()
+
+
+def test_pause_resume_and_abort(window, qtbot):
+    window.set_job_factory(tiny(frames=4, levels_e=(0, 10, 20, 30, 40, 50), frame_delay_s=0.02))
+    qtbot.mouseClick(window.buttons.start, Qt.MouseButton.LeftButton)
+    qtbot.waitUntil(lambda: window.session.progress.frame >= 1, timeout=TIMEOUT_MS)
+    qtbot.mouseClick(window.buttons.pause, Qt.MouseButton.LeftButton)
+    job = window.scan_thread.job
+    assert job.paused and window.buttons.pause.text() == "Resume"
+    assert window.progress_line.state.text() == P.PAUSED
+    qtbot.mouseClick(window.buttons.pause, Qt.MouseButton.LeftButton)
+    assert not job.paused
+    qtbot.mouseClick(window.buttons.abort, Qt.MouseButton.LeftButton)
+    qtbot.waitUntil(lambda: not window.running, timeout=TIMEOUT_MS)
+    assert window.session.progress.state == P.STOPPED
+    assert "aborted" in window.session.progress.message
+    assert window.last_error is None
+
+
+def test_auto_repeat_starts_the_scan_again(window, qtbot):
+    window.set_job_factory(tiny(shape=(6, 6), frames=2, levels_e=(0, 10)))
+    window.buttons.auto_repeat.setChecked(True)
+    qtbot.mouseClick(window.buttons.start, Qt.MouseButton.LeftButton)
+    qtbot.waitUntil(lambda: window.runs_started >= 3, timeout=TIMEOUT_MS)
+    window.buttons.auto_repeat.setChecked(False)
+    qtbot.waitUntil(lambda: not window.running, timeout=TIMEOUT_MS)
+    assert window.session.progress.state == P.DONE
+
+
+class Broken(DemoScan):
+    def __init__(self, exc):
+        super().__init__(shape=(4, 4), frames=2, levels_e=(0, 10))
+        self.exc = exc
+
+    def run(self, emit):
+        emit(E.StageStarted(1, 2, "dark", 2))
+        raise self.exc
+
+
+@pytest.mark.parametrize("exc, message", [
+    (HardwareError("Camera 'sim0' stopped answering during stage 1."), "Camera 'sim0' stopped answering during stage 1."),
+    (ZeroDivisionError("division by zero"), "Unexpected error in the scan engine: ZeroDivisionError (division by zero)."),
+])
+def test_engine_error_shows_one_sentence(window, qtbot, exc, message):
+    window.set_job_factory(lambda: Broken(exc))
+    run_to_end(qtbot, window)
+    assert window.last_error == message
+    assert window.error_box is not None and window.error_box.text() == message
+    assert "Traceback" not in window.error_box.text() and "\n" not in message
+    assert window.statusBar().currentMessage() == message
+    assert window.session.progress.state == P.FAILED
+    assert window.buttons.start.isEnabled()
+
+
+def test_load_missing_scan_is_one_sentence(window, tmp_path):
+    assert not window.load_scan(tmp_path / "nope.xml")
+    assert window.last_error == f"{tmp_path / 'nope.xml'}: no such scan file."
+
+
+def test_display_image_file_fills_preview_and_distributions(window, tmp_path):
+    from PIL import Image
+
+    img = (np.arange(48, dtype=np.uint16).reshape(6, 8) * 100)
+    path = tmp_path / "frame.png"
+    Image.fromarray(img).save(path)
+    window.show_image_file(str(path))
+    assert window.session.preview.caption == "frame.png"
+    assert window.session.distributions[-1].counts.sum() == 48
+
+
+def test_gui_command_without_display_is_one_sentence(monkeypatch):
+    from ares.commands import gui as cmd
+    from ares.gui.app import check_display
+
+    monkeypatch.setenv("QT_QPA_PLATFORM", "xcb")
+    monkeypatch.delenv("DISPLAY", raising=False)
+    monkeypatch.delenv("WAYLAND_DISPLAY", raising=False)
+    with pytest.raises(AresError, match=r"^cannot open the GUI: no display .*\.$"):
+        check_display()
+    import argparse
+
+    with pytest.raises(InputError, match="no such scan file"):
+        cmd.run(argparse.Namespace(scan="does-not-exist.xml"))

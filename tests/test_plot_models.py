@@ -1,0 +1,234 @@
+"""Plot models of the GUI, without Qt: hand-computed numbers."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
+from hypothesis.extra.numpy import arrays
+
+from ares.errors import InputError, Interrupted
+from ares.gui import events as E
+from ares.gui.engine import DemoScan
+from ares.gui.models import progress as P
+from ares.gui.models.defects import DefectCountsModel
+from ares.gui.models.profiles import region_profiles
+from ares.gui.models.ptc import PTCModel
+from ares.gui.models.regions import Region, RegionSet, load_roa, save_roa
+from ares.gui.models.session import SessionModel
+from ares.gui.models.stats import (MANUAL, MEAN_3_SIGMA, PEAK_TO_PEAK, StatsPanelModel, auto_range, bins_for,
+                                   gaussian_fit, histogram)
+
+
+# ---- stats panels -------------------------------------------------------------------------
+def test_stats_hand_computed():
+    m = StatsPanelModel("MEAN SIGNAL")
+    m.set_values(np.array([1.0, 2.0, 3.0, 4.0, 5.0]))
+    s = m.stats
+    assert (s.n, s.mean, s.lowest, s.highest) == (5, 3.0, 1.0, 5.0)
+    assert s.sigma == pytest.approx(math.sqrt(2.5))  # ddof=1
+    assert m.range == pytest.approx((0.4, 5.6))  # 15 % of the 4-DN span each side
+    assert m.counts.sum() == 5
+
+
+def test_peak_to_peak_margin_matches_ares_screenshot():
+    # MEAN SIGNAL panel: Lowest 32.20, Highest 37.80 -> From 31.36, To 38.64
+    assert auto_range(np.array([32.20, 34.0, 37.80]), PEAK_TO_PEAK) == pytest.approx((31.36, 38.64))
+    # NOISE panel: Lowest 0.00, Highest 3.05 -> From -0.46, To 3.51
+    frm, to = auto_range(np.array([0.0, 1.0, 3.05]), PEAK_TO_PEAK)
+    assert (round(frm, 2), round(to, 2)) == (-0.46, 3.51)
+
+
+def test_mean_3_sigma_range():
+    frm, to = auto_range(np.array([1.0, 2, 3, 4, 5]), MEAN_3_SIGMA)
+    assert (frm, to) == pytest.approx((3 - 3 * math.sqrt(2.5), 3 + 3 * math.sqrt(2.5)))
+
+
+def test_manual_range_excludes_outlier_and_restore():
+    m = StatsPanelModel("NOISE")
+    m.set_values(np.array([1.0, 2.0, 3.0, 100.0]))
+    m.set_range(0.0, 10.0)
+    assert m.range_mode == MANUAL
+    assert (m.stats.n, m.stats.mean, m.stats.highest) == (3, 2.0, 3.0)
+    m.restore()
+    assert m.range_mode == PEAK_TO_PEAK and m.stats.n == 4 and m.stats.highest == 100.0
+
+
+def test_integer_histogram_bins_are_centred_on_integers():
+    edges, counts = histogram(np.array([10, 10, 11, 13], dtype=np.uint16), 9.0, 14.0, bins=64, integer=True)
+    centres = 0.5 * (edges[:-1] + edges[1:])
+    assert dict(zip(centres[counts > 0].tolist(), counts[counts > 0].tolist())) == {10.0: 2, 11.0: 1, 13.0: 1}
+
+
+def test_gaussian_fit_recovers_exact_gaussian_histogram():
+    edges = np.linspace(-5, 5, 81)
+    c = 0.5 * (edges[:-1] + edges[1:])
+    counts = 1000 * np.exp(-0.5 * ((c - 0.5) / 1.2) ** 2)
+    mu, sig = gaussian_fit(edges, counts)
+    assert mu == pytest.approx(0.5, abs=1e-6) and sig == pytest.approx(1.2, abs=1e-6)
+
+
+def test_constant_values_give_unit_window_and_zero_sigma():
+    m = StatsPanelModel("ROWS")
+    m.set_values(np.full(10, 7.0))
+    assert m.range == (6.5, 7.5)
+    assert m.stats.sigma == 0.0 and m.stats.fitted_mean == pytest.approx(7.0, abs=0.07)
+
+
+def test_bins_for():
+    assert (bins_for(0), bins_for(20), bins_for(400), bins_for(10**6)) == (8, 9, 40, 64)
+
+
+@settings(max_examples=40, deadline=None)
+@given(arrays(np.float64, st.integers(1, 300), elements=st.floats(-1e6, 1e6)))
+def test_auto_range_histogram_holds_every_value(values):
+    m = StatsPanelModel("x")
+    m.set_values(values)
+    assert m.counts.sum() == values.size == m.stats.n
+    assert m.range[0] <= m.stats.lowest <= m.stats.highest <= m.range[1]
+
+
+# ---- regions and the RoA file ---------------------------------------------------------------
+def test_region_clipping_and_crop():
+    img = np.arange(12).reshape(3, 4)
+    assert Region(True, False, 2, 1, 5, 5).crop(img).tolist() == [[6, 7], [10, 11]]
+    assert Region(True, False, 10, 0, 2, 2).crop(img) is None
+    assert Region(True, False, 0, 0, 0, 3).crop(img) is None
+
+
+def test_regionset_add_active_drawn():
+    rs = RegionSet()
+    assert len(rs) == 16
+    seen = []
+    rs.subscribe(lambda m: seen.append(1))
+    assert rs.add(Region(True, True, 4, 6, 128, 108)) == 0
+    assert rs.add(Region(False, False, 49, 137, 86, 138)) == 1
+    rs.update(1, on=True)
+    assert [i for i, _ in rs.active()] == [0, 1]
+    assert [i for i, _ in rs.drawn()] == [0]
+    assert len(seen) == 3
+    with pytest.raises(InputError):
+        rs.update(0, width=-1)
+
+
+@pytest.mark.parametrize("suffix", [".xml", ".csv"])
+def test_roa_file_round_trip(tmp_path, suffix):
+    regions = [Region(True, False, 4, 6, 128, 108), Region(True, True, 49, 137, 86, 138),
+               Region(False, False, 143, 101, 140, 124)]
+    path = tmp_path / f"r{suffix}"
+    save_roa(path, regions)
+    assert load_roa(path) == regions
+    rs = RegionSet(regions)
+    rs.save(path)
+    rs2 = RegionSet()
+    rs2.load(path)
+    assert rs2.regions == rs.regions
+
+
+def test_roa_file_errors_are_one_sentence_with_line(tmp_path):
+    bad = tmp_path / "bad.xml"
+    bad.write_text('<roa>\n  <region on="1" draw="0" x="a" y="0" width="1" height="1"/>\n</roa>\n')
+    with pytest.raises(InputError, match=r"bad.xml, line 2: x='a' is not an integer\."):
+        load_roa(bad)
+    bad.write_text("<roa><region")
+    with pytest.raises(InputError, match="not well-formed XML"):
+        load_roa(bad)
+    csvf = tmp_path / "bad.csv"
+    csvf.write_text("on,draw,x,y,width,height\n1,0,1,2,3\n")
+    with pytest.raises(InputError, match=r"bad.csv, line 2: region lacks height\."):
+        load_roa(csvf)
+    with pytest.raises(InputError, match="cannot read"):
+        load_roa(tmp_path / "missing.xml")
+
+
+# ---- profiles, PTC, defects, progress ----------------------------------------------------------
+def test_profiles_hand_computed():
+    img = np.arange(12, dtype=float).reshape(3, 4)  # [[0,1,2,3],[4,5,6,7],[8,9,10,11]]
+    cols, rows = region_profiles(img, Region(True, False, 1, 0, 2, 2))
+    assert cols.x.tolist() == [1, 2] and cols.y.tolist() == [3.0, 4.0]
+    assert rows.x.tolist() == [0, 1] and rows.y.tolist() == [1.5, 5.5]
+
+
+def test_ptc_model_subtracts_dark_and_skips_nonpositive_on_loglog():
+    m = PTCModel()
+    m.set_dark(100.0)
+    m.add(2, "a", 110.0, 7.0)
+    m.add(3, "b", 1100.0, 502.0)
+    m.add(4, "c", 90.0, 3.0)  # below dark: not drawable on log axes
+    x, y = m.xy()
+    assert x.tolist() == [10.0, 1000.0, -10.0]
+    lx, ly = m.loglog()
+    assert lx.tolist() == [1.0, 3.0] and ly == pytest.approx(np.log10([7.0, 502.0]))
+    assert m.fit_line() is None
+    m.set_fit(2.0)
+    fx, fy = m.fit_line()
+    assert fx.tolist() == [10.0, 1000.0] and fy.tolist() == [5.0, 500.0]
+
+
+def test_defect_counts_ppm():
+    m = DefectCountsModel()
+    m.set_counts({"hot": 3, "dead": 0}, 1_000_000 // 4)
+    assert [(r.name, r.count, r.ppm) for r in m.rows] == [("hot", 3, 12.0), ("dead", 0, 0.0)]
+
+
+def test_format_remaining():
+    assert P.format_remaining(3725) == "1 : 02 : 05"
+    assert P.format_remaining(0) == "0 : 00 : 00"
+    assert P.format_remaining(None) == "- : -- : --"
+    pm = P.ProgressModel()
+    assert pm.stage_text == "0 0"
+    pm.update(stage=2, total=5, stage_name="dark")
+    assert pm.stage_text == "2 of 5 (dark)"
+
+
+# ---- the session model fed by a demo scan, without Qt --------------------------------------------
+def test_session_follows_a_demo_scan():
+    s = SessionModel()
+    s.regions.add(Region(True, True, 2, 3, 10, 6))
+    s.begin_run()
+    DemoScan(shape=(12, 16), frames=3, levels_e=(0, 100, 400)).run(s.handle)
+    assert s.progress.state == P.DONE and s.progress.stage_text == "3 of 3 (400 e-)"
+    assert s.progress.remaining_text == "0 : 00 : 00"
+    assert list(s.distributions) == [0] and s.distributions[0].counts.sum() == 60
+    assert s.panels["MEAN SIGNAL"].stats.n == 60
+    assert s.panels["COLUMNS"].stats.n == 10 and s.panels["ROWS"].stats.n == 6
+    assert len(s.ptc.points) == 2 and s.ptc.dark_dn == pytest.approx(100, abs=2)
+    x, y = s.ptc.xy()
+    assert x == pytest.approx([50, 200], rel=0.1)  # 0.5 DN/e- x 100, 400 e-
+    assert s.profiles.columns[0].x.tolist() == list(range(2, 12))
+    assert s.signal_map.image.shape == (12, 16) and s.signal_map.rectangles[0][0] == 0
+
+
+def test_session_uses_full_frame_without_regions_and_reports_defects():
+    s = SessionModel()
+    mean = np.full((4, 5), 10.0)
+    s.handle(E.StageResult(1, "x", mean, np.ones((4, 5)), 2, defects={"hot": 2}))
+    assert s.panels["MEAN SIGNAL"].stats.n == 20 and s.region_label((4, 5)) == "full frame"
+    assert s.defects.rows[0].ppm == pytest.approx(1e5)
+    s.handle(E.Failed("Camera 'sim0' stopped answering."))
+    assert s.progress.state == P.FAILED and s.progress.message == "Camera 'sim0' stopped answering."
+
+
+def test_demo_scan_stop_and_abort():
+    events = []
+    job = DemoScan(shape=(4, 4), frames=2, levels_e=(0, 10, 20))
+
+    def emit(ev):
+        events.append(ev)
+        if isinstance(ev, E.StageResult):
+            job.stop()
+
+    job.run(emit)
+    assert isinstance(events[-1], E.Stopped) and sum(isinstance(e, E.StageResult) for e in events) == 1
+
+    job = DemoScan(shape=(4, 4), frames=2, levels_e=(0, 10))
+
+    def emit_abort(ev):
+        if isinstance(ev, E.FramePreview):
+            job.abort()
+
+    with pytest.raises(Interrupted):
+        job.run(emit_abort)
