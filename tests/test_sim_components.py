@@ -249,3 +249,17 @@ def test_exact_mode_same_statistics_as_fast():
         v = f.var(axis=0, ddof=1).mean() - Q12
         expect = 0.28**2 * (25.0 + 1200.0)
         assert abs(v - expect) < tol(expect, p.rows * p.cols * 9)
+
+
+def test_added_photocharge_and_flutter():
+    p = BASE.replace(added_photocharge_e=1000.0)
+    f = frames(p, n=4, black_level_dn=0)
+    assert f.mean() == pytest.approx(280.0, rel=0.01)
+    assert frames(p, n=2, dark=True, black_level_dn=0).max() == 0
+    # flutter: frame means scatter by flutter_pct of the signal (a frame-global gain term)
+    p = BASE.replace(flutter_pct=2.0)
+    for mode in ("auto", "exact"):
+        f = frames(p, n=100, photon_flux=1e6, black_level_dn=0, shot_noise=mode)
+        m = f.mean(axis=(1, 2))
+        rel = m.std(ddof=1) / m.mean()
+        assert rel == pytest.approx(0.02, rel=4 * np.sqrt(1 / 198))

@@ -31,7 +31,7 @@ _NON_NEGATIVE = (
     "row_gain_pct", "hot_rate_ppm", "hot_mean_e_per_s", "warm_rate_ppm",
     "warm_mean_e_per_s", "rts_rate_ppm", "rts_amplitude_e", "dead_rate_ppm",
     "stuck_rate_ppm", "noisy_rate_ppm", "bad_column_offset_dn", "crosstalk_pct",
-    "adc_inl_lsb", "adc_dnl_lsb", "lag_fraction",
+    "adc_inl_lsb", "adc_dnl_lsb", "lag_fraction", "added_photocharge_e", "flutter_pct",
 )
 _POSITIVE = ("full_well_e", "conversion_gain_uv_per_e", "adc_lsb_uv", "qe", "dark_doubling_c")
 _PPM = ("hot_rate_ppm", "warm_rate_ppm", "rts_rate_ppm", "dead_rate_ppm", "stuck_rate_ppm", "noisy_rate_ppm")
@@ -53,6 +53,8 @@ class SensorParams:
     qe: float = 0.6  # photo-electrons per photon at the pixel
     crosstalk_pct: float = 1.0  # % of mean photo-charge spread to the 4 nearest neighbours
     lag_fraction: float = 0.0  # fraction of a frame's photo-charge read out in the next frame
+    added_photocharge_e: float = 0.0  # ARTEMIS "Added Photocharge": e- added to every active pixel's mean
+    flutter_pct: float = 0.0  # ARTEMIS "Flutter": per-frame illumination scale 1 + flutter/100 * N(0,1)
 
     # --- temporal noise ---------------------------------------------------------------
     read_noise_e: float = 2.5  # pixel temporal noise (before the analog gain), Gaussian
@@ -220,6 +222,6 @@ class SensorParams:
                                  "frame_global_dn", "col_fpn_dn", "row_fpn_dn", "pixel_fpn_e",
                                  "dark_current_e_per_s", "dsnu_e_per_s", "dark_tail_e_per_s",
                                  "col_gain_pct", "row_gain_pct", "crosstalk_pct", "adc_inl_lsb", "adc_dnl_lsb",
-                                 "lag_fraction")}
+                                 "lag_fraction", "flutter_pct")}
         zero.update(prnu_pct=(0.0,) * 4, adc_offset_dn=(0.0, 0.0), adc_gain=(1.0, 1.0))
         return self.without_defects().replace(**zero)

@@ -79,19 +79,21 @@ def resolve_scene(p: SensorParams, fp: FixedPatterns, *, exposure_s, photon_flux
         raise InputError(f"simulator: photon_flux map has shape {flux.shape}, the sensor is {(p.rows, p.cols)}")
     if not np.all(np.isfinite(flux)) or np.any(flux < 0):
         raise InputError("simulator: photon_flux must be finite and not negative (photons/pixel/s)")
-    if not dark and t > 0 and np.any(flux > 0):
+    lit = t > 0 and bool(np.any(flux > 0))
+    if not dark and (lit or p.added_photocharge_e > 0):
         qq = flux * (t * p.qe)
         needs_map = flux.ndim == 2 or p.cfa is not None or p.ob_columns > 0
         if needs_map:
             qq = np.broadcast_to(qq, (p.rows, p.cols)).astype(np.float32)
             if p.cfa is not None:
                 qq = qq * np.asarray(p.cfa_response, np.float32)[fp.phase]
-            if p.crosstalk_pct > 0:
+            if p.crosstalk_pct > 0 and lit:
                 qq = _crosstalk(qq, p.crosstalk_pct)
+            qq = qq + np.float32(p.added_photocharge_e)
             qq[:, :p.ob_columns] = 0.0
             q = qq.astype(np.float32)
         else:
-            q = float(qq)
+            q = float(qq) + p.added_photocharge_e
 
     ds = p.dark_scale(temp) * dcs
     dark_e = dark_clean = None

@@ -151,8 +151,11 @@ class SimSensor:
                 base = base + _F32(G) * sc.dark_e
                 var = var + _F32(G * G) * sc.dark_e
             if has_q:
-                base = base + gmap * _F32(sc.q) if np.ndim(sc.q) == 0 else base + gmap * sc.q
+                signal = gmap * _F32(sc.q) if np.ndim(sc.q) == 0 else gmap * sc.q
+                base = base + signal
                 var = var + gmap * gmap * sc.q
+                if p.flutter_pct > 0:
+                    plan["signal"] = signal.astype(_F32)
             sigma = np.sqrt(var).astype(_F32)
             plan.update(base=base.astype(_F32), sigma=sigma if np.any(sigma) else None)
         else:
@@ -166,6 +169,9 @@ class SimSensor:
         p, fp = self.params, self.patterns
         shape = self.shape
         fastz = plan["gauss_fast"]
+        flutter = 1.0
+        if p.flutter_pct > 0:
+            flutter = max(0.0, 1.0 + p.flutter_pct / 100 * rng.standard_normal())
         if plan["sigma"] is None:  # no per-pixel temporal noise at all
             x = plan["base"].copy()
         else:
@@ -174,10 +180,12 @@ class SimSensor:
         if plan["fast"]:
             if plan["sigma"] is not None:
                 x += plan["base"]
+            if "signal" in plan:
+                x += _F32(flutter - 1.0) * plan["signal"]
         else:
             if plan["sigma"] is not None:
                 x += plan["offs"]
-            self._add_charge(x, sc, plan, rng, fastz)
+            self._add_charge(x, sc, plan, rng, fastz, flutter)
         line = None  # per-row terms: Rt + frame-global
         if p.row_temporal_dn > 0:
             line = p.row_temporal_dn * noise.normal(rng, (shape[0],), fastz)
@@ -202,13 +210,14 @@ class SimSensor:
             codes.ravel()[stuck] = fp.defects.stuck_code
         return codes
 
-    def _add_charge(self, x, sc: Scene, plan: dict, rng, fastz: bool) -> None:
+    def _add_charge(self, x, sc: Scene, plan: dict, rng, fastz: bool, flutter: float) -> None:
         """General path: photo and dark charge drawn separately, lag, full-well clip."""
         p = self.params
         shape = self.shape
         photo = None
         if plan["has_q"]:
-            photo = noise.shot(rng, sc.q, plan["mask_q"], shape, fastz)
+            q = sc.q if flutter == 1.0 else (sc.q * flutter if np.ndim(sc.q) == 0 else sc.q * _F32(flutter))
+            photo = noise.shot(rng, q, plan["mask_q"], shape, fastz)
         if sc.lag > 0:
             left = self._lag_e
             if photo is None:

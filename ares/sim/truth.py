@@ -17,7 +17,8 @@ Parameter values (expectations of the model):
   ``G``            system gain, DN/e-
   ``Cg``, ``Rg``, ``Pg``  variances of the relative gain factors (mean 1); ``Pg`` averaged
                    over the Bayer phases (per phase: ``Pg_by_phase``)
-  ``q``            mean photo-charge per pixel, e- (over all pixels; OB columns hold 0)
+  ``q``            mean photo-charge per pixel, e- (over all pixels; OB columns hold 0;
+                   includes added_photocharge_e)
   ``delta``        shot-noise variance, e^2 (= q, mean over pixels; before lag)
   ``quantization_dn2``  1/12, the ADC quantization variance (not in ``Pt``)
 
@@ -35,7 +36,7 @@ hot/warm pixels; ``gain_dn_per_e`` (rows, cols) = G*Cg*Rg*Pg*response (0 in OB, 
 Also: ``dark_current_e_per_s``, ``dsnu_e_per_s``, ``dark_tail_e_per_s`` (at this
 temperature and bias), ``dark_charge_e`` (mean clean dark charge), ``read_noise_e``,
 ``read_noise_dn``, ``full_well_e``, ``full_well_dn`` (= G*full_well_e, signal above the
-offset), ``max_code``, ``lag_fraction``, ``adc`` (bits, max_code, offset_dn, gain,
+offset), ``max_code``, ``lag_fraction``, ``flutter_pct`` (per-frame relative sigma of q, %), ``adc`` (bits, max_code, offset_dn, gain,
 inl_lsb per transition k=1..max, dnl_lsb per code), ``defects`` (per class a (rows,
 cols) tuple of index arrays; ``bad_columns`` an array; ``properties`` with per-pixel
 values in the same order), ``scene`` (the operating point).
@@ -134,6 +135,7 @@ def build_truth(sensor, sc: Scene) -> dict:
         "full_well_dn": G * p.full_well_e,
         "max_code": p.max_code,
         "lag_fraction": sc.lag,
+        "flutter_pct": p.flutter_pct,
         "adc": {"bits": p.adc_bits, "max_code": p.max_code, "offset_dn": list(p.adc_offset_dn),
                 "gain": list(p.adc_gain), "inl_lsb": adc.inl_lsb(), "dnl_lsb": adc.dnl_lsb()},
         "defects": defects,
