@@ -68,9 +68,9 @@ def fmt_s(s: float | None) -> str:
 class ProgressBar:
     """Listener drawing ``stage i/n name [####....] 42% 120 frames/s ETA h:mm:ss`` on stderr."""
 
-    def __init__(self, stream=sys.stderr, width: int = 24):
-        self.stream, self.width = stream, width
-        self.tty = getattr(stream, "isatty", lambda: False)()
+    def __init__(self, stream=None, width: int = 24):
+        self.stream, self.width = stream or sys.stderr, width
+        self.tty = getattr(self.stream, "isatty", lambda: False)()
         self.last = 0.0
         self.stage = None
 
@@ -98,7 +98,8 @@ class ProgressBar:
             self.stream.flush()
 
 
-def dry_run(scan, frames: int | None, out=sys.stdout) -> None:
+def dry_run(scan, frames: int | None, out=None) -> None:
+    out = out or sys.stdout
     from ares.scan import estimate_seconds, expand
 
     stages = expand(scan, frames)
@@ -127,7 +128,8 @@ def _num(d) -> str:
     return f"{s} {d.get('unit', '')}".rstrip()
 
 
-def print_summary(outcome, scan, seconds: float, out=sys.stdout) -> None:
+def print_summary(outcome, scan, seconds: float, out=None) -> None:
+    out = out or sys.stdout
     res = outcome.scan_results
     out.write(f"\n{scan.name}: {outcome.status}, {len(outcome.stages)} stage(s) in {seconds:.1f} s"
               f"{', seed ' + str(outcome.seed) if outcome.seed is not None else ''}\n")
