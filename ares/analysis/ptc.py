@@ -88,9 +88,15 @@ def _inv(e: Estimate, unit: str, note: str = "") -> Estimate:
 def read_noise(dark: Sequence[LevelStats], exposure_s: Sequence[float] | None,
                gain: Estimate) -> tuple[Estimate, Estimate, bool]:
     """sigma_y.dark (DN, intercept at t=0 when >= 3 exposures) and read noise in e-."""
+    # the same dark level may serve several bright levels: count each once
+    seen: dict[int, int] = {}
+    for i, d in enumerate(dark):
+        seen.setdefault(id(d), i)
+    keep = sorted(seen.values())
+    dark = [dark[i] for i in keep]
     v = np.array([d.var for d in dark], float)
     se = np.array([d.var_se for d in dark], float)
-    t = None if exposure_s is None else np.asarray(exposure_s, float)
+    t = None if exposure_s is None else np.asarray(exposure_s, float)[keep]
     if t is not None and np.unique(t).size >= 3:
         lf = line_fit(t, v)
         s2, s2_se, how = lf.intercept, lf.intercept_se, "intercept of dark variance vs exposure"
@@ -134,7 +140,7 @@ def classify_levels(bright: Sequence[LevelStats], dark: Sequence[LevelStats],
     reason = [""] * n
     # nominal order: photons, then exposure, then input order
     if photons is not None and np.all(np.isfinite(p)):
-        nominal = p * (1.0 if exposure_s is None else 1.0)
+        nominal = p.copy()  # photons per pixel already include the exposure time
     elif exposure_s is not None and np.all(np.isfinite(t)):
         nominal = t.copy()
     else:
