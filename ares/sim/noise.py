@@ -110,13 +110,14 @@ def poisson_scalar(rng: np.random.Generator, lam: float, shape) -> np.ndarray:
     return k
 
 
-def shot(rng: np.random.Generator, mean_e, exact, shape, fast: bool) -> np.ndarray:
+def shot(rng: np.random.Generator, mean_e, exact, shape, fast: bool, alias: bool = True) -> np.ndarray:
     """One realization of q + delta (float32, e-) for mean ``mean_e`` (scalar or map).
 
-    ``exact`` is True/False or a boolean map choosing exact Poisson per pixel.
+    ``exact`` is True/False or a boolean map choosing exact Poisson per pixel;
+    ``alias=False`` avoids building an alias table for a mean used only once.
     """
     if exact is True:
-        if np.ndim(mean_e) == 0:
+        if np.ndim(mean_e) == 0 and alias:
             return poisson_scalar(rng, float(mean_e), shape)
         return rng.poisson(mean_e, size=shape).astype(np.float32)
     mean_arr = np.broadcast_to(np.asarray(mean_e, np.float32), shape)

@@ -217,7 +217,7 @@ class SimSensor:
         photo = None
         if plan["has_q"]:
             q = sc.q if flutter == 1.0 else (sc.q * flutter if np.ndim(sc.q) == 0 else sc.q * _F32(flutter))
-            photo = noise.shot(rng, q, plan["mask_q"], shape, fastz)
+            photo = noise.shot(rng, q, plan["mask_q"], shape, fastz, alias=flutter == 1.0)
         if sc.lag > 0:
             left = self._lag_e
             if photo is None:
