@@ -1,0 +1,194 @@
+"""Real backends at byte level: I2C transactions, USB frames, serial request/reply pairs."""
+
+from __future__ import annotations
+
+import ctypes
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from ares.errors import DeviceGone, FrameError, HardwareError, ValueOutOfRange
+from ares.hardware.i2c import I2CRegisterBus
+from ares.hardware.registers import RegisterFile
+from ares.hardware.serial_instruments import SerialChamber, SerialLightSource
+from ares.hardware.usb import UsbFrameSource
+from ares.protocol import load_system
+
+ROOT = Path(__file__).resolve().parents[1]
+BW = load_system(ROOT / "protocols" / "black_widow.xml")
+
+
+class FakeSMBus:
+    """Records each i2c_rdwr transaction; a 16-bit-address, 8-bit-value register file."""
+
+    def __init__(self, regs=None, fail=False):
+        self.regs = dict(regs or {})
+        self.log = []
+        self.fail = fail
+
+    def i2c_rdwr(self, *msgs):
+        if self.fail:
+            raise OSError(121, "Remote I/O error")
+        w = bytes(msgs[0])
+        self.log.append(tuple((m.addr, m.flags, bytes(m)) for m in msgs))
+        reg = int.from_bytes(w[:2], "big")
+        if len(msgs) == 1:  # write: address + value bytes
+            for i, b in enumerate(w[2:]):
+                self.regs[reg + i] = b
+        else:
+            r = msgs[1]
+            data = bytes(self.regs.get(reg + i, 0) for i in range(r.len))
+            ctypes.memmove(r.buf, data, r.len)
+
+    def close(self):
+        pass
+
+
+def test_i2c_write_and_read_bytes():
+    sm = FakeSMBus({0x0000: 0xB1, 0x0001: 0xD0})
+    bus = I2CRegisterBus(1, 0x36, 16, 8, name="sensor", smbus=sm)
+    bus.write(0x0010, 0x07)
+    assert sm.log[-1] == ((0x36, 0, b"\x00\x10\x07"),)
+    assert bus.read(0x0001) == 0xD0
+    (w, r) = sm.log[-1]
+    assert w == (0x36, 0, b"\x00\x01") and r[0] == 0x36 and r[1] == 1  # I2C_M_RD
+
+
+def test_i2c_multi_register_exposure_through_register_file():
+    sm = FakeSMBus()
+    rf = RegisterFile(BW.registers, I2CRegisterBus(1, 0x36, 16, 8, smbus=sm))
+    rf.set("exposure", 0.5)  # 25000 row periods of 20 us = 0x0061A8 over 0x10..0x12, big-endian
+    assert [sm.regs[a] for a in (0x10, 0x11, 0x12)] == [0x00, 0x61, 0xA8]
+    assert rf.get("exposure") == pytest.approx(0.5)
+    rf.set("readback_mode", 1)  # partial field: read-modify-write keeps bit 0
+    rf.set("streaming", 1)
+    assert sm.regs[0x04] == 0b11
+
+
+def test_i2c_errors_name_the_device():
+    bus = I2CRegisterBus(3, 0x36, 16, 8, name="sensor", smbus=FakeSMBus(fail=True))
+    with pytest.raises(DeviceGone, match=r"I2C device 0x36 on bus 3 \('sensor'\), register 0x0010: no answer"):
+        bus.read(0x10)
+    with pytest.raises(ValueOutOfRange, match="does not fit in 8 bits"):
+        I2CRegisterBus(1, 0x36, 16, 8, smbus=FakeSMBus()).write(0x10, 256)
+
+
+def test_i2c_missing_bus_is_device_gone():
+    with pytest.raises(DeviceGone, match="cannot open /dev/i2c-97"):
+        I2CRegisterBus(97, 0x36)
+
+
+class FakeUsb:
+    def __init__(self, frames):
+        self.frames = list(frames)
+        self.reads = []
+
+    def read(self, ep, size, timeout=None):
+        self.reads.append((ep, size, timeout))
+        item = self.frames.pop(0)
+        if isinstance(item, Exception):
+            raise item
+        return item
+
+
+def test_usb_frames_decode_and_faults():
+    import usb.core
+
+    g = BW.usb_grabber
+    shape = (BW.sensor.rows, BW.sensor.cols)
+    img = (np.arange(shape[0] * shape[1]) % 2048).astype("<u2").reshape(shape)
+    dev = FakeUsb([img.tobytes(), img.tobytes()[:100], img.tobytes()])
+    src = UsbFrameSource(dev, g, shape, 11)
+    it = src.grab(3)
+    f0 = next(it)
+    assert np.array_equal(f0.data, img) and f0.data.dtype == np.uint16
+    assert dev.reads[0] == (0x82, shape[0] * shape[1] * 2, 2000)
+    with pytest.raises(FrameError, match=r"frame 1 arrived short \(100 of 343440 bytes\)"):
+        next(it)
+    bad = img.copy()
+    bad[0, 0] = 4000
+    with pytest.raises(FrameError, match="corrupt"):
+        next(UsbFrameSource(FakeUsb([bad.tobytes()]), g, shape, 11).grab(1))
+    with pytest.raises(HardwareError, match="no frame within 2000 ms"):
+        next(UsbFrameSource(FakeUsb([usb.core.USBTimeoutError("t")]), g, shape, 11).grab(1))
+    with pytest.raises(DeviceGone, match="disconnected"):
+        next(UsbFrameSource(FakeUsb([usb.core.USBError("No such device", errno=19)]), g, shape, 11).grab(1))
+
+
+def test_usb_grabber_absent():
+    class NoBackend:  # usb.core.find with a backend that enumerates nothing
+        def enumerate_devices(self):
+            return iter(())
+
+    with pytest.raises(DeviceGone, match=r"'grabber' \(04b4:00f1\) is not connected"):
+        UsbFrameSource.open(BW.usb_grabber, (405, 424), 11, backend=NoBackend())
+
+
+class FakePort:
+    """Scripted serial port: expected request -> reply pairs, in order."""
+
+    def __init__(self, script):
+        self.script = list(script)
+        self.written = []
+        self.pending = b""
+
+    def write(self, data):
+        self.written.append(data)
+        want, reply = self.script.pop(0)
+        assert data == want, (data, want)
+        self.pending = reply
+
+    def readline(self):
+        r, self.pending = self.pending, b""
+        return r
+
+    def close(self):
+        pass
+
+
+def test_light_source_request_reply():
+    port = FakePort([(b"LEVEL 250000\n", b"OK\n"), (b"LEVEL?\n", b"250000.0\n"), (b"*IDN?\n", b"ARES LED,1\r\n")])
+    ls = SerialLightSource(port, BW.light_source, sleep=lambda s: None)
+    ls.set_level(2.5e5)
+    assert ls.get_level() == 2.5e5 and ls.identify() == "ARES LED,1"
+    with pytest.raises(ValueOutOfRange, match="light level 2e\\+07 photons/pixel/s is outside 0 .. 1e\\+07"):
+        ls.set_level(2e7)
+    assert port.script == []
+
+
+def test_light_source_errors():
+    ls = SerialLightSource(FakePort([(b"LEVEL 5\n", b"ERR lamp failure\n")]), BW.light_source)
+    with pytest.raises(HardwareError, match="led on /dev/ttyUSB0: refused 'LEVEL 5': lamp failure"):
+        ls.set_level(5)
+    ls = SerialLightSource(FakePort([(b"LEVEL?\n", b"")]), BW.light_source)
+    with pytest.raises(DeviceGone, match="no reply to 'LEVEL\\?' within 1 s"):
+        ls.get_level()
+    ls = SerialLightSource(FakePort([(b"LEVEL?\n", b"bright\n")]), BW.light_source)
+    with pytest.raises(HardwareError, match="is not a number"):
+        ls.get_level()
+
+
+def test_chamber_set_and_settle():
+    port = FakePort([(b"TEMP 40.00\n", b"OK\n"), (b"STABLE?\n", b"0\n"), (b"STABLE?\n", b"1\n"),
+                     (b"TEMP?\n", b"39.98\n")])
+    sleeps = []
+    ch = SerialChamber(port, BW.chamber, sleep=sleeps.append)
+    ch.set_temperature(40)
+    ch.settle()
+    assert ch.get_temperature() == pytest.approx(39.98)
+    assert sleeps == [1.0, 60.0]  # one poll, then the soak from settle_s
+    with pytest.raises(ValueOutOfRange, match="temperature 100 C is outside -20 .. 85 C"):
+        ch.set_temperature(100)
+
+
+def test_serial_port_missing():
+    with pytest.raises(DeviceGone, match="led: cannot open serial port /dev/ttyUSB0"):
+        SerialLightSource.open(BW.light_source.__class__(**{**BW.light_source.__dict__}))
+
+
+def test_factory_real_bench_reports_missing_hardware():
+    from ares.hardware.factory import build_bench
+
+    with pytest.raises(DeviceGone):  # no /dev/i2c-1 (or no device) on the test machine
+        build_bench(BW)
