@@ -116,5 +116,4 @@ def decomposition(run) -> dict:
     if st is None:
         return {"status": "not available", "note": "no stages"}
     full = st["views"]["full"]
-    return {"stage": st["name"], "settings": st["settings"], "components": full["components"],
-            "dark_components": full.get("dark_components", {})}
+    return {"stage": st["name"], "settings": st["settings"], "components": full["components"]}

@@ -9,8 +9,11 @@ A stage result is a JSON-able dict::
 Views are ``full``, each scan region, each CFA phase (``cfa_R`` ...) and each ADC channel
 (``adc0``, ``adc1`` ... for interleaved ADCs). ``level`` holds mean (DN), temporal
 variance (DN^2, frame-global offset removed, as ``ares.analysis.levels.stack_stats``),
-spatial variance and clip fractions. ``components`` is ``decompose_flat(flat, dark)`` for
-a flat stage with a matched dark, else ``decompose_dark`` (the ANOVA of the stack).
+spatial variance and clip fractions, plus ``frame_means`` (DN per frame). ``components``:
+for a dark stage (or a flat one without a dark) ``decompose_dark`` of its stack; for a
+flat stage with a matched dark the 13 components -- ``decompose_dark`` of the dark stack
+(o, Cs, Ct, Rs, Rt, Ps, Pt, frame_global) plus ``decompose_flat(flat, dark)`` (G, Cg, Rg,
+Pg, q, delta, signal) -- and ``flat_anova``, the ANOVA of the flat stack itself.
 """
 
 from __future__ import annotations
@@ -21,6 +24,7 @@ from typing import Callable
 import numpy as np
 
 from ares.analysis import StackAccumulator, anova_table, decompose_dark
+from ares.errors import InputError
 
 FULL = (slice(None), slice(None))
 
@@ -85,15 +89,31 @@ def level(ss: StackSet, view: str) -> dict:
     return out
 
 
-def _components(flat: StackAccumulator, dark: StackAccumulator | None) -> dict:
-    if dark is not None:
+def _decompose_flat():
+    try:
+        from ares.analysis import decompose_flat
+    except ImportError:
         try:
-            from ares.analysis import decompose_flat
+            from ares.analysis.flat import decompose_flat
         except ImportError:
-            decompose_flat = None
-        if decompose_flat is not None:
-            return {k: e.to_dict() for k, e in decompose_flat(flat, dark).items()}
-    return {k: e.to_dict() for k, e in decompose_dark(flat).items()}
+            return None
+    return decompose_flat
+
+
+def _components(flat: StackAccumulator, dark: StackAccumulator | None) -> dict:
+    """Dark stage: the dark ANOVA. Flat + matched dark: dark components of the dark stack
+    plus the gain components (G, Cg, Rg, Pg, q, delta, signal) of the flat -- the 13."""
+    if dark is None:
+        return {k: e.to_dict() for k, e in decompose_dark(flat).items()}
+    out = {k: e.to_dict() for k, e in decompose_dark(dark).items()}
+    fn = _decompose_flat()
+    if fn is not None:
+        try:
+            gain = fn(flat, dark)
+        except (InputError, ValueError):  # too small for the illumination high-pass
+            gain = fn(flat, dark, illumination="none")
+        out.update({k: e.to_dict() for k, e in gain.items()})
+    return out
 
 
 def analyze_stage(stage, flat: StackSet, dark: StackSet | None) -> tuple[dict, dict]:
@@ -107,7 +127,7 @@ def analyze_stage(stage, flat: StackSet, dark: StackSet | None) -> tuple[dict, d
              "components": _components(flat.acc[v], dark.acc[v] if dark else None)}
         if dark is not None:
             r["dark_level"] = level(dark, v)
-            r["dark_components"] = {k: e.to_dict() for k, e in decompose_dark(dark.acc[v]).items()}
+            r["flat_anova"] = {k: e.to_dict() for k, e in decompose_dark(flat.acc[v]).items()}
         res["views"][v] = r
     full = flat.acc["full"]
     arrays = {"mean": full.mean_map().astype(np.float32),
