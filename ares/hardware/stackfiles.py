@@ -1,0 +1,149 @@
+"""Recorded frame stacks from files, frame by frame (never the whole stack in memory).
+
+Accepted specs (any mix, in order; their frames are concatenated):
+
+* PNG/TIFF images, one frame each (``read_image``), or a folder of them (sorted);
+* ``.npy``: a 2-D frame or a 3-D (frames, rows, cols) stack (memory-mapped);
+* ``.npz``: every array in it, or ``file.npz:name`` for one;
+* HDF5: ``file.h5:/path/to/dataset`` (2-D or 3-D dataset, read one frame at a time);
+  a bare ``file.h5`` works when it holds exactly one 2-D/3-D dataset.
+
+Every problem (missing file, unreadable/corrupt data, wrong dimensions, frames of
+different shapes) raises ``InputError`` with one sentence naming the file.
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+from typing import Iterator, Sequence
+
+import numpy as np
+
+from ares.errors import InputError
+from ares.hardware.imagefile import read_image
+
+__all__ = ["iter_frames", "stack_shape", "load_stack", "IMAGE_SUFFIXES"]
+
+IMAGE_SUFFIXES = (".png", ".tif", ".tiff")
+_H5_SUFFIXES = (".h5", ".hdf5", ".hdf")
+
+
+def _split(spec: str) -> tuple[Path, str | None]:
+    s = str(spec)
+    low = s.lower()
+    for suf in _H5_SUFFIXES + (".npz",):
+        i = low.find(suf + ":")
+        if i >= 0:
+            return Path(s[: i + len(suf)]), s[i + len(suf) + 1 :]
+    return Path(s), None
+
+
+def _check_ndim(arr_shape, where: str) -> None:
+    if len(arr_shape) not in (2, 3):
+        raise InputError(f"{where}: expected a 2-D frame or a 3-D (frames, rows, cols) stack, got shape {tuple(arr_shape)}")
+
+
+def _frames_of_array(a, where: str) -> Iterator[np.ndarray]:
+    _check_ndim(a.shape, where)
+    if a.dtype.kind not in "uif" and a.dtype.kind != "b":
+        raise InputError(f"{where}: data of type {a.dtype} are not image data")
+    if a.ndim == 2:
+        yield np.asarray(a)
+    else:
+        for i in range(a.shape[0]):
+            yield np.asarray(a[i])
+
+
+def _iter_h5(path: Path, dset: str | None) -> Iterator[np.ndarray]:
+    import h5py
+
+    try:
+        f = h5py.File(path, "r")
+    except OSError as exc:
+        raise InputError(f"{path}: not a readable HDF5 file ({exc})") from None
+    with f:
+        if dset is None:
+            found = []
+            f.visititems(lambda n, o: found.append(n) if isinstance(o, h5py.Dataset) and o.ndim in (2, 3) else None)
+            if len(found) != 1:
+                raise InputError(f"{path}: holds {len(found)} image datasets; name one as {path}:/dataset")
+            dset = found[0]
+        if dset not in f or not isinstance(f[dset], h5py.Dataset):
+            raise InputError(f"{path}: no dataset '{dset}'")
+        try:
+            yield from _frames_of_array(f[dset], f"{path}:{dset}")
+        except OSError as exc:
+            raise InputError(f"{path}:{dset}: corrupt data ({exc})") from None
+
+
+def _iter_one(spec) -> Iterator[np.ndarray]:
+    path, inner = _split(spec)
+    if path.is_dir():
+        files = sorted(p for p in path.iterdir() if p.suffix.lower() in IMAGE_SUFFIXES)
+        if not files:
+            raise InputError(f"{path}: folder holds no PNG/TIFF images")
+        for p in files:
+            yield read_image(p)
+        return
+    if not path.is_file():
+        raise InputError(f"{path}: file not found")
+    suf = path.suffix.lower()
+    if suf in IMAGE_SUFFIXES:
+        yield read_image(path)
+    elif suf == ".npy":
+        try:
+            a = np.load(path, mmap_mode="r", allow_pickle=False)
+        except (ValueError, OSError, EOFError) as exc:
+            raise InputError(f"{path}: not a readable .npy file ({exc})") from None
+        yield from _frames_of_array(a, str(path))
+    elif suf == ".npz":
+        try:
+            z = np.load(path, allow_pickle=False)
+        except (ValueError, OSError, EOFError) as exc:
+            raise InputError(f"{path}: not a readable .npz file ({exc})") from None
+        with z:
+            names = [inner] if inner else list(z.files)
+            for n in names:
+                if n not in z.files:
+                    raise InputError(f"{path}: no array '{n}' (has {', '.join(z.files)})")
+                try:
+                    a = z[n]
+                except (ValueError, OSError, EOFError) as exc:
+                    raise InputError(f"{path}:{n}: corrupt array ({exc})") from None
+                yield from _frames_of_array(a, f"{path}:{n}")
+    elif suf in _H5_SUFFIXES:
+        yield from _iter_h5(path, inner)
+    else:
+        raise InputError(f"{path}: unknown stack format '{suf}' (use PNG/TIFF, .npy, .npz or .h5:/dataset)")
+
+
+def iter_frames(specs: Sequence[str | Path]) -> Iterator[np.ndarray]:
+    """Yield the 2-D frames of every spec in order, checking they share one shape."""
+    if isinstance(specs, (str, Path)):
+        specs = [specs]
+    if not specs:
+        raise InputError("no stack files given")
+    shape = None
+    first = None
+    for spec in specs:
+        for frame in _iter_one(spec):
+            if shape is None:
+                shape, first = frame.shape, spec
+            elif frame.shape != shape:
+                raise InputError(f"{spec}: frame shape {frame.shape} differs from {shape} of {first}")
+            yield frame
+
+
+def stack_shape(specs) -> tuple[int, int]:
+    """Frame shape (rows, cols) of the first frame."""
+    for f in iter_frames(specs):
+        return tuple(f.shape)
+    raise InputError("the stack holds no frames")
+
+
+def load_stack(specs) -> np.ndarray:
+    """All frames as one 3-D array (for small stacks and tests)."""
+    frames = list(iter_frames(specs))
+    if not frames:
+        raise InputError("the stack holds no frames")
+    return np.stack(frames)

@@ -1,0 +1,95 @@
+"""`ares analyze` on recorded stacks (PNG, .npy, .npz, HDF5) and its errors."""
+
+from __future__ import annotations
+
+import json
+
+import numpy as np
+import pytest
+from PIL import Image
+
+from ares.cli import main
+from ares.hardware.stackfiles import iter_frames, load_stack
+
+
+def _stack(seed=0, n=6, q=0.0, shape=(24, 32)):
+    rng = np.random.default_rng(seed)
+    fpn = rng.normal(0, 3, shape)
+    x = 200 + fpn + rng.normal(0, 2, (n,) + shape)
+    if q:
+        x += 0.5 * (q + np.sqrt(q) * rng.standard_normal((n,) + shape))
+    return np.round(x).astype(np.uint16)
+
+
+def test_json_dark_only_npy(tmp_path, capsys):
+    x = _stack()
+    np.save(tmp_path / "dark.npy", x)
+    assert main(["analyze", str(tmp_path / "dark.npy"), "--json"]) == 0
+    out = json.loads(capsys.readouterr().out)
+    for k in ("o", "Cs", "Ct", "Rs", "Rt", "Ps", "Pt", "frame_global", "G", "Cg", "Rg", "Pg", "q", "delta"):
+        assert set(out[k]) >= {"value", "se", "unit"}
+    assert out["Pt"]["unit"] == "DN^2" and "DN^2" in out["_meta"]["units"]
+    assert out["G"]["value"] is None and out["G"]["note"] == "dark stack: no gain components"
+    assert abs(out["Pt"]["value"] - 4.08) < 0.6  # 2 DN sigma + quantization
+
+
+def test_table_with_dark_png_and_h5_roi(tmp_path, capsys):
+    import h5py
+
+    dark, flat = _stack(1), _stack(2, q=3000.0)
+    names = []
+    for i, f in enumerate(dark):
+        p = tmp_path / f"d_{i:02d}.png"
+        Image.fromarray(f).save(p)
+        names.append(str(p))
+    with h5py.File(tmp_path / "flat.h5", "w") as h:
+        h["/run/frames"] = flat
+    rc = main(["analyze", f"{tmp_path / 'flat.h5'}:/run/frames", "--dark", *names, "--roi", "2,2,28,20",
+               "--illumination", "none"])
+    assert rc == 0
+    text = capsys.readouterr().out
+    assert "20 rows x 28 columns" in text
+    assert "conversion gain" in text and "DN/e-" in text
+    g = [line for line in text.splitlines() if line.startswith("G ")][0]
+    assert abs(float(g.split()[3]) - 0.5) < 0.1
+
+
+def test_npz_and_folder(tmp_path):
+    x = _stack(3, n=4)
+    np.savez(tmp_path / "s.npz", a=x[:2], b=x[2:])
+    assert load_stack([tmp_path / "s.npz"]).shape == (4, 24, 32)
+    assert load_stack([f"{tmp_path / 's.npz'}:b"]).shape == (2, 24, 32)
+    d = tmp_path / "imgs"
+    d.mkdir()
+    for i, f in enumerate(x):
+        Image.fromarray(f).save(d / f"{i}.tif")
+    np.testing.assert_array_equal(load_stack([d]), x)
+
+
+@pytest.mark.parametrize(
+    "make,msg",
+    [
+        (lambda p: None, "file not found"),
+        (lambda p: (p / "bad.png").write_bytes(b"not a png"), "not a readable image"),
+        (lambda p: (p / "bad.npy").write_bytes(b"garbage"), "not a readable .npy"),
+        (lambda p: np.save(p / "bad.npy", np.zeros(5)), "expected a 2-D frame"),
+    ],
+)
+def test_missing_or_corrupt_files_one_sentence(tmp_path, capsys, make, msg):
+    make(tmp_path)
+    target = {"file not found": "missing.png", "not a readable image": "bad.png"}.get(msg, "bad.npy")
+    rc = main(["analyze", str(tmp_path / target)])
+    err = capsys.readouterr().err
+    assert rc == 2
+    assert msg in err and err.count("\n") == 1 and "Traceback" not in err
+
+
+def test_shape_mismatch_and_bad_roi(tmp_path, capsys):
+    np.save(tmp_path / "a.npy", _stack(shape=(8, 8)))
+    np.save(tmp_path / "b.npy", _stack(shape=(8, 9)))
+    assert main(["analyze", str(tmp_path / "a.npy"), str(tmp_path / "b.npy")]) == 2
+    assert "differs" in capsys.readouterr().err
+    assert main(["analyze", str(tmp_path / "a.npy"), "--roi", "4,4,10,10"]) == 2
+    assert "outside" in capsys.readouterr().err
+    with pytest.raises(Exception):
+        list(iter_frames([]))
