@@ -66,7 +66,7 @@ class SensorParams:
     # --- offset fixed-pattern noise ------------------------------------------------------
     col_fpn_dn: float = 1.0  # Cs: column offset FPN sigma
     row_fpn_dn: float = 0.5  # Rs: row offset FPN sigma
-    pixel_fpn_e: float = 2.0  # Ps1: "minimal" pixel offset FPN (ARTEMIS MPFPN), Gaussian
+    pixel_fpn_e: float = 1.0  # Ps1: "minimal" pixel offset FPN (ARTEMIS MPFPN), Gaussian
 
     # --- dark current (at dark_ref_temp_c) --------------------------------------------------
     dark_current_e_per_s: float = 50.0  # mean dark current
