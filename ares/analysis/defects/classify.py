@@ -54,12 +54,13 @@ class _Flat:
         self.median = float(np.median(resp))
         self.resp = resp
         self.bg = block_median_background(resp, block)
+        # where the local response is not positive the ratio is undefined: 1 (neutral)
         with np.errstate(divide="ignore", invalid="ignore"):
-            self.ratio = np.where(self.bg > 0, resp / self.bg, np.nan)
+            self.ratio = np.where(self.bg > 0, resp / self.bg, 1.0)
         # the deviation must be significant against the noise of the two averaged means
         self.noise = np.sqrt(st.var / st.n_frames + dark.var / dark.n_frames)
-        self.col_ratio = np.nanmedian(self.ratio, axis=0) if self.ratio.size else self.ratio
-        self.row_ratio = np.nanmedian(self.ratio, axis=1) if self.ratio.size else self.ratio
+        self.col_ratio = np.median(self.ratio, axis=0)
+        self.row_ratio = np.median(self.ratio, axis=1)
 
 
 def _levels(x: PixelStats | Sequence[PixelStats] | None) -> list[PixelStats]:
@@ -173,7 +174,7 @@ def classify_defects(
             sn = np.zeros(shape, np.int16)
             acc = np.zeros(shape)
             for fl in F:
-                r = np.nan_to_num(fl.ratio / line_resp, nan=1.0)
+                r = fl.ratio / line_resp
                 sig = np.abs(fl.resp - fl.bg * line_resp) > th.warm_z * fl.noise
                 dn += sig & (r < th.dead_fraction)
                 ln += sig & (r < th.low_response_fraction)
@@ -210,7 +211,8 @@ def classify_defects(
         lf.add(np.abs(zo) > th.line_z, "dark offset z", zo)
         vals = dref.col_var if axis == 0 else dref.row_var
         zv = line_z(vals, math.sqrt(2.0 / (dref.st.n_frames - 1)), n_other)
-        lf.add(np.abs(zv) > th.line_z, "temporal variance z", zv)
+        # a noisy line: significantly AND substantially (line_noise_factor) above expected
+        lf.add((zv > th.line_z) & (vals > th.line_noise_factor), "temporal variance z", zv)
         factor_var = np.where(lf.bad, vals, 1.0)
         factor_resp = np.ones(n)
         if F:

@@ -21,11 +21,19 @@ def find_clusters(defective: np.ndarray, min_size: int) -> dict:
     sizes = np.bincount(labels.ravel(), minlength=n + 1)[1:]
     hist_sizes, hist_counts = np.unique(sizes, return_counts=True)
     big = np.flatnonzero(sizes >= min_size)
-    slices = ndimage.find_objects(labels)
     clusters = []
-    for i in big[np.argsort(-sizes[big], kind="stable")]:
-        sr, sc = slices[i]
-        clusters.append({"label": int(i + 1), "size": int(sizes[i]),
-                         "row0": sr.start, "row1": sr.stop - 1, "col0": sc.start, "col1": sc.stop - 1})
+    if big.size:
+        # bounding boxes from the (few) defective pixels only, not a scan of the image
+        rr, cc = np.nonzero(labels)
+        lab = labels[rr, cc] - 1
+        keep = np.isin(lab, big)
+        rr, cc, lab = rr[keep], cc[keep], lab[keep]
+        r0 = np.full(n, np.iinfo(np.int64).max); r1 = np.full(n, -1)  # noqa: E702
+        c0 = np.full(n, np.iinfo(np.int64).max); c1 = np.full(n, -1)  # noqa: E702
+        np.minimum.at(r0, lab, rr); np.maximum.at(r1, lab, rr)  # noqa: E702
+        np.minimum.at(c0, lab, cc); np.maximum.at(c1, lab, cc)  # noqa: E702
+        for i in big[np.argsort(-sizes[big], kind="stable")]:
+            clusters.append({"label": int(i + 1), "size": int(sizes[i]),
+                             "row0": int(r0[i]), "row1": int(r1[i]), "col0": int(c0[i]), "col1": int(c1[i])})
     return {"size_histogram": {int(s): int(c) for s, c in zip(hist_sizes, hist_counts)},
             "clusters": clusters, "labels": labels}

@@ -22,10 +22,14 @@ def deviation_histograms(deviation: np.ndarray, unit: str, bins: int = 256) -> d
     if hi <= lo:
         hi = lo + 1.0
     counts, edges = np.histogram(d, bins=bins, range=(lo, hi))
-    a = np.sort(np.abs(d))
-    amax = float(a[-1]) if a[-1] > 0 else 1.0
+    a = np.abs(d)
+    amax = float(a.max()) if a.max() > 0 else 1.0
     abs_edges = np.linspace(0.0, amax, bins + 1)
-    # percentage of pixels with |deviation| >= x, for each x in abs_edges
-    accumulated = 100.0 * (a.size - np.searchsorted(a, abs_edges, side="left")) / a.size
+    # percentage of pixels with |deviation| >= x, for each x in abs_edges: all pixels minus
+    # those in the bins below x (bins are [e_i, e_i+1), the last one closed)
+    below, _ = np.histogram(a, bins=abs_edges)
+    at_least = a.size - np.concatenate([[0], np.cumsum(below)])
+    at_least[-1] = np.count_nonzero(a >= amax)
+    accumulated = 100.0 * at_least / a.size
     return {"unit": unit, "n_pixels": int(d.size), "edges": edges, "counts": counts,
             "abs_edges": abs_edges, "accumulated_percent": accumulated}

@@ -1,9 +1,10 @@
 """Defective columns and rows.
 
 A line (column or row) is bad when it holds >= ``line_hot_count`` hot/warm pixels or
->= ``line_dead_count`` dead/low-response pixels, or when one of its line statistics (the
-median dark offset, the median temporal variance, the median response ratio) lies more
-than ``line_z`` robust sigmas from the lines' median. The robust sigma is floored by the
+>= ``line_dead_count`` dead/low-response/stuck pixels, or when its median dark offset or
+median response ratio lies more than ``line_z`` robust sigmas from the other lines, or
+its median temporal variance is > ``line_z`` robust sigmas and > ``line_noise_factor``
+times the expected one. The robust sigma is floored by the
 scatter a line median has from pixel noise alone (1.2533 * sigma_pixel / sqrt(n)), so a
 perfectly uniform sensor does not turn every tiny offset into a bad line. Line statistics
 are compared with a running median of their neighbours (9 lines), so only line-to-line

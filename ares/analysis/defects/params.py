@@ -74,6 +74,7 @@ class DefectThresholds:
     line_hot_count: int = 20
     line_dead_count: int = 100
     line_z: float = 6.0
+    line_noise_factor: float = 1.5
     # clusters
     cluster_min_size: int = 2
     # pass/fail limits (max counts); None means "no limit"
@@ -115,6 +116,8 @@ class DefectThresholds:
             raise InputError("defect parameters warm_e_per_s and warm_z must not exceed hot_e_per_s and hot_z")
         if self.rts_min_frames < 3:
             raise bad("rts_min_frames", "must be at least 3")
+        if self.line_noise_factor < 1:
+            raise bad("line_noise_factor", "must be at least 1")
         if self.background_block_px < 3:
             raise bad("background_block_px", "must be at least 3")
 

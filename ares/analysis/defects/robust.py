@@ -7,8 +7,12 @@ import numpy as np
 MAD_TO_SIGMA = 1.4826  # sigma = 1.4826 * MAD for a Gaussian
 
 
-def robust_sigma(x: np.ndarray, floor: float = 0.0) -> float:
+def robust_sigma(x: np.ndarray, floor: float = 0.0, max_samples: int = 1 << 19) -> float:
+    """1.4826 * MAD, from at most ``max_samples`` regularly strided values (a 2^19-pixel
+    sample pins the MAD to ~0.2 %, far below what any threshold needs)."""
     x = np.asarray(x, dtype=np.float64).ravel()
+    if x.size > max_samples:
+        x = x[:: -(-x.size // max_samples)]
     x = x[np.isfinite(x)]
     if x.size == 0:
         return float("nan")

@@ -42,11 +42,13 @@ class PixelStats:
         return PixelStats(self.mean[rows, cols], self.var[rows, cols], self.n_frames, self.exposure_s)
 
 
-def pixel_stats(stack: np.ndarray, exposure_s: float | None = None, block_rows: int = 8) -> PixelStats:
+def pixel_stats(stack: np.ndarray, exposure_s: float | None = None, block_rows: int = 4) -> PixelStats:
     """Exact per-pixel mean and variance of an (F, R, C) integer stack.
 
-    Works on row blocks in float64 after subtracting the first frame, so sums of
-    squares are exact for 16-bit data (|d|^2 * F < 2^53) and memory stays small.
+    Works on row blocks after subtracting the first frame. The sums run in float32 where
+    that is exact -- every difference d is an integer and a block's largest sum of d^2
+    stays below 2^24, so every partial sum is an exactly representable integer -- and
+    are redone in float64 (exact for 16-bit data: |d|^2 * F < 2^53) where it is not.
     """
     stack = np.asarray(stack)
     if stack.ndim != 3:
@@ -56,14 +58,28 @@ def pixel_stats(stack: np.ndarray, exposure_s: float | None = None, block_rows: 
         raise ValueError("per-pixel temporal variance needs at least 2 frames")
     mean = np.empty((r, c))
     var = np.empty((r, c))
+    exact32 = stack.dtype.kind in "ui" and stack.dtype.itemsize <= 2
     for r0 in range(0, r, block_rows):
         blk = stack[:, r0:r0 + block_rows]
-        ref = blk[0].astype(np.float64)
-        d = blk.astype(np.float64)
-        d -= ref
-        s1 = d.sum(axis=0)
-        np.multiply(d, d, out=d)
-        s2 = d.sum(axis=0)
+        s1 = s2 = None
+        if exact32:
+            ref = blk[0].astype(np.float32)
+            d = blk.astype(np.float32)
+            d -= ref
+            s1 = d.sum(axis=0, dtype=np.float32)
+            np.multiply(d, d, out=d)
+            s2 = d.sum(axis=0, dtype=np.float32)
+            if not float(s2.max(initial=0.0)) < 2.0**24:
+                s1 = None
+        if s1 is None:
+            ref = blk[0].astype(np.float64)
+            d = blk.astype(np.float64)
+            d -= ref
+            s1 = d.sum(axis=0)
+            np.multiply(d, d, out=d)
+            s2 = d.sum(axis=0)
+        s1 = s1.astype(np.float64)
+        s2 = s2.astype(np.float64)
         mean[r0:r0 + block_rows] = ref + s1 / f
         var[r0:r0 + block_rows] = np.maximum(s2 - s1 * s1 / f, 0.0) / (f - 1)
     return PixelStats(mean, var, f, exposure_s)
