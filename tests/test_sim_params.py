@@ -78,3 +78,13 @@ def test_without_defects_and_noiseless_helpers():
     n = SensorParams().noiseless()
     assert n.read_noise_e == n.col_fpn_dn == n.dark_current_e_per_s == 0
     assert n.prnu_pct == (0.0,) * 4
+
+
+def test_types_are_checked_and_cfa_names_normalized():
+    with pytest.raises(InputError, match="'read_noise_e' must be a number"):
+        SensorParams(read_noise_e="2.5")
+    with pytest.raises(InputError, match="mapping"):
+        SensorParams.from_dict([("rows", 4)])
+    assert SensorParams(read_noise_e=3).read_noise_e == 3.0
+    assert SensorParams(cfa="rggb").cfa == "RGGB"
+    assert SensorParams(cfa="mono").cfa is None

@@ -118,6 +118,17 @@ class SensorParams:
             except (TypeError, ValueError):
                 raise InputError(f"simulator parameter '{name}' must be a list of numbers") from None
             object.__setattr__(self, name, value)
+        for f in fields(self):
+            v = getattr(self, f.name)
+            if isinstance(f.default, float):
+                if isinstance(v, bool) or not isinstance(v, (int, float)):
+                    raise InputError(f"simulator parameter '{f.name}' must be a number, not {v!r}")
+                object.__setattr__(self, f.name, float(v))
+        if isinstance(self.cfa, str):
+            object.__setattr__(self, "cfa", None if self.cfa.lower() in ("", "mono", "none") else self.cfa.upper())
+        if self.stuck_code_dn is not None and (isinstance(self.stuck_code_dn, bool)
+                                               or not isinstance(self.stuck_code_dn, int)):
+            self._fail("stuck_code_dn", "must be None or an integer code")
         self._validate()
 
     def _fail(self, name: str, why: str):
@@ -195,6 +206,8 @@ class SensorParams:
     @classmethod
     def from_dict(cls, d: dict) -> "SensorParams":
         """Build from a dict; unknown keys raise one InputError naming them."""
+        if not isinstance(d, dict):
+            raise InputError(f"simulator parameters must be a mapping of names to values, not {type(d).__name__}")
         known = {f.name for f in fields(cls)}
         unknown = sorted(set(d) - known)
         if unknown:
