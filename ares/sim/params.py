@@ -9,6 +9,15 @@ Defaults describe a plausible small CMOS sensor: 640x480, 3.3 um pixels, 12 ke- 
 well, 70 uV/e-, 2.5 e- read noise, 12-bit ADC with a 250 uV LSB (G = 0.28 DN/e- at x1).
 Dark-current figures are given at ``dark_ref_temp_c`` (60 C) and double every
 ``dark_doubling_c`` (8 C): ``X(T) = X_60 * 2**((T - 60) / 8)`` (seed 001).
+
+ARTEMIS GUI field -> field here: Pixel Pitch -> pixel_pitch_um; Full Well ->
+full_well_e; C. Gain -> conversion_gain_uv_per_e; Read Noise -> read_noise_e; Dark
+Current -> dark_current_e_per_s; DSNU -> dsnu_e_per_s; MPFPN -> pixel_fpn_e; Crosstalk ->
+crosstalk_pct; PRNU e,e / o,e / e,o / o,o -> prnu_pct; Hot Rate / Hot Mean ->
+hot_rate_ppm / hot_mean_e_per_s; RTS Rate / RTS Mean -> rts_rate_ppm / rts_amplitude_e;
+Added Photocharge -> added_photocharge_e; Flutter -> flutter_pct; First Pixel Color ->
+cfa; Response Factor 0-3 -> cfa_response. Shot Noise Enable has no field: shot noise is
+physics here; ``render(shot_noise=...)`` chooses exact or Gaussian draws.
 """
 
 from __future__ import annotations
