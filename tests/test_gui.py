@@ -4,6 +4,7 @@ scan from the Start button to done, stop/pause/abort, auto repeat, errors."""
 from __future__ import annotations
 
 import os
+import threading
 
 import numpy as np
 import pytest
@@ -134,32 +135,56 @@ def test_results_panel_range_controls(window, qtbot):
     assert model.range_mode == "Mean ± 3 Sigma"
 
 
+class Gated(DemoScan):
+    """A demo scan that holds before its second frame until the test opens the gate,
+    so stop/pause/abort land mid-stage however fast or slow the machine is."""
+
+    def __init__(self):
+        super().__init__(shape=(12, 16), frames=4, levels_e=(0, 10, 20, 30, 40))
+        self.gate = threading.Event()
+        self.calls = 0
+
+    def checkpoint(self):
+        self.calls += 1
+        if self.calls == 2:
+            self.gate.wait(TIMEOUT_MS / 1000)
+        super().checkpoint()
+
+
+def start_gated(qtbot, w):
+    job = Gated()
+    w.set_job_factory(lambda: job)
+    qtbot.mouseClick(w.buttons.start, Qt.MouseButton.LeftButton)
+    qtbot.waitUntil(lambda: w.session.progress.frame >= 1, timeout=TIMEOUT_MS)
+    return job
+
+
 def test_stop_finishes_stage_in_flight_then_stops(window, qtbot):
-    window.set_job_factory(tiny(frames=4, levels_e=(0, 10, 20, 30, 40, 50, 60, 70), frame_delay_s=0.02))
-    qtbot.mouseClick(window.buttons.start, Qt.MouseButton.LeftButton)
-    qtbot.waitUntil(lambda: window.session.progress.stage >= 1, timeout=TIMEOUT_MS)
+    job = start_gated(qtbot, window)
     qtbot.mouseClick(window.buttons.stop, Qt.MouseButton.LeftButton)
+    assert window.progress_line.state.text() == P.STOPPING
+    job.gate.set()
     qtbot.waitUntil(lambda: not window.running, timeout=TIMEOUT_MS)
     s = window.session
     assert s.progress.state == P.STOPPED
-    assert s.last_result is not None and s.last_result.stage < 8
+    assert s.last_result is not None and s.last_result.stage == 1  # the stage in flight was finished
     assert "completed stages are kept" in window.statusBar().currentMessage()
 
 
 def test_pause_resume_and_abort(window, qtbot):
-    window.set_job_factory(tiny(frames=4, levels_e=(0, 10, 20, 30, 40, 50), frame_delay_s=0.02))
-    qtbot.mouseClick(window.buttons.start, Qt.MouseButton.LeftButton)
-    qtbot.waitUntil(lambda: window.session.progress.frame >= 1, timeout=TIMEOUT_MS)
+    job = start_gated(qtbot, window)
     qtbot.mouseClick(window.buttons.pause, Qt.MouseButton.LeftButton)
-    job = window.scan_thread.job
     assert job.paused and window.buttons.pause.text() == "Resume"
     assert window.progress_line.state.text() == P.PAUSED
     qtbot.mouseClick(window.buttons.pause, Qt.MouseButton.LeftButton)
-    assert not job.paused
+    assert not job.paused and window.progress_line.state.text() == P.RUNNING
+    qtbot.mouseClick(window.buttons.pause, Qt.MouseButton.LeftButton)  # pause again, then abort
     qtbot.mouseClick(window.buttons.abort, Qt.MouseButton.LeftButton)
+    job.gate.set()
     qtbot.waitUntil(lambda: not window.running, timeout=TIMEOUT_MS)
     assert window.session.progress.state == P.STOPPED
     assert "aborted" in window.session.progress.message
+    assert window.session.last_result is None  # the stage in flight was dropped
     assert window.last_error is None
 
 
@@ -227,3 +252,77 @@ def test_gui_command_without_display_is_one_sentence(monkeypatch):
 
     with pytest.raises(InputError, match="no such scan file"):
         cmd.run(argparse.Namespace(scan="does-not-exist.xml"))
+
+
+# ---- the real runner (ares.scan) on the small simulated fixture scan ------------------------------
+FIXTURES = os.path.join(os.path.dirname(__file__), os.pardir, "fixtures", "xml")
+PTC_SMALL = os.path.join(FIXTURES, "small", "ptc_small.xml")
+
+
+def test_runner_scan_from_file_to_done(window, qtbot, tmp_path):
+    pytest.importorskip("ares.scan")
+    assert window.load_scan(PTC_SMALL)
+    # the scan's region fills the RoA table, on and drawn
+    assert window.session.regions[0] == Region(True, True, 8, 6, 16, 12)
+    assert window.controls.regions.table.item(0, 4).text() == "16"
+    assert "ptc_small" in window.controls.scan.file.text()
+    window.controls.output.directory.setText(str(tmp_path))
+    run_to_end(qtbot, window)
+    s = window.session
+    assert s.progress.state == P.DONE, s.progress.message
+    assert window.progress_line.stage.text() == "9 of 9 (ptc[7])"
+    assert s.distributions[0].counts.sum() == 16 * 12
+    assert s.panels["MEAN SIGNAL"].stats.n == 16 * 12
+    assert len(s.ptc.points) == 8 and s.ptc.gain_e_per_dn > 0  # the engine's fit, drawn as a line
+    assert window.ptc.line.xData is not None
+    run_dir = s.info.items["run directory"]
+    assert os.path.isdir(run_dir) and run_dir.startswith(str(tmp_path))
+    assert "PTC: read noise" in s.info.items
+    assert window.preview.rectangle_count == 1
+
+
+def test_runner_hardware_fault_is_one_sentence(window, qtbot, tmp_path):
+    pytest.importorskip("ares.scan")
+    from ares.gui.runner_adapter import RunnerJob
+
+    window.set_job_factory(lambda: RunnerJob(PTC_SMALL, faults={"disconnect_after_frames": 6}), PTC_SMALL)
+    window.controls.output.write_run.setChecked(False)
+    run_to_end(qtbot, window)
+    assert window.session.progress.state == P.FAILED
+    assert window.last_error == "sim grabber: device disconnected after 6 frames."
+    assert window.error_box.text() == window.last_error
+
+
+def test_broken_scan_file_is_one_sentence_with_line(window):
+    pytest.importorskip("ares.protocol")
+    bad = os.path.join(FIXTURES, "broken", "unknown_register.xml")
+    assert not window.load_scan(bad)
+    msg = window.last_error
+    assert "unknown_register.xml" in msg and "\n" not in msg and "Traceback" not in msg
+    assert window.scan_path is None  # the previous (demo) scan stays loaded
+
+
+def test_event_pump_keeps_only_the_newest_preview_between_barriers(qtbot):
+    from ares.gui.worker import EventPump
+
+    pump = EventPump()
+    got = []
+    pump.event.connect(got.append)
+    img = np.zeros((2, 2), np.uint16)
+    pump.push(E.StageStarted(1, 2, "a", 3))
+    for f in (1, 2, 3):
+        pump.push(E.FramePreview(1, f, 3, img))
+        pump.push(E.Progress(1, 2, f / 6))
+    pump.push(E.StageResult(1, "a", img.astype(float), img.astype(float)))
+    pump.push(E.FramePreview(2, 1, 3, img))
+    pump.drain()
+    kinds = [(type(e).__name__, getattr(e, "frame", None)) for e in got]
+    assert kinds == [("StageStarted", None), ("FramePreview", 3), ("Progress", None), ("StageResult", None),
+                     ("FramePreview", 1)]
+    assert pump.dropped == 4
+
+
+def test_check_display_passes_offscreen():
+    from ares.gui.app import check_display
+
+    check_display()  # QT_QPA_PLATFORM=offscreen: Qt starts, no exception

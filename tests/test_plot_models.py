@@ -152,14 +152,14 @@ def test_profiles_hand_computed():
     assert rows.x.tolist() == [0, 1] and rows.y.tolist() == [1.5, 5.5]
 
 
-def test_ptc_model_subtracts_dark_and_skips_nonpositive_on_loglog():
+def test_ptc_model_skips_nonpositive_on_loglog():
     m = PTCModel()
     m.set_dark(100.0)
-    m.add(2, "a", 110.0, 7.0)
-    m.add(3, "b", 1100.0, 502.0)
-    m.add(4, "c", 90.0, 3.0)  # below dark: not drawable on log axes
+    m.add(2, "a", 10.0, 7.0)
+    m.add(3, "b", 1000.0, 502.0)
+    m.add(4, "c", -10.0, 3.0)  # below dark: not drawable on log axes
     x, y = m.xy()
-    assert x.tolist() == [10.0, 1000.0, -10.0]
+    assert x.tolist() == [10.0, 1000.0, -10.0] and y.tolist() == [7.0, 502.0, 3.0]
     lx, ly = m.loglog()
     assert lx.tolist() == [1.0, 3.0] and ly == pytest.approx(np.log10([7.0, 502.0]))
     assert m.fit_line() is None
@@ -198,6 +198,7 @@ def test_session_follows_a_demo_scan():
     assert len(s.ptc.points) == 2 and s.ptc.dark_dn == pytest.approx(100, abs=2)
     x, y = s.ptc.xy()
     assert x == pytest.approx([50, 200], rel=0.1)  # 0.5 DN/e- x 100, 400 e-
+    assert y == pytest.approx(0.5 * x, rel=0.5)  # shot noise: variance = K * signal (3 frames: loose)
     assert s.profiles.columns[0].x.tolist() == list(range(2, 12))
     assert s.signal_map.image.shape == (12, 16) and s.signal_map.rectangles[0][0] == 0
 

@@ -22,7 +22,7 @@ import numpy as np
 
 from ares.errors import InputError, Interrupted
 
-from .events import Done, FramePreview, Progress, StageResult, StageStarted, Stopped
+from .events import Done, FramePreview, Progress, RunInfo, StageResult, StageStarted, Stopped
 
 Emit = Callable[[object], None]
 
@@ -106,6 +106,8 @@ class DemoScan(JobControl):
         self._dsnu = 1.0 * rng.standard_normal(self.shape)
         total = len(self.levels_e)
         t0 = time.monotonic()
+        emit(RunInfo(None, total, None))
+        dark_mean = dark_var = None
         for k, level in enumerate(self.levels_e, start=1):
             if self.stopping:
                 emit(Stopped("Stopped after stage %d of %d; completed stages are kept." % (k - 1, total)))
@@ -128,8 +130,13 @@ class DemoScan(JobControl):
             n = self.frames
             mean = acc_sum / n
             var = (acc_sq - n * mean * mean) / (n - 1) if n > 1 else np.full(self.shape, math.nan)
+            point = None
+            if level == 0:
+                dark_mean, dark_var = float(mean.mean()), float(np.nanmean(var))
+            elif dark_mean is not None:
+                point = (float(mean.mean()) - dark_mean, float(np.nanmean(var)) - dark_var)
             emit(StageResult(k, name, mean + self.offset, var, n, dark=(level == 0),
-                             settings={"light_e": level}))
+                             settings={"light_e": level}, ptc_point=point, ptc_view="full"))
         emit(Done(None, {"pixels": int(np.prod(self.shape))}))
 
 

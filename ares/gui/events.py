@@ -28,6 +28,7 @@ class FramePreview:
     frame: int  # 1-based within the stage
     frames: int
     image: np.ndarray
+    dark: bool = False  # a frame of the stage's matched dark stack
 
 
 @dataclass(frozen=True)
@@ -42,6 +43,10 @@ class StageResult:
     dark: bool = False
     settings: dict = field(default_factory=dict)
     defects: dict | None = None  # {class name: count}
+    # the engine's photon-transfer point for this stage: (mean signal above dark in DN,
+    # temporal variance above dark in DN²), None for a dark stage or when not computed
+    ptc_point: tuple[float, float] | None = None
+    ptc_view: str = ""  # which pixels the engine used for ptc_point ("full", a region ...)
     summary: dict = field(default_factory=dict)
 
 
@@ -54,9 +59,19 @@ class Progress:
 
 
 @dataclass(frozen=True)
+class RunInfo:
+    """Sent once when a run starts: where it writes and how long it should take."""
+
+    run_dir: str | None = None
+    total_stages: int = 0
+    estimated_s: float | None = None
+
+
+@dataclass(frozen=True)
 class Done:
     run_dir: str | None = None
-    summary: dict = field(default_factory=dict)  # e.g. gain_e_per_dn, defects
+    summary: dict = field(default_factory=dict)  # e.g. gain_e_per_dn, defects, results
+    limit_failures: tuple = ()
 
 
 @dataclass(frozen=True)
@@ -71,4 +86,4 @@ class Failed:
     message: str  # one sentence, never a traceback
 
 
-GuiEvent = StageStarted | FramePreview | StageResult | Progress | Done | Stopped | Failed
+GuiEvent = RunInfo | StageStarted | FramePreview | StageResult | Progress | Done | Stopped | Failed

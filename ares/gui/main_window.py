@@ -130,6 +130,9 @@ class MainWindow(QMainWindow):
             return False
         self.scan_path = str(path)
         self.job_factory = lambda: engine.open_scan(path)
+        regions = getattr(job, "regions", None)
+        if callable(regions) and regions():
+            self.session.regions.replace_all(regions())
         self._show_job_info(job)
         self.statusBar().showMessage(f"Loaded {path}.")
         return True
@@ -145,8 +148,8 @@ class MainWindow(QMainWindow):
         self.controls.scan.show_job(self.scan_path, getattr(job, "title", ""), info)
         self.controls.instruments.show_instruments(info.get("instruments", {}) or
                                                    {"sensor": info.get("system", "unknown")})
-        self.session.info.update({"scan": self.scan_path or getattr(job, "title", ""),
-                                  "system": info.get("system", "unknown")})
+        self.session.info.update({k: v for k, v in info.items() if not isinstance(v, dict)})
+        self.session.info.update({"scan": self.scan_path or getattr(job, "title", "")})
         source = info.get("frame source") or info.get("system")
         if source:
             self.controls.inputs.source.setText(f"Frame source: {source}")
@@ -163,7 +166,7 @@ class MainWindow(QMainWindow):
             job = self.job_factory()
             options = getattr(job, "set_output", None)
             if callable(options):
-                options(self.controls.output.directory.text(), self.controls.output.save_frames.isChecked())
+                options(self.controls.output.root())
         except AresError as exc:
             self.show_error(str(exc))
             return

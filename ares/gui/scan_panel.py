@@ -64,7 +64,7 @@ class ScanTab(QWidget):
 
     def show_job(self, path: str | None, title: str, info: dict) -> None:
         self.file.setText(f"Scan file: {path}" if path else f"Built-in: {title}")
-        self.details.setPlainText("\n".join(f"{k}: {v}" for k, v in info.items()))
+        self.details.setPlainText("\n".join(f"{k}: {v}" for k, v in info.items() if not isinstance(v, dict)))
 
 
 class OutputOptionsTab(QWidget):
@@ -78,15 +78,20 @@ class OutputOptionsTab(QWidget):
         row = QHBoxLayout()
         row.addWidget(self.directory, 1)
         row.addWidget(browse)
-        self.save_frames = QCheckBox("Keep raw frames in the run directory")
+        self.write_run = QCheckBox("Write a run directory for each run")
+        self.write_run.setChecked(True)
         form = QFormLayout(self)
+        form.addRow("", self.write_run)
         form.addRow("Run directory root:", row)
-        form.addRow("", self.save_frames)
-        note = QLabel("Each run writes its XML files, settings, per-stage results and versions "
-                      "to a new directory under this root; CSV/HDF5/PDF reports are made from it "
-                      "with `ares report`.")
+        note = QLabel("Each run of a scan file writes its XML files, settings, per-stage results and "
+                      "versions to a new directory under this root (raw frames and the CSV/HDF5/PDF "
+                      "outputs as the scan's <output> element says); `ares rerun DIR` repeats it. "
+                      "The built-in demo scan writes nothing.")
         note.setWordWrap(True)
         form.addRow(note)
+
+    def root(self) -> str | None:
+        return self.directory.text().strip() or None if self.write_run.isChecked() else None
 
     def _browse(self) -> None:
         d = QFileDialog.getExistingDirectory(self, "Run directory root", self.directory.text())

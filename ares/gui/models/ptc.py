@@ -1,9 +1,9 @@
 """Photon-transfer-curve plot model: one point per finished stage (no Qt).
 
-Each point is (mean signal above dark, temporal variance) in DN / DN² for the region
-the PTC follows. When the engine supplies a fitted gain the model keeps it so the view
-can draw the shot-noise line ``variance = signal / gain_e_per_dn``; the model never
-fits anything itself.
+Each point is the engine's (mean signal above dark, temporal variance above dark) in
+DN / DN² for one stage. When the engine supplies a fitted gain the model keeps it so the
+view can draw the shot-noise line ``variance = signal / gain_e_per_dn``; the model
+computes nothing itself.
 """
 
 from __future__ import annotations
@@ -31,6 +31,7 @@ class PTCModel(Observable):
         self.dark_dn: float | None = None
         self.gain_e_per_dn: float = math.nan
         self.fit_note = ""
+        self.view = ""
 
     def clear(self) -> None:
         self.points, self.dark_dn = [], None
@@ -38,13 +39,12 @@ class PTCModel(Observable):
         self._changed()
 
     def set_dark(self, dark_dn: float) -> None:
+        """The dark level, for the caption (points are already above dark)."""
         self.dark_dn = float(dark_dn)
         self._changed()
 
-    def add(self, stage: int, label: str, mean_dn: float, variance_dn2: float) -> None:
-        """A stage's raw mean and temporal variance; the dark level (when known) is
-        subtracted from the mean."""
-        self.points.append(PTCPoint(stage, label, float(mean_dn), float(variance_dn2)))
+    def add(self, stage: int, label: str, signal_dn: float, variance_dn2: float) -> None:
+        self.points.append(PTCPoint(stage, label, float(signal_dn), float(variance_dn2)))
         self._changed()
 
     def set_fit(self, gain_e_per_dn: float, note: str = "") -> None:
@@ -54,8 +54,7 @@ class PTCModel(Observable):
 
     def xy(self) -> tuple[np.ndarray, np.ndarray]:
         """Signal above dark and variance of the points, as arrays."""
-        dark = self.dark_dn or 0.0
-        x = np.array([p.signal_dn - dark for p in self.points], dtype=np.float64)
+        x = np.array([p.signal_dn for p in self.points], dtype=np.float64)
         y = np.array([p.variance_dn2 for p in self.points], dtype=np.float64)
         return x, y
 

@@ -10,7 +10,7 @@ import math
 
 import numpy as np
 
-from ..events import Done, Failed, FramePreview, Progress, StageResult, StageStarted, Stopped
+from ..events import Done, Failed, FramePreview, Progress, RunInfo, StageResult, StageStarted, Stopped
 from . import progress as P
 from .defects import DefectCountsModel
 from .image import ImageModel
@@ -94,12 +94,17 @@ class SessionModel:
         self.last_frame = None
 
     def handle(self, ev) -> None:
-        if isinstance(ev, StageStarted):
+        if isinstance(ev, RunInfo):
+            if ev.run_dir:
+                self.info.update(run_directory=ev.run_dir)
+            self.progress.update(total=ev.total_stages, seconds_remaining=ev.estimated_s)
+        elif isinstance(ev, StageStarted):
             self.progress.update(stage=ev.stage, total=ev.total, stage_name=ev.name,
                                  frame=0, frames=ev.frames, state=P.RUNNING)
         elif isinstance(ev, FramePreview):
             self.last_frame = ev.image
-            self.preview.set_image(ev.image, f"stage {ev.stage}, frame {ev.frame} of {ev.frames}")
+            what = "dark frame" if ev.dark else "frame"
+            self.preview.set_image(ev.image, f"stage {ev.stage}, {what} {ev.frame} of {ev.frames}")
             self.preview.set_rectangles(self._drawn())
             self._update_distributions(ev.image)
             self.progress.update(frame=ev.frame, frames=ev.frames)
@@ -112,8 +117,13 @@ class SessionModel:
             self._summary(ev.summary)
             if ev.run_dir:
                 self.info.update(run_directory=ev.run_dir)
-            self.progress.update(state=P.DONE, fraction=1.0, seconds_remaining=0.0,
-                                 message="Scan finished.")
+            message = "Scan finished."
+            if ev.limit_failures:
+                message = (f"Scan finished; {len(ev.limit_failures)} limit(s) failed: "
+                           + "; ".join(ev.limit_failures) + ".")
+            self.info.update(limits=message.removeprefix("Scan finished; ") if ev.limit_failures
+                             else "all passed (or none set)")
+            self.progress.update(state=P.DONE, fraction=1.0, seconds_remaining=0.0, message=message)
         elif isinstance(ev, Stopped):
             if ev.run_dir:
                 self.info.update(run_directory=ev.run_dir)
@@ -146,14 +156,11 @@ class SessionModel:
         for m in (self.signal_map, self.noise_map):
             m.set_rectangles(self._drawn())
         self._refresh_result()
-        _, region = self.analysis_region(ev.mean.shape)
-        mean = region.crop(ev.mean)
-        var = region.crop(ev.variance)
-        if mean is not None and mean.size:
-            if ev.dark:
-                self.ptc.set_dark(float(mean.mean()))
-            else:
-                self.ptc.add(ev.stage, ev.name, float(mean.mean()), float(var.mean()))
+        if ev.dark:
+            self.ptc.set_dark(float(np.nanmean(ev.mean)))
+        if ev.ptc_point is not None:
+            self.ptc.view = ev.ptc_view
+            self.ptc.add(ev.stage, ev.name, *ev.ptc_point)
         if ev.defects is not None:
             self.defects.set_counts(ev.defects, ev.mean.size, caption=f"stage {ev.stage}: {ev.name}")
         if ev.summary:
@@ -180,6 +187,9 @@ class SessionModel:
         self.profiles.update(ev.mean, self.regions.active() or [(-1, full_frame(ev.mean.shape))])
 
     def _summary(self, summary: dict) -> None:
+        results = summary.get("results")
+        if isinstance(results, dict) and results:
+            self.info.update(results)
         gain = summary.get("gain_e_per_dn")
         if gain is not None:
             value = getattr(gain, "value", gain)

@@ -18,7 +18,7 @@ class PTCView(QWidget):
         self.plot = pg.PlotWidget(title="Photon transfer curve")
         self.plot.setLogMode(x=True, y=True)
         self.plot.setLabel("bottom", "signal above dark", units="DN")
-        self.plot.setLabel("left", "temporal variance", units="DN²")
+        self.plot.setLabel("left", "temporal variance above dark", units="DN²")
         self.plot.showGrid(x=True, y=True, alpha=0.3)
         self.points = pg.PlotDataItem(pen=None, symbol="o", symbolSize=9,
                                      symbolBrush=pg.mkBrush(30, 120, 220), symbolPen=pg.mkPen("k"))
@@ -43,7 +43,7 @@ class PTCView(QWidget):
             self.line.setData([], [])
         else:
             self.line.setData(*fit)
-        parts = [f"{int(ok.sum())} point(s)"]
+        parts = [f"{int(ok.sum())} point(s)" + (f" ({m.view} pixels, as computed by the engine)" if m.view else "")]
         if m.dark_dn is not None:
             parts.append(f"dark level {m.dark_dn:.2f} DN")
         if math.isfinite(m.gain_e_per_dn):

@@ -1,0 +1,206 @@
+"""A scan XML run through ``ares.scan.Runner``, as a GUI job (no Qt).
+
+Translates the runner's events (``ares.scan.events``; 0-based stage indices, JSON-able
+stage results) into ``ares.gui.events`` (1-based, arrays + the engine's PTC point), and
+forwards pause/resume/stop/abort to the runner.
+"""
+
+from __future__ import annotations
+
+import math
+import time
+from pathlib import Path
+
+from ares.errors import AresError
+
+from . import events as G
+
+
+def _value(d):
+    if isinstance(d, dict):
+        v = d.get("value")
+        return float(v) if isinstance(v, (int, float)) and not isinstance(v, bool) else None
+    return None
+
+
+def _fmt(d) -> str | None:
+    v = _value(d)
+    if v is None:
+        return None
+    se = d.get("se")
+    s = f"{v:.4g}" + (f" ± {se:.2g}" if isinstance(se, (int, float)) and math.isfinite(se) else "")
+    return f"{s} {d.get('unit', '')}".rstrip()
+
+
+def summarize(scan_results: dict) -> dict:
+    """The parts of the runner's scan-level results the window shows."""
+    out: dict = {"results": {}}
+    ptc = scan_results.get("ptc")
+    if isinstance(ptc, dict):
+        g = _value(ptc.get("gain_e_per_dn"))
+        if g is not None:
+            out["gain_e_per_dn"] = g
+            out["gain_note"] = f"fit by the engine over {ptc.get('levels', '?')} levels"
+        for label, key in (("conversion gain", "conversion_gain_uv_per_e"), ("system gain K", "gain_dn_per_e"),
+                           ("read noise", "read_noise_e"), ("full well (max variance)", "full_well_e"),
+                           ("dynamic range", "dynamic_range_db")):
+            text = _fmt(ptc.get(key))
+            if text:
+                out["results"][f"PTC: {label}"] = text
+        if "note" in ptc and "gain_dn_per_e" not in ptc:
+            out["results"]["PTC"] = str(ptc["note"])
+    defects = scan_results.get("defects")
+    if isinstance(defects, dict):
+        counts = defects.get("counts")
+        if isinstance(counts, dict) and counts:
+            out["defects"] = {str(k): int(v) for k, v in counts.items() if isinstance(v, (int, float))}
+            if isinstance(defects.get("pixels"), int):
+                out["pixels"] = defects["pixels"]
+            if isinstance(defects.get("criteria"), dict):
+                out["defect_criteria"] = {str(k): str(v) for k, v in defects["criteria"].items()}
+        elif defects.get("note"):
+            out["results"]["defects"] = str(defects["note"])
+    for name, r in scan_results.items():
+        if name not in ("ptc", "defects") and isinstance(r, dict) and r.get("status"):
+            out["results"][name] = f"{r['status']}" + (f" ({r['note']})" if r.get("note") else "")
+    return out
+
+
+class RunnerJob:
+    """One run of the scan at ``path``; make a new job for each run (Auto Repeat)."""
+
+    def __init__(self, path: str | Path, frames: int | None = None, seed: int | None = None,
+                 faults: dict | None = None) -> None:
+        from ares.protocol import load_scan
+        from ares.scan import Runner
+
+        self.path = Path(path)
+        self.scan = load_scan(self.path)  # InputError: one sentence with file and line
+        self.runner = Runner(self.scan, seed=seed, frames=frames, faults=faults,
+                             argv=["ares", "gui", str(self.path)])
+        self.runner.add_listener(self._on_event)
+        self._emit = None
+        self._failed_sent = False
+        self._dark_level: dict | None = None
+        scan, system = self.scan, self.scan.system
+        self.title = f"{scan.name} ({self.path.name})"
+        sensor = system.sensor
+        self.info = {
+            "scan": str(self.path),
+            "description": scan.description or "—",
+            "system": f"{system.name}: {sensor.name} {sensor.cols} x {sensor.rows}, {sensor.adc_bits}-bit, "
+                      f"CFA {sensor.cfa}",
+            "stages": str(len(self.runner.stages)),
+            "estimated duration": f"{self.runner.estimate_seconds():.1f} s of exposure, readout and settling",
+            "analyses": ", ".join(scan.analyses) or "none",
+            "frame source": "simulated sensor (ares.sim)" if system.simulator is not None else "hardware",
+            "seed": str(self.runner.seed),
+            "instruments": self._instruments(system),
+        }
+
+    @staticmethod
+    def _instruments(system) -> dict:
+        out = {"sensor": f"{system.sensor.name} ({system.sensor.cols} x {system.sensor.rows})"}
+        if system.simulator is not None:
+            out["simulator"] = f"ARTEMIS-style Monte Carlo model, seed {system.simulator.seed}"
+        else:
+            out["frame grabber"] = (f"USB {system.usb_grabber.name} ({system.usb_grabber.format})"
+                                    if system.usb_grabber else "none declared")
+        for bus in system.buses:
+            out[f"I2C bus {bus.name}"] = f"bus {bus.bus}, address 0x{bus.address:02X}, {bus.speed_hz // 1000} kHz"
+        for label, dev in (("light source", system.light_source), ("thermal chamber", system.chamber)):
+            if dev is not None:
+                rng = f", {dev.min:g}..{dev.max:g} {dev.unit or ''}" if dev.min is not None and dev.max is not None else ""
+                out[label] = f"{dev.name} on {dev.port} ({dev.baud} baud{rng.rstrip()})"
+            elif system.simulator is not None:
+                out[label] = "simulated"
+        return out
+
+    def regions(self) -> list:
+        """The scan's regions as RoA rows (on and drawn)."""
+        from .models.regions import Region
+
+        return [Region(True, True, r.x, r.y, r.width, r.height) for r in self.scan.regions]
+
+    def set_output(self, root: str | None) -> None:
+        """Write the run directory under ``root`` (None: no run directory)."""
+        if root:
+            base = Path(root) / f"{self.scan.name}_{time.strftime('%Y%m%d-%H%M%S')}"
+            p, k = base, 1
+            while p.exists():
+                k += 1
+                p = base.with_name(f"{base.name}_{k}")
+            self.runner.out_dir = p
+        else:
+            self.runner.out_dir = None
+
+    # ---- control ----------------------------------------------------------------------
+    def pause(self) -> None:
+        self.runner.pause()
+
+    def resume(self) -> None:
+        self.runner.resume()
+
+    def stop(self) -> None:
+        self.runner.stop()
+
+    def abort(self) -> None:
+        self.runner.abort()
+
+    @property
+    def paused(self) -> bool:
+        return self.runner.paused
+
+    # ---- running ----------------------------------------------------------------------
+    def run(self, emit) -> None:
+        self._emit = emit
+        try:
+            self.runner.run()
+        except AresError:
+            if not self._failed_sent:  # failed before the runner could say so
+                raise
+
+    def _on_event(self, e) -> None:
+        from ares.scan import events as ev
+
+        emit = self._emit
+        if isinstance(e, ev.RunStarted):
+            emit(G.RunInfo(e.run_dir, e.total_stages, e.estimated_s))
+        elif isinstance(e, ev.StageStarted):
+            st = e.stage
+            emit(G.StageStarted(e.index + 1, e.total, st.name, st.frames, dict(st.settings)))
+        elif isinstance(e, ev.FramePreview):
+            emit(G.FramePreview(e.index + 1, e.frame + 1, e.frames, e.data, e.dark))
+        elif isinstance(e, ev.Progress):
+            emit(G.Progress(e.index + 1, e.total, e.fraction, e.remaining_s))
+        elif isinstance(e, ev.StageFinished):
+            emit(self._stage_result(e))
+        elif isinstance(e, ev.Done):
+            if e.status == "done":
+                emit(G.Done(e.run_dir, summarize(e.scan_results), tuple(e.limit_failures)))
+            else:
+                kept = f"; {e.stages_completed} completed stage(s) kept" + (f" in {e.run_dir}" if e.run_dir else "")
+                emit(G.Stopped(f"Scan {e.status}{kept}.", aborted=(e.status == "aborted"), run_dir=e.run_dir))
+        elif isinstance(e, ev.Failed):
+            self._failed_sent = True
+            msg = e.message.strip()
+            emit(G.Failed(msg if msg.endswith(".") else msg + "."))
+
+    def _stage_result(self, e) -> G.StageResult:
+        r = e.result
+        full = r["views"]["full"]
+        level = full["level"]
+        dark = full.get("dark_level")
+        if r["scene"] == "dark":
+            self._dark_level = level
+        elif dark is None:
+            dark = self._dark_level
+        point = None
+        if r["scene"] == "flat" and dark is not None:
+            var = level.get("var_dn2")
+            dvar = dark.get("var_dn2")
+            if var is not None and dvar is not None:
+                point = (level["mean_dn"] - dark["mean_dn"], var - dvar)
+        return G.StageResult(e.index + 1, r["name"], e.arrays["mean"], e.arrays["variance"], r["frames"],
+                             dark=(r["scene"] == "dark"), settings=dict(r["settings"]), ptc_point=point,
+                             ptc_view="full")
