@@ -1,0 +1,58 @@
+"""CSV export of a run directory: ``ptc.csv``, ``components.csv``, ``key_figures.csv``.
+
+The per-stage table is the runner's ``summary.csv`` (not duplicated here). Floats are
+written with ``repr`` (round-trip exact); a value that is not available is empty.
+"""
+
+from __future__ import annotations
+
+import csv
+import io
+import math
+from pathlib import Path
+
+from ares.report import tables
+
+KEY_FIGURE_COLUMNS = ("name", "label", "value", "se", "unit", "note", "source")
+
+
+def _cell(v):
+    if v is None:
+        return ""
+    if isinstance(v, float):
+        return repr(v) if math.isfinite(v) else ""
+    return v
+
+
+def to_csv(rows: list[dict], columns) -> str:
+    buf = io.StringIO()
+    w = csv.DictWriter(buf, fieldnames=list(columns), lineterminator="\n", extrasaction="ignore")
+    w.writeheader()
+    for r in rows:
+        w.writerow({k: _cell(r.get(k)) for k in columns})
+    return buf.getvalue()
+
+
+def _write(path: Path, text: str) -> Path:
+    tmp = path.with_name(path.name + ".tmp")
+    tmp.write_text(text)
+    tmp.replace(path)
+    return path
+
+
+def key_figure_rows(kf: dict) -> list[dict]:
+    return [dict(name=k, **v) for k, v in kf.items()]
+
+
+def write_csv(run, out_dir: str | Path, groups=None, kf=None) -> list[Path]:
+    """Write the three tables into ``out_dir``; returns their paths."""
+    out = Path(out_dir)
+    out.mkdir(parents=True, exist_ok=True)
+    groups = tables.ptc_groups(run) if groups is None else groups
+    kf = tables.compute_key_figures(run, groups) if kf is None else kf
+    comp = [r for st in run.stages for r in tables.component_rows(st)]
+    return [
+        _write(out / "ptc.csv", to_csv(tables.ptc_rows(groups), tables.PTC_COLUMNS)),
+        _write(out / "components.csv", to_csv(comp, tables.COMPONENT_COLUMNS)),
+        _write(out / "key_figures.csv", to_csv(key_figure_rows(kf), KEY_FIGURE_COLUMNS)),
+    ]

@@ -1,0 +1,136 @@
+"""Read a run directory for reporting: run.json, stages/*.json, scan_results.json,
+results.h5 -- the files ``ares.scan.rundir`` writes (see its module docstring).
+
+Read-only and independent of the scan package (the runner calls the report at the end
+of a run, so the report must not import the runner). A partial run (stopped, failed,
+killed) is fine: what is there is reported and ``Run.complete`` is False. A directory
+that is missing, not a run, or holds unreadable files raises ``InputError`` with one
+sentence naming the file.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import json
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+
+from ares.errors import InputError
+
+ATTRIBUTION = "EMVA 1288 reference data set, (C) 2011 Basler AG, CC BY-SA 3.0"
+_EMVA_MARKERS = ("emva1288_referenceset", "basler")
+
+
+@dataclass
+class Run:
+    dir: Path
+    meta: dict
+    stages: list[dict]
+    scan_results: dict | None  # {"analyses": {...}, "limit_failures": [...]} or None
+    has_h5: bool = False
+    attribution: str = ""  # data attribution to print ("" for simulated/own data)
+    notes: list[str] = field(default_factory=list)
+
+    @property
+    def status(self) -> str:
+        return str(self.meta.get("status") or "unknown")
+
+    @property
+    def complete(self) -> bool:
+        return self.status == "done" and self.scan_results is not None
+
+    @property
+    def analyses(self) -> dict:
+        return (self.scan_results or {}).get("analyses") or {}
+
+    @property
+    def limit_failures(self) -> list:
+        return list((self.scan_results or {}).get("limit_failures") or [])
+
+    def incompleteness(self) -> str:
+        """One sentence on why the run is incomplete ("" when complete)."""
+        if self.complete:
+            return ""
+        n, tot = len(self.stages), self.meta.get("stages_total")
+        of = f" of {tot}" if tot else ""
+        why = self.meta.get("message") or ""
+        s = f"Incomplete run (status '{self.status}'): {n}{of} stage(s) completed"
+        if self.scan_results is None:
+            s += ", no scan-level results (computed here from the completed stages where possible)"
+        return s + (f". {why}" if why else ".")
+
+    def arrays(self, index: int) -> dict[str, np.ndarray]:
+        """Arrays of stage ``index`` from results.h5 ({} when absent)."""
+        if not self.has_h5:
+            return {}
+        import h5py
+
+        with h5py.File(self.dir / "results.h5", "r") as f:
+            g = f.get(f"stages/{index:04d}")
+            return {} if g is None else {k: g[k][()] for k in g}
+
+
+def _load_json(path: Path):
+    try:
+        return json.loads(path.read_text())
+    except (OSError, UnicodeDecodeError, json.JSONDecodeError) as exc:
+        raise InputError(f"{path}: unreadable ({exc})") from None
+
+
+def _attribution(d: Path, meta: dict) -> str:
+    if meta.get("attribution"):
+        return str(meta["attribution"])
+    texts = [json.dumps(meta)]
+    for key in ("scan_file", "system_file"):
+        p = d / str(meta.get(key) or "")
+        if p.is_file():
+            texts.append(p.read_text(errors="replace"))
+    blob = " ".join(texts).lower()
+    return ATTRIBUTION if any(m in blob for m in _EMVA_MARKERS) else ""
+
+
+def read_run(run_dir: str | Path) -> Run:
+    d = Path(run_dir)
+    if not d.exists():
+        raise InputError(f"{d}: run directory does not exist")
+    if not d.is_dir():
+        raise InputError(f"{d}: not a directory (expected an ARES run directory)")
+    if not (d / "run.json").is_file():
+        raise InputError(f"{d}: not an ARES run directory (no run.json)")
+    meta = _load_json(d / "run.json")
+    if not isinstance(meta, dict):
+        raise InputError(f"{d / 'run.json'}: unreadable (not a JSON object)")
+    notes = []
+    for key in ("scan_file", "system_file"):
+        rel = meta.get(key)
+        if not rel:
+            continue
+        p = d / rel
+        if not p.is_file():
+            notes.append(f"{rel} is missing from the run directory")
+        elif meta.get(key.replace("_file", "_sha256")) and \
+                hashlib.sha256(p.read_bytes()).hexdigest() != meta[key.replace("_file", "_sha256")]:
+            raise InputError(f"{p}: SHA-256 differs from the one recorded in run.json (file was modified)")
+    stages = []
+    for p in sorted((d / "stages").glob("[0-9][0-9][0-9][0-9].json")):
+        st = _load_json(p)
+        if not isinstance(st, dict) or "views" not in st or "full" not in st["views"]:
+            raise InputError(f"{p}: not an ARES stage result (no views.full)")
+        stages.append(st)
+    sr = None
+    if (d / "scan_results.json").is_file():
+        sr = _load_json(d / "scan_results.json")
+        if not isinstance(sr, dict):
+            raise InputError(f"{d / 'scan_results.json'}: unreadable (not a JSON object)")
+    has_h5 = (d / "results.h5").is_file()
+    if has_h5:
+        import h5py
+
+        try:
+            with h5py.File(d / "results.h5", "r"):
+                pass
+        except OSError as exc:
+            raise InputError(f"{d / 'results.h5'}: unreadable HDF5 ({exc})") from None
+    return Run(d, meta, stages, sr, has_h5, _attribution(d, meta), notes)

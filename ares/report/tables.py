@@ -1,0 +1,361 @@
+"""Key-figure, PTC-level and component tables of a run directory.
+
+Numbers come from the run directory: scan-level results from ``scan_results.json``
+when the run finished; the photon-transfer curve itself (per-level signal, variance,
+SNR, noise model, which the scan results summarise) is recomputed here from the
+per-stage level statistics with ``ares.analysis.ptc.analyze_ptc`` -- the same inputs
+the runner's PTC analysis uses. A partial run has no ``scan_results.json``: then every
+key figure comes from that recomputation and says so in its note.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+
+from ares.analysis.estimate import Estimate
+from ares.analysis.levels import LevelStats
+from ares.analysis.ptc import PtcResult, analyze_ptc
+
+# the 13 components (DESIGN.md / seed 001) in model order, then the extras ARES reports
+COMPONENTS = ("o", "Cs", "Ct", "Rs", "Rt", "Ps", "Pt", "G", "Cg", "Rg", "Pg", "q", "delta")
+EXTRA_COMPONENTS = ("frame_global", "signal")
+COMPONENT_LABELS = {
+    "o": "offset", "Cs": "column FPN", "Ct": "column temporal", "Rs": "row FPN", "Rt": "row temporal",
+    "Ps": "pixel FPN (DSNU)", "Pt": "pixel temporal (read)", "G": "conversion gain", "Cg": "column gain NU",
+    "Rg": "row gain NU", "Pg": "pixel gain NU (PRNU)", "q": "photo-charge", "delta": "shot noise",
+    "frame_global": "frame-global temporal offset", "signal": "signal (flat - dark)",
+}
+COMPONENT_PARTS = ("components", "dark_components", "flat_anova")
+
+FULL_WELL_LABELS = {
+    "max_variance": "full well, max temporal variance (EMVA 1288 3.0)",
+    "max_code": "full well, max code reached (EMVA 1288 4.0)",
+    "plateau": "full well, saturated plateau (pixel charge capacity)",
+    "ptc_turnoff": "full well, PTC turnoff",
+    "linearity_1pct": "full well, 1 % linearity limit",
+}
+
+
+def _nan(x) -> float:
+    return math.nan if x is None else float(x)
+
+
+def levelstats(level: dict) -> LevelStats:
+    return LevelStats(float(level["mean_dn"]), _nan(level.get("var_dn2")), int(level["n_pixels"]),
+                      int(level["n_frames"]), float(level.get("frac_at_max") or 0.0),
+                      float(level.get("frac_at_min") or 0.0), _nan(level.get("spatial_var_dn2")))
+
+
+def est(d) -> Estimate:
+    """An ``Estimate`` from its JSON dict (None -> not available)."""
+    if not isinstance(d, dict):
+        return Estimate.na("not in the run directory")
+    return Estimate(_nan(d.get("value")), _nan(d.get("se")), d.get("unit") or "", d.get("note") or "")
+
+
+# ------------------------------------------------------------------ PTC groups
+
+@dataclass
+class PtcGroup:
+    analog_gain: float
+    stages: list[dict]
+    result: PtcResult | None  # None: fewer than 2 levels
+    stored: dict  # the runner's scan_results entry for this gain ({} if none)
+    exposure_s: list[float]
+    light: list[float | None]
+    photons: list[float] | None
+
+    def status(self, i: int) -> tuple[str, str]:
+        """(status, reason) of level ``i``: the runner's if it recorded one, else ours."""
+        for row in self.stored.get("level_status") or []:
+            if row.get("stage") == self.stages[i]["name"]:
+                return row.get("status", ""), row.get("reason", "")
+        if self.result is None:
+            return "", "fewer than 2 levels: no PTC"
+        lv = self.result.levels[i]
+        return lv.status, lv.reason
+
+
+def _adc_lsb_uv(run, stored: dict) -> float | None:
+    cg, k = est(stored.get("conversion_gain_uv_per_e")), est(stored.get("gain_dn_per_e"))
+    if cg.available and k.available and k.value:
+        return cg.value / k.value * float(stored.get("analog_gain") or 1.0)
+    try:  # partial run: the system XML's simulator LSB
+        from ares.protocol import load_system
+
+        system = load_system(run.dir / run.meta["system_file"])
+        sim = system.simulator
+        if sim is None:
+            return None
+        if "adc_lsb_uv" in sim.params:
+            return float(sim.params["adc_lsb_uv"])
+        from ares.sim import SensorParams
+
+        return float(SensorParams().adc_lsb_uv)
+    except Exception:  # noqa: BLE001 -- best effort; conversion gain is then n/a
+        return None
+
+
+def _stored_ptc(run, gain: float) -> dict:
+    ptc = run.analyses.get("ptc") or {}
+    for r in (ptc.get("by_analog_gain") or {}).values():
+        if r.get("analog_gain") == gain:
+            return r
+    return ptc if ptc.get("analog_gain", gain) == gain and "gain_dn_per_e" in ptc else {}
+
+
+def ptc_groups(run) -> list[PtcGroup]:
+    """Flat stages with a matched dark, one group per analog gain (as the runner groups)."""
+    groups: dict[float, list[dict]] = {}
+    for st in run.stages:
+        full = st["views"]["full"]
+        if st.get("scene") == "flat" and "dark_level" in full:
+            groups.setdefault(float(st["settings"].get("analog_gain", 1.0)), []).append(st)
+    out = []
+    for g, sts in groups.items():
+        stored = _stored_ptc(run, g)
+        exp = [_nan(s["settings"].get("exposure")) for s in sts]
+        light = [s["settings"].get("light") for s in sts]
+        photons = [l_ * e for l_, e in zip(light, exp)] if all(v is not None for v in light) else None
+        if photons is not None and len(set(photons)) < 2:
+            photons = None
+        res = None
+        if len(sts) >= 2:
+            bright = [levelstats(s["views"]["full"]["level"]) for s in sts]
+            dark = [levelstats(s["views"]["full"]["dark_level"]) for s in sts]
+            res = analyze_ptc(bright, dark, exposure_s=exp if all(math.isfinite(e) for e in exp) else None,
+                              photons=photons, adc_lsb_uv=_adc_lsb_uv(run, stored), analog_gain=g)
+        out.append(PtcGroup(g, sts, res, stored, exp, light, photons))
+    return out
+
+
+PTC_COLUMNS = ("analog_gain", "stage_index", "stage", "exposure_s", "light", "photons", "mean_dn", "dark_mean_dn",
+               "signal_dn", "variance_dn2", "variance_se_dn2", "dark_variance_dn2", "frac_at_max", "status",
+               "reason")
+
+
+def ptc_rows(groups: list[PtcGroup]) -> list[dict]:
+    """One row per PTC level: the stage numbers, dark-subtracted signal/variance, SE, status."""
+    rows = []
+    for g in groups:
+        for i, st in enumerate(g.stages):
+            full = st["views"]["full"]
+            b, d = levelstats(full["level"]), levelstats(full["dark_level"])
+            status, reason = g.status(i)
+            rows.append({
+                "analog_gain": g.analog_gain, "stage_index": st["index"], "stage": st["name"],
+                "exposure_s": g.exposure_s[i], "light": g.light[i],
+                "photons": g.photons[i] if g.photons is not None else None,
+                "mean_dn": b.mean, "dark_mean_dn": d.mean, "signal_dn": b.mean - d.mean,
+                "variance_dn2": b.var - d.var, "variance_se_dn2": math.hypot(b.var_se, d.var_se),
+                "dark_variance_dn2": d.var, "frac_at_max": b.frac_at_max, "status": status, "reason": reason,
+            })
+    return rows
+
+
+# ------------------------------------------------------------------ components
+
+COMPONENT_COLUMNS = ("stage_index", "stage", "scene", "view", "part", "component", "description", "value", "se",
+                     "unit", "note")
+
+
+def _ordered(comps: dict) -> list[str]:
+    order = [c for c in COMPONENTS + EXTRA_COMPONENTS if c in comps]
+    return order + [c for c in comps if c not in order]
+
+
+def component_rows(stage: dict, views: list[str] | None = None) -> list[dict]:
+    """Every component of every view of a stage: the 13-component model for a flat stage
+    with a matched dark ("components"), the dark ANOVA ("dark_components") and the ANOVA of
+    the flat stack itself ("flat_anova") where the stage holds them."""
+    rows = []
+    for view, v in stage["views"].items():
+        if views is not None and view not in views:
+            continue
+        for part in COMPONENT_PARTS:
+            comps = v.get(part)
+            if not isinstance(comps, dict):
+                continue
+            for c in _ordered(comps):
+                e = comps[c] if isinstance(comps[c], dict) else {}
+                rows.append({"stage_index": stage["index"], "stage": stage["name"], "scene": stage.get("scene"),
+                             "view": view, "part": part, "component": c,
+                             "description": COMPONENT_LABELS.get(c, ""), "value": e.get("value"),
+                             "se": e.get("se"), "unit": e.get("unit", ""), "note": e.get("note", "")})
+    return rows
+
+
+def mid_stage(run) -> dict | None:
+    """The decomposition stage the runner chose, else the flat stage nearest half the
+    highest unclipped signal (as ``ares.scan.analyses.mid_level_stage``)."""
+    name = (run.analyses.get("decomposition") or {}).get("stage")
+    for st in run.stages:
+        if st["name"] == name:
+            return st
+    flats = [s for s in run.stages if s.get("scene") == "flat"]
+    if not flats:
+        return run.stages[len(run.stages) // 2] if run.stages else None
+
+    def signal(s):
+        full = s["views"]["full"]
+        return full["level"]["mean_dn"] - (full["dark_level"]["mean_dn"] if "dark_level" in full else 0.0)
+
+    ok = [s for s in flats if (s["views"]["full"]["level"].get("frac_at_max") or 0) < 0.002]
+    if not ok:
+        return flats[len(flats) // 2]
+    top = max(signal(s) for s in ok)
+    return min(ok, key=lambda s: abs(signal(s) - top / 2))
+
+
+def dark_stage(run) -> dict | None:
+    """The first dark stage (the one a PTC reuses as its matched dark)."""
+    return next((s for s in run.stages if s.get("scene") == "dark"), None)
+
+
+# ------------------------------------------------------------------ key figures
+
+def _entry(label: str, e: Estimate, source: str) -> dict:
+    return {"label": label, "value": e.value if e.available else None,
+            "se": e.se if math.isfinite(e.se) else None, "unit": e.unit, "note": e.note, "source": source}
+
+
+def _snr_max(res: PtcResult) -> Estimate:
+    snr = res.snr.get("snr")
+    if snr is None or not len(snr):
+        return Estimate.na("no valid PTC level")
+    i = int(np.argmax(snr))
+    return Estimate(float(snr[i]), math.nan, "",
+                    f"max measured signal / temporal noise (at {res.snr['signal_dn'][i]:.5g} DN)")
+
+
+def _flat_estimates(d: dict, prefix: str = "") -> list[tuple[str, dict]]:
+    out = []
+    for k, v in d.items():
+        if isinstance(v, dict) and "value" in v and "unit" in v:
+            out.append((prefix + k, v))
+        elif isinstance(v, dict):
+            out += _flat_estimates(v, f"{prefix}{k}.")
+    return out
+
+
+def compute_key_figures(run, groups: list[PtcGroup] | None = None) -> dict:
+    """``{name: {label, value, se, unit, note, source}}`` in report order."""
+    groups = ptc_groups(run) if groups is None else groups
+    kf: dict[str, dict] = {}
+    stored = run.analyses.get("ptc") or {}
+    g0 = next((g for g in groups if g.result is not None), None)
+    have_stored = "gain_dn_per_e" in stored
+    src = "scan_results.json: ptc" if have_stored else "computed by the report from the completed stages"
+    res = g0.result if g0 is not None else None
+
+    def pick(key: str, fallback: Estimate | None) -> Estimate:
+        if have_stored and key in stored:
+            return est(stored[key])
+        return fallback if fallback is not None else Estimate.na("no photon-transfer data")
+
+    if have_stored or res is not None:
+        ag = stored.get("analog_gain", g0.analog_gain if g0 else 1.0)
+        kf["gain_dn_per_e"] = _entry(f"system gain K (analog gain x{ag:g})", pick("gain_dn_per_e", res and res.gain_dn_per_e), src)
+        kf["gain_e_per_dn"] = _entry("inverse gain 1/K", pick("gain_e_per_dn", res and res.gain_e_per_dn), src)
+        kf["conversion_gain_uv_per_e"] = _entry("conversion gain",
+                                                pick("conversion_gain_uv_per_e", res and res.conversion_gain_uv_per_e), src)
+        if res is not None:
+            kf["gain_origin_dn_per_e"] = _entry("K, EMVA 1288 origin fit", res.gain_origin_dn_per_e, "PTC recomputed")
+            kf["gain_astier_dn_per_e"] = _entry("K, Astier 2019 fit", res.gain_astier_dn_per_e, "PTC recomputed")
+        kf["read_noise_e"] = _entry("read noise", pick("read_noise_e", res and res.read_noise_e), src)
+        kf["read_noise_dn"] = _entry("read noise (output)", pick("read_noise_dn", res and res.read_noise_dn), src)
+        fwd = stored.get("full_well_definitions") if have_stored else None
+        fw = {k: est(v) for k, v in fwd.items()} if fwd else (res.full_well_e if res is not None else {})
+        for k, e in fw.items():
+            kf[f"full_well_e.{k}"] = _entry(FULL_WELL_LABELS.get(k, f"full well ({k})"), e, src)
+        kf["dynamic_range_db"] = _entry("dynamic range", pick("dynamic_range_db", res and res.dynamic_range_db), src)
+        if res is not None:
+            s = _snr_max(res)
+            kf["snr_max"] = _entry("SNR max (measured)", s, "PTC recomputed")
+            if s.available:
+                kf["snr_max_db"] = _entry("SNR max (measured)", Estimate(20 * math.log10(s.value), math.nan, "dB",
+                                                                         s.note), "PTC recomputed")
+            fwv = fw.get("max_variance")
+            if fwv is not None and fwv.available:
+                kf["snr_max_emva"] = _entry("SNR max = sqrt(full well) (EMVA 1288)",
+                                            Estimate(math.sqrt(fwv.value), fwv.se / (2 * math.sqrt(fwv.value))
+                                                     if math.isfinite(fwv.se) else math.nan, "",
+                                                     "sqrt(full well, max variance)"), "PTC recomputed")
+            for k, e in res.noise_model.items():
+                kf[f"noise_model.{k}"] = _entry({"sensor_noise_e": "sensor noise (total-noise model)",
+                                                  "prnu_pct": "PRNU (total-noise model)"}.get(k, k), e,
+                                                 "PTC recomputed")
+        kf["qe"] = _entry("quantum efficiency", pick("qe", res and res.qe), src)
+        kf["linearity_error_pct"] = _entry("linearity error", pick("linearity_error_pct", res and res.linearity_error_pct), src)
+    for name, r in (stored.get("by_analog_gain") or {}).items():
+        for key in ("gain_dn_per_e", "read_noise_e", "full_well_e"):
+            if key in r:
+                e = est(r[key])
+                kf[f"{key}@{name}"] = _entry(f"{key} at analog gain {name}", e, "scan_results.json: ptc")
+    if not any("dark_current" in k and isinstance(a, dict) and a.get("status") not in ("not available", "error")
+               for k, a in run.analyses.items()):
+        gk = kf.get("gain_dn_per_e")
+        gain = Estimate(_nan(gk["value"]), _nan(gk["se"]), "DN/e-") if gk else None
+        kf.update(dark_current_figures(run, gain))
+    # every other scan-level analysis: its estimates (dark current, doubling temperature ...)
+    for aname, a in run.analyses.items():
+        if aname in ("ptc", "decomposition") or not isinstance(a, dict):
+            continue
+        if a.get("status") in ("not available", "error"):
+            continue
+        for key, e in _flat_estimates(a):
+            kf[f"{aname}.{key}"] = _entry(f"{aname}: {key}", est(e), f"scan_results.json: {aname}")
+    return kf
+
+
+def fmt_value(v, se=None, unit: str = "") -> str:
+    if v is None or (isinstance(v, float) and not math.isfinite(v)):
+        return "n/a"
+    s = f"{v:.4g}"
+    if se is not None and isinstance(se, (int, float)) and math.isfinite(se):
+        s += f" ± {se:.2g}"
+    return s + (f" {unit}" if unit else "")
+
+
+# ------------------------------------------------------------------ dark series
+
+def dark_series(run) -> dict[float | None, dict[str, np.ndarray]]:
+    """Dark stages grouped by temperature (None when not set): exposure, mean, temporal
+    and spatial variance, sorted by exposure."""
+    out: dict = {}
+    for st in run.stages:
+        if st.get("scene") != "dark" or "exposure" not in st["settings"]:
+            continue
+        lv = st["views"]["full"]["level"]
+        t = st["settings"].get("temperature")
+        out.setdefault(t, []).append((float(st["settings"]["exposure"]), lv["mean_dn"], _nan(lv.get("var_dn2")),
+                                      _nan(lv.get("spatial_var_dn2"))))
+    res = {}
+    for t, rows in out.items():
+        a = np.array(sorted(rows), float)
+        res[t] = {"exposure_s": a[:, 0], "mean_dn": a[:, 1], "var_dn2": a[:, 2], "spatial_var_dn2": a[:, 3]}
+    return res
+
+
+def dark_current_figures(run, gain: Estimate | None) -> dict:
+    """Dark current per temperature from the dark stages (slope of the dark mean vs
+    exposure, >= 3 exposures), in DN/s and -- with a gain -- e-/s."""
+    from ares.analysis.ptc_fit import line_fit
+
+    kf = {}
+    for t, s in dark_series(run).items():
+        if np.unique(s["exposure_s"]).size < 3:
+            continue
+        lf = line_fit(s["exposure_s"], s["mean_dn"])
+        at = "" if t is None else f" at {t:g} C"
+        key = "dark_current" + ("" if t is None else f"@{t:g}C")
+        e = Estimate(lf.slope, lf.slope_se, "DN/s", "slope of dark mean vs exposure (report, from dark stages)")
+        kf[key + "_dn_per_s"] = _entry("dark current" + at, e, "dark stages")
+        if gain is not None and gain.available:
+            v = lf.slope / gain.value
+            se = math.hypot(lf.slope_se / gain.value, v * (gain.se if math.isfinite(gain.se) else 0) / gain.value)
+            kf[key + "_e_per_s"] = _entry("dark current" + at, Estimate(v, se, "e-/s", e.note + " / K"), "dark stages")
+    return kf
