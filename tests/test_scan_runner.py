@@ -200,3 +200,40 @@ def test_runner_refuses_mismatched_frame_source(ptc_small):
     bench = build_bench(load_system(ROOT / "protocols" / "sim_sensor.xml"))
     with pytest.raises(Exception, match="declares a 32x24 array"):
         Runner(ptc_small, bench=bench).run()
+
+
+def test_photon_transfer_recovers_the_simulators_truth(tmp_path):
+    """The main job, end to end on the shipped files: K, conversion gain and the gain part."""
+    from ares.hardware.factory import sim_params
+
+    sc = load_scan(ROOT / "scans" / "photon_transfer.xml")
+    out = Runner(sc, out_dir=tmp_path / "pt").run()
+    assert out.status == "done" and not out.limit_failures
+    p = sim_params(sc.system)
+    k_true = p.gain_dn_per_e(1.0)
+    ptc = out.scan_results["ptc"]
+    assert abs(ptc["gain_dn_per_e"]["value"] - k_true) < 0.03 * k_true
+    assert abs(ptc["conversion_gain_uv_per_e"]["value"] - p.conversion_gain_uv_per_e) < 0.03 * p.conversion_gain_uv_per_e
+    comps = out.scan_results["decomposition"]["components"]
+    assert {"o", "Cs", "Ct", "Rs", "Rt", "Ps", "Pt", "G", "Cg", "Rg", "Pg", "q", "delta"} <= set(comps)
+    assert abs(comps["G"]["value"] - k_true) < 0.03 * k_true
+    assert out.scan_results["defects"]["counts"]["total"] >= 0
+
+
+def test_unknown_defect_threshold_is_refused_before_hardware(tmp_path):
+    import dataclasses
+
+    from ares.errors import InputError
+
+    sc = dataclasses.replace(load_scan(SMALL / "ptc_small.xml"), defects=(("hot_dn", 3.0),))
+    with pytest.raises(InputError, match="threshold 'hot_dn' is unknown"):
+        Runner(sc, out_dir=tmp_path / "x")
+    assert not (tmp_path / "x").exists()
+
+
+def test_dark_current_temperature_and_lag_analyses():
+    dc = Runner(load_scan(ROOT / "scans" / "dark_current.xml"), frames=4).run().scan_results["dark_current"]
+    assert dc["gain_from"] == "ptc in this run" and dc["rate_e_per_s"]["value"] > 0
+    lag = Runner(load_scan(ROOT / "scans" / "lag.xml")).run().scan_results["lag"]["cycles"]
+    # more negative transfer-gate low level -> more lag (the simulator's bias model)
+    assert lag["bright_a"]["lag_pct"]["value"] < lag["bright_b"]["lag_pct"]["value"] < lag["bright_c"]["lag_pct"]["value"]

@@ -152,12 +152,31 @@ def print_summary(outcome, scan, seconds: float, out=None) -> None:
         for k, v in d["components"].items():
             out.write(f"  {k:<26} {_num(v)}\n")
     for name, r in res.items():
-        if name not in ("ptc", "decomposition") and isinstance(r, dict) and r.get("status"):
+        if name in ("ptc", "decomposition") or not isinstance(r, dict):
+            continue
+        if r.get("status"):
             out.write(f"{name}: {r['status']}{' (' + r['note'] + ')' if r.get('note') else ''}\n")
+            continue
+        out.write(f"{name}:\n")
+        _print_estimates(r, out, "  ")
     for f in outcome.limit_failures:
         out.write(f"LIMIT FAILED: {f}\n")
     if outcome.status == "done" and scan.limits and not outcome.limit_failures:
         out.write(f"all {len(scan.limits)} limit(s) passed\n")
+
+
+def _print_estimates(d: dict, out, indent: str, depth: int = 0) -> None:
+    """Estimates (``{"value", "se", "unit"}``) of an analysis result, nested one level."""
+    for k, v in d.items():
+        if isinstance(v, dict) and "value" in v and "unit" in v:
+            out.write(f"{indent}{k:<26} {_num(v)}\n")
+        elif isinstance(v, dict) and depth < 2 and any(isinstance(x, dict) for x in v.values()):
+            out.write(f"{indent}{k}:\n")
+            _print_estimates(v, out, indent + "  ", depth + 1)
+        elif isinstance(v, (int, str)) and not isinstance(v, bool) and k in ("counts", "dark_stage"):
+            out.write(f"{indent}{k:<26} {v}\n")
+        elif k == "counts" and isinstance(v, dict):
+            out.write(f"{indent}{'counts':<26} " + ", ".join(f"{a}={b}" for a, b in v.items() if b) + "\n")
 
 
 def execute(scan, args, *, seed, frames, faults=None, argv=None, out_dir=None) -> int:

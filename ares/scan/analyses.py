@@ -8,6 +8,7 @@ module (``ares.analysis.ptc`` ...); the numbers are computed there.
 from __future__ import annotations
 
 import math
+import warnings
 
 from ares.analysis.estimate import Estimate
 from ares.scan.results import register_scan_analysis
@@ -117,3 +118,165 @@ def decomposition(run) -> dict:
         return {"status": "not available", "note": "no stages"}
     full = st["views"]["full"]
     return {"stage": st["name"], "settings": st["settings"], "components": full["components"]}
+
+
+def _run_gain(run, analog_gain: float | None = None):
+    """K (DN/e-) measured by this run's PTC, as an Estimate, or None."""
+    if not _ptc_groups(run):
+        return None
+    try:
+        p = ptc(run)
+    except Exception:
+        return None
+    if analog_gain is not None and "by_analog_gain" in p:
+        p = p["by_analog_gain"].get(f"x{analog_gain:g}", p)
+    g = p.get("gain_dn_per_e")
+    if not isinstance(g, dict) or g.get("value") is None:
+        return None
+    return Estimate(g["value"], g["se"] if g.get("se") is not None else math.nan, "DN/e-")
+
+
+def _dark_groups(run) -> dict:
+    """Dark stages grouped by temperature (None when not set)."""
+    groups: dict = {}
+    for st in run.stages:
+        if st["scene"] == "dark" and st["settings"].get("reg:test_mode", 0) == 0:
+            groups.setdefault(st["settings"].get("temperature"), []).append(st)
+    return groups
+
+
+@register_scan_analysis("dark_current")
+def dark_current(run) -> dict:
+    from ares.analysis.dark_current import dark_current as fit, dsnu_vs_exposure
+
+    groups = _dark_groups(run)
+    if not groups:
+        return {"status": "not available", "note": "no dark stages"}
+    k = _run_gain(run)
+    out = {"gain_from": "ptc in this run" if k is not None else "not measured (rates in DN/s only)"}
+    per_t = {}
+    for t, sts in groups.items():
+        exp = [s["settings"].get("exposure", math.nan) for s in sts]
+        lv = [s["views"]["full"]["level"] for s in sts]
+        dc = fit(exp, [x["mean_dn"] for x in lv], k if k is not None else math.nan, [x["var_dn2"] for x in lv])
+        ds = dsnu_vs_exposure(exp, [math.sqrt(max(x["spatial_var_dn2"] or 0.0, 0.0)) for x in lv], k)
+        per_t["default" if t is None else f"{t:g}C"] = {
+            "temperature_c": t, "rate_dn_per_s": _e(dc.rate_dn_per_s), "rate_e_per_s": _e(dc.rate_e_per_s),
+            "rate_from_variance_e_per_s": _e(dc.rate_from_variance_e_per_s), "offset_dn": _e(dc.offset_dn),
+            "dsnu_dn_per_s": _e(ds.dsnu_dn_per_s), "dsnu_e_per_s": _e(ds.dsnu_e_per_s)}
+    if len(per_t) == 1:
+        out.update(next(iter(per_t.values())))
+    else:
+        out["by_temperature"] = per_t
+    return out
+
+
+@register_scan_analysis("temperature")
+def temperature(run) -> dict:
+    from ares.analysis.dark_current import doubling_temperature
+
+    dc = dark_current(run)
+    by_t = dc.get("by_temperature")
+    if not by_t:
+        return {"status": "not available", "note": "needs dark stages at >= 3 temperatures"}
+    rows = [(v["temperature_c"], v["rate_dn_per_s"]) for v in by_t.values() if v["temperature_c"] is not None]
+    T = [t for t, r in rows]
+    vals = [r["value"] if r["value"] is not None else math.nan for t, r in rows]
+    ses = [r["se"] if r["se"] is not None else math.nan for t, r in rows]
+    fit = doubling_temperature(T, vals, ses if all(math.isfinite(s) for s in ses) else None)
+    return {"doubling_temperature_c": _e(fit.doubling_c), "rate_at_ref_dn_per_s": _e(fit.value_at_ref),
+            "ref_c": fit.ref_c, "temperatures_c": T}
+
+
+@register_scan_analysis("gain_split")
+def gain_split(run) -> dict:
+    from ares.analysis.gain_split import split_noise
+
+    groups = _ptc_groups(run)
+    ks, vs, ses, gains = [], [], [], []
+    for g, sts in groups.items():
+        k = _run_gain(run, g)
+        if k is None:
+            continue
+        d = sts[0]["views"]["full"]["dark_level"]
+        ks.append(k.value)
+        vs.append(d["var_dn2"])
+        ses.append(math.sqrt(2.0 / (d["n_pixels"] * max(d["n_frames"] - 1, 1))) * abs(d["var_dn2"]))
+        gains.append(g)
+    r = split_noise(ks, vs, ses)
+    return {"analog_gains": gains, "gain_dn_per_e": ks, "pixel_noise_e": _e(r.pixel_noise_e),
+            "chain_noise_dn": _e(r.chain_noise_dn), "crossover_gain_dn_per_e": _e(r.crossover_gain_dn_per_e),
+            "chi2_red": r.chi2_red}
+
+
+@register_scan_analysis("lag")
+def lag(run, settle: int = 2) -> dict:
+    """Each flat stage followed by a dark stage is one bright->dark cycle (frame means)."""
+    import numpy as np
+
+    from ares.analysis.lag import image_lag
+
+    out = {}
+    for a, b in zip(run.stages, run.stages[1:]):
+        if a["scene"] != "flat" or b["scene"] != "dark":
+            continue
+        fb = a["views"]["full"]["level"].get("frame_means") or []
+        fd = b["views"]["full"]["level"].get("frame_means") or []
+        if len(fb) <= settle or len(fd) <= settle:
+            continue
+        with np.errstate(all="ignore"), warnings.catch_warnings():
+            warnings.simplefilter("ignore", RuntimeWarning)  # 1-pixel "images": pixel-scatter SE undefined
+            r = image_lag(np.array(fb[settle:])[:, None, None], np.array([[fd[0]]]),
+                          np.array(fd[settle:])[:, None, None])
+        est = r.lag_pct
+        if est.available and not math.isfinite(est.se) and len(fd) > settle + 1:
+            se = 100 * float(np.std(fd[settle:], ddof=1)) / r.bright_signal_dn
+            est = Estimate(est.value, se, "%", "frame means; SE from the scatter of the settled dark frame means")
+        out[a["name"]] = {"dark_stage": b["name"], "lag_pct": _e(est), "bright_signal_dn": r.bright_signal_dn,
+                          "settings": {k: v for k, v in a["settings"].items() if k != "light"}}
+    if not out:
+        return {"status": "not available", "note": f"needs flat stages followed by dark stages of > {settle} frames"}
+    return {"cycles": out}
+
+
+@register_scan_analysis("defects")
+def defects(run) -> dict:
+    """Defect classes from the per-pixel mean/variance maps of the dark stages (and the
+    mid-level flat), thresholds from the scan's <defects>."""
+    from ares.analysis.defects import DefectThresholds, PixelStats, classify_defects
+
+    darks = [s for s in run.stages if s["scene"] == "dark" and s["settings"].get("reg:test_mode", 0) == 0]
+    if not darks:
+        return {"status": "not available", "note": "needs a dark stage"}
+    if not run.arrays(darks[0]["index"]):
+        return {"status": "not available", "note": "needs the run directory's results.h5 (per-pixel maps)"}
+
+    def stats(st, key="mean"):
+        a = run.arrays(st["index"])
+        return PixelStats(a[key].astype(float), a["variance"].astype(float), st["frames"],
+                          st["settings"].get("exposure"))
+
+    th = DefectThresholds(**dict(run.scan.defects))
+    flat = mid_level_stage(run)
+    flats = [stats(flat)] if flat is not None and flat["scene"] == "flat" else None
+    k = _run_gain(run)
+    res = classify_defects([stats(s) for s in darks], flats, gain_dn_per_e=k.value if k else None, thresholds=th)
+    return {"counts": {k_: (None if v is None else int(v)) for k_, v in res.counts.items()},
+            "passed": bool(getattr(res, "passed", True)),
+            "limits": res.limits, "dark_stages": [s["name"] for s in darks],
+            "flat_stage": flat["name"] if flats else None}
+
+
+def check_defect_thresholds(scan) -> None:
+    """Refuse unknown ``<defects><threshold name=...>`` before any hardware is touched."""
+    if not scan.defects:
+        return
+    from dataclasses import fields
+
+    from ares.analysis.defects import DefectThresholds
+    from ares.errors import InputError
+
+    known = [f.name for f in fields(DefectThresholds)]
+    for name, _ in scan.defects:
+        if name not in known:
+            raise InputError(f"{scan.source}: <defects> threshold '{name}' is unknown (known: {', '.join(known)})")

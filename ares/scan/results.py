@@ -78,6 +78,7 @@ def level(ss: StackSet, view: str) -> dict:
     n = F * R * C
     mean_map = acc.mean_map()
     out = {"mean_dn": float(acc.mean()), "n_pixels": R * C, "n_frames": F,
+           "frame_means": [float(x) for x in acc.frame_means()],
            "frac_at_max": ss.at_max[view] / n, "frac_at_min": ss.at_min[view] / n}
     if F >= 2:
         ss_f = anova_table(acc).ss["F"]

@@ -52,6 +52,9 @@ class Runner:
         self.system = scan.system
         self.frames_override = frames
         self.stages: list[Stage] = expand(scan, frames)
+        from ares.scan.analyses import check_defect_thresholds
+
+        check_defect_thresholds(scan)
         if seed is None and self.system.simulator is not None:
             seed = self.system.simulator.seed
         self.seed = seed
