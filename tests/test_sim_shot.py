@@ -67,3 +67,17 @@ def test_fast_normal_table_has_unit_variance():
     assert z.dtype == np.float32
     assert abs(z.mean()) < 4 / np.sqrt(z.size)
     assert abs(z.var() - 1) < 4 * np.sqrt(2 / z.size)
+
+
+@pytest.mark.parametrize("lam", [0.05, 1.5, 30.0])
+def test_poisson_map_sampler_pmf(lam):
+    rng = np.random.Generator(np.random.SFC64(5))
+    m = np.full(100_000, lam)
+    m[:10] = 50.0  # a few large means take the other branch
+    x = noise.poisson_map(rng, m, m.shape)[10:].astype(np.int64)
+    counts = np.bincount(x)
+    exp = stats.poisson.pmf(np.arange(counts.size), lam) * x.size
+    keep = exp > 5
+    chi2 = np.sum((counts[keep] - exp[keep]) ** 2 / exp[keep])
+    assert chi2 < stats.chi2.ppf(0.9999, max(keep.sum() - 1, 1))
+    assert abs(x.mean() - lam) < 4 * np.sqrt(lam / x.size)

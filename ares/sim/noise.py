@@ -21,8 +21,10 @@ no measurement could tell the difference — and exact Poisson elsewhere.
 
 Exact Poisson of one mean for many pixels (a flat) uses Walker's alias method over the
 pmf on ``m +- 12 sqrt(m)`` (mass outside < 1e-30; probabilities in float64): two table
-look-ups per pixel, 3-5x faster than ``Generator.poisson``. Per-pixel means (maps) use
-``Generator.poisson``.
+look-ups per pixel, 3-5x faster than ``Generator.poisson``. Per-pixel means (maps):
+counting unit-rate Poisson-process arrivals in [0, mean] (float64 exponential
+spacings) for means up to ``INVERSION_MAX_MEAN`` -- a dark frame's fraction of an
+e- -- and ``Generator.poisson`` for the rest.
 """
 
 from __future__ import annotations
@@ -35,6 +37,7 @@ from scipy.special import ndtri
 
 AUTO_SKEW_TOLERANCE = 0.05
 SHOT_MODES = ("auto", "exact", "gaussian")
+INVERSION_MAX_MEAN = 2.0
 
 _TABLE = ndtri((np.arange(1 << 16) + 0.5) / (1 << 16))
 _TABLE = (_TABLE / np.sqrt(np.mean(_TABLE**2))).astype(np.float32)
@@ -110,6 +113,37 @@ def poisson_scalar(rng: np.random.Generator, lam: float, shape) -> np.ndarray:
     return k
 
 
+def poisson_map(rng: np.random.Generator, lam, shape) -> np.ndarray:
+    """Exact Poisson deviates (float32) for per-pixel means ``lam`` (broadcast to shape).
+
+    Means up to INVERSION_MAX_MEAN: count the arrivals of a unit-rate Poisson process in
+    [0, lam] (sums of float64 Exp(1) draws), about lam + 1 draws per pixel; larger
+    means: ``Generator.poisson``.
+    """
+    lam = np.broadcast_to(np.asarray(lam, np.float64), shape).ravel()
+    out = np.zeros(lam.size, np.float32)
+    big = lam > INVERSION_MAX_MEAN
+    if big.any():
+        out[big] = rng.poisson(lam[big])
+        idx = np.flatnonzero(~big)
+        lam_s = lam[idx]
+    else:
+        idx, lam_s = None, lam
+    res = out if idx is None else np.zeros(lam_s.size, np.float32)
+    t = rng.standard_exponential(lam_s.size)  # first arrival time
+    act = np.flatnonzero(t <= lam_s)
+    k = 0
+    while act.size:
+        k += 1
+        res[act] = k
+        ta = t[act] + rng.standard_exponential(act.size)
+        t[act] = ta
+        act = act[ta <= lam_s[act]]
+    if idx is not None:
+        out[idx] = res
+    return out.reshape(shape)
+
+
 def shot(rng: np.random.Generator, mean_e, exact, shape, fast: bool, alias: bool = True) -> np.ndarray:
     """One realization of q + delta (float32, e-) for mean ``mean_e`` (scalar or map).
 
@@ -117,14 +151,16 @@ def shot(rng: np.random.Generator, mean_e, exact, shape, fast: bool, alias: bool
     ``alias=False`` avoids building an alias table for a mean used only once.
     """
     if exact is True:
-        if np.ndim(mean_e) == 0 and alias:
-            return poisson_scalar(rng, float(mean_e), shape)
-        return rng.poisson(mean_e, size=shape).astype(np.float32)
+        if np.ndim(mean_e) == 0:
+            if alias:
+                return poisson_scalar(rng, float(mean_e), shape)
+            return rng.poisson(float(mean_e), size=shape).astype(np.float32)
+        return poisson_map(rng, mean_e, shape)
     mean_arr = np.broadcast_to(np.asarray(mean_e, np.float32), shape)
     out = normal(rng, shape, fast)
     out *= np.sqrt(mean_arr)
     out += mean_arr
     if exact is not False and exact.any():
         sel = np.broadcast_to(exact, shape)
-        out[sel] = rng.poisson(mean_arr[sel])
+        out[sel] = poisson_map(rng, mean_arr[sel], (int(np.count_nonzero(sel)),))
     return out
