@@ -18,6 +18,7 @@ def direct(x):
 
 
 def acc_of(x, **kw):
+    kw.setdefault("keep_profiles", True)
     a = StackAccumulator(x.shape[1:], **kw)
     for f in x:
         a.add(f)
@@ -48,9 +49,9 @@ def test_add_batch_equals_add_and_copy_false():
     rng = np.random.default_rng(1)
     x = rng.integers(0, 4096, (40, 9, 11)).astype(np.uint16)
     a = acc_of(x)
-    b = StackAccumulator((9, 11))
+    b = StackAccumulator((9, 11), keep_profiles=True)
     b.add_batch(x)
-    c = StackAccumulator((9, 11), batch=8)
+    c = StackAccumulator((9, 11), batch=8, keep_profiles=True)
     for f in x.copy():
         c.add(f, copy=False)
     for o in (b, c):
@@ -110,7 +111,7 @@ def test_degenerate_regions(shape):
 def test_many_tiny_frames():
     rng = np.random.default_rng(4)
     x = rng.integers(0, 65536, (10_000, 2, 3)).astype(np.uint16)
-    a = StackAccumulator((2, 3))
+    a = StackAccumulator((2, 3), keep_profiles=True)
     a.add_batch(x)
     assert a.n_frames == 10_000
     xi = x.astype(np.int64)
@@ -122,7 +123,7 @@ def test_many_tiny_frames():
 def test_float_input():
     rng = np.random.default_rng(5)
     x = 1e4 + rng.standard_normal((12, 6, 8))
-    a = StackAccumulator((6, 8))
+    a = StackAccumulator((6, 8), keep_profiles=True)
     a.add_batch(x)
     assert not a.exact
     np.testing.assert_allclose(a.temporal_var_map(), x.var(0, ddof=1), rtol=1e-9)
@@ -205,7 +206,7 @@ def test_merge_split_equals_one_pass_exactly(nf, r, c, cut, seed, hi):
     x = rng.integers(0, hi, (nf, r, c)).astype(np.uint16 if hi > 256 else np.uint8)
     cut = min(cut, nf)
     one = acc_of(x)
-    p1, p2 = StackAccumulator((r, c)), StackAccumulator((r, c))
+    p1, p2 = StackAccumulator((r, c), keep_profiles=True), StackAccumulator((r, c), keep_profiles=True)
     p1.add_batch(x[:cut])
     for f in x[cut:]:
         p2.add(f)
@@ -257,9 +258,17 @@ def test_memory_independent_of_frame_count_without_profiles():
     fr = rng.integers(0, 4096, (16, 8, 9)).astype(np.uint16)
     sizes = []
     for n in (100, 2000):
-        a = StackAccumulator((8, 9), keep_profiles=False)
+        a = StackAccumulator((8, 9))
         for i in range(n):
             a.add(fr[i % 16])
         a.mean_map()
         sizes.append(a.nbytes() - 8 * n)  # per-frame totals: 8 bytes a frame
     assert sizes[0] == sizes[1]
+
+
+def test_profiles_are_opt_in():
+    a = StackAccumulator((2, 2))
+    a.add(np.ones((2, 2), np.uint16))
+    with pytest.raises(InputError, match="keep_profiles"):
+        a.frame_row_means()
+    assert a.frame_means().tolist() == [1.0]

@@ -6,8 +6,9 @@
 * the frame sums (F numbers) and, for the ANOVA, exact running sums of squares of the
   per-(frame,row) and per-(frame,column) sums taken relative to the first frame's
   (so the ANOVA needs no per-frame arrays and memory does not grow with F);
-* optionally (``keep_profiles=True``, the default) the per-(frame,row) and
-  per-(frame,column) sums themselves (F x R and F x C) for row/column time series.
+* optionally (``keep_profiles=True``) the per-(frame,row) and per-(frame,column) sums
+  themselves (F x R and F x C) for row/column time series. Off by default so that
+  memory stays independent of the frame count; the ANOVA never needs them.
 
 Every quantity of the three-way ANOVA (frames x rows x columns, ``anova.py``), the mean
 map, the per-pixel temporal variance map, the profiles and frame means follow exactly.
@@ -80,7 +81,7 @@ class StackAccumulator:
     Accessors return float64 arrays and raise ``InputError`` on an empty stack.
     """
 
-    def __init__(self, shape, batch: int = 16, keep_profiles: bool = True):
+    def __init__(self, shape, batch: int = 16, keep_profiles: bool = False):
         try:
             shape = tuple(int(s) for s in shape)
         except TypeError:
