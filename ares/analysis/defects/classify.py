@@ -20,7 +20,7 @@ from .histograms import deviation_histograms
 from .lines import LineFlags, line_z
 from .params import DefectThresholds
 from .result import BITS, DEFECT_DTYPE, PIXEL_BITS, PIXEL_CLASSES, DefectResult, primary_class
-from .robust import block_median_background, remove_lines, robust_sigma
+from .robust import block_median_background, remove_lines, robust_sigma, sampled_median
 from .rts import detect_rts
 from .stats import PixelStats, SeriesCollector
 
@@ -38,7 +38,7 @@ class _Dark:
         t = st.exposure_s
         self.rate = self.res / (gain * t) if gain and t else None
         dof = st.n_frames - 1
-        self.pop_var = float(np.median(st.var)) / (sps.chi2.median(dof) / dof)
+        self.pop_var = sampled_median(st.var) / (sps.chi2.median(dof) / dof)
         self.expected = self.pop_var + (gain * np.maximum(self.res, 0.0) if gain else 0.0)
         self.var_ratio = st.var / np.maximum(self.expected, 1e-12)
         self.col_var = np.median(self.var_ratio, axis=0)
@@ -51,7 +51,7 @@ class _Flat:
     def __init__(self, st: PixelStats, dark: PixelStats, block: int) -> None:
         self.st = st
         resp = st.mean - dark.mean
-        self.median = float(np.median(resp))
+        self.median = sampled_median(resp)
         self.resp = resp
         self.bg = block_median_background(resp, block)
         # where the local response is not positive the ratio is undefined: 1 (neutral)

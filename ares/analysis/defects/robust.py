@@ -7,6 +7,15 @@ import numpy as np
 MAD_TO_SIGMA = 1.4826  # sigma = 1.4826 * MAD for a Gaussian
 
 
+def sampled_median(x: np.ndarray, max_samples: int = 1 << 19) -> float:
+    """Median of at most ``max_samples`` regularly strided values of ``x`` (a population
+    level, not a per-pixel decision: its sampling error, ~1.25 sigma / 724, is negligible)."""
+    x = np.asarray(x).ravel()
+    if x.size > max_samples:
+        x = x[:: -(-x.size // max_samples)]
+    return float(np.median(x))
+
+
 def robust_sigma(x: np.ndarray, floor: float = 0.0, max_samples: int = 1 << 19) -> float:
     """1.4826 * MAD, from at most ``max_samples`` regularly strided values (a 2^19-pixel
     sample pins the MAD to ~0.2 %, far below what any threshold needs)."""
@@ -26,7 +35,7 @@ def remove_lines(img: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray, f
     Returns (residual, col_offsets, row_offsets, level); the residual is what a pixel
     deviates from its own row and column -- immune to column/row fixed-pattern noise.
     """
-    level = float(np.median(img))
+    level = sampled_median(img)
     a = img - level
     col = np.median(a, axis=0)
     a = a - col[None, :]
