@@ -237,3 +237,14 @@ def test_dark_current_temperature_and_lag_analyses():
     lag = Runner(load_scan(ROOT / "scans" / "lag.xml")).run().scan_results["lag"]["cycles"]
     # more negative transfer-gate low level -> more lag (the simulator's bias model)
     assert lag["bright_a"]["lag_pct"]["value"] < lag["bright_b"]["lag_pct"]["value"] < lag["bright_c"]["lag_pct"]["value"]
+
+
+def test_adc_linearity_from_the_ramp_stage(tmp_path):
+    from ares.hardware.factory import sim_params
+
+    sc = load_scan(ROOT / "scans" / "adc_linearity.xml")
+    res = Runner(sc, out_dir=tmp_path / "adc", frames=4).run().scan_results["adc_linearity"]
+    ch = res["channels"]["full"]
+    inl = sim_params(sc.system).adc_inl_lsb  # half-sine bow of this amplitude
+    assert res["stages"] == ["ramp"] and ch["missing_codes"] == 0
+    assert 0.5 * inl < max(ch["inl_max_lsb"]["value"], -ch["inl_min_lsb"]["value"]) < 2 * inl

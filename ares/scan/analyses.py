@@ -267,6 +267,38 @@ def defects(run) -> dict:
             "flat_stage": flat["name"] if flats else None}
 
 
+@register_scan_analysis("adc_linearity")
+def adc_linearity(run) -> dict:
+    """INL/DNL per ADC channel by the code-density test on ramp stages (test_mode 2),
+    else on every dark/flat stage's histogram together (approximate: not a uniform input)."""
+    import numpy as np
+
+    from ares.analysis.adc import code_density
+
+    ramps = [s for s in run.stages if s["settings"].get("reg:test_mode") == 2]
+    if not ramps:
+        return {"status": "not available", "note": "needs a ramp stage (test_mode 2)"}
+    hists: dict = {}
+    for st in ramps:
+        for k, a in run.arrays(st["index"]).items():
+            if k.startswith("hist_"):
+                hists[k[5:]] = hists.get(k[5:], 0) + a
+    if not hists:
+        return {"status": "not available", "note": "needs the run directory's results.h5 (code histograms)"}
+    chans = [k for k in hists if k.startswith("adc")] or ["full"]
+    out = {"stages": [s["name"] for s in ramps], "channels": {}}
+    for ch in chans:
+        h = np.asarray(hists[ch])
+        r = code_density(np.repeat(np.arange(h.size), h), h.size - 1)
+        out["channels"][ch] = {
+            "dnl_max_lsb": Estimate(r.dnl_max, math.nan, "LSB").to_dict(),
+            "dnl_min_lsb": Estimate(r.dnl_min, math.nan, "LSB").to_dict(),
+            "inl_max_lsb": Estimate(r.inl_max, math.nan, "LSB").to_dict(),
+            "inl_min_lsb": Estimate(r.inl_min, math.nan, "LSB").to_dict(),
+            "missing_codes": int(r.missing_codes.size), "codes": [r.first, r.last], "samples": r.samples}
+    return out
+
+
 def check_defect_thresholds(scan) -> None:
     """Refuse unknown ``<defects><threshold name=...>`` before any hardware is touched."""
     if not scan.defects:

@@ -51,9 +51,11 @@ def views(scan) -> dict[str, tuple[slice, slice]]:
 class StackSet:
     """One accumulator per view, plus clip counters."""
 
-    def __init__(self, shape, views_: dict, max_code: int):
+    def __init__(self, shape, views_: dict, max_code: int, histograms: bool = False):
         self.views = views_
         self.max_code = max_code
+        self.hist = {k: np.zeros(max_code + 1, np.int64) for k in views_
+                     if k == "full" or k.startswith(("adc", "cfa_"))} if histograms else {}
         dummy = np.empty(shape, dtype=np.uint8)
         self.acc = {k: StackAccumulator(dummy[s].shape) for k, s in views_.items()}
         self.at_max = {k: 0 for k in views_}
@@ -65,6 +67,8 @@ class StackSet:
             self.acc[k].add(d)
             self.at_max[k] += int(np.count_nonzero(d >= self.max_code))
             self.at_min[k] += int(np.count_nonzero(d == 0))
+            if k in self.hist:
+                self.hist[k] += np.bincount(d.ravel(), minlength=self.max_code + 1)[: self.max_code + 1]
 
     @property
     def n_frames(self) -> int:
@@ -136,6 +140,8 @@ def analyze_stage(stage, flat: StackSet, dark: StackSet | None) -> tuple[dict, d
               "frame_means": np.asarray(full.frame_means(), dtype=np.float64)}
     if dark is not None:
         arrays["dark_mean"] = dark.acc["full"].mean_map().astype(np.float32)
+    for k, h in flat.hist.items():
+        arrays[f"hist_{k}"] = h  # code histogram (only when the scan asks for adc_linearity)
     return res, arrays
 
 

@@ -214,7 +214,7 @@ class Runner:
     def _grab(self, bench, st: Stage, n: int, vw, max_code, fw, dark: bool) -> StackSet:
         src = bench.frames
         shape = tuple(src.shape)
-        ss = StackSet(shape, vw, max_code)
+        ss = StackSet(shape, vw, max_code, histograms="adc_linearity" in self.scan.analyses)
         it = iter(src.grab(n))
         k = 0
         try:
