@@ -20,7 +20,7 @@ from pathlib import Path
 import numpy as np
 from scipy import stats
 
-from ares.sim import SensorParams, SimSensor
+from ares.sim import SensorParams, SimSensor, make_sim_bench
 from ares.sim import noise
 
 OUT = Path(__file__).with_name("sim.md")
@@ -57,6 +57,14 @@ def timing_rows(shape, repeat):
         ("low light q = 12 e-, gaussian", dict(photon_flux=2000.0, shot_noise="gaussian"), None),
         ("flat at 50 % full well, exact", dict(photon_flux=mid, shot_noise="exact"), None),
     ]
+    bench = make_sim_bench(p, 0)
+    bench.light.set_level(mid)
+
+    def grab16():
+        for _ in bench.frames.grab(16):
+            pass
+
+    cases.append(("register bench grab(16), per frame (flat 50 %)", None, median_ms(grab16, max(3, repeat // 4)) / 16))
     out = []
     lagged = SimSensor(p.replace(lag_fraction=0.01), 0)
     for name, kw, fixed in cases:
