@@ -79,7 +79,7 @@ class MainWindow(QMainWindow):
         split = QSplitter(Qt.Orientation.Horizontal)
         split.addWidget(left)
         split.addWidget(right)
-        split.setSizes([560, 840])
+        split.setSizes([520, 880])
         self.setCentralWidget(split)
         self._menus()
         self.statusBar().showMessage("Ready.")
@@ -91,7 +91,6 @@ class MainWindow(QMainWindow):
         self.controls.scan.open_requested.connect(self._open_dialog)
         self.controls.regions.error.connect(self.show_error)
         self.controls.inputs.image_requested.connect(self.show_image_file)
-        s.info.update(versions())
         self._show_job_info(engine.DemoScan())
 
     def _menus(self) -> None:
@@ -148,8 +147,10 @@ class MainWindow(QMainWindow):
         self.controls.scan.show_job(self.scan_path, getattr(job, "title", ""), info)
         self.controls.instruments.show_instruments(info.get("instruments", {}) or
                                                    {"sensor": info.get("system", "unknown")})
-        self.session.info.update({k: v for k, v in info.items() if not isinstance(v, dict)})
-        self.session.info.update({"scan": self.scan_path or getattr(job, "title", "")})
+        items = dict(versions())
+        items["scan"] = self.scan_path or getattr(job, "title", "")
+        items.update({k: v for k, v in info.items() if not isinstance(v, dict) and k != "scan"})
+        self.session.info.replace(items)
         source = info.get("frame source") or info.get("system")
         if source:
             self.controls.inputs.source.setText(f"Frame source: {source}")

@@ -36,24 +36,30 @@ class StatsPanel(QGroupBox):
         self.restore_button = QPushButton("Restore")
         self.labels = {attr: QLabel("n/a") for _, attr in STAT_FIELDS}
 
-        controls = QHBoxLayout()
-        controls.addWidget(QLabel("Range Mode:"))
-        controls.addWidget(self.mode)
-        controls.addWidget(QLabel("From:"))
-        controls.addWidget(self.frm)
-        controls.addWidget(QLabel("To:"))
-        controls.addWidget(self.to)
-        controls.addWidget(self.restore_button)
-        controls.addStretch(1)
+        # Range Mode [combo] [Restore] / From [..] To [..] / Mean Sigma / Fitted Mean Fitted
+        # Sigma / Lowest Highest: two label-value pairs per row keeps the panel narrow
+        # enough for a 2 x 2 grid beside the control column on a 1400-pixel screen.
+        right = Qt.AlignmentFlag.AlignRight | Qt.AlignmentFlag.AlignVCenter
         stats = QGridLayout()
+        stats.setHorizontalSpacing(6)
+        stats.setVerticalSpacing(2)
+        stats.addWidget(QLabel("Range Mode:"), 0, 0, right)
+        stats.addWidget(self.mode, 0, 1)
+        stats.addWidget(self.restore_button, 0, 3)
+        stats.addWidget(QLabel("From:"), 1, 0, right)
+        stats.addWidget(self.frm, 1, 1)
+        stats.addWidget(QLabel("To:"), 1, 2, right)
+        stats.addWidget(self.to, 1, 3)
         for k, (name, attr) in enumerate(STAT_FIELDS):
-            stats.addWidget(QLabel(name + ":"), k // 3, 2 * (k % 3), Qt.AlignmentFlag.AlignRight)
+            row, col = 2 + k // 2, 2 * (k % 2)
             self.labels[attr].setTextInteractionFlags(Qt.TextInteractionFlag.TextSelectableByMouse)
-            stats.addWidget(self.labels[attr], k // 3, 2 * (k % 3) + 1)
+            stats.addWidget(QLabel(name + ":"), row, col, right)
+            stats.addWidget(self.labels[attr], row, col + 1)
+        stats.setColumnStretch(1, 1)
+        stats.setColumnStretch(3, 1)
         lay = QVBoxLayout(self)
         lay.setContentsMargins(4, 4, 4, 4)
         lay.addWidget(self.histogram, 1)
-        lay.addLayout(controls)
         lay.addLayout(stats)
         for w in self.findChildren(QLabel):
             w.setStyleSheet("font-weight: normal;")
@@ -71,7 +77,7 @@ class StatsPanel(QGroupBox):
         s.setRange(-1e9, 1e9)
         s.setDecimals(2)
         s.setKeyboardTracking(False)
-        s.setMinimumWidth(80)
+        s.setMinimumWidth(70)
         return s
 
     def _mode_chosen(self, mode: str) -> None:

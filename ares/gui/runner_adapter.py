@@ -32,9 +32,11 @@ def _fmt(d) -> str | None:
     return f"{s} {d.get('unit', '')}".rstrip()
 
 
-def summarize(scan_results: dict) -> dict:
+def summarize(scan_results: dict, thresholds: tuple = ()) -> dict:
     """The parts of the runner's scan-level results the window shows."""
     out: dict = {"results": {}}
+    if thresholds:
+        out["results"]["defect thresholds"] = ", ".join(f"{k} = {v:g}" for k, v in thresholds)
     ptc = scan_results.get("ptc")
     if isinstance(ptc, dict):
         g = _value(ptc.get("gain_e_per_dn"))
@@ -56,8 +58,14 @@ def summarize(scan_results: dict) -> dict:
             out["defects"] = {str(k): int(v) for k, v in counts.items() if isinstance(v, (int, float))}
             if isinstance(defects.get("pixels"), int):
                 out["pixels"] = defects["pixels"]
-            if isinstance(defects.get("criteria"), dict):
-                out["defect_criteria"] = {str(k): str(v) for k, v in defects["criteria"].items()}
+            parts = []
+            if defects.get("dark_stages"):
+                parts.append("dark stage(s) " + ", ".join(map(str, defects["dark_stages"])))
+            if defects.get("flat_stage"):
+                parts.append(f"flat stage {defects['flat_stage']}")
+            if "passed" in defects:
+                parts.append("defect limits " + ("passed" if defects["passed"] else "FAILED"))
+            out["defect_caption"] = "Scan-level defect classification: " + "; ".join(parts) + "."
         elif defects.get("note"):
             out["results"]["defects"] = str(defects["note"])
     for name, r in scan_results.items():
@@ -177,7 +185,7 @@ class RunnerJob:
             emit(self._stage_result(e))
         elif isinstance(e, ev.Done):
             if e.status == "done":
-                emit(G.Done(e.run_dir, summarize(e.scan_results), tuple(e.limit_failures)))
+                emit(G.Done(e.run_dir, summarize(e.scan_results, self.scan.defects), tuple(e.limit_failures)))
             else:
                 kept = f"; {e.stages_completed} completed stage(s) kept" + (f" in {e.run_dir}" if e.run_dir else "")
                 emit(G.Stopped(f"Scan {e.status}{kept}.", aborted=(e.status == "aborted"), run_dir=e.run_dir))

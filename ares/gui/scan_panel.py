@@ -147,6 +147,7 @@ class ControlTabs(QTabWidget):
         self.instruments = InstrumentationTab()
         for w, name in zip((self.scan, self.regions, self.output, self.inputs, self.instruments), CONTROL_TABS):
             self.addTab(w, name)
+        self.setStyleSheet("QTabBar::tab { padding: 4px 7px; }")  # all five tabs fit the control column
 
 
 class ProgressLine(QWidget):

@@ -28,6 +28,10 @@ class InfoModel(Observable):
         super().__init__()
         self.items: dict[str, str] = {}
 
+    def replace(self, mapping: dict) -> None:
+        self.items = {str(k): str(v) for k, v in mapping.items()}
+        self._changed()
+
     def update(self, mapping: dict | None = None, **items) -> None:
         """Add or replace items; keyword names use ``_`` for spaces."""
         self.items.update({str(k): str(v) for k, v in (mapping or {}).items()})

@@ -8,6 +8,7 @@ import numpy as np
 import pyqtgraph as pg
 
 from ..models.stats import StatsPanelModel
+from . import plain_axes
 
 
 def gaussian_curve(model: StatsPanelModel, points: int = 200):
@@ -27,6 +28,7 @@ class HistogramPlot(pg.PlotWidget):
         self.model = model
         self.setLabel("bottom", xlabel)
         self.setLabel("left", "pixels")
+        plain_axes(self)
         self.bars = pg.PlotDataItem(stepMode="center", fillLevel=0, brush=(*color, 90), pen=pg.mkPen(color))
         self.fit = pg.PlotDataItem(pen=pg.mkPen((200, 0, 0), width=1.5))
         self.addItem(self.bars)

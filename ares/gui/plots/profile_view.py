@@ -6,7 +6,7 @@ import pyqtgraph as pg
 from PySide6.QtWidgets import QVBoxLayout, QWidget
 
 from ..models.profiles import ProfilesModel
-from . import region_color
+from . import plain_axes, region_color
 
 
 class ProfilesView(QWidget):
@@ -20,6 +20,7 @@ class ProfilesView(QWidget):
         for p in (self.columns, self.rows):
             p.setLabel("left", "mean signal", units="DN")
             p.addLegend(offset=(-10, 10))
+            plain_axes(p)
         lay = QVBoxLayout(self)
         lay.addWidget(self.columns)
         lay.addWidget(self.rows)

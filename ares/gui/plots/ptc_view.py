@@ -9,6 +9,7 @@ from PySide6.QtCore import Qt
 from PySide6.QtWidgets import QLabel, QVBoxLayout, QWidget
 
 from ..models.ptc import PTCModel
+from . import plain_axes
 
 
 class PTCView(QWidget):
@@ -20,6 +21,7 @@ class PTCView(QWidget):
         self.plot.setLabel("bottom", "signal above dark", units="DN")
         self.plot.setLabel("left", "temporal variance above dark", units="DN²")
         self.plot.showGrid(x=True, y=True, alpha=0.3)
+        plain_axes(self.plot)
         self.points = pg.PlotDataItem(pen=None, symbol="o", symbolSize=9,
                                      symbolBrush=pg.mkBrush(30, 120, 220), symbolPen=pg.mkPen("k"))
         self.line = pg.PlotDataItem(pen=pg.mkPen((200, 0, 0), width=1.5, style=Qt.PenStyle.DashLine))
