@@ -263,3 +263,33 @@ def test_added_photocharge_and_flutter():
         m = f.mean(axis=(1, 2))
         rel = m.std(ddof=1) / m.mean()
         assert rel == pytest.approx(0.02, rel=4 * np.sqrt(1 / 198))
+
+
+def test_pixel_fpn_mixture_gaussian_dsnu_plus_exponential_tail():
+    s1, b = 100.0, 50.0  # DSNU sigma and exponential-tail mean, e-/s at 60 C
+    p = BASE.replace(rows=96, cols=128, dark_current_e_per_s=1000.0, dsnu_e_per_s=s1, dark_tail_e_per_s=b)
+    s = SimSensor(p, 8)
+    t = s.truth(exposure_s=1.0, temperature_c=60.0, dark=True)
+    G = t["G"]
+    assert t["Ps"] == pytest.approx(G**2 * (s1**2 + b**2))
+    n = p.rows * p.cols
+    var = s1**2 + b**2
+    mu4 = 3 * s1**4 + 6 * s1**2 * b**2 + 9 * b**4
+    real = t["realized"]["Ps"] / G**2
+    assert abs(real - var) < 4 * np.sqrt((mu4 - var**2) / n)
+    dark = t["maps"]["dark_e_per_s"].ravel()
+    skew = float(np.mean((dark - dark.mean()) ** 3) / dark.var() ** 1.5)
+    assert skew == pytest.approx(2 * b**3 / var**1.5, abs=0.15)  # the exponential tail's skewness
+    assert dark.mean() == pytest.approx(1000.0, abs=4 * np.sqrt(var / n))
+    # the frames carry it: time-averaged dark image vs truth map
+    f = s.render(8, exposure_s=1.0, temperature_c=60.0, dark=True, black_level_dn=0).astype(np.float64).mean(0)
+    resid = f - G * t["maps"]["dark_e_per_s"]
+    assert abs(resid.mean()) < 0.1 and resid.std() < np.sqrt(G**2 * 1000.0 / 8 + 1 / 12) * 1.1
+
+
+def test_column_and_row_gain_non_uniformity_realized():
+    p = BASE.replace(rows=96, cols=128, col_gain_pct=2.0, row_gain_pct=1.0)
+    t = SimSensor(p, 9).truth(exposure_s=0.01)
+    assert t["Cg"] == pytest.approx(4e-4) and t["Rg"] == pytest.approx(1e-4)
+    assert abs(t["realized"]["Cg"] - 4e-4) < tol(4e-4, p.cols - 1)
+    assert abs(t["realized"]["Rg"] - 1e-4) < tol(1e-4, p.rows - 1)
