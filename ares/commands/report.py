@@ -1,0 +1,43 @@
+"""``ares report RUN_DIR``: CSV tables and a PDF report from a run directory alone.
+
+Writes ``ptc.csv``, ``components.csv``, ``key_figures.csv`` and ``report.pdf`` into the
+run directory (``--csv DIR`` / ``--pdf FILE`` elsewhere; given only one of them, only
+that one is written). ``--json`` prints the key figures and the files as JSON. A
+partial run is reported as far as it goes (exit 0, with a note); a missing or
+unreadable run directory is one sentence, exit 2.
+"""
+
+from __future__ import annotations
+
+import json
+import sys
+
+NAME = "report"
+HELP = "write CSV tables and a PDF report from a run directory"
+
+
+def add_arguments(parser) -> None:
+    parser.add_argument("run_dir", metavar="RUN_DIR", help="run directory written by 'ares run'")
+    parser.add_argument("--pdf", metavar="FILE", help="write the PDF here (default: RUN_DIR/report.pdf)")
+    parser.add_argument("--csv", metavar="DIR", help="write the CSV tables here (default: RUN_DIR)")
+    parser.add_argument("--json", action="store_true", help="print key figures and written files as JSON")
+
+
+def run(args) -> int:
+    from ares.report import read_run, tables, write_reports
+
+    formats = [f for f, opt in (("csv", args.csv), ("pdf", args.pdf)) if opt] or ["csv", "pdf"]
+    r = read_run(args.run_dir)
+    files = write_reports(args.run_dir, formats, pdf_path=args.pdf, csv_dir=args.csv)
+    note = r.incompleteness()
+    if args.json:
+        kf = tables.compute_key_figures(r)
+        json.dump({"run_dir": str(r.dir), "status": r.status, "complete": r.complete, "note": note,
+                   "files": [str(p) for p in files], "key_figures": kf}, sys.stdout, indent=1, allow_nan=False)
+        sys.stdout.write("\n")
+    else:
+        if note:
+            print(note, file=sys.stderr)
+        for p in files:
+            print(p)
+    return 0

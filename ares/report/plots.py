@@ -1,0 +1,259 @@
+"""Matplotlib figures of the report (plain ``Figure`` objects, no pyplot, no Qt).
+
+Every function draws onto axes it is given from numbers already computed; none reads
+files. Pages are A4 portrait (``new_page``).
+"""
+
+from __future__ import annotations
+
+import math
+
+import matplotlib.lines
+import matplotlib.patches
+import numpy as np
+from matplotlib.figure import Figure
+
+A4 = (8.27, 11.69)
+STATUS_STYLE = {"fit": dict(marker="o", color="C0", label="fitted"),
+                "valid": dict(marker="s", color="C2", label="valid, not fitted"),
+                "excluded": dict(marker="x", color="C3", label="excluded")}
+RC = {"font.size": 9, "axes.titlesize": 10, "axes.labelsize": 9, "legend.fontsize": 8, "pdf.fonttype": 42}
+
+
+def new_page(title: str, subtitle: str = "") -> Figure:
+    fig = Figure(figsize=A4)
+    fig.text(0.5, 0.975, title, ha="center", va="top", fontsize=14, weight="bold")
+    if subtitle:
+        fig.text(0.5, 0.952, subtitle, ha="center", va="top", fontsize=9, color="0.3")
+    return fig
+
+
+def clip(s: str, n: int) -> str:
+    s = str(s)
+    return s if len(s) <= n else s[: n - 1] + "…"
+
+
+def text_table(fig: Figure, rect, header: list[str], rows: list[list[str]], widths: list[float],
+               fontsize: float = 8, title: str = "", max_chars: list[int] | None = None) -> float:
+    """Draw a table as aligned text in ``rect`` (figure fraction: left, top, width);
+    returns the y (figure fraction) below the last row."""
+    left, top, width = rect
+    line = fontsize * 1.45 / 72 / fig.get_figheight()
+    y = top
+    if title:
+        fig.text(left, y, title, fontsize=fontsize + 2, weight="bold", va="top")
+        y -= line * 1.5
+    xs = [left + width * sum(widths[:i]) / sum(widths) for i in range(len(widths))]
+    for x, h in zip(xs, header):
+        fig.text(x, y, h, fontsize=fontsize, weight="bold", va="top")
+    y -= line * 0.9
+    fig.add_artist(matplotlib.lines.Line2D([left, left + width], [y, y], color="0.5", lw=0.6))
+    y -= line * 0.3
+    for k, row in enumerate(rows):
+        if k % 2:
+            fig.add_artist(matplotlib.patches.Rectangle((left, y - line * 0.95), width, line, color="0.94",
+                                                        zorder=-1, transform=fig.transFigure))
+        for j, (x, cell) in enumerate(zip(xs, row)):
+            txt = clip(cell, max_chars[j]) if max_chars else str(cell)
+            fig.text(x, y, txt, fontsize=fontsize, va="top", family="monospace" if j and j < 2 else None)
+        y -= line
+    return y
+
+
+# ------------------------------------------------------------------ PTC
+
+def _status_scatter(ax, x, y, status, yerr=None):
+    for st, style in STATUS_STYLE.items():
+        sel = np.array([s == st for s in status])
+        if not sel.any():
+            continue
+        kw = dict(ls="none", ms=5, mfc="none" if st == "valid" else None, **style)
+        if yerr is not None:
+            ax.errorbar(np.asarray(x)[sel], np.asarray(y)[sel], yerr=np.asarray(yerr)[sel], capsize=2, **kw)
+        else:
+            ax.plot(np.asarray(x)[sel], np.asarray(y)[sel], **kw)
+
+
+def ptc_variance(ax, rows: list[dict], res, title: str) -> list[str]:
+    """Variance vs signal (dark subtracted) with the gain fits; excluded levels marked
+    with a number that keys the reasons returned (one string each)."""
+    S = np.array([r["signal_dn"] for r in rows])
+    V = np.array([r["variance_dn2"] for r in rows])
+    E = np.array([r["variance_se_dn2"] for r in rows])
+    status = [r["status"] for r in rows]
+    _status_scatter(ax, S, V, status, E)
+    notes = []
+    if res is not None:
+        fit = [lv for lv in res.levels if lv.status == "fit"]
+        smax = max([lv.signal for lv in res.levels if lv.status != "excluded"] or [1.0])
+        xs = np.linspace(0, smax * 1.05, 50)
+        for e, name, ls in ((res.gain_dn_per_e, "WLS line", "-"), (res.gain_origin_dn_per_e, "EMVA origin fit", "--"),
+                            (res.gain_astier_dn_per_e, "Astier", ":")):
+            if e.available:
+                ax.plot(xs, e.value * xs, ls=ls, lw=1, color="0.2" if ls == "-" else "0.5",
+                        label=f"{name}: K = {e.value:.4g} DN/e-")
+        if fit:
+            ax.axvspan(0, max(lv.signal for lv in fit), color="C0", alpha=0.05, lw=0)
+    k = 0
+    for r in rows:
+        if r["status"] == "excluded" and np.isfinite(r["signal_dn"]) and np.isfinite(r["variance_dn2"]):
+            k += 1
+            ax.annotate(str(k), (r["signal_dn"], r["variance_dn2"]), textcoords="offset points", xytext=(3, 4),
+                        fontsize=7, color="C3")
+            notes.append(f"{k}: {r['stage']} -- {r['reason']}")
+    ax.set_xlabel("signal  mu_y - mu_dark  (DN)")
+    ax.set_ylabel("temporal variance  s2_y - s2_dark  (DN^2)")
+    ax.set_title(title)
+    ax.grid(alpha=0.3)
+    ax.legend(loc="upper left")
+    return notes
+
+
+def noise_zones(ax, rows: list[dict], res, title: str) -> None:
+    """log-log noise vs signal: temporal, total (temporal + spatial) and the total-noise
+    model with its read / shot / PRNU zones."""
+    good = [lv for lv in res.levels if lv.status != "excluded" and lv.signal > 0] if res else []
+    if not good:
+        ax.text(0.5, 0.5, "no valid levels", ha="center", transform=ax.transAxes)
+        return
+    S = np.array([lv.signal for lv in good])
+    tot = np.sqrt(np.array([lv.total_var + (lv.spatial_var if math.isfinite(lv.spatial_var) else 0)
+                            for lv in good]))
+    tmp = np.sqrt(np.array([lv.total_var for lv in good]))
+    ax.loglog(S, tmp, "o", ms=4, color="C0", label="temporal noise")
+    ax.loglog(S, tot, "s", ms=4, mfc="none", color="C1", label="total noise (temporal + spatial)")
+    K = res.gain_dn_per_e
+    xs = np.geomspace(S.min() / 2, S.max() * 1.5, 200)
+    if K.available:
+        ne = xs / K.value
+        ax.loglog(xs, np.sqrt(K.value * xs), ":", color="C0", lw=1, label="shot noise sqrt(K S)")
+        nm = res.noise_model
+        sn, pr = nm.get("sensor_noise_e"), nm.get("prnu_pct")
+        if sn is not None and sn.available:
+            ax.axhline(sn.value * K.value, color="0.4", lw=0.8, ls="--", label=f"sensor noise {sn.value:.3g} e-")
+        if sn is not None and pr is not None and sn.available and pr.available:
+            model = np.sqrt(sn.value**2 + ne + (pr.value / 100 * ne) ** 2) * K.value
+            ax.loglog(xs, model, "-", color="C1", lw=1.2, label=f"total-noise model (PRNU {pr.value:.3g} %)")
+            ax.loglog(xs, pr.value / 100 * xs, "-.", color="C2", lw=0.8, label="PRNU noise")
+        lo, hi = xs[0], xs[-1]
+        edges = [lo]
+        for key in ("read_to_shot_e", "shot_to_prnu_e"):
+            z = res.zones.get(key)
+            if z is not None and z.available and lo < z.value * K.value < hi:
+                edges.append(z.value * K.value)
+                ax.axvline(z.value * K.value, color="0.3", lw=0.8)
+        edges.append(hi)
+        for (a, b), name, c in zip(zip(edges[:-1], edges[1:]), ("read", "shot", "PRNU"), ("0.85", "C0", "C2")):
+            ax.axvspan(a, b, color=c, alpha=0.07, lw=0)
+            ax.text(math.sqrt(a * b), 0.97, f"{name} zone", transform=ax.get_xaxis_transform(), ha="center",
+                    va="top", fontsize=8)
+    ymin = max(min(tmp.min(), tot.min()) / 3, 1e-3)
+    ax.set_ylim(ymin, max(tot.max(), tmp.max()) * 3)
+    ax.set_xlabel("signal (DN)")
+    ax.set_ylabel("noise (DN rms)")
+    ax.set_title(title)
+    ax.grid(alpha=0.3, which="both")
+    ax.legend(loc="lower right")
+
+
+def snr_curve(ax, res, title: str) -> None:
+    s, snr = res.snr["signal_dn"], res.snr["snr"]
+    K = res.gain_dn_per_e
+    if K.available and len(res.snr["signal_e"]):
+        x, xl = res.snr["signal_e"], "signal (e-)"
+    else:
+        x, xl = s, "signal (DN)"
+    ok = (x > 0) & (snr > 0)
+    ax.loglog(x[ok], snr[ok], "o", ms=4, label="measured  S / temporal noise")
+    if K.available and ok.any():
+        xs = np.geomspace(x[ok].min(), x[ok].max(), 100)
+        ax.loglog(xs, np.sqrt(xs), ":", color="0.4", label="ideal (shot-noise limit) sqrt(N)")
+        rn = res.read_noise_e
+        if rn.available:
+            ax.loglog(xs, xs / np.sqrt(xs + rn.value**2), "-", color="C1", lw=1,
+                      label=f"shot + read noise ({rn.value:.3g} e-)")
+    if ok.any():
+        i = int(np.argmax(snr))
+        ax.annotate(f"max {snr[i]:.3g} ({20 * math.log10(snr[i]):.1f} dB)", (x[i], snr[i]),
+                    textcoords="offset points", xytext=(-110, -4), fontsize=8)
+    ax.set_xlabel(xl)
+    ax.set_ylabel("SNR")
+    ax.set_title(title)
+    ax.grid(alpha=0.3, which="both")
+    ax.legend(loc="upper left")
+
+
+def linearity(ax, ax_dev, rows: list[dict], title: str) -> None:
+    if all(r["photons"] is not None for r in rows):
+        x, xl = np.array([r["photons"] for r in rows], float), "photons per pixel (light x exposure)"
+    else:
+        x, xl = np.array([r["exposure_s"] for r in rows], float), "exposure (s)"
+    S = np.array([r["signal_dn"] for r in rows])
+    status = [r["status"] for r in rows]
+    _status_scatter(ax, x, S, status)
+    good = np.array([s != "excluded" for s in status]) & np.isfinite(x)
+    ax.set_ylabel("signal (DN)")
+    ax.set_title(title)
+    ax.grid(alpha=0.3)
+    if good.sum() >= 3:
+        smax = S[good].max()
+        sel = good & (S >= 0.05 * smax) & (S <= 0.95 * smax)
+        if sel.sum() >= 2:
+            a, b = np.polyfit(x[sel], S[sel], 1, w=1.0 / S[sel])
+            xs = np.linspace(0, x[good].max(), 50)
+            ax.plot(xs, a * xs + b, "-", color="0.3", lw=1, label=f"line on 5-95 % (slope {a:.4g} DN/unit)")
+            dev = 100 * (S - (a * x + b)) / (a * x + b)
+            _status_scatter(ax_dev, x, dev, status)
+            ax_dev.axhline(0, color="0.3", lw=0.8)
+            for yy in (-1, 1):
+                ax_dev.axhline(yy, color="0.6", lw=0.6, ls="--")
+            lim = max(2.0, float(np.nanmax(np.abs(dev[sel]))) * 1.5)
+            ax_dev.set_ylim(-lim, lim)
+            ax_dev.axvspan(x[sel].min(), x[sel].max(), color="C0", alpha=0.05, lw=0)
+    if good.any():
+        hidden = int(np.sum(np.isfinite(x) & (x > x[good].max() * 1.15)))
+        ax.set_xlim(-0.02 * x[good].max(), x[good].max() * 1.15)
+        if hidden:
+            ax.text(0.98, 0.03, f"{hidden} excluded level(s) beyond the axis", transform=ax.transAxes,
+                    ha="right", fontsize=7, color="C3")
+    ax.legend(loc="upper left")
+    ax_dev.set_xlabel(xl)
+    ax_dev.set_ylabel("deviation from line (%)")
+    ax_dev.grid(alpha=0.3)
+
+
+# ------------------------------------------------------------------ maps
+
+def image_with_hist(fig, ax_img, ax_hist, a: np.ndarray, title: str, unit: str) -> None:
+    a = np.asarray(a, float)
+    fin = a[np.isfinite(a)]
+    if fin.size == 0:
+        ax_img.text(0.5, 0.5, "no data", ha="center", transform=ax_img.transAxes)
+        return
+    lo, hi = np.percentile(fin, [0.5, 99.5])
+    if hi <= lo:
+        lo, hi = lo - 0.5, hi + 0.5
+    im = ax_img.imshow(a, vmin=lo, vmax=hi, cmap="viridis", interpolation="nearest")
+    fig.colorbar(im, ax=ax_img, fraction=0.046, pad=0.04, label=unit)
+    ax_img.set_title(title)
+    ax_img.set_xlabel("column")
+    ax_img.set_ylabel("row")
+    ax_hist.hist(fin, bins=128, color="C0", log=True)
+    ax_hist.axvline(np.mean(fin), color="C3", lw=0.8)
+    ax_hist.set_title(f"histogram: mean {np.mean(fin):.4g}, sd {np.std(fin):.3g} {unit}")
+    ax_hist.set_xlabel(unit)
+    ax_hist.set_ylabel("pixels")
+    ax_hist.grid(alpha=0.3)
+
+
+def grid_image(fig, ax, values: np.ndarray, xvals, yvals, xlabel: str, ylabel: str, title: str, unit: str) -> None:
+    im = ax.imshow(values, origin="lower", aspect="auto", cmap="viridis", interpolation="nearest")
+    ax.set_xticks(range(len(xvals)), [f"{v:.3g}" for v in xvals])
+    ax.set_yticks(range(len(yvals)), [f"{v:.3g}" for v in yvals])
+    for (i, j), v in np.ndenumerate(values):
+        if np.isfinite(v):
+            ax.text(j, i, f"{v:.3g}", ha="center", va="center", fontsize=7, color="w")
+    fig.colorbar(im, ax=ax, fraction=0.046, pad=0.04, label=unit)
+    ax.set_xlabel(xlabel)
+    ax.set_ylabel(ylabel)
+    ax.set_title(title)
