@@ -62,5 +62,5 @@ class FixedPatterns:
         self.read_noise_factor = rn.reshape(R, C)
         self.bad_column_offset_dn = np.zeros(C, f32)
         self.bad_column_offset_dn[d.bad_columns] = p.bad_column_offset_dn
-        #: RTS trap state (0/1) per RTS pixel; evolves frame by frame
-        self.rts_state = rng["defects"].integers(0, 2, len(d.index["rts"])).astype(np.float32)
+        #: initial RTS trap state (0/1) per RTS pixel (the sensor evolves its own copy)
+        self.rts_state0 = rng["defects"].integers(0, 2, len(d.index["rts"])).astype(np.float32)

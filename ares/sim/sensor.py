@@ -44,6 +44,7 @@ class SimSensor:
         self.patterns = FixedPatterns(params, self.seed)
         self.frame_index = 0  # index of the next frame
         self._lag_e: np.ndarray | None = None  # photo-charge (e-) left behind by the last frame
+        self._rts_state = self.patterns.rts_state0.copy()  # RTS trap states, carried frame to frame
         self._cache_key = None
         self._cache = None
 
@@ -198,7 +199,7 @@ class SimSensor:
             x += p.col_temporal_dn * noise.normal(rng, (shape[1],), fastz)
         rts = fp.defects.index["rts"]
         if len(rts):
-            st = fp.rts_state
+            st = self._rts_state
             flip = rng.random(len(rts)) < p.rts_switch_prob
             st[flip] = 1.0 - st[flip]
             x.ravel()[rts] += _F32(sc.G) * fp.defects.rts_amplitude_e * st
