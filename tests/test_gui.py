@@ -326,3 +326,24 @@ def test_check_display_passes_offscreen():
     from ares.gui.app import check_display
 
     check_display()  # QT_QPA_PLATFORM=offscreen: Qt starts, no exception
+
+
+def test_photon_transfer_scan_fills_defect_counts_and_information(window, qtbot, tmp_path):
+    pytest.importorskip("ares.scan")
+    from ares.gui.runner_adapter import RunnerJob
+
+    path = os.path.join(os.path.dirname(__file__), os.pardir, "scans", "photon_transfer.xml")
+    if not os.path.isfile(path):
+        pytest.skip("scans/photon_transfer.xml not present")
+    window.set_job_factory(lambda: RunnerJob(path, frames=3), path)
+    window.controls.output.directory.setText(str(tmp_path))
+    run_to_end(qtbot, window)
+    s = window.session
+    assert s.progress.state == P.DONE, s.progress.message
+    names = [r.name for r in s.defects.rows]
+    assert "hot" in names and "dead" in names
+    table = window.defects.table
+    assert table.rowCount() == len(names) and table.item(0, 0).text() == names[0]
+    assert s.defects.caption.startswith("Scan-level defect classification")
+    assert "PTC: conversion gain" in s.info.items and "defect thresholds" in s.info.items
+    assert s.info.items["scan"] == path
