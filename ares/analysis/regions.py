@@ -33,6 +33,7 @@ __all__ = [
     "ob_columns",
     "full_frame",
     "parse_roi",
+    "region_selection",
 ]
 
 
