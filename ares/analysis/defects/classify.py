@@ -20,7 +20,7 @@ from .histograms import deviation_histograms
 from .lines import LineFlags, line_z
 from .params import DefectThresholds
 from .result import BITS, DEFECT_DTYPE, PIXEL_BITS, PIXEL_CLASSES, DefectResult, primary_class
-from .robust import block_median_background, remove_lines, robust_sigma, sampled_median
+from .robust import block_median_background, fast_median, remove_lines, robust_sigma, sampled_median
 from .rts import detect_rts
 from .stats import PixelStats, SeriesCollector
 
@@ -41,8 +41,8 @@ class _Dark:
         self.pop_var = sampled_median(st.var) / (sps.chi2.median(dof) / dof)
         self.expected = self.pop_var + (gain * np.maximum(self.res, 0.0) if gain else 0.0)
         self.var_ratio = st.var / np.maximum(self.expected, 1e-12)
-        self.col_var = np.median(self.var_ratio, axis=0)
-        self.row_var = np.median(self.var_ratio, axis=1)
+        self.col_var = fast_median(self.var_ratio, axis=0)
+        self.row_var = fast_median(self.var_ratio, axis=1)
 
 
 class _Flat:
@@ -59,8 +59,8 @@ class _Flat:
             self.ratio = np.where(self.bg > 0, resp / self.bg, 1.0)
         # the deviation must be significant against the noise of the two averaged means
         self.noise = np.sqrt(st.var / st.n_frames + dark.var / dark.n_frames)
-        self.col_ratio = np.median(self.ratio, axis=0)
-        self.row_ratio = np.median(self.ratio, axis=1)
+        self.col_ratio = fast_median(self.ratio, axis=0)
+        self.row_ratio = fast_median(self.ratio, axis=1)
 
 
 def _levels(x: PixelStats | Sequence[PixelStats] | None) -> list[PixelStats]:
