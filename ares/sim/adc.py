@@ -56,17 +56,25 @@ class Adc:
         x += self.offset_col + np.float32(black_level_dn)
         return x
 
-    def quantize(self, x: np.ndarray) -> np.ndarray:
+    def quantize(self, x: np.ndarray, out: np.ndarray | None = None, half_added: bool = False) -> np.ndarray:
         """Codes (uint16) of analog values already through ``apply_channels``.
 
-        Modifies ``x`` in place (it is scratch memory).
+        Modifies ``x`` in place (it is scratch memory). ``out``: uint16 array to write
+        into; ``half_added``: x already holds the +0.5 LSB of rounding (ideal ADC only).
         """
         if self.thresholds is not None:
             codes = np.searchsorted(self.thresholds, x, side="right")
-            return codes.astype(np.uint16)
-        x += np.float32(0.5)
+            if out is None:
+                return codes.astype(np.uint16)
+            np.copyto(out, codes, casting="unsafe")
+            return out
+        if not half_added:
+            x += np.float32(0.5)
         np.clip(x, 0.0, self.max_code, out=x)
-        return x.astype(np.uint16)
+        if out is None:
+            return x.astype(np.uint16)
+        np.copyto(out, x, casting="unsafe")  # truncation = floor for x >= 0
+        return out
 
     def ramp(self, n: int, shape: tuple[int, int], rng: np.random.Generator) -> np.ndarray:
         """ADC test input (test_mode 2): a linear ramp from -1 to max+1 LSB across each

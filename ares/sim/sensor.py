@@ -98,7 +98,7 @@ class SimSensor:
         out = np.empty((n, *self.shape), np.uint16)
         for i in range(n):
             rng = noise.frame_rng(self.seed, self.frame_index)
-            out[i] = self._frame(sc, plan, rng)
+            self._frame(sc, plan, rng, out[i])
             self.frame_index += 1
         return out
 
@@ -130,8 +130,9 @@ class SimSensor:
         if p.pixel_fpn_e > 0:
             offs = offs + _F32(G) * fp.pixel_offset_e
         offs = np.broadcast_to(offs, self.shape).astype(_F32)
-        if adc.unit_gain:  # fold channel offsets and black level into the fixed map
-            offs += adc.offset_col + _F32(sc.black_level_dn)
+        half = adc.unit_gain and adc.thresholds is None
+        if adc.unit_gain:  # fold channel offsets, black level (and the rounding half LSB) into the map
+            offs += adc.offset_col + _F32(sc.black_level_dn + (0.5 if half else 0.0))
         gmap = _F32(G) * fp.col_gain[None, :] * fp.row_gain[:, None] * fp.pixel_gain * fp.response
         rn = _F32(G * sc.read_noise_e) * fp.read_noise_factor
         var_rc = rn * rn + _F32(p.chain_noise_dn**2)  # read + chain noise, DN^2 (map)
@@ -144,7 +145,7 @@ class SimSensor:
         d_max = float(np.max(sc.dark_e)) if sc.dark_e is not None else 0.0
         hi = pg_max * q_max + d_max + 6 * np.sqrt(pg_max**2 * q_max + d_max) + 6 * sc.read_noise_e
         fast = (not np.any(mask_q) and not np.any(mask_d) and sc.lag == 0 and hi < p.full_well_e)
-        plan = dict(fast=fast, gauss_fast=sc.shot_noise != "exact", offs=offs)
+        plan = dict(fast=fast, gauss_fast=sc.shot_noise != "exact", offs=offs, half=half)
         if fast:
             base = offs
             var = var_rc
@@ -166,7 +167,7 @@ class SimSensor:
                         pgr=fp.pixel_gain * fp.response, cgrg=_F32(G) * fp.col_gain[None, :] * fp.row_gain[:, None])
         return plan
 
-    def _frame(self, sc: Scene, plan: dict, rng: np.random.Generator) -> np.ndarray:
+    def _frame(self, sc: Scene, plan: dict, rng: np.random.Generator, out: np.ndarray) -> np.ndarray:
         p, fp = self.params, self.patterns
         shape = self.shape
         fastz = plan["gauss_fast"]
@@ -205,7 +206,7 @@ class SimSensor:
             x.ravel()[rts] += _F32(sc.G) * fp.defects.rts_amplitude_e * st
         if not fp.adc.unit_gain:
             fp.adc.apply_channels(x, sc.black_level_dn)
-        codes = fp.adc.quantize(x)
+        codes = fp.adc.quantize(x, out=out, half_added=plan["half"])
         stuck = fp.defects.index["stuck"]
         if len(stuck):
             codes.ravel()[stuck] = fp.defects.stuck_code
