@@ -164,3 +164,10 @@ def test_every_writable_field_round_trips_through_the_bus():
                 continue
             r.set(f.name, phys)
             assert r.get_raw(f.name) == raw, f.name
+
+
+def test_undefined_test_mode_written_raw_is_refused():
+    b = make_sim_bench(P)
+    b.registers.bus.write(SIM_REGISTER_MAP.field("test_mode").address, 3)
+    with pytest.raises(InputError, match="test_mode 3 is not defined"):
+        grab(b, 1)

@@ -178,6 +178,8 @@ class SimFrameSource:
             raise FrameError(f"{self.name}: no frames arrive because the sensor is not streaming (register field 'streaming' is 0)")
         mode = s.pop("test_mode")
         s.pop("streaming")
+        if mode not in (0, 1, 2):
+            raise InputError(f"{self.name}: test_mode {mode} is not defined (0 normal, 1 dark, 2 ADC ramp)")
         meta = dict(s, test_mode=mode)
         left = int(n)
         while left:
