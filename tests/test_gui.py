@@ -347,3 +347,18 @@ def test_photon_transfer_scan_fills_defect_counts_and_information(window, qtbot,
     assert s.defects.caption.startswith("Scan-level defect classification")
     assert "PTC: conversion gain" in s.info.items and "defect thresholds" in s.info.items
     assert s.info.items["scan"] == path
+
+
+def test_distributions_follow_region_changes(window, qtbot):
+    window.set_job_factory(tiny())
+    regions = window.session.regions
+    regions.add(Region(True, True, 0, 0, 4, 4))
+    run_to_end(qtbot, window)
+    assert set(window.distributions.plots) == {0}
+    regions.add(Region(True, False, 4, 4, 5, 5))  # a new region: the tab rebuilds, old views unsubscribe
+    assert set(window.distributions.plots) == {0, 1}
+    assert window.session.distributions[1].counts.sum() == 25
+    regions.update(0, on=False)
+    assert set(window.distributions.plots) == {1}
+    run_to_end(qtbot, window)  # models update again without touching deleted widgets
+    assert window.session.distributions[1].counts.sum() == 25

@@ -47,7 +47,7 @@ class MainWindow(QMainWindow):
         s = self.session
         self.buttons = ScanButtons()
         self.controls = ControlTabs(s)
-        self.preview = ImagePlot(s.preview)
+        self.preview = ImagePlot(s.preview, cmap="CET-L1")  # monochrome, as the sensor sees it
         self.progress_line = ProgressLine(s.progress)
         self.results = ResultsTab(s)
         self.distributions = DistributionsView(s)

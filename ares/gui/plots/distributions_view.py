@@ -14,6 +14,7 @@ class DistributionsView(QWidget):
         super().__init__(parent)
         self.session = session
         self.plots: dict[int, HistogramPlot] = {}
+        self._unsubscribe: list = []
         self.grid = QGridLayout()
         self.empty = QLabel("No frame yet: the histograms of each active region's pixels appear with the first frame.")
         lay = QVBoxLayout(self)
@@ -22,7 +23,18 @@ class DistributionsView(QWidget):
         session.distributions_changed.subscribe(lambda _: self.rebuild())
         self.rebuild()
 
+    @staticmethod
+    def caption(m) -> str:
+        st = m.stats
+        if not st.n:
+            return "no pixels"
+        return (f"{st.n} pixels · Mean {st.mean:.2f} · Sigma {st.sigma:.2f} · Lowest {st.lowest:.0f} · "
+                f"Highest {st.highest:.0f} DN (latest frame)")
+
     def rebuild(self) -> None:
+        for unsubscribe in self._unsubscribe:  # models outlive these widgets
+            unsubscribe()
+        self._unsubscribe = []
         while self.grid.count():
             w = self.grid.takeAt(0).widget()
             if w is not None:
@@ -35,6 +47,11 @@ class DistributionsView(QWidget):
         for k, (i, model) in enumerate(items):
             box = QGroupBox(model.title)
             plot = HistogramPlot(model, color=region_color(i), xlabel="pixel value (DN)")
-            QVBoxLayout(box).addWidget(plot)
+            caption = QLabel()
+            lay = QVBoxLayout(box)
+            lay.addWidget(plot, 1)
+            lay.addWidget(caption)
+            self._unsubscribe += [plot.unsubscribe, model.subscribe(lambda m, c=caption: c.setText(self.caption(m)))]
+            caption.setText(self.caption(model))
             self.grid.addWidget(box, k // cols, k % cols)
             self.plots[i] = plot

@@ -33,7 +33,7 @@ class HistogramPlot(pg.PlotWidget):
         self.fit = pg.PlotDataItem(pen=pg.mkPen((200, 0, 0), width=1.5))
         self.addItem(self.bars)
         self.addItem(self.fit)
-        model.subscribe(lambda _: self.refresh())
+        self.unsubscribe = model.subscribe(lambda _: self.refresh())
         self.refresh()
 
     def refresh(self) -> None:

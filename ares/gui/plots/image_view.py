@@ -12,7 +12,8 @@ from . import region_color
 
 
 class ImagePlot(QWidget):
-    def __init__(self, model: ImageModel, parent: QWidget | None = None, colorbar: bool = True) -> None:
+    def __init__(self, model: ImageModel, parent: QWidget | None = None, colorbar: bool = True,
+                 cmap: str = "viridis") -> None:
         super().__init__(parent)
         self.model = model
         self.caption = QLabel(model.title)
@@ -25,7 +26,7 @@ class ImagePlot(QWidget):
         self.plot.addItem(self.image_item)
         self.colorbar = None
         if colorbar:
-            self.colorbar = pg.ColorBarItem(colorMap=pg.colormap.get("viridis"), interactive=False, width=12)
+            self.colorbar = pg.ColorBarItem(colorMap=pg.colormap.get(cmap), interactive=False, width=12)
             self.colorbar.setImageItem(self.image_item, insert_in=self.plot.getPlotItem())
         self._rects: list = []
         lay = QVBoxLayout(self)
@@ -54,16 +55,19 @@ class ImagePlot(QWidget):
         self._rects = []
         for i, r in self.model.rectangles:
             color = region_color(i)
-            rect = QGraphicsRectItem(QRectF(r.x, r.y, r.width, r.height))
-            pen = pg.mkPen(color, width=2)
-            pen.setCosmetic(True)
-            rect.setPen(pen)
-            label = pg.TextItem(str(i + 1), color=color, anchor=(0, 1))
+            items = []
+            for pen_color, width in (((255, 255, 255), 4), (color, 2)):  # a light halo, then the colour
+                rect = QGraphicsRectItem(QRectF(r.x, r.y, r.width, r.height))
+                pen = pg.mkPen(pen_color, width=width)
+                pen.setCosmetic(True)
+                rect.setPen(pen)
+                items.append(rect)
+            label = pg.TextItem(str(i + 1), color=color, fill=(255, 255, 255, 200), anchor=(0, 1))
             label.setPos(r.x, r.y)
-            for item in (rect, label):
+            for item in (*items, label):
                 self.plot.addItem(item)
                 self._rects.append(item)
 
     @property
     def rectangle_count(self) -> int:
-        return sum(isinstance(i, QGraphicsRectItem) for i in self._rects)
+        return sum(isinstance(i, QGraphicsRectItem) for i in self._rects) // 2
