@@ -247,17 +247,23 @@ class StackAccumulator:
         r, c = self.shape
         rb = max(1, min(r, _BLOCK_BYTES // (8 * b * c)))
         if self._tmp is None or self._tmp.shape[0] < b or self._tmp.shape[1] < rb:
-            self._tmp = np.empty((max(b, self.batch), rb, c), np.float64)
+            nb = max(b, self.batch)
+            self._tmp = np.empty((nb, rb, c), np.float64)
             self._ones_c = np.ones(c)
             self._ones_r = np.ones(rb)
-            self._ones_b = np.ones(self._tmp.shape[0])
+            self._ones_b = np.ones(nb)
+            self._o1 = np.empty(rb * c)
+            self._o2 = np.empty((rb, c))
+            self._ofc = np.empty((nb, c))
         if self._f1 is None:
             self._f1 = np.zeros(self.shape)
             self._f2 = np.zeros(self.shape)
+        rb = self._tmp.shape[1]
         fr = np.empty((b, r), np.float64)
         fc = np.zeros((b, c), np.float64)
         f1, f2 = self._f1, self._f2
         ones_c, ones_b = self._ones_c, self._ones_b[:b]
+        o1, o2, ofc = self._o1, self._o2, self._ofc[:b]
         listed = isinstance(x, list)
         for r0 in range(0, r, rb):
             r1 = min(r, r0 + rb)
@@ -268,10 +274,14 @@ class StackAccumulator:
                     np.copyto(t[i], frame[r0:r1], casting="unsafe")
             else:
                 np.copyto(t, x[:, r0:r1], casting="unsafe")
-            fr[:, r0:r1] = (t.reshape(b * n, c) @ ones_c).reshape(b, n)
-            fc += np.matmul(self._ones_r[:n], t)
-            f1[r0:r1] += (ones_b @ t.reshape(b, n * c)).reshape(n, c)
-            f2[r0:r1] += np.einsum("fij,fij->ij", t, t)
+            # all sums below are of integers < 2**53: exact in any summation order
+            np.matmul(t, ones_c, out=fr[:, r0:r1])  # per-(frame,row) sums
+            np.matmul(self._ones_r[:n], t, out=ofc)  # per-(frame,col) partial sums
+            fc += ofc
+            np.matmul(ones_b, t.reshape(b, n * c), out=o1[: n * c])  # sum over frames
+            f1[r0:r1] += o1[: n * c].reshape(n, c)
+            np.einsum("fij,fij->ij", t, t, out=o2[:n])  # sum of squares over frames
+            f2[r0:r1] += o2[:n]
         self._nfloat += b
         if self._nfloat >= _FLOAT_FLUSH:
             self._move_float_totals()
