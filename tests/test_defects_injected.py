@@ -232,3 +232,20 @@ def test_multi_level_confirmation():
     res = classify_defects(levels)
     hot = res.class_map("hot") | res.class_map("warm")
     assert hot[9, 9] and not hot[5, 5]
+
+
+def test_bad_line_is_one_line_not_many_pixels():
+    """A dead column, a noisy column and a hot row: three lines, not ~600 pixel defects."""
+    inj = inject(rows=128, cols=160, seed=9, rate_ppm=0.0, bad_columns=0)
+    dark, flat = inj.dark.astype(np.int32), inj.flat.astype(np.int32)
+    rng = np.random.default_rng(0)
+    flat[:, :, 40] = dark[:20, :, 40] + (flat[:, :, 40] - dark[:20, :, 40]) * 3 // 10  # dead column
+    dark[:, :, 90] += np.rint(rng.normal(0, 6.0, (dark.shape[0], dark.shape[1]))).astype(np.int32)  # noisy column
+    dark[:, 77, :] += 30  # hot row (dark offset)
+    flat[:, 77, :] += 30
+    res = classify_stack(dark.astype(np.uint16), flat.astype(np.uint16), gain_dn_per_e=inj.gain,
+                         exposure_s=inj.exposure_s)
+    assert sorted(c["x"] for c in res.bad_columns) == [40, 90], res.bad_columns
+    assert [r["y"] for r in res.bad_rows] == [77], res.bad_rows
+    assert res.counts["total"] <= 2, res.counts
+    assert res.defective()[:, 40].all() and res.defective()[77].all()  # masked for noise statistics

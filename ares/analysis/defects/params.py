@@ -7,28 +7,48 @@ through :meth:`DefectThresholds.from_attrs`.
 Class definitions (a pixel is compared with the robust statistics of its own region and
 channel; "z" is a robust z-score, sigma = 1.4826 * MAD):
 
-* hot / warm -- with gain and exposure: excess dark rate over the typical (median) pixel
-  above ``hot_e_per_s`` / ``warm_e_per_s`` AND significant (z > ``warm_z``); without
-  them: z of the averaged dark above ``hot_z`` / ``warm_z``.  ``warm_z`` = 4.8 is the
-  detectability floor: a Gaussian population gives < 1 false alarm per megapixel there.
-  With several dark levels a pixel is confirmed when flagged in >= ``confirm_fraction``.
+* hot / warm -- with gain K and exposure t: the pixel's dark signal in excess of its
+  row and column (medians) divided by K*t, i.e. its dark rate above the typical pixel's,
+  above ``hot_e_per_s`` (5 e-/s, SCIENCE.md) / ``warm_e_per_s`` (1 e-/s), AND significant
+  (robust z > ``warm_z``); without K or t: robust z of the averaged dark above ``hot_z``
+  (20) / ``warm_z`` (4.8). ``warm_z`` = 4.8 is the detectability floor (a Gaussian
+  population gives < 1 false alarm per megapixel there); a pixel is reliably (99 %)
+  found when its excess is ~2.3 sigma above max(threshold rate * K * t, 4.8 sigma).
+  With several dark levels a pixel is confirmed when flagged in >= ``confirm_fraction``
+  (70 %) of them (hot in too few levels but hot-or-warm in enough -> warm).
 * dead / low-response / high-response -- dark-subtracted flat response divided by the
-  local (block-median) response of the neighbourhood: below ``dead_fraction`` (0.5) is
-  dead, below ``low_response_fraction`` (0.8) low-response, above
-  ``high_response_fraction`` (1.2) high-response ("bright").
+  local response (medians of ``background_block_px``-square tiles, bilinearly
+  interpolated): below ``dead_fraction`` (0.5) is dead, below ``low_response_fraction``
+  (0.8, SCIENCE.md) low-response, above ``high_response_fraction`` (1.2) high-response
+  ("bright"); the deviation must also exceed ``warm_z`` times the noise of the averaged
+  flat and dark, so a weak flat cannot create defects. 0.5 splits "barely responds"
+  from "responds noticeably less", the two cases a user corrects differently.
 * stuck -- no temporal variation: per-pixel temporal variance below ``stuck_var_dn2``
-  (1/12 DN^2, the quantization floor) in the darks, or in a flat while responding less
-  than ``stuck_response_dn`` to the light.
+  (1/12 DN^2, the quantization floor) and below the chi-square lower limit of the
+  population in the darks, or below ``stuck_var_dn2`` in a flat while responding less
+  than ``stuck_response_dn`` to the light (identical codes at every level). A pixel with
+  no response but ordinary temporal noise is dead, not stuck.
 * noisy -- per-pixel temporal variance s2 fails a chi-square test with F-1 degrees of
-  freedom against the robust population variance at false-alarm probability
-  ``noisy_p_fa`` per pixel.
-* rts -- a noisy pixel whose time series splits into two levels separated by at least
-  ``rts_min_separation`` times the within-level noise, each level holding at least
-  ``rts_min_occupancy`` of the frames; needs >= ``rts_min_frames`` frames.
-* bad columns / rows -- >= ``line_hot_count`` hot/warm or >= ``line_dead_count``
-  dead/low-response pixels in the line, or a line's median dark offset, median temporal
-  variance or median response beyond ``line_z`` robust sigmas of all lines.
+  freedom against the robust population variance (median / chi2 median) at false-alarm
+  probability ``noisy_p_fa`` per pixel (1e-7: 0.1 false alarms per megapixel, leaving
+  room in a 1-per-megapixel budget); with K known the expected variance of a pixel
+  includes the shot noise of its excess dark signal (K * excess DN), so hot pixels are
+  not also noisy.
+* rts -- a noisy, hot or warm pixel (the pass-1 candidates) whose time series splits
+  into two levels separated by at least ``rts_min_separation`` (4) times the
+  within-level noise, each level holding at least ``rts_min_occupancy`` (3 %) of the
+  frames; needs >= ``rts_min_frames`` (100) frames, else RTS is "not available" with the
+  reason. Detects amplitudes >= 5x the pixel's temporal noise.
+* bad columns / rows -- >= ``line_hot_count`` (20) hot/warm or >= ``line_dead_count``
+  (100) dead/low-response/stuck pixels in the line, or a line's median dark offset or
+  median response more than ``line_z`` (6) robust sigmas from its neighbours, or its
+  median temporal variance both ``line_z`` sigmas and ``line_noise_factor`` (1.5x) above
+  the expected (see ``lines.py``). Pixel classes inside a bad line are judged against
+  the line's own level, so a bad column is one bad column, not 480 bad pixels.
 * clusters -- 8-connected groups of >= ``cluster_min_size`` defective pixels.
+* pass/fail -- ``max_<class>`` (and ``max_bad_columns``, ``max_clusters``,
+  ``max_cluster_size``, ``max_total``) fail when the count exceeds them; a limit on
+  ``rts`` fails when RTS is not available (the count is unknown, not zero).
 """
 
 from __future__ import annotations
