@@ -109,3 +109,8 @@ def test_ctrl_c_stops_after_the_current_stage(tmp_path):
     assert p.returncode == 130, err
     assert rec.meta["status"] == "stopped" and 3 <= len(rec.stages) < 26
     assert b"completed stages are kept" in err
+
+
+def test_auto_repeat_from_the_cli(tmp_path, capsys):
+    assert main(["run", PTC, "--out", str(tmp_path / "rep"), "-q", "--frames", "2", "--repeat", "2"]) == 0
+    assert [load_run(tmp_path / "rep" / f"repeat_{i:03d}").meta["status"] for i in (1, 2)] == ["done", "done"]

@@ -131,3 +131,28 @@ def test_sigkill_after_k_stages_leaves_k_readable_stages(tmp_path, where):
     for i in range(k):
         with h5py.File(out / "frames" / f"{i:04d}.h5", "r") as f:
             assert f["frames"].shape[0] == 4
+
+
+def test_pdf_output_option_writes_the_report(tmp_path):
+    import dataclasses
+
+    from ares.protocol import Output
+
+    sc = load_scan(SMALL / "ptc_small.xml")
+    sc = dataclasses.replace(sc, output=Output(raw_frames=False, hdf5=True, csv=False, pdf=True))
+    out = Runner(sc, out_dir=tmp_path / "r", frames=3).run()
+    assert out.status == "done"
+    meta = json.loads((tmp_path / "r" / "run.json").read_text())
+    assert "report_error" not in meta, meta.get("report_error")
+    assert (tmp_path / "r" / "report.pdf").read_bytes()[:5] == b"%PDF-"
+    assert not (tmp_path / "r" / "summary.csv").exists()  # csv="false"
+
+
+def test_bench_failure_is_recorded_in_the_run_directory(tmp_path):
+    from ares.errors import DeviceGone
+
+    sc = load_scan(ROOT / "scans" / "photon_transfer.xml", system_path=ROOT / "protocols" / "black_widow.xml")
+    with pytest.raises(DeviceGone):  # no I2C bus / USB grabber on the test machine
+        Runner(sc, out_dir=tmp_path / "bw").run()
+    meta = json.loads((tmp_path / "bw" / "run.json").read_text())
+    assert meta["status"] == "failed" and meta["stages_completed"] == 0 and meta["system_name"] == "black_widow"

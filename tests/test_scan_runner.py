@@ -248,3 +248,16 @@ def test_adc_linearity_from_the_ramp_stage(tmp_path):
     inl = sim_params(sc.system).adc_inl_lsb  # half-sine bow of this amplitude
     assert res["stages"] == ["ramp"] and ch["missing_codes"] == 0
     assert 0.5 * inl < max(ch["inl_max_lsb"]["value"], -ch["inl_min_lsb"]["value"]) < 2 * inl
+
+
+def test_bayer_views(tmp_path):
+    import dataclasses
+
+    sc = load_scan(SMALL / "ptc_small.xml")
+    sy = dataclasses.replace(sc.system, sensor=dataclasses.replace(sc.system.sensor, cfa="GRBG", adc_channels=1,
+                                                                     adc_interleave="none"))
+    sc = dataclasses.replace(sc, system=sy)
+    out = Runner(sc, frames=2).run()
+    views = out.stages[3]["views"]
+    assert set(views) == {"full", "centre", "cfa_Gr", "cfa_R", "cfa_B", "cfa_Gb"}
+    assert views["cfa_R"]["level"]["n_pixels"] == 12 * 16

@@ -108,6 +108,10 @@ class Runner:
         writer = None
         completed: list[dict] = []
         try:
+            if self.out_dir is not None:  # before any hardware: a bench that fails to open is recorded too
+                writer = RunWriter(self.out_dir, self.scan, seed=self.seed, frames_override=self.frames_override,
+                                   argv=self.argv, save_frames=self.scan.output.raw_frames)
+                writer.set_total(len(self.stages))
             if own:
                 from ares.hardware.factory import build_bench
 
@@ -117,11 +121,10 @@ class Runner:
             if shape != want:
                 raise InputError(f"system '{self.system.name}' declares a {want[1]}x{want[0]} array but the frame "
                                  f"source '{bench.frames.name}' delivers {shape[1]}x{shape[0]}")
-            if self.out_dir is not None:
-                writer = RunWriter(self.out_dir, self.scan, seed=self.seed, frames_override=self.frames_override,
-                                   argv=self.argv, save_frames=self.scan.output.raw_frames)
-                writer.set_total(len(self.stages))
-            return self._run(bench, writer, completed)
+            outcome = self._run(bench, writer, completed)
+            if writer is not None and self.scan.output.pdf and outcome.stages:
+                self._pdf(writer)
+            return outcome
         except AresError as exc:
             msg = str(exc)
             if isinstance(exc, HardwareError) and writer is not None:
@@ -210,6 +213,17 @@ class Runner:
         self.state = status
         self._emit(ev.Done(status, run_dir, len(completed), scan_results, tuple(fails)))
         return RunOutcome(status, writer.dir if writer else None, completed, scan_results, fails, seed=self.seed)
+
+    @staticmethod
+    def _pdf(writer) -> None:
+        """``<output pdf="true">``: the report module's PDF from the finished run directory."""
+        try:
+            from ares.report import write_reports
+
+            write_reports(writer.dir, ["pdf"])
+        except Exception as exc:  # the run's data are complete; a report problem is only noted
+            writer.meta["report_error"] = f"{type(exc).__name__}: {exc}"
+            writer._write_meta()
 
     def _grab(self, bench, st: Stage, n: int, vw, max_code, fw, dark: bool) -> StackSet:
         src = bench.frames
