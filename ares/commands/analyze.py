@@ -100,12 +100,15 @@ def run(args) -> int:
     if args.dark:
         head += f", {main.n_frames} flat frames"
     print(f"ares analyze: {head} of {R} rows x {C} columns" + (f", region {args.roi}" if args.roi else ""))
-    print(f"{'component':14s} {'':31s} {'value':>12s} {'std. error':>12s}  unit")
+    elec = an.in_electrons() if (args.gain is not None or comps["G"].available) else {}
+    print(f"{'component':14s} {'':31s} {'value':>12s} {'std. error':>12s}  {'unit':6s}" + ("   in electrons" if elec else ""))
     for k in list(COMPONENT_NAMES) + list(extra):
         e = comps.get(k) or extra[k]
-        line = f"{k:14s} {_DESCR.get(k, ''):31s} {_fmt(e.value):>12s} {_fmt(e.se):>12s}  {e.unit}"
+        line = f"{k:14s} {_DESCR.get(k, ''):31s} {_fmt(e.value):>12s} {_fmt(e.se):>12s}  {e.unit:6s}"
+        if k in elec and k != "o" and elec[k].available:
+            line += f"   {_fmt(elec[k].value)} ± {_fmt(elec[k].se)} {elec[k].unit}"
         if e.note:
             line += f"  ({e.note})"
         print(line)
-    print(f"variances in DN^2 unless stated; {UNITS_NOTE}.")
+    print(f"Units: {UNITS_NOTE}. Pt includes the 1/12 DN^2 quantization noise.")
     return 0
