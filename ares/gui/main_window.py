@@ -144,7 +144,7 @@ class MainWindow(QMainWindow):
 
     def _show_job_info(self, job) -> None:
         info = dict(getattr(job, "info", {}) or {})
-        self.controls.scan.show_job(self.scan_path, getattr(job, "title", ""), info)
+        self.controls.scan.show_job(self.scan_path, getattr(job, "title", ""), info, getattr(job, "stage_lines", None))
         self.controls.instruments.show_instruments(info.get("instruments", {}) or
                                                    {"sensor": info.get("system", "unknown")})
         items = dict(versions())

@@ -54,6 +54,11 @@ class ScanTab(QWidget):
         self.open_button = QPushButton("Open Scan…")
         self.details = QPlainTextEdit()
         self.details.setReadOnly(True)
+        self.details.setLineWrapMode(QPlainTextEdit.LineWrapMode.NoWrap)
+        font = self.details.font()
+        font.setStyleHint(font.StyleHint.Monospace)
+        font.setFamily("monospace")
+        self.details.setFont(font)
         top = QHBoxLayout()
         top.addWidget(self.file, 1)
         top.addWidget(self.open_button)
@@ -62,9 +67,12 @@ class ScanTab(QWidget):
         lay.addWidget(self.details)
         self.open_button.clicked.connect(self.open_requested)
 
-    def show_job(self, path: str | None, title: str, info: dict) -> None:
+    def show_job(self, path: str | None, title: str, info: dict, stage_lines: list[str] | None = None) -> None:
         self.file.setText(f"Scan file: {path}" if path else f"Built-in: {title}")
-        self.details.setPlainText("\n".join(f"{k}: {v}" for k, v in info.items() if not isinstance(v, dict)))
+        text = "\n".join(f"{k}: {v}" for k, v in info.items() if not isinstance(v, dict))
+        if stage_lines:
+            text += "\n\nStages:\n" + "\n".join(stage_lines)
+        self.details.setPlainText(text)
 
 
 class OutputOptionsTab(QWidget):

@@ -109,8 +109,9 @@ def gaussian_fit(edges: np.ndarray, counts: np.ndarray) -> tuple[float, float]:
             (a, mu, sig), _ = curve_fit(g, centres, counts, p0=(counts.max(), m0, s0), maxfev=2000)
     except (RuntimeError, ValueError):
         return m0, s0
-    if not (np.isfinite(mu) and np.isfinite(sig)):
-        return m0, s0
+    if not (np.isfinite(mu) and np.isfinite(sig)) or not (edges[0] <= mu <= edges[-1]) \
+            or abs(sig) > edges[-1] - edges[0]:
+        return m0, s0  # the fit wandered off the histogram: report the moments instead
     return float(mu), float(abs(sig))
 
 

@@ -28,8 +28,8 @@ class DistributionsView(QWidget):
         st = m.stats
         if not st.n:
             return "no pixels"
-        return (f"{st.n} pixels · Mean {st.mean:.2f} · Sigma {st.sigma:.2f} · Lowest {st.lowest:.0f} · "
-                f"Highest {st.highest:.0f} DN (latest frame)")
+        return (f"{st.n} px · Mean {st.mean:.2f} · Sigma {st.sigma:.2f} · "
+                f"Lowest {st.lowest:.0f} · Highest {st.highest:.0f}")
 
     def rebuild(self) -> None:
         for unsubscribe in self._unsubscribe:  # models outlive these widgets
@@ -48,6 +48,7 @@ class DistributionsView(QWidget):
             box = QGroupBox(model.title)
             plot = HistogramPlot(model, color=region_color(i), xlabel="pixel value (DN)")
             caption = QLabel()
+            caption.setWordWrap(True)
             lay = QVBoxLayout(box)
             lay.addWidget(plot, 1)
             lay.addWidget(caption)
