@@ -67,3 +67,19 @@ def test_user_errors_one_sentence_exit_2(files, capsys, argv, words):
     assert err.count("\n") == 0 and "Traceback" not in err
     for w in words:
         assert w in err
+
+
+def test_bayer_channels(files, capsys):
+    tmp, inj = files
+    rc = main(["defects", "--dark", str(tmp / "dark_a.npy"), str(tmp / "dark_b.npz"), "--bayer", "--json",
+               "--gain", str(inj.gain), "--exposure", str(inj.exposure_s), "--mask-png", str(tmp / "bayer.png")])
+    assert rc == 0
+    out = json.loads(capsys.readouterr().out)
+    assert sorted(out) == ["00", "01", "10", "11"]
+    hot = {(d["y"], d["x"]) for ch in out.values() for d in ch["defects"] if d["class"] == "hot"}
+    truth = set(zip(*(a.tolist() for a in inj.truth["hot"])))
+    assert len(hot & truth) >= 0.95 * len(truth)
+    for name, ch in out.items():
+        assert all(d["y"] % 2 == int(name[0]) and d["x"] % 2 == int(name[1]) for d in ch["defects"])
+    png = np.asarray(Image.open(tmp / "bayer.png"))
+    assert all(png[y, x] & 1 for y, x in hot)

@@ -4,8 +4,10 @@ Each ``--dark FILES...`` (or ``--flat``) occurrence is one level: its files are 
 order and concatenated into one (F, R, C) stack. A file is a ``.npy`` (2-D frame or 3-D
 stack), a ``.npz`` (array ``frames``, else its first array) or a grayscale image
 (PNG/TIFF, one frame). Prints counts per class, bad lines, clusters and the pass/fail of
-any ``max_*`` limits; ``--json`` prints the full result; ``--mask-png``/``--mask-h5``
-write the per-pixel class bitmask (bits listed in the JSON ``mask_bits``).
+any ``max_*`` limits (``--set max_hot=10``; a failed limit exits 4); ``--json`` prints
+the full result; ``--mask-png``/``--mask-h5`` write the per-pixel class bitmask (bits in
+the JSON ``mask_bits``); ``--bayer`` classifies each colour channel (Bayer phase)
+against its own statistics.
 """
 
 from __future__ import annotations
@@ -18,6 +20,9 @@ import numpy as np
 
 from ares.analysis.defects import BITS, DefectResult, DefectThresholds, classify_stack
 from ares.errors import InputError, LimitsFailed
+
+#: the four Bayer phases as (row slice, column slice), named by (row % 2, column % 2)
+BAYER_PHASES = {f"{r}{c}": (slice(r, None, 2), slice(c, None, 2)) for r in (0, 1) for c in (0, 1)}
 
 NAME = "defects"
 HELP = "defective pixel identification and counting on recorded dark/flat stacks"
@@ -35,6 +40,8 @@ def add_arguments(p) -> None:
                    help="exposure time(s) of the flat levels (default: --exposure)")
     p.add_argument("--set", dest="settings", action="append", default=[], metavar="NAME=VALUE",
                    help="override a threshold or limit, e.g. --set hot_e_per_s=5 --set max_hot=100")
+    p.add_argument("--bayer", action="store_true",
+                   help="classify each Bayer phase (colour channel) separately against its own statistics")
     p.add_argument("--json", action="store_true", help="print the full result as JSON")
     p.add_argument("--mask-png", default=None, metavar="FILE", help="write the class bitmask as a 16-bit PNG")
     p.add_argument("--mask-h5", default=None, metavar="FILE", help="write the class bitmask to an HDF5 file")
@@ -90,15 +97,16 @@ def write_mask_png(path: str | Path, mask: np.ndarray) -> None:
         raise InputError(f"{path}: cannot write the mask PNG ({exc})") from None
 
 
-def write_mask_h5(path: str | Path, res: DefectResult) -> None:
+def write_mask_h5(path: str | Path, mask: np.ndarray, results: dict[str, DefectResult]) -> None:
+    """Dataset ``defects/mask`` (uint16 bits, attributes ``bit_<class>``) and the counts as JSON."""
     import h5py
 
     try:
         with h5py.File(path, "w") as f:
-            ds = f.create_dataset("defects/mask", data=res.mask, compression="gzip")
+            ds = f.create_dataset("defects/mask", data=mask, compression="gzip")
             for name, bit in BITS.items():
                 ds.attrs[f"bit_{name}"] = bit
-            f["defects"].attrs["counts"] = json.dumps(res.counts)
+            f["defects"].attrs["counts"] = json.dumps({k: r.counts for k, r in results.items()})
     except OSError as exc:
         raise InputError(f"{path}: cannot write the HDF5 mask ({exc})") from None
 
@@ -162,17 +170,28 @@ def run(args) -> int:
     flat_exposure = None if fexp is None else (fexp[0] if len(fexp) == 1 else fexp)
     if args.gain is not None and not args.gain > 0:
         raise InputError("--gain must be a positive number of DN per electron")
-    res = classify_stack(darks, flats or None, gain_dn_per_e=args.gain, exposure_s=exposure,
-                         flat_exposure_s=flat_exposure, thresholds=th)
+    regions = BAYER_PHASES if args.bayer else None
+    out = classify_stack(darks, flats or None, gain_dn_per_e=args.gain, exposure_s=exposure,
+                         flat_exposure_s=flat_exposure, thresholds=th, regions=regions)
+    results = out if isinstance(out, dict) else {"all": out}
+    mask = np.zeros(shape, np.uint16)
+    for name, res in results.items():
+        rs, cs = regions[name] if regions else (slice(None), slice(None))
+        mask[rs, cs] = res.mask
     if args.mask_png:
-        write_mask_png(args.mask_png, res.mask)
+        write_mask_png(args.mask_png, mask)
     if args.mask_h5:
-        write_mask_h5(args.mask_h5, res)
+        write_mask_h5(args.mask_h5, mask, results)
     if args.json:
-        print(json.dumps(_jsonable(res.to_dict()), indent=1))
+        doc = {name: r.to_dict() for name, r in results.items()} if regions else results["all"].to_dict()
+        print(json.dumps(_jsonable(doc), indent=1))
     else:
-        print(_text(res))
-    failed = [lim["name"] for lim in res.limits if not lim["passed"]]
+        for name, res in results.items():
+            if regions:
+                print(f"channel {name} (row phase {name[0]}, column phase {name[1]}):")
+            print(_text(res))
+    failed = sorted({f"{lim['name']}" + (f" ({name})" if regions else "")
+                     for name, res in results.items() for lim in res.limits if not lim["passed"]})
     if failed:
         raise LimitsFailed(f"defect limits failed: {', '.join(failed)}")
     return 0
