@@ -12,6 +12,7 @@ from __future__ import annotations
 
 import json
 import math
+import textwrap
 from pathlib import Path
 
 import matplotlib
@@ -52,16 +53,20 @@ def title_page(run, kf: dict) -> "plots.Figure":
         fig.text(0.06, y, "data: " + run.attribution, fontsize=9, va="top", style="italic")
         y -= 0.02
     if not run.complete:
-        fig.text(0.06, y, plots.clip(run.incompleteness(), 125), fontsize=9, va="top", color="C3", weight="bold")
-        y -= 0.02
+        for line in textwrap.wrap(run.incompleteness(), 105)[:4]:
+            fig.text(0.06, y, line, fontsize=9, va="top", color="C3", weight="bold")
+            y -= 0.017
+        y -= 0.004
     for note in run.notes:
         fig.text(0.06, y, note, fontsize=8.5, va="top", color="C3")
         y -= 0.018
     lf = run.limit_failures
     if run.scan_results is not None:
         msg = "limits: all passed" if not lf else f"limits: {len(lf)} failed -- " + "; ".join(lf)
-        fig.text(0.06, y, plots.clip(msg, 125), fontsize=9, va="top", color="C3" if lf else "C2")
-        y -= 0.02
+        for line in textwrap.wrap(msg, 115)[:4]:
+            fig.text(0.06, y, line, fontsize=9, va="top", color="C3" if lf else "C2")
+            y -= 0.017
+        y -= 0.003
     na = [f"{k} ({a.get('note') or a.get('status')})" for k, a in run.analyses.items()
           if isinstance(a, dict) and a.get("status") in ("not available", "error")]
     if na:
@@ -72,7 +77,7 @@ def title_page(run, kf: dict) -> "plots.Figure":
     rows = _kf_rows(kf) or [["(no key figures: the run holds no photon-transfer or analysis results)", "", ""]]
     per_page = int((y - 0.05) / (8 * 1.45 / 72 / plots.A4[1])) - 3
     text_table(fig, (0.06, y, 0.9), ["key figure", "value ± SE", "definition / note"], rows[:per_page],
-               [0.36, 0.22, 0.42], fontsize=8, title="Key figures", max_chars=[44, 26, 58])
+               [0.34, 0.22, 0.44], fontsize=8, title="Key figures", max_chars=[42, 26, 54])
     if len(rows) > per_page:
         fig.text(0.06, 0.03, f"{len(rows) - per_page} more key figure(s) in key_figures.csv", fontsize=8)
     return fig
@@ -228,6 +233,7 @@ def gain_page(groups: list[tables.PtcGroup], run):
         ax1.plot(ag, K[0].value * ag / ag[0], ":", color="0.4", label="proportional to analog gain")
     ax1.set_xscale("log", base=2)
     ax1.set_yscale("log")
+    ax1.set_xticks(ag, [f"x{a:g}" for a in ag])
     ax1.set_xlabel("analog gain")
     ax1.set_ylabel("K (DN/e-)")
     ax1.set_title("system gain vs analog gain")
@@ -239,9 +245,10 @@ def gain_page(groups: list[tables.PtcGroup], run):
     ax2.errorbar(ag, [e.value for e in rn_e], yerr=[e.se for e in rn_e], fmt="s-", capsize=2,
                  label="input-referred read noise (e-)")
     ax2.set_xscale("log", base=2)
+    ax2.set_xticks(ag, [f"x{a:g}" for a in ag])
     ax2.set_xlabel("analog gain")
     ax2.set_ylabel("noise")
-    ax2.set_title("pixel (e-) vs chain (DN) noise: input-referred noise falls with gain until pixel noise dominates")
+    ax2.set_title("read noise at the output (DN) and referred to the input (e-)")
     ax2.grid(alpha=0.3, which="both")
     ax2.legend()
     return fig
@@ -273,7 +280,8 @@ def sweep2d_pages(run) -> list:
             return a
 
         full = lambda s: s["views"]["full"]  # noqa: E731
-        panels = [("signal (mean - dark mean)", "DN",
+        has_dark = "dark_level" in full(sts[0])
+        panels = [("signal (mean - dark mean)" if has_dark else "mean level", "DN",
                    grid(lambda s: full(s)["level"]["mean_dn"] - full(s).get("dark_level", {}).get("mean_dn", 0.0))),
                   ("temporal variance", "DN^2", grid(lambda s: full(s)["level"]["var_dn2"]))]
         for c in ("G", "Pt", "Ps"):
@@ -303,11 +311,11 @@ def frame_means_page(run, stages: list[dict], arrays: dict):
         xs = np.arange(x0, x0 + len(fm))
         ax.plot(xs, fm, "o-", ms=3, label=st["name"])
         x0 += len(fm) + 1
-    ax.set_yscale("symlog")
+    ax.set_yscale("log")
     ax.set_xlabel("frame (stages in run order)")
     ax.set_ylabel("frame mean (DN)")
     ax.grid(alpha=0.3)
-    ax.legend(fontsize=7, ncol=3)
+    ax.legend(fontsize=7, ncol=3, loc="best")
     rows = []
     for st in stages:
         fm = arrays.get(st["index"])

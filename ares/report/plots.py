@@ -212,7 +212,12 @@ def linearity(ax, ax_dev, rows: list[dict], title: str) -> None:
             ax_dev.axvspan(x[sel].min(), x[sel].max(), color="C0", alpha=0.05, lw=0)
     if good.any():
         hidden = int(np.sum(np.isfinite(x) & (x > x[good].max() * 1.15)))
-        ax.set_xlim(-0.02 * x[good].max(), x[good].max() * 1.15)
+        pos = x[good & (x > 0)]
+        if pos.size >= 2 and pos.max() / pos.min() > 100:  # log-spaced sweep
+            ax.set_xscale("log")
+            ax.set_xlim(pos.min() / 1.5, x[good].max() * 1.3)
+        else:
+            ax.set_xlim(-0.02 * x[good].max(), x[good].max() * 1.15)
         if hidden:
             ax.text(0.98, 0.03, f"{hidden} excluded level(s) beyond the axis", transform=ax.transAxes,
                     ha="right", fontsize=7, color="C3")
@@ -248,11 +253,12 @@ def image_with_hist(fig, ax_img, ax_hist, a: np.ndarray, title: str, unit: str) 
 
 def grid_image(fig, ax, values: np.ndarray, xvals, yvals, xlabel: str, ylabel: str, title: str, unit: str) -> None:
     im = ax.imshow(values, origin="lower", aspect="auto", cmap="viridis", interpolation="nearest")
-    ax.set_xticks(range(len(xvals)), [f"{v:.3g}" for v in xvals])
+    ax.set_xticks(range(len(xvals)), [f"{v:.3g}" for v in xvals], rotation=45, ha="right")
     ax.set_yticks(range(len(yvals)), [f"{v:.3g}" for v in yvals])
     for (i, j), v in np.ndenumerate(values):
         if np.isfinite(v):
-            ax.text(j, i, f"{v:.3g}", ha="center", va="center", fontsize=7, color="w")
+            ax.text(j, i, f"{v:.3g}", ha="center", va="center", fontsize=6 if values.shape[1] > 4 else 7,
+                    color="w")
     fig.colorbar(im, ax=ax, fraction=0.046, pad=0.04, label=unit)
     ax.set_xlabel(xlabel)
     ax.set_ylabel(ylabel)

@@ -31,9 +31,9 @@ COMPONENT_LABELS = {
 COMPONENT_PARTS = ("components", "dark_components", "flat_anova")
 
 FULL_WELL_LABELS = {
-    "max_variance": "full well, max temporal variance (EMVA 1288 3.0)",
-    "max_code": "full well, max code reached (EMVA 1288 4.0)",
-    "plateau": "full well, saturated plateau (pixel charge capacity)",
+    "max_variance": "full well, max variance (EMVA 1288 3.0)",
+    "max_code": "full well, max code (EMVA 1288 4.0)",
+    "plateau": "full well, saturated plateau",
     "ptc_turnoff": "full well, PTC turnoff",
     "linearity_1pct": "full well, 1 % linearity limit",
 }
@@ -290,6 +290,10 @@ def compute_key_figures(run, groups: list[PtcGroup] | None = None) -> dict:
                                                  "PTC recomputed")
         kf["qe"] = _entry("quantum efficiency", pick("qe", res and res.qe), src)
         kf["linearity_error_pct"] = _entry("linearity error", pick("linearity_error_pct", res and res.linearity_error_pct), src)
+    if not run.complete and kf:
+        for k, v in kf.items():
+            if k.startswith(("full_well", "dynamic_range", "snr_max")) and v["value"] is not None:
+                v["note"] = "partial run, saturation may be missing; " + v["note"]
     for name, r in (stored.get("by_analog_gain") or {}).items():
         for key in ("gain_dn_per_e", "read_noise_e", "full_well_e"):
             if key in r:
