@@ -261,3 +261,31 @@ def test_bayer_views(tmp_path):
     views = out.stages[3]["views"]
     assert set(views) == {"full", "centre", "cfa_Gr", "cfa_R", "cfa_B", "cfa_Gb"}
     assert views["cfa_R"]["level"]["n_pixels"] == 12 * 16
+
+
+def test_keyboard_interrupt_without_handler_aborts_and_keeps_stages(ptc_small, tmp_path):
+    r = Runner(ptc_small, out_dir=tmp_path / "run")
+
+    def listener(e):
+        if isinstance(e, ev.FramePreview) and e.index == 2:
+            raise KeyboardInterrupt
+
+    r.add_listener(listener)
+    out = r.run()
+    assert out.status == "aborted" and len(out.stages) == 2
+    assert load_run(tmp_path / "run").meta["status"] == "aborted"
+
+
+def test_listener_bug_is_recorded_and_reraised(ptc_small, tmp_path):
+    seen = []
+
+    def listener(e):
+        seen.append(e)
+        if isinstance(e, ev.StageFinished) and e.index == 1:
+            raise ZeroDivisionError("oops")
+
+    with pytest.raises(ZeroDivisionError):
+        Runner(ptc_small, out_dir=tmp_path / "run", listeners=(listener,)).run()
+    meta = load_run(tmp_path / "run").meta
+    assert meta["status"] == "failed" and "ZeroDivisionError: oops" in meta["message"]
+    assert isinstance(seen[-1], ev.Failed) and meta["stages_completed"] == 2

@@ -136,10 +136,20 @@ class Runner:
             self.state = "failed"
             self._emit(ev.Failed(msg, str(writer.dir) if writer else None, len(completed)))
             raise exc from None
-        except BaseException as exc:
+        except KeyboardInterrupt:  # no signal handler installed (e.g. not the main thread): abort
             if writer is not None:
-                writer.finish("failed", f"{type(exc).__name__}: {exc}")
+                writer.finish("aborted", "interrupted")
+            self.state = "aborted"
+            run_dir = str(writer.dir) if writer else None
+            self._emit(ev.Done("aborted", run_dir, len(completed)))
+            return RunOutcome("aborted", writer.dir if writer else None, completed, message="interrupted",
+                              seed=self.seed)
+        except Exception as exc:  # a bug: record it, tell the listeners, keep the traceback
+            msg = f"internal error: {type(exc).__name__}: {exc}"
+            if writer is not None:
+                writer.finish("failed", msg)
             self.state = "failed"
+            self._emit(ev.Failed(msg, str(writer.dir) if writer else None, len(completed)))
             raise
         finally:
             if own and bench is not None:
