@@ -90,7 +90,11 @@ def classify_regions(
     thresholds: DefectThresholds | None = None,
     rts_series=None,
 ) -> dict[str, DefectResult]:
-    """Classify each region/channel separately; ``rts_series`` takes full-frame (rows, cols)."""
+    """Classify each region/channel separately.
+
+    ``rts_series``: a callable taking full-frame (rows, cols), or a full-frame
+    :class:`SeriesCollector` (each region gets its own pixels of it).
+    """
     darks = [dark] if isinstance(dark, PixelStats) else list(dark)
     fl = [] if flats is None else ([flats] if isinstance(flats, PixelStats) else list(flats))
     out = {}
@@ -99,7 +103,9 @@ def classify_regions(
         r0, _, rstep = rs.indices(shape[0])
         c0, _, cstep = cs.indices(shape[1])
         series = None
-        if rts_series is not None:
+        if isinstance(rts_series, SeriesCollector):
+            series = rts_series.region(rs, cs, shape)
+        elif rts_series is not None:
             series = (lambda r, c, r0=r0, c0=c0, rstep=rstep, cstep=cstep:
                       rts_series(r0 + rstep * r, c0 + cstep * c))
         out[name] = classify_defects(

@@ -109,6 +109,17 @@ class SeriesCollector:
     def n_frames(self) -> int:
         return len(self._chunks)
 
+    def region(self, rows: slice, cols: slice, shape: tuple[int, int]) -> "SeriesCollector":
+        """The pixels inside a region (row/col slices of a frame of ``shape``), in the
+        region's local coordinates -- for per-region/channel classification."""
+        r0, r1, rs = rows.indices(shape[0])
+        c0, c1, cs = cols.indices(shape[1])
+        sel = ((self.rows >= r0) & (self.rows < r1) & ((self.rows - r0) % rs == 0)
+               & (self.cols >= c0) & (self.cols < c1) & ((self.cols - c0) % cs == 0))
+        sub = SeriesCollector((self.rows[sel] - r0) // rs, (self.cols[sel] - c0) // cs)
+        sub._chunks = [c[sel] for c in self._chunks]
+        return sub
+
     @property
     def series(self) -> np.ndarray:
         if not self._chunks:
