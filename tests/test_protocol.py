@@ -8,6 +8,7 @@ from pathlib import Path
 import pytest
 
 from ares.cli import main
+from ares.commands.validate import validate_one
 from ares.errors import InputError
 from ares.protocol import load_scan, load_system, save_scan, save_system, validate_file
 from ares.sim.regmap import SIM_REGISTER_MAP
@@ -51,6 +52,9 @@ EXPECTED = {
     "sweep_without_axis.xml": (6, "<sweep> is missing"),
     "sweep_zero_points.xml": (6, "<linear points=...> must be >= 1, got '0'"),
     "system_adc_channels.xml": (9, "2 channels but interleave='none'"),
+    "system_unknown_sim_param.xml": (37, "<simulator>: unknown simulator parameter 'lag_fracton'"),
+    "system_sim_contradicts_sensor.xml": (36, "simulator parameter 'adc_bits' = 10 contradicts the sensor's 12"),
+    "system_sim_param_out_of_range.xml": (37, "<simulator>: "),  # wording: ares.sim.SensorParams
     "system_bad_access.xml": (13, "must be one of ro, wo, rw, got 'readonly'"),
     "system_bad_address.xml": (23, "<field address=...>"),
     "system_bad_param_type.xml": (34, "simulator parameter 'rows' must be of type int, got 'many'"),
@@ -81,7 +85,7 @@ def test_broken_file_gives_one_sentence(name):
     line, fragment = EXPECTED[name]
     path = BROKEN / name
     with pytest.raises(InputError) as info:
-        validate_file(str(path))
+        validate_one(str(path))
     msg = str(info.value)
     assert msg.startswith(f"{path}:{line}: "), msg
     assert fragment in msg, msg

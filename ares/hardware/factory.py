@@ -7,23 +7,42 @@ from ares.hardware.interfaces import Bench
 from ares.hardware.registers import RegisterFile
 
 
+def _line_of(path, name: str) -> int | None:
+    """Line of ``<param name="name"`` in a system file (for error messages)."""
+    import re
+
+    try:
+        text = open(path, encoding="utf-8", errors="replace").read()
+    except OSError:
+        return None
+    m = re.search(r'<param\s+[^>]*name\s*=\s*["\']' + re.escape(name) + r'["\']', text)
+    if m is None:
+        m = re.search(r"<simulator\b", text)
+    return text.count("\n", 0, m.start()) + 1 if m else None
+
+
 def sim_params(system):
-    """``SensorParams`` from the system's ``<simulator>`` block (array size from ``<sensor>``)."""
+    """``SensorParams`` from the system's ``<simulator>`` block (array size and ADC bits
+    from ``<sensor>``); errors name the system file and the parameter's line."""
+    import re
+
     from ares.sim import SensorParams
 
     d = dict(system.simulator.params)
-    d.setdefault("rows", system.sensor.rows)
-    d.setdefault("cols", system.sensor.cols)
-    d.setdefault("adc_bits", system.sensor.adc_bits)
+    src = system.source or system.name
+    for key, want in (("rows", system.sensor.rows), ("cols", system.sensor.cols), ("adc_bits", system.sensor.adc_bits)):
+        if key in d and d[key] != want:
+            line = _line_of(src, key)
+            raise InputError(f"{src}:{line}: simulator parameter '{key}' = {d[key]} contradicts the sensor's {want}")
+        d[key] = want
     if system.sensor.cfa != "mono":
         d.setdefault("cfa", system.sensor.cfa)
-    src = system.source or system.name
     try:
         return SensorParams.from_dict(d)
-    except InputError as exc:
-        raise InputError(f"{src}: <simulator>: {exc}") from None
-    except TypeError as exc:
-        raise InputError(f"{src}: <simulator>: {exc}") from None
+    except (InputError, TypeError) as exc:
+        names = [n for n in re.findall(r"'([A-Za-z_][A-Za-z0-9_]*)'", str(exc)) if n in d]
+        line = _line_of(src, names[0]) if names else _line_of(src, "")
+        raise InputError(f"{src}:{line}: <simulator>: {exc}") from None
 
 
 def build_bench(system, *, seed: int | None = None, faults: dict | None = None) -> Bench:
