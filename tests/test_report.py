@@ -1,0 +1,240 @@
+"""``ares.report`` / ``ares report``: CSV tables equal the run directory's numbers, the PDF
+has its pages and key figures as text, partial runs say so, bad directories are one
+sentence (exit 2). Runs are tiny real runs of the simulator (fixtures/xml/small)."""
+
+from __future__ import annotations
+
+import csv
+import json
+import math
+import shutil
+import subprocess
+from pathlib import Path
+
+import pytest
+
+from ares.cli import main
+from ares.errors import InputError
+from ares.report import key_figures, read_run, write_reports
+from ares.report import pdf as report_pdf
+from ares.report import tables
+
+ROOT = Path(__file__).resolve().parents[1]
+SMALL = ROOT / "fixtures" / "xml" / "small"
+HAVE_PDFTOTEXT = shutil.which("pdftotext") is not None and shutil.which("pdfinfo") is not None
+
+DARK_T = """<?xml version="1.0" encoding="UTF-8"?>
+<scan name="dark_t" version="1">
+  <system href="{system}"/>
+  <settings><set quantity="analog_gain" value="1"/></settings>
+  <frames>3</frames>
+  <stages>
+    <sweep name="dark" scene="dark">
+      <axis quantity="temperature"><values>20 40 60</values></axis>
+      <axis quantity="exposure"><values>0.01 0.3 0.6</values></axis>
+    </sweep>
+  </stages>
+  <analyses><analysis name="decomposition"/></analyses>
+</scan>
+"""
+
+
+def _run(args) -> None:
+    rc = main(["run", *args, "-q"])
+    assert rc in (0, 3, 4), rc
+
+
+@pytest.fixture(scope="module")
+def runs(tmp_path_factory):
+    base = tmp_path_factory.mktemp("runs")
+    _run([str(SMALL / "ptc_small.xml"), "--out", str(base / "ptc")])
+    _run([str(SMALL / "ptc_small.xml"), "--out", str(base / "partial"), "--sim-fault",
+          "disconnect_after_frames=22"])
+    xml = base / "dark_t.xml"
+    xml.write_text(DARK_T.format(system=SMALL / "sim_small.xml"))
+    _run([str(xml), "--out", str(base / "dark")])
+    return base
+
+
+def _csv(path: Path) -> list[dict]:
+    with open(path, newline="") as f:
+        return list(csv.DictReader(f))
+
+
+def _f(s: str) -> float:
+    return math.nan if s == "" else float(s)
+
+
+def _same(a: float, b) -> bool:
+    b = math.nan if b is None else float(b)
+    return (math.isnan(a) and math.isnan(b)) or a == b
+
+
+def _pdf_text(path: Path) -> str:
+    return subprocess.run(["pdftotext", "-layout", str(path), "-"], capture_output=True, text=True,
+                          check=True).stdout
+
+
+def _pages(path: Path) -> int:
+    out = subprocess.run(["pdfinfo", str(path)], capture_output=True, text=True, check=True).stdout
+    return int(next(ln.split()[-1] for ln in out.splitlines() if ln.startswith("Pages:")))
+
+
+# ------------------------------------------------------------------ CSV
+
+def test_csv_tables_equal_run_directory(runs, tmp_path):
+    files = write_reports(runs / "ptc", ("csv",), csv_dir=tmp_path)
+    assert [p.name for p in files] == ["ptc.csv", "components.csv", "key_figures.csv"]
+    stages = {json.loads(p.read_text())["name"]: json.loads(p.read_text())
+              for p in (runs / "ptc" / "stages").glob("*.json")}
+    sr = json.loads((runs / "ptc" / "scan_results.json").read_text())["analyses"]
+    status = {r["stage"]: r for r in sr["ptc"]["level_status"]}
+
+    ptc = _csv(tmp_path / "ptc.csv")
+    assert [r["stage"] for r in ptc] == [r["stage"] for r in sr["ptc"]["level_status"]]
+    for r in ptc:
+        st = stages[r["stage"]]
+        full = st["views"]["full"]
+        assert float(r["mean_dn"]) == full["level"]["mean_dn"]
+        assert float(r["signal_dn"]) == full["level"]["mean_dn"] - full["dark_level"]["mean_dn"]
+        assert float(r["variance_dn2"]) == full["level"]["var_dn2"] - full["dark_level"]["var_dn2"]
+        assert float(r["variance_se_dn2"]) > 0
+        assert float(r["exposure_s"]) == st["settings"]["exposure"] and float(r["light"]) == st["settings"]["light"]
+        assert float(r["photons"]) == pytest.approx(st["settings"]["light"] * st["settings"]["exposure"])
+        assert (r["status"], r["reason"]) == (status[r["stage"]]["status"], status[r["stage"]]["reason"])
+
+    comp = _csv(tmp_path / "components.csv")
+    n = 0
+    for st in stages.values():
+        for view, v in st["views"].items():
+            for part in ("components", "dark_components", "flat_anova"):
+                for c, e in (v.get(part) or {}).items():
+                    row = next(r for r in comp if r["stage"] == st["name"] and r["view"] == view
+                               and r["part"] == part and r["component"] == c)
+                    assert _same(_f(row["value"]), e["value"]) and _same(_f(row["se"]), e["se"])
+                    assert row["unit"] == e["unit"]
+                    n += 1
+    assert n == len(comp)
+    flat = next(r for r in comp if r["scene"] == "flat" and r["view"] == "full" and r["part"] == "components")
+    thirteen = {r["component"] for r in comp if r["stage"] == flat["stage"] and r["view"] == "full"
+                and r["part"] == "components"}
+    assert set(tables.COMPONENTS) <= thirteen
+
+    kf = {r["name"]: r for r in _csv(tmp_path / "key_figures.csv")}
+    for key in ("gain_dn_per_e", "gain_e_per_dn", "conversion_gain_uv_per_e", "read_noise_e", "read_noise_dn",
+                "dynamic_range_db"):
+        assert _same(_f(kf[key]["value"]), sr["ptc"][key]["value"]), key
+        assert _same(_f(kf[key]["se"]), sr["ptc"][key]["se"]), key
+        assert kf[key]["unit"] == sr["ptc"][key]["unit"]
+    for d, e in sr["ptc"]["full_well_definitions"].items():
+        row = kf[f"full_well_e.{d}"]
+        assert _same(_f(row["value"]), e["value"]) and row["label"].startswith("full well") and row["unit"] == "e-"
+    assert {"snr_max", "qe", "linearity_error_pct"} <= set(kf)
+    assert kf["gain_dn_per_e"]["unit"] == "DN/e-" and kf["conversion_gain_uv_per_e"]["unit"] == "uV/e-"
+
+
+def test_key_figures_api(runs):
+    kf = key_figures(runs / "ptc")
+    sr = json.loads((runs / "ptc" / "scan_results.json").read_text())["analyses"]["ptc"]
+    assert kf["gain_dn_per_e"]["value"] == sr["gain_dn_per_e"]["value"]
+    assert kf["read_noise_e"]["source"] == "scan_results.json: ptc"
+    # the recomputed PTC agrees with the runner's
+    assert kf["gain_origin_dn_per_e"]["value"] == pytest.approx(sr["gain_dn_per_e"]["value"], rel=0.2)
+
+
+# ------------------------------------------------------------------ PDF
+
+@pytest.mark.skipif(not HAVE_PDFTOTEXT, reason="poppler-utils (pdftotext) not installed")
+def test_pdf_pages_and_key_figures_as_text(runs, tmp_path):
+    run = read_run(runs / "ptc")
+    titles = report_pdf.write_pdf(run, tmp_path / "r.pdf")
+    assert titles[:3] == ["title", "ptc x1", "snr x1"] and "components" in titles and titles[-1] == "stages"
+    assert any(t.startswith("maps") for t in titles)
+    assert _pages(tmp_path / "r.pdf") == len(titles)
+    text = _pdf_text(tmp_path / "r.pdf")
+    kf = key_figures(runs / "ptc")
+    for key in ("gain_dn_per_e", "read_noise_e", "conversion_gain_uv_per_e", "full_well_e.max_variance"):
+        assert tables.fmt_value(kf[key]["value"], kf[key]["se"], kf[key]["unit"]) in text, key
+    for words in ("Photon transfer", "SNR and linearity", "Noise components", "limits: all passed",
+                  run.meta["scan_sha256"], "read zone", "shot zone", "13 delta", "9 Cg"):
+        assert words in text, words
+    assert "Incomplete run" not in text and "Basler" not in text
+
+
+@pytest.mark.skipif(not HAVE_PDFTOTEXT, reason="poppler-utils (pdftotext) not installed")
+def test_dark_temperature_run_pages(runs, tmp_path):
+    titles = report_pdf.write_pdf(read_run(runs / "dark"), tmp_path / "d.pdf")
+    assert {"dark", "temperature", "sweep 2d"} <= set(titles) and not any(t.startswith("ptc") for t in titles)
+    kf = key_figures(runs / "dark")
+    assert {"dark_current@20C_dn_per_s", "dark_current@60C_dn_per_s"} <= set(kf)
+    assert kf["dark_current@60C_dn_per_s"]["value"] > kf["dark_current@20C_dn_per_s"]["value"]
+    text = _pdf_text(tmp_path / "d.pdf")
+    assert "Dark current vs temperature" in text and "doubling temperature" in text
+    assert _pages(tmp_path / "d.pdf") == len(titles)
+
+
+def test_emva_attribution(runs, tmp_path):
+    d = tmp_path / "emva"
+    shutil.copytree(runs / "ptc", d)
+    meta = json.loads((d / "run.json").read_text())
+    meta["scan_source"] = "../shared/data/EMVA1288_ReferenceSet_001_CCD_12Bit/EMVA1288_Descriptor.txt"
+    (d / "run.json").write_text(json.dumps(meta))
+    run = read_run(d)
+    assert run.attribution == "EMVA 1288 reference data set, (C) 2011 Basler AG, CC BY-SA 3.0"
+    report_pdf.write_pdf(run, d / "r.pdf")
+    if HAVE_PDFTOTEXT:
+        assert "(C) 2011 Basler AG, CC BY-SA 3.0" in _pdf_text(d / "r.pdf")
+
+
+# ------------------------------------------------------------------ partial / bad runs
+
+def test_partial_run_is_reported_as_incomplete(runs, capsys):
+    run = read_run(runs / "partial")
+    assert not run.complete and run.scan_results is None and 0 < len(run.stages) < 9
+    assert main(["report", str(runs / "partial"), "--json"]) == 0
+    d = json.loads(capsys.readouterr().out)
+    assert d["complete"] is False and d["status"] == "failed" and "Incomplete run" in d["note"]
+    assert f"{len(run.stages)} of 9 stage(s) completed" in d["note"]
+    assert d["key_figures"]["gain_dn_per_e"]["source"].startswith("computed by the report")
+    assert "partial run" in d["key_figures"]["full_well_e.max_variance"]["note"]
+    assert {Path(p).name for p in d["files"]} == {"ptc.csv", "components.csv", "key_figures.csv", "report.pdf"}
+    ptc = _csv(runs / "partial" / "ptc.csv")
+    assert len(ptc) == sum(1 for s in run.stages if s["scene"] == "flat") and all(r["status"] for r in ptc)
+    if HAVE_PDFTOTEXT:
+        text = _pdf_text(runs / "partial" / "report.pdf")
+        assert "Incomplete run (status 'failed')" in text and "disconnected" in text
+
+
+def test_bad_directories_raise_one_sentence(tmp_path, runs, capsys):
+    missing = tmp_path / "nope"
+    with pytest.raises(InputError, match=f"{missing}: run directory does not exist"):
+        write_reports(missing)
+    empty = tmp_path / "empty"
+    empty.mkdir()
+    with pytest.raises(InputError, match=r"not an ARES run directory \(no run.json\)"):
+        key_figures(empty)
+    bad = tmp_path / "bad"
+    shutil.copytree(runs / "ptc", bad)
+    (bad / "stages" / "0003.json").write_text('{"index": 3, "na')
+    with pytest.raises(InputError, match=r"0003\.json: unreadable"):
+        read_run(bad)
+    (bad / "run.json").write_text("{not json")
+    assert main(["report", str(bad)]) == 2
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and "run.json: unreadable" in err and str(bad) in err
+    tampered = tmp_path / "tampered"
+    shutil.copytree(runs / "ptc", tampered)
+    xml = next((tampered / "xml").glob("ptc_small.xml"))
+    xml.write_text(xml.read_text() + "<!-- edited -->\n")
+    assert main(["report", str(tampered)]) == 2
+    assert "SHA-256 differs" in capsys.readouterr().err
+    assert main(["report", str(missing)]) == 2
+    assert capsys.readouterr().err.strip() == f"ares report: {missing}: run directory does not exist"
+
+
+def test_cli_writes_only_what_is_asked(runs, tmp_path, capsys):
+    assert main(["report", str(runs / "ptc"), "--csv", str(tmp_path / "c")]) == 0
+    assert sorted(p.name for p in (tmp_path / "c").iterdir()) == ["components.csv", "key_figures.csv", "ptc.csv"]
+    assert not (runs / "ptc" / "report.pdf").exists()
+    out = capsys.readouterr().out.split()
+    assert len(out) == 3
