@@ -85,3 +85,9 @@ def test_output_is_always_a_valid_code(bits, gain, flux, black, mode, seed):
                                   black_level_dn=black, shot_noise=mode)
     assert f.dtype == np.uint16 and f.shape == (2, 8, 10)
     assert f.max() <= p.max_code
+
+
+def test_truth_q_by_bayer_phase():
+    p = SensorParams(rows=48, cols=64, cfa="RGGB", cfa_response=(0.5, 1.0, 1.0, 0.25), crosstalk_pct=0.0)
+    t = SimSensor(p, 0).truth(exposure_s=0.01, photon_flux=1e5)
+    assert t["q_by_phase"] == pytest.approx([300.0, 600.0, 600.0, 150.0])

@@ -18,7 +18,8 @@ Parameter values (expectations of the model):
   ``Cg``, ``Rg``, ``Pg``  variances of the relative gain factors (mean 1); ``Pg`` averaged
                    over the Bayer phases (per phase: ``Pg_by_phase``)
   ``q``            mean photo-charge per pixel, e- (over all pixels; OB columns hold 0;
-                   includes added_photocharge_e)
+                   includes added_photocharge_e); ``q_by_phase``: per Bayer phase
+                   (r%2, c%2) = (0,0), (0,1), (1,0), (1,1)
   ``delta``        shot-noise variance, e^2 (= q, mean over pixels; before lag)
   ``quantization_dn2``  1/12, the ADC quantization variance (not in ``Pt``)
 
@@ -78,6 +79,7 @@ def build_truth(sensor, sc: Scene) -> dict:
         "Pg_by_phase": [float(v) for v in prnu_var],
         "q": float(np.mean(sc.q)),
         "delta": float(np.mean(sc.q)),
+        "q_by_phase": [float(np.mean(np.broadcast_to(sc.q, sensor.shape)[fp.phase == i])) for i in range(4)],
         "quantization_dn2": 1.0 / 12.0,
     }
 
