@@ -21,6 +21,7 @@ P = SensorParams(rows=48, cols=64)
         (dict(exposure_s=-0.1), "exposure_s"),
         (dict(analog_gain=0.0), "analog_gain"),
         (dict(temperature_c="hot"), "temperature_c"),
+        (dict(photon_flux="bright"), "photon_flux"),
     ],
 )
 def test_bad_render_arguments_raise_one_sentence(kw, words):

@@ -72,7 +72,10 @@ def resolve_scene(p: SensorParams, fp: FixedPatterns, *, exposure_s, photon_flux
     G = p.gain_dn_per_e(ag)
 
     q: float | np.ndarray = 0.0
-    flux = np.asarray(photon_flux, dtype=np.float64)
+    try:
+        flux = np.asarray(photon_flux, dtype=np.float64)
+    except (TypeError, ValueError):
+        raise InputError(f"simulator: photon_flux must be a number or a 2-D map, not {photon_flux!r}") from None
     if flux.ndim not in (0, 2):
         raise InputError(f"simulator: photon_flux must be a number or a 2-D map, not a {flux.ndim}-D array")
     if flux.ndim == 2 and flux.shape != (p.rows, p.cols):

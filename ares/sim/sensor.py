@@ -84,7 +84,10 @@ class SimSensor:
         kw = dict(exposure_s=exposure_s, temperature_c=temperature_c, analog_gain=analog_gain,
                   black_level_dn=black_level_dn, dark=dark, shot_noise=shot_noise,
                   read_noise_scale=read_noise_scale, dark_current_scale=dark_current_scale, lag_scale=lag_scale)
-        key = None if np.ndim(photon_flux) else (float(photon_flux), tuple(sorted(kw.items())))
+        try:  # a scalar operating point is cached; maps are resolved on every call
+            key = None if np.ndim(photon_flux) else (float(photon_flux), tuple(sorted(kw.items())))
+        except (TypeError, ValueError):
+            key = None  # resolve_scene reports the bad value
         if key is not None and key == self._cache_key:
             sc, plan = self._cache
         else:
