@@ -92,3 +92,11 @@ def test_truth_q_by_bayer_phase():
     p = SensorParams(rows=48, cols=64, cfa="RGGB", cfa_response=(0.5, 1.0, 1.0, 0.25), crosstalk_pct=0.0)
     t = SimSensor(p, 0).truth(exposure_s=0.01, photon_flux=1e5)
     assert t["q_by_phase"] == pytest.approx([300.0, 600.0, 600.0, 150.0])
+
+
+def test_bad_start_frame_and_ramp_count():
+    s = SimSensor(P, 0)
+    with pytest.raises(InputError, match="start_frame"):
+        s.render(1, exposure_s=0.01, start_frame=-3)
+    with pytest.raises(InputError, match="number of frames"):
+        s.render_ramp(2.5)

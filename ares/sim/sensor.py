@@ -31,6 +31,11 @@ from ares.sim.scene import Scene, resolve_scene
 _F32 = np.float32
 
 
+def _check_n(n) -> None:
+    if isinstance(n, bool) or not isinstance(n, (int, np.integer)) or n < 0:
+        raise InputError(f"simulator: the number of frames must be a non-negative integer, not {n!r}")
+
+
 class SimSensor:
     """A simulated sensor; fixed patterns drawn once from ``seed``."""
 
@@ -79,8 +84,7 @@ class SimSensor:
         read_noise_scale / dark_current_scale / lag_scale: bias-dependent factors (the
         register bench derives them from sf_bias and tx_low).
         """
-        if isinstance(n, bool) or not isinstance(n, (int, np.integer)) or n < 0:
-            raise InputError(f"simulator: the number of frames must be a non-negative integer, not {n!r}")
+        _check_n(n)
         kw = dict(exposure_s=exposure_s, temperature_c=temperature_c, analog_gain=analog_gain,
                   black_level_dn=black_level_dn, dark=dark, shot_noise=shot_noise,
                   read_noise_scale=read_noise_scale, dark_current_scale=dark_current_scale, lag_scale=lag_scale)
@@ -94,8 +98,7 @@ class SimSensor:
             sc = self.scene(photon_flux=photon_flux, **kw)
             plan = self._plan(sc)
             self._cache_key, self._cache = key, (sc, plan)
-        if start_frame is not None:
-            self.frame_index = int(start_frame)
+        self._seek(start_frame)
         if sc.lag == 0:
             self._lag_e = None
         out = np.empty((n, *self.shape), np.uint16)
@@ -107,13 +110,20 @@ class SimSensor:
 
     def render_ramp(self, n: int, *, start_frame=None) -> np.ndarray:
         """ADC test frames (test_mode 2): a linear ramp over the ADC range, see ``Adc.ramp``."""
-        if start_frame is not None:
-            self.frame_index = int(start_frame)
+        _check_n(n)
+        self._seek(start_frame)
         out = np.empty((n, *self.shape), np.uint16)
         for i in range(n):
             out[i] = self.patterns.adc.ramp(1, self.shape, noise.frame_rng(self.seed, self.frame_index))[0]
             self.frame_index += 1
         return out
+
+    def _seek(self, start_frame) -> None:
+        if start_frame is None:
+            return
+        if isinstance(start_frame, bool) or not isinstance(start_frame, (int, np.integer)) or start_frame < 0:
+            raise InputError(f"simulator: start_frame must be a non-negative integer, not {start_frame!r}")
+        self.frame_index = int(start_frame)
 
     def truth(self, **kw) -> dict:
         """Ground truth at an operating point (same keywords as ``render``); see ``ares.sim.truth``."""
