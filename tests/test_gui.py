@@ -362,3 +362,19 @@ def test_distributions_follow_region_changes(window, qtbot):
     assert set(window.distributions.plots) == {1}
     run_to_end(qtbot, window)  # models update again without touching deleted widgets
     assert window.session.distributions[1].counts.sum() == 25
+
+
+def test_two_axis_sweep_fills_the_sweep_map(window, qtbot, tmp_path):
+    pytest.importorskip("ares.scan")
+    assert window.load_scan(os.path.join(FIXTURES, "small", "bias_small.xml"))
+    window.controls.output.write_run.setChecked(False)
+    run_to_end(qtbot, window)
+    m = window.session.sweep
+    assert window.session.progress.state == P.DONE, window.session.progress.message
+    assert m.ndim == 2 and m.grid().shape == (3, 2) and np.isfinite(m.grid()).all()
+    assert [name for name, _ in m.axes()] == ["sf_bias", "tx_low"]
+    assert "pixel temporal (DN^2)" in m.quantities
+    assert window.sweep.stack.currentWidget() is window.sweep.map_plot
+    assert window.sweep.map_image.image.shape == (2, 3)
+    window.sweep.quantity.setCurrentText("pixel temporal (DN^2)")
+    assert m.quantity == "pixel temporal (DN^2)"

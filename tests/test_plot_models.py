@@ -233,3 +233,31 @@ def test_demo_scan_stop_and_abort():
 
     with pytest.raises(Interrupted):
         job.run(emit_abort)
+
+
+# ---- sweep map ---------------------------------------------------------------------------------
+def test_sweep_model_2d_grid_and_axes():
+    from ares.gui.models.sweep import SweepModel, SweepPoint
+
+    m = SweepModel()
+    k = 0
+    for i, bias in enumerate((1.0, 1.5, 2.0)):
+        for j, tx in enumerate((-0.8, -0.2)):
+            k += 1
+            m.add(SweepPoint(k, "bias", (i, j), {"exposure": 0.01, "reg:sf_bias": bias, "reg:tx_low": tx},
+                             {"noise (DN)": 10 * i + j}))
+    assert m.ndim == 2 and m.quantities == ["noise (DN)"]
+    (n1, v1), (n2, v2) = m.axes()
+    assert (n1, v1.tolist(), n2, v2.tolist()) == ("sf_bias", [1.0, 1.5, 2.0], "tx_low", [-0.8, -0.2])
+    assert m.grid().tolist() == [[0, 1], [10, 11], [20, 21]]
+
+
+def test_sweep_model_1d_curve_follows_latest_group():
+    from ares.gui.models.sweep import SweepModel, SweepPoint
+
+    m = SweepModel()
+    m.add(SweepPoint(1, "dark", (), {"light": 0.0}, {"mean (DN)": 64.0}))  # a single stage: no coords
+    for i, light in enumerate((1e3, 1e4, 1e5)):
+        m.add(SweepPoint(2 + i, "ptc", (i,), {"light": light, "exposure": 0.01}, {"mean (DN)": 64 + light / 100}))
+    x, y = m.curve()
+    assert m.axes()[0][0] == "light" and x.tolist() == [1e3, 1e4, 1e5] and y.tolist() == [74.0, 164.0, 1064.0]

@@ -16,8 +16,12 @@ def add_arguments(parser) -> None:
 
 
 def run(args) -> int:
-    if args.scan and not Path(args.scan).is_file():
-        raise InputError(f"{args.scan}: no such scan file.")
+    if args.scan:
+        if not Path(args.scan).is_file():
+            raise InputError(f"{args.scan}: no such scan file.")
+        from ares.gui.engine import open_scan
+
+        open_scan(args.scan)  # a broken scan ends here in one sentence, before any window
     from ares.gui.app import check_display
 
     check_display()

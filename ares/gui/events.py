@@ -47,6 +47,9 @@ class StageResult:
     # temporal variance above dark in DN²), None for a dark stage or when not computed
     ptc_point: tuple[float, float] | None = None
     ptc_view: str = ""  # which pixels the engine used for ptc_point ("full", a region ...)
+    group: str = ""  # the sweep (or single stage) this stage belongs to
+    coords: tuple = ()  # grid indices within a sweep; () for a single stage
+    quantities: dict = field(default_factory=dict)  # engine numbers for the sweep map: label -> value
     summary: dict = field(default_factory=dict)
 
 

@@ -23,12 +23,13 @@ from .plots.distributions_view import DistributionsView
 from .plots.image_view import ImagePlot
 from .plots.profile_view import ProfilesView
 from .plots.ptc_view import PTCView
+from .plots.sweep_view import SweepView
 from .results_panel import ResultsTab
 from .scan_panel import ControlTabs, ProgressLine, ScanButtons
 from .worker import ScanThread, one_sentence
 
 RESULT_TABS = ("Results", "Pixel Distributions", "Profiles", "Signal Map", "Noise Map", "PTC",
-               "Defect Counts", "Information")
+               "Sweep Map", "Defect Counts", "Information")
 SCAN_FILTER = "Scan files (*.xml);;All files (*)"
 
 
@@ -55,11 +56,12 @@ class MainWindow(QMainWindow):
         self.signal_map = ImagePlot(s.signal_map)
         self.noise_map = ImagePlot(s.noise_map)
         self.ptc = PTCView(s.ptc)
+        self.sweep = SweepView(s.sweep)
         self.defects = DefectCountsView(s.defects)
         self.info = InfoPanel(s.info)
         self.result_tabs = QTabWidget()
         for w, name in zip((self.results, self.distributions, self.profiles, self.signal_map, self.noise_map,
-                            self.ptc, self.defects, self.info), RESULT_TABS):
+                            self.ptc, self.sweep, self.defects, self.info), RESULT_TABS):
             self.result_tabs.addTab(w, name)
 
         left = QSplitter(Qt.Orientation.Vertical)

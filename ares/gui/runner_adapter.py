@@ -74,6 +74,29 @@ def summarize(scan_results: dict, thresholds: tuple = ()) -> dict:
     return out
 
 
+COMPONENT_LABELS = {
+    "Cs": "column FPN", "Ct": "column temporal", "Rs": "row FPN", "Rt": "row temporal",
+    "Ps": "pixel FPN (DSNU)", "Pt": "pixel temporal", "frame_global": "frame-global temporal",
+    "G": "conversion gain", "Cg": "column PRNU", "Rg": "row PRNU", "Pg": "pixel PRNU",
+}
+
+
+def quantities(view: dict) -> dict[str, float]:
+    """Sweep-map quantities of one stage view, as the engine computed them."""
+    out: dict[str, float] = {}
+    level = view.get("level", {})
+    for label, key, root in (("mean signal (DN)", "mean_dn", False), ("temporal noise (DN)", "var_dn2", True),
+                             ("spatial noise (DN)", "spatial_var_dn2", True)):
+        v = level.get(key)
+        if isinstance(v, (int, float)) and math.isfinite(v):
+            out[label] = math.sqrt(v) if root and v >= 0 else (v if not root else math.nan)
+    for name, d in (view.get("components") or {}).items():
+        v = _value(d)
+        if v is not None and name in COMPONENT_LABELS:
+            out[f"{COMPONENT_LABELS[name]} ({d.get('unit', '')})"] = v
+    return out
+
+
 class RunnerJob:
     """One run of the scan at ``path``; make a new job for each run (Auto Repeat)."""
 
@@ -219,4 +242,5 @@ class RunnerJob:
                 point = (level["mean_dn"] - dark["mean_dn"], var - dvar)
         return G.StageResult(e.index + 1, r["name"], e.arrays["mean"], e.arrays["variance"], r["frames"],
                              dark=(r["scene"] == "dark"), settings=dict(r["settings"]), ptc_point=point,
-                             ptc_view="full")
+                             ptc_view="full", group=r.get("group", ""), coords=tuple(r.get("coords") or ()),
+                             quantities=quantities(full))

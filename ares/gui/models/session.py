@@ -19,6 +19,7 @@ from .profiles import ProfilesModel
 from .ptc import PTCModel
 from .regions import Region, RegionSet, full_frame
 from .stats import StatsPanelModel
+from .sweep import SweepModel, SweepPoint
 
 PANELS = ("MEAN SIGNAL", "NOISE", "COLUMNS", "ROWS")
 
@@ -52,6 +53,7 @@ class SessionModel:
         self.distributions_changed = Observable()
         self.profiles = ProfilesModel()
         self.ptc = PTCModel()
+        self.sweep = SweepModel()
         self.defects = DefectCountsModel()
         self.info = InfoModel()
         self.last_frame: np.ndarray | None = None
@@ -93,6 +95,7 @@ class SessionModel:
         self.progress.reset()
         self.progress.update(state=P.RUNNING, message=f"Running {title}".strip())
         self.ptc.clear()
+        self.sweep.clear()
         self.defects.clear()
         self.last_result = None
         self.last_frame = None
@@ -165,6 +168,8 @@ class SessionModel:
         if ev.ptc_point is not None:
             self.ptc.view = ev.ptc_view
             self.ptc.add(ev.stage, ev.name, *ev.ptc_point)
+        if ev.coords and ev.quantities:
+            self.sweep.add(SweepPoint(ev.stage, ev.group, tuple(ev.coords), dict(ev.settings), dict(ev.quantities)))
         if ev.defects is not None:
             self.defects.set_counts(ev.defects, ev.mean.size, caption=f"stage {ev.stage}: {ev.name}")
         if ev.summary:

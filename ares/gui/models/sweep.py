@@ -1,0 +1,120 @@
+"""Sweep map model: an engine quantity per stage over the scan's sweep axes (no Qt).
+
+ARES builds maps of noise, lag ... versus pixel voltages from 2-D scans (seed 001,
+"2D scanning capability"). Each finished stage of a sweep brings its grid coordinates,
+its settings and the engine's numbers for it (mean signal, temporal noise, the noise
+components ...). For the latest sweep group the model gives a 1-D curve (one axis) or a
+2-D grid (two axes) of the chosen quantity; it computes nothing itself.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+
+from .observable import Observable
+
+
+@dataclass(frozen=True)
+class SweepPoint:
+    stage: int
+    group: str
+    coords: tuple[int, ...]
+    settings: dict
+    values: dict  # quantity label -> value
+
+
+def _axis_key(points: list[SweepPoint], k: int) -> str | None:
+    """The setting that varies with grid index ``k`` (and only with it)."""
+    if not points:
+        return None
+    for key in points[0].settings:
+        by_index: dict[int, set] = {}
+        ok = True
+        for p in points:
+            v = p.settings.get(key)
+            if not isinstance(v, (int, float)):
+                ok = False
+                break
+            by_index.setdefault(p.coords[k], set()).add(v)
+        if not ok or any(len(vs) > 1 for vs in by_index.values()):
+            continue
+        if len({next(iter(vs)) for vs in by_index.values()}) == len(by_index) > 1:
+            return key
+    return None
+
+
+class SweepModel(Observable):
+    def __init__(self) -> None:
+        super().__init__()
+        self.points: list[SweepPoint] = []
+        self.quantity: str | None = None
+
+    def clear(self) -> None:
+        self.points = []
+        self._changed()
+
+    def add(self, point: SweepPoint) -> None:
+        if point.coords:
+            self.points.append(point)
+            if self.quantity is None or self.quantity not in point.values:
+                self.quantity = next(iter(point.values), None)
+            self._changed()
+
+    def set_quantity(self, quantity: str) -> None:
+        self.quantity = quantity
+        self._changed()
+
+    @property
+    def quantities(self) -> list[str]:
+        seen: dict[str, None] = {}
+        for p in self.group_points():
+            seen.update(dict.fromkeys(p.values))
+        return list(seen)
+
+    def group_points(self) -> list[SweepPoint]:
+        if not self.points:
+            return []
+        group = self.points[-1].group
+        return [p for p in self.points if p.group == group]
+
+    @property
+    def ndim(self) -> int:
+        pts = self.group_points()
+        return len(pts[0].coords) if pts else 0
+
+    def axes(self) -> list[tuple[str, np.ndarray]]:
+        """(setting name, value at each grid index) per axis of the latest group."""
+        pts = self.group_points()
+        out = []
+        for k in range(self.ndim):
+            n = max(p.coords[k] for p in pts) + 1
+            key = _axis_key(pts, k)
+            values = np.full(n, np.nan)
+            for p in pts:
+                values[p.coords[k]] = p.settings.get(key, p.coords[k]) if key else p.coords[k]
+            out.append((key.removeprefix("reg:") if key else f"index {k + 1}", values))
+        return out
+
+    def curve(self) -> tuple[np.ndarray, np.ndarray]:
+        """1-D sweep: (axis values, quantity) in stage order."""
+        pts = [p for p in self.group_points() if self.quantity in p.values]
+        (_, values), = self.axes() or [("", np.zeros(0))]
+        x = np.array([values[p.coords[0]] for p in pts], dtype=float)
+        y = np.array([p.values[self.quantity] for p in pts], dtype=float)
+        return x, y
+
+    def grid(self) -> np.ndarray:
+        """2-D sweep: array [index 1, index 2] of the quantity (nan where not yet run)."""
+        pts = self.group_points()
+        if self.ndim != 2:
+            return np.zeros((0, 0))
+        shape = tuple(max(p.coords[k] for p in pts) + 1 for k in range(2))
+        g = np.full(shape, np.nan)
+        for p in pts:
+            v = p.values.get(self.quantity)
+            if v is not None and math.isfinite(v):
+                g[p.coords] = v
+        return g
