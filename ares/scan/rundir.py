@@ -10,10 +10,15 @@ Layout (all paths relative to the run directory)::
     xml/<system file>   the system XML, byte for byte (``ares rerun`` loads these two)
     stages/NNNN.json    per completed stage: resolved settings, register snapshots
                         before/after, timing, results per view (see ares.scan.results)
-    results.h5          HDF5: /stages/NNNN/{mean, variance, frame_means, dark_mean}
-                        (chunked) + attrs (name, scene, settings JSON, result JSON);
-                        rewritten per stage by copy -> append -> rename, so a SIGKILL at
-                        any time leaves the previous complete file
+    stages/NNNN.h5      HDF5 arrays of the stage: mean, variance (per-pixel temporal, DN^2),
+                        frame_means, dark_mean (matched dark), hist_<view> (code histograms,
+                        adc_linearity scans only); chunked, gzip; attrs name, scene,
+                        settings (JSON), result (JSON)
+    results.h5          HDF5 index: /stages/NNNN are external links to stages/NNNN.h5, so
+                        h5py.File("results.h5")["stages/0003/mean"] just works (keep the
+                        directory together). Each stage file and the index are written as
+                        .tmp, fsynced and renamed: a SIGKILL at any instant leaves complete
+                        files describing every completed stage
     frames/NNNN.h5      raw frames (only with <output raw_frames="true">): dataset
                         "frames" (F, rows, cols) chunked per frame, "dark" likewise;
                         written as NNNN.h5.partial and renamed when the stage completes
@@ -35,7 +40,6 @@ import json
 import math
 import os
 import platform
-import shutil
 import sys
 import time
 from dataclasses import dataclass, field
@@ -97,6 +101,11 @@ def write_atomic(path: Path, data: bytes) -> None:
     os.replace(tmp, path)
 
 
+def _fsync(path: Path) -> None:
+    with open(path, "rb+") as fh:
+        os.fsync(fh.fileno())
+
+
 def dump_json(path: Path, obj) -> None:
     write_atomic(path, json.dumps(_clean(obj), indent=1, default=_json_default, allow_nan=False).encode())
 
@@ -114,6 +123,7 @@ class RunWriter:
         self.scan = scan
         self.save_frames = save_frames
         self.rows: list[dict] = []
+        self.h5_stages: list[str] = []
         scan_bytes = Path(scan.source).read_bytes()
         sys_path = Path(scan.system_path or scan.system.source)
         sys_bytes = sys_path.read_bytes()
@@ -162,29 +172,36 @@ class RunWriter:
         self._write_meta()
 
     def _append_h5(self, i: int, result: dict, arrays: dict) -> None:
+        """Stage arrays into stages/NNNN.h5 (tmp -> fsync -> rename), then rewrite the small
+        results.h5 index of external links the same way: linear in the number of stages,
+        and at every instant both files are complete."""
         import h5py
 
-        path = self.dir / "results.h5"
-        tmp = path.with_name("results.h5.tmp")
-        if path.exists():
-            shutil.copyfile(path, tmp)
-        with h5py.File(tmp, "a") as f:
-            if "stages" not in f:
-                f.attrs["scan_name"] = self.scan.name
-                f.attrs["format"] = "ares-run/1"
-                f.create_group("stages")
-            g = f["stages"].create_group(f"{i:04d}")
+        name = f"{i:04d}"
+        path = self.dir / "stages" / f"{name}.h5"
+        tmp = path.with_name(path.name + ".tmp")
+        with h5py.File(tmp, "w") as f:
             for k, a in arrays.items():
                 a = np.asarray(a)
-                g.create_dataset(k, data=a, chunks=a.shape if a.ndim >= 1 and a.size else None,
+                f.create_dataset(k, data=a, chunks=a.shape if a.ndim >= 1 and a.size else None,
                                  compression="gzip" if a.ndim == 2 else None)
-            g.attrs["name"] = result["name"]
-            g.attrs["scene"] = result["scene"]
-            g.attrs["settings"] = json.dumps(_clean(result["settings"]))
-            g.attrs["result"] = json.dumps(_clean(result), default=_json_default)
-        with open(tmp, "rb+") as fh:
-            os.fsync(fh.fileno())
+            f.attrs["name"] = result["name"]
+            f.attrs["scene"] = result["scene"]
+            f.attrs["settings"] = json.dumps(_clean(result["settings"]))
+            f.attrs["result"] = json.dumps(_clean(result), default=_json_default)
+        _fsync(tmp)
         os.replace(tmp, path)
+        self.h5_stages.append(name)
+        index = self.dir / "results.h5"
+        tmp = index.with_name("results.h5.tmp")
+        with h5py.File(tmp, "w") as f:
+            f.attrs["scan_name"] = self.scan.name
+            f.attrs["format"] = "ares-run/1"
+            g = f.create_group("stages")
+            for n in self.h5_stages:
+                g[n] = h5py.ExternalLink(f"stages/{n}.h5", "/")
+        _fsync(tmp)
+        os.replace(tmp, index)
 
     # -- end ------------------------------------------------------------------
     def finish(self, status: str, message: str = "", scan_results: dict | None = None,
