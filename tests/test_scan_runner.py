@@ -289,3 +289,27 @@ def test_listener_bug_is_recorded_and_reraised(ptc_small, tmp_path):
     meta = load_run(tmp_path / "run").meta
     assert meta["status"] == "failed" and "ZeroDivisionError: oops" in meta["message"]
     assert isinstance(seen[-1], ev.Failed) and meta["stages_completed"] == 2
+
+
+def test_frame_timeout_from_any_backend(ptc_small, tmp_path):
+    """A FrameSource that times out (as the USB grabber does) ends the run like the sim faults."""
+    from ares.hardware.factory import build_bench
+
+    bench = build_bench(ptc_small.system)
+    real = bench.frames
+
+    class Slow:
+        name, shape, bit_depth = "usb grabber", real.shape, real.bit_depth
+        n = 0
+
+        def grab(self, k):
+            for f in real.grab(k):
+                Slow.n += 1
+                if Slow.n > 10:
+                    raise HardwareError("usb grabber: no frame within 1000 ms (timeout)")
+                yield f
+
+    bench.frames = Slow()
+    with pytest.raises(HardwareError, match=r"timeout\) \(during stage 3 of 9; 2 completed stage\(s\) saved"):
+        Runner(ptc_small, bench=bench, out_dir=tmp_path / "t").run()
+    assert len(load_run(tmp_path / "t").stages) == 2
