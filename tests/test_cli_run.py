@@ -114,3 +114,18 @@ def test_ctrl_c_stops_after_the_current_stage(tmp_path):
 def test_auto_repeat_from_the_cli(tmp_path, capsys):
     assert main(["run", PTC, "--out", str(tmp_path / "rep"), "-q", "--frames", "2", "--repeat", "2"]) == 0
     assert [load_run(tmp_path / "rep" / f"repeat_{i:03d}").meta["status"] for i in (1, 2)] == ["done", "done"]
+
+
+def test_out_dir_resolution(tmp_path, capsys):
+    from ares.commands.run import resolve_out
+
+    assert resolve_out(tmp_path / "new", "s") == tmp_path / "new"
+    (tmp_path / "empty").mkdir()
+    assert resolve_out(tmp_path / "empty", "s") == tmp_path / "empty"
+    (tmp_path / "other").mkdir()
+    (tmp_path / "other" / "notes.txt").write_text("x")
+    assert resolve_out(tmp_path / "other", "s").parent == tmp_path / "other"
+    # `make run` style: the same --out twice never fails and never overwrites
+    for _ in range(2):
+        assert main(["run", PTC, "--out", str(tmp_path / "runs"), "-q", "--frames", "2"]) == 0
+    assert load_run(tmp_path / "runs").meta["status"] == load_run(tmp_path / "runs_2").meta["status"] == "done"

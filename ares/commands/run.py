@@ -33,7 +33,9 @@ def add_arguments(parser) -> None:
 
 
 def add_common(parser) -> None:
-    parser.add_argument("--out", metavar="DIR", help="run directory (default: runs/<scan>_<time>)")
+    parser.add_argument("--out", metavar="DIR",
+                        help="run directory (default: runs/<scan>_<time>); if DIR is already a run directory "
+                             "DIR_2, DIR_3... is used, if it is another non-empty folder DIR/<scan>_<time>")
     parser.add_argument("--quiet", "-q", action="store_true", help="no progress bar")
     parser.add_argument("--json", action="store_true", help="print the final summary as JSON on stdout")
 
@@ -56,6 +58,25 @@ def default_out(scan_name: str) -> Path:
         k += 1
         p = base.with_name(f"{base.name}_{k}")
     return p
+
+
+def resolve_out(out: str | Path | None, scan_name: str) -> Path:
+    """``--out DIR``: DIR itself when new or empty; a sibling ``DIR_2``, ``DIR_3``... when DIR
+    is already a run directory; a new ``DIR/<scan>_<time>`` when DIR is another non-empty
+    folder (so ``--out runs`` works again and again). No ``--out``: ``runs/<scan>_<time>``."""
+    if out is None:
+        return default_out(scan_name)
+    p = Path(out)
+    if not p.exists() or (p.is_dir() and not any(p.iterdir())):
+        return p
+    if not p.is_dir():
+        raise InputError(f"--out {p}: exists and is not a directory")
+    if (p / "run.json").exists():
+        k = 2
+        while (q := p.with_name(f"{p.name}_{k}")).exists():
+            k += 1
+        return q
+    return p / default_out(scan_name).name
 
 
 def fmt_s(s: float | None) -> str:
@@ -183,7 +204,7 @@ def execute(scan, args, *, seed, frames, faults=None, argv=None, out_dir=None) -
     """Run ``scan`` with the CLI's progress, Ctrl-C handling, summary and exit code."""
     from ares.scan import Runner
 
-    out_dir = Path(out_dir) if out_dir else default_out(scan.name)
+    out_dir = resolve_out(out_dir, scan.name)
     runner = Runner(scan, out_dir=out_dir, seed=seed, frames=frames, faults=faults, argv=argv)
     if not args.quiet:
         runner.add_listener(ProgressBar())
@@ -249,7 +270,7 @@ def run(args) -> int:
     if args.repeat == 1:
         return execute(scan, args, seed=args.seed, frames=args.frames, faults=faults, argv=argv, out_dir=args.out)
     rc, i = 0, 0
-    base = Path(args.out) if args.out else default_out(scan.name)
+    base = resolve_out(args.out, scan.name)
     while args.repeat == 0 or i < args.repeat:
         rc = execute(scan, args, seed=args.seed, frames=args.frames, faults=faults, argv=argv,
                      out_dir=base / f"repeat_{i + 1:03d}")
