@@ -129,3 +129,21 @@ def test_out_dir_resolution(tmp_path, capsys):
     for _ in range(2):
         assert main(["run", PTC, "--out", str(tmp_path / "runs"), "-q", "--frames", "2"]) == 0
     assert load_run(tmp_path / "runs").meta["status"] == load_run(tmp_path / "runs_2").meta["status"] == "done"
+
+
+def test_progress_bar_on_a_terminal():
+    import io
+
+    from ares.commands.run import ProgressBar
+    from ares.protocol import load_scan
+    from ares.scan import Runner
+
+    class Tty(io.StringIO):
+        def isatty(self):
+            return True
+
+    s = Tty()
+    Runner(load_scan(PTC), frames=2, listeners=(ProgressBar(s),)).run()
+    text = s.getvalue()
+    assert "\rstage 9/9 ptc[7]" in text and "100%" in text and "frames/s ETA 0:00:00" in text
+    assert text.endswith("\n")
