@@ -19,7 +19,7 @@ from .clusters import find_clusters
 from .histograms import deviation_histograms
 from .lines import LineFlags, line_z
 from .params import DefectThresholds
-from .result import BITS, DEFECT_DTYPE, PIXEL_BITS, PIXEL_CLASSES, DefectResult, primary_class
+from .result import BITS, DEFECT_DTYPE, PIXEL_CLASSES, DefectResult, primary_class
 from .robust import block_median_background, fast_median, remove_lines, robust_sigma, sampled_median
 from .rts import detect_rts
 from .stats import PixelStats, SeriesCollector
