@@ -249,3 +249,13 @@ def test_bad_line_is_one_line_not_many_pixels():
     assert [r["y"] for r in res.bad_rows] == [77], res.bad_rows
     assert res.counts["total"] <= 2, res.counts
     assert res.defective()[:, 40].all() and res.defective()[77].all()  # masked for noise statistics
+
+
+def test_half_dead_column_does_not_make_its_good_pixels_bright():
+    inj = inject(rows=128, cols=160, seed=10, rate_ppm=0.0, bad_columns=0)
+    dark, flat = inj.dark.astype(np.int32), inj.flat.astype(np.int32)
+    flat[:, :80, 33] = dark[:20, :80, 33] + (flat[:, :80, 33] - dark[:20, :80, 33]) * 3 // 10  # 80 of 128 dead
+    res = classify_stack(dark.astype(np.uint16), flat.astype(np.uint16), gain_dn_per_e=inj.gain,
+                         exposure_s=inj.exposure_s, thresholds=DefectThresholds(line_dead_count=60))
+    assert [c["x"] for c in res.bad_columns] == [33], res.bad_columns
+    assert res.counts["high_response"] == 0 and res.counts["total"] <= 1, res.counts

@@ -224,8 +224,12 @@ def classify_defects(
         lines[name] = lf
         line_factors[name] = (np.maximum(factor_var, 1e-6), factor_resp)
     if lines["bad_column"].bad.any() or lines["bad_row"].bad.any():
+        # inside a bad line a pixel is a pixel defect only if it is one both against its
+        # neighbourhood and against the line's own level: a dead (or half-dead) column is
+        # one bad column, and its good pixels do not turn "high-response" against it
         (cv, cr), (rv, rr_) = line_factors["bad_column"], line_factors["bad_row"]
-        flags, stats = pixel_flags(cv, rv, cr, rr_)
+        flags2, stats = pixel_flags(cv, rv, cr, rr_)
+        flags = {k: flags[k] & flags2[k] for k in flags}
 
     # ---- RTS (pass 2 on the candidates: noisy pixels, and hot/warm ones -- an RTS that
     # sits mostly in its high state looks like a warm pixel whose variance the
