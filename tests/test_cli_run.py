@@ -76,7 +76,9 @@ def test_hardware_fault_exit_3(tmp_path, capsys):
 
 def test_rerun_reproduces_the_run(tmp_path, capsys):
     assert main(["run", PTC, "--out", str(tmp_path / "a"), "-q", "--seed", "11", "--frames", "3"]) == 0
+    capsys.readouterr()
     assert main(["rerun", str(tmp_path / "a"), "--out", str(tmp_path / "b"), "-q"]) == 0
+    assert "reproduced: 9 of 9 stage result(s) identical" in capsys.readouterr().err
     a, b = load_run(tmp_path / "a"), load_run(tmp_path / "b")
     assert b.meta["seed"] == 11 and b.meta["frames_override"] == 3
     assert a.meta["scan_sha256"] == b.meta["scan_sha256"] and a.meta["system_sha256"] == b.meta["system_sha256"]
