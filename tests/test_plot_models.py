@@ -19,8 +19,8 @@ from ares.gui.models.profiles import region_profiles
 from ares.gui.models.ptc import PTCModel
 from ares.gui.models.regions import Region, RegionSet, load_roa, save_roa
 from ares.gui.models.session import SessionModel
-from ares.gui.models.stats import (MANUAL, MEAN_3_SIGMA, PEAK_TO_PEAK, StatsPanelModel, auto_range, bins_for,
-                                   gaussian_fit, histogram)
+from ares.gui.models.stats import (MANUAL, MEAN_3_SIGMA, PEAK_TO_PEAK, PERCENTILE, StatsPanelModel, auto_range,
+                                   bins_for, histogram)
 
 
 # ---- stats panels -------------------------------------------------------------------------
@@ -63,19 +63,29 @@ def test_integer_histogram_bins_are_centred_on_integers():
     assert dict(zip(centres[counts > 0].tolist(), counts[counts > 0].tolist())) == {10.0: 2, 11.0: 1, 13.0: 1}
 
 
-def test_gaussian_fit_recovers_exact_gaussian_histogram():
-    edges = np.linspace(-5, 5, 81)
-    c = 0.5 * (edges[:-1] + edges[1:])
-    counts = 1000 * np.exp(-0.5 * ((c - 0.5) / 1.2) ** 2)
-    mu, sig = gaussian_fit(edges, counts)
-    assert mu == pytest.approx(0.5, abs=1e-6) and sig == pytest.approx(1.2, abs=1e-6)
+def test_fitted_numbers_come_from_the_engine_and_ignore_a_defect_tail():
+    from ares.analysis.panels import robust_gauss_fit
+
+    rng = np.random.default_rng(1)
+    v = np.concatenate([rng.normal(100.0, 2.0, 5000), np.full(50, 400.0)])  # 1 % hot pixels
+    m = StatsPanelModel("MEAN SIGNAL")
+    m.set_values(v)
+    assert (m.stats.fitted_mean, m.stats.fitted_sigma) == robust_gauss_fit(v)
+    assert m.stats.fitted_mean == pytest.approx(100.0, abs=0.2) and m.stats.fitted_sigma == pytest.approx(2.0, rel=0.1)
+    assert m.stats.mean == pytest.approx(v.mean()) and m.stats.highest == 400.0
+
+
+def test_percentile_range_drops_extreme_tails():
+    v = np.arange(10001, dtype=float)  # 0..10000
+    frm, to = auto_range(v, PERCENTILE)
+    assert (frm, to) == pytest.approx((10.0, 9990.0))
 
 
 def test_constant_values_give_unit_window_and_zero_sigma():
     m = StatsPanelModel("ROWS")
     m.set_values(np.full(10, 7.0))
     assert m.range == (6.5, 7.5)
-    assert m.stats.sigma == 0.0 and m.stats.fitted_mean == pytest.approx(7.0, abs=0.07)
+    assert m.stats.sigma == 0.0 and m.stats.fitted_mean == 7.0
 
 
 def test_bins_for():

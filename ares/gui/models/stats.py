@@ -2,23 +2,25 @@
 
 Given the values a panel shows (per-pixel means, per-pixel temporal sigmas, column or
 row means of a region), it keeps the display range (From/To, set by a range mode or by
-hand), the histogram over that range, and the numbers ARES prints under it: Mean,
-Sigma, Fitted Mean, Fitted Sigma (a Gaussian fitted to the histogram), Lowest, Highest.
+hand) and the histogram drawn over it. The numbers ARES prints under it -- Mean, Sigma,
+Fitted Mean, Fitted Sigma, Lowest, Highest -- come from the analysis engine
+(``ares.analysis.panels.summarize``: the fit is its robust Gaussian fit to the
+histogram core) applied to the values inside From..To.
 
 Range modes:
 - "Peak to Peak": From/To = Lowest/Highest widened by 15 % of the peak-to-peak span on
   each side (the margins in the ARES screenshots: 32.20..37.80 -> 31.36..38.64).
 - "Mean ± 3 Sigma", "Mean ± 5 Sigma": centred on the mean of all values.
+- "Percentile 0.1–99.9": the engine's percentile range (drops the extreme 0.1 % tails).
 - "Manual": From/To as typed; ``restore()`` returns to Peak to Peak.
 
-Mean, Sigma, Lowest and Highest use the values inside [From, To] (all of them in the
-automatic modes), so a manual range can exclude outliers. Sigma uses ddof=1.
+The statistics use the values inside [From, To] (all of them in Peak to Peak and the
+sigma modes), so a manual range can exclude outliers. Sigma uses ddof=1.
 """
 
 from __future__ import annotations
 
 import math
-import warnings
 from dataclasses import dataclass
 
 import numpy as np
@@ -28,8 +30,9 @@ from .observable import Observable
 PEAK_TO_PEAK = "Peak to Peak"
 MEAN_3_SIGMA = "Mean ± 3 Sigma"
 MEAN_5_SIGMA = "Mean ± 5 Sigma"
+PERCENTILE = "Percentile 0.1–99.9"
 MANUAL = "Manual"
-RANGE_MODES = (PEAK_TO_PEAK, MEAN_3_SIGMA, MEAN_5_SIGMA, MANUAL)
+RANGE_MODES = (PEAK_TO_PEAK, MEAN_3_SIGMA, MEAN_5_SIGMA, PERCENTILE, MANUAL)
 PEAK_MARGIN = 0.15
 DEFAULT_BINS = 64
 
@@ -51,7 +54,11 @@ def auto_range(values: np.ndarray, mode: str) -> tuple[float, float]:
     if v.size == 0:
         return (0.0, 1.0)
     lo, hi = float(v.min()), float(v.max())
-    if mode in (MEAN_3_SIGMA, MEAN_5_SIGMA):
+    if mode == PERCENTILE:
+        from ares.analysis.panels import value_range
+
+        frm, to = value_range(v, "percentile", (0.1, 99.9))
+    elif mode in (MEAN_3_SIGMA, MEAN_5_SIGMA):
         k = 3.0 if mode == MEAN_3_SIGMA else 5.0
         m = float(v.mean())
         s = float(v.std(ddof=1)) if v.size > 1 else 0.0
@@ -84,35 +91,6 @@ def histogram(values: np.ndarray, frm: float, to: float, bins: int = DEFAULT_BIN
         edges = np.linspace(frm, to, bins + 1)
     counts, edges = np.histogram(v.astype(np.float64), bins=edges)
     return edges, counts
-
-
-def gaussian_fit(edges: np.ndarray, counts: np.ndarray) -> tuple[float, float]:
-    """Mean and sigma of a Gaussian least-squares fitted to a histogram (nan, nan when
-    there is too little to fit)."""
-    centres = 0.5 * (edges[:-1] + edges[1:])
-    counts = np.asarray(counts, dtype=np.float64)
-    total = counts.sum()
-    if total <= 0:
-        return math.nan, math.nan
-    m0 = float((centres * counts).sum() / total)
-    s0 = float(math.sqrt(max((((centres - m0) ** 2) * counts).sum() / total, 0.0)))
-    if np.count_nonzero(counts) < 3 or s0 == 0.0:
-        return m0, s0
-    from scipy.optimize import curve_fit
-
-    def g(x, a, mu, sig):
-        return a * np.exp(-0.5 * ((x - mu) / sig) ** 2)
-
-    try:
-        with warnings.catch_warnings(), np.errstate(all="ignore"):
-            warnings.simplefilter("ignore")  # covariance not estimable: we use only the fit
-            (a, mu, sig), _ = curve_fit(g, centres, counts, p0=(counts.max(), m0, s0), maxfev=2000)
-    except (RuntimeError, ValueError):
-        return m0, s0
-    if not (np.isfinite(mu) and np.isfinite(sig)) or not (edges[0] <= mu <= edges[-1]) \
-            or abs(sig) > edges[-1] - edges[0]:
-        return m0, s0  # the fit wandered off the histogram: report the moments instead
-    return float(mu), float(abs(sig))
 
 
 class StatsPanelModel(Observable):
@@ -168,14 +146,16 @@ class StatsPanelModel(Observable):
         if inside.size == 0:
             self.stats = PanelStats()
         else:
-            fm, fs = gaussian_fit(self.edges, self.counts)
+            from ares.analysis.panels import summarize
+
+            p = summarize(self.title, inside, self.unit, range_mode="peak-to-peak", bins=8)
             self.stats = PanelStats(
                 n=int(inside.size),
-                mean=float(inside.mean()),
-                sigma=float(inside.std(ddof=1)) if inside.size > 1 else math.nan,
-                fitted_mean=fm,
-                fitted_sigma=fs,
-                lowest=float(inside.min()),
-                highest=float(inside.max()),
+                mean=p.mean,
+                sigma=p.sigma if inside.size > 1 else math.nan,
+                fitted_mean=p.fitted_mean,
+                fitted_sigma=p.fitted_sigma,
+                lowest=p.lowest,
+                highest=p.highest,
             )
         self._changed()
