@@ -4,7 +4,8 @@ Layout (all paths relative to the run directory)::
 
     run.json            provenance: scan/system names, original paths, SHA-256 of the
                         verbatim XML, seed, frame override, argv, software and dependency
-                        versions, start/end time, status (running/done/stopped/aborted/
+                        versions, bench info (simulator parameters with their defaults,
+                        chip id), start/end time, status (running/done/stopped/aborted/
                         failed), message, stages completed. Rewritten atomically.
     xml/<scan file>     the scan XML, byte for byte
     xml/<system file>   the system XML, byte for byte (``ares rerun`` loads these two)

@@ -116,6 +116,10 @@ class Runner:
                 from ares.hardware.factory import build_bench
 
                 bench = build_bench(self.system, seed=self.seed, faults=self.faults)
+            if writer is not None:  # provenance: what the bench says about itself (sim params, chip id)
+                writer.meta["bench"] = {k: v for k, v in bench.info.items()
+                                        if isinstance(v, (str, int, float, bool, dict, list, type(None)))}
+                writer._write_meta()
             shape = tuple(bench.frames.shape)
             want = (self.system.sensor.rows, self.system.sensor.cols)
             if shape != want:
