@@ -192,3 +192,15 @@ def test_factory_real_bench_reports_missing_hardware():
 
     with pytest.raises(DeviceGone):  # no /dev/i2c-1 (or no device) on the test machine
         build_bench(BW)
+
+
+def test_simulated_system_must_use_the_sim_register_map():
+    import dataclasses
+
+    from ares.errors import InputError
+    from ares.hardware.factory import build_bench
+    from ares.protocol import Simulator
+
+    odd = dataclasses.replace(BW, simulator=Simulator(1, {}))
+    with pytest.raises(InputError, match="must declare the simulated sensor's register map"):
+        build_bench(odd)
