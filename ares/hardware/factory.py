@@ -28,8 +28,13 @@ def sim_params(system):
 
     from ares.sim import SensorParams
 
+    from ares.sim.regmap import SIM_REGISTER_MAP
+
     d = dict(system.simulator.params)
     src = system.source or system.name
+    if system.registers != SIM_REGISTER_MAP:
+        raise InputError(f"{src}:{_line_of(src, '')}: a <simulator> system must declare the simulated sensor's "
+                         "register map (copy <registers> from protocols/sim_sensor.xml)")
     for key, want in (("rows", system.sensor.rows), ("cols", system.sensor.cols), ("adc_bits", system.sensor.adc_bits)):
         if key in d and d[key] != want:
             line = _line_of(src, key)
@@ -49,11 +54,6 @@ def build_bench(system, *, seed: int | None = None, faults: dict | None = None) 
     """The simulated bench when the system has ``<simulator>``, else the real devices."""
     if system.simulator is not None:
         from ares.sim import make_sim_bench
-        from ares.sim.regmap import SIM_REGISTER_MAP
-
-        if system.registers != SIM_REGISTER_MAP:
-            raise InputError(f"{system.source or system.name}: a <simulator> system must declare the simulated "
-                             "sensor's register map (copy <registers> from protocols/sim_sensor.xml)")
 
         bench = make_sim_bench(sim_params(system), system.simulator.seed if seed is None else seed, faults)
         bench.info.setdefault("system", system.name)
