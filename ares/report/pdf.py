@@ -18,7 +18,7 @@ from pathlib import Path
 import matplotlib
 import numpy as np
 
-from ares.report import plots, tables
+from ares.report import plots, scan_kinds, tables
 from ares.report.plots import new_page, text_table
 
 
@@ -158,212 +158,6 @@ def maps_page(run, stage: dict, arrays: dict):
     return fig
 
 
-def dark_page(run, series: dict, kf: dict):
-    fig = new_page("Dark signal vs exposure", "dark stages; dark current = slope of the dark mean vs exposure")
-    ax1 = fig.add_axes([0.11, 0.56, 0.83, 0.36])
-    ax2 = fig.add_axes([0.11, 0.1, 0.83, 0.36])
-    from ares.analysis.ptc_fit import line_fit
-
-    for k, (t, s) in enumerate(sorted(series.items(), key=lambda kv: (kv[0] is None, kv[0] or 0))):
-        lab = "" if t is None else f"{t:g} C"
-        ax1.plot(s["exposure_s"], s["mean_dn"], "o", color=f"C{k}", label=lab or "dark mean")
-        ax2.plot(s["exposure_s"], s["var_dn2"], "o", color=f"C{k}", label=(lab + " temporal").strip())
-        ax2.plot(s["exposure_s"], s["spatial_var_dn2"], "s", mfc="none", color=f"C{k}", label=(lab + " spatial").strip())
-        if np.unique(s["exposure_s"]).size >= 2:
-            lf = line_fit(s["exposure_s"], s["mean_dn"])
-            xs = np.linspace(0, s["exposure_s"].max(), 20)
-            ax1.plot(xs, lf.intercept + lf.slope * xs, "-", color=f"C{k}", lw=0.8,
-                     label=f"{lab} fit: {lf.slope:.4g} ± {lf.slope_se:.2g} DN/s".strip())
-    ax1.set_xlabel("exposure (s)")
-    ax1.set_ylabel("dark mean (DN)")
-    ax1.set_title("dark mean vs exposure")
-    ax2.set_xlabel("exposure (s)")
-    ax2.set_ylabel("variance (DN^2)")
-    ax2.set_title("dark temporal and spatial variance vs exposure")
-    for a in (ax1, ax2):
-        a.grid(alpha=0.3)
-        a.legend(fontsize=7, ncol=2)
-    return fig
-
-
-def temperature_page(run, series: dict):
-    """Dark current vs temperature with the doubling-temperature fit (>= 3 temperatures)."""
-    from ares.analysis.dark_current import doubling_temperature
-    from ares.analysis.ptc_fit import line_fit
-
-    T, r, rse = [], [], []
-    for t, s in series.items():
-        if t is None or np.unique(s["exposure_s"]).size < 2:
-            continue
-        lf = line_fit(s["exposure_s"], s["mean_dn"])
-        T.append(t), r.append(lf.slope), rse.append(lf.slope_se)
-    T, r, rse = map(np.array, (T, r, rse))
-    fig = new_page("Dark current vs temperature", "slope of the dark mean vs exposure per temperature")
-    ax = fig.add_axes([0.11, 0.5, 0.83, 0.4])
-    ok = r > 0
-    ax.errorbar(T[ok], r[ok], yerr=rse[ok], fmt="o", capsize=2, label="dark current (DN/s)")
-    if (~ok).any():
-        ax.plot(T[~ok], np.full((~ok).sum(), r[ok].min() if ok.any() else 1e-3), "v", color="C3",
-                label="not positive (not shown on log axis)")
-    fit = doubling_temperature(T, r, rse if np.all(rse > 0) else None)
-    if fit.doubling_c.available:
-        ts = np.linspace(T.min(), T.max(), 50)
-        ax.plot(ts, fit.value_at_ref.value * 2 ** ((ts - fit.ref_c) / fit.doubling_c.value), "-", color="0.3",
-                label=f"doubling temperature {fit.doubling_c:.3g} C")
-    ax.set_yscale("log")
-    ax.set_xlabel("temperature (C)")
-    ax.set_ylabel("dark current (DN/s)")
-    ax.grid(alpha=0.3, which="both")
-    ax.legend()
-    text_table(fig, (0.08, 0.42, 0.84), ["temperature (C)", "dark current (DN/s)"],
-               [[f"{t:g}", tables.fmt_value(v, s)] for t, v, s in zip(T, r, rse)], [0.3, 0.7], fontsize=8.5)
-    return fig
-
-
-def gain_page(groups: list[tables.PtcGroup], run):
-    fig = new_page("Gain split: conversion gain and noise vs analog gain")
-    ok = [g for g in groups if g.result is not None]
-    ag = np.array([g.analog_gain for g in ok])
-    K = [g.result.gain_dn_per_e for g in ok]
-    rn_dn = [g.result.read_noise_dn for g in ok]
-    rn_e = [g.result.read_noise_e for g in ok]
-    ax1 = fig.add_axes([0.11, 0.56, 0.83, 0.35])
-    ax1.errorbar(ag, [k.value for k in K], yerr=[k.se for k in K], fmt="o-", capsize=2, label="K (DN/e-)")
-    if K and K[0].available:
-        ax1.plot(ag, K[0].value * ag / ag[0], ":", color="0.4", label="proportional to analog gain")
-    ax1.set_xscale("log", base=2)
-    ax1.set_yscale("log")
-    ax1.set_xticks(ag, [f"x{a:g}" for a in ag])
-    ax1.set_xlabel("analog gain")
-    ax1.set_ylabel("K (DN/e-)")
-    ax1.set_title("system gain vs analog gain")
-    ax1.grid(alpha=0.3, which="both")
-    ax1.legend()
-    ax2 = fig.add_axes([0.11, 0.1, 0.83, 0.35])
-    ax2.errorbar(ag, [e.value for e in rn_dn], yerr=[e.se for e in rn_dn], fmt="o-", capsize=2,
-                 label="read noise at the output (DN)")
-    ax2.errorbar(ag, [e.value for e in rn_e], yerr=[e.se for e in rn_e], fmt="s-", capsize=2,
-                 label="input-referred read noise (e-)")
-    ax2.set_xscale("log", base=2)
-    ax2.set_xticks(ag, [f"x{a:g}" for a in ag])
-    ax2.set_xlabel("analog gain")
-    ax2.set_ylabel("noise")
-    ax2.set_title("read noise at the output (DN) and referred to the input (e-)")
-    ax2.grid(alpha=0.3, which="both")
-    ax2.legend()
-    return fig
-
-
-def sweep2d_pages(run) -> list:
-    """Stages of a 2-D sweep (two coords): grid images of signal, temporal variance and
-    the main components over the two swept settings."""
-    groups: dict[str, list[dict]] = {}
-    for st in run.stages:
-        if len(st.get("coords") or []) == 2:
-            groups.setdefault(st.get("group") or "sweep", []).append(st)
-    figs = []
-    for name, sts in groups.items():
-        varying = [k for k in sts[0]["settings"] if len({json.dumps(s["settings"].get(k)) for s in sts}) > 1]
-        if len(varying) != 2:
-            continue
-        ky, kx = varying
-        xv = sorted({s["settings"][kx] for s in sts})
-        yv = sorted({s["settings"][ky] for s in sts})
-
-        def grid(fn):
-            a = np.full((len(yv), len(xv)), np.nan)
-            for s in sts:
-                try:
-                    a[yv.index(s["settings"][ky]), xv.index(s["settings"][kx])] = fn(s)
-                except (KeyError, TypeError):
-                    pass
-            return a
-
-        full = lambda s: s["views"]["full"]  # noqa: E731
-        has_dark = "dark_level" in full(sts[0])
-        panels = [("signal (mean - dark mean)" if has_dark else "mean level", "DN",
-                   grid(lambda s: full(s)["level"]["mean_dn"] - full(s).get("dark_level", {}).get("mean_dn", 0.0))),
-                  ("temporal variance", "DN^2", grid(lambda s: full(s)["level"]["var_dn2"]))]
-        for c in ("G", "Pt", "Ps"):
-            if c in full(sts[0]).get("components", {}):
-                u = full(sts[0])["components"][c].get("unit", "")
-                panels.append((f"{c}: {tables.COMPONENT_LABELS[c]}", u,
-                               grid(lambda s, c=c: full(s)["components"][c]["value"])))
-        panels = panels[:4]
-        fig = new_page(f"2-D sweep '{name}': {ky} x {kx}", f"{len(sts)} stages; values of view 'full'")
-        for i, (t, u, a) in enumerate(panels):
-            ax = fig.add_axes([0.1 + 0.47 * (i % 2), 0.53 - 0.45 * (i // 2), 0.32, 0.36])
-            plots.grid_image(fig, ax, a, xv, yv, kx, ky, t, u)
-        figs.append(fig)
-    return figs
-
-
-def frame_means_page(run, stages: list[dict], arrays: dict):
-    """Frame means per stage in run order (lag after bright stages, drift, flicker)."""
-    fig = new_page("Frame means per stage", "mean of each frame (DN), stages in run order; "
-                   "lag shows as excess in the first frames of a dark stage after a bright one")
-    ax = fig.add_axes([0.11, 0.5, 0.83, 0.4])
-    x0 = 0
-    for st in stages:
-        fm = arrays.get(st["index"])
-        if fm is None or not len(fm):
-            continue
-        xs = np.arange(x0, x0 + len(fm))
-        ax.plot(xs, fm, "o-", ms=3, label=st["name"])
-        x0 += len(fm) + 1
-    ax.set_yscale("log")
-    ax.set_xlabel("frame (stages in run order)")
-    ax.set_ylabel("frame mean (DN)")
-    ax.grid(alpha=0.3)
-    ax.legend(fontsize=7, ncol=3, loc="best")
-    rows = []
-    for st in stages:
-        fm = arrays.get(st["index"])
-        if fm is None or len(fm) < 2:
-            continue
-        rows.append([st["name"], st["scene"], f"{fm[0]:.5g}", f"{np.mean(fm[1:]):.5g}", f"{fm[0] - np.mean(fm[1:]):.4g}"])
-    text_table(fig, (0.08, 0.42, 0.84), ["stage", "scene", "first frame (DN)", "mean of the rest (DN)",
-                                          "first - rest (DN)"], rows[:30], [0.22, 0.12, 0.22, 0.24, 0.2], fontsize=8)
-    return fig
-
-
-def analysis_pages(run) -> list:
-    """One page per scan-level analysis other than ptc/decomposition: its status, its
-    estimates as a table, and any equal-length number lists as curves."""
-    figs = []
-    for name, a in run.analyses.items():
-        if name in ("ptc", "decomposition") or not isinstance(a, dict) or \
-                a.get("status") in ("not available", "error"):
-            continue  # listed on the title page
-        fig = new_page(f"Scan-level analysis: {name}", "from scan_results.json")
-        y = 0.92
-        if a.get("status") or a.get("note"):
-            fig.text(0.06, y, plots.clip(f"status: {a.get('status', 'ok')}  {a.get('note', '')}", 130), fontsize=9,
-                     va="top", color="C3" if a.get("status") in ("not available", "error") else "k")
-            y -= 0.03
-        ests = tables._flat_estimates(a)
-        lists = {k: np.asarray(v, float) for k, v in a.items() if isinstance(v, list) and v
-                 and all(isinstance(x, (int, float)) or x is None for x in v)}
-        scal = [(k, v) for k, v in a.items() if isinstance(v, (int, float, str)) and k not in ("status", "note")]
-        rows = [[k, tables.fmt_value(e.get("value"), e.get("se"), e.get("unit", "")), e.get("note", "")]
-                for k, e in ests] + [[k, str(v), ""] for k, v in scal]
-        if rows:
-            y = text_table(fig, (0.06, y, 0.9), ["quantity", "value ± SE", "note"], rows[:40], [0.3, 0.3, 0.4],
-                           fontsize=8, max_chars=[36, 34, 50]) - 0.03
-        if len(lists) >= 2 and y > 0.25:
-            keys = list(lists)
-            xk = keys[0]
-            ax = fig.add_axes([0.11, 0.07, 0.83, min(0.35, y - 0.12)])
-            for k in keys[1:]:
-                if lists[k].shape == lists[xk].shape:
-                    ax.plot(lists[xk], lists[k], "o-", ms=3, label=k)
-            ax.set_xlabel(xk)
-            ax.grid(alpha=0.3)
-            ax.legend()
-        figs.append(fig)
-    return figs
-
-
 def stages_pages(run) -> list:
     keys = list(dict.fromkeys(k for st in run.stages for k in st["settings"]))
     vary = [k for k in keys if len({json.dumps(st["settings"].get(k)) for st in run.stages}) > 1]
@@ -408,8 +202,6 @@ def build_pages(run, groups=None, kf=None) -> list[tuple[str, object]]:
         pages.append((f"snr x{g.analog_gain:g}", snr_linearity_page(g, rows)))
         if len(ptc_ok) > 2:  # many gains: the first gain in full, the rest on the gain page
             break
-    if len(ptc_ok) >= 2:
-        pages.append(("gain split", gain_page(ptc_ok, run)))
     mid, dark = tables.mid_stage(run), tables.dark_stage(run)
     if mid is not None:
         pages.append(("components", components_page(run, mid, dark)))
@@ -419,21 +211,7 @@ def build_pages(run, groups=None, kf=None) -> list[tuple[str, object]]:
             pages.append((f"maps {st['name']}", maps_page(run, st, arr)))
         if st is dark:
             break
-    series = tables.dark_series(run)
-    if any(np.unique(s["exposure_s"]).size >= 2 for s in series.values()):
-        pages.append(("dark", dark_page(run, series, kf)))
-        temps = [t for t, s in series.items() if t is not None and np.unique(s["exposure_s"]).size >= 2]
-        if len(temps) >= 3:
-            pages.append(("temperature", temperature_page(run, series)))
-    for fig in sweep2d_pages(run):
-        pages.append(("sweep 2d", fig))
-    seq = [s for s in run.stages if not s.get("coords")]
-    if len(seq) >= 2 and any(a.get("scene") == "flat" and b.get("scene") == "dark" for a, b in zip(seq, seq[1:])):
-        fms = {s["index"]: run.arrays(s["index"]).get("frame_means") for s in seq}
-        if any(v is not None for v in fms.values()):
-            pages.append(("frame means", frame_means_page(run, seq, fms)))
-    for fig in analysis_pages(run):
-        pages.append(("analysis", fig))
+    pages += scan_kinds.pages(run, groups)
     pages += [("stages", f) for f in stages_pages(run)]
     for i, (_, fig) in enumerate(pages):
         fig.text(0.5, 0.012, f"{run.meta.get('scan_name', '')} · {run.dir.resolve().name} · page {i + 1} of "

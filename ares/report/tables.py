@@ -311,8 +311,34 @@ def compute_key_figures(run, groups: list[PtcGroup] | None = None) -> dict:
         if a.get("status") in ("not available", "error"):
             continue
         for key, e in _flat_estimates(a):
-            kf[f"{aname}.{key}"] = _entry(f"{aname}: {key}", est(e), f"scan_results.json: {aname}")
+            if e.get("value") is None:
+                continue  # not available (e.g. e-/s without a gain): in scan_results.json with its reason
+            kf[f"{aname}.{key}"] = _entry(analysis_label(aname, key), est(e), f"scan_results.json: {aname}")
+        if aname == "defects" and isinstance(a.get("counts"), dict) and a["counts"].get("total") is not None:
+            kf["defects.total"] = _entry("defective pixels", Estimate(float(a["counts"]["total"]), math.nan, "pixels",
+                                                                      "all classes (see the defects page)"),
+                                         "scan_results.json: defects")
     return kf
+
+
+ANALYSIS_LABELS = {
+    "rate_e_per_s": "dark current", "rate_dn_per_s": "dark current", "offset_dn": "dark offset at t = 0",
+    "rate_from_variance_e_per_s": "dark current from dark variance", "dsnu_dn_per_s": "DSNU growth",
+    "dsnu_e_per_s": "DSNU growth", "doubling_temperature_c": "dark current doubling temperature",
+    "rate_at_ref_dn_per_s": "dark current at the reference temperature", "pixel_noise_e": "pixel noise (gain split)",
+    "chain_noise_dn": "chain noise (gain split)", "crossover_gain_dn_per_e": "crossover gain (gain split)",
+    "lag_pct": "image lag", "dnl_max_lsb": "DNL max", "dnl_min_lsb": "DNL min", "inl_max_lsb": "INL max",
+    "inl_min_lsb": "INL min",
+}
+_PATH_NOISE = ("by_temperature", "cycles", "channels")
+
+
+def analysis_label(aname: str, key: str) -> str:
+    """``dark_current`` + ``by_temperature.40C.rate_e_per_s`` -> ``dark current (40C)``."""
+    parts = key.split(".")
+    where = [p for p in parts[:-1] if p not in _PATH_NOISE]
+    base = ANALYSIS_LABELS.get(parts[-1], f"{aname}: {parts[-1]}")
+    return base + (f" ({' '.join(where)})" if where else "")
 
 
 def fmt_value(v, se=None, unit: str = "") -> str:

@@ -1,0 +1,403 @@
+"""Report pages for the other scan kinds: dark signal vs exposure and temperature, gain
+split, 2-D sweeps, frame means and lag, defects, ADC INL/DNL -- and a generic page for
+any other scan-level analysis in ``scan_results.json``. Each page is drawn from the stage
+results and the runner's scan-level results; nothing is re-measured."""
+
+from __future__ import annotations
+
+import json
+import math
+
+import numpy as np
+
+from ares.report import plots, tables
+from ares.report.plots import new_page, text_table
+
+HANDLED = ("ptc", "decomposition", "dark_current", "temperature", "gain_split", "lag", "defects", "adc_linearity")
+
+
+def available(run, name: str) -> dict | None:
+    a = run.analyses.get(name)
+    if not isinstance(a, dict) or a.get("status") in ("not available", "error"):
+        return None
+    return a
+
+
+def analysis_rows(a: dict, prefix: str = "", skip_na: bool = False) -> list[list[str]]:
+    """Every estimate and scalar of an analysis result as [quantity, value ± SE, note]."""
+    rows = []
+    for k, v in a.items():
+        key = f"{prefix}{k}"
+        if k in ("by_temperature", "cycles", "channels") and isinstance(v, dict):
+            rows += analysis_rows(v, prefix, skip_na)
+        elif isinstance(v, dict) and "value" in v and "unit" in v:
+            if skip_na and v.get("value") is None:
+                continue
+            rows.append([key, tables.fmt_value(v.get("value"), v.get("se"), v.get("unit", "")), v.get("note", "")])
+        elif isinstance(v, dict) and k == "settings":
+            rows.append([key, ", ".join(f"{a_.removeprefix('reg:')}={b}" for a_, b in v.items()), ""])
+        elif isinstance(v, dict):
+            rows += analysis_rows(v, key + " / ", skip_na)
+        elif isinstance(v, bool) or isinstance(v, str) or v is None:
+            if k not in ("status", "note"):
+                rows.append([key, "n/a" if v is None else str(v), ""])
+        elif isinstance(v, (int, float)):
+            rows.append([key, f"{v:.6g}", ""])
+        elif isinstance(v, list) and len(v) <= 12:
+            rows.append([key, ", ".join(f"{x:.4g}" if isinstance(x, float) else str(x) for x in v), ""])
+    return rows
+
+
+def _table(fig, y: float, rows, title: str = "", n: int = 30) -> float:
+    if not rows:
+        return y
+    return text_table(fig, (0.06, y, 0.9), ["quantity", "value ± SE", "note"], rows[:n], [0.36, 0.3, 0.34],
+                      fontsize=7.5, title=title, max_chars=[46, 38, 46]) - 0.02
+
+
+# ------------------------------------------------------------------ dark / temperature
+
+def dark_page(run, series: dict):
+    from ares.analysis.ptc_fit import line_fit
+
+    fig = new_page("Dark signal vs exposure", "dark stages; dark current = slope of the dark mean vs exposure")
+    dc = available(run, "dark_current")
+    ax1 = fig.add_axes([0.11, 0.64, 0.83, 0.27])
+    ax2 = fig.add_axes([0.11, 0.3 if dc else 0.1, 0.83, 0.27])
+    for k, (t, s) in enumerate(sorted(series.items(), key=lambda kv: (kv[0] is None, kv[0] or 0))):
+        lab = "" if t is None else f"{t:g} C"
+        ax1.plot(s["exposure_s"], s["mean_dn"], "o", color=f"C{k}", label=lab or "dark mean")
+        ax2.plot(s["exposure_s"], s["var_dn2"], "o", color=f"C{k}", label=(lab + " temporal").strip())
+        ax2.plot(s["exposure_s"], s["spatial_var_dn2"], "s", mfc="none", color=f"C{k}",
+                 label=(lab + " spatial").strip())
+        if np.unique(s["exposure_s"]).size >= 2:
+            lf = line_fit(s["exposure_s"], s["mean_dn"])
+            xs = np.linspace(0, s["exposure_s"].max(), 20)
+            ax1.plot(xs, lf.intercept + lf.slope * xs, "-", color=f"C{k}", lw=0.8,
+                     label=f"{lab} fit: {lf.slope:.4g} ± {lf.slope_se:.2g} DN/s".strip())
+    ax1.set_xlabel("exposure (s)")
+    ax1.set_ylabel("dark mean (DN)")
+    ax1.set_title("dark mean vs exposure")
+    ax2.set_xlabel("exposure (s)")
+    ax2.set_ylabel("variance (DN^2)")
+    ax2.set_title("dark temporal and spatial variance vs exposure")
+    for a in (ax1, ax2):
+        a.grid(alpha=0.3)
+        a.legend(fontsize=7, ncol=2)
+    if dc:
+        rows = [r for r in analysis_rows(dc, skip_na=True) if not r[0].endswith("temperature_c")]
+        _table(fig, 0.22, rows, "dark_current analysis (scan_results.json)", n=12)
+    return fig
+
+
+def temperature_page(run, series: dict):
+    """Dark current vs temperature with the doubling-temperature fit (>= 3 temperatures)."""
+    from ares.analysis.dark_current import doubling_temperature
+    from ares.analysis.ptc_fit import line_fit
+
+    T, r, rse = [], [], []
+    for t, s in sorted((kv for kv in series.items() if kv[0] is not None), key=lambda kv: kv[0]):
+        if np.unique(s["exposure_s"]).size < 2:
+            continue
+        lf = line_fit(s["exposure_s"], s["mean_dn"])
+        T.append(t), r.append(lf.slope), rse.append(lf.slope_se)
+    T, r, rse = map(np.array, (T, r, rse))
+    fig = new_page("Dark current vs temperature", "slope of the dark mean vs exposure per temperature; "
+                   "X_T = X_ref * 2^((T - ref)/Td)")
+    ax = fig.add_axes([0.11, 0.52, 0.83, 0.38])
+    ok = r > 0
+    lower = np.where(rse[ok] < r[ok], rse[ok], 0.0)  # no lower bar through zero on a log axis
+    ax.errorbar(T[ok], r[ok], yerr=[lower, rse[ok]], fmt="o", capsize=2, label="dark current (DN/s)")
+    stored = available(run, "temperature")
+    fit = doubling_temperature(T, r, rse if np.all(rse > 0) else None)
+    if fit.doubling_c.available:
+        ts = np.linspace(T.min(), T.max(), 50)
+        ax.plot(ts, fit.value_at_ref.value * 2 ** ((ts - fit.ref_c) / fit.doubling_c.value), "-", color="0.3",
+                label=f"doubling temperature {fit.doubling_c:.3g} C")
+    ax.set_yscale("log")
+    ax.set_xlabel("temperature (C)")
+    ax.set_ylabel("dark current (DN/s)")
+    ax.grid(alpha=0.3, which="both")
+    ax.legend()
+    y = text_table(fig, (0.08, 0.44, 0.84), ["temperature (C)", "dark current (DN/s)"],
+                   [[f"{t:g}", tables.fmt_value(v, s)] for t, v, s in zip(T, r, rse)], [0.3, 0.7], fontsize=8.5)
+    if stored:
+        _table(fig, y - 0.02, analysis_rows(stored), "temperature analysis (scan_results.json)")
+    return fig
+
+
+# ------------------------------------------------------------------ gain split
+
+def gain_page(run, groups: list):
+    fig = new_page("Gain split: conversion gain and noise vs analog gain")
+    ok = [g for g in groups if g.result is not None]
+    ag = np.array([g.analog_gain for g in ok])
+    K = [g.result.gain_dn_per_e for g in ok]
+    rn_dn = [g.result.read_noise_dn for g in ok]
+    rn_e = [g.result.read_noise_e for g in ok]
+    gs = available(run, "gain_split")
+    ax1 = fig.add_axes([0.11, 0.66, 0.83, 0.26])
+    ax1.errorbar(ag, [k.value for k in K], yerr=[k.se for k in K], fmt="o-", capsize=2, label="K (DN/e-)")
+    if K and K[0].available:
+        ax1.plot(ag, K[0].value * ag / ag[0], ":", color="0.4", label="proportional to analog gain")
+    ax1.set_xscale("log", base=2)
+    ax1.set_yscale("log")
+    ax1.set_xticks(ag, [f"x{a:g}" for a in ag])
+    ax1.set_xlabel("analog gain")
+    ax1.set_ylabel("K (DN/e-)")
+    ax1.set_title("system gain vs analog gain")
+    ax1.grid(alpha=0.3, which="both")
+    ax1.legend()
+    ax2 = fig.add_axes([0.11, 0.3, 0.83, 0.26])
+    ax2.errorbar(ag, [e.value for e in rn_dn], yerr=[e.se for e in rn_dn], fmt="o", capsize=2,
+                 label="read noise at the output (DN)")
+    ax2.errorbar(ag, [e.value for e in rn_e], yerr=[e.se for e in rn_e], fmt="s", capsize=2,
+                 label="input-referred read noise (e-)")
+    if gs:
+        pix, chain = tables.est(gs.get("pixel_noise_e")), tables.est(gs.get("chain_noise_dn"))
+        kv = np.array([k.value for k in K])
+        if pix.available and chain.available:
+            ax2.plot(ag, np.sqrt((pix.value * kv) ** 2 + chain.value**2), "-", color="C0", lw=0.8,
+                     label=f"model: pixel {pix.value:.3g} e- x K (+) chain {chain.value:.3g} DN")
+            ax2.plot(ag, np.sqrt(pix.value**2 + (chain.value / kv) ** 2), "-", color="C1", lw=0.8,
+                     label="model, input-referred")
+    ax2.set_xscale("log", base=2)
+    ax2.set_xticks(ag, [f"x{a:g}" for a in ag])
+    ax2.set_xlabel("analog gain")
+    ax2.set_ylabel("noise")
+    ax2.set_title("read noise at the output (DN) and referred to the input (e-)")
+    ax2.grid(alpha=0.3, which="both")
+    ax2.legend(fontsize=7)
+    y = text_table(fig, (0.08, 0.21, 0.84), ["analog gain", "K (DN/e-)", "read noise (DN)", "read noise (e-)"],
+                   [[f"x{g.analog_gain:g}", f"{k:.4g}", f"{a:.4g}", f"{b:.4g}"]
+                    for g, k, a, b in zip(ok, K, rn_dn, rn_e)], [0.2, 0.27, 0.27, 0.26], fontsize=8)
+    if gs:
+        rows = [r for r in analysis_rows(gs) if r[0] not in ("analog_gains", "gain_dn_per_e")]
+        _table(fig, y - 0.01, rows, "", n=6)
+    return fig
+
+
+# ------------------------------------------------------------------ 2-D sweeps
+
+def sweep2d_pages(run) -> list:
+    """Stages of a 2-D sweep (two coords): grid images of signal, temporal variance and
+    the main components over the two swept settings."""
+    groups: dict[str, list[dict]] = {}
+    for st in run.stages:
+        if len(st.get("coords") or []) == 2:
+            groups.setdefault(st.get("group") or "sweep", []).append(st)
+    figs = []
+    for name, sts in groups.items():
+        varying = [k for k in sts[0]["settings"] if len({json.dumps(s["settings"].get(k)) for s in sts}) > 1]
+        if len(varying) != 2:
+            continue
+        ky, kx = varying
+        xv = sorted({s["settings"][kx] for s in sts})
+        yv = sorted({s["settings"][ky] for s in sts})
+
+        def grid(fn):
+            a = np.full((len(yv), len(xv)), np.nan)
+            for s in sts:
+                try:
+                    v = fn(s)
+                    a[yv.index(s["settings"][ky]), xv.index(s["settings"][kx])] = np.nan if v is None else v
+                except (KeyError, TypeError):
+                    pass
+            return a
+
+        def full(s):
+            return s["views"]["full"]
+
+        has_dark = "dark_level" in full(sts[0])
+        panels = [("signal (mean - dark mean)" if has_dark else "mean level", "DN",
+                   grid(lambda s: full(s)["level"]["mean_dn"] - full(s).get("dark_level", {}).get("mean_dn", 0.0))),
+                  ("temporal variance", "DN^2", grid(lambda s: full(s)["level"]["var_dn2"]))]
+        for c in ("G", "Pt", "Ps"):
+            if c in full(sts[0]).get("components", {}):
+                u = full(sts[0])["components"][c].get("unit", "")
+                panels.append((f"{c}: {tables.COMPONENT_LABELS[c]}", u,
+                               grid(lambda s, c=c: full(s)["components"][c]["value"])))
+        panels = panels[:4]
+        fig = new_page(f"2-D sweep '{name}': {ky.removeprefix('reg:')} x {kx.removeprefix('reg:')}",
+                       f"{len(sts)} stages; values of view 'full'")
+        for i, (t, u, a) in enumerate(panels):
+            ax = fig.add_axes([0.1 + 0.47 * (i % 2), 0.53 - 0.45 * (i // 2), 0.32, 0.36])
+            plots.grid_image(fig, ax, a, xv, yv, kx.removeprefix("reg:"), ky.removeprefix("reg:"), t, u)
+        figs.append(fig)
+    return figs
+
+
+# ------------------------------------------------------------------ frame means, lag
+
+def frame_means_page(run, stages: list[dict], arrays: dict):
+    """Frame means per stage in run order (lag after bright stages, drift, flicker)."""
+    fig = new_page("Frame means per stage and image lag", "mean of each frame (DN), stages in run order; "
+                   "lag shows as excess in the first frames of a dark stage after a bright one")
+    ax = fig.add_axes([0.11, 0.6, 0.83, 0.31])
+    x0 = 0
+    for st in stages:
+        fm = arrays.get(st["index"])
+        if fm is None or not len(fm):
+            continue
+        ax.plot(np.arange(x0, x0 + len(fm)), fm, "o-", ms=3, label=st["name"])
+        x0 += len(fm) + 1
+    ax.set_yscale("log")
+    ax.set_xlabel("frame (stages in run order)")
+    ax.set_ylabel("frame mean (DN)")
+    ax.grid(alpha=0.3)
+    ax.legend(fontsize=7, ncol=3, loc="best")
+    rows = []
+    for st in stages:
+        fm = arrays.get(st["index"])
+        if fm is None or len(fm) < 2:
+            continue
+        rows.append([st["name"], st["scene"], f"{fm[0]:.5g}", f"{np.mean(fm[1:]):.5g}",
+                     f"{fm[0] - np.mean(fm[1:]):.4g}"])
+    y = text_table(fig, (0.08, 0.52, 0.84), ["stage", "scene", "first frame (DN)", "mean of the rest (DN)",
+                                              "first - rest (DN)"], rows[:20], [0.22, 0.12, 0.22, 0.24, 0.2],
+                   fontsize=8)
+    lag = available(run, "lag")
+    if lag and isinstance(lag.get("cycles"), dict):
+        crow = []
+        cyc = lag["cycles"]
+        vary = {k for c in cyc.values() for k in (c.get("settings") or {})
+                if len({json.dumps((c2.get("settings") or {}).get(k)) for c2 in cyc.values()}) > 1}
+        for bright, c in cyc.items():
+            e = c.get("lag_pct") or {}
+            s = ", ".join(f"{k.removeprefix('reg:')}={v:g}" for k, v in (c.get("settings") or {}).items()
+                          if isinstance(v, (int, float)) and k in vary)
+            crow.append([bright, str(c.get("dark_stage", "")), tables.fmt_value(e.get("value"), e.get("se"), "%"),
+                         f"{c.get('bright_signal_dn', float('nan')):.5g}", s])
+        text_table(fig, (0.08, y - 0.03, 0.84), ["bright stage", "dark stage", "lag (%)", "bright signal (DN)",
+                                                  "settings that vary"], crow[:20], [0.16, 0.14, 0.2, 0.18, 0.32],
+                   fontsize=8, title="image lag (scan_results.json)", max_chars=[18, 16, 22, 14, 40])
+    return fig
+
+
+# ------------------------------------------------------------------ defects
+
+def defects_page(run, d: dict):
+    counts = {k: v for k, v in (d.get("counts") or {}).items()}
+    fig = new_page("Defects", plots.clip(f"dark stages: {', '.join(d.get('dark_stages') or [])}; flat stage: "
+                                         f"{d.get('flat_stage') or '-'}", 130))
+    n_pix = None
+    if run.stages:
+        n_pix = run.stages[0]["views"]["full"]["level"].get("n_pixels")
+    rows = [[k.replace("_", " "), "n/a (not measured)" if v is None else str(v),
+             "" if v is None or not n_pix or k in ("bad_columns", "bad_rows", "clusters") else f"{1e6 * v / n_pix:.1f}"]
+            for k, v in counts.items()]
+    y = text_table(fig, (0.08, 0.92, 0.84), ["class", "count", "ppm of pixels"], rows, [0.4, 0.3, 0.3],
+                   fontsize=9, title="defect counts")
+    lim = d.get("limits") or []
+    fig.text(0.08, y - 0.01, "limits: " + ("; ".join(map(str, lim)) if lim else "none set")
+             + f"  --  {'passed' if d.get('passed', True) else 'FAILED'}", fontsize=9, va="top",
+             color="C2" if d.get("passed", True) else "C3")
+    ks = [k for k, v in counts.items() if v is not None and k != "total"]
+    if ks and y > 0.45:
+        h = min(0.3, y - 0.15)
+        ax = fig.add_axes([0.2, y - 0.07 - h, 0.74, h])
+        ax.barh(ks, [counts[k] for k in ks], color="C0")
+        ax.set_xlabel("count")
+        ax.grid(alpha=0.3, axis="x")
+        ax.invert_yaxis()
+    return fig
+
+
+# ------------------------------------------------------------------ ADC INL/DNL
+
+def adc_page(run, d: dict):
+    """INL/DNL per channel: the runner's extremes and -- from the ramp stages' code
+    histograms in results.h5 -- the curves (code-density test, as the runner)."""
+    fig = new_page("ADC linearity: INL and DNL", "code-density test on the ramp stage(s): "
+                   + ", ".join(d.get("stages") or []))
+    hists: dict = {}
+    for st in run.stages:
+        if st["name"] in (d.get("stages") or []):
+            for k, a in run.arrays(st["index"]).items():
+                if k.startswith("hist_"):
+                    hists[k[5:]] = hists.get(k[5:], 0) + np.asarray(a)
+    chans = list((d.get("channels") or {}).keys())
+    curves = {}
+    if hists:
+        from ares.analysis.adc import code_density
+
+        for ch in chans:
+            h = hists.get(ch)
+            if h is None:
+                continue
+            try:
+                curves[ch] = code_density(np.repeat(np.arange(h.size), h.astype(np.int64)), h.size - 1)
+            except ValueError:
+                pass
+    y = 0.92
+    if curves:
+        ax1 = fig.add_axes([0.11, 0.66, 0.83, 0.25])
+        ax2 = fig.add_axes([0.11, 0.35, 0.83, 0.25], sharex=ax1)
+        for ch, r in curves.items():
+            ax1.plot(r.codes, r.dnl, lw=0.6, label=ch)
+            ax2.plot(np.arange(1, r.inl.size + 1), r.inl, lw=0.8, label=ch)
+        ax1.set_ylabel("DNL (LSB)")
+        ax1.set_title("differential non-linearity")
+        ax2.set_ylabel("INL (LSB)")
+        ax2.set_xlabel("code")
+        ax2.set_title("integral non-linearity (endpoint fit)")
+        for a in (ax1, ax2):
+            a.grid(alpha=0.3)
+            a.legend()
+        y = 0.27
+    else:
+        fig.text(0.08, y, "no code histograms in results.h5: curves not available", fontsize=9, va="top")
+        y -= 0.03
+    rows = analysis_rows(d.get("channels") or {})
+    _table(fig, y, rows, "per channel (scan_results.json)", n=16)
+    return fig
+
+
+# ------------------------------------------------------------------ anything else
+
+def generic_page(name: str, a: dict):
+    fig = new_page(f"Scan-level analysis: {name}", "from scan_results.json")
+    y = 0.92
+    rows = analysis_rows(a)
+    y = _table(fig, y, rows, n=50)
+    lists = {k: np.asarray([np.nan if x is None else x for x in v], float) for k, v in a.items()
+             if isinstance(v, list) and len(v) > 2 and all(isinstance(x, (int, float)) or x is None for x in v)}
+    if lists and y > 0.25:
+        ax = fig.add_axes([0.11, 0.07, 0.83, min(0.35, y - 0.12)])
+        for k, v in lists.items():
+            ax.plot(np.arange(v.size), v, "o-", ms=3, label=k)
+        ax.set_xlabel("index")
+        ax.grid(alpha=0.3)
+        ax.legend()
+    return fig
+
+
+def pages(run, groups: list) -> list[tuple[str, object]]:
+    out = []
+    ptc_ok = [g for g in groups if g.result is not None]
+    if len(ptc_ok) >= 2:
+        out.append(("gain split", gain_page(run, ptc_ok)))
+    series = tables.dark_series(run)
+    if any(np.unique(s["exposure_s"]).size >= 2 for s in series.values()):
+        out.append(("dark", dark_page(run, series)))
+        temps = [t for t, s in series.items() if t is not None and np.unique(s["exposure_s"]).size >= 2]
+        if len(temps) >= 3:
+            out.append(("temperature", temperature_page(run, series)))
+    out += [("sweep 2d", f) for f in sweep2d_pages(run)]
+    seq = [s for s in run.stages if not s.get("coords")]
+    if len(seq) >= 2 and any(a.get("scene") == "flat" and b.get("scene") == "dark" for a, b in zip(seq, seq[1:])):
+        fms = {s["index"]: (s["views"]["full"]["level"].get("frame_means")
+                            or run.arrays(s["index"]).get("frame_means")) for s in seq}
+        fms = {k: np.asarray(v, float) for k, v in fms.items() if v is not None}
+        if fms:
+            out.append(("frame means", frame_means_page(run, seq, fms)))
+    d = available(run, "defects")
+    if d:
+        out.append(("defects", defects_page(run, d)))
+    d = available(run, "adc_linearity")
+    if d:
+        out.append(("adc", adc_page(run, d)))
+    for name, a in run.analyses.items():
+        if name not in HANDLED and available(run, name):
+            out.append((f"analysis {name}", generic_page(name, a)))
+    return out
