@@ -60,3 +60,10 @@ def test_limits_pass_fail_and_json():
     json.dumps(res.to_dict())  # serializable
     ok = classify_stack(dark, thresholds=DefectThresholds(max_hot=1))
     assert ok.passed
+
+
+def test_whole_floats_accepted_for_counts():
+    th = DefectThresholds(line_hot_count=20.0, max_hot=3.0)  # as a scan XML <threshold value=...> gives them
+    assert th.line_hot_count == 20 and isinstance(th.line_hot_count, int) and th.limits() == {"hot": 3}
+    with pytest.raises(InputError, match="whole number"):
+        DefectThresholds(rts_min_frames=99.5)

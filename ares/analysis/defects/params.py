@@ -124,6 +124,10 @@ class DefectThresholds:
                 raise bad(f.name, "is not a finite number")
             if v < 0:
                 raise bad(f.name, "must not be negative")
+            if _is_int_field(f) and not isinstance(v, int):
+                if not float(v).is_integer():
+                    raise bad(f.name, "must be a whole number")
+                object.__setattr__(self, f.name, int(v))  # 20.0 from an XML float -> 20
         for name in ("confirm_fraction", "noisy_p_fa", "rts_min_occupancy"):
             if not 0 < getattr(self, name) <= 1:
                 raise bad(name, "must be in (0, 1]")
