@@ -14,7 +14,7 @@ $(BIN)/.installed: pyproject.toml
 
 # Main job: a full headless photon-transfer scan on the simulated sensor.
 run: $(BIN)/.installed
-	$(BIN)/ares run scans/photon_transfer.xml --out runs
+	$(BIN)/ares run scans/photon_transfer.xml
 
 # All tests (offscreen Qt; two workers for the two cores).
 test: $(BIN)/.installed

@@ -191,9 +191,12 @@ class SimFrameSource:
             else:
                 data = self.sensor.render(k, dark=(mode == 1), **s)
             for frame in data:
-                yield Frame(data=frame, index=self.frames_delivered, timestamp=self.clock_s, meta=dict(meta))
+                # Count before yielding: a consumer that stops after n frames must leave
+                # the counter at n, or fault-injection points drift by one.
+                index, stamp = self.frames_delivered, self.clock_s
                 self.frames_delivered += 1
                 self.clock_s += s["exposure_s"]
+                yield Frame(data=frame, index=index, timestamp=stamp, meta=dict(meta))
             left -= k
 
     def _frames_until_fault(self) -> int:
