@@ -201,3 +201,29 @@ def test_highpass_mode_unbiased_with_gradient(report):
         report.append(f"  {k:6s} {TRUTH[k]:11.4g} {e.mean():11.4g} {z:8.2f} {ratio:8.3f}")
         assert abs(z) < 3.5, (k, z)  # approximate mode: kernel factors assume white effects
         assert abs(ratio - 1) < 0.2, (k, ratio)
+
+
+def test_flat_not_estimable_and_errors():
+    from ares.errors import InputError
+
+    rng = np.random.default_rng(13)
+    pats = make_patterns(rng)
+    d1, f1 = StackAccumulator((R, C)), StackAccumulator((R, C))
+    d1.add(render(rng, pats, n=1)[0])
+    f1.add(render(rng, pats, n=1, q=TRUTH["q"])[0])
+    res = decompose_flat(f1, d1, illumination="none")
+    for k in ("G", "Cg", "Rg", "Pg", "q", "delta"):
+        assert not res[k].available and res[k].note.startswith("needs >= 2")
+    f, d = accs(rng, pats, TRUTH["q"])
+    small = decompose_flat(f, d, illumination="highpass")  # 40 x 48 is enough
+    assert small["Pg"].available
+    tiny_f, tiny_d = StackAccumulator((10, 12)), StackAccumulator((10, 12))
+    tiny_f.add_batch(render(rng, pats, q=TRUTH["q"])[:, :10, :12])
+    tiny_d.add_batch(render(rng, pats)[:, :10, :12])
+    hp = decompose_flat(tiny_f, tiny_d, illumination="highpass")
+    assert not hp["Pg"].available and "high-pass" in hp["Pg"].note
+    assert hp["G"].available
+    with pytest.raises(InputError, match="illumination"):
+        decompose_flat(f, d, illumination="flat")
+    with pytest.raises(InputError, match="differ in shape"):
+        decompose_flat(tiny_f, d)
