@@ -20,23 +20,50 @@ from ares.report import pdf as report_pdf
 from ares.report import tables
 
 ROOT = Path(__file__).resolve().parents[1]
-SMALL = ROOT / "fixtures" / "xml" / "small"
 HAVE_PDFTOTEXT = shutil.which("pdftotext") is not None and shutil.which("pdfinfo") is not None
 
-DARK_T = """<?xml version="1.0" encoding="UTF-8"?>
-<scan name="dark_t" version="1">
+
+def tiny_system(path: Path) -> Path:
+    """protocols/sim_sensor.xml on a 24x32 array (fast), written to ``path``."""
+    text = (ROOT / "protocols" / "sim_sensor.xml").read_text()
+    text = text.replace('<array rows="128" cols="128"', '<array rows="24" cols="32"')
+    text = text.replace('<param name="rows" type="int" value="128"/>', '<param name="rows" type="int" value="24"/>')
+    text = text.replace('<param name="cols" type="int" value="128"/>', '<param name="cols" type="int" value="32"/>')
+    text = text.replace('<system name="sim_sensor"', '<system name="sim_tiny"')
+    assert 'rows="24"' in text and 'value="32"' in text
+    path.write_text(text)
+    return path
+
+
+SCAN = """<?xml version="1.0" encoding="UTF-8"?>
+<scan name="{name}" version="1">
   <system href="{system}"/>
-  <settings><set quantity="analog_gain" value="1"/></settings>
-  <frames>3</frames>
-  <stages>
-    <sweep name="dark" scene="dark">
-      <axis quantity="temperature"><values>20 40 60</values></axis>
-      <axis quantity="exposure"><values>0.01 0.3 0.6</values></axis>
-    </sweep>
-  </stages>
-  <analyses><analysis name="decomposition"/></analyses>
+  <settings>{settings}</settings>
+  <frames>{frames}</frames>
+  <stages>{stages}</stages>
+  <analyses>{analyses}</analyses>
+  {extra}
 </scan>
 """
+PTC = dict(name="ptc_tiny", frames=4,
+           settings='<set quantity="exposure" value="0.01"/><set quantity="analog_gain" value="1"/>',
+           stages='<stage name="dark" scene="dark"/><sweep name="ptc" scene="flat" dark="matched">'
+                  '<axis quantity="light"><log start="10000" stop="10000000" points="9"/></axis></sweep>',
+           analyses='<analysis name="decomposition"/><analysis name="ptc"/><analysis name="defects"/>',
+           extra='<limits><limit quantity="read_noise_e" max="50"/></limits>')
+DARK = dict(name="dark_t", frames=3, settings='<set quantity="analog_gain" value="1"/>',
+            stages='<sweep name="dark" scene="dark"><axis quantity="temperature"><values>20 40 60</values></axis>'
+                   '<axis quantity="exposure"><values>0.01 0.1 0.2 0.3 0.45 0.6</values></axis></sweep>',
+            analyses='<analysis name="decomposition"/><analysis name="dark_current"/>'
+                     '<analysis name="temperature"/>', extra="")
+LAG = dict(name="lag_t", frames=4,
+           settings='<set quantity="exposure" value="0.01"/><set quantity="analog_gain" value="1"/>',
+           stages='<stage name="bright_a" scene="flat"><set quantity="light" value="1000000"/></stage>'
+                  '<stage name="after_a" scene="dark"/>'
+                  '<stage name="bright_b" scene="flat"><set field="tx_low" value="-0.8"/>'
+                  '<set quantity="light" value="1000000"/></stage>'
+                  '<stage name="after_b" scene="dark"><set field="tx_low" value="-0.8"/></stage>',
+           analyses='<analysis name="lag"/>', extra="")
 
 
 def _run(args) -> None:
@@ -47,12 +74,15 @@ def _run(args) -> None:
 @pytest.fixture(scope="module")
 def runs(tmp_path_factory):
     base = tmp_path_factory.mktemp("runs")
-    _run([str(SMALL / "ptc_small.xml"), "--out", str(base / "ptc")])
-    _run([str(SMALL / "ptc_small.xml"), "--out", str(base / "partial"), "--sim-fault",
-          "disconnect_after_frames=22"])
-    xml = base / "dark_t.xml"
-    xml.write_text(DARK_T.format(system=SMALL / "sim_small.xml"))
-    _run([str(xml), "--out", str(base / "dark")])
+    system = tiny_system(base / "sim_tiny.xml")
+    xml = {}
+    for spec in (PTC, DARK, LAG):
+        xml[spec["name"]] = base / f"{spec['name']}.xml"
+        xml[spec["name"]].write_text(SCAN.format(system=system.name, **spec))
+    _run([str(xml["ptc_tiny"]), "--out", str(base / "ptc")])
+    _run([str(xml["ptc_tiny"]), "--out", str(base / "partial"), "--sim-fault", "disconnect_after_frames=30"])
+    _run([str(xml["dark_t"]), "--out", str(base / "dark")])
+    _run([str(xml["lag_t"]), "--out", str(base / "lag")])
     return base
 
 
@@ -165,12 +195,47 @@ def test_pdf_pages_and_key_figures_as_text(runs, tmp_path):
 def test_dark_temperature_run_pages(runs, tmp_path):
     titles = report_pdf.write_pdf(read_run(runs / "dark"), tmp_path / "d.pdf")
     assert {"dark", "temperature", "sweep 2d"} <= set(titles) and not any(t.startswith("ptc") for t in titles)
+    assert _pages(tmp_path / "d.pdf") == len(titles)
+    sr = json.loads((runs / "dark" / "scan_results.json").read_text())["analyses"]
     kf = key_figures(runs / "dark")
-    assert {"dark_current@20C_dn_per_s", "dark_current@60C_dn_per_s"} <= set(kf)
-    assert kf["dark_current@60C_dn_per_s"]["value"] > kf["dark_current@20C_dn_per_s"]["value"]
+    by_t = sr["dark_current"]["by_temperature"]
+    for t in ("20C", "40C", "60C"):
+        e = kf[f"dark_current.by_temperature.{t}.rate_dn_per_s"]
+        assert e["value"] == by_t[t]["rate_dn_per_s"]["value"] and e["label"] == f"dark current ({t})"
+    td = kf["temperature.doubling_temperature_c"]
+    assert td["value"] == sr["temperature"]["doubling_temperature_c"]["value"] and td["unit"] == "C"
     text = _pdf_text(tmp_path / "d.pdf")
     assert "Dark current vs temperature" in text and "doubling temperature" in text
-    assert _pages(tmp_path / "d.pdf") == len(titles)
+    assert tables.fmt_value(td["value"], td["se"], "C") in text
+
+
+def test_report_computes_dark_current_without_the_analysis(runs, tmp_path):
+    d = tmp_path / "noan"
+    shutil.copytree(runs / "dark", d)
+    (d / "scan_results.json").unlink()
+    kf = key_figures(d)
+    assert {"dark_current@20C_dn_per_s", "dark_current@60C_dn_per_s"} <= set(kf)
+    sr = json.loads((runs / "dark" / "scan_results.json").read_text())["analyses"]["dark_current"]
+    # the same line fit as the runner's analysis
+    assert kf["dark_current@60C_dn_per_s"]["value"] == pytest.approx(
+        sr["by_temperature"]["60C"]["rate_dn_per_s"]["value"], rel=1e-9)
+
+
+@pytest.mark.skipif(not HAVE_PDFTOTEXT, reason="poppler-utils (pdftotext) not installed")
+def test_lag_and_defect_pages(runs, tmp_path):
+    titles = report_pdf.write_pdf(read_run(runs / "lag"), tmp_path / "l.pdf")
+    assert "frame means" in titles
+    sr = json.loads((runs / "lag" / "scan_results.json").read_text())["analyses"]["lag"]
+    text = _pdf_text(tmp_path / "l.pdf")
+    for bright, c in sr["cycles"].items():
+        e = c["lag_pct"]
+        assert tables.fmt_value(e["value"], e["se"], "%") in text
+        assert key_figures(runs / "lag")[f"lag.cycles.{bright}.lag_pct"]["label"] == f"image lag ({bright})"
+    sr = json.loads((runs / "ptc" / "scan_results.json").read_text())["analyses"]
+    titles = report_pdf.write_pdf(read_run(runs / "ptc"), tmp_path / "p.pdf")
+    assert "defects" in titles
+    assert key_figures(runs / "ptc")["defects.total"]["value"] == sr["defects"]["counts"]["total"]
+    assert "defect counts" in _pdf_text(tmp_path / "p.pdf")
 
 
 def test_emva_attribution(runs, tmp_path):
@@ -190,12 +255,13 @@ def test_emva_attribution(runs, tmp_path):
 
 def test_partial_run_is_reported_as_incomplete(runs, capsys):
     run = read_run(runs / "partial")
-    assert not run.complete and run.scan_results is None and 0 < len(run.stages) < 9
+    assert not run.complete and 0 < len(run.stages) < 10
     assert main(["report", str(runs / "partial"), "--json"]) == 0
     d = json.loads(capsys.readouterr().out)
     assert d["complete"] is False and d["status"] == "failed" and "Incomplete run" in d["note"]
-    assert f"{len(run.stages)} of 9 stage(s) completed" in d["note"]
-    assert d["key_figures"]["gain_dn_per_e"]["source"].startswith("computed by the report")
+    assert f"{len(run.stages)} of 10 stage(s) completed" in d["note"]
+    if run.scan_results is None or "gain_dn_per_e" not in run.analyses.get("ptc", {}):
+        assert d["key_figures"]["gain_dn_per_e"]["source"].startswith("computed by the report")
     assert "partial run" in d["key_figures"]["full_well_e.max_variance"]["note"]
     assert {Path(p).name for p in d["files"]} == {"ptc.csv", "components.csv", "key_figures.csv", "report.pdf"}
     ptc = _csv(runs / "partial" / "ptc.csv")
@@ -224,7 +290,7 @@ def test_bad_directories_raise_one_sentence(tmp_path, runs, capsys):
     assert err.count("\n") == 1 and "run.json: unreadable" in err and str(bad) in err
     tampered = tmp_path / "tampered"
     shutil.copytree(runs / "ptc", tampered)
-    xml = next((tampered / "xml").glob("ptc_small.xml"))
+    xml = next((tampered / "xml").glob("ptc_tiny.xml"))
     xml.write_text(xml.read_text() + "<!-- edited -->\n")
     assert main(["report", str(tampered)]) == 2
     assert "SHA-256 differs" in capsys.readouterr().err

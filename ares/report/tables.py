@@ -299,8 +299,8 @@ def compute_key_figures(run, groups: list[PtcGroup] | None = None) -> dict:
             if key in r:
                 e = est(r[key])
                 kf[f"{key}@{name}"] = _entry(f"{key} at analog gain {name}", e, "scan_results.json: ptc")
-    if not any("dark_current" in k and isinstance(a, dict) and a.get("status") not in ("not available", "error")
-               for k, a in run.analyses.items()):
+    if not any(e.get("value") is not None for key, e in _flat_estimates(run.analyses.get("dark_current") or {})
+               if "rate" in key):
         gk = kf.get("gain_dn_per_e")
         gain = Estimate(_nan(gk["value"]), _nan(gk["se"]), "DN/e-") if gk else None
         kf.update(dark_current_figures(run, gain))
@@ -371,21 +371,20 @@ def dark_series(run) -> dict[float | None, dict[str, np.ndarray]]:
 
 
 def dark_current_figures(run, gain: Estimate | None) -> dict:
-    """Dark current per temperature from the dark stages (slope of the dark mean vs
-    exposure, >= 3 exposures), in DN/s and -- with a gain -- e-/s."""
-    from ares.analysis.ptc_fit import line_fit
+    """Dark current per temperature from the dark stages with ``ares.analysis.dark_current``
+    (the runner's definition: slope of the dark mean vs exposure, >= 6 exposures), in DN/s
+    and -- with a gain -- e-/s. Used when the run has no dark_current analysis result."""
+    from ares.analysis.dark_current import MIN_EXPOSURES, dark_current
 
     kf = {}
     for t, s in dark_series(run).items():
-        if np.unique(s["exposure_s"]).size < 3:
+        if np.unique(s["exposure_s"]).size < MIN_EXPOSURES:
             continue
-        lf = line_fit(s["exposure_s"], s["mean_dn"])
+        dc = dark_current(s["exposure_s"], s["mean_dn"], gain if gain is not None else math.nan, s["var_dn2"])
         at = "" if t is None else f" at {t:g} C"
         key = "dark_current" + ("" if t is None else f"@{t:g}C")
-        e = Estimate(lf.slope, lf.slope_se, "DN/s", "slope of dark mean vs exposure (report, from dark stages)")
-        kf[key + "_dn_per_s"] = _entry("dark current" + at, e, "dark stages")
-        if gain is not None and gain.available:
-            v = lf.slope / gain.value
-            se = math.hypot(lf.slope_se / gain.value, v * (gain.se if math.isfinite(gain.se) else 0) / gain.value)
-            kf[key + "_e_per_s"] = _entry("dark current" + at, Estimate(v, se, "e-/s", e.note + " / K"), "dark stages")
+        kf[key + "_dn_per_s"] = _entry("dark current" + at, dc.rate_dn_per_s, "computed by the report from dark stages")
+        if dc.rate_e_per_s.available:
+            kf[key + "_e_per_s"] = _entry("dark current" + at, dc.rate_e_per_s,
+                                          "computed by the report from dark stages")
     return kf
