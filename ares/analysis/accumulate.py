@@ -33,7 +33,7 @@ from ares.errors import InputError
 
 __all__ = ["StackAccumulator"]
 
-_BLOCK_BYTES = 2 << 20  # float64 working block (batch x rows x cols); tuned on 1920x1080
+_BLOCK_BYTES = 4 << 20  # float64 working block (batch x rows x cols); tuned on 1920x1080
 _FLOAT_FLUSH = 1 << 20  # 16-bit frames whose float64 per-pixel totals stay exact (< 2**53)
 
 
