@@ -141,6 +141,47 @@ def components_page(run, mid: dict | None, dark: dict | None):
     return fig
 
 
+VIEW_COLUMNS = ("Pt", "Ps", "Rt", "Rs", "Ct", "Cs", "G", "Pg")
+
+
+def views_page(stage: dict):
+    """The main components of every view (regions, CFA phases, ADC channels) of a stage."""
+    fig = new_page(f"Components per view: stage {stage['name']}",
+                   "variances in DN^2, G in DN/e-, Pg relative; standard errors in components.csv")
+    rows = []
+    for view, v in stage["views"].items():
+        comps, lv = v.get("components") or {}, v.get("level") or {}
+
+        def f(x):
+            return "n/a" if x is None else f"{x:.4g}"
+
+        rows.append([view, str(lv.get("n_pixels", "")), f(lv.get("mean_dn")), f(lv.get("var_dn2"))]
+                    + [f((comps.get(c) or {}).get("value")) for c in VIEW_COLUMNS])
+    y = text_table(fig, (0.04, 0.92, 0.93), ["view", "pixels", "mean", "var"] + list(VIEW_COLUMNS), rows[:30],
+                   [0.1, 0.07, 0.08, 0.08] + [0.085] * len(VIEW_COLUMNS), fontsize=7.5,
+                   max_chars=[12, 8, 9, 9] + [9] * len(VIEW_COLUMNS))
+    var_c = [c for c in VIEW_COLUMNS if c not in ("G", "Pg")]
+    views = list(stage["views"])[:12]
+    if y > 0.35:
+        h = min(0.4, y - 0.15)
+        ax = fig.add_axes([0.1, y - 0.07 - h, 0.85, h])
+        w = 0.8 / len(views)
+        for k, view in enumerate(views):
+            comps = stage["views"][view].get("components") or {}
+            vals = [(comps.get(c) or {}).get("value") for c in var_c]
+            ses = [(comps.get(c) or {}).get("se") for c in var_c]
+            x = np.arange(len(var_c)) + (k - (len(views) - 1) / 2) * w
+            ax.bar(x, [np.nan if v is None or v <= 0 else v for v in vals], w,
+                   yerr=[0 if e is None else e for e in ses], capsize=1.5, label=view)
+        ax.set_xticks(range(len(var_c)), var_c)
+        ax.set_yscale("log")
+        ax.set_ylabel("variance (DN^2)")
+        ax.set_title("variance components per view (non-positive estimates not drawn)")
+        ax.grid(alpha=0.3, axis="y", which="both")
+        ax.legend(ncol=4, fontsize=7)
+    return fig
+
+
 def maps_page(run, stage: dict, arrays: dict):
     fig = new_page(f"Signal and noise maps: stage {stage['name']}", "from results.h5 (per-pixel mean and "
                    "temporal variance over the stage's frames)")
@@ -205,6 +246,8 @@ def build_pages(run, groups=None, kf=None) -> list[tuple[str, object]]:
     mid, dark = tables.mid_stage(run), tables.dark_stage(run)
     if mid is not None:
         pages.append(("components", components_page(run, mid, dark)))
+        if len(mid["views"]) > 1:
+            pages.append(("views", views_page(mid)))
     for st in [s for s in (mid, dark) if s is not None]:
         arr = run.arrays(st["index"])
         if "mean" in arr:
