@@ -189,10 +189,18 @@ def classify_levels(bright: Sequence[LevelStats], dark: Sequence[LevelStats],
 def analyze_ptc(bright: Sequence[LevelStats], dark: Sequence[LevelStats], *, exposure_s=None,
                 photons=None, clip_limit: float = 0.002, fit_fraction: float = 0.7,
                 adc_lsb_uv: float | None = None, analog_gain: float = 1.0,
-                dark_exposure_s=None, read_dark: Sequence[LevelStats] | None = None) -> PtcResult:
+                dark_exposure_s=None, read_dark: Sequence[LevelStats] | None = None,
+                signal_se=None) -> PtcResult:
     """Full photon-transfer analysis. ``dark[i]`` is the dark level at ``bright[i]``'s
     exposure. ``read_dark``/``dark_exposure_s`` (default: ``dark``/``exposure_s``) give
-    the dark levels for sigma_y.dark."""
+    the dark levels for sigma_y.dark.
+
+    ``signal_se[i]`` (DN, optional): standard error of level i's signal not shared by all
+    levels -- e.g. from the scatter of the bright stack's frame means (a frame-global
+    offset moves the mean but is removed from the variance). The gain fit then weights by
+    the effective variance ``se(V)^2 + (K se(S))^2``: a level's signal error matters at
+    low signal, where ``V/S`` is most sensitive to it. Without it the weights are
+    ``1/se(V)^2`` with ``se(V)`` of the dark-subtracted variance (bright and dark parts)."""
     if len(bright) != len(dark):
         raise ValueError("one dark level per bright level is required")
     levels, sat = classify_levels(bright, dark, exposure_s, photons, clip_limit, fit_fraction)
@@ -207,8 +215,16 @@ def analyze_ptc(bright: Sequence[LevelStats], dark: Sequence[LevelStats], *, exp
             return Estimate.na(f"too few levels to fit ({lf.n})", "DN/e-")
         return Estimate(lf.slope, lf.slope_se, "DN/e-", note)
 
-    k_wls = est_k(wls_line(S, V, N), "WLS line of V vs S, w = N/(2V^2), up to "
-                  f"{100 * fit_fraction:g} % of saturation")
+    Vse = np.array([lv.variance_se for lv in fit])
+    lf = wls_line(S, V, N, v_se=Vse)
+    how = "w = 1/se(V)^2"
+    if signal_se is not None and math.isfinite(lf.slope):
+        sse = np.array([signal_se[lv.index] for lv in fit], float)
+        sse = np.where(np.isfinite(sse), sse, 0.0)
+        for _ in range(2):  # effective variance: K from the previous pass
+            lf = wls_line(S, V, N, v_se=np.hypot(Vse, lf.slope * sse))
+        how = "w = 1/(se(V)^2 + K^2 se(S)^2)"
+    k_wls = est_k(lf, f"WLS line of V vs S, {how}, up to {100 * fit_fraction:g} % of saturation")
     k_org = est_k(origin_fit(S, V, [lv.variance_se for lv in fit]),
                   f"EMVA 1288 origin fit up to {100 * fit_fraction:g} % of saturation")
     ast = astier_fit(S, V, N) if S.size >= 4 else None

@@ -73,12 +73,17 @@ def line_fit(x, y) -> LineFit:
     return LineFit(float(coef[0]), float(se[0]), float(coef[1]), float(se[1]), math.nan, n)
 
 
-def wls_line(s, v, dof, through_origin: bool = False) -> LineFit:
-    """Weighted least squares of variance vs signal, ``w = N / (2 V^2)``."""
+def wls_line(s, v, dof, through_origin: bool = False, v_se=None) -> LineFit:
+    """Weighted least squares of variance vs signal, ``w = N / (2 V^2)``, or
+    ``w = 1 / v_se^2`` when per-point errors ``v_se`` are given (e.g. the error of a
+    dark-subtracted variance, or an effective variance including the signal's error)."""
     s = np.asarray(s, float)
     v = np.asarray(v, float)
     dof = np.broadcast_to(np.asarray(dof, float), s.shape)
-    sig = np.sqrt(2.0 / dof) * np.maximum(np.abs(v), 1e-12)
+    if v_se is not None:
+        sig = np.maximum(np.broadcast_to(np.asarray(v_se, float), s.shape), 1e-12)
+    else:
+        sig = np.sqrt(2.0 / dof) * np.maximum(np.abs(v), 1e-12)
     w = 1.0 / sig**2
     if through_origin:
         A = s[:, None]

@@ -49,6 +49,18 @@ def _adc_lsb_uv(system):
     return None
 
 
+def _signal_se(stage: dict) -> float:
+    """SE (DN) of a flat stage's mean from the scatter of its frame means: the frame-global
+    offset and the row/column temporal terms move the mean of every frame. The matched
+    dark's share is common to the levels that reuse it (absorbed by the fit's intercept)
+    and is left out."""
+    fm = stage["views"]["full"]["level"].get("frame_means") or []
+    if len(fm) < 2:
+        return math.nan
+    m = sum(fm) / len(fm)
+    return math.sqrt(sum((x - m) ** 2 for x in fm) / (len(fm) - 1) / len(fm))
+
+
 def ptc_one(run, stages: list, analog_gain: float) -> dict:
     from ares.analysis.ptc import analyze_ptc
 
@@ -60,7 +72,8 @@ def ptc_one(run, stages: list, analog_gain: float) -> dict:
     if photons is not None and len(set(photons)) < 2:
         photons = None
     r = analyze_ptc(bright, dark, exposure_s=exp if all(math.isfinite(e) for e in exp) else None,
-                    photons=photons, adc_lsb_uv=_adc_lsb_uv(run.system), analog_gain=analog_gain)
+                    photons=photons, adc_lsb_uv=_adc_lsb_uv(run.system), analog_gain=analog_gain,
+                    signal_se=[_signal_se(s) for s in stages])
     return {
         "analog_gain": analog_gain,
         "levels": len(stages),
