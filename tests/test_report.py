@@ -163,6 +163,27 @@ def test_csv_tables_equal_run_directory(runs, tmp_path):
     assert kf["gain_dn_per_e"]["unit"] == "DN/e-" and kf["conversion_gain_uv_per_e"]["unit"] == "uV/e-"
 
 
+def test_hdf5_tables_equal_csv_and_link_the_stage_arrays(runs, tmp_path):
+    import h5py
+    import numpy as np
+
+    files = write_reports(runs / "ptc", ("csv", "hdf5"), csv_dir=tmp_path, h5_path=runs / "ptc" / "report.h5")
+    assert files[-1] == runs / "ptc" / "report.h5"
+    with h5py.File(runs / "ptc" / "report.h5", "r") as f:
+        for table in ("ptc", "components", "key_figures"):
+            rows = _csv(tmp_path / f"{table}.csv")
+            cols = json.loads(f[table].attrs["columns"])
+            assert cols == list(rows[0].keys())
+            for c in cols:
+                ds = f[table][c]
+                if ds.dtype.kind == "f":
+                    assert np.array_equal(ds[()], np.array([_f(r[c]) for r in rows]), equal_nan=True), (table, c)
+                else:
+                    assert [x.decode() for x in ds[()]] == [r[c] for r in rows], (table, c)
+        assert json.loads(f.attrs["run"])["scan_sha256"] == read_run(runs / "ptc").meta["scan_sha256"]
+        assert f["stages/0001/mean"].shape == (24, 32)  # external link into results.h5
+
+
 def test_key_figures_api(runs):
     kf = key_figures(runs / "ptc")
     sr = json.loads((runs / "ptc" / "scan_results.json").read_text())["analyses"]["ptc"]
@@ -263,7 +284,8 @@ def test_partial_run_is_reported_as_incomplete(runs, capsys):
     if run.scan_results is None or "gain_dn_per_e" not in run.analyses.get("ptc", {}):
         assert d["key_figures"]["gain_dn_per_e"]["source"].startswith("computed by the report")
     assert "partial run" in d["key_figures"]["full_well_e.max_variance"]["note"]
-    assert {Path(p).name for p in d["files"]} == {"ptc.csv", "components.csv", "key_figures.csv", "report.pdf"}
+    assert {Path(p).name for p in d["files"]} == {"ptc.csv", "components.csv", "key_figures.csv", "report.h5",
+                                                  "report.pdf"}
     ptc = _csv(runs / "partial" / "ptc.csv")
     assert len(ptc) == sum(1 for s in run.stages if s["scene"] == "flat") and all(r["status"] for r in ptc)
     if HAVE_PDFTOTEXT:

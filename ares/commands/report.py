@@ -1,8 +1,8 @@
 """``ares report RUN_DIR``: CSV tables and a PDF report from a run directory alone.
 
-Writes ``ptc.csv``, ``components.csv``, ``key_figures.csv`` and ``report.pdf`` into the
-run directory (``--csv DIR`` / ``--pdf FILE`` elsewhere; given only one of them, only
-that one is written). ``--json`` prints the key figures and the files as JSON. A
+Writes ``ptc.csv``, ``components.csv``, ``key_figures.csv``, ``report.h5`` and
+``report.pdf`` into the run directory (``--csv DIR`` / ``--hdf5 FILE`` / ``--pdf FILE``
+elsewhere; given any of them, only those are written). ``--json`` prints the key figures and the files as JSON. A
 partial run is reported as far as it goes (exit 0, with a note); a missing or
 unreadable run directory is one sentence, exit 2.
 """
@@ -20,15 +20,17 @@ def add_arguments(parser) -> None:
     parser.add_argument("run_dir", metavar="RUN_DIR", help="run directory written by 'ares run'")
     parser.add_argument("--pdf", metavar="FILE", help="write the PDF here (default: RUN_DIR/report.pdf)")
     parser.add_argument("--csv", metavar="DIR", help="write the CSV tables here (default: RUN_DIR)")
+    parser.add_argument("--hdf5", metavar="FILE", help="write the HDF5 tables here (default: RUN_DIR/report.h5)")
     parser.add_argument("--json", action="store_true", help="print key figures and written files as JSON")
 
 
 def run(args) -> int:
     from ares.report import read_run, tables, write_reports
 
-    formats = [f for f, opt in (("csv", args.csv), ("pdf", args.pdf)) if opt] or ["csv", "pdf"]
+    formats = [f for f, opt in (("csv", args.csv), ("hdf5", args.hdf5), ("pdf", args.pdf)) if opt] \
+        or ["csv", "hdf5", "pdf"]
     r = read_run(args.run_dir)
-    files = write_reports(args.run_dir, formats, pdf_path=args.pdf, csv_dir=args.csv)
+    files = write_reports(args.run_dir, formats, pdf_path=args.pdf, csv_dir=args.csv, h5_path=args.hdf5)
     note = r.incompleteness()
     if args.json:
         kf = tables.compute_key_figures(r)

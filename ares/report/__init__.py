@@ -2,8 +2,9 @@
 
 - ``write_reports(run_dir, formats=("csv", "pdf"), out_dir=None) -> list[Path]``:
   ``ptc.csv``, ``components.csv``, ``key_figures.csv`` (the per-stage table is the
-  runner's ``summary.csv``) and ``report.pdf``, written into the run directory (or
-  ``out_dir``).
+  runner's ``summary.csv``), ``report.pdf`` and -- with "hdf5" in ``formats`` --
+  ``report.h5`` (the same tables, linking the run's results.h5), written into the run
+  directory (or ``out_dir``).
 - ``key_figures(run_dir) -> dict``: ``{name: {label, value, se, unit, note, source}}``.
 
 A partial run (stopped, failed, killed) is reported as far as it goes and says so; a
@@ -16,7 +17,8 @@ from pathlib import Path
 
 from ares.report.source import Run, read_run
 
-FORMATS = ("csv", "pdf")
+FORMATS = ("csv", "pdf", "hdf5")
+DEFAULT_FORMATS = ("csv", "pdf")
 
 
 def key_figures(run_dir) -> dict:
@@ -25,11 +27,13 @@ def key_figures(run_dir) -> dict:
     return tables.compute_key_figures(read_run(run_dir))
 
 
-def write_reports(run_dir, formats=FORMATS, out_dir=None, *, pdf_path=None, csv_dir=None) -> list[Path]:
-    """Write the requested reports; returns the files written. ``pdf_path``/``csv_dir``
-    override where the PDF / the CSV tables go (default: ``out_dir`` or the run dir)."""
+def write_reports(run_dir, formats=DEFAULT_FORMATS, out_dir=None, *, pdf_path=None, csv_dir=None,
+                  h5_path=None) -> list[Path]:
+    """Write the requested reports ("csv", "pdf", "hdf5"); returns the files written.
+    ``pdf_path``/``csv_dir``/``h5_path`` override where each goes (default: ``out_dir``
+    or the run directory)."""
     from ares.errors import InputError
-    from ares.report import csv_export, pdf, tables
+    from ares.report import csv_export, h5_export, pdf, tables
 
     bad = [f for f in formats if f not in FORMATS]
     if bad:
@@ -41,6 +45,8 @@ def write_reports(run_dir, formats=FORMATS, out_dir=None, *, pdf_path=None, csv_
     out: list[Path] = []
     if "csv" in formats:
         out += csv_export.write_csv(run, Path(csv_dir) if csv_dir else base, groups, kf)
+    if "hdf5" in formats:
+        out.append(h5_export.write_h5(run, Path(h5_path) if h5_path else base / "report.h5", groups, kf))
     if "pdf" in formats:
         p = Path(pdf_path) if pdf_path else base / "report.pdf"
         pdf.write_pdf(run, p, groups, kf)
@@ -48,4 +54,4 @@ def write_reports(run_dir, formats=FORMATS, out_dir=None, *, pdf_path=None, csv_
     return out
 
 
-__all__ = ["write_reports", "key_figures", "read_run", "Run", "FORMATS"]
+__all__ = ["write_reports", "key_figures", "read_run", "Run", "FORMATS", "DEFAULT_FORMATS"]

@@ -20,7 +20,7 @@ def _cell(v):
     if v is None:
         return ""
     if isinstance(v, float):
-        return repr(v) if math.isfinite(v) else ""
+        return repr(float(v)) if math.isfinite(v) else ""
     return v
 
 
