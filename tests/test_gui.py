@@ -112,7 +112,8 @@ def test_scan_runs_from_start_button_to_done(window, qtbot):
     assert s.panels["MEAN SIGNAL"].counts.sum() == 60
     assert window.results.panels["MEAN SIGNAL"].labels["mean"].text() != "n/a"
     assert len(s.ptc.points) == 2 and window.ptc.points.xData is not None
-    assert window.preview.image_item.image is not None and window.preview.rectangle_count == 1
+    assert window.preview.image_item.image is not None and window.preview.rectangle_count == 2
+    assert set(window.preview.rois) == {0}  # Draw ticked: editable with the mouse
     assert window.signal_map.image_item.image.shape == (12, 16)
     assert sorted(s.profiles.columns) == [0, 1]
     assert window.buttons.start.isEnabled() and not window.buttons.abort.isEnabled()
@@ -378,3 +379,19 @@ def test_two_axis_sweep_fills_the_sweep_map(window, qtbot, tmp_path):
     assert window.sweep.map_image.image.shape == (2, 3)
     window.sweep.quantity.setCurrentText("pixel temporal (DN^2)")
     assert m.quantity == "pixel temporal (DN^2)"
+
+
+def test_drawing_a_region_on_the_live_image_edits_the_table(window, qtbot):
+    regions = window.session.regions
+    regions.add(Region(True, True, 2, 3, 10, 6))  # Draw ticked: handles on the live image
+    regions.add(Region(True, False, 20, 20, 5, 5))  # outline only
+    assert set(window.preview.rois) == {0} and window.preview.rectangle_count == 2
+    roi = window.preview.rois[0]
+    roi.setPos((5.0, 4.0), finish=False)
+    roi.setSize((12.0, 7.0), finish=False)
+    roi.sigRegionChangeFinished.emit(roi)  # what a mouse release sends
+    qtbot.waitUntil(lambda: regions[0] == Region(True, True, 5, 4, 12, 7), timeout=TIMEOUT_MS)
+    assert window.controls.regions.table.item(0, 2).text() == "5"
+    assert window.controls.regions.table.item(0, 4).text() == "12"
+    regions.update(0, draw=False)
+    assert window.preview.rois == {} and window.preview.rectangle_count == 2

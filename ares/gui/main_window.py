@@ -48,7 +48,8 @@ class MainWindow(QMainWindow):
         s = self.session
         self.buttons = ScanButtons()
         self.controls = ControlTabs(s)
-        self.preview = ImagePlot(s.preview, cmap="CET-L1")  # monochrome, as the sensor sees it
+        self.preview = ImagePlot(s.preview, cmap="CET-L1",  # monochrome, as the sensor sees it
+                                 on_edit=lambda row, x, y, w, h: s.regions.update(row, x=x, y=y, width=w, height=h))
         self.progress_line = ProgressLine(s.progress)
         self.results = ResultsTab(s)
         self.distributions = DistributionsView(s)

@@ -42,5 +42,7 @@ class ImageModel(Observable):
         self._changed()
 
     def set_rectangles(self, rectangles: list[tuple[int, Region]]) -> None:
-        self.rectangles = list(rectangles)
-        self._changed()
+        rectangles = list(rectangles)
+        if rectangles != self.rectangles:  # unchanged: no redraw (keeps a drag in progress alive)
+            self.rectangles = rectangles
+            self._changed()

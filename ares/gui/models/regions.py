@@ -1,8 +1,9 @@
 """Regions of Analysis (RoA): the table's rows, and the RoA file (XML or CSV).
 
 A region is a rectangle in pixel coordinates (x = column, y = row of its top-left
-corner) with two flags: ``on`` (analysed) and ``draw`` (outlined on the images). The
-RoA file holds only the rectangles and flags -- no other GUI state.
+corner) with two flags: ``on`` (analysed, outlined on the images) and ``draw`` (its
+outline on the live image has handles to move and resize it with the mouse). The RoA
+file holds only the rectangles and flags -- no other GUI state.
 
 XML form::
 
@@ -106,7 +107,12 @@ class RegionSet(Observable):
         return [(i, r) for i, r in enumerate(self.regions) if r.on and not r.empty]
 
     def drawn(self) -> list[tuple[int, Region]]:
+        """Regions with Draw ticked: editable with the mouse on the live image."""
         return [(i, r) for i, r in enumerate(self.regions) if r.draw and not r.empty]
+
+    def visible(self) -> list[tuple[int, Region]]:
+        """Regions outlined on the images: every active one, and any being drawn."""
+        return [(i, r) for i, r in enumerate(self.regions) if (r.on or r.draw) and not r.empty]
 
     # ---- RoA file -------------------------------------------------------------------
     def save(self, path: str | Path) -> None:

@@ -80,7 +80,7 @@ class SessionModel:
         self._refresh_result()
 
     def _drawn(self) -> list[tuple[int, Region]]:
-        return self.regions.drawn() or self.regions.active()
+        return self.regions.visible()
 
     def _regions_changed(self) -> None:
         rects = self._drawn()

@@ -1,10 +1,14 @@
-"""Image view: live preview / signal map / noise map with region outlines."""
+"""Image view: live preview / signal map / noise map with region outlines.
+
+With ``on_edit`` (the live image), regions whose Draw box is ticked get move/resize
+handles (a pyqtgraph RectROI snapped to whole pixels); a finished drag calls
+``on_edit(row, x, y, width, height)``, which writes the RoA table's model."""
 
 from __future__ import annotations
 
 import numpy as np
 import pyqtgraph as pg
-from PySide6.QtCore import QRectF
+from PySide6.QtCore import QRectF, QTimer
 from PySide6.QtWidgets import QGraphicsRectItem, QLabel, QVBoxLayout, QWidget
 
 from ..models.image import ImageModel
@@ -13,9 +17,12 @@ from . import region_color
 
 class ImagePlot(QWidget):
     def __init__(self, model: ImageModel, parent: QWidget | None = None, colorbar: bool = True,
-                 cmap: str = "viridis") -> None:
+                 cmap: str = "viridis", on_edit=None) -> None:
         super().__init__(parent)
         self.model = model
+        self.on_edit = on_edit
+        self.rois: dict[int, pg.RectROI] = {}
+        self._drawn_rects = None
         self.caption = QLabel(model.title)
         self.plot = pg.PlotWidget()
         self.plot.setAspectLocked(True)
@@ -39,6 +46,8 @@ class ImagePlot(QWidget):
 
     def refresh(self) -> None:
         m = self.model
+        if m.rectangles != self._drawn_rects:
+            self._draw_rectangles()
         self.caption.setText(f"{m.title}" + (f" — {m.caption}" if m.caption else ""))
         if m.image is not None:
             self.image_item.setImage(np.asarray(m.image, dtype=np.float32), autoLevels=False, levels=m.levels)
@@ -47,14 +56,26 @@ class ImagePlot(QWidget):
             if m.image.shape != self._shape:
                 self._shape = m.image.shape
                 self.plot.getPlotItem().autoRange()
-        self._draw_rectangles()
 
     def _draw_rectangles(self) -> None:
         for item in self._rects:
             self.plot.removeItem(item)
         self._rects = []
+        self.rois = {}
+        self._drawn_rects = list(self.model.rectangles)
         for i, r in self.model.rectangles:
             color = region_color(i)
+            if self.on_edit is not None and r.draw:
+                roi = pg.RectROI([r.x, r.y], [r.width, r.height], pen=pg.mkPen(color, width=2),
+                                 snapSize=1, translateSnap=True, scaleSnap=True, removable=False)
+                roi.sigRegionChangeFinished.connect(lambda roi_, row=i: self._roi_moved(row, roi_))
+                label = pg.TextItem(str(i + 1), color=color, fill=(255, 255, 255, 200), anchor=(0, 1))
+                label.setPos(r.x, r.y)
+                for item in (roi, label):
+                    self.plot.addItem(item)
+                    self._rects.append(item)
+                self.rois[i] = roi
+                continue
             items = []
             for pen_color, width in (((255, 255, 255), 4), (color, 2)):  # a light halo, then the colour
                 rect = QGraphicsRectItem(QRectF(r.x, r.y, r.width, r.height))
@@ -68,6 +89,12 @@ class ImagePlot(QWidget):
                 self.plot.addItem(item)
                 self._rects.append(item)
 
+    def _roi_moved(self, row: int, roi) -> None:
+        x, y = (int(round(v)) for v in roi.pos())
+        w, h = (max(1, int(round(v))) for v in roi.size())
+        # later, not inside the ROI's own signal: the edit redraws (and so deletes) this ROI
+        QTimer.singleShot(0, lambda: self.on_edit(row, x, y, w, h))
+
     @property
     def rectangle_count(self) -> int:
-        return sum(isinstance(i, QGraphicsRectItem) for i in self._rects) // 2
+        return sum(isinstance(i, QGraphicsRectItem) for i in self._rects) // 2 + len(self.rois)
