@@ -1,4 +1,5 @@
-"""Build the ``Bench`` a system XML declares: the simulator, or real I2C/USB/serial devices."""
+"""Build the ``Bench`` a system XML declares: the simulator, recorded data (``<replay>``), or real
+I2C/USB/serial devices."""
 
 from __future__ import annotations
 
@@ -60,6 +61,10 @@ def build_bench(system, *, seed: int | None = None, faults: dict | None = None) 
         return bench
     if faults:
         raise InputError("fault injection is only available on the simulated bench")
+    if getattr(system, "replay", None) is not None:
+        from ares.hardware.replay import build_replay_bench
+
+        return build_replay_bench(system)
     return build_real_bench(system)
 
 

@@ -7,6 +7,7 @@ fit the array); ``save_system(system, path)`` writes an equivalent file.
 
 from __future__ import annotations
 
+import os
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -101,6 +102,44 @@ class Simulator:
     params: dict = field(default_factory=dict)  # typed values for ares.sim.SensorParams.from_dict
 
 
+REPLAY_LIGHT_PORT = "replay"  # port of the virtual light source a replay system presents
+
+
+@dataclass(frozen=True)
+class Replay:
+    """``<replay descriptor= env= light_tolerance=>``: recorded data (an EMVA 1288
+    descriptor file) instead of a sensor. ``path`` is the resolved descriptor (the
+    environment variable ``env`` names wins when set; a relative path is relative to the
+    system file; a folder means its ``EMVA1288_Data.txt``). Whether it exists is checked
+    when the bench is built (``ares.hardware.replay``), so a system file stays valid on a
+    machine without the data; where it exists, ``load_system`` checks it against <sensor>."""
+
+    path: Path
+    descriptor: str = field(default="", compare=False)  # as written in the XML
+    env: str | None = None
+    light_tolerance: float = 0.01  # relative: light level vs the recorded photons/pixel/s
+    line: int = field(default=0, compare=False)  # line of <replay> (for error messages)
+    source: Path | None = field(default=None, compare=False)  # the system file
+    from_env: bool = field(default=False, compare=False)
+
+    def where(self) -> str:
+        return f"{self.source}:{self.line}" if self.line else str(self.source)
+
+
+def resolve_replay_path(descriptor: str, env: str | None, base: Path) -> tuple[Path, bool]:
+    """(descriptor file, taken from the environment?) -- see :class:`Replay`."""
+    raw, from_env = descriptor, False
+    if env and os.environ.get(env, "").strip():
+        raw, from_env = os.environ[env].strip(), True
+    p = Path(os.path.expanduser(raw))
+    if not p.is_absolute():
+        p = (Path.cwd() if from_env else base) / p
+    p = Path(os.path.normpath(p.absolute()))
+    if p.is_dir():
+        p = p / "EMVA1288_Data.txt"
+    return p, from_env
+
+
 @dataclass(frozen=True)
 class System:
     name: str
@@ -115,6 +154,7 @@ class System:
     light_source: SerialInstrument | None = None
     chamber: SerialInstrument | None = None
     simulator: Simulator | None = None
+    replay: Replay | None = None
     source: Path | None = field(default=None, compare=False)
 
     def control_field(self, quantity: str) -> Field | None:
@@ -260,14 +300,52 @@ def system_from_tree(tree, path) -> System:
     sim = None
     if sim_el is not None:
         sim = Simulator(_int(sim_el.get("seed"), 0), dict(_param(path, p) for p in sim_el.iterfind("param")))
+    light = _serial(root.find("devices/light_source"))
+    rep_el = root.find("replay")
+    replay = None
+    if rep_el is not None:
+        replay = _replay(path, rep_el, root, sensor, controls, regmap)
+        light = SerialInstrument(name="replay_light", port=REPLAY_LIGHT_PORT, unit="photons/pixel/s", min=0.0)
     desc = root.find("description")
     return System(
         name=root.get("name"), version=_int(root.get("version"), 1),
         description=(desc.text or "").strip() if desc is not None else "",
         sensor=sensor, registers=regmap, controls=controls, timing=timing, buses=buses, usb_grabber=grabber,
-        light_source=_serial(root.find("devices/light_source")), chamber=_serial(root.find("devices/chamber")),
-        simulator=sim, source=Path(path),
+        light_source=light, chamber=_serial(root.find("devices/chamber")),
+        simulator=sim, replay=replay, source=Path(path),
     )
+
+
+def _replay(path, el, root, sensor: Sensor, controls: Controls, regmap: RegisterMap) -> Replay:
+    """``<replay>``: no simulator or devices beside it, an exposure control, and (when the
+    descriptor is present) a descriptor that matches <sensor>."""
+    line = el.sourceline
+    for other in ("simulator", "buses", "devices"):
+        if root.find(other) is not None:
+            raise fail(path, root.find(other).sourceline,
+                       f"a <replay> system replays recorded data and cannot also declare <{other}>")
+    if controls.exposure is None:
+        raise fail(path, line, "a <replay> system needs <controls exposure=...> naming the register field "
+                               "that selects the recorded exposure")
+    f = regmap.field(controls.exposure)
+    if f.access != "rw":
+        raise fail(path, line, f"<replay>: the exposure field '{f.name}' must be read-write (access='rw')")
+    desc, env = el.get("descriptor").strip(), el.get("env")
+    if not desc:
+        raise fail(path, line, "<replay descriptor=...> is empty; give the path of the EMVA 1288 descriptor file")
+    p, from_env = resolve_replay_path(desc, env, Path(path).parent)
+    rp = Replay(p, desc, env, _float(el.get("light_tolerance"), 0.01), line, Path(path), from_env)
+    if p.is_file():
+        from ares.hardware.emva_descriptor import read_descriptor
+
+        try:
+            d = read_descriptor(p, check_files=False)
+        except InputError as exc:
+            raise fail(path, line, f"<replay> descriptor: {exc}") from None
+        if (d.height, d.width, d.bits) != (sensor.rows, sensor.cols, sensor.adc_bits):
+            raise fail(path, line, f"<replay> descriptor {p} records {d.width}x{d.height} {d.bits}-bit images but "
+                                   f"<sensor> declares {sensor.cols}x{sensor.rows} {sensor.adc_bits}-bit")
+    return rp
 
 
 def load_system(path: str | Path) -> System:
@@ -297,7 +375,9 @@ def _serial_el(parent, tag, s: SerialInstrument):
          stopbits=s.stopbits, timeout_s=s.timeout_s, min=s.min, max=s.max, unit=s.unit, settle_s=s.settle_s)
 
 
-def system_to_tree(sy: System) -> etree._ElementTree:
+def system_to_tree(sy: System, base: Path | None = None) -> etree._ElementTree:
+    """``base``: the folder the file will live in (a relative replay path is re-expressed
+    relative to it, so the saved file names the same descriptor)."""
     root = _set(etree.Element("system"), name=sy.name, version=sy.version)
     if sy.description:
         etree.SubElement(root, "description").text = sy.description
@@ -327,13 +407,13 @@ def system_to_tree(sy: System) -> etree._ElementTree:
         for bus in sy.buses:
             _set(etree.SubElement(b, "i2c"), name=bus.name, bus=bus.bus, address=f"0x{bus.address:02X}",
                  speed_hz=bus.speed_hz)
-    if sy.usb_grabber or sy.light_source or sy.chamber:
+    if sy.usb_grabber or (sy.light_source and not sy.replay) or sy.chamber:
         d = etree.SubElement(root, "devices")
         g = sy.usb_grabber
         if g:
             _set(etree.SubElement(d, "usb_grabber"), name=g.name, vid=f"0x{g.vid:04X}", pid=f"0x{g.pid:04X}",
                  endpoint=f"0x{g.endpoint:02X}", format=g.format, header_bytes=g.header_bytes, timeout_ms=g.timeout_ms)
-        if sy.light_source:
+        if sy.light_source and not sy.replay:
             _serial_el(d, "light_source", sy.light_source)
         if sy.chamber:
             _serial_el(d, "chamber", sy.chamber)
@@ -343,10 +423,17 @@ def system_to_tree(sy: System) -> etree._ElementTree:
             t = {bool: "bool", int: "int", float: "float", tuple: "floats"}.get(type(v), "str")
             v = " ".join(repr(float(x)) for x in v) if t == "floats" else v
             _set(etree.SubElement(sim, "param"), name=k, value=v, type=t)
+    if sy.replay:
+        r = sy.replay
+        desc = r.descriptor or str(r.path)
+        if r.from_env or not Path(os.path.expanduser(desc)).is_absolute():
+            desc = os.path.relpath(r.path, base) if base is not None else str(r.path)
+        _set(etree.SubElement(root, "replay"), descriptor=desc, env=r.env,
+             light_tolerance=float(r.light_tolerance))
     return etree.ElementTree(root)
 
 
 def save_system(sy: System, path: str | Path) -> None:
-    tree = system_to_tree(sy)
+    tree = system_to_tree(sy, Path(path).absolute().parent)
     etree.indent(tree, space="  ")
     Path(path).write_bytes(etree.tostring(tree, xml_declaration=True, encoding="UTF-8", pretty_print=True))

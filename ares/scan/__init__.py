@@ -13,6 +13,7 @@ The run directory layout is documented in ``ares.scan.rundir``.
 """
 
 from ares.scan import analyses as _builtin_analyses  # noqa: F401  (registers ptc, decomposition)
+from ares.scan import emva_analysis as _emva_analysis  # noqa: F401  (registers emva1288)
 from ares.scan import events
 from ares.scan.results import check_limits, register_scan_analysis, scan_level_results
 from ares.scan.rundir import RunRecord, RunWriter, load_run
