@@ -45,6 +45,12 @@ def title_page(run, kf: dict) -> "plots.Figure":
         ("platform", str(v.get("platform", ""))),
     ]
     y = 0.92
+    desc = run.description()
+    if desc:
+        for line in textwrap.wrap(desc, 110)[:3]:
+            fig.text(0.06, y, line, fontsize=9, va="top", style="italic")
+            y -= 0.017
+        y -= 0.006
     for k, val in lines:
         fig.text(0.06, y, k, fontsize=8.5, weight="bold", va="top")
         fig.text(0.27, y, plots.clip(val, 100), fontsize=8.5, va="top", family="monospace" if "SHA" in k else None)
@@ -98,6 +104,8 @@ def ptc_page(g: tables.PtcGroup, rows: list[dict]):
             fig.text(0.06, y - 0.0115, f"... and {len(notes) - 7} more (see ptc.csv)", fontsize=6.5, va="top")
     ax2 = fig.add_axes([0.11, 0.07, 0.83, 0.34])
     plots.noise_zones(ax2, rows, g.result, "noise vs signal (log-log) with read / shot / PRNU zones")
+    if g.mismatch():
+        fig.text(0.5, 0.935, g.mismatch(), ha="center", fontsize=7, color="C3")
     return fig
 
 

@@ -49,6 +49,17 @@ class Run:
     def limit_failures(self) -> list:
         return list((self.scan_results or {}).get("limit_failures") or [])
 
+    def description(self) -> str:
+        """The scan XML's <description> ("" if none or unreadable)."""
+        try:
+            from ares.protocol import xmlsafe
+
+            p = self.dir / str(self.meta.get("scan_file") or "")
+            el = xmlsafe.parse(xmlsafe.read_bytes(p), p).getroot().find("description")
+            return " ".join((el.text or "").split()) if el is not None else ""
+        except Exception:  # noqa: BLE001 -- cosmetic: a report never fails on it
+            return ""
+
     def incompleteness(self) -> str:
         """One sentence on why the run is incomplete ("" when complete)."""
         if self.complete:

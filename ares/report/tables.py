@@ -68,6 +68,17 @@ class PtcGroup:
     light: list[float | None]
     photons: list[float] | None
 
+    def mismatch(self) -> str:
+        """A sentence when the recomputed curve's K differs from the runner's (else "")."""
+        k = est(self.stored.get("gain_dn_per_e"))
+        if self.result is None or not k.available or not self.result.gain_dn_per_e.available:
+            return ""
+        r = self.result.gain_dn_per_e.value
+        if abs(r - k.value) <= 1e-6 * abs(k.value):
+            return ""
+        return (f"note: the curves are recomputed from the stage results (K = {r:.5g} DN/e-); the key figures are "
+                f"the run's own scan_results.json (K = {k.value:.5g} DN/e-)")
+
     def status(self, i: int) -> tuple[str, str]:
         """(status, reason) of level ``i``: the runner's if it recorded one, else ours."""
         for row in self.stored.get("level_status") or []:
@@ -99,6 +110,23 @@ def _adc_lsb_uv(run, stored: dict) -> float | None:
         return None
 
 
+def signal_se(stage: dict) -> float:
+    """SE (DN) of a flat stage's mean from the scatter of its frame means -- the same
+    input the runner's PTC analysis gives ``analyze_ptc(signal_se=...)``."""
+    fm = stage["views"]["full"]["level"].get("frame_means") or []
+    if len(fm) < 2:
+        return math.nan
+    return float(np.std(np.asarray(fm, float), ddof=1) / math.sqrt(len(fm)))
+
+
+def _analyze(bright, dark, **kw) -> PtcResult:
+    import inspect
+
+    if "signal_se" not in inspect.signature(analyze_ptc).parameters:
+        kw.pop("signal_se", None)
+    return analyze_ptc(bright, dark, **kw)
+
+
 def _stored_ptc(run, gain: float) -> dict:
     ptc = run.analyses.get("ptc") or {}
     for r in (ptc.get("by_analog_gain") or {}).values():
@@ -126,8 +154,9 @@ def ptc_groups(run) -> list[PtcGroup]:
         if len(sts) >= 2:
             bright = [levelstats(s["views"]["full"]["level"]) for s in sts]
             dark = [levelstats(s["views"]["full"]["dark_level"]) for s in sts]
-            res = analyze_ptc(bright, dark, exposure_s=exp if all(math.isfinite(e) for e in exp) else None,
-                              photons=photons, adc_lsb_uv=_adc_lsb_uv(run, stored), analog_gain=g)
+            res = _analyze(bright, dark, exposure_s=exp if all(math.isfinite(e) for e in exp) else None,
+                           photons=photons, adc_lsb_uv=_adc_lsb_uv(run, stored), analog_gain=g,
+                           signal_se=[signal_se(s) for s in sts])
         out.append(PtcGroup(g, sts, res, stored, exp, light, photons))
     return out
 
