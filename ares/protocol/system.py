@@ -110,12 +110,13 @@ class Replay:
     """``<replay descriptor= env= light_tolerance=>``: recorded data (an EMVA 1288
     descriptor file) instead of a sensor. ``path`` is the resolved descriptor (the
     environment variable ``env`` names wins when set; a relative path is relative to the
-    system file; a folder means its ``EMVA1288_Data.txt``). Whether it exists is checked
+    system file -- saved as written, so a copied system file looks relative to its new
+    folder; a folder means its ``EMVA1288_Data.txt``). Whether it exists is checked
     when the bench is built (``ares.hardware.replay``), so a system file stays valid on a
     machine without the data; where it exists, ``load_system`` checks it against <sensor>."""
 
-    path: Path
-    descriptor: str = field(default="", compare=False)  # as written in the XML
+    descriptor: str  # as written in the XML (saved as written, like a scan's system href)
+    path: Path = field(default=None, compare=False)  # resolved when loaded
     env: str | None = None
     light_tolerance: float = 0.01  # relative: light level vs the recorded photons/pixel/s
     line: int = field(default=0, compare=False)  # line of <replay> (for error messages)
@@ -334,7 +335,7 @@ def _replay(path, el, root, sensor: Sensor, controls: Controls, regmap: Register
     if not desc:
         raise fail(path, line, "<replay descriptor=...> is empty; give the path of the EMVA 1288 descriptor file")
     p, from_env = resolve_replay_path(desc, env, Path(path).parent)
-    rp = Replay(p, desc, env, _float(el.get("light_tolerance"), 0.01), line, Path(path), from_env)
+    rp = Replay(desc, p, env, _float(el.get("light_tolerance"), 0.01), line, Path(path), from_env)
     if p.is_file():
         from ares.hardware.emva_descriptor import read_descriptor
 
@@ -375,9 +376,7 @@ def _serial_el(parent, tag, s: SerialInstrument):
          stopbits=s.stopbits, timeout_s=s.timeout_s, min=s.min, max=s.max, unit=s.unit, settle_s=s.settle_s)
 
 
-def system_to_tree(sy: System, base: Path | None = None) -> etree._ElementTree:
-    """``base``: the folder the file will live in (a relative replay path is re-expressed
-    relative to it, so the saved file names the same descriptor)."""
+def system_to_tree(sy: System) -> etree._ElementTree:
     root = _set(etree.Element("system"), name=sy.name, version=sy.version)
     if sy.description:
         etree.SubElement(root, "description").text = sy.description
@@ -425,15 +424,12 @@ def system_to_tree(sy: System, base: Path | None = None) -> etree._ElementTree:
             _set(etree.SubElement(sim, "param"), name=k, value=v, type=t)
     if sy.replay:
         r = sy.replay
-        desc = r.descriptor or str(r.path)
-        if r.from_env or not Path(os.path.expanduser(desc)).is_absolute():
-            desc = os.path.relpath(r.path, base) if base is not None else str(r.path)
-        _set(etree.SubElement(root, "replay"), descriptor=desc, env=r.env,
+        _set(etree.SubElement(root, "replay"), descriptor=r.descriptor, env=r.env,
              light_tolerance=float(r.light_tolerance))
     return etree.ElementTree(root)
 
 
 def save_system(sy: System, path: str | Path) -> None:
-    tree = system_to_tree(sy, Path(path).absolute().parent)
+    tree = system_to_tree(sy)
     etree.indent(tree, space="  ")
     Path(path).write_bytes(etree.tostring(tree, xml_declaration=True, encoding="UTF-8", pretty_print=True))
