@@ -56,6 +56,9 @@ EXPECTED = {
     "system_sim_contradicts_sensor.xml": (36, "simulator parameter 'adc_bits' = 10 contradicts the sensor's 12"),
     "system_sim_param_out_of_range.xml": (37, "<simulator>: "),  # wording: ares.sim.SensorParams
     "system_bad_access.xml": (13, "must be one of ro, wo, rw, got 'readonly'"),
+    "system_replay_no_descriptor.xml": (13, "<replay> needs attribute 'descriptor'"),
+    "system_replay_no_exposure_control.xml": (12, "a <replay> system needs <controls exposure=...>"),
+    "system_replay_with_simulator.xml": (13, "a <replay> system replays recorded data and cannot also declare <simulator>"),
     "system_bad_address.xml": (23, "<field address=...>"),
     "system_bad_param_type.xml": (34, "simulator parameter 'rows' must be of type int, got 'many'"),
     "system_controls_unknown.xml": (31, "<controls exposure='integration_time'> names no register field"),
