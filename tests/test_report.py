@@ -7,6 +7,7 @@ from __future__ import annotations
 import csv
 import json
 import math
+import re
 import shutil
 import subprocess
 from pathlib import Path
@@ -24,13 +25,13 @@ HAVE_PDFTOTEXT = shutil.which("pdftotext") is not None and shutil.which("pdfinfo
 
 
 def tiny_system(path: Path) -> Path:
-    """protocols/sim_sensor.xml on a 24x32 array (fast), written to ``path``."""
+    """protocols/sim_sensor.xml (whatever its size) on a 24x32 array (fast), written to ``path``."""
     text = (ROOT / "protocols" / "sim_sensor.xml").read_text()
-    text = text.replace('<array rows="128" cols="128"', '<array rows="24" cols="32"')
-    text = text.replace('<param name="rows" type="int" value="128"/>', '<param name="rows" type="int" value="24"/>')
-    text = text.replace('<param name="cols" type="int" value="128"/>', '<param name="cols" type="int" value="32"/>')
+    text = re.sub(r'<array rows="\d+" cols="\d+"', '<array rows="24" cols="32"', text)
+    text = re.sub(r'<param name="rows" type="int" value="\d+"/>', '<param name="rows" type="int" value="24"/>', text)
+    text = re.sub(r'<param name="cols" type="int" value="\d+"/>', '<param name="cols" type="int" value="32"/>', text)
     text = text.replace('<system name="sim_sensor"', '<system name="sim_tiny"')
-    assert 'rows="24"' in text and 'value="32"' in text
+    assert '<array rows="24" cols="32"' in text
     path.write_text(text)
     return path
 
