@@ -395,3 +395,18 @@ def test_drawing_a_region_on_the_live_image_edits_the_table(window, qtbot):
     assert window.controls.regions.table.item(0, 4).text() == "12"
     regions.update(0, draw=False)
     assert window.preview.rois == {} and window.preview.rectangle_count == 2
+
+
+def test_closing_the_window_aborts_a_running_scan(window, qtbot):
+    job = start_gated(qtbot, window)
+    thread = window.scan_thread
+    job.gate.set()
+    window.close()  # aborts and waits for the worker
+    assert job.aborting and not thread.is_running()
+
+
+def test_gui_command_is_registered_in_the_cli():
+    from ares.cli import build_parser
+
+    args = build_parser().parse_args(["gui", "scans/photon_transfer.xml"])
+    assert args.command == "gui" and args.scan == "scans/photon_transfer.xml"

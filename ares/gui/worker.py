@@ -111,7 +111,9 @@ class ScanThread(QObject):
         self.worker = ScanWorker(job, self.pump)
         self.worker.moveToThread(self.thread)
         self.thread.started.connect(self.worker.run)
-        self.worker.finished.connect(self.thread.quit)
+        # direct: QThread.quit is thread-safe, and a GUI thread blocked in wait() (window closing)
+        # could not deliver a queued call
+        self.worker.finished.connect(self.thread.quit, Qt.ConnectionType.DirectConnection)
         self.thread.finished.connect(self._thread_finished)
 
     def start(self) -> None:
