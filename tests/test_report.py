@@ -115,7 +115,7 @@ def _pages(path: Path) -> int:
 
 def test_csv_tables_equal_run_directory(runs, tmp_path):
     files = write_reports(runs / "ptc", ("csv",), csv_dir=tmp_path)
-    assert [p.name for p in files] == ["ptc.csv", "components.csv", "key_figures.csv"]
+    assert [p.name for p in files] == ["ptc.csv", "components.csv", "levels.csv", "key_figures.csv"]
     stages = {json.loads(p.read_text())["name"]: json.loads(p.read_text())
               for p in (runs / "ptc" / "stages").glob("*.json")}
     sr = json.loads((runs / "ptc" / "scan_results.json").read_text())["analyses"]
@@ -151,6 +151,14 @@ def test_csv_tables_equal_run_directory(runs, tmp_path):
                 and r["part"] == "components"}
     assert set(tables.COMPONENTS) <= thirteen
 
+    levels = _csv(tmp_path / "levels.csv")
+    assert len(levels) == sum(len(st["views"]) for st in stages.values())
+    for r in levels:
+        v = stages[r["stage"]]["views"][r["view"]]
+        for k in ("mean_dn", "var_dn2", "spatial_var_dn2", "frac_at_max"):
+            assert _same(_f(r[k]), v["level"].get(k)), k
+            assert _same(_f(r["dark_" + k]), (v.get("dark_level") or {}).get(k)), k
+
     kf = {r["name"]: r for r in _csv(tmp_path / "key_figures.csv")}
     for key in ("gain_dn_per_e", "gain_e_per_dn", "conversion_gain_uv_per_e", "read_noise_e", "read_noise_dn",
                 "dynamic_range_db"):
@@ -171,7 +179,7 @@ def test_hdf5_tables_equal_csv_and_link_the_stage_arrays(runs, tmp_path):
     files = write_reports(runs / "ptc", ("csv", "hdf5"), csv_dir=tmp_path, h5_path=runs / "ptc" / "report.h5")
     assert files[-1] == runs / "ptc" / "report.h5"
     with h5py.File(runs / "ptc" / "report.h5", "r") as f:
-        for table in ("ptc", "components", "key_figures"):
+        for table in ("ptc", "components", "levels", "key_figures"):
             rows = _csv(tmp_path / f"{table}.csv")
             cols = json.loads(f[table].attrs["columns"])
             assert cols == list(rows[0].keys())
@@ -288,7 +296,7 @@ def test_partial_run_is_reported_as_incomplete(runs, capsys):
     if run.scan_results is None or "gain_dn_per_e" not in run.analyses.get("ptc", {}):
         assert d["key_figures"]["gain_dn_per_e"]["source"].startswith("computed by the report")
     assert "partial run" in d["key_figures"]["full_well_e.max_variance"]["note"]
-    assert {Path(p).name for p in d["files"]} == {"ptc.csv", "components.csv", "key_figures.csv", "report.h5",
+    assert {Path(p).name for p in d["files"]} == {"ptc.csv", "components.csv", "levels.csv", "key_figures.csv", "report.h5",
                                                   "report.pdf"}
     ptc = _csv(runs / "partial" / "ptc.csv")
     assert len(ptc) == sum(1 for s in run.stages if s["scene"] == "flat") and all(r["status"] for r in ptc)
@@ -326,7 +334,8 @@ def test_bad_directories_raise_one_sentence(tmp_path, runs, capsys):
 
 def test_cli_writes_only_what_is_asked(runs, tmp_path, capsys):
     assert main(["report", str(runs / "ptc"), "--csv", str(tmp_path / "c")]) == 0
-    assert sorted(p.name for p in (tmp_path / "c").iterdir()) == ["components.csv", "key_figures.csv", "ptc.csv"]
+    assert sorted(p.name for p in (tmp_path / "c").iterdir()) == ["components.csv", "key_figures.csv", "levels.csv",
+                                                                  "ptc.csv"]
     assert not (runs / "ptc" / "report.pdf").exists()
     out = capsys.readouterr().out.split()
-    assert len(out) == 3
+    assert len(out) == 4

@@ -1,6 +1,9 @@
-"""CSV export of a run directory: ``ptc.csv``, ``components.csv``, ``key_figures.csv``.
+"""CSV export of a run directory: ``ptc.csv``, ``components.csv``, ``levels.csv``,
+``key_figures.csv``.
 
-The per-stage table is the runner's ``summary.csv`` (not duplicated here). Floats are
+The per-stage table is the runner's ``summary.csv`` (view "full"; not duplicated here);
+``levels.csv`` adds what it leaves out: every view, spatial variance, clip fractions, the
+matched dark's statistics and the stage duration. Floats are
 written with ``repr`` (round-trip exact); a value that is not available is empty.
 """
 
@@ -54,5 +57,7 @@ def write_csv(run, out_dir: str | Path, groups=None, kf=None) -> list[Path]:
     return [
         _write(out / "ptc.csv", to_csv(tables.ptc_rows(groups), tables.PTC_COLUMNS)),
         _write(out / "components.csv", to_csv(comp, tables.COMPONENT_COLUMNS)),
+        _write(out / "levels.csv", to_csv([r for st in run.stages for r in tables.level_rows(st)],
+                                          tables.LEVEL_COLUMNS)),
         _write(out / "key_figures.csv", to_csv(key_figure_rows(kf), KEY_FIGURE_COLUMNS)),
     ]

@@ -1,6 +1,6 @@
 """HDF5 export of the report tables: ``report.h5``.
 
-Layout: ``/key_figures``, ``/ptc``, ``/components`` -- one group per table, one 1-D
+Layout: ``/key_figures``, ``/ptc``, ``/components``, ``/levels`` -- one group per table, one 1-D
 dataset per column (float64, or UTF-8 strings), attribute ``columns`` giving the order;
 root attributes ``run`` (run.json) and ``scan_results`` (scan_results.json) as JSON;
 ``/stages`` links to the run's own ``results.h5`` per-stage arrays (an HDF5 external
@@ -55,6 +55,8 @@ def write_h5(run, path: str | Path, groups=None, kf=None) -> Path:
         _table(f.create_group("ptc"), tables.ptc_rows(groups), tables.PTC_COLUMNS)
         _table(f.create_group("components"), [r for st in run.stages for r in tables.component_rows(st)],
                tables.COMPONENT_COLUMNS)
+        _table(f.create_group("levels"), [r for st in run.stages for r in tables.level_rows(st)],
+               tables.LEVEL_COLUMNS)
         if run.has_h5:
             target = run.dir / "results.h5"
             rel = os.path.relpath(target, path.parent)

@@ -217,6 +217,27 @@ def component_rows(stage: dict, views: list[str] | None = None) -> list[dict]:
     return rows
 
 
+LEVEL_COLUMNS = ("stage_index", "stage", "scene", "view", "n_pixels", "n_frames", "mean_dn", "var_dn2",
+                 "spatial_var_dn2", "frac_at_max", "frac_at_min", "dark_n_frames", "dark_mean_dn", "dark_var_dn2",
+                 "dark_spatial_var_dn2", "dark_frac_at_max", "dark_frac_at_min", "seconds")
+
+
+def level_rows(stage: dict) -> list[dict]:
+    """Per view of a stage: the level statistics summary.csv leaves out (every view, spatial
+    variance, clip fractions, the matched dark's statistics, stage duration)."""
+    rows = []
+    for view, v in stage["views"].items():
+        lv, dk = v.get("level") or {}, v.get("dark_level") or {}
+        r = {"stage_index": stage["index"], "stage": stage["name"], "scene": stage.get("scene"), "view": view,
+             "seconds": (stage.get("timing") or {}).get("seconds")}
+        for k in ("n_pixels", "n_frames", "mean_dn", "var_dn2", "spatial_var_dn2", "frac_at_max", "frac_at_min"):
+            r[k] = lv.get(k)
+            if k != "n_pixels":
+                r["dark_" + k] = dk.get(k)
+        rows.append(r)
+    return rows
+
+
 def mid_stage(run) -> dict | None:
     """The decomposition stage the runner chose, else the flat stage nearest half the
     highest unclipped signal (as ``ares.scan.analyses.mid_level_stage``)."""
