@@ -93,7 +93,7 @@ def test_unbiased_and_se(regime, report):
         for k, v in naive(x).items():
             nv[k].append(v)
     report.append(f"\n[ANOVA MC] {regime}: F={F} R={R} C={C}, {NREP} replicates")
-    report.append(f"  {'comp':13s} {'truth':>8s} {'mean est':>9s} {'bias/SEM':>8s} {'SE ratio':>8s} {'naive':>9s}")
+    report.append(f"  {'comp':13s} {'truth':>8s} {'mean est':>9s} {'bias/SEM':>8s} {'SE ratio':>8s} {'naive':>9s} {'naive bias':>10s}")
     for k in DARK_NAMES:
         if k == "o":
             continue
@@ -103,7 +103,7 @@ def test_unbiased_and_se(regime, report):
         sem = sd / math.sqrt(NREP)
         z = (e.mean() - p[k]) / sem
         ratio = math.sqrt(np.mean(s**2)) / sd
-        nmean = f"{np.mean(nv[k]):9.4f}" if k in nv else " " * 9
+        nmean = f"{np.mean(nv[k]):9.4f} {np.mean(nv[k]) / p[k] - 1:+10.0%}" if k in nv else ""
         report.append(f"  {k:13s} {p[k]:8.4f} {e.mean():9.4f} {z:8.2f} {ratio:8.3f} {nmean}")
         assert abs(z) < 3, (regime, k, e.mean(), p[k], sem)
         assert abs(ratio - 1) < 0.15, (regime, k, ratio)
