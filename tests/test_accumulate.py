@@ -272,3 +272,21 @@ def test_profiles_are_opt_in():
     with pytest.raises(InputError, match="keep_profiles"):
         a.frame_row_means()
     assert a.frame_means().tolist() == [1.0]
+
+
+def test_immutable_frames_are_not_copied_but_mutable_are():
+    from ares.analysis.accumulate import _immutable
+
+    raw = np.arange(12, dtype=np.uint16)
+    ro = np.frombuffer(raw.tobytes(), np.uint16).reshape(3, 4)
+    assert _immutable(ro)
+    assert not _immutable(raw.reshape(3, 4))
+    v = raw.reshape(3, 4).view()
+    v.flags.writeable = False
+    assert not _immutable(v)  # read-only view of writable memory: must be copied
+    a = StackAccumulator((3, 4))
+    w = raw.reshape(3, 4).copy()
+    a.add(w)
+    a.add(ro)
+    w[:] = 999  # the producer reuses its buffer: the copy protects the stack
+    np.testing.assert_array_equal(a.mean_map(), raw.reshape(3, 4))

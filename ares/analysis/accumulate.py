@@ -46,6 +46,16 @@ def _as_frames(frames) -> np.ndarray:
     return a
 
 
+def _immutable(a: np.ndarray) -> bool:
+    """True when nothing can change the frame's memory (a read-only view of ``bytes``)."""
+    b = a
+    while isinstance(b, np.ndarray):
+        if b.flags.writeable:
+            return False
+        b = b.base
+    return isinstance(b, bytes)
+
+
 def _isum(a) -> int:
     """Exact sum of an integer array as a Python int."""
     a = np.asarray(a)
@@ -145,7 +155,8 @@ class StackAccumulator:
         several times faster than folding each frame. ``copy=False`` keeps a reference
         instead of copying the frame into the buffer: only for producers that never
         reuse a frame's memory (the frame must not change until ``batch`` more frames
-        were added or an accessor was called).
+        were added or an accessor was called). Frames that nothing can change (read-only
+        views of ``bytes``, as decoded images are) are never copied.
         """
         a = _as_frames(frame)
         if a.ndim != 2:
@@ -158,7 +169,7 @@ class StackAccumulator:
                 self._buf = [None] * self.batch
                 self._store = np.empty((self.batch,) + self.shape, a.dtype)
                 self._buf_dtype = a.dtype
-            if copy:
+            if copy and not _immutable(a):
                 self._store[self._nbuf] = a
                 self._buf[self._nbuf] = self._store[self._nbuf]
             else:
