@@ -22,7 +22,7 @@ PTC = str(SMALL / "ptc_small.xml")
 def test_dry_run_lists_every_stage(capsys):
     assert main(["run", str(ROOT / "scans" / "photon_transfer.xml"), "--dry-run"]) == 0
     out = capsys.readouterr().out
-    assert "scan 'photon_transfer' on system 'sim_sensor' (128x128): 26 stages" in out
+    assert "scan 'photon_transfer' on system 'sim_sensor' (640x480): 26 stages" in out
     lines = [ln for ln in out.splitlines() if ln.strip().split(" ")[0].isdigit()]
     assert len(lines) == 26 and "ptc[24]" in lines[-1] and "light=1e+07" in lines[-1]
     assert "+ dark (reused)" in lines[1]

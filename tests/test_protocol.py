@@ -41,7 +41,7 @@ EXPECTED = {
     "not_xml.xml": (1, "not well-formed XML"),
     "output_bad_boolean.xml": (8, "<output raw_frames=...> must be true or false, got 'maybe'"),
     "readonly_field.xml": (5, "'chip_id' is read-only"),
-    "region_outside_array.xml": (9, "does not fit in the 128x128 array"),
+    "region_outside_array.xml": (9, "does not fit in the 640x480 array"),
     "set_both_targets.xml": (5, "needs exactly one of quantity= or field="),
     "set_value_not_number.xml": (5, "<set value=...> must be a number, got 'fast'"),
     "sweep_log_nonpositive.xml": (6, "needs start and stop > 0"),

@@ -61,6 +61,27 @@ def _signal_se(stage: dict) -> float:
     return math.sqrt(sum((x - m) ** 2 for x in fm) / (len(fm) - 1) / len(fm))
 
 
+def _read_noise_with_line_terms(r, stages: list):
+    """Read noise with an honest SE: the stack variance's sqrt(2/dof) counts every pixel
+    as independent, but its row and column temporal parts (Rt, Ct) are sampled by only
+    rows x frames and cols x frames draws; add the dark ANOVA's SEs of Rt and Ct."""
+    dn, e = r.read_noise_dn, r.read_noise_e
+    comp = stages[0]["views"]["full"].get("components", {}) if stages else {}
+    extra = [comp.get(k, {}).get("se") for k in ("Rt", "Ct")]
+    extra = [x for x in extra if x is not None and math.isfinite(x)]
+    if not extra or not dn.available or not math.isfinite(dn.se) or r.read_noise_is_upper_limit:
+        return dn, e
+    s2 = dn.value**2
+    s2_se = math.hypot(2 * dn.value * dn.se, *extra)
+    dn2 = Estimate(dn.value, s2_se / (2 * dn.value), dn.unit, dn.note + "; SE incl. the Rt, Ct sampling")
+    k = r.gain_dn_per_e
+    if not e.available or not k.available:
+        return dn2, e
+    num = math.sqrt(max(s2 - 1.0 / 12.0, 0.0))
+    se_e = math.hypot(s2_se / (2 * num) / k.value if num > 0 else math.nan, e.value * k.se / k.value)
+    return dn2, Estimate(e.value, se_e, e.unit, e.note + "; SE incl. the Rt, Ct sampling")
+
+
 def ptc_one(run, stages: list, analog_gain: float) -> dict:
     from ares.analysis.ptc import analyze_ptc
 
@@ -74,14 +95,18 @@ def ptc_one(run, stages: list, analog_gain: float) -> dict:
     r = analyze_ptc(bright, dark, exposure_s=exp if all(math.isfinite(e) for e in exp) else None,
                     photons=photons, adc_lsb_uv=_adc_lsb_uv(run.system), analog_gain=analog_gain,
                     signal_se=[_signal_se(s) for s in stages])
+    rn_dn, rn_e = _read_noise_with_line_terms(r, stages)
     return {
         "analog_gain": analog_gain,
         "levels": len(stages),
         "gain_dn_per_e": _e(r.gain_dn_per_e), "gain_e_per_dn": _e(r.gain_e_per_dn),
         "conversion_gain_uv_per_e": _e(r.conversion_gain_uv_per_e),
-        "read_noise_dn": _e(r.read_noise_dn), "read_noise_e": _e(r.read_noise_e),
+        "read_noise_dn": _e(rn_dn), "read_noise_e": _e(rn_e),
         "read_noise_is_upper_limit": r.read_noise_is_upper_limit,
         "full_well_e": _e(r.full_well_e["max_variance"]),
+        # the charge capacity itself (saturated plateau / K) where the sweep reaches it;
+        # the EMVA 3.0 max-variance level sits below it by the PRNU spread and the sweep step
+        "full_well_charge_e": _e(r.full_well_e["plateau"]),
         "full_well_definitions": {k: _e(v) for k, v in r.full_well_e.items()},
         "dynamic_range_db": _e(r.dynamic_range_db), "qe": _e(r.qe),
         "linearity_error_pct": _e(r.linearity_error_pct),
