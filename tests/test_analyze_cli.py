@@ -50,6 +50,7 @@ def test_table_with_dark_png_and_h5_roi(tmp_path, capsys):
     text = capsys.readouterr().out
     assert "20 rows x 28 columns" in text
     assert "conversion gain" in text and "DN/e-" in text
+    assert "flat stack frame-global" in text
     g = [line for line in text.splitlines() if line.startswith("G ")][0]
     assert abs(float(g.split()[3]) - 0.5) < 0.1
 

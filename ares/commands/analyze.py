@@ -87,6 +87,8 @@ def run(args) -> int:
         out = {k: comps[k].to_dict() for k in COMPONENT_NAMES}
         for k, e in extra.items():
             out[k] = e.to_dict()
+        if args.dark:
+            out["_flat_stack"] = {k: e.to_dict() for k, e in an.flat_stack_components.items()}
         out["_meta"] = {
             "units": UNITS_NOTE,
             "frames": {"dark" if args.dark else "input": an.dark.n_frames, **({"flat": main.n_frames} if args.dark else {})},
@@ -110,5 +112,9 @@ def run(args) -> int:
         if e.note:
             line += f"  ({e.note})"
         print(line)
+    if args.dark:
+        fg = an.flat_stack_components["frame_global"]
+        print(f"{'':14s} {'flat stack frame-global':31s} {_fmt(fg.value):>12s} {_fmt(fg.se):>12s}  {fg.unit:6s}"
+              "  (light-source flicker + dark frame-global)")
     print(f"Units: {UNITS_NOTE}. Pt includes the 1/12 DN^2 quantization noise.")
     return 0
