@@ -299,8 +299,8 @@ def test_partial_run_is_reported_as_incomplete(runs, capsys):
     if run.scan_results is None or "gain_dn_per_e" not in run.analyses.get("ptc", {}):
         assert d["key_figures"]["gain_dn_per_e"]["source"].startswith("computed by the report")
     assert "partial run" in d["key_figures"]["full_well_e.max_variance"]["note"]
-    assert {Path(p).name for p in d["files"]} == {"ptc.csv", "components.csv", "levels.csv", "key_figures.csv", "report.h5",
-                                                  "report.pdf"}
+    assert {Path(p).name for p in d["files"]} == {"ptc.csv", "components.csv", "levels.csv", "key_figures.csv",
+                                                  "report.h5", "report.pdf"}
     ptc = _csv(runs / "partial" / "ptc.csv")
     assert len(ptc) == sum(1 for s in run.stages if s["scene"] == "flat") and all(r["status"] for r in ptc)
     if HAVE_PDFTOTEXT:

@@ -59,8 +59,8 @@ def write_h5(run, path: str | Path, groups=None, kf=None) -> Path:
                tables.LEVEL_COLUMNS)
         if run.has_h5:
             target = run.dir / "results.h5"
-            rel = os.path.relpath(target, path.parent)
-            f["stages"] = h5py.ExternalLink(rel if path.parent.resolve() == run.dir.resolve() else str(target.resolve()),
+            same_dir = path.parent.resolve() == run.dir.resolve()
+            f["stages"] = h5py.ExternalLink(os.path.relpath(target, path.parent) if same_dir else str(target.resolve()),
                                             "/stages")
     tmp.replace(path)
     return path

@@ -308,10 +308,11 @@ def compute_key_figures(run, groups: list[PtcGroup] | None = None) -> dict:
 
     if have_stored or res is not None:
         ag = stored.get("analog_gain", g0.analog_gain if g0 else 1.0)
-        kf["gain_dn_per_e"] = _entry(f"system gain K (analog gain x{ag:g})", pick("gain_dn_per_e", res and res.gain_dn_per_e), src)
+        kf["gain_dn_per_e"] = _entry(f"system gain K (analog gain x{ag:g})",
+                                     pick("gain_dn_per_e", res and res.gain_dn_per_e), src)
         kf["gain_e_per_dn"] = _entry("inverse gain 1/K", pick("gain_e_per_dn", res and res.gain_e_per_dn), src)
-        kf["conversion_gain_uv_per_e"] = _entry("conversion gain",
-                                                pick("conversion_gain_uv_per_e", res and res.conversion_gain_uv_per_e), src)
+        kf["conversion_gain_uv_per_e"] = _entry(
+            "conversion gain", pick("conversion_gain_uv_per_e", res and res.conversion_gain_uv_per_e), src)
         if res is not None:
             kf["gain_origin_dn_per_e"] = _entry("K, EMVA 1288 origin fit", res.gain_origin_dn_per_e, "PTC recomputed")
             kf["gain_astier_dn_per_e"] = _entry("K, Astier 2019 fit", res.gain_astier_dn_per_e, "PTC recomputed")
@@ -339,7 +340,8 @@ def compute_key_figures(run, groups: list[PtcGroup] | None = None) -> dict:
                                                   "prnu_pct": "PRNU (total-noise model)"}.get(k, k), e,
                                                  "PTC recomputed")
         kf["qe"] = _entry("quantum efficiency", pick("qe", res and res.qe), src)
-        kf["linearity_error_pct"] = _entry("linearity error", pick("linearity_error_pct", res and res.linearity_error_pct), src)
+        kf["linearity_error_pct"] = _entry("linearity error",
+                                           pick("linearity_error_pct", res and res.linearity_error_pct), src)
     if not run.complete and kf:
         for k, v in kf.items():
             if k.startswith(("full_well", "dynamic_range", "snr_max")) and v["value"] is not None:
