@@ -234,7 +234,7 @@ def stages_pages(run) -> list:
         text_table(fig, (0.04, 0.93, 0.93), ["#", "stage", "scene", "frames/dark", "mean (DN)", "dark (DN)",
                                              "var (DN^2)", "settings that vary"],
                    rows[k:k + per] or [["", "(no stages)"]],
-                   [0.04, 0.13, 0.06, 0.09, 0.1, 0.1, 0.1, 0.38], fontsize=7,
+                   [0.04, 0.13, 0.06, 0.1, 0.1, 0.1, 0.1, 0.37], fontsize=7,
                    max_chars=[5, 18, 6, 10, 11, 11, 11, 60])
         figs.append(fig)
     return figs

@@ -257,8 +257,8 @@ def grid_image(fig, ax, values: np.ndarray, xvals, yvals, xlabel: str, ylabel: s
     ax.set_yticks(range(len(yvals)), [f"{v:.3g}" for v in yvals])
     for (i, j), v in np.ndenumerate(values):
         if np.isfinite(v):
-            ax.text(j, i, f"{v:.3g}", ha="center", va="center", fontsize=6 if values.shape[1] > 4 else 7,
-                    color="w")
+            txt = f"{v:.0f}" if 1000 <= abs(v) < 1e6 else f"{v:.3g}"
+            ax.text(j, i, txt, ha="center", va="center", fontsize=6 if values.shape[1] > 4 else 7, color="w")
     fig.colorbar(im, ax=ax, fraction=0.046, pad=0.04, label=unit)
     ax.set_xlabel(xlabel)
     ax.set_ylabel(ylabel)

@@ -221,7 +221,7 @@ def sweep2d_pages(run) -> list:
         fig = new_page(f"2-D sweep '{name}': {ky.removeprefix('reg:')} x {kx.removeprefix('reg:')}",
                        f"{len(sts)} stages; values of view 'full'")
         for i, (t, u, a) in enumerate(panels):
-            ax = fig.add_axes([0.1 + 0.47 * (i % 2), 0.53 - 0.45 * (i // 2), 0.32, 0.36])
+            ax = fig.add_axes([0.1 + 0.47 * (i % 2), 0.56 - 0.47 * (i // 2), 0.32, 0.33])
             plots.grid_image(fig, ax, a, xv, yv, kx.removeprefix("reg:"), ky.removeprefix("reg:"), t, u)
         figs.append(fig)
     return figs
