@@ -321,6 +321,10 @@ def test_bad_directories_raise_one_sentence(tmp_path, runs, capsys):
     (bad / "stages" / "0003.json").write_text('{"index": 3, "na')
     with pytest.raises(InputError, match=r"0003\.json: unreadable"):
         read_run(bad)
+    (bad / "stages" / "0003.json").write_text((runs / "ptc" / "stages" / "0003.json").read_text())
+    (bad / "results.h5").write_bytes(b"not hdf5")
+    with pytest.raises(InputError, match=r"results\.h5: unreadable HDF5"):
+        write_reports(bad)
     (bad / "run.json").write_text("{not json")
     assert main(["report", str(bad)]) == 2
     err = capsys.readouterr().err

@@ -13,7 +13,7 @@ import json
 import sys
 
 NAME = "report"
-HELP = "write CSV tables and a PDF report from a run directory"
+HELP = "write CSV/HDF5 tables and a PDF report from a run directory alone"
 
 
 def add_arguments(parser) -> None:
