@@ -239,7 +239,10 @@ def gain_split(run) -> dict:
         d = sts[0]["views"]["full"]["dark_level"]
         ks.append(k.value)
         vs.append(d["var_dn2"])
-        ses.append(math.sqrt(2.0 / (d["n_pixels"] * max(d["n_frames"] - 1, 1))) * abs(d["var_dn2"]))
+        se = math.sqrt(2.0 / (d["n_pixels"] * max(d["n_frames"] - 1, 1))) * abs(d["var_dn2"])
+        comp = sts[0]["views"]["full"].get("components", {})  # Rt, Ct: sampled by rows/cols only
+        extra = [comp.get(c, {}).get("se") for c in ("Rt", "Ct")]
+        ses.append(math.hypot(se, *[x for x in extra if x is not None and math.isfinite(x)]))
         gains.append(g)
     r = split_noise(ks, vs, ses)
     return {"analog_gains": gains, "gain_dn_per_e": ks, "pixel_noise_e": _e(r.pixel_noise_e),
