@@ -279,6 +279,11 @@ def test_emva_attribution(runs, tmp_path):
     (d / "run.json").write_text(json.dumps(meta))
     run = read_run(d)
     assert run.attribution == "EMVA 1288 reference data set, (C) 2011 Basler AG, CC BY-SA 3.0"
+    # as the replay bench records it in run.json
+    meta["scan_source"] = "x.xml"
+    meta["bench"] = {"replay": True, "attribution": "EMVA 1288 reference data set, (C) 2011 Basler AG, CC BY-SA 3.0"}
+    (d / "run.json").write_text(json.dumps(meta))
+    assert read_run(d).attribution == run.attribution
     from matplotlib.backends.backend_pdf import PdfPages
 
     with PdfPages(d / "r.pdf") as pdf:  # the title page is enough (the footer of every page repeats it)

@@ -91,8 +91,9 @@ def _load_json(path: Path):
 
 
 def _attribution(d: Path, meta: dict) -> str:
-    if meta.get("attribution"):
-        return str(meta["attribution"])
+    for d_ in (meta, meta.get("bench") if isinstance(meta.get("bench"), dict) else {}):
+        if d_.get("attribution"):  # the replay bench records its data's attribution
+            return str(d_["attribution"])
     texts = [json.dumps(meta)]
     for key in ("scan_file", "system_file"):
         p = d / str(meta.get(key) or "")
