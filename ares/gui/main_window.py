@@ -3,6 +3,7 @@ progress line and the result tabs on the right."""
 
 from __future__ import annotations
 
+import logging
 from pathlib import Path
 from typing import Callable
 
@@ -31,6 +32,7 @@ from .worker import ScanThread, one_sentence
 RESULT_TABS = ("Results", "Pixel Distributions", "Profiles", "Signal Map", "Noise Map", "PTC",
                "Sweep Map", "Defect Counts", "Information")
 SCAN_FILTER = "Scan files (*.xml);;All files (*)"
+log = logging.getLogger(__name__)
 
 
 class MainWindow(QMainWindow):
@@ -210,7 +212,12 @@ class MainWindow(QMainWindow):
             self.statusBar().showMessage("Aborting…")
 
     def _on_event(self, ev) -> None:
-        self.session.handle(ev)
+        try:
+            self.session.handle(ev)
+        except Exception as exc:  # noqa: BLE001 -- a drawing bug must not take the run down with it
+            log.exception("could not draw %s", type(ev).__name__)
+            self.statusBar().showMessage(f"Could not draw a {type(ev).__name__} event: {one_sentence(exc)}")
+            return
         if isinstance(ev, Failed):
             self.show_error(ev.message)
         elif isinstance(ev, Stopped):
