@@ -87,6 +87,13 @@ def runs(tmp_path_factory):
     return base
 
 
+@pytest.fixture(scope="module")
+def ptc_pdf(runs, tmp_path_factory):
+    """The PTC run's PDF, rendered once: (path, page titles)."""
+    path = tmp_path_factory.mktemp("pdf") / "r.pdf"
+    return path, report_pdf.write_pdf(read_run(runs / "ptc"), path)
+
+
 def _csv(path: Path) -> list[dict]:
     with open(path, newline="") as f:
         return list(csv.DictReader(f))
@@ -208,13 +215,13 @@ def test_key_figures_api(runs):
 # ------------------------------------------------------------------ PDF
 
 @pytest.mark.skipif(not HAVE_PDFTOTEXT, reason="poppler-utils (pdftotext) not installed")
-def test_pdf_pages_and_key_figures_as_text(runs, tmp_path):
+def test_pdf_pages_and_key_figures_as_text(runs, ptc_pdf):
     run = read_run(runs / "ptc")
-    titles = report_pdf.write_pdf(run, tmp_path / "r.pdf")
+    path, titles = ptc_pdf
     assert titles[:3] == ["title", "ptc x1", "snr x1"] and "components" in titles and titles[-1] == "stages"
     assert any(t.startswith("maps") for t in titles)
-    assert _pages(tmp_path / "r.pdf") == len(titles)
-    text = _pdf_text(tmp_path / "r.pdf")
+    assert _pages(path) == len(titles)
+    text = _pdf_text(path)
     kf = key_figures(runs / "ptc")
     for key in ("gain_dn_per_e", "read_noise_e", "conversion_gain_uv_per_e", "full_well_e.max_variance"):
         assert tables.fmt_value(kf[key]["value"], kf[key]["se"], kf[key]["unit"]) in text, key
@@ -255,7 +262,7 @@ def test_report_computes_dark_current_without_the_analysis(runs, tmp_path):
 
 
 @pytest.mark.skipif(not HAVE_PDFTOTEXT, reason="poppler-utils (pdftotext) not installed")
-def test_lag_and_defect_pages(runs, tmp_path):
+def test_lag_and_defect_pages(runs, tmp_path, ptc_pdf):
     titles = report_pdf.write_pdf(read_run(runs / "lag"), tmp_path / "l.pdf")
     assert "frame means" in titles
     sr = json.loads((runs / "lag" / "scan_results.json").read_text())["analyses"]["lag"]
@@ -265,10 +272,10 @@ def test_lag_and_defect_pages(runs, tmp_path):
         assert tables.fmt_value(e["value"], e["se"], "%") in text
         assert key_figures(runs / "lag")[f"lag.cycles.{bright}.lag_pct"]["label"] == f"image lag ({bright})"
     sr = json.loads((runs / "ptc" / "scan_results.json").read_text())["analyses"]
-    titles = report_pdf.write_pdf(read_run(runs / "ptc"), tmp_path / "p.pdf")
+    path, titles = ptc_pdf
     assert "defects" in titles
     assert key_figures(runs / "ptc")["defects.total"]["value"] == sr["defects"]["counts"]["total"]
-    assert "defect counts" in _pdf_text(tmp_path / "p.pdf")
+    assert "defect counts" in _pdf_text(path)
 
 
 def test_emva_attribution(runs, tmp_path):
