@@ -60,7 +60,9 @@ class SweepModel(Observable):
         if point.coords:
             self.points.append(point)
             if self.quantity is None or self.quantity not in point.values:
-                self.quantity = next(iter(point.values), None)
+                # noise is what ARES tunes biases for: show it first when the engine gives it
+                noise = [q for q in point.values if q.startswith("temporal noise")]
+                self.quantity = noise[0] if noise else next(iter(point.values), None)
             self._changed()
 
     def set_quantity(self, quantity: str) -> None:
