@@ -122,7 +122,8 @@ def _pages(path: Path) -> int:
 
 def test_csv_tables_equal_run_directory(runs, tmp_path):
     files = write_reports(runs / "ptc", ("csv",), csv_dir=tmp_path)
-    assert [p.name for p in files] == ["ptc.csv", "components.csv", "levels.csv", "key_figures.csv"]
+    assert [p.name for p in files] == ["summary.csv", "ptc.csv", "components.csv", "levels.csv", "key_figures.csv"]
+    assert (tmp_path / "summary.csv").read_bytes() == (runs / "ptc" / "summary.csv").read_bytes()
     stages = {json.loads(p.read_text())["name"]: json.loads(p.read_text())
               for p in (runs / "ptc" / "stages").glob("*.json")}
     sr = json.loads((runs / "ptc" / "scan_results.json").read_text())["analyses"]
@@ -198,6 +199,16 @@ def test_hdf5_tables_equal_csv_and_link_the_stage_arrays(runs, tmp_path):
                     assert [x.decode() for x in ds[()]] == [r[c] for r in rows], (table, c)
         assert json.loads(f.attrs["run"])["scan_sha256"] == read_run(runs / "ptc").meta["scan_sha256"]
         assert f["stages/0001/mean"].shape == (24, 32)  # external link into results.h5
+
+
+def test_missing_summary_csv_is_rebuilt_in_the_runners_layout(runs, tmp_path):
+    d = tmp_path / "nocsv"
+    shutil.copytree(runs / "ptc", d)
+    (d / "summary.csv").unlink()
+    files = write_reports(d, ("csv",))
+    assert files[0] == d / "summary.csv"
+    assert (d / "summary.csv").read_bytes() == (runs / "ptc" / "summary.csv").read_bytes()
+    assert [p.name for p in write_reports(d, ("csv",))][0] == "ptc.csv"  # the run's own is left alone
 
 
 def test_key_figures_api(runs):
@@ -354,7 +365,7 @@ def test_bad_directories_raise_one_sentence(tmp_path, runs, capsys):
 def test_cli_writes_only_what_is_asked(runs, tmp_path, capsys):
     assert main(["report", str(runs / "ptc"), "--csv", str(tmp_path / "c")]) == 0
     assert sorted(p.name for p in (tmp_path / "c").iterdir()) == ["components.csv", "key_figures.csv", "levels.csv",
-                                                                  "ptc.csv"]
+                                                                  "ptc.csv", "summary.csv"]
     assert not (runs / "ptc" / "report.pdf").exists()
     out = capsys.readouterr().out.split()
-    assert len(out) == 4
+    assert len(out) == 5

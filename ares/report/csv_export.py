@@ -1,7 +1,8 @@
 """CSV export of a run directory: ``ptc.csv``, ``components.csv``, ``levels.csv``,
 ``key_figures.csv``.
 
-The per-stage table is the runner's ``summary.csv`` (view "full"; not duplicated here);
+The per-stage table is the runner's ``summary.csv`` (view "full"): copied when the tables
+go elsewhere, rebuilt in the same layout when the run wrote none;
 ``levels.csv`` adds what it leaves out: every view, spatial variance, clip fractions, the
 matched dark's statistics and the stage duration. Floats are
 written with ``repr`` (round-trip exact); a value that is not available is empty.
@@ -43,6 +44,28 @@ def _write(path: Path, text: str) -> Path:
     return path
 
 
+def summary_rows(run) -> tuple[list[dict], list[str]]:
+    """The runner's per-stage table (its ``summary.csv`` layout), rebuilt from the stage
+    results -- for a run directory written without CSV output."""
+    rows: list[dict] = []
+    for st in run.stages:
+        full = st["views"]["full"]
+        row = {"index": st["index"], "name": st["name"], "scene": st["scene"], "frames": st["frames"],
+               "dark_frames": st.get("dark_frames", 0), **st["settings"],
+               "mean_dn": full["level"]["mean_dn"], "var_dn2": full["level"]["var_dn2"]}
+        if "dark_level" in full:
+            row["dark_mean_dn"] = full["dark_level"]["mean_dn"]
+            row["dark_var_dn2"] = full["dark_level"]["var_dn2"]
+        for k, e in (full.get("components") or {}).items():
+            row[k] = e.get("value")
+            row[f"{k}_se"] = e.get("se")
+        rows.append(row)
+    cols: list[str] = []
+    for r in rows:
+        cols += [k for k in r if k not in cols]
+    return rows, cols
+
+
 def key_figure_rows(kf: dict) -> list[dict]:
     return [dict(name=k, **v) for k, v in kf.items()]
 
@@ -54,7 +77,15 @@ def write_csv(run, out_dir: str | Path, groups=None, kf=None) -> list[Path]:
     groups = tables.ptc_groups(run) if groups is None else groups
     kf = tables.compute_key_figures(run, groups) if kf is None else kf
     comp = [r for st in run.stages for r in tables.component_rows(st)]
-    return [
+    extra = []
+    summary = run.dir / "summary.csv"
+    if out.resolve() != run.dir.resolve() or not summary.exists():
+        # the CSV set is complete where it is written: the runner's per-stage table too
+        if summary.exists():
+            extra.append(_write(out / "summary.csv", summary.read_text()))
+        elif run.stages:
+            extra.append(_write(out / "summary.csv", to_csv(*summary_rows(run))))
+    return extra + [
         _write(out / "ptc.csv", to_csv(tables.ptc_rows(groups), tables.PTC_COLUMNS)),
         _write(out / "components.csv", to_csv(comp, tables.COMPONENT_COLUMNS)),
         _write(out / "levels.csv", to_csv([r for st in run.stages for r in tables.level_rows(st)],
