@@ -347,10 +347,10 @@ def compute_key_figures(run, groups: list[PtcGroup] | None = None) -> dict:
             if k.startswith(("full_well", "dynamic_range", "snr_max")) and v["value"] is not None:
                 v["note"] = "partial run, saturation may be missing; " + v["note"]
     for name, r in (stored.get("by_analog_gain") or {}).items():
-        for key in ("gain_dn_per_e", "read_noise_e", "full_well_e"):
+        for key, lab in (("gain_dn_per_e", "system gain K"), ("read_noise_e", "read noise"),
+                         ("full_well_e", "full well, max variance")):
             if key in r:
-                e = est(r[key])
-                kf[f"{key}@{name}"] = _entry(f"{key} at analog gain {name}", e, "scan_results.json: ptc")
+                kf[f"{key}@{name}"] = _entry(f"{lab} at analog gain {name}", est(r[key]), "scan_results.json: ptc")
     if not any(e.get("value") is not None for key, e in _flat_estimates(run.analyses.get("dark_current") or {})
                if "rate" in key):
         gk = kf.get("gain_dn_per_e")
