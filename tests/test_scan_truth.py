@@ -28,7 +28,7 @@ from ares.hardware.factory import build_bench, sim_params
 from ares.protocol import load_scan
 from ares.scan import Runner
 from ares.scan.apply import apply_settings
-from ares.sim import make_sim_bench
+from ares.sim import SensorParams, make_sim_bench
 
 ROOT = Path(__file__).resolve().parents[1]
 SCANS = ROOT / "scans"
@@ -61,10 +61,32 @@ def _truth(scan, bench, settings: dict) -> dict:
     return bench.info["sensor"].truth(photon_flux=settings.get("light", 0.0), **s)
 
 
-def _emva_dark_var(t: dict, shape) -> float:
-    """Expected stack temporal variance of a dark level (frame means removed), DN^2."""
+def _defect_var_e2(t: dict, frames: int, shape) -> float:
+    """Mean extra pixel temporal variance (e-^2 over all pixels) of the defect pixels the
+    clean truth leaves out: noisy pixels ((f^2 - 1) read^2), RTS telegraph noise (A^2/4,
+    as a stack of ``frames`` correlated frames sees it: rho = 1 - 2 p_switch per frame)
+    and the hot/warm pixels' dark shot noise."""
+    d = t["defects"]
+    n = shape[0] * shape[1]
+    f = d["properties"]["noisy_factor"]
+    noisy = len(d["noisy"][0]) * (f * f - 1) * t["read_noise_e"] ** 2
+    amp = np.asarray(d["properties"]["rts_amplitude_e"], float)
+    rho = 1 - 2 * SensorParams().rts_switch_prob  # sim_sensor.xml keeps the default
+    F = frames
+    shrink = 1 - 2 / (F * (F - 1)) * sum((F - k) * rho**k for k in range(1, F))
+    rts = float(np.sum(amp**2 / 4)) * shrink
+    hot = float(t["maps"]["dark_e_per_s"].mean()) * t["scene"]["exposure_s"] - t["dark_charge_e"]
+    return (noisy + rts) / n + max(hot, 0.0)
+
+
+def _emva_dark_var(t: dict, shape, frames: int | None = None) -> float:
+    """Expected stack temporal variance of a dark level (frame means removed), DN^2;
+    with ``frames``, the defect pixels' temporal noise included."""
     R, C = shape
-    return t["realized"]["Pt"] * (1 - 1 / (R * C)) + t["Ct"] * (1 - 1 / C) + t["Rt"] * (1 - 1 / R)
+    v = t["realized"]["Pt"] * (1 - 1 / (R * C)) + t["Ct"] * (1 - 1 / C) + t["Rt"] * (1 - 1 / R)
+    if frames is not None:
+        v += t["G"] ** 2 * _defect_var_e2(t, frames, shape)
+    return v
 
 
 def check(name, truth, est, *, rel=None, abs_=None, n_se=3.0, unit=""):
@@ -98,10 +120,11 @@ def test_photon_transfer_gain_read_noise_full_well(pt):
     t = _truth(scan, bench, mid["settings"])
     shape = bench.info["sensor"].shape
     check("photon_transfer K [DN/e-]", t["G"], p["gain_dn_per_e"], rel=0.003)
-    rn_dn = math.sqrt(_emva_dark_var(t, shape) + 1 / 12)
-    check("photon_transfer read noise [DN]", rn_dn, p["read_noise_dn"], rel=0.01, n_se=4)
-    check("photon_transfer read noise [e-]", math.sqrt(_emva_dark_var(t, shape)) / t["G"], p["read_noise_e"],
-          rel=0.01, n_se=4)
+    F = mid["views"]["full"]["dark_level"]["n_frames"]
+    rn_dn = math.sqrt(_emva_dark_var(t, shape, F) + 1 / 12)
+    check("photon_transfer read noise [DN]", rn_dn, p["read_noise_dn"], rel=0.01)
+    check("photon_transfer read noise [e-]", math.sqrt(_emva_dark_var(t, shape, F)) / t["G"], p["read_noise_e"],
+          rel=0.01)
     check("photon_transfer full well [e-]", t["full_well_e"], p["full_well_charge_e"], rel=0.01)
     assert p["full_well_e"]["value"] < t["full_well_e"]  # EMVA 3.0 saturation capacity: below the charge
 
@@ -170,7 +193,8 @@ def test_gain_split(tmp_path_factory):
         check(f"gain {g} K [DN/e-]", t["G"], r["gain_dn_per_e"], rel=0.003)
     gs = res["gain_split"]
     t = _truth(scan, bench, stages[0]["settings"])
-    pix = math.sqrt(t["read_noise_e"] ** 2 + t["dark_charge_e"])
+    F = stages[0]["views"]["full"]["dark_level"]["n_frames"]
+    pix = math.sqrt(t["read_noise_e"] ** 2 + t["dark_charge_e"] + _defect_var_e2(t, F, (R, C)))
     chain = math.sqrt(t["Pt"] - t["G"] ** 2 * t["read_noise_e"] ** 2 - t["G"] ** 2 * t["dark_charge_e"]
                       + t["Ct"] * (1 - 1 / C) + t["Rt"] * (1 - 1 / R))
     check("pixel noise [e-]", pix, gs["pixel_noise_e"], rel=0.05)
@@ -205,12 +229,12 @@ def test_bias_sweep_2d(tmp_path_factory):
     for st in stages:
         t = _truth(scan, bench, st["settings"])
         dl = st["views"]["full"]["dark_level"]
-        want = _emva_dark_var(t, (R, C)) + 1 / 12
+        want = _emva_dark_var(t, (R, C), dl["n_frames"]) + 1 / 12
         comp = st["views"]["full"]["components"]  # dark ANOVA: Rt, Ct sampled by rows/cols only
         se = math.hypot(math.sqrt(2 / (dl["n_pixels"] * (dl["n_frames"] - 1))) * dl["var_dn2"],
                         comp["Rt"]["se"], comp["Ct"]["se"])
         got = {"value": dl["var_dn2"], "se": se}
-        check(f"bias {st['name']} dark var [DN^2]", want, got, rel=0.02, n_se=5)
+        check(f"bias {st['name']} dark var [DN^2]", want, got, rel=0.05, n_se=4)
 
 
 def teardown_module(module):
