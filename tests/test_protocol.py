@@ -56,7 +56,8 @@ EXPECTED = {
     "system_sim_contradicts_sensor.xml": (36, "simulator parameter 'adc_bits' = 10 contradicts the sensor's 12"),
     "system_sim_param_out_of_range.xml": (37, "<simulator>: "),  # wording: ares.sim.SensorParams
     "system_bad_access.xml": (13, "must be one of ro, wo, rw, got 'readonly'"),
-    "system_replay_no_descriptor.xml": (13, "<replay> needs attribute 'descriptor'"),
+    "system_replay_no_descriptor.xml": (13, "<replay> needs descriptor=... (an EMVA 1288 descriptor file) or <recording>"),
+    "system_replay_descriptor_and_recordings.xml": (13, "takes either descriptor=... or <recording> elements"),
     "system_replay_no_exposure_control.xml": (12, "a <replay> system needs <controls exposure=...>"),
     "system_replay_with_simulator.xml": (13, "a <replay> system replays recorded data and cannot also declare <simulator>"),
     "system_bad_address.xml": (23, "<field address=...>"),

@@ -251,3 +251,74 @@ def test_synthetic_replay_through_the_runner(tmp_path):
     assert "attribution" in r and "recorded data" in r["attribution"]  # not the Basler set
     assert math.isfinite(out.scan_results["ptc"]["gain_dn_per_e"]["value"])
     assert (root / "EMVA1288_Data.txt").is_file()
+
+
+# ------------------------------------------------------------------ image-folder replay (<recording>)
+
+def _folder_system(tmp_path, root: Path, rows: int, cols: int, exposures, name="folders.xml") -> Path:
+    recs = []
+    for i, t in enumerate(exposures):
+        recs.append(f'    <recording exposure="{t:.6g}" light="2e6" images="{root.name}/b{i}"/>')
+        recs.append(f'    <recording exposure="{t:.6g}" light="0" images="{root.name}/d{i}/*.tif"/>')
+    p = tmp_path / name
+    p.write_text(f"""<?xml version="1.0" encoding="UTF-8"?>
+<system name="folder_replay" version="1">
+  <sensor name="recorded">
+    <array rows="{rows}" cols="{cols}"/>
+    <cfa pattern="mono"/>
+    <adc bits="12"/>
+  </sensor>
+  <registers address_bits="8" value_bits="32">
+    <field name="exposure" address="0x00" msb="31" scale="1e-9" unit="s" min="1e-9" max="4" default="1000"/>
+  </registers>
+  <controls exposure="exposure"/>
+  <replay>
+{chr(10).join(recs)}
+  </replay>
+</system>
+""")
+    return p
+
+
+def _folder_set(root: Path, exposures, rows: int, cols: int, frames: int = 4, K: float = 0.5) -> None:
+    """Bright frames as PNG in folders b<i>/, dark frames as TIFF in d<i>/."""
+    from PIL import Image
+
+    rng = np.random.default_rng(3)
+    for i, t in enumerate(exposures):
+        for kind in ("b", "d"):
+            (root / f"{kind}{i}").mkdir(parents=True, exist_ok=True)
+            for j in range(frames):
+                e = rng.poisson(0.6 * 2e6 * t, (rows, cols)) if kind == "b" else np.zeros((rows, cols))
+                img = np.clip(np.round(100 + K * e + rng.normal(0, 2, (rows, cols))), 0, 4095).astype(np.uint16)
+                Image.fromarray(img).save(root / f"{kind}{i}" / f"f{j:02d}.{'png' if kind == 'b' else 'tif'}")
+
+
+def test_image_folder_replay_through_the_runner(tmp_path):
+    exposures = [1e-4 * (i + 1) for i in range(6)]
+    _folder_set(tmp_path / "rec", exposures, 24, 32)
+    sy = _folder_system(tmp_path, tmp_path / "rec", 24, 32, exposures)
+    system = load_system(sy)
+    assert len(system.replay.recordings) == 12
+    from ares.protocol import save_system
+
+    save_system(system, tmp_path / "copy.xml")
+    assert load_system(tmp_path / "copy.xml") == system
+    values = " ".join(f"{t:.6g}" for t in exposures)
+    sc = _scan(tmp_path, sy, f'<sweep name="ptc" scene="flat" dark="matched"><set quantity="light" value="2e6"/>'
+                             f'<axis quantity="exposure"><values>{values}</values></axis></sweep>', frames=4)
+    out = Runner(load_scan(sc)).run()
+    assert out.status == "done" and all(s["frames"] == 4 and s["dark_frames"] == 4 for s in out.stages)
+    assert out.scan_results["emva1288"]["K"]["value"] == pytest.approx(0.5, rel=0.15)
+    with pytest.raises(InputError, match=r"asks for 5 frames .* only 4 were recorded \(.*folders.xml:\d+\)"):
+        Runner(load_scan(sc), frames=5).run()
+
+
+def test_image_folder_missing_is_one_sentence(tmp_path):
+    sy = _folder_system(tmp_path, tmp_path / "nowhere", 24, 32, [1e-4])
+    system = load_system(sy)
+    with pytest.raises(InputError) as info:
+        build_bench(system)
+    msg = str(info.value)
+    assert msg.startswith(f"{sy}:13: <recording images='nowhere/b0'>: "), msg
+    assert str(tmp_path / "nowhere" / "b0") in msg and "not found" in msg

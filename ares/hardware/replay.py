@@ -16,6 +16,10 @@ instead of the simulator or real devices (``ares.hardware.factory.build_bench``)
   the light when it changes). Where a photon-transfer pair and a longer stack were
   recorded at the same setting, the shortest recording with enough images is used.
 
+Instead of a descriptor, ``<replay>`` may list ``<recording exposure="s" light="photons/pixel/s"
+images="folder or glob"/>`` elements (any PNG/TIFF files, sorted by name; light 0 = dark):
+:func:`descriptor_from_recordings` turns them into the same in-memory descriptor.
+
 Asking for a setting that was not recorded, or for more frames than were recorded, is
 an ``InputError`` naming the value, the nearest recorded ones and the descriptor file.
 Each grab restarts at the recording's first image: grabbing a setting twice delivers the
@@ -25,6 +29,7 @@ same images (a replay cannot make new photons).
 from __future__ import annotations
 
 import math
+from pathlib import Path
 from typing import Iterator
 
 from ares.errors import InputError
@@ -162,10 +167,48 @@ def attribution(desc: EmvaDescriptor) -> str:
     return f"recorded data: {desc.path}"
 
 
-def build_replay_bench(system) -> Bench:
-    """The bench of a ``<replay>`` system; a missing descriptor is one sentence naming the
-    system file, the <replay> line and the path looked for."""
+IMAGE_SUFFIXES = (".png", ".tif", ".tiff")
+
+
+def descriptor_from_recordings(system) -> EmvaDescriptor:
+    """The ``<recording>`` list of a replay system as an in-memory descriptor (levels keyed
+    by exposure and light; photons = light x exposure; lines are the system file's)."""
     r = system.replay
+    levels = []
+    for rec in r.recordings:
+        where = f"{system.source}:{rec.line}"
+        p = Path(rec.images).expanduser()
+        p = p if p.is_absolute() else r.path / p
+        if p.is_dir():
+            files = sorted(f for f in p.iterdir() if f.suffix.lower() in IMAGE_SUFFIXES and f.is_file())
+            looked = f"in the folder {p}"
+        elif any(c in rec.images for c in "*?["):
+            rel = Path(rec.images)
+            if rel.is_absolute():
+                files = sorted(Path(rel.anchor).glob(str(rel.relative_to(rel.anchor))))
+            else:
+                files = sorted(r.path.glob(rec.images))
+            files = [f for f in files if f.suffix.lower() in IMAGE_SUFFIXES and f.is_file()]
+            looked = f"for the pattern {p}"
+        elif p.is_file():
+            files, looked = [p], str(p)
+        else:
+            how = f" (relative to ${r.env})" if r.from_env else ""
+            raise InputError(f"{where}: <recording images='{rec.images}'>: {p} not found{how}")
+        if not files:
+            raise InputError(f"{where}: <recording images='{rec.images}'> finds no PNG/TIFF files {looked}")
+        levels.append(EmvaLevel(rec.light == 0, rec.exposure * 1e9, rec.light * rec.exposure, tuple(files), rec.line))
+    s = system.sensor
+    return EmvaDescriptor(Path(system.source), "", s.adc_bits, s.cols, s.rows, tuple(levels))
+
+
+def build_replay_bench(system) -> Bench:
+    """The bench of a ``<replay>`` system; a missing descriptor (or recording) is one
+    sentence naming the system file, the line and the path looked for."""
+    r = system.replay
+    if r.recordings:
+        desc = descriptor_from_recordings(system)
+        return _bench(system, desc, f"recorded images ({len(desc.levels)} recordings, {system.source})")
     if not r.path.is_file():
         how = (f"from ${r.env}" if r.from_env else
                f"'{r.descriptor}'" + (f"; set ${r.env} to override" if r.env else ""))
@@ -178,6 +221,11 @@ def build_replay_bench(system) -> Bench:
     if (desc.height, desc.width, desc.bits) != want:
         raise InputError(f"{r.where()}: <replay> descriptor {desc.path} records {desc.width}x{desc.height} "
                          f"{desc.bits}-bit images but <sensor> declares {want[1]}x{want[0]} {want[2]}-bit")
+    return _bench(system, desc, attribution(desc))
+
+
+def _bench(system, desc: EmvaDescriptor, attrib: str) -> Bench:
+    r = system.replay
     regs = RegisterFile(system.registers, MemoryBus(f"{system.name}:registers"))
     for f in system.registers.fields:  # power-on defaults, as a real sensor would have
         if f.access != "ro" and f.default:
@@ -185,6 +233,6 @@ def build_replay_bench(system) -> Bench:
     light = ReplayLight(f"{system.name}:light")
     frames = ReplayFrameSource(desc, regs, system.controls.exposure, light, r.light_tolerance,
                                name=f"replay '{system.name}'")
-    info = {"system": system.name, "replay_descriptor": str(desc.path), "attribution": attribution(desc),
+    info = {"system": system.name, "replay_descriptor": str(desc.path), "attribution": attrib,
             "recorded_levels": len(desc.levels)}
     return Bench(regs, frames, light, None, info)

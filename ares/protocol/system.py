@@ -106,6 +106,18 @@ REPLAY_LIGHT_PORT = "replay"  # port of the virtual light source a replay system
 
 
 @dataclass(frozen=True)
+class Recording:
+    """``<recording exposure= light= images=>``: the images recorded at one setting; ``images``
+    is a folder (its PNG/TIFF files, sorted by name) or a glob pattern, relative to the
+    system file (or to the folder ``$env`` names)."""
+
+    exposure: float  # s
+    light: float  # photons/pixel/s; 0 = dark
+    images: str
+    line: int = field(default=0, compare=False)
+
+
+@dataclass(frozen=True)
 class Replay:
     """``<replay descriptor= env= light_tolerance=>``: recorded data (an EMVA 1288
     descriptor file) instead of a sensor. ``path`` is the resolved descriptor (the
@@ -115,13 +127,14 @@ class Replay:
     when the bench is built (``ares.hardware.replay``), so a system file stays valid on a
     machine without the data; where it exists, ``load_system`` checks it against <sensor>."""
 
-    descriptor: str  # as written in the XML (saved as written, like a scan's system href)
+    descriptor: str  # as written in the XML (saved as written, like a scan's system href); "" with recordings
     path: Path = field(default=None, compare=False)  # resolved when loaded
     env: str | None = None
     light_tolerance: float = 0.01  # relative: light level vs the recorded photons/pixel/s
     line: int = field(default=0, compare=False)  # line of <replay> (for error messages)
     source: Path | None = field(default=None, compare=False)  # the system file
     from_env: bool = field(default=False, compare=False)
+    recordings: tuple[Recording, ...] = ()  # instead of a descriptor: image folders per setting
 
     def where(self) -> str:
         return f"{self.source}:{self.line}" if self.line else str(self.source)
@@ -331,11 +344,31 @@ def _replay(path, el, root, sensor: Sensor, controls: Controls, regmap: Register
     f = regmap.field(controls.exposure)
     if f.access != "rw":
         raise fail(path, line, f"<replay>: the exposure field '{f.name}' must be read-write (access='rw')")
-    desc, env = el.get("descriptor").strip(), el.get("env")
+    desc, env = (el.get("descriptor") or "").strip(), el.get("env")
+    tol = _float(el.get("light_tolerance"), 0.01)
+    recs = tuple(Recording(float(r.get("exposure")), float(r.get("light")), r.get("images").strip(), r.sourceline)
+                 for r in el.iterfind("recording"))
+    if recs:
+        if el.get("descriptor") is not None:
+            raise fail(path, line, "<replay> takes either descriptor=... or <recording> elements, not both")
+        seen: dict = {}
+        for r in recs:
+            if not r.images:
+                raise fail(path, r.line, "<recording images=...> is empty; give a folder or a glob pattern")
+            key = (r.exposure, r.light)
+            if key in seen:
+                raise fail(path, r.line, f"<recording> at exposure {r.exposure:g} s and light {r.light:g} repeats "
+                                         f"line {seen[key]}")
+            seen[key] = r.line
+        base, from_env = Path(path).parent, False
+        if env and os.environ.get(env, "").strip():
+            base, from_env = Path(os.path.expanduser(os.environ[env].strip())), True
+        base = Path(os.path.normpath(base.absolute()))
+        return Replay("", base, env, tol, line, Path(path), from_env, recs)
     if not desc:
-        raise fail(path, line, "<replay descriptor=...> is empty; give the path of the EMVA 1288 descriptor file")
+        raise fail(path, line, "<replay> needs descriptor=... (an EMVA 1288 descriptor file) or <recording> elements")
     p, from_env = resolve_replay_path(desc, env, Path(path).parent)
-    rp = Replay(desc, p, env, _float(el.get("light_tolerance"), 0.01), line, Path(path), from_env)
+    rp = Replay(desc, p, env, tol, line, Path(path), from_env)
     if p.is_file():
         from ares.hardware.emva_descriptor import read_descriptor
 
@@ -424,8 +457,11 @@ def system_to_tree(sy: System) -> etree._ElementTree:
             _set(etree.SubElement(sim, "param"), name=k, value=v, type=t)
     if sy.replay:
         r = sy.replay
-        _set(etree.SubElement(root, "replay"), descriptor=r.descriptor, env=r.env,
-             light_tolerance=float(r.light_tolerance))
+        rel = _set(etree.SubElement(root, "replay"), descriptor=r.descriptor or None, env=r.env,
+                   light_tolerance=float(r.light_tolerance))
+        for rec in r.recordings:
+            _set(etree.SubElement(rel, "recording"), exposure=float(rec.exposure), light=float(rec.light),
+                 images=rec.images)
     return etree.ElementTree(root)
 
 
