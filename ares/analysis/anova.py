@@ -60,6 +60,10 @@ class AnovaTable:
 
 def anova_table(acc: StackAccumulator) -> AnovaTable:
     """Three-way ANOVA table from an accumulator (no frame data needed)."""
+    if getattr(acc, "masked", False):  # defect-masked stack: unbalanced ANOVA (masked.py)
+        from .masked import masked_table
+
+        return masked_table(acc)
     F = acc.n_frames
     R, C = acc.shape
     mrc = acc.mean_map()
@@ -118,7 +122,12 @@ def decompose_dark(acc: StackAccumulator, table: AnovaTable | None = None) -> di
 
     Keys: o (offset, DN), Cs, Ct, Rs, Rt, Ps, Pt, frame_global (variances, DN^2).
     A component the design cannot separate is ``Estimate.na("needs >= 2 frames")``.
+    A ``MaskedStackAccumulator`` (defect mask) is decomposed by ``masked.py``.
     """
+    if getattr(acc, "masked", False):
+        from .masked import decompose_dark_masked
+
+        return decompose_dark_masked(acc, table)
     tab = table if table is not None else anova_table(acc)
     F, R, C = tab.F, tab.R, tab.C
     u = "DN^2"

@@ -1,0 +1,569 @@
+"""Noise decomposition with a fixed defect mask: unbalanced three-way random-effects ANOVA.
+
+A pixel mask ``M`` (True = exclude the pixel's whole time series, e.g. the defect map of
+``ares.analysis.defects``) leaves an *incomplete* rows x columns layout of good cells
+crossed with all F frames. The balanced ANOVA of ``anova.py`` needs the complete cube;
+here the variance components are estimated by the method of moments on the good cells
+(Henderson's method I): quadratic forms of good-cell sums whose expectations are derived
+for the unequal counts, equated to their observed values and solved. Unbiased for any
+mask (no approximation); with an empty mask it reproduces ``decompose_dark`` exactly.
+
+Model on good cells (r, c) (``anova.py``)::
+
+    y[f,r,c] = o + g[f] + Rs[r] + Cs[c] + Rt[f,r] + Ct[f,c] + Ps[r,c] + Pt[f,r,c]
+
+*Temporal part.* Project the frame axis on F-1 orthonormal contrasts u_k: each
+``z_k[r,c] = sum_f u_k[f] y[f,r,c]`` is an independent replicate of the two-way model
+``a_k + b_kr + c_kc + e_krc`` with variances (fg, Rt, Ct, Pt). With n_r, n_c the good
+counts per row/column, N the good total, R', C' the rows/columns holding good cells,
+``kr = sum n_r^2/N``, ``kc = sum n_c^2/N``, the forms summed over the replicates are
+
+    T0 = sum_good pixel_SS                     E = (F-1) N (fg + Rt + Ct + Pt)
+    TR = sum_r Q_r / n_r                       E = (F-1) (N fg + N Rt + R' Ct + R' Pt)
+    TC = sum_c Q_c / n_c                       E = (F-1) (N fg + C' Rt + N Ct + C' Pt)
+    Tm = Q_tot / N                             E = (F-1) (N fg + kr Rt + kc Ct + Pt)
+
+with ``Q_r = sum_f (Y_fr - mean_f Y_fr)^2`` of the good-pixel row sums Y_fr (likewise
+columns and frame totals). The mean squares ``MS_F = Tm/df_F``, ``MS_FR = (TR-Tm)/df_FR``,
+``MS_FC = (TC-Tm)/df_FC``, ``MS_E = (T0-TR-TC+Tm)/df_E`` with df_F = F-1,
+df_FR = (F-1)(R'-1), df_FC = (F-1)(C'-1), df_E = (F-1)(N-R'-C'+1) reduce to the balanced
+ones when nothing is masked.
+
+*Spatial part.* The time-mean map on good cells is one replicate of the two-way model
+with row variance ``Rs + Rt/F``, column ``Cs + Ct/F`` and pixel ``Ps + Pt/F`` (frame mean
+and offset are a common constant): the same forms give F*SS_R, F*SS_C, F*SS_RC
+(df R'-1, C'-1, N-R'-C'+1).
+
+The 7 expected mean squares are a linear map K of (fg, Rt, Ct, Pt, Rs, Cs, Ps);
+``theta = K^-1 MS`` is unbiased. Standard errors as in ``anova.py`` (Satterthwaite,
+MS_k ~ E[MS_k] chi2(df_k)/df_k treated as independent, E[MS]^2 ~ MS^2 df/(df+2)) with
+these reduced degrees of freedom; close to exact for a sparse scattered mask.
+
+Streaming: ``MaskedStackAccumulator(shape, mask)`` keeps per-pixel sums and sums of
+squares, per-row and per-column sums of squares over frames of the good-pixel row/column
+sums, and the frame totals -- one pass, memory independent of the frame count except the
+F frame means (as ``StackAccumulator``), mergeable. Sums are float64 on data shifted by
+the first frame (SCIENCE.md "Numerics"). The mask must be known before the frames arrive
+(from a previous defect scan, or a first pass over a recorded stack).
+
+``decompose_dark(acc)``, ``anova_table(acc)``, ``decompose_flat(flat, dark)`` and
+``StackAnalysis`` dispatch here when given a ``MaskedStackAccumulator``.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from ares.errors import InputError
+
+from .estimate import Estimate
+
+__all__ = ["MaskedStackAccumulator", "MaskedTable", "masked_table", "decompose_dark_masked",
+           "decompose_flat_masked", "masked_components", "henderson_two_way"]
+
+_THETA = ("frame_global", "Rt", "Ct", "Pt", "Rs", "Cs", "Ps")
+_MS_KEYS = ("F", "FR", "FC", "E", "R", "C", "RC")
+_CHUNK = 8  # frames folded at once (float64 working block)
+
+
+class MaskedStackAccumulator:
+    """Streaming sums of a frame stack over the good pixels of a fixed mask.
+
+    ``mask``: boolean (rows, cols), True = excluded pixel. ``add(frame)``,
+    ``add_batch(frames)``, ``merge(other)`` as ``StackAccumulator``; accessors give NaN
+    at masked pixels.
+    """
+
+    masked = True  # dispatch flag for anova.py / flat.py
+
+    def __init__(self, shape, mask, batch: int = _CHUNK):
+        try:
+            shape = tuple(int(s) for s in shape)
+        except TypeError:
+            raise InputError(f"frame shape must be (rows, cols), got {shape!r}") from None
+        if len(shape) != 2 or min(shape) < 1:
+            raise InputError(f"frame shape must be (rows, cols) with both >= 1, got {shape}")
+        m = np.asarray(mask, bool)
+        if m.shape != shape:
+            raise InputError(f"mask of shape {m.shape} does not match the frame shape {shape}")
+        self.shape = shape
+        self.mask = m.copy()
+        self.good = ~m
+        self._g = self.good.astype(np.float64)
+        self.batch = max(1, int(batch))
+        self._x0 = None  # shift (first frame, 0 at masked pixels)
+        R, C = shape
+        self._s1 = np.zeros(shape)
+        self._s2 = np.zeros(shape)
+        self._r2 = np.zeros(R)  # sum_f (row sum of shifted good pixels)^2
+        self._c2 = np.zeros(C)
+        self._t2 = 0.0
+        self._tot: list[np.ndarray] = []  # per-frame shifted good totals
+        self._nf = 0
+
+    @property
+    def n_frames(self) -> int:
+        return self._nf
+
+    @property
+    def n_good(self) -> int:
+        return int(self.good.sum())
+
+    # ------------------------------------------------------------------ feeding
+    def add(self, frame, copy: bool = True) -> None:
+        a = np.asarray(frame)
+        if a.ndim != 2:
+            raise InputError(f"frame {self._nf} must be 2-D (rows, cols), got shape {a.shape}")
+        self.add_batch(a[None])
+
+    def add_batch(self, frames) -> None:
+        if not isinstance(frames, np.ndarray):
+            for f in frames:
+                self.add(f)
+            return
+        a = np.asarray(frames)
+        if a.ndim == 2:
+            a = a[None]
+        if a.ndim != 3 or a.shape[1:] != self.shape:
+            raise InputError(f"frame {self._nf} has shape {tuple(a.shape[-2:])}, "
+                             f"but this stack's frames are {self.shape}")
+        if a.dtype.kind not in "uifb":
+            raise InputError(f"frames of type {a.dtype} are not numeric image data")
+        for i in range(0, len(a), self.batch):
+            self._fold(a[i : i + self.batch])
+
+    def _fold(self, x: np.ndarray) -> None:
+        d = x.astype(np.float64)
+        if x.dtype.kind == "f" and not np.isfinite(d[:, self.good]).all():
+            raise InputError(f"frames {self._nf}..{self._nf + len(x) - 1} contain NaN/inf")
+        if self._x0 is None:
+            self._x0 = d[0] * self._g
+        d -= self._x0
+        d *= self._g  # masked pixels contribute nothing
+        self._s1 += d.sum(axis=0)
+        self._s2 += np.einsum("fij,fij->ij", d, d)
+        fr = d.sum(axis=2)
+        fc = d.sum(axis=1)
+        self._r2 += np.einsum("fr,fr->r", fr, fr)
+        self._c2 += np.einsum("fc,fc->c", fc, fc)
+        t = fr.sum(axis=1)
+        self._t2 += float(t @ t)
+        self._tot.append(t)
+        self._nf += len(x)
+
+    def merge(self, other: "MaskedStackAccumulator") -> "MaskedStackAccumulator":
+        """Append the frames of ``other`` (same shape and mask); in place, returns self."""
+        if not isinstance(other, MaskedStackAccumulator):
+            raise InputError(f"can only merge another MaskedStackAccumulator, not {type(other).__name__}")
+        if other.shape != self.shape or not np.array_equal(other.mask, self.mask):
+            raise InputError("cannot merge masked stacks of different frame shape or mask")
+        if other._nf == 0:
+            return self
+        if self._nf == 0:
+            self._x0 = other._x0.copy()
+        n = other._nf
+        dl = other._x0 - self._x0  # other's shift relative to ours (0 at masked pixels)
+        s1o = other._s1
+        dr, dc, dt = dl.sum(axis=1), dl.sum(axis=0), float(dl.sum())
+        self._s2 += other._s2 + 2 * dl * s1o + n * dl * dl
+        self._r2 += other._r2 + 2 * dr * s1o.sum(axis=1) + n * dr * dr
+        self._c2 += other._c2 + 2 * dc * s1o.sum(axis=0) + n * dc * dc
+        self._t2 += other._t2 + 2 * dt * float(s1o.sum()) + n * dt * dt
+        self._s1 += s1o + n * dl
+        self._tot += [t + dt for t in other._tot]
+        self._nf += n
+        return self
+
+    # ------------------------------------------------------------------ accessors
+    def _need(self):
+        if self._nf == 0:
+            raise InputError("no frames were accumulated")
+
+    def mean_map(self) -> np.ndarray:
+        """Time-averaged frame (NaN at masked pixels)."""
+        self._need()
+        m = self._x0 + self._s1 / self._nf
+        return np.where(self.good, m, np.nan)
+
+    def pixel_ss(self) -> np.ndarray:
+        self._need()
+        return np.where(self.good, np.maximum(self._s2 - self._s1 * self._s1 / self._nf, 0.0), np.nan)
+
+    def temporal_var_map(self, ddof: int = 1) -> np.ndarray:
+        self._need()
+        if self._nf <= ddof:
+            return np.full(self.shape, np.nan)
+        return self.pixel_ss() / (self._nf - ddof)
+
+    def frame_means(self) -> np.ndarray:
+        """(F,) mean of the good pixels of each frame."""
+        self._need()
+        return (np.concatenate(self._tot) + float(self._x0.sum())) / max(self.n_good, 1)
+
+    def mean(self) -> float:
+        self._need()
+        return float((self._x0.sum() + self._s1.sum() / self._nf) / max(self.n_good, 1))
+
+    def temporal_forms(self) -> dict:
+        """The four temporal quadratic forms (summed over frame contrasts) and counts."""
+        self._need()
+        F = self._nf
+        g = self.good
+        nr, nc = g.sum(axis=1), g.sum(axis=0)
+        s1 = self._s1
+        t0 = float(np.where(g, self._s2 - s1 * s1 / F, 0.0).sum())
+        qr = self._r2 - s1.sum(axis=1) ** 2 / F
+        qc = self._c2 - s1.sum(axis=0) ** 2 / F
+        st = float(s1.sum())
+        qt = self._t2 - st * st / F
+        tr = float((qr[nr > 0] / nr[nr > 0]).sum())
+        tc = float((qc[nc > 0] / nc[nc > 0]).sum())
+        N = int(g.sum())
+        return {"T0": t0, "TR": tr, "TC": tc, "Tm": qt / N if N else math.nan}
+
+    def nbytes(self) -> int:
+        arrays = [self._s1, self._s2, self._r2, self._c2, self._x0, self.mask, self.good, self._g] + self._tot
+        return int(sum(a.nbytes for a in arrays if isinstance(a, np.ndarray)))
+
+    def __repr__(self) -> str:
+        return f"MaskedStackAccumulator(shape={self.shape}, n_frames={self._nf}, masked={int(self.mask.sum())})"
+
+
+# ---------------------------------------------------------------------- two-way forms
+def _layout(good: np.ndarray):
+    nr, nc = good.sum(axis=1), good.sum(axis=0)
+    N = int(nr.sum())
+    Rp, Cp = int((nr > 0).sum()), int((nc > 0).sum())
+    kr = float((nr.astype(float) ** 2).sum() / N) if N else math.nan
+    kc = float((nc.astype(float) ** 2).sum() / N) if N else math.nan
+    return nr, nc, N, Rp, Cp, kr, kc
+
+
+def _spatial_forms(img: np.ndarray, good: np.ndarray):
+    """(SS_R, SS_C, SS_RC) of one image on the good cells (Henderson I, centred)."""
+    nr, nc = good.sum(axis=1), good.sum(axis=0)
+    N = int(nr.sum())
+    z = np.where(good, img, 0.0)
+    z = np.where(good, z - z.sum() / N, 0.0)
+    yr, yc = z.sum(axis=1), z.sum(axis=0)
+    t0 = float((z * z).sum())
+    tr = float((yr[nr > 0] ** 2 / nr[nr > 0]).sum())
+    tc = float((yc[nc > 0] ** 2 / nc[nc > 0]).sum())
+    tm = 0.0  # centred
+    return tr - tm, tc - tm, t0 - tr - tc + tm
+
+
+def _k_two_way(N, Rp, Cp, kr, kc):
+    """E[SS_R, SS_C, SS_RC] = K @ (row var, col var, residual var) for one replicate."""
+    return np.array([
+        [N - kr, Rp - kc, Rp - 1],
+        [Cp - kr, N - kc, Cp - 1],
+        [kr - Cp, kc - Rp, N - Rp - Cp + 1],
+    ], np.float64)
+
+
+def henderson_two_way(img: np.ndarray, good: np.ndarray, ddof=(0, 0, 0)) -> dict:
+    """Unbiased row / column / residual variances of one image on the good cells.
+
+    Returns {"row", "col", "res": (value, variance)} (Henderson method I, variances of the
+    estimates by Satterthwaite). ``ddof`` = degrees of freedom used up by a fitted
+    surface in the row, column and residual terms (approximate, as ``flat.two_way``).
+    """
+    nr, nc, N, Rp, Cp, kr, kc = _layout(good)
+    ss = np.array(_spatial_forms(img, good))
+    K = _k_two_way(N, Rp, Cp, kr, kc)
+    # a fitted surface removes ddof of each term's df, and that share of its expectation
+    full = K[:, 2].copy()
+    df = full - np.asarray(ddof, float)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        K *= (df / full)[:, None]
+    if np.any(df <= 0):
+        return {k: (math.nan, math.inf) for k in ("row", "col", "res")}
+    ms = ss / df
+    Km = K / df[:, None]
+    Ki = np.linalg.inv(Km)
+    th = Ki @ ms
+    vms = 2 * ms * ms / (df + 2)
+    var = (Ki * Ki) @ vms
+    return {k: (float(th[i]), float(var[i])) for i, k in enumerate(("row", "col", "res"))}
+
+
+# ---------------------------------------------------------------------- three-way table
+@dataclass(frozen=True)
+class MaskedTable:
+    """Unbalanced ANOVA of a masked stack: sums of squares, df, EMS matrix, estimates."""
+
+    F: int
+    R: int  # rows / columns holding good cells
+    C: int
+    N: int  # good pixels
+    mean: float
+    ss: dict
+    df: dict
+    K: np.ndarray = field(repr=False)  # E[MS] = K @ theta (order _THETA)
+    kr: float = 0.0
+    kc: float = 0.0
+    sum_nr2: float = 0.0
+    sum_nc2: float = 0.0
+
+    @property
+    def ms(self) -> dict:
+        return {k: (self.ss[k] / self.df[k] if self.df[k] > 0 else math.nan) for k in _MS_KEYS}
+
+    @property
+    def ok(self) -> bool:
+        return all(self.df[k] > 0 for k in _MS_KEYS)
+
+    def estimates(self) -> tuple[np.ndarray, np.ndarray]:
+        """theta (order fg, Rt, Ct, Pt, Rs, Cs, Ps) and its coefficient matrix on MS."""
+        Ki = np.linalg.inv(self.K)
+        ms = np.array([self.ms[k] for k in _MS_KEYS])
+        return Ki @ ms, Ki
+
+    def combo(self, coef_theta) -> tuple[float, float]:
+        """Value and Satterthwaite variance of sum coef*theta."""
+        th, Ki = self.estimates()
+        a = np.asarray(coef_theta, float) @ Ki  # coefficients on the MS
+        ms = np.array([self.ms[k] for k in _MS_KEYS])
+        df = np.array([self.df[k] for k in _MS_KEYS], float)
+        return float(a @ ms), float(((a * a) * 2 * ms * ms / (df + 2)).sum())
+
+
+def masked_table(acc: MaskedStackAccumulator) -> MaskedTable:
+    F = acc.n_frames
+    nr, nc, N, Rp, Cp, kr, kc = _layout(acc.good)
+    if N == 0:
+        raise InputError("every pixel is masked")
+    t = acc.temporal_forms()
+    T0, TR, TC, Tm = t["T0"], t["TR"], t["TC"], t["Tm"]
+    ss_r, ss_c, ss_rc = _spatial_forms(acc.mean_map(), acc.good)
+    ss = {"F": Tm, "FR": TR - Tm, "FC": TC - Tm, "E": T0 - TR - TC + Tm,
+          "R": F * ss_r, "C": F * ss_c, "RC": F * ss_rc}
+    f1 = F - 1
+    # rows: E[SS]/(F-1) for the temporal forms, in theta order (fg, Rt, Ct, Pt)
+    kt = np.array([
+        [N, kr, kc, 1],
+        [0, N - kr, Rp - kc, Rp - 1],
+        [0, Cp - kr, N - kc, Cp - 1],
+        [0, kr - Cp, kc - Rp, N - Rp - Cp + 1],
+    ], np.float64)
+    ks = _k_two_way(N, Rp, Cp, kr, kc)  # on (Rs + Rt/F, Cs + Ct/F, Ps + Pt/F)
+    K = np.zeros((7, 7))
+    K[:4, :4] = f1 * kt
+    # F * ks @ (Rs, Cs, Ps) + ks @ (Rt, Ct, Pt)
+    K[4:, 4:] = F * ks
+    K[4:, 1:4] = ks
+    df = {"F": f1, "FR": f1 * (Rp - 1), "FC": f1 * (Cp - 1), "E": f1 * (N - Rp - Cp + 1),
+          "R": Rp - 1, "C": Cp - 1, "RC": N - Rp - Cp + 1}
+    dfv = np.array([df[k] for k in _MS_KEYS], float)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        Kms = K / np.where(dfv > 0, dfv, np.nan)[:, None]
+    return MaskedTable(F, Rp, Cp, N, acc.mean(), ss, df, Kms, kr, kc,
+                       float((nr.astype(float) ** 2).sum()), float((nc.astype(float) ** 2).sum()))
+
+
+def decompose_dark_masked(acc: MaskedStackAccumulator, table: MaskedTable | None = None) -> dict[str, Estimate]:
+    """Dark components (as ``anova.decompose_dark``) on the good pixels of a masked stack."""
+    from .anova import DARK_NAMES
+
+    tab = table if isinstance(table, MaskedTable) else masked_table(acc)
+    u = "DN^2"
+    if tab.F < 2 or tab.R < 2 or tab.C < 2 or not tab.ok:
+        msg = "needs >= 2 frames and >= 2 rows and columns of good pixels"
+        out = {k: Estimate.na(msg, u) for k in DARK_NAMES}
+        out["o"] = Estimate(tab.mean, math.nan, "DN")
+        return out
+    F, N = tab.F, tab.N
+    out: dict[str, Estimate] = {}
+    # var(good-pixel grand mean) = fg/F + sum n_r^2/N^2 (Rs + Rt/F) + sum n_c^2/N^2 (Cs + Ct/F) + (Ps + Pt/F)/N
+    a, b = tab.sum_nr2 / N**2, tab.sum_nc2 / N**2
+    cvec = [1 / F, a / F, b / F, 1 / (F * N), a, b, 1 / N]
+    v, _ = tab.combo(cvec)
+    out["o"] = Estimate(tab.mean, math.sqrt(max(v, 0.0)), "DN")
+    for i, name in enumerate(_THETA):
+        e = np.zeros(7)
+        e[i] = 1
+        val, var = tab.combo(e)
+        out[name] = Estimate(val, math.sqrt(var), u)
+    return {k: out[k] for k in DARK_NAMES}
+
+
+# ---------------------------------------------------------------------- flat
+def _theta(tab: MaskedTable, name: str, scale: float = 1.0) -> tuple[float, float]:
+    e = np.zeros(7)
+    e[_THETA.index(name)] = scale
+    return tab.combo(e)
+
+
+def decompose_flat_masked(flat_acc, dark_acc, gain=None, illumination="highpass", surface_order=2,
+                          flat_table=None, dark_table=None) -> dict[str, Estimate]:
+    """``flat.decompose_flat`` on the good pixels of two masked stacks (same mask)."""
+    from . import flat as _flat
+
+    if not (isinstance(flat_acc, MaskedStackAccumulator) and isinstance(dark_acc, MaskedStackAccumulator)):
+        raise InputError("a masked flat decomposition needs masked flat and dark stacks (MaskedStackAccumulator)")
+    if illumination not in ("highpass", "surface", "none"):
+        raise InputError(f"illumination must be 'highpass', 'surface' or 'none', not {illumination!r}")
+    if flat_acc.shape != dark_acc.shape or not np.array_equal(flat_acc.mask, dark_acc.mask):
+        raise InputError("flat and dark stacks must have the same frame shape and mask")
+    tf = flat_table if isinstance(flat_table, MaskedTable) else masked_table(flat_acc)
+    td = dark_table if isinstance(dark_table, MaskedTable) else masked_table(dark_acc)
+    out: dict[str, Estimate] = {}
+    na = "needs >= 2 frames and >= 2 rows and columns of good pixels in both stacks"
+    if not (tf.ok and td.ok and tf.F > 1 and td.F > 1):
+        res = _flat.gain_na(na)
+        res["signal"] = Estimate(tf.mean - td.mean, math.nan, "DN")
+        return res
+    S = tf.mean - td.mean
+    var_S = tf.ms["F"] / (tf.F * tf.N) + td.ms["F"] / (td.F * td.N)
+    se_S = math.sqrt(var_S)
+    out["signal"] = Estimate(S, se_S, "DN")
+    ptf, vptf = _theta(tf, "Pt")
+    ptd, vptd = _theta(td, "Pt")
+    dpt, var_dpt = ptf - ptd, vptf + vptd
+    if gain is None:
+        G = dpt / S
+        out["G"] = Estimate(G, abs(G) * math.sqrt(var_dpt / dpt**2 + var_S / S**2), "DN/e-")
+        q = S / G
+        se_q = abs(q) * math.sqrt(4 * var_S / S**2 + var_dpt / dpt**2)
+        out["q"] = Estimate(q, se_q, "e-")
+        out["delta"] = Estimate(dpt / G**2, se_q, "e-^2")
+    else:
+        G = float(gain)
+        out["G"] = Estimate(G, 0.0, "DN/e-", "given")
+        out["q"] = Estimate(S / G, se_S / abs(G), "e-")
+        out["delta"] = Estimate(dpt / G**2, math.sqrt(var_dpt) / G**2, "e-^2")
+        ratio = dpt / (G * S)
+        out["poisson_ratio"] = Estimate(ratio, abs(ratio) * math.sqrt(var_dpt / dpt**2 + var_S / S**2), "1")
+    out.update(_nonuniformity(flat_acc, dark_acc, tf, td, S, var_S, illumination, surface_order))
+    order = ["G", "Cg", "Rg", "Pg", "q", "delta", "signal"] + (["poisson_ratio"] if "poisson_ratio" in out else [])
+    return {k: out[k] for k in order}
+
+
+def _temporal_in_mean(tf: MaskedTable, td: MaskedTable):
+    """Temporal variance left in the mean difference map: pixel, row, column (value, var)."""
+    res = []
+    for name in ("Pt", "Rt", "Ct"):
+        vals = vars_ = 0.0
+        for t in (tf, td):
+            e = np.zeros(7)
+            e[_THETA.index(name)] = 1.0 / t.F
+            v, w = t.combo(e)
+            vals += v
+            vars_ += w
+        res.append((vals, vars_))
+    return res
+
+
+def _fill_lowpass(d: np.ndarray, good: np.ndarray) -> np.ndarray:
+    """Masked pixels replaced by the EMVA low-pass of the good ones (normalized convolution)."""
+    from .flat import highpass_emva
+
+    w = good.astype(np.float64)
+    dz = np.where(good, d, 0.0)
+    low_num = dz - highpass_emva(dz)
+    low_w = w - highpass_emva(w)
+    fill = low_num / np.maximum(low_w, 1e-12)
+    return np.where(good, d, fill)
+
+
+def _nonuniformity(flat_acc, dark_acc, tf, td, S, var_S, mode, order):
+    from . import flat as _flat
+
+    names = ("Cg", "Rg", "Pg")
+    R, C = flat_acc.shape
+    good = flat_acc.good
+    d = flat_acc.mean_map() - dark_acc.mean_map()
+    (tp, vtp), (tr, vtr), (tc, vtc) = _temporal_in_mean(tf, td)
+    norm = S * S
+    if mode in ("none", "surface"):
+        ddof = (0, 0, 0)
+        if mode == "surface":
+            if min(R, C) <= order + 2:
+                return {k: Estimate.na(f"region too small for an order-{order} surface", "1") for k in names}
+            fit, nr_, nc_, nm_ = _fit_surface_good(d, good, order)
+            d = d - fit
+            norm = float(np.mean(fit[good] ** 2))
+            ddof = (nr_, nc_, nm_)
+        h = henderson_two_way(d, good, ddof)
+        (rv, vr), (cv, vc), (pv, vp) = h["row"], h["col"], h["res"]
+        pg, var_pg = pv - tp, vp + vtp
+        rg, var_rg = rv - tr, vr + vtr
+        cg, var_cg = cv - tc, vc + vtc
+    else:
+        rad = _flat._RAD
+        if min(R, C) <= 2 * rad + 2:
+            msg = f"region too small for the EMVA high-pass (needs > {2 * rad + 2} rows and columns)"
+            return {k: Estimate.na(msg, "1") for k in names}
+        df_ = _fill_lowpass(d, good)
+        hp = _flat.highpass_emva(df_)[rad:-rad, rad:-rad]
+        low = df_[rad:-rad, rad:-rad] - hp
+        g = good[rad:-rad, rad:-rad]
+        norm = float(np.mean(low[g] ** 2))
+        Rv, Cv = hp.shape
+        k1, k2, s1, s2 = _flat._HP
+        nrow, ncol = g.sum(axis=1), g.sum(axis=0)
+        hz = np.where(g, hp, 0.0)
+        m = hz.sum() / g.sum()
+        mr = np.where(nrow > 0, hz.sum(axis=1) / np.maximum(nrow, 1), m) - m
+        mc = np.where(ncol > 0, hz.sum(axis=0) / np.maximum(ncol, 1), m) - m
+        res = hp - m - mr[:, None] - mc[None, :]
+        v_rc = float((res[g] ** 2).mean())
+        v_r = float((mr * mr).mean())
+        v_c = float((mc * mc).mean())
+        p_tot = v_rc / (k2 - k1 / Cv - k1 / Rv)
+        dfe = g.sum() / s2
+        pg = p_tot - tp
+        var_pg = 2 * p_tot**2 / dfe + vtp
+        r_tot = v_r / k1 - p_tot / Cv
+        c_tot = v_c / k1 - p_tot / Rv
+        rg = r_tot - tr
+        var_rg = 2 * (v_r / k1) ** 2 / (Rv / s1) + vtr
+        cg = c_tot - tc
+        var_cg = 2 * (v_c / k1) ** 2 / (Cv / s1) + vtc
+    out = {}
+    for k, val, var in (("Cg", cg, var_cg), ("Rg", rg, var_rg), ("Pg", pg, var_pg)):
+        rel = val / norm
+        se = math.sqrt(var / norm**2 + (2 * rel) ** 2 * var_S / norm)
+        out[k] = Estimate(rel, se, "1")
+    return out
+
+
+def _fit_surface_good(d, good, order):
+    R, C = d.shape
+    y = np.linspace(-1, 1, R) if R > 1 else np.zeros(1)
+    x = np.linspace(-1, 1, C) if C > 1 else np.zeros(1)
+    Y, X = np.meshgrid(y, x, indexing="ij")
+    terms = [(i, j) for i in range(order + 1) for j in range(order + 1 - i)]
+    A = np.stack([(Y**i * X**j).ravel() for i, j in terms], axis=1)
+    g = good.ravel()
+    coef, *_ = np.linalg.lstsq(A[g], d.ravel()[g], rcond=None)
+    fit = (A @ coef).reshape(R, C)
+    n_rows = sum(1 for i, j in terms if i > 0 and j == 0)
+    n_cols = sum(1 for i, j in terms if j > 0 and i == 0)
+    n_mixed = sum(1 for i, j in terms if i > 0 and j > 0)
+    return fit, n_rows, n_cols, n_mixed
+
+
+# ---------------------------------------------------------------------- convenience
+def masked_components(dark, mask, flat=None, **flat_kw) -> dict[str, Estimate]:
+    """Dark (and, with ``flat``, gain) components of recorded (F, R, C) stacks with ``mask``.
+
+    ``mask``: boolean (R, C), True = excluded, or anything with ``.defective()`` (a
+    ``DefectResult``). ``flat_kw``: ``gain``, ``illumination``, ``surface_order``.
+    """
+    if hasattr(mask, "defective"):
+        mask = mask.defective()
+    dark = np.asarray(dark)
+    dacc = MaskedStackAccumulator(dark.shape[1:], mask)
+    dacc.add_batch(dark)
+    out = dict(decompose_dark_masked(dacc))
+    if flat is not None:
+        flat = np.asarray(flat)
+        facc = MaskedStackAccumulator(flat.shape[1:], mask)
+        facc.add_batch(flat)
+        out.update(decompose_flat_masked(facc, dacc, **flat_kw))
+    return out
