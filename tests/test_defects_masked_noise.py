@@ -98,7 +98,7 @@ def run():
                 cdark=cdark, cflat=cflat)
 
 
-@pytest.mark.parametrize("illumination", ["none", "highpass"])
+@pytest.mark.parametrize("illumination", ["none", "surface", "highpass"])
 def test_masked_decomposition_matches_defect_free_truth(run, report, illumination):
     dark, flat, truth = run["dark"], run["flat"], run["truth"]
     tmask, cmask = run["tmask"], run["cmask"]
