@@ -126,8 +126,8 @@ class Runner:
                 raise InputError(f"system '{self.system.name}' declares a {want[1]}x{want[0]} array but the frame "
                                  f"source '{bench.frames.name}' delivers {shape[1]}x{shape[0]}")
             outcome = self._run(bench, writer, completed)
-            if writer is not None and self.scan.output.pdf and outcome.stages:
-                self._pdf(writer)
+            if writer is not None and outcome.stages:
+                self._reports(writer)
             return outcome
         except AresError as exc:
             msg = str(exc)
@@ -137,6 +137,8 @@ class Runner:
                 exc = type(exc)(msg)
             if writer is not None:
                 writer.finish("failed", msg)
+                if completed:  # a failed run still gets its tables/report for the stages it saved
+                    self._reports(writer)
             self.state = "failed"
             self._emit(ev.Failed(msg, str(writer.dir) if writer else None, len(completed)))
             raise exc from None
@@ -152,6 +154,8 @@ class Runner:
             msg = f"internal error: {type(exc).__name__}: {exc}"
             if writer is not None:
                 writer.finish("failed", msg)
+                if completed:  # a failed run still gets its tables/report for the stages it saved
+                    self._reports(writer)
             self.state = "failed"
             self._emit(ev.Failed(msg, str(writer.dir) if writer else None, len(completed)))
             raise
@@ -228,13 +232,17 @@ class Runner:
         self._emit(ev.Done(status, run_dir, len(completed), scan_results, tuple(fails)))
         return RunOutcome(status, writer.dir if writer else None, completed, scan_results, fails, seed=self.seed)
 
-    @staticmethod
-    def _pdf(writer) -> None:
-        """``<output pdf="true">``: the report module's PDF from the finished run directory."""
+    def _reports(self, writer) -> None:
+        """The report module's tables (``<output csv/hdf5>``) and PDF (``<output pdf>``),
+        written from the run directory alone once the run has ended (done, stopped or failed)."""
+        out = self.scan.output
+        formats = [f for f, on in (("csv", out.csv), ("hdf5", out.hdf5), ("pdf", out.pdf)) if on]
+        if not formats:
+            return
         try:
             from ares.report import write_reports
 
-            write_reports(writer.dir, ["pdf"])
+            write_reports(writer.dir, formats)
         except Exception as exc:  # the run's data are complete; a report problem is only noted
             writer.meta["report_error"] = f"{type(exc).__name__}: {exc}"
             writer._write_meta()
