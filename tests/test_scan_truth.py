@@ -184,7 +184,7 @@ def test_temperature(tmp_path_factory):
 
 
 def test_gain_split(tmp_path_factory):
-    scan, bench, res, stages = _run("gain", tmp_path_factory)
+    scan, bench, res, stages = _run("gain", tmp_path_factory, frames=4)
     p = res["ptc"]["by_analog_gain"]
     R, C = bench.info["sensor"].shape
     for g, r in p.items():
