@@ -14,12 +14,16 @@ Every quantity of the three-way ANOVA (frames x rows x columns, ``anova.py``), t
 map, the per-pixel temporal variance map, the profiles and frame means follow exactly.
 
 Numerics (SCIENCE.md "Numerics"): integer frames are accumulated *exactly* -- in int64
-per pixel and in Python integers for the scalar sums of squares -- float32
-sum-of-squares on 16-bit data gives negative variances. The fast path for 8/16-bit
-frames buffers ``batch`` frames and walks the buffer in cache-sized blocks of rows;
-inside a block the sums over the batch are formed in float64 (BLAS and einsum), which is
-exact because every partial sum of 16-bit values and squares stays below 2**53; the
-float64 totals are moved to int64 long before they could reach 2**53. Float frames are
+per pixel and in Python integers for the scalar sums of squares -- a naive float32
+sum of squares of 16-bit data gives negative variances. The fast path for 8/16-bit
+frames buffers ``batch`` frames and walks the buffer in cache-sized blocks of rows. Inside
+a block every linear sum (row, column and frame sums) is a float32 BLAS call on runs
+short enough that all partial sums stay below 2**24 (exact in any order); per-pixel
+totals are kept in float32 for at most 256 frames and then moved to int64. The sums of
+squares of 16-bit data (up to 2**35 for a group of 8 frames) are rebuilt exactly from a
+float32 estimate (error < 2**15, proven in ``_fold_small_int``) and the same sum modulo
+2**16 computed in uint16 arithmetic; no data-dependent assumption is made (full-scale
+16-bit data, signed data and any frame count are exact). Float frames are
 accumulated in float64 on data shifted by the first frame (per pixel), which keeps the
 sums of squares well conditioned. NaN/inf and shape changes are refused with an
 ``InputError`` naming the frame.
@@ -33,8 +37,10 @@ from ares.errors import InputError
 
 __all__ = ["StackAccumulator"]
 
-_BLOCK_BYTES = 4 << 20  # float64 working block (batch x rows x cols); tuned on 1920x1080
-_FLOAT_FLUSH = 1 << 20  # 16-bit frames whose float64 per-pixel totals stay exact (< 2**53)
+_BLOCK_BYTES = 2 << 20  # float32 working block (batch x rows x cols); tuned on 1920x1080
+_MAX_RUN = 256  # longest run of 8/16-bit values summed in float32 (256 * 65535 < 2**24)
+_ACC_FRAMES = 256  # frames after which the float32 per-pixel totals move to int64
+_SQ_FRAMES = 8  # frames per exactly rebuilt group of 16-bit sums of squares
 
 
 def _as_frames(frames) -> np.ndarray:
@@ -120,8 +126,8 @@ class StackAccumulator:
         self._store = None  # (batch, R, C) storage of the copied frames
         self._buf_dtype = None
         self._nbuf = 0
-        self._tmp = None  # float64 working block
-        self._f1 = self._f2 = None  # exact float64 partial totals of the fast path
+        self._kp = None  # working buffers of the 8/16-bit kernel (see _plan)
+        self._f1 = self._fk = self._fl = None  # exact float32 partial totals (see _fold_small_int)
         self._nfloat = 0
         self._cache: dict = {}
 
@@ -251,59 +257,151 @@ class StackAccumulator:
             self._fr.append(fr)
             self._fc.append(fc)
 
+    def _plan(self, b: int, dtype) -> dict:
+        """Working buffers of the 8/16-bit kernel (sized for up to ``nb`` frames)."""
+        p = self._kp
+        if p is not None and p["nb"] >= b and p["dtype"] == dtype:
+            return p
+        r, c = self.shape
+        nb = max(b, self.batch, p["nb"] if p is not None else 0)
+        n = max(1, min(r, _MAX_RUN, _BLOCK_BYTES // (4 * nb * c)))
+        k = max(d for d in range(1, min(c, _MAX_RUN) + 1) if c % d == 0)
+        if c // k > 64:  # no usable divisor: row sums over explicit column segments
+            k = 0
+            segs = [(c0, min(c, c0 + _MAX_RUN)) for c0 in range(0, c, _MAX_RUN)]
+        else:
+            segs = None
+        m = c // k if k else len(segs)
+        g = -(-nb // _SQ_FRAMES)
+        p = self._kp = {
+            "nb": nb, "n": n, "k": k, "m": m, "segs": segs, "dtype": dtype,
+            "t": np.empty((nb, n, c), np.float32),  # the block as float32 (exact)
+            "xb": np.empty((nb, n, c), dtype),  # gathered block (frames given as a list)
+            "A": np.empty((g, n * c), np.float32),  # float32 sums of squares (approximate)
+            "L": np.empty((g, n * c), np.uint16),  # the same sums modulo 2**16 (exact)
+            "Lf": np.empty((g, n * c), np.float32),
+            "o1": np.empty(n * c, np.float32),
+            "ofc": np.empty((nb, c), np.float32),
+            "fc32": np.zeros((nb, c), np.float32),
+            "rowp": np.empty((nb, r, m), np.float32),
+            "ones_k": np.ones(max(k, _MAX_RUN), np.float32),
+            "ones_n": np.ones(n, np.float32),
+            "ones_b": np.ones(nb, np.float32),
+        }
+        return p
+
     def _fold_small_int(self, x):
-        # Exact: |x| < 2**16, so partial sums over <= 64 frames of values and squares,
-        # and row/column sums of one block, stay below 2**53 in float64.
+        """Exact kernel for 8/16-bit integer frames (b <= 64 frames, a block of rows at a time).
+
+        Float32 represents every integer below 2**24 exactly and sums of such integers are
+        exact in any order while every partial sum stays below 2**24. The kernel keeps it so:
+        row sums over runs of <= 256 columns, column sums over runs of <= 256 rows, sums
+        over <= 64 frames, and float32 per-pixel totals over <= 256 frames (then moved to
+        int64): 256 * 65535 < 2**24. Squares (up to 2**32) are not exact in float32; their
+        sum S over a group of <= 8 frames is rebuilt exactly from two cheap parts: L = S mod
+        2**16 (uint16 arithmetic wraps modulo 2**16) and A = the float32 sum of squares,
+        whose error is below 8 * 2**-24 * S(1 + tiny) <= 2**14 for S < 8 * 2**32 (any
+        summation order; Higham, gamma_{n-1}); fl(A - L) adds at most 2**10. So
+        K = rint((A - L) / 2**16) is exactly (S - L) / 2**16 and S = 2**16 K + L. K and L are
+        summed in float32 (exact: sum K <= sum S / 2**16 < 256 * 65535 over 256 frames).
+        For 8-bit frames the float32 squares and their sums are exact outright.
+        """
         b = len(x)
         r, c = self.shape
-        rb = max(1, min(r, _BLOCK_BYTES // (8 * b * c)))
-        if self._tmp is None or self._tmp.shape[0] < b or self._tmp.shape[1] < rb:
-            nb = max(b, self.batch)
-            self._tmp = np.empty((nb, rb, c), np.float64)
-            self._ones_c = np.ones(c)
-            self._ones_r = np.ones(rb)
-            self._ones_b = np.ones(nb)
-            self._o1 = np.empty(rb * c)
-            self._o2 = np.empty((rb, c))
-            self._ofc = np.empty((nb, c))
-        if self._f1 is None:
-            self._f1 = np.zeros(self.shape)
-            self._f2 = np.zeros(self.shape)
-        rb = self._tmp.shape[1]
-        fr = np.empty((b, r), np.float64)
-        fc = np.zeros((b, c), np.float64)
-        f1, f2 = self._f1, self._f2
-        ones_c, ones_b = self._ones_c, self._ones_b[:b]
-        o1, o2, ofc = self._o1, self._o2, self._ofc[:b]
         listed = isinstance(x, list)
-        for r0 in range(0, r, rb):
-            r1 = min(r, r0 + rb)
-            n = r1 - r0
-            t = self._tmp[:b, :n]
-            if listed:
-                for i, frame in enumerate(x):
-                    np.copyto(t[i], frame[r0:r1], casting="unsafe")
-            else:
-                np.copyto(t, x[:, r0:r1], casting="unsafe")
-            # all sums below are of integers < 2**53: exact in any summation order
-            np.matmul(t, ones_c, out=fr[:, r0:r1])  # per-(frame,row) sums
-            np.matmul(self._ones_r[:n], t, out=ofc)  # per-(frame,col) partial sums
-            fc += ofc
-            np.matmul(ones_b, t.reshape(b, n * c), out=o1[: n * c])  # sum over frames
-            f1[r0:r1] += o1[: n * c].reshape(n, c)
-            np.einsum("fij,fij->ij", t, t, out=o2[:n])  # sum of squares over frames
-            f2[r0:r1] += o2[:n]
-        self._nfloat += b
-        if self._nfloat >= _FLOAT_FLUSH:
+        dtype = x[0].dtype
+        if self._nfloat + b > _ACC_FRAMES:
             self._move_float_totals()
+        if self._f1 is None:
+            self._f1 = np.zeros(r * c, np.float32)
+            self._fk = np.zeros(r * c, np.float32)
+            self._fl = np.zeros(r * c, np.float32)
+        p = self._plan(b, dtype)
+        n, k, m, segs = p["n"], p["k"], p["m"], p["segs"]
+        tt, xb = p["t"], p["xb"]
+        ones_n, ones_b, ones_k = p["ones_n"], p["ones_b"][:b], p["ones_k"]
+        o1, ofc, fc32 = p["o1"], p["ofc"][:b], p["fc32"][:b]
+        rowp = p["rowp"][:b]
+        rowp2 = rowp.reshape(b, r * m)
+        fc = np.zeros((b, c), np.float64)
+        fc32.fill(0.0)
+        run = 0  # rows summed into fc32 since it was last moved to fc
+        wide = dtype.itemsize == 2
+        gs = _SQ_FRAMES if wide else b  # frames per exact group of squares
+        full = b - b % gs
+        spans = [(g0, g1, g1 - g0 if g1 - g0 < gs else gs) for g0, g1 in ((0, full), (full, b)) if g1 > g0]
+        f1, fk, fl = self._f1, self._fk, self._fl
+        for r0 in range(0, r, n):
+            r1 = min(r, r0 + n)
+            nn = r1 - r0
+            P = nn * c
+            if listed:
+                src = xb[:b, :nn]
+                for i, frame in enumerate(x):
+                    np.copyto(src[i], frame[r0:r1])
+            else:
+                src = x[:, r0:r1]
+            t = tt[:b, :nn]
+            np.copyto(t, src, casting="unsafe")
+            # per-(frame,row) sums, in runs of k <= 256 columns
+            if k:
+                np.matmul(t.reshape(b, nn * m, k), ones_k[:k], out=rowp2[:, r0 * m : r1 * m])
+            else:
+                for j, (c0, c1) in enumerate(segs):
+                    np.matmul(t[:, :, c0:c1], ones_k[: c1 - c0], out=rowp[:, r0:r1, j])
+            # per-(frame,column) sums over this block's <= 256 rows
+            if run + nn > _MAX_RUN:
+                fc += fc32
+                fc32.fill(0.0)
+                run = 0
+            np.matmul(ones_n[:nn], t, out=ofc)
+            fc32 += ofc
+            run += nn
+            # per-pixel sums over the b frames
+            t2 = t.reshape(b, P)
+            np.matmul(ones_b, t2, out=o1[:P])
+            f1[r0 * c : r1 * c] += o1[:P]
+            # per-pixel sums of squares, exact per group of <= 8 frames (see docstring)
+            fkb, flb = fk[r0 * c : r1 * c], fl[r0 * c : r1 * c]
+            if wide:
+                x2 = src.reshape(b, P)
+                if dtype.kind == "i":
+                    x2 = x2.view(np.uint16)
+            for g0, g1, sz in spans:
+                ng = (g1 - g0) // sz
+                A = p["A"][:ng, :P]
+                np.einsum("gsp,gsp->gp", t2[g0:g1].reshape(ng, sz, P), t2[g0:g1].reshape(ng, sz, P), out=A)
+                if not wide:
+                    for i in range(ng):
+                        flb += A[i]
+                    continue
+                L, Lf = p["L"][:ng, :P], p["Lf"][:ng, :P]
+                xg = x2[g0:g1].reshape(ng, sz, P)
+                np.einsum("gsp,gsp->gp", xg, xg, out=L)  # uint16 arithmetic: modulo 2**16
+                np.copyto(Lf, L)
+                A -= Lf
+                A *= 1.0 / 65536
+                np.rint(A, out=A)
+                for i in range(ng):
+                    fkb += A[i]
+                    flb += Lf[i]
+        fc += fc32
+        self._nfloat += b
+        fr = rowp.sum(axis=2, dtype=np.float64) if m > 1 else rowp[:, :, 0].astype(np.float64)
         return fr.astype(np.int64), fc.astype(np.int64)
 
     def _move_float_totals(self) -> None:
         if self._f1 is not None and self._nfloat:
-            self._s1 += self._f1.astype(np.int64)
-            self._s2 += self._f2.astype(np.int64)
+            r, c = self.shape
+            s1, s2 = self._s1.reshape(-1), self._s2.reshape(-1)
+            step = 1 << 16
+            for i in range(0, r * c, step):
+                j = i + step
+                s1[i:j] += self._f1[i:j].astype(np.int64)
+                s2[i:j] += (self._fk[i:j].astype(np.int64) << 16) + self._fl[i:j].astype(np.int64)
             self._f1.fill(0.0)
-            self._f2.fill(0.0)
+            self._fk.fill(0.0)
+            self._fl.fill(0.0)
         self._nfloat = 0
 
     def _fold_wide_int(self, x: np.ndarray):
@@ -561,7 +659,8 @@ class StackAccumulator:
 
     def nbytes(self) -> int:
         """Bytes held by the accumulator's arrays (state, buffers, profiles)."""
-        arrays = [self._s1, self._s2, self._store, self._tmp, self._f1, self._f2, self._x0, self._a, self._b]
+        arrays = [self._s1, self._s2, self._store, self._f1, self._fk, self._fl, self._x0, self._a, self._b]
+        arrays += [v for v in (self._kp or {}).values() if isinstance(v, np.ndarray)]
         arrays += self._tot + self._fr + self._fc
         return int(sum(a.nbytes for a in arrays if isinstance(a, np.ndarray)))
 

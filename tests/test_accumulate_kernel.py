@@ -1,0 +1,143 @@
+"""Exactness of the float32 + modular 8/16-bit kernel of StackAccumulator.
+
+The kernel forms linear sums in float32 (exact below 2**24) and rebuilds each group's
+16-bit sum of squares from a float32 estimate and the same sum modulo 2**16 (uint16
+arithmetic). These tests hit the worst cases of that argument: full-scale codes (largest
+squares and float32 rounding), 256-frame boundaries of the float32 totals, widths with
+and without a column-run divisor, signed data, mixed dtypes, merges and 10,000 frames.
+Every comparison is against exact integer arithmetic (int64 / Python int).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from ares.analysis.accumulate import StackAccumulator
+
+
+def _exact(frames):
+    """Exact reference sums (int64 is enough for these sizes; asserted)."""
+    x = np.asarray(frames).astype(np.int64)
+    s2 = np.einsum("fij,fij->ij", x, x)
+    assert int(np.abs(x).max()) ** 2 * len(x) < 2**62
+    return x.sum(0), s2, x.sum(2), x.sum(1)
+
+
+def _check(a, frames):
+    s1, s2, fr, fc = _exact(frames)
+    a._flush()
+    assert np.array_equal(a._s1, s1)
+    assert np.array_equal(a._s2, s2)
+    if a.keep_profiles:
+        assert np.array_equal(np.concatenate(a._fr), fr)
+        assert np.array_equal(np.concatenate(a._fc), fc)
+    assert np.array_equal(np.concatenate(a._tot), fr.sum(1))
+    n = len(frames)
+    if n > 1:  # exact-rational variance: same float as the exact integers give
+        num = n * s2 - s1 * s1
+        assert np.array_equal(a.temporal_var_map(), num / (n * (n - 1)))
+
+
+def _feed(shape, frames, mode="add", **kw):
+    a = StackAccumulator(shape, keep_profiles=True, **kw)
+    if mode == "add":
+        for f in frames:
+            a.add(f)
+    elif mode == "nocopy":
+        for f in frames:
+            a.add(f, copy=False)
+    else:
+        a.add_batch(np.asarray(frames))
+    return a
+
+
+# widths: divisible into column runs (240 | 480), a prime (explicit segments), tiny
+SHAPES = [(5, 480), (3, 1021), (4, 7)]
+
+
+@pytest.mark.parametrize("shape", SHAPES)
+@pytest.mark.parametrize("mode", ["add", "nocopy", "batch"])
+def test_16bit_full_scale_across_float32_flushes(shape, mode):
+    # 600 frames: crosses the 256-frame moves of the float32 totals twice
+    nf = 600
+    x = np.full((nf,) + shape, 65535, np.uint16)
+    x[::7] = 0
+    x[3::11] = 65534
+    _check(_feed(shape, x, mode), x)
+
+
+@pytest.mark.parametrize("shape", SHAPES)
+@pytest.mark.parametrize("batch", [1, 7, 8, 9, 16, 64])
+def test_16bit_random_full_range_any_batch(shape, batch):
+    rng = np.random.default_rng(batch)
+    x = rng.integers(0, 65536, (75,) + shape).astype(np.uint16)
+    _check(_feed(shape, x, batch=batch), x)
+
+
+def test_16bit_worst_float32_rounding_codes():
+    # codes whose squares round worst in float32 (odd, near 2**16 and 2**15.5)
+    codes = np.array([65535, 65533, 65531, 46341, 46339, 32769, 65279, 65281], np.uint16)
+    rng = np.random.default_rng(3)
+    x = rng.choice(codes, size=(300, 6, 250)).astype(np.uint16)
+    _check(_feed((6, 250), x), x)
+
+
+def test_12bit_max_code_300_frames():
+    x = np.full((300, 8, 512), 4095, np.uint16)
+    _check(_feed((8, 512), x), x)
+    _check(_feed((8, 512), x, mode="batch"), x)
+
+
+@pytest.mark.parametrize("dtype", [np.int16, np.uint8, np.int8])
+def test_other_small_int_types_extremes(dtype):
+    info = np.iinfo(dtype)
+    rng = np.random.default_rng(5)
+    x = rng.choice(np.array([info.min, info.max, info.min + 1, info.max - 1, 0], dtype), size=(520, 4, 300))
+    for mode in ("add", "nocopy", "batch"):
+        _check(_feed((4, 300), x, mode), x)
+
+
+def test_mixed_dtypes_exact():
+    rng = np.random.default_rng(11)
+    frames = []
+    a = StackAccumulator((5, 260), keep_profiles=True)
+    for i in range(300):
+        dt = (np.uint8, np.uint16, np.int16)[(i // 5) % 3]
+        info = np.iinfo(dt)
+        f = rng.integers(info.min, int(info.max) + 1, (5, 260)).astype(dt)
+        frames.append(f.astype(np.int64))
+        a.add(f)
+    _check(a, np.array(frames))
+
+
+def test_merge_full_scale_exact():
+    x = np.full((530, 3, 480), 65535, np.uint16)
+    x[1::3] = 12345
+    p1 = _feed((3, 480), x[:277])
+    p2 = _feed((3, 480), x[277:], mode="batch")
+    p1.merge(p2)
+    one = _feed((3, 480), x)
+    _check(p1, x)
+    one._flush()
+    assert p1._qfr == one._qfr and p1._qfc == one._qfc
+    assert p1.temporal_sums() == one.temporal_sums()
+
+
+@pytest.mark.slow
+def test_10000_frames_16bit_full_scale():
+    nf = 10_000
+    rng = np.random.default_rng(2)
+    pool = rng.integers(60000, 65536, (16, 2, 480)).astype(np.uint16)
+    pool[0] = 65535
+    a = StackAccumulator((2, 480))
+    for i in range(nf):
+        a.add(pool[i % 16])
+    x = pool[np.arange(nf) % 16]
+    s1, s2, _, _ = _exact(x)
+    a._flush()
+    assert np.array_equal(a._s1, s1)
+    assert np.array_equal(a._s2, s2)
+    num = nf * s2.astype(object) - s1.astype(object) ** 2  # Python ints: beyond int64
+    ref = np.array([float(v) for v in num.ravel()]).reshape(num.shape) / (nf * (nf - 1))
+    np.testing.assert_allclose(a.temporal_var_map(), ref, rtol=1e-15)
