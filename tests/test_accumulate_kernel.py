@@ -141,3 +141,40 @@ def test_10000_frames_16bit_full_scale():
     num = nf * s2.astype(object) - s1.astype(object) ** 2  # Python ints: beyond int64
     ref = np.array([float(v) for v in num.ravel()]).reshape(num.shape) / (nf * (nf - 1))
     np.testing.assert_allclose(a.temporal_var_map(), ref, rtol=1e-15)
+
+
+def test_centred_and_uncentred_paths_interleaved():
+    # copied uint16 frames are stored centred (x ^ 0x8000), referenced read-only frames
+    # are centred while gathered, add_batch arrays are folded uncentred: any interleaving
+    # (and int16 / uint8 in between) must give the exact sums
+    rng = np.random.default_rng(9)
+    shape = (6, 300)
+    a = StackAccumulator(shape, batch=5, keep_profiles=True)
+    frames = []
+    for step in range(60):
+        kind = step % 6
+        if kind == 0:
+            f = rng.integers(0, 65536, shape).astype(np.uint16)
+            a.add(f)
+            frames.append(f)
+        elif kind == 1:  # immutable: referenced, not copied
+            f = rng.integers(60000, 65536, shape).astype(np.uint16)
+            a.add(np.frombuffer(f.tobytes(), np.uint16).reshape(shape))
+            frames.append(f)
+        elif kind == 2:
+            blk = rng.integers(0, 65536, (3,) + shape).astype(np.uint16)
+            a.add_batch(blk)
+            frames.extend(blk)
+        elif kind == 3:
+            f = rng.integers(-32768, 32768, shape).astype(np.int16)
+            a.add(f)
+            frames.append(f)
+        elif kind == 4:
+            f = np.full(shape, 65535, np.uint16)
+            a.add(f, copy=False)
+            frames.append(f)
+        else:
+            f = rng.integers(0, 256, shape).astype(np.uint8)
+            a.add(f)
+            frames.append(f)
+    _check(a, np.array([np.asarray(f, np.int64) for f in frames]))

@@ -40,7 +40,7 @@ __all__ = ["StackAccumulator"]
 _BLOCK_BYTES = 2 << 20  # float32 working block (batch x rows x cols); tuned on 1920x1080
 _MAX_RUN = 256  # longest run of 8/16-bit values summed in float32 (256 * 65535 < 2**24)
 _ACC_FRAMES = 256  # frames after which the float32 per-pixel totals move to int64
-_SQ_FRAMES = 8  # frames per exactly rebuilt group of 16-bit sums of squares
+_SQ_FRAMES = 16  # frames per exactly rebuilt group of sums of squares of |y| <= 2**15
 
 
 def _as_frames(frames) -> np.ndarray:
@@ -129,6 +129,7 @@ class StackAccumulator:
         self._kp = None  # working buffers of the 8/16-bit kernel (see _plan)
         self._f1 = self._fk = self._fl = None  # exact float32 partial totals (see _fold_small_int)
         self._nfloat = 0
+        self._foff = 0  # offset of the data summed into the float32 totals
         self._cache: dict = {}
 
     # ------------------------------------------------------------------ feeding
@@ -176,7 +177,10 @@ class StackAccumulator:
                 self._store = np.empty((self.batch,) + self.shape, a.dtype)
                 self._buf_dtype = a.dtype
             if copy and not _immutable(a):
-                self._store[self._nbuf] = a
+                if a.dtype == np.uint16:  # stored centred: x - 2**15 as int16 bits (see _fold_small_int)
+                    np.bitwise_xor(a, 0x8000, out=self._store[self._nbuf])
+                else:
+                    self._store[self._nbuf] = a
                 self._buf[self._nbuf] = self._store[self._nbuf]
             else:
                 self._buf[self._nbuf] = a
@@ -215,7 +219,7 @@ class StackAccumulator:
             frames = self._buf[:n]
             self._buf[:n] = [None] * n
             if all(f.base is self._store for f in frames):
-                self._fold(self._store[:n])  # one conversion call per block
+                self._fold(self._store[:n], centred=True)  # one conversion call per block
             else:
                 self._fold(frames)
 
@@ -224,8 +228,11 @@ class StackAccumulator:
         self._move_float_totals()
 
     # ------------------------------------------------------------------ kernels
-    def _fold(self, x) -> None:
-        """Fold a 3-D block (or a list of same-type 2-D frames) into the sums."""
+    def _fold(self, x, centred: bool = False) -> None:
+        """Fold a 3-D block (or a list of same-type 2-D frames) into the sums.
+
+        ``centred``: a uint16 block of the batch buffer, which holds x ^ 0x8000.
+        """
         if isinstance(x, list) and (self._float or x[0].dtype.itemsize > 2):
             x = np.stack(x)
         if not isinstance(x, list) and x.dtype.kind == "f" and not self._float:
@@ -233,7 +240,7 @@ class StackAccumulator:
         if self._float:
             fr, fc = self._fold_float(x)
         elif isinstance(x, list) or x.dtype.itemsize <= 2:
-            fr, fc = self._fold_small_int(x)
+            fr, fc = self._fold_small_int(x, centred)
         else:
             fr, fc = self._fold_wide_int(x)
         self._fold_profiles(fr, fc)
@@ -272,7 +279,7 @@ class StackAccumulator:
         else:
             segs = None
         m = c // k if k else len(segs)
-        g = -(-nb // _SQ_FRAMES)
+        g = -(-nb // (_SQ_FRAMES // 2))  # groups of squares (8 frames at the least)
         p = self._kp = {
             "nb": nb, "n": n, "k": k, "m": m, "segs": segs, "dtype": dtype,
             "t": np.empty((nb, n, c), np.float32),  # the block as float32 (exact)
@@ -290,28 +297,44 @@ class StackAccumulator:
         }
         return p
 
-    def _fold_small_int(self, x):
+    def _fold_small_int(self, x, centred: bool = False):
         """Exact kernel for 8/16-bit integer frames (b <= 64 frames, a block of rows at a time).
+
+        The kernel sums y = x - off: off = 2**15 for uint16 frames that were centred on
+        their way into the batch buffer (x ^ 0x8000 read as int16 is x - 2**15: free
+        during the copy), else 0. The offsets are added back exactly in int64.
 
         Float32 represents every integer below 2**24 exactly and sums of such integers are
         exact in any order while every partial sum stays below 2**24. The kernel keeps it so:
         row sums over runs of <= 256 columns, column sums over runs of <= 256 rows, sums
         over <= 64 frames, and float32 per-pixel totals over <= 256 frames (then moved to
         int64): 256 * 65535 < 2**24. Squares (up to 2**32) are not exact in float32; their
-        sum S over a group of <= 8 frames is rebuilt exactly from two cheap parts: L = S mod
-        2**16 (uint16 arithmetic wraps modulo 2**16) and A = the float32 sum of squares,
-        whose error is below 8 * 2**-24 * S(1 + tiny) <= 2**14 for S < 8 * 2**32 (any
-        summation order; Higham, gamma_{n-1}); fl(A - L) adds at most 2**10. So
-        K = rint((A - L) / 2**16) is exactly (S - L) / 2**16 and S = 2**16 K + L. K and L are
-        summed in float32 (exact: sum K <= sum S / 2**16 < 256 * 65535 over 256 frames).
-        For 8-bit frames the float32 squares and their sums are exact outright.
+        sum S over a group of g frames is rebuilt exactly from two parts: L = S mod 2**16
+        (uint16 arithmetic wraps modulo 2**16, and y*y = (y mod 2**16)**2 modulo 2**16) and
+        A = the float32 sum of squares. With u = 2**-24, any summation order gives
+        |A - S| <= g u S (1 + O(g u)) (Higham, gamma_{g-1}, plus the rounding of each
+        square), and fl(A - L) adds at most u S. For |y| <= 2**15 (signed or centred data)
+        and g = 16: S <= 2**34, error < 17 * 2**10 < 2**15; for uncentred uint16 and g = 8:
+        S < 2**35, error < 9 * 2**11 < 2**15. So K = rint((A - L) / 2**16) is exactly
+        (S - L) / 2**16 and S = 2**16 K + L. K and L are summed in float32 (exact: sum K
+        <= sum S / 2**16 < 256 * 65535 over 256 frames). For 8-bit frames the float32
+        squares and their sums are exact outright.
         """
         b = len(x)
         r, c = self.shape
         listed = isinstance(x, list)
         dtype = x[0].dtype
-        if self._nfloat + b > _ACC_FRAMES:
+        u16 = dtype == np.uint16
+        if listed:  # gathered per block, uint16 frames centred on the way
+            stored = [f.base is self._store for f in x]
+            centred = u16
+        off = 1 << 15 if (u16 and centred) else 0  # the kernel sums y = x - off
+        wide = dtype.itemsize == 2
+        # frames per exact group of squares: |y| <= 2**15 allows 16, uncentred uint16 8
+        gs = (_SQ_FRAMES if (dtype.kind == "i" or off) else _SQ_FRAMES // 2) if wide else b
+        if self._nfloat and (self._nfloat + b > _ACC_FRAMES or self._foff != off):
             self._move_float_totals()
+        self._foff = off
         if self._f1 is None:
             self._f1 = np.zeros(r * c, np.float32)
             self._fk = np.zeros(r * c, np.float32)
@@ -326,8 +349,6 @@ class StackAccumulator:
         fc = np.zeros((b, c), np.float64)
         fc32.fill(0.0)
         run = 0  # rows summed into fc32 since it was last moved to fc
-        wide = dtype.itemsize == 2
-        gs = _SQ_FRAMES if wide else b  # frames per exact group of squares
         full = b - b % gs
         spans = [(g0, g1, g1 - g0 if g1 - g0 < gs else gs) for g0, g1 in ((0, full), (full, b)) if g1 > g0]
         f1, fk, fl = self._f1, self._fk, self._fl
@@ -338,11 +359,14 @@ class StackAccumulator:
             if listed:
                 src = xb[:b, :nn]
                 for i, frame in enumerate(x):
-                    np.copyto(src[i], frame[r0:r1])
+                    if u16 and not stored[i]:
+                        np.bitwise_xor(frame[r0:r1], 0x8000, out=src[i])
+                    else:
+                        np.copyto(src[i], frame[r0:r1])
             else:
                 src = x[:, r0:r1]
             t = tt[:b, :nn]
-            np.copyto(t, src, casting="unsafe")
+            np.copyto(t, src.view(np.int16) if off else src, casting="unsafe")
             # per-(frame,row) sums, in runs of k <= 256 columns
             if k:
                 np.matmul(t.reshape(b, nn * m, k), ones_k[:k], out=rowp2[:, r0 * m : r1 * m])
@@ -366,7 +390,7 @@ class StackAccumulator:
             if wide:
                 x2 = src.reshape(b, P)
                 if dtype.kind == "i":
-                    x2 = x2.view(np.uint16)
+                    x2 = x2.view(np.uint16)  # y*y modulo 2**16 = (y mod 2**16)**2 mod 2**16
             for g0, g1, sz in spans:
                 ng = (g1 - g0) // sz
                 A = p["A"][:ng, :P]
@@ -388,17 +412,26 @@ class StackAccumulator:
         fc += fc32
         self._nfloat += b
         fr = rowp.sum(axis=2, dtype=np.float64) if m > 1 else rowp[:, :, 0].astype(np.float64)
-        return fr.astype(np.int64), fc.astype(np.int64)
+        fr, fc = fr.astype(np.int64), fc.astype(np.int64)
+        if off:
+            fr += off * c
+            fc += off * r
+        return fr, fc
 
     def _move_float_totals(self) -> None:
         if self._f1 is not None and self._nfloat:
             r, c = self.shape
             s1, s2 = self._s1.reshape(-1), self._s2.reshape(-1)
             step = 1 << 16
+            n, off = self._nfloat, self._foff  # totals of y = x - off over n frames
             for i in range(0, r * c, step):
                 j = i + step
-                s1[i:j] += self._f1[i:j].astype(np.int64)
+                f1 = self._f1[i:j].astype(np.int64)
+                s1[i:j] += f1 + n * off
+                # sum x^2 = sum y^2 + 2 off sum y + n off^2, sum y^2 = 2**16 K + L
                 s2[i:j] += (self._fk[i:j].astype(np.int64) << 16) + self._fl[i:j].astype(np.int64)
+                if off:
+                    s2[i:j] += 2 * off * f1 + n * off * off
             self._f1.fill(0.0)
             self._fk.fill(0.0)
             self._fl.fill(0.0)
