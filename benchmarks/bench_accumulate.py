@@ -115,7 +115,8 @@ def main() -> int:
         "The ARES figures include everything the 13-component decomposition needs (exact per-pixel sums and sums "
         "of squares, per-(frame,row) and per-(frame,column) sums; the batch folds happen inside the timed adds). "
         f"Machine load average during the run: {os.getloadavg()[0]:.1f} on {os.cpu_count()} cores "
-        "(other jobs share the cores and the memory bus; absolute times scale with it, ratios much less).",
+        "(other jobs share the cores and the memory bus; the memory-bound baseline slows down more than ARES "
+        "under that contention, so the speed ratio is lowest on an idle machine).",
         "",
         "| method | ms / frame | speed vs baseline |",
         "|---|---:|---:|",

@@ -394,14 +394,20 @@ class StackAccumulator:
             for g0, g1, sz in spans:
                 ng = (g1 - g0) // sz
                 A = p["A"][:ng, :P]
-                np.einsum("gsp,gsp->gp", t2[g0:g1].reshape(ng, sz, P), t2[g0:g1].reshape(ng, sz, P), out=A)
+                if ng == 1:  # the 2-D form is a faster einsum loop
+                    np.einsum("sp,sp->p", t2[g0:g1], t2[g0:g1], out=A[0])
+                else:
+                    np.einsum("gsp,gsp->gp", t2[g0:g1].reshape(ng, sz, P), t2[g0:g1].reshape(ng, sz, P), out=A)
                 if not wide:
                     for i in range(ng):
                         flb += A[i]
                     continue
                 L, Lf = p["L"][:ng, :P], p["Lf"][:ng, :P]
-                xg = x2[g0:g1].reshape(ng, sz, P)
-                np.einsum("gsp,gsp->gp", xg, xg, out=L)  # uint16 arithmetic: modulo 2**16
+                if ng == 1:  # uint16 arithmetic: modulo 2**16
+                    np.einsum("sp,sp->p", x2[g0:g1], x2[g0:g1], out=L[0])
+                else:
+                    xg = x2[g0:g1].reshape(ng, sz, P)
+                    np.einsum("gsp,gsp->gp", xg, xg, out=L)
                 np.copyto(Lf, L)
                 A -= Lf
                 A *= 1.0 / 65536
