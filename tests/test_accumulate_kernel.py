@@ -178,3 +178,13 @@ def test_centred_and_uncentred_paths_interleaved():
             a.add(f)
             frames.append(f)
     _check(a, np.array([np.asarray(f, np.int64) for f in frames]))
+
+
+@pytest.mark.parametrize("dtype", [np.uint16, np.int16, np.uint8])
+def test_tall_frames_column_sums_over_many_row_runs(dtype):
+    # > 256 rows: the float32 column sums are moved to float64 every <= 256 rows
+    info = np.iinfo(dtype)
+    x = np.full((40, 700, 40), info.max, dtype)
+    x[::2, ::3] = info.min
+    for mode in ("add", "batch"):
+        _check(_feed((700, 40), x, mode), x)
