@@ -280,6 +280,12 @@ def test_runner_scan_from_file_to_done(window, qtbot, tmp_path):
     assert os.path.isdir(run_dir) and run_dir.startswith(str(tmp_path))
     assert "PTC: read noise" in s.info.items
     assert window.preview.rectangle_count == 1
+    # the engine's noise decomposition of the last stage, per view
+    assert {"full", "centre"} <= set(s.components.views)
+    symbols = [r.symbol for which in ("components", "dark_components") for r in s.components.rows(which)]
+    assert {"Pt", "Ps", "Cs", "Rt"} <= set(symbols)
+    shown = sum(t.rowCount() for t in window.components.tables.values())
+    assert shown == len(symbols)
 
 
 def test_runner_hardware_fault_is_one_sentence(window, qtbot, tmp_path):

@@ -271,3 +271,21 @@ def test_sweep_model_1d_curve_follows_latest_group():
         m.add(SweepPoint(2 + i, "ptc", (i,), {"light": light, "exposure": 0.01}, {"mean (DN)": 64 + light / 100}))
     x, y = m.curve()
     assert m.axes()[0][0] == "light" and x.tolist() == [1e3, 1e4, 1e5] and y.tolist() == [74.0, 164.0, 1064.0]
+
+
+def test_components_model_orders_rows_and_formats_estimates():
+    from ares.gui.models.components import ComponentsModel
+
+    m = ComponentsModel()
+    m.set_stage("stage 2", {
+        "full": {"components": {"Pt": {"value": 1.25, "se": 0.05, "unit": "DN^2"},
+                                "o": {"value": 64.0, "se": None, "unit": "DN"},
+                                "extra": {"value": None, "se": None, "unit": "", "note": "one frame"}}},
+        "centre": {"components": {"Ps": {"value": 0.5, "se": 0.1, "unit": "DN^2"}}},
+    })
+    rows = m.rows()
+    assert [r.symbol for r in rows] == ["o", "Pt", "extra"]  # model order first, then the rest
+    assert [r.text for r in rows] == ["64", "1.25 ± 0.05", "n/a (one frame)"]
+    assert rows[1].description == "pixel temporal (read noise)"
+    m.select("centre")
+    assert [r.symbol for r in m.rows()] == ["Ps"] and m.rows("dark_components") == []

@@ -19,6 +19,7 @@ from .events import Failed, Stopped
 from .info_panel import InfoPanel, versions
 from .models import progress as P
 from .models.session import SessionModel
+from .plots.components_view import ComponentsView
 from .plots.defects_view import DefectCountsView
 from .plots.distributions_view import DistributionsView
 from .plots.image_view import ImagePlot
@@ -30,7 +31,7 @@ from .scan_panel import ControlTabs, ProgressLine, ScanButtons
 from .worker import ScanThread, one_sentence
 
 RESULT_TABS = ("Results", "Pixel Distributions", "Profiles", "Signal Map", "Noise Map", "PTC",
-               "Sweep Map", "Defect Counts", "Information")
+               "Sweep Map", "Components", "Defect Counts", "Information")
 SCAN_FILTER = "Scan files (*.xml);;All files (*)"
 log = logging.getLogger(__name__)
 
@@ -60,11 +61,12 @@ class MainWindow(QMainWindow):
         self.noise_map = ImagePlot(s.noise_map)
         self.ptc = PTCView(s.ptc)
         self.sweep = SweepView(s.sweep)
+        self.components = ComponentsView(s.components)
         self.defects = DefectCountsView(s.defects)
         self.info = InfoPanel(s.info)
         self.result_tabs = QTabWidget()
         for w, name in zip((self.results, self.distributions, self.profiles, self.signal_map, self.noise_map,
-                            self.ptc, self.sweep, self.defects, self.info), RESULT_TABS):
+                            self.ptc, self.sweep, self.components, self.defects, self.info), RESULT_TABS):
             self.result_tabs.addTab(w, name)
 
         left = QSplitter(Qt.Orientation.Vertical)

@@ -97,6 +97,31 @@ def quantities(view: dict) -> dict[str, float]:
     return out
 
 
+# Modules the runner imports lazily during a run. Importing a large package in the
+# worker thread while the GUI thread runs Qt's event loop deadlocked PySide6 6.12
+# (seen: the worker inside matplotlib -> fontTools imports, the GUI thread waiting for
+# the GIL in a timer callback). Importing them here, in the GUI thread, before the run
+# starts leaves the worker nothing big to import.
+WARM_IMPORTS = (
+    "scipy.optimize", "scipy.signal", "scipy.stats", "h5py", "matplotlib", "matplotlib.figure",
+    "matplotlib.backends.backend_pdf", "ares.sim", "ares.sim.truth", "ares.hardware.factory",
+    "ares.analysis", "ares.analysis.ptc", "ares.analysis.ptc_fit", "ares.analysis.levels",
+    "ares.analysis.defects", "ares.analysis.dark_current", "ares.analysis.gain_split", "ares.analysis.lag",
+    "ares.analysis.adc", "ares.analysis.emva1288", "ares.scan.analyses", "ares.report",
+    "ares.report.pdf", "ares.report.plots", "ares.report.csv_export", "ares.report.h5_export",
+)
+
+
+def warm_imports() -> None:
+    import importlib
+
+    for name in WARM_IMPORTS:
+        try:
+            importlib.import_module(name)
+        except Exception:  # noqa: BLE001 -- optional pieces; the runner reports what it misses
+            pass
+
+
 class RunnerJob:
     """One run of the scan at ``path``; make a new job for each run (Auto Repeat)."""
 
@@ -107,6 +132,7 @@ class RunnerJob:
 
         self.path = Path(path)
         self.scan = load_scan(self.path)  # InputError: one sentence with file and line
+        warm_imports()
         self.runner = Runner(self.scan, seed=seed, frames=frames, faults=faults,
                              argv=["ares", "gui", str(self.path)])
         self.runner.add_listener(self._on_event)
@@ -243,4 +269,6 @@ class RunnerJob:
         return G.StageResult(e.index + 1, r["name"], e.arrays["mean"], e.arrays["variance"], r["frames"],
                              dark=(r["scene"] == "dark"), settings=dict(r["settings"]), ptc_point=point,
                              ptc_view="full", group=r.get("group", ""), coords=tuple(r.get("coords") or ()),
-                             quantities=quantities(full))
+                             quantities=quantities(full),
+                             components={v: {k: d[k] for k in ("components", "dark_components") if k in d}
+                                         for v, d in r["views"].items()})

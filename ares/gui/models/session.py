@@ -12,6 +12,7 @@ import numpy as np
 
 from ..events import Done, Failed, FramePreview, Progress, RunInfo, StageResult, StageStarted, Stopped
 from . import progress as P
+from .components import ComponentsModel
 from .defects import DefectCountsModel
 from .image import ImageModel
 from .observable import Observable
@@ -54,6 +55,7 @@ class SessionModel:
         self.profiles = ProfilesModel()
         self.ptc = PTCModel()
         self.sweep = SweepModel()
+        self.components = ComponentsModel()
         self.defects = DefectCountsModel()
         self.info = InfoModel()
         self.last_frame: np.ndarray | None = None
@@ -96,6 +98,7 @@ class SessionModel:
         self.progress.update(state=P.RUNNING, message=f"Running {title}".strip())
         self.ptc.clear()
         self.sweep.clear()
+        self.components.clear()
         self.defects.clear()
         self.last_result = None
         self.last_frame = None
@@ -170,6 +173,8 @@ class SessionModel:
             self.ptc.add(ev.stage, ev.name, *ev.ptc_point)
         if ev.coords and ev.quantities:
             self.sweep.add(SweepPoint(ev.stage, ev.group, tuple(ev.coords), dict(ev.settings), dict(ev.quantities)))
+        if ev.components:
+            self.components.set_stage(f"stage {ev.stage}: {ev.name} ({ev.frames} frames)", ev.components)
         if ev.defects is not None:
             self.defects.set_counts(ev.defects, ev.mean.size, caption=f"stage {ev.stage}: {ev.name}")
         if ev.summary:

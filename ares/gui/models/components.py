@@ -1,0 +1,76 @@
+"""Noise Components table model: the engine's decomposition of the latest stage (no Qt).
+
+The runner reports, per view (full frame, each scan region, CFA phase, ADC channel),
+the 13-component model's estimates with standard errors (``Estimate.to_dict()``). The
+model only picks a view and orders the rows; it computes nothing.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+from .observable import Observable
+
+# (symbol, meaning) in the order of DESIGN.md's model; others follow as reported
+DESCRIPTIONS = {
+    "o": "offset", "Cs": "column FPN", "Ct": "column temporal", "Rs": "row FPN", "Rt": "row temporal",
+    "Ps": "pixel FPN (DSNU)", "Pt": "pixel temporal (read noise)", "frame_global": "frame-global temporal",
+    "G": "conversion gain", "Cg": "column gain non-uniformity", "Rg": "row gain non-uniformity",
+    "Pg": "pixel gain non-uniformity (PRNU)", "q": "photo-charge", "delta": "shot noise",
+    "signal": "signal above dark",
+}
+
+
+@dataclass(frozen=True)
+class ComponentRow:
+    symbol: str
+    description: str
+    value: float
+    se: float
+    unit: str
+    note: str = ""
+
+    @property
+    def text(self) -> str:
+        if not math.isfinite(self.value):
+            return "n/a" + (f" ({self.note})" if self.note else "")
+        s = f"{self.value:.4g}"
+        return s + (f" ± {self.se:.2g}" if math.isfinite(self.se) else "")
+
+
+def _num(v) -> float:
+    return float(v) if isinstance(v, (int, float)) and not isinstance(v, bool) else math.nan
+
+
+class ComponentsModel(Observable):
+    def __init__(self) -> None:
+        super().__init__()
+        self.views: dict[str, dict] = {}  # view -> {"components": {...}, "dark_components": {...}}
+        self.view = "full"
+        self.caption = ""
+
+    def set_stage(self, caption: str, views: dict[str, dict]) -> None:
+        self.views = dict(views)
+        self.caption = caption
+        if self.view not in self.views:
+            self.view = next(iter(self.views), "full")
+        self._changed()
+
+    def clear(self) -> None:
+        self.views, self.caption = {}, ""
+        self._changed()
+
+    def select(self, view: str) -> None:
+        self.view = view
+        self._changed()
+
+    def rows(self, which: str = "components") -> list[ComponentRow]:
+        comps = (self.views.get(self.view) or {}).get(which) or {}
+        order = [k for k in DESCRIPTIONS if k in comps] + [k for k in comps if k not in DESCRIPTIONS]
+        out = []
+        for k in order:
+            d = comps[k] if isinstance(comps[k], dict) else {"value": comps[k]}
+            out.append(ComponentRow(k, DESCRIPTIONS.get(k, ""), _num(d.get("value")), _num(d.get("se")),
+                                    str(d.get("unit", "")), str(d.get("note", ""))))
+        return out
