@@ -65,6 +65,7 @@ class MainWindow(QMainWindow):
         self.defects = DefectCountsView(s.defects)
         self.info = InfoPanel(s.info)
         self.result_tabs = QTabWidget()
+        self.result_tabs.setStyleSheet("QTabBar::tab { padding: 4px 7px; }")  # all ten tabs in view
         for w, name in zip((self.results, self.distributions, self.profiles, self.signal_map, self.noise_map,
                             self.ptc, self.sweep, self.components, self.defects, self.info), RESULT_TABS):
             self.result_tabs.addTab(w, name)
