@@ -105,7 +105,14 @@ def summarize(name: str, data: np.ndarray, unit: str = "DN", range_mode: str = "
         raise InputError(f"panel '{name}': no finite values")
     lo, hi = value_range(v, range_mode, percentiles)
     fm, fs = robust_gauss_fit(v)
-    counts, edges = np.histogram(v, bins=bins, range=(lo, hi) if hi > lo else (lo - 0.5, lo + 0.5))
+    # A range narrower than a few float steps at this magnitude cannot hold `bins` bins
+    # (numpy raises); such data are constant for display purposes: centre a unit range.
+    if not hi - lo > 4 * bins * np.spacing(max(abs(lo), abs(hi))):
+        mid = 0.5 * (lo + hi)
+        lo_h, hi_h = mid - 0.5, mid + 0.5
+    else:
+        lo_h, hi_h = lo, hi
+    counts, edges = np.histogram(v, bins=bins, range=(lo_h, hi_h))
     return Panel(name, unit, float(v.mean()), float(v.std(ddof=1)) if v.size > 1 else 0.0, fm, fs, lo, hi,
                  range_mode, counts, edges, np.asarray(data))
 

@@ -3,7 +3,7 @@
 A *job* is anything with ``run(emit)`` (blocking; calls ``emit(event)`` with
 ``ares.gui.events`` objects, raises ``AresError`` on user-caused failures) and
 ``pause()``, ``resume()``, ``stop()`` (finish the stage in flight, keep it) and
-``abort()`` (drop the stage in flight). ``ares.gui.worker`` runs a job in a QThread.
+``abort()`` (drop the stage in flight). ``ares.gui.worker`` runs a job in a Python thread.
 
 ``open_scan(path)`` builds a job for a scan XML through the real runner
 (``ares.scan``) when it is installed; ``DemoScan`` is a built-in photon-transfer sweep

@@ -1,22 +1,27 @@
-"""Runs a scan job in a QThread and re-emits its events as a Qt signal.
+"""Runs a scan job in a plain Python thread; the GUI thread polls its events.
 
-The job's ``run(emit)`` executes in the worker thread; ``emit`` puts each event in an
-``EventPump`` that the GUI thread drains. A frame preview or progress event replaces an
-older one of its kind still waiting (never across a stage/result/done event), so a fast
-engine cannot bury the window under stale frames -- it always shows the newest.
-Every failure ends as one ``Failed`` event with one sentence: ``AresError`` messages
-as they are, anything else as "Unexpected error in the scan engine: ..." (the
-traceback goes to the log, never to a dialog).
+The job's ``run(emit)`` executes in a ``threading.Thread`` that never calls Qt: ``emit``
+only appends to an ``EventPump`` under a lock, and a ``QTimer`` in the GUI thread drains
+it. Garbage collection is moved to the GUI thread while a scan thread runs: the
+cyclic collector runs in whichever thread happens to allocate, and when the scan thread
+(building report figures, say) collected unreachable Qt wrappers it destroyed Qt objects
+outside their thread and the process deadlocked on the GIL (seen with PySide6 6.9-6.11
+under load). Automatic collection is suspended for the run and the poll timer collects
+by the same generation thresholds. A frame preview or progress
+event replaces an older one of its kind still waiting (never across a
+stage/result/done event), so a fast engine cannot bury the window under stale frames --
+it always shows the newest. Every failure ends as one ``Failed`` event with one
+sentence: ``AresError`` messages as they are, anything else as "Unexpected error in the
+scan engine: ..." (the traceback goes to the log, never to a dialog).
 """
 
 from __future__ import annotations
 
+import gc
 import logging
 import threading
 
-from PySide6.QtCore import QObject, Qt, QThread, Signal, Slot
-
-from . import qtfix  # noqa: F401 -- see qtfix.py
+from PySide6.QtCore import QObject, QTimer, Signal, Slot
 
 from ares.errors import AresError, Interrupted
 
@@ -39,17 +44,16 @@ COALESCE = (FramePreview, Progress)
 
 
 class EventPump(QObject):
-    """Thread-safe event queue: ``push`` from any thread, ``event`` emitted in the GUI thread."""
+    """Thread-safe event queue: ``push`` from any thread (no Qt call), ``drain`` in the
+    GUI thread emits ``event`` for each waiting event."""
 
     event = Signal(object)
-    _ready = Signal()
 
     def __init__(self, parent: QObject | None = None) -> None:
         super().__init__(parent)
         self._lock = threading.Lock()
         self._pending: list = []
         self.dropped = 0
-        self._ready.connect(self.drain, Qt.ConnectionType.QueuedConnection)  # always later, in the GUI thread
 
     def push(self, ev) -> None:
         with self._lock:
@@ -62,10 +66,7 @@ class EventPump(QObject):
                         break
                     if not isinstance(old, COALESCE):
                         break
-            wake = not self._pending
             self._pending.append(ev)
-        if wake:
-            self._ready.emit()
 
     @Slot()
     def drain(self) -> None:
@@ -75,57 +76,84 @@ class EventPump(QObject):
             self.event.emit(ev)
 
 
-class ScanWorker(QObject):
-    finished = Signal()
+def run_job(job, push) -> None:
+    """The scan thread's body: run the job, turn every failure into one event."""
+    try:
+        job.run(push)
+    except Interrupted as exc:
+        push(Stopped(one_sentence(exc), aborted=True))
+    except Exception as exc:  # noqa: BLE001 -- shown as one sentence, logged in full
+        log.exception("scan engine failed")
+        push(Failed(one_sentence(exc)))
 
-    def __init__(self, job, pump: EventPump) -> None:
-        super().__init__()
-        self.job = job
-        self.pump = pump
 
-    @Slot()
-    def run(self) -> None:
-        try:
-            self.job.run(self.pump.push)
-        except Interrupted as exc:
-            self.pump.push(Stopped(one_sentence(exc), aborted=True))
-        except Exception as exc:  # noqa: BLE001 -- shown as one sentence, logged in full
-            log.exception("scan engine failed")
-            self.pump.push(Failed(one_sentence(exc)))
-        finally:
-            self.finished.emit()
+class _GuiThreadGc:
+    """Suspend automatic garbage collection while any scan thread runs; ``collect()``
+    (called from the GUI thread) collects by the interpreter's own thresholds."""
+
+    active = 0
+    was_enabled = True
+
+    @classmethod
+    def acquire(cls) -> None:
+        if cls.active == 0:
+            cls.was_enabled = gc.isenabled()
+            gc.disable()
+        cls.active += 1
+
+    @classmethod
+    def release(cls) -> None:
+        cls.active -= 1
+        if cls.active == 0 and cls.was_enabled:
+            gc.enable()
+
+    @staticmethod
+    def collect() -> None:
+        counts, limits = gc.get_count(), gc.get_threshold()
+        gen = max((g for g in range(3) if counts[g] > limits[g]), default=-1)
+        if gen >= 0:
+            gc.collect(gen)
 
 
 class ScanThread(QObject):
-    """Owns a QThread + ScanWorker pair for one run."""
+    """One run: the job in a Python thread, its events drained by a GUI-thread timer."""
 
     event = Signal(object)
     finished = Signal()
+    POLL_MS = 25
 
     def __init__(self, job, parent: QObject | None = None) -> None:
         super().__init__(parent)
         self.job = job
-        self.thread = QThread()
         self.pump = EventPump(self)
         self.pump.event.connect(self.event)
-        self.worker = ScanWorker(job, self.pump)
-        self.worker.moveToThread(self.thread)
-        self.thread.started.connect(self.worker.run)
-        # direct: QThread.quit is thread-safe, and a GUI thread blocked in wait() (window closing)
-        # could not deliver a queued call
-        self.worker.finished.connect(self.thread.quit, Qt.ConnectionType.DirectConnection)
-        self.thread.finished.connect(self._thread_finished)
+        self.thread = threading.Thread(target=run_job, args=(job, self.pump.push),
+                                       name="ares-scan", daemon=True)
+        self.timer = QTimer(self)
+        self.timer.setInterval(self.POLL_MS)
+        self.timer.timeout.connect(self._poll)
+        self._done = False
 
     def start(self) -> None:
+        _GuiThreadGc.acquire()
         self.thread.start()
+        self.timer.start()
 
-    def _thread_finished(self) -> None:
-        self.pump.drain()  # deliver what the worker pushed last, before "finished"
-        self.worker.deleteLater()
-        self.finished.emit()
+    def _poll(self) -> None:
+        alive = self.thread.is_alive()
+        self.pump.drain()
+        _GuiThreadGc.collect()
+        if not alive and not self._done:  # everything the job pushed has been delivered
+            self._end()
+            self.finished.emit()
+
+    def _end(self) -> None:
+        self._done = True
+        self.timer.stop()
+        _GuiThreadGc.release()
 
     def is_running(self) -> bool:
-        return self.thread.isRunning()
+        return self.thread.is_alive()
 
     def pause(self) -> None:
         self.job.pause()
@@ -140,4 +168,10 @@ class ScanThread(QObject):
         self.job.abort()
 
     def wait(self, ms: int = 10000) -> bool:
-        return self.thread.wait(ms)
+        if self.thread.ident is not None:
+            self.thread.join(ms / 1000)
+        if self.thread.ident is not None and not self.thread.is_alive() and not self._done:
+            self.pump.drain()  # e.g. the window is closing: no poll will come to end the run
+            self._end()
+            self.finished.emit()
+        return not self.thread.is_alive()

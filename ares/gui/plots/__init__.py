@@ -1,7 +1,6 @@
 """pyqtgraph views; each draws one model from ``ares.gui.models`` and holds no data of
 its own beyond what it shows."""
 
-from .. import qtfix  # noqa: F401 -- before any signal carries a bool
 import pyqtgraph as pg
 
 pg.setConfigOptions(imageAxisOrder="row-major", antialias=True, background="w", foreground="k")
