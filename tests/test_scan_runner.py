@@ -226,7 +226,7 @@ def test_unknown_defect_threshold_is_refused_before_hardware(tmp_path):
     from ares.errors import InputError
 
     sc = dataclasses.replace(load_scan(SMALL / "ptc_small.xml"), defects=(("hot_dn", 3.0),))
-    with pytest.raises(InputError, match="threshold 'hot_dn' is unknown"):
+    with pytest.raises(InputError, match="unknown defect parameter 'hot_dn'"):
         Runner(sc, out_dir=tmp_path / "x")
     assert not (tmp_path / "x").exists()
 

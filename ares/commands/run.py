@@ -161,7 +161,9 @@ def print_summary(outcome, scan, seconds: float, out=None) -> None:
         out.write("photon transfer:\n")
         for label, key in (("conversion gain", "conversion_gain_uv_per_e"), ("system gain K", "gain_dn_per_e"),
                            ("1/K", "gain_e_per_dn"), ("read noise", "read_noise_e"),
-                           ("read noise (output)", "read_noise_dn"), ("full well (max variance)", "full_well_e"),
+                           ("read noise (output)", "read_noise_dn"),
+                           ("full well (max variance)", "full_well_e"),
+                           ("full-well charge (plateau)", "full_well_charge_e"),
                            ("dynamic range", "dynamic_range_db")):
             out.write(f"  {label:<26} {_num(p.get(key))}\n")
     elif isinstance(p, dict):

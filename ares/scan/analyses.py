@@ -297,7 +297,7 @@ def defects(run) -> dict:
         return PixelStats(a[key].astype(float), a["variance"].astype(float), st["frames"],
                           st["settings"].get("exposure"))
 
-    th = DefectThresholds(**dict(run.scan.defects))
+    th = DefectThresholds.from_attrs(dict(run.scan.defects), where=f"{run.scan.source}: <defects>")
     flat = mid_level_stage(run)
     flats = [stats(flat)] if flat is not None and flat["scene"] == "flat" else None
     k = _run_gain(run)
@@ -341,15 +341,10 @@ def adc_linearity(run) -> dict:
 
 
 def check_defect_thresholds(scan) -> None:
-    """Refuse unknown ``<defects><threshold name=...>`` before any hardware is touched."""
+    """Refuse unknown or malformed ``<defects>`` thresholds before any hardware is touched
+    (the same parser the analysis uses, so what validates is what runs)."""
     if not scan.defects:
         return
-    from dataclasses import fields
-
     from ares.analysis.defects import DefectThresholds
-    from ares.errors import InputError
 
-    known = [f.name for f in fields(DefectThresholds)]
-    for name, _ in scan.defects:
-        if name not in known:
-            raise InputError(f"{scan.source}: <defects> threshold '{name}' is unknown (known: {', '.join(known)})")
+    DefectThresholds.from_attrs(dict(scan.defects), where=f"{scan.source}: <defects>")
