@@ -179,24 +179,34 @@ def decompose_flat(
     if not ok_t:
         na = "needs >= 2 frames, rows and columns in both stacks"
         out.update({k: Estimate.na(na, u) for k, u in (("G", "DN/e-"), ("q", "e-"), ("delta", "e-^2"))})
-    elif gain is None:
-        G = dpt / S
-        rel = var_dpt / dpt**2 + var_S / S**2
-        out["G"] = Estimate(G, abs(G) * math.sqrt(rel), "DN/e-")
-        q = S / G  # = S^2 / dpt
-        out["q"] = Estimate(q, abs(q) * math.sqrt(4 * var_S / S**2 + var_dpt / dpt**2), "e-")
-        out["delta"] = Estimate(dpt / G**2, abs(q) * math.sqrt(4 * var_S / S**2 + var_dpt / dpt**2), "e-^2")
     else:
-        G = float(gain)
-        out["G"] = Estimate(G, 0.0, "DN/e-", "given")
-        out["q"] = Estimate(S / G, se_S / abs(G), "e-")
-        out["delta"] = Estimate(dpt / G**2, math.sqrt(var_dpt) / G**2, "e-^2")
-        ratio = dpt / (G * S)
-        out["poisson_ratio"] = Estimate(ratio, abs(ratio) * math.sqrt(var_dpt / dpt**2 + var_S / S**2), "1")
+        out.update(shot_noise_estimates(S, var_S, dpt, var_dpt, gain))
     # ---- gain non-uniformity
     out.update(_nonuniformity(flat_acc, dark_acc, tf, td, S, var_S, illumination, surface_order))
     order = ["G", "Cg", "Rg", "Pg", "q", "delta", "signal"] + (["poisson_ratio"] if "poisson_ratio" in out else [])
     return {k: out[k] for k in order}
+
+
+def shot_noise_estimates(S: float, var_S: float, dpt: float, var_dpt: float, gain=None) -> dict:
+    """G, q, delta (and the Poisson check when the gain is given) at one light level from
+    the dark-subtracted signal ``S`` and pixel-temporal variance ``dpt`` with their
+    variances (shared by the balanced and the masked decomposition)."""
+    out: dict[str, Estimate] = {}
+    if gain is None:
+        G = dpt / S
+        out["G"] = Estimate(G, abs(G) * math.sqrt(var_dpt / dpt**2 + var_S / S**2), "DN/e-")
+        q = S / G  # = S^2 / dpt
+        se_q = abs(q) * math.sqrt(4 * var_S / S**2 + var_dpt / dpt**2)
+        out["q"] = Estimate(q, se_q, "e-")
+        out["delta"] = Estimate(dpt / G**2, se_q, "e-^2")
+    else:
+        G = float(gain)
+        out["G"] = Estimate(G, 0.0, "DN/e-", "given")
+        out["q"] = Estimate(S / G, math.sqrt(var_S) / abs(G), "e-")
+        out["delta"] = Estimate(dpt / G**2, math.sqrt(var_dpt) / G**2, "e-^2")
+        ratio = dpt / (G * S)
+        out["poisson_ratio"] = Estimate(ratio, abs(ratio) * math.sqrt(var_dpt / dpt**2 + var_S / S**2), "1")
+    return out
 
 
 def _temporal_parts(tf: AnovaTable, td: AnovaTable):

@@ -424,20 +424,7 @@ def decompose_flat_masked(flat_acc, dark_acc, gain=None, illumination="highpass"
     ptf, vptf = _theta(tf, "Pt")
     ptd, vptd = _theta(td, "Pt")
     dpt, var_dpt = ptf - ptd, vptf + vptd
-    if gain is None:
-        G = dpt / S
-        out["G"] = Estimate(G, abs(G) * math.sqrt(var_dpt / dpt**2 + var_S / S**2), "DN/e-")
-        q = S / G
-        se_q = abs(q) * math.sqrt(4 * var_S / S**2 + var_dpt / dpt**2)
-        out["q"] = Estimate(q, se_q, "e-")
-        out["delta"] = Estimate(dpt / G**2, se_q, "e-^2")
-    else:
-        G = float(gain)
-        out["G"] = Estimate(G, 0.0, "DN/e-", "given")
-        out["q"] = Estimate(S / G, se_S / abs(G), "e-")
-        out["delta"] = Estimate(dpt / G**2, math.sqrt(var_dpt) / G**2, "e-^2")
-        ratio = dpt / (G * S)
-        out["poisson_ratio"] = Estimate(ratio, abs(ratio) * math.sqrt(var_dpt / dpt**2 + var_S / S**2), "1")
+    out.update(_flat.shot_noise_estimates(S, var_S, dpt, var_dpt, gain))
     out.update(_nonuniformity(flat_acc, dark_acc, tf, td, S, var_S, illumination, surface_order))
     order = ["G", "Cg", "Rg", "Pg", "q", "delta", "signal"] + (["poisson_ratio"] if "poisson_ratio" in out else [])
     return {k: out[k] for k in order}
