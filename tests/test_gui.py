@@ -355,6 +355,23 @@ def test_photon_transfer_scan_fills_defect_counts_and_information(window, qtbot,
     assert "PTC: conversion gain" in s.info.items and "defect thresholds" in s.info.items
     assert s.info.items["scan"] == path
 
+    # Tunable thresholds: re-classify the finished run from its directory alone.
+    view = window.defects
+    counts = {r.name: r.count for r in s.defects.rows}
+    view.reclassify()  # unchanged thresholds reproduce the scan's counts
+    assert {r.name: r.count for r in s.defects.rows} == counts
+    assert counts.get("hot", 0) > 0, counts
+    view.set_threshold("hot_e_per_s", "1e9")
+    view.set_threshold("hot_z", "1e9")
+    qtbot.mouseClick(view.reclassify_button, Qt.MouseButton.LeftButton)
+    after = {r.name: r.count for r in s.defects.rows}
+    assert after.get("hot", 0) < counts["hot"], (counts, after)
+    assert "hot_e_per_s = 1e9" in s.defects.caption
+    view.set_threshold("warm_z", "many")  # a bad value: one sentence, counts kept
+    view.reclassify()
+    assert "warm_z" in (window.last_error or "") and "\n" not in window.last_error
+    assert {r.name: r.count for r in s.defects.rows} == after
+
 
 def test_distributions_follow_region_changes(window, qtbot):
     window.set_job_factory(tiny())

@@ -62,7 +62,8 @@ class MainWindow(QMainWindow):
         self.ptc = PTCView(s.ptc)
         self.sweep = SweepView(s.sweep)
         self.components = ComponentsView(s.components)
-        self.defects = DefectCountsView(s.defects)
+        self.defects = DefectCountsView(s.defects, run_dir=lambda: s.info.items.get("run directory", ""),
+                                        on_error=self.show_error)
         self.info = InfoPanel(s.info)
         self.result_tabs = QTabWidget()
         self.result_tabs.setStyleSheet("QTabBar::tab { padding: 4px 7px; }")  # all ten tabs in view

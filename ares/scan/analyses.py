@@ -281,9 +281,11 @@ def lag(run, settle: int = 2) -> dict:
 
 
 @register_scan_analysis("defects")
-def defects(run) -> dict:
+def defects(run, overrides: dict | None = None) -> dict:
     """Defect classes from the per-pixel mean/variance maps of the dark stages (and the
-    mid-level flat), thresholds from the scan's <defects>."""
+    mid-level flat), thresholds from the scan's <defects>; ``overrides`` (name -> value,
+    e.g. edited in the GUI) replace the scan's values for a re-classification of a
+    finished run from its directory alone."""
     from ares.analysis.defects import DefectThresholds, PixelStats, classify_defects
 
     darks = [s for s in run.stages if s["scene"] == "dark" and s["settings"].get("reg:test_mode", 0) == 0]
@@ -297,7 +299,8 @@ def defects(run) -> dict:
         return PixelStats(a[key].astype(float), a["variance"].astype(float), st["frames"],
                           st["settings"].get("exposure"))
 
-    th = DefectThresholds.from_attrs(dict(run.scan.defects), where=f"{run.scan.source}: <defects>")
+    th = DefectThresholds.from_attrs({**dict(run.scan.defects), **(overrides or {})},
+                                     where=f"{run.scan.source}: <defects>")
     flat = mid_level_stage(run)
     flats = [stats(flat)] if flat is not None and flat["scene"] == "flat" else None
     k = _run_gain(run)
