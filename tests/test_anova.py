@@ -64,16 +64,6 @@ def naive(x):
     }
 
 
-@pytest.fixture(scope="module")
-def report(request):
-    lines: list[str] = []
-    yield lines
-    capman = request.config.pluginmanager.getplugin("capturemanager")
-    with capman.global_and_fixture_disabled():
-        for line in lines:
-            print(line)
-
-
 @pytest.mark.slow
 @pytest.mark.parametrize("regime", list(REGIMES))
 def test_unbiased_and_se(regime, report):

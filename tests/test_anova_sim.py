@@ -22,16 +22,6 @@ CLEAN = dict(hot_rate_ppm=0, warm_rate_ppm=0, rts_rate_ppm=0, dead_rate_ppm=0, s
              noisy_rate_ppm=0, crosstalk_pct=0.0)
 
 
-@pytest.fixture(scope="module")
-def report(request):
-    lines: list[str] = []
-    yield lines
-    capman = request.config.pluginmanager.getplugin("capturemanager")
-    with capman.global_and_fixture_disabled():
-        for line in lines:
-            print(line)
-
-
 def _acc(x):
     a = StackAccumulator(x.shape[1:])
     for f in x:

@@ -39,16 +39,6 @@ FLAT_KEYS = ("G", "Pg", "Cg", "Rg")
 BIASED = ("o", "Cs", "Rs", "Ps", "Pt", "Pg")
 
 
-@pytest.fixture(scope="module")
-def report(request):
-    lines: list[str] = []
-    yield lines
-    capman = request.config.pluginmanager.getplugin("capturemanager")
-    with capman.global_and_fixture_disabled():
-        for line in lines:
-            print(line)
-
-
 def _params(rows, cols):
     return sim.SensorParams(rows=rows, cols=cols, crosstalk_pct=0.0, rts_amplitude_e=30.0, **RATES)
 

@@ -58,16 +58,6 @@ def stacks():
     return out
 
 
-@pytest.fixture(scope="module")
-def report(request):
-    lines: list[str] = []
-    yield lines
-    capman = request.config.pluginmanager.getplugin("capturemanager")
-    with capman.global_and_fixture_disabled():
-        for line in lines:
-            print(line)
-
-
 def _pair_variance(x):
     """EMVA 4.0 temporal variance from consecutive pairs, averaged, with its SE."""
     v = []

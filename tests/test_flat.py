@@ -59,16 +59,6 @@ def accs(rng, pats, q):
     return a_f, a_d
 
 
-@pytest.fixture(scope="module")
-def report(request):
-    lines: list[str] = []
-    yield lines
-    capman = request.config.pluginmanager.getplugin("capturemanager")
-    with capman.global_and_fixture_disabled():
-        for line in lines:
-            print(line)
-
-
 @pytest.mark.slow
 @pytest.mark.parametrize("mode,grad", [("none", 0.0), ("surface", 0.1)])
 def test_gain_components_unbiased(mode, grad, report):
