@@ -82,8 +82,17 @@ def test_ptc_excludes_clipped_levels_with_reason(analysis):
 
 def test_ares_ptc_numbers_are_consistent(analysis):
     p = analysis.ptc
-    assert p.gain_dn_per_e.value == pytest.approx(0.2808, rel=0.02)
-    assert p.read_noise_e.value == pytest.approx(3.0734 / 0.2808, rel=0.02)
+    # the line's residuals fail on this CCD (V/S falls ~6 % from the dimmest to the last
+    # unclipped level): the data choose the Astier form, whose gain is the low-signal
+    # slope; the WLS line stays within 1 % of the published (EMVA origin-fit) K
+    assert p.gain_model.chosen == "astier" and "Astier" in p.gain_dn_per_e.note
+    assert p.gain_wls_dn_per_e.value == pytest.approx(0.2808, rel=0.01)
+    low = p.levels[1]
+    assert p.gain_dn_per_e.value == pytest.approx(low.variance / low.signal, rel=0.01)
+    assert p.linearity_check.holds is False and "Eq. 51" in p.linearity_check.note
+    # saturation bracket: between the last unclipped level (36) and the first clipped (37)
+    assert (p.saturation.last_ok, p.saturation.first_clipped) == (36, 37)
+    assert p.read_noise_e.value == pytest.approx(3.0734 / p.gain_dn_per_e.value, rel=0.02)
     assert p.full_well_e["max_variance"].available
     for k, e in p.full_well_e.items():
         assert e.note, k

@@ -1,13 +1,29 @@
-"""A value with its standard error and unit -- the currency of every result.
+"""A value with its standard error, unit and verdict -- the currency of every result.
 
-``Estimate.na(reason)`` marks a quantity that cannot be estimated from the data (one
-frame, dark-only, one row ...): it is reported as *not available*, never as 0.
+The judgment layer between the estimators and everything that shows a number (CLI, JSON,
+CSV, PDF, GUI):
+
+- ``Estimate(value, se, unit, note)``: an available figure, ``note`` says how it was made;
+- ``Estimate.na(reason)``: the figure's preconditions failed (one frame, dark only,
+  saturation not reached, the model does not fit ...). It is reported as *not available*
+  with ``reason``, never as a number and never as 0;
+- ``Estimate.bound(value, "upper"|"lower", reason)``: only a limit is known (e.g. EMVA 1288
+  4.0 Linear Eq. 54, read noise below the quantization floor).
+
+``format_value`` is the one place that decides how many digits a figure gets: the SE is
+rounded to two significant digits and the value to the SE's last digit (ISO GUM 7.2.6), so
+"0.28 ± 8.3e-05" is shown as "0.280769 ± 0.000083". Every surface calls it (through ``str``/``format`` of an ``Estimate``, or ``format_dict`` on the JSON form).
 """
 
 from __future__ import annotations
 
 import math
 from dataclasses import dataclass
+
+VERDICT_OK = "ok"
+VERDICT_NA = "not available"
+VERDICT_UPPER = "upper limit"
+VERDICT_LOWER = "lower limit"
 
 
 @dataclass(frozen=True)
@@ -16,30 +32,98 @@ class Estimate:
     se: float = math.nan
     unit: str = ""
     note: str = ""
+    bound: str = ""  # "" (an estimate), "upper" or "lower" (only a limit is known)
 
     @classmethod
     def na(cls, reason: str, unit: str = "") -> "Estimate":
         return cls(math.nan, math.nan, unit, reason)
 
+    @classmethod
+    def limit(cls, value: float, which: str, unit: str, reason: str) -> "Estimate":
+        if which not in ("upper", "lower"):
+            raise ValueError(f"a limit is 'upper' or 'lower', not {which!r}")
+        return cls(float(value), math.nan, unit, reason, which)
+
     @property
     def available(self) -> bool:
         return math.isfinite(self.value)
 
+    @property
+    def verdict(self) -> str:
+        if not self.available:
+            return VERDICT_NA
+        return {"upper": VERDICT_UPPER, "lower": VERDICT_LOWER}.get(self.bound, VERDICT_OK)
+
     def to_dict(self) -> dict:
         d = {
             "value": self.value if self.available else None,
-            "se": self.se if math.isfinite(self.se) else None,
+            "se": self.se if math.isfinite(self.se) and self.available else None,
             "unit": self.unit,
+            "verdict": self.verdict,
         }
         if self.note:
             d["note"] = self.note
         return d
 
-    def __format__(self, spec: str) -> str:
+    @classmethod
+    def from_dict(cls, d: dict) -> "Estimate":
+        v = d.get("value")
+        se = d.get("se")
+        bound = {VERDICT_UPPER: "upper", VERDICT_LOWER: "lower"}.get(d.get("verdict", ""), "")
+        return cls(math.nan if v is None else float(v), math.nan if se is None else float(se),
+                   d.get("unit", ""), d.get("note", ""), bound)
+
+    def text(self, with_unit: bool = True, with_reason: bool = False) -> str:
+        """``12002 ± 3.6 e-``; ``< 0.40 e-`` (upper limit); ``n/a`` (+ the reason)."""
         if not self.available:
-            return "n/a"
-        spec = spec or ".4g"
-        s = format(self.value, spec)
-        if math.isfinite(self.se):
-            s += " ± " + format(self.se, spec)
-        return s
+            return "n/a" + (f" ({self.note})" if with_reason and self.note else "")
+        s = format_value(self.value, self.se)
+        if self.bound:
+            s = ("< " if self.bound == "upper" else "> ") + s
+        return s + (f" {self.unit}" if with_unit and self.unit else "")
+
+    def __format__(self, spec: str) -> str:
+        if spec:  # an explicit format (plots, fixed-width tables)
+            if not self.available:
+                return "n/a"
+            s = format(self.value, spec)
+            return s + (" ± " + format(self.se, spec) if math.isfinite(self.se) else "")
+        return self.text(with_unit=False)
+
+    def __str__(self) -> str:
+        return self.text()
+
+
+def _decimals_for(se: float) -> int:
+    """Decimal places that keep two significant digits of ``se`` (may be negative)."""
+    return 1 - int(math.floor(math.log10(abs(se))))
+
+
+def format_value(value, se=None, sig: int = 4) -> str:
+    """``value ± se`` with the digits the SE supports (two significant digits of the SE,
+    the value rounded to the same place); without a finite SE, ``sig`` significant digits.
+    Very large or small magnitudes use a shared exponent: ``(1.2003 ± 0.0036)e+04``."""
+    if value is None or not math.isfinite(value):
+        return "n/a"
+    value = float(value)
+    if se is None or not math.isfinite(se) or se <= 0:
+        return f"{value:.{sig}g}"
+    se = float(se)
+    mag = max(abs(value), se)
+    exp = int(math.floor(math.log10(mag))) if mag > 0 else 0
+    if -4 <= exp < 6:
+        d = _decimals_for(se)
+        if d <= 0:  # the SE's digits are left of the point: round, print as integers
+            q = 10 ** (-d)
+            return f"{round(value / q) * q:.0f} ± {round(se / q) * q:.0f}"
+        return f"{value:.{d}f} ± {se:.{d}f}"
+    scale = 10.0 ** exp
+    d = max(_decimals_for(se / scale), 0)
+    return f"({value / scale:.{d}f} ± {se / scale:.{d}f})e{exp:+03d}"
+
+
+def format_dict(d, with_unit: bool = True, with_reason: bool = False) -> str:
+    """The same text for the JSON form of an estimate (``Estimate.to_dict``)."""
+    if not isinstance(d, dict):
+        return "n/a"
+    return Estimate.from_dict(d).text(with_unit, with_reason)

@@ -7,6 +7,12 @@
   ``V = (exp(2 a00 S g) - 1) / (2 a00 g^2) + n00 / g^2`` with ``g`` in e-/DN;
   ``a00 -> 0`` gives the line ``V = S/g + n00/g^2``.
 
+- ``choose_gain_model``: the line or the Astier form, chosen by the data (an F-test of the
+  extra curvature term and the significance of ``a00``), with both residual tests reported.
+- ``local_slope_check``: EMVA 1288 4.0 Linear, Section 6.6, Eq. 51 -- the local slopes of a
+  cubic B-spline regression of the PTC must stay within 3 % (mean relative deviation) of
+  ``K`` for the linear model to hold.
+
 Every fit returns a ``LineFit``/``AstierFit`` with standard errors; the covariance is
 scaled by the reduced chi-square when that exceeds one (model scatter beyond the
 Gaussian error model is never hidden).
@@ -128,16 +134,19 @@ def astier_model(mu, a00, g, n00):
     return lin + n00 / (g * g)
 
 
-def astier_fit(s, v, dof) -> AstierFit:
-    """Fit the exponential approximation with weights ``N / (2 V^2)``."""
+def astier_fit(s, v, dof, v_se=None) -> AstierFit:
+    """Fit the exponential approximation with weights ``N / (2 V^2)`` (or ``1/v_se^2``)."""
     s = np.asarray(s, float)
     v = np.asarray(v, float)
     dof = np.broadcast_to(np.asarray(dof, float), s.shape)
     if s.size < 4:
         nan = math.nan
         return AstierFit(nan, nan, nan, nan, nan, nan, nan, s.size)
-    sig = np.sqrt(2.0 / dof) * np.maximum(np.abs(v), 1e-12)
-    lf = wls_line(s, v, dof)
+    if v_se is not None:
+        sig = np.maximum(np.broadcast_to(np.asarray(v_se, float), s.shape), 1e-12)
+    else:
+        sig = np.sqrt(2.0 / dof) * np.maximum(np.abs(v), 1e-12)
+    lf = wls_line(s, v, dof, v_se=sig)
     g0 = 1.0 / lf.slope if lf.slope > 0 else 1.0
     p0 = [0.0, g0, lf.intercept * g0 * g0]
     try:
@@ -151,3 +160,100 @@ def astier_fit(s, v, dof) -> AstierFit:
     se = np.sqrt(np.diag(pcov))
     return AstierFit(float(popt[1]), float(se[1]), float(popt[0]), float(se[0]), float(popt[2]),
                      float(se[2]), chi2, s.size)
+
+
+@dataclass(frozen=True)
+class GainModel:
+    """Which photon-transfer model the data support, and the residual tests behind it."""
+
+    chosen: str  # "linear" | "astier"
+    line: LineFit
+    astier: AstierFit | None
+    line_p: float  # chi-square probability of the line's residuals (1 = consistent)
+    astier_p: float
+    f_p: float  # F-test probability that the curvature term is not needed
+    reason: str
+
+    def to_dict(self) -> dict:
+        def num(x):
+            return x if isinstance(x, (int, float)) and math.isfinite(x) else None
+        d = {"chosen": self.chosen, "reason": self.reason, "levels": self.line.n,
+             "line_chi2_red": num(self.line.chi2_red), "line_p": num(self.line_p),
+             "astier_chi2_red": num(self.astier.chi2_red) if self.astier else None,
+             "astier_p": num(self.astier_p), "curvature_f_test_p": num(self.f_p)}
+        if self.astier is not None:
+            d["a00_per_e"] = num(self.astier.a00)
+            d["a00_se"] = num(self.astier.a00_se)
+        return d
+
+
+def choose_gain_model(s, v, dof, v_se=None, p_min: float = 1e-3) -> GainModel:
+    """The line ``V = K S + c`` unless the data need the Astier curvature: the line's
+    residuals are inconsistent with its errors (chi-square p < ``p_min``), the extra term
+    improves the fit significantly (F-test p < ``p_min``, robust to a common excess
+    scatter) and ``a00`` differs from 0 by more than 3 SE. Brighter-fatter flattening of a
+    deep-well CCD's PTC then no longer pulls a straight-line gain (Astier et al. 2019)."""
+    from scipy import stats
+
+    s = np.asarray(s, float)
+    v = np.asarray(v, float)
+    lf = wls_line(s, v, dof, v_se=v_se)
+    n = s.size
+    line_p = float(stats.chi2.sf(lf.chi2_red * (n - 2), n - 2)) if n > 2 and math.isfinite(lf.chi2_red) else math.nan
+    if n < 5:
+        return GainModel("linear", lf, None, line_p, math.nan, math.nan,
+                         f"linear: {n} levels are too few to test a curvature term (needs >= 5)")
+    af = astier_fit(s, v, dof, v_se=v_se)
+    if not (math.isfinite(af.gain_e_per_dn) and af.gain_e_per_dn > 0):
+        return GainModel("linear", lf, None, line_p, math.nan, math.nan, "linear: the Astier fit did not converge")
+    astier_p = float(stats.chi2.sf(af.chi2_red * (n - 3), n - 3))
+    chi_line, chi_ast = lf.chi2_red * (n - 2), af.chi2_red * (n - 3)
+    f = (chi_line - chi_ast) / max(af.chi2_red, 1e-300)
+    f_p = float(stats.f.sf(f, 1, n - 3)) if f > 0 else 1.0
+    a_sig = abs(af.a00) / af.a00_se if af.a00_se > 0 else math.inf
+    if line_p < p_min and f_p < p_min and a_sig > 3:
+        return GainModel("astier", lf, af, line_p, astier_p, f_p,
+                         f"Astier 2019: the line's residuals fail (chi2/dof {lf.chi2_red:.3g}, p {line_p:.2g}); "
+                         f"the curvature term is significant (a00 = {af.a00:.3g} ± {af.a00_se:.2g} 1/e-, F-test p {f_p:.2g})")
+    why = (f"linear: residuals consistent (chi2/dof {lf.chi2_red:.3g}, p {line_p:.2g})" if line_p >= p_min else
+           f"linear: the curvature term does not explain the residuals (a00 {a_sig:.2g} SE from 0, F-test p {f_p:.2g})")
+    return GainModel("linear", lf, af, line_p, astier_p, f_p, why)
+
+
+@dataclass(frozen=True)
+class LocalSlopeCheck:
+    """EMVA 1288 4.0 Linear Eq. 51: mean |K_i - K| / K over the fitted levels."""
+
+    mean_rel_dev: float
+    holds: bool | None  # None: not testable (too few levels)
+    note: str
+
+
+def local_slope_check(s, v, v_se, k: float, limit: float = 0.03) -> LocalSlopeCheck:
+    """Local slopes ``K_i`` of a weighted cubic B-spline regression of ``V`` vs ``S``
+    (interior knots at signal quantiles, one per four levels, at most three: a smoothing
+    regression, not an interpolation) at every fitted level, against the fitted ``K``."""
+    from scipy.interpolate import make_lsq_spline
+
+    s = np.asarray(s, float)
+    v = np.asarray(v, float)
+    e = np.maximum(np.asarray(v_se, float), 1e-300)
+    n = s.size
+    if n < 5 or not math.isfinite(k) or k == 0:
+        return LocalSlopeCheck(math.nan, None, f"needs >= 5 fitted levels and a gain (has {n})")
+    o = np.argsort(s)
+    s, v, e = s[o], v[o], e[o]
+    m = min(max((n - 4) // 4, 0), 3)
+    inner = list(np.quantile(s, np.linspace(0, 1, m + 2)[1:-1])) if m else []
+    t = np.r_[[s[0]] * 4, inner, [s[-1]] * 4]
+    try:
+        spl = make_lsq_spline(s, v, t, k=3, w=1.0 / e)
+    except (ValueError, np.linalg.LinAlgError) as exc:
+        return LocalSlopeCheck(math.nan, None, f"B-spline regression failed ({exc})")
+    ki = spl.derivative()(s)
+    dev = float(np.mean(np.abs(ki - k)) / abs(k))
+    if dev < limit:
+        return LocalSlopeCheck(dev, True, f"linear model holds: mean |K_i - K|/K = {100 * dev:.2g} % "
+                                          f"< {100 * limit:g} % (EMVA 1288 4.0 Linear Eq. 51)")
+    return LocalSlopeCheck(dev, False, f"the linear model does not hold here: mean |K_i - K|/K = {100 * dev:.2g} % "
+                                       f">= {100 * limit:g} % (EMVA 1288 4.0 Linear Eq. 51); use the general model")

@@ -1,18 +1,23 @@
-"""Saturation / full-well criteria. Each returns a level index (or -1), never a guess.
+"""Saturation, the PTC turnoff and full-well criteria. Each returns a level index (or -1).
 
 - ``index_max_variance``: EMVA 1288 Release 3.0 -- the level of maximum temporal
   variance, searched from the brightest level down so that noise spikes above the
   peak are skipped (the reference implementation's rule; used by the reference set).
-- ``index_max_code``: EMVA 1288 Release 4.0 -- the highest level (before the first
-  violation) with no more than ``limit`` (0.2 %) of the samples at the maximum code.
-- ``index_ptc_turnoff``: LSST-style -- fit the PTC, reject > ``nsigma`` residuals
-  iteratively, then stop at the first gap in the kept levels that is larger than
-  ``gap_factor`` times the typical spacing (measured as a ratio on log-spaced levels).
-- ``index_linearity_turnoff``: last level before the first that deviates more than
-  ``tol`` (1 %) from a straight line of signal vs exposure (or photons).
+- ``index_max_code``: EMVA 1288 Release 4.0 Linear, Section 6.6 (histogram criterion) --
+  the highest level, before the first violation, with no more than ``limit`` (0.2 %) of
+  the samples at the maximum code.
+- ``ptc_turnoff``: the highest level (in signal order) whose temporal variance still
+  follows the photon-transfer curve defined by the levels below it (see its docstring).
+- ``saturation_bracket``: saturation lies between the last unclipped level and the first
+  clipped one; every full-well definition is checked against that bracket.
+- ``index_linearity_turnoff``: last level before the first above the linearity fit range
+  that deviates more than ``tol`` (1 %) from a line of signal vs exposure (or photons).
 """
 
 from __future__ import annotations
+
+import math
+from dataclasses import dataclass
 
 import numpy as np
 
@@ -40,95 +45,154 @@ def index_max_code(frac_at_max, limit: float = 0.002) -> int:
     return int(bad[0]) - 1
 
 
-def _spacing_ok(sig: np.ndarray) -> bool:
-    """True when level spacing is closer to geometric than arithmetic."""
-    if sig.size < 3 or np.any(sig <= 0):
-        return False
-    d = np.diff(sig)
-    r = np.diff(np.log(sig))
-    return np.std(r) / max(np.mean(r), 1e-12) < np.std(d) / max(np.mean(d), 1e-12)
+# ----------------------------------------------------------------------- PTC turnoff
+
+def _poly_fit(s, v, se, deg):
+    """Weighted polynomial fit; returns (coef high->low, covariance scaled by the
+    reduced chi-square when above one, reduced chi-square)."""
+    A = np.vander(s, deg + 1)
+    w = 1.0 / se
+    Aw, yw = A * w[:, None], v * w
+    coef, *_ = np.linalg.lstsq(Aw, yw, rcond=None)
+    r = yw - Aw @ coef
+    dof = max(s.size - deg - 1, 1)
+    chi2 = float(r @ r) / dof
+    cov = np.linalg.pinv(Aw.T @ Aw) * max(chi2, 1.0)
+    return coef, cov, chi2
 
 
-def index_ptc_turnoff(signal, var, dof, nsigma: float = 5.0, gap_factor: float = 2.5,
-                      max_iter: int = 20) -> tuple[int, np.ndarray]:
-    """Return (index of the last kept level before a gap, boolean mask of kept levels).
+def _curve_below(s, v, se):
+    """The photon-transfer curve fitted to levels (sorted by signal): a line, or a
+    parabola when its curvature is significant (brighter-fatter flattening, Astier 2019
+    to second order). Returns a predictor ``f(x) -> (value, se)`` and the fit's chi2."""
+    coef, cov, chi2 = _poly_fit(s, v, se, 1)
+    if s.size >= 5:
+        c2, cov2, chi22 = _poly_fit(s, v, se, 2)
+        if abs(c2[0]) > 3.0 * math.sqrt(max(cov2[0, 0], 0.0)):
+            coef, cov, chi2 = c2, cov2, chi22
 
-    Residual scale: the Gaussian variance error ``V*sqrt(2/N)`` times a robust (MAD)
-    inflation when the data scatter more than that (real sensors do).
+    def predict(x: float):
+        a = np.vander(np.array([x]), coef.size)[0]
+        return float(a @ coef), math.sqrt(max(float(a @ cov @ a), 0.0))
+
+    return predict, chi2
+
+
+def ptc_turnoff(signal, var, var_se, nsigma: float = 4.0, min_levels: int = 4) -> int:
+    """Number of levels, from the bottom of the signal-sorted input, that lie on the PTC.
+
+    The levels are peeled from the top: while the highest remaining level's variance is
+    below the curve fitted to the levels under it by more than ``nsigma`` standard errors
+    (its own, inflated by the fit's excess scatter, combined with the prediction's), it is
+    beyond the turnoff. Clipping biases the variance *down* and grows fast with signal, so
+    the roll-off is peeled level by level; a noise spike above the curve, a dip below it
+    further down, or a smooth brighter-fatter flattening (absorbed by the parabola) do not
+    end the curve early, and a level already rolling off is never kept because the curve
+    is fitted to the levels below it only (no late turnoff from a fit that bends to the
+    roll-off). Inputs must be sorted by signal and free of clipped or empty levels.
     """
     s = np.asarray(signal, float)
     v = np.asarray(var, float)
-    dof = np.broadcast_to(np.asarray(dof, float), s.shape)
-    order = np.argsort(s)
-    keep = (s > 0) & (v > 0)
-    # pre-cut (LSST "variance pivot"): nothing above the level of maximum variance
-    if keep.any():
-        imax = order[np.argmax(np.where(keep[order], v[order], -np.inf))]
-        keep &= s <= s[imax]
-    # initial model: origin line through the lower half of the kept levels
-    ks = np.sort(s[keep])
-    if ks.size < 3:
-        return (int(order[np.nonzero(keep[order])[0][-1]]) if keep.any() else -1), keep
-    low = keep & (s <= ks[ks.size // 2])
-    k0 = float(np.sum(s[low] * v[low]) / np.sum(s[low] ** 2))
-    coef = np.array([0.0, k0, 0.0])
-    for _ in range(max_iter):
-        if keep.sum() < 3:
+    e = np.maximum(np.asarray(var_se, float), 1e-300)
+    n = s.size
+    while n > min_levels:
+        predict, chi2 = _curve_below(s[: n - 1], v[: n - 1], e[: n - 1])
+        pred, pred_se = predict(s[n - 1])
+        scale = math.sqrt(max(chi2, 1.0))
+        z = (v[n - 1] - pred) / math.hypot(e[n - 1] * scale, pred_se)
+        if z >= -nsigma:
             break
-        model = np.maximum(np.polyval(coef, s), 1e-12)
-        sig = np.sqrt(2.0 / dof) * model  # weights from the model, never from the data
-        deg = 2 if keep.sum() >= 6 else 1
-        coef = np.polyfit(s[keep], v[keep], deg, w=1.0 / sig[keep])
-        if deg == 1:
-            coef = np.concatenate(([0.0], coef))
-        model = np.maximum(np.polyval(coef, s), 1e-12)
-        sig = np.sqrt(2.0 / dof) * model
-        r = (v - model) / sig
-        rk = r[keep]
-        scale = max(1.0, 1.4826 * float(np.median(np.abs(rk - np.median(rk)))))
-        if np.max(np.abs(rk)) <= nsigma * scale:
-            break
-        # drop only the worst point per iteration
-        worst = np.argmax(np.where(keep, np.abs(r), -1))
-        keep[worst] = False
-    kept_sorted = [i for i in order if keep[i]]
-    if not kept_sorted:
-        return -1, keep
-    ks = s[kept_sorted]
-    log = _spacing_ok(s[order][s[order] > 0])
-    steps = np.diff(np.log(ks)) if log else np.diff(ks)
-    if steps.size == 0:
-        return int(kept_sorted[0]), keep
-    typical = float(np.median(steps))
-    last = kept_sorted[0]
-    for j, st in enumerate(steps):
-        if st > gap_factor * typical:
-            break
-        last = kept_sorted[j + 1]
-    # every level above the gap is beyond turnoff
-    cut = s[last]
-    keep &= s <= cut
-    return int(last), keep
+        n -= 1
+    return n
 
+
+# ----------------------------------------------------------------- saturation bracket
+
+@dataclass(frozen=True)
+class SaturationBracket:
+    """Saturation lies between level ``last_ok`` (on the curve, <= the clip limit at the
+    maximum code) and level ``first_clipped`` (the next brighter level, clipped or rolled
+    off). ``low_dn``/``high_dn`` bound the saturation signal (DN, dark subtracted): the
+    last unclipped level's signal, and the first clipped level's *nominal* signal (its
+    illumination times the response below saturation; NaN without an illumination axis).
+    ``reached`` is False when no level beyond ``last_ok`` shows clipping."""
+
+    reached: bool
+    last_ok: int  # input index, -1 when no level is usable
+    first_clipped: int  # input index, -1 when saturation is not reached
+    low_dn: float
+    high_dn: float
+    reason: str  # one sentence: how the bracket was found, or why saturation is not reached
+
+    def contains(self, signal_dn: float, slack: float = 0.0) -> bool:
+        """Is ``signal_dn`` consistent with the bracket (``slack`` DN either side)?"""
+        if not self.reached:
+            return signal_dn <= self.low_dn + slack
+        hi = self.high_dn if math.isfinite(self.high_dn) else math.inf
+        return self.low_dn - slack <= signal_dn <= hi + slack
+
+
+def saturation_bracket(signal, clipped, on_curve, nominal=None) -> SaturationBracket:
+    """``signal`` per level (DN); ``clipped[i]``: level i shows clipping (samples at the
+    maximum code above the limit, collapsed variance, or rolled off the PTC);
+    ``on_curve[i]``: level i is a usable level on the photon-transfer curve; ``nominal``:
+    the illumination axis (photons or exposure), used for the bracket's upper end."""
+    s = np.asarray(signal, float)
+    clipped = np.asarray(clipped, bool)
+    ok = np.asarray(on_curve, bool) & ~clipped
+    if not ok.any():
+        return SaturationBracket(False, -1, -1, math.nan, math.nan, "no usable level on the photon-transfer curve")
+    last = int(np.flatnonzero(ok)[np.argmax(s[ok])])
+    above = clipped & np.isfinite(s) & (s > 0)
+    if nominal is not None:
+        x = np.asarray(nominal, float)
+        above &= x > x[last]
+    else:
+        x = None
+        above &= s >= s[last]
+    if not above.any():
+        return SaturationBracket(False, last, -1, float(s[last]), math.nan,
+                                 f"saturation not reached: the brightest usable level ({s[last]:.5g} DN) is still on "
+                                 "the photon-transfer curve and no brighter level is clipped")
+    cand = np.flatnonzero(above)
+    first = int(cand[np.argmin(x[cand])]) if x is not None else int(cand[np.argmin(s[cand])])
+    if x is not None and x[last] > 0 and math.isfinite(x[first]):
+        high = float(s[last] * x[first] / x[last])
+        how = (f"saturation between {s[last]:.5g} DN (last unclipped level) and {high:.5g} DN "
+               "(first clipped level, at its illumination times the response below)")
+    else:
+        high = math.nan
+        how = f"saturation above {s[last]:.5g} DN (last unclipped level); the next brighter level is clipped"
+    return SaturationBracket(True, last, first, float(s[last]), high, how)
+
+
+# ------------------------------------------------------------------------ linearity
 
 def index_linearity_turnoff(x, signal, tol: float = 0.01, fit_lo: float = 0.05,
                             fit_hi: float = 0.5) -> int:
-    """Last index (in increasing ``x``) before the first level deviating > ``tol``
-    from a line fitted over levels between ``fit_lo`` and ``fit_hi`` of the maximum signal."""
+    """Last index (in increasing ``x``) before the first level above the fit range that
+    deviates > ``tol`` from a line fitted over levels between ``fit_lo`` and ``fit_hi`` of
+    the maximum signal. Levels below the top of the fit range are not searched: their
+    deviations (offset residue, quantization at a few DN) are the linearity error's
+    business, not the turnoff's -- a 1 % rule applied there stops at the first dim level."""
     x = np.asarray(x, float)
     s = np.asarray(signal, float)
-    smax = np.nanmax(s)
-    sel = (s >= fit_lo * smax) & (s <= fit_hi * smax)
+    fin = np.isfinite(x) & np.isfinite(s)
+    if fin.sum() < 2:
+        return -1
+    smax = np.max(s[fin])
+    sel = fin & (s >= fit_lo * smax) & (s <= fit_hi * smax)
     if sel.sum() < 2:
         return -1
     a, b = np.polyfit(x[sel], s[sel], 1)
     pred = a * x + b
     dev = np.abs(s - pred) / np.maximum(np.abs(pred), 1e-12)
-    order = np.argsort(x)
+    top_x = x[sel].max()
     last = -1
-    lo_x = x[sel].min()
-    for i in order:
-        if x[i] >= lo_x and dev[i] > tol:
+    for i in np.argsort(x):
+        if not fin[i]:
+            continue
+        if x[i] > top_x and dev[i] > tol:
             break
         last = int(i)
     return last
