@@ -143,3 +143,23 @@ def test_image_lag():
     r = lag_from_sequence(np.concatenate(frames), lit)
     assert r.lag_pct.value == pytest.approx(100 * s.truth(exposure_s=t)["lag_fraction"], abs=0.1)
     assert r.cycles == 4
+
+
+def test_emva_dark_current_from_variance_against_truth():
+    """EMVA 1288 4.0 Section 7.1: the dark-variance slope (DN^2/s) divided by K^2 -- the
+    dark shot noise of a dark current I e-/s adds I*t e-^2. It once used sqrt(slope)/K
+    (10x low here)."""
+    from ares.analysis.emva1288 import emva1288_results, temporal_from_pairs
+
+    p = SensorParams(rows=128, cols=128, **NO_DEFECTS, dark_tail_e_per_s=0.0, dark_current_e_per_s=200.0)
+    s = SimSensor(p, 21)
+    texp = np.linspace(0.05, 0.5, 6)
+    darks = [s.render(2, exposure_s=t, dark=True) for t in texp]
+    ne = np.linspace(300, 3000, texp.size)
+    brights = [s.render(2, exposure_s=t, photon_flux=n / (p.qe * t)) for t, n in zip(texp, ne)]
+    td = temporal_from_pairs(brights, darks, texp, ne / p.qe, offset_correction=True)
+    r = emva1288_results(td, index_u_ysat=len(texp) - 1)
+    truth = s.truth(exposure_s=1.0, dark=True)["dark_current_e_per_s"]
+    var_rate = r.extra["u_I_var"]
+    assert abs(var_rate.value - truth) < 4 * var_rate.se and var_rate.value == pytest.approx(truth, rel=0.15)
+    assert r.values["u_I_mean"].value == pytest.approx(truth, rel=0.1)

@@ -19,7 +19,7 @@ implementation; each verified on the reference CCD, see tests/test_emva_referenc
 - ``SNR_max = sqrt(mu_e.sat)``; ``mu_p.min = (sigma_y.dark/K + 1/2)/QE``;
   ``DR = mu_p.sat/mu_p.min``;
 - ``u_I_mean``: slope of ``mu_y.dark`` vs exposure / K (e-/s);
-  ``u_I_var``: sqrt(slope of ``s2_y.dark`` vs exposure)/K;
+  ``u_I_var``: slope of ``s2_y.dark`` vs exposure / K^2 (Section 7.1);
 - ``DSNU1288 = sqrt(s2_y.dark)/K`` with ``s2 = var(avg image, ddof=1) - mean(pixel
   temporal var)/L``; ``PRNU1288 = sqrt(s2_y - s2_y.dark)/(mu_y - mu_y.dark)`` in %, from
   the L-image stacks with no high-pass (Release 3.0);
@@ -149,7 +149,9 @@ def emva1288_results(temporal: TemporalData, spatial_bright: SpatialStats | None
         vals["u_I_mean"] = Estimate(lf.slope / K, math.hypot(lf.slope_se / K, lf.slope * K_se / K**2), "e-/s",
                                     "slope of mu_y.dark vs exposure / K")
         lv = line_fit(td.texp_s, td.s2_ydark)
-        extra["u_I_var"] = (Estimate(math.sqrt(lv.slope) / K, math.nan, "e-/s", "sqrt(slope of s2_y.dark)/K")
+        # EMVA 1288 4.0 Linear Section 7.1: the variance slope (DN^2/s) divided by K^2
+        extra["u_I_var"] = (Estimate(lv.slope / K**2, math.hypot(lv.slope_se / K**2, 2 * lv.slope * K_se / K**3),
+                                     "e-/s", "slope of s2_y.dark vs exposure / K^2 (EMVA 1288 4.0 Section 7.1)")
                             if lv.slope > 0 else Estimate.na("dark variance does not grow with exposure", "e-/s"))
 
     if spatial_dark is not None:

@@ -181,10 +181,28 @@ def decompose_flat(
         out.update({k: Estimate.na(na, u) for k, u in (("G", "DN/e-"), ("q", "e-"), ("delta", "e-^2"))})
     else:
         out.update(shot_noise_estimates(S, var_S, dpt, var_dpt, gain))
-    # ---- gain non-uniformity
+    # ---- gain non-uniformity (not measurable on a saturated or dark level)
     out.update(_nonuniformity(flat_acc, dark_acc, tf, td, S, var_S, illumination, surface_order))
+    why = no_shot_noise(S, var_S, dpt, var_dpt) if ok_t else ""
+    if why:
+        out.update({k: Estimate.na(why, "1") for k in ("Cg", "Rg", "Pg")})
     order = ["G", "Cg", "Rg", "Pg", "q", "delta", "signal"] + (["poisson_ratio"] if "poisson_ratio" in out else [])
     return {k: out[k] for k in order}
+
+
+def no_shot_noise(S: float, var_S: float, dpt: float, var_dpt: float) -> str:
+    """Why a level has no usable shot noise ('' when it has): no signal above dark, or a
+    pixel-temporal variance not significantly (3 SE) above the dark's -- a fully saturated
+    stage (every pixel clipped), stuck pixels or no light. G, q, delta and the gain
+    non-uniformity are then not available, never a negative gain or charge."""
+    if not (math.isfinite(S) and math.isfinite(dpt)):
+        return "non-finite signal or variance"
+    if S <= 3 * math.sqrt(max(var_S, 0.0)) or S <= 0:
+        return f"no signal above dark (S = {S:.3g} DN)"
+    if dpt <= 3 * math.sqrt(max(var_dpt, 0.0)):
+        return (f"no shot noise: temporal variance {dpt:.3g} DN^2 above dark is not significant "
+                "(saturated, stuck or no light)")
+    return ""
 
 
 def shot_noise_estimates(S: float, var_S: float, dpt: float, var_dpt: float, gain=None) -> dict:
@@ -192,6 +210,12 @@ def shot_noise_estimates(S: float, var_S: float, dpt: float, var_dpt: float, gai
     the dark-subtracted signal ``S`` and pixel-temporal variance ``dpt`` with their
     variances (shared by the balanced and the masked decomposition)."""
     out: dict[str, Estimate] = {}
+    why = no_shot_noise(S, var_S, dpt, var_dpt)
+    if why:
+        out.update({k: Estimate.na(why, u) for k, u in (("G", "DN/e-"), ("q", "e-"), ("delta", "e-^2"))})
+        if gain is not None:
+            out["poisson_ratio"] = Estimate.na(why, "1")
+        return out
     if gain is None:
         G = dpt / S
         out["G"] = Estimate(G, abs(G) * math.sqrt(var_dpt / dpt**2 + var_S / S**2), "DN/e-")

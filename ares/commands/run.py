@@ -13,6 +13,7 @@ import sys
 import time
 from pathlib import Path
 
+from ares.analysis.estimate import format_dict
 from ares.errors import InputError
 
 NAME = "run"
@@ -141,12 +142,8 @@ def dry_run(scan, frames: int | None, out=None) -> None:
 
 
 def _num(d) -> str:
-    if not isinstance(d, dict) or d.get("value") is None:
-        return "n/a"
-    s = f"{d['value']:.4g}"
-    if d.get("se") is not None:
-        s += f" ± {d['se']:.2g}"
-    return f"{s} {d.get('unit', '')}".rstrip()
+    """An estimate's JSON form as text: digits from its SE, limits as < / >, n/a + why."""
+    return format_dict(d, with_reason=True)
 
 
 def print_summary(outcome, scan, seconds: float, out=None) -> None:
@@ -162,10 +159,14 @@ def print_summary(outcome, scan, seconds: float, out=None) -> None:
         for label, key in (("conversion gain", "conversion_gain_uv_per_e"), ("system gain K", "gain_dn_per_e"),
                            ("1/K", "gain_e_per_dn"), ("read noise", "read_noise_e"),
                            ("read noise (output)", "read_noise_dn"),
-                           ("full well (max variance)", "full_well_e"),
-                           ("full-well charge (plateau)", "full_well_charge_e"),
+                           ("full well (charge)", "full_well_e"),
+                           ("saturation capacity", "saturation_capacity_e"),
                            ("dynamic range", "dynamic_range_db")):
             out.write(f"  {label:<26} {_num(p.get(key))}\n")
+        for label, key in (("gain model", "gain_model"), ("linearity (Eq. 51)", "linearity_check"),
+                           ("saturation", "saturation")):
+            if isinstance(p.get(key), dict):
+                out.write(f"  {label:<26} {p[key].get('reason') or p[key].get('note')}\n")
     elif isinstance(p, dict):
         out.write(f"photon transfer: {p.get('note', p.get('status'))}\n")
     d = res.get("decomposition")

@@ -11,6 +11,7 @@ import math
 import time
 from pathlib import Path
 
+from ares.analysis.estimate import format_dict
 from ares.errors import AresError
 
 from . import events as G
@@ -24,12 +25,10 @@ def _value(d):
 
 
 def _fmt(d) -> str | None:
-    v = _value(d)
-    if v is None:
+    """An estimate with the digits its SE supports, or its reason when not available."""
+    if not isinstance(d, dict):
         return None
-    se = d.get("se")
-    s = f"{v:.4g}" + (f" ± {se:.2g}" if isinstance(se, (int, float)) and math.isfinite(se) else "")
-    return f"{s} {d.get('unit', '')}".rstrip()
+    return format_dict(d, with_reason=True)
 
 
 def summarize(scan_results: dict, thresholds: tuple = ()) -> dict:
@@ -44,7 +43,7 @@ def summarize(scan_results: dict, thresholds: tuple = ()) -> dict:
             out["gain_e_per_dn"] = g
             out["gain_note"] = f"fit by the engine over {ptc.get('levels', '?')} levels"
         for label, key in (("conversion gain", "conversion_gain_uv_per_e"), ("system gain K", "gain_dn_per_e"),
-                           ("read noise", "read_noise_e"), ("full well (max variance)", "full_well_e"),
+                           ("read noise", "read_noise_e"), ("full well (charge)", "full_well_e"),
                            ("dynamic range", "dynamic_range_db")):
             text = _fmt(ptc.get(key))
             if text:

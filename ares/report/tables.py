@@ -15,7 +15,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ares.analysis.estimate import Estimate
+from ares.analysis.estimate import Estimate, format_value
 from ares.analysis.levels import LevelStats
 from ares.analysis.ptc import PtcResult, analyze_ptc
 
@@ -31,6 +31,8 @@ COMPONENT_LABELS = {
 COMPONENT_PARTS = ("components", "dark_components", "flat_anova")
 
 FULL_WELL_LABELS = {
+    "saturation_capacity": "saturation capacity (EMVA 1288 4.0)",
+    "bracket": "full well, saturation bracket centre",
     "max_variance": "full well, max variance (EMVA 1288 3.0)",
     "max_code": "full well, max code (EMVA 1288 4.0)",
     "plateau": "full well, saturated plateau",
@@ -318,6 +320,7 @@ def compute_key_figures(run, groups: list[PtcGroup] | None = None) -> dict:
             kf["gain_astier_dn_per_e"] = _entry("K, Astier 2019 fit", res.gain_astier_dn_per_e, "PTC recomputed")
         kf["read_noise_e"] = _entry("read noise", pick("read_noise_e", res and res.read_noise_e), src)
         kf["read_noise_dn"] = _entry("read noise (output)", pick("read_noise_dn", res and res.read_noise_dn), src)
+        kf["full_well_e"] = _entry("full well (charge capacity)", pick("full_well_e", res and res.full_well), src)
         fwd = stored.get("full_well_definitions") if have_stored else None
         fw = {k: est(v) for k, v in fwd.items()} if fwd else (res.full_well_e if res is not None else {})
         for k, e in fw.items():
@@ -329,12 +332,12 @@ def compute_key_figures(run, groups: list[PtcGroup] | None = None) -> dict:
             if s.available:
                 kf["snr_max_db"] = _entry("SNR max (measured)", Estimate(20 * math.log10(s.value), math.nan, "dB",
                                                                          s.note), "PTC recomputed")
-            fwv = fw.get("max_variance")
+            fwv = fw.get("saturation_capacity")
             if fwv is not None and fwv.available:
-                kf["snr_max_emva"] = _entry("SNR max = sqrt(full well) (EMVA 1288)",
+                kf["snr_max_emva"] = _entry("SNR max = sqrt(saturation capacity) (EMVA 1288 4.0 Eq. 55)",
                                             Estimate(math.sqrt(fwv.value), fwv.se / (2 * math.sqrt(fwv.value))
                                                      if math.isfinite(fwv.se) else math.nan, "",
-                                                     "sqrt(full well, max variance)"), "PTC recomputed")
+                                                     "sqrt(saturation capacity)"), "PTC recomputed")
             for k, e in res.noise_model.items():
                 kf[f"noise_model.{k}"] = _entry({"sensor_noise_e": "sensor noise (total-noise model)",
                                                   "prnu_pct": "PRNU (total-noise model)"}.get(k, k), e,
@@ -348,7 +351,7 @@ def compute_key_figures(run, groups: list[PtcGroup] | None = None) -> dict:
                 v["note"] = "partial run, saturation may be missing; " + v["note"]
     for name, r in (stored.get("by_analog_gain") or {}).items():
         for key, lab in (("gain_dn_per_e", "system gain K"), ("read_noise_e", "read noise"),
-                         ("full_well_e", "full well, max variance")):
+                         ("full_well_e", "full well")):
             if key in r:
                 kf[f"{key}@{name}"] = _entry(f"{lab} at analog gain {name}", est(r[key]), "scan_results.json: ptc")
     if not any(e.get("value") is not None for key, e in _flat_estimates(run.analyses.get("dark_current") or {})
@@ -394,12 +397,10 @@ def analysis_label(aname: str, key: str) -> str:
 
 
 def fmt_value(v, se=None, unit: str = "") -> str:
+    """``value ± se unit`` with the digits the SE supports (``ares.analysis.estimate``)."""
     if v is None or (isinstance(v, float) and not math.isfinite(v)):
         return "n/a"
-    s = f"{v:.4g}"
-    if se is not None and isinstance(se, (int, float)) and math.isfinite(se):
-        s += f" ± {se:.2g}"
-    return s + (f" {unit}" if unit else "")
+    return format_value(v, se) + (f" {unit}" if unit else "")
 
 
 # ------------------------------------------------------------------ dark series

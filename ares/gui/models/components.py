@@ -10,6 +10,8 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass
 
+from ares.analysis.estimate import format_value
+
 from .observable import Observable
 
 # (symbol, meaning) in the order of DESIGN.md's model; others follow as reported
@@ -35,8 +37,7 @@ class ComponentRow:
     def text(self) -> str:
         if not math.isfinite(self.value):
             return "n/a" + (f" ({self.note})" if self.note else "")
-        s = f"{self.value:.4g}"
-        return s + (f" ± {self.se:.2g}" if math.isfinite(self.se) else "")
+        return format_value(self.value, self.se)
 
 
 def _num(v) -> float:
