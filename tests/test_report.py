@@ -175,7 +175,8 @@ def test_csv_tables_equal_run_directory(runs, tmp_path):
         assert kf[key]["unit"] == sr["ptc"][key]["unit"]
     for d, e in sr["ptc"]["full_well_definitions"].items():
         row = kf[f"full_well_e.{d}"]
-        assert _same(_f(row["value"]), e["value"]) and row["label"].startswith("full well") and row["unit"] == "e-"
+        assert _same(_f(row["value"]), e["value"]) and row["label"].startswith(("full well", "saturation capacity"))
+        assert row["unit"] == "e-"
     assert {"snr_max", "qe", "linearity_error_pct"} <= set(kf)
     assert kf["gain_dn_per_e"]["unit"] == "DN/e-" and kf["conversion_gain_uv_per_e"]["unit"] == "uV/e-"
 
@@ -321,7 +322,9 @@ def test_partial_run_is_reported_as_incomplete(runs, capsys):
     assert f"{len(run.stages)} of 10 stage(s) completed" in d["note"]
     if run.scan_results is None or "gain_dn_per_e" not in run.analyses.get("ptc", {}):
         assert d["key_figures"]["gain_dn_per_e"]["source"].startswith("computed by the report")
-    assert "partial run" in d["key_figures"]["full_well_e.max_variance"]["note"]
+    # a partial run that stopped before saturation: no full well, and the reason says why
+    fw = d["key_figures"]["full_well_e"]
+    assert fw["value"] is None and "saturation not reached" in fw["note"]
     assert {Path(p).name for p in d["files"]} == {"ptc.csv", "components.csv", "levels.csv", "key_figures.csv",
                                                   "report.h5", "report.pdf"}
     ptc = _csv(runs / "partial" / "ptc.csv")

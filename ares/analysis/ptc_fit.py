@@ -129,7 +129,7 @@ class AstierFit:
 def astier_model(mu, a00, g, n00):
     mu = np.asarray(mu, float)
     x = 2.0 * a00 * mu * g
-    with np.errstate(divide="ignore", invalid="ignore"):
+    with np.errstate(divide="ignore", invalid="ignore", over="ignore"):
         lin = np.where(np.abs(x) < 1e-8, mu / g * (1.0 + x / 2.0), np.expm1(x) / (2.0 * a00 * g * g))
     return lin + n00 / (g * g)
 

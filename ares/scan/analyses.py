@@ -107,6 +107,7 @@ def ptc_one(run, stages: list, analog_gain: float) -> dict:
         "analog_gain": analog_gain,
         "levels": len(stages),
         "gain_dn_per_e": _e(r.gain_dn_per_e), "gain_e_per_dn": _e(r.gain_e_per_dn),
+        "gain_line_dn_per_e": _e(r.gain_wls_dn_per_e),
         "gain_model": r.gain_model.to_dict() if r.gain_model else None,
         "linearity_check": {"mean_rel_dev": lin.mean_rel_dev if math.isfinite(lin.mean_rel_dev) else None,
                             "holds": lin.holds, "note": lin.note} if lin else None,
