@@ -34,6 +34,7 @@ ROOT = Path(__file__).resolve().parents[1]
 SCANS = ROOT / "scans"
 SEED = 7
 ROWS: list[tuple] = []
+RUN_DIRS: dict[str, Path] = {}
 
 
 def _run(name, tmp_path_factory, frames=None, clean=False, seed=SEED):
@@ -46,6 +47,7 @@ def _run(name, tmp_path_factory, frames=None, clean=False, seed=SEED):
     outcome = Runner(scan, bench=bench, out_dir=out, seed=seed, frames=frames).run()
     assert outcome.status == "done", outcome.message
     rd = Path(outcome.run_dir)
+    RUN_DIRS[name] = rd
     res = json.loads((rd / "scan_results.json").read_text())["analyses"]
     stages = [json.loads(p.read_text()) for p in sorted((rd / "stages").glob("*.json"))]
     return scan, bench, res, stages
@@ -129,6 +131,18 @@ def test_photon_transfer_gain_read_noise_full_well(pt):
     # EMVA 4.0 saturation capacity: the last unclipped level, inside the bracket below the charge
     sat = p["saturation"]
     assert sat["reached"] and sat["low_e"] <= p["saturation_capacity_e"]["value"] < t["full_well_e"] <= sat["high_e"]
+
+
+def test_ptc_table_of_the_run_reproduces_the_scan(pt, capsys):
+    """``ares ptc`` on the run's own ptc.csv redoes the analysis from the table alone."""
+    from ares.cli import main
+
+    p = pt[2]["ptc"]
+    assert main(["ptc", str(RUN_DIRS["photon_transfer"] / "ptc.csv"), "--json"]) == 0
+    d = json.loads(capsys.readouterr().out)
+    for key in ("gain_dn_per_e", "full_well_e", "saturation_capacity_e"):
+        assert d[key]["value"] == pytest.approx(p[key]["value"], rel=1e-9), key
+    assert d["saturation"]["last_unclipped_stage"] is not None and d["gain_model"]["chosen"] == "linear"
 
 
 # (component, n_se, relative floor): the floor covers what the SE cannot: the

@@ -111,7 +111,7 @@ def format_value(value, se=None, sig: int = 4) -> str:
     se = float(se)
     mag = max(abs(value), se)
     exp = int(math.floor(math.log10(mag))) if mag > 0 else 0
-    if -4 <= exp < 6:
+    if -3 <= exp < 6:
         d = _decimals_for(se)
         if d <= 0:  # the SE's digits are left of the point: round, print as integers
             q = 10 ** (-d)

@@ -89,6 +89,42 @@ class PtcResult:
     def used(self, status: str = "fit") -> list[PtcLevel]:
         return [lv for lv in self.levels if lv.status == status]
 
+    def to_dict(self, names: Sequence[str]) -> dict:
+        """The JSON form shown everywhere (scan results, ``ares ptc --json``); ``names[i]``
+        names input level i (a stage, a table line)."""
+        br, k, lin = self.saturation, self.gain_dn_per_e, self.linearity_check
+
+        def e_of(dn: float) -> float | None:
+            return dn / k.value if br is not None and br.reached and k.available and math.isfinite(dn) else None
+
+        def name(i: int) -> str | None:
+            return names[i] if i >= 0 else None
+
+        return {
+            "gain_dn_per_e": self.gain_dn_per_e.to_dict(), "gain_e_per_dn": self.gain_e_per_dn.to_dict(),
+            "gain_line_dn_per_e": self.gain_wls_dn_per_e.to_dict(),
+            "gain_model": self.gain_model.to_dict() if self.gain_model else None,
+            "linearity_check": {"mean_rel_dev": lin.mean_rel_dev if math.isfinite(lin.mean_rel_dev) else None,
+                                "holds": lin.holds, "note": lin.note} if lin else None,
+            "conversion_gain_uv_per_e": self.conversion_gain_uv_per_e.to_dict(),
+            "read_noise_dn": self.read_noise_dn.to_dict(), "read_noise_e": self.read_noise_e.to_dict(),
+            "read_noise_is_upper_limit": self.read_noise_is_upper_limit,
+            # the charge capacity (saturated plateau / K, else the saturation bracket); every
+            # other definition, each checked against the bracket, under full_well_definitions
+            "full_well_e": self.full_well.to_dict(),
+            "saturation_capacity_e": self.full_well_e["saturation_capacity"].to_dict(),
+            "full_well_definitions": {k_: v.to_dict() for k_, v in self.full_well_e.items()},
+            "saturation": None if br is None else {
+                "reached": br.reached, "reason": br.reason, "last_unclipped_stage": name(br.last_ok),
+                "first_clipped_stage": name(br.first_clipped), "low_e": e_of(br.low_dn), "high_e": e_of(br.high_dn)},
+            "sensitivity_threshold_e": self.sensitivity_threshold_e.to_dict(),
+            "dynamic_range_db": self.dynamic_range_db.to_dict(), "qe": self.qe.to_dict(),
+            "linearity_error_pct": self.linearity_error_pct.to_dict(),
+            "saturation_stage": name(self.saturation_index),
+            "level_status": [{"stage": names[lv.index], "status": lv.status, "reason": lv.reason}
+                             for lv in self.levels],
+        }
+
     def excluded(self) -> list[tuple[int, str]]:
         return [(lv.index, lv.reason) for lv in self.levels if lv.status == "excluded"]
 

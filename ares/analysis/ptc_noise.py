@@ -30,6 +30,9 @@ def read_noise(dark: Sequence[LevelStats], exposure_s: Sequence[float] | None,
     v = np.array([d.var for d in dark], float)
     se = np.array([d.var_se for d in dark], float)
     t = None if exposure_s is None else np.asarray(exposure_s, float)[keep]
+    if not (np.all(np.isfinite(v)) and np.all(se > 0)):
+        why = "no dark temporal variance (dark levels missing, zero or non-finite)"
+        return Estimate.na(why, "DN"), Estimate.na(why, "e-"), False
     if t is not None and np.unique(t).size >= 3:
         lf = line_fit(t, v)
         s2, s2_se, how = lf.intercept, lf.intercept_se, "intercept of dark variance vs exposure"

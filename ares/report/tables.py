@@ -165,7 +165,7 @@ def ptc_groups(run) -> list[PtcGroup]:
 
 PTC_COLUMNS = ("analog_gain", "stage_index", "stage", "exposure_s", "light", "photons", "mean_dn", "dark_mean_dn",
                "signal_dn", "variance_dn2", "variance_se_dn2", "dark_variance_dn2", "frac_at_max", "status",
-               "reason")
+               "reason", "bright_variance_dn2", "n_pixels", "n_frames", "dark_n_frames", "signal_se_dn")
 
 
 def ptc_rows(groups: list[PtcGroup]) -> list[dict]:
@@ -183,6 +183,9 @@ def ptc_rows(groups: list[PtcGroup]) -> list[dict]:
                 "mean_dn": b.mean, "dark_mean_dn": d.mean, "signal_dn": b.mean - d.mean,
                 "variance_dn2": b.var - d.var, "variance_se_dn2": math.hypot(b.var_se, d.var_se),
                 "dark_variance_dn2": d.var, "frac_at_max": b.frac_at_max, "status": status, "reason": reason,
+                # the raw numbers `ares ptc` needs to redo the analysis from this table alone
+                "bright_variance_dn2": b.var, "n_pixels": b.n_pixels, "n_frames": b.n_frames,
+                "dark_n_frames": d.n_frames, "signal_se_dn": signal_se(st),
             })
     return rows
 

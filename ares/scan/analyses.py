@@ -96,41 +96,10 @@ def ptc_one(run, stages: list, analog_gain: float) -> dict:
                     photons=photons, adc_lsb_uv=_adc_lsb_uv(run.system), analog_gain=analog_gain,
                     signal_se=[_signal_se(s) for s in stages])
     rn_dn, rn_e = _read_noise_with_line_terms(r, stages)
-    br = r.saturation
-    k = r.gain_dn_per_e
-
-    def e_of(dn: float) -> float | None:
-        return dn / k.value if k.available and math.isfinite(dn) else None
-
-    lin = r.linearity_check
-    return {
-        "analog_gain": analog_gain,
-        "levels": len(stages),
-        "gain_dn_per_e": _e(r.gain_dn_per_e), "gain_e_per_dn": _e(r.gain_e_per_dn),
-        "gain_line_dn_per_e": _e(r.gain_wls_dn_per_e),
-        "gain_model": r.gain_model.to_dict() if r.gain_model else None,
-        "linearity_check": {"mean_rel_dev": lin.mean_rel_dev if math.isfinite(lin.mean_rel_dev) else None,
-                            "holds": lin.holds, "note": lin.note} if lin else None,
-        "conversion_gain_uv_per_e": _e(r.conversion_gain_uv_per_e),
-        "read_noise_dn": _e(rn_dn), "read_noise_e": _e(rn_e),
-        "read_noise_is_upper_limit": r.read_noise_is_upper_limit,
-        # the charge capacity (saturated plateau / K, else the saturation bracket); every
-        # other definition, each checked against the bracket, under full_well_definitions
-        "full_well_e": _e(r.full_well),
-        "saturation_capacity_e": _e(r.full_well_e["saturation_capacity"]),
-        "full_well_definitions": {k_: _e(v) for k_, v in r.full_well_e.items()},
-        "saturation": {"reached": br.reached, "reason": br.reason,
-                       "last_unclipped_stage": stages[br.last_ok]["name"] if br.last_ok >= 0 else None,
-                       "first_clipped_stage": stages[br.first_clipped]["name"] if br.first_clipped >= 0 else None,
-                       "low_e": e_of(br.low_dn) if br.reached else None,
-                       "high_e": e_of(br.high_dn) if br.reached else None},
-        "sensitivity_threshold_e": _e(r.sensitivity_threshold_e),
-        "dynamic_range_db": _e(r.dynamic_range_db), "qe": _e(r.qe),
-        "linearity_error_pct": _e(r.linearity_error_pct),
-        "saturation_stage": stages[r.saturation_index]["name"] if r.saturation_index >= 0 else None,
-        "level_status": [{"stage": stages[lv.index]["name"], "status": lv.status, "reason": lv.reason}
-                         for lv in r.levels],
-    }
+    out = {"analog_gain": analog_gain, "levels": len(stages)}
+    out.update(r.to_dict([s["name"] for s in stages]))
+    out.update(read_noise_dn=_e(rn_dn), read_noise_e=_e(rn_e))
+    return out
 
 
 @register_scan_analysis("ptc")

@@ -1,0 +1,170 @@
+"""``ares ptc``: photon transfer from a mean/variance table a user already has.
+
+    ares ptc TABLE [--columns mean,var,...] [--pixels N] [--frames N] [--json] [--pdf FILE]
+
+The same analysis as a scan's ``ptc`` (``ares.analysis.ptc.analyze_ptc``): levels in
+signal order whatever the row order, near-zero and non-finite rows dropped with a note,
+the saturation bracket, the data-chosen gain model with its residual tests, the EMVA 1288
+4.0 Eq. 51 local-slope check, every figure with its SE or "not available" and why. The
+table format is in ``ares/hardware/ptc_table.py``; the report's ``ptc.csv`` is one.
+"""
+
+from __future__ import annotations
+
+import json
+import math
+from pathlib import Path
+
+from ares.analysis.estimate import format_dict
+from ares.errors import InputError
+
+NAME = "ptc"
+HELP = "photon transfer (gain, read noise, saturation, full well) from a mean/variance table"
+UNKNOWN_PIXELS = 10**12  # no pixel counts: SEs from the fits' residual scatter
+
+
+def add_arguments(p) -> None:
+    p.add_argument("table", help="CSV or whitespace table, one row per level (header names or --columns)")
+    p.add_argument("--columns", default=None, metavar="F1,F2,...",
+                   help="fields of the columns in order when the table has no header "
+                        "(mean,var,dark_mean,dark_var,n_pixels,n_frames,exposure,photons,signal_se; - skips)")
+    p.add_argument("--pixels", type=int, default=None, help="pixels per level when the table has no n_pixels column")
+    p.add_argument("--frames", type=int, default=None,
+                   help="frames per level when the table has no n_frames column (default 2: a pair)")
+    p.add_argument("--adc-lsb-uv", type=float, default=None, help="ADC LSB in uV (for the conversion gain in uV/e-)")
+    p.add_argument("--json", action="store_true", help="print the result as JSON")
+    p.add_argument("--pdf", default=None, metavar="FILE", help="write the PTC, SNR and linearity plots to a PDF")
+
+
+def _levels(table, pixels: int | None, frames: int | None):
+    from ares.analysis.levels import LevelStats
+
+    n = len(table)
+    col = table.get
+    notes = []
+    if col("n_pixels") is None and pixels is None:
+        notes.append("no pixel counts: standard errors from the fits' residual scatter (give --pixels for the "
+                     "Gaussian variance errors)")
+    if frames is None and col("n_frames") is None:
+        notes.append("no frame counts: each level taken as a pair (--frames to change)")
+
+    def val(name, i, default):
+        c = col(name)
+        return default if c is None or not math.isfinite(c[i]) else c[i]
+
+    if col("dark_mean") is None and col("dark_var") is None:
+        notes.append("no dark columns: the means and variances are taken as dark-subtracted; read noise needs them")
+    bright, dark, seen = [], [], {}
+    for i in range(n):
+        npx = int(val("n_pixels", i, pixels if pixels is not None else UNKNOWN_PIXELS))
+        nfr = int(val("n_frames", i, frames if frames is not None else 2))
+        if npx < 1 or nfr < 2:
+            raise InputError(f"{table.path}:{table.lines[i]}: a level needs >= 1 pixel and >= 2 frames "
+                             f"(has {npx} and {nfr})")
+        bright.append(LevelStats(col("mean")[i], col("var")[i], npx, nfr, val("frac_at_max", i, 0.0)))
+        key = (val("dark_mean", i, 0.0), val("dark_var", i, 0.0), npx, int(val("dark_n_frames", i, nfr)))
+        if key not in seen:  # one dark level shared by many rows is one measurement
+            seen[key] = LevelStats(*key)
+        dark.append(seen[key])
+    return bright, dark, notes
+
+
+def _axis(table, name: str, notes: list[str]):
+    c = table.get(name)
+    if c is None:
+        return None
+    if not all(math.isfinite(x) for x in c):
+        notes.append(f"the {name} column has empty or non-finite cells: not used")
+        return None
+    return list(c)
+
+
+def analyse_table(path: str | Path, columns: list[str] | None = None, pixels: int | None = None,
+                  frames: int | None = None, adc_lsb_uv: float | None = None):
+    """(PtcResult, JSON dict, level names) for a table file."""
+    from ares.analysis.ptc import analyze_ptc
+    from ares.hardware.ptc_table import read_ptc_table
+
+    table = read_ptc_table(path, columns)
+    if len(table) < 2:
+        raise InputError(f"{table.path}: one level is not a photon-transfer curve (needs >= 2 rows, "
+                         f"best >= 10 from dark to saturation)")
+    bright, dark, notes = _levels(table, pixels, frames)
+    exposure = _axis(table, "exposure", notes)
+    photons = _axis(table, "photons", notes)
+    sse = table.get("signal_se")
+    no_dark = table.get("dark_mean") is None and table.get("dark_var") is None
+    r = analyze_ptc(bright, dark, exposure_s=exposure, photons=photons, adc_lsb_uv=adc_lsb_uv,
+                    signal_se=list(sse) if sse is not None else None)
+    names = [f"line {ln}" for ln in table.lines]
+    d = {"table": str(table.path), "levels": len(table)}
+    d.update(r.to_dict(names))
+    if no_dark:
+        from ares.analysis.estimate import Estimate
+
+        why = Estimate.na("the table has no dark columns", "e-")
+        d["read_noise_e"], d["read_noise_dn"] = why.to_dict(), Estimate.na(why.note, "DN").to_dict()
+        d["sensitivity_threshold_e"] = why.to_dict()
+        d["dynamic_range_db"] = Estimate.na(why.note, "dB").to_dict()
+    d["notes"] = notes
+    return r, d, names
+
+
+def _text(d: dict) -> str:
+    out = [f"photon transfer of {d['table']} ({d['levels']} levels)"]
+    for label, key in (("system gain K", "gain_dn_per_e"), ("1/K", "gain_e_per_dn"),
+                       ("conversion gain", "conversion_gain_uv_per_e"), ("read noise", "read_noise_e"),
+                       ("read noise (output)", "read_noise_dn"), ("full well (charge)", "full_well_e"),
+                       ("saturation capacity", "saturation_capacity_e"), ("dynamic range", "dynamic_range_db")):
+        out.append(f"  {label:<22} {format_dict(d.get(key), with_reason=True)}")
+    for label, key, field in (("gain model", "gain_model", "reason"), ("linearity (Eq. 51)", "linearity_check", "note"),
+                              ("saturation", "saturation", "reason")):
+        if isinstance(d.get(key), dict):
+            out.append(f"  {label:<22} {d[key][field]}")
+    for n in d.get("notes", []):
+        out.append(f"  note: {n}")
+    dropped = [s for s in d["level_status"] if s["status"] == "excluded"]
+    if dropped:
+        out.append(f"  {len(dropped)} level(s) excluded:")
+        out += [f"    {s['stage']}: {s['reason']}" for s in dropped]
+    return "\n".join(out) + "\n"
+
+
+def write_pdf(r, names: list[str], path: Path, title: str) -> None:
+    from matplotlib.backends.backend_pdf import PdfPages
+
+    from ares.report import plots
+
+    rows = [{"signal_dn": lv.signal, "variance_dn2": lv.variance, "variance_se_dn2": lv.variance_se,
+             "status": lv.status, "stage": names[lv.index], "reason": lv.reason,
+             "photons": None if not math.isfinite(lv.photons) else lv.photons,
+             "exposure_s": lv.exposure_s} for lv in r.levels]
+    import matplotlib
+
+    with matplotlib.rc_context(plots.RC):
+        fig = plots.new_page("Photon transfer", title)
+        notes = plots.ptc_variance(fig.add_axes([0.1, 0.56, 0.85, 0.36]), rows, r, "variance vs signal")
+        plots.snr_curve(fig.add_axes([0.1, 0.1, 0.85, 0.36]), r, "signal-to-noise ratio")
+        if notes:
+            fig.text(0.1, 0.03, "\n".join(plots.clip(n, 140) for n in notes[:6]), fontsize=6, va="bottom")
+
+        tmp = path.with_name(path.name + ".tmp")
+        try:
+            with PdfPages(tmp, metadata={"Title": f"ARES photon transfer {title}", "Creator": "ares ptc"}) as pdf:
+                pdf.savefig(fig)
+            tmp.replace(path)
+        except OSError as exc:
+            tmp.unlink(missing_ok=True)
+            raise InputError(f"{path}: cannot write the PDF ({exc.strerror or exc})") from None
+
+
+def run(args) -> int:
+    cols = [c for c in args.columns.split(",")] if args.columns else None
+    r, d, names = analyse_table(args.table, cols, args.pixels, args.frames, args.adc_lsb_uv)
+    if args.pdf:
+        write_pdf(r, names, Path(args.pdf), str(args.table))
+    if args.json:
+        print(json.dumps(d, indent=2, allow_nan=False))
+    else:
+        print(_text(d), end="")
+    return 0

@@ -1,0 +1,161 @@
+"""Photon-transfer tables a user already has: one row per illumination level.
+
+CSV (comma, semicolon or tab) or whitespace-separated text, ``#`` comments, an optional
+header. Columns are found by header name (case-insensitive, first match of each alias
+list wins) or given in order with ``columns=`` (``ares ptc --columns``):
+
+===============  =================================================  =========
+field            header names                                       needed
+===============  =================================================  =========
+``mean``         mean, mean_dn, mu, mu_y                           yes
+``var``          var, variance, bright_variance_dn2, var_dn2, s2_y  yes
+``dark_mean``    dark_mean, dark_mean_dn, mu_dark, mu_y_dark        no (0)
+``dark_var``     dark_var, dark_variance_dn2, s2_dark, s2_y_dark    no (0)
+``n_pixels``     n_pixels, pixels, npix                             no
+``n_frames``     n_frames, frames                                   no (2)
+``dark_n_frames``  dark_n_frames, dark_frames                       no (n_frames)
+``frac_at_max``  frac_at_max, clipped_fraction (samples at max code) no (0)
+``exposure``     exposure, exposure_s, t_exp, texp                  no
+``photons``      photons, mu_p, photons_per_pixel                   no
+``signal_se``    signal_se, signal_se_dn                            no
+===============  =================================================  =========
+
+The report's ``ptc.csv`` (``ares report``) is such a table. Variances are *raw* (bright
+and dark apart); without pixel counts the standard errors come from the fits' residual
+scatter. Rows whose numbers are not finite are kept and reported by the analysis as
+excluded, with the reason; a malformed row is one sentence naming the file and line.
+"""
+
+from __future__ import annotations
+
+import csv
+import io
+import math
+import os
+import stat
+from dataclasses import dataclass, field
+from pathlib import Path
+
+from ares.errors import InputError
+
+MAX_BYTES = 64 * 1024 * 1024
+ALIASES = {
+    "mean": ("mean", "mean_dn", "mu", "mu_y"),
+    "var": ("var", "variance", "bright_variance_dn2", "var_dn2", "s2_y"),
+    "dark_mean": ("dark_mean", "dark_mean_dn", "mu_dark", "mu_y_dark"),
+    "dark_var": ("dark_var", "dark_variance_dn2", "s2_dark", "s2_y_dark"),
+    "n_pixels": ("n_pixels", "pixels", "npix"),
+    "n_frames": ("n_frames", "frames"),
+    "dark_n_frames": ("dark_n_frames", "dark_frames"),
+    "frac_at_max": ("frac_at_max", "clipped_fraction"),
+    "exposure": ("exposure", "exposure_s", "t_exp", "texp"),
+    "photons": ("photons", "mu_p", "photons_per_pixel"),
+    "signal_se": ("signal_se", "signal_se_dn"),
+}
+REQUIRED = ("mean", "var")
+
+
+@dataclass
+class PtcTable:
+    path: Path
+    columns: dict[str, list[float]]  # field -> one value per row (NaN where empty)
+    lines: list[int]  # source line of each row
+    notes: list[str] = field(default_factory=list)
+
+    def __len__(self) -> int:
+        return len(self.lines)
+
+    def get(self, name: str) -> list[float] | None:
+        return self.columns.get(name)
+
+
+def _read_text(path: Path) -> str:
+    try:
+        st = os.stat(path)
+    except OSError as exc:
+        raise InputError(f"{path}: cannot read the table ({exc.strerror or exc})") from None
+    if not stat.S_ISREG(st.st_mode):
+        raise InputError(f"{path}: not a regular file")
+    if st.st_size > MAX_BYTES:
+        raise InputError(f"{path}: {st.st_size} bytes is larger than a PTC table can be ({MAX_BYTES} bytes)")
+    try:
+        raw = path.read_bytes()
+    except OSError as exc:
+        raise InputError(f"{path}: cannot read the table ({exc.strerror or exc})") from None
+    try:
+        return raw.decode("utf-8-sig")
+    except UnicodeDecodeError:
+        raise InputError(f"{path}: not a text table (not UTF-8)") from None
+
+
+def _split(line: str, delim: str | None) -> list[str]:
+    if delim is None:
+        return line.split()
+    return next(csv.reader(io.StringIO(line), delimiter=delim))
+
+
+def _number(text: str, path: Path, lineno: int, col: str) -> float:
+    t = text.strip()
+    if t == "" or t.lower() in ("nan", "na", "n/a", "none", "null"):
+        return math.nan
+    try:
+        return float(t)
+    except ValueError:
+        raise InputError(f"{path}:{lineno}: column '{col}' holds '{t[:20]}', not a number") from None
+
+
+def read_ptc_table(path: str | Path, columns: list[str] | None = None) -> PtcTable:
+    """Parse ``path``; ``columns`` names the fields of each column in order (``-`` or any
+    unknown name skips a column) and then every line is data."""
+    path = Path(path)
+    text = _read_text(path)
+    rows = [(i + 1, ln) for i, ln in enumerate(text.splitlines()) if ln.strip() and not ln.lstrip().startswith("#")]
+    if not rows:
+        raise InputError(f"{path}: the table has no rows")
+    first = rows[0][1]
+    delim = next((d for d in (",", ";", "\t") if d in first), None)
+    header_cells = [c.strip().lower() for c in _split(first, delim)]
+    has_header = columns is None and any(_is_word(c) for c in header_cells)
+    if columns is not None:
+        names = [c.strip().lower() for c in columns]
+        unknown = [c for c in names if c not in ALIASES and c != "-"]
+        if unknown:
+            raise InputError(f"--columns: unknown field(s) {', '.join(unknown)}; known: {', '.join(ALIASES)} "
+                             "(or - to skip a column)")
+        index = {n: i for i, n in enumerate(names) if n in ALIASES}
+    elif has_header:
+        index = {}
+        for fld, alias in ALIASES.items():
+            for a in alias:
+                if a in header_cells:
+                    index[fld] = header_cells.index(a)
+                    break
+        rows = rows[1:]
+    else:
+        raise InputError(f"{path}:{rows[0][0]}: no header row; name the columns with --columns "
+                         f"(e.g. --columns mean,var,dark_mean,dark_var)")
+    missing = [f for f in REQUIRED if f not in index]
+    if missing:
+        raise InputError(f"{path}: no column for {', '.join(missing)} (header names: "
+                         + "; ".join(f"{f}: {', '.join(ALIASES[f])}" for f in missing) + ")")
+    if not rows:
+        raise InputError(f"{path}: the table has a header but no data rows")
+    cols: dict[str, list[float]] = {f: [] for f in index}
+    lines = []
+    width = max(index.values()) + 1
+    for lineno, ln in rows:
+        cells = _split(ln, delim)
+        if len(cells) < width:
+            raise InputError(f"{path}:{lineno}: {len(cells)} column(s), the table needs at least {width}")
+        for f, i in index.items():
+            cols[f].append(_number(cells[i], path, lineno, f))
+        lines.append(lineno)
+    return PtcTable(path, cols, lines)
+
+
+def _is_word(cell: str) -> bool:
+    try:
+        float(cell)
+        return False
+    except ValueError:
+        return cell not in ("", "nan", "na", "n/a")
