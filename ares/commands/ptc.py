@@ -144,9 +144,9 @@ def write_pdf(r, names: list[str], path: Path, title: str) -> None:
     with matplotlib.rc_context(plots.RC):
         fig = plots.new_page("Photon transfer", title)
         notes = plots.ptc_variance(fig.add_axes([0.1, 0.56, 0.85, 0.36]), rows, r, "variance vs signal")
-        plots.snr_curve(fig.add_axes([0.1, 0.1, 0.85, 0.36]), r, "signal-to-noise ratio")
+        plots.snr_curve(fig.add_axes([0.1, 0.16, 0.85, 0.32]), r, "signal-to-noise ratio")
         if notes:
-            fig.text(0.1, 0.03, "\n".join(plots.clip(n, 140) for n in notes[:6]), fontsize=6, va="bottom")
+            fig.text(0.1, 0.02, "\n".join(plots.clip(n, 140) for n in notes[:8]), fontsize=6, va="bottom")
 
         tmp = path.with_name(path.name + ".tmp")
         try:
