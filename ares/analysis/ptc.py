@@ -165,10 +165,12 @@ def classify_levels(bright: Sequence[LevelStats], dark: Sequence[LevelStats],
         b = bright[i]
         if not (math.isfinite(S[i]) and math.isfinite(V[i]) and math.isfinite(Vse[i])):
             status[i], reason[i] = "excluded", "non-finite mean or variance"
-        elif b.frac_at_max > clip_limit:
+        elif b.frac_at_max - dark[i].frac_at_max > clip_limit:
+            # pixels already at the maximum code in the dark (hot, stuck high) are defects,
+            # not saturation: only the excess over the dark's fraction counts
             status[i], clipped[i] = "excluded", True
-            reason[i] = (f"clipped: {100 * b.frac_at_max:.3g} % of samples at the maximum code "
-                         f"(limit {100 * clip_limit:g} %, EMVA 1288 4.0 Section 6.6)")
+            reason[i] = (f"clipped: {100 * (b.frac_at_max - dark[i].frac_at_max):.3g} % of samples at the maximum "
+                         f"code above the dark's (limit {100 * clip_limit:g} %, EMVA 1288 4.0 Section 6.6)")
         elif b.frac_at_min > clip_limit:
             status[i], reason[i] = "excluded", f"clipped: {100 * b.frac_at_min:.3g} % of samples at code 0"
         elif not S[i] > 0:
@@ -201,6 +203,14 @@ def classify_levels(bright: Sequence[LevelStats], dark: Sequence[LevelStats],
                 status[i], clipped[i] = "excluded", True
                 reason[i] = "beyond saturation: brighter than a clipped level"
     cand = sorted((i for i in range(n) if status[i] != "excluded"), key=lambda i: S[i])
+    if cand:  # variance pivot: brighter levels whose variance fell significantly below the maximum
+        imax = cand[int(np.argmax(V[cand]))]
+        for i in cand[cand.index(imax) + 1:]:
+            if V[i] < V[imax] - nsigma * math.hypot(Vse[i], Vse[imax]):
+                status[i], clipped[i] = "excluded", True
+                reason[i] = (f"beyond the variance maximum: {V[i]:.5g} DN^2 at S = {S[i]:.5g} DN, below "
+                             f"{V[imax]:.5g} DN^2 at S = {S[imax]:.5g} DN (saturated)")
+        cand = [i for i in cand if status[i] != "excluded"]
     n_on = ptc_turnoff(S[cand], V[cand], Vse[cand], nsigma=nsigma) if cand else 0
     for i in cand[n_on:]:
         status[i], clipped[i] = "excluded", True
@@ -238,6 +248,9 @@ def _gain_estimates(fit: list[PtcLevel], signal_se, fit_note: str):
     def est(lf: LineFit, note: str) -> Estimate:
         if not math.isfinite(lf.slope):
             return Estimate.na(f"too few levels to fit ({lf.n})", "DN/e-")
+        if not lf.slope > 3 * lf.slope_se:
+            return Estimate.na(f"the variance does not rise with the signal (slope {lf.slope:.3g} ± "
+                               f"{lf.slope_se:.2g} DN/e- over {lf.n} levels)", "DN/e-")
         return Estimate(lf.slope, lf.slope_se, "DN/e-", note)
 
     k_wls = est(gm.line, f"WLS line of V vs S, {how}, {fit_note}")
