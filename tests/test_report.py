@@ -366,9 +366,13 @@ def test_bad_directories_raise_one_sentence(tmp_path, runs, capsys):
 
 
 def test_cli_writes_only_what_is_asked(runs, tmp_path, capsys):
-    assert main(["report", str(runs / "ptc"), "--csv", str(tmp_path / "c")]) == 0
+    run = tmp_path / "run"
+    shutil.copytree(runs / "ptc", run)
+    assert (run / "report.pdf").exists()  # every run writes its report by default
+    (run / "report.pdf").unlink()
+    assert main(["report", str(run), "--csv", str(tmp_path / "c")]) == 0
     assert sorted(p.name for p in (tmp_path / "c").iterdir()) == ["components.csv", "key_figures.csv", "levels.csv",
                                                                   "ptc.csv", "summary.csv"]
-    assert not (runs / "ptc" / "report.pdf").exists()
+    assert not (run / "report.pdf").exists()
     out = capsys.readouterr().out.split()
     assert len(out) == 5

@@ -185,8 +185,19 @@ def print_summary(outcome, scan, seconds: float, out=None) -> None:
         _print_estimates(r, out, "  ")
     for f in outcome.limit_failures:
         out.write(f"LIMIT FAILED: {f}\n")
+    if outcome.run_dir:
+        meta = _read_meta(Path(outcome.run_dir))
+        if meta.get("report_error"):
+            out.write(f"report: not written ({meta['report_error']})\n")
     if outcome.status == "done" and scan.limits and not outcome.limit_failures:
         out.write(f"all {len(scan.limits)} limit(s) passed\n")
+
+
+def _read_meta(run_dir: Path) -> dict:
+    try:
+        return json.loads((run_dir / "run.json").read_text())
+    except (OSError, ValueError):
+        return {}
 
 
 def _print_estimates(d: dict, out, indent: str, depth: int = 0) -> None:

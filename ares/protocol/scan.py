@@ -87,7 +87,7 @@ class Output:
     raw_frames: bool = False
     hdf5: bool = True
     csv: bool = True
-    pdf: bool = False
+    pdf: bool = True  # every run writes its report unless the scan turns it off
 
 
 @dataclass(frozen=True)
@@ -254,7 +254,7 @@ def scan_from_tree(tree, path, system: System | None = None, system_path=None) -
     out = root.find("output")
     output = Output() if out is None else Output(
         *(out.get(k, d) in ("true", "1") for k, d in
-          (("raw_frames", "false"), ("hdf5", "true"), ("csv", "true"), ("pdf", "false"))))
+          (("raw_frames", "false"), ("hdf5", "true"), ("csv", "true"), ("pdf", "true"))))
     desc = root.find("description")
     return Scan(
         name=root.get("name"), version=int(root.get("version", 1)), system_href=href,
