@@ -9,10 +9,11 @@ import json
 import math
 import re
 import shutil
-import subprocess
 from pathlib import Path
 
 import pytest
+
+from pdftext import page_count, pdf_text
 
 from ares.cli import main
 from ares.errors import InputError
@@ -21,7 +22,6 @@ from ares.report import pdf as report_pdf
 from ares.report import tables
 
 ROOT = Path(__file__).resolve().parents[1]
-HAVE_PDFTOTEXT = shutil.which("pdftotext") is not None and shutil.which("pdfinfo") is not None
 
 
 def tiny_system(path: Path) -> Path:
@@ -109,13 +109,11 @@ def _same(a: float, b) -> bool:
 
 
 def _pdf_text(path: Path) -> str:
-    return subprocess.run(["pdftotext", "-layout", str(path), "-"], capture_output=True, text=True,
-                          check=True).stdout
+    return pdf_text(path)
 
 
 def _pages(path: Path) -> int:
-    out = subprocess.run(["pdfinfo", str(path)], capture_output=True, text=True, check=True).stdout
-    return int(next(ln.split()[-1] for ln in out.splitlines() if ln.startswith("Pages:")))
+    return page_count(path)
 
 
 # ------------------------------------------------------------------ CSV
@@ -226,7 +224,6 @@ def test_key_figures_api(runs):
 
 # ------------------------------------------------------------------ PDF
 
-@pytest.mark.skipif(not HAVE_PDFTOTEXT, reason="poppler-utils (pdftotext) not installed")
 def test_pdf_pages_and_key_figures_as_text(runs, ptc_pdf):
     run = read_run(runs / "ptc")
     path, titles = ptc_pdf
@@ -243,7 +240,6 @@ def test_pdf_pages_and_key_figures_as_text(runs, ptc_pdf):
     assert "Incomplete run" not in text and "Basler" not in text
 
 
-@pytest.mark.skipif(not HAVE_PDFTOTEXT, reason="poppler-utils (pdftotext) not installed")
 def test_dark_temperature_run_pages(runs, tmp_path):
     titles = report_pdf.write_pdf(read_run(runs / "dark"), tmp_path / "d.pdf")
     assert {"dark", "temperature", "sweep 2d"} <= set(titles) and not any(t.startswith("ptc") for t in titles)
@@ -273,7 +269,6 @@ def test_report_computes_dark_current_without_the_analysis(runs, tmp_path):
         sr["by_temperature"]["60C"]["rate_dn_per_s"]["value"], rel=1e-9)
 
 
-@pytest.mark.skipif(not HAVE_PDFTOTEXT, reason="poppler-utils (pdftotext) not installed")
 def test_lag_and_defect_pages(runs, tmp_path, ptc_pdf):
     titles = report_pdf.write_pdf(read_run(runs / "lag"), tmp_path / "l.pdf")
     assert "frame means" in titles
@@ -307,8 +302,7 @@ def test_emva_attribution(runs, tmp_path):
 
     with PdfPages(d / "r.pdf") as pdf:  # the title page is enough (the footer of every page repeats it)
         pdf.savefig(report_pdf.title_page(run, tables.compute_key_figures(run)))
-    if HAVE_PDFTOTEXT:
-        assert "(C) 2011 Basler AG, CC BY-SA 3.0" in _pdf_text(d / "r.pdf")
+    assert "(C) 2011 Basler AG, CC BY-SA 3.0" in _pdf_text(d / "r.pdf")
 
 
 # ------------------------------------------------------------------ partial / bad runs
@@ -329,9 +323,8 @@ def test_partial_run_is_reported_as_incomplete(runs, capsys):
                                                   "report.h5", "report.pdf"}
     ptc = _csv(runs / "partial" / "ptc.csv")
     assert len(ptc) == sum(1 for s in run.stages if s["scene"] == "flat") and all(r["status"] for r in ptc)
-    if HAVE_PDFTOTEXT:
-        text = _pdf_text(runs / "partial" / "report.pdf")
-        assert "Incomplete run (status 'failed')" in text and "disconnected" in text
+    text = _pdf_text(runs / "partial" / "report.pdf")
+    assert "Incomplete run (status 'failed')" in text and "disconnected" in text
 
 
 def test_bad_directories_raise_one_sentence(tmp_path, runs, capsys):
