@@ -244,7 +244,7 @@ def build_pages(run, groups=None, kf=None) -> list[tuple[str, object]]:
     groups = tables.ptc_groups(run) if groups is None else groups
     kf = tables.compute_key_figures(run, groups) if kf is None else kf
     pages = [("title", title_page(run, kf))]
-    ptc_ok = [g for g in groups if g.result is not None]
+    ptc_ok = [g for g in groups if g.result is not None and g.is_curve]
     for g in ptc_ok:
         rows = tables.ptc_rows([g])
         pages.append((f"ptc x{g.analog_gain:g}", ptc_page(g, rows)))

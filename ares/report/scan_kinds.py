@@ -374,7 +374,7 @@ def generic_page(name: str, a: dict):
 
 def pages(run, groups: list) -> list[tuple[str, object]]:
     out = []
-    ptc_ok = [g for g in groups if g.result is not None]
+    ptc_ok = [g for g in groups if g.result is not None and g.is_curve]
     if len(ptc_ok) >= 2:
         out.append(("gain split", gain_page(run, ptc_ok)))
     series = tables.dark_series(run)

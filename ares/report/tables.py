@@ -70,6 +70,21 @@ class PtcGroup:
     light: list[float | None]
     photons: list[float] | None
 
+    @property
+    def is_curve(self) -> bool:
+        """A photon-transfer curve needs >= 3 distinct illumination levels (photons, else
+        exposures, else signals > 2 % apart): a register sweep at one light level is not one."""
+        if self.photons is not None:
+            xs = self.photons
+        elif all(math.isfinite(e) for e in self.exposure_s) and len(set(self.exposure_s)) > 1:
+            xs = self.exposure_s
+        else:
+            xs = [s["views"]["full"]["level"]["mean_dn"] - s["views"]["full"]["dark_level"]["mean_dn"]
+                  for s in self.stages]
+        xs = sorted(x for x in xs if x is not None and math.isfinite(x) and x > 0)
+        distinct = [x for i, x in enumerate(xs) if i == 0 or x > 1.02 * xs[i - 1]]
+        return len(distinct) >= 3
+
     def mismatch(self) -> str:
         """A sentence when the recomputed curve's K differs from the runner's (else "")."""
         k = est(self.stored.get("gain_dn_per_e"))
@@ -301,7 +316,7 @@ def compute_key_figures(run, groups: list[PtcGroup] | None = None) -> dict:
     groups = ptc_groups(run) if groups is None else groups
     kf: dict[str, dict] = {}
     stored = run.analyses.get("ptc") or {}
-    g0 = next((g for g in groups if g.result is not None), None)
+    g0 = next((g for g in groups if g.result is not None and g.is_curve), None)
     have_stored = "gain_dn_per_e" in stored
     src = "scan_results.json: ptc" if have_stored else "computed by the report from the completed stages"
     res = g0.result if g0 is not None else None
