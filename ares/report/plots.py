@@ -243,9 +243,20 @@ def image_with_hist(fig, ax_img, ax_hist, a: np.ndarray, title: str, unit: str) 
     ax_img.set_title(title)
     ax_img.set_xlabel("column")
     ax_img.set_ylabel("row")
-    ax_hist.hist(fin, bins=128, color="C0", log=True)
+    # the histogram's range: the bulk (0.1-99.9 %, widened by half its width) so that a few
+    # defect pixels far out do not squash it; the pixels outside are counted, not hidden
+    q0, q1 = np.percentile(fin, [0.1, 99.9])
+    pad = 0.5 * max(q1 - q0, 1e-12)
+    rng = (q0 - pad, q1 + pad)
+    out = int(np.count_nonzero((fin < rng[0]) | (fin > rng[1])))
+    ax_hist.hist(fin, bins=128, range=rng, color="C0", log=True)
     ax_hist.axvline(np.mean(fin), color="C3", lw=0.8)
-    ax_hist.set_title(f"histogram\nmean {np.mean(fin):.4g}, sd {np.std(fin):.3g} {unit}", fontsize=9)
+    mad = 1.4826 * float(np.median(np.abs(fin - np.median(fin))))
+    ax_hist.set_title(f"histogram\nmean {np.mean(fin):.4g}, sd {np.std(fin):.3g} (robust {mad:.3g}) {unit}",
+                      fontsize=9)
+    if out:
+        ax_hist.text(0.98, 0.97, f"{out} pixel(s) outside\n[{rng[0]:.4g}, {rng[1]:.4g}]", transform=ax_hist.transAxes,
+                     ha="right", va="top", fontsize=7, color="C3")
     ax_hist.set_xlabel(unit)
     ax_hist.set_ylabel("pixels")
     ax_hist.grid(alpha=0.3)
