@@ -173,8 +173,10 @@ def print_summary(outcome, scan, seconds: float, out=None) -> None:
     if isinstance(d, dict) and "components" in d:
         sets = ", ".join(f"{k.removeprefix('reg:')}={v:g}" for k, v in d["settings"].items())
         out.write(f"noise components at stage {d['stage']} ({sets}):\n")
+        from ares.report.tables import component_label, component_text
+
         for k, v in d["components"].items():
-            out.write(f"  {k:<26} {_num(v)}\n")
+            out.write(f"  {k:<14} {component_text(k, v):<34} {component_label(k)}\n")
     for name, r in res.items():
         if name in ("ptc", "decomposition") or not isinstance(r, dict):
             continue

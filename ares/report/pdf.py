@@ -125,8 +125,8 @@ def _component_table(fig, y: float, stage: dict, part: str, title: str) -> float
     for c in tables._ordered(comps):
         e = comps[c]
         n = tables.COMPONENTS.index(c) + 1 if c in tables.COMPONENTS else ""
-        rows.append([f"{n} {c}".strip(), tables.fmt_value(e.get("value"), e.get("se"), e.get("unit", "")),
-                     tables.COMPONENT_LABELS.get(c, ""), e.get("note", "")])
+        rows.append([f"{n} {c}".strip(), tables.component_text(c, e),
+                     tables.component_label(c, part), e.get("note", "")])
     return text_table(fig, (0.06, y, 0.9), ["component", "value ± SE", "meaning", "note"], rows,
                       [0.14, 0.3, 0.26, 0.3], fontsize=8.5, title=title, max_chars=[14, 34, 30, 36])
 

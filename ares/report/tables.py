@@ -29,6 +29,35 @@ COMPONENT_LABELS = {
     "frame_global": "frame-global temporal offset", "signal": "signal (flat - dark)",
 }
 COMPONENT_PARTS = ("components", "dark_components", "flat_anova")
+GAIN_SPREADS = ("Cg", "Rg", "Pg")  # relative variances of the gain, shown as % rms
+
+
+def component_label(c: str, part: str = "components") -> str:
+    """What a component means in a stage's ``part``: in the ANOVA of the flat stack itself
+    Pt holds the shot noise too; in a flat stage's ``components`` the offset/noise terms
+    come from its matched dark stack."""
+    if c == "Pt" and part == "flat_anova":
+        return "pixel temporal (read + shot)"
+    if c == "delta":
+        return "shot-noise variance (= q when G is estimated from this level)"
+    return COMPONENT_LABELS.get(c, "")
+
+
+def component_text(c: str, e: dict) -> str:
+    """A component as a datasheet reader expects it: gain spreads (relative variances) as
+    % rms with their SE propagated; the rest as value ± SE unit with the SE's digits."""
+    v, se = e.get("value"), e.get("se")
+    if c in GAIN_SPREADS and v is not None and math.isfinite(v):
+        if v <= 0:
+            ub = 100 * math.sqrt(max(v, 0.0) + 2 * se) if se is not None and math.isfinite(se) else math.nan
+            return (f"< {ub:.2g} % rms (variance {v:.2g} ± {se:.2g}: consistent with 0)"
+                    if math.isfinite(ub) else "n/a (negative variance)")
+        r = 100 * math.sqrt(v)
+        rse = 100 * se / (2 * math.sqrt(v)) if se is not None and math.isfinite(se) else None
+        return fmt_value(r, rse, "% rms")
+    if v is None:
+        return "n/a" + (f" ({e['note']})" if e.get("note") else "")
+    return fmt_value(v, se, e.get("unit", ""))
 
 FULL_WELL_LABELS = {
     "saturation_capacity": "saturation capacity (EMVA 1288 4.0)",
