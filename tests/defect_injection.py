@@ -38,7 +38,10 @@ def inject(rows=240, cols=320, frames=100, flat_frames=20, seed=0, *, rate_ppm=1
            exposure_s=10.0, hot_e_per_s=(8.0, 40.0), warm_e_per_s=(2.0, 4.0),
            rts_amp_sigma=(5.0, 10.0), rts_switch=0.1, noisy_factor=5.0, dead_response=0.3,
            flat_level=2000.0, prnu=0.01, bad_columns=2, bad_column_offset=20.0,
-           rates: dict | None = None) -> Injected:
+           rates: dict | None = None, pattern: str | None = None, pattern_dn: float = 10.0) -> Injected:
+    """``pattern``: a dark structure under the defects -- "smooth" (a Gaussian glow of
+    ``pattern_dn`` over a third of the array) or "periodic" (``pattern_dn`` x
+    sin(2 pi x/48) sin(2 pi y/48), not separable into row and column offsets)."""
     rng = np.random.default_rng(seed)
     n = rows * cols
     rates = dict({c: rate_ppm for c in CLASSES}, **(rates or {}))
@@ -54,6 +57,15 @@ def inject(rows=240, cols=320, frames=100, flat_frames=20, seed=0, *, rate_ppm=1
 
     base = offset + rng.normal(0, col_fpn_dn, cols)[None, :] + rng.normal(0, pixel_fpn_dn, (rows, cols))
     base[:, bad] += bad_column_offset
+    if pattern is not None:
+        yy, xx = np.mgrid[0:rows, 0:cols].astype(float)
+        if pattern == "smooth":
+            s2 = (min(rows, cols) / 3.0) ** 2
+            base += pattern_dn * np.exp(-((yy - 0.3 * rows) ** 2 + (xx - 0.6 * cols) ** 2) / (2 * s2))
+        elif pattern == "periodic":
+            base += pattern_dn * np.sin(2 * np.pi * xx / 48) * np.sin(2 * np.pi * yy / 48)
+        else:
+            raise ValueError(f"unknown pattern {pattern!r}")
     extra = np.zeros((rows, cols))  # dark signal excess (DN)
     r, c = truth["hot"]
     extra[r, c] = rng.uniform(*hot_e_per_s, r.size) * exposure_s * gain

@@ -214,6 +214,12 @@ def _print_estimates(d: dict, out, indent: str, depth: int = 0) -> None:
             out.write(f"{indent}{k:<26} {v}\n")
         elif k == "counts" and isinstance(v, dict):
             out.write(f"{indent}{'counts':<26} " + ", ".join(f"{a}={b}" for a, b in v.items() if b) + "\n")
+        elif k == "unavailable" and isinstance(v, dict):
+            for a, why in v.items():
+                out.write(f"{indent}{a + ': n/a':<26} {why}\n")
+        elif k == "warnings" and isinstance(v, list):
+            for w in v:
+                out.write(f"{indent}WARNING: {w}\n")
 
 
 def execute(scan, args, *, seed, frames, faults=None, argv=None, out_dir=None) -> int:

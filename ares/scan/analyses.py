@@ -292,6 +292,8 @@ def defects(run, overrides: dict | None = None) -> dict:
     k = _run_gain(run)
     res = classify_defects([stats(s) for s in darks], flats, gain_dn_per_e=k.value if k else None, thresholds=th)
     return {"counts": {k_: (None if v is None else int(v)) for k_, v in res.counts.items()},
+            "unavailable": dict(res.unavailable), "detection": dict(res.detection),
+            "warnings": list(res.warnings), "notes": list(res.notes),
             "passed": bool(getattr(res, "passed", True)),
             "limits": res.limits, "dark_stages": [s["name"] for s in darks],
             "flat_stage": flat["name"] if flats else None}

@@ -20,20 +20,42 @@ from .histograms import deviation_histograms
 from .lines import LineFlags, line_z
 from .params import DefectThresholds
 from .result import BITS, DEFECT_DTYPE, PIXEL_CLASSES, DefectResult, primary_class
-from .robust import block_median_background, fast_median, remove_lines, robust_sigma, sampled_median
+from .limits import hot_limit_text, noisy_available, p_constant_codes, stuck_in_darks
+from .robust import (block_median_background, fast_median, local_background, remove_lines, robust_sigma,
+                     sampled_median, structure_ratio)
 from .rts import detect_rts
 from .stats import PixelStats, SeriesCollector
 
 RtsSource = Callable[[np.ndarray, np.ndarray], np.ndarray] | SeriesCollector
 
 
+def dequantized(res: np.ndarray, st: PixelStats) -> np.ndarray:
+    """``res`` with a fixed-seed uniform dither of one code step (1/F DN for the mean of F
+    integer frames) for the robust sigma only: the MAD of values on a lattice of 0.25 DN
+    (4 frames) is off by up to ~15 %, and a sigma 10 % low turns a 4.8-sigma threshold
+    into a 4.3-sigma one (10x the false alarms). The dither adds (1/F)^2/12 to the variance."""
+    f = max(int(st.n_frames), 1)
+    sample = st.mean.ravel()[:: max(st.mean.size // 4096, 1)] * f
+    if not np.allclose(sample, np.round(sample), atol=1e-6):
+        return res
+    rng = np.random.default_rng(12345)
+    return res + rng.uniform(-0.5 / f, 0.5 / f, res.shape)
+
+
 class _Dark:
     """Per-level dark quantities (one exposure)."""
 
-    def __init__(self, st: PixelStats, gain: float | None) -> None:
+    def __init__(self, st: PixelStats, gain: float | None, th: DefectThresholds) -> None:
         self.st = st
         self.res, self.col_off, self.row_off, self.level = remove_lines(st.mean)
-        self.sigma = robust_sigma(self.res, floor=1e-9)
+        # smooth or periodic structure left after the row/column medians (shading, glow,
+        # a patterned dark) would hide hot pixels in its troughs and inflate sigma: take
+        # it out with a local running median, only where it is there (skip otherwise)
+        self.structure = structure_ratio(self.res)
+        self.background_removed = self.structure > 1.1
+        if self.background_removed:
+            self.res = self.res - local_background(self.res)
+        self.sigma = robust_sigma(dequantized(self.res, st), floor=1e-9)
         self.z = self.res / self.sigma
         t = st.exposure_s
         self.rate = self.res / (gain * t) if gain and t else None
@@ -41,14 +63,20 @@ class _Dark:
         self.pop_var = sampled_median(st.var) / (sps.chi2.median(dof) / dof)
         self.expected = self.pop_var + (gain * np.maximum(self.res, 0.0) if gain else 0.0)
         self.var_ratio = st.var / np.maximum(self.expected, 1e-12)
-        self.col_var = fast_median(self.var_ratio, axis=0)
-        self.row_var = fast_median(self.var_ratio, axis=1)
+        # per-line temporal variance relative to the typical line: a 10 %-trimmed mean, not
+        # a median -- with a pair of integer frames the variances take a few discrete
+        # values and a line median jumps between them (false noisy lines at F = 2)
+        cv = sps.trim_mean(self.var_ratio, 0.1, axis=0)
+        rv = sps.trim_mean(self.var_ratio, 0.1, axis=1)
+        self.col_var = cv / max(float(np.median(cv)), 1e-12)
+        self.row_var = rv / max(float(np.median(rv)), 1e-12)
+        self.stuck_ok, self.stuck_why = stuck_in_darks(math.sqrt(self.pop_var), st.n_frames, th.max_false_alarm)
 
 
 class _Flat:
     """Per-level response (flat minus dark) relative to the local median response."""
 
-    def __init__(self, st: PixelStats, dark: PixelStats, block: int) -> None:
+    def __init__(self, st: PixelStats, dark: PixelStats, block: int, max_false_alarm: float) -> None:
         self.st = st
         resp = st.mean - dark.mean
         self.median = sampled_median(resp)
@@ -61,6 +89,10 @@ class _Flat:
         self.noise = np.sqrt(st.var / st.n_frames + dark.var / dark.n_frames)
         self.col_ratio = fast_median(self.ratio, axis=0)
         self.row_ratio = fast_median(self.ratio, axis=1)
+        # zero variance is a stuck pixel here only where a normal pixel's shot noise makes
+        # equal codes in every frame improbable
+        self.pop_sigma = math.sqrt(max(sampled_median(st.var), 0.0))
+        self.stuck_ok = p_constant_codes(self.pop_sigma, st.n_frames) <= max_false_alarm
 
 
 def _levels(x: PixelStats | Sequence[PixelStats] | None) -> list[PixelStats]:
@@ -114,7 +146,7 @@ def classify_defects(
         raise ValueError("gain_dn_per_e must be positive")
     notes: list[str] = []
     nrow, ncol = shape
-    D = [_Dark(s, gain_dn_per_e) for s in darks]
+    D = [_Dark(s, gain_dn_per_e, th) for s in darks]
     rate_mode = all(d.rate is not None for d in D)
     if not rate_mode:
         why = "no gain" if not gain_dn_per_e else "no exposure time on every dark level"
@@ -122,7 +154,7 @@ def classify_defects(
                      f"warm z > {th.warm_z}, hot z > {th.hot_z}")
     F = []
     for s in flat_levels:
-        fl = _Flat(s, _match_dark(s, darks), th.background_block_px)
+        fl = _Flat(s, _match_dark(s, darks), th.background_block_px, th.max_false_alarm)
         if not fl.median > 0:
             notes.append(f"a flat level with median response {fl.median:.3g} DN was skipped (no light)")
             continue
@@ -154,12 +186,14 @@ def classify_defects(
             vr = d.var_ratio / line_var
             noisy_n += vr > sps.chi2.isf(th.noisy_p_fa, dof) / dof
             np.maximum(noisy_stat, vr, out=noisy_stat)
-            stuck_n += (d.st.var < th.stuck_var_dn2) & (d.st.var < d.pop_var * sps.chi2.ppf(th.noisy_p_fa, dof) / dof)
+            if d.stuck_ok:
+                stuck_n += (d.st.var < th.stuck_var_dn2) & (d.st.var < d.pop_var * sps.chi2.ppf(th.noisy_p_fa, dof) / dof)
+        need = _need(max(sum(d.stuck_ok for d in D), 1), th.confirm_fraction)
+        stuck = stuck_n >= need if any(d.stuck_ok for d in D) else np.zeros(shape, bool)
         need = _need(nd, th.confirm_fraction)
         flags = {"hot": hot_n >= need}
         flags["warm"] = ((hot_n + warm_n) >= need) & ~flags["hot"]
-        flags["noisy"] = noisy_n >= need
-        stuck = stuck_n >= need
+        flags["noisy"] = (noisy_n >= need) if noisy_ok else np.zeros(shape, bool)
         stats = {"hot": hot_stat, "warm": hot_stat, "noisy": noisy_stat}
         dead = np.zeros(shape, bool)
         low = np.zeros(shape, bool)
@@ -179,7 +213,8 @@ def classify_defects(
                 dn += sig & (r < th.dead_fraction)
                 ln += sig & (r < th.low_response_fraction)
                 hn += sig & (r > th.high_response_fraction)
-                sn += (fl.st.var < th.stuck_var_dn2) & (np.abs(fl.resp) < th.stuck_response_dn)
+                if fl.stuck_ok:
+                    sn += (fl.st.var < th.stuck_var_dn2) & (np.abs(fl.resp) < th.stuck_response_dn)
                 acc += r
             needf = _need(nf, th.confirm_fraction)
             dead = dn >= needf
@@ -191,6 +226,31 @@ def classify_defects(
         stats.update(dead=ratio_stat, low_response=ratio_stat, high_response=ratio_stat)
         stats["stuck"] = np.minimum.reduce([d.st.var for d in D])
         return flags, stats
+
+    # ---- what each class can detect at this frame count (limits.py)
+    unavailable: dict[str, str] = {}
+    detection: dict[str, str] = {}
+    fmin = min(d.st.n_frames for d in D)
+    noisy_ok, why = noisy_available(fmin, th.noisy_p_fa, th.noisy_detect_ratio)
+    (detection if noisy_ok else unavailable)["noisy"] = why
+    stuck_ok = any(d.stuck_ok for d in D) or any(fl.stuck_ok for fl in F)
+    if not stuck_ok:
+        unavailable["stuck"] = (next(d.stuck_why for d in D if d.stuck_why)
+                                + ("" if F else "; and no flat level to test the response"))
+    elif not all(d.stuck_ok for d in D):
+        detection["stuck"] = "from the flat levels only (too few dark frames for the zero-variance test)"
+    dref0 = max(D, key=lambda d: d.st.exposure_s or 0.0)
+    detection["hot"] = hot_limit_text(dref0.sigma, th.warm_z, gain_dn_per_e, dref0.st.exposure_s, th.hot_e_per_s)
+    if max(d.st.n_frames for d in D) < th.line_noise_min_frames:
+        notes.append(f"noisy rows/columns not tested: needs >= {th.line_noise_min_frames} dark frames (a line's "
+                     "temporal variance over fewer frames swings with its own row/column noise)")
+    if any(d.background_removed for d in D):
+        notes.append("smooth or periodic dark structure (robust sigma "
+                     f"{max(d.structure for d in D):.2f}x the pixel-to-pixel noise) removed by a 5x5 running "
+                     "median before the hot/warm test")
+    if not F:
+        for c in ("dead", "low_response", "high_response"):
+            unavailable[c] = "needs a flat (illuminated) level"
 
     ones_c, ones_r = np.ones(ncol), np.ones(nrow)
     flags, stats = pixel_flags(ones_c, ones_r, ones_c, ones_r)
@@ -211,8 +271,11 @@ def classify_defects(
         lf.add(np.abs(zo) > th.line_z, "dark offset z", zo)
         vals = dref.col_var if axis == 0 else dref.row_var
         zv = line_z(vals, math.sqrt(2.0 / (dref.st.n_frames - 1)), n_other)
-        # a noisy line: significantly AND substantially (line_noise_factor) above expected
-        lf.add((zv > th.line_z) & (vals > th.line_noise_factor), "temporal variance z", zv)
+        # a noisy line: significantly AND substantially (line_noise_factor) above expected;
+        # with few frames a line's own row/column temporal noise (F - 1 dof, shared by
+        # the whole line) swings its variance by tens of % -- not a defect
+        if dref.st.n_frames >= th.line_noise_min_frames:
+            lf.add((zv > th.line_z) & (vals > th.line_noise_factor), "temporal variance z", zv)
         factor_var = np.where(lf.bad, vals, 1.0)
         factor_resp = np.ones(n)
         if F:
@@ -298,16 +361,25 @@ def classify_defects(
                   y0=origin[0] + step[0] * cl.pop("row0"), y1=origin[0] + step[0] * cl.pop("row1"))
     counts.update(bad_columns=len(bad_columns), bad_rows=len(bad_rows), clusters=len(clusters["clusters"]),
                   total=int(rows.size))
-    count_for_limit = dict(counts, cluster_size=max((c["size"] for c in clusters["clusters"]), default=0))
     if not rts_available:
         counts["rts"] = None  # type: ignore[assignment]
         flag_counts["rts"] = None  # type: ignore[assignment]
+        unavailable["rts"] = rts_note
+    for c in unavailable:
+        if c in counts and c != "rts":
+            counts[c] = None  # type: ignore[assignment]
+            flag_counts[c] = None  # type: ignore[assignment]
+    warnings = tuple(
+        f"{c}: {n} pixels ({100 * n / (nrow * ncol):.2g} % of the array) is implausibly many for one class; "
+        "check the data (frame count, exposure, illumination) before trusting it"
+        for c, n in flag_counts.items() if n is not None and n > th.max_plausible_fraction * nrow * ncol)
+    count_for_limit = dict(counts, cluster_size=max((c["size"] for c in clusters["clusters"]), default=0))
     limits = []
     for name, mx in th.limits().items():
         cnt = count_for_limit.get(name)
         limits.append({"name": name, "count": cnt, "max": mx,
                        "passed": None if cnt is None else bool(cnt <= mx)})
-    # an unavailable count (RTS without series) cannot pass a limit
+    # an unavailable count (not measurable at this frame count) cannot pass a limit
     limits = [dict(lim, passed=bool(lim["passed"])) for lim in limits]
 
     # ---- histograms
@@ -333,4 +405,5 @@ def classify_defects(
         flag_counts=flag_counts, defects=defects, statistics=statistics,
         bad_columns=bad_columns, bad_rows=bad_rows, clusters=clusters, histograms=hists,
         rts_available=rts_available, rts_note=rts_note, rts_candidates=(crow, ccol),
-        limits=limits, thresholds=th, notes=tuple(notes))
+        limits=limits, thresholds=th, notes=tuple(notes), unavailable=unavailable, detection=detection,
+        warnings=warnings)

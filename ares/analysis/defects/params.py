@@ -43,8 +43,12 @@ channel; "z" is a robust z-score, sigma = 1.4826 * MAD):
   (100) dead/low-response/stuck pixels in the line, or a line's median dark offset or
   median response more than ``line_z`` (6) robust sigmas from its neighbours, or its
   median temporal variance both ``line_z`` sigmas and ``line_noise_factor`` (1.5x) above
-  the expected (see ``lines.py``). Pixel classes inside a bad line are judged against
+  the expected (see ``lines.py``; the noise test needs ``line_noise_min_frames`` (16)
+  dark frames: over fewer a line's own row/column temporal noise swings its variance). Pixel classes inside a bad line are judged against
   the line's own level, so a bad column is one bad column, not 480 bad pixels.
+* detection limits -- ``max_false_alarm`` (1e-5 per pixel), ``noisy_detect_ratio`` (10x
+  the population variance) and ``max_plausible_fraction`` (1 %): see ``limits.py``; a
+  class that cannot meet them at the data's frame count is not available, with the reason.
 * clusters -- 8-connected groups of >= ``cluster_min_size`` defective pixels.
 * pass/fail -- ``max_<class>`` (and ``max_bad_columns``, ``max_clusters``,
   ``max_cluster_size``, ``max_total``) fail when the count exceeds them; a limit on
@@ -86,6 +90,12 @@ class DefectThresholds:
     stuck_response_dn: float = 0.5
     # noisy (chi-square, F-1 dof)
     noisy_p_fa: float = 1e-7
+    # detection limits (limits.py): a class is not available where a normal pixel is
+    # flagged with probability > max_false_alarm, or a noisy_detect_ratio-times noisy
+    # pixel is missed; a class holding > max_plausible_fraction of the array is warned of
+    max_false_alarm: float = 1e-5
+    noisy_detect_ratio: float = 10.0
+    max_plausible_fraction: float = 0.01
     # random telegraph signal
     rts_min_frames: int = 100
     rts_min_separation: float = 4.0
@@ -95,6 +105,7 @@ class DefectThresholds:
     line_dead_count: int = 100
     line_z: float = 6.0
     line_noise_factor: float = 1.5
+    line_noise_min_frames: int = 16
     # clusters
     cluster_min_size: int = 2
     # pass/fail limits (max counts); None means "no limit"
@@ -128,7 +139,10 @@ class DefectThresholds:
                 if not float(v).is_integer():
                     raise bad(f.name, "must be a whole number")
                 object.__setattr__(self, f.name, int(v))  # 20.0 from an XML float -> 20
-        for name in ("confirm_fraction", "noisy_p_fa", "rts_min_occupancy"):
+        if self.noisy_detect_ratio < 1:
+            raise bad("noisy_detect_ratio", "must be at least 1")
+        for name in ("confirm_fraction", "noisy_p_fa", "rts_min_occupancy", "max_false_alarm",
+                     "max_plausible_fraction"):
             if not 0 < getattr(self, name) <= 1:
                 raise bad(name, "must be in (0, 1]")
         if not 0 <= self.dead_fraction <= self.low_response_fraction <= 1 <= self.high_response_fraction:

@@ -59,6 +59,9 @@ class DefectResult:
     limits: list[dict]
     thresholds: DefectThresholds
     notes: tuple[str, ...] = field(default=())
+    unavailable: dict = field(default_factory=dict)  # class -> why it is not available
+    detection: dict = field(default_factory=dict)  # class -> what it finds (99 %)
+    warnings: tuple[str, ...] = field(default=())
 
     @property
     def passed(self) -> bool:
@@ -86,6 +89,8 @@ class DefectResult:
                     "candidates": int(self.rts_candidates[0].size)},
             "limits": self.limits, "passed": self.passed,
             "thresholds": self.thresholds.to_dict(), "notes": list(self.notes),
+            "unavailable": dict(self.unavailable), "detection": dict(self.detection),
+            "warnings": list(self.warnings),
             "mask_bits": dict(BITS),
         }
         if histograms:

@@ -90,3 +90,39 @@ def block_median_background(img: np.ndarray, block: int) -> np.ndarray:
     rc = np.minimum(np.arange(nr) * b_r + (b_r - 1) / 2.0, r - 1)
     cc = np.minimum(np.arange(nc) * b_c + (b_c - 1) / 2.0, c - 1)
     return _interp_matrix(r, rc) @ med @ _interp_matrix(c, cc).T
+
+
+def structure_ratio(res: np.ndarray, max_samples: int = 1 << 19) -> float:
+    """Robust sigma of ``res`` over the robust sigma of its horizontal first differences
+    / sqrt(2): ~1 for spatially white residuals, > 1 where smooth or periodic structure
+    (shading, glow, a patterned dark) is left after the row/column medians."""
+    if res.shape[1] < 2:
+        return 1.0
+    d = np.diff(res, axis=1) / np.sqrt(2.0)
+    s_d = robust_sigma(d, max_samples=max_samples)
+    s_r = robust_sigma(res, max_samples=max_samples)
+    return s_r / s_d if s_d > 0 else 1.0
+
+
+def local_background(res: np.ndarray, size: int = 5) -> np.ndarray:
+    """A separable ``size`` x ``size`` running median (rows, then columns) that leaves the
+    pixel itself out (a ring of ``size - 1`` neighbours per pass): follows any structure
+    wider than ~size pixels, smooth or periodic, while a single defect pixel (or a 2-pixel
+    cluster) cannot move it. Leaving the pixel out keeps its residual's tails Gaussian
+    with its core: a median that includes the pixel narrows the core (MAD) but not the
+    tails, and a 4.8-sigma threshold then gives 10x the false alarms. 0.14 s at 1080p."""
+    from scipy import ndimage
+
+    if min(res.shape) < size:
+        return np.zeros_like(res)
+    ring = np.ones(size, bool)
+    ring[size // 2] = False
+    k = size // 2  # ranks k-1 and k: the two middle values of the size-1 neighbours
+
+    def median(x, footprint):  # an even count: the mean of the two middle values (scipy's
+        # median_filter takes the upper one, biased up by ~0.3 sigma and up a gradient)
+        # "nearest" at the borders: a reflected edge makes a local extremum of any gradient
+        return 0.5 * (ndimage.rank_filter(x, k - 1, footprint=footprint, mode="nearest")
+                      + ndimage.rank_filter(x, k, footprint=footprint, mode="nearest"))
+
+    return median(median(res, ring[None, :]), ring[:, None])

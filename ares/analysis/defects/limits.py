@@ -1,0 +1,103 @@
+"""What each defect class can detect with the frames (and signal) at hand.
+
+A class whose false-alarm rate per pixel at this frame count exceeds
+``DefectThresholds.max_false_alarm`` (1e-5), or that cannot find the defect it is meant
+for with 99 % probability, is *not available* with one sentence why -- never a count of
+thousands of normal pixels (SCIENCE.md, "Detection limits").
+
+- stuck: a normal pixel with temporal sigma s (DN) shows *zero* variance when its F
+  integer codes are all equal. With s = 1 DN that happens to 2.8 % of the pixels at
+  F = 4 (8600 "stuck" pixels on a VGA sensor), 4e-4 at F = 8 and 1.4e-7 at F = 16
+  (``p_constant_codes``). Stuck is detected in the darks only where this is below the
+  limit, or in a flat whose shot noise makes equal codes impossible.
+- noisy: the chi-square test at ``noisy_p_fa`` finds, with 99 % probability, pixels whose
+  variance is ``noisy_ratio_99`` times the population's: 180000x with a pair, 310x at
+  F = 4, 11x at F = 16, 5x at F = 32. The class is available where that ratio is at most
+  ``noisy_detect_ratio`` (10).
+- hot/warm: the robust z threshold fixes the false-alarm rate (< 1e-6 at 4.8 sigma);
+  the smallest dark rate found with 99 % probability is stated (it depends on the
+  exposure, the gain and the averaged dark's noise).
+- RTS needs ``rts_min_frames`` frames of time series; dead/low/high response need a flat.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+from scipy import stats as sps
+
+Z99 = 2.326  # one-sided 99 % quantile of the normal
+
+
+def p_constant_codes(sigma_dn: float, frames: int, n_phase: int = 32) -> float:
+    """Probability that ``frames`` integer codes of a Gaussian pixel (sigma in DN, mean
+    uniformly placed between codes) are all equal -- zero sample variance."""
+    if frames < 2:
+        return 1.0
+    if not sigma_dn > 0:
+        return 1.0
+    mu = (np.arange(n_phase) + 0.5) / n_phase
+    k = np.arange(-int(8 * sigma_dn) - 2, int(8 * sigma_dn) + 3)
+    p = (sps.norm.cdf((k[None, :] + 0.5 - mu[:, None]) / sigma_dn)
+         - sps.norm.cdf((k[None, :] - 0.5 - mu[:, None]) / sigma_dn))
+    return float(np.mean(np.sum(p**frames, axis=1)))
+
+
+def min_frames_stuck(sigma_dn: float, p_max: float, f_max: int = 4096) -> int | None:
+    """Fewest frames at which a normal pixel's codes are all equal with probability <= p_max."""
+    f = 2
+    while f <= f_max:
+        if p_constant_codes(sigma_dn, f) <= p_max:
+            return f
+        f = f + 1 if f < 64 else int(f * 1.25)
+    return None
+
+
+def noisy_ratio_99(frames: int, p_fa: float) -> float:
+    """Variance ratio a noisy pixel needs to fail the chi-square test with 99 % probability."""
+    dof = frames - 1
+    if dof < 1:
+        return math.inf
+    return float(sps.chi2.isf(p_fa, dof) / sps.chi2.ppf(0.01, dof))
+
+
+def min_frames_noisy(ratio: float, p_fa: float, f_max: int = 4096) -> int | None:
+    f = 2
+    while f <= f_max:
+        if noisy_ratio_99(f, p_fa) <= ratio:
+            return f
+        f = f + 1 if f < 64 else int(f * 1.25)
+    return None
+
+
+def stuck_in_darks(pop_sigma_dn: float, frames: int, p_max: float) -> tuple[bool, str]:
+    """(usable, why not) for the zero-variance test in a dark level."""
+    p = p_constant_codes(pop_sigma_dn, frames)
+    if p <= p_max:
+        return True, ""
+    need = min_frames_stuck(pop_sigma_dn, p_max)
+    return False, (f"with {frames} frames a normal pixel (temporal sigma {pop_sigma_dn:.2g} DN) repeats one code "
+                   f"in every frame with probability {p:.2g} (limit {p_max:g})"
+                   + (f"; needs >= {need} frames" if need else ""))
+
+
+def noisy_available(frames: int, p_fa: float, ratio: float) -> tuple[bool, str]:
+    r99 = noisy_ratio_99(frames, p_fa)
+    if r99 <= ratio:
+        return True, f"finds pixels with >= {r99:.3g}x the population variance (99 %)"
+    need = min_frames_noisy(ratio, p_fa)
+    return False, (f"with {frames} frames the chi-square test finds only pixels with >= {r99:.3g}x the population "
+                   f"variance (99 %); a {ratio:g}x noisy pixel needs >= {need} frames")
+
+
+def hot_limit_text(sigma_dn: float, z: float, gain: float | None, exposure_s: float | None,
+                   rate_threshold: float) -> str:
+    """The smallest excess dark signal found with 99 % probability, as a sentence."""
+    dn = (z + Z99) * sigma_dn
+    if gain and exposure_s:
+        lim = dn / (gain * exposure_s)
+        return (f"finds excess dark rates >= {max(lim, rate_threshold):.3g} e-/s (99 %; the averaged dark's noise "
+                f"{sigma_dn:.2g} DN at {exposure_s:g} s" + (f" hides hot pixels between {rate_threshold:g} and "
+                                                             f"{lim:.3g} e-/s)" if lim > rate_threshold else ")"))
+    return f"finds excess dark signals >= {dn:.3g} DN (99 %)"
