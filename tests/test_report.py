@@ -129,12 +129,15 @@ def test_csv_tables_equal_run_directory(runs, tmp_path):
 
     ptc = _csv(tmp_path / "ptc.csv")
     assert [r["stage"] for r in ptc] == [r["stage"] for r in sr["ptc"]["level_status"]]
+    # the PTC's level statistics: over the good pixels of the run's defect mask
+    lv, dk = tables.ptc_level_keys([stages[r["stage"]] for r in ptc])
+    assert lv == "level_masked"
     for r in ptc:
         st = stages[r["stage"]]
         full = st["views"]["full"]
-        assert float(r["mean_dn"]) == full["level"]["mean_dn"]
-        assert float(r["signal_dn"]) == full["level"]["mean_dn"] - full["dark_level"]["mean_dn"]
-        assert float(r["variance_dn2"]) == full["level"]["var_dn2"] - full["dark_level"]["var_dn2"]
+        assert float(r["mean_dn"]) == full[lv]["mean_dn"]
+        assert float(r["signal_dn"]) == full[lv]["mean_dn"] - full[dk]["mean_dn"]
+        assert float(r["variance_dn2"]) == full[lv]["var_dn2"] - full[dk]["var_dn2"]
         assert float(r["variance_se_dn2"]) > 0
         assert float(r["exposure_s"]) == st["settings"]["exposure"] and float(r["light"]) == st["settings"]["light"]
         assert float(r["photons"]) == pytest.approx(st["settings"]["light"] * st["settings"]["exposure"])

@@ -173,6 +173,12 @@ def print_summary(outcome, scan, seconds: float, out=None) -> None:
     if isinstance(d, dict) and "components" in d:
         sets = ", ".join(f"{k.removeprefix('reg:')}={v:g}" for k, v in d["settings"].items())
         out.write(f"noise components at stage {d['stage']} ({sets}):\n")
+        if "masked_pixels" in d:
+            u = {k: v.get("value") for k, v in (d.get("components_unmasked") or {}).items()}
+            out.write(f"  {d['masked_pixels']} defect pixels excluded (mask from {d.get('mask_source')}); "
+                      f"with them: Ps {u.get('Ps', float('nan')):.4g} DN^2, Pt {u.get('Pt', float('nan')):.4g} DN^2\n")
+        elif d.get("mask_note"):
+            out.write(f"  {d['mask_note']}\n")
         from ares.report.tables import component_label, component_text
 
         for k, v in d["components"].items():

@@ -104,6 +104,7 @@ class Scan:
     analyses: tuple[str, ...] = ()
     defects: tuple[tuple[str, float], ...] = ()
     limits: tuple[Limit, ...] = ()
+    defect_mask: str | None = None  # <defects mask=...>: a file relative to the scan
     output: Output = Output()
     source: Path | None = field(default=None, compare=False)
     system_path: Path | None = field(default=None, compare=False)
@@ -250,6 +251,11 @@ def scan_from_tree(tree, path, system: System | None = None, system_path=None) -
         if lim.min is not None and lim.max is not None and lim.min > lim.max:
             raise fail(path, el.sourceline, f"limit on '{lim.quantity}': min {lim.min:g} is above max {lim.max:g}")
         limits.append(lim)
+    de = root.find("defects")
+    if de is not None and de.get("mask") is not None:
+        mp = Path(path).parent / de.get("mask")
+        if not mp.is_file():
+            raise fail(path, de.sourceline, f"defect mask {de.get('mask')!r} is not a file ({mp})")
     analyses = tuple(el.get("name") for el in root.iterfind("analyses/analysis"))
     out = root.find("output")
     output = Output() if out is None else Output(
@@ -262,6 +268,7 @@ def scan_from_tree(tree, path, system: System | None = None, system_path=None) -
         frames=int(root.findtext("frames")), settings=settings, stages=tuple(stages), regions=tuple(regions),
         analyses=analyses, defects=tuple((el.get("name"), float(el.get("value"))) for el in root.iterfind("defects/threshold")),
         limits=tuple(limits), output=output, system=system, source=Path(path),
+        defect_mask=root.find("defects").get("mask") if root.find("defects") is not None else None,
         system_path=Path(system_path) if system_path else system.source,
     )
 
@@ -317,8 +324,9 @@ def scan_to_tree(sc: Scan) -> etree._ElementTree:
         an = etree.SubElement(root, "analyses")
         for a in sc.analyses:
             _set(etree.SubElement(an, "analysis"), name=a)
-    if sc.defects:
+    if sc.defects or sc.defect_mask:
         de = etree.SubElement(root, "defects")
+        _set(de, mask=sc.defect_mask)
         for k, v in sc.defects:
             _set(etree.SubElement(de, "threshold"), name=k, value=float(v))
     if sc.limits:

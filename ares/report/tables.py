@@ -181,6 +181,13 @@ def _stored_ptc(run, gain: float) -> dict:
     return ptc if ptc.get("analog_gain", gain) == gain and "gain_dn_per_e" in ptc else {}
 
 
+def ptc_level_keys(stages: list[dict]) -> tuple[str, str]:
+    """The stage-level statistics a PTC uses: over the good pixels of the run's defect mask
+    when every level has them (``level_masked``/``dark_level_masked``), else all pixels."""
+    ok = all("level_masked" in s["views"]["full"] and "dark_level_masked" in s["views"]["full"] for s in stages)
+    return ("level_masked", "dark_level_masked") if ok and stages else ("level", "dark_level")
+
+
 def ptc_groups(run) -> list[PtcGroup]:
     """Flat stages with a matched dark, one group per analog gain (as the runner groups)."""
     groups: dict[float, list[dict]] = {}
@@ -198,8 +205,9 @@ def ptc_groups(run) -> list[PtcGroup]:
             photons = None
         res = None
         if len(sts) >= 2:
-            bright = [levelstats(s["views"]["full"]["level"]) for s in sts]
-            dark = [levelstats(s["views"]["full"]["dark_level"]) for s in sts]
+            lv, dk = ptc_level_keys(sts)
+            bright = [levelstats(s["views"]["full"][lv]) for s in sts]
+            dark = [levelstats(s["views"]["full"][dk]) for s in sts]
             res = _analyze(bright, dark, exposure_s=exp if all(math.isfinite(e) for e in exp) else None,
                            photons=photons, adc_lsb_uv=_adc_lsb_uv(run, stored), analog_gain=g,
                            signal_se=[signal_se(s) for s in sts])
@@ -216,9 +224,10 @@ def ptc_rows(groups: list[PtcGroup]) -> list[dict]:
     """One row per PTC level: the stage numbers, dark-subtracted signal/variance, SE, status."""
     rows = []
     for g in groups:
+        lv, dk = ptc_level_keys(g.stages)
         for i, st in enumerate(g.stages):
             full = st["views"]["full"]
-            b, d = levelstats(full["level"]), levelstats(full["dark_level"])
+            b, d = levelstats(full[lv]), levelstats(full[dk])
             status, reason = g.status(i)
             rows.append({
                 "analog_gain": g.analog_gain, "stage_index": st["index"], "stage": st["name"],

@@ -85,8 +85,12 @@ def _read_noise_with_line_terms(r, stages: list):
 def ptc_one(run, stages: list, analog_gain: float) -> dict:
     from ares.analysis.ptc import analyze_ptc
 
-    bright = [_levelstats(s["views"]["full"]["level"]) for s in stages]
-    dark = [_levelstats(s["views"]["full"]["dark_level"]) for s in stages]
+    from ares.report.tables import ptc_level_keys
+
+    lv, dk = ptc_level_keys(stages)  # defect pixels out where every level has masked statistics
+    masked = lv == "level_masked"
+    bright = [_levelstats(s["views"]["full"][lv]) for s in stages]
+    dark = [_levelstats(s["views"]["full"][dk]) for s in stages]
     exp = [s["settings"].get("exposure", math.nan) for s in stages]
     light = [s["settings"].get("light") for s in stages]
     photons = [l_ * e for l_, e in zip(light, exp)] if all(v is not None for v in light) else None
@@ -96,7 +100,8 @@ def ptc_one(run, stages: list, analog_gain: float) -> dict:
                     photons=photons, adc_lsb_uv=_adc_lsb_uv(run.system), analog_gain=analog_gain,
                     signal_se=[_signal_se(s) for s in stages])
     rn_dn, rn_e = _read_noise_with_line_terms(r, stages)
-    out = {"analog_gain": analog_gain, "levels": len(stages)}
+    out = {"analog_gain": analog_gain, "levels": len(stages),
+           "defect_pixels_excluded": stages[0]["views"]["full"].get("masked_pixels", 0) if masked else 0}
     out.update(r.to_dict([s["name"] for s in stages]))
     out.update(read_noise_dn=_e(rn_dn), read_noise_e=_e(rn_e))
     return out
@@ -141,7 +146,15 @@ def decomposition(run) -> dict:
     if st is None:
         return {"status": "not available", "note": "no stages"}
     full = st["views"]["full"]
-    return {"stage": st["name"], "settings": st["settings"], "components": full["components"]}
+    out = {"stage": st["name"], "settings": st["settings"], "components": full["components"]}
+    if "components_masked" in full:
+        # the headline components exclude the defect pixels (ares.scan.defect_mask); the
+        # unmasked ones stay beside them
+        out.update(components=full["components_masked"], components_unmasked=full["components"],
+                   **{k: v for k, v in (st.get("defect_mask") or {}).items()})
+    elif st.get("defect_mask"):
+        out["mask_note"] = "no masked figures for this stage (its dark was taken before the defect mask)"
+    return out
 
 
 def _run_gain(run, analog_gain: float | None = None):

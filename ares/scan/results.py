@@ -24,6 +24,7 @@ from typing import Callable
 import numpy as np
 
 from ares.analysis import StackAccumulator, anova_table, decompose_dark
+from ares.analysis.masked import MaskedStackAccumulator
 from ares.errors import InputError
 
 FULL = (slice(None), slice(None))
@@ -51,8 +52,11 @@ def views(scan) -> dict[str, tuple[slice, slice]]:
 class StackSet:
     """One accumulator per view, plus clip counters."""
 
-    def __init__(self, shape, views_: dict, max_code: int, histograms: bool = False):
+    def __init__(self, shape, views_: dict, max_code: int, histograms: bool = False, mask=None):
         self.views = views_
+        # the full view over the good pixels of a defect mask too (ares.scan.defect_mask)
+        self.masked = MaskedStackAccumulator(shape, mask) if mask is not None else None
+        self.kept: list[np.ndarray] | None = None  # frames kept to build a mask from (keep_frames)
         self.max_code = max_code
         self.hist = {k: np.zeros(max_code + 1, np.int64) for k in views_
                      if k == "full" or k.startswith(("adc", "cfa_"))} if histograms else {}
@@ -69,6 +73,21 @@ class StackSet:
             self.at_min[k] += int(np.count_nonzero(d == 0))
             if k in self.hist:
                 self.hist[k] += np.bincount(d.ravel(), minlength=self.max_code + 1)[: self.max_code + 1]
+        if self.masked is not None:
+            self.masked.add(data)
+        if self.kept is not None:
+            self.kept.append(np.array(data, copy=True))
+
+    def apply_mask(self, mask) -> bool:
+        """Accumulate the kept frames over the good pixels of ``mask`` (after the fact, for
+        the stage the mask was built from); False when no frames were kept."""
+        if self.kept is None:
+            return False
+        self.masked = MaskedStackAccumulator(self.acc["full"].shape, mask)
+        for f in self.kept:
+            self.masked.add(f)
+        self.kept = None
+        return True
 
     @property
     def n_frames(self) -> int:
@@ -89,6 +108,24 @@ def level(ss: StackSet, view: str) -> dict:
         var = (float(np.nanmean(acc.temporal_var_map())) * (F - 1) * R * C - ss_f) / (R * C * (F - 1))
         out["var_dn2"] = var
         out["spatial_var_dn2"] = float(np.var(mean_map, ddof=1)) - var / F if R * C > 1 else math.nan
+    else:
+        out["var_dn2"] = out["spatial_var_dn2"] = math.nan
+    return out
+
+
+def masked_level(acc: MaskedStackAccumulator, like: dict) -> dict:
+    """``level`` over the good pixels of a mask (the frame-global offset removed from the
+    pixel temporal variance as in ``level``); the clip fractions are the view's."""
+    F, N = acc.n_frames, acc.n_good
+    out = {"mean_dn": acc.mean(), "n_pixels": N, "n_frames": F,
+           "frame_means": [float(x) for x in acc.frame_means()],
+           "frac_at_max": like.get("frac_at_max", 0.0), "frac_at_min": like.get("frac_at_min", 0.0)}
+    if F >= 2 and N >= 2:
+        fm = np.asarray(acc.frame_means(), float)
+        ss_f = N * float(np.sum((fm - fm.mean()) ** 2))
+        var = (float(np.nansum(acc.pixel_ss())) - ss_f) / (N * (F - 1))
+        out["var_dn2"] = var
+        out["spatial_var_dn2"] = float(np.nanvar(acc.mean_map(), ddof=1)) - var / F
     else:
         out["var_dn2"] = out["spatial_var_dn2"] = math.nan
     return out
@@ -134,6 +171,15 @@ def analyze_stage(stage, flat: StackSet, dark: StackSet | None) -> tuple[dict, d
             r["dark_level"] = level(dark, v)
             r["flat_anova"] = {k: e.to_dict() for k, e in decompose_dark(flat.acc[v]).items()}
         res["views"][v] = r
+    if flat.masked is not None:
+        full = res["views"]["full"]
+        full["masked_pixels"] = int(flat.masked.mask.sum())
+        full["level_masked"] = masked_level(flat.masked, full["level"])
+        if dark is None:
+            full["components_masked"] = _components(flat.masked, None)
+        elif dark.masked is not None:
+            full["components_masked"] = _components(flat.masked, dark.masked)
+            full["dark_level_masked"] = masked_level(dark.masked, full["dark_level"])
     full = flat.acc["full"]
     arrays = {"mean": full.mean_map().astype(np.float32),
               "variance": full.temporal_var_map().astype(np.float32),

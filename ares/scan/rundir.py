@@ -10,10 +10,14 @@ Layout (all paths relative to the run directory)::
     xml/<scan file>     the scan XML, byte for byte
     xml/<system file>   the system XML, byte for byte (``ares rerun`` loads these two)
     stages/NNNN.json    per completed stage: resolved settings, register snapshots
-                        before/after, timing, results per view (see ares.scan.results)
+                        before/after, timing, results per view (see ares.scan.results);
+                        with a defect mask also level_masked, components_masked (full view)
+                        and the mask summary (defect_mask: count, source, classes)
     stages/NNNN.h5      HDF5 arrays of the stage: mean, variance (per-pixel temporal, DN^2),
                         frame_means, dark_mean (matched dark), hist_<view> (code histograms,
-                        adc_linearity scans only); chunked, gzip; attrs name, scene,
+                        adc_linearity scans only), defect_mask (uint8, 1 = excluded from the
+                        masked figures; on the stage the mask was built from or first used
+                        with, see ares.scan.defect_mask); chunked, gzip; attrs name, scene,
                         settings (JSON), result (JSON)
     results.h5          HDF5 index: /stages/NNNN are external links to stages/NNNN.h5, so
                         h5py.File("results.h5")["stages/0003/mean"] just works (keep the

@@ -21,12 +21,18 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Callable
 
+import numpy as np
+
 from ares.errors import AresError, FrameError, HardwareError, InputError
 from ares.scan import events as ev
 from ares.scan.apply import apply_settings
+from ares.scan.defect_mask import load_declared_mask, mask_from_dark, scan_thresholds
 from ares.scan.results import StackSet, analyze_stage, check_limits, scan_level_results, views
 from ares.scan.rundir import RunRecord, RunWriter
 from ares.scan.stages import Stage, estimate_seconds, expand
+
+
+KEEP_FOR_MASK_BYTES = 256 * 1024 * 1024  # first dark stage kept in memory up to this size
 
 
 @dataclass
@@ -174,6 +180,7 @@ class Runner:
         run_dir = str(writer.dir) if writer else None
         self._emit(ev.RunStarted(run_dir, len(stages), self._frames_total, self._est))
         cache = None  # last dark StackSet that a matched dark may reuse
+        self._mask = load_declared_mask(scan, bench.frames.shape)  # else from the first dark stage
         applied: dict | None = None
         status = "done"
         for st in stages:
@@ -190,6 +197,11 @@ class Runner:
                     apply_settings(bench, system, st.dark_settings, applied)
                     applied = st.dark_settings
                     dark = self._grab(bench, st, st.dark_frames, vw, max_code, fw, dark=True)
+                elif st.dark_source == "reuse" and cache is not None and cache.masked is None and self._mask is not None:
+                    # the dark to reuse predates the defect mask and kept no frames: grab it again
+                    apply_settings(bench, system, st.dark_settings, applied)
+                    applied = st.dark_settings
+                    dark = cache = self._grab(bench, st, st.dark_frames, vw, max_code, fw, dark=True)
                 elif st.dark_source == "reuse":
                     dark = cache
                 apply_settings(bench, system, st.settings, applied)
@@ -211,7 +223,15 @@ class Runner:
             elif st.dark_source == "grab":
                 cache = dark
             after = bench.registers.snapshot()
+            new_mask = self._mask is None and st.scene == "dark" and st.settings.get("reg:test_mode", 0) == 0
+            if new_mask:
+                self._mask = mask_from_dark(flat, st.name, st.settings.get("exposure"), scan_thresholds(scan))
+                flat.apply_mask(self._mask.mask)  # this stage too, from its kept frames
             result, arrays = analyze_stage(st, flat, dark)
+            if self._mask is not None:
+                result["defect_mask"] = self._mask.summary()
+                if new_mask or not completed:  # the mask itself, once, with the stage it came from
+                    arrays["defect_mask"] = self._mask.mask.astype(np.uint8)
             timing = {"started": t_start, "finished": time.time(), "seconds": time.time() - t_start}
             if writer:
                 writer.add_stage(result, arrays, before, after, timing)
@@ -250,7 +270,11 @@ class Runner:
     def _grab(self, bench, st: Stage, n: int, vw, max_code, fw, dark: bool) -> StackSet:
         src = bench.frames
         shape = tuple(src.shape)
-        ss = StackSet(shape, vw, max_code, histograms="adc_linearity" in self.scan.analyses)
+        mask = getattr(self, "_mask", None)
+        ss = StackSet(shape, vw, max_code, histograms="adc_linearity" in self.scan.analyses,
+                      mask=mask.mask if mask is not None else None)
+        if mask is None and not dark and st.scene == "dark" and n * shape[0] * shape[1] * 2 <= KEEP_FOR_MASK_BYTES:
+            ss.kept = []  # the stage a defect mask will be built from: keep its frames to mask it too
         it = iter(src.grab(n))
         k = 0
         try:

@@ -1,0 +1,95 @@
+"""The defect mask a scan analyses its later stages with (issue 9: defects out of the noise figures).
+
+Two stuck pixels made the main job's pixel FPN 86.6 DN^2 instead of 1.86: every headline
+noise figure (DSNU, the sensor-noise floor, the PRNU of the total-noise model) came from
+them. The runner therefore builds a mask before the later stages stream -- from the first
+dark stage's mean and variance maps (``ares.analysis.defects``: stuck, hot, warm, noisy,
+RTS candidates; the classes that are available at that stage's frame count), or from a
+file the scan names (``<defects mask="...">``) -- and accumulates the full view of every
+later stage over the good pixels as well (``MaskedStackAccumulator``, unbiased for any
+mask). Both the masked and the unmasked figures are kept; the defect *counts* always come
+from the unmasked maps, and row/column defects are never masked (they are part of the
+row/column FPN a user must see).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+
+from ares.errors import InputError
+
+MAX_MASK_BYTES = 512 * 1024 * 1024
+
+
+@dataclass(frozen=True)
+class DefectMask:
+    mask: np.ndarray  # bool (rows, cols), True = excluded from the masked figures
+    source: str  # "dark stage NAME" or the file
+    classes: dict  # class -> pixels masked (from a classification)
+
+    @property
+    def count(self) -> int:
+        return int(self.mask.sum())
+
+    def summary(self) -> dict:
+        return {"masked_pixels": self.count, "mask_source": self.source, "mask_classes": dict(self.classes)}
+
+
+def mask_from_dark(stackset, stage_name: str, exposure_s: float | None, thresholds) -> DefectMask:
+    """Pixel defects of a finished dark stage's full view (z-mode: no gain is known yet)."""
+    from ares.analysis.defects import PixelStats, classify_defects
+    from ares.analysis.defects.result import PIXEL_BITS, PIXEL_CLASSES, primary_class
+
+    acc = stackset.acc["full"]
+    st = PixelStats(acc.mean_map().astype(float), acc.temporal_var_map().astype(float), acc.n_frames, exposure_s)
+    res = classify_defects([st], None, thresholds=thresholds)
+    mask = (res.mask & PIXEL_BITS) != 0
+    prim = primary_class(res.mask)
+    classes = {c: int(np.count_nonzero(prim == i)) for i, c in enumerate(PIXEL_CLASSES) if np.any(prim == i)}
+    return DefectMask(mask, f"dark stage {stage_name}", classes)
+
+
+def load_mask_file(path: Path, shape: tuple[int, int]) -> DefectMask:
+    """A declared mask: ``.npy`` (bool or integer, non-zero = defect) or a PNG/TIFF image
+    (non-zero = defect), the sensor's full array shape."""
+    try:
+        size = path.stat().st_size
+    except OSError as exc:
+        raise InputError(f"{path}: defect mask file cannot be read ({exc.strerror or exc})") from None
+    if not path.is_file():
+        raise InputError(f"{path}: defect mask is not a regular file")
+    if size > MAX_MASK_BYTES:
+        raise InputError(f"{path}: defect mask file is {size} bytes, more than any sensor mask needs")
+    try:
+        if path.suffix.lower() == ".npy":
+            a = np.load(path, allow_pickle=False)
+        else:
+            from PIL import Image
+
+            with Image.open(path) as im:
+                a = np.asarray(im)
+    except Exception as exc:  # noqa: BLE001 -- any decoder error is one sentence about the file
+        raise InputError(f"{path}: not a readable defect mask ({type(exc).__name__})") from None
+    if a.ndim != 2 or tuple(a.shape) != tuple(shape):
+        raise InputError(f"{path}: defect mask of shape {tuple(a.shape)} does not match the sensor's "
+                         f"{shape[0]} x {shape[1]} array")
+    m = np.asarray(a) != 0
+    return DefectMask(m, str(path), {"declared": int(m.sum())})
+
+
+def scan_thresholds(scan):
+    """The scan's ``<defects>`` thresholds (validated at load)."""
+    from ares.analysis.defects import DefectThresholds
+
+    return DefectThresholds.from_attrs(dict(scan.defects), where=f"{scan.source}: <defects>")
+
+
+def load_declared_mask(scan, shape) -> DefectMask | None:
+    """The mask file a scan names (``<defects mask=...>``, relative to the scan), or None."""
+    if not scan.defect_mask:
+        return None
+    base = Path(scan.source).parent if scan.source else Path.cwd()
+    return load_mask_file(base / scan.defect_mask, tuple(shape))
