@@ -57,7 +57,12 @@ def component_text(c: str, e: dict) -> str:
         return fmt_value(r, rse, "% rms")
     if v is None:
         return "n/a" + (f" ({e['note']})" if e.get("note") else "")
-    return fmt_value(v, se, e.get("unit", ""))
+    unit = e.get("unit", "")
+    if v < 0 and unit.endswith("^2"):  # a variance estimated below 0: a bound or a misfit
+        if se is not None and math.isfinite(se) and v + 2 * se >= 0:
+            return f"< {fmt_value(v + 2 * se, None, unit)} (estimate {v:.2g} ± {se:.2g}: consistent with 0)"
+        return f"n/a (negative variance {v:.3g} ± {se:.2g} {unit}: the model does not fit)"
+    return fmt_value(v, se, unit)
 
 FULL_WELL_LABELS = {
     "saturation_capacity": "saturation capacity (EMVA 1288 4.0)",
