@@ -23,6 +23,12 @@ class HardwareError(AresError):
     exit_code = 3
 
 
+class StorageError(AresError):
+    """The run directory cannot be written: disk full, read-only, quota, permission."""
+
+    exit_code = 5
+
+
 class LimitsFailed(AresError):
     """A scan finished but one or more pass/fail limits failed."""
 

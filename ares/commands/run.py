@@ -16,6 +16,8 @@ from pathlib import Path
 from ares.analysis.estimate import format_dict
 from ares.errors import InputError
 
+CLAIM = ".ares-claim"  # ares.scan.rundir.CLAIM (not imported here: `ares --help` stays light)
+
 NAME = "run"
 HELP = "run a scan XML on its system (the simulator by default) and write a run directory"
 
@@ -72,12 +74,28 @@ def resolve_out(out: str | Path | None, scan_name: str) -> Path:
         return p
     if not p.is_dir():
         raise InputError(f"--out {p}: exists and is not a directory")
-    if (p / "run.json").exists():
+    if (p / "run.json").exists() or (p / CLAIM).exists():  # a run directory, or one being made
         k = 2
         while (q := p.with_name(f"{p.name}_{k}")).exists():
             k += 1
         return q
     return p / default_out(scan_name).name
+
+
+def claim_out(out, scan_name: str, tries: int = 20) -> Path:
+    """``resolve_out`` and claim the directory; a concurrent run that took it first moves
+    this one to the next free name (never into the other run's folder)."""
+    from ares.scan.rundir import claim_run_dir
+
+    for _ in range(tries):
+        p = resolve_out(out, scan_name)
+        try:
+            claim_run_dir(p)
+            return p
+        except InputError as exc:  # taken by a concurrent run between resolve and claim: next name
+            if "being written by another run" not in str(exc) and "exists and is not empty" not in str(exc):
+                raise
+    raise InputError(f"--out {out}: no free run directory after {tries} tries (other runs are writing there)")
 
 
 def fmt_s(s: float | None) -> str:
@@ -232,27 +250,31 @@ def execute(scan, args, *, seed, frames, faults=None, argv=None, out_dir=None) -
     """Run ``scan`` with the CLI's progress, Ctrl-C handling, summary and exit code."""
     from ares.scan import Runner
 
-    out_dir = resolve_out(out_dir, scan.name)
+    out_dir = claim_out(out_dir, scan.name)
     runner = Runner(scan, out_dir=out_dir, seed=seed, frames=frames, faults=faults, argv=argv)
     if not args.quiet:
         runner.add_listener(ProgressBar())
     hits = []
 
-    def on_sigint(signum, frame):
+    def on_signal(signum, frame):
         hits.append(1)
+        name = {signal.SIGINT: "Ctrl-C", signal.SIGTERM: "SIGTERM", signal.SIGHUP: "SIGHUP"}.get(signum, "signal")
         if len(hits) == 1:
-            sys.stderr.write("\nstopping after the current stage (Ctrl-C again to abort)\n")
+            sys.stderr.write(f"\n{name}: stopping after the current stage ({name} again to abort)\n")
             runner.stop()
         else:
             runner.abort()
 
-    old = signal.signal(signal.SIGINT, on_sigint) if _main_thread() else None
+    # Ctrl-C, SIGTERM (kill, a job scheduler) and SIGHUP (the terminal closed) end a run
+    # like a stop: the stage in flight finishes, run.json says so; a second one aborts
+    sigs = (signal.SIGINT, signal.SIGTERM, signal.SIGHUP)
+    old = {s_: signal.signal(s_, on_signal) for s_ in sigs} if _main_thread() else {}
     t0 = time.monotonic()
     try:
         outcome = runner.run()
     finally:
-        if old is not None:
-            signal.signal(signal.SIGINT, old)
+        for s_, h in old.items():
+            signal.signal(s_, h)
     seconds = time.monotonic() - t0
     if args.json:
         json.dump(_json_summary(outcome, scan, seconds), sys.stdout, indent=1, default=str)
@@ -263,6 +285,10 @@ def execute(scan, args, *, seed, frames, faults=None, argv=None, out_dir=None) -
         sys.stderr.write(f"ares run: {outcome.status} after {len(outcome.stages)} stage(s); "
                          f"completed stages are kept in {outcome.run_dir}\n")
         return 130
+    if outcome.status == "failed":
+        sys.stderr.write(f"ares run: failed: {outcome.message}; the {len(outcome.stages)} completed stage(s) are "
+                         f"kept in {outcome.run_dir}\n")
+        return 1
     if outcome.limit_failures:
         sys.stderr.write(f"ares run: {len(outcome.limit_failures)} limit(s) failed: "
                          f"{'; '.join(outcome.limit_failures)}\n")

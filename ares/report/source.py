@@ -18,6 +18,7 @@ from pathlib import Path
 import numpy as np
 
 from ares.errors import InputError
+from ares.runstate import effective_status
 
 ATTRIBUTION = "EMVA 1288 reference data set, (C) 2011 Basler AG, CC BY-SA 3.0"
 _EMVA_MARKERS = ("emva1288_referenceset", "basler")
@@ -35,7 +36,9 @@ class Run:
 
     @property
     def status(self) -> str:
-        return str(self.meta.get("status") or "unknown")
+        """The recorded status, except that a ``running`` run whose process is gone reads
+        as ``interrupted`` (ares.runstate)."""
+        return effective_status(self.meta)[0]
 
     @property
     def complete(self) -> bool:
@@ -66,7 +69,7 @@ class Run:
             return ""
         n, tot = len(self.stages), self.meta.get("stages_total")
         of = f" of {tot}" if tot else ""
-        why = self.meta.get("message") or ""
+        why = self.meta.get("message") or effective_status(self.meta)[1]
         s = f"Incomplete run (status '{self.status}'): {n}{of} stage(s) completed"
         if self.scan_results is None:
             s += ", no scan-level results (computed here from the completed stages where possible)"

@@ -33,7 +33,11 @@ Layout (all paths relative to the run directory)::
     scan_results.json   scan-level analyses (PTC fit ...) and limit checks, at the end
 
 Each stage's files are flushed (fsync) before the next stage starts, so killing a run
-after k stages leaves k complete, readable stages.
+after k stages leaves k complete, readable stages. A stage commits when its JSON appears
+(its HDF5 is written before it); run.json records pid, host and a heartbeat, so a run
+whose process died reads as ``interrupted`` (``ares.runstate``) and ``ares resume``
+continues it. The directory is claimed exclusively (``.ares-claim``, the writer's pid).
+Disk full, read-only and quota errors end the run with one sentence (``StorageError``).
 """
 
 from __future__ import annotations
@@ -46,13 +50,16 @@ import math
 import os
 import platform
 import sys
+import threading
 import time
+from contextlib import contextmanager
 from dataclasses import dataclass, field
 from pathlib import Path
 
 import numpy as np
 
-from ares.errors import InputError
+from ares.errors import InputError, StorageError
+from ares.runstate import Heartbeat, effective_status, is_storage_error, owner, storage_sentence
 
 SUMMARY_COMPONENTS = ("o", "Pt", "Ps", "Rt", "Rs", "Ct", "Cs", "frame_global")
 
@@ -97,13 +104,32 @@ def _clean(o):
     return o
 
 
+@contextmanager
+def storage(path):
+    """Disk full, read-only, quota, permission while writing ``path``: one sentence
+    (``StorageError``), and the temporary file of an atomic write is not left behind."""
+    try:
+        yield
+    except OSError as exc:
+        if is_storage_error(exc):
+            raise StorageError(storage_sentence(exc, path)) from None
+        raise
+
+
 def write_atomic(path: Path, data: bytes) -> None:
     tmp = path.with_name(path.name + ".tmp")
-    with open(tmp, "wb") as f:
-        f.write(data)
-        f.flush()
-        os.fsync(f.fileno())
-    os.replace(tmp, path)
+    try:
+        with open(tmp, "wb") as f:
+            f.write(data)
+            f.flush()
+            os.fsync(f.fileno())
+        os.replace(tmp, path)
+    except OSError:
+        try:
+            tmp.unlink()
+        except OSError:
+            pass
+        raise
 
 
 def _fsync(path: Path) -> None:
@@ -115,16 +141,49 @@ def dump_json(path: Path, obj) -> None:
     write_atomic(path, json.dumps(_clean(obj), indent=1, default=_json_default, allow_nan=False).encode())
 
 
+CLAIM = ".ares-claim"
+
+
+def claim_run_dir(d: Path) -> None:
+    """Make ``d`` this process's run directory, exclusively: a new directory, or an empty
+    one (or one this process claimed before). Two runs given the same --out can never
+    write into, or nest inside, the same folder."""
+    try:
+        d.parent.mkdir(parents=True, exist_ok=True)
+        try:
+            d.mkdir()
+        except FileExistsError:
+            if not d.is_dir():
+                raise InputError(f"{d}: exists and is not a directory") from None
+            mine = (d / CLAIM).is_file() and (d / CLAIM).read_text().strip() == str(os.getpid())
+            others = [p.name for p in d.iterdir() if p.name != CLAIM]
+            if others or ((d / CLAIM).exists() and not mine):
+                raise InputError(f"{d}: output directory exists and is not empty") from None
+            if mine:
+                return
+        fd = os.open(d / CLAIM, os.O_CREAT | os.O_EXCL | os.O_WRONLY, 0o644)
+        with os.fdopen(fd, "w") as f:
+            f.write(str(os.getpid()))
+    except FileExistsError:
+        raise InputError(f"{d}: being written by another run") from None
+    except OSError as exc:
+        if is_storage_error(exc):
+            raise StorageError(storage_sentence(exc, d)) from None
+        raise InputError(f"{d}: cannot create the run directory ({exc.strerror or exc})") from None
+
+
 class RunWriter:
     """Writes one run directory (see the module docstring)."""
 
     def __init__(self, out_dir: str | Path, scan, *, seed: int | None, frames_override: int | None,
                  argv: list[str] | None = None, save_frames: bool = False):
         self.dir = Path(out_dir)
-        if self.dir.exists() and any(self.dir.iterdir()):
-            raise InputError(f"{self.dir}: output directory exists and is not empty")
-        for sub in ("xml", "stages"):
-            (self.dir / sub).mkdir(parents=True, exist_ok=True)
+        self._lock = threading.Lock()
+        self._heartbeat: Heartbeat | None = None
+        claim_run_dir(self.dir)
+        with storage(self.dir):
+            for sub in ("xml", "stages"):
+                (self.dir / sub).mkdir(parents=True, exist_ok=True)
         self.scan = scan
         self.save_frames = save_frames
         self.rows: list[dict] = []
@@ -134,8 +193,9 @@ class RunWriter:
         sys_bytes = sys_path.read_bytes()
         scan_name = Path(scan.source).name
         sys_name = sys_path.name if sys_path.name != scan_name else "system_" + sys_path.name
-        write_atomic(self.dir / "xml" / scan_name, scan_bytes)
-        write_atomic(self.dir / "xml" / sys_name, sys_bytes)
+        with storage(self.dir):
+            write_atomic(self.dir / "xml" / scan_name, scan_bytes)
+            write_atomic(self.dir / "xml" / sys_name, sys_bytes)
         self.meta = {
             "format": "ares-run/1", "scan_name": scan.name, "system_name": scan.system.name,
             "scan_file": f"xml/{scan_name}", "system_file": f"xml/{sys_name}",
@@ -146,10 +206,38 @@ class RunWriter:
             "finished": None, "status": "running", "message": "", "stages_completed": 0, "stages_total": None,
             "save_frames": save_frames,
         }
+        self.meta.update(owner())
+        self._write_meta()
+        self._heartbeat = Heartbeat(self.beat).start()
+
+    @classmethod
+    def reopen(cls, run_dir: str | Path, scan, stages: list[dict]) -> "RunWriter":
+        """The writer of an interrupted run, to append its missing stages (``ares resume``)."""
+        self = cls.__new__(cls)
+        self.dir = Path(run_dir)
+        self._lock = threading.Lock()
+        self.scan = scan
+        self.meta = json.loads((self.dir / "run.json").read_text())
+        self.save_frames = bool(self.meta.get("save_frames"))
+        self.rows = [summary_row(st) for st in stages]
+        self.h5_stages = [f"{st['index']:04d}" for st in stages if (self.dir / "stages" / f"{st['index']:04d}.h5").exists()]
+        resumed = list(self.meta.get("resumed") or [])
+        resumed.append({"at": time.strftime("%Y-%m-%dT%H:%M:%S%z"), "from_stage": len(stages),
+                        "previous_status": self.meta.get("status"), "previous_message": self.meta.get("message")})
+        self.meta.update(owner(), status="running", message="", finished=None, resumed=resumed)
+        for leftover in (self.dir / "stages").glob("*.tmp"):  # a stage write the kill cut short
+            leftover.unlink()
+        self._write_meta()
+        self._heartbeat = Heartbeat(self.beat).start()
+        return self
+
+    def beat(self) -> None:
+        self.meta["heartbeat"] = time.time()
         self._write_meta()
 
     def _write_meta(self) -> None:
-        dump_json(self.dir / "run.json", self.meta)
+        with self._lock, storage(self.dir / "run.json"):
+            dump_json(self.dir / "run.json", self.meta)
 
     def set_total(self, n: int) -> None:
         self.meta["stages_total"] = n
@@ -165,21 +253,27 @@ class RunWriter:
     # -- per stage ------------------------------------------------------------
     def add_stage(self, result: dict, arrays: dict, registers_before: dict, registers_after: dict,
                   timing: dict) -> None:
+        """Commit one stage: its HDF5 first, its JSON last -- the JSON is the commit, so a
+        kill between the two leaves an orphan .h5 that no reader counts (and resume
+        rewrites), never a stage without its arrays."""
         i = result["index"]
         record = dict(result, registers_before=registers_before, registers_after=registers_after, timing=timing)
-        dump_json(self.dir / "stages" / f"{i:04d}.json", record)
-        if self.scan.output.hdf5:
-            self._append_h5(i, result, arrays)
-        self.rows.append(summary_row(result))
-        if self.scan.output.csv:
-            write_atomic(self.dir / "summary.csv", summary_csv(self.rows))
+        with storage(self.dir / "stages"):
+            if self.scan.output.hdf5:
+                self._write_stage_h5(i, result, arrays)
+            dump_json(self.dir / "stages" / f"{i:04d}.json", record)
+            if self.scan.output.hdf5:
+                self._write_index(f"{i:04d}")
+            self.rows.append(summary_row(result))
+            if self.scan.output.csv:
+                write_atomic(self.dir / "summary.csv", summary_csv(self.rows))
         self.meta["stages_completed"] = len(self.rows)
+        self.meta["heartbeat"] = time.time()
         self._write_meta()
 
-    def _append_h5(self, i: int, result: dict, arrays: dict) -> None:
-        """Stage arrays into stages/NNNN.h5 (tmp -> fsync -> rename), then rewrite the small
-        results.h5 index of external links the same way: linear in the number of stages,
-        and at every instant both files are complete."""
+    def _write_stage_h5(self, i: int, result: dict, arrays: dict) -> None:
+        """Stage arrays into stages/NNNN.h5 (tmp -> fsync -> rename): at every instant the
+        file is complete or absent."""
         import h5py
 
         name = f"{i:04d}"
@@ -196,7 +290,13 @@ class RunWriter:
             f.attrs["result"] = json.dumps(_clean(result), default=_json_default)
         _fsync(tmp)
         os.replace(tmp, path)
-        self.h5_stages.append(name)
+
+    def _write_index(self, name: str) -> None:
+        """Rewrite the small results.h5 index of external links (tmp -> fsync -> rename)."""
+        import h5py
+
+        if name not in self.h5_stages:
+            self.h5_stages.append(name)
         index = self.dir / "results.h5"
         tmp = index.with_name("results.h5.tmp")
         with h5py.File(tmp, "w") as f:
@@ -211,11 +311,19 @@ class RunWriter:
     # -- end ------------------------------------------------------------------
     def finish(self, status: str, message: str = "", scan_results: dict | None = None,
                limit_failures: list | None = None) -> None:
+        self.stop_heartbeat()
         if scan_results is not None or limit_failures:
-            dump_json(self.dir / "scan_results.json",
-                      {"analyses": scan_results or {}, "limit_failures": list(limit_failures or [])})
+            with storage(self.dir / "scan_results.json"):
+                dump_json(self.dir / "scan_results.json",
+                          {"analyses": scan_results or {}, "limit_failures": list(limit_failures or [])})
         self.meta.update(status=status, message=message, finished=time.strftime("%Y-%m-%dT%H:%M:%S%z"))
         self._write_meta()
+
+    def stop_heartbeat(self) -> None:
+        hb = getattr(self, "_heartbeat", None)
+        if hb is not None:
+            hb.stop()
+            self._heartbeat = None
 
 
 class FrameWriter:
@@ -290,6 +398,11 @@ class RunRecord:
     @property
     def system(self):
         return self.scan.system
+
+    @property
+    def status(self) -> str:
+        """``run.json``'s status; ``interrupted`` for a ``running`` run whose process is gone."""
+        return effective_status(self.meta)[0]
 
     def arrays(self, index: int) -> dict:
         """Arrays of stage ``index`` from results.h5 (empty if none)."""

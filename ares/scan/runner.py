@@ -23,7 +23,7 @@ from typing import Callable
 
 import numpy as np
 
-from ares.errors import AresError, FrameError, HardwareError, InputError
+from ares.errors import AresError, FrameError, HardwareError, InputError, StorageError
 from ares.scan import events as ev
 from ares.scan.apply import apply_settings
 from ares.scan.defect_mask import load_declared_mask, mask_from_dark, scan_thresholds
@@ -142,15 +142,15 @@ class Runner:
                        f"{len(completed)} completed stage(s) saved in {writer.dir})")
                 exc = type(exc)(msg)
             if writer is not None:
-                writer.finish("failed", msg)
-                if completed:  # a failed run still gets its tables/report for the stages it saved
+                _finish_quietly(writer, "failed", msg)
+                if completed and not isinstance(exc, StorageError):  # the tables/report of the saved stages
                     self._reports(writer)
             self.state = "failed"
             self._emit(ev.Failed(msg, str(writer.dir) if writer else None, len(completed)))
             raise exc from None
         except KeyboardInterrupt:  # no signal handler installed (e.g. not the main thread): abort
             if writer is not None:
-                writer.finish("aborted", "interrupted")
+                _finish_quietly(writer, "aborted", "interrupted")
             self.state = "aborted"
             run_dir = str(writer.dir) if writer else None
             self._emit(ev.Done("aborted", run_dir, len(completed)))
@@ -159,13 +159,15 @@ class Runner:
         except Exception as exc:  # a bug: record it, tell the listeners, keep the traceback
             msg = f"internal error: {type(exc).__name__}: {exc}"
             if writer is not None:
-                writer.finish("failed", msg)
+                _finish_quietly(writer, "failed", msg)
                 if completed:  # a failed run still gets its tables/report for the stages it saved
                     self._reports(writer)
             self.state = "failed"
             self._emit(ev.Failed(msg, str(writer.dir) if writer else None, len(completed)))
             raise
         finally:
+            if writer is not None:
+                writer.stop_heartbeat()
             if own and bench is not None:
                 bench.close()
 
@@ -241,16 +243,23 @@ class Runner:
             if self._stop.is_set():
                 status = "done"  # stop during the last stage: the scan is complete anyway
         scan_results, fails = {}, []
+        message = ""
         if completed:
             record = RunRecord(writer.dir if writer else None, writer.meta if writer else {}, scan, completed)
             scan_results = scan_level_results(record)
+            broken = {k: r.get("note", "") for k, r in scan_results.items()
+                      if isinstance(r, dict) and r.get("status") == "error"}
+            if broken and status == "done":  # the stages are kept; the run did not deliver its results
+                status = "failed"
+                message = "scan-level analysis failed: " + "; ".join(f"{k}: {v}" for k, v in broken.items())
             if status == "done":
                 fails = check_limits(scan, scan_results)
         if writer:
-            writer.finish(status, "; ".join(fails), scan_results, fails)
+            writer.finish(status, message or "; ".join(fails), scan_results, fails)
         self.state = status
         self._emit(ev.Done(status, run_dir, len(completed), scan_results, tuple(fails)))
-        return RunOutcome(status, writer.dir if writer else None, completed, scan_results, fails, seed=self.seed)
+        return RunOutcome(status, writer.dir if writer else None, completed, scan_results, fails, message=message,
+                          seed=self.seed)
 
     def _reports(self, writer) -> None:
         """The report module's tables (``<output csv/hdf5>``) and PDF (``<output pdf>``),
@@ -315,6 +324,16 @@ class Runner:
         if k < n:
             raise FrameError(f"{src.name}: delivered only {k} of {n} frames")
         return ss
+
+
+def _finish_quietly(writer, status: str, message: str) -> None:
+    """Record the end of a failed run where the disk still allows it: when it does not
+    (full, read-only), run.json keeps 'running' with the pid of a process about to exit,
+    which every reader shows as interrupted -- the truth the disk can hold."""
+    try:
+        writer.finish(status, message)
+    except (StorageError, OSError):
+        writer.stop_heartbeat()
 
 
 def auto_repeat(make_runner: Callable[[int], Runner], count: int = 0,
