@@ -30,7 +30,7 @@ STORAGE_ERRNOS = {
     errno.EACCES: "permission denied",
     errno.EPERM: "operation not permitted",
     errno.EIO: "an input/output error",
-    errno.ENOENT: "the directory disappeared",
+    errno.ENOENT: "the directory does not exist (or disappeared)",
 }
 
 

@@ -116,7 +116,7 @@ def test_bad_tables_get_one_sentence(tmp_path, capsys, content, args, fragment):
 def test_special_files_are_refused(tmp_path, capsys):
     fifo = tmp_path / "fifo"
     os.mkfifo(fifo)
-    for path, fragment in ((fifo, "not a regular file"), (tmp_path, "not a regular file"),
-                           (tmp_path / "missing.csv", "cannot read")):
+    for path, fragment in ((fifo, "not a regular file"), (tmp_path, "is a directory"),
+                           (tmp_path / "missing.csv", "not found"), (Path("/dev/zero"), "not a regular file")):
         assert main(["ptc", str(path)]) == 2
         assert fragment in capsys.readouterr().err

@@ -32,7 +32,8 @@ def add_arguments(parser) -> None:
     parser.add_argument("--repeat", type=int, default=1, metavar="N",
                         help="auto-repeat: run the scan N times (0 = until stopped), one run directory each")
     parser.add_argument("--sim-fault", action="append", default=[], metavar="KEY=N",
-                        help="inject a simulator fault (disconnect_after_frames=N, short_frame_at=N); for tests")
+                        help="inject a simulator fault (disconnect_after_frames=N, short_frame_at=N, "
+                             "frame_delay_ms=N); for tests")
 
 
 def add_common(parser) -> None:
@@ -246,12 +247,15 @@ def _print_estimates(d: dict, out, indent: str, depth: int = 0) -> None:
                 out.write(f"{indent}WARNING: {w}\n")
 
 
-def execute(scan, args, *, seed, frames, faults=None, argv=None, out_dir=None) -> int:
-    """Run ``scan`` with the CLI's progress, Ctrl-C handling, summary and exit code."""
+def execute(scan, args, *, seed, frames, faults=None, argv=None, out_dir=None, resume_from=None) -> int:
+    """Run ``scan`` with the CLI's progress, Ctrl-C handling, summary and exit code
+    (``resume_from``: the committed stages of the interrupted run in ``out_dir``)."""
     from ares.scan import Runner
 
-    out_dir = claim_out(out_dir, scan.name)
-    runner = Runner(scan, out_dir=out_dir, seed=seed, frames=frames, faults=faults, argv=argv)
+    if resume_from is None:
+        out_dir = claim_out(out_dir, scan.name)
+    runner = Runner(scan, out_dir=out_dir, seed=seed, frames=frames, faults=faults, argv=argv,
+                    resume_from=resume_from)
     if not args.quiet:
         runner.add_listener(ProgressBar())
     hits = []

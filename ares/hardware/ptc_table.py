@@ -31,12 +31,11 @@ from __future__ import annotations
 import csv
 import io
 import math
-import os
-import stat
 from dataclasses import dataclass, field
 from pathlib import Path
 
 from ares.errors import InputError
+from ares.safefile import read_regular
 
 MAX_BYTES = 64 * 1024 * 1024
 ALIASES = {
@@ -70,18 +69,7 @@ class PtcTable:
 
 
 def _read_text(path: Path) -> str:
-    try:
-        st = os.stat(path)
-    except OSError as exc:
-        raise InputError(f"{path}: cannot read the table ({exc.strerror or exc})") from None
-    if not stat.S_ISREG(st.st_mode):
-        raise InputError(f"{path}: not a regular file")
-    if st.st_size > MAX_BYTES:
-        raise InputError(f"{path}: {st.st_size} bytes is larger than a PTC table can be ({MAX_BYTES} bytes)")
-    try:
-        raw = path.read_bytes()
-    except OSError as exc:
-        raise InputError(f"{path}: cannot read the table ({exc.strerror or exc})") from None
+    raw = read_regular(path, MAX_BYTES, "PTC table")
     try:
         return raw.decode("utf-8-sig")
     except UnicodeDecodeError:

@@ -34,15 +34,11 @@ def fail(path, line, sentence: str) -> InputError:
 
 
 def read_bytes(path: str | Path) -> bytes:
-    p = Path(path)
-    if not p.exists():
-        raise InputError(f"{path}: file not found")
-    if p.is_dir():
-        raise InputError(f"{path}: is a directory, not an XML file")
-    data = p.read_bytes()
-    if len(data) > MAX_BYTES:
-        raise InputError(f"{path}: file is larger than {MAX_BYTES // 2**20} MiB; not a protocol file")
-    return data
+    """A protocol file's bytes: a regular file of at most MAX_BYTES, checked before reading
+    (a FIFO or /dev/zero is refused, not read)."""
+    from ares.safefile import read_regular
+
+    return read_regular(path, MAX_BYTES, "protocol file")
 
 
 def parse(data: bytes, path) -> etree._ElementTree:

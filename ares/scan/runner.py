@@ -53,8 +53,11 @@ class _Aborted(Exception):
 class Runner:
     def __init__(self, scan, *, bench=None, out_dir: str | Path | None = None, seed: int | None = None,
                  frames: int | None = None, faults: dict | None = None, argv: list[str] | None = None,
-                 listeners: tuple[Callable, ...] = ()):
+                 listeners: tuple[Callable, ...] = (), resume_from: list[dict] | None = None):
+        """``resume_from``: the committed stages of an interrupted run in ``out_dir``; the
+        run continues at the first missing stage, appending (``ares resume``)."""
         self.scan = scan
+        self.resume_from = resume_from
         self.system = scan.system
         self.frames_override = frames
         self.stages: list[Stage] = expand(scan, frames)
@@ -114,7 +117,10 @@ class Runner:
         writer = None
         completed: list[dict] = []
         try:
-            if self.out_dir is not None:  # before any hardware: a bench that fails to open is recorded too
+            if self.out_dir is not None and self.resume_from is not None:
+                writer = RunWriter.reopen(self.out_dir, self.scan, self.resume_from)
+                completed.extend(self.resume_from)
+            elif self.out_dir is not None:  # before any hardware: a bench that fails to open is recorded too
                 writer = RunWriter(self.out_dir, self.scan, seed=self.seed, frames_override=self.frames_override,
                                    argv=self.argv, save_frames=self.scan.output.raw_frames)
                 writer.set_total(len(self.stages))
@@ -185,7 +191,17 @@ class Runner:
         self._mask = load_declared_mask(scan, bench.frames.shape)  # else from the first dark stage
         applied: dict | None = None
         status = "done"
+        if completed:  # resuming: the bench, mask and cached dark as the interrupted run left them
+            from ares.scan.resume import restore
+
+            cache, applied, mask, note = restore(self, bench, completed, vw, max_code)
+            self._mask = mask or self._mask
+            if writer is not None and note:
+                writer.meta["resumed"][-1].update(note)
+                writer._write_meta()
         for st in stages:
+            if st.index < len(completed):
+                continue
             if self._stop.is_set() or self._abort.is_set():
                 status = "aborted" if self._abort.is_set() else "stopped"
                 break
@@ -193,8 +209,10 @@ class Runner:
             t_start = time.time()
             before = bench.registers.snapshot()
             fw = writer.frame_writer(st.index, bench.frames.shape, None) if writer else None
+            pos = {}
             try:
                 dark = None
+                pos["dark"] = _position(bench)
                 if st.dark_source == "grab":
                     apply_settings(bench, system, st.dark_settings, applied)
                     applied = st.dark_settings
@@ -208,7 +226,9 @@ class Runner:
                     dark = cache
                 apply_settings(bench, system, st.settings, applied)
                 applied = dict(st.settings)
+                pos["flat"] = _position(bench)
                 flat = self._grab(bench, st, st.frames, vw, max_code, fw, dark=False)
+                pos["end"] = _position(bench)
             except _Aborted:
                 if fw is not None:
                     fw.close(keep=False)
@@ -230,6 +250,8 @@ class Runner:
                 self._mask = mask_from_dark(flat, st.name, st.settings.get("exposure"), scan_thresholds(scan))
                 flat.apply_mask(self._mask.mask)  # this stage too, from its kept frames
             result, arrays = analyze_stage(st, flat, dark)
+            if pos.get("end") is not None:
+                result["bench_position"] = pos  # where the frame stream stood (ares resume)
             if self._mask is not None:
                 result["defect_mask"] = self._mask.summary()
                 if new_mask or not completed:  # the mask itself, once, with the stage it came from
@@ -324,6 +346,12 @@ class Runner:
         if k < n:
             raise FrameError(f"{src.name}: delivered only {k} of {n} frames")
         return ss
+
+
+def _position(bench) -> dict | None:
+    """The frame source's stream position where it can tell one (the simulator), else None."""
+    fn = getattr(bench.frames, "position", None)
+    return fn() if callable(fn) else None
 
 
 def _finish_quietly(writer, status: str, message: str) -> None:

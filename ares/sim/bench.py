@@ -17,6 +17,7 @@ Fault injection (for scan tests): ``faults={"disconnect_after_frames": N}`` rais
 from __future__ import annotations
 
 import math
+import time
 
 import numpy as np
 
@@ -27,7 +28,7 @@ from ares.sim.params import SensorParams
 from ares.sim.regmap import SIM_REGISTER_MAP
 from ares.sim.sensor import SimSensor
 
-_FAULTS = ("disconnect_after_frames", "short_frame_at")
+_FAULTS = ("disconnect_after_frames", "short_frame_at", "frame_delay_ms")  # delay: a slow camera, for kill tests
 _CHUNK = 16  # frames rendered at a time inside grab()
 
 
@@ -191,6 +192,8 @@ class SimFrameSource:
             else:
                 data = self.sensor.render(k, dark=(mode == 1), **s)
             for frame in data:
+                if self.faults.get("frame_delay_ms"):
+                    time.sleep(self.faults["frame_delay_ms"] / 1000.0)
                 # Count before yielding: a consumer that stops after n frames must leave
                 # the counter at n, or fault-injection points drift by one.
                 index, stamp = self.frames_delivered, self.clock_s
@@ -198,6 +201,32 @@ class SimFrameSource:
                 self.clock_s += s["exposure_s"]
                 yield Frame(data=frame, index=index, timestamp=stamp, meta=dict(meta))
             left -= k
+
+    def position(self) -> dict:
+        """Where the frame stream stands (``ares resume``): the frame counter the noise is
+        drawn from, the delivered count and clock, and the RTS trap states carried frame
+        to frame. Image lag (charge left by the last frame) is not part of it."""
+        return {"frame_index": int(self.sensor.frame_index), "frames_delivered": int(self.frames_delivered),
+                "clock_s": float(self.clock_s), "rts_state": self.sensor._rts_state.astype(int).tolist()}
+
+    def seek(self, pos: dict) -> None:
+        """Continue from a ``position()``: the next frames are those that followed it.
+        The image lag the previous frame leaves depends only on that frame's own photo
+        charge, so it is rebuilt by rendering that frame again at the settings applied
+        now (the caller applies those of the stage it resumes after) and discarding it."""
+        fi = int(pos["frame_index"])
+        st = np.asarray(pos["rts_state"], dtype=self.sensor._rts_state.dtype)
+        if st.shape != self.sensor._rts_state.shape:
+            raise InputError(f"{self.name}: the recorded RTS state does not fit this sensor")
+        self.sensor.reset_state()
+        s = self.settings()
+        if fi > 0 and s.pop("test_mode") == 0:
+            s.pop("streaming")
+            self.sensor.render(1, start_frame=fi - 1, **s)
+        self.sensor.frame_index = fi
+        self.frames_delivered = int(pos["frames_delivered"])
+        self.clock_s = float(pos["clock_s"])
+        self.sensor._rts_state = st
 
     def _frames_until_fault(self) -> int:
         lim = []

@@ -1,0 +1,33 @@
+"""``ares resume RUN_DIR``: continue an interrupted run from its first missing stage.
+
+The run directory alone says what to do (``ares.scan.resume``): the verbatim XML, the
+seed and frame override, the committed stages, the bench state and the defect mask. The
+missing stages are appended to the same directory; progress, Ctrl-C/SIGTERM handling,
+summary and exit codes are those of ``ares run``. A run that is done, still running, or
+whose directory was edited is refused with one sentence.
+"""
+
+from __future__ import annotations
+
+NAME = "resume"
+HELP = "continue an interrupted run from its first missing stage (same XML, seed, bench state)"
+
+
+def add_arguments(p) -> None:
+    p.add_argument("run_dir", help="the run directory of an interrupted, stopped or failed run")
+    p.add_argument("--quiet", "-q", action="store_true", help="no progress bar")
+    p.add_argument("--json", action="store_true", help="print the final summary as JSON on stdout")
+
+
+def run(args) -> int:
+    from pathlib import Path
+
+    from ares.commands.run import execute
+    from ares.scan.rundir import load_run
+    from ares.scan.resume import resumable
+
+    run_ = load_run(args.run_dir)
+    stages = resumable(run_)
+    meta = run_.meta
+    return execute(run_.scan, args, seed=meta.get("seed"), frames=meta.get("frames_override"),
+                   argv=list(meta.get("argv") or []), out_dir=Path(args.run_dir), resume_from=stages)
