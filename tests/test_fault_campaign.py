@@ -219,3 +219,42 @@ def test_broken_and_hostile_xml(tmp_path, capsys, text, fragment):
         assert fragment in err
         assert "root:" not in err  # no file content echoed
     assert not (tmp_path / "r").exists()
+
+
+def test_stop_while_a_chamber_never_settles(tmp_path):
+    """A chamber that never reaches its set point: the runner's stop request ends the wait
+    (polled every 0.1 s, not after the 7200 s timeout), the run is 'stopped' and says so."""
+    import dataclasses
+    import threading
+
+    from ares.hardware.factory import sim_params
+    from ares.hardware.serial_instruments import SerialChamber
+    from ares.protocol import load_scan, load_system
+    from ares.scan import Runner
+    from ares.sim.bench import make_sim_bench
+
+    asked = threading.Event()
+
+    class NeverStable:
+        def write(self, data):
+            asked.set() if data.startswith(b"STABLE?") else None
+            self.reply = b"0\n" if data.startswith(b"STABLE?") else b"OK\n"
+
+        def readline(self):
+            return self.reply
+
+        def close(self):
+            pass
+
+    scan = load_scan(ROOT / "scans" / "temperature.xml")
+    bench = make_sim_bench(sim_params(scan.system), seed=1)
+    cfg = dataclasses.replace(load_system(ROOT / "protocols" / "black_widow.xml").chamber, min=-40, max=125,
+                              settle_timeout_s=7200, poll_s=5)
+    bench.chamber = SerialChamber(NeverStable(), cfg)
+    runner = Runner(scan, bench=bench, out_dir=tmp_path / "run", frames=2)
+    stopper = threading.Thread(target=lambda: asked.wait(600) and runner.stop())
+    stopper.start()
+    outcome = runner.run()
+    stopper.join()
+    assert asked.is_set() and outcome.status == "stopped" and not outcome.stages
+    assert json.loads((tmp_path / "run" / "run.json").read_text())["status"] == "stopped"

@@ -169,16 +169,82 @@ def test_light_source_errors():
         ls.get_level()
 
 
+class FakeClock:
+    """Monotonic clock advanced by the instrument's own sleeps (no wall-clock time passes)."""
+
+    def __init__(self):
+        self.t = 0.0
+
+    def __call__(self):
+        return self.t
+
+    def sleep(self, s):
+        self.t += s
+
+
 def test_chamber_set_and_settle():
     port = FakePort([(b"TEMP 40.00\n", b"OK\n"), (b"STABLE?\n", b"0\n"), (b"STABLE?\n", b"1\n"),
                      (b"TEMP?\n", b"39.98\n")])
-    sleeps = []
-    ch = SerialChamber(port, BW.chamber, sleep=sleeps.append)
+    clock = FakeClock()
+    ch = SerialChamber(port, BW.chamber, sleep=clock.sleep, clock=clock)
     ch.set_temperature(40)
     ch.settle()
     assert ch.get_temperature() == pytest.approx(39.98)
-    assert sleeps == [1.0, 60.0]  # one poll, then the soak from settle_s
+    assert clock.t == pytest.approx(61.0)  # one 1 s poll, then the 60 s soak from settle_s
     with pytest.raises(ValueOutOfRange, match="temperature 100 C is outside -20 .. 85 C"):
+        ch.set_temperature(100)
+
+
+def _chamber(replies, **cfg):
+    """A chamber answering TEMP? with ``replies`` (then the last one forever)."""
+    import dataclasses
+
+    class Port(FakePort):
+        def write(self, data):
+            self.written.append(data)
+            if data.startswith(b"TEMP?"):
+                self.pending = (replies.pop(0) if len(replies) > 1 else replies[0]).encode() + b"\n"
+            else:
+                self.pending = b"OK\n"
+
+    clock = FakeClock()
+    c = dataclasses.replace(BW.chamber, **cfg)
+    return SerialChamber(Port([]), c, sleep=clock.sleep, clock=clock), clock
+
+
+def test_chamber_tolerance_and_hold_from_xml():
+    # in band at 1-2 s, out at 3 s, back in from 4 s: settled once held 10 s (at 14 s), then the 5 s soak
+    ch, clock = _chamber(["30", "39.5", "39.9", "41", "40.2"], tolerance=0.5, hold_s=10, poll_s=1, settle_s=5)
+    ch.set_temperature(40)
+    ch.settle()
+    assert clock.t == pytest.approx(4 + 10 + 5)
+
+
+def test_chamber_that_never_settles_times_out_with_the_reason():
+    ch, clock = _chamber(["37"], tolerance=0.5, settle_timeout_s=600, poll_s=2)
+    ch.set_temperature(40)
+    with pytest.raises(HardwareError, match=r"chamber on /dev/ttyUSB1: not settled after 600 s .*"
+                                            r"last reading 37 C, set point 40 \+/- 0.5 C"):
+        ch.settle()
+    assert clock.t == pytest.approx(600)
+
+
+def test_chamber_wait_ends_within_a_slice_of_a_stop_request():
+    from ares.hardware.waits import SLICE_S, Interrupted
+
+    ch, clock = _chamber(["37"], tolerance=0.5, settle_timeout_s=7200, poll_s=30)
+    ch.set_temperature(40)
+    with pytest.raises(Interrupted):
+        ch.settle(cancel=lambda: clock.t >= 100.0)  # the user presses Ctrl-C at t = 100 s
+    assert 100.0 <= clock.t <= 100.0 + SLICE_S + 1e-9
+
+
+def test_chamber_without_min_or_max_range_text():
+    import dataclasses
+
+    port = FakePort([])
+    ch = SerialChamber(port, dataclasses.replace(BW.chamber, min=None), sleep=lambda s: None)
+    with pytest.raises(ValueOutOfRange, match="temperature 100 C is outside <= 85 C"):
         ch.set_temperature(100)
 
 

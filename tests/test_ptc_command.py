@@ -101,7 +101,7 @@ def test_without_pixel_counts_the_se_comes_from_the_scatter(capsys, tmp_path):
     ("", [], "no rows"),
     ("signal,foo\n1,2\n3,4\n", [], "no column for mean, var"),
     ("1 2\n3 4\n", [], "no header row"),
-    ("mean,var\n1,2\n3,abc\n", [], "t.csv:3: column 'var' holds 'abc'"),
+    ("mean,var\n1,2\n3,abc\n", [], "t.csv:3: column 'var' is not a number"),
     ("mean,var\n1,2\n3\n", [], "t.csv:3: 1 column(s)"),
     ("1 2\n3 4\n", ["--columns", "mean,bogus"], "unknown field(s) bogus"),
 ])

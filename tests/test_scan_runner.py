@@ -185,7 +185,7 @@ def test_same_seed_same_results_and_other_seed_differs(ptc_small):
 def test_frames_not_kept_unless_asked(bias_small, tmp_path):
     out = Runner(bias_small, out_dir=tmp_path / "run").run()
     assert out.status == "done" and not (tmp_path / "run" / "frames").exists()
-    assert len(out.stages) == 6 and out.limit_failures  # no PTC analysis in this scan: the limit cannot pass
+    assert len(out.stages) == 6 and out.limit_failures  # the fixture's Pt limit fails on purpose
 
 
 def test_auto_repeat(ptc_small, tmp_path):

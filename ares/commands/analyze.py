@@ -62,7 +62,7 @@ def _accumulate(specs, roi_text, what):
             acc = StackAccumulator(shape)
         acc.add(sel(frame) if sel else frame)
     if acc is None:
-        raise InputError(f"the {what} stack holds no frames")
+        raise InputError(f"{specs[0]}: the {what} stack holds no frames")
     return acc
 
 

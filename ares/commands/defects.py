@@ -1,9 +1,10 @@
 """``ares defects``: defective pixels, lines and clusters of recorded dark (and flat) stacks.
 
 Each ``--dark FILES...`` (or ``--flat``) occurrence is one level: its files are read in
-order and concatenated into one (F, R, C) stack. A file is a ``.npy`` (2-D frame or 3-D
-stack), a ``.npz`` (array ``frames``, else its first array) or a grayscale image
-(PNG/TIFF, one frame). Prints counts per class, bad lines, clusters and the pass/fail of
+order as one stack, streamed frame by frame (memory does not grow with the number of
+frames). Files as for ``ares analyze`` (``ares.hardware.stackfiles``): PNG/TIFF images or
+folders of them, ``.npy``, ``.npz`` (every array, or ``file.npz:name``), HDF5
+``file.h5:/dataset``. Prints counts per class, bad lines, clusters and the pass/fail of
 any ``max_*`` limits (``--set max_hot=10``; a failed limit exits 4); ``--json`` prints
 the full result; ``--mask-png``/``--mask-h5`` write the per-pixel class bitmask (bits in
 the JSON ``mask_bits``); ``--bayer`` classifies each colour channel (Bayer phase)
@@ -18,8 +19,11 @@ from pathlib import Path
 
 import numpy as np
 
-from ares.analysis.defects import BITS, DefectResult, DefectThresholds, classify_stack
+from ares.analysis.accumulate import StackAccumulator
+from ares.analysis.defects import (BITS, DefectResult, DefectThresholds, PixelStats, SeriesCollector,
+                                   classify_defects, classify_regions)
 from ares.errors import InputError, LimitsFailed
+from ares.hardware.stackfiles import iter_frames
 
 #: the four Bayer phases as (row slice, column slice), named by (row % 2, column % 2)
 BAYER_PHASES = {f"{r}{c}": (slice(r, None, 2), slice(c, None, 2)) for r in (0, 1) for c in (0, 1)}
@@ -47,44 +51,38 @@ def add_arguments(p) -> None:
     p.add_argument("--mask-h5", default=None, metavar="FILE", help="write the class bitmask to an HDF5 file")
 
 
-def load_frames(path: str | Path) -> np.ndarray:
-    """One file as an (F, R, C) unsigned integer array; errors name the file."""
-    path = Path(path)
-    if not path.is_file():
-        raise InputError(f"{path}: file not found")
-    suffix = path.suffix.lower()
-    if suffix in (".npy", ".npz"):
-        try:
-            data = np.load(path, allow_pickle=False)
-        except (OSError, ValueError) as exc:
-            raise InputError(f"{path}: not a readable numpy file ({exc})") from None
-        if suffix == ".npz":
-            with data:
-                if not data.files:
-                    raise InputError(f"{path}: the archive holds no arrays")
-                arr = data["frames"] if "frames" in data.files else data[data.files[0]]
-        else:
-            arr = data
-    else:
-        from ares.hardware.imagefile import read_image
-
-        arr = read_image(path)
-    arr = np.asarray(arr)
-    if arr.ndim == 2:
-        arr = arr[None]
-    if arr.ndim != 3:
-        raise InputError(f"{path}: expected a 2-D frame or a 3-D stack, got shape {arr.shape}")
-    if arr.dtype.kind not in "ui" or (arr.dtype.kind == "i" and arr.size and arr.min() < 0):
-        raise InputError(f"{path}: pixel type {arr.dtype} is not raw unsigned integer data")
-    return arr
+def level_stats(paths: list[str], exposure_s: float | None, what: str) -> PixelStats:
+    """Per-pixel mean and temporal variance of one level, streamed frame by frame from its
+    files (memory independent of the number of frames)."""
+    acc = None
+    for frame in iter_frames(paths):
+        if acc is None:
+            acc = StackAccumulator(frame.shape)
+        acc.add(frame)
+    if acc is None or acc.n_frames < 2:
+        raise InputError(f"{paths[0]}: each {what} level needs at least 2 frames for a temporal variance")
+    return PixelStats.from_accumulator(acc, exposure_s)
 
 
-def load_level(paths: list[str]) -> np.ndarray:
-    stacks = [load_frames(p) for p in paths]
-    shapes = {s.shape[1:] for s in stacks}
-    if len(shapes) != 1:
-        raise InputError(f"{paths[0]}: frames of different sizes in one level ({sorted(shapes)})")
-    return stacks[0] if len(stacks) == 1 else np.concatenate(stacks, axis=0)
+def candidate_series(paths: list[str], rows: np.ndarray, cols: np.ndarray) -> SeriesCollector:
+    """Pass 2: the time series of the RTS candidates (rows, cols), re-read from the files."""
+    col = SeriesCollector(rows, cols)
+    for frame in iter_frames(paths):
+        col.add(frame)
+    return col
+
+
+def _global_candidates(results: dict, regions) -> tuple[np.ndarray, np.ndarray]:
+    """The RTS candidates of every region in full-frame coordinates."""
+    rr, cc = [], []
+    for name, res in results.items():
+        r, c = res.rts_candidates
+        rs, cs = regions[name] if regions else (slice(None), slice(None))
+        r0, rstep = rs.start or 0, rs.step or 1
+        c0, cstep = cs.start or 0, cs.step or 1
+        rr.append(r0 + rstep * np.asarray(r, np.intp))
+        cc.append(c0 + cstep * np.asarray(c, np.intp))
+    return np.concatenate(rr), np.concatenate(cc)
 
 
 def write_mask_png(path: str | Path, mask: np.ndarray) -> None:
@@ -149,31 +147,47 @@ def _jsonable(x):
     return x
 
 
+def _per_level(values, n: int, option: str):
+    if values is not None and len(values) not in (1, n):
+        raise InputError(f"{option}: {len(values)} values for {n} levels")
+    return [None] * n if values is None else (list(values) if len(values) == n else list(values) * n)
+
+
+def classify_files(dark_levels, flat_levels, *, gain=None, exposure=None, flat_exposure=None, thresholds=None,
+                   regions=None) -> tuple[dict[str, DefectResult], tuple[int, int]]:
+    """Both passes on recorded files, streamed: per-pixel statistics of every level, then the
+    candidates' time series from the first dark level for the RTS test. Returns the
+    results (per region, or ``{"all": ...}``) and the frame shape."""
+    dexp = _per_level(exposure, len(dark_levels), "--exposure")
+    fexp = _per_level(flat_exposure if flat_exposure is not None else (exposure if exposure and len(exposure) == 1
+                                                                       else None),
+                      len(flat_levels), "--flat-exposure")
+    darks = [level_stats(p, e, "dark") for p, e in zip(dark_levels, dexp)]
+    flats = [level_stats(p, e, "flat") for p, e in zip(flat_levels, fexp)]
+    for s in darks[1:] + flats:
+        if s.shape != darks[0].shape:
+            raise InputError(f"dark and flat frames differ in size ({s.shape} vs {darks[0].shape})")
+
+    def classify(series):
+        kw = dict(gain_dn_per_e=gain, thresholds=thresholds, rts_series=series)
+        if regions:
+            return classify_regions(darks, flats, regions, **kw)
+        return {"all": classify_defects(darks, flats, **kw)}
+
+    first = classify(None)
+    rows, cols = _global_candidates(first, regions)
+    if rows.size == 0:
+        return first, darks[0].shape
+    return classify(candidate_series(dark_levels[0], rows, cols)), darks[0].shape
+
+
 def run(args) -> int:
     th = _thresholds(args.settings)
-    darks = [load_level(paths) for paths in args.dark]
-    flats = [load_level(paths) for paths in (args.flat or [])]
-    shape = darks[0].shape[1:]
-    for s in darks + flats:
-        if s.shape[1:] != shape:
-            raise InputError(f"dark and flat frames differ in size ({s.shape[1:]} vs {shape})")
-    for s in darks:
-        if s.shape[0] < 2:
-            raise InputError("each dark level needs at least 2 frames for a temporal variance")
-    exp = args.exposure
-    if exp is not None and len(exp) not in (1, len(darks)):
-        raise InputError(f"--exposure: {len(exp)} values for {len(darks)} dark levels")
-    exposure = None if exp is None else (exp[0] if len(exp) == 1 else exp)
-    fexp = args.flat_exposure
-    if fexp is not None and len(fexp) not in (1, len(flats)):
-        raise InputError(f"--flat-exposure: {len(fexp)} values for {len(flats)} flat levels")
-    flat_exposure = None if fexp is None else (fexp[0] if len(fexp) == 1 else fexp)
     if args.gain is not None and not args.gain > 0:
         raise InputError("--gain must be a positive number of DN per electron")
     regions = BAYER_PHASES if args.bayer else None
-    out = classify_stack(darks, flats or None, gain_dn_per_e=args.gain, exposure_s=exposure,
-                         flat_exposure_s=flat_exposure, thresholds=th, regions=regions)
-    results = out if isinstance(out, dict) else {"all": out}
+    results, shape = classify_files(args.dark, args.flat or [], gain=args.gain, exposure=args.exposure,
+                             flat_exposure=args.flat_exposure, thresholds=th, regions=regions)
     mask = np.zeros(shape, np.uint16)
     for name, res in results.items():
         rs, cs = regions[name] if regions else (slice(None), slice(None))

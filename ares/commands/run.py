@@ -88,14 +88,18 @@ def claim_out(out, scan_name: str, tries: int = 20) -> Path:
     this one to the next free name (never into the other run's folder)."""
     from ares.scan.rundir import claim_run_dir
 
+    if out is not None and not str(out).strip():
+        raise InputError("--out: the run directory must not be an empty path")
     for _ in range(tries):
-        p = resolve_out(out, scan_name)
         try:
+            p = resolve_out(out, scan_name)
             claim_run_dir(p)
             return p
         except InputError as exc:  # taken by a concurrent run between resolve and claim: next name
             if "being written by another run" not in str(exc) and "exists and is not empty" not in str(exc):
                 raise
+        except OSError as exc:  # a name too long, a path through a file, no permission to look
+            raise InputError(f"--out {out}: not usable as a run directory ({exc.strerror or exc})") from None
     raise InputError(f"--out {out}: no free run directory after {tries} tries (other runs are writing there)")
 
 
@@ -139,11 +143,15 @@ class ProgressBar:
             self.stream.flush()
 
 
-def dry_run(scan, frames: int | None, out=None) -> None:
+def dry_run(scan, frames: int | None, seed: int | None = None, out=None) -> None:
+    """List the stages and the time and memory the run needs, after the checks ``ares run``
+    makes before it starts (``ares.scan.preflight``: what a run would refuse, this refuses)."""
     out = out or sys.stdout
-    from ares.scan import estimate_seconds, expand
+    from ares.scan import estimate_seconds
+    from ares.scan.preflight import check_run
 
-    stages = expand(scan, frames)
+    plan = check_run(scan, frames, seed)
+    stages = plan.stages
     out.write(f"scan '{scan.name}' on system '{scan.system.name}' "
               f"({scan.system.sensor.cols}x{scan.system.sensor.rows}): {len(stages)} stages\n")
     total = 0
@@ -158,6 +166,7 @@ def dry_run(scan, frames: int | None, out=None) -> None:
         total += s.frames_to_grab()
     est = estimate_seconds(scan, stages)
     out.write(f"total: {total} frames, estimated {fmt_s(est)} ({est:.1f} s) of exposure, readout and settling\n")
+    out.write(plan.memory_note() + "\n")
 
 
 def _num(d) -> str:
@@ -251,8 +260,10 @@ def execute(scan, args, *, seed, frames, faults=None, argv=None, out_dir=None, r
     """Run ``scan`` with the CLI's progress, Ctrl-C handling, summary and exit code
     (``resume_from``: the committed stages of the interrupted run in ``out_dir``)."""
     from ares.scan import Runner
+    from ares.scan.preflight import check_run
 
     if resume_from is None:
+        check_run(scan, frames, seed)  # refused before a run directory exists (Runner checks again)
         out_dir = claim_out(out_dir, scan.name)
     runner = Runner(scan, out_dir=out_dir, seed=seed, frames=frames, faults=faults, argv=argv,
                     resume_from=resume_from)
@@ -317,11 +328,9 @@ def _json_summary(outcome, scan, seconds) -> dict:
 def run(args) -> int:
     from ares.protocol import load_scan
 
-    if args.frames is not None and args.frames < 2:
-        raise InputError(f"--frames must be an integer >= 2, got {args.frames}")
     scan = load_scan(args.scan, system_path=args.system)
     if args.dry_run:
-        dry_run(scan, args.frames)
+        dry_run(scan, args.frames, args.seed)
         return 0
     faults = _faults(args.sim_fault)
     argv = ["run", *sys.argv[2:]] if sys.argv[1:2] == ["run"] else None

@@ -15,28 +15,33 @@ def add_arguments(parser) -> None:
     parser.add_argument("--quiet", "-q", action="store_true", help="print errors only")
 
 
-def validate_one(path) -> str:
-    """Schema + semantic checks of one file (and, for a scan, its system), plus the
-    simulator's own parameter checks; returns "scan" or "system", raises ``InputError``."""
+def validate_one(path) -> tuple[str, str]:
+    """Schema + semantic checks of one file (and, for a scan, its system), the simulator's
+    parameter checks and, for a scan, everything ``ares run`` checks before it starts
+    (``ares.scan.preflight``); returns ("scan" | "system", a note), raises ``InputError``."""
     from ares.hardware.factory import sim_params
     from ares.protocol import load_scan, load_system, validate_file
 
     kind = validate_file(path)
-    system = load_scan(path).system if kind == "scan" else load_system(path)
+    if kind == "scan":
+        from ares.scan.preflight import check_run
+
+        return kind, check_run(load_scan(path)).memory_note()
+    system = load_system(path)
     if system.simulator is not None:
         sim_params(system)
-    return kind
+    return kind, ""
 
 
 def run(args) -> int:
     bad = 0
     for path in args.files:
         try:
-            kind = validate_one(path)
+            kind, note = validate_one(path)
         except InputError as exc:
             bad += 1
             print(str(exc), file=sys.stderr)
         else:
             if not args.quiet:
-                print(f"{path}: valid {kind} file")
+                print(f"{path}: valid {kind} file" + (f" ({note})" if note else ""))
     return 2 if bad else 0

@@ -25,6 +25,7 @@ import numpy as np
 
 from ares.errors import InputError
 from ares.hardware.imagefile import read_image
+from ares.safefile import confine, read_regular
 from ares.hardware.interfaces import Frame
 
 
@@ -87,26 +88,24 @@ class EmvaDescriptor:
         )
 
 
+MAX_DESCRIPTOR_BYTES = 16 << 20  # a descriptor is text: a few kB per hundred images
+
+
 def _num(tok: str, where: str, what: str) -> float:
     try:
         v = float(tok.replace(",", "."))
     except ValueError:
-        raise InputError(f"{where}: {what} {tok!r} is not a number") from None
+        raise InputError(f"{where}: the {what} is not a number") from None  # (the file's text is never echoed)
     if not math.isfinite(v) or v < 0:
-        raise InputError(f"{where}: {what} {tok!r} must be a finite non-negative number")
+        raise InputError(f"{where}: the {what} must be a finite non-negative number")
     return v
 
 
 def read_descriptor(path: str | Path, check_files: bool = True) -> EmvaDescriptor:
     """Parse an EMVA 1288 descriptor file; image paths are resolved, optionally checked."""
     path = Path(path)
-    if not path.is_file():
-        raise InputError(f"{path}: descriptor file not found")
-    try:
-        text = path.read_text(encoding="utf-8", errors="replace")
-    except OSError as exc:
-        raise InputError(f"{path}: cannot read descriptor ({exc})") from None
-    base = path.parent
+    text = read_regular(path, MAX_DESCRIPTOR_BYTES, "descriptor file").decode("utf-8", errors="replace")
+    base = path.parent  # every image it references must lie below it (safefile.confine)
     version = ""
     fmt: tuple[int, int, int] | None = None
     levels: list[EmvaLevel] = []
@@ -138,6 +137,7 @@ def read_descriptor(path: str | Path, check_files: bool = True) -> EmvaDescripto
                 raise InputError(f"{where}: image record before any 'b' or 'd' level record")
             rel = line[1:].strip()
             p = base.joinpath(*PureWindowsPath(rel).parts) if "\\" in rel else base / rel
+            p = confine(p, [base], where)
             if check_files and not p.is_file():
                 raise InputError(f"{where}: image file {p} not found")
             cur["images"].append(p)
@@ -170,7 +170,8 @@ def read_descriptor(path: str | Path, check_files: bool = True) -> EmvaDescripto
             cur = {"dark": True, "exp": _num(tok[1], where, "exposure"), "photons": 0.0,
                    "images": [], "line": lineno}
         else:
-            raise InputError(f"{where}: unknown record type {rec!r} (expected v, n, b, d or i)")
+            raise InputError(f"{where}: unknown record type (expected v, n, b, d or i); is this an EMVA 1288 "
+                             "descriptor?")
     close(0)
     if fmt is None:
         raise InputError(f"{path}: missing 'n BITS WIDTH HEIGHT' record")
@@ -274,5 +275,5 @@ class EmvaReplayLight:
     def get_level(self) -> float:
         return self._level
 
-    def settle(self) -> None:
+    def settle(self, cancel=None) -> None:
         pass

@@ -12,6 +12,9 @@ import numpy as np
 from ares.errors import InputError
 
 
+MAX_PIXELS = 1 << 28  # 268 Mpx (16384 x 16384): larger headers are refused before decoding
+
+
 def read_image(path: str | Path) -> np.ndarray:
     path = Path(path)
     if not path.is_file():
@@ -20,11 +23,16 @@ def read_image(path: str | Path) -> np.ndarray:
 
     try:
         with Image.open(path) as im:
+            # the header's size is checked before any pixel is decoded (a decompression bomb
+            # is a few kB on disk and gigabytes in memory)
+            if im.width * im.height > MAX_PIXELS:
+                raise InputError(f"{path}: image of {im.width}x{im.height} pixels is larger than ARES reads "
+                                 f"({MAX_PIXELS // (1 << 20)} Mpx); not decoded")
             im.load()
             if im.mode in ("RGB", "RGBA", "P", "CMYK"):
                 raise InputError(f"{path}: colour image (mode {im.mode}); ARES reads raw grayscale data only")
             arr = np.asarray(im)
-    except (UnidentifiedImageError, OSError) as exc:
+    except (UnidentifiedImageError, OSError, ValueError, Image.DecompressionBombError) as exc:
         raise InputError(f"{path}: not a readable image ({exc})") from None
     if arr.ndim != 2:
         raise InputError(f"{path}: expected a 2-D grayscale image, got shape {arr.shape}")

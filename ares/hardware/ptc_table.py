@@ -89,7 +89,7 @@ def _number(text: str, path: Path, lineno: int, col: str) -> float:
     try:
         return float(t)
     except ValueError:
-        raise InputError(f"{path}:{lineno}: column '{col}' holds '{t[:20]}', not a number") from None
+        raise InputError(f"{path}:{lineno}: column '{col}' is not a number") from None  # content never echoed
 
 
 def read_ptc_table(path: str | Path, columns: list[str] | None = None) -> PtcTable:

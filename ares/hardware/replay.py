@@ -76,7 +76,7 @@ class ReplayLight:
     def get_level(self) -> float:
         return self._level
 
-    def settle(self) -> None:
+    def settle(self, cancel=None) -> None:
         pass
 
 

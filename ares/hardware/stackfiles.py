@@ -3,7 +3,7 @@
 Accepted specs (any mix, in order; their frames are concatenated):
 
 * PNG/TIFF images, one frame each (``read_image``), or a folder of them (sorted);
-* ``.npy``: a 2-D frame or a 3-D (frames, rows, cols) stack (memory-mapped);
+* ``.npy``: a 2-D frame or a 3-D (frames, rows, cols) stack (read frame by frame);
 * ``.npz``: every array in it, or ``file.npz:name`` for one;
 * HDF5: ``file.h5:/path/to/dataset`` (2-D or 3-D dataset, read one frame at a time);
   a bare ``file.h5`` works when it holds exactly one 2-D/3-D dataset.
@@ -14,6 +14,8 @@ different shapes) raises ``InputError`` with one sentence naming the file.
 
 from __future__ import annotations
 
+import zipfile
+import zlib
 from pathlib import Path
 from typing import Iterator, Sequence
 
@@ -76,6 +78,36 @@ def _iter_h5(path: Path, dset: str | None) -> Iterator[np.ndarray]:
             raise InputError(f"{path}:{dset}: corrupt data ({exc})") from None
 
 
+def _iter_npy(path: Path) -> Iterator[np.ndarray]:
+    """Frames of a ``.npy`` read one at a time from the file (not memory-mapped: a mapped
+    stack's pages stay resident, so memory would grow with the stack)."""
+    from numpy.lib import format as npf
+
+    try:
+        f = open(path, "rb")
+    except OSError as exc:
+        raise InputError(f"{path}: cannot read the file ({exc.strerror or exc})") from None
+    with f:
+        try:
+            version = npf.read_magic(f)
+            read_header = npf.read_array_header_1_0 if version == (1, 0) else npf.read_array_header_2_0
+            shape, fortran, dtype = read_header(f)
+        except Exception:  # any parse failure of untrusted bytes; numpy's text would echo them
+            raise InputError(f"{path}: not a readable .npy file (no valid NumPy header)") from None
+        _check_ndim(shape, str(path))
+        if dtype.hasobject or (dtype.kind not in "uif" and dtype.kind != "b"):
+            raise InputError(f"{path}: data of type {dtype} are not image data")
+        if fortran and len(shape) == 3:
+            raise InputError(f"{path}: a Fortran-ordered stack cannot be read frame by frame; save it in C order")
+        rows, cols = shape[-2:]
+        for i in range(shape[0] if len(shape) == 3 else 1):
+            a = np.fromfile(f, dtype=dtype, count=rows * cols)
+            if a.size != rows * cols:
+                raise InputError(f"{path}: truncated: frame {i} of {shape[0] if len(shape) == 3 else 1} is short "
+                                 f"({a.size} of {rows * cols} values)")
+            yield a.reshape((cols, rows)).T if fortran else a.reshape(rows, cols)
+
+
 def _iter_one(spec) -> Iterator[np.ndarray]:
     path, inner = _split(spec)
     if path.is_dir():
@@ -91,16 +123,15 @@ def _iter_one(spec) -> Iterator[np.ndarray]:
     if suf in IMAGE_SUFFIXES:
         yield read_image(path)
     elif suf == ".npy":
-        try:
-            a = np.load(path, mmap_mode="r", allow_pickle=False)
-        except (ValueError, OSError, EOFError) as exc:
-            raise InputError(f"{path}: not a readable .npy file ({exc})") from None
-        yield from _frames_of_array(a, str(path))
+        yield from _iter_npy(path)
     elif suf == ".npz":
         try:
             z = np.load(path, allow_pickle=False)
-        except (ValueError, OSError, EOFError) as exc:
-            raise InputError(f"{path}: not a readable .npz file ({exc})") from None
+        except (ValueError, OSError, EOFError, zipfile.BadZipFile):
+            raise InputError(f"{path}: not a readable .npz file (not a zip archive of .npy arrays)") from None
+        if not z.files:
+            z.close()
+            raise InputError(f"{path}: the .npz archive holds no arrays")
         with z:
             names = [inner] if inner else list(z.files)
             for n in names:
@@ -108,7 +139,7 @@ def _iter_one(spec) -> Iterator[np.ndarray]:
                     raise InputError(f"{path}: no array '{n}' (has {', '.join(z.files)})")
                 try:
                     a = z[n]
-                except (ValueError, OSError, EOFError) as exc:
+                except (ValueError, OSError, EOFError, zipfile.BadZipFile, zlib.error) as exc:
                     raise InputError(f"{path}:{n}: corrupt array ({exc})") from None
                 yield from _frames_of_array(a, f"{path}:{n}")
     elif suf in _H5_SUFFIXES:

@@ -19,12 +19,14 @@ from lxml import etree
 
 from ares.errors import InputError
 from ares.protocol import xmlsafe
+from ares.protocol.quantities import unknown_limit
 from ares.protocol.system import Region, System, _check_region, _region, _set, load_system
 from ares.protocol.xmlsafe import fail
 
 QUANTITIES = ("exposure", "light", "temperature", "analog_gain")
 ANALYSES = ("decomposition", "ptc", "dark_current", "temperature", "gain_split", "adc_linearity", "lag", "defects")
 MAX_STAGES = 10000
+MAX_REGIONS = 256
 
 
 @dataclass(frozen=True)
@@ -186,8 +188,10 @@ class _Checker:
             if ch is None and sy.simulator is None:
                 raise fail(self.path, line, f"system '{sy.name}' has no thermal chamber")
             if ch is not None and ((ch.min is not None and value < ch.min) or (ch.max is not None and value > ch.max)):
+                from ares.hardware.serial_instruments import range_text
+
                 raise fail(self.path, line, f"temperature {value:g} C is outside the chamber's range "
-                                            f"{ch.min:g}..{ch.max:g} C")
+                                            f"{range_text(ch.min, ch.max, 'C')}")
         if f is not None:
             try:
                 f.to_raw(value)
@@ -242,6 +246,10 @@ def scan_from_tree(tree, path, system: System | None = None, system_path=None) -
         r = _region(el)
         _check_region(path, el, r, system.sensor.rows, system.sensor.cols, "region")
         regions.append(r)
+    if len(regions) > MAX_REGIONS:
+        raise fail(path, root.find("regions").sourceline, f"{len(regions)} regions of analysis (at most {MAX_REGIONS}; "
+                                                          "each is accumulated on every frame)")
+    analyses = tuple(el.get("name") for el in root.iterfind("analyses/analysis"))
     limits = []
     for el in root.iterfind("limits/limit"):
         lo, hi = el.get("min"), el.get("max")
@@ -250,13 +258,28 @@ def scan_from_tree(tree, path, system: System | None = None, system_path=None) -
         lim = Limit(el.get("quantity"), None if lo is None else float(lo), None if hi is None else float(hi))
         if lim.min is not None and lim.max is not None and lim.min > lim.max:
             raise fail(path, el.sourceline, f"limit on '{lim.quantity}': min {lim.min:g} is above max {lim.max:g}")
+        why = unknown_limit(lim.quantity, analyses)
+        if why:
+            raise fail(path, el.sourceline, why)
         limits.append(lim)
     de = root.find("defects")
+    if de is not None:
+        from ares.analysis.defects import DefectThresholds  # the parser the analysis uses: what validates runs
+
+        for el in de.iterfind("threshold"):
+            try:
+                DefectThresholds.from_attrs({el.get("name"): el.get("value")}, where="<defects>")
+            except InputError as exc:
+                raise fail(path, el.sourceline, str(exc)) from None
+        try:  # and together (ordering constraints between thresholds)
+            DefectThresholds.from_attrs({el.get("name"): el.get("value") for el in de.iterfind("threshold")},
+                                        where="<defects>")
+        except InputError as exc:
+            raise fail(path, de.sourceline, str(exc)) from None
     if de is not None and de.get("mask") is not None:
         mp = Path(path).parent / de.get("mask")
         if not mp.is_file():
             raise fail(path, de.sourceline, f"defect mask {de.get('mask')!r} is not a file ({mp})")
-    analyses = tuple(el.get("name") for el in root.iterfind("analyses/analysis"))
     out = root.find("output")
     output = Output() if out is None else Output(
         *(out.get(k, d) in ("true", "1") for k, d in

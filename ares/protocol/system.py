@@ -93,7 +93,11 @@ class SerialInstrument:
     min: float | None = None
     max: float | None = None
     unit: str | None = None
-    settle_s: float = 0.0
+    settle_s: float = 0.0  # soak after the instrument reports settled
+    settle_timeout_s: float = 3600.0  # chamber: give up waiting for the set point after this
+    poll_s: float = 1.0  # chamber: poll interval while waiting
+    tolerance: float | None = None  # chamber: settled = within +/- tolerance C of the set point ...
+    hold_s: float = 0.0  # ... continuously for hold_s (without tolerance: STABLE? answers 1)
 
 
 @dataclass(frozen=True)
@@ -257,6 +261,8 @@ def _serial(el) -> SerialInstrument | None:
         name=el.get("name"), port=el.get("port"), baud=_int(el.get("baud"), 9600), bytesize=_int(el.get("bytesize"), 8),
         parity=el.get("parity", "N"), stopbits=_int(el.get("stopbits"), 1), timeout_s=_float(el.get("timeout_s"), 1.0),
         min=_float(el.get("min")), max=_float(el.get("max")), unit=el.get("unit"), settle_s=_float(el.get("settle_s"), 0.0),
+        settle_timeout_s=_float(el.get("settle_timeout_s"), 3600.0), poll_s=_float(el.get("poll_s"), 1.0),
+        tolerance=_float(el.get("tolerance")), hold_s=_float(el.get("hold_s"), 0.0),
     )
 
 
@@ -406,7 +412,8 @@ def _set(el, **attrs):
 
 def _serial_el(parent, tag, s: SerialInstrument):
     _set(etree.SubElement(parent, tag), name=s.name, port=s.port, baud=s.baud, bytesize=s.bytesize, parity=s.parity,
-         stopbits=s.stopbits, timeout_s=s.timeout_s, min=s.min, max=s.max, unit=s.unit, settle_s=s.settle_s)
+         stopbits=s.stopbits, timeout_s=s.timeout_s, min=s.min, max=s.max, unit=s.unit, settle_s=s.settle_s,
+         settle_timeout_s=s.settle_timeout_s, poll_s=s.poll_s, tolerance=s.tolerance, hold_s=s.hold_s)
 
 
 def system_to_tree(sy: System) -> etree._ElementTree:

@@ -88,7 +88,8 @@ TYPE_WORDS = {
     "Analysis": "one of decomposition, ptc, dark_current, temperature, gain_split, adc_linearity, lag, defects",
     "DarkMode": "one of none, matched", "Parity": "one of N, E, O", "StopBits": "1 or 2",
     "ByteSize": "7 or 8", "FrameFormat": "one of mono8, mono16le, mono16be", "ParamType": "one of int, float, bool, str, floats",
-    "NumberList": "a list of numbers separated by spaces", "PositiveNumber": "a number > 0",
+    "NumberList": "a list of finite numbers separated by spaces", "PositiveNumber": "a finite number > 0",
+    "Finite": "a finite number", "QuantityPath": "a result name or dotted path (ptc.read_noise_e)", "NonNegativeNumber": "a finite number >= 0",
 }
 
 _ELEM = r"Element '(?P<el>[^']+)'(?:, attribute '(?P<attr>[^']+)')?: "
@@ -119,12 +120,14 @@ def translate(message: str) -> str:
     m = re.match(_ELEM + r"\[facet '(?P<f>\w+)'\] The value '(?P<val>.*?)' (?P<rest>.*)", msg, re.S)
     if m:
         f, val = m.group("f"), m.group("val")
-        lim = re.search(r"\('([^']*)'\)", m.group("rest"))
+        lim = re.search(r"\('([^']*)'\)", m.group("rest")) or re.search(r"than '([^']*)'", m.group("rest"))
         lim = lim.group(1) if lim else "?"
         if f == "enumeration":
             opts = re.search(r"set \{(.*)\}", m.group("rest"))
             opts = opts.group(1).replace("'", "") if opts else ""
             return f"{_subject(m)} must be one of {opts}, got '{val}'"
+        if f == "pattern" and val.strip().lower().lstrip("+-") in ("nan", "inf", "infinity"):
+            return f"{_subject(m)} must be a finite number, got '{val}'"
         word = {"minInclusive": f">= {lim}", "maxInclusive": f"<= {lim}", "minExclusive": f"> {lim}",
                 "maxExclusive": f"< {lim}", "pattern": "well formed", "minLength": f"at least {lim} long"}.get(f, f)
         return f"{_subject(m)} must be {word}, got '{val}'"

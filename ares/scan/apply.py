@@ -5,8 +5,10 @@ from __future__ import annotations
 from ares.errors import InputError
 
 
-def apply_settings(bench, system, settings: dict, previous: dict | None = None) -> None:
-    """Write every setting; instruments only settle when their value changed."""
+def apply_settings(bench, system, settings: dict, previous: dict | None = None, cancel=None) -> None:
+    """Write every setting; instruments only settle when their value changed. ``cancel``:
+    a callable that is true when the run is asked to stop; an instrument's wait then ends
+    with ``ares.hardware.waits.Interrupted``."""
     prev = previous or {}
     for key, value in settings.items():
         changed = prev.get(key) != value
@@ -15,7 +17,7 @@ def apply_settings(bench, system, settings: dict, previous: dict | None = None) 
                 raise InputError(f"system '{system.name}' has no thermal chamber to set {value:g} C")
             if changed:
                 bench.chamber.set_temperature(value)
-                bench.chamber.settle()
+                bench.chamber.settle(cancel)
         elif key == "light":
             if bench.light is None:
                 if value == 0:
@@ -23,7 +25,7 @@ def apply_settings(bench, system, settings: dict, previous: dict | None = None) 
                 raise InputError(f"system '{system.name}' has no light source to set level {value:g}")
             if changed:
                 bench.light.set_level(value)
-                bench.light.settle()
+                bench.light.settle(cancel)
         elif key in ("exposure", "analog_gain"):
             bench.registers.set(getattr(system.controls, key), value)
         elif key.startswith("reg:"):

@@ -239,12 +239,23 @@ def flatten(results: dict, prefix: str = "") -> dict[str, float]:
     return out
 
 
+def names_quantity(key: str, quantity: str) -> bool:
+    """Does a limit's ``quantity`` name the flattened result ``key``? Its last part is the
+    key's leaf and its other parts appear in the key's path in order (``read_noise_e``,
+    ``ptc.read_noise_e``, ``decomposition.Pt`` for ``decomposition.components.Pt``)."""
+    k, q = key.split("."), quantity.split(".")
+    if k[-1] != q[-1]:
+        return False
+    it = iter(k[:-1])
+    return all(part in it for part in q[:-1])
+
+
 def check_limits(scan, results: dict) -> list[str]:
     """One sentence per failed limit; a quantity no analysis produced fails too."""
     flat = flatten(results)
     fails = []
     for lim in scan.limits:
-        hits = [v for k, v in flat.items() if k == lim.quantity or k.endswith("." + lim.quantity)]
+        hits = [v for k, v in flat.items() if names_quantity(k, lim.quantity)]
         if not hits:
             fails.append(f"limit on '{lim.quantity}': no analysis produced this quantity")
             continue

@@ -149,7 +149,11 @@ def claim_run_dir(d: Path) -> None:
     one (or one this process claimed before). Two runs given the same --out can never
     write into, or nest inside, the same folder."""
     try:
-        d.parent.mkdir(parents=True, exist_ok=True)
+        try:
+            d.parent.mkdir(parents=True, exist_ok=True)
+        except (FileExistsError, NotADirectoryError):
+            bad = next((a for a in [d.parent, *d.parent.parents] if a.exists() and not a.is_dir()), d.parent)
+            raise InputError(f"{d}: cannot create the run directory ({bad} is not a directory)") from None
         try:
             d.mkdir()
         except FileExistsError:

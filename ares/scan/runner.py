@@ -24,12 +24,14 @@ from typing import Callable
 import numpy as np
 
 from ares.errors import AresError, FrameError, HardwareError, InputError, StorageError
+from ares.hardware.waits import Interrupted
 from ares.scan import events as ev
 from ares.scan.apply import apply_settings
 from ares.scan.defect_mask import load_declared_mask, mask_from_dark, scan_thresholds
+from ares.scan.preflight import check_run
 from ares.scan.results import StackSet, analyze_stage, check_limits, scan_level_results, views
 from ares.scan.rundir import RunRecord, RunWriter
-from ares.scan.stages import Stage, estimate_seconds, expand
+from ares.scan.stages import Stage, estimate_seconds
 
 
 KEEP_FOR_MASK_BYTES = 256 * 1024 * 1024  # first dark stage kept in memory up to this size
@@ -60,10 +62,10 @@ class Runner:
         self.resume_from = resume_from
         self.system = scan.system
         self.frames_override = frames
-        self.stages: list[Stage] = expand(scan, frames)
         from ares.scan.analyses import check_defect_thresholds
 
-        check_defect_thresholds(scan)
+        check_defect_thresholds(scan)  # scans built in code, not loaded from XML, too
+        self.stages: list[Stage] = check_run(scan, frames, seed).stages  # what --dry-run/validate refuse
         if seed is None and self.system.simulator is not None:
             seed = self.system.simulator.seed
         self.seed = seed
@@ -95,6 +97,10 @@ class Runner:
         """End now; completed stages are kept, the stage in flight is dropped."""
         self._abort.set()
         self._pause.clear()
+
+    def _cancelled(self) -> bool:
+        """True once a stop or abort is requested: instrument waits end on it."""
+        return self._stop.is_set() or self._abort.is_set()
 
     @property
     def paused(self) -> bool:
@@ -214,25 +220,25 @@ class Runner:
                 dark = None
                 pos["dark"] = _position(bench)
                 if st.dark_source == "grab":
-                    apply_settings(bench, system, st.dark_settings, applied)
+                    apply_settings(bench, system, st.dark_settings, applied, self._cancelled)
                     applied = st.dark_settings
                     dark = self._grab(bench, st, st.dark_frames, vw, max_code, fw, dark=True)
                 elif st.dark_source == "reuse" and cache is not None and cache.masked is None and self._mask is not None:
                     # the dark to reuse predates the defect mask and kept no frames: grab it again
-                    apply_settings(bench, system, st.dark_settings, applied)
+                    apply_settings(bench, system, st.dark_settings, applied, self._cancelled)
                     applied = st.dark_settings
                     dark = cache = self._grab(bench, st, st.dark_frames, vw, max_code, fw, dark=True)
                 elif st.dark_source == "reuse":
                     dark = cache
-                apply_settings(bench, system, st.settings, applied)
+                apply_settings(bench, system, st.settings, applied, self._cancelled)
                 applied = dict(st.settings)
                 pos["flat"] = _position(bench)
                 flat = self._grab(bench, st, st.frames, vw, max_code, fw, dark=False)
                 pos["end"] = _position(bench)
-            except _Aborted:
+            except (_Aborted, Interrupted):  # aborted mid-stage, or stopped while an instrument settled
                 if fw is not None:
                     fw.close(keep=False)
-                status = "aborted"
+                status = "aborted" if self._abort.is_set() else "stopped"
                 break
             except BaseException:
                 if fw is not None:

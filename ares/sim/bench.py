@@ -94,7 +94,7 @@ class SimLightSource:
     def get_level(self) -> float:
         return self._level
 
-    def settle(self) -> None:
+    def settle(self, cancel=None) -> None:
         pass
 
     def close(self) -> None:
@@ -123,7 +123,7 @@ class SimChamber:
     def get_temperature(self) -> float:
         return self._t
 
-    def settle(self) -> None:
+    def settle(self, cancel=None) -> None:
         pass
 
     def close(self) -> None:

@@ -1,0 +1,89 @@
+"""What ``ares run`` checks before it touches hardware, in one place: ``ares validate`` and
+``ares run --dry-run`` call the same function, so whatever a run would refuse they refuse
+first (the static checks, with file:line, are in ``ares.protocol.load_scan``; these are
+the ones that depend on the run's arguments and on this machine).
+
+The memory estimate is measured, not derived: ``ares run`` of the shipped dark-current scan
+on a simulated 2048x2048 sensor peaks at 0.93 kB per pixel with 4 frames per stage and
+grows by 4 bytes per pixel per frame of the first dark stage (its frames are kept to
+build the defect mask); regions and channel views add their own accumulators.
+"""
+
+from __future__ import annotations
+
+import os
+from dataclasses import dataclass
+
+from ares.errors import InputError
+from ares.scan.stages import Stage, expand
+
+MAX_FRAMES = 100000  # the scan schema's <frames> maximum
+MAX_SEED = 2**63 - 1
+BASE_BYTES = 300e6  # the interpreter, numpy/scipy/h5py and the report's plotting
+BYTES_PER_PIXEL = 1000.0  # full view: accumulators, simulator temporaries, per-pixel maps and the report
+BYTES_PER_VIEW_PIXEL = 100.0  # each further view (region, Bayer phase, ADC channel) per pixel it covers
+BYTES_PER_KEPT_PIXEL = 4.0  # per frame of the first dark stage, per pixel
+
+
+@dataclass(frozen=True)
+class Plan:
+    stages: list[Stage]
+    memory_bytes: float
+    memory_total: float | None  # this machine's physical memory, None when unknown
+    memory_available: float | None
+
+    def memory_note(self) -> str:
+        """One line for ``--dry-run`` and ``validate``: the estimate against this machine."""
+        gb = self.memory_bytes / 1e9
+        if self.memory_available is not None and self.memory_bytes > self.memory_available:
+            return (f"memory: about {gb:.1f} GB, more than the {self.memory_available / 1e9:.1f} GB available now "
+                    "(the run may swap)")
+        return f"memory: about {gb:.1f} GB"
+
+
+def memory_bytes(scan, stages: list[Stage]) -> float:
+    """Peak resident memory of ``ares run`` for ``scan`` (the measured model above)."""
+    s = scan.system.sensor
+    px = float(s.rows) * float(s.cols)
+    extra = sum(float(r.width) * float(r.height) for r in scan.regions)
+    extra += px * ((s.cfa != "mono") + (s.adc_channels > 1))
+    kept = next((st.frames for st in stages if st.scene == "dark"), 0)
+    return BASE_BYTES + BYTES_PER_PIXEL * px + BYTES_PER_VIEW_PIXEL * extra + BYTES_PER_KEPT_PIXEL * px * kept
+
+
+def machine_memory() -> tuple[float | None, float | None]:
+    """(total, available) physical memory in bytes, from /proc/meminfo or sysconf."""
+    try:
+        with open("/proc/meminfo", encoding="ascii") as f:
+            info = {ln.split(":")[0]: float(ln.split()[1]) * 1024 for ln in f if ":" in ln}
+        return info.get("MemTotal"), info.get("MemAvailable")
+    except (OSError, ValueError, IndexError):
+        pass
+    try:
+        return float(os.sysconf("SC_PAGE_SIZE") * os.sysconf("SC_PHYS_PAGES")), None
+    except (ValueError, OSError, AttributeError):
+        return None, None
+
+
+def check_run(scan, frames: int | None = None, seed: int | None = None) -> Plan:
+    """Refuse (``InputError``, one sentence) what the run would fail on later: the frame
+    override, the seed, the simulator's parameters, the memory the scan needs."""
+    where = scan.source or scan.name
+    if frames is not None and not 2 <= frames <= MAX_FRAMES:
+        raise InputError(f"--frames must be an integer from 2 to {MAX_FRAMES}, got {frames}")
+    if seed is not None and not 0 <= seed <= MAX_SEED:
+        raise InputError(f"--seed must be an integer from 0 to 2**63-1, got {seed}")
+    stages = expand(scan, frames)
+    if scan.system.simulator is not None:
+        from ares.hardware.factory import sim_params
+
+        sim_params(scan.system)
+    need = memory_bytes(scan, stages)
+    total, avail = machine_memory()
+    if total is not None and need > total:
+        s = scan.system.sensor
+        raise InputError(f"{where}: the scan needs about {need / 1e9:.1f} GB of memory ({s.cols}x{s.rows} pixels, "
+                         f"{len(scan.regions)} region(s), {max(st.frames for st in stages) if stages else 0} frames "
+                         f"per stage at most) but this machine has {total / 1e9:.1f} GB; use a smaller array or "
+                         "fewer frames in the first dark stage")
+    return Plan(stages, need, total, avail)
