@@ -85,6 +85,15 @@ class Limit:
 
 
 @dataclass(frozen=True)
+class Suspend:
+    """``<suspend>``: conditions that pause acquisition (ares.scan.suspend)."""
+    conditions: tuple[tuple[str, float], ...]  # (quantity, tolerance): temperature in C, light as a fraction
+    poll_s: float = 1.0
+    hold_s: float = 0.0
+    timeout_s: float = 600.0
+
+
+@dataclass(frozen=True)
 class Output:
     raw_frames: bool = False
     hdf5: bool = True
@@ -108,6 +117,7 @@ class Scan:
     limits: tuple[Limit, ...] = ()
     defect_mask: str | None = None  # <defects mask=...>: a file relative to the scan
     output: Output = Output()
+    suspend: Suspend | None = None
     source: Path | None = field(default=None, compare=False)
     system_path: Path | None = field(default=None, compare=False)
 
@@ -280,6 +290,17 @@ def scan_from_tree(tree, path, system: System | None = None, system_path=None) -
         mp = Path(path).parent / de.get("mask")
         if not mp.is_file():
             raise fail(path, de.sourceline, f"defect mask {de.get('mask')!r} is not a file ({mp})")
+    su = root.find("suspend")
+    suspend = None
+    if su is not None:
+        conds = tuple((c.get("quantity"), float(c.get("tolerance"))) for c in su.iterfind("condition"))
+        for c, (q, _) in zip(su.iterfind("condition"), conds):
+            if q == "temperature" and system.chamber is None and system.simulator is None:
+                raise fail(path, c.sourceline, f"a temperature condition needs a thermal chamber (system '{system.name}' "
+                                               "has none)")
+            if q == "light" and system.light_source is None and system.simulator is None:
+                raise fail(path, c.sourceline, f"a light condition needs a light source (system '{system.name}' has none)")
+        suspend = Suspend(conds, float(su.get("poll_s", 1)), float(su.get("hold_s", 0)), float(su.get("timeout_s", 600)))
     out = root.find("output")
     output = Output() if out is None else Output(
         *(out.get(k, d) in ("true", "1") for k, d in
@@ -290,7 +311,7 @@ def scan_from_tree(tree, path, system: System | None = None, system_path=None) -
         description=(desc.text or "").strip() if desc is not None else "",
         frames=int(root.findtext("frames")), settings=settings, stages=tuple(stages), regions=tuple(regions),
         analyses=analyses, defects=tuple((el.get("name"), float(el.get("value"))) for el in root.iterfind("defects/threshold")),
-        limits=tuple(limits), output=output, system=system, source=Path(path),
+        limits=tuple(limits), output=output, suspend=suspend, system=system, source=Path(path),
         defect_mask=root.find("defects").get("mask") if root.find("defects") is not None else None,
         system_path=Path(system_path) if system_path else system.source,
     )
@@ -356,6 +377,11 @@ def scan_to_tree(sc: Scan) -> etree._ElementTree:
         li = etree.SubElement(root, "limits")
         for lim in sc.limits:
             _set(etree.SubElement(li, "limit"), quantity=lim.quantity, min=lim.min, max=lim.max)
+    if sc.suspend is not None:
+        su = _set(etree.SubElement(root, "suspend"), poll_s=sc.suspend.poll_s, hold_s=sc.suspend.hold_s,
+                  timeout_s=sc.suspend.timeout_s)
+        for q, tol in sc.suspend.conditions:
+            _set(etree.SubElement(su, "condition"), quantity=q, tolerance=tol)
     o = sc.output
     _set(etree.SubElement(root, "output"), raw_frames=o.raw_frames, hdf5=o.hdf5, csv=o.csv, pdf=o.pdf)
     return etree.ElementTree(root)

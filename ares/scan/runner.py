@@ -32,6 +32,7 @@ from ares.scan.preflight import check_run
 from ares.scan.results import StackSet, analyze_stage, check_limits, scan_level_results, views
 from ares.scan.rundir import RunRecord, RunWriter
 from ares.scan.stages import Stage, estimate_seconds
+from ares.scan.suspend import Suspended, Suspenders
 
 
 KEEP_FOR_MASK_BYTES = 256 * 1024 * 1024  # first dark stage kept in memory up to this size
@@ -185,6 +186,7 @@ class Runner:
 
     def _run(self, bench, writer, completed) -> RunOutcome:
         scan, system, stages = self.scan, self.system, self.stages
+        self._susp = Suspenders(scan.suspend, bench, self._cancelled) if scan.suspend else None
         vw = views(scan)
         max_code = (1 << int(bench.frames.bit_depth)) - 1
         self._frames_total = sum(s.frames_to_grab() for s in stages)
@@ -214,36 +216,52 @@ class Runner:
             self._emit(ev.StageStarted(st.index, len(stages), st))
             t_start = time.time()
             before = bench.registers.snapshot()
-            fw = writer.frame_writer(st.index, bench.frames.shape, None) if writer else None
-            pos = {}
-            try:
-                dark = None
-                pos["dark"] = _position(bench)
-                if st.dark_source == "grab":
-                    apply_settings(bench, system, st.dark_settings, applied, self._cancelled)
-                    applied = st.dark_settings
-                    dark = self._grab(bench, st, st.dark_frames, vw, max_code, fw, dark=True)
-                elif st.dark_source == "reuse" and cache is not None and cache.masked is None and self._mask is not None:
-                    # the dark to reuse predates the defect mask and kept no frames: grab it again
-                    apply_settings(bench, system, st.dark_settings, applied, self._cancelled)
-                    applied = st.dark_settings
-                    dark = cache = self._grab(bench, st, st.dark_frames, vw, max_code, fw, dark=True)
-                elif st.dark_source == "reuse":
-                    dark = cache
-                apply_settings(bench, system, st.settings, applied, self._cancelled)
-                applied = dict(st.settings)
-                pos["flat"] = _position(bench)
-                flat = self._grab(bench, st, st.frames, vw, max_code, fw, dark=False)
-                pos["end"] = _position(bench)
-            except (_Aborted, Interrupted):  # aborted mid-stage, or stopped while an instrument settled
-                if fw is not None:
-                    fw.close(keep=False)
-                status = "aborted" if self._abort.is_set() else "stopped"
+            suspensions, halted = [], False
+            while True:  # once, or again after a suspension (ares.scan.suspend)
+                fw = writer.frame_writer(st.index, bench.frames.shape, None) if writer else None
+                pos = {}
+                try:
+                    dark = None
+                    pos["dark"] = _position(bench)
+                    if st.dark_source == "grab":
+                        apply_settings(bench, system, st.dark_settings, applied, self._cancelled)
+                        applied = st.dark_settings
+                        dark = self._grab(bench, st, st.dark_frames, vw, max_code, fw, dark=True)
+                    elif st.dark_source == "reuse" and cache is not None and cache.masked is None and self._mask is not None:
+                        # the dark to reuse predates the defect mask and kept no frames: grab it again
+                        apply_settings(bench, system, st.dark_settings, applied, self._cancelled)
+                        applied = st.dark_settings
+                        dark = cache = self._grab(bench, st, st.dark_frames, vw, max_code, fw, dark=True)
+                    elif st.dark_source == "reuse":
+                        dark = cache
+                    apply_settings(bench, system, st.settings, applied, self._cancelled)
+                    applied = dict(st.settings)
+                    pos["flat"] = _position(bench)
+                    flat = self._grab(bench, st, st.frames, vw, max_code, fw, dark=False)
+                    pos["end"] = _position(bench)
+                except Suspended as s:  # out of tolerance: drop the stage's frames, wait, acquire it again
+                    if fw is not None:
+                        fw.close(keep=False)
+                    self._emit(ev.Paused(st.index))
+                    try:
+                        suspensions.append(self._susp.wait_clear(s.settings, s.reason, st.name))
+                    except Interrupted:
+                        status, halted = ("aborted" if self._abort.is_set() else "stopped"), True
+                        break
+                    self._emit(ev.Resumed(st.index))
+                    continue
+                except (_Aborted, Interrupted):  # aborted mid-stage, or stopped while an instrument settled
+                    if fw is not None:
+                        fw.close(keep=False)
+                    status, halted = ("aborted" if self._abort.is_set() else "stopped"), True
+                    break
+                except BaseException:
+                    if fw is not None:
+                        fw.close(keep=False)
+                    raise
                 break
-            except BaseException:
-                if fw is not None:
-                    fw.close(keep=False)
-                raise
+            if halted:
+                break
             if fw is not None:
                 fw.close(keep=True)
             if st.scene == "dark":
@@ -258,6 +276,8 @@ class Runner:
             result, arrays = analyze_stage(st, flat, dark)
             if pos.get("end") is not None:
                 result["bench_position"] = pos  # where the frame stream stood (ares resume)
+            if suspensions:
+                result["suspensions"] = suspensions
             if self._mask is not None:
                 result["defect_mask"] = self._mask.summary()
                 if new_mask or not completed:  # the mask itself, once, with the stage it came from
@@ -323,6 +343,8 @@ class Runner:
                     self._emit(ev.Resumed(st.index))
                 if self._abort.is_set():
                     raise _Aborted
+                if self._susp is not None:
+                    self._susp.check(st.dark_settings if dark else st.settings, force=k == 0)
                 try:
                     frame = next(it)  # run the source to its end (it may count frames after a yield)
                 except StopIteration:

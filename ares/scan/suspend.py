@@ -1,0 +1,70 @@
+"""Suspenders: a scan's ``<suspend>`` conditions pause acquisition while the bench is out of
+tolerance (the chamber drifted off its set point, the light source's output moved) and
+resume it by itself when they have cleared.
+
+The runner checks the conditions when a stack starts and then at most every ``poll_s``
+while frames arrive. A failed check raises ``Suspended``; the runner drops the frames of
+the stage in flight (they may have been taken out of tolerance), waits here until every
+condition has held for ``hold_s``, and acquires the stage again. Each pause is recorded in
+the stage's JSON (``suspensions``: reason, seconds). A pause longer than ``timeout_s`` is
+a hardware error naming the condition; a stop or abort ends the wait within 0.1 s.
+"""
+
+from __future__ import annotations
+
+import time
+
+from ares.errors import HardwareError
+from ares.hardware.waits import wait
+
+
+class Suspended(Exception):
+    """A condition is out of tolerance: the stage in flight must be acquired again."""
+
+    def __init__(self, reason: str, settings: dict):
+        super().__init__(reason)
+        self.reason, self.settings = reason, settings
+
+
+class Suspenders:
+    def __init__(self, spec, bench, cancel=None, *, clock=time.monotonic, sleep=time.sleep):
+        self.spec, self.bench, self.cancel = spec, bench, cancel
+        self._clock, self._sleep = clock, sleep
+        self._last = None
+
+    def violation(self, settings: dict) -> str | None:
+        """One sentence for the first condition out of tolerance at ``settings``, else None."""
+        for q, tol in self.spec.conditions:
+            if q == "temperature" and "temperature" in settings and self.bench.chamber is not None:
+                want, got = settings["temperature"], self.bench.chamber.get_temperature()
+                if not abs(got - want) <= tol:
+                    return f"chamber at {got:g} C, set point {want:g} +/- {tol:g} C"
+            elif q == "light" and settings.get("light") and self.bench.light is not None:
+                want, got = settings["light"], self.bench.light.get_level()
+                if not abs(got - want) <= tol * abs(want):
+                    return f"light level {got:.6g}, set {want:.6g} +/- {100 * tol:g} %"
+        return None
+
+    def check(self, settings: dict, force: bool = False) -> None:
+        """Raise ``Suspended`` when a condition fails; polled at most every ``poll_s``."""
+        now = self._clock()
+        if not force and self._last is not None and now - self._last < self.spec.poll_s:
+            return
+        self._last = now
+        why = self.violation(settings)
+        if why:
+            raise Suspended(why, settings)
+
+    def wait_clear(self, settings: dict, reason: str, stage: str) -> dict:
+        """Wait until every condition has held ``hold_s``; the pause as a record."""
+        t0, started, held = self._clock(), time.time(), None
+        while True:
+            why = self.violation(settings)
+            now = self._clock()
+            held = (held if held is not None else now) if why is None else None
+            if held is not None and now - held >= self.spec.hold_s:
+                return {"stage": stage, "reason": reason, "started": started, "seconds": round(now - t0, 3)}
+            if now - t0 >= self.spec.timeout_s:
+                raise HardwareError(f"stage '{stage}': suspended for {self.spec.timeout_s:g} s and the condition did "
+                                    f"not clear ({why}; timeout_s of <suspend> in the scan)")
+            wait(self.spec.poll_s, self.cancel, sleep=self._sleep, clock=self._clock)
