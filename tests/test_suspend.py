@@ -100,3 +100,29 @@ def test_suspend_round_trips_through_xml(tmp_path):
     save_scan(scan, tmp_path / "again.xml")
     again = load_scan(tmp_path / "again.xml")
     assert again.suspend == scan.suspend and again.suspend.conditions == (("temperature", 0.5), ("light", 0.02))
+
+
+def device_scan(tmp_path, timeout=600):
+    p = tmp_path / "dev.xml"
+    p.write_text(SCAN.format(system=ROOT / "fixtures" / "xml" / "small" / "sim_small.xml", timeout=timeout).replace(
+        '<condition quantity="light" tolerance="0.02"/>', '<condition quantity="device"/>'))
+    return load_scan(p)
+
+
+def test_an_unplugged_grabber_is_waited_for_and_the_stage_acquired_again(tmp_path):
+    scan = device_scan(tmp_path)
+    out = Runner(scan, out_dir=tmp_path / "run", seed=3,
+                 faults={"disconnect_after_frames": 9, "reconnect_after_polls": 3}).run()
+    assert out.status == "done" and len(out.stages) == 2
+    sus = [s for i in range(2) for s in stage_json(tmp_path / "run", i).get("suspensions", [])]
+    assert [s["reason"] for s in sus] == ["sim grabber: device disconnected after 9 frames"]
+    assert all(stage_json(tmp_path / "run", i)["views"]["full"]["level"]["n_frames"] == 6 for i in range(2))
+
+
+def test_a_grabber_that_never_returns_fails_the_run_with_one_sentence(tmp_path):
+    from ares.errors import DeviceGone
+
+    scan = device_scan(tmp_path, timeout=0.05)
+    with pytest.raises(DeviceGone, match=r"device disconnected after 9 frames; not back after 0.05 s"):
+        Runner(scan, out_dir=tmp_path / "run", seed=3, faults={"disconnect_after_frames": 9}).run()
+    assert json.loads((tmp_path / "run" / "run.json").read_text())["status"] == "failed"

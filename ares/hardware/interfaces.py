@@ -80,6 +80,16 @@ class Bench:
     chamber: Chamber | None = None
     info: dict = field(default_factory=dict)
 
+    def reconnect(self) -> None:
+        """Find the frame source again after it was unplugged (``DeviceGone`` while it is
+        still away, or when it cannot be looked for)."""
+        again = getattr(self.frames, "reconnect", None)
+        if again is None:
+            from ares.errors import DeviceGone
+
+            raise DeviceGone(f"{self.frames.name}: cannot reconnect (this frame source has no reconnect)")
+        again()
+
     def close(self) -> None:
         for dev in (self.frames, self.light, self.chamber, self.registers.bus):
             close = getattr(dev, "close", None)

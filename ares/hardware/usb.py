@@ -41,7 +41,14 @@ class UsbFrameSource:
             dev.set_configuration()
         except usb.core.USBError as exc:
             raise DeviceGone(f"USB frame grabber '{cfg.name}': cannot configure the device ({exc})") from None
-        return cls(dev, cfg, shape, bit_depth)
+        src = cls(dev, cfg, shape, bit_depth)
+        src._backend = backend
+        return src
+
+    def reconnect(self) -> None:
+        """Find the grabber by VID/PID again and configure it (``DeviceGone`` while away)."""
+        again = type(self).open(self.cfg, self.shape, self.bit_depth, backend=getattr(self, "_backend", None))
+        self.dev = again.dev
 
     def _read(self) -> bytes:
         import usb.core

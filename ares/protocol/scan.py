@@ -293,8 +293,10 @@ def scan_from_tree(tree, path, system: System | None = None, system_path=None) -
     su = root.find("suspend")
     suspend = None
     if su is not None:
-        conds = tuple((c.get("quantity"), float(c.get("tolerance"))) for c in su.iterfind("condition"))
+        conds = tuple((c.get("quantity"), float(c.get("tolerance", 0))) for c in su.iterfind("condition"))
         for c, (q, _) in zip(su.iterfind("condition"), conds):
+            if q != "device" and c.get("tolerance") is None:
+                raise fail(path, c.sourceline, f"a {q} condition needs tolerance=")
             if q == "temperature" and system.chamber is None and system.simulator is None:
                 raise fail(path, c.sourceline, f"a temperature condition needs a thermal chamber (system '{system.name}' "
                                                "has none)")
@@ -381,7 +383,7 @@ def scan_to_tree(sc: Scan) -> etree._ElementTree:
         su = _set(etree.SubElement(root, "suspend"), poll_s=sc.suspend.poll_s, hold_s=sc.suspend.hold_s,
                   timeout_s=sc.suspend.timeout_s)
         for q, tol in sc.suspend.conditions:
-            _set(etree.SubElement(su, "condition"), quantity=q, tolerance=tol)
+            _set(etree.SubElement(su, "condition"), quantity=q, tolerance=tol if q != "device" else None)
     o = sc.output
     _set(etree.SubElement(root, "output"), raw_frames=o.raw_frames, hdf5=o.hdf5, csv=o.csv, pdf=o.pdf)
     return etree.ElementTree(root)

@@ -23,7 +23,7 @@ from typing import Callable
 
 import numpy as np
 
-from ares.errors import AresError, FrameError, HardwareError, InputError, StorageError
+from ares.errors import AresError, DeviceGone, FrameError, HardwareError, InputError, StorageError
 from ares.hardware.waits import Interrupted
 from ares.scan import events as ev
 from ares.scan.apply import apply_settings
@@ -248,6 +248,20 @@ class Runner:
                     except Interrupted:
                         status, halted = ("aborted" if self._abort.is_set() else "stopped"), True
                         break
+                    self._emit(ev.Resumed(st.index))
+                    continue
+                except DeviceGone as exc:  # unplugged: with a <suspend> device condition, wait for it to return
+                    if fw is not None:
+                        fw.close(keep=False)
+                    if self._susp is None or not self._susp.waits_for_device:
+                        raise
+                    self._emit(ev.Paused(st.index))
+                    try:
+                        suspensions.append(self._susp.wait_reconnect(str(exc), st.name))
+                    except Interrupted:
+                        status, halted = ("aborted" if self._abort.is_set() else "stopped"), True
+                        break
+                    applied = {}  # it may have lost its settings: apply every one again
                     self._emit(ev.Resumed(st.index))
                     continue
                 except (_Aborted, Interrupted):  # aborted mid-stage, or stopped while an instrument settled

@@ -6,15 +6,18 @@ The runner checks the conditions when a stack starts and then at most every ``po
 while frames arrive. A failed check raises ``Suspended``; the runner drops the frames of
 the stage in flight (they may have been taken out of tolerance), waits here until every
 condition has held for ``hold_s``, and acquires the stage again. Each pause is recorded in
-the stage's JSON (``suspensions``: reason, seconds). A pause longer than ``timeout_s`` is
-a hardware error naming the condition; a stop or abort ends the wait within 0.1 s.
+the stage's JSON (``suspensions``: reason, seconds). A ``device`` condition does the same
+when the frame source is unplugged (``DeviceGone``): the bench looks for it every
+``poll_s``, and when it is back every setting is applied again. A pause longer than
+``timeout_s`` is a hardware error naming the condition; a stop or abort ends the wait
+within 0.1 s.
 """
 
 from __future__ import annotations
 
 import time
 
-from ares.errors import HardwareError
+from ares.errors import DeviceGone, HardwareError
 from ares.hardware.waits import wait
 
 
@@ -54,6 +57,25 @@ class Suspenders:
         why = self.violation(settings)
         if why:
             raise Suspended(why, settings)
+
+    @property
+    def waits_for_device(self) -> bool:
+        return any(q == "device" for q, _ in self.spec.conditions)
+
+    def wait_reconnect(self, reason: str, stage: str) -> dict:
+        """The frame source was unplugged: look for it every ``poll_s`` until it is back
+        (the pause as a record) or ``timeout_s`` has passed (``DeviceGone``)."""
+        t0, started = self._clock(), time.time()
+        while True:
+            try:
+                self.bench.reconnect()
+                return {"stage": stage, "reason": reason, "started": started,
+                        "seconds": round(self._clock() - t0, 3)}
+            except DeviceGone as exc:
+                if self._clock() - t0 >= self.spec.timeout_s:
+                    raise DeviceGone(f"stage '{stage}': {reason}; not back after {self.spec.timeout_s:g} s "
+                                     f"({exc}; timeout_s of <suspend> in the scan)") from None
+            wait(self.spec.poll_s, self.cancel, sleep=self._sleep, clock=self._clock)
 
     def wait_clear(self, settings: dict, reason: str, stage: str) -> dict:
         """Wait until every condition has held ``hold_s``; the pause as a record."""

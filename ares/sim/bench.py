@@ -10,8 +10,10 @@ exposure, analog_gain, black_level, test_mode, streaming, sf_bias and tx_low:
   and holds back more charge), V0 = default.
 
 Fault injection (for scan tests): ``faults={"disconnect_after_frames": N}`` raises
-``DeviceGone`` when frame N+1 is requested; ``{"short_frame_at": N}`` raises
-``FrameError`` for the frame with 0-based index N.
+``DeviceGone`` when frame N+1 is requested; with ``"reconnect_after_polls": M`` the
+device comes back at the M-th ``reconnect()`` (a suspender waiting for it); without it
+it never does. ``{"short_frame_at": N}`` raises ``FrameError`` for the frame with
+0-based index N.
 """
 
 from __future__ import annotations
@@ -28,7 +30,7 @@ from ares.sim.params import SensorParams
 from ares.sim.regmap import SIM_REGISTER_MAP
 from ares.sim.sensor import SimSensor
 
-_FAULTS = ("disconnect_after_frames", "short_frame_at", "frame_delay_ms")  # delay: a slow camera, for kill tests
+_FAULTS = ("disconnect_after_frames", "reconnect_after_polls", "short_frame_at", "frame_delay_ms")  # delay: a slow camera, for kill tests
 _CHUNK = 16  # frames rendered at a time inside grab()
 
 
@@ -227,6 +229,16 @@ class SimFrameSource:
         self.frames_delivered = int(pos["frames_delivered"])
         self.clock_s = float(pos["clock_s"])
         self.sensor._rts_state = st
+
+    def reconnect(self) -> None:
+        """Look for the device again: ``DeviceGone`` until the ``reconnect_after_polls``-th call."""
+        if "disconnect_after_frames" not in self.faults:
+            return
+        self._polls = getattr(self, "_polls", 0) + 1
+        back = self.faults.get("reconnect_after_polls")
+        if back is None or self._polls < int(back):
+            raise DeviceGone(f"{self.name}: not connected")
+        del self.faults["disconnect_after_frames"]  # back, and it stays
 
     def _frames_until_fault(self) -> int:
         lim = []
