@@ -36,7 +36,23 @@ def build_parser() -> argparse.ArgumentParser:
     return parser
 
 
+BLAS_VARS = ("OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS", "BLIS_NUM_THREADS")
+
+
+def set_blas_threads() -> None:
+    """BLAS/OpenMP threads are ARES's choice, not inherited by accident: 1 (the scan's small
+    matrix work gains nothing from them and the frame loop loses to their spinning; the
+    issue's measurement: 20 % slower with the defaults), or ``ARES_BLAS_THREADS``. Takes
+    effect when called before numpy is imported, as ``main`` does."""
+    import os
+
+    n = os.environ.get("ARES_BLAS_THREADS", "1")
+    for var in BLAS_VARS:
+        os.environ[var] = n
+
+
 def main(argv: list[str] | None = None) -> int:
+    set_blas_threads()
     parser = build_parser()
     args = parser.parse_args(argv)
     if not getattr(args, "_run", None):

@@ -19,24 +19,30 @@ Noise decomposition API:
   ``robust_gauss_fit``, ``pixel_gain_map``).
 """
 
-from .accumulate import StackAccumulator
-from .anova import DARK_NAMES, AnovaTable, anova_table, decompose_dark, in_electrons, sigma_view
-from .decompose import COMPONENT_NAMES, UNITS_NOTE, StackAnalysis
-from .estimate import Estimate
-from .flat import GAIN_NAMES, decompose_flat, highpass_emva
-from .masked import MaskedStackAccumulator, masked_components
-from .panels import Panel, pixel_gain_map, result_panels, robust_gauss_fit, summarize, value_range
-from .regions import (
-    Region,
-    Selection,
-    SelectionSet,
-    adc_channels,
-    bayer_channels,
-    full_frame,
-    ob_columns,
-    parse_roi,
-    region_selection,
-)
+# Names are imported on first use (PEP 562): ``import ares.analysis.estimate`` -- as the CLI
+# does for ``ares --help`` -- must not pull in scipy.signal through the decomposition.
+_HOME = {
+    "StackAccumulator": "accumulate", "MaskedStackAccumulator": "masked", "masked_components": "masked",
+    "DARK_NAMES": "anova", "AnovaTable": "anova", "anova_table": "anova", "decompose_dark": "anova",
+    "in_electrons": "anova", "sigma_view": "anova", "COMPONENT_NAMES": "decompose", "UNITS_NOTE": "decompose",
+    "StackAnalysis": "decompose", "Estimate": "estimate", "GAIN_NAMES": "flat", "decompose_flat": "flat",
+    "highpass_emva": "flat", "Panel": "panels", "pixel_gain_map": "panels", "result_panels": "panels",
+    "robust_gauss_fit": "panels", "summarize": "panels", "value_range": "panels",
+    **{n: "regions" for n in ("Region", "Selection", "SelectionSet", "adc_channels", "bayer_channels", "full_frame",
+                              "ob_columns", "parse_roi", "region_selection")},
+}
+
+
+def __getattr__(name: str):
+    mod = _HOME.get(name)
+    if mod is None:
+        raise AttributeError(f"module 'ares.analysis' has no attribute {name!r}")
+    import importlib
+
+    value = getattr(importlib.import_module(f".{mod}", __name__), name)
+    globals()[name] = value
+    return value
+
 
 __all__ = [
     "Estimate",

@@ -60,10 +60,8 @@ class AnovaTable:
 
 def anova_table(acc: StackAccumulator) -> AnovaTable:
     """Three-way ANOVA table from an accumulator (no frame data needed)."""
-    if getattr(acc, "masked", False):  # defect-masked stack: unbalanced ANOVA (masked.py)
-        from .masked import masked_table
-
-        return masked_table(acc)
+    if getattr(acc, "masked", False):  # defect-masked stack: unbalanced ANOVA (masked.py, via the accumulator)
+        return acc.anova_table()
     F = acc.n_frames
     R, C = acc.shape
     mrc = acc.mean_map()
@@ -125,9 +123,7 @@ def decompose_dark(acc: StackAccumulator, table: AnovaTable | None = None) -> di
     A ``MaskedStackAccumulator`` (defect mask) is decomposed by ``masked.py``.
     """
     if getattr(acc, "masked", False):
-        from .masked import decompose_dark_masked
-
-        return decompose_dark_masked(acc, table)
+        return acc.decompose_dark(table)
     tab = table if table is not None else anova_table(acc)
     F, R, C = tab.F, tab.R, tab.C
     u = "DN^2"

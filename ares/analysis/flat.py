@@ -145,10 +145,9 @@ def decompose_flat(
     ``gain`` (DN/e-) given from elsewhere switches G from estimated to given and adds
     the Poisson check ``poisson_ratio``. See the module docstring for the method.
     """
-    if getattr(flat_acc, "masked", False) or getattr(dark_acc, "masked", False):
-        from .masked import decompose_flat_masked  # defect-masked stacks
-
-        return decompose_flat_masked(flat_acc, dark_acc, gain, illumination, surface_order, flat_table, dark_table)
+    if getattr(flat_acc, "masked", False) or getattr(dark_acc, "masked", False):  # defect-masked (masked.py)
+        m = flat_acc if getattr(flat_acc, "masked", False) else dark_acc
+        return m.decompose_flat(flat_acc, dark_acc, gain, illumination, surface_order, flat_table, dark_table)
     if illumination not in ("highpass", "surface", "none"):
         from ares.errors import InputError
 

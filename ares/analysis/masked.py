@@ -59,7 +59,10 @@ import numpy as np
 
 from ares.errors import InputError
 
+from . import flat as _flat
+from .anova import DARK_NAMES
 from .estimate import Estimate
+from .flat import highpass_emva
 
 __all__ = ["MaskedStackAccumulator", "MaskedTable", "masked_table", "decompose_dark_masked",
            "decompose_flat_masked", "masked_components", "henderson_two_way"]
@@ -78,6 +81,18 @@ class MaskedStackAccumulator:
     """
 
     masked = True  # dispatch flag for anova.py / flat.py
+
+    # the masked ANOVA, reached through the accumulator: anova.py and flat.py dispatch here
+    # without importing this module (which imports them)
+    def anova_table(self) -> "MaskedTable":
+        return masked_table(self)
+
+    def decompose_dark(self, table=None) -> dict[str, Estimate]:
+        return decompose_dark_masked(self, table)
+
+    @staticmethod
+    def decompose_flat(flat_acc, dark_acc, *args) -> dict[str, Estimate]:
+        return decompose_flat_masked(flat_acc, dark_acc, *args)
 
     def __init__(self, shape, mask, batch: int = _CHUNK):
         try:
@@ -367,8 +382,6 @@ def masked_table(acc: MaskedStackAccumulator) -> MaskedTable:
 
 def decompose_dark_masked(acc: MaskedStackAccumulator, table: MaskedTable | None = None) -> dict[str, Estimate]:
     """Dark components (as ``anova.decompose_dark``) on the good pixels of a masked stack."""
-    from .anova import DARK_NAMES
-
     tab = table if isinstance(table, MaskedTable) else masked_table(acc)
     u = "DN^2"
     if tab.F < 2 or tab.R < 2 or tab.C < 2 or not tab.ok:
@@ -401,8 +414,6 @@ def _theta(tab: MaskedTable, name: str, scale: float = 1.0) -> tuple[float, floa
 def decompose_flat_masked(flat_acc, dark_acc, gain=None, illumination="highpass", surface_order=2,
                           flat_table=None, dark_table=None) -> dict[str, Estimate]:
     """``flat.decompose_flat`` on the good pixels of two masked stacks (same mask)."""
-    from . import flat as _flat
-
     if not (isinstance(flat_acc, MaskedStackAccumulator) and isinstance(dark_acc, MaskedStackAccumulator)):
         raise InputError("a masked flat decomposition needs masked flat and dark stacks (MaskedStackAccumulator)")
     if illumination not in ("highpass", "surface", "none"):
@@ -447,8 +458,6 @@ def _temporal_in_mean(tf: MaskedTable, td: MaskedTable):
 
 def _fill_lowpass(d: np.ndarray, good: np.ndarray) -> np.ndarray:
     """Masked pixels replaced by the EMVA low-pass of the good ones (normalized convolution)."""
-    from .flat import highpass_emva
-
     w = good.astype(np.float64)
     dz = np.where(good, d, 0.0)
     low_num = dz - highpass_emva(dz)
@@ -458,8 +467,6 @@ def _fill_lowpass(d: np.ndarray, good: np.ndarray) -> np.ndarray:
 
 
 def _nonuniformity(flat_acc, dark_acc, tf, td, S, var_S, mode, order):
-    from . import flat as _flat
-
     names = ("Cg", "Rg", "Pg")
     R, C = flat_acc.shape
     good = flat_acc.good

@@ -14,11 +14,9 @@ from __future__ import annotations
 import json
 import math
 
-from ares.analysis.accumulate import StackAccumulator
-from ares.analysis.decompose import COMPONENT_NAMES, UNITS_NOTE, StackAnalysis
-from ares.analysis.regions import parse_roi, region_selection
 from ares.errors import InputError
-from ares.hardware.stackfiles import iter_frames
+
+# the analysis is imported when the command runs, not when `ares --help` builds its parser
 
 NAME = "analyze"
 HELP = "noise decomposition (13 components + frame-global) of recorded frame stacks"
@@ -54,6 +52,10 @@ def add_arguments(p) -> None:
 
 
 def _accumulate(specs, roi_text, what):
+    from ares.analysis.accumulate import StackAccumulator
+    from ares.analysis.regions import parse_roi, region_selection
+    from ares.hardware.stackfiles import iter_frames
+
     acc = sel = None
     for frame in iter_frames(specs):
         if acc is None:
@@ -73,6 +75,8 @@ def _fmt(v: float) -> str:
 
 
 def run(args) -> int:
+    from ares.analysis.decompose import COMPONENT_NAMES, UNITS_NOTE, StackAnalysis
+
     main = _accumulate(args.files, args.roi, "flat" if args.dark else "input")
     if args.dark:
         dark = _accumulate(args.dark, args.roi, "dark")

@@ -17,13 +17,9 @@ import json
 import math
 from pathlib import Path
 
-import numpy as np
-
-from ares.analysis.accumulate import StackAccumulator
-from ares.analysis.defects import (BITS, DefectResult, DefectThresholds, PixelStats, SeriesCollector,
-                                   classify_defects, classify_regions)
 from ares.errors import InputError, LimitsFailed
-from ares.hardware.stackfiles import iter_frames
+
+# numpy and the analysis are imported when the command runs (`ares --help` stays light)
 
 #: the four Bayer phases as (row slice, column slice), named by (row % 2, column % 2)
 BAYER_PHASES = {f"{r}{c}": (slice(r, None, 2), slice(c, None, 2)) for r in (0, 1) for c in (0, 1)}
@@ -54,6 +50,10 @@ def add_arguments(p) -> None:
 def level_stats(paths: list[str], exposure_s: float | None, what: str) -> PixelStats:
     """Per-pixel mean and temporal variance of one level, streamed frame by frame from its
     files (memory independent of the number of frames)."""
+    from ares.analysis.accumulate import StackAccumulator
+    from ares.analysis.defects import PixelStats
+    from ares.hardware.stackfiles import iter_frames
+
     acc = None
     for frame in iter_frames(paths):
         if acc is None:
@@ -66,6 +66,9 @@ def level_stats(paths: list[str], exposure_s: float | None, what: str) -> PixelS
 
 def candidate_series(paths: list[str], rows: np.ndarray, cols: np.ndarray) -> SeriesCollector:
     """Pass 2: the time series of the RTS candidates (rows, cols), re-read from the files."""
+    from ares.analysis.defects import SeriesCollector
+    from ares.hardware.stackfiles import iter_frames
+
     col = SeriesCollector(rows, cols)
     for frame in iter_frames(paths):
         col.add(frame)
@@ -74,6 +77,8 @@ def candidate_series(paths: list[str], rows: np.ndarray, cols: np.ndarray) -> Se
 
 def _global_candidates(results: dict, regions) -> tuple[np.ndarray, np.ndarray]:
     """The RTS candidates of every region in full-frame coordinates."""
+    import numpy as np
+
     rr, cc = [], []
     for name, res in results.items():
         r, c = res.rts_candidates
@@ -87,6 +92,7 @@ def _global_candidates(results: dict, regions) -> tuple[np.ndarray, np.ndarray]:
 
 def write_mask_png(path: str | Path, mask: np.ndarray) -> None:
     """The uint16 class bitmask as a lossless 16-bit grayscale PNG (values are the bits)."""
+    import numpy as np
     from PIL import Image
 
     try:
@@ -97,6 +103,7 @@ def write_mask_png(path: str | Path, mask: np.ndarray) -> None:
 
 def write_mask_h5(path: str | Path, mask: np.ndarray, results: dict[str, DefectResult]) -> None:
     """Dataset ``defects/mask`` (uint16 bits, attributes ``bit_<class>``) and the counts as JSON."""
+    from ares.analysis.defects import BITS
     import h5py
 
     try:
@@ -110,6 +117,8 @@ def write_mask_h5(path: str | Path, mask: np.ndarray, results: dict[str, DefectR
 
 
 def _thresholds(settings: list[str]) -> DefectThresholds:
+    from ares.analysis.defects import DefectThresholds
+
     attrs = {}
     for item in settings:
         name, sep, value = item.partition("=")
@@ -158,6 +167,8 @@ def classify_files(dark_levels, flat_levels, *, gain=None, exposure=None, flat_e
     """Both passes on recorded files, streamed: per-pixel statistics of every level, then the
     candidates' time series from the first dark level for the RTS test. Returns the
     results (per region, or ``{"all": ...}``) and the frame shape."""
+    from ares.analysis.defects import classify_defects, classify_regions
+
     dexp = _per_level(exposure, len(dark_levels), "--exposure")
     fexp = _per_level(flat_exposure if flat_exposure is not None else (exposure if exposure and len(exposure) == 1
                                                                        else None),
@@ -182,6 +193,8 @@ def classify_files(dark_levels, flat_levels, *, gain=None, exposure=None, flat_e
 
 
 def run(args) -> int:
+    import numpy as np
+
     th = _thresholds(args.settings)
     if args.gain is not None and not args.gain > 0:
         raise InputError("--gain must be a positive number of DN per electron")

@@ -14,14 +14,9 @@ import math
 from dataclasses import dataclass
 from pathlib import Path
 
-import numpy as np
-
-from ares.analysis.emva1288 import (ATTRIBUTION, REFERENCE_NAMES, Emva1288Result, TemporalData,
-                                    emva1288_results)
-from ares.analysis.levels import LevelStats, pair_stats, spatial_stats
-from ares.analysis.ptc import PtcResult, analyze_ptc
 from ares.errors import InputError
-from ares.hardware.emva_descriptor import EmvaDescriptor, load_level, read_descriptor
+
+# numpy, scipy and the analysis are imported when the command runs (`ares --help` stays light)
 
 NAME = "emva"
 HELP = "EMVA 1288 parameters of a recorded data set (descriptor file)"
@@ -38,6 +33,8 @@ class EmvaAnalysis:
 
 def attribution_for(desc: EmvaDescriptor) -> str:
     """The attribution line to show with results; the Basler notice for the reference set."""
+    from ares.analysis.emva1288 import ATTRIBUTION
+
     try:
         head = desc.path.read_text(errors="replace")[:2000]
     except OSError:
@@ -48,6 +45,13 @@ def attribution_for(desc: EmvaDescriptor) -> str:
 
 
 def analyse_descriptor(path: str | Path | EmvaDescriptor) -> EmvaAnalysis:
+    import numpy as np
+
+    from ares.analysis.emva1288 import TemporalData, emva1288_results
+    from ares.analysis.levels import pair_stats, spatial_stats
+    from ares.analysis.ptc import analyze_ptc
+    from ares.hardware.emva_descriptor import EmvaDescriptor, load_level, read_descriptor
+
     desc = path if isinstance(path, EmvaDescriptor) else read_descriptor(path)
     max_code = (1 << desc.bits) - 1
     tb = desc.temporal_bright
@@ -81,11 +85,13 @@ def analyse_descriptor(path: str | Path | EmvaDescriptor) -> EmvaAnalysis:
 
 
 def format_table(an: EmvaAnalysis) -> str:
+    from ares.analysis.emva1288 import REFERENCE_NAMES
+
     lines = [f"EMVA 1288 (Release 3.0 definitions): {an.descriptor.path}",
              f"{'parameter':<14}{'value':>22}  unit   definition"]
     for k in REFERENCE_NAMES:
         e = an.emva.values[k]
-        lines.append(f"{k:<14}{format(e, '.6g'):>22}  {e.unit:<6} {e.note}")
+        lines.append(f"{k:<14}{e.text(with_unit=False):>22}  {e.unit:<6} {e.note}")  # digits from the SE
     lines.append(f"{'index_u_ysat':<14}{an.emva.index_u_ysat:>22}")
     p = an.ptc
     lines += ["", "ARES photon transfer (Release 4.0 pair variance, weighted fits):"]
@@ -95,7 +101,7 @@ def format_table(an: EmvaAnalysis) -> str:
     rows += [(f"full well {k}", v) for k, v in p.full_well_e.items()]
     rows += [("dynamic range", p.dynamic_range_db), ("linearity err", p.linearity_error_pct)]
     for name, e in rows:
-        lines.append(f"{name:<24}{format(e, '.5g'):>24}  {e.unit:<6} {e.note}")
+        lines.append(f"{name:<24}{e.text(with_unit=False):>24}  {e.unit:<6} {e.note}")
     ex = p.excluded()
     if ex:
         lines.append(f"excluded levels ({len(ex)}):")
@@ -106,6 +112,10 @@ def format_table(an: EmvaAnalysis) -> str:
 
 
 def write_pdf(an: EmvaAnalysis, out: Path) -> None:
+    import numpy as np
+
+    from ares.analysis.emva1288 import REFERENCE_NAMES
+
     import matplotlib
 
     matplotlib.use("Agg")
@@ -121,7 +131,7 @@ def write_pdf(an: EmvaAnalysis, out: Path) -> None:
         fig, ax = plt.subplots(2, 2, figsize=(11, 8.5))
         ax[0, 0].plot(Y, V, "o", ms=3, label="data")
         xs = np.linspace(0, Y[an.emva.index_sensitivity_max], 10)
-        ax[0, 0].plot(xs, K * xs, "-", label=f"K = {K:.5g} DN/e-")
+        ax[0, 0].plot(xs, K * xs, "-", label=f"K = {an.emva.values['K'].text()}")
         ax[0, 0].set(xlabel="mu_y - mu_y.dark [DN]", ylabel="s2_y - s2_y.dark [DN^2]", title="Photon transfer")
         ax[0, 0].legend()
         snr = np.where(td.s2_y > 0, Y / np.sqrt(np.maximum(td.s2_y, 1e-12)), np.nan)
@@ -131,8 +141,7 @@ def write_pdf(an: EmvaAnalysis, out: Path) -> None:
         ax[1, 0].set(xlabel="photons per pixel", ylabel="deviation [%]", title="Linearity error",
                      ylim=(-5, 5))
         ax[1, 1].axis("off")
-        text = "\n".join(f"{k:<13} {format(an.emva.values[k], '.5g')} {an.emva.values[k].unit}"
-                         for k in REFERENCE_NAMES)
+        text = "\n".join(f"{k:<13} {an.emva.values[k].text()}" for k in REFERENCE_NAMES)
         ax[1, 1].text(0, 1, text, family="monospace", va="top", fontsize=9)
         fig.suptitle(f"EMVA 1288 (Release 3.0): {an.descriptor.path.name}")
         fig.text(0.5, 0.01, att, ha="center", fontsize=8)

@@ -1,0 +1,43 @@
+"""Start-up time of the command line: ``ares --help`` against ``python -c pass`` (baseline,
+same interpreter, same run). The commands import numpy, scipy and the analysis only when
+they run, so the parser is built from light modules. Writes benchmarks/startup.md.
+"""
+
+from __future__ import annotations
+
+import statistics
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+REPEATS = 15
+
+
+def median_s(argv: list[str]) -> float:
+    times = []
+    for _ in range(REPEATS):
+        t0 = time.perf_counter()
+        subprocess.run(argv, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL, check=True)
+        times.append(time.perf_counter() - t0)
+    return statistics.median(times)
+
+
+def main() -> int:
+    base = median_s([sys.executable, "-c", "pass"])
+    rows = [("python -c pass (baseline)", base)]
+    for label, argv in (("ares --help", ["--help"]), ("ares run --help", ["run", "--help"]),
+                        ("ares defects --help", ["defects", "--help"])):
+        rows.append((label, median_s([sys.executable, "-m", "ares.cli", *argv])))
+    lines = ["## Start-up: `ares --help`", "",
+             f"Median wall time of {REPEATS} runs each, with the interpreter's own start as baseline.", "",
+             "| command | median s | ratio to baseline |", "|---|---:|---:|"]
+    lines += [f"| {label} | {s:.3f} | {s / base:.2f} |" for label, s in rows]
+    text = "\n".join(lines) + "\n"
+    (Path(__file__).parent / "startup.md").write_text(text)
+    print(text)
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
