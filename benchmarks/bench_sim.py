@@ -65,6 +65,14 @@ def timing_rows(shape, repeat):
             pass
 
     cases.append(("register bench grab(16), per frame (flat 50 %)", None, median_ms(grab16, max(3, repeat // 4)) / 16))
+    # the shipped sensor's ADC (INL 0.5 LSB): binary search vs the exact lookup table (same codes)
+    from ares.sim.adc import Adc
+
+    adc = Adc(p.replace(adc_inl_lsb=0.5), np.random.default_rng(0))
+    x = rng.uniform(-10, p.max_code + 10, size).astype(np.float32)
+    cases.append(("ADC with INL, np.searchsorted per frame (before)", None,
+                  median_ms(lambda: np.searchsorted(adc.thresholds, x, side="right"), repeat)))
+    cases.append(("ADC with INL, lookup table per frame (bit-identical)", None, median_ms(lambda: adc._lookup(x), repeat)))
     out = []
     lagged = SimSensor(p.replace(lag_fraction=0.01), 0)
     for name, kw, fixed in cases:

@@ -57,3 +57,20 @@ def test_codes_clip_to_the_adc_range():
     s = SimSensor(p, 0)
     assert np.all(s.render(1, exposure_s=0.01, dark=True, black_level_dn=5000) == p.max_code)
     assert np.all(s.render(1, exposure_s=0.01, dark=True, black_level_dn=-10) == 0)
+
+
+@pytest.mark.parametrize("bits, inl, dnl, seed", [(12, 0.5, 0.0, 0), (12, 1.5, 0.1, 1), (10, 3.0, 0.6, 2),
+                                                  (8, 0.0, 0.9, 3), (14, 2.0, 0.3, 4)])
+def test_table_lookup_is_bit_identical_to_searchsorted(bits, inl, dnl, seed):
+    """The lookup-table ADC (Adc._lookup) gives searchsorted's codes for every input,
+    including values exactly at, and one float32 step below, each transition level and
+    values far outside the range."""
+    from ares.sim.adc import Adc
+
+    a = Adc(SensorParams(rows=8, cols=8, adc_bits=bits, adc_inl_lsb=inl, adc_dnl_lsb=dnl), np.random.default_rng(seed))
+    t32 = a.thresholds.astype(np.float32)
+    x = np.concatenate([
+        np.random.default_rng(seed).uniform(-20, a.max_code + 20, 200_000).astype(np.float32),
+        t32, np.nextafter(t32, np.float32(-np.inf)), np.nextafter(t32, np.float32(np.inf)),
+        np.array([-1e30, 1e30, -0.5, 0.5, 0, a.max_code - 0.5, a.max_code + 0.5, a.max_code + 1.5], np.float32)])
+    np.testing.assert_array_equal(a._lookup(x), np.searchsorted(a.thresholds, x, side="right"))

