@@ -286,6 +286,15 @@ def test_lag_and_defect_pages(runs, tmp_path, ptc_pdf):
     assert "defects" in titles
     assert key_figures(runs / "ptc")["defects.total"]["value"] == sr["defects"]["counts"]["total"]
     assert "defect counts" in _pdf_text(path)
+    # the defect map: every counted pixel of each class at its place, the criteria below
+    d = sr["defects"]
+    rows, cols = d["shape"]
+    assert "defect map" in titles and rows * cols == read_run(runs / "ptc").stages[0]["views"]["full"]["level"]["n_pixels"]
+    for cls, pts in d["locations"].items():
+        assert len(pts) == d["counts"][cls]
+        assert all(0 <= x < d["shape"][1] and 0 <= y < d["shape"][0] for x, y in pts)
+    text = _pdf_text(path)
+    assert "Defect map" in text and "detection limits" in text
 
 
 def test_emva_attribution(runs, tmp_path):

@@ -303,6 +303,47 @@ def defects_page(run, d: dict):
     return fig
 
 
+def defect_map_page(run, d: dict):
+    """Where the defects are, one marker per class, bad columns/rows as lines; below, what
+    each class can detect with this run's frames (its criterion) or why it is not available."""
+    rows, cols = d["shape"]
+    fig = new_page("Defect map", f"{cols} x {rows} pixels; classes from the dark stage(s) "
+                   f"{', '.join(d.get('dark_stages') or [])}")
+    ax = fig.add_axes([0.08, 0.42, 0.68, 0.46])
+    ax.set_xlim(-0.5, cols - 0.5)
+    ax.set_ylim(rows - 0.5, -0.5)
+    ax.set_aspect("equal")
+    ax.set_facecolor("0.97")
+    marks = {"hot": ("o", "C3"), "warm": ("o", "C1"), "dead": ("s", "k"), "stuck": ("x", "C4"), "noisy": ("^", "C0"),
+             "rts": ("v", "C9"), "low_response": ("s", "C5"), "high_response": ("D", "C2")}
+    for cls, pts in (d.get("locations") or {}).items():
+        if pts:
+            a = np.asarray(pts)
+            m, c = marks.get(cls, (".", "0.3"))
+            shown = len(pts)
+            total = (d.get("counts") or {}).get(cls) or shown
+            ax.scatter(a[:, 0], a[:, 1], s=14, marker=m, color=c, lw=0.8,
+                       label=f"{cls.replace('_', ' ')} ({total}" + (f", {shown} shown)" if shown < total else ")"))
+    for x in d.get("bad_column_x") or []:
+        ax.axvline(x, color="C3", lw=0.8, alpha=0.7)
+    for y in d.get("bad_row_y") or []:
+        ax.axhline(y, color="C3", lw=0.8, alpha=0.7)
+    if d.get("bad_column_x") or d.get("bad_row_y"):
+        ax.plot([], [], color="C3", lw=0.8, label="bad column / row")
+    ax.set_xlabel("column")
+    ax.set_ylabel("row")
+    if ax.get_legend_handles_labels()[0]:
+        ax.legend(fontsize=7, loc="upper left", bbox_to_anchor=(1.02, 1.0), frameon=False, borderaxespad=0)
+    else:
+        ax.text(0.5, 0.5, "no defective pixels found", ha="center", transform=ax.transAxes)
+    crit = [[k.replace("_", " "), plots.clip(v, 125)] for k, v in (d.get("detection") or {}).items()]
+    crit += [[k.replace("_", " "), plots.clip("not available: " + v, 125)] for k, v in (d.get("unavailable") or {}).items()]
+    if crit:
+        text_table(fig, (0.06, 0.34, 0.9), ["class", "criterion with this run's frames"], crit, [0.12, 0.88],
+                   fontsize=6.5, title="detection limits")
+    return fig
+
+
 # ------------------------------------------------------------------ ADC INL/DNL
 
 def adc_page(run, d: dict):
@@ -394,6 +435,8 @@ def pages(run, groups: list) -> list[tuple[str, object]]:
     d = available(run, "defects")
     if d:
         out.append(("defects", defects_page(run, d)))
+        if d.get("shape"):
+            out.append(("defect map", defect_map_page(run, d)))
     d = available(run, "adc_linearity")
     if d:
         out.append(("adc", adc_page(run, d)))

@@ -309,7 +309,21 @@ def defects(run, overrides: dict | None = None) -> dict:
             "warnings": list(res.warnings), "notes": list(res.notes),
             "passed": bool(getattr(res, "passed", True)),
             "limits": res.limits, "dark_stages": [s["name"] for s in darks],
-            "flat_stage": flat["name"] if flats else None}
+            "flat_stage": flat["name"] if flats else None, **_locations(res)}
+
+
+MAX_LOCATIONS = 5000  # per class, for the report's defect map (the counts are always complete)
+
+
+def _locations(res) -> dict:
+    """Where the defects are: per class up to MAX_LOCATIONS [x, y] pairs, bad lines by index."""
+    loc: dict[str, list] = {}
+    for r in res.defects:
+        pts = loc.setdefault(str(r["cls"]), [])
+        if len(pts) < MAX_LOCATIONS:
+            pts.append([int(r["x"]), int(r["y"])])
+    return {"shape": [int(res.shape[0]), int(res.shape[1])], "locations": loc,
+            "bad_column_x": [int(c["x"]) for c in res.bad_columns], "bad_row_y": [int(r["y"]) for r in res.bad_rows]}
 
 
 @register_scan_analysis("adc_linearity")
