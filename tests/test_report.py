@@ -381,3 +381,15 @@ def test_cli_writes_only_what_is_asked(runs, tmp_path, capsys):
     assert not (run / "report.pdf").exists()
     out = capsys.readouterr().out.split()
     assert len(out) == 5
+
+
+def test_two_axis_sweep_maps_have_axis_units(tmp_path):
+    """The 2-D sweep page: one map per figure over the two swept register fields, each axis
+    labelled with the field's unit from the system XML kept in the run."""
+    assert main(["run", str(ROOT / "fixtures" / "xml" / "small" / "bias_small.xml"), "--out", str(tmp_path / "b"),
+                 "-q"]) == 4  # the fixture's limit fails on purpose
+    titles = report_pdf.write_pdf(read_run(tmp_path / "b"), tmp_path / "b.pdf")
+    assert "sweep 2d" in titles and "ptc x1" not in titles  # a bias sweep is not a photon-transfer curve
+    text = _pdf_text(tmp_path / "b.pdf")
+    assert "2-D sweep 'bias': sf_bias x tx_low" in text
+    assert "sf_bias (V)" in text and "tx_low (V)" in text

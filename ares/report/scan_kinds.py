@@ -41,8 +41,8 @@ def analysis_rows(a: dict, prefix: str = "", skip_na: bool = False) -> list[list
         elif isinstance(v, bool) or isinstance(v, str) or v is None:
             if k not in ("status", "note"):
                 rows.append([key, "n/a" if v is None else str(v), ""])
-        elif isinstance(v, (int, float)):
-            rows.append([key, f"{v:.6g}", ""])
+        elif isinstance(v, (int, float)):  # counts and fit statistics (chi2/dof), not measured figures
+            rows.append([key, f"{v:.4g}", ""])
         elif isinstance(v, list) and len(v) <= 12:
             rows.append([key, ", ".join(f"{x:.4g}" if isinstance(x, float) else str(x) for x in v), ""])
     return rows
@@ -169,7 +169,7 @@ def gain_page(run, groups: list):
     ax2.grid(alpha=0.3, which="both")
     ax2.legend(fontsize=7)
     y = text_table(fig, (0.08, 0.21, 0.84), ["analog gain", "K (DN/e-)", "read noise (DN)", "read noise (e-)"],
-                   [[f"x{g.analog_gain:g}", f"{k:.4g}", f"{a:.4g}", f"{b:.4g}"]
+                   [[f"x{g.analog_gain:g}", k.text(with_unit=False), a.text(with_unit=False), b.text(with_unit=False)]
                     for g, k, a, b in zip(ok, K, rn_dn, rn_e)], [0.2, 0.27, 0.27, 0.26], fontsize=8)
     if gs:
         rows = [r for r in analysis_rows(gs) if r[0] not in ("analog_gains", "gain_dn_per_e")]
@@ -220,9 +220,14 @@ def sweep2d_pages(run) -> list:
         panels = panels[:4]
         fig = new_page(f"2-D sweep '{name}': {ky.removeprefix('reg:')} x {kx.removeprefix('reg:')}",
                        f"{len(sts)} stages; values of view 'full'")
+        units = run.setting_units
+
+        def label(k):
+            return k.removeprefix("reg:") + (f" ({units[k]})" if units.get(k) else "")
+
         for i, (t, u, a) in enumerate(panels):
             ax = fig.add_axes([0.1 + 0.47 * (i % 2), 0.56 - 0.47 * (i // 2), 0.32, 0.33])
-            plots.grid_image(fig, ax, a, xv, yv, kx.removeprefix("reg:"), ky.removeprefix("reg:"), t, u)
+            plots.grid_image(fig, ax, a, xv, yv, label(kx), label(ky), t, u)
         figs.append(fig)
     return figs
 

@@ -75,6 +75,26 @@ class Run:
             s += ", no scan-level results (computed here from the completed stages where possible)"
         return s + (f". {why}" if why else ".")
 
+    @property
+    def setting_units(self) -> dict[str, str]:
+        """Unit of each setting key (``exposure`` -> s, ``reg:sf_bias`` -> V), from the
+        system XML kept in the run directory; {} when it cannot be read."""
+        units = {"exposure": "s", "light": "photons/pixel/s", "temperature": "C", "analog_gain": "x"}
+        rel = self.meta.get("system_file")
+        try:
+            from ares.protocol import load_system
+
+            sy = load_system(self.dir / rel)
+        except Exception:  # noqa: BLE001 -- a label without its unit, never a failed report
+            return units
+        if sy.light_source is not None and sy.light_source.unit:
+            units["light"] = sy.light_source.unit
+        for name in sy.registers.names():
+            u = sy.registers.field(name).unit
+            if u:
+                units[f"reg:{name}"] = u
+        return units
+
     def arrays(self, index: int) -> dict[str, np.ndarray]:
         """Arrays of stage ``index`` from results.h5 ({} when absent)."""
         if not self.has_h5:
