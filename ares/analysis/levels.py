@@ -120,13 +120,31 @@ class SpatialStats:
         return self.s2_measured - self.s2_temporal / self.n_frames
 
 
-def spatial_stats(stack: np.ndarray) -> SpatialStats:
-    s = np.asarray(stack)
-    if s.ndim != 3 or s.shape[0] < 2:
+def spatial_stats(frames) -> SpatialStats:
+    """Spatial statistics of a stack, given as a (frames, rows, cols) array or any iterable
+    of 2-D frames (streamed: memory of a few frames, whatever the stack length). Integer
+    data are summed exactly (int64 per-pixel sums of x and x^2); floats are summed in
+    float64 after subtracting the first frame's mean (no cancellation)."""
+    s1 = s2 = shift = None
+    n = 0
+    for f in frames:
+        f = np.asarray(f)
+        if f.ndim != 2:
+            raise ValueError("a stack needs shape (frames>=2, rows, cols)")
+        if s1 is None:
+            exact = f.dtype.kind in "ub" or (f.dtype.kind == "i" and f.dtype.itemsize <= 4)
+            acc = np.int64 if exact else np.float64
+            shift = 0 if exact else float(f.mean())
+            s1, s2 = np.zeros(f.shape, acc), np.zeros(f.shape, acc)
+        elif f.shape != s1.shape:
+            raise ValueError(f"frame {n} has shape {f.shape}, the first {s1.shape}")
+        x = f.astype(s1.dtype) - shift if shift else f.astype(s1.dtype)
+        s1 += x
+        s2 += x * x
+        n += 1
+    if n < 2:
         raise ValueError("a stack needs shape (frames>=2, rows, cols)")
-    x = s.astype(np.float64)
-    m = x.mean()
-    x -= m
-    avg = x.mean(axis=0)
-    return SpatialStats(float(m), float(np.var(avg, ddof=1)), float(np.mean(np.var(x, axis=0, ddof=1))),
-                        s.shape[0], avg.size)
+    avg = s1 / n  # per-pixel mean (minus the shift)
+    var_t = (s2 - s1.astype(np.float64) * avg) / (n - 1) if s1.dtype == np.int64 else (s2 - s1 * avg) / (n - 1)
+    return SpatialStats(float(avg.mean()) + (shift or 0.0), float(np.var(avg, ddof=1)), float(np.mean(var_t)), n,
+                        avg.size)

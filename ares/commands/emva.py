@@ -50,7 +50,7 @@ def analyse_descriptor(path: str | Path | EmvaDescriptor) -> EmvaAnalysis:
     from ares.analysis.emva1288 import TemporalData, emva1288_results
     from ares.analysis.levels import pair_stats, spatial_stats
     from ares.analysis.ptc import analyze_ptc
-    from ares.hardware.emva_descriptor import EmvaDescriptor, load_level, read_descriptor
+    from ares.hardware.emva_descriptor import EmvaDescriptor, iter_level, load_level, read_descriptor
 
     desc = path if isinstance(path, EmvaDescriptor) else read_descriptor(path)
     max_code = (1 << desc.bits) - 1
@@ -77,8 +77,8 @@ def analyse_descriptor(path: str | Path | EmvaDescriptor) -> EmvaAnalysis:
     sb = sd = None
     if desc.spatial_bright:
         lv = desc.spatial_bright[0]
-        sb = spatial_stats(load_level(desc, lv))
-        sd = spatial_stats(load_level(desc, desc.dark_for(lv, "spatial")))
+        sb = spatial_stats(iter_level(desc, lv))  # streamed: memory does not grow with the stack
+        sd = spatial_stats(iter_level(desc, desc.dark_for(lv, "spatial")))
     res = emva1288_results(td, sb, sd)
     ptc = analyze_ptc(b4, d4, exposure_s=texp, photons=up)
     return EmvaAnalysis(desc, res, ptc, b4, d4)

@@ -186,9 +186,8 @@ def read_descriptor(path: str | Path, check_files: bool = True) -> EmvaDescripto
     return EmvaDescriptor(path, version, fmt[0], fmt[1], fmt[2], tuple(levels))
 
 
-def load_level(desc: EmvaDescriptor, level: EmvaLevel) -> np.ndarray:
-    """All images of one level as a (n, rows, cols) uint16 stack, checked against ``n``."""
-    imgs = []
+def iter_level(desc: EmvaDescriptor, level: EmvaLevel):
+    """The images of one level one at a time, each checked against the ``n`` record."""
     for p in level.images:
         a = read_image(p)
         if a.shape != (desc.height, desc.width):
@@ -198,8 +197,12 @@ def load_level(desc: EmvaDescriptor, level: EmvaLevel) -> np.ndarray:
             )
         if int(a.max()) >= (1 << desc.bits):
             raise InputError(f"{p}: pixel value {int(a.max())} exceeds the declared {desc.bits} bits")
-        imgs.append(a)
-    return np.stack(imgs).astype(np.uint16, copy=False)
+        yield a
+
+
+def load_level(desc: EmvaDescriptor, level: EmvaLevel) -> np.ndarray:
+    """All images of one level as a (n, rows, cols) uint16 stack, checked against ``n``."""
+    return np.stack(list(iter_level(desc, level))).astype(np.uint16, copy=False)
 
 
 class EmvaReplaySource:
