@@ -101,7 +101,7 @@ def test_ctrl_c_stops_after_the_current_stage(tmp_path):
             if line.startswith(b"stage 3/"):
                 p.send_signal(signal.SIGINT)
                 break
-        _, err = p.communicate(timeout=120)
+        _, err = p.communicate(timeout=600)
     finally:
         if p.poll() is None:
             p.kill()
