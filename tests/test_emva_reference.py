@@ -101,7 +101,7 @@ def test_ares_ptc_numbers_are_consistent(analysis):
 def test_cli_json_and_table(analysis, capsys, tmp_path):
     from ares.cli import main
 
-    assert main(["emva", str(DESC), "--json"]) == 0
+    assert main(["emva", str(DESC), "--release", "3.0", "--json"]) == 0
     out = json.loads(capsys.readouterr().out)
     for k in ("K", "sigma_y_dark", "u_e_sat", "QE", "SNR_max", "DR", "u_I_mean", "DSNU1288", "PRNU1288",
               "LE_min", "LE_max"):
@@ -109,7 +109,7 @@ def test_cli_json_and_table(analysis, capsys, tmp_path):
     assert out["K"]["value"] == pytest.approx(0.280769, rel=1e-5)
     assert out["attribution"] == ATTRIBUTION
     pdf = tmp_path / "r.pdf"
-    assert main(["emva", str(DESC), "--pdf", str(pdf)]) == 0
+    assert main(["emva", str(DESC), "--release", "3.0", "--pdf", str(pdf)]) == 0
     text = capsys.readouterr().out
     assert ATTRIBUTION in text and "PRNU1288" in text
     assert pdf.read_bytes()[:4] == b"%PDF"

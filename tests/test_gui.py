@@ -433,3 +433,22 @@ def test_gui_command_is_registered_in_the_cli():
 
     args = build_parser().parse_args(["gui", "scans/photon_transfer.xml"])
     assert args.command == "gui" and args.scan == "scans/photon_transfer.xml"
+
+
+def test_roa_table_regions_are_what_the_run_analyses_and_saves(window, qtbot, tmp_path):
+    """A region typed into the RoA table after loading reaches the engine: the run's stages
+    are decomposed over it and the scan XML saved in the run holds it."""
+    pytest.importorskip("ares.scan")
+    import json
+
+    assert window.load_scan(PTC_SMALL)
+    window.session.regions.update(1, on=True, draw=False, x=2, y=3, width=10, height=8)
+    window.controls.output.directory.setText(str(tmp_path))
+    run_to_end(qtbot, window)
+    assert window.session.progress.state == P.DONE, window.session.progress.message
+    run_dir = window.session.info.items["run directory"]
+    stage = json.loads(open(os.path.join(run_dir, "stages", "0001.json")).read())
+    assert {"full", "centre", "roa2"} <= set(stage["views"])
+    assert stage["views"]["roa2"]["level"]["n_pixels"] == 10 * 8
+    saved = open(os.path.join(run_dir, "xml", "ptc_small.xml")).read()
+    assert 'name="roa2" x="2" y="3" width="10" height="8"' in saved

@@ -29,6 +29,7 @@ class EmvaAnalysis:
     ptc: PtcResult
     bright: list[LevelStats]  # Release 4.0 variance (offset-corrected), for ARES's PTC
     dark: list[LevelStats]
+    emva4: "Emva4Result | None" = None  # the Release 4.0 Linear parameter set
 
 
 def attribution_for(desc: EmvaDescriptor) -> str:
@@ -81,7 +82,9 @@ def analyse_descriptor(path: str | Path | EmvaDescriptor) -> EmvaAnalysis:
         sd = spatial_stats(iter_level(desc, desc.dark_for(lv, "spatial")))
     res = emva1288_results(td, sb, sd)
     ptc = analyze_ptc(b4, d4, exposure_s=texp, photons=up)
-    return EmvaAnalysis(desc, res, ptc, b4, d4)
+    from ares.analysis.emva4 import emva4_linear
+
+    return EmvaAnalysis(desc, res, ptc, b4, d4, emva4_linear(b4, d4, up, dark_exposure_s=texp))
 
 
 def format_table(an: EmvaAnalysis) -> str:
@@ -149,14 +152,55 @@ def write_pdf(an: EmvaAnalysis, out: Path) -> None:
         plt.close(fig)
 
 
+RELEASES = ("4.0-linear", "3.0")
+EMVA4_ORDER = (("K", "overall system gain"), ("R", "responsivity"), ("QE", "quantum efficiency"),
+               ("sigma_y_dark", "temporal dark noise"), ("sigma_d", "temporal dark noise (no quantization)"),
+               ("mu_p_min", "absolute sensitivity threshold"), ("mu_e_min", "absolute sensitivity threshold"),
+               ("mu_y_sat", "saturation (above dark)"), ("mu_p_sat", "saturation capacity"),
+               ("mu_e_sat", "saturation capacity"), ("SNR_max", "maximum SNR"), ("SNR_max_db", "maximum SNR"),
+               ("DR", "dynamic range"), ("DR_db", "dynamic range"), ("LE", "linearity error"))
+
+
+def format_table4(an: EmvaAnalysis) -> str:
+    """The Release 4.0 Linear photon-transfer parameters, each with its SE or the reason."""
+    r = an.emva4
+    lines = [f"EMVA 1288 Release 4.0 Linear: {an.descriptor.path}",
+             f"{'parameter':<14}{'value':>26}  {'unit':<9} meaning / definition"]
+    for k, label in EMVA4_ORDER:
+        e = r.values.get(k)
+        if e is None:
+            continue
+        val = e.text(with_unit=False) if e.available else "n/a"
+        lines.append(f"{k:<14}{val:>26}  {e.unit:<9} {label}: {e.note}")
+    lines += [f"saturation: {r.saturation}"] + [f"note: {n}" for n in r.notes]
+    lines += ["not yet in this release's evaluation: the 4.0 spatial nonuniformity (Section 8: DSNU/PRNU with "
+              "the 4.0 high-pass, row/column/pixel split), spectrograms and the defect histograms; "
+              "`--release 3.0` prints DSNU1288/PRNU1288 by the 3.0 definitions", "", attribution_for(an.descriptor)]
+    return "\n".join(lines)
+
+
 def add_arguments(parser) -> None:
     parser.add_argument("descriptor", help="EMVA 1288 descriptor file (e.g. EMVA1288_Data.txt)")
-    parser.add_argument("--json", action="store_true", help="print the reference parameter set as JSON")
-    parser.add_argument("--pdf", metavar="FILE", help="write a PDF report")
+    parser.add_argument("--release", choices=RELEASES, default="4.0-linear",
+                        help="definitions to evaluate by (default 4.0-linear; 3.0 reproduces the reference "
+                             "data set's published values)")
+    parser.add_argument("--json", action="store_true", help="print the parameter set as JSON")
+    parser.add_argument("--pdf", metavar="FILE", help="write a PDF report (Release 3.0 pages)")
 
 
 def run(args) -> int:
     an = analyse_descriptor(args.descriptor)
+    if args.release == "4.0-linear":
+        if args.json:
+            d = {"release": "EMVA 1288 Release 4.0 Linear", **an.emva4.to_json(),
+                 "saturation": an.emva4.saturation, "linear_model_holds": an.emva4.linear,
+                 "notes": an.emva4.notes, "attribution": attribution_for(an.descriptor)}
+            print(json.dumps(d, indent=2, default=lambda x: None if isinstance(x, float) and math.isnan(x) else x))
+        else:
+            print(format_table4(an))
+        if args.pdf:
+            write_pdf(an, Path(args.pdf))
+        return 0
     if args.json:
         d = an.emva.to_json()
         d["index_u_ysat"] = an.emva.index_u_ysat

@@ -143,9 +143,10 @@ class DemoScan(JobControl):
         emit(Done(None, {"pixels": int(np.prod(self.shape))}))
 
 
-def open_scan(path: str | Path) -> Job:
+def open_scan(path: str | Path, regions=None) -> Job:
     """A job for the scan XML at ``path``, run through ``ares.scan`` on the bench its
-    system XML declares (the simulated bench by default)."""
+    system XML declares (the simulated bench by default). ``regions``: the RoA table's
+    active rows, which replace the scan's regions in what runs and what the run saves."""
     path = Path(path)
     if not path.is_file():
         raise InputError(f"{path}: no such scan file.")
@@ -153,4 +154,4 @@ def open_scan(path: str | Path) -> Job:
         from . import runner_adapter
     except ImportError:
         raise InputError(f"{path}: the scan runner (ares.scan) is not available in this installation.") from None
-    return runner_adapter.RunnerJob(path)
+    return runner_adapter.RunnerJob(path, regions=regions)

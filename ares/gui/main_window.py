@@ -137,12 +137,15 @@ class MainWindow(QMainWindow):
             self.show_error(one_sentence(exc))
             return False
         self.scan_path = str(path)
-        self.job_factory = lambda: engine.open_scan(path)
+        # what runs is the scan with the RoA table's regions (edited or drawn after loading)
+        self.job_factory = lambda: engine.open_scan(path, regions=self.session.regions.active())
         regions = getattr(job, "regions", None)
+        note = ""
         if callable(regions) and regions():
             self.session.regions.replace_all(regions())
+            note = f" The RoA table now holds its {len(regions())} region(s); what the table holds at Start is what runs."
         self._show_job_info(job)
-        self.statusBar().showMessage(f"Loaded {path}.")
+        self.statusBar().showMessage(f"Loaded {path}.{note}")
         return True
 
     def set_job_factory(self, factory: Callable[[], engine.Job], path: str | None = None) -> None:

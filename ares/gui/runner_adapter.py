@@ -121,16 +121,50 @@ def warm_imports() -> None:
             pass
 
 
+def scan_with_regions(scan, rows):
+    """``scan`` with the RoA table's regions (GUI ``Region`` rows) as its regions of
+    analysis (a rectangle the scan has keeps its name, others are roa1, roa2...). The edited scan is written as XML (in a temporary folder,
+    its system href made absolute) and becomes the scan's source, so the run directory
+    keeps exactly what ran, and ``ares rerun`` repeats it. A region outside the array is
+    one sentence."""
+    import dataclasses
+    import tempfile
+
+    from ares.errors import InputError
+    from ares.protocol import Region as ScanRegion
+    from ares.protocol import save_scan
+
+    s = scan.system.sensor
+    out = []
+    for i, r in enumerate(rows, start=1):
+        if r.x < 0 or r.y < 0 or r.x + r.width > s.cols or r.y + r.height > s.rows:
+            raise InputError(f"RoA row {i} (x={r.x}, y={r.y}, {r.width} x {r.height}) lies outside the "
+                             f"{s.cols} x {s.rows} array")
+        geom = (int(r.x), int(r.y), int(r.width), int(r.height))
+        same = [g.name for g in scan.regions if (g.x, g.y, g.width, g.height) == geom]  # keep the scan's name
+        out.append(ScanRegion(same[0] if same else f"roa{i}", *geom))
+    if tuple(out) == tuple(scan.regions):
+        return scan
+    src = Path(scan.source)
+    tmp = Path(tempfile.mkdtemp(prefix="ares-roa-")) / src.name
+    href = str(Path(scan.system_path or scan.system.source).resolve())
+    edited = dataclasses.replace(scan, regions=tuple(out), system_href=href, source=tmp)
+    save_scan(edited, tmp)
+    return edited
+
+
 class RunnerJob:
     """One run of the scan at ``path``; make a new job for each run (Auto Repeat)."""
 
     def __init__(self, path: str | Path, frames: int | None = None, seed: int | None = None,
-                 faults: dict | None = None) -> None:
+                 faults: dict | None = None, regions=None) -> None:
         from ares.protocol import load_scan
         from ares.scan import Runner
 
         self.path = Path(path)
         self.scan = load_scan(self.path)  # InputError: one sentence with file and line
+        if regions is not None:
+            self.scan = scan_with_regions(self.scan, [r for _, r in regions])
         warm_imports()
         self.runner = Runner(self.scan, seed=seed, frames=frames, faults=faults,
                              argv=["ares", "gui", str(self.path)])
