@@ -191,23 +191,17 @@ def add_arguments(parser) -> None:
 def run(args) -> int:
     an = analyse_descriptor(args.descriptor)
     if args.release == "4.0-linear":
-        if args.json:
-            d = {"release": "EMVA 1288 Release 4.0 Linear", **an.emva4.to_json(),
-                 "saturation": an.emva4.saturation, "linear_model_holds": an.emva4.linear,
-                 "notes": an.emva4.notes, "attribution": attribution_for(an.descriptor)}
-            print(json.dumps(d, indent=2, default=lambda x: None if isinstance(x, float) and math.isnan(x) else x))
-        else:
-            print(format_table4(an))
-        if args.pdf:
-            write_pdf(an, Path(args.pdf))
-        return 0
+        d = {"release": "EMVA 1288 Release 4.0 Linear", **an.emva4.to_json(), "saturation": an.emva4.saturation,
+             "linear_model_holds": an.emva4.linear, "notes": an.emva4.notes}
+        text = format_table4
+    else:
+        d = {**an.emva.to_json(), "index_u_ysat": an.emva.index_u_ysat}
+        text = format_table
     if args.json:
-        d = an.emva.to_json()
-        d["index_u_ysat"] = an.emva.index_u_ysat
         d["attribution"] = attribution_for(an.descriptor)
         print(json.dumps(d, indent=2, default=lambda x: None if isinstance(x, float) and math.isnan(x) else x))
     else:
-        print(format_table(an))
+        print(text(an))
     if args.pdf:
         write_pdf(an, Path(args.pdf))
     return 0
