@@ -123,10 +123,10 @@ def warm_imports() -> None:
 
 def scan_with_regions(scan, rows):
     """``scan`` with the RoA table's regions (GUI ``Region`` rows) as its regions of
-    analysis (a rectangle the scan has keeps its name, others are roa1, roa2...). The edited scan is written as XML (in a temporary folder,
-    its system href made absolute) and becomes the scan's source, so the run directory
-    keeps exactly what ran, and ``ares rerun`` repeats it. A region outside the array is
-    one sentence."""
+    analysis (a rectangle the scan has keeps its name, others are roa1, roa2...). The
+    edited scan is written as XML (in a temporary folder, its system href made absolute)
+    and becomes the scan's source, so the run directory keeps exactly what ran, and
+    ``ares rerun`` repeats it. A region outside the array is one sentence."""
     import dataclasses
     import tempfile
 
