@@ -134,7 +134,9 @@ def decompose_dark(acc: StackAccumulator, table: AnovaTable | None = None) -> di
     for k, a in (("F", 1), ("R", 1), ("C", 1), ("FR", -1), ("FC", -1), ("RC", -1), ("E", 1)):
         if tab.df[k] > 0:
             v += a * ms[k]
-    out["o"] = Estimate(tab.mean, math.sqrt(max(v, 0.0) / (F * R * C)), "DN")
+    # with one frame the temporal mean squares are absent and the sum above has no meaning
+    out["o"] = (Estimate(tab.mean, math.sqrt(max(v, 0.0) / (F * R * C)), "DN") if F >= 2 else
+                Estimate(tab.mean, math.nan, "DN", "one frame: no standard error (needs >= 2 frames)"))
     specs = {
         "Pt": ({"E": 1}, 1, (True, True, True)),
         "Rt": ({"FR": 1, "E": -1}, C, (True, True, True)),

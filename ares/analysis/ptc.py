@@ -247,7 +247,8 @@ def _gain_estimates(fit: list[PtcLevel], signal_se, fit_note: str):
 
     def est(lf: LineFit, note: str) -> Estimate:
         if not math.isfinite(lf.slope):
-            return Estimate.na(f"too few levels to fit ({lf.n})", "DN/e-")
+            return Estimate.na(f"too few usable levels to fit ({lf.n}; see the excluded levels for why each "
+                               "was dropped)", "DN/e-")
         if not lf.slope > 3 * lf.slope_se:
             return Estimate.na(f"the variance does not rise with the signal (slope {lf.slope:.3g} ± "
                                f"{lf.slope_se:.2g} DN/e- over {lf.n} levels)", "DN/e-")
