@@ -145,6 +145,6 @@ def spatial_stats(frames) -> SpatialStats:
     if n < 2:
         raise ValueError("a stack needs shape (frames>=2, rows, cols)")
     avg = s1 / n  # per-pixel mean (minus the shift)
-    var_t = (s2 - s1.astype(np.float64) * avg) / (n - 1) if s1.dtype == np.int64 else (s2 - s1 * avg) / (n - 1)
+    var_t = (s2 - s1 * avg) / (n - 1)  # float64 (avg is)
     return SpatialStats(float(avg.mean()) + (shift or 0.0), float(np.var(avg, ddof=1)), float(np.mean(var_t)), n,
                         avg.size)

@@ -239,29 +239,19 @@ class Runner:
                     pos["flat"] = _position(bench)
                     flat = self._grab(bench, st, st.frames, vw, max_code, fw, dark=False)
                     pos["end"] = _position(bench)
-                except Suspended as s:  # out of tolerance: drop the stage's frames, wait, acquire it again
+                except (Suspended, DeviceGone) as exc:  # suspenders: drop the stage's frames, wait, acquire again
                     if fw is not None:
                         fw.close(keep=False)
-                    self._emit(ev.Paused(st.index))
-                    try:
-                        suspensions.append(self._susp.wait_clear(s.settings, s.reason, st.name))
-                    except Interrupted:
-                        status, halted = ("aborted" if self._abort.is_set() else "stopped"), True
-                        break
-                    self._emit(ev.Resumed(st.index))
-                    continue
-                except DeviceGone as exc:  # unplugged: with a <suspend> device condition, wait for it to return
-                    if fw is not None:
-                        fw.close(keep=False)
-                    if self._susp is None or not self._susp.waits_for_device:
+                    if not (self._susp is not None and self._susp.handles(exc)):
                         raise
                     self._emit(ev.Paused(st.index))
                     try:
-                        suspensions.append(self._susp.wait_reconnect(str(exc), st.name))
+                        suspensions.append(self._susp.wait_out(exc, st.name))
                     except Interrupted:
                         status, halted = ("aborted" if self._abort.is_set() else "stopped"), True
                         break
-                    applied = {}  # it may have lost its settings: apply every one again
+                    if isinstance(exc, DeviceGone):
+                        applied = {}  # it may have lost its settings: apply every one again
                     self._emit(ev.Resumed(st.index))
                     continue
                 except (_Aborted, Interrupted):  # aborted mid-stage, or stopped while an instrument settled

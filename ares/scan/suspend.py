@@ -58,9 +58,16 @@ class Suspenders:
         if why:
             raise Suspended(why, settings)
 
-    @property
-    def waits_for_device(self) -> bool:
-        return any(q == "device" for q, _ in self.spec.conditions)
+    def handles(self, exc: Exception) -> bool:
+        """A failed condition always; an unplugged frame source with a ``device`` condition."""
+        return isinstance(exc, Suspended) or (isinstance(exc, DeviceGone)
+                                              and any(q == "device" for q, _ in self.spec.conditions))
+
+    def wait_out(self, exc: Exception, stage: str) -> dict:
+        """Wait until the cause of ``exc`` has cleared; the pause as a record."""
+        if isinstance(exc, Suspended):
+            return self.wait_clear(exc.settings, exc.reason, stage)
+        return self.wait_reconnect(str(exc), stage)
 
     def wait_reconnect(self, reason: str, stage: str) -> dict:
         """The frame source was unplugged: look for it every ``poll_s`` until it is back
