@@ -122,8 +122,9 @@ def test_reference_ccd_release_4_near_the_published_release_3_values(capsys):
     assert main(["emva", str(DESC), "--json"]) == 0
     out = json.loads(capsys.readouterr().out)
     assert out["release"] == "EMVA 1288 Release 4.0 Linear"
-    assert out["K"]["value"] == pytest.approx(0.280769, rel=0.02)
-    assert out["QE"]["value"] == pytest.approx(45.14, rel=0.02)
-    assert out["sigma_y_dark"]["value"] == pytest.approx(3.07342, rel=0.002)
-    assert out["mu_e_sat"]["value"] == pytest.approx(13972.6, rel=0.02)
+    v = out["values"]
+    assert v["K"]["value"] == pytest.approx(0.280769, rel=0.02)
+    assert v["QE"]["value"] == pytest.approx(45.14, rel=0.02)
+    assert v["sigma_y_dark"]["value"] == pytest.approx(3.07342, rel=0.002)
+    assert v["mu_e_sat"]["value"] == pytest.approx(13972.6, rel=0.02)
     assert "level 36" in out["saturation"] and out["linear_model_holds"] is False

@@ -29,6 +29,7 @@ class LevelStats:
     frac_at_max: float = 0.0  # fraction of samples at the maximum code (0 if max_code unknown)
     frac_at_min: float = 0.0  # fraction of samples at code 0 (clipped black)
     spatial_var: float = float("nan")  # spatial variance of the frame average, temporal/F removed
+    line_var2: float = 0.0  # extra sampling variance of ``var`` from row/column-correlated noise, DN^4
 
     @property
     def dof(self) -> float:
@@ -37,8 +38,10 @@ class LevelStats:
 
     @property
     def var_se(self) -> float:
-        """Standard error of ``var`` for Gaussian data: ``sqrt(2/dof) * var``."""
-        return math.sqrt(2.0 / self.dof) * abs(self.var)
+        """Standard error of ``var`` for Gaussian data: ``sqrt(2/dof) * var``, plus the
+        sampling of its row- and column-correlated parts when known (``line_var2``): those
+        are drawn once per row or column, not once per pixel."""
+        return math.sqrt(2.0 / self.dof * self.var**2 + self.line_var2)
 
 
 def _clip_fractions(frames: np.ndarray, max_code: int | None) -> tuple[float, float]:
@@ -122,11 +125,29 @@ class SpatialStats:
 
 def spatial_stats(frames) -> SpatialStats:
     """Spatial statistics of a stack, given as a (frames, rows, cols) array or any iterable
-    of 2-D frames (streamed: memory of a few frames, whatever the stack length). Integer
-    data are summed exactly (int64 per-pixel sums of x and x^2); floats are summed in
-    float64 after subtracting the first frame's mean (no cancellation)."""
+    of 2-D frames (streamed: memory of a few frames, whatever the stack length)."""
+    return stack_moments(frames)[0]
+
+
+@dataclass(frozen=True)
+class LineTemporal:
+    """Temporal variances of a stack with the frame-global offset removed: per pixel, and of
+    the row means and column means (their frame-to-frame variance, averaged over rows or
+    columns). They separate row- and column-correlated temporal noise from white noise."""
+
+    pixel: float
+    rows: float
+    cols: float
+
+
+def stack_moments(frames) -> tuple[SpatialStats, np.ndarray, LineTemporal]:
+    """(``SpatialStats``, averaged image <y> (Eq. 33 of EMVA 1288 4.0, float64),
+    ``LineTemporal``) of a stack in one streamed pass. Integer data are summed exactly
+    (int64 per-pixel sums of x and x^2); floats are summed in float64 after subtracting the
+    first frame's mean (no cancellation)."""
     s1 = s2 = shift = None
     n = 0
+    fm, r1, r2, c1, c2 = [], 0.0, 0.0, 0.0, 0.0
     for f in frames:
         f = np.asarray(f)
         if f.ndim != 2:
@@ -141,10 +162,21 @@ def spatial_stats(frames) -> SpatialStats:
         x = f.astype(s1.dtype) - shift if shift else f.astype(s1.dtype)
         s1 += x
         s2 += x * x
+        rm = x.mean(axis=1, dtype=np.float64)
+        g = float(rm.mean())
+        cm = x.mean(axis=0, dtype=np.float64) - g
+        rm -= g
+        fm.append(g)
+        r1, r2, c1, c2 = r1 + rm, r2 + rm * rm, c1 + cm, c2 + cm * cm
         n += 1
     if n < 2:
         raise ValueError("a stack needs shape (frames>=2, rows, cols)")
     avg = s1 / n  # per-pixel mean (minus the shift)
     var_t = (s2 - s1 * avg) / (n - 1)  # float64 (avg is)
-    return SpatialStats(float(avg.mean()) + (shift or 0.0), float(np.var(avg, ddof=1)), float(np.mean(var_t)), n,
-                        avg.size)
+    st = SpatialStats(float(avg.mean()) + (shift or 0.0), float(np.var(avg, ddof=1)), float(np.mean(var_t)), n,
+                      avg.size)
+    line = LineTemporal(st.s2_temporal - float(np.var(fm, ddof=1)),
+                        float(np.mean((r2 - r1 * r1 / n) / (n - 1))), float(np.mean((c2 - c1 * c1 / n) / (n - 1))))
+    if shift:
+        avg += shift
+    return st, avg, line

@@ -25,11 +25,15 @@ HELP = "EMVA 1288 parameters of a recorded data set (descriptor file)"
 @dataclass
 class EmvaAnalysis:
     descriptor: EmvaDescriptor
-    emva: Emva1288Result
+    emva: Emva1288Result  # Release 3.0 definitions
     ptc: PtcResult
     bright: list[LevelStats]  # Release 4.0 variance (offset-corrected), for ARES's PTC
     dark: list[LevelStats]
-    emva4: "Emva4Result | None" = None  # the Release 4.0 Linear parameter set
+    emva4: "Emva4Result | None" = None  # the Release 4.0 Linear photon-transfer set
+    sheet: "EmvaSheet | None" = None  # Release 4.0 Linear, every Table 2 figure and the graph data
+    general: "GeneralResult | None" = None  # Release 4.0 General
+    release31: "dict | None" = None  # Release 3.1: the 3.0 set with the 5x5 high-pass DSNU/PRNU
+    sheet_input: "EmvaInput | None" = None  # what the 4.0 evaluation read (kept for a re-evaluation)
 
 
 def attribution_for(desc: EmvaDescriptor) -> str:
@@ -45,46 +49,94 @@ def attribution_for(desc: EmvaDescriptor) -> str:
     return f"data: {desc.path}"
 
 
+def _pair(desc, lv, max_code):
+    from ares.analysis.emva4_sheet import pair_step
+    from ares.hardware.emva_descriptor import load_level
+
+    a = load_level(desc, lv)
+    return pair_step(a[0], a[1], max_code)
+
+
 def analyse_descriptor(path: str | Path | EmvaDescriptor) -> EmvaAnalysis:
+    """Every release's statistics in one pass over the images (each image decoded once;
+    the stacks streamed, memory independent of their length)."""
     import numpy as np
 
     from ares.analysis.emva1288 import TemporalData, emva1288_results
-    from ares.analysis.levels import pair_stats, spatial_stats
+    from ares.analysis.emva4_sheet import EmvaInput, StackImage, evaluate_linear
+    from ares.analysis.emva_general import emva_general
+    from ares.analysis.levels import stack_moments
     from ares.analysis.ptc import analyze_ptc
-    from ares.hardware.emva_descriptor import EmvaDescriptor, iter_level, load_level, read_descriptor
+    from ares.hardware.emva_descriptor import EmvaDescriptor, iter_level, read_descriptor
 
     desc = path if isinstance(path, EmvaDescriptor) else read_descriptor(path)
     max_code = (1 << desc.bits) - 1
     tb = desc.temporal_bright
     if len(tb) < 3:
         raise InputError(f"{desc.path}: needs at least 3 bright photon-transfer levels, found {len(tb)}")
-    b3, d3, b4, d4 = [], [], [], []
-    cache: dict[float, tuple[LevelStats, LevelStats]] = {}
+    b3, d3, b4, d4, steps, diffs = [], [], [], [], [], []
+    cache: dict[float, tuple] = {}
     for lv in tb:
-        a = load_level(desc, lv)
-        b3.append(pair_stats(a[0], a[1], max_code, offset_correction=False))
-        b4.append(pair_stats(a[0], a[1], max_code, offset_correction=True))
+        s3, s4, sp, md = _pair(desc, lv, max_code)
+        b3.append(s3)
+        b4.append(s4)
+        diffs.append(md)
         dl = desc.dark_for(lv, "temporal")
         if dl.exposure_ns not in cache:
-            d = load_level(desc, dl)
-            cache[dl.exposure_ns] = (pair_stats(d[0], d[1], max_code, offset_correction=False),
-                                     pair_stats(d[0], d[1], max_code, offset_correction=True))
-        d3.append(cache[dl.exposure_ns][0])
-        d4.append(cache[dl.exposure_ns][1])
+            cache[dl.exposure_ns] = _pair(desc, dl, max_code)
+        dk = cache[dl.exposure_ns]
+        d3.append(dk[0])
+        d4.append(dk[1])
+        steps.append((sp, dk[2]))
     texp = np.array([lv.exposure_s for lv in tb])
     up = np.array([lv.photons for lv in tb])
     td = TemporalData(texp, up, np.array([x.mean for x in b3]), np.array([x.var for x in b3]),
                       np.array([x.mean for x in d3]), np.array([x.var for x in d3]), b3[0].n_pixels)
-    sb = sd = None
+    sb = sd = stack_b = stack_d = None
     if desc.spatial_bright:
         lv = desc.spatial_bright[0]
-        sb = spatial_stats(iter_level(desc, lv))  # streamed: memory does not grow with the stack
-        sd = spatial_stats(iter_level(desc, desc.dark_for(lv, "spatial")))
+        dl = desc.dark_for(lv, "spatial")
+        sb, img_b, line_b = stack_moments(iter_level(desc, lv))  # streamed: memory does not grow with L
+        sd, img_d, line_d = stack_moments(iter_level(desc, dl))
+        stack_b = StackImage(img_b, sb.s2_temporal, sb.n_frames, lv.photons, lv.exposure_s, line_b)
+        stack_d = StackImage(img_d, sd.s2_temporal, sd.n_frames, 0.0, dl.exposure_s, line_d)
     res = emva1288_results(td, sb, sd)
     ptc = analyze_ptc(b4, d4, exposure_s=texp, photons=up)
-    from ares.analysis.emva4 import emva4_linear
+    inp = EmvaInput(up, texp, b4, d4, steps, np.array(diffs), stack_d, stack_b,
+                    meta={"source": str(desc.path), "bits": desc.bits, "width": desc.width, "height": desc.height})
+    sheet = evaluate_linear(inp)
+    general = emva_general(b4, d4, up, mean_diff=np.array(diffs))
+    r31 = None
+    if stack_b is not None:
+        r31 = release31(res, stack_b, stack_d)
+    return EmvaAnalysis(desc, res, ptc, b4, d4, sheet.photon_transfer, sheet, general, r31, inp)
 
-    return EmvaAnalysis(desc, res, ptc, b4, d4, emva4_linear(b4, d4, up, dark_exposure_s=texp))
+
+def release31(res, stack_b, stack_d) -> dict:
+    """Release 3.1 = the 3.0 set with DSNU1288/PRNU1288 from 5x5-box high-passed stacks,
+    the spatial standard deviation divided by 0.96 (Linear 4.0 Appendix C.5, Eqs. 84 - 86)."""
+    import numpy as np
+
+    from ares.analysis.emva_spatial import highpass
+    from ares.analysis.estimate import Estimate
+
+    K = res.values["K"]
+    out = {k: e for k, e in res.values.items()}
+
+    def s2(st):  # Eq. 86: the filter keeps 0.96^2 of a white pattern and of the temporal residual
+        y = highpass(st.mean_image, "3.1")
+        return float(np.var(y)) / 0.96**2 - st.temporal_var / st.L
+
+    d2, b2 = s2(stack_d), s2(stack_b)
+    sig = float(stack_b.mean_image.mean() - stack_d.mean_image.mean())
+    out["DSNU1288"] = (Estimate(math.sqrt(d2) / K.value, math.sqrt(d2) / K.value * K.se / K.value, "e-",
+                                "s_y.dark after the 5x5 high-pass / 0.96, / K (Release 3.1, Appendix C.5)")
+                       if d2 > 0 else Estimate.na("no dark spatial variance above the temporal residual", "e-"))
+    out["PRNU1288"] = (Estimate(100 * math.sqrt(b2 - d2) / sig, math.nan, "%",
+                                "sqrt(s2_y.50 - s2_y.dark) after the 5x5 high-pass / 0.96, / (mu_y.50 - mu_y.dark) "
+                                "(Release 3.1)")
+                       if b2 > d2 and sig > 0 else Estimate.na("no spatial signal variance above dark", "%"))
+    return out
 
 
 def format_table(an: EmvaAnalysis) -> str:
@@ -152,30 +204,43 @@ def write_pdf(an: EmvaAnalysis, out: Path) -> None:
         plt.close(fig)
 
 
-RELEASES = ("4.0-linear", "3.0")
-EMVA4_ORDER = (("K", "overall system gain"), ("R", "responsivity"), ("QE", "quantum efficiency"),
-               ("sigma_y_dark", "temporal dark noise"), ("sigma_d", "temporal dark noise (no quantization)"),
-               ("mu_p_min", "absolute sensitivity threshold"), ("mu_e_min", "absolute sensitivity threshold"),
-               ("mu_y_sat", "saturation (above dark)"), ("mu_p_sat", "saturation capacity"),
-               ("mu_e_sat", "saturation capacity"), ("SNR_max", "maximum SNR"), ("SNR_max_db", "maximum SNR"),
-               ("DR", "dynamic range"), ("DR_db", "dynamic range"), ("LE", "linearity error"))
+RELEASES = ("4.0-linear", "4.0-general", "3.1", "3.0")
+
+
+def _value_lines(values: dict, symbols: dict | None = None) -> list[str]:
+    lines = [f"{'quantity':<20}{'symbol':<15}{'value':>26}  {'unit':<10} definition / reason"]
+    for k, e in values.items():
+        val = e.text(with_unit=False) if e.available else "n/a"
+        lines.append(f"{k:<20}{(symbols or {}).get(k, k):<15}{val:>26}  {e.unit:<10} {e.note}")
+    return lines
 
 
 def format_table4(an: EmvaAnalysis) -> str:
-    """The Release 4.0 Linear photon-transfer parameters, each with its SE or the reason."""
-    r = an.emva4
-    lines = [f"EMVA 1288 Release 4.0 Linear: {an.descriptor.path}",
-             f"{'parameter':<14}{'value':>26}  {'unit':<9} meaning / definition"]
-    for k, label in EMVA4_ORDER:
-        e = r.values.get(k)
-        if e is None:
-            continue
-        val = e.text(with_unit=False) if e.available else "n/a"
-        lines.append(f"{k:<14}{val:>26}  {e.unit:<9} {label}: {e.note}")
-    lines += [f"saturation: {r.saturation}"] + [f"note: {n}" for n in r.notes]
-    lines += ["not yet in this release's evaluation: the 4.0 spatial nonuniformity (Section 8: DSNU/PRNU with "
-              "the 4.0 high-pass, row/column/pixel split), spectrograms and the defect histograms; "
-              "`--release 3.0` prints DSNU1288/PRNU1288 by the 3.0 definitions", "", attribution_for(an.descriptor)]
+    """Every Release 4.0 Linear figure of Table 2 (and R, mu_p.min/sat), with its SE or verdict."""
+    from ares.analysis.emva4_sheet import SYMBOLS
+
+    sh = an.sheet
+    lines = [f"{sh.release}: {an.descriptor.path}", *_value_lines(sh.values, SYMBOLS),
+             f"saturation: {sh.photon_transfer.saturation}"]
+    lines += [f"note: {n}" for n in sh.notes] + ["", attribution_for(an.descriptor)]
+    return "\n".join(lines)
+
+
+def format_general(an: EmvaAnalysis) -> str:
+    g = an.general
+    lines = [f"EMVA 1288 Release 4.0 General: {an.descriptor.path}", *_value_lines(g.values),
+             f"saturation: {g.saturation}"]
+    lines += [f"note: {n}" for n in g.notes]
+    lines += ["K, the quantum efficiency and values in electrons are not defined in the General model "
+              "(General Section 6.7)", "", attribution_for(an.descriptor)]
+    return "\n".join(lines)
+
+
+def format_table31(an: EmvaAnalysis) -> str:
+    lines = [f"EMVA 1288 Release 3.1: {an.descriptor.path}", *_value_lines(an.release31 or {})]
+    lines += ["Release 3.1 as documented in Appendix D of Release 4.0 Linear: the 3.0 set with DSNU1288/PRNU1288 "
+              "from 5x5 high-passed stacks (Appendix C.5); the 3.1 saturation search refinement is not specified in "
+              "the texts ARES has, so saturation is the 3.0 maximum-variance level", "", attribution_for(an.descriptor)]
     return "\n".join(lines)
 
 
@@ -185,23 +250,71 @@ def add_arguments(parser) -> None:
                         help="definitions to evaluate by (default 4.0-linear; 3.0 reproduces the reference "
                              "data set's published values)")
     parser.add_argument("--json", action="store_true", help="print the parameter set as JSON")
-    parser.add_argument("--pdf", metavar="FILE", help="write a PDF report (Release 3.0 pages)")
+    parser.add_argument("--csv", metavar="FILE", help="write the parameter set as CSV (quantity, symbol, value, "
+                                                      "SE, unit, verdict, definition)")
+    parser.add_argument("--pdf", metavar="FILE", help="write the PDF: the EMVA 1288 datasheet (Release 4.0: summary "
+                                                      "sheet and every mandatory graph) or the Release 3.x page")
+    for opt, what in (("--vendor", "camera vendor"), ("--model", "camera model"), ("--serial", "serial number"),
+                      ("--date", "measurement date (the datasheet must state it)")):
+        parser.add_argument(opt, help=f"{what}, for the datasheet header")
+    parser.add_argument("--wavelength-nm", type=float, help="light source centroid wavelength (nm)")
+    parser.add_argument("--pixel-size-um", type=float, help="pixel pitch (um): gives mu_e.min.area and mu_e.sat.area")
+
+
+def _meta(args, an: EmvaAnalysis) -> None:
+    import dataclasses
+
+    from ares.analysis.emva4_sheet import evaluate_linear
+
+    m = an.sheet.meta
+    for k in ("vendor", "model", "serial", "date"):
+        if getattr(args, k, None):
+            m[k] = getattr(args, k)
+    if getattr(args, "wavelength_nm", None):
+        m["wavelength_nm"] = args.wavelength_nm
+        m["wavelength"] = f"{args.wavelength_nm:g} nm"
+    m.setdefault("date", "not recorded in the descriptor")
+    m["footer"] = attribution_for(an.descriptor)
+    m["data_mode"] = f"Mono {an.descriptor.bits}"
+    m["exposure_control"] = "exposure time"
+    pitch = getattr(args, "pixel_size_um", None)
+    if pitch:  # the area figures need the pixel size: evaluate again with it (statistics are kept)
+        an.sheet = evaluate_linear(dataclasses.replace(an.sheet_input, pixel_area_um2=pitch * pitch, meta=m))
 
 
 def run(args) -> int:
+    from ares.report import datasheet
+
     an = analyse_descriptor(args.descriptor)
+    _meta(args, an)
+    att = attribution_for(an.descriptor)
     if args.release == "4.0-linear":
-        d = {"release": "EMVA 1288 Release 4.0 Linear", **an.emva4.to_json(), "saturation": an.emva4.saturation,
-             "linear_model_holds": an.emva4.linear, "notes": an.emva4.notes}
+        d = an.sheet.to_json()
         text = format_table4
+    elif args.release == "4.0-general":
+        d = {"release": "EMVA 1288 Release 4.0 General", "values": an.general.to_json(),
+             "saturation": an.general.saturation, "notes": an.general.notes}
+        text = format_general
+    elif args.release == "3.1":
+        d = {"release": "EMVA 1288 Release 3.1", "values": {k: e.to_dict() for k, e in (an.release31 or {}).items()}}
+        text = format_table31
     else:
         d = {**an.emva.to_json(), "index_u_ysat": an.emva.index_u_ysat}
         text = format_table
     if args.json:
-        d["attribution"] = attribution_for(an.descriptor)
+        d["attribution"] = att
         print(json.dumps(d, indent=2, default=lambda x: None if isinstance(x, float) and math.isnan(x) else x))
     else:
         print(text(an))
+    if args.csv:
+        from ares.scan.rundir import write_atomic
+
+        gen = an.general if args.release == "4.0-general" else None
+        write_atomic(Path(args.csv), datasheet.to_csv(an.sheet, gen).encode())
     if args.pdf:
-        write_pdf(an, Path(args.pdf))
+        if args.release.startswith("4.0"):
+            datasheet.write_datasheet(an.sheet, Path(args.pdf),
+                                      an.general if args.release == "4.0-general" else None)
+        else:
+            write_pdf(an, Path(args.pdf))
     return 0

@@ -106,7 +106,8 @@ WARM_IMPORTS = (
     "matplotlib.backends.backend_pdf", "ares.sim", "ares.sim.truth", "ares.hardware.factory",
     "ares.analysis", "ares.analysis.ptc", "ares.analysis.ptc_fit", "ares.analysis.levels",
     "ares.analysis.defects", "ares.analysis.dark_current", "ares.analysis.gain_split", "ares.analysis.lag",
-    "ares.analysis.adc", "ares.analysis.emva1288", "ares.scan.analyses", "ares.report",
+    "ares.analysis.adc", "ares.analysis.emva1288", "ares.analysis.emva4_sheet", "ares.analysis.emva_general",
+    "ares.report.datasheet", "ares.scan.analyses", "ares.report",
     "ares.report.pdf", "ares.report.plots", "ares.report.csv_export", "ares.report.h5_export",
 )
 

@@ -13,6 +13,7 @@ The run directory layout is documented in ``ares.scan.rundir``.
 """
 
 from ares.scan import analyses as _builtin_analyses  # noqa: F401  (registers ptc, decomposition)
+from ares.scan import emva4_analysis as _emva4_analysis  # noqa: F401  (registers emva4)
 from ares.scan import emva_analysis as _emva_analysis  # noqa: F401  (registers emva1288)
 from ares.scan import events
 from ares.scan.results import check_limits, register_scan_analysis, scan_level_results

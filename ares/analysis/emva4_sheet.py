@@ -1,0 +1,279 @@
+"""The EMVA 1288 Release 4.0 Linear parameter set of Table 2 and the graph data of the
+datasheet (Linear Section 10.2): photon transfer (``emva4``), spatial nonuniformity
+(``emva_spatial``), spectrograms, profiles and defect histograms (``emva_graphs``) and dark
+current (Section 7), from one ``EmvaInput`` -- whatever recorded it (a descriptor file, a
+scan on the simulator or on hardware).
+
+Quantity names are the standard's symbols in ASCII (``mu_e_sat`` for mu_e.sat,
+``DSNU1288_col`` for DSNU1288.col); ``SYMBOLS`` gives the printed form and ``TABLE2`` the
+order and units of the datasheet's one-column table. Pure numpy: no I/O.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from . import emva_graphs as graphs
+from .emva4 import Emva4Result, emva4_linear
+from .emva_spatial import Split, dsnu, prnu, snr_model, snr_total_model, split, temporal_parts
+from .estimate import Estimate
+from .levels import LevelStats, LineTemporal
+
+# Table 2 of the Linear document: (key, printed symbol, unit)
+TABLE2 = (
+    ("QE", "η", "%"), ("K", "K", "DN/e-"), ("K_inv", "1/K", "e-/DN"),
+    ("sigma_y_dark", "σy.dark", "DN"), ("sigma_d", "σd", "e-"),
+    ("SNR_max", "SNRmax", "1"), ("SNR_max_db", "SNRmax", "dB"), ("SNR_max_inv", "1/SNRmax", "%"),
+    ("mu_e_min", "µe.min", "e-"), ("mu_e_min_area", "µe.min.area", "e-/µm²"),
+    ("mu_e_sat", "µe.sat", "e-"), ("mu_e_sat_area", "µe.sat.area", "e-/µm²"),
+    ("DR", "DR", "1"), ("DR_db", "DR", "dB"),
+    ("DSNU1288", "DSNU1288", "e-"), ("DSNU1288_col", "DSNU1288.col", "e-"),
+    ("DSNU1288_row", "DSNU1288.row", "e-"), ("DSNU1288_pix", "DSNU1288.pix", "e-"),
+    ("PRNU1288", "PRNU1288", "%"), ("PRNU1288_col", "PRNU1288.col", "%"),
+    ("PRNU1288_row", "PRNU1288.row", "%"), ("PRNU1288_pix", "PRNU1288.pix", "%"),
+    ("LE", "LE", "%"), ("mu_I_mean", "µI.mean", "e-/s"), ("mu_I_var", "µI.var", "e-/s"),
+)
+EXTRA = (("R", "R", "DN/photon"), ("mu_p_min", "µp.min", "photons"), ("mu_p_sat", "µp.sat", "photons"),
+         ("mu_y_sat", "µy.sat - µy.dark", "DN"), ("DSNU1288_DN", "DSNU1288", "DN"),
+         ("sigma_y_stack_dark", "σy.stack.dark", "DN"), ("sigma_y_stack_50", "σy.stack.50", "DN"))
+SYMBOLS = {k: s for k, s, _ in TABLE2 + EXTRA}
+
+
+@dataclass
+class StackImage:
+    """An averaged image of L frames (Eq. 33) and its mean per-pixel temporal variance (Eq. 65)."""
+
+    mean_image: np.ndarray
+    temporal_var: float  # Eq. 65 (the mean per-pixel temporal variance)
+    L: int
+    photons: float = 0.0
+    exposure_s: float = math.nan
+    line: "LineTemporal | None" = None  # offset-free pixel, row-mean and column-mean temporal variances
+
+    def split(self, release: str) -> Split:
+        if self.line is None:
+            return split(self.mean_image, self.temporal_var, self.L, release)
+        return split(self.mean_image, self.line.pixel, self.L, release, self.line.rows, self.line.cols)
+
+
+@dataclass
+class EmvaInput:
+    photons: np.ndarray  # mu_p per exposure step
+    exposure_s: np.ndarray
+    bright: list[LevelStats]  # two-image statistics (Eq. 18) per step
+    dark: list[LevelStats]
+    step_split: list[tuple[Split, Split]] | None = None  # per-step (bright, dark) spatial variances
+    mean_diff: np.ndarray | None = None  # mu[0] - mu[1] of each bright pair (stability, General 6.7)
+    stack_dark: StackImage | None = None
+    stack_bright: StackImage | None = None  # ~50 % of saturation
+    dark_series: tuple[np.ndarray, np.ndarray, np.ndarray] | None = None  # (t, mu_dark, s2_dark), Section 7.1
+    temperatures: list[tuple[float, np.ndarray, np.ndarray, np.ndarray]] | None = None  # Section 7.2
+    pixel_area_um2: float | None = None
+    meta: dict = field(default_factory=dict)  # vendor, model, date, wavelength_nm, operating point ...
+
+
+@dataclass
+class EmvaSheet:
+    release: str
+    values: dict[str, Estimate]
+    photon_transfer: Emva4Result
+    curves: dict  # graph data (numpy arrays) by graph name
+    notes: list[str]
+    meta: dict
+
+    def to_json(self) -> dict:
+        out = {"release": self.release, "values": {}, "notes": self.notes, "meta": self.meta,
+               "saturation": self.photon_transfer.saturation, "linear_model_holds": self.photon_transfer.linear}
+        for k, v in self.values.items():
+            out["values"][k] = {"symbol": SYMBOLS.get(k, k), **v.to_dict()}
+        return out
+
+
+def pair_step(a: np.ndarray, b: np.ndarray, max_code: int | None):
+    """Everything every release reads from one two-image step, in one visit of the images:
+    (Release 3.0 ``LevelStats``, Release 4.0 ``LevelStats`` (Eq. 18), the averaged image's
+    spatial variances (Eq. 32 with the 4.0 high-pass; unfiltered when the image is smaller
+    than the filter), mu[0] - mu[1])."""
+    from .levels import pair_stats
+
+    s3 = pair_stats(a, b, max_code, offset_correction=False)
+    s4 = pair_stats(a, b, max_code, offset_correction=True)
+    a64 = np.asarray(a, np.float64)
+    avg = (a64 + b) * 0.5
+    d = a64 - b
+    d -= d.mean()  # the frame-global offset removed
+    rv = float(np.mean(d.mean(axis=1) ** 2)) / 2  # temporal variance of the row / column means
+    cv = float(np.mean(d.mean(axis=0) ** 2)) / 2
+    try:
+        sp = split(avg, s4.var, 2, "4.0", rv, cv)
+    except ValueError:
+        sp = split(avg, s4.var, 2, "none", rv, cv)
+    M, N = avg.shape
+    _, R, C = temporal_parts(s4.var, M, N, rv, cv)  # row/column-correlated temporal parts
+    s4 = dataclasses.replace(s4, line_var2=2 * max(R, 0.0) ** 2 / M + 2 * max(C, 0.0) ** 2 / N)
+    return s3, s4, sp, float(np.mean(a, dtype=np.float64)) - float(np.mean(b, dtype=np.float64))
+
+
+def _scaled(e: Estimate, f: float, unit: str, note: str) -> Estimate:
+    if not e.available:
+        return Estimate.na(e.note, unit)
+    if e.bound:
+        return Estimate.limit(e.value * f, e.bound, unit, note)
+    return Estimate(e.value * f, e.se * abs(f), unit, note)
+
+
+def dark_current_4(t, mu, s2, K: Estimate, min_exposures: int = 6) -> dict[str, Estimate]:
+    """Section 7.1: slopes of the dark mean (DN/s, / K) and of the dark temporal variance
+    (DN^2/s, / K^2). A rate not above its SE is reported as the upper limit mu_I + sigma_I
+    (the text's rule for exposures too short to measure it)."""
+    from .ptc_fit import line_fit
+
+    t = np.asarray(t, float)
+    out: dict[str, Estimate] = {}
+    n = np.unique(t).size
+    if n < min_exposures or not K.available:
+        why = (f"needs >= {min_exposures} exposure times (Section 7.1), has {n}" if n < min_exposures
+               else "K not available")
+        return {"mu_I_mean": Estimate.na(why, "e-/s"), "mu_I_var": Estimate.na(why, "e-/s")}
+    for key, y, power, what in (("mu_I_mean", mu, 1, "dark mean"), ("mu_I_var", s2, 2, "dark temporal variance")):
+        lf = line_fit(t, np.asarray(y, float))
+        k = K.value**power
+        val = lf.slope / k
+        se = math.hypot(lf.slope_se / k, power * val * K.se / K.value)
+        note = f"slope of the {what} vs exposure time / K{'^2' if power == 2 else ''} (Section 7.1)"
+        if val <= se:
+            out[key] = (Estimate.limit(val + se, "upper", "e-/s", note + "; not above its SE: upper limit mu_I + "
+                                                                         "sigma_I") if val + se > 0 else
+                        Estimate.na("dark signal does not grow with the exposure time", "e-/s"))
+        else:
+            out[key] = Estimate(val, se, "e-/s", note)
+    return out
+
+
+def _stack_graphs(sd: StackImage, sb: StackImage | None, hp: str, v: dict) -> dict:
+    from .emva_spatial import highpass
+
+    g: dict = {}
+    dark_hp = highpass(sd.mean_image, hp)
+    s_dark = v["DSNU1288_DN"].value if v["DSNU1288_DN"].available else math.nan
+    g["dark_lines"] = {"DSNU1288": s_dark, "sigma_y_stack": math.sqrt(max(sd.temporal_var, 0.0))}
+    g["spectrogram_dsnu_h"] = graphs.spectrogram(dark_hp, "horizontal")
+    g["spectrogram_dsnu_v"] = graphs.spectrogram(dark_hp, "vertical")
+    g["profile_dsnu_h"] = graphs.profiles(sd.mean_image, "horizontal")
+    g["profile_dsnu_v"] = graphs.profiles(sd.mean_image, "vertical")
+    g["hist_dsnu"] = graphs.log_histogram(dark_hp, sd.L)
+    g["acc_dsnu"] = graphs.accumulated_histogram(dark_hp, sd.L)
+    if sb is not None:
+        prnu_img = sb.mean_image - sd.mean_image
+        mean = float(prnu_img.mean())
+        prnu_hp = highpass(prnu_img, hp)
+        rel = 100.0 / mean if mean > 0 else math.nan
+        g["prnu_lines"] = {"PRNU1288": v["PRNU1288"].value, "sigma_y_stack": math.sqrt(max(sb.temporal_var, 0)) * rel}
+        g["spectrogram_prnu_h"] = graphs.spectrogram(prnu_hp, "horizontal", rel)
+        g["spectrogram_prnu_v"] = graphs.spectrogram(prnu_hp, "vertical", rel)
+        g["profile_prnu_h"] = graphs.profiles(prnu_img, "horizontal")
+        g["profile_prnu_v"] = graphs.profiles(prnu_img, "vertical")
+        g["hist_prnu"] = graphs.log_histogram(prnu_hp, sb.L)
+        g["acc_prnu"] = graphs.accumulated_histogram(prnu_hp, sb.L)
+    return g
+
+
+def evaluate_linear(inp: EmvaInput, highpass_release: str = "4.0") -> EmvaSheet:
+    """Every Release 4.0 Linear figure of Table 2 with its SE or verdict, and the graph data."""
+    pt = emva4_linear(inp.bright, inp.dark, inp.photons, dark_exposure_s=inp.exposure_s)
+    v = dict(pt.values)
+    notes = list(pt.notes)
+    K = v["K"]
+    if K.available:
+        v["K_inv"] = Estimate(1 / K.value, K.se / K.value**2, "e-/DN", "1 / K")
+    else:
+        v["K_inv"] = Estimate.na(K.note, "e-/DN")
+    snr = v.get("SNR_max", Estimate.na("", "1"))
+    v["SNR_max_inv"] = (Estimate.limit(100 / snr.value, "upper" if snr.bound == "lower" else "lower", "%",
+                                       "1 / SNR_max") if snr.bound else
+                        Estimate(100 / snr.value, 100 * snr.se / snr.value**2, "%", "1 / SNR_max")) \
+        if snr.available else Estimate.na(snr.note, "%")
+    area = inp.pixel_area_um2
+    for key, base in (("mu_e_min_area", "mu_e_min"), ("mu_e_sat_area", "mu_e_sat")):
+        e = v.get(base, Estimate.na("", "e-"))
+        v[key] = (_scaled(e, 1 / area, "e-/µm²", f"{SYMBOLS[base]} / pixel area ({area:g} µm²)") if area
+                  else Estimate.na("pixel size not given", "e-/µm²"))
+    # spatial nonuniformity from the stacks (Sections 8.2, 8.3)
+    sd, sb = inp.stack_dark, inp.stack_bright
+    if sd is not None and K.available:
+        dsplit = sd.split(highpass_release)
+        v.update(dsnu(dsplit, K.value, K.se))
+        v["sigma_y_stack_dark"] = Estimate(math.sqrt(max(sd.temporal_var, 0)), math.nan, "DN",
+                                           "temporal noise of the dark stack (Eq. 65)")
+        if sb is not None:
+            bsplit = sb.split(highpass_release)
+            v.update(prnu(bsplit, dsplit))
+            v["sigma_y_stack_50"] = Estimate(math.sqrt(max(sb.temporal_var, 0)), math.nan, "DN",
+                                             "temporal noise of the bright stack (Eq. 65)")
+            if pt.index_sat is not None and bsplit.mean - dsplit.mean > 0:
+                frac = (bsplit.mean - dsplit.mean) / v["mu_y_sat"].value
+                if not 0.3 <= frac <= 0.7:
+                    notes.append(f"the bright stack is at {100 * frac:.0f} % of saturation; Section 8 asks for ~50 %")
+        else:
+            for _, suffix in (("", ""), ("", "_col"), ("", "_row"), ("", "_pix")):
+                v["PRNU1288" + suffix] = Estimate.na("no bright stack (averaged images at ~50 % saturation)", "%")
+    else:
+        why = "no dark stack (averaged dark images, Section 8)" if sd is None else "K not available"
+        for suffix in ("", "_col", "_row", "_pix"):
+            v["DSNU1288" + suffix] = Estimate.na(why, "e-")
+            v["PRNU1288" + suffix] = Estimate.na(why, "%")
+    # dark current (Section 7.1): a dedicated series, else the photon-transfer darks
+    if inp.dark_series is not None:
+        t, mu, s2 = inp.dark_series
+    else:
+        t = np.asarray(inp.exposure_s, float)
+        mu = np.array([d.mean for d in inp.dark])
+        s2 = np.array([d.var for d in inp.dark])
+    v.update(dark_current_4(t, mu, s2, K))
+    curves = _curves(inp, pt, v, t, mu, s2)
+    if sd is not None and "DSNU1288_DN" in v:
+        try:
+            curves.update(_stack_graphs(sd, sb, highpass_release, v))
+        except ValueError as exc:  # an image too small for the high-pass
+            notes.append(f"spatial graphs not available: {exc}")
+    if inp.temperatures:
+        curves["dark_vs_temperature"] = [(T, dark_current_4(tt, m, s, K)["mu_I_mean"])
+                                         for T, tt, m, s in inp.temperatures]
+    return EmvaSheet("EMVA 1288 Release 4.0 Linear", v, pt, curves, notes, dict(inp.meta))
+
+
+def _curves(inp: EmvaInput, pt: Emva4Result, v: dict, t, mu, s2) -> dict:
+    order = np.argsort(np.asarray(inp.photons, float), kind="stable")
+    up = np.asarray(inp.photons, float)[order]
+    b = [inp.bright[i] for i in order]
+    d = [inp.dark[i] for i in order]
+    sig = np.array([x.mean for x in b]) - np.array([x.mean for x in d])
+    var_b = np.array([x.var for x in b])
+    c = {"photons": up, "signal": sig, "var": var_b - np.array([x.var for x in d]), "var_bright": var_b,
+         "fit_levels": pt.fit_levels, "le_levels": pt.le_levels, "index_sat": pt.index_sat,
+         "deviation_pct": pt.deviation_pct, "dark_t": np.asarray(t, float), "dark_mu": np.asarray(mu, float),
+         "dark_s2": np.asarray(s2, float)}
+    c["snr"] = np.where(var_b > 0, sig / np.sqrt(np.maximum(var_b, 1e-300)), np.nan)
+    if inp.step_split is not None:
+        ss = [inp.step_split[i] for i in order]
+        s2_b = np.array([x[0].total for x in ss])
+        c["snr_total"] = np.where(var_b + s2_b > 0, sig / np.sqrt(np.maximum(var_b + s2_b, 1e-300)), np.nan)
+        for part in ("total", "col", "row", "pix"):
+            c[f"step_s2_bright_{part}"] = np.array([getattr(x[0], part) for x in ss])
+            c[f"step_s2_dark_{part}"] = np.array([getattr(x[1], part) for x in ss])
+    K, qe = v["K"], v["QE"]
+    if K.available and qe.available and v["sigma_d"].available:
+        eta, k = qe.value / 100, K.value
+        grid = np.geomspace(max(up[up > 0].min() / 3, 1e-3), up.max() * 1.5, 200) if np.any(up > 0) else up
+        c["model_photons"] = grid
+        c["snr_model"] = snr_model(grid, eta, v["sigma_d"].value, k)
+        c["snr_ideal"] = np.sqrt(grid)
+        ds = v.get("DSNU1288", Estimate.na(""))
+        pr = v.get("PRNU1288", Estimate.na(""))
+        if ds.available and pr.available:
+            c["snr_total_model"] = snr_total_model(grid, eta, v["sigma_d"].value, ds.value, pr.value / 100, k)
+    return c

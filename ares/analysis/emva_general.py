@@ -1,0 +1,229 @@
+"""EMVA 1288 Release 4.0 General: the characteristic curve and the input SNR of a camera with
+no linearity assumption (General document, Sections 2.2, 2.4, 6.6 - 6.8).
+
+* cubic B-spline regression (General Eqs. 44 - 47) of mu_y - mu_y.dark against mu_p over
+  P intervals of 0 .. mu_p.sat, and its analytic slope (Eqs. 48 - 49);
+* output SNR_y = (mu_y - mu_y.dark) / sigma_y (Eq. 7) and input SNR_p = mu_p / sigma_y *
+  d mu_y / d mu_p (Eq. 10); the ideal sensor sqrt(mu_p) (Eq. 15);
+* mu_p.min: the B-spline regression of the inverse relation mu_p(SNR_p) over the levels
+  below saturation, evaluated at SNR_p = 1 (Section 6.8); SNR_max: the largest SNR_p;
+* saturation mu_p.sat by the histogram criterion (Section 6.7, as Linear Section 6.6);
+  DR = mu_p.sat / mu_p.min (Eq. 21);
+* temporal dark noise sigma_y.dark (DN, quantization included) and sigma_d in photons:
+  sqrt(sigma_y.dark^2 - 1/12) / R_d with R_d the slope of the characteristic curve at
+  mu_p = 0 (Eq. 50), or the upper limit 0.40 / R_d when sigma_y.dark^2 < 0.24 (Eq. 51).
+
+K, the quantum efficiency and anything in electrons are not defined in the General model
+(Section 6.7). Standard errors: the B-spline fits are linear least squares, so a value that
+is a linear functional of the coefficients gets the SE from the coefficient covariance
+(residual scatter); mu_p.min's SE also carries the scatter of the SNR_p points.
+Pure numpy: no I/O.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from .emva4 import saturation_index
+from .estimate import Estimate
+from .levels import LevelStats
+
+
+def beta3(x: np.ndarray) -> np.ndarray:
+    """Cubic B-spline (General Eq. 45)."""
+    a = np.abs(np.asarray(x, float))
+    return np.where(a < 1, 2 / 3 - a**2 + 0.5 * a**3, np.where(a <= 2, (2 - a) ** 3 / 6, 0.0))
+
+
+def beta3_prime(x: np.ndarray) -> np.ndarray:
+    """Its derivative (General Eq. 49)."""
+    x = np.asarray(x, float)
+    a = np.abs(x)
+    return np.where(a < 1, -2 * x * (1 - 0.75 * a), np.where(a <= 2, -np.sign(x) * 0.5 * (2 - a) ** 2, 0.0))
+
+
+@dataclass
+class BSpline:
+    """Least-squares cubic B-spline on [0, x_max] with P intervals (Eqs. 44 - 48)."""
+
+    x_max: float
+    P: int
+    coef: np.ndarray
+    cov: np.ndarray  # coefficient covariance from the residual scatter
+    rms: float  # residual RMS
+
+    def _basis(self, x, fn):
+        d = self.x_max / self.P
+        u = np.asarray(x, float)[..., None] / d - (np.arange(self.P + 3) - 1)  # Eq. 46: beta3(x/d - (p-1))
+        return fn(u)
+
+    def __call__(self, x) -> np.ndarray:
+        return self._basis(x, beta3) @ self.coef
+
+    def slope(self, x) -> np.ndarray:
+        return self._basis(x, beta3_prime) @ self.coef / (self.x_max / self.P)  # Eq. 48
+
+    def se(self, x, derivative: bool = False) -> np.ndarray:
+        B = self._basis(x, beta3_prime if derivative else beta3)
+        if derivative:
+            B = B / (self.x_max / self.P)
+        return np.sqrt(np.einsum("...i,ij,...j->...", B, self.cov, B))
+
+
+def bspline_fit(x, y, P: int, x_max: float | None = None) -> BSpline:
+    """Eq. 47 solved by linear least squares; needs more points than P + 3."""
+    x = np.asarray(x, float)
+    y = np.asarray(y, float)
+    xm = float(x_max if x_max is not None else x.max())
+    if x.size <= P + 3:
+        raise ValueError(f"a B-spline with {P} intervals needs more than {P + 3} points, has {x.size}")
+    d = xm / P
+    A = beta3(x[:, None] / d - (np.arange(P + 3) - 1))
+    coef, *_ = np.linalg.lstsq(A, y, rcond=None)
+    r = y - A @ coef
+    dof = x.size - (P + 3)
+    s2 = float(r @ r) / dof
+    cov = s2 * np.linalg.pinv(A.T @ A)
+    return BSpline(xm, P, coef, cov, math.sqrt(s2))
+
+
+def intervals_for(n_points: int) -> int:
+    """P: 6 - 8 intervals for ~50 exposure steps (Section 6.6), more for more steps, fewer
+    for few; always fewer parameters than points."""
+    return int(max(2, min(max(6, n_points // 8), n_points - 5)))
+
+
+def _threshold_below(up: np.ndarray, snr: np.ndarray, n: int = 5) -> Estimate:
+    """mu_p at SNR_p = 1 below the lowest step: near the threshold any sensor's input SNR
+    follows mu_p / sqrt(a + c mu_p) (a fixed noise floor and shot noise referred to the
+    input), i.e. 1/SNR^2 = a/mu_p^2 + c/mu_p, fitted to the ``n`` lowest steps."""
+    x, y = up[:n], 1.0 / snr[:n] ** 2
+    A = np.vstack([1 / x**2, 1 / x]).T
+    coef, *_ = np.linalg.lstsq(A, y, rcond=None)
+    r = y - A @ coef
+    dof = max(x.size - 2, 1)
+    cov = float(r @ r) / dof * np.linalg.pinv(A.T @ A)
+
+    def root(a, c):
+        return (c + math.sqrt(c * c + 4 * a)) / 2 if c * c + 4 * a >= 0 else math.nan
+
+    a, c = (float(t) for t in coef)
+    val = root(a, c)
+    if not math.isfinite(val) or val <= 0:
+        return Estimate.na("every step has SNR_p > 1 and the lowest steps do not extrapolate to SNR_p = 1",
+                           "photons")
+    h = 1e-6 * max(abs(a), abs(c), 1e-12)
+    g = np.array([(root(a + h, c) - val) / h, (root(a, c + h) - val) / h])
+    se = math.sqrt(max(float(g @ cov @ g), 0.0))
+    return Estimate(val, se, "photons", f"SNR_p = 1 extrapolated from the {x.size} lowest steps by "
+                                        "1/SNR_p^2 = a/mu_p^2 + c/mu_p (every step has SNR_p > 1)")
+
+
+@dataclass
+class GeneralResult:
+    values: dict[str, Estimate]
+    curve: BSpline | None  # characteristic curve mu_y - mu_y.dark vs mu_p
+    photons: np.ndarray  # sorted mu_p of the levels
+    signal: np.ndarray  # mu_y - mu_y.dark
+    sigma_y: np.ndarray  # temporal sigma (Eq. 18), DN
+    snr_y: np.ndarray  # Eq. 7
+    snr_p: np.ndarray  # Eq. 10 (NaN where the slope is not positive)
+    mean_diff: np.ndarray  # mu[0] - mu[1] of each pair (the stability graph, Section 6.7)
+    index_sat: int | None
+    saturation: str
+    notes: list[str] = field(default_factory=list)
+
+    def to_json(self) -> dict:
+        return {k: v.to_dict() for k, v in self.values.items()}
+
+
+def emva_general(bright: list[LevelStats], dark: list[LevelStats], photons, mean_diff=None,
+                 dark_var_lowest: LevelStats | None = None, intervals: int | None = None) -> GeneralResult:
+    """The Release 4.0 General evaluation (see the module docstring). ``bright[i]``/``dark[i]``
+    are level i and its dark (two-image statistics, Eq. 18); ``photons[i]`` its mu_p."""
+    order = np.argsort(np.asarray(photons, float), kind="stable")
+    up = np.asarray(photons, float)[order]
+    b = [bright[i] for i in order]
+    d = [dark[i] for i in order]
+    sig = np.array([x.mean for x in b]) - np.array([x.mean for x in d])
+    var = np.array([x.var for x in b])
+    sy = np.sqrt(np.maximum(var, 0.0))
+    md = np.asarray(mean_diff, float)[order] if mean_diff is not None else np.full(up.size, np.nan)
+    isat, sat_text, bound = saturation_index(np.array([x.frac_at_max for x in b]))
+    v: dict[str, Estimate] = {}
+    notes: list[str] = []
+    top = isat if isat is not None else up.size - 1
+    use = np.arange(top + 1)
+    P = intervals if intervals is not None else intervals_for(use.size + 1)
+    snr_y = np.where(sy > 0, sig / np.where(sy > 0, sy, 1.0), np.nan)
+    snr_p = np.full(up.size, np.nan)
+    if use.size + 1 <= P + 3:
+        na = f"needs more than {P + 3} levels up to saturation for a {P}-interval B-spline, has {use.size}"
+        for k, u in (("mu_p_min", "photons"), ("mu_p_sat", "photons"), ("DR", "1"), ("DR_db", "dB"),
+                     ("SNR_max", "1"), ("SNR_max_db", "dB"), ("sigma_d", "photons"), ("R_d", "DN/photon")):
+            v[k] = Estimate.na(na, u)
+        return GeneralResult(v, None, up, sig, sy, snr_y, snr_p, md, isat, sat_text, notes)
+    x_max = float(up[top])
+    # the curve passes through (0, 0) by construction (dark subtracted): add that point
+    curve = bspline_fit(np.r_[0.0, up[use]], np.r_[0.0, sig[use]], P, x_max)
+    slope = curve.slope(up)
+    ok = (slope > 0) & (sy > 0) & (up > 0)
+    snr_p[ok] = up[ok] / sy[ok] * slope[ok]  # Eq. 10
+    # temporal dark noise (Section 6.7 "Temporal dark noise"), sigma_d in photons (Eqs. 50/51)
+    dl = dark_var_lowest if dark_var_lowest is not None else d[0]
+    s2d = dl.var
+    rd = float(curve.slope(0.0))
+    rd_se = float(curve.se(0.0, derivative=True))
+    v["R_d"] = Estimate(rd, rd_se, "DN/photon", "slope of the characteristic curve at mu_p = 0 (Eq. 25)")
+    small = s2d < 0.24
+    v["sigma_y_dark"] = Estimate.limit(0.49, "upper", "DN", "sigma_y.dark^2 < 0.24: quantization dominates") if \
+        small else Estimate(math.sqrt(s2d), dl.var_se / (2 * math.sqrt(s2d)), "DN", "temporal dark noise")
+    if rd <= 0:
+        v["sigma_d"] = Estimate.na("the characteristic curve does not rise at mu_p = 0", "photons")
+    elif small:
+        v["sigma_d"] = Estimate.limit(0.40 / rd, "upper", "photons", "0.40 / R_d (General Eq. 51)")
+    else:
+        sd = math.sqrt(max(s2d - 1 / 12, 0.0)) / rd
+        v["sigma_d"] = Estimate(sd, sd * math.hypot(dl.var_se / (2 * max(s2d - 1 / 12, 1e-12)), rd_se / rd),
+                                "photons", "sqrt(sigma_y.dark^2 - 1/12) / R_d (General Eq. 50)")
+    # mu_p.min: B-spline of mu_p(SNR_p) at SNR_p = 1 (Section 6.8)
+    k = np.flatnonzero(ok[: top + 1])
+    if k.size > 5 and np.nanmin(snr_p[k]) < 1 < np.nanmax(snr_p[k]):
+        inv = bspline_fit(snr_p[k], up[k], intervals_for(k.size), float(np.nanmax(snr_p[k])))
+        v["mu_p_min"] = Estimate(float(inv(1.0)), float(inv.se(1.0)), "photons",
+                                 "B-spline of mu_p vs SNR_p at SNR_p = 1 (General Section 6.8)")
+    elif k.size > 5 and np.nanmin(snr_p[k]) >= 1:
+        v["mu_p_min"] = _threshold_below(up[k], snr_p[k])
+        notes.append("no exposure step reaches down to SNR_p = 1 (General Section 6.5 asks for steps where the "
+                     "input SNR is about one): mu_p.min is extrapolated from the lowest steps")
+    else:
+        v["mu_p_min"] = Estimate.na("too few levels with a positive slope of the characteristic curve", "photons")
+    j = int(np.nanargmax(np.where(ok[: top + 1], snr_p[: top + 1], -np.inf)))
+    smax = float(snr_p[j])
+    smax_se = smax * math.sqrt(1.0 / max(b[j].dof, 1) * 0.5 + (float(curve.se(up[j], True)) / slope[j]) ** 2)
+    v["SNR_max"] = Estimate(smax, smax_se, "1", f"largest SNR_p (level {j}, Section 6.8)")
+    v["SNR_max_db"] = Estimate(20 * math.log10(smax), 20 / math.log(10) * smax_se / smax, "dB", "20 log10 SNR_max")
+    if isat is None:
+        for key, u in (("mu_p_sat", "photons"), ("DR", "1"), ("DR_db", "dB")):
+            v[key] = Estimate.na(sat_text, u)
+    else:
+        psat = float(up[isat])
+        v["mu_p_sat"] = (Estimate.limit(psat, "lower", "photons", "photons at mu_y.sat; lower limit") if bound else
+                         Estimate(psat, 0.0, "photons", "photons at mu_y.sat (histogram criterion)"))
+        mn = v["mu_p_min"]
+        if mn.available:
+            dr = psat / mn.value
+            if mn.bound == "upper" or bound:
+                v["DR"] = Estimate.limit(dr, "lower", "1", "mu_p.sat / mu_p.min (General Eq. 21)")
+                v["DR_db"] = Estimate.limit(20 * math.log10(dr), "lower", "dB", "20 log10 DR")
+            else:
+                rel = mn.se / mn.value
+                v["DR"] = Estimate(dr, dr * rel, "1", "mu_p.sat / mu_p.min (General Eq. 21)")
+                v["DR_db"] = Estimate(20 * math.log10(dr), 20 / math.log(10) * rel, "dB", "20 log10 DR")
+        else:
+            v["DR"] = Estimate.na("mu_p.min not available", "1")
+            v["DR_db"] = Estimate.na("mu_p.min not available", "dB")
+    return GeneralResult(v, curve, up, sig, sy, snr_y, snr_p, md, isat, sat_text, notes)

@@ -1,0 +1,118 @@
+"""EMVA 1288 Release 4.0 Linear, the graph data of Sections 8.6 - 8.8.
+
+* ``spectrogram``: horizontal (per row) or vertical (per column) power spectrum, Eqs. 70 -
+  71, scaled so that white noise is flat at its variance; the square root is drawn against
+  the spatial frequency up to Nyquist. ``pattern_amplitude`` is Eq. 72.
+* ``profiles``: middle / mean / max / min profiles of the unfiltered image (Section 8.7)
+  and the plot ranges the text asks for.
+* ``log_histogram``: bins of width I/L (Eqs. 73 - 75) of an averaged, high-pass filtered
+  image, and the normal density for comparison (Eq. 76; the text's s_nw is the
+  non-whiteness-based sigma dropped in Release 3.1, Appendix D.1 item 4: ARES uses the
+  image's own spatial standard deviation).
+* ``accumulated_histogram``: the histogram of |y - mu| (Eqs. 77 - 80) summed from the top
+  (Eq. 81), in pixels and in percent.
+
+Pure numpy: no I/O.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+
+MAX_BINS = 256
+
+
+@dataclass(frozen=True)
+class Spectrogram:
+    freq: np.ndarray  # cycles per pixel, 0 .. 0.5
+    sqrt_power: np.ndarray  # sqrt(P[v]) in the image's unit (DN, or % when relative)
+
+
+def spectrogram(img: np.ndarray, direction: str = "horizontal", scale: float = 1.0) -> Spectrogram:
+    """sqrt of the mean power spectrum of the rows (horizontal) or the columns (vertical),
+    Eqs. 70 - 71, after subtracting the image mean; values multiplied by ``scale``."""
+    y = np.asarray(img, np.float64)
+    if direction == "vertical":
+        y = y.T
+    elif direction != "horizontal":
+        raise ValueError(f"direction is 'horizontal' or 'vertical', not {direction!r}")
+    y = y - y.mean()
+    n = y.shape[1]
+    f = np.fft.rfft(y, axis=1) / math.sqrt(n)  # Eq. 70
+    p = np.mean(f.real**2 + f.imag**2, axis=0)  # Eq. 71 (v = 0 .. N/2)
+    return Spectrogram(np.arange(p.size) / n, np.sqrt(p) * scale)
+
+
+def pattern_amplitude(power: np.ndarray, n: int, vmin: int, vmax: int) -> float:
+    """Amplitude of a periodic pattern from the power spectrum bins vmin..vmax (Eq. 72)."""
+    return 2.0 * math.sqrt(float(np.sum(power[vmin:vmax + 1])) / n)
+
+
+def profiles(img: np.ndarray, direction: str = "horizontal") -> dict[str, np.ndarray]:
+    """Section 8.7: the middle line (row M//2 or column N//2), and the mean, max and min over
+    all rows (horizontal) or columns (vertical), of the unfiltered image."""
+    y = np.asarray(img, np.float64)
+    if direction == "vertical":
+        y = y.T
+    return {"middle": y[y.shape[0] // 2].copy(), "mean": y.mean(axis=0), "max": y.max(axis=0),
+            "min": y.min(axis=0)}
+
+
+def profile_range(prof: dict[str, np.ndarray], kind: str) -> tuple[float, float]:
+    """Plot range of Section 8.7: DSNU 0.9 x mean(min line) .. 1.1 x mean(max line);
+    PRNU 0.9 .. 1.1 x mean(mean line)."""
+    if kind == "dsnu":
+        return 0.9 * float(prof["min"].mean()), 1.1 * float(prof["max"].mean())
+    m = float(prof["mean"].mean())
+    return 0.9 * m, 1.1 * m
+
+
+@dataclass(frozen=True)
+class Histogram:
+    centers: np.ndarray  # bin centres as deviation from the mean (DN)
+    counts: np.ndarray  # pixels per bin (int64)
+    width: float  # I / L, DN
+    model: np.ndarray  # normal density (Eq. 76) per bin, pixels
+    sigma: float  # the model's standard deviation, DN
+
+
+def _bins(span: float, L: int) -> tuple[int, int]:
+    I = int(math.floor(L * span / MAX_BINS)) + 1  # Eqs. 73 / 78
+    Q = int(math.floor(L * span / I)) + 1
+    return I, Q
+
+
+def log_histogram(img: np.ndarray, L: int) -> Histogram:
+    """Eqs. 73 - 76 for an averaged (L images), high-pass filtered image."""
+    y = np.asarray(img, np.float64).ravel()
+    mu = float(y.mean())
+    ymin, ymax = float(y.min()), float(y.max())
+    I, Q = _bins(ymax - ymin, L)
+    q = np.floor(L * (y - ymin) / I + 1e-9).astype(np.int64)  # Eq. 74
+    counts = np.bincount(np.clip(q, 0, Q - 1), minlength=Q)
+    centers = ymin + (I - 1) / (2 * L) + np.arange(Q) * I / L - mu  # Eq. 75, relative to the mean
+    s = float(y.std())
+    model = (I / L) * y.size / (math.sqrt(2 * math.pi) * s) * np.exp(-centers**2 / (2 * s * s)) if s > 0 \
+        else np.zeros(Q)  # Eq. 76
+    return Histogram(centers, counts, I / L, model, s)
+
+
+@dataclass(frozen=True)
+class Accumulated:
+    deviation: np.ndarray  # |y - mu| at the bin centres, DN
+    count: np.ndarray  # pixels deviating by at least that much (Eq. 81)
+    percent: np.ndarray
+
+
+def accumulated_histogram(img: np.ndarray, L: int) -> Accumulated:
+    """Eqs. 77 - 81: the histogram of |y - mu| summed from the top."""
+    y = np.asarray(img, np.float64).ravel()
+    d = np.abs(y - y.mean())  # Eq. 77
+    I, Q = _bins(float(d.max()), L)
+    q = np.floor(L * d / I + 1e-9).astype(np.int64)  # Eq. 79
+    h = np.bincount(np.clip(q, 0, Q - 1), minlength=Q)
+    H = np.cumsum(h[::-1])[::-1]  # Eq. 81
+    return Accumulated((I - 1) / (2 * L) + np.arange(Q) * I / L, H, 100.0 * H / y.size)  # Eq. 80

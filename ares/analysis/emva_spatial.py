@@ -1,0 +1,216 @@
+"""EMVA 1288 Release 4.0 Linear, spatial nonuniformity (Sections 4.2, 4.3, 8.1 - 8.3, 8.5).
+
+* ``highpass``: the Release 4.0 correction for uneven illumination (Section 8.1): the image
+  smoothed by a 7x7 box, an 11x11 box and a 3x3 binomial filter, one after the other, is
+  subtracted from it. Only the pixels the filters reach completely are kept (9 rows and
+  columns at each border; the text states the border rule for the 3.1 filter, Appendix
+  C.5, and ARES applies it to the 4.0 kernel's half width). ``release="3.1"`` is the 5x5
+  box of Appendix C.5 (Eq. 84), border 2.
+* ``split``: total, column, row and pixel spatial variances of an averaged image
+  (Eqs. 35 - 44) with the residual temporal variance sigma^2 / L removed (Eq. 36); two
+  images are the L = 2 case of the same equations (Eq. 32 is var(<y>) - sigma^2/2).
+  After the high-pass, a white pattern keeps only part of its variance: ``g2`` of the
+  pixel and temporal parts (the 2-D white-noise gain, 1 - 8e-5 for the 4.0 filter) and
+  ``g1`` of a column or row pattern (the 1-D gain, ~0.89: the filter also removes the
+  long-wavelength share of a white column pattern). ARES solves Eq. 42 with these gains,
+  so the components estimate the sensor's white row/column/pixel patterns without the
+  filter's bias -- the principle of Appendix C.5, Eq. 86, which divides the 3.1 result by
+  0.96; with gains 1 the solution is exactly Eq. 43.
+* ``nonuniformity``: DSNU1288 (Eq. 66) and PRNU1288 (Eq. 67) and their .row/.col/.pix
+  parts (Section 8.3), each with its standard error (Gaussian sampling of a variance from
+  the number of columns, rows or pixels behind it) or an upper limit when the variance is
+  not above twice its SE.
+
+Pure numpy: no I/O.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+
+from .estimate import Estimate
+
+HIGHPASS_BORDER = {"4.0": 9, "3.1": 2, "none": 0}
+
+
+def smooth(img: np.ndarray, release: str = "4.0") -> np.ndarray:
+    """The low-pass of Section 8.1 (4.0: 7x7 box, 11x11 box, 3x3 binomial) or Eq. 84 (3.1:
+    5x5 box), separable, valid part only (the border of ``HIGHPASS_BORDER`` dropped: there
+    the filters would need pixels outside the image)."""
+    from scipy import ndimage
+
+    x = np.asarray(img, np.float64)
+    for ax in (0, 1):
+        if release == "4.0":
+            x = ndimage.uniform_filter1d(x, 7, axis=ax)
+            x = ndimage.uniform_filter1d(x, 11, axis=ax)
+            x = ndimage.correlate1d(x, [0.25, 0.5, 0.25], axis=ax)
+        elif release == "3.1":
+            x = ndimage.uniform_filter1d(x, 5, axis=ax)
+        else:
+            raise ValueError(f"unknown high-pass release {release!r}")
+    b = HIGHPASS_BORDER[release]
+    return x[b:-b, b:-b]
+
+
+def highpass(img: np.ndarray, release: str = "4.0") -> np.ndarray:
+    """Image minus its smoothed version (Section 8.1), border rows/columns dropped.
+    ``release="none"`` returns the image as float64 (the profiles of Section 8.7)."""
+    x = np.asarray(img, np.float64)
+    if release == "none":
+        return x
+    b = HIGHPASS_BORDER[release]
+    if x.shape[0] <= 2 * b + 2 or x.shape[1] <= 2 * b + 2:
+        raise ValueError(f"the {release} high-pass needs more than {2 * b + 2} rows and columns, "
+                         f"the image has {x.shape[0]} x {x.shape[1]}")
+    m = x.mean()  # the filters are linear: work on the deviations (better-conditioned sums)
+    return (x[b:-b, b:-b] - m) - smooth(x - m, release)
+
+
+def _kernel_1d(release: str) -> np.ndarray:
+    if release == "4.0":
+        k = np.convolve(np.convolve(np.full(7, 1 / 7), np.full(11, 1 / 11)), [0.25, 0.5, 0.25])
+    elif release == "3.1":
+        k = np.full(5, 1 / 5)
+    else:
+        return np.zeros(1)
+    return k
+
+
+def white_gains(release: str) -> tuple[float, float]:
+    """(g1, g2): the share of a white 1-D (row or column) and 2-D pattern's variance that the
+    high-pass keeps, sum h^2 for h = delta - smoothing kernel."""
+    if release == "none":
+        return 1.0, 1.0
+    k = _kernel_1d(release)
+    c = k.size // 2
+    g1 = 1.0 - 2.0 * k[c] + float(np.sum(k * k))
+    k2 = np.outer(k, k)
+    g2 = 1.0 - 2.0 * k2[c, c] + float(np.sum(k2 * k2))
+    return g1, g2
+
+
+@dataclass(frozen=True)
+class Split:
+    """Spatial variances of one (averaged) image, DN^2, and their SEs (Eqs. 37 - 44)."""
+
+    total: float
+    col: float
+    row: float
+    pix: float
+    se_total: float
+    se_col: float
+    se_row: float
+    se_pix: float
+    mean: float  # mean of the unfiltered image (Eq. 34)
+    rows: int  # M, N after the high-pass border
+    cols: int
+    L: int
+
+    def get(self, part: str) -> tuple[float, float]:
+        return getattr(self, part), getattr(self, "se_" + part)
+
+
+def temporal_parts(temporal_var: float, rows: int, cols: int, row_var: float | None = None,
+                   col_var: float | None = None) -> tuple[float, float, float]:
+    """(white pixel, row, column) temporal variances per image from the pixel temporal
+    variance and, when measured, the temporal variances of the row and column means (each
+    with the frame-global offset removed). Without them the temporal noise is taken as white
+    (the assumption behind Eqs. 39 - 41): row_var = var / N, col_var = var / M."""
+    t = float(temporal_var) if math.isfinite(temporal_var) else 0.0
+    if row_var is None or col_var is None or not (math.isfinite(row_var) and math.isfinite(col_var)):
+        return t, 0.0, 0.0
+    w = (t - row_var - col_var) / (1.0 - 1.0 / cols - 1.0 / rows)
+    return w, row_var - w / cols, col_var - w / rows
+
+
+def split(img: np.ndarray, temporal_var: float, L: int, release: str = "4.0", row_var: float | None = None,
+          col_var: float | None = None) -> Split:
+    """Column, row and pixel spatial variances of ``img`` (the average of ``L`` images whose
+    pixel temporal variance is ``temporal_var``), after the high-pass of ``release``
+    ("4.0", "3.1" or "none"). ``row_var``/``col_var``: the temporal variances of the row and
+    column means (frame offset removed) when measured -- then row- and column-correlated
+    temporal noise (which averaging over L images leaves as var/L) is not taken for a row or
+    column pattern; without them Eqs. 39 - 41 as written (white temporal noise)."""
+    x = np.asarray(img, np.float64)
+    mean = float(x.mean())
+    w, tr, tc = temporal_parts(temporal_var, x.shape[0], x.shape[1], row_var, col_var)
+    y = highpass(x, release)
+    M, N = y.shape
+    w, tr, tc = w / L, tr / L, tc / L  # residual temporal variance of the average (Eq. 36)
+    mu = y.mean()
+    s2_meas = float(np.mean((y - mu) ** 2))  # Eq. 35
+    cav = float(np.mean((y.mean(axis=0) - mu) ** 2))  # Eq. 41 (before the temporal term)
+    rav = float(np.mean((y.mean(axis=1) - mu) ** 2))
+    g1, g2 = white_gains(release)
+    # measured = A @ (col, row, pix) + temporal terms (Eq. 42 with the high-pass gains)
+    A = np.array([[g1, 0.0, g1 / M], [0.0, g1, g1 / N], [g1, g1, g2]])
+    b = np.array([cav - g1 * (tc + w / M), rav - g1 * (tr + w / N), s2_meas - g2 * w - g1 * (tr + tc)])
+    col, row, pix = np.linalg.solve(A, b)
+    # Gaussian sampling SEs: each average is a variance over N columns, M rows or MN pixels
+    noise = max(pix, 0.0) + w
+    se_col = math.sqrt(2.0 / max(N - 1, 1)) * (max(col, 0.0) + tc + noise / M)
+    se_row = math.sqrt(2.0 / max(M - 1, 1)) * (max(row, 0.0) + tr + noise / N)
+    se_pix = math.sqrt(2.0 / max(M * N - M - N, 1)) * noise
+    tot = col + row + pix  # Eq. 37
+    se_tot = math.sqrt(se_col**2 + se_row**2 + se_pix**2)
+    return Split(float(tot), float(col), float(row), float(pix), se_tot, se_col, se_row, se_pix, mean, M, N, L)
+
+
+PARTS = (("total", ""), ("col", ".col"), ("row", ".row"), ("pix", ".pix"))
+
+
+def _std_estimate(s2: float, se2: float, scale: float, scale_rel_se: float, unit: str, note: str) -> Estimate:
+    """sqrt(s2) * scale with its SE; an upper limit when s2 is not above 2 SE."""
+    if not math.isfinite(s2):
+        return Estimate.na("spatial variance not available", unit)
+    if s2 <= 2 * se2:
+        return Estimate.limit(math.sqrt(max(s2, 0.0) + 2 * se2) * scale, "upper", unit,
+                              note + f"; variance {s2:.3g} +- {se2:.2g} DN^2 is not above 2 SE")
+    s = math.sqrt(s2)
+    return Estimate(s * scale, s * scale * math.hypot(se2 / (2 * s2), scale_rel_se), unit, note)
+
+
+def dsnu(dark: Split, K: float, K_se: float) -> dict[str, Estimate]:
+    """DSNU1288 and its .col/.row/.pix parts in e- (Eq. 66), and the total in DN."""
+    out = {}
+    for part, suffix in PARTS:
+        s2, se2 = dark.get(part)
+        out["DSNU1288" + suffix.replace(".", "_")] = _std_estimate(
+            s2, se2, 1.0 / K, K_se / K, "e-", f"s_y.dark{suffix} / K (EMVA 1288 4.0 Linear Eq. 66)")
+    s2, se2 = dark.get("total")
+    out["DSNU1288_DN"] = _std_estimate(s2, se2, 1.0, 0.0, "DN", "s_y.dark (Eq. 66 x K)")
+    return out
+
+
+def prnu(bright: Split, dark: Split) -> dict[str, Estimate]:
+    """PRNU1288 and its parts in % (Eq. 67): sqrt(s2_y.50 - s2_y.dark) / (mu_y.50 - mu_y.dark)."""
+    sig = bright.mean - dark.mean
+    out = {}
+    for part, suffix in PARTS:
+        b, bse = bright.get(part)
+        d, dse = dark.get(part)
+        key = "PRNU1288" + suffix.replace(".", "_")
+        if sig <= 0:
+            out[key] = Estimate.na("the bright stack is not above the dark stack", "%")
+            continue
+        out[key] = _std_estimate(b - d, math.hypot(bse, dse), 100.0 / sig, 0.0, "%",
+                                 f"sqrt(s2_y.50{suffix} - s2_y.dark{suffix}) / (mu_y.50 - mu_y.dark) (Eq. 67)")
+    return out
+
+
+def snr_total_model(photons: np.ndarray, eta: float, sigma_d_e: float, dsnu_e: float, prnu_frac: float,
+                    K: float) -> np.ndarray:
+    """Total SNR model (Eq. 69): eta mu_p / sqrt(sigma_d^2 + DSNU^2 + sigma_q^2/K^2 + eta mu_p
+    + PRNU^2 (eta mu_p)^2)."""
+    e = eta * np.asarray(photons, float)
+    return e / np.sqrt(sigma_d_e**2 + dsnu_e**2 + (1 / 12) / K**2 + e + (prnu_frac * e) ** 2)
+
+
+def snr_model(photons: np.ndarray, eta: float, sigma_d_e: float, K: float) -> np.ndarray:
+    """Temporal SNR of the linear model (Eq. 21)."""
+    e = eta * np.asarray(photons, float)
+    return e / np.sqrt(sigma_d_e**2 + (1 / 12) / K**2 + e)
