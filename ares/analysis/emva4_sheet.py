@@ -204,6 +204,12 @@ def evaluate_linear(inp: EmvaInput, highpass_release: str = "4.0") -> EmvaSheet:
                   else Estimate.na("pixel size not given", "e-/µm²"))
     # spatial nonuniformity from the stacks (Sections 8.2, 8.3)
     sd, sb = inp.stack_dark, inp.stack_bright
+    if sd is not None:
+        try:
+            sd.split(highpass_release)
+        except ValueError as exc:  # smaller than the filter: the variances without it, said
+            notes.append(f"{exc}: DSNU1288/PRNU1288 are computed without the high-pass of Section 8.1")
+            highpass_release = "none"
     if sd is not None and K.available:
         dsplit = sd.split(highpass_release)
         v.update(dsnu(dsplit, K.value, K.se))
@@ -236,10 +242,7 @@ def evaluate_linear(inp: EmvaInput, highpass_release: str = "4.0") -> EmvaSheet:
     v.update(dark_current_4(t, mu, s2, K))
     curves = _curves(inp, pt, v, t, mu, s2)
     if sd is not None and "DSNU1288_DN" in v:
-        try:
-            curves.update(_stack_graphs(sd, sb, highpass_release, v))
-        except ValueError as exc:  # an image too small for the high-pass
-            notes.append(f"spatial graphs not available: {exc}")
+        curves.update(_stack_graphs(sd, sb, highpass_release, v))
     if inp.temperatures:
         curves["dark_vs_temperature"] = [(T, dark_current_4(tt, m, s, K)["mu_I_mean"])
                                          for T, tt, m, s in inp.temperatures]

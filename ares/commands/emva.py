@@ -127,7 +127,12 @@ def release31(res, stack_b, stack_d) -> dict:
         y = highpass(st.mean_image, "3.1")
         return float(np.var(y)) / 0.96**2 - st.temporal_var / st.L
 
-    d2, b2 = s2(stack_d), s2(stack_b)
+    try:
+        d2, b2 = s2(stack_d), s2(stack_b)
+    except ValueError as exc:  # smaller than the 5x5 filter
+        out["DSNU1288"] = Estimate.na(str(exc), "e-")
+        out["PRNU1288"] = Estimate.na(str(exc), "%")
+        return out
     sig = float(stack_b.mean_image.mean() - stack_d.mean_image.mean())
     out["DSNU1288"] = (Estimate(math.sqrt(d2) / K.value, math.sqrt(d2) / K.value * K.se / K.value, "e-",
                                 "s_y.dark after the 5x5 high-pass / 0.96, / K (Release 3.1, Appendix C.5)")

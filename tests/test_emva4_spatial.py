@@ -1,0 +1,206 @@
+"""EMVA 1288 Release 4.0 Linear, Sections 4.2 - 4.4, 7 and 8, against hand computations:
+small synthetic images whose answer is known in closed form."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+
+from ares.analysis import emva_graphs as graphs
+from ares.analysis.emva4_sheet import dark_current_4, pair_step
+from ares.analysis.emva_general import beta3, beta3_prime, bspline_fit
+from ares.analysis.emva_spatial import dsnu, highpass, prnu, smooth, split, white_gains
+from ares.analysis.estimate import Estimate
+from ares.analysis.levels import stack_moments
+
+RNG = np.random.default_rng(12)
+M, N = 96, 128
+
+
+def test_highpass_kernel_and_border():
+    """Section 8.1: 7x7 box, 11x11 box, 3x3 binomial, one after the other; a delta image
+    gives the kernel (19 x 19, sum 1, separable); 9 border rows/columns are dropped."""
+    img = np.zeros((41, 41))
+    img[20, 20] = 1.0
+    k1 = np.convolve(np.convolve(np.ones(7) / 7, np.ones(11) / 11), [0.25, 0.5, 0.25])
+    sm = smooth(img)
+    assert sm.shape == (23, 23)
+    np.testing.assert_allclose(sm[11 - 9:11 + 10, 11 - 9:11 + 10], np.outer(k1, k1), atol=1e-15)
+    assert highpass(np.ones((40, 50)) * 7).shape == (22, 32)
+    # a plane (illumination gradient) and a constant are removed exactly
+    y, x = np.mgrid[:M, :N]
+    np.testing.assert_allclose(highpass(100 + 0.3 * x - 0.2 * y), 0, atol=1e-9)
+    # a quadratic (vignetting) leaves only a constant, which the variances remove
+    hp = highpass(1000 - 0.01 * ((x - N / 2) ** 2 + (y - M / 2) ** 2))
+    assert np.ptp(hp) < 1e-8
+    with pytest.raises(ValueError, match="more than 20"):
+        highpass(np.ones((20, 50)))
+
+
+def test_white_noise_gains():
+    """sum h^2 of the high-pass: 2-D ~0.988 for 4.0, 0.96 for 3.1 (Appendix C.5: 1 - 2/25 + 1/25)."""
+    g1, g2 = white_gains("3.1")
+    assert g2 == pytest.approx(1 - 2 / 25 + 1 / 25)
+    assert g1 == pytest.approx(1 - 2 / 5 + 1 / 5)
+    g1, g2 = white_gains("4.0")
+    assert 0.85 < g1 < 0.9 and 0.985 < g2 < 0.99
+    assert white_gains("none") == (1.0, 1.0)
+
+
+@pytest.mark.parametrize("kind", ["row", "col"])
+def test_pure_line_pattern_gives_only_its_own_variance(kind):
+    """Eqs. 41 - 44 without the high-pass: a pure row pattern gives only s2_row (= its
+    variance, 1/M normalisation), likewise a column pattern; exact to rounding."""
+    if kind == "row":
+        v = RNG.normal(0, 2, M)
+        img = 50 + v[:, None] + np.zeros((M, N))
+    else:
+        v = RNG.normal(0, 2, N)
+        img = 50 + v[None, :] + np.zeros((M, N))
+    s = split(img, 0.0, 1, "none")
+    want = float(np.var(v))
+    for part in ("row", "col", "pix"):
+        assert getattr(s, part) == pytest.approx(want if part == kind else 0.0, abs=1e-9 * want)
+    assert s.total == pytest.approx(float(np.var(img)))
+
+
+def test_split_is_eq_44_by_hand():
+    """A mixed pattern: the three parts are Eq. 44 computed by hand from s2, s2_cav, s2_rav
+    (Eq. 41) with the temporal terms; a white pixel pattern lands in s2_pix."""
+    img = 7 + RNG.normal(0, 1, M)[:, None] + RNG.normal(0, 0.5, N)[None, :] + RNG.normal(0, 2, (M, N))
+    t, L = 3.0, 10
+    s = split(img, t, L, "none")
+    s2 = float(np.var(img)) - t / L
+    cav = float(np.var(img.mean(axis=0))) - t / (L * M)
+    rav = float(np.var(img.mean(axis=1))) - t / (L * N)
+    d = M * N - M - N
+    assert s.col == pytest.approx((M * N - M) / d * cav - N / d * (s2 - rav), rel=1e-9)
+    assert s.row == pytest.approx((M * N - N) / d * rav - M / d * (s2 - cav), rel=1e-9)
+    assert s.pix == pytest.approx(M * N / d * (s2 - cav - rav), rel=1e-9)
+    assert s.pix == pytest.approx(4.0 - t / L, abs=3 * s.se_pix)  # no temporal noise was added
+    assert s.row == pytest.approx(1.0, rel=0.3) and s.col == pytest.approx(0.25, rel=0.4)
+
+
+def test_two_images_give_eq_32():
+    """Eq. 32: the spatial variance from two images is (1/NM) sum (y0 - mu0)(y1 - mu1); the
+    L = 2 split of their average with the Eq. 18 variance gives it exactly."""
+    pattern = RNG.normal(0, 3, (M, N))
+    a = np.round(100 + pattern + RNG.normal(0, 2, (M, N)) + 0.7)  # frame offsets differ
+    b = np.round(100 + pattern + RNG.normal(0, 2, (M, N)))
+    eq32 = float(np.mean((a - a.mean()) * (b - b.mean())))
+    st = pair_step(a.astype(np.uint16), b.astype(np.uint16), 4095)
+    s = split((a + b) / 2, st[1].var, 2, "none")
+    assert s.total == pytest.approx(eq32, rel=1e-10)
+
+
+def test_temporal_residual_is_removed_and_line_noise_not_taken_for_a_pattern():
+    """A stack of pure temporal noise (no pattern at all) with row-correlated temporal noise:
+    the split of its average is ~0 in every part when the measured row/column temporal
+    variances are given (stack_moments), while the white-noise assumption of Eqs. 39 - 41
+    would report the row noise / L as a row pattern."""
+    L = 40
+    frames = [np.round(500 + RNG.normal(0, 2, (M, N)) + RNG.normal(0, 1.5, (M, 1))).astype(np.uint16)
+              for _ in range(L)]
+    st, avg, line = stack_moments(frames)
+    good = split(avg, line.pixel, L, "none", line.rows, line.cols)
+    naive = split(avg, st.s2_temporal, L, "none")
+    for part in ("row", "col", "pix"):
+        v, se = good.get(part)
+        assert abs(v) < 3 * se + 1e-3, (part, v, se)
+    assert naive.row > 5 * naive.se_row  # 1.5^2 / 40 left as a "row pattern"
+    assert naive.row == pytest.approx(1.5**2 / L, rel=0.35)
+
+
+def test_dsnu_prnu_closed_form():
+    """Eqs. 66/67 from known variances: DSNU = s_dark / K; PRNU = sqrt(s2_50 - s2_dark) /
+    (mu_50 - mu_dark); a variance within 2 SE of zero is an upper limit."""
+    dark = 10 + RNG.normal(0, 1.0, (M, N))
+    gainmap = 1 + RNG.normal(0, 0.01, (M, N))
+    bright = dark + 2000 * gainmap
+    K = 0.5
+    ds = split(dark, 0.0, 1000, "none")
+    bs = split(bright, 0.0, 1000, "none")
+    d = dsnu(ds, K, 0.0)
+    assert d["DSNU1288"].value == pytest.approx(math.sqrt(ds.total) / K)
+    assert d["DSNU1288_pix"].value == pytest.approx(math.sqrt(ds.pix) / K)
+    p = prnu(bs, ds)
+    assert p["PRNU1288"].value == pytest.approx(100 * math.sqrt(bs.total - ds.total) / (bs.mean - ds.mean))
+    assert p["PRNU1288"].value == pytest.approx(100 * np.std(2000 * gainmap) / 2000, rel=0.02)
+    flat = split(np.full((M, N), 5.0) + RNG.normal(0, 1e-3, (M, N)), 1.0, 100, "none")
+    lim = dsnu(flat, K, 0.0)["DSNU1288"]
+    assert lim.bound == "upper" and lim.value > 0
+
+
+def test_spectrogram_white_flat_and_periodic_peak():
+    """Eq. 71: white noise is flat at its variance; a column pattern a*cos(2 pi n f) puts a
+    peak at f whose Eq. 72 amplitude is a."""
+    w = RNG.normal(0, 2.0, (256, 256))
+    sp = graphs.spectrogram(w, "horizontal")
+    assert np.mean(sp.sqrt_power[1:] ** 2) == pytest.approx(4.0, rel=0.02)
+    n = np.arange(256)
+    img = 3.0 * np.cos(2 * np.pi * n * 32 / 256)[None, :] + np.zeros((64, 256))
+    sp = graphs.spectrogram(img, "horizontal")
+    assert sp.freq[np.argmax(sp.sqrt_power)] == pytest.approx(0.125)
+    power = np.concatenate([sp.sqrt_power**2, (sp.sqrt_power**2)[-2:0:-1]])  # full 0..N-1 spectrum
+    assert graphs.pattern_amplitude(power, 256, 32, 32) == pytest.approx(3.0, rel=1e-9)
+    v = graphs.spectrogram(img.T, "vertical")
+    np.testing.assert_allclose(v.sqrt_power, sp.sqrt_power)
+
+
+def test_profiles_middle_mean_max_min():
+    img = np.arange(5 * 4, dtype=float).reshape(5, 4)
+    p = graphs.profiles(img, "horizontal")
+    np.testing.assert_array_equal(p["middle"], img[2])  # row M // 2
+    np.testing.assert_array_equal(p["max"], img[4])
+    np.testing.assert_array_equal(p["min"], img[0])
+    q = graphs.profiles(img, "vertical")
+    np.testing.assert_array_equal(q["middle"], img[:, 2])
+    assert graphs.profile_range(p, "dsnu") == pytest.approx((0.9 * img[0].mean(), 1.1 * img[4].mean()))
+
+
+def test_log_histogram_bins_are_multiples_of_1_over_L_and_show_a_single_outlier():
+    """Eqs. 73 - 76: bin width I/L with I = floor(L (ymax - ymin) / 256) + 1, at most 256
+    bins, every pixel counted; one outlier pixel appears as a bin of 1."""
+    L = 50
+    img = np.round(RNG.normal(100, 1, (M, N)) * L) / L
+    img[3, 3] = 130.0
+    h = graphs.log_histogram(img, L)
+    I = math.floor(L * (img.max() - img.min()) / 256) + 1
+    assert h.width == pytest.approx(I / L)
+    assert h.counts.size <= 256 and h.counts.sum() == img.size
+    assert h.counts[-1] == 1
+    assert h.model.sum() == pytest.approx(img.size, rel=0.05)  # the normal density integrates to N M
+    acc = graphs.accumulated_histogram(img, L)
+    assert acc.count[0] == img.size and acc.count[-1] == 1
+    assert np.all(np.diff(acc.count) <= 0) and acc.percent[0] == pytest.approx(100)
+
+
+def test_dark_current_slopes_and_upper_limit():
+    """Section 7.1: slope of the dark mean / K and of the dark variance / K^2; a rate not
+    above its SE is reported as the upper limit mu_I + sigma_I."""
+    t = np.linspace(0.1, 0.6, 6)
+    K = Estimate(0.5, 0.0, "DN/e-")
+    out = dark_current_4(t, 10 + 0.5 * 20 * t, 4 + 0.25 * 20 * t, K)
+    assert out["mu_I_mean"].value == pytest.approx(20)
+    assert out["mu_I_var"].value == pytest.approx(20)
+    noisy = dark_current_4(t, 10 + RNG.normal(0, 0.01, 6), 4 + RNG.normal(0, 0.01, 6), K)
+    assert noisy["mu_I_mean"].bound == "upper" or not noisy["mu_I_mean"].available
+    few = dark_current_4(t[:5], t[:5], t[:5], K)
+    assert not few["mu_I_mean"].available and "6 exposure" in few["mu_I_mean"].note
+
+
+def test_bspline_is_exact_for_cubics_and_its_slope_too():
+    """General Eqs. 44 - 49: cubic B-splines reproduce a cubic polynomial exactly, and the
+    analytic slope (Eq. 48 with Eq. 49) is its derivative; the basis sums to one."""
+    x = np.linspace(0, 10, 60)
+    assert np.sum(beta3(np.linspace(-1, 1, 7)[:, None] - np.arange(-4, 5)), axis=1) == pytest.approx(1.0)
+    y = 1 + 2 * x - 0.3 * x**2 + 0.02 * x**3
+    f = bspline_fit(x, y, 6, 10.0)
+    np.testing.assert_allclose(f(x), y, atol=1e-9)
+    np.testing.assert_allclose(f.slope(x), 2 - 0.6 * x + 0.06 * x**2, atol=1e-8)
+    h = 1e-6
+    np.testing.assert_allclose(beta3_prime(np.array([-1.5, -0.5, 0.3, 1.2])),
+                               (beta3(np.array([-1.5, -0.5, 0.3, 1.2]) + h) - beta3(np.array([-1.5, -0.5, 0.3, 1.2]) - h))
+                               / (2 * h), atol=1e-6)
