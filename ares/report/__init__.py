@@ -4,7 +4,8 @@
   ``ptc.csv``, ``components.csv``, ``key_figures.csv`` (the per-stage table is the
   runner's ``summary.csv``), ``report.pdf`` and -- with "hdf5" in ``formats`` --
   ``report.h5`` (the same tables, linking the run's results.h5), written into the run
-  directory (or ``out_dir``).
+  directory (or ``out_dir``); a scan with the ``emva4`` analysis also gets
+  ``emva_datasheet.pdf`` and ``emva_datasheet.csv`` (EMVA 1288 Release 4.0).
 - ``key_figures(run_dir) -> dict``: ``{name: {label, value, se, unit, note, source}}``.
 
 A partial run (stopped, failed, killed) is reported as far as it goes and says so; a
@@ -49,8 +50,15 @@ def write_reports(run_dir, formats=DEFAULT_FORMATS, out_dir=None, *, pdf_path=No
         out.append(h5_export.write_h5(run, Path(h5_path) if h5_path else base / "report.h5", groups, kf))
     if "pdf" in formats:
         p = Path(pdf_path) if pdf_path else base / "report.pdf"
-        pdf.write_pdf(run, p, groups, kf)
+        emva = pdf.emva_sheet(run)
+        pdf.write_pdf(run, p, groups, kf, emva)
         out.append(p)
+        if emva is not None:  # the EMVA 1288 Release 4.0 datasheet on its own, next to the report
+            from ares.report import datasheet
+
+            ds = p.with_name("emva_datasheet.pdf")
+            datasheet.write_datasheet(emva[0], ds, emva[1])
+            out.append(ds)
     return out
 
 

@@ -91,4 +91,23 @@ def write_csv(run, out_dir: str | Path, groups=None, kf=None) -> list[Path]:
         _write(out / "levels.csv", to_csv([r for st in run.stages for r in tables.level_rows(st)],
                                           tables.LEVEL_COLUMNS)),
         _write(out / "key_figures.csv", to_csv(key_figure_rows(kf), KEY_FIGURE_COLUMNS)),
-    ]
+    ] + _emva_csv(run, out)
+
+
+EMVA_COLUMNS = ("release", "quantity", "symbol", "value", "se", "unit", "verdict", "definition")
+
+
+def _emva_csv(run, out: Path) -> list[Path]:
+    """``emva_datasheet.csv``: the EMVA 1288 Release 4.0 Linear and General values with the
+    standard's quantity names and units, when the scan ran the ``emva4`` analysis."""
+    a = run.analyses.get("emva4")
+    if not isinstance(a, dict) or "values" not in a:
+        return []
+    rows = []
+    for rel, vals in ((a.get("release", ""), a["values"]),
+                      ((a.get("general") or {}).get("release", ""), (a.get("general") or {}).get("values") or {})):
+        for k, v in vals.items():
+            rows.append({"release": rel, "quantity": k, "symbol": v.get("symbol", k), "value": v.get("value"),
+                         "se": v.get("se"), "unit": v.get("unit", ""), "verdict": v.get("verdict", ""),
+                         "definition": v.get("note", "")})
+    return [_write(out / "emva_datasheet.csv", to_csv(rows, EMVA_COLUMNS))]

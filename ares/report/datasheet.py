@@ -368,9 +368,10 @@ def general_pages(sheet, general) -> list[Figure]:
     a.set(xlabel="irradiation (photons/pixel)", ylabel="mean − dark value (DN)", title="Characteristic curve")
     a.legend(fontsize=6.5)
     b = fig.add_axes([0.1, 0.38, 0.8, 0.22])
-    ok = np.isfinite(g.snr_p) & (g.snr_p > 0) & (x > 0)
+    below = np.arange(x.size) <= (g.index_sat if g.index_sat is not None else x.size)  # clipped steps not drawn
+    ok = below & np.isfinite(g.snr_p) & (g.snr_p > 0) & (x > 0)
     b.loglog(x[ok], g.snr_p[ok], "o", ms=2.5, label="input SNR_p (Eq. 10)")
-    oky = np.isfinite(g.snr_y) & (g.snr_y > 0) & (x > 0)
+    oky = below & np.isfinite(g.snr_y) & (g.snr_y > 0) & (x > 0)
     b.loglog(x[oky], g.snr_y[oky], "^", ms=2.5, label="output SNR_y (Eq. 7)")
     b.loglog(x[x > 0], np.sqrt(x[x > 0]), ":", color="0.3", label="ideal sensor (Eq. 15)")
     b.axhline(1, color="0.6", lw=0.7)

@@ -240,7 +240,27 @@ def stages_pages(run) -> list:
     return figs
 
 
-def build_pages(run, groups=None, kf=None) -> list[tuple[str, object]]:
+def emva_sheet(run):
+    """(Release 4.0 Linear sheet, General result) when the scan ran the ``emva4`` analysis,
+    recomputed from the run's stage results and averaged images (the graphs need them);
+    None otherwise or when that fails (said in the report's notes)."""
+    if not scan_kinds.available(run, "emva4"):
+        return None
+    from ares.scan.emva4_analysis import evaluate
+    from ares.scan.rundir import load_run
+
+    try:
+        sheet, general, why = evaluate(load_run(run.dir))
+    except Exception as exc:  # noqa: BLE001 -- the rest of the report stands without these pages
+        run.notes.append(f"EMVA 1288 datasheet not drawn: {type(exc).__name__}: {exc}")
+        return None
+    if sheet is None:
+        run.notes.append(f"EMVA 1288 datasheet not drawn: {why}")
+        return None
+    return sheet, general
+
+
+def build_pages(run, groups=None, kf=None, emva=None) -> list[tuple[str, object]]:
     groups = tables.ptc_groups(run) if groups is None else groups
     kf = tables.compute_key_figures(run, groups) if kf is None else kf
     pages = [("title", title_page(run, kf))]
@@ -263,6 +283,10 @@ def build_pages(run, groups=None, kf=None) -> list[tuple[str, object]]:
         if st is dark:
             break
     pages += scan_kinds.pages(run, groups)
+    if emva is not None:  # the EMVA 1288 datasheet pages (also written alone as emva_datasheet.pdf)
+        from ares.report import datasheet
+
+        pages += datasheet.pages(*emva)
     pages += [("stages", f) for f in stages_pages(run)]
     for i, (_, fig) in enumerate(pages):
         fig.text(0.5, 0.012, f"{run.meta.get('scan_name', '')} · {run.dir.resolve().name} · page {i + 1} of "
@@ -271,7 +295,7 @@ def build_pages(run, groups=None, kf=None) -> list[tuple[str, object]]:
     return pages
 
 
-def write_pdf(run, path: str | Path, groups=None, kf=None) -> list[str]:
+def write_pdf(run, path: str | Path, groups=None, kf=None, emva=None) -> list[str]:
     """Write the report to ``path``; returns the page titles."""
     from matplotlib.backends.backend_pdf import PdfPages
 
@@ -279,7 +303,7 @@ def write_pdf(run, path: str | Path, groups=None, kf=None) -> list[str]:
     path.parent.mkdir(parents=True, exist_ok=True)
     tmp = path.with_name(path.name + ".tmp")
     with matplotlib.rc_context(plots.RC):
-        pages = build_pages(run, groups, kf)
+        pages = build_pages(run, groups, kf, emva)
         with PdfPages(tmp, metadata={"Title": f"ARES report {run.meta.get('scan_name', '')}",
                                      "Creator": "ares report"}) as pdf:
             for _, fig in pages:

@@ -13,7 +13,8 @@ import numpy as np
 from ares.report import plots, tables
 from ares.report.plots import new_page, text_table
 
-HANDLED = ("ptc", "decomposition", "dark_current", "temperature", "gain_split", "lag", "defects", "adc_linearity")
+HANDLED = ("ptc", "decomposition", "dark_current", "temperature", "gain_split", "lag", "defects", "adc_linearity",
+           "emva4")
 
 
 def available(run, name: str) -> dict | None:

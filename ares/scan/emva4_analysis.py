@@ -78,13 +78,26 @@ def _split(img, level: dict, comp: dict | None):
 
 def _meta(run) -> dict:
     m = run.meta or {}
-    sysm = run.system
-    sim = getattr(sysm, "simulator", None)
+    sim = getattr(getattr(run, "scan", None) and run.system, "simulator", None)
+    steps = [s for s in run.stages if s["scene"] == "flat" and s["group"] not in _EXCLUDED]
+    exps = sorted({s["settings"].get("exposure") for s in steps if s["settings"].get("exposure") is not None})
+    lights = sorted({s["settings"].get("light") for s in steps if s["settings"].get("light") is not None})
+    first = steps[0]["settings"] if steps else {}
+    temps = {s["settings"].get("temperature") for s in run.stages} - {None}
     started = str(m.get("started") or "")
     meta = {"source": f"run {run.dir.resolve().name if run.dir else ''} ({m.get('scan_name', '')})",
             "date": started[:10] or None, "vendor": "ARES simulator" if sim is not None else None,
             "model": m.get("system_name"), "serial": f"seed {m.get('seed')}" if sim is not None else None,
-            "type_of_data": "single", "exposure_control": "exposure time",
+            "type_of_data": "single",
+            "exposure_control": "exposure time (method I)" if len(exps) > 1 else "irradiance (method II)",
+            "exposure_time": (f"{1e3 * exps[0]:.3g} - {1e3 * exps[-1]:.3g} ms" if len(exps) > 1 else
+                              f"{1e3 * exps[0]:.3g} ms" if exps else None),
+            "gain_black_level": ", ".join(x for x in (
+                f"analog gain {first['analog_gain']:g}x" if first.get("analog_gain") is not None else "",
+                f"black level {first['black_level']:g} DN" if first.get("black_level") is not None else "") if x)
+            or None,
+            "env_temperature": ", ".join(f"{t:g} °C" for t in sorted(temps)) or None,
+            "irradiance": f"{lights[0]:g} photons/pixel/s" if len(lights) == 1 else None,
             "footer": f"ARES · scan {m.get('scan_name', '')} · system {m.get('system_name', '')}"}
     if sim is not None:
         from ares.sim import SensorParams

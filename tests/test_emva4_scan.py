@@ -1,0 +1,72 @@
+"""``scans/emva_4.xml``: the full Release 4.0 Linear measurement set recorded on the
+simulated sensor through the real Runner ends with the 4.0 datasheet -- a PDF laid out as
+Section 10.2 / Appendix G (summary sheet, then every mandatory graph of Table 1), a CSV and
+the JSON with the standard's quantity names and units, the release and the measurement
+date -- and its figures match the simulator's truth."""
+
+from __future__ import annotations
+
+import csv
+import json
+import math
+from pathlib import Path
+
+import pytest
+
+from ares.cli import main
+from pdftext import page_texts
+
+ROOT = Path(__file__).resolve().parents[1]
+
+
+@pytest.fixture(scope="module")
+def run_dir(tmp_path_factory):
+    out = tmp_path_factory.mktemp("emva4") / "run"
+    assert main(["run", str(ROOT / "scans" / "emva_4.xml"), "--out", str(out), "--seed", "3", "--quiet"]) == 0
+    return out
+
+
+def test_datasheet_pdf_follows_section_10_2(run_dir):
+    pages = page_texts(run_dir / "emva_datasheet.pdf")
+    first = pages[0]
+    for text in ("EMVA 1288", "Summary Sheet for Operation Point 1", "measurement date:", "Photon transfer",
+                 "Signal-to-noise ratio", "Quantum efficiency", "Overall system gain", "Temporal dark noise",
+                 "Absolute sensitivity threshold", "Saturation capacity", "Dynamic range",
+                 "Spatial nonuniformities", "DSNU1288.col", "PRNU1288.pix", "Linearity error", "Dark current",
+                 "Release 4.0 Linear", "Exposure control", "Gain, black level"):
+        assert text in first, text
+    body = " ".join(pages[1:])
+    for graph in ("Section 6.6", "Linearity error", "Dark current (Section 7)", "Section 8.6", "Section 8.7",
+                  "Section 8.8", "Accumulated log histogram", "General 6.6 - 6.8", "Measurement, release and notes"):
+        assert graph in body, graph
+    report = page_texts(run_dir / "report.pdf")
+    assert any("Summary Sheet for Operation Point 1" in p for p in report)  # also in the run's report
+
+
+def test_values_match_truth_and_carry_their_verdicts(run_dir):
+    res = json.loads((run_dir / "scan_results.json").read_text())["analyses"]["emva4"]
+    assert res["release"] == "EMVA 1288 Release 4.0 Linear"
+    assert res["meta"]["date"]  # the measurement date is stated
+    v = res["values"]
+    G = 70 * 1.5 / 250  # DN/e-: conversion gain x analog gain / ADC LSB of sim_sensor.xml
+    assert abs(v["K"]["value"] - G) < 4 * v["K"]["se"]
+    assert abs(v["QE"]["value"] - 60.0) < 4 * v["QE"]["se"]
+    assert "within the 0.1 - 0.2 %" in res["saturation"]  # the fine steps hit the Section 6.6 window
+    assert res["linear_model_holds"] is True
+    for k in ("mu_e_sat", "DR", "SNR_max", "LE", "DSNU1288_col", "PRNU1288_pix", "mu_I_mean", "mu_I_var"):
+        assert v[k]["verdict"] == "ok" and v[k]["se"] is not None and v[k]["se"] > 0, k
+    assert math.isclose(v["PRNU1288_pix"]["value"], 1.0, rel_tol=0.03)  # prnu_pct 1 %
+    gen = res["general"]["values"]
+    assert gen["mu_p_min"]["value"] == pytest.approx(v["mu_p_min"]["value"], rel=0.05)
+
+
+def test_csv_has_the_standard_names_and_units(run_dir):
+    rows = list(csv.DictReader((run_dir / "emva_datasheet.csv").open()))
+    by = {r["quantity"]: r for r in rows if r["release"].endswith("4.0 Linear")}
+    for k, unit in (("QE", "%"), ("K", "DN/e-"), ("K_inv", "e-/DN"), ("sigma_d", "e-"), ("mu_e_sat", "e-"),
+                    ("DR_db", "dB"), ("DSNU1288_row", "e-"), ("PRNU1288_col", "%"), ("LE", "%"),
+                    ("mu_I_mean", "e-/s"), ("mu_e_min_area", "e-/µm²")):
+        assert by[k]["unit"] == unit, k
+        assert by[k]["value"] and by[k]["verdict"] == "ok", k
+    assert by["sigma_d"]["symbol"] == "σd"
+    assert any(r["release"].endswith("4.0 General") for r in rows)
