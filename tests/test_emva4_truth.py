@@ -110,3 +110,19 @@ def test_nonlinear_sensor_flagged_by_linear_and_recovered_by_general():
     assert np.max(np.abs(fit - true) / np.maximum(se, 0.05)) < 4
     assert np.max(np.abs(true - tr["G"] * 0.6 * up)) > 100  # the curve is far from a line
     assert g.values["mu_p_min"].available and g.values["SNR_max"].available
+
+
+def test_dark_current_at_several_temperatures():
+    """Section 7.2: one dark-current series per temperature gives the dark current vs
+    temperature data of the datasheet (no doubling temperature: Release 4.0 dropped it)."""
+    import dataclasses
+
+    inp, tr, _ = simulate(11)
+    t = np.linspace(0.2, 1.2, 6)
+    K = tr["G"]
+    rates = {20.0: 2.0, 30.0: 4.0, 40.0: 8.0, 50.0: 16.0}  # e-/s
+    temps = [(T, t, 64 + K * r * t, 1.5 + K * K * r * t) for T, r in rates.items()]
+    sh = evaluate_linear(dataclasses.replace(inp, temperatures=temps))
+    got = dict(sh.curves["dark_vs_temperature"])
+    for T, r in rates.items():
+        assert got[T].value == pytest.approx(r, rel=0.01)

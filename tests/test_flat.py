@@ -119,7 +119,7 @@ def test_highpass_kernel_is_emva_smoothing():
     img = np.zeros((41, 41))
     img[20, 20] = 1.0
     hp = highpass_emva(img)
-    assert abs(hp.sum()) < 1e-12  # high-pass: zero DC gain
+    assert abs(hp.sum()) < 1e-6  # high-pass: zero DC gain (float32 between the filter passes)
     assert hp[20, 20] < 1 and hp[20, 20] > 0.95
     flat = np.full((30, 30), 7.0)
     assert np.allclose(highpass_emva(flat), 0)

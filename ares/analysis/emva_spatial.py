@@ -36,24 +36,33 @@ from .estimate import Estimate
 HIGHPASS_BORDER = {"4.0": 9, "3.1": 2, "none": 0}
 
 
-def smooth(img: np.ndarray, release: str = "4.0") -> np.ndarray:
+def smooth(img: np.ndarray, release: str = "4.0", border: str = "valid") -> np.ndarray:
     """The low-pass of Section 8.1 (4.0: 7x7 box, 11x11 box, 3x3 binomial) or Eq. 84 (3.1:
-    5x5 box), separable, valid part only (the border of ``HIGHPASS_BORDER`` dropped: there
-    the filters would need pixels outside the image)."""
+    5x5 box), separable. ``border="valid"``: only where the filters need no pixel outside
+    the image (``HIGHPASS_BORDER`` dropped); ``"reflect"``: the image's shape, reflected
+    edges (for normalized convolution of masked images). The one implementation of the
+    EMVA high-pass in ARES (``flat`` and ``masked`` use it too)."""
     from scipy import ndimage
 
     x = np.asarray(img, np.float64)
+    m = float(x.mean()) if x.size else 0.0
+    # centred, float32 between the passes (scipy sums in double): 1.7x faster, and the
+    # rounding (~1e-7 of the centred values) is far below any pattern a datasheet reports
+    x = (x - m).astype(np.float32)
+    mode = "reflect"
     for ax in (0, 1):
         if release == "4.0":
-            x = ndimage.uniform_filter1d(x, 7, axis=ax)
-            x = ndimage.uniform_filter1d(x, 11, axis=ax)
-            x = ndimage.correlate1d(x, [0.25, 0.5, 0.25], axis=ax)
+            x = ndimage.uniform_filter1d(x, 7, axis=ax, mode=mode)
+            x = ndimage.uniform_filter1d(x, 11, axis=ax, mode=mode)
+            x = ndimage.correlate1d(x, [0.25, 0.5, 0.25], axis=ax, mode=mode)
         elif release == "3.1":
-            x = ndimage.uniform_filter1d(x, 5, axis=ax)
+            x = ndimage.uniform_filter1d(x, 5, axis=ax, mode=mode)
         else:
             raise ValueError(f"unknown high-pass release {release!r}")
-    b = HIGHPASS_BORDER[release]
-    return x[b:-b, b:-b]
+    if border == "valid":
+        b = HIGHPASS_BORDER[release]
+        x = x[b:-b, b:-b]
+    return x.astype(np.float64) + m
 
 
 def highpass(img: np.ndarray, release: str = "4.0") -> np.ndarray:
@@ -66,11 +75,10 @@ def highpass(img: np.ndarray, release: str = "4.0") -> np.ndarray:
     if x.shape[0] <= 2 * b + 2 or x.shape[1] <= 2 * b + 2:
         raise ValueError(f"the {release} high-pass needs more than {2 * b + 2} rows and columns, "
                          f"the image has {x.shape[0]} x {x.shape[1]}")
-    m = x.mean()  # the filters are linear: work on the deviations (better-conditioned sums)
-    return (x[b:-b, b:-b] - m) - smooth(x - m, release)
+    return x[b:-b, b:-b] - smooth(x, release)
 
 
-def _kernel_1d(release: str) -> np.ndarray:
+def kernel_1d(release: str) -> np.ndarray:
     if release == "4.0":
         k = np.convolve(np.convolve(np.full(7, 1 / 7), np.full(11, 1 / 11)), [0.25, 0.5, 0.25])
     elif release == "3.1":
@@ -85,7 +93,7 @@ def white_gains(release: str) -> tuple[float, float]:
     high-pass keeps, sum h^2 for h = delta - smoothing kernel."""
     if release == "none":
         return 1.0, 1.0
-    k = _kernel_1d(release)
+    k = kernel_1d(release)
     c = k.size // 2
     g1 = 1.0 - 2.0 * k[c] + float(np.sum(k * k))
     k2 = np.outer(k, k)

@@ -45,10 +45,10 @@ from __future__ import annotations
 import math
 
 import numpy as np
-from scipy import ndimage
 
 from .accumulate import StackAccumulator
 from .anova import AnovaTable, anova_table
+from .emva_spatial import kernel_1d, smooth, white_gains
 from .estimate import Estimate
 
 __all__ = ["decompose_flat", "gain_na", "highpass_emva", "GAIN_NAMES", "two_way"]
@@ -62,34 +62,23 @@ def gain_na(reason: str = _DARK_ONLY) -> dict[str, Estimate]:
     return {k: Estimate.na(reason, units[k]) for k in GAIN_NAMES}
 
 
-def _lowpass_kernel_1d() -> np.ndarray:
-    k = np.array([1.0])
-    for part in (np.ones(7) / 7, np.ones(11) / 11, np.array([0.25, 0.5, 0.25])):
-        k = np.convolve(k, part)
-    return k  # length 19, centre index 9
-
-
-_L1 = _lowpass_kernel_1d()
+_L1 = kernel_1d("4.0")  # length 19, centre index 9
 _RAD = len(_L1) // 2
 
 
 def highpass_emva(img: np.ndarray) -> np.ndarray:
-    """EMVA 1288 4.0 high-pass: ``img - B3*B11*B7*img`` (reflecting borders)."""
+    """EMVA 1288 4.0 high-pass over the whole image: ``img - B3*B11*B7*img`` (reflecting
+    borders; ``emva_spatial.smooth``)."""
     img = np.asarray(img, np.float64)
-    low = ndimage.uniform_filter(img, 7, mode="reflect")
-    low = ndimage.uniform_filter(low, 11, mode="reflect")
-    low = ndimage.convolve1d(ndimage.convolve1d(low, [0.25, 0.5, 0.25], axis=0, mode="reflect"),
-                             [0.25, 0.5, 0.25], axis=1, mode="reflect")
-    return img - low
+    return img - smooth(img, "4.0", border="reflect")
 
 
 def _hp_factors():
+    k1, k2 = white_gains("4.0")
     h1 = -_L1.copy()
     h1[_RAD] += 1.0
-    k1 = float(h1 @ h1)
     h2 = -np.outer(_L1, _L1)
     h2[_RAD, _RAD] += 1.0
-    k2 = float((h2 * h2).sum())
     a1 = np.correlate(h1, h1, "full") / k1
     from scipy.signal import correlate2d
 
