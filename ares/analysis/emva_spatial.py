@@ -95,9 +95,9 @@ def white_gains(release: str) -> tuple[float, float]:
         return 1.0, 1.0
     k = kernel_1d(release)
     c = k.size // 2
-    g1 = 1.0 - 2.0 * k[c] + float(np.sum(k * k))
+    g1 = 1.0 - 2.0 * float(k[c]) + float(np.sum(k * k))
     k2 = np.outer(k, k)
-    g2 = 1.0 - 2.0 * k2[c, c] + float(np.sum(k2 * k2))
+    g2 = 1.0 - 2.0 * float(k2[c, c]) + float(np.sum(k2 * k2))
     return g1, g2
 
 

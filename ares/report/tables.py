@@ -446,13 +446,18 @@ ANALYSIS_LABELS = {
     "lag_pct": "image lag", "dnl_max_lsb": "DNL max", "dnl_min_lsb": "DNL min", "inl_max_lsb": "INL max",
     "inl_min_lsb": "INL min",
 }
-_PATH_NOISE = ("by_temperature", "cycles", "channels")
+_PATH_NOISE = ("by_temperature", "cycles", "channels", "values")
 
 
 def analysis_label(aname: str, key: str) -> str:
-    """``dark_current`` + ``by_temperature.40C.rate_e_per_s`` -> ``dark current (40C)``."""
+    """``dark_current`` + ``by_temperature.40C.rate_e_per_s`` -> ``dark current (40C)``;
+    ``emva4`` + ``values.sigma_d`` -> ``EMVA 1288 4.0 σd`` (the standard's symbols)."""
     parts = key.split(".")
     where = [p for p in parts[:-1] if p not in _PATH_NOISE]
+    if aname == "emva4":
+        from ares.analysis.emva4_sheet import SYMBOLS
+
+        return f"EMVA 1288 4.0 {'General ' if where[:1] == ['general'] else ''}{SYMBOLS.get(parts[-1], parts[-1])}"
     base = ANALYSIS_LABELS.get(parts[-1], f"{aname}: {parts[-1]}")
     return base + (f" ({' '.join(where)})" if where else "")
 

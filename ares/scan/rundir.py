@@ -388,7 +388,8 @@ def summary_csv(rows: list[dict]) -> bytes:
     w = csv.DictWriter(buf, fieldnames=cols, lineterminator="\n")
     w.writeheader()
     for r in rows:
-        w.writerow({k: ("" if v is None else (repr(v) if isinstance(v, float) else v)) for k, v in r.items()})
+        # repr(float(v)): a numpy scalar (np.float64 is a float) must not print as "np.float64(...)"
+        w.writerow({k: ("" if v is None else (repr(float(v)) if isinstance(v, float) else v)) for k, v in r.items()})
     return buf.getvalue().encode()
 
 
