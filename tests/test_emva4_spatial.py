@@ -195,7 +195,7 @@ def test_dark_current_slopes_and_upper_limit():
     noisy = dark_current_4(t, 10 + wiggle, 4 + wiggle, K)
     assert noisy["mu_I_mean"].bound == "upper" or not noisy["mu_I_mean"].available
     few = dark_current_4(t[:5], t[:5], t[:5], K)
-    assert not few["mu_I_mean"].available and "6 exposure" in few["mu_I_mean"].note
+    assert not few["mu_I_mean"].available and "6 distinct exposure" in few["mu_I_mean"].note
 
 
 def test_bspline_is_exact_for_cubics_and_its_slope_too():

@@ -49,13 +49,16 @@ def dark_current(exposure_s, dark_mean_dn, gain_dn_per_e: Estimate | float, dark
     lf = line_fit(t, m)
     rate_dn = Estimate(lf.slope, lf.slope_se, "DN/s", "slope of dark mean vs exposure")
     rate_e = _div(rate_dn, gain_dn_per_e, "e-/s", "slope of dark mean vs exposure / K")
-    if dark_var_dn2 is not None:
+    k = gain_dn_per_e.value if isinstance(gain_dn_per_e, Estimate) else float(gain_dn_per_e)
+    if dark_var_dn2 is not None and not (math.isfinite(k) and k > 0):
+        rv = Estimate.na("gain not available", "e-/s")
+    elif dark_var_dn2 is not None:
         lv = line_fit(t, np.asarray(dark_var_dn2, float))
-        k = gain_dn_per_e.value if isinstance(gain_dn_per_e, Estimate) else float(gain_dn_per_e)
         kse = gain_dn_per_e.se if isinstance(gain_dn_per_e, Estimate) and math.isfinite(gain_dn_per_e.se) else 0.0
         v = lv.slope / k**2
         se = math.hypot(lv.slope_se / k**2, 2 * v * kse / k)
-        rv = Estimate(v, se, "e-/s", "slope of dark temporal variance vs exposure / K^2 (cross-check)")
+        rv = Estimate(v, se, "e-/s", "slope of dark temporal variance vs exposure / K^2 (cross-check; EMVA 1288 "
+                                     "4.0 Section 7.1)")
     else:
         rv = Estimate.na("dark variances not given", "e-/s")
     return DarkCurrent(rate_dn, rate_e, rv, Estimate(lf.intercept, lf.intercept_se, "DN", "dark mean at t = 0"))

@@ -190,8 +190,8 @@ def emva4_linear(bright: Sequence[LevelStats], dark: Sequence[LevelStats], photo
     le_levels: list[int] = []
     dev = np.full(len(b), np.nan)
     if isat is None:
-        for k, u in (("mu_y_sat", "DN"), ("mu_p_sat", "photons"), ("mu_e_sat", "e-"), ("SNR_max", "1"),
-                     ("SNR_max_db", "dB"), ("DR", "1"), ("DR_db", "dB"), ("LE", "%")):
+        for k, u in (("mu_y_sat", "DN"), ("mu_p_sat", "photons"), ("mu_e_sat", "e-"), ("SNR_max", ""),
+                     ("SNR_max_db", "dB"), ("DR", ""), ("DR_db", "dB"), ("LE", "%")):
             v[k] = Estimate.na(sat_text, u)
         return Emva4Result(v, isat, fit, le_levels, sat_text, linear, dev, notes)
     n_b = b[isat]
@@ -208,18 +208,18 @@ def emva4_linear(bright: Sequence[LevelStats], dark: Sequence[LevelStats], photo
     v["mu_p_sat"] = est(y_sat / R, math.hypot(y_se / y_sat, R_se / R), "photons", "(mu_y.sat - mu_y.dark) / R")
     snr = math.sqrt(mu_e_sat)
     rel_snr = 0.5 * v["mu_e_sat"].se / mu_e_sat if not bound else 0.0
-    v["SNR_max"] = est(snr, rel_snr, "1", "sqrt(mu_e.sat) (Eq. 55)")
+    v["SNR_max"] = est(snr, rel_snr, "", "sqrt(mu_e.sat) (Eq. 55)")
     v["SNR_max_db"] = est(20 * math.log10(snr), 0.0, "dB", "20 log10 SNR_max") if bound else \
         Estimate(20 * math.log10(snr), 20 / math.log(10) * rel_snr, "dB", "20 log10 SNR_max")
     if v["mu_p_min"].bound:  # DR from an upper-limit threshold and the saturation: a lower limit
         dr = (y_sat / R) / v["mu_p_min"].value
-        v["DR"] = Estimate.limit(dr, "lower", "1", "mu_p.sat / mu_p.min (Eq. 28); mu_p.min is an upper limit")
+        v["DR"] = Estimate.limit(dr, "lower", "", "mu_p.sat / mu_p.min (Eq. 28); mu_p.min is an upper limit")
         v["DR_db"] = Estimate.limit(20 * math.log10(dr), "lower", "dB", "20 log10 DR")
     else:
         dr = (y_sat / R) / v["mu_p_min"].value
         rel = math.hypot(v["mu_p_sat"].se / v["mu_p_sat"].value if not bound else 0.0,
                          v["mu_p_min"].se / v["mu_p_min"].value)
-        v["DR"] = est(dr, rel, "1", "mu_p.sat / mu_p.min (Eq. 28)")
+        v["DR"] = est(dr, rel, "", "mu_p.sat / mu_p.min (Eq. 28)")
         v["DR_db"] = Estimate.limit(20 * math.log10(dr), bound, "dB", "20 log10 DR") if bound else \
             Estimate(20 * math.log10(dr), 20 / math.log(10) * rel, "dB", "20 log10 DR")
     lo, hi = LE_RANGE

@@ -27,10 +27,10 @@ from .levels import LevelStats, LineTemporal
 TABLE2 = (
     ("QE", "η", "%"), ("K", "K", "DN/e-"), ("K_inv", "1/K", "e-/DN"),
     ("sigma_y_dark", "σy.dark", "DN"), ("sigma_d", "σd", "e-"),
-    ("SNR_max", "SNRmax", "1"), ("SNR_max_db", "SNRmax", "dB"), ("SNR_max_inv", "1/SNRmax", "%"),
+    ("SNR_max", "SNRmax", ""), ("SNR_max_db", "SNRmax", "dB"), ("SNR_max_inv", "1/SNRmax", "%"),
     ("mu_e_min", "µe.min", "e-"), ("mu_e_min_area", "µe.min.area", "e-/µm²"),
     ("mu_e_sat", "µe.sat", "e-"), ("mu_e_sat_area", "µe.sat.area", "e-/µm²"),
-    ("DR", "DR", "1"), ("DR_db", "DR", "dB"),
+    ("DR", "DR", ""), ("DR_db", "DR", "dB"),
     ("DSNU1288", "DSNU1288", "e-"), ("DSNU1288_col", "DSNU1288.col", "e-"),
     ("DSNU1288_row", "DSNU1288.row", "e-"), ("DSNU1288_pix", "DSNU1288.pix", "e-"),
     ("PRNU1288", "PRNU1288", "%"), ("PRNU1288_col", "PRNU1288.col", "%"),
@@ -127,30 +127,19 @@ def _scaled(e: Estimate, f: float, unit: str, note: str) -> Estimate:
 
 
 def dark_current_4(t, mu, s2, K: Estimate, min_exposures: int = 6) -> dict[str, Estimate]:
-    """Section 7.1: slopes of the dark mean (DN/s, / K) and of the dark temporal variance
-    (DN^2/s, / K^2). A rate not above its SE is reported as the upper limit mu_I + sigma_I
-    (the text's rule for exposures too short to measure it)."""
-    from .ptc_fit import line_fit
+    """Section 7.1 (``ares.analysis.dark_current``): slopes of the dark mean (DN/s, / K) and
+    of the dark temporal variance (DN^2/s, / K^2). A rate not above its SE is reported as
+    the upper limit mu_I + sigma_I (the text's rule for exposures too short to measure it)."""
+    from .dark_current import dark_current
 
-    t = np.asarray(t, float)
+    dc = dark_current(t, mu, K, s2, min_exposures=min_exposures)
     out: dict[str, Estimate] = {}
-    n = np.unique(t).size
-    if n < min_exposures or not K.available:
-        why = (f"needs >= {min_exposures} exposure times (Section 7.1), has {n}" if n < min_exposures
-               else "K not available")
-        return {"mu_I_mean": Estimate.na(why, "e-/s"), "mu_I_var": Estimate.na(why, "e-/s")}
-    for key, y, power, what in (("mu_I_mean", mu, 1, "dark mean"), ("mu_I_var", s2, 2, "dark temporal variance")):
-        lf = line_fit(t, np.asarray(y, float))
-        k = K.value**power
-        val = lf.slope / k
-        se = math.hypot(lf.slope_se / k, power * val * K.se / K.value)
-        note = f"slope of the {what} vs exposure time / K{'^2' if power == 2 else ''} (Section 7.1)"
-        if val <= se:
-            out[key] = (Estimate.limit(val + se, "upper", "e-/s", note + "; not above its SE: upper limit mu_I + "
-                                                                         "sigma_I") if val + se > 0 else
-                        Estimate.na("dark signal does not grow with the exposure time", "e-/s"))
-        else:
-            out[key] = Estimate(val, se, "e-/s", note)
+    for key, e in (("mu_I_mean", dc.rate_e_per_s), ("mu_I_var", dc.rate_from_variance_e_per_s)):
+        if e.available and e.value <= e.se:
+            e = (Estimate.limit(e.value + e.se, "upper", "e-/s", e.note + "; not above its SE: upper limit mu_I + "
+                                                                         "sigma_I (Section 7.1)")
+                 if e.value + e.se > 0 else Estimate.na("dark signal does not grow with the exposure time", "e-/s"))
+        out[key] = e
     return out
 
 
@@ -192,7 +181,7 @@ def evaluate_linear(inp: EmvaInput, highpass_release: str = "4.0") -> EmvaSheet:
         v["K_inv"] = Estimate(1 / K.value, K.se / K.value**2, "e-/DN", "1 / K")
     else:
         v["K_inv"] = Estimate.na(K.note, "e-/DN")
-    snr = v.get("SNR_max", Estimate.na("", "1"))
+    snr = v.get("SNR_max", Estimate.na("", ""))
     v["SNR_max_inv"] = (Estimate.limit(100 / snr.value, "upper" if snr.bound == "lower" else "lower", "%",
                                        "1 / SNR_max") if snr.bound else
                         Estimate(100 / snr.value, 100 * snr.se / snr.value**2, "%", "1 / SNR_max")) \

@@ -162,8 +162,8 @@ def emva_general(bright: list[LevelStats], dark: list[LevelStats], photons, mean
     snr_p = np.full(up.size, np.nan)
     if use.size + 1 <= P + 3:
         na = f"needs more than {P + 3} levels up to saturation for a {P}-interval B-spline, has {use.size}"
-        for k, u in (("mu_p_min", "photons"), ("mu_p_sat", "photons"), ("DR", "1"), ("DR_db", "dB"),
-                     ("SNR_max", "1"), ("SNR_max_db", "dB"), ("sigma_d", "photons"), ("R_d", "DN/photon")):
+        for k, u in (("mu_p_min", "photons"), ("mu_p_sat", "photons"), ("DR", ""), ("DR_db", "dB"),
+                     ("SNR_max", ""), ("SNR_max_db", "dB"), ("sigma_d", "photons"), ("R_d", "DN/photon")):
             v[k] = Estimate.na(na, u)
         return GeneralResult(v, None, up, sig, sy, snr_y, snr_p, md, isat, sat_text, notes)
     x_max = float(up[top])
@@ -204,10 +204,10 @@ def emva_general(bright: list[LevelStats], dark: list[LevelStats], photons, mean
     j = int(np.nanargmax(np.where(ok[: top + 1], snr_p[: top + 1], -np.inf)))
     smax = float(snr_p[j])
     smax_se = smax * math.sqrt(1.0 / max(b[j].dof, 1) * 0.5 + (float(curve.se(up[j], True)) / slope[j]) ** 2)
-    v["SNR_max"] = Estimate(smax, smax_se, "1", f"largest SNR_p (level {j}, Section 6.8)")
+    v["SNR_max"] = Estimate(smax, smax_se, "", f"largest SNR_p (level {j}, Section 6.8)")
     v["SNR_max_db"] = Estimate(20 * math.log10(smax), 20 / math.log(10) * smax_se / smax, "dB", "20 log10 SNR_max")
     if isat is None:
-        for key, u in (("mu_p_sat", "photons"), ("DR", "1"), ("DR_db", "dB")):
+        for key, u in (("mu_p_sat", "photons"), ("DR", ""), ("DR_db", "dB")):
             v[key] = Estimate.na(sat_text, u)
     else:
         psat = float(up[isat])
@@ -217,13 +217,13 @@ def emva_general(bright: list[LevelStats], dark: list[LevelStats], photons, mean
         if mn.available:
             dr = psat / mn.value
             if mn.bound == "upper" or bound:
-                v["DR"] = Estimate.limit(dr, "lower", "1", "mu_p.sat / mu_p.min (General Eq. 21)")
+                v["DR"] = Estimate.limit(dr, "lower", "", "mu_p.sat / mu_p.min (General Eq. 21)")
                 v["DR_db"] = Estimate.limit(20 * math.log10(dr), "lower", "dB", "20 log10 DR")
             else:
                 rel = mn.se / mn.value
-                v["DR"] = Estimate(dr, dr * rel, "1", "mu_p.sat / mu_p.min (General Eq. 21)")
+                v["DR"] = Estimate(dr, dr * rel, "", "mu_p.sat / mu_p.min (General Eq. 21)")
                 v["DR_db"] = Estimate(20 * math.log10(dr), 20 / math.log(10) * rel, "dB", "20 log10 DR")
         else:
-            v["DR"] = Estimate.na("mu_p.min not available", "1")
+            v["DR"] = Estimate.na("mu_p.min not available", "")
             v["DR_db"] = Estimate.na("mu_p.min not available", "dB")
     return GeneralResult(v, curve, up, sig, sy, snr_y, snr_p, md, isat, sat_text, notes)

@@ -165,7 +165,7 @@ def summary_page(sheet) -> Figure:
             if e is None:
                 continue
             fig.text(0.645, y, SYMBOLS.get(k, k), fontsize=7.2, va="top")
-            unit = "" if UNITS[k] == "1" else " " + UNITS[k]
+            unit = " " + UNITS[k] if UNITS[k] else ""
             fig.text(0.93, y, value_text(e) + (unit if e.available else ""), fontsize=7.2, va="top",
                      ha="right", family="monospace")
             y -= 0.0135
