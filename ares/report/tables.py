@@ -324,8 +324,10 @@ def mid_stage(run) -> dict | None:
 
 
 def dark_stage(run) -> dict | None:
-    """The first dark stage (the one a PTC reuses as its matched dark)."""
-    return next((s for s in run.stages if s.get("scene") == "dark"), None)
+    """The first dark stage (the one a PTC reuses as its matched dark); a sensor test
+    pattern (``test_mode`` set and not 0, e.g. the ADC ramp) is not a dark image."""
+    return next((s for s in run.stages if s.get("scene") == "dark"
+                 and not (s.get("settings") or {}).get("test_mode")), None)
 
 
 # ------------------------------------------------------------------ key figures
