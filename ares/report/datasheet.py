@@ -268,6 +268,11 @@ def spatial_steps_page(sheet) -> Figure | None:
     return fig
 
 
+def _panel(fig: Figure, k: int):
+    """The k-th of four stacked full-width graphs of a detail page."""
+    return fig.add_axes([0.1, 0.72 - 0.215 * k, 0.8, 0.16])
+
+
 def spectrogram_page(sheet) -> Figure | None:
     c = sheet.curves
     if "spectrogram_dsnu_h" not in c:
@@ -281,7 +286,7 @@ def spectrogram_page(sheet) -> Figure | None:
     for k, (key, title, lines, unit) in enumerate(specs):
         if key not in c:
             continue
-        ax = fig.add_axes([0.1, 0.72 - 0.215 * k, 0.8, 0.16])
+        ax = _panel(fig, k)
         s = c[key]
         ax.semilogy(s.freq[1:], np.maximum(s.sqrt_power[1:], 1e-6), lw=0.6, color="C0", label="mono data")
         ln = c[lines]
@@ -310,7 +315,7 @@ def profiles_page(sheet) -> Figure | None:
     for k, (key, title, kind) in enumerate(specs):
         if key not in c:
             continue
-        ax = fig.add_axes([0.1, 0.72 - 0.215 * k, 0.8, 0.16])
+        ax = _panel(fig, k)
         p = c[key]
         for name, col in (("mean", "C0"), ("middle", "C1"), ("max", "C3"), ("min", "C2")):
             ax.plot(p[name], lw=0.5, color=col, label=name)
@@ -331,7 +336,7 @@ def histogram_page(sheet) -> Figure | None:
         h = c.get(f"hist_{kind}")
         if h is None:
             continue
-        ax = fig.add_axes([0.1, 0.72 - 0.215 * k, 0.8, 0.16])
+        ax = _panel(fig, k)
         k += 1
         pos = h.counts > 0
         ax.semilogy(h.centers[pos], h.counts[pos], ".", ms=3, color="C0", label="mono data")
@@ -344,7 +349,7 @@ def histogram_page(sheet) -> Figure | None:
         a = c.get(f"acc_{kind}")
         if a is None:
             continue
-        ax = fig.add_axes([0.1, 0.72 - 0.215 * k, 0.8, 0.16])
+        ax = _panel(fig, k)
         k += 1
         pos = a.count > 0
         ax.semilogy(a.deviation[pos], a.percent[pos], "-", lw=0.9, color="C0")
