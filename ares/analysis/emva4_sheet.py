@@ -98,24 +98,23 @@ def pair_step(a: np.ndarray, b: np.ndarray, max_code: int | None):
     (Release 3.0 ``LevelStats``, Release 4.0 ``LevelStats`` (Eq. 18), the averaged image's
     spatial variances (Eq. 32 with the 4.0 high-pass; unfiltered when the image is smaller
     than the filter), mu[0] - mu[1])."""
-    from .levels import pair_stats
+    from .levels import pair_moments
 
-    s3 = pair_stats(a, b, max_code, offset_correction=False)
-    s4 = pair_stats(a, b, max_code, offset_correction=True)
-    a64 = np.asarray(a, np.float64)
-    avg = (a64 + b) * 0.5
-    d = a64 - b
-    d -= d.mean()  # the frame-global offset removed
-    rv = float(np.mean(d.mean(axis=1) ** 2)) / 2  # temporal variance of the row / column means
-    cv = float(np.mean(d.mean(axis=0) ** 2)) / 2
+    pm = pair_moments(a, b, max_code)
+    s3, s4 = pm.stats(False), pm.stats(True)
+    M, N = pm.avg.shape
+    # temporal variance of the row / column means with the frame-global offset removed
+    dr = np.mean(a, axis=1, dtype=np.float64) - np.mean(b, axis=1, dtype=np.float64)
+    dc = np.mean(a, axis=0, dtype=np.float64) - np.mean(b, axis=0, dtype=np.float64)
+    rv = float(np.var(dr)) / 2
+    cv = float(np.var(dc)) / 2
     try:
-        sp = split(avg, s4.var, 2, "4.0", rv, cv)
+        sp = split(pm.avg, s4.var, 2, "4.0", rv, cv)
     except ValueError:
-        sp = split(avg, s4.var, 2, "none", rv, cv)
-    M, N = avg.shape
+        sp = split(pm.avg, s4.var, 2, "none", rv, cv)
     _, R, C = temporal_parts(s4.var, M, N, rv, cv)  # row/column-correlated temporal parts
     s4 = dataclasses.replace(s4, line_var2=2 * max(R, 0.0) ** 2 / M + 2 * max(C, 0.0) ** 2 / N)
-    return s3, s4, sp, float(np.mean(a, dtype=np.float64)) - float(np.mean(b, dtype=np.float64))
+    return s3, s4, sp, (pm.sa - pm.sb) / pm.n
 
 
 def _scaled(e: Estimate, f: float, unit: str, note: str) -> Estimate:

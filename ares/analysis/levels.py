@@ -52,9 +52,29 @@ def _clip_fractions(frames: np.ndarray, max_code: int | None) -> tuple[float, fl
     return float(np.count_nonzero(frames >= max_code)) / n, at_min
 
 
-def pair_stats(a: np.ndarray, b: np.ndarray, max_code: int | None = None,
-               offset_correction: bool = True) -> LevelStats:
-    """Mean and temporal variance of a flat (or dark) pair."""
+@dataclass(frozen=True)
+class PairMoments:
+    """One visit of a two-image level: exact sums, clip fractions and the averaged image,
+    from which both releases' statistics follow (``stats``)."""
+
+    sa: float
+    sb: float
+    sdd: float  # sum of (a - b)^2, exact for integer data
+    n: int
+    fmax: float
+    fmin: float
+    avg: np.ndarray  # (a + b) / 2, float64
+
+    def stats(self, offset_correction: bool = True) -> LevelStats:
+        mu_a, mu_b = self.sa / self.n, self.sb / self.n
+        var = self.sdd / self.n / 2.0
+        if offset_correction:
+            var -= (mu_a - mu_b) ** 2 / 2.0
+        spatial = float(np.var(self.avg, ddof=1)) - var / 2.0
+        return LevelStats((self.sa + self.sb) / (2.0 * self.n), var, self.n, 2, self.fmax, self.fmin, spatial)
+
+
+def pair_moments(a: np.ndarray, b: np.ndarray, max_code: int | None = None) -> PairMoments:
     a = np.asarray(a)
     b = np.asarray(b)
     if a.shape != b.shape:
@@ -63,21 +83,22 @@ def pair_stats(a: np.ndarray, b: np.ndarray, max_code: int | None = None,
         ai, bi = a.astype(np.int64), b.astype(np.int64)
         d = ai - bi
         sa, sb = int(ai.sum()), int(bi.sum())
-        sdd = int(np.sum(d * d))
+        sdd = int(np.dot(d.ravel(), d.ravel()))
     else:
         ai, bi = a.astype(np.float64), b.astype(np.float64)
         d = ai - bi
         sa, sb = float(ai.sum()), float(bi.sum())
-        sdd = float(np.sum(d * d))
-    n = a.size
-    mu_a, mu_b = sa / n, sb / n
-    var = sdd / n / 2.0
-    if offset_correction:
-        var -= (mu_a - mu_b) ** 2 / 2.0
-    fmax, fmin = _clip_fractions(np.stack([a, b]), max_code)
-    avg = (ai + bi).astype(np.float64) * 0.5
-    spatial = float(np.var(avg, ddof=1)) - var / 2.0
-    return LevelStats((sa + sb) / (2.0 * n), var, n, 2, fmax, fmin, spatial)
+        sdd = float(np.dot(d.ravel(), d.ravel()))
+    fa, fb = _clip_fractions(a, max_code), _clip_fractions(b, max_code)
+    avg = (ai + bi).astype(np.float64)
+    avg *= 0.5
+    return PairMoments(sa, sb, sdd, a.size, (fa[0] + fb[0]) / 2, (fa[1] + fb[1]) / 2, avg)
+
+
+def pair_stats(a: np.ndarray, b: np.ndarray, max_code: int | None = None,
+               offset_correction: bool = True) -> LevelStats:
+    """Mean and temporal variance of a flat (or dark) pair."""
+    return pair_moments(a, b, max_code).stats(offset_correction)
 
 
 def stack_stats(stack: np.ndarray, max_code: int | None = None,
