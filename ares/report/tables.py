@@ -397,7 +397,7 @@ def compute_key_figures(run, groups: list[PtcGroup] | None = None) -> dict:
                                                                          s.note), "PTC recomputed")
             fwv = fw.get("saturation_capacity")
             if fwv is not None and fwv.available:
-                kf["snr_max_emva"] = _entry("SNR max = sqrt(saturation capacity) (EMVA 1288 4.0 Eq. 55)",
+                kf["snr_max_emva"] = _entry("SNR max (EMVA 1288 4.0 Eq. 55)",
                                             Estimate(math.sqrt(fwv.value), fwv.se / (2 * math.sqrt(fwv.value))
                                                      if math.isfinite(fwv.se) else math.nan, "",
                                                      "sqrt(saturation capacity)"), "PTC recomputed")
@@ -405,9 +405,14 @@ def compute_key_figures(run, groups: list[PtcGroup] | None = None) -> dict:
                 kf[f"noise_model.{k}"] = _entry({"sensor_noise_e": "sensor noise (total-noise model)",
                                                   "prnu_pct": "PRNU (total-noise model)"}.get(k, k), e,
                                                  "PTC recomputed")
-        kf["qe"] = _entry("quantum efficiency", pick("qe", res and res.qe), src)
+        q = pick("qe", res and res.qe)
+        if q.available and q.unit in ("", "1"):  # a fraction: shown in % as a datasheet does
+            q = Estimate(100 * q.value, 100 * q.se, "%", q.note)
+        kf["qe"] = _entry("quantum efficiency", q, src)
         kf["linearity_error_pct"] = _entry("linearity error",
                                            pick("linearity_error_pct", res and res.linearity_error_pct), src)
+    gk = kf.get("gain_dn_per_e")
+    kf.update(nonuniformity_figures(run, est(gk) if gk and gk["value"] is not None else None))
     if not run.complete and kf:
         for k, v in kf.items():
             if k.startswith(("full_well", "dynamic_range", "snr_max")) and v["value"] is not None:
@@ -437,6 +442,38 @@ def compute_key_figures(run, groups: list[PtcGroup] | None = None) -> dict:
                                                                       "all classes (see the defects page)"),
                                          "scan_results.json: defects")
     return kf
+
+
+def nonuniformity_figures(run, gain: Estimate | None) -> dict:
+    """DSNU (e-, from the pixel offset FPN Ps of the dark stack) and PRNU (% rms, from the
+    pixel gain spread Pg) of the mid-level stage, defect pixels excluded when the runner
+    masked them; each with its SE or the reason it is not available."""
+    st = mid_stage(run)
+    if st is None:
+        return {}
+    full = st["views"]["full"]
+    comp = full.get("components_masked") or full.get("components") or {}
+    which = "defect pixels excluded" if full.get("components_masked") else "all pixels"
+    out = {}
+    ps, pg = comp.get("Ps"), comp.get("Pg")
+    if (gain is None or not gain.available) and (comp.get("G") or {}).get("value") is not None:
+        gain = est(comp["G"])  # the stage's own gain (flat minus dark) when no PTC measured K
+    if ps and ps.get("value") is not None and gain is not None and gain.available:
+        v, se = ps["value"], ps.get("se") or math.nan
+        if v > 0:
+            d = math.sqrt(v) / gain.value
+            dse = d * math.hypot(se / (2 * v), gain.se / gain.value if math.isfinite(gain.se) else 0.0)
+            e = Estimate(d, dse, "e-", f"sqrt(Ps) / K at stage {st['name']} ({which})")
+        else:
+            e = Estimate.na(f"pixel offset FPN not above 0 at stage {st['name']}", "e-")
+        out["dsnu_e"] = _entry("DSNU (pixel offset FPN)", e, f"stage {st['name']}")
+    if pg and pg.get("value") is not None:
+        v, se = pg["value"], pg.get("se") or math.nan
+        e = (Estimate(100 * math.sqrt(v), 100 * se / (2 * math.sqrt(v)), "%", f"pixel gain spread at stage "
+                      f"{st['name']} ({which})") if v > 0 else
+             Estimate.na(f"pixel gain spread not above 0 at stage {st['name']}", "%"))
+        out["prnu_pct"] = _entry("PRNU (pixel gain spread)", e, f"stage {st['name']}")
+    return out
 
 
 ANALYSIS_LABELS = {
