@@ -56,9 +56,9 @@ PUBLISHED = {"K": 0.280769, "sigma_y_dark": 3.07342, "DSNU1288": 0.5518, "PRNU12
 
 
 @pytest.fixture(scope="module")
-def reference_run():
+def reference_run(tmp_path_factory):
     scan = load_scan(SCAN)
-    outcome = Runner(scan).run()
+    outcome = Runner(scan, out_dir=tmp_path_factory.mktemp("emva_ref") / "run").run()
     assert outcome.status == "done"
     return outcome
 
@@ -79,6 +79,25 @@ def test_emva_reference_scan_reproduces_published_values(reference_run):
     # photons = light x exposure (the recorded irradiance is within 0.2 % of the light level)
     assert r["QE"]["value"] == pytest.approx(PUBLISHED["QE"], rel=2e-3)
     assert r["u_e_sat"]["value"] == pytest.approx(PUBLISHED["u_e_sat"], rel=2e-3)
+
+
+@need_data
+def test_emva_reference_scan_gives_the_descriptor_datasheet(reference_run):
+    """The scan-level ``emva4`` analysis on the replayed stages gives the Release 4.0 set
+    ``ares emva`` gives on the descriptor: photon-transfer figures to 1e-4 (photons are
+    light x exposure here, the descriptor's counts there), spatial figures within their SE
+    (the scan takes the row/column temporal noise from the stages' ANOVA components, the
+    descriptor from the frames' row and column means)."""
+    from ares.commands.emva import analyse_descriptor
+
+    scan = reference_run.scan_results["emva4"]["values"]
+    desc = analyse_descriptor(DESCRIPTOR).sheet.values
+    for k in ("K", "QE", "sigma_y_dark", "sigma_d", "mu_e_min", "mu_p_min", "mu_e_sat", "SNR_max", "DR",
+              "mu_I_mean", "mu_I_var"):
+        assert scan[k]["value"] == pytest.approx(desc[k].value, rel=1e-4), k
+        assert scan[k]["verdict"] == desc[k].verdict, k
+    for k in ("PRNU1288", "PRNU1288_col", "PRNU1288_row", "PRNU1288_pix", "DSNU1288_col", "LE"):
+        assert abs(scan[k]["value"] - desc[k].value) < desc[k].se, k
 
 
 @need_data

@@ -74,6 +74,7 @@ class EmvaInput:
     temperatures: list[tuple[float, np.ndarray, np.ndarray, np.ndarray]] | None = None  # Section 7.2
     pixel_area_um2: float | None = None
     meta: dict = field(default_factory=dict)  # vendor, model, date, wavelength_nm, operating point ...
+    notes: list[str] = field(default_factory=list)  # what the reader of the input noticed
 
 
 @dataclass
@@ -174,7 +175,7 @@ def evaluate_linear(inp: EmvaInput, highpass_release: str = "4.0") -> EmvaSheet:
     """Every Release 4.0 Linear figure of Table 2 with its SE or verdict, and the graph data."""
     pt = emva4_linear(inp.bright, inp.dark, inp.photons, dark_exposure_s=inp.exposure_s)
     v = dict(pt.values)
-    notes = list(pt.notes)
+    notes = list(inp.notes) + list(pt.notes)
     K = v["K"]
     if K.available:
         v["K_inv"] = Estimate(1 / K.value, K.se / K.value**2, "e-/DN", "1 / K")

@@ -153,24 +153,31 @@ def build_input(run):
         exp = float(st["settings"].get("exposure") or math.nan)
         full = st["views"]["full"]
         arr = run.arrays(st["index"])
-        stack_b = _stack(arr["mean"], full["level"], full.get("flat_anova"),
-                         float(st["settings"].get("light") or 0) * exp, exp)
+        if "mean" in arr:  # the averaged images are in results.h5 (none for a run without a directory)
+            stack_b = _stack(arr["mean"], full["level"], full.get("flat_anova"),
+                             float(st["settings"].get("light") or 0) * exp, exp)
         if "dark_mean" in arr:
             stack_d = _stack(arr["dark_mean"], full["dark_level"], full.get("components"), 0.0, exp)
         else:
             ds = [s for s in run.stages if s["scene"] == "dark" and s["group"] == SPATIAL_GROUP + "_dark"
                   and s["settings"].get("exposure") == st["settings"].get("exposure")]
-            if ds:
+            darr = run.arrays(ds[0]["index"]) if ds else {}
+            if "mean" in darr:
                 f = ds[0]["views"]["full"]
-                stack_d = _stack(run.arrays(ds[0]["index"])["mean"], f["level"], f.get("components"), 0.0, exp)
+                stack_d = _stack(darr["mean"], f["level"], f.get("components"), 0.0, exp)
     series = _dark_series(run)
     meta = _meta(run)
     pitch = meta.pop("pixel_pitch_um", None)
     inp = EmvaInput(photons, texp, bright, dark, splits if len(splits) == len(steps) else None, np.array(diffs),
-                    stack_d, stack_b if stack_d is not None else None,
+                    stack_d if stack_b is not None else None, stack_b if stack_d is not None else None,
                     dark_series=series.pop(None, None) or (next(iter(series.values())) if len(series) == 1 else None),
                     temperatures=[(T, *v) for T, v in sorted(series.items())] if len(series) >= 2 else None,
                     pixel_area_um2=pitch * pitch if pitch else None, meta=meta)
+    if sp and (stack_b is None or stack_d is None):
+        inp.notes.append("the averaged images of the Section 8 stacks are not stored (a run without a run "
+                         "directory, or its results.h5 lacks them): no DSNU1288/PRNU1288")
+    if len(splits) != len(steps):
+        inp.notes.append("the per-step averaged images are not stored: no spatial variances per exposure step")
     return inp, ""
 
 
