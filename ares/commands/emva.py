@@ -171,7 +171,7 @@ def format_table(an: EmvaAnalysis) -> str:
     return "\n".join(lines)
 
 
-def write_pdf(an: EmvaAnalysis, out: Path) -> None:
+def write_pdf(an: EmvaAnalysis, out: Path, release: str = "3.0") -> None:
     import numpy as np
 
     from ares.analysis.emva1288 import REFERENCE_NAMES
@@ -201,9 +201,10 @@ def write_pdf(an: EmvaAnalysis, out: Path) -> None:
         ax[1, 0].set(xlabel="photons per pixel", ylabel="deviation [%]", title="Linearity error",
                      ylim=(-5, 5))
         ax[1, 1].axis("off")
-        text = "\n".join(f"{k:<13} {an.emva.values[k].text()}" for k in REFERENCE_NAMES)
+        vals = an.release31 if release == "3.1" and an.release31 else an.emva.values
+        text = "\n".join(f"{k:<13} {vals[k].text()}" for k in REFERENCE_NAMES if k in vals)
         ax[1, 1].text(0, 1, text, family="monospace", va="top", fontsize=9)
-        fig.suptitle(f"EMVA 1288 (Release 3.0): {an.descriptor.path.name}")
+        fig.suptitle(f"EMVA 1288 (Release {release}): {an.descriptor.path.name}")
         fig.text(0.5, 0.01, att, ha="center", fontsize=8)
         pdf.savefig(fig)
         plt.close(fig)
@@ -321,5 +322,5 @@ def run(args) -> int:
             datasheet.write_datasheet(an.sheet, Path(args.pdf),
                                       an.general if args.release == "4.0-general" else None)
         else:
-            write_pdf(an, Path(args.pdf))
+            write_pdf(an, Path(args.pdf), args.release)
     return 0
