@@ -14,6 +14,7 @@ from __future__ import annotations
 import json
 import math
 
+from ares import labels
 from ares.errors import InputError
 
 # the analysis is imported when the command runs, not when `ares --help` builds its parser
@@ -21,24 +22,8 @@ from ares.errors import InputError
 NAME = "analyze"
 HELP = "noise decomposition (13 components + frame-global) of recorded frame stacks"
 
-_DESCR = {
-    "o": "offset",
-    "Cs": "column FPN",
-    "Ct": "column temporal",
-    "Rs": "row FPN",
-    "Rt": "row temporal",
-    "Ps": "pixel FPN (DSNU)",
-    "Pt": "pixel temporal",
-    "frame_global": "frame-global temporal",
-    "G": "conversion gain",
-    "Cg": "column gain NU (rel. var)",
-    "Rg": "row gain NU (rel. var)",
-    "Pg": "pixel gain NU (PRNU, rel. var)",
-    "q": "mean photo-charge",
-    "delta": "shot-noise variance",
-    "signal": "mean photo-signal",
-    "poisson_ratio": "Poisson check (~1)",
-}
+_DESCR = {**labels.COMPONENTS, **{k: labels.COMPONENTS[k] + " (rel. var)" for k in ("Cg", "Rg", "Pg")},
+          "poisson_ratio": "Poisson check (~1)"}
 
 
 def add_arguments(p) -> None:

@@ -112,10 +112,9 @@ def analyse_table(path: str | Path, columns: list[str] | None = None, pixels: in
 
 def _text(d: dict) -> str:
     out = [f"photon transfer of {d['table']} ({d['levels']} levels)"]
-    for label, key in (("system gain K", "gain_dn_per_e"), ("1/K", "gain_e_per_dn"),
-                       ("conversion gain", "conversion_gain_uv_per_e"), ("read noise", "read_noise_e"),
-                       ("read noise (output)", "read_noise_dn"), ("full well (charge)", "full_well_e"),
-                       ("saturation capacity", "saturation_capacity_e"), ("dynamic range", "dynamic_range_db")):
+    from ares.labels import PTC_FIGURES
+
+    for key, label in PTC_FIGURES:
         out.append(f"  {label:<22} {format_dict(d.get(key), with_reason=True)}")
     for label, key, field in (("gain model", "gain_model", "reason"), ("linearity (Eq. 51)", "linearity_check", "note"),
                               ("saturation", "saturation", "reason")):

@@ -184,12 +184,9 @@ def print_summary(outcome, scan, seconds: float, out=None) -> None:
     p = res.get("ptc")
     if isinstance(p, dict) and "gain_dn_per_e" in p:
         out.write("photon transfer:\n")
-        for label, key in (("conversion gain", "conversion_gain_uv_per_e"), ("system gain K", "gain_dn_per_e"),
-                           ("1/K", "gain_e_per_dn"), ("read noise", "read_noise_e"),
-                           ("read noise (output)", "read_noise_dn"),
-                           ("full well (charge)", "full_well_e"),
-                           ("saturation capacity", "saturation_capacity_e"),
-                           ("dynamic range", "dynamic_range_db")):
+        from ares.labels import PTC_FIGURES
+
+        for key, label in PTC_FIGURES:
             out.write(f"  {label:<26} {_num(p.get(key))}\n")
         for label, key in (("gain model", "gain_model"), ("linearity (Eq. 51)", "linearity_check"),
                            ("saturation", "saturation")):

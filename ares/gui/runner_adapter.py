@@ -11,6 +11,7 @@ import math
 import time
 from pathlib import Path
 
+from ares import labels
 from ares.analysis.estimate import format_dict
 from ares.errors import AresError
 
@@ -42,9 +43,8 @@ def summarize(scan_results: dict, thresholds: tuple = ()) -> dict:
         if g is not None:
             out["gain_e_per_dn"] = g
             out["gain_note"] = f"fit by the engine over {ptc.get('levels', '?')} levels"
-        for label, key in (("conversion gain", "conversion_gain_uv_per_e"), ("system gain K", "gain_dn_per_e"),
-                           ("read noise", "read_noise_e"), ("full well (charge)", "full_well_e"),
-                           ("dynamic range", "dynamic_range_db")):
+        for key in ("conversion_gain_uv_per_e", "gain_dn_per_e", "read_noise_e", "full_well_e", "dynamic_range_db"):
+            label = labels.PTC_LABELS[key]
             text = _fmt(ptc.get(key))
             if text:
                 out["results"][f"PTC: {label}"] = text
@@ -73,11 +73,7 @@ def summarize(scan_results: dict, thresholds: tuple = ()) -> dict:
     return out
 
 
-COMPONENT_LABELS = {
-    "Cs": "column FPN", "Ct": "column temporal", "Rs": "row FPN", "Rt": "row temporal",
-    "Ps": "pixel FPN (DSNU)", "Pt": "pixel temporal", "frame_global": "frame-global temporal",
-    "G": "conversion gain", "Cg": "column PRNU", "Rg": "row PRNU", "Pg": "pixel PRNU",
-}
+COMPONENT_LABELS = {k: v for k, v in labels.COMPONENTS.items() if k not in ("o", "q", "delta", "signal")}
 
 
 def quantities(view: dict) -> dict[str, float]:

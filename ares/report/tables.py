@@ -17,30 +17,18 @@ import numpy as np
 
 from ares.analysis.estimate import Estimate, format_value
 from ares.analysis.levels import LevelStats
+from ares import labels
 from ares.analysis.ptc import PtcResult, analyze_ptc
 
 # the 13 components (DESIGN.md / seed 001) in model order, then the extras ARES reports
 COMPONENTS = ("o", "Cs", "Ct", "Rs", "Rt", "Ps", "Pt", "G", "Cg", "Rg", "Pg", "q", "delta")
 EXTRA_COMPONENTS = ("frame_global", "signal")
-COMPONENT_LABELS = {
-    "o": "offset", "Cs": "column FPN", "Ct": "column temporal", "Rs": "row FPN", "Rt": "row temporal",
-    "Ps": "pixel FPN (DSNU)", "Pt": "pixel temporal (read)", "G": "conversion gain", "Cg": "column gain NU",
-    "Rg": "row gain NU", "Pg": "pixel gain NU (PRNU)", "q": "photo-charge", "delta": "shot noise",
-    "frame_global": "frame-global temporal offset", "signal": "signal (flat - dark)",
-}
+COMPONENT_LABELS = labels.COMPONENTS
 COMPONENT_PARTS = ("components", "dark_components", "flat_anova")
 GAIN_SPREADS = ("Cg", "Rg", "Pg")  # relative variances of the gain, shown as % rms
 
 
-def component_label(c: str, part: str = "components") -> str:
-    """What a component means in a stage's ``part``: in the ANOVA of the flat stack itself
-    Pt holds the shot noise too; in a flat stage's ``components`` the offset/noise terms
-    come from its matched dark stack."""
-    if c == "Pt" and part == "flat_anova":
-        return "pixel temporal (read + shot)"
-    if c == "delta":
-        return "shot-noise variance (= q when G is estimated from this level)"
-    return COMPONENT_LABELS.get(c, "")
+component_label = labels.component_label
 
 
 def component_text(c: str, e: dict) -> str:

@@ -10,18 +10,13 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass
 
+from ares import labels
 from ares.analysis.estimate import format_value
 
 from .observable import Observable
 
 # (symbol, meaning) in the order of DESIGN.md's model; others follow as reported
-DESCRIPTIONS = {
-    "o": "offset", "Cs": "column FPN", "Ct": "column temporal", "Rs": "row FPN", "Rt": "row temporal",
-    "Ps": "pixel FPN (DSNU)", "Pt": "pixel temporal (read noise)", "frame_global": "frame-global temporal",
-    "G": "conversion gain", "Cg": "column gain non-uniformity", "Rg": "row gain non-uniformity",
-    "Pg": "pixel gain non-uniformity (PRNU)", "q": "photo-charge", "delta": "shot noise",
-    "signal": "signal above dark",
-}
+DESCRIPTIONS = labels.COMPONENTS
 
 
 @dataclass(frozen=True)
