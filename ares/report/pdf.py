@@ -128,7 +128,7 @@ def _component_table(fig, y: float, stage: dict, part: str, title: str) -> float
         rows.append([f"{n} {c}".strip(), tables.component_text(c, e),
                      tables.component_label(c, part), e.get("note", "")])
     return text_table(fig, (0.06, y, 0.9), ["component", "value ± SE", "meaning", "note"], rows,
-                      [0.14, 0.3, 0.26, 0.3], fontsize=8.5, title=title, max_chars=[14, 34, 30, 36])
+                      [0.14, 0.3, 0.26, 0.3], fontsize=8.5, title=title, max_chars=[14, 30, 30, 36])
 
 
 def components_page(run, mid: dict | None, dark: dict | None):

@@ -38,8 +38,7 @@ def component_text(c: str, e: dict) -> str:
     if c in GAIN_SPREADS and v is not None and math.isfinite(v):
         if v <= 0:
             ub = 100 * math.sqrt(max(v, 0.0) + 2 * se) if se is not None and math.isfinite(se) else math.nan
-            return (f"< {ub:.2g} % rms (variance {v:.2g} ± {se:.2g}: consistent with 0)"
-                    if math.isfinite(ub) else "n/a (negative variance)")
+            return (f"< {ub:.2g} % rms (variance ≤ 0)" if math.isfinite(ub) else "n/a (negative variance)")
         r = 100 * math.sqrt(v)
         rse = 100 * se / (2 * math.sqrt(v)) if se is not None and math.isfinite(se) else None
         return fmt_value(r, rse, "% rms")
@@ -48,7 +47,7 @@ def component_text(c: str, e: dict) -> str:
     unit = e.get("unit", "")
     if v < 0 and unit.endswith("^2"):  # a variance estimated below 0: a bound or a misfit
         if se is not None and math.isfinite(se) and v + 2 * se >= 0:
-            return f"< {fmt_value(v + 2 * se, None, unit)} (estimate {v:.2g} ± {se:.2g}: consistent with 0)"
+            return f"< {fmt_value(v + 2 * se, None, unit)} (est. {v:.2g})"  # consistent with 0
         return f"n/a (negative variance {v:.3g} ± {se:.2g} {unit}: the model does not fit)"
     return fmt_value(v, se, unit)
 
@@ -424,7 +423,10 @@ def compute_key_figures(run, groups: list[PtcGroup] | None = None) -> dict:
         for key, e in _flat_estimates(a):
             if e.get("value") is None:
                 continue  # not available (e.g. e-/s without a gain): in scan_results.json with its reason
-            kf[f"{aname}.{key}"] = _entry(analysis_label(aname, key), est(e), f"scan_results.json: {aname}")
+            label = analysis_label(aname, key)
+            if aname == "dark_current" and "." not in key and a.get("temperature_c") is not None:
+                label += f" at {a['temperature_c']:g} °C"  # a dark current is only meaningful at its temperature
+            kf[f"{aname}.{key}"] = _entry(label, est(e), f"scan_results.json: {aname}")
         if aname == "defects" and isinstance(a.get("counts"), dict) and a["counts"].get("total") is not None:
             kf["defects.total"] = _entry("defective pixels", Estimate(float(a["counts"]["total"]), math.nan, "pixels",
                                                                       "all classes (see the defects page)"),

@@ -1,0 +1,140 @@
+"""Dask (``dask.distributed``) for batches: the client, the lot map with a progress line,
+and one huge stack accumulated on many workers.
+
+Why Dask: it gives a local process cluster sized to the machine and the same code on a
+cluster of many machines (``--scheduler tcp://host:8786``), with futures that complete in
+any order, worker-side file reading and failure isolation -- the plumbing a hand-written
+process pool would have to grow. Every worker must see the items' paths (a shared or
+network file system for a multi-machine cluster) and the cache directory.
+"""
+
+from __future__ import annotations
+
+import os
+import sys
+import time
+from pathlib import Path
+
+
+def make_client(scheduler: str | None = None, workers: int | None = None):
+    """A ``distributed.Client``: to the scheduler at ``scheduler``, or to a new local cluster
+    of ``workers`` single-threaded processes (default: one per core)."""
+    import logging
+
+    from distributed import Client, LocalCluster
+
+    from ares.errors import HardwareError
+
+    if scheduler:
+        try:
+            return Client(scheduler, timeout="20s")
+        except (OSError, TimeoutError) as exc:
+            raise HardwareError(f"Dask scheduler {scheduler}: cannot connect ({exc})") from None
+    n = workers or os.cpu_count() or 1
+    cluster = LocalCluster(n_workers=n, threads_per_worker=1, processes=True, dashboard_address=None,
+                           silence_logs=logging.ERROR)
+    return Client(cluster)
+
+
+def run_items(client, paths: list[str], cache_dir: str | None, progress=None) -> list[dict]:
+    """Every item's result (``items.process``) in the order given; ``progress(done, total,
+    result)`` after each completes (in completion order)."""
+    from distributed import as_completed
+
+    from ares.batch.items import process
+
+    futures = client.map(process, paths, cache_dir=cache_dir, pure=False)
+    index = {f.key: i for i, f in enumerate(futures)}
+    out: list[dict | None] = [None] * len(paths)
+    for k, fut in enumerate(as_completed(futures), 1):
+        try:
+            r = fut.result()
+        except Exception as exc:  # noqa: BLE001 -- a worker lost mid-task: the item failed, the lot goes on
+            r = {"item": paths[index[fut.key]], "status": "error", "error": f"{paths[index[fut.key]]}: worker "
+                                                                            f"failed ({type(exc).__name__}: {exc})"}
+        out[index[fut.key]] = r
+        if progress:
+            progress(k, len(paths), r)
+    return out  # type: ignore[return-value]
+
+
+def progress_line(stream=sys.stderr):
+    t0 = time.perf_counter()
+
+    def show(done: int, total: int, r: dict) -> None:
+        w = 30
+        bar = "#" * (w * done // total) + "-" * (w - w * done // total)
+        what = "cached" if r.get("cached") else ("FAILED" if r.get("status") == "error" else "done")
+        stream.write(f"\r[{bar}] {done}/{total}  {time.perf_counter() - t0:6.1f} s  {Path(r['item']).name}: "
+                     f"{what}".ljust(100)[:100])
+        if done == total:
+            stream.write("\n")
+        stream.flush()
+
+    return show
+
+
+# ------------------------------------------------------------------ one stack, many workers
+
+def frame_count(spec: str) -> int:
+    from ares.errors import InputError
+
+    p, inner = _split(spec)
+    if p.suffix.lower() == ".npy":
+        import numpy as np
+
+        a = np.load(p, mmap_mode="r", allow_pickle=False)
+        return a.shape[0] if a.ndim == 3 else 1
+    if p.suffix.lower() in (".h5", ".hdf5", ".hdf") and inner:
+        import h5py
+
+        with h5py.File(p, "r") as f:
+            d = f[inner]
+            return d.shape[0] if d.ndim == 3 else 1
+    raise InputError(f"{spec}: a split stack must be a .npy or an HDF5 dataset (file.h5:/dataset)")
+
+
+def _split(spec: str):
+    from ares.hardware.stackfiles import _split as split_spec
+
+    return split_spec(spec)
+
+
+def accumulate_range(spec: str, start: int, stop: int):
+    """Frames [start, stop) of the stack, read where the worker runs, in one
+    ``StackAccumulator`` (exact integer sums)."""
+    import numpy as np
+
+    from ares.analysis.accumulate import StackAccumulator
+
+    p, inner = _split(spec)
+    if p.suffix.lower() == ".npy":
+        a = np.load(p, mmap_mode="r", allow_pickle=False)
+        frames = a[start:stop] if a.ndim == 3 else a[None]
+        acc = StackAccumulator(frames.shape[1:])
+        for f in frames:
+            acc.add(np.asarray(f))
+    else:
+        import h5py
+
+        with h5py.File(p, "r") as fh:
+            d = fh[inner]
+            acc = StackAccumulator(d.shape[1:])
+            for i in range(start, stop):
+                acc.add(d[i])
+    acc.merge(StackAccumulator(acc.shape))  # folds the frames still buffered into the sums
+    return acc
+
+
+def split_accumulate(client, spec: str, chunks: int):
+    """The stack accumulated in ``chunks`` frame ranges on the cluster's workers and merged
+    in frame order: the same sums -- and the same decomposition, bit for bit -- as one pass."""
+    n = frame_count(spec)
+    chunks = max(1, min(chunks, n))
+    bounds = [round(i * n / chunks) for i in range(chunks + 1)]
+    futs = [client.submit(accumulate_range, spec, a, b, pure=False) for a, b in zip(bounds, bounds[1:]) if b > a]
+    accs = client.gather(futs)
+    acc = accs[0]
+    for other in accs[1:]:
+        acc.merge(other)
+    return acc

@@ -1,0 +1,144 @@
+"""The items of a batch and what is computed for each, on whichever worker gets it.
+
+An item is a run directory (``run.json``), an EMVA 1288 descriptor file, or a frame stack
+(anything ``ares analyze`` reads: image folder, ``.npy``, ``.npz``, ``file.h5:/dataset``).
+``process`` is the task a worker runs: content hash -> cache hit, or analysis -> cache
+entry. Its key figures are exactly what ``ares report`` (run directories), ``ares emva``
+(descriptors, Release 4.0 Linear) or ``ares analyze`` (stacks) give for the item alone.
+A failure is returned as one sentence, never raised: one bad item does not stop a lot.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import json
+import math
+import os
+from pathlib import Path
+
+RUN, EMVA, STACK = "run", "emva", "stack"
+# files ``ares report`` writes into a run directory: outputs, not inputs of the analysis
+REPORT_OUTPUTS = {"report.pdf", "report.h5", "ptc.csv", "components.csv", "levels.csv", "key_figures.csv",
+                  "emva_datasheet.pdf", "emva_datasheet.csv"}
+
+
+def kind_of(path: str | Path) -> str:
+    p = Path(str(path).split(".h5:")[0].split(".npz:")[0])
+    if p.is_dir() and (p / "run.json").is_file():
+        return RUN
+    if p.is_file() and p.suffix.lower() == ".txt":
+        return EMVA
+    return STACK
+
+
+def _files(path: Path, kind: str) -> list[Path]:
+    """The files whose bytes the item's results depend on, in a fixed order."""
+    if kind == RUN:
+        return sorted(f for f in path.rglob("*") if f.is_file() and f.name not in REPORT_OUTPUTS
+                      and not f.name.endswith(".tmp"))
+    if kind == EMVA:
+        from ares.hardware.emva_descriptor import read_descriptor
+
+        d = read_descriptor(path)
+        return [path] + sorted({p for lv in d.levels for p in lv.images})
+    p = Path(str(path).split(".h5:")[0].split(".npz:")[0])
+    return sorted(f for f in p.iterdir() if f.is_file()) if p.is_dir() else [p]
+
+
+def content_hash(path: str | Path, kind: str) -> str:
+    """SHA-256 over the item's input files (relative names and bytes), the item spec and the
+    ARES version: a changed file, a changed dataset name or a new ARES recomputes."""
+    from ares import __version__
+
+    path = Path(path)
+    h = hashlib.sha256(f"{kind}\0{__version__}\0{Path(str(path)).name}\0".encode())
+    base = path if path.is_dir() else path.parent
+    for f in _files(path, kind):
+        h.update(str(f.relative_to(base) if f.is_relative_to(base) else f.name).encode() + b"\0")
+        with open(f, "rb") as fh:
+            for chunk in iter(lambda: fh.read(1 << 20), b""):
+                h.update(chunk)
+    return h.hexdigest()
+
+
+def _figures_of_run(path: Path) -> tuple[dict, str]:
+    from ares.report import key_figures, read_run
+
+    kf = key_figures(path)
+    return ({k: {"label": v["label"], "value": v["value"], "se": v["se"], "unit": v["unit"], "note": v["note"]}
+             for k, v in kf.items()}, read_run(path).status)
+
+
+def _figures_of_descriptor(path: Path) -> tuple[dict, str]:
+    from ares.analysis.emva4_sheet import SYMBOLS
+    from ares.commands.emva import analyse_descriptor
+
+    sheet = analyse_descriptor(path).sheet
+    return ({k: {"label": f"EMVA 1288 4.0 {SYMBOLS.get(k, k)}", **e.to_dict()} for k, e in sheet.values.items()},
+            "done")
+
+
+def _figures_of_stack(spec: str) -> tuple[dict, str]:
+    from ares.analysis.accumulate import StackAccumulator
+    from ares.analysis.decompose import StackAnalysis
+    from ares.hardware.stackfiles import iter_frames
+    from ares.labels import COMPONENTS
+
+    acc = None
+    for f in iter_frames([spec]):
+        if acc is None:
+            acc = StackAccumulator(f.shape)
+        acc.add(f)
+    comps = StackAnalysis(acc).components()
+    return {k: {"label": COMPONENTS.get(k, k), **e.to_dict()} for k, e in comps.items()}, "done"
+
+
+def analyse(path: str | Path, kind: str) -> tuple[dict, str]:
+    """(key figures {name: {label, value, se, unit, ...}}, the item's run status)."""
+    if kind == RUN:
+        return _figures_of_run(Path(path))
+    if kind == EMVA:
+        return _figures_of_descriptor(Path(path))
+    return _figures_of_stack(str(path))
+
+
+def _clean(o):
+    if isinstance(o, float) and not math.isfinite(o):
+        return None
+    if isinstance(o, dict):
+        return {k: _clean(v) for k, v in o.items()}
+    if isinstance(o, (list, tuple)):
+        return [_clean(v) for v in o]
+    return o
+
+
+def process(path: str, cache_dir: str | None = None) -> dict:
+    """The worker task: {item, kind, hash, status, figures, cached} or {item, status
+    "error", error}. The cache entry (``<cache_dir>/<hash>.json``) is written atomically."""
+    from ares.errors import AresError
+
+    item = {"item": str(path)}
+    try:
+        kind = kind_of(path)
+        item["kind"] = kind
+        digest = content_hash(path, kind)
+        item["hash"] = digest
+        entry = Path(cache_dir) / f"{digest}.json" if cache_dir else None
+        if entry is not None and entry.is_file():
+            try:
+                return {**json.loads(entry.read_text()), "item": str(path), "cached": True}
+            except (OSError, json.JSONDecodeError):
+                pass  # an unreadable cache entry is recomputed
+        figures, status = analyse(path, kind)
+        out = _clean({**item, "status": status, "figures": figures, "cached": False})
+        if entry is not None:
+            entry.parent.mkdir(parents=True, exist_ok=True)
+            tmp = entry.with_name(f"{entry.name}.{os.getpid()}.tmp")
+            tmp.write_text(json.dumps(out))
+            tmp.replace(entry)
+        return out
+    except (AresError, OSError, ValueError, KeyError) as exc:
+        msg = str(exc).strip() or type(exc).__name__
+        if isinstance(exc, (KeyError, ValueError)):
+            msg = f"{type(exc).__name__}: {msg}"
+        return {**item, "status": "error", "error": f"{path}: {msg}" if str(path) not in msg else msg}

@@ -1,0 +1,107 @@
+"""``ares batch ITEMS... [--lot LOT.xml]``: analyse many run directories and recorded data
+sets in parallel on Dask and write one lot table (CSV, HDF5, PDF).
+
+Items: run directories, EMVA 1288 descriptor files, frame stacks (image folder, ``.npy``,
+``.npz``, ``file.h5:/dataset``), given on the command line and/or as ``<item>`` elements of
+the lot file (which also declares the limits). ``--stack SPEC --split N`` accumulates one
+huge stack on N workers instead (exact: the same decomposition as one process).
+
+Exit: 0 every item analysed and within the limits; 4 some item failed a limit; 1 some item
+could not be analysed (the others are in the table); 2 bad input; 3 the cluster is not
+reachable.
+"""
+
+from __future__ import annotations
+
+import json
+import sys
+from pathlib import Path
+
+NAME = "batch"
+HELP = "analyse many runs / data sets in parallel on Dask and write the lot report"
+
+
+def add_arguments(p) -> None:
+    p.add_argument("items", nargs="*", help="run directories, EMVA descriptors, frame stacks")
+    p.add_argument("--lot", metavar="LOT.xml", help="lot file: items (with sensor names, wafer x/y) and limits")
+    p.add_argument("--out", metavar="DIR", default="lot", help="where the lot report and the cache go (default ./lot)")
+    p.add_argument("--scheduler", metavar="ADDRESS", help="an existing Dask scheduler (tcp://host:8786); default: "
+                                                          "a local cluster, one worker process per core")
+    p.add_argument("--workers", type=int, metavar="N", help="workers of the local cluster (default: the cores)")
+    p.add_argument("--no-cache", action="store_true", help="recompute every item (the cache is still refreshed)")
+    p.add_argument("--stack", metavar="SPEC", help="one huge stack (.npy or file.h5:/dataset) split over workers")
+    p.add_argument("--split", type=int, default=0, metavar="N", help="frame chunks for --stack (default: workers)")
+    p.add_argument("--json", action="store_true", help="print the results as JSON")
+    p.add_argument("--quiet", "-q", action="store_true", help="no progress line")
+
+
+def _stack(args, client) -> int:
+    from ares.analysis.anova import decompose_dark
+    from ares.batch.cluster import split_accumulate
+    from ares.labels import COMPONENTS
+
+    n = args.split or len(client.scheduler_info()["workers"]) or 1
+    acc = split_accumulate(client, args.stack, n)
+    comps = decompose_dark(acc)
+    if args.json:
+        print(json.dumps({k: e.to_dict() for k, e in comps.items()}, indent=2))
+    else:
+        print(f"{args.stack}: {acc.n_frames} frames of {acc.shape[0]} x {acc.shape[1]}, in {n} chunks")
+        for k, e in comps.items():
+            print(f"  {k:<14} {e.text():<28} {COMPONENTS.get(k, '')}")
+    return 0
+
+
+def run(args) -> int:
+    from ares.batch import lot_report
+    from ares.batch.cluster import make_client, progress_line, run_items
+    from ares.errors import InputError
+    from ares.protocol.lot import load_lot
+
+    lot = load_lot(args.lot) if args.lot else None
+    paths = [str(Path(p)) for p in args.items] + [str(it.path) for it in (lot.items if lot else ())]
+    if not paths and not args.stack:
+        raise InputError("ares batch: no items (give run directories / data sets, or a lot file with <item>s)")
+    for p in paths:
+        base = Path(p.split(".h5:")[0].split(".npz:")[0])
+        if not base.exists():
+            raise InputError(f"{p}: no such file or directory")
+    client = make_client(args.scheduler, args.workers)
+    try:
+        if args.stack:
+            return _stack(args, client)
+        out = Path(args.out)
+        cache = out / "cache"
+        cache.mkdir(parents=True, exist_ok=True)
+        if args.no_cache:
+            for p in cache.glob("*.json"):
+                p.unlink()
+        results = run_items(client, paths, str(cache.resolve()), None if args.quiet else progress_line())
+    finally:
+        client.close()
+        cluster = getattr(client, "cluster", None)
+        if cluster is not None:
+            cluster.close()
+    meta = {str(it.path): {"sensor": it.sensor, "x": it.x, "y": it.y} for it in (lot.items if lot else ())}
+    judged = lot_report.judge(results, lot.limits if lot else (), meta)
+    name = lot.name if lot else out.resolve().name
+    from ares.scan.rundir import write_atomic
+
+    write_atomic(out / "lot.csv", lot_report.to_csv(judged).encode())
+    lot_report.write_h5(judged, out / "lot.h5", name)
+    lot_report.write_pdf(judged, out / "lot.pdf", name)
+    if args.json:
+        print(json.dumps({"lot": name, "yield": judged.yields, "items": results}, indent=2))
+    else:
+        n_err = sum(r.get("status") == "error" for r in results)
+        n_cached = sum(bool(r.get("cached")) for r in results)
+        print(f"lot {name}: {len(results)} item(s), {n_cached} from the cache, {n_err} failed; "
+              f"report in {out}/lot.csv, lot.h5, lot.pdf")
+        for k, (a, b) in judged.yields.items():
+            print(f"  yield {k}: {a}/{b}")
+        for r in results:
+            if r.get("status") == "error":
+                print(f"  FAILED {r['error']}", file=sys.stderr)
+    if any(r.get("status") == "error" for r in results):
+        return 1
+    return 4 if any(r.get("passed") is False for r in results) else 0
