@@ -480,6 +480,16 @@ class StackAccumulator:
         self._fr = [a.astype(np.float64) for a in self._fr]
         self._fc = [a.astype(np.float64) for a in self._fc]
 
+    def __getstate__(self) -> dict:
+        """Pickled (e.g. sent back by a Dask worker) as its sums only: buffered frames are
+        folded first and the working buffers (batch store, kernel scratch, ~8x a frame)
+        are left behind -- they are re-created when frames are added again."""
+        self._flush()
+        state = dict(self.__dict__)
+        state.update(_buf=None, _store=None, _buf_dtype=None, _nbuf=0, _kp=None, _f1=None, _fk=None, _fl=None,
+                     _nfloat=0, _cache={})
+        return state
+
     # ------------------------------------------------------------------ merging
     def merge(self, other: "StackAccumulator") -> "StackAccumulator":
         """Append the frames of ``other`` after those of ``self`` (in place; returns self).
