@@ -162,3 +162,33 @@ def test_split_1080p_stack_is_bit_identical(client, tmp_path):
     assert split.n_frames == 6
     a, b = decompose_dark(one), decompose_dark(split)
     assert {k: (e.value, e.se) for k, e in a.items()} == {k: (e.value, e.se) for k, e in b.items()}
+
+
+def test_stack_and_descriptor_items(client, tmp_path):
+    """A frame stack gives what ``ares analyze`` gives; an EMVA descriptor what ``ares emva``
+    (Release 4.0 Linear) gives."""
+    from ares.analysis.accumulate import StackAccumulator
+    from ares.analysis.decompose import StackAnalysis
+    from ares.batch.cluster import run_items
+
+    rng = np.random.default_rng(9)
+    stack = (200 + rng.normal(0, 3, (5, 40, 60)) + rng.normal(0, 1, (1, 40, 1))).astype(np.uint16)
+    np.save(tmp_path / "dark.npy", stack)
+    items = [str(tmp_path / "dark.npy")]
+    desc = Path(__file__).resolve().parents[2] / "shared" / "data" / "EMVA1288_ReferenceSet_001_CCD_12Bit" / \
+        "EMVA1288_Data.txt"
+    if desc.is_file():
+        items.append(str(desc))
+    res = run_items(client, items, None)
+    acc = StackAccumulator(stack.shape[1:])
+    for f in stack:
+        acc.add(f)
+    want = StackAnalysis(acc).components()
+    assert res[0]["kind"] == "stack"
+    for k, e in want.items():
+        assert res[0]["figures"][k]["value"] == (e.value if e.available else None), k
+    if len(items) > 1:
+        from ares.commands.emva import analyse_descriptor
+
+        assert res[1]["kind"] == "emva"
+        assert res[1]["figures"]["K"]["value"] == analyse_descriptor(desc).sheet.values["K"].value

@@ -65,8 +65,8 @@ def _figures_of_run(path: Path) -> tuple[dict, str]:
     from ares.report import key_figures, read_run
 
     kf = key_figures(path)
-    return ({k: {"label": v["label"], "value": v["value"], "se": v["se"], "unit": v["unit"], "note": v["note"]}
-             for k, v in kf.items()}, read_run(path).status)
+    return ({k: {"label": v["label"], "value": v["value"], "se": v["se"], "unit": v["unit"],
+                 "verdict": v.get("verdict", ""), "note": v["note"]} for k, v in kf.items()}, read_run(path).status)
 
 
 def _figures_of_descriptor(path: Path) -> tuple[dict, str]:

@@ -69,7 +69,8 @@ COLUMNS = ("item", "sensor", "kind", "status", "passed", "error")
 
 
 def rows(j: Judged) -> tuple[list[dict], list[str]]:
-    cols = list(COLUMNS) + [c for q in j.quantities for c in (q, f"{q}_se", f"{q}_unit")] + list(j.yields)
+    cols = list(COLUMNS) + [c for q in j.quantities for c in (q, f"{q}_se", f"{q}_unit", f"{q}_verdict")] + \
+        list(j.yields)
     out = []
     for r in j.results:
         row = {"item": r["item"], "sensor": r.get("sensor", ""), "kind": r.get("kind", ""), "status": r.get("status"),
@@ -80,6 +81,7 @@ def rows(j: Judged) -> tuple[list[dict], list[str]]:
             row[q] = f.get("value")
             row[f"{q}_se"] = f.get("se")
             row[f"{q}_unit"] = f.get("unit", "")
+            row[f"{q}_verdict"] = f.get("verdict", "") if f else "not measured"
         for k, v in r.get("checks", {}).items():
             row[k] = "n/a" if v is None else ("pass" if v else "FAIL")
         out.append(row)

@@ -17,7 +17,7 @@ from pathlib import Path
 
 from ares.report import tables
 
-KEY_FIGURE_COLUMNS = ("name", "label", "value", "se", "unit", "note", "source")
+KEY_FIGURE_COLUMNS = ("name", "label", "value", "se", "unit", "verdict", "note", "source")
 
 
 def _cell(v):

@@ -321,7 +321,8 @@ def dark_stage(run) -> dict | None:
 
 def _entry(label: str, e: Estimate, source: str) -> dict:
     return {"label": label, "value": e.value if e.available else None,
-            "se": e.se if math.isfinite(e.se) else None, "unit": e.unit, "note": e.note, "source": source}
+            "se": e.se if math.isfinite(e.se) else None, "unit": e.unit, "note": e.note, "source": source,
+            "verdict": e.verdict}
 
 
 def _snr_max(res: PtcResult) -> Estimate:
