@@ -23,7 +23,8 @@ import matplotlib
 import numpy as np
 from matplotlib.figure import Figure
 
-from ares.analysis.emva4_sheet import SYMBOLS, TABLE2, EXTRA
+from ares.analysis.emva4_sheet import EXTRA, SYMBOLS, TABLE2
+from ares.analysis.emva_graphs import pattern_amplitude
 from ares.report.plots import A4, RC, text_table
 
 GROUPS = (("Quantum efficiency", ("QE",)), ("Overall system gain", ("K", "K_inv")),
@@ -100,8 +101,7 @@ def _op_table(fig: Figure, m: dict, top: float) -> float:
 
 def _ptc_axes(ax, sheet, large: bool = False) -> None:
     c = sheet.curves
-    x, v = c["photons"], c["var"]
-    sig = c["signal"]
+    v, sig = c["var"], c["signal"]
     fit = np.asarray(c["fit_levels"], int)
     K = sheet.values["K"]
     ax.plot(sig, v, "o", ms=3 if large else 2.5, color="C0", label="mono data")
@@ -149,7 +149,7 @@ def summary_page(sheet) -> Figure:
     fig = Figure(figsize=A4)
     m = sheet.meta
     wl = m.get("wavelength_nm")
-    _header(fig, sheet, f"Summary Sheet for Operation Point 1" + (f" at a Wavelength of {wl:g} nm" if wl else ""),
+    _header(fig, sheet, "Summary Sheet for Operation Point 1" + (f" at a Wavelength of {wl:g} nm" if wl else ""),
             "page 1")
     _op_table(fig, m, 0.925)
     a1 = fig.add_axes([0.09, 0.50, 0.50, 0.32])
@@ -270,7 +270,7 @@ def spatial_steps_page(sheet) -> Figure | None:
 
 def _panel(fig: Figure, k: int):
     """The k-th of four stacked full-width graphs of a detail page."""
-    return fig.add_axes([0.1, 0.72 - 0.215 * k, 0.8, 0.16])
+    return fig.add_axes([0.1, 0.785 - 0.185 * k, 0.8, 0.115])  # a table of the extracted data fits below
 
 
 def spectrogram_page(sheet) -> Figure | None:
@@ -297,6 +297,18 @@ def spectrogram_page(sheet) -> Figure | None:
                 ax.axhline(val, ls=style, color="C1" if style == "--" else "C2", lw=0.9, label=name)
         ax.set(xlabel="cycles (periods/pixel)", ylabel=f"standard deviation ({unit})", title=title, xlim=(0, 0.5))
         ax.legend(fontsize=6)
+    rows = []
+    for key, title, _, unit in specs:
+        if key not in c:
+            continue
+        sp = c[key]
+        p = sp.sqrt_power**2
+        n = 2 * (p.size - 1)  # the row length of the spectrum
+        for v in sorted(np.argsort(p[1:])[::-1][:2] + 1):  # the two strongest peaks (v >= 1)
+            rows.append([title, f"{sp.freq[v]:.4f}", f"{sp.sqrt_power[v]:.3g}", f"{pattern_amplitude(p, n, v, v):.3g}",
+                         unit])
+    _data_table(fig, 0.165, ["spectrogram", "cycles/pixel", "sqrt(P)", "amplitude (Eq. 72)", "unit"], rows,
+                [1.6, 1, 1, 1.2, 0.5], title="Strongest peaks")
     return fig
 
 
@@ -322,6 +334,10 @@ def profiles_page(sheet) -> Figure | None:
         ax.set_ylim(*profile_range(p, kind))
         ax.set(xlabel="index (pixel)", ylabel="gray value (DN)", title=title)
         ax.legend(fontsize=6, ncol=4)
+    rows = [[title, f"{c[key]['mean'].mean():.5g}", f"{c[key]['middle'].mean():.5g}", f"{c[key]['min'].min():.5g}",
+             f"{c[key]['max'].max():.5g}"] for key, title, _ in specs if key in c]
+    _data_table(fig, 0.165, ["profile", "mean (DN)", "middle line mean", "lowest min", "highest max"], rows,
+                [2.2, 1, 1.1, 1, 1], title="Extracted data")
     return fig
 
 
@@ -356,6 +372,16 @@ def histogram_page(sheet) -> Figure | None:
         ax.set_ylim(min(0.5 * 100 / max(a.count[0], 1), 1e-3), 150)
         ax.set(xlabel="deviation from mean (DN)", ylabel="percentage of pixels",
                title=f"Accumulated log histogram {kind.upper()}")
+    rows = []
+    for kind in ("dsnu", "prnu"):
+        h, a = c.get(f"hist_{kind}"), c.get(f"acc_{kind}")
+        if h is None or a is None or h.sigma <= 0:
+            continue
+        cnt = [int(a.count[np.searchsorted(a.deviation, m * h.sigma)]) if m * h.sigma <= a.deviation[-1] else 0
+               for m in (3, 5, 10)]
+        rows.append([kind.upper(), f"{h.sigma:.3g}", f"{h.width:.3g}", *map(str, cnt), str(int(a.count[0]))])
+    _data_table(fig, 0.165, ["image", "s (DN)", "bin width (DN)", "pixels > 3 s", "> 5 s", "> 10 s", "pixels"],
+                rows, [0.8, 0.8, 1, 1, 0.8, 0.8, 0.8], title="Pixels deviating from the mean (accumulated histogram)")
     return fig
 
 

@@ -11,7 +11,6 @@ list. ``write_pdf`` returns the page titles in order.
 from __future__ import annotations
 
 import json
-import math
 import textwrap
 from pathlib import Path
 

@@ -6,7 +6,6 @@ results and the runner's scan-level results; nothing is re-measured."""
 from __future__ import annotations
 
 import json
-import math
 
 import numpy as np
 
@@ -251,7 +250,9 @@ def frame_means_page(run, stages: list[dict], arrays: dict):
     ax.set_xlabel("frame (stages in run order)")
     ax.set_ylabel("frame mean (DN)")
     ax.grid(alpha=0.3)
-    ax.legend(fontsize=7, ncol=3, loc="best")
+    # the legend above the axes: bright and dark stages fill the plot from top to bottom
+    ax.legend(fontsize=7, ncol=min(6, max(1, len(stages))), loc="lower left", bbox_to_anchor=(0, 1.01),
+              frameon=False)
     rows = []
     for st in stages:
         fm = arrays.get(st["index"])
