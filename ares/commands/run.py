@@ -263,7 +263,7 @@ def execute(scan, args, *, seed, frames, faults=None, argv=None, out_dir=None, r
         check_run(scan, frames, seed)  # refused before a run directory exists (Runner checks again)
         out_dir = claim_out(out_dir, scan.name)
     runner = Runner(scan, out_dir=out_dir, seed=seed, frames=frames, faults=faults, argv=argv,
-                    resume_from=resume_from)
+                    resume_from=resume_from, defer_reports=not args.json)
     if not args.quiet:
         runner.add_listener(ProgressBar())
     hits = []
@@ -292,7 +292,13 @@ def execute(scan, args, *, seed, frames, faults=None, argv=None, out_dir=None, r
         json.dump(_json_summary(outcome, scan, seconds), sys.stdout, indent=1, default=str)
         sys.stdout.write("\n")
     else:
-        print_summary(outcome, scan, seconds)
+        print_summary(outcome, scan, seconds)  # the key figures before the report (the PDF takes seconds)
+        sys.stdout.flush()
+        err = runner.write_reports()
+        if err:
+            print(f"report: not written ({err})")
+        elif outcome.run_dir and scan.output.pdf and not args.quiet:
+            print(f"report: {Path(outcome.run_dir) / 'report.pdf'}")
     if outcome.status in ("stopped", "aborted"):
         sys.stderr.write(f"ares run: {outcome.status} after {len(outcome.stages)} stage(s); "
                          f"completed stages are kept in {outcome.run_dir}\n")

@@ -56,10 +56,15 @@ class _Aborted(Exception):
 class Runner:
     def __init__(self, scan, *, bench=None, out_dir: str | Path | None = None, seed: int | None = None,
                  frames: int | None = None, faults: dict | None = None, argv: list[str] | None = None,
-                 listeners: tuple[Callable, ...] = (), resume_from: list[dict] | None = None):
+                 listeners: tuple[Callable, ...] = (), resume_from: list[dict] | None = None,
+                 defer_reports: bool = False):
         """``resume_from``: the committed stages of an interrupted run in ``out_dir``; the
-        run continues at the first missing stage, appending (``ares resume``)."""
+        run continues at the first missing stage, appending (``ares resume``).
+        ``defer_reports``: a run that ends normally leaves its reports to ``write_reports()``
+        (the CLI prints the key figures first: the PDF costs seconds the user need not wait)."""
         self.scan = scan
+        self.defer_reports = defer_reports
+        self._pending_reports = None
         self.resume_from = resume_from
         self.system = scan.system
         self.frames_override = frames
@@ -146,7 +151,10 @@ class Runner:
                                  f"source '{bench.frames.name}' delivers {shape[1]}x{shape[0]}")
             outcome = self._run(bench, writer, completed)
             if writer is not None and outcome.stages:
-                self._reports(writer)
+                if self.defer_reports:
+                    self._pending_reports = writer
+                else:
+                    self._reports(writer)
             return outcome
         except AresError as exc:
             msg = str(exc)
@@ -312,6 +320,15 @@ class Runner:
         self._emit(ev.Done(status, run_dir, len(completed), scan_results, tuple(fails)))
         return RunOutcome(status, writer.dir if writer else None, completed, scan_results, fails, message=message,
                           seed=self.seed)
+
+    def write_reports(self) -> str:
+        """Write the reports a ``defer_reports`` run left pending; returns the report error
+        sentence ("" when written or when nothing was pending)."""
+        writer, self._pending_reports = self._pending_reports, None
+        if writer is None:
+            return ""
+        self._reports(writer)
+        return writer.meta.get("report_error", "")
 
     def _reports(self, writer) -> None:
         """The report module's tables (``<output csv/hdf5>``) and PDF (``<output pdf>``),
