@@ -60,6 +60,9 @@ def _pair(desc, lv, max_code):
 def analyse_descriptor(path: str | Path | EmvaDescriptor) -> EmvaAnalysis:
     """Every release's statistics in one pass over the images (each image decoded once;
     the stacks streamed, memory independent of their length)."""
+    import os
+    from concurrent.futures import ThreadPoolExecutor
+
     import numpy as np
 
     from ares.analysis.emva1288 import TemporalData, emva1288_results
@@ -75,16 +78,21 @@ def analyse_descriptor(path: str | Path | EmvaDescriptor) -> EmvaAnalysis:
     if len(tb) < 3:
         raise InputError(f"{desc.path}: needs at least 3 bright photon-transfer levels, found {len(tb)}")
     b3, d3, b4, d4, steps, diffs = [], [], [], [], [], []
-    cache: dict[float, tuple] = {}
+    darks = {}
     for lv in tb:
-        s3, s4, sp, md = _pair(desc, lv, max_code)
+        dl = desc.dark_for(lv, "temporal")
+        darks.setdefault(dl.exposure_ns, dl)
+    # every two-image level once, on all cores: PNG decoding (Pillow) and the numpy/scipy work
+    # release the GIL; each task holds only its own two images, and the results do not depend
+    # on the order the threads finish in
+    with ThreadPoolExecutor(min(os.cpu_count() or 1, 4)) as ex:
+        bright = list(ex.map(lambda lv: _pair(desc, lv, max_code), tb))
+        dark = dict(zip(darks, ex.map(lambda lv: _pair(desc, lv, max_code), darks.values())))
+    for lv, (s3, s4, sp, md) in zip(tb, bright):
         b3.append(s3)
         b4.append(s4)
         diffs.append(md)
-        dl = desc.dark_for(lv, "temporal")
-        if dl.exposure_ns not in cache:
-            cache[dl.exposure_ns] = _pair(desc, dl, max_code)
-        dk = cache[dl.exposure_ns]
+        dk = dark[desc.dark_for(lv, "temporal").exposure_ns]
         d3.append(dk[0])
         d4.append(dk[1])
         steps.append((sp, dk[2]))
@@ -96,8 +104,10 @@ def analyse_descriptor(path: str | Path | EmvaDescriptor) -> EmvaAnalysis:
     if desc.spatial_bright:
         lv = desc.spatial_bright[0]
         dl = desc.dark_for(lv, "spatial")
-        sb, img_b, line_b = stack_moments(iter_level(desc, lv))  # streamed: memory does not grow with L
-        sd, img_d, line_d = stack_moments(iter_level(desc, dl))
+        with ThreadPoolExecutor(2) as ex:  # the two stacks side by side, each streamed (memory independent of L)
+            fb = ex.submit(stack_moments, iter_level(desc, lv))
+            sd, img_d, line_d = stack_moments(iter_level(desc, dl))
+            sb, img_b, line_b = fb.result()
         stack_b = StackImage(img_b, sb.s2_temporal, sb.n_frames, lv.photons, lv.exposure_s, line_b)
         stack_d = StackImage(img_d, sd.s2_temporal, sd.n_frames, 0.0, dl.exposure_s, line_d)
     res = emva1288_results(td, sb, sd)
