@@ -7,7 +7,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 from pathlib import Path
 
-from ares.protocol.scan import Limit
+from ares.protocol.scan import Limit, parse_limit
 from ares.protocol.xmlsafe import fail, load
 
 
@@ -40,14 +40,6 @@ def load_lot(path: str | Path) -> Lot:
         items.append(LotItem(p if p.is_absolute() else base / p, el.get("sensor") or "",
                              None if el.get("x") is None else float(el.get("x")),
                              None if el.get("y") is None else float(el.get("y"))))
-    limits = []
-    for el in root.iterfind("limits/limit"):
-        lo, hi = el.get("min"), el.get("max")
-        if lo is None and hi is None:
-            raise fail(path, el.sourceline, f"limit on '{el.get('quantity')}' needs min= or max=")
-        lim = Limit(el.get("quantity"), None if lo is None else float(lo), None if hi is None else float(hi))
-        if lim.min is not None and lim.max is not None and lim.min > lim.max:
-            raise fail(path, el.sourceline, f"limit on '{lim.quantity}': min {lim.min:g} is above max {lim.max:g}")
-        limits.append(lim)
+    limits = [parse_limit(el, path) for el in root.iterfind("limits/limit")]
     desc = root.findtext("description") or ""
     return Lot(root.get("name"), path, tuple(items), tuple(limits), " ".join(desc.split()))

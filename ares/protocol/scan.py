@@ -84,6 +84,18 @@ class Limit:
         return (self.min is None or value >= self.min) and (self.max is None or value <= self.max)
 
 
+def parse_limit(el, path) -> Limit:
+    """A ``<limit quantity= min= max=>`` element (scan and lot files), checked: at least one
+    bound, min not above max; errors name the file and line."""
+    lo, hi = el.get("min"), el.get("max")
+    if lo is None and hi is None:
+        raise fail(path, el.sourceline, f"limit on '{el.get('quantity')}' needs min= or max=")
+    lim = Limit(el.get("quantity"), None if lo is None else float(lo), None if hi is None else float(hi))
+    if lim.min is not None and lim.max is not None and lim.min > lim.max:
+        raise fail(path, el.sourceline, f"limit on '{lim.quantity}': min {lim.min:g} is above max {lim.max:g}")
+    return lim
+
+
 @dataclass(frozen=True)
 class Suspend:
     """``<suspend>``: conditions that pause acquisition (ares.scan.suspend)."""
@@ -262,12 +274,7 @@ def scan_from_tree(tree, path, system: System | None = None, system_path=None) -
     analyses = tuple(el.get("name") for el in root.iterfind("analyses/analysis"))
     limits = []
     for el in root.iterfind("limits/limit"):
-        lo, hi = el.get("min"), el.get("max")
-        if lo is None and hi is None:
-            raise fail(path, el.sourceline, f"limit on '{el.get('quantity')}' needs min= or max=")
-        lim = Limit(el.get("quantity"), None if lo is None else float(lo), None if hi is None else float(hi))
-        if lim.min is not None and lim.max is not None and lim.min > lim.max:
-            raise fail(path, el.sourceline, f"limit on '{lim.quantity}': min {lim.min:g} is above max {lim.max:g}")
+        lim = parse_limit(el, path)
         why = unknown_limit(lim.quantity, analyses)
         if why:
             raise fail(path, el.sourceline, why)
