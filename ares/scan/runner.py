@@ -32,6 +32,7 @@ from ares.scan.preflight import check_run
 from ares.scan.results import StackSet, analyze_stage, check_limits, scan_level_results, views
 from ares.scan.rundir import RunRecord, RunWriter
 from ares.scan.stages import Stage, estimate_seconds
+from ares.scan.eta import Eta
 from ares.scan.suspend import Suspended, Suspenders
 
 
@@ -201,6 +202,7 @@ class Runner:
         self._frames_done = 0
         self._t0 = time.monotonic()
         self._est = self.estimate_seconds()
+        self._eta = Eta(self._frames_total, len(stages), self._est)
         run_dir = str(writer.dir) if writer else None
         self._emit(ev.RunStarted(run_dir, len(stages), self._frames_total, self._est))
         cache = None  # last dark StackSet that a matched dark may reuse
@@ -298,6 +300,7 @@ class Runner:
             if writer:
                 writer.add_stage(result, arrays, before, after, timing)
             completed.append(dict(result, registers_before=before, registers_after=after, timing=timing))
+            self._eta.stage_finished(time.monotonic() - self._t0)
             self._emit(ev.StageFinished(st.index, len(stages), st, result, arrays))
         else:
             if self._stop.is_set():
@@ -353,6 +356,7 @@ class Runner:
                       mask=mask.mask if mask is not None else None)
         if mask is None and not dark and st.scene == "dark" and n * shape[0] * shape[1] * 2 <= KEEP_FOR_MASK_BYTES:
             ss.kept = []  # the stage a defect mask will be built from: keep its frames to mask it too
+        self._eta.stage_started(time.monotonic() - self._t0)  # waiting for a first frame is stage work
         it = iter(src.grab(n))
         k = 0
         try:
@@ -382,8 +386,8 @@ class Runner:
                 self._frames_done += 1
                 elapsed = time.monotonic() - self._t0
                 fps = self._frames_done / elapsed if elapsed > 0 else 0.0
-                left = self._frames_total - self._frames_done
-                remaining = left / fps if fps > 0 else None
+                self._eta.frame(elapsed)
+                remaining = self._eta.remaining(elapsed)
                 self._emit(ev.FramePreview(st.index, k, n, data, dark))
                 self._emit(ev.Progress(st.index, len(self.stages), self._frames_done, self._frames_total, fps,
                                        remaining))
