@@ -192,3 +192,18 @@ def test_stack_and_descriptor_items(client, tmp_path):
 
         assert res[1]["kind"] == "emva"
         assert res[1]["figures"]["K"]["value"] == analyse_descriptor(desc).sheet.values["K"].value
+
+
+def test_rerun_any_item_on_a_worker(client, runs, tmp_path):
+    """``ares batch --rerun``: a worker repeats a run from its directory alone (as ``ares
+    rerun``) and the new run reproduces every stage result and key figure (simulator)."""
+    from ares.batch.cluster import run_items
+    from ares.report import key_figures
+
+    base, dirs, _ = runs
+    res = run_items(client, [str(d) for d in dirs[:2]], None, rerun_into=str(tmp_path / "reruns"))
+    for d, r in zip(dirs, res):
+        assert r["status"] == "done" and r["rerun_of"] == str(d) and Path(r["item"]).parent == tmp_path / "reruns"
+        same, n = map(int, r["reproduced"].split("/"))
+        assert n > 0 and same == n, r.get("differ")
+        assert r["figures"]["gain_dn_per_e"]["value"] == key_figures(d)["gain_dn_per_e"]["value"]

@@ -44,14 +44,17 @@ def make_client(scheduler: str | None = None, workers: int | None = None):
     return Client(cluster)
 
 
-def run_items(client, paths: list[str], cache_dir: str | None, progress=None) -> list[dict]:
-    """Every item's result (``items.process``) in the order given; ``progress(done, total,
-    result)`` after each completes (in completion order)."""
+def run_items(client, paths: list[str], cache_dir: str | None, progress=None, rerun_into: str | None = None
+              ) -> list[dict]:
+    """Every item's result (``items.process``; with ``rerun_into``, run directories are first
+    repeated there by ``items.rerun``) in the order given; ``progress(done, total, result)``
+    after each completes (in completion order)."""
     from distributed import as_completed
 
-    from ares.batch.items import process
+    from ares.batch.items import RUN, kind_of, process, rerun
 
-    futures = client.map(process, paths, cache_dir=cache_dir, pure=False)
+    futures = [client.submit(rerun, p, rerun_into, cache_dir, pure=False) if rerun_into and kind_of(p) == RUN
+               else client.submit(process, p, cache_dir, pure=False) for p in paths]
     index = {f.key: i for i, f in enumerate(futures)}
     out: list[dict | None] = [None] * len(paths)
     for k, fut in enumerate(as_completed(futures), 1):

@@ -142,3 +142,30 @@ def process(path: str, cache_dir: str | None = None) -> dict:
         if isinstance(exc, (KeyError, ValueError)):
             msg = f"{type(exc).__name__}: {msg}"
         return {**item, "status": "error", "error": f"{path}: {msg}" if str(path) not in msg else msg}
+
+
+def rerun(path: str, out_root: str, cache_dir: str | None = None) -> dict:
+    """The worker task of ``ares batch --rerun``: repeat a run from its directory alone (as
+    ``ares rerun``: verbatim XML, seed, frame override) into ``out_root``, then analyse the new
+    run; the result says how many stage results reproduce the original's. A run on hardware
+    needs that hardware at the worker that gets it."""
+    from ares.commands.rerun import compare
+    from ares.errors import AresError
+    from ares.scan import Runner, load_run
+
+    try:
+        rec = load_run(path)
+        root = Path(out_root)
+        root.mkdir(parents=True, exist_ok=True)
+        out = root / Path(path).name
+        k = 1
+        while out.exists():
+            out, k = root / f"{Path(path).name}_{k}", k + 1
+        outcome = Runner(rec.scan, out_dir=out, seed=rec.meta.get("seed"),
+                         frames=rec.meta.get("frames_override")).run()
+        same, n, diff = compare(rec, load_run(outcome.run_dir))
+    except (AresError, OSError, ValueError, KeyError) as exc:
+        return {"item": str(path), "status": "error", "error": f"{path}: rerun failed ({exc})"}
+    res = process(str(outcome.run_dir), cache_dir)
+    res.update(rerun_of=str(path), reproduced=f"{same}/{n}", differ=diff[:5])
+    return res

@@ -29,6 +29,9 @@ def add_arguments(p) -> None:
                                                           "a local cluster, one worker process per core")
     p.add_argument("--workers", type=int, metavar="N", help="workers of the local cluster (default: the cores)")
     p.add_argument("--no-cache", action="store_true", help="recompute every item (the cache is still refreshed)")
+    p.add_argument("--rerun", action="store_true", help="repeat every run directory from its directory alone "
+                                                        "(as ares rerun) on the workers, into OUT/reruns, and "
+                                                        "report the new runs")
     p.add_argument("--stack", metavar="SPEC", help="one huge stack (.npy or file.h5:/dataset) split over workers")
     p.add_argument("--split", type=int, default=0, metavar="N", help="frame chunks for --stack (default: workers)")
     p.add_argument("--json", action="store_true", help="print the results as JSON")
@@ -76,7 +79,8 @@ def run(args) -> int:
         if args.no_cache:
             for p in cache.glob("*.json"):
                 p.unlink()
-        results = run_items(client, paths, str(cache.resolve()), None if args.quiet else progress_line())
+        results = run_items(client, paths, str(cache.resolve()), None if args.quiet else progress_line(),
+                            rerun_into=str((out / "reruns").resolve()) if args.rerun else None)
     finally:
         client.close()
         cluster = getattr(client, "cluster", None)
@@ -100,6 +104,8 @@ def run(args) -> int:
         for k, (a, b) in judged.yields.items():
             print(f"  yield {k}: {a}/{b}")
         for r in results:
+            if r.get("rerun_of"):
+                print(f"  rerun of {r['rerun_of']}: {r['reproduced']} stage result(s) reproduced -> {r['item']}")
             if r.get("status") == "error":
                 print(f"  FAILED {r['error']}", file=sys.stderr)
     if any(r.get("status") == "error" for r in results):
