@@ -397,11 +397,11 @@ def test_two_axis_sweep_fills_the_sweep_map(window, qtbot, tmp_path):
     assert window.session.progress.state == P.DONE, window.session.progress.message
     assert m.ndim == 2 and m.grid().shape == (3, 2) and np.isfinite(m.grid()).all()
     assert [name for name, _ in m.axes()] == ["sf_bias", "tx_low"]
-    assert "pixel temporal (read) (DN^2)" in m.quantities
+    assert "Pt: pixel temporal (read), DN^2" in m.quantities
     assert window.sweep.stack.currentWidget() is window.sweep.map_plot
     assert window.sweep.map_image.image.shape == (2, 3)
-    window.sweep.quantity.setCurrentText("pixel temporal (read) (DN^2)")
-    assert m.quantity == "pixel temporal (read) (DN^2)"
+    window.sweep.quantity.setCurrentText("Pt: pixel temporal (read), DN^2")
+    assert m.quantity == "Pt: pixel temporal (read), DN^2"
 
 
 def test_drawing_a_region_on_the_live_image_edits_the_table(window, qtbot):

@@ -88,7 +88,7 @@ def quantities(view: dict) -> dict[str, float]:
     for name, d in (view.get("components") or {}).items():
         v = _value(d)
         if v is not None and name in COMPONENT_LABELS:
-            out[f"{COMPONENT_LABELS[name]} ({d.get('unit', '')})"] = v
+            out[f"{name}: {COMPONENT_LABELS[name]}, {d.get('unit', '')}"] = v  # as the report's sweep maps
     return out
 
 
