@@ -90,8 +90,9 @@ def progress_line(stream=sys.stderr):
 
 def frame_count(spec: str) -> int:
     from ares.errors import InputError
+    from ares.hardware.stackfiles import split_spec
 
-    p, inner = _split(spec)
+    p, inner = split_spec(spec)
     if p.suffix.lower() == ".npy":
         import numpy as np
 
@@ -106,20 +107,15 @@ def frame_count(spec: str) -> int:
     raise InputError(f"{spec}: a split stack must be a .npy or an HDF5 dataset (file.h5:/dataset)")
 
 
-def _split(spec: str):
-    from ares.hardware.stackfiles import _split as split_spec
-
-    return split_spec(spec)
-
-
 def accumulate_range(spec: str, start: int, stop: int):
     """Frames [start, stop) of the stack, read where the worker runs, in one
     ``StackAccumulator`` (exact integer sums)."""
     import numpy as np
 
     from ares.analysis.accumulate import StackAccumulator
+    from ares.hardware.stackfiles import split_spec
 
-    p, inner = _split(spec)
+    p, inner = split_spec(spec)
     if p.suffix.lower() == ".npy":
         a = np.load(p, mmap_mode="r", allow_pickle=False)
         frames = a[start:stop] if a.ndim == 3 else a[None]

@@ -22,8 +22,14 @@ REPORT_OUTPUTS = {"report.pdf", "report.h5", "ptc.csv", "components.csv", "level
                   "emva_datasheet.pdf", "emva_datasheet.csv"}
 
 
+def _file(path: str | Path) -> Path:
+    from ares.hardware.stackfiles import split_spec
+
+    return split_spec(str(path))[0]
+
+
 def kind_of(path: str | Path) -> str:
-    p = Path(str(path).split(".h5:")[0].split(".npz:")[0])
+    p = _file(path)
     if p.is_dir() and (p / "run.json").is_file():
         return RUN
     if p.is_file() and p.suffix.lower() == ".txt":
@@ -41,7 +47,7 @@ def _files(path: Path, kind: str) -> list[Path]:
 
         d = read_descriptor(path)
         return [path] + sorted({p for lv in d.levels for p in lv.images})
-    p = Path(str(path).split(".h5:")[0].split(".npz:")[0])
+    p = _file(path)
     return sorted(f for f in p.iterdir() if f.is_file()) if p.is_dir() else [p]
 
 

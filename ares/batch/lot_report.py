@@ -24,8 +24,7 @@ class Judged:
 
 
 def limit_text(lim) -> str:
-    parts = [f">= {lim.min:g}" if lim.min is not None else "", f"<= {lim.max:g}" if lim.max is not None else ""]
-    return f"{lim.quantity} {' and '.join(p for p in parts if p)}"
+    return f"{lim.quantity} {lim.bounds()}"
 
 
 def find(figures: dict, quantity: str) -> dict | None:

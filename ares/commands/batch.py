@@ -65,9 +65,10 @@ def run(args) -> int:
     paths = [str(Path(p)) for p in args.items] + [str(it.path) for it in (lot.items if lot else ())]
     if not paths and not args.stack:
         raise InputError("ares batch: no items (give run directories / data sets, or a lot file with <item>s)")
+    from ares.hardware.stackfiles import split_spec
+
     for p in paths:
-        base = Path(p.split(".h5:")[0].split(".npz:")[0])
-        if not base.exists():
+        if not split_spec(p)[0].exists():
             raise InputError(f"{p}: no such file or directory")
     client = make_client(args.scheduler, args.workers)
     try:

@@ -24,13 +24,14 @@ import numpy as np
 from ares.errors import InputError
 from ares.hardware.imagefile import read_image
 
-__all__ = ["iter_frames", "stack_shape", "load_stack", "IMAGE_SUFFIXES"]
+__all__ = ["iter_frames", "stack_shape", "load_stack", "split_spec", "IMAGE_SUFFIXES"]
 
 IMAGE_SUFFIXES = (".png", ".tif", ".tiff")
 _H5_SUFFIXES = (".h5", ".hdf5", ".hdf")
 
 
-def _split(spec: str) -> tuple[Path, str | None]:
+def split_spec(spec: str) -> tuple[Path, str | None]:
+    """(file, inner name) of a spec: ``file.h5:/dataset`` -> (file.h5, /dataset); ``file.npz:name``."""
     s = str(spec)
     low = s.lower()
     for suf in _H5_SUFFIXES + (".npz",):
@@ -109,7 +110,7 @@ def _iter_npy(path: Path) -> Iterator[np.ndarray]:
 
 
 def _iter_one(spec) -> Iterator[np.ndarray]:
-    path, inner = _split(spec)
+    path, inner = split_spec(spec)
     if path.is_dir():
         files = sorted(p for p in path.iterdir() if p.suffix.lower() in IMAGE_SUFFIXES)
         if not files:

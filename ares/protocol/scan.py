@@ -24,7 +24,6 @@ from ares.protocol.system import Region, System, _check_region, _region, _set, l
 from ares.protocol.xmlsafe import fail
 
 QUANTITIES = ("exposure", "light", "temperature", "analog_gain")
-ANALYSES = ("decomposition", "ptc", "dark_current", "temperature", "gain_split", "adc_linearity", "lag", "defects")
 MAX_STAGES = 10000
 MAX_REGIONS = 256
 
@@ -82,6 +81,11 @@ class Limit:
         if value is None or not math.isfinite(value):
             return False
         return (self.min is None or value >= self.min) and (self.max is None or value <= self.max)
+
+    def bounds(self) -> str:
+        """``>= 0.25 and <= 0.31``: the limit's range in words (messages, table headers)."""
+        return " and ".join(x for x in (f">= {self.min:g}" if self.min is not None else "",
+                                        f"<= {self.max:g}" if self.max is not None else "") if x)
 
 
 def parse_limit(el, path) -> Limit:

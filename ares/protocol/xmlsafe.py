@@ -16,6 +16,7 @@ from pathlib import Path
 from lxml import etree
 
 from ares.errors import InputError
+from ares.protocol.quantities import PRODUCES
 
 MAX_BYTES = 16 * 1024 * 1024
 
@@ -85,7 +86,7 @@ TYPE_WORDS = {
     "Endian": "one of big, little", "Pattern": "one of mono, RGGB, GRBG, GBRG, BGGR",
     "Interleave": "one of none, column, row, pixel", "Scene": "one of dark, flat",
     "Quantity": "one of exposure, light, temperature, analog_gain",
-    "Analysis": "one of decomposition, ptc, dark_current, temperature, gain_split, adc_linearity, lag, defects",
+    "Analysis": "one of " + ", ".join(PRODUCES),  # the analyses and what they produce: one table
     "DarkMode": "one of none, matched", "Parity": "one of N, E, O", "StopBits": "1 or 2",
     "ByteSize": "7 or 8", "FrameFormat": "one of mono8, mono16le, mono16be", "ParamType": "one of int, float, bool, str, floats",
     "NumberList": "a list of finite numbers separated by spaces", "PositiveNumber": "a finite number > 0",

@@ -48,13 +48,13 @@ def _line(comp: dict | None, level: dict) -> tuple[float | None, float | None, f
 
 
 def _stats(level: dict, comp: dict | None = None, shape=None):
+    """The stage level as ``LevelStats`` (``analyses._levelstats``), with the sampling of its
+    row/column temporal parts (from the stage's ANOVA) in the variance's SE."""
     import dataclasses
 
-    from ares.analysis.levels import LevelStats
+    from ares.scan.analyses import _levelstats
 
-    var = level.get("var_dn2")
-    st = LevelStats(level["mean_dn"], math.nan if var is None else var, level["n_pixels"], level["n_frames"],
-                    level.get("frac_at_max", 0.0), level.get("frac_at_min", 0.0))
+    st = _levelstats(level)
     if comp and shape:
         _, _, rt, ct = _line(comp, {**level, "rows": shape[0]})
         f = max(level["n_frames"] - 1, 1)

@@ -22,6 +22,7 @@ class Eta:
         self.n_frames = 0  # frame intervals those seconds cover
         self.frames_done = 0
         self.overheads: list[float] = []  # per finished stage: its time outside the frame loops
+        self._per_stage = 0.0  # their median, updated when a stage ends (remaining() runs per frame)
         self._last: float | None = None  # time of the previous frame in the current stack
         self._stack = [0.0, 0]  # frame-loop seconds and intervals of the current stack
         self._prev_stack: tuple[float, int] | None = None  # ... of the previous stack
@@ -50,6 +51,7 @@ class Eta:
     def stage_finished(self, t: float) -> None:
         if self._stage_t0 is not None:
             self.overheads.append(max(t - self._stage_t0 - self._stage_frames, 0.0))
+            self._per_stage = statistics.median(self.overheads)
         self._stage_t0, self._stage_frames, self._last = None, 0.0, None
 
     def remaining(self, t: float) -> float | None:
@@ -67,7 +69,7 @@ class Eta:
         left = (self.frames_total - self.frames_done) * per_frame
         if not self.overheads:
             return left  # no stage has ended yet: its end work is not known
-        per_stage = statistics.median(self.overheads)
+        per_stage = self._per_stage
         spent = 0.0
         if self._stage_t0 is not None:
             spent = max(t - self._stage_t0 - self._stage_frames, 0.0)

@@ -261,7 +261,5 @@ def check_limits(scan, results: dict) -> list[str]:
             continue
         v = hits[0]
         if v is None or not lim.check(float(v)):
-            rng = " and ".join(x for x in (f">= {lim.min:g}" if lim.min is not None else "",
-                                            f"<= {lim.max:g}" if lim.max is not None else "") if x)
-            fails.append(f"{lim.quantity} = {'n/a' if v is None else format(float(v), '.4g')} is not {rng}")
+            fails.append(f"{lim.quantity} = {'n/a' if v is None else format(float(v), '.4g')} is not {lim.bounds()}")
     return fails
