@@ -33,7 +33,6 @@ class EmvaAnalysis:
     sheet: "EmvaSheet | None" = None  # Release 4.0 Linear, every Table 2 figure and the graph data
     general: "GeneralResult | None" = None  # Release 4.0 General
     release31: "dict | None" = None  # Release 3.1: the 3.0 set with the 5x5 high-pass DSNU/PRNU
-    sheet_input: "EmvaInput | None" = None  # what the 4.0 evaluation read (kept for a re-evaluation)
 
 
 def attribution_for(desc: EmvaDescriptor) -> str:
@@ -57,7 +56,7 @@ def _pair(desc, lv, max_code):
     return pair_step(a[0], a[1], max_code)
 
 
-def analyse_descriptor(path: str | Path | EmvaDescriptor) -> EmvaAnalysis:
+def analyse_descriptor(path: str | Path | EmvaDescriptor, pixel_area_um2: float | None = None) -> EmvaAnalysis:
     """Every release's statistics in one pass over the images (each image decoded once;
     the stacks streamed, memory independent of their length)."""
     import os
@@ -112,14 +111,14 @@ def analyse_descriptor(path: str | Path | EmvaDescriptor) -> EmvaAnalysis:
         stack_d = StackImage(img_d, sd.s2_temporal, sd.n_frames, 0.0, dl.exposure_s, line_d)
     res = emva1288_results(td, sb, sd)
     ptc = analyze_ptc(b4, d4, exposure_s=texp, photons=up)
-    inp = EmvaInput(up, texp, b4, d4, steps, np.array(diffs), stack_d, stack_b,
+    inp = EmvaInput(up, texp, b4, d4, steps, np.array(diffs), stack_d, stack_b, pixel_area_um2=pixel_area_um2,
                     meta={"source": str(desc.path), "bits": desc.bits, "width": desc.width, "height": desc.height})
     sheet = evaluate_linear(inp)
     general = emva_general(b4, d4, up, mean_diff=np.array(diffs))
     r31 = None
     if stack_b is not None:
         r31 = release31(res, stack_b, stack_d)
-    return EmvaAnalysis(desc, res, ptc, b4, d4, sheet.photon_transfer, sheet, general, r31, inp)
+    return EmvaAnalysis(desc, res, ptc, b4, d4, sheet.photon_transfer, sheet, general, r31)
 
 
 def release31(res, stack_b, stack_d) -> dict:
@@ -278,10 +277,6 @@ def add_arguments(parser) -> None:
 
 
 def _meta(args, an: EmvaAnalysis) -> None:
-    import dataclasses
-
-    from ares.analysis.emva4_sheet import evaluate_linear
-
     m = an.sheet.meta
     for k in ("vendor", "model", "serial", "date"):
         if getattr(args, k, None):
@@ -293,15 +288,13 @@ def _meta(args, an: EmvaAnalysis) -> None:
     m["footer"] = attribution_for(an.descriptor)
     m["data_mode"] = f"Mono {an.descriptor.bits}"
     m["exposure_control"] = "exposure time"
-    pitch = getattr(args, "pixel_size_um", None)
-    if pitch:  # the area figures need the pixel size: evaluate again with it (statistics are kept)
-        an.sheet = evaluate_linear(dataclasses.replace(an.sheet_input, pixel_area_um2=pitch * pitch, meta=m))
 
 
 def run(args) -> int:
     from ares.report import datasheet
 
-    an = analyse_descriptor(args.descriptor)
+    pitch = getattr(args, "pixel_size_um", None)
+    an = analyse_descriptor(args.descriptor, pitch * pitch if pitch else None)  # the .area figures need it
     _meta(args, an)
     att = attribution_for(an.descriptor)
     if args.release == "4.0-linear":
