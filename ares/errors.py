@@ -55,3 +55,13 @@ class DeviceGone(HardwareError):
 
 class FrameError(HardwareError):
     """A frame was short, of the wrong shape, or corrupt."""
+
+
+class FrameLost(FrameError):
+    """Frames did not arrive whole: ``kind`` is "dropped" (a gap in the device's frame
+    counter), "corrupt" (CRC or header mismatch) or "short" (the transfer ended early).
+    A scan may re-grab the stage (``<frames on_loss="regrab">``) instead of failing."""
+
+    def __init__(self, message: str, kind: str = "dropped", count: int = 1):
+        super().__init__(message)
+        self.kind, self.count = kind, count

@@ -68,7 +68,8 @@ def test_i2c_multi_register_exposure_through_register_file():
 
 def test_i2c_errors_name_the_device():
     bus = I2CRegisterBus(3, 0x36, 16, 8, name="sensor", smbus=FakeSMBus(fail=True))
-    with pytest.raises(DeviceGone, match=r"I2C device 0x36 on bus 3 \('sensor'\), register 0x0010: no answer"):
+    with pytest.raises(DeviceGone, match=r"I2C device 0x36 on bus 3 \('sensor'\), register 0x0010: no acknowledge "
+                                         r"on read after 3 attempt\(s\)"):
         bus.read(0x10)
     with pytest.raises(ValueOutOfRange, match="does not fit in 8 bits"):
         I2CRegisterBus(1, 0x36, 16, 8, smbus=FakeSMBus()).write(0x10, 256)
@@ -80,16 +81,22 @@ def test_i2c_missing_bus_is_device_gone():
 
 
 class FakeUsb:
+    """pyusb's Device.read into the caller's buffer: each scripted item is one transfer."""
+
     def __init__(self, frames):
         self.frames = list(frames)
         self.reads = []
 
-    def read(self, ep, size, timeout=None):
-        self.reads.append((ep, size, timeout))
+    def read(self, ep, buf, timeout=None):
+        self.reads.append((ep, len(buf), timeout))
         item = self.frames.pop(0)
         if isinstance(item, Exception):
             raise item
-        return item
+        n = min(len(item), len(buf))
+        buf[:n] = type(buf)("B", item[:n])
+        if n < len(item):
+            self.frames.insert(0, item[n:])
+        return n
 
 
 def test_usb_frames_decode_and_faults():
@@ -110,7 +117,7 @@ def test_usb_frames_decode_and_faults():
     bad[0, 0] = 4000
     with pytest.raises(FrameError, match="corrupt"):
         next(UsbFrameSource(FakeUsb([bad.tobytes()]), g, shape, 11).grab(1))
-    with pytest.raises(HardwareError, match="no frame within 2000 ms"):
+    with pytest.raises(HardwareError, match=r"no data on endpoint 0x82 within 2000 ms \(timeout\)"):
         next(UsbFrameSource(FakeUsb([usb.core.USBTimeoutError("t")]), g, shape, 11).grab(1))
     with pytest.raises(DeviceGone, match="disconnected"):
         next(UsbFrameSource(FakeUsb([usb.core.USBError("No such device", errno=19)]), g, shape, 11).grab(1))

@@ -53,6 +53,10 @@ def sim_params(system):
 
 def build_bench(system, *, seed: int | None = None, faults: dict | None = None) -> Bench:
     """The simulated bench when the system has ``<simulator>``, else the real devices."""
+    if system.simulator is not None and system.simulator.wire:
+        from ares.hardware.wire_bench import build_wire_bench
+
+        return build_wire_bench(system, system.simulator.seed if seed is None else seed, faults)
     if system.simulator is not None:
         from ares.sim import make_sim_bench
 
@@ -61,6 +65,10 @@ def build_bench(system, *, seed: int | None = None, faults: dict | None = None) 
         return bench
     if faults:
         raise InputError("fault injection is only available on the simulated bench")
+    if system.genicam is not None:
+        from ares.hardware.genicam import build_genicam_bench
+
+        return build_genicam_bench(system)
     if getattr(system, "replay", None) is not None:
         from ares.hardware.replay import build_replay_bench
 
@@ -77,14 +85,21 @@ def build_real_bench(system) -> Bench:
         raise InputError(f"system '{system.name}' declares no <buses><i2c> for the sensor registers")
     if system.usb_grabber is None:
         raise InputError(f"system '{system.name}' declares no <usb_grabber> frame source")
-    b = system.buses[0]
-    bus = I2CRegisterBus(b.bus, b.address, system.registers.address_bits, system.registers.value_bits, name=b.name)
+    b, s = system.buses[0], system.sensor
+    bus = I2CRegisterBus(b.bus, b.address, system.registers.address_bits, system.registers.value_bits, name=b.name,
+                         retries=b.retries, verify=b.verify, value_endian=b.value_endian)
     opened = [bus]
     try:
         regs = RegisterFile(system.registers, bus)
         g = system.usb_grabber
-        frames = UsbFrameSource.open(g, (system.sensor.rows, system.sensor.cols), system.sensor.adc_bits)
+        frames = UsbFrameSource.open(g, (s.rows, s.cols), s.adc_bits, channels=s.adc_channels,
+                                     interleave=s.adc_interleave)
         opened.append(frames)
+        if b.readback == "image_row":
+            from ares.hardware.i2c import ImageRowReadback
+
+            enable = (lambda on: regs.set(b.readback_field, 1 if on else 0)) if b.readback_field else None
+            bus.readback = ImageRowReadback(bus, frames, b.readback_row, b.readback_start, enable)
         light = SerialLightSource.open(system.light_source) if system.light_source else None
         opened.append(light)
         chamber = SerialChamber.open(system.chamber) if system.chamber else None

@@ -1,23 +1,35 @@
-"""Sensor registers over I2C (smbus2): a ``RegisterBus`` for ``RegisterFile``.
+"""Sensor registers over I2C (smbus2 ``i2c_rdwr``): a ``RegisterBus`` for ``RegisterFile``.
 
-A register access is one combined transaction: write the register address
-(``address_bits/8`` bytes, most significant first), then read or write
-``value_bits/8`` bytes (most significant first) -- the usual 16-bit-address CIS
-convention. Bus errors become ``DeviceGone`` naming the bus, device and register.
+One register access is one combined transaction: write the register address
+(``address_bits/8`` bytes, most significant first), then read or write ``value_bits/8``
+bytes in the bus's ``value_endian`` byte order -- the usual 8/16-bit-address CIS
+convention. A NACK or timeout is retried ``retries`` times (the XML's ``<i2c retries>``);
+then one ``DeviceGone`` names bus, device and register (``RegisterFile`` adds the field).
+With ``verify`` every write is read back and compared.
+
+Sensors without I2C read (``readback="image_row"``): reads come from an image row the
+sensor fills with its registers (``ImageRowReadback``).
 """
 
 from __future__ import annotations
 
-from ares.errors import DeviceGone, ValueOutOfRange
+import errno
+
+from ares.errors import DeviceGone, HardwareError, ValueOutOfRange
+
+_GONE = {errno.ENODEV, errno.ENXIO, errno.ENOENT, errno.EBADF}
 
 
 class I2CRegisterBus:
     def __init__(self, bus: int, address: int, address_bits: int = 16, value_bits: int = 8, *,
-                 name: str = "i2c", smbus=None):
+                 name: str = "i2c", smbus=None, retries: int = 2, verify: bool = False, value_endian: str = "big"):
         self.name = name
         self.bus_number, self.address = bus, address
         self.abytes, self.vbytes = address_bits // 8, value_bits // 8
         self.value_bits, self.address_bits = value_bits, address_bits
+        self.retries, self.verify, self.value_endian = int(retries), bool(verify), value_endian
+        self.readback = None  # ImageRowReadback for sensors without I2C read
+        self.retried = 0  # transactions that needed a retry (a flaky bus shows here)
         if smbus is None:
             try:
                 from smbus2 import SMBus
@@ -28,23 +40,38 @@ class I2CRegisterBus:
         self.smbus = smbus
 
     def _where(self, reg: int) -> str:
-        return f"I2C device 0x{self.address:02x} on bus {self.bus_number} ('{self.name}'), register 0x{reg:0{2 * self.abytes}x}"
+        return (f"I2C device 0x{self.address:02x} on bus {self.bus_number} ('{self.name}'), "
+                f"register 0x{reg:0{2 * self.abytes}x}")
 
     def _check(self, reg: int) -> None:
         if not 0 <= reg < (1 << self.address_bits):
             raise ValueOutOfRange(f"{self._where(0)}: register address 0x{reg:x} is outside the address space")
 
+    def _transfer(self, reg: int, what: str, *msgs) -> None:
+        for attempt in range(self.retries + 1):
+            try:
+                self.smbus.i2c_rdwr(*msgs)
+                if attempt:
+                    self.retried += 1
+                return
+            except OSError as exc:
+                if exc.errno in _GONE:
+                    raise DeviceGone(f"{self._where(reg)}: device gone on {what} ({exc.strerror or exc})") from None
+                last = exc
+        kind = "timeout" if last.errno == errno.ETIMEDOUT else "no acknowledge"
+        raise DeviceGone(f"{self._where(reg)}: {kind} on {what} after {self.retries + 1} attempt(s) "
+                         f"({last.strerror or last})")
+
     def read(self, address: int) -> int:
+        if self.readback is not None:
+            return self.readback.read(address)
         from smbus2 import i2c_msg
 
         self._check(address)
         w = i2c_msg.write(self.address, address.to_bytes(self.abytes, "big"))
         r = i2c_msg.read(self.address, self.vbytes)
-        try:
-            self.smbus.i2c_rdwr(w, r)
-        except OSError as exc:
-            raise DeviceGone(f"{self._where(address)}: no answer on read ({exc.strerror or exc})") from None
-        return int.from_bytes(bytes(r), "big")
+        self._transfer(address, "read", w, r)
+        return int.from_bytes(bytes(r), self.value_endian)
 
     def write(self, address: int, value: int) -> None:
         from smbus2 import i2c_msg
@@ -52,13 +79,68 @@ class I2CRegisterBus:
         self._check(address)
         if not 0 <= value < (1 << self.value_bits):
             raise ValueOutOfRange(f"{self._where(address)}: value {value} does not fit in {self.value_bits} bits")
-        msg = i2c_msg.write(self.address, address.to_bytes(self.abytes, "big") + value.to_bytes(self.vbytes, "big"))
-        try:
-            self.smbus.i2c_rdwr(msg)
-        except OSError as exc:
-            raise DeviceGone(f"{self._where(address)}: no answer on write ({exc.strerror or exc})") from None
+        msg = i2c_msg.write(self.address, address.to_bytes(self.abytes, "big")
+                            + value.to_bytes(self.vbytes, self.value_endian))
+        self._transfer(address, "write", msg)
+        if self.readback is not None:
+            self.readback.written(address, value)
+        elif self.verify:
+            got = self.read(address)
+            if got != value:
+                raise HardwareError(f"{self._where(address)}: wrote 0x{value:x} but read back 0x{got:x} "
+                                    "(write-verify)")
 
     def close(self) -> None:
         close = getattr(self.smbus, "close", None)
         if close:
             close()
+
+
+class ImageRowReadback:
+    """Register reads for a sensor that cannot be read over I2C: set ``field`` to 1, grab one
+    frame, and take the registers from image row ``row`` -- pixel k holds byte k of the
+    register space from ``start`` (each register ``value_bits/8`` bytes, most significant
+    first). The frame is cached until the next register write."""
+
+    def __init__(self, bus: I2CRegisterBus, frames, row: int, start: int, enable=None):
+        self.bus, self.frames, self.row, self.start = bus, frames, int(row), int(start)
+        self.enable = enable  # callable(bool) switching the sensor's readback mode (a register write)
+        self._row = None
+        self.frames_used = 0
+
+        self._shadow: dict[int, int] = {}  # what was written (read-modify-write while switching the mode)
+        self._busy = False
+
+    def written(self, address: int, value: int) -> None:
+        self._shadow[address] = value
+        if not self._busy:
+            self._row = None
+
+    def _fetch(self):
+        self._busy = True
+        try:
+            if self.enable is not None:
+                self.enable(True)
+            try:
+                frame = next(iter(self.frames.grab(1)))
+            finally:
+                if self.enable is not None:
+                    self.enable(False)
+        finally:
+            self._busy = False
+        self._row = [int(v) for v in frame.data[self.row]]
+        self.frames_used += 1
+
+    def read(self, address: int) -> int:
+        if self._busy:  # switching the readback mode: the last value written
+            return self._shadow.get(address, 0)
+        if self._row is None:
+            self._fetch()
+        k = (address - self.start) * self.bus.vbytes
+        if not 0 <= k <= len(self._row) - self.bus.vbytes:
+            raise ValueOutOfRange(f"{self.bus._where(address)}: outside the registers image row {self.row} carries "
+                                  f"(0x{self.start:x} .. 0x{self.start + len(self._row) // self.bus.vbytes - 1:x})")
+        v = 0
+        for b in self._row[k:k + self.bus.vbytes]:
+            v = (v << 8) | (b & 0xFF)
+        return v

@@ -79,6 +79,7 @@ class Bench:
     light: LightSource | None = None
     chamber: Chamber | None = None
     info: dict = field(default_factory=dict)
+    closers: list = field(default_factory=list)  # called after the devices close (emulators unregister)
 
     def reconnect(self) -> None:
         """Find the frame source again after it was unplugged (``DeviceGone`` while it is
@@ -95,3 +96,5 @@ class Bench:
             close = getattr(dev, "close", None)
             if callable(close):
                 close()
+        for fn in self.closers:
+            fn()

@@ -10,7 +10,18 @@ from __future__ import annotations
 
 from dataclasses import dataclass, field
 
-from ares.errors import UnknownRegister, ValueOutOfRange, InputError
+from contextlib import contextmanager
+
+from ares.errors import HardwareError, UnknownRegister, ValueOutOfRange, InputError
+
+
+@contextmanager
+def _naming(field: str):
+    """A bus error inside a field access names the field too (the bus knows only addresses)."""
+    try:
+        yield
+    except HardwareError as exc:
+        raise type(exc)(f"{exc} (field '{field}')") from None
 
 
 @dataclass(frozen=True)
@@ -121,7 +132,8 @@ class RegisterFile:
         f = self.map.field(name)
         if f.access == "wo":
             raise InputError(f"register field '{name}' is write-only and cannot be read")
-        return (self._read_value(f) & f.mask) >> f.lsb
+        with _naming(name):
+            return (self._read_value(f) & f.mask) >> f.lsb
 
     def set_raw(self, name: str, raw: int) -> None:
         f = self.map.field(name)
@@ -130,8 +142,9 @@ class RegisterFile:
         if raw < 0 or raw >= (1 << f.width):
             raise ValueOutOfRange(f"register field '{name}': raw value {raw} does not fit in {f.width} bits")
         full = f.width == f.count * self.map.value_bits
-        old = 0 if (full or f.access == "wo") else self._read_value(f)
-        self._write_value(f, (old & ~f.mask) | (raw << f.lsb))
+        with _naming(name):
+            old = 0 if (full or f.access == "wo") else self._read_value(f)
+            self._write_value(f, (old & ~f.mask) | (raw << f.lsb))
 
     def get(self, name: str) -> float:
         f = self.map.field(name)

@@ -1,6 +1,8 @@
-"""Light source and thermal chamber over a serial port (pyserial).
-
-Line protocol (ASCII, ``\\n``-terminated, one reply line per command)::
+"""Light source and thermal chamber over a serial port (pyserial), in the line protocol the
+system XML declares (``<protocol>``: commands with a ``send`` template and a ``reply``
+pattern, terminators, the error pattern), so a new instrument is an XML entry, not code.
+Without ``<protocol>`` the built-in dialect (``ares.hardware.line_protocol.DEFAULT_LIGHT`` /
+``DEFAULT_CHAMBER``)::
 
     *IDN?          -> identification
     LEVEL <x>      -> OK           (light source; x in the unit the system XML declares)
@@ -10,8 +12,11 @@ Line protocol (ASCII, ``\\n``-terminated, one reply line per command)::
     STABLE?        -> 1 | 0        (chamber at set point)
     errors         -> ERR <text>
 
+The port may be a device (``/dev/ttyUSB0``) or any pyserial URL (``socket://``,
+``rfc2217://``, ``loop://``, and ``aresemu://NAME`` for ARES's instrument emulators).
 Values are range-checked against the XML's min/max before anything is sent. A missing
-reply (timeout) is ``DeviceGone``; an ``ERR`` reply is a ``HardwareError`` quoting it.
+reply (timeout) is ``DeviceGone``; a reply matching the error pattern is a
+``HardwareError`` quoting it, and so is a reply the command's pattern does not match.
 Every wait (light settle, chamber settle and soak) is bounded by the XML's timeouts and
 cut short within 0.1 s by the run's stop/abort request (``ares.hardware.waits``).
 """
@@ -19,10 +24,12 @@ cut short within 0.1 s by the run's stop/abort request (``ares.hardware.waits``)
 from __future__ import annotations
 
 import math
+import re
 import time
 
 from ares.errors import DeviceGone, HardwareError, ValueOutOfRange
 from ares.hardware.waits import wait
+from ares.hardware.line_protocol import DEFAULT_CHAMBER, DEFAULT_LIGHT
 
 
 def range_text(lo: float | None, hi: float | None, unit: str) -> str:
@@ -33,9 +40,12 @@ def range_text(lo: float | None, hi: float | None, unit: str) -> str:
 
 
 class SerialInstrument:
+    DEFAULT = DEFAULT_LIGHT
+
     def __init__(self, port, cfg, *, sleep=time.sleep, clock=time.monotonic):
         self.port, self.cfg, self._sleep, self._clock = port, cfg, sleep, clock
         self.name = cfg.name
+        self.protocol = cfg.protocol or self.DEFAULT
 
     def _wait(self, seconds: float, cancel=None) -> None:
         wait(seconds, cancel, sleep=self._sleep, clock=self._clock)
@@ -44,32 +54,60 @@ class SerialInstrument:
     def open(cls, cfg, **kw):
         import serial
 
+        if cfg.port.startswith("aresemu://") and "ares.hardware.emulators" not in serial.protocol_handler_packages:
+            serial.protocol_handler_packages.append("ares.hardware.emulators")
         try:
-            port = serial.Serial(cfg.port, baudrate=cfg.baud, bytesize=cfg.bytesize, parity=cfg.parity,
-                                 stopbits=cfg.stopbits, timeout=cfg.timeout_s)
-        except (serial.SerialException, OSError) as exc:
+            port = serial.serial_for_url(cfg.port, baudrate=cfg.baud, bytesize=cfg.bytesize, parity=cfg.parity,
+                                         stopbits=cfg.stopbits, timeout=cfg.timeout_s)
+        except (serial.SerialException, OSError, ValueError) as exc:
             raise DeviceGone(f"{cfg.name}: cannot open serial port {cfg.port} ({exc})") from None
         return cls(port, cfg, **kw)
 
+    def _line(self) -> bytes:
+        term = self.protocol.reply_terminator.encode("ascii")
+        read_until = getattr(self.port, "read_until", None)
+        return read_until(term) if read_until is not None else self.port.readline()
+
     def query(self, command: str) -> str:
+        p = self.protocol
         try:
-            self.port.write((command + "\n").encode("ascii"))
-            line = self.port.readline()
+            self.port.write((command + p.terminator).encode("ascii"))
+            line = self._line()
         except OSError as exc:
             raise DeviceGone(f"{self.name} on {self.cfg.port}: port error on '{command}' ({exc})") from None
-        if not line.endswith(b"\n"):
+        if not line.endswith(p.reply_terminator.encode("ascii")):
             raise DeviceGone(f"{self.name} on {self.cfg.port}: no reply to '{command}' within {self.cfg.timeout_s:g} s")
         reply = line.decode("ascii", "replace").strip()
-        if reply.startswith("ERR"):
-            raise HardwareError(f"{self.name} on {self.cfg.port}: refused '{command}': {reply[3:].strip()}")
+        m = re.fullmatch(p.error, reply)
+        if m:
+            text = m.groupdict().get("text") or reply
+            raise HardwareError(f"{self.name} on {self.cfg.port}: refused '{command}': {text.strip()}")
         return reply
 
-    def _number(self, command: str) -> float:
-        reply = self.query(command)
+    def _do(self, name: str, value: float | None = None) -> str:
+        """Send command ``name`` of the protocol; the reply must match its pattern. Returns the
+        ``value`` group (or the whole reply)."""
+        c = self.protocol.command(name)
+        if c is None:
+            raise HardwareError(f"{self.name} on {self.cfg.port}: its <protocol> has no '{name}' command")
+        text = c.send.format(value=value)
+        reply = self.query(text)
+        m = re.fullmatch(c.reply, reply)
+        if m is None:
+            raise HardwareError(f"{self.name} on {self.cfg.port}: reply '{reply}' to '{text}' does not match "
+                                f"'{c.reply}' (wrong reply)")
+        return m.groupdict().get("value") or reply
+
+    def _number(self, name: str) -> float:
+        got = self._do(name)
         try:
-            return float(reply)
+            v = float(got)
         except ValueError:
-            raise HardwareError(f"{self.name} on {self.cfg.port}: reply '{reply}' to '{command}' is not a number") from None
+            v = math.nan
+        if not math.isfinite(v):
+            raise HardwareError(f"{self.name} on {self.cfg.port}: reply '{got}' to "
+                                f"'{self.protocol.command(name).send}' is not a number")
+        return v
 
     def _check(self, value: float, what: str, unit: str) -> float:
         value = float(value)
@@ -79,7 +117,7 @@ class SerialInstrument:
         return value
 
     def identify(self) -> str:
-        return self.query("*IDN?")
+        return self._do("identify")
 
     def close(self) -> None:
         self.port.close()
@@ -87,33 +125,34 @@ class SerialInstrument:
 
 class SerialLightSource(SerialInstrument):
     def set_level(self, level: float) -> None:
-        v = self._check(level, "light level", self.cfg.unit or "")
-        if self.query(f"LEVEL {v:.6g}") != "OK":
-            raise HardwareError(f"{self.name} on {self.cfg.port}: unexpected reply to 'LEVEL {v:.6g}'")
+        self._do("set", self._check(level, "light level", self.cfg.unit or ""))
 
     def get_level(self) -> float:
-        return self._number("LEVEL?")
+        return self._number("get")
 
     def settle(self, cancel=None) -> None:
         self._wait(self.cfg.settle_s, cancel)
 
 
 class SerialChamber(SerialInstrument):
+    DEFAULT = DEFAULT_CHAMBER
     _setpoint: float | None = None
 
     def set_temperature(self, celsius: float) -> None:
         v = self._check(celsius, "temperature", "C")
-        if self.query(f"TEMP {v:.2f}") != "OK":
-            raise HardwareError(f"{self.name} on {self.cfg.port}: unexpected reply to 'TEMP {v:.2f}'")
+        self._do("set", v)
         self._setpoint = v
 
     def get_temperature(self) -> float:
-        return self._number("TEMP?")
+        return self._number("get")
 
     def _at_setpoint(self) -> tuple[bool, str]:
         tol = self.cfg.tolerance
         if tol is None or self._setpoint is None:
-            return self.query("STABLE?") == "1", "it never reported stable"
+            if self.protocol.command("stable") is None:
+                raise HardwareError(f"{self.name} on {self.cfg.port}: give tolerance= (C) or a 'stable' command "
+                                    "in its <protocol> to know when it has settled")
+            return self._do("stable").strip() == "1", "it never reported stable"
         t = self.get_temperature()
         return abs(t - self._setpoint) <= tol, (f"last reading {t:g} C, set point {self._setpoint:g} "
                                                 f"+/- {tol:g} C")

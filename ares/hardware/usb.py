@@ -1,80 +1,245 @@
 """Frames from a USB bulk-endpoint frame grabber (pyusb): a ``FrameSource``.
 
-Each frame is one bulk read of ``header_bytes + rows*cols*bytes_per_pixel`` from the
-declared IN endpoint; pixels are ``mono8``, ``mono16le`` or ``mono16be``. A read that
-times out, a device that vanishes, a short transfer, or a code above the ADC range ends
-in a ``HardwareError`` naming the grabber.
+The system XML's ``<usb_grabber>`` declares everything on the wire: VID/PID (and
+``serial`` to pick one of several), the control transfers to send at open, before and
+after each grab (``value="frames"`` = the number of frames), the IN endpoint, the read
+size (``chunk_bytes``), the frame header, the pixel format (``ares.hardware.pixels``) and
+the order the ADC channels arrive in.
+
+With ``header="ares32"`` (``ares.hardware.frame_header``) every frame is checked: sync
+word (searched for again after garbage: resynchronisation), size and format against the
+XML, the payload CRC when the device sends one, and the frame counter -- a gap is a
+dropped frame. Frames that do not arrive whole raise ``FrameLost`` (dropped, corrupt,
+short: a bulk read that ends early ends the transfer); the scan re-grabs the stage or
+fails, as it declares. A read that times out is a ``HardwareError``; a device that
+vanishes is ``DeviceGone``; and a watchdog (``watchdog_ms`` for a whole frame) ends a
+grab whose data trickle in without ever completing a frame. Every sentence names the
+grabber.
 """
 
 from __future__ import annotations
 
+import array
+import errno
 import time
 
 import numpy as np
 
-from ares.errors import DeviceGone, FrameError, HardwareError
+from ares.errors import DeviceGone, FrameError, FrameLost, HardwareError
+from ares.hardware import frame_header as fh
 from ares.hardware.interfaces import Frame
+from ares.hardware.pixels import from_wire_order, pixel_format, unpack
 
-_DTYPES = {"mono8": np.dtype("u1"), "mono16le": np.dtype("<u2"), "mono16be": np.dtype(">u2")}
+
+def _usb():
+    import usb.core
+
+    return usb.core
 
 
 class UsbFrameSource:
-    def __init__(self, device, cfg, shape: tuple[int, int], bit_depth: int):
+    def __init__(self, device, cfg, shape: tuple[int, int], bit_depth: int, channels: int = 1,
+                 interleave: str = "none"):
         self.dev, self.cfg = device, cfg
         self.name = f"USB frame grabber '{cfg.name}' ({cfg.vid:04x}:{cfg.pid:04x})"
         self.shape, self.bit_depth = tuple(shape), int(bit_depth)
-        self.dtype = _DTYPES[cfg.format]
-        self.frame_bytes = cfg.header_bytes + shape[0] * shape[1] * self.dtype.itemsize
-        self.count = 0
+        self.channels, self.interleave = int(channels), interleave
+        self.fmt = pixel_format(cfg.format)
+        self.payload = self.fmt.payload_bytes(shape[0] * shape[1])
+        self.head = fh.SIZE if cfg.header == "ares32" else int(cfg.header_bytes)
+        self.frame_bytes = self.head + self.payload
+        self.watchdog_s = (cfg.watchdog_ms or 4 * cfg.timeout_ms) / 1000.0
+        self._chunk = array.array("B", bytes(max(64, min(int(cfg.chunk_bytes), self.frame_bytes))))
+        self._bufs = {len(self._chunk): self._chunk}
+        self._buf = np.empty(self.payload, np.uint8)
+        self._carry = bytearray()  # bytes read past the end of a frame (a stream without transfer framing)
+        self.count = 0  # frames delivered
+        self.last_counter: int | None = None
+        self.dropped = self.corrupt = self.short = self.resyncs = self.skipped_bytes = 0
 
+    # ------------------------------------------------------------ open / control
     @classmethod
-    def open(cls, cfg, shape, bit_depth, backend=None) -> "UsbFrameSource":
-        import usb.core
-
+    def open(cls, cfg, shape, bit_depth, backend=None, channels: int = 1, interleave: str = "none"):
+        core = _usb()
         try:
-            dev = usb.core.find(idVendor=cfg.vid, idProduct=cfg.pid, backend=backend)
-        except usb.core.NoBackendError:
+            found = list(core.find(find_all=True, idVendor=cfg.vid, idProduct=cfg.pid, backend=backend))
+        except core.NoBackendError:
             raise DeviceGone(f"USB frame grabber '{cfg.name}': no USB backend (libusb) is installed") from None
-        if dev is None:
-            raise DeviceGone(f"USB frame grabber '{cfg.name}' ({cfg.vid:04x}:{cfg.pid:04x}) is not connected")
+        if cfg.serial is not None:
+            found = [d for d in found if _serial_of(d) == cfg.serial]
+        if not found:
+            which = f" with serial number {cfg.serial}" if cfg.serial is not None else ""
+            raise DeviceGone(f"USB frame grabber '{cfg.name}' ({cfg.vid:04x}:{cfg.pid:04x}){which} is not connected")
+        dev = found[0]
         try:
             dev.set_configuration()
-        except usb.core.USBError as exc:
+        except core.USBError as exc:
             raise DeviceGone(f"USB frame grabber '{cfg.name}': cannot configure the device ({exc})") from None
-        src = cls(dev, cfg, shape, bit_depth)
+        src = cls(dev, cfg, shape, bit_depth, channels, interleave)
         src._backend = backend
+        src._control("open", 0)
         return src
 
     def reconnect(self) -> None:
-        """Find the grabber by VID/PID again and configure it (``DeviceGone`` while away)."""
-        again = type(self).open(self.cfg, self.shape, self.bit_depth, backend=getattr(self, "_backend", None))
+        """Find the grabber by VID/PID (and serial) again and configure it (``DeviceGone`` while away)."""
+        again = type(self).open(self.cfg, self.shape, self.bit_depth, getattr(self, "_backend", None),
+                                self.channels, self.interleave)
         self.dev = again.dev
+        self.last_counter = None
+        self._carry.clear()
 
-    def _read(self) -> bytes:
-        import usb.core
+    def _control(self, when: str, frames: int) -> None:
+        core = _usb()
+        for c in self.cfg.controls:
+            if c.when != when:
+                continue
+            value = frames if c.value == "frames" else c.value
+            try:
+                if c.request_type & 0x80:  # device-to-host: read (and discard) what it answers
+                    self.dev.ctrl_transfer(c.request_type, c.request, value & 0xFFFF, c.index, max(1, len(c.data)),
+                                           self.cfg.timeout_ms)
+                else:
+                    self.dev.ctrl_transfer(c.request_type, c.request, value & 0xFFFF, c.index, c.data or None,
+                                           self.cfg.timeout_ms)
+            except core.USBTimeoutError:
+                raise HardwareError(f"{self.name}: no answer to the '{when}' control request 0x{c.request:02x} "
+                                    f"within {self.cfg.timeout_ms} ms (timeout)") from None
+            except core.USBError as exc:
+                raise self._usb_error(exc, f"the '{when}' control request 0x{c.request:02x}") from None
 
+    def _usb_error(self, exc, what: str) -> HardwareError:
+        if getattr(exc, "errno", None) in (errno.ENODEV, 19) or "No such device" in str(exc):
+            return DeviceGone(f"{self.name}: device disconnected during {what}")
+        if getattr(exc, "errno", None) == errno.EPIPE:
+            return HardwareError(f"{self.name}: endpoint stalled during {what} ({exc})")
+        return HardwareError(f"{self.name}: USB error during {what} ({exc})")
+
+    # ------------------------------------------------------------ bytes
+    def _read(self, want: int, deadline: float) -> memoryview:
+        """One bulk read of up to ``want`` bytes (fewer = the transfer ended)."""
+        core = _usb()
+        if time.monotonic() > deadline:
+            raise HardwareError(f"{self.name}: watchdog: frame {self.count} not complete within "
+                                f"{self.watchdog_s * 1000:.0f} ms (watchdog_ms)")
+        want = min(want, len(self._chunk))
+        buf = self._bufs.get(want)
+        if buf is None:  # header, payload, chunk and remainder sizes: a handful, kept
+            buf = self._bufs[want] = array.array("B", bytes(want))
         try:
-            data = self.dev.read(self.cfg.endpoint, self.frame_bytes, timeout=self.cfg.timeout_ms)
-        except usb.core.USBTimeoutError:
-            raise HardwareError(f"{self.name}: no frame within {self.cfg.timeout_ms} ms (timeout)") from None
-        except usb.core.USBError as exc:
-            if getattr(exc, "errno", None) == 19 or "No such device" in str(exc):
-                raise DeviceGone(f"{self.name}: device disconnected") from None
-            raise HardwareError(f"{self.name}: USB error on endpoint 0x{self.cfg.endpoint:02x} ({exc})") from None
-        return bytes(data)
+            n = self.dev.read(self.cfg.endpoint, buf, timeout=self.cfg.timeout_ms)
+        except core.USBTimeoutError:
+            raise HardwareError(f"{self.name}: no data on endpoint 0x{self.cfg.endpoint:02x} within "
+                                f"{self.cfg.timeout_ms} ms (timeout) at frame {self.count}") from None
+        except core.USBError as exc:
+            raise self._usb_error(exc, f"frame {self.count}") from None
+        return memoryview(buf)[:n]
+
+    def _header(self, deadline: float):
+        """The next valid header (searching past garbage), or None with header='none'."""
+        if self.cfg.header != "ares32":
+            if self.head:
+                self._payload_from(self.head, deadline, skip=True)
+            return None
+        while True:
+            while len(self._carry) < fh.SIZE:
+                got = self._read(fh.SIZE - len(self._carry), deadline)
+                self._carry += got
+            try:
+                h = fh.decode(self._carry)
+                del self._carry[:fh.SIZE]
+                return h
+            except fh.BadHeader:
+                p = self._carry.find(fh.SYNC, 1)
+                drop = p if p >= 0 else len(self._carry) - (len(fh.SYNC) - 1)
+                self.skipped_bytes += drop
+                del self._carry[:drop]
+                if not getattr(self, "_lost_sync", False):
+                    self._lost_sync = True
+                    self.resyncs += 1
+
+    def _payload_from(self, size: int, deadline: float, skip: bool = False) -> int:
+        """Fill ``self._buf[:size]`` (or discard ``size`` bytes); returns the bytes received
+        before the transfer ended (== size when whole)."""
+        got = 0
+        if self._carry:
+            k = min(len(self._carry), size)
+            if not skip:
+                self._buf[:k] = np.frombuffer(self._carry, np.uint8, count=k)
+            del self._carry[:k]
+            got = k
+        while got < size:
+            want = min(size - got, len(self._chunk))
+            mv = self._read(want, deadline)
+            n = len(mv)
+            if not skip:
+                self._buf[got:got + n] = np.frombuffer(mv, np.uint8)
+            got += n
+            if n < want:
+                break
+        return got
+
+    # ------------------------------------------------------------ frames
+    def _frame(self) -> Frame:
+        deadline = time.monotonic() + self.watchdog_s
+        h = self._header(deadline)
+        if getattr(self, "_lost_sync", False):
+            self._lost_sync = False
+        if h is not None:
+            want = (self.shape[1], self.shape[0], self.fmt.code, self.payload)
+            if (h.width, h.height, h.format_code, h.payload) != want:
+                self._payload_from(h.payload, deadline, skip=True)
+                raise FrameError(f"{self.name}: device counter {h.counter} sends {h.width}x{h.height}, format "
+                                 f"0x{h.format_code:08x}, {h.payload} bytes but the system XML declares "
+                                 f"{want[0]}x{want[1]} {self.fmt.name} ({self.payload} bytes)")
+        got = self._payload_from(self.payload, deadline)
+        where = f"frame {self.count}" + (f" (device counter {h.counter})" if h is not None else "")
+        if got < self.payload:
+            self.short += 1
+            raise FrameLost(f"{self.name}: {where} arrived short ({got + self.head} of {self.frame_bytes} bytes)",
+                            "short")
+        if h is not None:
+            if h.flags & fh.FLAG_CRC and fh.payload_crc(self._buf) != h.crc:
+                self.corrupt += 1
+                self.last_counter = h.counter
+                raise FrameLost(f"{self.name}: {where} is corrupt (payload CRC mismatch)", "corrupt")
+            gap = 0 if self.last_counter is None else (h.counter - self.last_counter - 1) & 0xFFFFFFFF
+            self.last_counter = h.counter
+            if gap:
+                self.dropped += gap
+                raise FrameLost(f"{self.name}: {gap} frame(s) dropped before {where} (frame counter jumped "
+                                f"from {(h.counter - gap - 1) & 0xFFFFFFFF} to {h.counter})", "dropped", gap)
+        data = unpack(self._buf, self.fmt, self.shape)
+        if self.fmt.container == 1:
+            data = data.astype(np.uint8, copy=True)
+        data = from_wire_order(data, self.cfg.wire_order, self.channels, self.interleave)
+        top = int(data.max())
+        if top >= (1 << self.bit_depth):
+            self.corrupt += 1
+            raise FrameLost(f"{self.name}: {where} is corrupt (code {top} above the {self.bit_depth}-bit range)",
+                            "corrupt")
+        meta = {"counter": h.counter} if h is not None else {}
+        return Frame(data, self.count, time.time(), meta)
 
     def grab(self, n: int):
-        for _ in range(n):
-            raw = self._read()
-            if len(raw) != self.frame_bytes:
-                raise FrameError(f"{self.name}: frame {self.count} arrived short ({len(raw)} of {self.frame_bytes} bytes)")
-            px = np.frombuffer(raw, dtype=self.dtype, offset=self.cfg.header_bytes).reshape(self.shape)
-            data = px.astype(np.uint16 if self.dtype.itemsize == 2 else np.uint8)
-            if int(data.max()) >= (1 << self.bit_depth):
-                raise FrameError(f"{self.name}: frame {self.count} is corrupt (code {int(data.max())} "
-                                 f"above the {self.bit_depth}-bit range)")
-            yield Frame(data, self.count, time.time(), {"header": raw[:self.cfg.header_bytes]})
-            self.count += 1
+        self._control("start", n)
+        ok = False
+        try:
+            for _ in range(n):
+                frame = self._frame()
+                self.count += 1
+                yield frame
+            ok = True
+        finally:
+            try:
+                self._control("stop", 0)
+            except HardwareError:
+                if ok:
+                    raise  # otherwise the error in flight is the one to report
+
+    def stats(self) -> dict:
+        """Counters for the run record: frames, dropped, corrupt, short, resyncs, skipped bytes."""
+        return {"frames": self.count, "dropped": self.dropped, "corrupt": self.corrupt, "short": self.short,
+                "resyncs": self.resyncs, "skipped_bytes": self.skipped_bytes}
 
     def close(self) -> None:
         try:
@@ -83,3 +248,12 @@ class UsbFrameSource:
             usb.util.dispose_resources(self.dev)
         except Exception:  # closing a vanished device must not mask the original error
             pass
+
+
+def _serial_of(dev) -> str | None:
+    try:
+        import usb.util
+
+        return usb.util.get_string(dev, dev.iSerialNumber) if dev.iSerialNumber else None
+    except Exception:  # a device that cannot answer string requests has no usable serial
+        return None

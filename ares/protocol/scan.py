@@ -128,6 +128,8 @@ class Scan:
     description: str = ""
     settings: tuple[Setting, ...] = ()
     regions: tuple[Region, ...] = ()
+    on_loss: str = "fail"  # <frames on_loss>: "regrab" re-acquires a stage that lost frames
+    max_regrabs: int = 2
     analyses: tuple[str, ...] = ()
     defects: tuple[tuple[str, float], ...] = ()
     limits: tuple[Limit, ...] = ()
@@ -322,7 +324,8 @@ def scan_from_tree(tree, path, system: System | None = None, system_path=None) -
     return Scan(
         name=root.get("name"), version=int(root.get("version", 1)), system_href=href,
         description=(desc.text or "").strip() if desc is not None else "",
-        frames=int(root.findtext("frames")), settings=settings, stages=tuple(stages), regions=tuple(regions),
+        frames=int(root.findtext("frames")), on_loss=root.find("frames").get("on_loss", "fail"),
+        max_regrabs=int(root.find("frames").get("max_regrabs", 2)), settings=settings, stages=tuple(stages), regions=tuple(regions),
         analyses=analyses, defects=tuple((el.get("name"), float(el.get("value"))) for el in root.iterfind("defects/threshold")),
         limits=tuple(limits), output=output, suspend=suspend, system=system, source=Path(path),
         defect_mask=root.find("defects").get("mask") if root.find("defects") is not None else None,
@@ -360,7 +363,9 @@ def scan_to_tree(sc: Scan) -> etree._ElementTree:
         se = etree.SubElement(root, "settings")
         for s in sc.settings:
             _set_el(se, "set", s.key, s.value)
-    etree.SubElement(root, "frames").text = str(sc.frames)
+    fr = _set(etree.SubElement(root, "frames"), on_loss=None if sc.on_loss == "fail" else sc.on_loss,
+              max_regrabs=None if sc.max_regrabs == 2 else sc.max_regrabs)
+    fr.text = str(sc.frames)
     st = etree.SubElement(root, "stages")
     for s in sc.stages:
         el = _set(etree.SubElement(st, "sweep" if s.sweep else "stage"), name=s.name, scene=s.scene, frames=s.frames,

@@ -16,6 +16,8 @@ from lxml import etree
 from ares.errors import InputError
 from ares.hardware.registers import Field, RegisterMap
 from ares.protocol import xmlsafe
+from ares.protocol.devices import (GenICam, I2CBus, SerialInstrument, UsbGrabber, genicam_from_el, genicam_to_el,
+                                   i2c_from_el, i2c_to_el, serial_from_el, serial_to_el, usb_from_el, usb_to_el)
 from ares.protocol.xmlsafe import fail
 
 
@@ -63,47 +65,10 @@ class Timing:
 
 
 @dataclass(frozen=True)
-class I2CBus:
-    name: str
-    bus: int
-    address: int
-    speed_hz: int = 400000
-
-
-@dataclass(frozen=True)
-class UsbGrabber:
-    name: str
-    vid: int
-    pid: int
-    endpoint: int
-    format: str
-    header_bytes: int = 0
-    timeout_ms: int = 1000
-
-
-@dataclass(frozen=True)
-class SerialInstrument:
-    name: str
-    port: str
-    baud: int = 9600
-    bytesize: int = 8
-    parity: str = "N"
-    stopbits: int = 1
-    timeout_s: float = 1.0
-    min: float | None = None
-    max: float | None = None
-    unit: str | None = None
-    settle_s: float = 0.0  # soak after the instrument reports settled
-    settle_timeout_s: float = 3600.0  # chamber: give up waiting for the set point after this
-    poll_s: float = 1.0  # chamber: poll interval while waiting
-    tolerance: float | None = None  # chamber: settled = within +/- tolerance C of the set point ...
-    hold_s: float = 0.0  # ... continuously for hold_s (without tolerance: STABLE? answers 1)
-
-
-@dataclass(frozen=True)
 class Simulator:
     seed: int = 0
     params: dict = field(default_factory=dict)  # typed values for ares.sim.SensorParams.from_dict
+    wire: bool = False  # behind emulators of the declared I2C bus, USB grabber and serial instruments
 
 
 REPLAY_LIGHT_PORT = "replay"  # port of the virtual light source a replay system presents
@@ -171,6 +136,7 @@ class System:
     usb_grabber: UsbGrabber | None = None
     light_source: SerialInstrument | None = None
     chamber: SerialInstrument | None = None
+    genicam: GenICam | None = None
     simulator: Simulator | None = None
     replay: Replay | None = None
     source: Path | None = field(default=None, compare=False)
@@ -254,18 +220,6 @@ def _fields(path, reg_el, address_bits: int, value_bits: int) -> tuple[Field, ..
     return tuple(out)
 
 
-def _serial(el) -> SerialInstrument | None:
-    if el is None:
-        return None
-    return SerialInstrument(
-        name=el.get("name"), port=el.get("port"), baud=_int(el.get("baud"), 9600), bytesize=_int(el.get("bytesize"), 8),
-        parity=el.get("parity", "N"), stopbits=_int(el.get("stopbits"), 1), timeout_s=_float(el.get("timeout_s"), 1.0),
-        min=_float(el.get("min")), max=_float(el.get("max")), unit=el.get("unit"), settle_s=_float(el.get("settle_s"), 0.0),
-        settle_timeout_s=_float(el.get("settle_timeout_s"), 3600.0), poll_s=_float(el.get("poll_s"), 1.0),
-        tolerance=_float(el.get("tolerance")), hold_s=_float(el.get("hold_s"), 0.0),
-    )
-
-
 def system_from_tree(tree, path) -> System:
     root = tree.getroot()
     s = root.find("sensor")
@@ -287,12 +241,20 @@ def system_from_tree(tree, path) -> System:
         raise fail(path, adc.sourceline, f"<adc> has {sensor.adc_channels} channels but interleave='none'; "
                                          "say how they share the array (column, row or pixel)")
     reg = root.find("registers")
-    abits, vbits = int(reg.get("address_bits")), int(reg.get("value_bits"))
-    fields = _fields(path, reg, abits, vbits)
-    try:
-        regmap = RegisterMap(abits, vbits, reg.get("endian", "big"), fields)
-    except InputError as exc:
-        raise fail(path, reg.sourceline, str(exc)) from None
+    if reg is not None:
+        abits, vbits = int(reg.get("address_bits")), int(reg.get("value_bits"))
+        fields = _fields(path, reg, abits, vbits)
+        try:
+            regmap = RegisterMap(abits, vbits, reg.get("endian", "big"), fields)
+        except InputError as exc:
+            raise fail(path, reg.sourceline, str(exc)) from None
+    elif root.find("devices/genicam") is not None:  # the camera's features are its fields
+        from ares.hardware.genicam import feature_map
+
+        regmap = feature_map(genicam_from_el(path, root.find("devices/genicam")))
+    else:
+        raise fail(path, root.sourceline, "<registers> is missing (only a <genicam> camera may leave it out: "
+                                          "its <feature> elements are its fields)")
     ctl = root.find("controls")
     controls = Controls()
     if ctl is not None:
@@ -304,23 +266,16 @@ def system_from_tree(tree, path) -> System:
                                                  f"(known: {', '.join(regmap.names())})")
     tim = root.find("timing")
     timing = Timing() if tim is None else Timing(_float(tim.get("readout_s"), 0.0), _float(tim.get("settle_s"), 0.0))
-    buses = tuple(I2CBus(el.get("name"), int(el.get("bus")), _int(el.get("address")), _int(el.get("speed_hz"), 400000))
-                  for el in root.iterfind("buses/i2c"))
-    for el, b in zip(root.iterfind("buses/i2c"), buses):
-        if b.address > 0x7F:
-            raise fail(path, el.sourceline, f"I2C bus '{b.name}': address 0x{b.address:x} is not a 7-bit address")
+    buses = tuple(i2c_from_el(path, el) for el in root.iterfind("buses/i2c"))
     g = root.find("devices/usb_grabber")
-    grabber = None
-    if g is not None:
-        grabber = UsbGrabber(g.get("name"), _int(g.get("vid")), _int(g.get("pid")), _int(g.get("endpoint")),
-                             g.get("format"), _int(g.get("header_bytes"), 0), _int(g.get("timeout_ms"), 1000))
-        if grabber.vid > 0xFFFF or grabber.pid > 0xFFFF:
-            raise fail(path, g.sourceline, "USB vid/pid must be 16-bit numbers")
+    grabber = None if g is None else usb_from_el(path, g)
+    cam = genicam_from_el(path, root.find("devices/genicam"))
     sim_el = root.find("simulator")
     sim = None
     if sim_el is not None:
-        sim = Simulator(_int(sim_el.get("seed"), 0), dict(_param(path, p) for p in sim_el.iterfind("param")))
-    light = _serial(root.find("devices/light_source"))
+        sim = Simulator(_int(sim_el.get("seed"), 0), dict(_param(path, p) for p in sim_el.iterfind("param")),
+                        _bool(sim_el.get("wire"), False))
+    light = serial_from_el(path, root.find("devices/light_source"), "light_source")
     rep_el = root.find("replay")
     replay = None
     if rep_el is not None:
@@ -331,7 +286,7 @@ def system_from_tree(tree, path) -> System:
         name=root.get("name"), version=_int(root.get("version"), 1),
         description=(desc.text or "").strip() if desc is not None else "",
         sensor=sensor, registers=regmap, controls=controls, timing=timing, buses=buses, usb_grabber=grabber,
-        light_source=light, chamber=_serial(root.find("devices/chamber")),
+        light_source=light, chamber=serial_from_el(path, root.find("devices/chamber"), "chamber"), genicam=cam,
         simulator=sim, replay=replay, source=Path(path),
     )
 
@@ -410,12 +365,6 @@ def _set(el, **attrs):
     return el
 
 
-def _serial_el(parent, tag, s: SerialInstrument):
-    _set(etree.SubElement(parent, tag), name=s.name, port=s.port, baud=s.baud, bytesize=s.bytesize, parity=s.parity,
-         stopbits=s.stopbits, timeout_s=s.timeout_s, min=s.min, max=s.max, unit=s.unit, settle_s=s.settle_s,
-         settle_timeout_s=s.settle_timeout_s, poll_s=s.poll_s, tolerance=s.tolerance, hold_s=s.hold_s)
-
-
 def system_to_tree(sy: System) -> etree._ElementTree:
     root = _set(etree.Element("system"), name=sy.name, version=sy.version)
     if sy.description:
@@ -430,8 +379,10 @@ def system_to_tree(sy: System) -> etree._ElementTree:
     _set(etree.SubElement(se, "cfa"), pattern=s.cfa)
     _set(etree.SubElement(se, "adc"), bits=s.adc_bits, channels=s.adc_channels, interleave=s.adc_interleave)
     m = sy.registers
-    re_ = _set(etree.SubElement(root, "registers"), address_bits=m.address_bits, value_bits=m.value_bits, endian=m.endian)
-    for f in m.fields:
+    if sy.genicam is not None and m == _feature_map(sy.genicam):
+        m = None  # derived from the <feature> elements: not written twice
+    re_ = None if m is None else _set(etree.SubElement(root, "registers"), address_bits=m.address_bits, value_bits=m.value_bits, endian=m.endian)
+    for f in (m.fields if m is not None else ()):
         _set(etree.SubElement(re_, "field"), name=f.name, address=f"0x{f.address:04X}", lsb=f.lsb, msb=f.msb,
              count=f.count, access=f.access, scale=float(f.scale), offset=float(f.offset), unit=f.unit or None,
              min=None if f.minimum is None else float(f.minimum), max=None if f.maximum is None else float(f.maximum),
@@ -444,20 +395,19 @@ def system_to_tree(sy: System) -> etree._ElementTree:
     if sy.buses:
         b = etree.SubElement(root, "buses")
         for bus in sy.buses:
-            _set(etree.SubElement(b, "i2c"), name=bus.name, bus=bus.bus, address=f"0x{bus.address:02X}",
-                 speed_hz=bus.speed_hz)
-    if sy.usb_grabber or (sy.light_source and not sy.replay) or sy.chamber:
+            i2c_to_el(b, bus)
+    if sy.usb_grabber or sy.genicam or (sy.light_source and not sy.replay) or sy.chamber:
         d = etree.SubElement(root, "devices")
-        g = sy.usb_grabber
-        if g:
-            _set(etree.SubElement(d, "usb_grabber"), name=g.name, vid=f"0x{g.vid:04X}", pid=f"0x{g.pid:04X}",
-                 endpoint=f"0x{g.endpoint:02X}", format=g.format, header_bytes=g.header_bytes, timeout_ms=g.timeout_ms)
+        if sy.usb_grabber:
+            usb_to_el(d, sy.usb_grabber)
+        if sy.genicam:
+            genicam_to_el(d, sy.genicam)
         if sy.light_source and not sy.replay:
-            _serial_el(d, "light_source", sy.light_source)
+            serial_to_el(d, "light_source", sy.light_source)
         if sy.chamber:
-            _serial_el(d, "chamber", sy.chamber)
+            serial_to_el(d, "chamber", sy.chamber)
     if sy.simulator:
-        sim = _set(etree.SubElement(root, "simulator"), seed=sy.simulator.seed)
+        sim = _set(etree.SubElement(root, "simulator"), seed=sy.simulator.seed, wire=sy.simulator.wire or None)
         for k, v in sy.simulator.params.items():
             t = {bool: "bool", int: "int", float: "float", tuple: "floats"}.get(type(v), "str")
             v = " ".join(repr(float(x)) for x in v) if t == "floats" else v
@@ -470,6 +420,12 @@ def system_to_tree(sy: System) -> etree._ElementTree:
             _set(etree.SubElement(rel, "recording"), exposure=float(rec.exposure), light=float(rec.light),
                  images=rec.images)
     return etree.ElementTree(root)
+
+
+def _feature_map(g):
+    from ares.hardware.genicam import feature_map
+
+    return feature_map(g)
 
 
 def save_system(sy: System, path: str | Path) -> None:

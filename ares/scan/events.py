@@ -71,6 +71,14 @@ class Resumed:
 
 
 @dataclass(frozen=True)
+class Regrab:
+    """The stage lost frames and is acquired again (``<frames on_loss="regrab">``)."""
+
+    index: int
+    reason: str
+
+
+@dataclass(frozen=True)
 class Done:
     status: str  # "done", "stopped" or "aborted"
     run_dir: str | None

@@ -23,7 +23,7 @@ from typing import Callable
 
 import numpy as np
 
-from ares.errors import AresError, DeviceGone, FrameError, HardwareError, InputError, StorageError
+from ares.errors import AresError, DeviceGone, FrameError, FrameLost, HardwareError, InputError, StorageError
 from ares.hardware.waits import Interrupted
 from ares.scan import events as ev
 from ares.scan.apply import apply_settings
@@ -226,8 +226,8 @@ class Runner:
             self._emit(ev.StageStarted(st.index, len(stages), st))
             t_start = time.time()
             before = bench.registers.snapshot()
-            suspensions, halted = [], False
-            while True:  # once, or again after a suspension (ares.scan.suspend)
+            suspensions, halted, lost = [], False, []
+            while True:  # once, or again after a suspension (ares.scan.suspend) or lost frames
                 fw = writer.frame_writer(st.index, bench.frames.shape, None) if writer else None
                 pos = {}
                 try:
@@ -249,6 +249,18 @@ class Runner:
                     pos["flat"] = _position(bench)
                     flat = self._grab(bench, st, st.frames, vw, max_code, fw, dark=False)
                     pos["end"] = _position(bench)
+                except FrameLost as exc:  # dropped/corrupt/short frames: acquire the stage again, or fail
+                    if fw is not None:
+                        fw.close(keep=False)
+                    lost.append({"kind": exc.kind, "count": exc.count, "message": str(exc)})
+                    if self.scan.on_loss != "regrab" or len(lost) > self.scan.max_regrabs:
+                        if self.scan.on_loss == "regrab":
+                            raise FrameLost(f"{exc} -- still losing frames after {self.scan.max_regrabs} re-grab(s) "
+                                            "(<frames max_regrabs>)", exc.kind, exc.count) from None
+                        raise
+                    self._emit(ev.Regrab(st.index, str(exc)))
+                    applied = {}  # start the stage from a known state
+                    continue
                 except (Suspended, DeviceGone) as exc:  # suspenders: drop the stage's frames, wait, acquire again
                     if fw is not None:
                         fw.close(keep=False)
@@ -292,6 +304,8 @@ class Runner:
                 result["bench_position"] = pos  # where the frame stream stood (ares resume)
             if suspensions:
                 result["suspensions"] = suspensions
+            if lost:
+                result["frames_lost"] = lost
             if self._mask is not None:
                 result["defect_mask"] = self._mask.summary()
                 if new_mask or not completed:  # the mask itself, once, with the stage it came from

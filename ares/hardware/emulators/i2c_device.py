@@ -1,0 +1,81 @@
+"""An emulated I2C sensor that receives the ``i2c_msg`` transactions smbus2 sends.
+
+``EmulatedSMBus`` stands in for ``smbus2.SMBus``: ``i2c_rdwr(*msgs)`` takes the very
+message objects ``I2CRegisterBus`` builds. A write message is a register address
+(``address_bits/8`` bytes, most significant first) followed by values (``value_bits/8``
+bytes each, in the bus's byte order, auto-incrementing); a write of the address alone
+followed by a read message returns values from there. The registers live in a
+``RegisterBus`` (the simulator's ``SimRegisterBus``), so the simulated sensor sees every
+write. A device at another address does not acknowledge.
+
+Faults (``--sim-fault`` keys, N = 0-based transaction count): ``i2c_nack_at`` (NACK) and
+``i2c_timeout_at`` (the bus times out), each for ``i2c_fault_count`` transactions in a row
+(default 1: a retry succeeds); ``i2c_disconnect_at`` (the adapter is gone from then on).
+"""
+
+from __future__ import annotations
+
+import ctypes
+import errno
+
+FAULTS = ("i2c_nack_at", "i2c_fault_count", "i2c_timeout_at", "i2c_disconnect_at")
+
+
+class EmulatedSMBus:
+    def __init__(self, device_address: int, registers, *, address_bits: int = 16, value_bits: int = 16,
+                 value_endian: str = "big", faults: dict | None = None, readable: bool = True):
+        self.device_address = device_address
+        self.registers = registers  # .read(addr) / .write(addr, value)
+        self.abytes, self.vbytes = address_bits // 8, value_bits // 8
+        self.value_endian = value_endian
+        self.readable = readable  # False: a sensor without I2C read (its reads NACK)
+        self.faults = {k: int(v) for k, v in (faults or {}).items() if k in FAULTS}
+        self.transactions = 0
+        self.gone = False
+        self._pointer = 0
+
+    def _fault(self) -> None:
+        n = self.transactions
+        self.transactions += 1
+        if self.gone or n == self.faults.get("i2c_disconnect_at"):
+            self.gone = True
+            raise OSError(errno.ENODEV, "No such device")
+        k = self.faults.get("i2c_fault_count", 1)
+        at = self.faults.get("i2c_timeout_at")
+        if at is not None and at <= n < at + k:
+            raise OSError(errno.ETIMEDOUT, "Connection timed out")
+        at = self.faults.get("i2c_nack_at")
+        if at is not None and at <= n < at + k:
+            raise OSError(errno.EREMOTEIO, "Remote I/O error")
+
+    def i2c_rdwr(self, *msgs) -> None:
+        self._fault()
+        for m in msgs:
+            if m.addr != self.device_address:
+                raise OSError(errno.EREMOTEIO, "Remote I/O error")
+            if m.flags & 1:  # I2C_M_RD
+                if not self.readable:
+                    raise OSError(errno.EREMOTEIO, "Remote I/O error")
+                out = bytearray()
+                while len(out) < m.len:
+                    out += int(self.registers.read(self._pointer)).to_bytes(self.vbytes, self.value_endian)
+                    self._pointer += 1
+                ctypes.memmove(m.buf, bytes(out[:m.len]), m.len)
+            else:
+                data = bytes(m)
+                if len(data) < self.abytes:
+                    raise OSError(errno.EREMOTEIO, "Remote I/O error")
+                self._pointer = int.from_bytes(data[:self.abytes], "big")
+                values = data[self.abytes:]
+                if len(values) % self.vbytes:
+                    raise OSError(errno.EREMOTEIO, "Remote I/O error")
+                for k in range(0, len(values), self.vbytes):
+                    try:
+                        self.registers.write(self._pointer, int.from_bytes(values[k:k + self.vbytes],
+                                                                           self.value_endian))
+                    except Exception:  # a register the device refuses: no acknowledge
+                        raise OSError(errno.EREMOTEIO, "Remote I/O error") from None
+                    self._pointer += 1
+
+    def close(self) -> None:
+        pass

@@ -1,0 +1,101 @@
+"""Emulated serial instruments: a light source and a thermal chamber that answer ARES's
+built-in line dialect (``ares.hardware.line_protocol``), in front of the simulator's light
+and chamber. A host opens them as the pyserial URL ``aresemu://NAME`` (``protocol_aresemu``)
+after ``register(NAME, instrument)``.
+
+Faults (``--sim-fault`` keys, ROLE = ``light`` or ``chamber``, N = 0-based command count):
+``ROLE_timeout_at`` (no reply), ``ROLE_wrong_reply_at`` (a reply of the wrong form),
+``ROLE_error_at`` (``ERR`` reply), ``ROLE_disconnect_at`` (the port is gone from then on).
+"""
+
+from __future__ import annotations
+
+import threading
+
+from ares.errors import AresError
+
+_REGISTRY: dict[str, "EmulatedInstrument"] = {}
+_LOCK = threading.Lock()
+
+
+def register(name: str, instrument: "EmulatedInstrument") -> None:
+    with _LOCK:
+        _REGISTRY[name] = instrument
+
+
+def unregister(name: str, instrument: "EmulatedInstrument") -> None:
+    with _LOCK:
+        if _REGISTRY.get(name) is instrument:
+            del _REGISTRY[name]
+
+
+def lookup(name: str) -> "EmulatedInstrument | None":
+    with _LOCK:
+        return _REGISTRY.get(name)
+
+
+def faults_for(role: str) -> tuple[str, ...]:
+    return tuple(f"{role}_{k}" for k in ("timeout_at", "wrong_reply_at", "error_at", "disconnect_at"))
+
+
+FAULTS = faults_for("light") + faults_for("chamber")
+
+
+class EmulatedInstrument:
+    """Line in, line out (``None`` = no reply); ``device`` is the simulator's instrument."""
+
+    role = "light"
+    ident = "ARES,EMULATED-LED,0,1.0"
+
+    def __init__(self, device, faults: dict | None = None):
+        self.device = device
+        keys = faults_for(self.role)
+        self.faults = {k[len(self.role) + 1:]: int(v) for k, v in (faults or {}).items() if k in keys}
+        self.commands = 0
+        self.gone = False
+        self.log: list[str] = []
+
+    def handle(self, line: str) -> str | None:
+        n = self.commands
+        self.commands += 1
+        self.log.append(line)
+        if n == self.faults.get("disconnect_at"):
+            self.gone = True
+        if self.gone:
+            raise OSError(5, "Input/output error (port gone)")
+        if n == self.faults.get("timeout_at"):
+            return None
+        if n == self.faults.get("wrong_reply_at"):
+            return "?#%"
+        if n == self.faults.get("error_at"):
+            return "ERR emulated fault"
+        cmd, _, arg = line.strip().partition(" ")
+        try:
+            return self.answer(cmd.upper(), arg.strip())
+        except (ValueError, AresError) as exc:
+            return f"ERR {exc}"
+
+    def answer(self, cmd: str, arg: str) -> str:
+        if cmd == "*IDN?":
+            return self.ident
+        if cmd == "LEVEL":
+            self.device.set_level(float(arg))
+            return "OK"
+        if cmd == "LEVEL?":
+            return repr(float(self.device.get_level()))
+        return f"ERR unknown command '{cmd}'"
+
+
+class EmulatedChamber(EmulatedInstrument):
+    role = "chamber"
+    ident = "ARES,EMULATED-CHAMBER,0,1.0"
+
+    def answer(self, cmd: str, arg: str) -> str:
+        if cmd == "TEMP":
+            self.device.set_temperature(float(arg))
+            return "OK"
+        if cmd == "TEMP?":
+            return repr(float(self.device.get_temperature()))
+        if cmd == "STABLE?":
+            return "1"
+        return super().answer(cmd, arg)

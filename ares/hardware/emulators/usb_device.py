@@ -1,0 +1,280 @@
+"""An emulated USB frame grabber behind a pyusb backend (``usb.backend.IBackend``).
+
+``usb.core.find(..., backend=EmulatedUsbBackend([grabber]))`` finds it like a real device;
+``UsbFrameSource`` then drives it through pyusb's public API only: descriptors, string
+descriptors (the serial number), ``set_configuration``, control transfers and bulk reads.
+
+The device side (``EmulatedGrabber``) streams a frame source's frames in the declared wire
+format: the ``ares32`` header (with payload CRC), the pixel format packed as declared and
+the ADC channels in the declared wire order. One frame is one bulk transfer: a read never
+crosses into the next frame, and a read that returns fewer bytes than asked ends the
+transfer (a USB short packet). With a ``start`` control whose value is ``frames`` the
+device renders that many frames when it is armed (the frame source reads its registers
+then, as the simulated bench does); without one it renders a frame whenever the host
+reads and nothing is pending.
+
+Faults (``--sim-fault`` keys, N = the device's 0-based frame counter):
+``usb_drop_at`` (frame N rendered, never sent: a counter gap), ``usb_corrupt_at`` (payload
+bytes altered after the CRC), ``usb_short_at`` (half the payload, then the transfer
+ends), ``usb_garbage_at`` (junk bytes before frame N: the host resynchronises),
+``usb_timeout_at`` (no data: the read times out), ``usb_disconnect_at`` (unplugged; with
+``usb_reconnect_after_polls`` = M it is found again at the M-th search).
+"""
+
+from __future__ import annotations
+
+import errno
+import time
+from types import SimpleNamespace
+
+import numpy as np
+
+from ares.hardware import frame_header as fh
+from ares.hardware.pixels import pack, pixel_format, to_wire_order
+
+FAULTS = ("usb_drop_at", "usb_corrupt_at", "usb_short_at", "usb_garbage_at", "usb_timeout_at",
+          "usb_disconnect_at", "usb_reconnect_after_polls")
+
+
+class EmulatedGrabber:
+    """The device: descriptors, control requests and the bulk-IN byte stream."""
+
+    def __init__(self, frames, cfg, *, channels: int = 1, interleave: str = "none", faults: dict | None = None,
+                 serial: str = "ARES-EMU-0001", crc: bool = True, embed=None):
+        self.frames, self.cfg = frames, cfg
+        self.fmt = pixel_format(cfg.format)
+        self.channels, self.interleave = channels, interleave
+        self.faults = {k: int(v) for k, v in (faults or {}).items() if k in FAULTS}
+        self.serial, self.crc = serial, crc
+        self.embed = embed  # (row, first register, register bus, value bits): registers in an image row
+        self.counter = 0  # frames produced (sent or dropped)
+        self.connected = True
+        self.polls = 0
+        self._gen = None  # armed frames
+        self._owed = 0  # frames dropped while armed: rendered again after the armed ones
+        self._out = memoryview(b"")  # the current transfer, what is left of it
+        self.configuration = 0
+        start = [c for c in cfg.controls if c.when == "start"]
+        self._start = start[0] if start and start[0].value == "frames" else None
+        self.requests: list[tuple] = []  # control requests received (tests look at them)
+
+    # ------------------------------------------------------------ descriptors
+    def device_descriptor(self, address: int):
+        return SimpleNamespace(
+            bLength=18, bDescriptorType=1, bcdUSB=0x0200, bDeviceClass=0xFF, bDeviceSubClass=0, bDeviceProtocol=0,
+            bMaxPacketSize0=64, idVendor=self.cfg.vid, idProduct=self.cfg.pid, bcdDevice=0x0100, iManufacturer=1,
+            iProduct=2, iSerialNumber=3, bNumConfigurations=1, address=address, bus=1, port_number=address,
+            port_numbers=(address,), speed=3)
+
+    def config_descriptor(self):
+        return SimpleNamespace(bLength=9, bDescriptorType=2, wTotalLength=25, bNumInterfaces=1, bConfigurationValue=1,
+                               iConfiguration=0, bmAttributes=0x80, bMaxPower=250, extra_descriptors=[])
+
+    def interface_descriptor(self):
+        return SimpleNamespace(bLength=9, bDescriptorType=4, bInterfaceNumber=self.cfg.interface, bAlternateSetting=0,
+                               bNumEndpoints=1, bInterfaceClass=0xFF, bInterfaceSubClass=0, bInterfaceProtocol=0,
+                               iInterface=0, extra_descriptors=[])
+
+    def endpoint_descriptor(self):
+        return SimpleNamespace(bLength=7, bDescriptorType=5, bEndpointAddress=self.cfg.endpoint, bmAttributes=2,
+                               wMaxPacketSize=512, bInterval=0, bRefresh=0, bSynchAddress=0, extra_descriptors=[])
+
+    def _string(self, index: int) -> bytes:
+        if index == 0:
+            body = (0x0409).to_bytes(2, "little")  # language: English (US)
+        else:
+            body = {1: "ARES", 2: "ARES emulated grabber", 3: self.serial}.get(index, "").encode("utf-16-le")
+        return bytes([2 + len(body), 3]) + body
+
+    # ------------------------------------------------------------ requests
+    def _gone(self):
+        if not self.connected:
+            raise _usb_error(errno.ENODEV, "No such device (it may have been disconnected)")
+
+    def control(self, request_type: int, request: int, value: int, index: int, data) -> bytes | int:
+        self._gone()
+        if request_type == 0x80 and request == 6 and value >> 8 == 3:  # GET_DESCRIPTOR (string)
+            return self._string(value & 0xFF)
+        self.requests.append((request_type, request, value, index, bytes(data or b"")))
+        for c in self.cfg.controls:
+            if (c.request_type, c.request) == (request_type, request):
+                if c.when == "start" and self._start is not None:
+                    self._gen = iter(self.frames.grab(int(value)))
+                    self._out, self._owed = memoryview(b""), 0
+                elif c.when == "stop":
+                    self._gen, self._out = None, memoryview(b"")
+        return len(data or b"") if not request_type & 0x80 else bytes(max(1, len(data or b"")))
+
+    def _next_transfer(self) -> None:
+        n = self.counter
+        if n == self.faults.get("usb_disconnect_at"):
+            self.connected = False
+            self.faults.pop("usb_disconnect_at")
+            self._gone()
+        if n == self.faults.get("usb_timeout_at"):
+            self.faults.pop("usb_timeout_at")
+            time.sleep(self.cfg.timeout_ms / 1000.0)
+            raise _usb_error(errno.ETIMEDOUT, "Operation timed out", timeout=True)
+        if self._start is None:
+            frame = next(iter(self.frames.grab(1)))
+        else:
+            if self._gen is None:
+                raise _usb_error(errno.ETIMEDOUT, "Operation timed out (not armed)", timeout=True)
+            try:
+                frame = next(self._gen)
+            except StopIteration:
+                if not self._owed:
+                    self._gen = None
+                    raise _usb_error(errno.ETIMEDOUT, "Operation timed out (no more frames armed)",
+                                     timeout=True) from None
+                self._owed -= 1  # a dropped frame still costs an exposure: one more to deliver N
+                frame = next(iter(self.frames.grab(1)))
+        self.counter += 1
+        if n == self.faults.get("usb_drop_at"):  # rendered, lost: the next frame shows the gap
+            self.faults.pop("usb_drop_at")
+            self._owed += 1
+            return self._next_transfer()
+        img = np.asarray(frame.data)
+        if self.embed is not None:
+            img = self._embed(img)
+        wire = to_wire_order(img, self.cfg.wire_order, self.channels, self.interleave)
+        payload = bytearray(pack(wire, self.fmt))
+        crc = fh.payload_crc(payload) if self.crc else 0
+        if n == self.faults.get("usb_corrupt_at"):
+            self.faults.pop("usb_corrupt_at")
+            payload[len(payload) // 3:len(payload) // 3 + 64] = b"\xff" * 64
+        rows, cols = wire.shape
+        head = fh.Header(n, cols, rows, self.fmt.code, len(payload), fh.FLAG_CRC if self.crc else 0, crc).encode()
+        if n == self.faults.get("usb_short_at"):
+            self.faults.pop("usb_short_at")
+            payload = payload[:len(payload) // 2]
+        junk = b""
+        if n == self.faults.get("usb_garbage_at"):
+            self.faults.pop("usb_garbage_at")
+            junk = bytes(range(7, 250)) + fh.SYNC[:2]
+        self._out = memoryview(junk + head + bytes(payload))
+
+    def _embed(self, img: np.ndarray) -> np.ndarray:
+        """A sensor without I2C read: its registers, one byte per pixel, in an image row."""
+        row, start, regs, bits = self.embed
+        nb = bits // 8
+        out = bytearray()
+        for a in range(start, start + img.shape[1] // nb):
+            try:
+                out += int(regs.read(a)).to_bytes(nb, "big")
+            except Exception:  # beyond the address space: zeros
+                out += bytes(nb)
+        img = img.copy()
+        img[row, :len(out)] = np.frombuffer(bytes(out), np.uint8)
+        return img
+
+    def bulk_read(self, endpoint: int, size: int) -> memoryview:
+        self._gone()
+        if endpoint != self.cfg.endpoint:
+            raise _usb_error(errno.EPIPE, f"endpoint 0x{endpoint:02x} does not exist")
+        if not len(self._out):
+            self._next_transfer()
+        part, self._out = self._out[:size], self._out[size:]
+        return part
+
+    def present(self) -> bool:
+        """Seen by a search: a disconnected device comes back at the M-th search after it left."""
+        if not self.connected:
+            self.polls += 1
+            back = self.faults.get("usb_reconnect_after_polls")
+            if back is not None and self.polls >= back:
+                self.connected = True
+                self._gen, self._out = None, memoryview(b"")
+        return self.connected
+
+
+def _usb_error(code: int, text: str, timeout: bool = False):
+    import usb.core
+
+    cls = usb.core.USBTimeoutError if timeout else usb.core.USBError
+    return cls(text, errno=code)
+
+
+def _backend_base():
+    import usb.backend
+
+    return usb.backend.IBackend
+
+
+class EmulatedUsbBackend(_backend_base()):
+    """pyusb backend whose bus holds ``EmulatedGrabber`` devices."""
+
+    def __init__(self, devices):
+        super().__init__()
+        self.devices = list(devices)
+
+    def enumerate_devices(self):
+        for i, d in enumerate(self.devices):
+            if d.present():
+                yield (i, d)
+
+    def get_device_descriptor(self, dev):
+        i, d = dev
+        return d.device_descriptor(i + 1)
+
+    def get_configuration_descriptor(self, dev, config):
+        return dev[1].config_descriptor()
+
+    def get_interface_descriptor(self, dev, intf, alt, config):
+        return dev[1].interface_descriptor()
+
+    def get_endpoint_descriptor(self, dev, ep, intf, alt, config):
+        return dev[1].endpoint_descriptor()
+
+    def open_device(self, dev):
+        dev[1]._gone()
+        return dev[1]
+
+    def close_device(self, dev_handle):
+        pass
+
+    def set_configuration(self, dev_handle, config_value):
+        dev_handle._gone()
+        dev_handle.configuration = config_value
+
+    def get_configuration(self, dev_handle):
+        dev_handle._gone()
+        return dev_handle.configuration or 1
+
+    def set_interface_altsetting(self, dev_handle, intf, altsetting):
+        pass
+
+    def claim_interface(self, dev_handle, intf):
+        dev_handle._gone()
+
+    def release_interface(self, dev_handle, intf):
+        pass
+
+    def bulk_read(self, dev_handle, ep, intf, buff, timeout):
+        part = dev_handle.bulk_read(ep, len(buff))
+        n = len(part)
+        memoryview(buff).cast("B")[:n] = part
+        return n
+
+    def ctrl_transfer(self, dev_handle, bmRequestType, bRequest, wValue, wIndex, data, timeout):
+        out = dev_handle.control(bmRequestType, bRequest, wValue, wIndex, data)
+        if bmRequestType & 0x80:  # IN: copy into the caller's buffer, return the count
+            n = min(len(out), len(data))
+            memoryview(data).cast("B")[:n] = out[:n]
+            return n
+        return out
+
+    def clear_halt(self, dev_handle, ep):
+        pass
+
+    def reset_device(self, dev_handle):
+        pass
+
+    def is_kernel_driver_active(self, dev_handle, intf):
+        return False
+
+    def detach_kernel_driver(self, dev_handle, intf):
+        pass
+
+    def attach_kernel_driver(self, dev_handle, intf):
+        pass

@@ -1,0 +1,38 @@
+"""A serial instrument's line protocol as the system XML declares it (``<protocol>``), and
+the built-in dialect used when it declares none. Pure data: ``ares.protocol.devices``
+reads it from XML, ``ares.hardware.serial_instruments`` speaks it."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+
+@dataclass(frozen=True)
+class Command:
+    """``<command name send reply>``: ``send`` is a template (``{value}`` and format specs as in
+    Python: ``LEVEL {value:.6g}``); ``reply`` is a regular expression the whole reply line must
+    match (a group ``value`` carries a number back)."""
+
+    name: str
+    send: str
+    reply: str
+
+
+@dataclass(frozen=True)
+class LineProtocol:
+    terminator: str = "\n"  # after each command
+    reply_terminator: str = "\n"  # ends each reply line
+    error: str = r"ERR\s*(?P<text>.*)"  # a reply matching this is the instrument refusing
+    commands: tuple[Command, ...] = ()
+
+    def command(self, name: str) -> Command | None:
+        return next((c for c in self.commands if c.name == name), None)
+
+
+# The dialect ARES spoke before protocols were declared (and its emulators speak).
+DEFAULT_LIGHT = LineProtocol(commands=(
+    Command("identify", "*IDN?", r".+"), Command("set", "LEVEL {value:.6g}", "OK"),
+    Command("get", "LEVEL?", r"(?P<value>\S+)")))
+DEFAULT_CHAMBER = LineProtocol(commands=(
+    Command("identify", "*IDN?", r".+"), Command("set", "TEMP {value:.2f}", "OK"),
+    Command("get", "TEMP?", r"(?P<value>\S+)"), Command("stable", "STABLE?", r"(?P<value>[01])")))

@@ -1,0 +1,289 @@
+"""The devices of a system XML (``<buses>``, ``<devices>``): I2C bus, USB grabber, serial
+instruments with their line protocol, GenICam camera -- dataclasses, loading and saving.
+
+``ares.protocol.system`` composes these into a ``System``; the hardware layer
+(``ares.hardware``) reads them. Nothing here opens a device.
+"""
+
+from __future__ import annotations
+
+import codecs
+import re
+from dataclasses import dataclass
+
+from lxml import etree
+
+from ares.hardware.line_protocol import Command, LineProtocol
+from ares.hardware.pixels import WIRE_ORDERS, pixel_format
+from ares.protocol.xmlsafe import fail
+
+
+def _int(s, default=None):
+    if s is None:
+        return default
+    s = s.strip()
+    return int(s, 16) if s.lower().startswith("0x") else int(s)
+
+
+def _float(s, default=None):
+    return default if s is None else float(s)
+
+
+def _bool(s, default=False):
+    return default if s is None else s.strip() in ("true", "1")
+
+
+def fmt(v) -> str:
+    if isinstance(v, bool):
+        return "true" if v else "false"
+    if isinstance(v, float):
+        return repr(v)
+    return str(v)
+
+
+def _set(el, **attrs):
+    for k, v in attrs.items():
+        if v is not None:
+            el.set(k, fmt(v))
+    return el
+
+
+# ---------------------------------------------------------------- I2C
+
+@dataclass(frozen=True)
+class I2CBus:
+    """``<i2c name bus address speed_hz retries verify value_endian readback ...>``.
+
+    ``retries``: further attempts after a NACK/timeout before the error; ``verify``: read
+    every written register back; ``value_endian``: byte order of a multi-byte register
+    value on the wire. ``readback="image_row"``: the sensor cannot be read over I2C; it
+    writes its registers into image row ``readback_row`` when ``readback_field`` is 1, one
+    byte per pixel from register ``readback_start`` (``ares.hardware.i2c.ImageRowReadback``).
+    """
+
+    name: str
+    bus: int
+    address: int
+    speed_hz: int = 400000
+    retries: int = 2
+    verify: bool = False
+    value_endian: str = "big"
+    readback: str = "i2c"
+    readback_row: int = 0
+    readback_start: int = 0
+    readback_field: str | None = None
+
+
+def i2c_from_el(path, el) -> I2CBus:
+    b = I2CBus(el.get("name"), int(el.get("bus")), _int(el.get("address")), _int(el.get("speed_hz"), 400000),
+               _int(el.get("retries"), 2), _bool(el.get("verify")), el.get("value_endian", "big"),
+               el.get("readback", "i2c"), _int(el.get("readback_row"), 0), _int(el.get("readback_start"), 0),
+               el.get("readback_field"))
+    if b.address > 0x7F:
+        raise fail(path, el.sourceline, f"I2C bus '{b.name}': address 0x{b.address:x} is not a 7-bit address")
+    return b
+
+
+def i2c_to_el(parent, b: I2CBus):
+    d = I2CBus(b.name, b.bus, b.address)
+    kw = {k: getattr(b, k) for k in ("retries", "verify", "value_endian", "readback", "readback_row",
+                                      "readback_start", "readback_field") if getattr(b, k) != getattr(d, k)}
+    _set(etree.SubElement(parent, "i2c"), name=b.name, bus=b.bus, address=f"0x{b.address:02X}",
+         speed_hz=b.speed_hz, **kw)
+
+
+# ---------------------------------------------------------------- USB grabber
+
+@dataclass(frozen=True)
+class UsbControl:
+    """``<control when="open|start|stop" request_type request value index data>``: a control
+    transfer the grabber needs; ``value="frames"`` sends the number of frames to grab."""
+
+    when: str
+    request_type: int
+    request: int
+    value: int | str = 0
+    index: int = 0
+    data: bytes = b""
+
+
+@dataclass(frozen=True)
+class UsbGrabber:
+    name: str
+    vid: int
+    pid: int
+    endpoint: int
+    format: str
+    header_bytes: int = 0  # header="none": bytes to skip before the pixels (no counter, no checks)
+    timeout_ms: int = 1000  # one bulk read
+    serial: str | None = None  # iSerialNumber to pick one of several grabbers
+    header: str = "none"  # "ares32": ares.hardware.frame_header
+    chunk_bytes: int = 1 << 20  # bulk read size
+    watchdog_ms: int | None = None  # a whole frame; default 4 x timeout_ms
+    wire_order: str = "image"  # ares.hardware.pixels.WIRE_ORDERS
+    interface: int = 0
+    controls: tuple[UsbControl, ...] = ()
+
+
+def _data(s: str | None) -> bytes:
+    return bytes(int(x, 16) for x in s.split()) if s else b""
+
+
+def usb_from_el(path, g) -> UsbGrabber:
+    ctl = []
+    for c in g.iterfind("control"):
+        v = c.get("value", "0")
+        ctl.append(UsbControl(c.get("when"), _int(c.get("request_type")), _int(c.get("request")),
+                              v if v == "frames" else _int(v), _int(c.get("index"), 0), _data(c.get("data"))))
+    u = UsbGrabber(g.get("name"), _int(g.get("vid")), _int(g.get("pid")), _int(g.get("endpoint")), g.get("format"),
+                   _int(g.get("header_bytes"), 0), _int(g.get("timeout_ms"), 1000), g.get("serial"),
+                   g.get("header", "none"), _int(g.get("chunk_bytes"), 1 << 20), _int(g.get("watchdog_ms")),
+                   g.get("wire_order", "image"), _int(g.get("interface"), 0), tuple(ctl))
+    if u.vid > 0xFFFF or u.pid > 0xFFFF:
+        raise fail(path, g.sourceline, "USB vid/pid must be 16-bit numbers")
+    pixel_format(u.format)  # the schema lists the names; this keeps one table
+    if u.header == "ares32" and u.header_bytes:
+        raise fail(path, g.sourceline, "header='ares32' has its own 32-byte header; drop header_bytes")
+    if u.wire_order not in WIRE_ORDERS:
+        raise fail(path, g.sourceline, f"wire_order '{u.wire_order}' is not one of {', '.join(WIRE_ORDERS)}")
+    return u
+
+
+def usb_to_el(parent, g: UsbGrabber):
+    el = _set(etree.SubElement(parent, "usb_grabber"), name=g.name, vid=f"0x{g.vid:04X}", pid=f"0x{g.pid:04X}",
+              endpoint=f"0x{g.endpoint:02X}", format=g.format, header_bytes=g.header_bytes or None,
+              timeout_ms=g.timeout_ms, serial=g.serial, header=None if g.header == "none" else g.header,
+              chunk_bytes=None if g.chunk_bytes == 1 << 20 else g.chunk_bytes, watchdog_ms=g.watchdog_ms,
+              wire_order=None if g.wire_order == "image" else g.wire_order, interface=g.interface or None)
+    for c in g.controls:
+        _set(etree.SubElement(el, "control"), when=c.when, request_type=f"0x{c.request_type:02X}",
+             request=f"0x{c.request:02X}", value=c.value, index=c.index,
+             data=" ".join(f"{b:02X}" for b in c.data) or None)
+
+
+# ---------------------------------------------------------------- serial instruments
+
+NEEDS = {"light_source": ("set", "get"), "chamber": ("set", "get")}
+
+
+@dataclass(frozen=True)
+class SerialInstrument:
+    name: str
+    port: str
+    baud: int = 9600
+    bytesize: int = 8
+    parity: str = "N"
+    stopbits: int = 1
+    timeout_s: float = 1.0
+    min: float | None = None
+    max: float | None = None
+    unit: str | None = None
+    settle_s: float = 0.0  # soak after the instrument reports settled
+    settle_timeout_s: float = 3600.0  # chamber: give up waiting for the set point after this
+    poll_s: float = 1.0  # chamber: poll interval while waiting
+    tolerance: float | None = None  # chamber: settled = within +/- tolerance C of the set point ...
+    hold_s: float = 0.0  # ... continuously for hold_s (without tolerance: the 'stable' command answers 1)
+    protocol: LineProtocol | None = None  # None: DEFAULT_LIGHT / DEFAULT_CHAMBER
+
+
+def _unescape(s: str) -> str:
+    return codecs.decode(s, "unicode_escape")
+
+
+def _escape(s: str) -> str:
+    return s.encode("unicode_escape").decode("ascii")
+
+
+def serial_from_el(path, el, kind: str) -> SerialInstrument | None:
+    if el is None:
+        return None
+    proto = None
+    p = el.find("protocol")
+    if p is not None:
+        cmds = []
+        for c in p.iterfind("command"):
+            try:
+                re.compile(c.get("reply"))
+                c.get("send").format(value=0.0)
+            except (re.error, ValueError, KeyError, IndexError) as exc:
+                raise fail(path, c.sourceline, f"<command name='{c.get('name')}'>: {exc}") from None
+            cmds.append(Command(c.get("name"), c.get("send"), c.get("reply")))
+        proto = LineProtocol(_unescape(p.get("terminator", "\\n")), _unescape(p.get("reply_terminator", "\\n")),
+                             p.get("error", LineProtocol.error), tuple(cmds))
+        missing = [n for n in NEEDS[kind] if proto.command(n) is None]
+        if missing:
+            raise fail(path, p.sourceline, f"<{kind}> <protocol> declares no command named "
+                                           f"{' or '.join(repr(m) for m in missing)}")
+        names = [c.name for c in cmds]
+        if len(set(names)) != len(names):
+            raise fail(path, p.sourceline, f"<{kind}> <protocol> names a command twice")
+    return SerialInstrument(
+        name=el.get("name"), port=el.get("port"), baud=_int(el.get("baud"), 9600), bytesize=_int(el.get("bytesize"), 8),
+        parity=el.get("parity", "N"), stopbits=_int(el.get("stopbits"), 1), timeout_s=_float(el.get("timeout_s"), 1.0),
+        min=_float(el.get("min")), max=_float(el.get("max")), unit=el.get("unit"), settle_s=_float(el.get("settle_s"), 0.0),
+        settle_timeout_s=_float(el.get("settle_timeout_s"), 3600.0), poll_s=_float(el.get("poll_s"), 1.0),
+        tolerance=_float(el.get("tolerance")), hold_s=_float(el.get("hold_s"), 0.0), protocol=proto,
+    )
+
+
+def serial_to_el(parent, tag, s: SerialInstrument):
+    el = _set(etree.SubElement(parent, tag), name=s.name, port=s.port, baud=s.baud, bytesize=s.bytesize,
+              parity=s.parity, stopbits=s.stopbits, timeout_s=s.timeout_s, min=s.min, max=s.max, unit=s.unit,
+              settle_s=s.settle_s, settle_timeout_s=s.settle_timeout_s, poll_s=s.poll_s, tolerance=s.tolerance,
+              hold_s=s.hold_s)
+    if s.protocol is not None:
+        p = _set(etree.SubElement(el, "protocol"), terminator=_escape(s.protocol.terminator),
+                 reply_terminator=_escape(s.protocol.reply_terminator), error=s.protocol.error)
+        for c in s.protocol.commands:
+            _set(etree.SubElement(p, "command"), name=c.name, send=c.send, reply=c.reply)
+
+
+# ---------------------------------------------------------------- GenICam
+
+@dataclass(frozen=True)
+class Feature:
+    """``<feature field node scale unit min max>``: register field ``field`` of the scan is the
+    camera's GenICam feature ``node``; physical = scale x node value."""
+
+    field: str
+    node: str
+    scale: float = 1.0
+    unit: str = ""
+    min: float | None = None
+    max: float | None = None
+
+
+@dataclass(frozen=True)
+class GenICam:
+    """``<genicam name cti device timeout_ms>``: a camera through a GenTL producer. ``cti``:
+    the producer file (``genicam:NAME`` = a producer shipped inside the genicam package);
+    ``device``: its id, serial number or index; ``<set node value>``: features written at
+    open (pixel format, size); ``<feature>``: fields a scan sets."""
+
+    name: str
+    cti: str
+    device: str = "0"
+    timeout_ms: int = 3000
+    sets: tuple[tuple[str, str], ...] = ()
+    features: tuple[Feature, ...] = ()
+
+
+def genicam_from_el(path, el) -> GenICam | None:
+    if el is None:
+        return None
+    sets = tuple((s.get("node"), s.get("value")) for s in el.iterfind("set"))
+    feats = tuple(Feature(f.get("field"), f.get("node"), _float(f.get("scale"), 1.0), f.get("unit", ""),
+                          _float(f.get("min")), _float(f.get("max"))) for f in el.iterfind("feature"))
+    names = [f.field for f in feats]
+    if len(set(names)) != len(names):
+        raise fail(path, el.sourceline, "<genicam> declares a <feature field=...> twice")
+    return GenICam(el.get("name"), el.get("cti"), el.get("device", "0"), _int(el.get("timeout_ms"), 3000), sets, feats)
+
+
+def genicam_to_el(parent, g: GenICam):
+    el = _set(etree.SubElement(parent, "genicam"), name=g.name, cti=g.cti, device=g.device, timeout_ms=g.timeout_ms)
+    for node, value in g.sets:
+        _set(etree.SubElement(el, "set"), node=node, value=value)
+    for f in g.features:
+        _set(etree.SubElement(el, "feature"), field=f.field, node=f.node, scale=float(f.scale), unit=f.unit or None,
+             min=f.min, max=f.max)
