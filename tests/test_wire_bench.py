@@ -166,9 +166,11 @@ def test_a_retry_absorbs_one_nack_and_garbage_is_skipped(tmp_path, capsys):
     assert json.loads((out / "run.json").read_text())["status"] == "done"
 
 
-def test_dropped_frame_regrabs_the_stage_when_the_scan_says_so(tmp_path):
+def test_dropped_frame_regrabs_the_stage_when_the_scan_says_so(tmp_path, capsys):
     out = tmp_path / "run"
-    assert _run(_short_scan(tmp_path, ' on_loss="regrab"'), out, "--sim-fault", "usb_drop_at=5") == 0
+    assert main(["run", str(_short_scan(tmp_path, ' on_loss="regrab"')), "--out", str(out), "--sim-fault",
+                 "usb_drop_at=5"]) == 0
+    assert "frames lost: dropped 1; stage(s) ptc[1] acquired again" in capsys.readouterr().out
     st = json.loads((out / "stages" / "0002.json").read_text())
     assert st["frames_lost"] == [{"kind": "dropped", "count": 1, "message": st["frames_lost"][0]["message"]}]
     assert "frame counter jumped from 4 to 6" in st["frames_lost"][0]["message"]

@@ -33,7 +33,8 @@ def add_arguments(parser) -> None:
                         help="auto-repeat: run the scan N times (0 = until stopped), one run directory each")
     parser.add_argument("--sim-fault", action="append", default=[], metavar="KEY=N",
                         help="inject a simulator fault (disconnect_after_frames=N, short_frame_at=N, "
-                             "frame_delay_ms=N); for tests")
+                             "frame_delay_ms=N; on a wire-emulated system also usb_drop_at=N, i2c_nack_at=N, "
+                             "light_timeout_at=N... see FORMAT.md); for tests")
 
 
 def add_common(parser) -> None:
@@ -181,6 +182,11 @@ def print_summary(outcome, scan, seconds: float, out=None) -> None:
               f"{', seed ' + str(outcome.seed) if outcome.seed is not None else ''}\n")
     if outcome.run_dir:
         out.write(f"run directory: {outcome.run_dir}\n")
+    lost = [(st.get("name"), x) for st in outcome.stages for x in st.get("frames_lost", ())]
+    if lost:
+        kinds = ", ".join(f"{x['kind']} {x['count']}" for _, x in lost)
+        names = ", ".join(sorted({str(n) for n, _ in lost}))
+        out.write(f"frames lost: {kinds}; stage(s) {names} acquired again (<frames on_loss='regrab'>)\n")
     p = res.get("ptc")
     if isinstance(p, dict) and "gain_dn_per_e" in p:
         out.write("photon transfer:\n")

@@ -8,7 +8,7 @@ Pure Python: the XML loader in ``ares.protocol`` builds these objects.
 
 from __future__ import annotations
 
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 
 from contextlib import contextmanager
 
@@ -16,12 +16,12 @@ from ares.errors import HardwareError, UnknownRegister, ValueOutOfRange, InputEr
 
 
 @contextmanager
-def _naming(field: str):
+def _naming(name: str):
     """A bus error inside a field access names the field too (the bus knows only addresses)."""
     try:
         yield
     except HardwareError as exc:
-        raise type(exc)(f"{exc} (field '{field}')") from None
+        raise type(exc)(f"{exc} (field '{name}')") from None
 
 
 @dataclass(frozen=True)

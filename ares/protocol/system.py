@@ -379,8 +379,11 @@ def system_to_tree(sy: System) -> etree._ElementTree:
     _set(etree.SubElement(se, "cfa"), pattern=s.cfa)
     _set(etree.SubElement(se, "adc"), bits=s.adc_bits, channels=s.adc_channels, interleave=s.adc_interleave)
     m = sy.registers
-    if sy.genicam is not None and m == _feature_map(sy.genicam):
-        m = None  # derived from the <feature> elements: not written twice
+    if sy.genicam is not None:
+        from ares.hardware.genicam import feature_map
+
+        if m == feature_map(sy.genicam):
+            m = None  # derived from the <feature> elements: not written twice
     re_ = None if m is None else _set(etree.SubElement(root, "registers"), address_bits=m.address_bits, value_bits=m.value_bits, endian=m.endian)
     for f in (m.fields if m is not None else ()):
         _set(etree.SubElement(re_, "field"), name=f.name, address=f"0x{f.address:04X}", lsb=f.lsb, msb=f.msb,
@@ -420,12 +423,6 @@ def system_to_tree(sy: System) -> etree._ElementTree:
             _set(etree.SubElement(rel, "recording"), exposure=float(rec.exposure), light=float(rec.light),
                  images=rec.images)
     return etree.ElementTree(root)
-
-
-def _feature_map(g):
-    from ares.hardware.genicam import feature_map
-
-    return feature_map(g)
 
 
 def save_system(sy: System, path: str | Path) -> None:
