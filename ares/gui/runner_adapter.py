@@ -197,8 +197,11 @@ class RunnerJob:
     def _instruments(system) -> dict:
         out = {"sensor": f"{system.sensor.name} ({system.sensor.cols} x {system.sensor.rows})"}
         if system.simulator is not None:
-            out["simulator"] = f"ARTEMIS-style Monte Carlo model, seed {system.simulator.seed}"
-        else:
+            wire = " behind emulated I2C/USB/serial devices" if system.simulator.wire else ""
+            out["simulator"] = f"ARTEMIS-style Monte Carlo model, seed {system.simulator.seed}{wire}"
+        if system.genicam is not None:
+            out["camera"] = f"GenICam {system.genicam.name} ({system.genicam.cti}, device {system.genicam.device})"
+        elif system.simulator is None or system.simulator.wire:
             out["frame grabber"] = (f"USB {system.usb_grabber.name} ({system.usb_grabber.format})"
                                     if system.usb_grabber else "none declared")
         for bus in system.buses:
