@@ -16,8 +16,9 @@ from lxml import etree
 from ares.errors import InputError
 from ares.hardware.registers import Field, RegisterMap
 from ares.protocol import xmlsafe
-from ares.protocol.devices import (GenICam, I2CBus, SerialInstrument, UsbGrabber, genicam_from_el, genicam_to_el,
-                                   i2c_from_el, i2c_to_el, serial_from_el, serial_to_el, usb_from_el, usb_to_el)
+from ares.protocol.devices import (GenICam, I2CBus, SerialInstrument, UsbGrabber, _bool, _float, _int, _set,
+                                   genicam_from_el, genicam_to_el, i2c_from_el, i2c_to_el, serial_from_el, serial_to_el,
+                                   usb_from_el, usb_to_el)
 from ares.protocol.xmlsafe import fail
 
 
@@ -147,21 +148,6 @@ class System:
 
 
 # ---------------------------------------------------------------- loading
-
-def _int(s: str | None, default=None):
-    if s is None:
-        return default
-    s = s.strip()
-    return int(s, 16) if s.lower().startswith("0x") else int(s)
-
-
-def _float(s: str | None, default=None):
-    return default if s is None else float(s)
-
-
-def _bool(s: str | None, default=None):
-    return default if s is None else s.strip() in ("true", "1")
-
 
 def _region(el) -> Region:
     return Region(el.get("name"), int(el.get("x")), int(el.get("y")), int(el.get("width")), int(el.get("height")))
@@ -349,21 +335,6 @@ def load_system(path: str | Path) -> System:
 
 
 # ---------------------------------------------------------------- saving
-
-def fmt(v) -> str:
-    if isinstance(v, bool):
-        return "true" if v else "false"
-    if isinstance(v, float):
-        return repr(v)
-    return str(v)
-
-
-def _set(el, **attrs):
-    for k, v in attrs.items():
-        if v is not None:
-            el.set(k, fmt(v))
-    return el
-
 
 def system_to_tree(sy: System) -> etree._ElementTree:
     root = _set(etree.Element("system"), name=sy.name, version=sy.version)
