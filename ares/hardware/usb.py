@@ -221,6 +221,8 @@ class UsbFrameSource:
         return Frame(data, self.count, time.time(), meta)
 
     def grab(self, n: int):
+        if not any(c.when == "start" for c in self.cfg.controls):
+            self.last_counter = None  # free-running: frames between grabs are not read, not lost
         self._control("start", n)
         ok = False
         try:
