@@ -232,6 +232,22 @@ def print_summary(outcome, scan, seconds: float, out=None) -> None:
         out.write(f"all {len(scan.limits)} limit(s) passed\n")
 
 
+def print_precision(rep: dict, out=None) -> None:
+    """The precision-driven scan's plan and what it reached, one line per target."""
+    out = out or sys.stdout
+    if "targets" not in rep:
+        out.write(f"precision: {rep.get('status')}: {rep.get('message', '')}\n")
+        return
+    out.write(f"precision: {rep['frames_per_stage']} frames per stage ({rep['pilot_frames']} pilot + "
+              f"{rep['frames_per_stage'] - rep['pilot_frames']} more; budget {rep['budget']}), "
+              f"{'every target met' if rep['all_met'] else 'NOT every target met'}\n")
+    for t in rep["targets"]:
+        se = t["se"]
+        got = "n/a" if se is None else (f"{100 * t['se_rel']:.3g} %" if t["target"].endswith("%") else f"{se:.3g}")
+        out.write(f"  {t['quantity']:<24} SE {got:<10} target {t['target']:<8} {'met' if t['met'] else 'NOT met'}"
+                  f"{' (' + t['note'] + ')' if t['note'] else ''}\n")
+
+
 def _read_meta(run_dir: Path) -> dict:
     try:
         return json.loads((run_dir / "run.json").read_text())
@@ -268,8 +284,14 @@ def execute(scan, args, *, seed, frames, faults=None, argv=None, out_dir=None, r
     if resume_from is None:
         check_run(scan, frames, seed)  # refused before a run directory exists (Runner checks again)
         out_dir = claim_out(out_dir, scan.name)
-    runner = Runner(scan, out_dir=out_dir, seed=seed, frames=frames, faults=faults, argv=argv,
-                    resume_from=resume_from, defer_reports=not args.json)
+    if scan.precision is not None and frames is None and resume_from is None:
+        from ares.scan.precision import PrecisionRunner  # pilot, then the frames the targets need
+
+        runner = PrecisionRunner(scan, out_dir=out_dir, seed=seed, argv=argv, faults=faults,
+                                 defer_reports=not args.json)
+    else:
+        runner = Runner(scan, out_dir=out_dir, seed=seed, frames=frames, faults=faults, argv=argv,
+                        resume_from=resume_from, defer_reports=not args.json)
     if not args.quiet:
         runner.add_listener(ProgressBar())
     hits = []
@@ -299,6 +321,8 @@ def execute(scan, args, *, seed, frames, faults=None, argv=None, out_dir=None, r
         sys.stdout.write("\n")
     else:
         print_summary(outcome, scan, seconds)  # the key figures before the report (the PDF takes seconds)
+        if getattr(runner, "report", None):
+            print_precision(runner.report)
         sys.stdout.flush()
         err = runner.write_reports()
         if err:

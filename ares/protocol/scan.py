@@ -88,6 +88,25 @@ class Limit:
                                         f"<= {self.max:g}" if self.max is not None else "") if x)
 
 
+def _precision(el, path, analyses) -> Precision | None:
+    if el is None:
+        return None
+    targets = []
+    for t in el.iterfind("target"):
+        rel, ab = t.get("rel"), t.get("abs")
+        if (rel is None) == (ab is None):
+            raise fail(path, t.sourceline, f"target for '{t.get('quantity')}' needs exactly one of rel= or abs=")
+        why = unknown_limit(t.get("quantity"), analyses)
+        if why:
+            raise fail(path, t.sourceline, why.replace("limit", "precision target", 1))
+        targets.append(Target(t.get("quantity"), None if rel is None else float(rel), None if ab is None else float(ab)))
+    p = Precision(tuple(targets), int(el.get("budget")), int(el.get("pilot", 3)), float(el.get("confidence", 0.95)),
+                  float(el.get("se_cv", 0.1)))
+    if p.pilot > p.budget:
+        raise fail(path, el.sourceline, f"<precision pilot='{p.pilot}'> is above its budget of {p.budget} frames")
+    return p
+
+
 def parse_limit(el, path) -> Limit:
     """A ``<limit quantity= min= max=>`` element (scan and lot files), checked: at least one
     bound, min not above max; errors name the file and line."""
@@ -98,6 +117,34 @@ def parse_limit(el, path) -> Limit:
     if lim.min is not None and lim.max is not None and lim.min > lim.max:
         raise fail(path, el.sourceline, f"limit on '{lim.quantity}': min {lim.min:g} is above max {lim.max:g}")
     return lim
+
+
+@dataclass(frozen=True)
+class Target:
+    """``<target quantity rel|abs>``: the SE a figure must reach (relative or absolute)."""
+
+    quantity: str
+    rel: float | None = None
+    abs: float | None = None
+
+    def wanted(self, value: float) -> float:
+        """The SE this target asks for at an estimate ``value``."""
+        return self.abs if self.abs is not None else self.rel * abs(value)
+
+    def text(self) -> str:
+        return f"{100 * self.rel:g} %" if self.rel is not None else f"{self.abs:g}"
+
+
+@dataclass(frozen=True)
+class Precision:
+    """``<precision budget pilot confidence se_cv>``: frames per stage from the targets
+    (``ares.scan.precision``) instead of fixed counts."""
+
+    targets: tuple[Target, ...]
+    budget: int
+    pilot: int = 3
+    confidence: float = 0.95
+    se_cv: float = 0.1  # relative spread of an estimated SE (sets the safety margin)
 
 
 @dataclass(frozen=True)
@@ -130,6 +177,7 @@ class Scan:
     regions: tuple[Region, ...] = ()
     on_loss: str = "fail"  # <frames on_loss>: "regrab" re-acquires a stage that lost frames
     max_regrabs: int = 2
+    precision: Precision | None = None
     analyses: tuple[str, ...] = ()
     defects: tuple[tuple[str, float], ...] = ()
     limits: tuple[Limit, ...] = ()
@@ -285,6 +333,7 @@ def scan_from_tree(tree, path, system: System | None = None, system_path=None) -
         if why:
             raise fail(path, el.sourceline, why)
         limits.append(lim)
+    precision = _precision(root.find("precision"), path, analyses)
     de = root.find("defects")
     if de is not None:
         from ares.analysis.defects import DefectThresholds  # the parser the analysis uses: what validates runs
@@ -325,7 +374,7 @@ def scan_from_tree(tree, path, system: System | None = None, system_path=None) -
         name=root.get("name"), version=int(root.get("version", 1)), system_href=href,
         description=(desc.text or "").strip() if desc is not None else "",
         frames=int(root.findtext("frames")), on_loss=root.find("frames").get("on_loss", "fail"),
-        max_regrabs=int(root.find("frames").get("max_regrabs", 2)), settings=settings, stages=tuple(stages), regions=tuple(regions),
+        max_regrabs=int(root.find("frames").get("max_regrabs", 2)), precision=precision, settings=settings, stages=tuple(stages), regions=tuple(regions),
         analyses=analyses, defects=tuple((el.get("name"), float(el.get("value"))) for el in root.iterfind("defects/threshold")),
         limits=tuple(limits), output=output, suspend=suspend, system=system, source=Path(path),
         defect_mask=root.find("defects").get("mask") if root.find("defects") is not None else None,
@@ -366,6 +415,12 @@ def scan_to_tree(sc: Scan) -> etree._ElementTree:
     fr = _set(etree.SubElement(root, "frames"), on_loss=None if sc.on_loss == "fail" else sc.on_loss,
               max_regrabs=None if sc.max_regrabs == 2 else sc.max_regrabs)
     fr.text = str(sc.frames)
+    if sc.precision is not None:
+        p = sc.precision
+        pe = _set(etree.SubElement(root, "precision"), budget=p.budget, pilot=p.pilot, confidence=float(p.confidence),
+                  se_cv=float(p.se_cv))
+        for t in p.targets:
+            _set(etree.SubElement(pe, "target"), quantity=t.quantity, rel=t.rel, abs=t.abs)
     st = etree.SubElement(root, "stages")
     for s in sc.stages:
         el = _set(etree.SubElement(st, "sweep" if s.sweep else "stage"), name=s.name, scene=s.scene, frames=s.frames,
