@@ -192,7 +192,7 @@ class SimFrameSource:
             if mode == 2:
                 data = self.sensor.render_ramp(k)
             else:
-                data = self.sensor.render(k, dark=(mode == 1), **s)
+                data = self.sensor.render(k, dark=(mode == 1), shot_noise=self.sensor.params.shot_noise, **s)
             for frame in data:
                 if self.faults.get("frame_delay_ms"):
                     time.sleep(self.faults["frame_delay_ms"] / 1000.0)

@@ -116,6 +116,9 @@ class SensorParams:
     adc_inl_lsb: float = 0.0  # amplitude of a smooth (half-sine) INL bow, in LSB
     adc_dnl_lsb: float = 0.0  # sigma of the random per-code width error, in LSB
 
+    # --- fidelity -----------------------------------------------------------------------
+    shot_noise: str = "auto"  # "auto" (exact Poisson where distinguishable), "exact", "gaussian"
+
     # ------------------------------------------------------------------------------
     def __post_init__(self):
         for name in ("prnu_pct", "cfa_response", "adc_offset_dn", "adc_gain"):
@@ -173,6 +176,8 @@ class SensorParams:
             self._fail("crosstalk_pct", "must be below 50 %")
         if self.lag_fraction >= 1:
             self._fail("lag_fraction", "must be below 1")
+        if self.shot_noise not in ("auto", "exact", "gaussian"):
+            self._fail("shot_noise", "must be 'auto', 'exact' or 'gaussian'")
         if not 0 <= self.dead_response < 1:
             self._fail("dead_response", "must be in [0, 1)")
         if not 0 <= self.rts_switch_prob <= 1:
