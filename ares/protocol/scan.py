@@ -415,12 +415,7 @@ def scan_to_tree(sc: Scan) -> etree._ElementTree:
     fr = _set(etree.SubElement(root, "frames"), on_loss=None if sc.on_loss == "fail" else sc.on_loss,
               max_regrabs=None if sc.max_regrabs == 2 else sc.max_regrabs)
     fr.text = str(sc.frames)
-    if sc.precision is not None:
-        p = sc.precision
-        pe = _set(etree.SubElement(root, "precision"), budget=p.budget, pilot=p.pilot, confidence=float(p.confidence),
-                  se_cv=float(p.se_cv))
-        for t in p.targets:
-            _set(etree.SubElement(pe, "target"), quantity=t.quantity, rel=t.rel, abs=t.abs)
+
     st = etree.SubElement(root, "stages")
     for s in sc.stages:
         el = _set(etree.SubElement(st, "sweep" if s.sweep else "stage"), name=s.name, scene=s.scene, frames=s.frames,
@@ -450,6 +445,12 @@ def scan_to_tree(sc: Scan) -> etree._ElementTree:
         li = etree.SubElement(root, "limits")
         for lim in sc.limits:
             _set(etree.SubElement(li, "limit"), quantity=lim.quantity, min=lim.min, max=lim.max)
+    if sc.precision is not None:
+        p = sc.precision
+        pe = _set(etree.SubElement(root, "precision"), budget=p.budget, pilot=p.pilot, confidence=float(p.confidence),
+                  se_cv=float(p.se_cv))
+        for t in p.targets:
+            _set(etree.SubElement(pe, "target"), quantity=t.quantity, rel=t.rel, abs=t.abs)
     if sc.suspend is not None:
         su = _set(etree.SubElement(root, "suspend"), poll_s=sc.suspend.poll_s, hold_s=sc.suspend.hold_s,
                   timeout_s=sc.suspend.timeout_s)

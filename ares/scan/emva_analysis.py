@@ -6,7 +6,8 @@ Definitions (as ``ares.analysis.emva1288``, not ARES's ``ptc``):
 
 - temporal variance **without** the frame-offset correction: ARES's stage ``var_dn2``
   removes the frame-global offset (Release 4.0 / ARES), so the Release 3.0 variance is
-  rebuilt exactly as ``var_dn2 + sum_f (m_f - m)^2 / (F - 1)`` from the stage's frame means;
+  rebuilt exactly as ``var_dn2 (P - 1) / P + sum_f (m_f - m)^2 / (F - 1)`` from the stage's
+  frame means (P pixels; ``var_dn2`` has (P - 1)(F - 1) degrees of freedom);
 - K: origin fit of (s2_y - s2_y.dark) vs (mu_y - mu_y.dark) up to 70 % of the
   maximum-variance (saturation) level; sigma_y.dark: intercept of s2_y.dark vs exposure;
 - photons per pixel: the stage's light level x exposure (photons/pixel/s x s);
@@ -31,7 +32,8 @@ def release3_variance(level: dict) -> float:
     fm = np.asarray(level.get("frame_means") or [], dtype=float)
     var = float(level["var_dn2"])
     if fm.size >= 2:
-        var += float(np.sum((fm - fm.mean()) ** 2)) / (fm.size - 1)
+        p = int(level["n_pixels"])
+        var = var * (p - 1) / p + float(np.sum((fm - fm.mean()) ** 2)) / (fm.size - 1)
     return var
 
 
