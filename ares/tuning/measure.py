@@ -83,7 +83,7 @@ def run_once(scan, seed: int, frames: int | None = None, bench=None) -> dict:
         t0 = time.perf_counter()
         out = Runner(scan, bench=bench, seed=seed, frames=frames, listeners=(clock,)).run()
         wall = time.perf_counter() - t0
-        truth = truths(bench) if "sensor" in bench.info else {}
+        truth = truths(bench) if "sensor" in bench.info and hasattr(bench.frames, "settings") else {}
     finally:
         if own:
             bench.close()
