@@ -27,12 +27,16 @@ def main() -> int:
     base = median_s([sys.executable, "-c", "pass"])
     rows = [("python -c pass (baseline)", base)]
     for label, argv in (("ares --help", ["--help"]), ("ares run --help", ["run", "--help"]),
-                        ("ares defects --help", ["defects", "--help"])):
+                        ("ares defects --help", ["defects", "--help"]),
+                        ("ares validate scans/photon_transfer.xml", ["validate", "scans/photon_transfer.xml"])):
         rows.append((label, median_s([sys.executable, "-m", "ares.cli", *argv])))
     lines = ["## Start-up: `ares --help`", "",
              f"Median wall time of {REPEATS} runs each, with the interpreter's own start as baseline.", "",
              "| command | median s | ratio to baseline |", "|---|---:|---:|"]
     lines += [f"| {label} | {s:.3f} | {s / base:.2f} |" for label, s in rows]
+    lines += ["", "`ares validate` loads no scipy, matplotlib, h5py or Qt (a test checks it): the simulator's "
+              "normal table, the 4.0 high-pass factors and the defect classifier are built or imported on first use "
+              "(before: 1.5 s, scipy.stats and scipy.signal at import)."]
     text = "\n".join(lines) + "\n"
     (Path(__file__).parent / "startup.md").write_text(text)
     print(text)

@@ -42,6 +42,7 @@ Every result is an ``Estimate``; dark-only data give ``Estimate.na``.
 
 from __future__ import annotations
 
+import functools
 import math
 
 import numpy as np
@@ -73,7 +74,10 @@ def highpass_emva(img: np.ndarray) -> np.ndarray:
     return img - smooth(img, "4.0", border="reflect")
 
 
-def _hp_factors():
+@functools.cache
+def hp_factors():
+    """Filter gains and squared-coefficient sums of the 4.0 high-pass (computed on first
+    use: it needs scipy.signal, which ``ares validate`` and ``ares --help`` must not load)."""
     k1, k2 = white_gains("4.0")
     h1 = -_L1.copy()
     h1[_RAD] += 1.0
@@ -278,7 +282,7 @@ def _nonuniformity(flat_acc, dark_acc, tf, td, S, var_S, mode, order):
         low = d[_RAD:-_RAD, _RAD:-_RAD] - hp
         norm = float(np.mean(low * low))
         Rv, Cv = hp.shape
-        k1, k2, s1, s2 = _HP
+        k1, k2, s1, s2 = hp_factors()
         m = hp.mean()
         mr = hp.mean(axis=1) - m
         mc = hp.mean(axis=0) - m
@@ -309,4 +313,3 @@ def _nonuniformity(flat_acc, dark_acc, tf, td, S, var_S, mode, order):
     return out
 
 
-_HP = _hp_factors()

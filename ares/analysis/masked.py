@@ -498,7 +498,7 @@ def _nonuniformity(flat_acc, dark_acc, tf, td, S, var_S, mode, order):
         g = good[rad:-rad, rad:-rad]
         norm = float(np.mean(low[g] ** 2))
         Rv, Cv = hp.shape
-        k1, k2, s1, s2 = _flat._HP
+        k1, k2, s1, s2 = _flat.hp_factors()
         nrow, ncol = g.sum(axis=1), g.sum(axis=0)
         hz = np.where(g, hp, 0.0)
         m = hz.sum() / g.sum()

@@ -32,15 +32,20 @@ from __future__ import annotations
 from functools import lru_cache
 
 import numpy as np
-from scipy import stats
-from scipy.special import ndtri
 
 AUTO_SKEW_TOLERANCE = 0.05
 SHOT_MODES = ("auto", "exact", "gaussian")
 INVERSION_MAX_MEAN = 2.0
 
-_TABLE = ndtri((np.arange(1 << 16) + 0.5) / (1 << 16))
-_TABLE = (_TABLE / np.sqrt(np.mean(_TABLE**2))).astype(np.float32)
+
+@lru_cache(maxsize=1)
+def table() -> np.ndarray:
+    """The 2^16-entry inverse-CDF N(0,1) table of the fast path (built on first use, so that
+    importing the simulator -- ``ares validate`` checks its parameters -- loads no scipy)."""
+    from scipy.special import ndtri
+
+    t = ndtri((np.arange(1 << 16) + 0.5) / (1 << 16))
+    return (t / np.sqrt(np.mean(t**2))).astype(np.float32)
 
 
 def frame_rng(seed: int, frame: int) -> np.random.Generator:
@@ -52,7 +57,7 @@ def normal(rng: np.random.Generator, shape, fast: bool) -> np.ndarray:
     """float32 N(0,1) deviates of the given shape."""
     if fast:
         idx = rng.integers(0, 1 << 16, size=shape, dtype=np.uint16)
-        return np.take(_TABLE, idx)
+        return np.take(table(), idx)
     return rng.standard_normal(size=shape, dtype=np.float32)
 
 
@@ -82,6 +87,8 @@ def _alias_table(lam: float):
     sd = np.sqrt(lam)
     lo = int(max(0.0, np.floor(lam - 12 * sd - 10)))
     hi = int(np.ceil(lam + 12 * sd + 20))
+    from scipy import stats
+
     p = stats.poisson.pmf(np.arange(lo, hi + 1), lam)
     p = p / p.sum()
     k = len(p)

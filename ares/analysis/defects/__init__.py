@@ -20,7 +20,6 @@ from typing import Mapping, Sequence
 
 import numpy as np
 
-from .classify import classify_defects
 from .params import DefectThresholds
 from .result import BITS, PIXEL_CLASSES, DefectResult
 from .stats import PixelStats, SeriesCollector, candidate_series, masked_population_stats, pixel_stats
@@ -32,6 +31,14 @@ __all__ = [
 ]
 
 Region = tuple[slice, slice]
+
+
+def classify_defects(*args, **kwargs) -> DefectResult:
+    """``ares.analysis.defects.classify.classify_defects``, imported on first use: it needs
+    scipy, and parsing thresholds (``ares validate``) must not load it."""
+    from .classify import classify_defects as classify
+
+    return classify(*args, **kwargs)
 
 
 def _as_list(x) -> list:
