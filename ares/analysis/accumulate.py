@@ -480,6 +480,14 @@ class StackAccumulator:
         self._fr = [a.astype(np.float64) for a in self._fr]
         self._fc = [a.astype(np.float64) for a in self._fc]
 
+    def compact(self) -> None:
+        """Fold the buffered frames and free the working buffers (batch store, kernel
+        scratch: up to ~8x a frame); a finished stack keeps only its sums. They are made
+        again if frames are added later."""
+        self._flush()
+        self._buf = self._store = self._buf_dtype = self._kp = self._f1 = self._fk = self._fl = None
+        self._nbuf = self._nfloat = 0
+
     def __getstate__(self) -> dict:
         """Pickled (e.g. sent back by a Dask worker) as its sums only: buffered frames are
         folded first and the working buffers (batch store, kernel scratch, ~8x a frame)

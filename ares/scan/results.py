@@ -49,6 +49,16 @@ def views(scan) -> dict[str, tuple[slice, slice]]:
     return v
 
 
+BATCH_BYTES = 64 << 20  # an accumulator's batch store (copied 16-bit frames) stays below this
+
+
+def batch_for(shape) -> int:
+    """Frames an accumulator buffers before folding: 16 (fastest) up to 1080p, fewer for
+    larger frames so the store stays under BATCH_BYTES (4096x3072: 2). The sums are exact
+    integers, so the batch size never changes a result."""
+    return max(2, min(16, BATCH_BYTES // (2 * shape[0] * shape[1])))
+
+
 class StackSet:
     """One accumulator per view, plus clip counters."""
 
@@ -61,7 +71,7 @@ class StackSet:
         self.hist = {k: np.zeros(max_code + 1, np.int64) for k in views_
                      if k == "full" or k.startswith(("adc", "cfa_"))} if histograms else {}
         dummy = np.empty(shape, dtype=np.uint8)
-        self.acc = {k: StackAccumulator(dummy[s].shape) for k, s in views_.items()}
+        self.acc = {k: StackAccumulator(dummy[s].shape, batch=batch_for(dummy[s].shape)) for k, s in views_.items()}
         self.at_max = {k: 0 for k in views_}
         self.at_min = {k: 0 for k in views_}
 
@@ -77,6 +87,18 @@ class StackSet:
             self.masked.add(data)
         if self.kept is not None:
             self.kept.append(np.array(data, copy=True))
+
+    def compact(self) -> None:
+        """The stack is complete: keep the sums, free the accumulators' working buffers."""
+        for acc in self.acc.values():
+            acc.compact()
+
+    def drop_maps(self) -> None:
+        """Forget the float64 maps (mean, variance...) the accumulators cached for the
+        stage's analysis: four or five frames' worth each, recomputed from the sums if the
+        stack is used again (a reused dark)."""
+        for acc in self.acc.values():
+            acc._cache.clear()
 
     def apply_mask(self, mask) -> bool:
         """Accumulate the kept frames over the good pixels of ``mask`` (after the fact, for

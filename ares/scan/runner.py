@@ -300,6 +300,9 @@ class Runner:
                 self._mask = mask_from_dark(flat, st.name, st.settings.get("exposure"), scan_thresholds(scan))
                 flat.apply_mask(self._mask.mask)  # this stage too, from its kept frames
             result, arrays = analyze_stage(st, flat, dark)
+            for stack in (flat, dark):
+                if stack is not None:
+                    stack.drop_maps()
             if pos.get("end") is not None:
                 result["bench_position"] = pos  # where the frame stream stood (ares resume)
             if suspensions:
@@ -412,6 +415,7 @@ class Runner:
                 close()
         if k < n:
             raise FrameError(f"{src.name}: delivered only {k} of {n} frames")
+        ss.compact()  # a 4096x3072 stack's batch store and scratch are ~1 GB; its sums are what stays
         return ss
 
 
