@@ -16,7 +16,8 @@ from ares.errors import InputError
 from ares.protocol import load_scan
 from ares.protocol.scan import Precision, Target
 from ares.scan import Runner
-from ares.scan.precision import PrecisionRunner, find_estimate, plan
+from ares.scan.precision import PrecisionRunner, plan
+from ares.scan.results import find_estimate
 
 from precision_study import TARGETS, run_study, study_scan
 

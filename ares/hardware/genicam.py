@@ -125,12 +125,16 @@ class FeatureBus:
         return self.nodes[address]
 
     def read(self, address: int) -> int:
+        node = self._node(address)
         try:
-            return max(0, int(round(float(self.camera.node(self._node(address)).value))))
+            v = int(round(float(self.camera.node(node).value)))
         except InputError:
             raise
         except Exception as exc:
-            raise HardwareError(f"{self.name}: cannot read feature {self._node(address)} ({exc})") from None
+            raise HardwareError(f"{self.name}: cannot read feature {node} ({exc})") from None
+        if v < 0:  # a register field's raw value is unsigned
+            raise HardwareError(f"{self.name}: feature {node} reads {v}, below 0, which a <feature> field cannot hold")
+        return v
 
     def write(self, address: int, value: int) -> None:
         self.camera.write(self._node(address), value)

@@ -56,6 +56,7 @@ class UsbFrameSource:
         self.count = 0  # frames delivered
         self.last_counter: int | None = None
         self.dropped = self.corrupt = self.short = self.resyncs = self.skipped_bytes = 0
+        self._lost_sync = False  # searching for a sync word (counted once per search)
 
     # ------------------------------------------------------------ open / control
     @classmethod
@@ -153,7 +154,7 @@ class UsbFrameSource:
                 drop = p if p >= 0 else len(self._carry) - (len(fh.SYNC) - 1)
                 self.skipped_bytes += drop
                 del self._carry[:drop]
-                if not getattr(self, "_lost_sync", False):
+                if not self._lost_sync:
                     self._lost_sync = True
                     self.resyncs += 1
 
@@ -182,8 +183,7 @@ class UsbFrameSource:
     def _frame(self) -> Frame:
         deadline = time.monotonic() + self.watchdog_s
         h = self._header(deadline)
-        if getattr(self, "_lost_sync", False):
-            self._lost_sync = False
+        self._lost_sync = False
         if h is not None:
             want = (self.shape[1], self.shape[0], self.fmt.code, self.payload)
             if (h.width, h.height, h.format_code, h.payload) != want:

@@ -30,22 +30,7 @@ from dataclasses import dataclass
 from statistics import NormalDist
 
 from ares.hardware.interfaces import Bench
-
-
-def find_estimate(results: dict, quantity: str) -> dict | None:
-    """The ``{"value", "se", ...}`` dict a target's quantity names in scan results (first
-    match, as limits find theirs), or None."""
-    from ares.scan.results import names_quantity
-
-    def walk(d, path):
-        for k, v in d.items():
-            key = f"{path}{k}"
-            if isinstance(v, dict) and "value" in v and not isinstance(v["value"], dict):
-                yield key, v
-            elif isinstance(v, dict):
-                yield from walk(v, key + ".")
-
-    return next((v for k, v in walk(results, "") if names_quantity(k, quantity)), None)
+from ares.scan.results import find_estimate
 
 
 @dataclass

@@ -250,18 +250,28 @@ def scan_level_results(run) -> dict:
     return out
 
 
-def flatten(results: dict, prefix: str = "") -> dict[str, float]:
-    """``{"ptc": {"read_noise_e": {"value": 3}}}`` -> ``{"ptc.read_noise_e": 3, ...}``."""
-    out = {}
+def leaves(results: dict, prefix: str = ""):
+    """``(dotted key, leaf)`` for every estimate dict (``{"value": ...}``) and bare number
+    in nested results -- what limits and precision targets name."""
     for k, v in results.items():
         key = f"{prefix}{k}"
         if isinstance(v, dict) and "value" in v and not isinstance(v["value"], dict):
-            out[key] = v["value"]
+            yield key, v
         elif isinstance(v, dict):
-            out.update(flatten(v, key + "."))
+            yield from leaves(v, key + ".")
         elif isinstance(v, (int, float)) and not isinstance(v, bool):
-            out[key] = v
-    return out
+            yield key, v
+
+
+def flatten(results: dict, prefix: str = "") -> dict[str, float]:
+    """``{"ptc": {"read_noise_e": {"value": 3}}}`` -> ``{"ptc.read_noise_e": 3, ...}``."""
+    return {k: (v["value"] if isinstance(v, dict) else v) for k, v in leaves(results, prefix)}
+
+
+def find_estimate(results: dict, quantity: str) -> dict | None:
+    """The ``{"value", "se", ...}`` dict ``quantity`` names (first match, as a limit finds
+    its value), or None."""
+    return next((v for k, v in leaves(results) if isinstance(v, dict) and names_quantity(k, quantity)), None)
 
 
 def names_quantity(key: str, quantity: str) -> bool:

@@ -72,7 +72,7 @@ def run_once(scan, seed: int, frames: int | None = None, bench=None) -> dict:
     its SE (None when the analysis gave none) and, on the simulator, the truth."""
     from ares.hardware.factory import sim_params
     from ares.scan import Runner
-    from ares.scan.precision import find_estimate
+    from ares.scan.results import find_estimate
     from ares.sim import make_sim_bench
 
     own = bench is None
