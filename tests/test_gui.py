@@ -111,7 +111,7 @@ def test_scan_runs_from_start_button_to_done(window, qtbot):
     assert set(window.distributions.plots) == {0, 1}
     assert s.panels["MEAN SIGNAL"].counts.sum() == 60
     assert window.results.panels["MEAN SIGNAL"].labels["mean"].text() != "n/a"
-    assert len(s.ptc.points) == 2 and window.ptc.points.xData is not None
+    assert len(s.ptc.points) == 2 and len(window.ptc.sets["pending"].xData) == 2  # no engine fit in the demo
     assert window.preview.image_item.image is not None and window.preview.rectangle_count == 2
     assert set(window.preview.rois) == {0}  # Draw ticked: editable with the mouse
     assert window.signal_map.image_item.image.shape == (12, 16)
@@ -452,3 +452,48 @@ def test_roa_table_regions_are_what_the_run_analyses_and_saves(window, qtbot, tm
     assert stage["views"]["roa2"]["level"]["n_pixels"] == 10 * 8
     saved = open(os.path.join(run_dir, "xml", "ptc_small.xml")).read()
     assert 'name="roa2" x="2" y="3" width="10" height="8"' in saved
+
+
+def _two_adc_scan(tmp_path, offset_dn: float = 40.0):
+    """A dark scan on the small simulated sensor with two column-interleaved ADCs whose
+    offsets differ by ``offset_dn``: the full frame's mean-signal histogram has two peaks."""
+    system = open(os.path.join(FIXTURES, "small", "sim_small.xml")).read().replace(
+        '<param name="hot_rate_ppm" type="float" value="0"/>',
+        f'<param name="hot_rate_ppm" type="float" value="0"/>\n'
+        f'    <param name="adc_offset_dn" type="floats" value="0 {offset_dn:g}"/>')
+    (tmp_path / "sim_2adc.xml").write_text(system)
+    (tmp_path / "dark_2adc.xml").write_text(
+        '<scan name="dark_2adc" version="1"><system href="sim_2adc.xml"/><frames>8</frames>'
+        '<stages><stage name="dark" scene="dark"/><stage name="dark2" scene="dark"/></stages>'
+        '<analyses><analysis name="decomposition"/></analyses></scan>')
+    return str(tmp_path / "dark_2adc.xml")
+
+
+def test_channel_view_on_a_two_adc_sensor_gives_the_per_channel_sigma(window, qtbot, tmp_path):
+    pytest.importorskip("ares.scan")
+    assert window.load_scan(_two_adc_scan(tmp_path))
+    window.controls.output.directory.setText(str(tmp_path / "runs"))
+    keys = [window.view_bar.view.itemData(i) for i in range(window.view_bar.view.count())]
+    assert {"full", "adc0", "adc1"} <= set(keys)
+    run_to_end(qtbot, window)
+    s = window.session
+    assert s.progress.state == P.DONE, s.progress.message
+    window.view_bar.choose_view("full")
+    mean = s.last_result.mean.astype(np.float64)
+    full_sigma = s.panels["MEAN SIGNAL"].stats.fitted_sigma
+    for k in (0, 1):
+        window.view_bar.choose_view(f"adc{k}")
+        st = s.panels["MEAN SIGNAL"].stats
+        channel = mean[:, k::2]
+        assert st.n == channel.size
+        assert st.sigma == pytest.approx(channel.std(ddof=1), rel=1e-6)  # every pixel of the channel, no other
+        assert st.fitted_sigma == pytest.approx(channel.std(ddof=1), rel=0.3)  # one peak: the fit finds it
+        assert st.fitted_sigma < full_sigma / 3  # the full frame's two peaks 40 DN apart
+        assert window.components.model.view == f"adc{k}"  # the engine's decomposition of the same pixels
+        assert window.components.tables["components"].rowCount() > 0
+        assert window.results.caption.text().endswith(s.views.labels[f"adc{k}"])
+    # the stage browser: the first stage on every tab, then back to following the scan
+    window.view_bar.choose_stage(1)
+    assert s.last_result.stage == 1 and "stage 1" in s.signal_map.caption
+    window.view_bar.choose_stage(None)
+    assert s.last_result.stage == 2

@@ -27,6 +27,7 @@ from .plots.profile_view import ProfilesView
 from .plots.ptc_view import PTCView
 from .plots.sweep_view import SweepView
 from .results_panel import ResultsTab
+from .view_bar import ViewBar
 from .scan_panel import ControlTabs, ProgressLine, ScanButtons
 from .worker import ScanThread, one_sentence
 
@@ -47,6 +48,7 @@ class MainWindow(QMainWindow):
         self.last_error: str | None = None
         self.error_box: QMessageBox | None = None
         self.runs_started = 0
+        self._loaded_regions: list = []
 
         s = self.session
         self.buttons = ScanButtons()
@@ -65,6 +67,7 @@ class MainWindow(QMainWindow):
         self.defects = DefectCountsView(s.defects, run_dir=lambda: s.info.items.get("run directory", ""),
                                         on_error=self.show_error)
         self.info = InfoPanel(s.info)
+        self.view_bar = ViewBar(s)
         self.result_tabs = QTabWidget()
         self.result_tabs.setStyleSheet("QTabBar::tab { padding: 4px 7px; }")  # all ten tabs in view
         for w, name in zip((self.results, self.distributions, self.profiles, self.signal_map, self.noise_map,
@@ -84,6 +87,7 @@ class MainWindow(QMainWindow):
         rl = QVBoxLayout(right)
         rl.setContentsMargins(0, 0, 0, 0)
         rl.addWidget(self.progress_line)
+        rl.addWidget(self.view_bar)
         rl.addWidget(self.result_tabs, 1)
         split = QSplitter(Qt.Orientation.Horizontal)
         split.addWidget(left)
@@ -141,12 +145,37 @@ class MainWindow(QMainWindow):
         self.job_factory = lambda: engine.open_scan(path, regions=self.session.regions.active())
         regions = getattr(job, "regions", None)
         note = ""
+        table = self.session.regions
         if callable(regions) and regions():
-            self.session.regions.replace_all(regions())
-            note = f" The RoA table now holds its {len(regions())} region(s); what the table holds at Start is what runs."
+            new = regions()
+            edited = list(table.regions) != list(self._loaded_regions) and table.active()
+            if edited and list(table.regions[:len(new)]) != new and not self.confirm(
+                    "Replace the regions of analysis?",
+                    f"The RoA table holds regions you edited. Replace them with the {len(new)} region(s) of "
+                    f"{Path(path).name}? (No keeps the table; what it holds at Start is what runs.)"):
+                note = " The RoA table keeps your regions; they are what runs."
+            else:
+                table.replace_all(new)
+                note = f" The RoA table now holds its {len(new)} region(s); what the table holds at Start is what runs."
+        self._loaded_regions = list(table.regions)
+        self._set_views(job)
         self._show_job_info(job)
         self.statusBar().showMessage(f"Loaded {path}.{note}")
         return True
+
+    def confirm(self, title: str, question: str) -> bool:
+        """Ask a yes/no question (tests replace this method)."""
+        answer = QMessageBox.question(self, title, question,
+                                      QMessageBox.StandardButton.Yes | QMessageBox.StandardButton.No)
+        return answer == QMessageBox.StandardButton.Yes
+
+    def _set_views(self, job) -> None:
+        """The Bayer-phase / ADC-channel choices of the job's sensor, and which engine view
+        each RoA row becomes in the run."""
+        channels = getattr(job, "channel_views", None)
+        views, labels = channels() if callable(channels) else ({}, {})
+        self.session.views.region_names = dict(getattr(job, "region_names", {}) or {})
+        self.session.views.set_channels(views, labels)
 
     def set_job_factory(self, factory: Callable[[], engine.Job], path: str | None = None) -> None:
         """Use ``factory()`` to make the job each Start Scan (and each Auto Repeat) runs."""
@@ -186,6 +215,7 @@ class MainWindow(QMainWindow):
         except Exception as exc:  # noqa: BLE001
             self.show_error(one_sentence(exc))
             return
+        self._set_views(job)
         self.last_error = None
         self.runs_started += 1
         self.session.begin_run(getattr(job, "title", ""))

@@ -5,7 +5,7 @@ from __future__ import annotations
 import math
 
 from PySide6.QtCore import Qt
-from PySide6.QtWidgets import (QComboBox, QDoubleSpinBox, QGridLayout, QGroupBox, QHBoxLayout, QLabel,
+from PySide6.QtWidgets import (QComboBox, QDoubleSpinBox, QGridLayout, QGroupBox, QLabel,
                                QPushButton, QVBoxLayout, QWidget)
 
 from .models.session import PANELS, SessionModel
@@ -106,18 +106,12 @@ class StatsPanel(QGroupBox):
 
 
 class ResultsTab(QWidget):
-    """The Results tab: which region the panels follow, then the four panels."""
+    """The Results tab: the four panels of the stage and view chosen in the view bar."""
 
     def __init__(self, session: SessionModel, parent=None) -> None:
         super().__init__(parent)
         self.session = session
-        self.region = QComboBox()
-        self.region.setMinimumWidth(200)
         self.caption = QLabel()
-        top = QHBoxLayout()
-        top.addWidget(QLabel("Region:"))
-        top.addWidget(self.region)
-        top.addWidget(self.caption, 1)
         grid = QGridLayout()
         xlabels = {"MEAN SIGNAL": "mean signal (DN)", "NOISE": "temporal sigma (DN)",
                    "COLUMNS": "column mean (DN)", "ROWS": "row mean (DN)"}
@@ -125,31 +119,17 @@ class ResultsTab(QWidget):
         for k, name in enumerate(PANELS):
             grid.addWidget(self.panels[name], k // 2, k % 2)
         lay = QVBoxLayout(self)
-        lay.addLayout(top)
+        lay.addWidget(self.caption)
         lay.addLayout(grid, 1)
-        self.region.currentIndexChanged.connect(self._region_chosen)
-        session.regions.subscribe(lambda _: self._fill_regions())
         session.panels["MEAN SIGNAL"].subscribe(lambda _: self._caption())
-        self._fill_regions()
-
-    def _fill_regions(self) -> None:
-        current = self.region.currentData()
-        self.region.blockSignals(True)
-        self.region.clear()
-        self.region.addItem("Automatic (first active region, else full frame)", None)
-        for i, r in self.session.regions.active():
-            self.region.addItem(f"Region {i + 1}: {r.width} x {r.height} at ({r.x}, {r.y})", i)
-        idx = self.region.findData(current)
-        self.region.setCurrentIndex(max(idx, 0))
-        self.region.blockSignals(False)
-
-    def _region_chosen(self) -> None:
-        self.session.select_region(self.region.currentData())
+        self._caption()
 
     def _caption(self) -> None:
         ev = self.session.last_result
         if ev is None:
             self.caption.setText("No stage result yet.")
+        elif ev.mean is None:
+            self.caption.setText(f"Stage {ev.stage} ({ev.name}): its arrays were dropped to bound memory.")
         else:
             self.caption.setText(f"Stage {ev.stage} ({ev.name}), {ev.frames} frames, "
                                  f"{self.session.region_label(ev.mean.shape)}")

@@ -48,6 +48,8 @@ def summarize(scan_results: dict, thresholds: tuple = ()) -> dict:
             text = _fmt(ptc.get(key))
             if text:
                 out["results"][f"PTC: {label}"] = text
+        if isinstance(ptc.get("level_status"), list):
+            out["ptc_level_status"] = ptc["level_status"]
         if "note" in ptc and "gain_dn_per_e" not in ptc:
             out["results"]["PTC"] = str(ptc["note"])
     defects = scan_results.get("defects")
@@ -160,8 +162,11 @@ class RunnerJob:
 
         self.path = Path(path)
         self.scan = load_scan(self.path)  # InputError: one sentence with file and line
+        rows = [i for i, _ in regions] if regions is not None else list(range(len(self.scan.regions)))
         if regions is not None:
             self.scan = scan_with_regions(self.scan, [r for _, r in regions])
+        # RoA row -> the engine's view name of that region in this run
+        self.region_names = {row: r.name for row, r in zip(rows, self.scan.regions)}
         warm_imports()
         self.runner = Runner(self.scan, seed=seed, frames=frames, faults=faults,
                              argv=["ares", "gui", str(self.path)])
@@ -219,6 +224,15 @@ class RunnerJob:
         from .models.regions import Region
 
         return [Region(True, True, r.x, r.y, r.width, r.height) for r in self.scan.regions]
+
+    def channel_views(self) -> tuple[dict, dict]:
+        """The engine's Bayer-phase and ADC-channel views of the sensor (slices) and their labels."""
+        from ares.scan.results import views
+
+        from .models.views import channel_label
+
+        v = {k: s for k, s in views(self.scan).items() if k.startswith(("cfa_", "adc"))}
+        return v, {k: channel_label(k, self.scan.system.sensor.adc_interleave) for k in v}
 
     def set_output(self, root: str | None) -> None:
         """Write the run directory under ``root`` (None: no run directory)."""

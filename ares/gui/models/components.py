@@ -49,8 +49,6 @@ class ComponentsModel(Observable):
     def set_stage(self, caption: str, views: dict[str, dict]) -> None:
         self.views = dict(views)
         self.caption = caption
-        if self.view not in self.views:
-            self.view = next(iter(self.views), "full")
         self._changed()
 
     def clear(self) -> None:
@@ -58,8 +56,9 @@ class ComponentsModel(Observable):
         self._changed()
 
     def select(self, view: str) -> None:
-        self.view = view
-        self._changed()
+        if view != self.view:
+            self.view = view
+            self._changed()
 
     def rows(self, which: str = "components") -> list[ComponentRow]:
         comps = (self.views.get(self.view) or {}).get(which) or {}

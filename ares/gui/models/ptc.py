@@ -32,9 +32,11 @@ class PTCModel(Observable):
         self.gain_e_per_dn: float = math.nan
         self.fit_note = ""
         self.view = ""
+        self.highlighted: int | None = None  # the stage the stage browser shows
+        self.status: dict[str, tuple[str, str]] = {}  # stage name -> (fit | valid | excluded, reason)
 
     def clear(self) -> None:
-        self.points, self.dark_dn = [], None
+        self.points, self.dark_dn, self.status = [], None, {}
         self.gain_e_per_dn, self.fit_note = math.nan, ""
         self._changed()
 
@@ -46,6 +48,29 @@ class PTCModel(Observable):
     def add(self, stage: int, label: str, signal_dn: float, variance_dn2: float) -> None:
         self.points.append(PTCPoint(stage, label, float(signal_dn), float(variance_dn2)))
         self._changed()
+
+    def set_status(self, level_status: list[dict]) -> None:
+        """The engine's verdict per level: in the fit, valid but outside it, or excluded."""
+        self.status = {str(d.get("stage")): (str(d.get("status", "")), str(d.get("reason") or ""))
+                       for d in level_status if isinstance(d, dict)}
+        self._changed()
+
+    def groups(self) -> dict[str, tuple[np.ndarray, np.ndarray]]:
+        """Points by the engine's verdict (``fit``, ``valid``, ``excluded``; ``pending``
+        until the scan-level fit has run), only those drawable on log axes."""
+        out: dict[str, tuple[list, list]] = {}
+        for p in self.points:
+            if p.signal_dn > 0 and p.variance_dn2 > 0:
+                key = self.status.get(p.label, ("pending", ""))[0] or "pending"
+                xs, ys = out.setdefault(key, ([], []))
+                xs.append(p.signal_dn)
+                ys.append(p.variance_dn2)
+        return {k: (np.array(x), np.array(y)) for k, (x, y) in out.items()}
+
+    def highlight(self, stage: int | None) -> None:
+        if stage != self.highlighted:
+            self.highlighted = stage
+            self._changed()
 
     def set_fit(self, gain_e_per_dn: float, note: str = "") -> None:
         self.gain_e_per_dn = float(gain_e_per_dn)

@@ -21,6 +21,7 @@ from .ptc import PTCModel
 from .regions import Region, RegionSet, full_frame
 from .stats import StatsPanelModel
 from .sweep import SweepModel, SweepPoint
+from .views import StageStore, ViewModel
 
 PANELS = ("MEAN SIGNAL", "NOISE", "COLUMNS", "ROWS")
 
@@ -44,7 +45,6 @@ class InfoModel(Observable):
 class SessionModel:
     def __init__(self, regions: RegionSet | None = None) -> None:
         self.regions = regions or RegionSet()
-        self.selected: int | None = None  # region row the panels follow; None = auto
         self.progress = P.ProgressModel()
         self.preview = ImageModel("Live image")
         self.signal_map = ImageModel("Signal map (mean, DN)")
@@ -58,28 +58,28 @@ class SessionModel:
         self.components = ComponentsModel()
         self.defects = DefectCountsModel()
         self.info = InfoModel()
+        self.views = ViewModel(self.regions)
+        self.stages = StageStore()
         self.last_frame: np.ndarray | None = None
-        self.last_result: StageResult | None = None
         self.regions.subscribe(lambda _: self._regions_changed())
+        self.views.subscribe(lambda _: self._view_changed())
 
-    # ---- region the panels follow -----------------------------------------------------
-    def analysis_region(self, shape: tuple[int, int]) -> tuple[int | None, Region]:
-        active = self.regions.active()
-        if self.selected is not None:
-            for i, r in active:
-                if i == self.selected:
-                    return i, r
-        if active:
-            return active[0]
-        return None, full_frame(shape)
+    # ---- which pixels and which stage the tabs show -----------------------------------
+    @property
+    def last_result(self) -> StageResult | None:
+        """The stage the tabs show: the one picked in the stage browser, else the latest."""
+        return self.stages.current()
 
     def region_label(self, shape: tuple[int, int]) -> str:
-        i, _ = self.analysis_region(shape)
-        return "full frame" if i is None else f"region {i + 1}"
+        return self.views.label(shape)
 
-    def select_region(self, index: int | None) -> None:
-        self.selected = index
-        self._refresh_result()
+    def select_view(self, key: str | None) -> None:
+        self.views.select(key)
+
+    def show_stage(self, stage: int | None) -> None:
+        """Show a finished stage on every tab (None: follow the latest)."""
+        self.stages.show(stage)
+        self._show_result()
 
     def _drawn(self) -> list[tuple[int, Region]]:
         return self.regions.visible()
@@ -100,7 +100,7 @@ class SessionModel:
         self.sweep.clear()
         self.components.clear()
         self.defects.clear()
-        self.last_result = None
+        self.stages.clear()
         self.last_frame = None
 
     def handle(self, ev) -> None:
@@ -147,25 +147,25 @@ class SessionModel:
         active = self.regions.active() or [(-1, full_frame(image.shape))]
         keys = {i for i, _ in active}
         changed = set(self.distributions) != keys
+        mask = self.views.channel_mask(image.shape)  # a Bayer phase or ADC channel: its pixels only
         for i, region in active:
             model = self.distributions.get(i)
             if model is None:
                 title = "Full frame" if i < 0 else f"Region {i + 1}"
                 model = self.distributions[i] = StatsPanelModel(title)
-            model.set_values(region.crop(image))
+            pixels = region.crop(image)
+            if mask is not None and pixels is not None:
+                pixels = pixels[region.crop(mask)]
+            model.set_values(pixels)
         for i in set(self.distributions) - keys:
             del self.distributions[i]
         if changed:
             self.distributions_changed._changed()
 
     def _stage_result(self, ev: StageResult) -> None:
-        self.last_result = ev
-        noise = np.sqrt(np.clip(ev.variance, 0, None))
-        self.signal_map.set_image(ev.mean, f"stage {ev.stage}: {ev.name}")
-        self.noise_map.set_image(noise, f"stage {ev.stage}: {ev.name}")
-        for m in (self.signal_map, self.noise_map):
-            m.set_rectangles(self._drawn())
-        self._refresh_result()
+        self.stages.add(ev)
+        if self.stages.following_latest:
+            self._show_result()
         if ev.dark:
             self.ptc.set_dark(float(np.nanmean(ev.mean)))
         if ev.ptc_point is not None:
@@ -173,23 +173,44 @@ class SessionModel:
             self.ptc.add(ev.stage, ev.name, *ev.ptc_point)
         if ev.coords and ev.quantities:
             self.sweep.add(SweepPoint(ev.stage, ev.group, tuple(ev.coords), dict(ev.settings), dict(ev.quantities)))
-        if ev.components:
-            self.components.set_stage(f"stage {ev.stage}: {ev.name} ({ev.frames} frames)", ev.components)
-        if ev.defects is not None:
-            self.defects.set_counts(ev.defects, ev.mean.size, caption=f"stage {ev.stage}: {ev.name}")
         if ev.summary:
             self._summary(ev.summary)
 
-    def _refresh_result(self) -> None:
+    def _show_result(self) -> None:
+        """Draw the shown stage on the maps, panels, profiles, components and defects."""
         ev = self.last_result
         if ev is None:
+            self._refresh_result()
+            return
+        caption = f"stage {ev.stage}: {ev.name}"
+        if ev.mean is None:
+            caption += " (arrays dropped to bound memory; the run directory has them)"
+        else:
+            self.signal_map.set_image(ev.mean, caption)
+            self.noise_map.set_image(np.sqrt(np.clip(ev.variance, 0, None)), caption)
+        for m in (self.signal_map, self.noise_map):
+            m.set_rectangles(self._drawn())
+        self.ptc.highlight(ev.stage)
+        self._refresh_result()
+        if ev.components:
+            self.components.set_stage(f"stage {ev.stage}: {ev.name} ({ev.frames} frames)", ev.components)
+        if ev.defects is not None and ev.mean is not None:
+            self.defects.set_counts(ev.defects, ev.mean.size, caption=caption)
+
+    def _view_changed(self) -> None:
+        if self.last_frame is not None:
+            self._update_distributions(self.last_frame)
+        self._refresh_result()
+
+    def _refresh_result(self) -> None:
+        ev = self.last_result
+        if ev is None or ev.mean is None:
             for m in self.panels.values():
                 m.clear()
             self.profiles.update(None, [])
             return
-        _, region = self.analysis_region(ev.mean.shape)
-        mean = region.crop(ev.mean)
-        var = region.crop(ev.variance)
+        mean = self.views.pixels(ev.mean)
+        var = self.views.pixels(ev.variance)
         if mean is None:
             for m in self.panels.values():
                 m.clear()
@@ -199,11 +220,14 @@ class SessionModel:
             self.panels["COLUMNS"].set_values(mean.mean(axis=0))
             self.panels["ROWS"].set_values(mean.mean(axis=1))
         self.profiles.update(ev.mean, self.regions.active() or [(-1, full_frame(ev.mean.shape))])
+        self.components.select(self.views.engine_view(ev.mean.shape))
 
     def _summary(self, summary: dict) -> None:
         results = summary.get("results")
         if isinstance(results, dict) and results:
             self.info.update(results)
+        if summary.get("ptc_level_status"):
+            self.ptc.set_status(summary["ptc_level_status"])
         gain = summary.get("gain_e_per_dn")
         if gain is not None:
             value = getattr(gain, "value", gain)

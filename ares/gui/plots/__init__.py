@@ -21,3 +21,15 @@ def plain_axes(plot) -> None:
     item = plot.getPlotItem() if hasattr(plot, "getPlotItem") else plot
     for name in ("bottom", "left"):
         item.getAxis(name).enableAutoSIPrefix(False)
+
+
+class DecadeAxis(pg.AxisItem):
+    """A log-mode axis that labels the decades (1, 10, 100 ... as plain numbers) and leaves
+    the 2..9 minor ticks unlabelled, so labels never overlap; within one decade every tick
+    is labelled."""
+
+    def logTickStrings(self, values, scale, spacing):  # noqa: N802 -- pyqtgraph's name
+        decades = [abs(v - round(v)) < 1e-9 for v in values]
+        if sum(decades) < 2:
+            return [f"{10 ** v * scale:.3g}" for v in values]
+        return [f"{10 ** round(v) * scale:g}" if d else "" for v, d in zip(values, decades)]

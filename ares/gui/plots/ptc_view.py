@@ -9,24 +9,38 @@ from PySide6.QtCore import Qt
 from PySide6.QtWidgets import QLabel, QVBoxLayout, QWidget
 
 from ..models.ptc import PTCModel
-from . import plain_axes
+from . import DecadeAxis, plain_axes
 
 
 class PTCView(QWidget):
     def __init__(self, model: PTCModel, parent=None) -> None:
         super().__init__(parent)
         self.model = model
-        self.plot = pg.PlotWidget(title="Photon transfer curve")
+        self.plot = pg.PlotWidget(title="Photon transfer curve",
+                                 axisItems={k: DecadeAxis(k) for k in ("bottom", "left")})
         self.plot.setLogMode(x=True, y=True)
         self.plot.setLabel("bottom", "signal above dark", units="DN")
         self.plot.setLabel("left", "temporal variance above dark", units="DN²")
         self.plot.showGrid(x=True, y=True, alpha=0.3)
         plain_axes(self.plot)
-        self.points = pg.PlotDataItem(pen=None, symbol="o", symbolSize=9,
-                                     symbolBrush=pg.mkBrush(30, 120, 220), symbolPen=pg.mkPen("k"))
-        self.line = pg.PlotDataItem(pen=pg.mkPen((200, 0, 0), width=1.5, style=Qt.PenStyle.DashLine))
-        self.plot.addItem(self.points)
-        self.plot.addItem(self.line)
+        self.plot.addLegend(offset=(10, 10))
+        self.sets = {  # the engine's verdict per level
+            "fit": pg.PlotDataItem(pen=None, symbol="o", symbolSize=9, name="in the gain fit",
+                                   symbolBrush=pg.mkBrush(30, 120, 220), symbolPen=pg.mkPen("k")),
+            "valid": pg.PlotDataItem(pen=None, symbol="o", symbolSize=9, name="valid, outside the fit range",
+                                     symbolBrush=pg.mkBrush(255, 255, 255), symbolPen=pg.mkPen((30, 120, 220), width=1.5)),
+            "excluded": pg.PlotDataItem(pen=None, symbol="x", symbolSize=11, name="excluded (clipped, no signal...)",
+                                        symbolBrush=pg.mkBrush(200, 0, 0), symbolPen=pg.mkPen((200, 0, 0))),
+            "pending": pg.PlotDataItem(pen=None, symbol="o", symbolSize=8, name="measured (fit after the scan)",
+                                       symbolBrush=pg.mkBrush(150, 150, 150), symbolPen=pg.mkPen("k")),
+        }
+        self.shown = pg.PlotDataItem(pen=None, symbol="s", symbolSize=15, symbolBrush=None,
+                                     symbolPen=pg.mkPen((230, 140, 0), width=2), name="stage shown")
+        self.line = pg.PlotDataItem(pen=pg.mkPen((200, 0, 0), width=1.5, style=Qt.PenStyle.DashLine),
+                                    name="shot-noise line of the fitted K")
+        for item in (*self.sets.values(), self.shown, self.line):
+            self.plot.addItem(item)
+
         self.caption = QLabel()
         lay = QVBoxLayout(self)
         lay.addWidget(self.plot, 1)
@@ -38,8 +52,12 @@ class PTCView(QWidget):
         m = self.model
         x, y = m.xy()
         ok = (x > 0) & (y > 0)
-        # PlotDataItems in a log-mode plot take linear data and log it themselves
-        self.points.setData(x[ok], y[ok])
+        groups = m.groups()
+        for key, item in self.sets.items():  # log-mode items take linear data and log it themselves
+            item.setData(*groups.get(key, ([], [])))
+        hl = [(p.signal_dn, p.variance_dn2) for p in m.points
+              if p.stage == m.highlighted and p.signal_dn > 0 and p.variance_dn2 > 0]
+        self.shown.setData([h[0] for h in hl], [h[1] for h in hl])
         fit = m.fit_line()
         if fit is None:
             self.line.setData([], [])
@@ -49,5 +67,10 @@ class PTCView(QWidget):
         if m.dark_dn is not None:
             parts.append(f"dark level {m.dark_dn:.2f} DN")
         if math.isfinite(m.gain_e_per_dn):
-            parts.append(f"conversion gain {m.gain_e_per_dn:.4g} e-/DN" + (f" ({m.fit_note})" if m.fit_note else ""))
+            parts.append(f"system gain K = {1 / m.gain_e_per_dn:.4g} DN/e- (1/K = {m.gain_e_per_dn:.4g} e-/DN)"
+                         + (f", {m.fit_note}" if m.fit_note else ""))
+        excluded = [f"{name}: {reason}" for name, (st, reason) in m.status.items() if st == "excluded" and reason]
+        if excluded:
+            parts.append(f"{len(excluded)} excluded")
+            self.caption.setToolTip("\n".join(excluded))
         self.caption.setText(" · ".join(parts))
