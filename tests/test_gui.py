@@ -497,3 +497,40 @@ def test_channel_view_on_a_two_adc_sensor_gives_the_per_channel_sigma(window, qt
     assert s.last_result.stage == 1 and "stage 1" in s.signal_map.caption
     window.view_bar.choose_stage(None)
     assert s.last_result.stage == 2
+
+
+def test_register_written_in_the_instrumentation_tab_reaches_the_bench(window, qtbot):
+    pytest.importorskip("ares.scan")
+    system = os.path.join(FIXTURES, "small", "sim_small.xml")
+    tab = window.controls.instruments
+    tab.path.setText(system)
+    tab.choose(system)
+    qtbot.mouseClick(tab.connect_button, Qt.MouseButton.LeftButton)
+    assert tab.model.connected and tab.connect_button.text() == "Disconnect"
+    names = [tab.fields.item(r, 0).text() for r in range(tab.fields.rowCount())]
+    row = names.index("black_level")
+    assert tab.fields.item(row, 3).text() == "0 .. 4095"  # the register map's limits
+    assert not tab.fields.item(names.index("chip_id"), 1).flags() & Qt.ItemFlag.ItemIsEditable  # read-only
+    before = tab.model.grab().astype(float).mean()
+    tab.fields.item(row, 1).setText("300")  # what typing a value into the cell does
+    assert tab.model.bench.registers.get("black_level") == 300  # reached the bench's register file ...
+    frames = []
+    tab.frame.connect(frames.append)
+    qtbot.mouseClick(tab.grab_button, Qt.MouseButton.LeftButton)
+    assert frames and frames[0].astype(float).mean() == pytest.approx(before + 300 - 64, abs=2)  # ... and the sensor
+    assert window.session.preview.caption == "test frame from the bench"
+    assert tab.fields.item(row, 1).text() == "300"  # read back
+    tab.fields.item(row, 1).setText("5000")  # above the map's maximum: one sentence, nothing written
+    assert window.last_error == "register field 'black_level': 5000 DN is above its maximum 4095"
+    assert tab.model.bench.registers.get("black_level") == 300 and tab.fields.item(row, 1).text() == "300"
+    tab.light.setValue(1500)
+    qtbot.mouseClick(tab.light_button, Qt.MouseButton.LeftButton)
+    tab.chamber.setValue(31.5)
+    qtbot.mouseClick(tab.chamber_button, Qt.MouseButton.LeftButton)
+    assert tab.model.bench.light.get_level() == 1500 and tab.model.bench.chamber.get_temperature() == 31.5
+    assert "chamber: 31.50 °C" in tab.status.text()
+    # the next scan runs on the chosen system and opens the devices itself
+    assert window.load_scan(PTC_SMALL)
+    window.controls.output.write_run.setChecked(False)
+    run_to_end(qtbot, window)
+    assert not tab.model.connected and window.session.progress.state == P.DONE

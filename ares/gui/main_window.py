@@ -104,6 +104,9 @@ class MainWindow(QMainWindow):
         self.controls.scan.open_requested.connect(self._open_dialog)
         self.controls.regions.error.connect(self.show_error)
         self.controls.inputs.image_requested.connect(self.show_image_file)
+        self.controls.instruments.error.connect(self.show_error)
+        self.controls.instruments.frame.connect(lambda image: self.show_image(image, "test frame from the bench"))
+        self.controls.instruments.system_chosen.connect(self._system_chosen)
         self._show_job_info(engine.DemoScan())
 
     def _menus(self) -> None:
@@ -133,7 +136,7 @@ class MainWindow(QMainWindow):
     def load_scan(self, path: str | Path) -> bool:
         """Prepare a scan XML for Start Scan; a bad file shows one sentence."""
         try:
-            job = engine.open_scan(path)
+            job = engine.open_scan(path, system=self.controls.instruments.model.path)
         except AresError as exc:
             self.show_error(str(exc))
             return False
@@ -142,7 +145,9 @@ class MainWindow(QMainWindow):
             return False
         self.scan_path = str(path)
         # what runs is the scan with the RoA table's regions (edited or drawn after loading)
-        self.job_factory = lambda: engine.open_scan(path, regions=self.session.regions.active())
+        self.job_factory = lambda: engine.open_scan(path, regions=self.session.regions.active(),
+                                                    output=self.controls.output.output(),
+                                                    system=self.controls.instruments.model.path)
         regions = getattr(job, "regions", None)
         note = ""
         table = self.session.regions
@@ -158,6 +163,7 @@ class MainWindow(QMainWindow):
                 table.replace_all(new)
                 note = f" The RoA table now holds its {len(new)} region(s); what the table holds at Start is what runs."
         self._loaded_regions = list(table.regions)
+        self.controls.output.show_output(getattr(job, "output", None))
         self._set_views(job)
         self._show_job_info(job)
         self.statusBar().showMessage(f"Loaded {path}.{note}")
@@ -204,6 +210,7 @@ class MainWindow(QMainWindow):
     def start_scan(self) -> None:
         if self.running:
             return
+        self.controls.instruments.disconnect_bench()  # the scan opens the devices itself
         try:
             job = self.job_factory()
             options = getattr(job, "set_output", None)
@@ -287,6 +294,12 @@ class MainWindow(QMainWindow):
         self.error_box.setText(message)
         self.error_box.show()
 
+    def _system_chosen(self, path: str) -> None:
+        """The Instrumentation tab's system: the loaded scan is re-read on it."""
+        if self.scan_path:
+            self.load_scan(self.scan_path)
+        self.statusBar().showMessage(f"Scans run on {path or 'their own system'}.")
+
     def show_image_file(self, path: str) -> None:
         from ares.hardware.imagefile import read_image
 
@@ -295,10 +308,13 @@ class MainWindow(QMainWindow):
         except AresError as exc:
             self.show_error(str(exc))
             return
+        self.show_image(image, Path(path).name)
+
+    def show_image(self, image, caption: str) -> None:
         from .events import FramePreview
 
         self.session.handle(FramePreview(0, 1, 1, image))
-        self.session.preview.set_image(image, Path(path).name)
+        self.session.preview.set_image(image, caption)
 
     def closeEvent(self, event) -> None:  # noqa: N802 -- Qt name
         if self.scan_thread is not None:

@@ -120,12 +120,13 @@ def warm_imports() -> None:
             pass
 
 
-def scan_with_regions(scan, rows):
-    """``scan`` with the RoA table's regions (GUI ``Region`` rows) as its regions of
-    analysis (a rectangle the scan has keeps its name, others are roa1, roa2...). The
-    edited scan is written as XML (in a temporary folder, its system href made absolute)
-    and becomes the scan's source, so the run directory keeps exactly what ran, and
-    ``ares rerun`` repeats it. A region outside the array is one sentence."""
+def edited_scan(scan, rows=None, output=None):
+    """``scan`` as the window runs it: the RoA table's regions (GUI ``Region`` rows) as
+    its regions of analysis (a rectangle the scan has keeps its name, others are roa1,
+    roa2...) and the Output Options' ``Output``. An edited scan is written as XML (in a
+    temporary folder, its system href made absolute) and becomes the scan's source, so
+    the run directory keeps exactly what ran and ``ares rerun`` repeats it. A region
+    outside the array is one sentence."""
     import dataclasses
     import tempfile
 
@@ -133,21 +134,27 @@ def scan_with_regions(scan, rows):
     from ares.protocol import Region as ScanRegion
     from ares.protocol import save_scan
 
-    s = scan.system.sensor
-    out = []
-    for i, r in enumerate(rows, start=1):
-        if r.x < 0 or r.y < 0 or r.x + r.width > s.cols or r.y + r.height > s.rows:
-            raise InputError(f"RoA row {i} (x={r.x}, y={r.y}, {r.width} x {r.height}) lies outside the "
-                             f"{s.cols} x {s.rows} array")
-        geom = (int(r.x), int(r.y), int(r.width), int(r.height))
-        same = [g.name for g in scan.regions if (g.x, g.y, g.width, g.height) == geom]  # keep the scan's name
-        out.append(ScanRegion(same[0] if same else f"roa{i}", *geom))
-    if tuple(out) == tuple(scan.regions):
+    changes = {}
+    if rows is not None:
+        s = scan.system.sensor
+        out = []
+        for i, r in enumerate(rows, start=1):
+            if r.x < 0 or r.y < 0 or r.x + r.width > s.cols or r.y + r.height > s.rows:
+                raise InputError(f"RoA row {i} (x={r.x}, y={r.y}, {r.width} x {r.height}) lies outside the "
+                                 f"{s.cols} x {s.rows} array")
+            geom = (int(r.x), int(r.y), int(r.width), int(r.height))
+            same = [g.name for g in scan.regions if (g.x, g.y, g.width, g.height) == geom]  # keep the scan's name
+            out.append(ScanRegion(same[0] if same else f"roa{i}", *geom))
+        if tuple(out) != tuple(scan.regions):
+            changes["regions"] = tuple(out)
+    if output is not None and output != scan.output:
+        changes["output"] = output
+    if not changes:
         return scan
     src = Path(scan.source)
-    tmp = Path(tempfile.mkdtemp(prefix="ares-roa-")) / src.name
+    tmp = Path(tempfile.mkdtemp(prefix="ares-gui-")) / src.name
     href = str(Path(scan.system_path or scan.system.source).resolve())
-    edited = dataclasses.replace(scan, regions=tuple(out), system_href=href, source=tmp)
+    edited = dataclasses.replace(scan, **changes, system_href=href, source=tmp)
     save_scan(edited, tmp)
     return edited
 
@@ -156,15 +163,14 @@ class RunnerJob:
     """One run of the scan at ``path``; make a new job for each run (Auto Repeat)."""
 
     def __init__(self, path: str | Path, frames: int | None = None, seed: int | None = None,
-                 faults: dict | None = None, regions=None) -> None:
+                 faults: dict | None = None, regions=None, output=None, system: str | None = None) -> None:
         from ares.protocol import load_scan
         from ares.scan import Runner
 
         self.path = Path(path)
-        self.scan = load_scan(self.path)  # InputError: one sentence with file and line
+        self.scan = load_scan(self.path, system_path=system or None)  # InputError: file and line
         rows = [i for i, _ in regions] if regions is not None else list(range(len(self.scan.regions)))
-        if regions is not None:
-            self.scan = scan_with_regions(self.scan, [r for _, r in regions])
+        self.scan = edited_scan(self.scan, None if regions is None else [r for _, r in regions], output)
         # RoA row -> the engine's view name of that region in this run
         self.region_names = {row: r.name for row, r in zip(rows, self.scan.regions)}
         warm_imports()
@@ -233,6 +239,10 @@ class RunnerJob:
 
         v = {k: s for k, s in views(self.scan).items() if k.startswith(("cfa_", "adc"))}
         return v, {k: channel_label(k, self.scan.system.sensor.adc_interleave) for k in v}
+
+    @property
+    def output(self):
+        return self.scan.output
 
     def set_output(self, root: str | None) -> None:
         """Write the run directory under ``root`` (None: no run directory)."""

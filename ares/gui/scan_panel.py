@@ -4,13 +4,14 @@ of Analysis, Output Options, Input Images, Instrumentation) and the progress lin
 from __future__ import annotations
 
 from PySide6.QtCore import Signal
-from PySide6.QtWidgets import (QCheckBox, QFileDialog, QFormLayout, QHBoxLayout, QHeaderView, QLabel,
-                               QLineEdit, QPlainTextEdit, QProgressBar, QPushButton, QTableWidget,
-                               QTableWidgetItem, QTabWidget, QVBoxLayout, QWidget)
+from PySide6.QtWidgets import (QCheckBox, QFileDialog, QFormLayout, QHBoxLayout, QLabel,
+                               QLineEdit, QPlainTextEdit, QProgressBar, QPushButton,
+                               QTabWidget, QVBoxLayout, QWidget)
 
 from .models import progress as P
 from .models.progress import ProgressModel
 from .models.session import SessionModel
+from .instrument_panel import InstrumentationTab
 from .regions_table import RegionsTable
 
 CONTROL_TABS = ("Scan", "Regions of Analysis", "Output Options", "Input Images", "Instrumentation")
@@ -76,7 +77,11 @@ class ScanTab(QWidget):
 
 
 class OutputOptionsTab(QWidget):
-    """Where the run directory goes; handed to the runner with the job."""
+    """Where the run directory goes and every choice of the scan's ``<output>``; both are
+    handed to the run (the choices are saved in the run's scan XML, so a rerun repeats them)."""
+
+    FLAGS = (("raw_frames", "Raw frames (every frame, HDF5)"), ("hdf5", "HDF5 tables and arrays"),
+             ("csv", "CSV tables"), ("pdf", "PDF report"))
 
     def __init__(self, parent=None) -> None:
         super().__init__(parent)
@@ -88,15 +93,33 @@ class OutputOptionsTab(QWidget):
         row.addWidget(browse)
         self.write_run = QCheckBox("Write a run directory for each run")
         self.write_run.setChecked(True)
+        self.flags = {key: QCheckBox(text) for key, text in self.FLAGS}
         form = QFormLayout(self)
         form.addRow("", self.write_run)
         form.addRow("Run directory root:", row)
+        for key, _ in self.FLAGS:
+            form.addRow("", self.flags[key])
         note = QLabel("Each run of a scan file writes its XML files, settings, per-stage results and "
-                      "versions to a new directory under this root (raw frames and the CSV/HDF5/PDF "
-                      "outputs as the scan's <output> element says); `ares rerun DIR` repeats it. "
+                      "versions to a new directory under this root, plus what is ticked above "
+                      "(loaded from the scan's <output>); `ares rerun DIR` repeats it. "
                       "The built-in demo scan writes nothing.")
         note.setWordWrap(True)
         form.addRow(note)
+        self.write_run.toggled.connect(lambda on: [w.setEnabled(on) for w in self.flags.values()])
+        self.show_output(None)
+
+    def show_output(self, output) -> None:
+        """Tick the boxes as a scan's ``Output`` says (None: the format's defaults)."""
+        from ares.protocol.scan import Output
+
+        output = output or Output()
+        for key, box in self.flags.items():
+            box.setChecked(bool(getattr(output, key)))
+
+    def output(self):
+        from ares.protocol.scan import Output
+
+        return Output(**{key: box.isChecked() for key, box in self.flags.items()})
 
     def root(self) -> str | None:
         return self.directory.text().strip() or None if self.write_run.isChecked() else None
@@ -126,23 +149,6 @@ class InputImagesTab(QWidget):
         path, _ = QFileDialog.getOpenFileName(self, "Display an image", "", "Images (*.png *.tif *.tiff);;All files (*)")
         if path:
             self.image_requested.emit(path)
-
-
-class InstrumentationTab(QWidget):
-    def __init__(self, parent=None) -> None:
-        super().__init__(parent)
-        self.table = QTableWidget(0, 2)
-        self.table.setHorizontalHeaderLabels(("Instrument", "Description"))
-        self.table.horizontalHeader().setSectionResizeMode(QHeaderView.ResizeMode.Stretch)
-        self.table.setEditTriggers(QTableWidget.EditTrigger.NoEditTriggers)
-        lay = QVBoxLayout(self)
-        lay.addWidget(self.table)
-
-    def show_instruments(self, instruments: dict) -> None:
-        self.table.setRowCount(len(instruments))
-        for r, (k, v) in enumerate(instruments.items()):
-            self.table.setItem(r, 0, QTableWidgetItem(str(k)))
-            self.table.setItem(r, 1, QTableWidgetItem(str(v)))
 
 
 class ControlTabs(QTabWidget):
