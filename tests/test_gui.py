@@ -534,3 +534,56 @@ def test_register_written_in_the_instrumentation_tab_reaches_the_bench(window, q
     window.controls.output.write_run.setChecked(False)
     run_to_end(qtbot, window)
     assert not tab.model.connected and window.session.progress.state == P.DONE
+
+
+def _drag(qtbot, plot, start, end):
+    """A left-button mouse drag on a pyqtgraph plot between two image points."""
+    from PySide6.QtCore import QPoint, QPointF
+    from PySide6.QtGui import QMouseEvent
+    from PySide6.QtWidgets import QApplication
+
+    vb = plot.getViewBox()
+
+    def at(p):
+        return plot.mapFromScene(vb.mapViewToScene(QPointF(*p)))
+
+    vp = plot.viewport()
+    a, b = at(start), at(end)
+    steps = [QPoint(a.x() + (b.x() - a.x()) * k // 8, a.y() + (b.y() - a.y()) * k // 8) for k in range(1, 9)]
+    left, none = Qt.MouseButton.LeftButton, Qt.MouseButton.NoButton
+    send = QApplication.sendEvent
+    send(vp, QMouseEvent(QMouseEvent.Type.MouseButtonPress, QPointF(a), QPointF(vp.mapToGlobal(a)), left, left,
+                         Qt.KeyboardModifier.NoModifier))
+    for p in steps:
+        send(vp, QMouseEvent(QMouseEvent.Type.MouseMove, QPointF(p), QPointF(vp.mapToGlobal(p)), none, left,
+                             Qt.KeyboardModifier.NoModifier))
+    send(vp, QMouseEvent(QMouseEvent.Type.MouseButtonRelease, QPointF(b), QPointF(vp.mapToGlobal(b)), left, none,
+                         Qt.KeyboardModifier.NoModifier))
+
+
+def test_region_drawn_with_the_mouse_is_saved_and_decomposed(window, qtbot, tmp_path):
+    """New Region + a mouse drag on the live image adds a row to the RoA table; the run
+    saves it in its scan XML and decomposes its pixels (other figures than the full frame)."""
+    pytest.importorskip("ares.scan")
+    import json
+
+    assert window.load_scan(PTC_SMALL)
+    window.controls.output.directory.setText(str(tmp_path))
+    window.show_image(np.zeros((24, 32), np.uint16), "blank")  # the image the drag is drawn on
+    qtbot.mouseClick(window.preview.new_button, Qt.MouseButton.LeftButton)
+    _drag(qtbot, window.preview.plot, (2.2, 3.1), (13.8, 17.2))
+    regions = window.session.regions
+    qtbot.waitUntil(lambda: len(regions.active()) == 2, timeout=TIMEOUT_MS)
+    row, drawn = regions.active()[1]
+    assert (drawn.x, drawn.y, drawn.width, drawn.height) == (2, 3, 12, 14) and drawn.draw
+    assert not window.preview.new_button.isChecked()  # one region per click
+    run_to_end(qtbot, window)
+    assert window.session.progress.state == P.DONE, window.session.progress.message
+    run_dir = window.session.info.items["run directory"]
+    saved = open(os.path.join(run_dir, "xml", "ptc_small.xml")).read()
+    assert f'name="roa{row + 1}" x="2" y="3" width="12" height="14"' in saved
+    stage = json.loads(open(os.path.join(run_dir, "stages", "0005.json")).read())
+    mine, full = stage["views"][f"roa{row + 1}"], stage["views"]["full"]
+    assert mine["level"]["n_pixels"] == 12 * 14
+    assert mine["components"]["Pt"]["value"] != full["components"]["Pt"]["value"]
+    assert mine["components"]["Pt"]["se"] > full["components"]["Pt"]["se"]  # fewer pixels, larger SE

@@ -18,6 +18,7 @@ from . import engine
 from .events import Failed, Stopped
 from .info_panel import InfoPanel, versions
 from .models import progress as P
+from .models.regions import Region
 from .models.session import SessionModel
 from .plots.components_view import ComponentsView
 from .plots.defects_view import DefectCountsView
@@ -54,7 +55,8 @@ class MainWindow(QMainWindow):
         self.buttons = ScanButtons()
         self.controls = ControlTabs(s)
         self.preview = ImagePlot(s.preview, cmap="CET-L1",  # monochrome, as the sensor sees it
-                                 on_edit=lambda row, x, y, w, h: s.regions.update(row, x=x, y=y, width=w, height=h))
+                                 on_edit=lambda row, x, y, w, h: s.regions.update(row, x=x, y=y, width=w, height=h),
+                                 on_new=self._new_region)
         self.progress_line = ProgressLine(s.progress)
         self.results = ResultsTab(s)
         self.distributions = DistributionsView(s)
@@ -168,6 +170,11 @@ class MainWindow(QMainWindow):
         self._show_job_info(job)
         self.statusBar().showMessage(f"Loaded {path}.{note}")
         return True
+
+    def _new_region(self, x: int, y: int, width: int, height: int) -> None:
+        row = self.session.regions.add(Region(True, True, x, y, width, height))
+        self.statusBar().showMessage(f"Region {row + 1}: {width} x {height} at ({x}, {y}) added to the RoA table; "
+                                     "the next scan analyses it.")
 
     def confirm(self, title: str, question: str) -> bool:
         """Ask a yes/no question (tests replace this method)."""

@@ -2,14 +2,17 @@
 
 With ``on_edit`` (the live image), regions whose Draw box is ticked get move/resize
 handles (a pyqtgraph RectROI snapped to whole pixels); a finished drag calls
-``on_edit(row, x, y, width, height)``, which writes the RoA table's model."""
+``on_edit(row, x, y, width, height)``, which writes the RoA table's model. With
+``on_new``, the "New Region" button arms the image: the next left-button drag draws a
+rectangle (snapped to pixels, clipped to the image) and ``on_new(x, y, width, height)``
+adds it to the table."""
 
 from __future__ import annotations
 
 import numpy as np
 import pyqtgraph as pg
-from PySide6.QtCore import QRectF, QTimer
-from PySide6.QtWidgets import QGraphicsRectItem, QLabel, QVBoxLayout, QWidget
+from PySide6.QtCore import QRectF, Qt, QTimer
+from PySide6.QtWidgets import QGraphicsRectItem, QHBoxLayout, QLabel, QPushButton, QVBoxLayout, QWidget
 
 from ..models.image import ImageModel
 from . import region_color
@@ -17,10 +20,11 @@ from . import region_color
 
 class ImagePlot(QWidget):
     def __init__(self, model: ImageModel, parent: QWidget | None = None, colorbar: bool = True,
-                 cmap: str = "viridis", on_edit=None) -> None:
+                 cmap: str = "viridis", on_edit=None, on_new=None) -> None:
         super().__init__(parent)
         self.model = model
         self.on_edit = on_edit
+        self.on_new = on_new
         self.rois: dict[int, pg.RectROI] = {}
         self._drawn_rects = None
         self.caption = QLabel(model.title)
@@ -38,7 +42,28 @@ class ImagePlot(QWidget):
         self._rects: list = []
         lay = QVBoxLayout(self)
         lay.setContentsMargins(2, 2, 2, 2)
-        lay.addWidget(self.caption)
+        top = QHBoxLayout()
+        top.addWidget(self.caption, 1)
+        self.new_button = None
+        self._rubber = None
+        if on_new is not None:
+            self.new_button = QPushButton("New Region")
+            self.new_button.setCheckable(True)
+            self.new_button.setToolTip("Then drag on the image: the rectangle becomes a region of analysis.")
+            top.addWidget(self.new_button)
+            vb = self.plot.getViewBox()
+            default_drag = vb.mouseDragEvent
+
+            def drag(ev, axis=None):
+                if self.new_button.isChecked() and ev.button() == Qt.MouseButton.LeftButton:
+                    ev.accept()
+                    self.drag_to(vb.mapSceneToView(ev.buttonDownScenePos()), vb.mapSceneToView(ev.scenePos()),
+                                 ev.isFinish())
+                else:
+                    default_drag(ev, axis)
+
+            vb.mouseDragEvent = drag
+        lay.addLayout(top)
         lay.addWidget(self.plot, 1)
         self._shape = None
         model.subscribe(lambda _: self.refresh())
@@ -94,6 +119,28 @@ class ImagePlot(QWidget):
         w, h = (max(1, int(round(v))) for v in roi.size())
         # later, not inside the ROI's own signal: the edit redraws (and so deletes) this ROI
         QTimer.singleShot(0, lambda: self.on_edit(row, x, y, w, h))
+
+    def drag_to(self, start, end, finish: bool) -> None:
+        """A New Region drag from ``start`` to ``end`` (image coordinates): a rubber band
+        while dragging; on release the pixel rectangle goes to ``on_new``."""
+        rows, cols = self._shape or (0, 0)
+        x0, x1 = sorted((start.x(), end.x()))
+        y0, y1 = sorted((start.y(), end.y()))
+        x0, y0 = max(0, int(round(x0))), max(0, int(round(y0)))
+        x1, y1 = min(cols, int(round(x1))), min(rows, int(round(y1)))
+        if self._rubber is None:
+            self._rubber = QGraphicsRectItem()
+            pen = pg.mkPen((255, 200, 0), width=2, style=Qt.PenStyle.DashLine)
+            pen.setCosmetic(True)
+            self._rubber.setPen(pen)
+            self.plot.addItem(self._rubber)
+        self._rubber.setRect(QRectF(x0, y0, max(x1 - x0, 0), max(y1 - y0, 0)))
+        if finish:
+            self.plot.removeItem(self._rubber)
+            self._rubber = None
+            self.new_button.setChecked(False)
+            if x1 > x0 and y1 > y0:
+                QTimer.singleShot(0, lambda: self.on_new(x0, y0, x1 - x0, y1 - y0))
 
     @property
     def rectangle_count(self) -> int:
