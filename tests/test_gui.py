@@ -36,7 +36,7 @@ def window(qtbot):
     yield w
     if w.running:
         w.abort_scan()
-        qtbot.waitUntil(lambda: not w.running, timeout=TIMEOUT_MS)
+    qtbot.waitUntil(lambda: idle(w), timeout=TIMEOUT_MS)
 
 
 def tiny(**kw):
@@ -45,10 +45,15 @@ def tiny(**kw):
     return lambda: DemoScan(**args)
 
 
+def idle(w) -> bool:
+    """No scan taking frames and no ended run still writing its directory."""
+    return not w.running and not w.finishing
+
+
 def run_to_end(qtbot, w):
     qtbot.mouseClick(w.buttons.start, Qt.MouseButton.LeftButton)
     assert w.running
-    qtbot.waitUntil(lambda: not w.running, timeout=TIMEOUT_MS)
+    qtbot.waitUntil(lambda: idle(w), timeout=TIMEOUT_MS)
 
 
 def test_window_builds_with_ares_tabs_and_controls(window):
@@ -165,7 +170,7 @@ def test_stop_finishes_stage_in_flight_then_stops(window, qtbot):
     qtbot.mouseClick(window.buttons.stop, Qt.MouseButton.LeftButton)
     assert window.progress_line.state.text() == P.STOPPING
     job.gate.set()
-    qtbot.waitUntil(lambda: not window.running, timeout=TIMEOUT_MS)
+    qtbot.waitUntil(lambda: idle(window), timeout=TIMEOUT_MS)
     s = window.session
     assert s.progress.state == P.STOPPED
     assert s.last_result is not None and s.last_result.stage == 1  # the stage in flight was finished
@@ -182,7 +187,7 @@ def test_pause_resume_and_abort(window, qtbot):
     qtbot.mouseClick(window.buttons.pause, Qt.MouseButton.LeftButton)  # pause again, then abort
     qtbot.mouseClick(window.buttons.abort, Qt.MouseButton.LeftButton)
     job.gate.set()
-    qtbot.waitUntil(lambda: not window.running, timeout=TIMEOUT_MS)
+    qtbot.waitUntil(lambda: idle(window), timeout=TIMEOUT_MS)
     assert window.session.progress.state == P.STOPPED
     assert "aborted" in window.session.progress.message
     assert window.session.last_result is None  # the stage in flight was dropped
@@ -195,7 +200,7 @@ def test_auto_repeat_starts_the_scan_again(window, qtbot):
     qtbot.mouseClick(window.buttons.start, Qt.MouseButton.LeftButton)
     qtbot.waitUntil(lambda: window.runs_started >= 3, timeout=TIMEOUT_MS)
     window.buttons.auto_repeat.setChecked(False)
-    qtbot.waitUntil(lambda: not window.running, timeout=TIMEOUT_MS)
+    qtbot.waitUntil(lambda: idle(window), timeout=TIMEOUT_MS)
     assert window.session.progress.state == P.DONE
 
 
@@ -420,12 +425,19 @@ def test_drawing_a_region_on_the_live_image_edits_the_table(window, qtbot):
     assert window.preview.rois == {} and window.preview.rectangle_count == 2
 
 
-def test_closing_the_window_aborts_a_running_scan(window, qtbot):
+def test_closing_the_window_asks_then_aborts_a_running_scan(window, qtbot):
     job = start_gated(qtbot, window)
     thread = window.scan_thread
+    questions = []
+    window.confirm = lambda title, text: questions.append(text) or False
+    window.close()  # "No": the scan goes on
+    assert questions and window.isVisible() and window.running and not job.aborting
+    window.confirm = lambda title, text: True
+    window.close()  # "Yes": abort; the window closes when the run has ended, without blocking meanwhile
+    assert job.aborting and window.isVisible()
     job.gate.set()
-    window.close()  # aborts and waits for the worker
-    assert job.aborting and not thread.is_running()
+    qtbot.waitUntil(lambda: not window.isVisible(), timeout=TIMEOUT_MS)
+    assert not thread.is_running() and idle(window)
 
 
 def test_gui_command_is_registered_in_the_cli():

@@ -72,6 +72,15 @@ class RunInfo:
 
 
 @dataclass(frozen=True)
+class Ending:
+    """The scan takes no more frames (done, stopped or aborted); its scan-level analysis
+    and reports follow in the background, then ``Done`` or ``Stopped``."""
+
+    status: str = "done"
+    stages_completed: int = 0
+
+
+@dataclass(frozen=True)
 class Done:
     run_dir: str | None = None
     summary: dict = field(default_factory=dict)  # e.g. gain_e_per_dn, defects, results
@@ -90,4 +99,4 @@ class Failed:
     message: str  # one sentence, never a traceback
 
 
-GuiEvent = RunInfo | StageStarted | FramePreview | StageResult | Progress | Done | Stopped | Failed
+GuiEvent = RunInfo | StageStarted | FramePreview | StageResult | Progress | Ending | Done | Stopped | Failed

@@ -15,7 +15,7 @@ from PySide6.QtWidgets import (QFileDialog, QMainWindow, QMessageBox, QSplitter,
 from ares.errors import AresError
 
 from . import engine
-from .events import Failed, Stopped
+from .events import Ending, Failed, Stopped
 from .info_panel import InfoPanel, versions
 from .models import progress as P
 from .models.regions import Region
@@ -50,6 +50,8 @@ class MainWindow(QMainWindow):
         self.error_box: QMessageBox | None = None
         self.runs_started = 0
         self._loaded_regions: list = []
+        self.background: list[ScanThread] = []  # ended runs still analysing and writing their directory
+        self._closing = False
 
         s = self.session
         self.buttons = ScanButtons()
@@ -212,7 +214,17 @@ class MainWindow(QMainWindow):
     # ---- run control ------------------------------------------------------------------
     @property
     def running(self) -> bool:
+        """A scan is taking frames (Start is disabled)."""
         return self.scan_thread is not None
+
+    @property
+    def finishing(self) -> bool:
+        """An ended run is still analysing and writing its run directory."""
+        return bool(self.background)
+
+    @property
+    def previews_dropped(self) -> int:
+        return sum(t.pump.dropped for t in ([self.scan_thread] if self.scan_thread else []) + self.background)
 
     def start_scan(self) -> None:
         if self.running:
@@ -233,9 +245,9 @@ class MainWindow(QMainWindow):
         self.last_error = None
         self.runs_started += 1
         self.session.begin_run(getattr(job, "title", ""))
-        self.scan_thread = ScanThread(job, self)
-        self.scan_thread.event.connect(self._on_event)
-        self.scan_thread.finished.connect(self._on_finished)
+        thread = self.scan_thread = ScanThread(job, self)
+        thread.event.connect(lambda ev: self._on_event(ev, thread))
+        thread.finished.connect(lambda: self._on_finished(thread))
         self.buttons.set_running(True)
         self.statusBar().showMessage(f"Running {getattr(job, 'title', 'scan')}…")
         self.scan_thread.start()
@@ -262,31 +274,56 @@ class MainWindow(QMainWindow):
             self.scan_thread.abort()
             self.statusBar().showMessage("Aborting…")
 
-    def _on_event(self, ev) -> None:
+    def _on_event(self, ev, thread=None) -> None:
+        if thread is not None and thread is not self.scan_thread and thread is not self._newest:
+            return  # a run that ended before the one now shown: its events no longer draw
         try:
             self.session.handle(ev)
         except Exception as exc:  # noqa: BLE001 -- a drawing bug must not take the run down with it
             log.exception("could not draw %s", type(ev).__name__)
             self.statusBar().showMessage(f"Could not draw a {type(ev).__name__} event: {one_sentence(exc)}")
             return
-        if isinstance(ev, Failed):
+        if isinstance(ev, Ending) and thread is self.scan_thread:
+            self._release(thread)  # control back now; the analysis and files finish in the background
+            self.statusBar().showMessage(self.session.progress.message)
+        elif isinstance(ev, Failed):
             self.show_error(ev.message)
         elif isinstance(ev, Stopped):
             self.statusBar().showMessage(ev.message)
 
-    def _on_finished(self) -> None:
-        thread, self.scan_thread = self.scan_thread, None
-        if thread is not None:
-            thread.wait()
-            thread.deleteLater()
+    @property
+    def _newest(self):
+        return self.background[-1] if self.background and self.scan_thread is None else None
+
+    def _release(self, thread) -> None:
+        """The scan takes no more frames: Start is enabled again while the thread finishes."""
+        self.scan_thread = None
+        self.background.append(thread)
         self.buttons.set_running(False)
+
+    def _on_finished(self, thread) -> None:
+        newest = thread is self.scan_thread or thread is self._newest
+        if thread is self.scan_thread:
+            self.scan_thread = None
+            self.buttons.set_running(False)
+        if thread in self.background:
+            self.background.remove(thread)
+        thread.wait()
+        thread.deleteLater()
+        if self._closing:
+            if not self.running and not self.finishing:
+                self.close()
+            return
+        if not newest:
+            return
         state = self.session.progress.state
-        if state == P.RUNNING:  # the job returned without Done/Stopped
+        if state in (P.RUNNING, P.FINISHING):  # the job returned without Done/Stopped
             self.session.progress.update(state=P.DONE)
             state = P.DONE
         if state == P.DONE:
-            self.statusBar().showMessage("Scan finished.")
-            if self.buttons.auto_repeat.isChecked():
+            run_dir = self.session.info.items.get("run directory")
+            self.statusBar().showMessage(f"Scan finished; {run_dir} complete." if run_dir else "Scan finished.")
+            if self.buttons.auto_repeat.isChecked() and not self.running:
                 QTimer.singleShot(0, self.start_scan)
 
     # ---- messages and images ----------------------------------------------------------
@@ -324,7 +361,19 @@ class MainWindow(QMainWindow):
         self.session.preview.set_image(image, caption)
 
     def closeEvent(self, event) -> None:  # noqa: N802 -- Qt name
-        if self.scan_thread is not None:
-            self.scan_thread.abort()
-            self.scan_thread.wait(5000)
+        """Closing during a scan asks first; then the scan is aborted (the stage in flight
+        dropped, the completed ones kept) and the window closes once the run directory is
+        complete -- never with half-written files, never blocking the window meanwhile."""
+        if self.running and not self._closing:
+            if not self.confirm("Close ARES?", "A scan is running. Abort it (completed stages are kept and "
+                                               "the run directory is finished) and close?"):
+                event.ignore()
+                return
+            self.abort_scan()
+        if self.running or self.finishing:
+            self._closing = True
+            self.statusBar().showMessage("Closing once the run directory is complete…")
+            event.ignore()
+            return
+        self.controls.instruments.disconnect_bench()
         super().closeEvent(event)

@@ -297,6 +297,8 @@ class RunnerJob:
             emit(G.Progress(e.index + 1, e.total, e.fraction, e.remaining_s))
         elif isinstance(e, ev.StageFinished):
             emit(self._stage_result(e))
+        elif isinstance(e, ev.Ending):
+            emit(G.Ending(e.status, e.stages_completed))
         elif isinstance(e, ev.Done):
             if e.status == "done":
                 emit(G.Done(e.run_dir, summarize(e.scan_results, self.scan.defects), tuple(e.limit_failures)))

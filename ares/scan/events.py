@@ -79,6 +79,16 @@ class Regrab:
 
 
 @dataclass(frozen=True)
+class Ending:
+    """No more frames: the stage loop has ended (``status`` as in ``Done``); the scan-level
+    analysis, the run's closing files and then ``Done`` follow. A window gives control
+    back here instead of waiting for them."""
+
+    status: str
+    stages_completed: int
+
+
+@dataclass(frozen=True)
 class Done:
     status: str  # "done", "stopped" or "aborted"
     run_dir: str | None

@@ -322,6 +322,7 @@ class Runner:
         else:
             if self._stop.is_set():
                 status = "done"  # stop during the last stage: the scan is complete anyway
+        self._emit(ev.Ending(status, len(completed)))
         scan_results, fails = {}, []
         message = ""
         if completed:

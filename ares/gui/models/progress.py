@@ -6,8 +6,8 @@ import math
 
 from .observable import Observable
 
-IDLE, RUNNING, PAUSED, STOPPING, DONE, FAILED, STOPPED = (
-    "Idle", "Running", "Paused", "Stopping", "Done", "Failed", "Stopped")
+IDLE, RUNNING, PAUSED, STOPPING, FINISHING, DONE, FAILED, STOPPED = (
+    "Idle", "Running", "Paused", "Stopping", "Analysing and writing the run", "Done", "Failed", "Stopped")
 
 
 def format_remaining(seconds: float | None) -> str:

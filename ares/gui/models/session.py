@@ -10,7 +10,7 @@ import math
 
 import numpy as np
 
-from ..events import Done, Failed, FramePreview, Progress, RunInfo, StageResult, StageStarted, Stopped
+from ..events import Done, Ending, Failed, FramePreview, Progress, RunInfo, StageResult, StageStarted, Stopped
 from . import progress as P
 from .components import ComponentsModel
 from .defects import DefectCountsModel
@@ -123,6 +123,10 @@ class SessionModel:
         elif isinstance(ev, Progress):
             self.progress.update(stage=ev.stage, total=ev.total, fraction=ev.fraction,
                                  seconds_remaining=ev.seconds_remaining)
+        elif isinstance(ev, Ending):
+            self.progress.update(state=P.FINISHING, seconds_remaining=None,
+                                 message=f"{ev.stages_completed} stage(s) acquired ({ev.status}); "
+                                         "analysing and writing the run directory in the background.")
         elif isinstance(ev, Done):
             self._summary(ev.summary)
             if ev.run_dir:
