@@ -45,6 +45,11 @@ def tiny(**kw):
     return lambda: DemoScan(**args)
 
 
+def show_tab(w, name: str) -> None:
+    """Bring a result tab on screen (hidden tabs are computed when shown)."""
+    w.result_tabs.setCurrentIndex(RESULT_TABS.index(name))
+
+
 def idle(w) -> bool:
     """No scan taking frames and no ended run still writing its directory."""
     return not w.running and not w.finishing
@@ -112,7 +117,11 @@ def test_scan_runs_from_start_button_to_done(window, qtbot):
     assert window.progress_line.remaining.text() == "0 : 00 : 00"
     assert any(t.startswith("1 of 3") for t in stages) and any(t.startswith("2 of 3") for t in stages)
     # plots received data: pixel distributions hold every ROI pixel of the last frame
+    assert s.distributions == {}  # hidden while the scan ran: not computed ...
+    show_tab(window, "Pixel Distributions")  # ... until shown
     assert {i: int(m.counts.sum()) for i, m in s.distributions.items()} == {0: 60, 1: 192}
+    for name in ("Signal Map", "Profiles"):
+        show_tab(window, name)
     assert set(window.distributions.plots) == {0, 1}
     assert s.panels["MEAN SIGNAL"].counts.sum() == 60
     assert window.results.panels["MEAN SIGNAL"].labels["mean"].text() != "n/a"
@@ -242,6 +251,7 @@ def test_display_image_file_fills_preview_and_distributions(window, tmp_path):
     Image.fromarray(img).save(path)
     window.show_image_file(str(path))
     assert window.session.preview.caption == "frame.png"
+    show_tab(window, "Pixel Distributions")
     assert window.session.distributions[-1].counts.sum() == 48
 
 
@@ -277,6 +287,7 @@ def test_runner_scan_from_file_to_done(window, qtbot, tmp_path):
     s = window.session
     assert s.progress.state == P.DONE, s.progress.message
     assert window.progress_line.stage.text() == "9 of 9 (ptc[7])"
+    show_tab(window, "Pixel Distributions")
     assert s.distributions[0].counts.sum() == 16 * 12
     assert s.panels["MEAN SIGNAL"].stats.n == 16 * 12
     assert len(s.ptc.points) == 8 and s.ptc.gain_e_per_dn > 0  # the engine's fit, drawn as a line
@@ -318,6 +329,7 @@ def test_event_pump_keeps_only_the_newest_preview_between_barriers(qtbot):
     from ares.gui.worker import EventPump
 
     pump = EventPump()
+    pump.interval_s = 0.0  # no time decimation here: only the coalescing
     got = []
     pump.event.connect(got.append)
     img = np.zeros((2, 2), np.uint16)
@@ -332,6 +344,35 @@ def test_event_pump_keeps_only_the_newest_preview_between_barriers(qtbot):
     assert kinds == [("StageStarted", None), ("FramePreview", 3), ("Progress", None), ("StageResult", None),
                      ("FramePreview", 1)]
     assert pump.dropped == 4
+
+
+def test_event_pump_draws_previews_at_most_every_interval(qtbot):
+    """Time decimation on a fake clock: a preview that comes too soon waits for a later
+    poll when it is the newest, and is dropped when a newer stage event follows it."""
+    from ares.gui.worker import EventPump
+
+    pump = EventPump()
+    now = [100.0]
+    pump.clock = lambda: now[0]
+    pump.interval_s = 0.25
+    got = []
+    pump.event.connect(got.append)
+    img = np.zeros((2, 2), np.uint16)
+    pump.push(E.FramePreview(1, 1, 9, img))
+    pump.drain()  # the first one is drawn at once
+    pump.push(E.FramePreview(1, 2, 9, img))
+    pump.push(E.Progress(1, 2, 0.1))
+    now[0] += 0.1
+    pump.drain()  # too soon: frame 2 waits, the progress goes through
+    assert [(type(e).__name__, getattr(e, "frame", None)) for e in got] == [("FramePreview", 1), ("Progress", None)]
+    now[0] += 0.2
+    pump.drain()  # 0.3 s after the last drawn preview: frame 2 now
+    assert got[-1].frame == 2
+    pump.push(E.FramePreview(1, 3, 9, img))
+    pump.push(E.StageResult(1, "a", img.astype(float), img.astype(float)))
+    now[0] += 0.1
+    pump.drain()  # too soon and superseded by the stage result: dropped
+    assert type(got[-1]).__name__ == "StageResult" and pump.dropped == 1
 
 
 def test_check_display_passes_offscreen():
@@ -382,6 +423,7 @@ def test_distributions_follow_region_changes(window, qtbot):
     window.set_job_factory(tiny())
     regions = window.session.regions
     regions.add(Region(True, True, 0, 0, 4, 4))
+    show_tab(window, "Pixel Distributions")
     run_to_end(qtbot, window)
     assert set(window.distributions.plots) == {0}
     regions.add(Region(True, False, 4, 4, 5, 5))  # a new region: the tab rebuilds, old views unsubscribe
@@ -505,6 +547,7 @@ def test_channel_view_on_a_two_adc_sensor_gives_the_per_channel_sigma(window, qt
         assert window.components.tables["components"].rowCount() > 0
         assert window.results.caption.text().endswith(s.views.labels[f"adc{k}"])
     # the stage browser: the first stage on every tab, then back to following the scan
+    show_tab(window, "Signal Map")
     window.view_bar.choose_stage(1)
     assert s.last_result.stage == 1 and "stage 1" in s.signal_map.caption
     window.view_bar.choose_stage(None)

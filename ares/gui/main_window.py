@@ -101,6 +101,8 @@ class MainWindow(QMainWindow):
         self._menus()
         self.statusBar().showMessage("Ready.")
 
+        self.result_tabs.currentChanged.connect(lambda _: self._tab_shown())
+        self._tab_shown()
         self.buttons.start.clicked.connect(self.start_scan)
         self.buttons.stop.clicked.connect(self.stop_scan)
         self.buttons.pause.toggled.connect(self.pause_scan)
@@ -112,6 +114,11 @@ class MainWindow(QMainWindow):
         self.controls.instruments.frame.connect(lambda image: self.show_image(image, "test frame from the bench"))
         self.controls.instruments.system_chosen.connect(self._system_chosen)
         self._show_job_info(engine.DemoScan())
+
+    def _tab_shown(self) -> None:
+        """Only the result tab on screen is computed as the scan runs (the others catch up
+        when shown): the window's work never competes with acquisition for nothing."""
+        self.session.set_visible({self.result_tabs.tabText(self.result_tabs.currentIndex())})
 
     def _menus(self) -> None:
         file_menu = self.menuBar().addMenu("&File")

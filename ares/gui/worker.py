@@ -10,7 +10,9 @@ under load). Automatic collection is suspended for the run and the poll timer co
 by the same generation thresholds. A frame preview or progress
 event replaces an older one of its kind still waiting (never across a
 stage/result/done event), so a fast engine cannot bury the window under stale frames --
-it always shows the newest. Every failure ends as one ``Failed`` event with one
+it always shows the newest; and previews are drawn at most every ``PREVIEW_INTERVAL_S``
+(time-decimated: a preview that comes too soon waits for the next poll, or is dropped
+when a newer stage event follows it), so drawing never competes with acquisition. Every failure ends as one ``Failed`` event with one
 sentence: ``AresError`` messages as they are, anything else as "Unexpected error in the
 scan engine: ..." (the traceback goes to the log, never to a dialog).
 """
@@ -20,6 +22,7 @@ from __future__ import annotations
 import gc
 import logging
 import threading
+import time
 
 from PySide6.QtCore import QObject, QTimer, Signal, Slot
 
@@ -41,6 +44,7 @@ def one_sentence(exc: BaseException) -> str:
 
 
 COALESCE = (FramePreview, Progress)
+PREVIEW_INTERVAL_S = 0.25
 
 
 class EventPump(QObject):
@@ -54,6 +58,9 @@ class EventPump(QObject):
         self._lock = threading.Lock()
         self._pending: list = []
         self.dropped = 0
+        self.interval_s = PREVIEW_INTERVAL_S
+        self.clock = time.monotonic
+        self._last_preview = -float("inf")
 
     def push(self, ev) -> None:
         with self._lock:
@@ -70,9 +77,28 @@ class EventPump(QObject):
 
     @Slot()
     def drain(self) -> None:
+        now = self.clock()
         with self._lock:
             items, self._pending = self._pending, []
-        for ev in items:
+        previews = [k for k, ev in enumerate(items) if isinstance(ev, FramePreview)]
+        out, held = [], None
+        for k, ev in enumerate(items):
+            if isinstance(ev, FramePreview) and now - self._last_preview < self.interval_s:
+                if k == previews[-1] and all(isinstance(x, COALESCE) for x in items[k + 1:]):
+                    held = ev  # the newest frame, nothing newer behind it: show it at a later poll
+                else:
+                    self.dropped += 1
+                continue
+            if isinstance(ev, FramePreview):
+                self._last_preview = now
+            out.append(ev)
+        if held is not None:
+            with self._lock:
+                if not any(isinstance(x, FramePreview) for x in self._pending):
+                    self._pending.insert(0, held)
+                else:
+                    self.dropped += 1
+        for ev in out:
             self.event.emit(ev)
 
 

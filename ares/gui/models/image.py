@@ -12,8 +12,16 @@ from .observable import Observable
 from .regions import Region
 
 
+LEVEL_SAMPLES = 1 << 16
+
+
 def robust_levels(image: np.ndarray, lo_pct: float = 0.5, hi_pct: float = 99.5) -> tuple[float, float]:
-    """Display levels that ignore the few hottest/coldest pixels."""
+    """Display levels that ignore the few hottest/coldest pixels, from a regular grid of
+    at most ~65k pixels (display only: a VGA frame's percentiles cost 16x less)."""
+    image = np.asarray(image)
+    if image.ndim == 2 and image.size > LEVEL_SAMPLES:
+        step = int(np.ceil(np.sqrt(image.size / LEVEL_SAMPLES)))
+        image = image[::step, ::step]
     v = np.asarray(image, dtype=np.float64)
     v = v[np.isfinite(v)]
     if v.size == 0:

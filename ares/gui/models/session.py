@@ -24,6 +24,11 @@ from .sweep import SweepModel, SweepPoint
 from .views import StageStore, ViewModel
 
 PANELS = ("MEAN SIGNAL", "NOISE", "COLUMNS", "ROWS")
+# Result tabs whose models are computed only while the tab is shown (the window says
+# which with ``set_visible``); a hidden one is brought up to date when it is shown.
+RESULTS, DISTRIBUTIONS, PROFILES, SIGNAL_MAP, NOISE_MAP = (
+    "Results", "Pixel Distributions", "Profiles", "Signal Map", "Noise Map")
+LAZY_TABS = (RESULTS, DISTRIBUTIONS, PROFILES, SIGNAL_MAP, NOISE_MAP)
 
 
 class InfoModel(Observable):
@@ -60,6 +65,8 @@ class SessionModel:
         self.info = InfoModel()
         self.views = ViewModel(self.regions)
         self.stages = StageStore()
+        self.visible: set[str] | None = None  # None: every tab (no window says otherwise)
+        self._dirty: set[str] = set()
         self.last_frame: np.ndarray | None = None
         self.regions.subscribe(lambda _: self._regions_changed())
         self.views.subscribe(lambda _: self._view_changed())
@@ -80,6 +87,30 @@ class SessionModel:
         """Show a finished stage on every tab (None: follow the latest)."""
         self.stages.show(stage)
         self._show_result()
+
+    # ---- work only for what is shown ----------------------------------------------------
+    def set_visible(self, tabs) -> None:
+        """The result tabs on screen; hidden tabs' models wait until they are shown."""
+        self.visible = set(tabs)
+        for tab in [t for t in LAZY_TABS if t in self._dirty and t in self.visible]:
+            self._dirty.discard(tab)
+            self._recompute(tab)
+
+    def _need(self, tab: str) -> bool:
+        if self.visible is None or tab in self.visible:
+            return True
+        self._dirty.add(tab)
+        return False
+
+    def _recompute(self, tab: str) -> None:
+        if tab == DISTRIBUTIONS and self.last_frame is not None:
+            self._update_distributions(self.last_frame)
+        elif tab in (SIGNAL_MAP, NOISE_MAP):
+            self._maps()
+        elif tab == RESULTS:
+            self._refresh_panels()
+        elif tab == PROFILES:
+            self._refresh_profiles()
 
     def _drawn(self) -> list[tuple[int, Region]]:
         return self.regions.visible()
@@ -148,6 +179,8 @@ class SessionModel:
 
     # ---- per-event updates ------------------------------------------------------------
     def _update_distributions(self, image: np.ndarray) -> None:
+        if not self._need(DISTRIBUTIONS):
+            return
         active = self.regions.active() or [(-1, full_frame(image.shape))]
         keys = {i for i, _ in active}
         changed = set(self.distributions) != keys
@@ -187,13 +220,7 @@ class SessionModel:
             self._refresh_result()
             return
         caption = f"stage {ev.stage}: {ev.name}"
-        if ev.mean is None:
-            caption += " (arrays dropped to bound memory; the run directory has them)"
-        else:
-            self.signal_map.set_image(ev.mean, caption)
-            self.noise_map.set_image(np.sqrt(np.clip(ev.variance, 0, None)), caption)
-        for m in (self.signal_map, self.noise_map):
-            m.set_rectangles(self._drawn())
+        self._maps()
         self.ptc.highlight(ev.stage)
         self._refresh_result()
         if ev.components:
@@ -201,30 +228,56 @@ class SessionModel:
         if ev.defects is not None and ev.mean is not None:
             self.defects.set_counts(ev.defects, ev.mean.size, caption=caption)
 
+    def _maps(self) -> None:
+        ev = self.last_result
+        if ev is None:
+            return
+        caption = f"stage {ev.stage}: {ev.name}"
+        if ev.mean is None:
+            caption += " (arrays dropped to bound memory; the run directory has them)"
+        elif self._need(SIGNAL_MAP) | self._need(NOISE_MAP):  # both: a hidden one is marked for later
+            if self.visible is None or SIGNAL_MAP in self.visible:
+                self.signal_map.set_image(ev.mean, caption)
+            if self.visible is None or NOISE_MAP in self.visible:
+                self.noise_map.set_image(np.sqrt(np.clip(ev.variance, 0, None)), caption)
+        for m in (self.signal_map, self.noise_map):
+            m.set_rectangles(self._drawn())
+
     def _view_changed(self) -> None:
         if self.last_frame is not None:
             self._update_distributions(self.last_frame)
         self._refresh_result()
 
     def _refresh_result(self) -> None:
+        self._refresh_panels()
+        self._refresh_profiles()
         ev = self.last_result
-        if ev is None or ev.mean is None:
-            for m in self.panels.values():
-                m.clear()
-            self.profiles.update(None, [])
+        if ev is not None and ev.mean is not None:
+            self.components.select(self.views.engine_view(ev.mean.shape))
+
+    def _refresh_panels(self) -> None:
+        if not self._need(RESULTS):
             return
-        mean = self.views.pixels(ev.mean)
-        var = self.views.pixels(ev.variance)
+        ev = self.last_result
+        mean = None if ev is None or ev.mean is None else self.views.pixels(ev.mean)
         if mean is None:
             for m in self.panels.values():
                 m.clear()
+            return
+        var = self.views.pixels(ev.variance)
+        self.panels["MEAN SIGNAL"].set_values(mean)
+        self.panels["NOISE"].set_values(np.sqrt(np.clip(var, 0, None)))
+        self.panels["COLUMNS"].set_values(mean.mean(axis=0))
+        self.panels["ROWS"].set_values(mean.mean(axis=1))
+
+    def _refresh_profiles(self) -> None:
+        if not self._need(PROFILES):
+            return
+        ev = self.last_result
+        if ev is None or ev.mean is None:
+            self.profiles.update(None, [])
         else:
-            self.panels["MEAN SIGNAL"].set_values(mean)
-            self.panels["NOISE"].set_values(np.sqrt(np.clip(var, 0, None)))
-            self.panels["COLUMNS"].set_values(mean.mean(axis=0))
-            self.panels["ROWS"].set_values(mean.mean(axis=1))
-        self.profiles.update(ev.mean, self.regions.active() or [(-1, full_frame(ev.mean.shape))])
-        self.components.select(self.views.engine_view(ev.mean.shape))
+            self.profiles.update(ev.mean, self.regions.active() or [(-1, full_frame(ev.mean.shape))])
 
     def _summary(self, summary: dict) -> None:
         results = summary.get("results")
