@@ -51,10 +51,19 @@ def _window(out: str):
     return app, w
 
 
-def _wait(app, cond, poll_s: float = 0.002) -> None:
-    while not cond():
-        app.processEvents()
-        time.sleep(poll_s)
+def _wait(app, cond, poll_ms: int = 20) -> None:
+    """Run the Qt event loop (as a desk session does) until ``cond()`` holds."""
+    from PySide6.QtCore import QEventLoop, QTimer
+
+    if cond():
+        return
+    loop = QEventLoop()
+    timer = QTimer()
+    timer.setInterval(poll_ms)
+    timer.timeout.connect(lambda: cond() and loop.quit())
+    timer.start()
+    loop.exec()
+    timer.stop()
 
 
 def gui(out: str) -> dict:
@@ -75,7 +84,7 @@ def stop(out: str, stops: int) -> dict:
         _wait(app, lambda: w.session.progress.stage >= 4 + k % 3 and w.session.progress.frame >= 3)
         t0 = time.perf_counter()
         w.stop_scan()
-        _wait(app, lambda: w.buttons.start.isEnabled(), 0.001)
+        _wait(app, lambda: w.buttons.start.isEnabled(), 1)
         lat.append(time.perf_counter() - t0)
         _wait(app, lambda: not w.running and not w.finishing)  # reports finish before the next run
     return {"latencies": lat}
