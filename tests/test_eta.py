@@ -47,3 +47,39 @@ def test_first_stage_one_off_work_and_slow_frames_do_not_dominate():
 def test_nothing_measured_gives_the_prior():
     assert Eta(10, 2, prior_s=3.0).remaining(0.0) == 3.0
     assert Eta(10, 2).remaining(0.0) is None
+
+
+def test_dark_and_flat_frames_are_charged_at_their_own_rates():
+    """A dark stack costs 1 ms a frame, a flat one 4 ms (a bright simulated frame clips, a
+    real one is read out longer): after one flat stage the time left is within 5 % of the
+    truth at every later stage's first frame, where one rate for all frames (the previous
+    stack's, a dark) reads far low."""
+    stages = [("dark", 32, 0.0)] + [("flat", 16, 16)] * 10  # (scene, frames, matched dark frames)
+    kinds = {"dark": 32 + 10 * 16, "flat": 10 * 16}
+    rate = {"dark": 0.001, "flat": 0.004}
+    work = 0.02
+    plan = []  # (kind, frames) stacks in order
+    for scene, n, nd in stages:
+        plan.append([("dark", nd)] if nd else [])
+        plan[-1].append((scene, n))
+    total = sum(n * rate[k] for stacks in plan for k, n in stacks) + work * len(plan)
+    for per_kind in (True, False):
+        eta = Eta(sum(kinds.values()), len(plan), 0.0, frames_by_kind=kinds if per_kind else None)
+        t, errors = 0.0, []
+        for i, stacks in enumerate(plan):
+            for j, (kind, n) in enumerate(stacks):
+                eta.stage_started(t, kind if per_kind else None)
+                if j == 0:
+                    t += work / 2
+                for f in range(n):
+                    t += rate[kind]
+                    eta.frame(t)
+                    if i >= 2 and kind == "flat" and f == 0:
+                        errors.append(eta.remaining(t) / (total - t) - 1)
+            t += work / 2
+            eta.stage_finished(t)
+        worst = max(abs(e) for e in errors)
+        if per_kind:
+            assert worst < 0.05, errors
+        else:
+            assert worst > 0.2  # the single-rate estimate this replaces

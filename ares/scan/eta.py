@@ -2,8 +2,13 @@
 loops, the latest stack's rate) and seconds per stage outside them (settling, the stage's analysis and its write),
 instead of frames left / overall frame rate -- which counts none of a stage's end work
 before the first stage has ended, and so reads 40-60 % low early in a scan. The per-stage
-time is the median over the finished stages, so the first stage's one-off work (imports,
-the defect mask) does not inflate every later estimate.
+time is the median over the latest three finished stages after the first, so the first
+stage's one-off work (imports, the defect mask) does not inflate every later estimate.
+
+Frames are timed per kind (``dark`` and ``flat`` stacks: a simulated or real dark frame
+costs less than a bright one that clips), so frames left of each kind are charged at
+their own kind's latest rate -- the dark first stage no longer sets the rate of the
+flats after it.
 
 ``Eta`` is fed event times by the runner and knows nothing of clocks itself (tests give
 it made-up times)."""
@@ -14,8 +19,12 @@ import statistics
 
 
 class Eta:
-    def __init__(self, frames_total: int, stages_total: int, prior_s: float = 0.0):
+    def __init__(self, frames_total: int, stages_total: int, prior_s: float = 0.0,
+                 frames_by_kind: dict[str, int] | None = None):
         self.frames_total = frames_total
+        self.left = dict(frames_by_kind or {"": frames_total})  # frames still to come, per kind
+        self.kind = next(iter(self.left))
+        self.rates: dict[str, tuple[float, int]] = {}  # kind -> its latest finished stack (s, intervals)
         self.stages_total = stages_total
         self.prior_s = prior_s  # the hardware-time estimate, used until something is measured
         self.t_frames = 0.0  # seconds between consecutive frames of a stack
@@ -29,12 +38,16 @@ class Eta:
         self._stage_t0: float | None = None  # when the current stage started
         self._stage_frames = 0.0  # frame-loop seconds of the current stage
 
-    def stage_started(self, t: float) -> None:
-        """A stack of the current stage starts at ``t`` (a stage may grab a dark and a flat)."""
+    def stage_started(self, t: float, kind: str | None = None) -> None:
+        """A stack of the current stage starts at ``t`` (a stage may grab a dark and a flat);
+        ``kind`` is one of the ``frames_by_kind`` keys."""
         if self._stage_t0 is None:
             self._stage_t0 = t
         if self._stack[1]:
             self._prev_stack = (self._stack[0], self._stack[1])
+            self.rates[self.kind] = self._prev_stack
+        if kind is not None and kind in self.left:
+            self.kind = kind
         self._stack = [0.0, 0]
         self._last = None
 
@@ -47,11 +60,15 @@ class Eta:
             self._stack[1] += 1
         self._last = t
         self.frames_done += 1
+        self.left[self.kind] = max(self.left[self.kind] - 1, 0)
 
     def stage_finished(self, t: float) -> None:
         if self._stage_t0 is not None:
             self.overheads.append(max(t - self._stage_t0 - self._stage_frames, 0.0))
-            self._per_stage = statistics.median(self.overheads)
+            # the first stage's one-off work (imports, the defect mask) is left out once
+            # another stage has been timed, and only the latest three count: a stage's end
+            # work drifts over a scan (warm caches; saturated levels analyse faster)
+            self._per_stage = statistics.median((self.overheads[1:] or self.overheads)[-3:])
         self._stage_t0, self._stage_frames, self._last = None, 0.0, None
 
     def remaining(self, t: float) -> float | None:
@@ -65,8 +82,16 @@ class Eta:
             sec, n = self._stack if self._stack[1] else (self.t_frames, self.n_frames)
         else:
             sec, n = self._prev_stack
-        per_frame = sec / n
-        left = (self.frames_total - self.frames_done) * per_frame
+        latest = sec / n
+        left = 0.0
+        for kind, frames in self.left.items():  # each kind at its own latest rate
+            if kind == self.kind and (self._stack[1] >= 4 or kind not in self.rates):
+                rate = latest
+            elif kind in self.rates:
+                rate = self.rates[kind][0] / self.rates[kind][1]
+            else:
+                rate = latest  # not measured yet: the nearest we have
+            left += frames * rate
         if not self.overheads:
             return left  # no stage has ended yet: its end work is not known
         per_stage = self._per_stage

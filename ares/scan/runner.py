@@ -202,7 +202,7 @@ class Runner:
         self._frames_done = 0
         self._t0 = time.monotonic()
         self._est = self.estimate_seconds()
-        self._eta = Eta(self._frames_total, len(stages), self._est)
+        self._eta = Eta(self._frames_total, len(stages), self._est, frames_by_kind=_frames_by_kind(stages))
         run_dir = str(writer.dir) if writer else None
         self._emit(ev.RunStarted(run_dir, len(stages), self._frames_total, self._est))
         cache = None  # last dark StackSet that a matched dark may reuse
@@ -374,7 +374,8 @@ class Runner:
                       mask=mask.mask if mask is not None else None)
         if mask is None and not dark and st.scene == "dark" and n * shape[0] * shape[1] * 2 <= KEEP_FOR_MASK_BYTES:
             ss.kept = []  # the stage a defect mask will be built from: keep its frames to mask it too
-        self._eta.stage_started(time.monotonic() - self._t0)  # waiting for a first frame is stage work
+        self._eta.stage_started(time.monotonic() - self._t0,  # waiting for a first frame is stage work
+                                "dark" if dark or st.scene == "dark" else "flat")
         it = iter(src.grab(n))
         k = 0
         try:
@@ -424,6 +425,17 @@ def _position(bench) -> dict | None:
     """The frame source's stream position where it can tell one (the simulator), else None."""
     fn = getattr(bench.frames, "position", None)
     return fn() if callable(fn) else None
+
+
+def _frames_by_kind(stages) -> dict[str, int]:
+    """Frames the scan grabs of dark and of lit scenes (the time remaining charges each at
+    its own rate)."""
+    out = {"dark": 0, "flat": 0}
+    for st in stages:
+        dark_part = st.dark_frames if st.dark_source == "grab" else 0
+        out["dark" if st.scene == "dark" else "flat"] += st.frames_to_grab() - dark_part
+        out["dark"] += dark_part
+    return out
 
 
 def _finish_quietly(writer, status: str, message: str) -> None:
