@@ -198,6 +198,8 @@ class MainWindow(QMainWindow):
         views, labels = channels() if callable(channels) else ({}, {})
         self.session.views.region_names = dict(getattr(job, "region_names", {}) or {})
         self.session.views.set_channels(views, labels)
+        units = getattr(job, "setting_units", None)
+        self.session.sweep.units = units() if callable(units) else {}
 
     def set_job_factory(self, factory: Callable[[], engine.Job], path: str | None = None) -> None:
         """Use ``factory()`` to make the job each Start Scan (and each Auto Repeat) runs."""

@@ -231,6 +231,19 @@ class RunnerJob:
 
         return [Region(True, True, r.x, r.y, r.width, r.height) for r in self.scan.regions]
 
+    def setting_units(self) -> dict[str, str]:
+        """Unit of every setting a stage can carry (register fields and quantities), from the system XML."""
+        system = self.scan.system
+        out = {f"reg:{f.name}": f.unit for f in (system.registers.fields if system.registers else ()) if f.unit}
+        for q in ("exposure", "analog_gain"):
+            f = system.control_field(q)
+            out[q] = (f.unit if f is not None and f.unit else {"exposure": "s", "analog_gain": "x"}[q])
+        dev = system.light_source
+        out["light"] = dev.unit if dev is not None and dev.unit else (
+            "photons/pixel/s" if system.simulator is not None else "")
+        out["temperature"] = "°C"
+        return {k: v for k, v in out.items() if v}
+
     def channel_views(self) -> tuple[dict, dict]:
         """The engine's Bayer-phase and ADC-channel views of the sensor (slices) and their labels."""
         from ares.scan.results import views
@@ -325,9 +338,15 @@ class RunnerJob:
             dvar = dark.get("var_dn2")
             if var is not None and dvar is not None:
                 point = (level["mean_dn"] - dark["mean_dn"], var - dvar)
+        values = quantities(full)
+        from ares.scan.analyses import stage_lag_cycle
+
+        cycle = stage_lag_cycle(r)  # dark="after": this stage is a bright->dark cycle
+        if cycle is not None and cycle[0].available:
+            values["image lag (%)"] = cycle[0].value
         return G.StageResult(e.index + 1, r["name"], e.arrays["mean"], e.arrays["variance"], r["frames"],
                              dark=(r["scene"] == "dark"), settings=dict(r["settings"]), ptc_point=point,
                              ptc_view="full", group=r.get("group", ""), coords=tuple(r.get("coords") or ()),
-                             quantities=quantities(full),
+                             quantities=values,
                              components={v: {k: d[k] for k in ("components", "dark_components") if k in d}
                                          for v, d in r["views"].items()})

@@ -64,7 +64,7 @@ class StageSpec:
     name: str
     scene: str  # "dark" or "flat"
     frames: int | None = None  # None: the scan's <frames>
-    dark: str = "none"  # "matched": also grab a dark stack at the same settings
+    dark: str = "none"  # "matched": also grab a dark stack at the same settings (before the flat); "after": after it
     dark_frames: int | None = None
     settings: tuple[Setting, ...] = ()
     axes: tuple[Axis, ...] = ()  # empty: one stage; 1 or 2 axes: a sweep (first axis outermost)
@@ -308,8 +308,8 @@ def scan_from_tree(tree, path, system: System | None = None, system_path=None) -
             n *= len(a.grid())
         total += n
         scene, dark = el.get("scene"), el.get("dark", "none")
-        if scene == "dark" and dark == "matched":
-            raise fail(path, el.sourceline, f"stage '{el.get('name')}': dark='matched' only applies to a flat scene")
+        if scene == "dark" and dark != "none":
+            raise fail(path, el.sourceline, f"stage '{el.get('name')}': dark='{dark}' only applies to a flat scene")
         if scene == "dark" and any(a.key == "light" for a in axes):
             raise fail(path, el.sourceline, f"stage '{el.get('name')}' is dark but sweeps the light level")
         fr, dfr = el.get("frames"), el.get("dark_frames")

@@ -249,33 +249,65 @@ def gain_split(run) -> dict:
             "chi2_red": r.chi2_red}
 
 
-@register_scan_analysis("lag")
-def lag(run, settle: int = 2) -> dict:
-    """Each flat stage followed by a dark stage is one bright->dark cycle (frame means)."""
+LAG_SETTLE = 2  # frames of each stack left out as settling
+
+
+def lag_cycle(fb: list, fd: list, settle: int = LAG_SETTLE):
+    """Image lag of one bright->dark cycle from its frame means (the bright stack's, then
+    the dark stack's right after it): (Estimate in %, bright signal in DN), or None when
+    a stack has no more than ``settle`` frames."""
     import numpy as np
 
     from ares.analysis.lag import image_lag
 
+    if len(fb) <= settle or len(fd) <= settle:
+        return None
+    with np.errstate(all="ignore"), warnings.catch_warnings():
+        warnings.simplefilter("ignore", RuntimeWarning)  # 1-pixel "images": pixel-scatter SE undefined
+        r = image_lag(np.array(fb[settle:])[:, None, None], np.array([[fd[0]]]),
+                      np.array(fd[settle:])[:, None, None])
+    est = r.lag_pct
+    if est.available and not math.isfinite(est.se) and len(fd) > settle + 1:
+        se = 100 * float(np.std(fd[settle:], ddof=1)) / r.bright_signal_dn
+        est = Estimate(est.value, se, "%", "frame means; SE from the scatter of the settled dark frame means")
+    return est, r.bright_signal_dn
+
+
+def stage_lag_cycle(stage: dict):
+    """The cycle inside a stage whose matched dark was grabbed after its flat (dark="after")."""
+    if not stage.get("dark_after"):
+        return None
+    full = stage["views"]["full"]
+    return lag_cycle(full["level"].get("frame_means") or [], (full.get("dark_level") or {}).get("frame_means") or [])
+
+
+@register_scan_analysis("lag")
+def lag(run, settle: int = LAG_SETTLE) -> dict:
+    """Each bright->dark cycle: a flat stage followed by a dark stage, or a flat stage with
+    its matched dark grabbed after it (``dark="after"``, e.g. every point of a 2-D bias
+    sweep, which gives a lag map over the two axes)."""
     out = {}
-    for a, b in zip(run.stages, run.stages[1:]):
-        if a["scene"] != "flat" or b["scene"] != "dark":
+    for k, a in enumerate(run.stages):
+        if a["scene"] != "flat":
             continue
-        fb = a["views"]["full"]["level"].get("frame_means") or []
-        fd = b["views"]["full"]["level"].get("frame_means") or []
-        if len(fb) <= settle or len(fd) <= settle:
+        if a.get("dark_after"):
+            dark_name, cyc = f"{a['name']} (its matched dark, after)", stage_lag_cycle(a)
+        elif k + 1 < len(run.stages) and run.stages[k + 1]["scene"] == "dark":
+            b = run.stages[k + 1]
+            dark_name = b["name"]
+            cyc = lag_cycle(a["views"]["full"]["level"].get("frame_means") or [],
+                            b["views"]["full"]["level"].get("frame_means") or [], settle)
+        else:
             continue
-        with np.errstate(all="ignore"), warnings.catch_warnings():
-            warnings.simplefilter("ignore", RuntimeWarning)  # 1-pixel "images": pixel-scatter SE undefined
-            r = image_lag(np.array(fb[settle:])[:, None, None], np.array([[fd[0]]]),
-                          np.array(fd[settle:])[:, None, None])
-        est = r.lag_pct
-        if est.available and not math.isfinite(est.se) and len(fd) > settle + 1:
-            se = 100 * float(np.std(fd[settle:], ddof=1)) / r.bright_signal_dn
-            est = Estimate(est.value, se, "%", "frame means; SE from the scatter of the settled dark frame means")
-        out[a["name"]] = {"dark_stage": b["name"], "lag_pct": _e(est), "bright_signal_dn": r.bright_signal_dn,
-                          "settings": {k: v for k, v in a["settings"].items() if k != "light"}}
+        if cyc is None:
+            continue
+        est, bright = cyc
+        out[a["name"]] = {"dark_stage": dark_name, "lag_pct": _e(est), "bright_signal_dn": bright,
+                          "settings": {k_: v for k_, v in a["settings"].items() if k_ != "light"},
+                          "coords": list(a.get("coords") or ())}
     if not out:
-        return {"status": "not available", "note": f"needs flat stages followed by dark stages of > {settle} frames"}
+        return {"status": "not available", "note": f"needs flat stages followed by dark stacks of > {settle} frames "
+                                                   "(a dark stage next, or dark=\"after\")"}
     return {"cycles": out}
 
 

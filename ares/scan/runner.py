@@ -233,7 +233,9 @@ class Runner:
                 try:
                     dark = None
                     pos["dark"] = _position(bench)
-                    if st.dark_source == "grab":
+                    if st.dark_after:
+                        pass  # grabbed after the flat, below
+                    elif st.dark_source == "grab":
                         apply_settings(bench, system, st.dark_settings, applied, self._cancelled)
                         applied = st.dark_settings
                         dark = self._grab(bench, st, st.dark_frames, vw, max_code, fw, dark=True)
@@ -248,6 +250,11 @@ class Runner:
                     applied = dict(st.settings)
                     pos["flat"] = _position(bench)
                     flat = self._grab(bench, st, st.frames, vw, max_code, fw, dark=False)
+                    if st.dark_after:  # the bright->dark cycle the lag analysis reads
+                        pos["dark"] = _position(bench)
+                        apply_settings(bench, system, st.dark_settings, applied, self._cancelled)
+                        applied = st.dark_settings
+                        dark = self._grab(bench, st, st.dark_frames, vw, max_code, fw, dark=True)
                     pos["end"] = _position(bench)
                 except FrameLost as exc:  # dropped/corrupt/short frames: acquire the stage again, or fail
                     if fw is not None:
@@ -303,6 +310,8 @@ class Runner:
             for stack in (flat, dark):
                 if stack is not None:
                     stack.drop_maps()
+            if st.dark_after:
+                result["dark_after"] = True  # its matched dark followed the flat: a bright->dark cycle
             if pos.get("end") is not None:
                 result["bench_position"] = pos  # where the frame stream stood (ares resume)
             if suspensions:

@@ -5,7 +5,9 @@ stage's ``<set>``s, then its axis values (later ones win), plus ``light = 0`` fo
 scene. A flat stage with ``dark="matched"`` gets a dark stack at the same settings with
 the light off; consecutive stages with the same dark settings share it
 (``dark_source = "reuse"``), so a light sweep takes one dark, an exposure sweep one per
-exposure.
+exposure. With ``dark="after"`` the matched dark is grabbed right after the flat, never
+reused: every stage is then a bright->dark cycle at its own settings, which the lag
+analysis reads (a 2-D bias sweep gives a lag map).
 """
 
 from __future__ import annotations
@@ -34,6 +36,7 @@ class Stage:
     dark_frames: int = 0  # matched dark frames (0: none)
     dark_source: str = "none"  # "none", "grab" or "reuse" (same dark settings as the previous matched dark)
     coords: tuple[int, ...] = ()
+    dark_after: bool = False  # the matched dark is grabbed after the flat (dark="after")
 
     @property
     def dark_settings(self) -> dict:
@@ -66,7 +69,10 @@ def expand(scan: Scan, frames: int | None = None) -> list[Stage]:
             st = {k: float(st[k]) for k in sorted(st, key=_order)}
             n = frames or spec.frames or scan.frames
             nd, source = 0, "none"
-            if spec.scene == "flat" and spec.dark == "matched":
+            if spec.scene == "flat" and spec.dark == "after":
+                nd, source = frames or spec.dark_frames or n, "grab"
+                last_dark = (_key({**st, "light": 0.0}), nd)
+            elif spec.scene == "flat" and spec.dark == "matched":
                 nd = frames or spec.dark_frames or n
                 dk = (_key({**st, "light": 0.0}), nd)
                 source = "reuse" if dk == last_dark else "grab"
@@ -74,7 +80,8 @@ def expand(scan: Scan, frames: int | None = None) -> list[Stage]:
             elif spec.scene == "dark":
                 last_dark = (_key(st), n)  # a dark stage can serve as the next matched dark
             name = spec.name + (f"[{','.join(str(c) for c in coords)}]" if spec.axes else "")
-            out.append(Stage(len(out), name, spec.name, spec.scene, n, st, nd, source, tuple(coords)))
+            out.append(Stage(len(out), name, spec.name, spec.scene, n, st, nd, source, tuple(coords),
+                             dark_after=spec.dark == "after"))
     return out
 
 

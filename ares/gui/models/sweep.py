@@ -49,6 +49,7 @@ def _axis_key(points: list[SweepPoint], k: int) -> str | None:
 class SweepModel(Observable):
     def __init__(self) -> None:
         super().__init__()
+        self.units: dict[str, str] = {}  # setting key -> unit, from the system XML
         self.points: list[SweepPoint] = []
         self.quantity: str | None = None
 
@@ -97,7 +98,9 @@ class SweepModel(Observable):
             values = np.full(n, np.nan)
             for p in pts:
                 values[p.coords[k]] = p.settings.get(key, p.coords[k]) if key else p.coords[k]
-            out.append((key.removeprefix("reg:") if key else f"index {k + 1}", values))
+            unit = self.units.get(key, "") if key else ""
+            name = key.removeprefix("reg:") if key else f"index {k + 1}"
+            out.append((f"{name} ({unit})" if unit else name, values))
         return out
 
     def curve(self) -> tuple[np.ndarray, np.ndarray]:
