@@ -398,6 +398,18 @@ def test_photon_transfer_scan_fills_defect_counts_and_information(window, qtbot,
     table = window.defects.table
     assert table.rowCount() == len(names) and table.item(0, 0).text() == names[0]
     assert s.defects.caption.startswith("Scan-level defect classification")
+    rows = {r.name: r for r in s.defects.rows}
+    assert rows["hot"].criterion.startswith("dark rate > ")  # the rule with the scan's thresholds, filled
+    assert rows["noisy"].count is None and rows["noisy"].criterion.startswith("not available: ")  # 3 frames
+    assert table.item(names.index("noisy"), 1).text() == "n/a"
+    # the defect map over the live image and the signal map, one colour per class
+    assert window.preview.overlay_items == [] and window.defects.overlay.isEnabled()
+    window.defects.overlay.setChecked(True)
+    drawn = {i.name(): len(i.data) for i in window.preview.overlay_items}
+    assert drawn["hot"] == rows["hot"].count and drawn["dead"] == rows["dead"].count
+    assert len(window.signal_map.overlay_items) == len(window.preview.overlay_items)
+    window.defects.overlay.setChecked(False)
+    assert window.preview.overlay_items == []
     assert "PTC: conversion gain" in s.info.items and "defect thresholds" in s.info.items
     assert s.info.items["scan"] == path
 

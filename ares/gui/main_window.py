@@ -58,12 +58,12 @@ class MainWindow(QMainWindow):
         self.controls = ControlTabs(s)
         self.preview = ImagePlot(s.preview, cmap="CET-L1",  # monochrome, as the sensor sees it
                                  on_edit=lambda row, x, y, w, h: s.regions.update(row, x=x, y=y, width=w, height=h),
-                                 on_new=self._new_region)
+                                 on_new=self._new_region, overlay=s.defects)
         self.progress_line = ProgressLine(s.progress)
         self.results = ResultsTab(s)
         self.distributions = DistributionsView(s)
         self.profiles = ProfilesView(s.profiles)
-        self.signal_map = ImagePlot(s.signal_map)
+        self.signal_map = ImagePlot(s.signal_map, overlay=s.defects)
         self.noise_map = ImagePlot(s.noise_map)
         self.ptc = PTCView(s.ptc)
         self.sweep = SweepView(s.sweep)

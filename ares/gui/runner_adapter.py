@@ -57,6 +57,14 @@ def summarize(scan_results: dict, thresholds: tuple = ()) -> dict:
         counts = defects.get("counts")
         if isinstance(counts, dict) and counts:
             out["defects"] = {str(k): int(v) for k, v in counts.items() if isinstance(v, (int, float))}
+            out["defect_criteria"] = {str(k): str(v) for k, v in (defects.get("criteria") or {}).items()}
+            for k, v in counts.items():  # a class the run could not test: its row says why
+                if v is None and k in out["defect_criteria"]:
+                    out["defects"][str(k)] = None
+            if defects.get("locations") is not None and defects.get("shape"):
+                out["defect_map"] = {"shape": tuple(defects["shape"]), "locations": defects["locations"],
+                                     "bad_column_x": defects.get("bad_column_x") or [],
+                                     "bad_row_y": defects.get("bad_row_y") or []}
             if isinstance(defects.get("pixels"), int):
                 out["pixels"] = defects["pixels"]
             parts = []

@@ -341,7 +341,19 @@ def defects(run, overrides: dict | None = None) -> dict:
             "warnings": list(res.warnings), "notes": list(res.notes),
             "passed": bool(getattr(res, "passed", True)),
             "limits": res.limits, "dark_stages": [s["name"] for s in darks],
-            "flat_stage": flat["name"] if flats else None, **_locations(res)}
+            "flat_stage": flat["name"] if flats else None, "criteria": _criteria(th, res), **_locations(res)}
+
+
+def _criteria(th, res) -> dict[str, str]:
+    """Per class: its rule with the scan's thresholds, plus what this run's frames can
+    detect (or why the class is not available)."""
+    out = {}
+    for cls, rule in th.rules().items():
+        if cls in res.unavailable:
+            out[cls] = "not available: " + res.unavailable[cls]
+        else:
+            out[cls] = rule + (f"; {res.detection[cls]}" if cls in res.detection else "")
+    return out
 
 
 MAX_LOCATIONS = 5000  # per class, for the report's defect map (the counts are always complete)

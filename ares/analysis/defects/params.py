@@ -123,6 +123,27 @@ class DefectThresholds:
     max_cluster_size: int | None = None
     max_total: int | None = None
 
+    def rules(self) -> dict[str, str]:
+        """The rule that puts a pixel in each class, with these thresholds (the criterion a
+        defect table shows next to each count)."""
+        return {
+            "hot": f"dark rate > {self.hot_e_per_s:g} e-/s and > {self.hot_z:g} sigma above the local background",
+            "warm": f"dark rate > {self.warm_e_per_s:g} e-/s and > {self.warm_z:g} sigma (not hot)",
+            "dead": f"flat response < {self.dead_fraction:g} x the local median",
+            "low_response": f"flat response < {self.low_response_fraction:g} x the local median (not dead)",
+            "high_response": f"flat response > {self.high_response_fraction:g} x the local median",
+            "stuck": f"temporal variance < {self.stuck_var_dn2:.3g} DN^2 and response < {self.stuck_response_dn:g} DN",
+            "noisy": f"temporal variance above the chi-square limit at p = {self.noisy_p_fa:g}",
+            "rts": f"two or more levels >= {self.rts_min_separation:g} sigma apart, each >= "
+                   f"{100 * self.rts_min_occupancy:g} % of >= {self.rts_min_frames} frames",
+            "bad_columns": f">= {self.line_hot_count} hot or {self.line_dead_count} dead pixels, or a mean "
+                           f"> {self.line_z:g} sigma off, or noise > {self.line_noise_factor:g} x",
+            "bad_rows": f">= {self.line_hot_count} hot or {self.line_dead_count} dead pixels, or a mean "
+                        f"> {self.line_z:g} sigma off, or noise > {self.line_noise_factor:g} x",
+            "clusters": f">= {self.cluster_min_size} defective pixels touching",
+            "total": "every defective pixel, each counted once",
+        }
+
     def __post_init__(self) -> None:
         def bad(name: str, why: str) -> InputError:
             return InputError(f"defect parameter {name}={getattr(self, name)!r} {why}")

@@ -2,17 +2,34 @@
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 
+import numpy as np
+
 from .observable import Observable
+
+
+# one colour per class, shared by the table and the overlay on the images
+DEFECT_COLORS = {"hot": (220, 30, 30), "warm": (240, 140, 0), "dead": (0, 0, 0), "stuck": (150, 60, 200),
+                 "noisy": (30, 120, 220), "rts": (0, 170, 170), "low_response": (120, 120, 0),
+                 "high_response": (20, 160, 60)}
 
 
 @dataclass(frozen=True)
 class DefectRow:
     name: str
-    count: int
+    count: int | None  # None: the class could not be tested with this run (the criterion says why)
     ppm: float
     criterion: str = ""
+
+    @property
+    def count_text(self) -> str:
+        return "n/a" if self.count is None else str(self.count)
+
+    @property
+    def ppm_text(self) -> str:
+        return "n/a" if self.count is None else f"{self.ppm:.1f}"
 
 
 class DefectCountsModel(Observable):
@@ -20,20 +37,38 @@ class DefectCountsModel(Observable):
         super().__init__()
         self.rows: list[DefectRow] = []
         self.caption = ""
+        self.map: dict | None = None  # {"shape", "locations": {class: [[x, y], ...]}, "bad_column_x", "bad_row_y"}
+        self.overlay = False  # draw the map over the images
 
-    def set_counts(self, counts: dict[str, int], total_pixels: int,
+    def set_counts(self, counts: dict[str, int | None], total_pixels: int,
                    criteria: dict[str, str] | None = None, caption: str = "") -> None:
         criteria = criteria or {}
         total = max(int(total_pixels), 1)
         self.rows = [
-            DefectRow(name, int(n), 1e6 * int(n) / total, criteria.get(name, ""))
+            DefectRow(name, None if n is None else int(n), math.nan if n is None else 1e6 * int(n) / total,
+                      criteria.get(name, ""))
             for name, n in counts.items()
         ]
         self.caption = caption
         self._changed()
 
+    def set_map(self, defect_map: dict | None) -> None:
+        self.map = defect_map
+        self._changed()
+
+    def set_overlay(self, on: bool) -> None:
+        self.overlay = bool(on)
+        self._changed()
+
+    def points(self) -> dict[str, np.ndarray]:
+        """Class -> (N, 2) array of [x, y] pixel positions, when the overlay is on."""
+        if not self.overlay or not self.map:
+            return {}
+        return {cls: np.asarray(pts, dtype=np.float64).reshape(-1, 2)
+                for cls, pts in (self.map.get("locations") or {}).items() if pts}
+
     def clear(self) -> None:
-        self.rows, self.caption = [], ""
+        self.rows, self.caption, self.map = [], "", None
         self._changed()
 
 
@@ -57,7 +92,6 @@ def reclassify(run_dir: str, overrides: dict[str, str]) -> tuple[dict[str, int],
     res = defects(run, overrides)
     if "counts" not in res:
         raise InputError(f"{run_dir}: defects {res.get('status', 'not available')} ({res.get('note', '')})")
-    counts = {k: v for k, v in res["counts"].items() if v is not None}
     rows, cols = run.system.sensor.rows, run.system.sensor.cols
     what = ", ".join(f"{k} = {v}" for k, v in overrides.items()) or "the scan's thresholds"
-    return counts, rows * cols, f"re-classified from {run_dir} with {what}"
+    return dict(res["counts"]), rows * cols, f"re-classified from {run_dir} with {what}", res

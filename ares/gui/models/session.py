@@ -296,3 +296,4 @@ class SessionModel:
                 self.last_result.mean.size if self.last_result is not None else 1)
             self.defects.set_counts(defects, total, summary.get("defect_criteria"),
                                     caption=summary.get("defect_caption", "scan summary"))
+            self.defects.set_map(summary.get("defect_map"))

@@ -4,10 +4,11 @@
 from __future__ import annotations
 
 from PySide6.QtCore import Qt
-from PySide6.QtWidgets import (QHeaderView, QLabel, QPushButton, QTableWidget, QTableWidgetItem, QVBoxLayout,
+from PySide6.QtGui import QColor
+from PySide6.QtWidgets import (QCheckBox, QHeaderView, QLabel, QPushButton, QTableWidget, QTableWidgetItem, QVBoxLayout,
                                QWidget)
 
-from ..models.defects import DefectCountsModel, reclassify, threshold_defaults
+from ..models.defects import DEFECT_COLORS, DefectCountsModel, reclassify, threshold_defaults
 
 
 class DefectCountsView(QWidget):
@@ -23,9 +24,12 @@ class DefectCountsView(QWidget):
         self.table.horizontalHeader().setSectionResizeMode(QHeaderView.ResizeMode.ResizeToContents)
         self.table.horizontalHeader().setStretchLastSection(True)
         self.table.setEditTriggers(QTableWidget.EditTrigger.NoEditTriggers)
+        self.overlay = QCheckBox("Show the defect map on the images (colours as in the first column)")
+        self.overlay.toggled.connect(model.set_overlay)
         lay = QVBoxLayout(self)
         lay.addWidget(self.caption)
         lay.addWidget(self.table, 3)
+        lay.addWidget(self.overlay)
         self.defaults = dict(threshold_defaults())
         self.thresholds = QTableWidget(len(self.defaults), 2)
         self.thresholds.setHorizontalHeaderLabels(("Threshold / limit", "Value (empty = default / none)"))
@@ -48,8 +52,14 @@ class DefectCountsView(QWidget):
         self.caption.setText(self.model.caption or "No defect counts yet: the engine reports them when a stage or scan that classifies defects finishes.")
         self.table.setRowCount(len(rows))
         for r, row in enumerate(rows):
-            for c, text in enumerate((row.name, str(row.count), f"{row.ppm:.1f}", row.criterion)):
-                self.table.setItem(r, c, QTableWidgetItem(text))
+            for c, text in enumerate((row.name, row.count_text, row.ppm_text, row.criterion)):
+                item = QTableWidgetItem(text)
+                if c == 0 and row.name in DEFECT_COLORS:  # the overlay's colour for this class
+                    item.setForeground(QColor(*DEFECT_COLORS[row.name]))
+                if c == 3:
+                    item.setToolTip(text)
+                self.table.setItem(r, c, item)
+        self.overlay.setEnabled(bool(self.model.map))
 
     def set_threshold(self, name: str, value: str) -> None:
         row = list(self.defaults).index(name)
@@ -66,10 +76,11 @@ class DefectCountsView(QWidget):
 
     def reclassify(self) -> None:
         try:
-            counts, pixels, caption = reclassify(self.run_dir(), self.overrides())
+            counts, pixels, caption, res = reclassify(self.run_dir(), self.overrides())
         except Exception as exc:  # noqa: BLE001 -- one sentence, never a traceback
             from ..worker import one_sentence
 
             self.on_error(one_sentence(exc))
             return
-        self.model.set_counts(counts, pixels, caption=caption)
+        self.model.set_counts(counts, pixels, res.get("criteria"), caption=caption)
+        self.model.set_map({k: res[k] for k in ("shape", "locations", "bad_column_x", "bad_row_y") if k in res})

@@ -20,7 +20,7 @@ from . import region_color
 
 class ImagePlot(QWidget):
     def __init__(self, model: ImageModel, parent: QWidget | None = None, colorbar: bool = True,
-                 cmap: str = "viridis", on_edit=None, on_new=None) -> None:
+                 cmap: str = "viridis", on_edit=None, on_new=None, overlay=None) -> None:
         super().__init__(parent)
         self.model = model
         self.on_edit = on_edit
@@ -66,6 +66,10 @@ class ImagePlot(QWidget):
         lay.addLayout(top)
         lay.addWidget(self.plot, 1)
         self._shape = None
+        self.overlay_items: list = []
+        self.overlay = overlay  # a DefectCountsModel: its map drawn over the image when switched on
+        if overlay is not None:
+            overlay.subscribe(lambda _: self._draw_overlay())
         model.subscribe(lambda _: self.refresh())
         self.refresh()
 
@@ -119,6 +123,30 @@ class ImagePlot(QWidget):
         w, h = (max(1, int(round(v))) for v in roi.size())
         # later, not inside the ROI's own signal: the edit redraws (and so deletes) this ROI
         QTimer.singleShot(0, lambda: self.on_edit(row, x, y, w, h))
+
+    def _draw_overlay(self) -> None:
+        from ..models.defects import DEFECT_COLORS
+
+        for item in self.overlay_items:
+            self.plot.removeItem(item)
+        self.overlay_items = []
+        m = self.overlay
+        for cls, pts in m.points().items():
+            color = DEFECT_COLORS.get(cls, (90, 90, 90))
+            item = pg.ScatterPlotItem(pts[:, 0] + 0.5, pts[:, 1] + 0.5, size=9, symbol="s", brush=None,
+                                      pen=pg.mkPen(color, width=1.5), name=cls)
+            self.plot.addItem(item)
+            self.overlay_items.append(item)
+        if m.overlay and m.map:
+            pen = pg.mkPen((220, 30, 30), width=1, style=Qt.PenStyle.DashLine)
+            for x in m.map.get("bad_column_x") or []:
+                line = pg.InfiniteLine(x + 0.5, angle=90, pen=pen)
+                self.plot.addItem(line)
+                self.overlay_items.append(line)
+            for y in m.map.get("bad_row_y") or []:
+                line = pg.InfiniteLine(y + 0.5, angle=0, pen=pen)
+                self.plot.addItem(line)
+                self.overlay_items.append(line)
 
     def drag_to(self, start, end, finish: bool) -> None:
         """A New Region drag from ``start`` to ``end`` (image coordinates): a rubber band
