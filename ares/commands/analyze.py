@@ -36,21 +36,27 @@ def add_arguments(p) -> None:
     p.add_argument("--json", action="store_true", help="print JSON keyed by component name")
 
 
-def _accumulate(specs, roi_text, what):
+def accumulate_files(specs, roi_text, what, on_frame=None):
+    """The stack's accumulator (``on_frame(k, frame)`` sees each frame: the GUI's Input
+    Images preview, which analyses files exactly as this command does)."""
     from ares.analysis.accumulate import StackAccumulator
     from ares.analysis.regions import parse_roi, region_selection
     from ares.hardware.stackfiles import iter_frames
 
     acc = sel = None
-    for frame in iter_frames(specs):
+    for k, frame in enumerate(iter_frames(specs)):
         if acc is None:
             sel = region_selection(parse_roi(roi_text), frame.shape) if roi_text else None
             shape = sel.shape(frame.shape) if sel else frame.shape
             acc = StackAccumulator(shape)
-        acc.add(sel(frame) if sel else frame)
+        part = sel(frame) if sel else frame
+        acc.add(part)
+        if on_frame is not None:
+            on_frame(k, part)
     if acc is None:
         raise InputError(f"{specs[0]}: the {what} stack holds no frames")
     return acc
+
 
 
 def _fmt(v: float) -> str:
@@ -62,9 +68,9 @@ def _fmt(v: float) -> str:
 def run(args) -> int:
     from ares.analysis.decompose import COMPONENT_NAMES, UNITS_NOTE, StackAnalysis
 
-    main = _accumulate(args.files, args.roi, "flat" if args.dark else "input")
+    main = accumulate_files(args.files, args.roi, "flat" if args.dark else "input")
     if args.dark:
-        dark = _accumulate(args.dark, args.roi, "dark")
+        dark = accumulate_files(args.dark, args.roi, "dark")
         if dark.shape != main.shape:
             raise InputError(f"dark frames {dark.shape} and flat frames {main.shape} differ in shape")
         an = StackAnalysis(dark, main, gain=args.gain, illumination=args.illumination)

@@ -103,13 +103,14 @@ class MainWindow(QMainWindow):
 
         self.result_tabs.currentChanged.connect(lambda _: self._tab_shown())
         self._tab_shown()
-        self.buttons.start.clicked.connect(self.start_scan)
+        self.buttons.start.clicked.connect(lambda: self.start_scan())
         self.buttons.stop.clicked.connect(self.stop_scan)
         self.buttons.pause.toggled.connect(self.pause_scan)
         self.buttons.abort.clicked.connect(self.abort_scan)
         self.controls.scan.open_requested.connect(self._open_dialog)
         self.controls.regions.error.connect(self.show_error)
         self.controls.inputs.image_requested.connect(self.show_image_file)
+        self.controls.inputs.analyse_requested.connect(self.analyse_images)
         self.controls.instruments.error.connect(self.show_error)
         self.controls.instruments.frame.connect(lambda image: self.show_image(image, "test frame from the bench"))
         self.controls.instruments.system_chosen.connect(self._system_chosen)
@@ -132,7 +133,7 @@ class MainWindow(QMainWindow):
             act.triggered.connect(slot)
             file_menu.addAction(act)
         scan_menu = self.menuBar().addMenu("&Scan")
-        for text, slot in (("Start Scan", self.start_scan), ("Stop Scan", self.stop_scan),
+        for text, slot in (("Start Scan", lambda: self.start_scan()), ("Stop Scan", self.stop_scan),
                            ("Abort", self.abort_scan)):
             act = QAction(text, self)
             act.triggered.connect(slot)
@@ -235,12 +236,13 @@ class MainWindow(QMainWindow):
     def previews_dropped(self) -> int:
         return sum(t.pump.dropped for t in ([self.scan_thread] if self.scan_thread else []) + self.background)
 
-    def start_scan(self) -> None:
+    def start_scan(self, job=None) -> None:
+        """Start the loaded scan (or ``job``: e.g. the Input Images analysis)."""
         if self.running:
             return
         self.controls.instruments.disconnect_bench()  # the scan opens the devices itself
         try:
-            job = self.job_factory()
+            job = job if job is not None else self.job_factory()
             options = getattr(job, "set_output", None)
             if callable(options):
                 options(self.controls.output.root())
@@ -352,6 +354,24 @@ class MainWindow(QMainWindow):
         if self.scan_path:
             self.load_scan(self.scan_path)
         self.statusBar().showMessage(f"Scans run on {path or 'their own system'}.")
+
+    def analyse_images(self, files: list, dark: list, gain) -> None:
+        """Recorded frames through ``ares analyze``'s decomposition, on the result tabs."""
+        from ares.errors import InputError
+
+        from .image_job import ImageStackJob
+
+        if self.running:
+            self.show_error("A scan is running: analyse images when it has ended.")
+            return
+        try:
+            if isinstance(gain, str) or (gain is not None and not gain > 0):
+                raise InputError(f"gain '{gain}' is not a positive number (DN/e-)")
+            job = ImageStackJob(files, dark, gain)
+        except AresError as exc:
+            self.show_error(str(exc))
+            return
+        self.start_scan(job)
 
     def show_image_file(self, path: str) -> None:
         from ares.hardware.imagefile import read_image

@@ -131,19 +131,67 @@ class OutputOptionsTab(QWidget):
 
 
 class InputImagesTab(QWidget):
+    """Recorded frames analysed as ``ares analyze`` does (files, folders, .npy/.npz,
+    file.h5:/dataset), shown on the same result tabs as a scan; or one image displayed."""
+
     image_requested = Signal(str)
+    analyse_requested = Signal(list, list, object)  # input specs, dark specs, gain in DN/e- or None
 
     def __init__(self, parent=None) -> None:
         super().__init__(parent)
         self.source = QLabel("Frames come from the bench the scan's system XML declares.")
         self.source.setWordWrap(True)
+        self.inputs, self.darks = QLineEdit(), QLineEdit()
+        for w, what in ((self.inputs, "input (flat) frames"), (self.darks, "dark frames (optional)")):
+            w.setPlaceholderText(f"{what}: files or folders, ';' between them")
+        self.gain = QLineEdit()
+        self.gain.setPlaceholderText("optional: K in DN/e- (figures also in electrons)")
+        form = QFormLayout()
+        for label, edit in (("Frames:", self.inputs), ("Dark:", self.darks)):
+            row = QHBoxLayout()
+            row.addWidget(edit, 1)
+            for text, folder in (("Files…", False), ("Folder…", True)):
+                b = QPushButton(text)
+                b.clicked.connect(lambda _=False, e=edit, f=folder: self._browse(e, f))
+                row.addWidget(b)
+            form.addRow(label, row)
+        form.addRow("Gain:", self.gain)
+        self.analyse_button = QPushButton("Analyse Images")
+        self.analyse_button.setToolTip("The 13-component decomposition of the stacks, as ares analyze.")
+        self.analyse_button.clicked.connect(self._analyse)
         self.load_button = QPushButton("Display an Image File…")
-        self.load_button.setToolTip("Show a recorded PNG/TIFF frame in the live image with its distributions.")
+        self.load_button.setToolTip("Show one recorded PNG/TIFF frame in the live image with its distributions.")
         self.load_button.clicked.connect(self._choose)
         lay = QVBoxLayout(self)
         lay.addWidget(self.source)
-        lay.addWidget(self.load_button)
+        lay.addLayout(form)
+        buttons = QHBoxLayout()
+        buttons.addWidget(self.analyse_button)
+        buttons.addWidget(self.load_button)
+        lay.addLayout(buttons)
         lay.addStretch(1)
+
+    @staticmethod
+    def specs(text: str) -> list[str]:
+        return [p.strip() for p in text.split(";") if p.strip()]
+
+    def _browse(self, edit: QLineEdit, folder: bool) -> None:
+        if folder:
+            d = QFileDialog.getExistingDirectory(self, "Folder of frames")
+            picked = [d] if d else []
+        else:
+            picked, _ = QFileDialog.getOpenFileNames(self, "Frames", "", "Frames (*.png *.tif *.tiff *.npy *.npz *.h5 "
+                                                                        "*.hdf5);;All files (*)")
+        if picked:
+            edit.setText("; ".join(picked))
+
+    def _analyse(self) -> None:
+        text = self.gain.text().strip()
+        try:
+            gain = float(text) if text else None
+        except ValueError:
+            gain = text  # the window reports it in one sentence
+        self.analyse_requested.emit(self.specs(self.inputs.text()), self.specs(self.darks.text()), gain)
 
     def _choose(self) -> None:
         path, _ = QFileDialog.getOpenFileName(self, "Display an image", "", "Images (*.png *.tif *.tiff);;All files (*)")
