@@ -696,3 +696,11 @@ def test_input_images_are_analysed_as_ares_analyze_does(window, qtbot, tmp_path)
     qtbot.mouseClick(tab.analyse_button, Qt.MouseButton.LeftButton)
     qtbot.waitUntil(lambda: idle(window), timeout=TIMEOUT_MS)
     assert "missing" in window.last_error and "\n" not in window.last_error
+
+
+def test_window_fits_a_1280x800_screen(window):
+    assert window.load_scan(PTC_SMALL)
+    hint = window.minimumSizeHint()
+    assert hint.width() <= 1280 and hint.height() <= 800, hint
+    window.resize(1280, 800)
+    assert window.width() <= 1280 and window.height() <= 800

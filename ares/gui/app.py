@@ -57,6 +57,8 @@ def open_main_window(scan: str | None = None):
     window = MainWindow()
     if scan:
         window.load_scan(scan)
-    window.resize(1400, 900)
+    screen = window.screen().availableGeometry() if window.screen() is not None else None
+    w, h = (1400, 900) if screen is None else (min(1400, screen.width()), min(900, screen.height()))
+    window.resize(w, h)  # fits a 1280x800 screen (the window's minimum width is below 1100 px)
     window.show()
     return window

@@ -9,14 +9,14 @@ from typing import Callable
 
 from PySide6.QtCore import Qt, QTimer
 from PySide6.QtGui import QAction, QKeySequence
-from PySide6.QtWidgets import (QFileDialog, QMainWindow, QMessageBox, QSplitter, QTabWidget, QVBoxLayout,
-                               QWidget)
+from PySide6.QtWidgets import QFileDialog, QMainWindow, QMessageBox, QSplitter, QTabWidget, QVBoxLayout, QWidget
 
 from ares.errors import AresError
 
 from . import engine
 from .events import Ending, Failed, Stopped
 from .info_panel import InfoPanel, versions
+from .layout import scrolled
 from .models import progress as P
 from .models.regions import Region
 from .models.session import SessionModel
@@ -74,9 +74,10 @@ class MainWindow(QMainWindow):
         self.view_bar = ViewBar(s)
         self.result_tabs = QTabWidget()
         self.result_tabs.setStyleSheet("QTabBar::tab { padding: 4px 7px; }")  # all ten tabs in view
+        self.result_tabs.setUsesScrollButtons(True)
         for w, name in zip((self.results, self.distributions, self.profiles, self.signal_map, self.noise_map,
                             self.ptc, self.sweep, self.components, self.defects, self.info), RESULT_TABS):
-            self.result_tabs.addTab(w, name)
+            self.result_tabs.addTab(scrolled(w), name)
 
         left = QSplitter(Qt.Orientation.Vertical)
         top = QWidget()

@@ -12,6 +12,7 @@ from .models import progress as P
 from .models.progress import ProgressModel
 from .models.session import SessionModel
 from .instrument_panel import InstrumentationTab
+from .layout import scrolled
 from .regions_table import RegionsTable
 
 CONTROL_TABS = ("Scan", "Regions of Analysis", "Output Options", "Input Images", "Instrumentation")
@@ -207,8 +208,9 @@ class ControlTabs(QTabWidget):
         self.output = OutputOptionsTab()
         self.inputs = InputImagesTab()
         self.instruments = InstrumentationTab()
+        self.setUsesScrollButtons(True)
         for w, name in zip((self.scan, self.regions, self.output, self.inputs, self.instruments), CONTROL_TABS):
-            self.addTab(w, name)
+            self.addTab(scrolled(w), name)
         self.setStyleSheet("QTabBar::tab { padding: 4px 7px; }")  # all five tabs fit the control column
 
 
