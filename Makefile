@@ -4,7 +4,7 @@ PY ?= python3
 VENV := .venv
 BIN := $(VENV)/bin
 
-.PHONY: run test bench gui clean
+.PHONY: run test bench gui screenshots clean
 
 $(BIN)/.installed: pyproject.toml
 	$(PY) -m venv $(VENV)
@@ -25,6 +25,12 @@ bench: $(BIN)/.installed
 
 gui: $(BIN)/.installed
 	$(BIN)/ares gui
+
+# The README's screenshots (docs/screenshots/), the window at 1280x800 under Xvfb
+# (needs xvfb-run: apt-get install xvfb libxcb-cursor0), offscreen Qt otherwise.
+screenshots: $(BIN)/.installed
+	if command -v xvfb-run >/dev/null; then xvfb-run -a -s "-screen 0 1280x800x24" $(BIN)/python tools/screenshots.py; \
+	else QT_QPA_PLATFORM=offscreen $(BIN)/python tools/screenshots.py; fi
 
 clean:
 	rm -rf $(VENV) runs

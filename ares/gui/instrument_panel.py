@@ -5,7 +5,7 @@ the chamber set point, and a test frame into the live image."""
 from __future__ import annotations
 
 from PySide6.QtCore import Signal
-from PySide6.QtWidgets import (QDoubleSpinBox, QFileDialog, QGridLayout, QHBoxLayout, QHeaderView, QLabel,
+from PySide6.QtWidgets import (QDoubleSpinBox, QFileDialog, QGridLayout, QHeaderView, QLabel,
                                QLineEdit, QPushButton, QTableWidget, QTableWidgetItem, QVBoxLayout, QWidget)
 
 from ares.errors import AresError
@@ -31,14 +31,17 @@ class InstrumentationTab(QWidget):
         browse = QPushButton("Browse…")
         self.connect_button = QPushButton("Connect")
         self.connect_button.setCheckable(True)
-        top = QHBoxLayout()
-        top.addWidget(QLabel("System:"))
-        top.addWidget(self.path, 1)
-        top.addWidget(browse)
-        top.addWidget(self.connect_button)
+        top = QGridLayout()  # two rows: the window's left column is narrow at 1280 px
+        top.addWidget(QLabel("System:"), 0, 0)
+        top.addWidget(self.path, 0, 1, 1, 2)
+        top.addWidget(browse, 1, 1)
+        top.addWidget(self.connect_button, 1, 2)
+        top.setColumnStretch(1, 1)
+        top.setColumnStretch(2, 1)
         self.instruments = QTableWidget(0, 2)
         self.instruments.setHorizontalHeaderLabels(("Instrument", "Description"))
-        self.instruments.horizontalHeader().setSectionResizeMode(QHeaderView.ResizeMode.Stretch)
+        self.instruments.horizontalHeader().setSectionResizeMode(QHeaderView.ResizeMode.ResizeToContents)
+        self.instruments.horizontalHeader().setStretchLastSection(True)
         self.instruments.setEditTriggers(QTableWidget.EditTrigger.NoEditTriggers)
         self.instruments.setMaximumHeight(130)
         self.fields = QTableWidget(0, len(FIELD_HEADERS))
@@ -55,15 +58,18 @@ class InstrumentationTab(QWidget):
         live.addWidget(QLabel("Light level:"), 0, 0)
         live.addWidget(self.light, 0, 1)
         live.addWidget(self.light_button, 0, 2)
-        live.addWidget(QLabel("Chamber set point (°C):"), 0, 3)
-        live.addWidget(self.chamber, 0, 4)
-        live.addWidget(self.chamber_button, 0, 5)
-        live.addWidget(self.read_button, 1, 0, 1, 3)
-        live.addWidget(self.grab_button, 1, 3, 1, 3)
+        live.addWidget(QLabel("Chamber set point (°C):"), 1, 0)
+        live.addWidget(self.chamber, 1, 1)
+        live.addWidget(self.chamber_button, 1, 2)
+        live.addWidget(self.read_button, 2, 0)
+        live.addWidget(self.grab_button, 2, 1, 1, 2)
+        live.setColumnStretch(1, 1)
         lay = QVBoxLayout(self)
         lay.addLayout(top)
         lay.addWidget(self.instruments)
-        lay.addWidget(QLabel("Register fields (double-click a value to write it; limits from the register map):"))
+        hint = QLabel("Register fields: double-click a value to write it (limits from the register map).")
+        hint.setWordWrap(True)
+        lay.addWidget(hint)
         lay.addWidget(self.fields, 1)
         lay.addLayout(live)
         lay.addWidget(self.status)
@@ -121,6 +127,12 @@ class InstrumentationTab(QWidget):
     def _connect_toggled(self, on: bool) -> None:
         if on and not self.model.connected:
             self._try(self.model.open)
+            bench = self.model.bench
+            if bench is not None:  # the set points start where the devices are
+                if bench.light is not None:
+                    self.light.setValue(bench.light.get_level())
+                if bench.chamber is not None:
+                    self.chamber.setValue(bench.chamber.get_temperature())
         elif not on and self.model.connected:
             self._try(self.model.close)
         self.refresh()

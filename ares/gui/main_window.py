@@ -79,7 +79,7 @@ class MainWindow(QMainWindow):
                             self.ptc, self.sweep, self.components, self.defects, self.info), RESULT_TABS):
             self.result_tabs.addTab(scrolled(w), name)
 
-        left = QSplitter(Qt.Orientation.Vertical)
+        left = self.left_split = QSplitter(Qt.Orientation.Vertical)
         top = QWidget()
         tl = QVBoxLayout(top)
         tl.setContentsMargins(0, 0, 0, 0)
@@ -94,10 +94,10 @@ class MainWindow(QMainWindow):
         rl.addWidget(self.progress_line)
         rl.addWidget(self.view_bar)
         rl.addWidget(self.result_tabs, 1)
-        split = QSplitter(Qt.Orientation.Horizontal)
+        split = self.main_split = QSplitter(Qt.Orientation.Horizontal)
         split.addWidget(left)
         split.addWidget(right)
-        split.setSizes([520, 880])
+        split.setSizes([440, 860])  # at 1280 px the Results panels fit without scrolling
         self.setCentralWidget(split)
         self._menus()
         self.statusBar().showMessage("Ready.")
