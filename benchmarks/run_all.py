@@ -29,7 +29,7 @@ with `make bench` (or `python benchmarks/run_all.py --only TOPIC`).
 """
 
 
-ALL_CORES = {"batch"}
+ALL_CORES = {"batch", "gui"}  # batch: 1 vs 2 workers; gui: the window thread next to the scan
 
 
 def main() -> int:

@@ -44,7 +44,7 @@ def one_sentence(exc: BaseException) -> str:
 
 
 COALESCE = (FramePreview, Progress)
-PREVIEW_INTERVAL_S = 0.25
+PREVIEW_INTERVAL_S = 0.4
 
 
 class EventPump(QObject):

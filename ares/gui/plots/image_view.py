@@ -79,7 +79,8 @@ class ImagePlot(QWidget):
             self._draw_rectangles()
         self.caption.setText(f"{m.title}" + (f" — {m.caption}" if m.caption else ""))
         if m.image is not None:
-            self.image_item.setImage(np.asarray(m.image, dtype=np.float32), autoLevels=False, levels=m.levels)
+            image = m.image if m.image.dtype.kind in "ui" else np.asarray(m.image, dtype=np.float32)
+            self.image_item.setImage(image, autoLevels=False, levels=m.levels)  # frames as they come: no copy
             if self.colorbar is not None:
                 self.colorbar.setLevels(m.levels)
             if m.image.shape != self._shape:
