@@ -83,3 +83,26 @@ def test_dark_and_flat_frames_are_charged_at_their_own_rates():
             assert worst < 0.05, errors
         else:
             assert worst > 0.2  # the single-rate estimate this replaces
+
+
+def test_stage_work_is_charged_per_scene_and_the_first_stage_one_off_left_out():
+    """A dark stage's analysis is lighter (0.05 s) than a flat's (0.3 s) and the run's first
+    stage carries 2 s of one-off work (the defect mask): after one dark and one flat stage
+    beyond the first, the time left is exact on a steady scan."""
+    plan = ["dark"] + ["flat", "dark"] * 10  # (e.g. dark-current / lag cycles)
+    work = {"dark": 0.05, "flat": 0.3}
+    per_frame, n = 0.002, 8
+    eta = Eta(len(plan) * n, len(plan), 0.0, stages_by_scene={"dark": plan.count("dark"),
+                                                              "flat": plan.count("flat")})
+    total = sum(n * per_frame + work[sc] for sc in plan) + 2.0
+    t, errors = 0.0, []
+    for i, sc in enumerate(plan):
+        eta.stage_started(t)
+        for f in range(n):
+            t += per_frame
+            eta.frame(t)
+            if i >= 3 and f == 1:
+                errors.append(eta.remaining(t) / (total - t) - 1)
+        t += work[sc] + (2.0 if i == 0 else 0.0)
+        eta.stage_finished(t, sc)
+    assert max(abs(e) for e in errors) < 0.02, errors

@@ -217,3 +217,21 @@ def test_flat_not_estimable_and_errors():
         decompose_flat(f, d, illumination="flat")
     with pytest.raises(InputError, match="differ in shape"):
         decompose_flat(tiny_f, d)
+
+
+def test_highpass_autocorrelation_equals_scipy_correlate2d():
+    """The numpy 2-D autocorrelation behind the 4.0 high-pass factors is scipy's correlate2d
+    (full mode) to float rounding, on the real kernel and on an asymmetric one."""
+    import numpy as np
+    from scipy.signal import correlate2d
+
+    from ares.analysis import flat
+
+    h2 = -np.outer(flat._L1, flat._L1)
+    h2[flat._RAD, flat._RAD] += 1.0
+    rng = np.random.default_rng(0)
+    for h in (h2, rng.standard_normal((5, 7))):
+        ours = flat._autocorrelation_2d(h)
+        ref = correlate2d(h, h)
+        assert ours.shape == ref.shape
+        assert np.allclose(ours, ref, rtol=0, atol=1e-14 * np.abs(ref).max())

@@ -20,7 +20,7 @@ import statistics
 
 class Eta:
     def __init__(self, frames_total: int, stages_total: int, prior_s: float = 0.0,
-                 frames_by_kind: dict[str, int] | None = None):
+                 frames_by_kind: dict[str, int] | None = None, stages_by_scene: dict[str, int] | None = None):
         self.frames_total = frames_total
         self.left = dict(frames_by_kind or {"": frames_total})  # frames still to come, per kind
         self.kind = next(iter(self.left))
@@ -31,7 +31,8 @@ class Eta:
         self.n_frames = 0  # frame intervals those seconds cover
         self.frames_done = 0
         self.overheads: list[float] = []  # per finished stage: its time outside the frame loops
-        self._per_stage = 0.0  # their median, updated when a stage ends (remaining() runs per frame)
+        self.scenes: list[str] = []  # ... and its scene (a dark stage's analysis is lighter than a flat's)
+        self.stages_left = dict(stages_by_scene or {"": stages_total})
         self._last: float | None = None  # time of the previous frame in the current stack
         self._stack = [0.0, 0]  # frame-loop seconds and intervals of the current stack
         self._prev_stack: tuple[float, int] | None = None  # ... of the previous stack
@@ -62,14 +63,22 @@ class Eta:
         self.frames_done += 1
         self.left[self.kind] = max(self.left[self.kind] - 1, 0)
 
-    def stage_finished(self, t: float) -> None:
+    def stage_finished(self, t: float, scene: str | None = None) -> None:
+        scene = scene if scene in self.stages_left else next(iter(self.stages_left))
         if self._stage_t0 is not None:
             self.overheads.append(max(t - self._stage_t0 - self._stage_frames, 0.0))
-            # the first stage's one-off work (imports, the defect mask) is left out once
-            # another stage has been timed, and only the latest three count: a stage's end
-            # work drifts over a scan (warm caches; saturated levels analyse faster)
-            self._per_stage = statistics.median((self.overheads[1:] or self.overheads)[-3:])
+            self.scenes.append(scene)
+        self.stages_left[scene] = max(self.stages_left[scene] - 1, 0)
         self._stage_t0, self._stage_frames, self._last = None, 0.0, None
+
+    def per_stage(self, scene: str) -> float:
+        """A stage's time outside its frame loops: the median of the latest three stages of
+        the same scene. The run's first stage (one-off work: the defect mask) counts only
+        while nothing else has been timed; a scene not timed yet takes the others' median."""
+        pairs = list(zip(self.scenes, self.overheads))
+        pairs = pairs[1:] or pairs
+        same = [v for sc, v in pairs if sc == scene]
+        return statistics.median((same or [v for _, v in pairs])[-3:])
 
     def remaining(self, t: float) -> float | None:
         """Seconds left at ``t``: frames left x s/frame + stages not finished x s/stage, less
@@ -94,8 +103,8 @@ class Eta:
             left += frames * rate
         if not self.overheads:
             return left  # no stage has ended yet: its end work is not known
-        per_stage = self._per_stage
         spent = 0.0
         if self._stage_t0 is not None:
             spent = max(t - self._stage_t0 - self._stage_frames, 0.0)
-        return left + max((self.stages_total - len(self.overheads)) * per_stage - spent, 0.0)
+        stages = sum(n * self.per_stage(sc) for sc, n in self.stages_left.items() if n)
+        return left + max(stages - spent, 0.0)

@@ -202,7 +202,8 @@ class Runner:
         self._frames_done = 0
         self._t0 = time.monotonic()
         self._est = self.estimate_seconds()
-        self._eta = Eta(self._frames_total, len(stages), self._est, frames_by_kind=_frames_by_kind(stages))
+        self._eta = Eta(self._frames_total, len(stages), self._est, frames_by_kind=_frames_by_kind(stages),
+                        stages_by_scene={sc: sum(s.scene == sc for s in stages) for sc in ("dark", "flat")})
         run_dir = str(writer.dir) if writer else None
         self._emit(ev.RunStarted(run_dir, len(stages), self._frames_total, self._est))
         cache = None  # last dark StackSet that a matched dark may reuse
@@ -326,7 +327,7 @@ class Runner:
             if writer:
                 writer.add_stage(result, arrays, before, after, timing)
             completed.append(dict(result, registers_before=before, registers_after=after, timing=timing))
-            self._eta.stage_finished(time.monotonic() - self._t0)
+            self._eta.stage_finished(time.monotonic() - self._t0, st.scene)
             self._emit(ev.StageFinished(st.index, len(stages), st, result, arrays))
         else:
             if self._stop.is_set():
