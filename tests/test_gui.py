@@ -411,6 +411,8 @@ def test_photon_transfer_scan_fills_defect_counts_and_information(window, qtbot,
     window.defects.overlay.setChecked(False)
     assert window.preview.overlay_items == []
     assert "PTC: conversion gain" in s.info.items and "defect thresholds" in s.info.items
+    caption = window.ptc.caption.text()  # the fitted gain with its SE, as the engine states it
+    assert "system gain K = " in caption and "±" in caption and "DN/e-" in caption
     assert s.info.items["scan"] == path
 
     # Tunable thresholds: re-classify the finished run from its directory alone.
@@ -704,3 +706,18 @@ def test_window_fits_a_1280x800_screen(window):
     assert hint.width() <= 1280 and hint.height() <= 800, hint
     window.resize(1280, 800)
     assert window.width() <= 1280 and window.height() <= 800
+
+
+def test_loading_a_scan_asks_before_replacing_edited_regions(window, tmp_path):
+    assert window.load_scan(PTC_SMALL)  # its region "centre" fills row 1
+    regions = window.session.regions
+    regions.update(0, x=1, y=1, width=5, height=5)  # edited by hand
+    asked = []
+    window.confirm = lambda title, text: asked.append(text) or False
+    assert window.load_scan(PTC_SMALL)
+    assert asked and (regions[0].x, regions[0].width) == (1, 5)  # "No": the table is kept
+    assert "keeps your regions" in window.statusBar().currentMessage()
+    window.confirm = lambda title, text: asked.append(text) or True
+    assert window.load_scan(PTC_SMALL)
+    assert len(asked) == 2 and (regions[0].x, regions[0].width) == (8, 16)  # "Yes": the scan's region
+    assert window.load_scan(PTC_SMALL) and len(asked) == 2  # nothing edited since: no question

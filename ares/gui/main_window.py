@@ -175,7 +175,10 @@ class MainWindow(QMainWindow):
             else:
                 table.replace_all(new)
                 note = f" The RoA table now holds its {len(new)} region(s); what the table holds at Start is what runs."
-        self._loaded_regions = list(table.regions)
+            # what the table holds when nothing was edited: the scan's regions
+            self._loaded_regions = new + [Region()] * (len(table.regions) - len(new))
+        else:
+            self._loaded_regions = list(table.regions)
         self.controls.output.show_output(getattr(job, "output", None))
         self._set_views(job)
         self._show_job_info(job)

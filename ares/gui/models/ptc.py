@@ -30,6 +30,7 @@ class PTCModel(Observable):
         self.points: list[PTCPoint] = []
         self.dark_dn: float | None = None
         self.gain_e_per_dn: float = math.nan
+        self.fit_text = ""
         self.fit_note = ""
         self.view = ""
         self.highlighted: int | None = None  # the stage the stage browser shows
@@ -37,7 +38,7 @@ class PTCModel(Observable):
 
     def clear(self) -> None:
         self.points, self.dark_dn, self.status = [], None, {}
-        self.gain_e_per_dn, self.fit_note = math.nan, ""
+        self.gain_e_per_dn, self.fit_note, self.fit_text = math.nan, "", ""
         self._changed()
 
     def set_dark(self, dark_dn: float) -> None:
@@ -72,8 +73,11 @@ class PTCModel(Observable):
             self.highlighted = stage
             self._changed()
 
-    def set_fit(self, gain_e_per_dn: float, note: str = "") -> None:
+    def set_fit(self, gain_e_per_dn: float, note: str = "", text: str = "") -> None:
+        """The engine's fitted gain (draws the shot-noise line) and ``text``: the figures
+        with their SEs as the engine formats them (shown; never a bare number)."""
         self.gain_e_per_dn = float(gain_e_per_dn)
+        self.fit_text = text
         self.fit_note = note
         self._changed()
 

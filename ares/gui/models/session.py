@@ -289,7 +289,7 @@ class SessionModel:
         if gain is not None:
             value = getattr(gain, "value", gain)
             if value is not None and math.isfinite(float(value)):
-                self.ptc.set_fit(float(value), summary.get("gain_note", ""))
+                self.ptc.set_fit(float(value), summary.get("gain_note", ""), summary.get("gain_text", ""))
         defects = summary.get("defects")
         if isinstance(defects, dict) and defects:
             total = int(summary.get("pixels", 0)) or (

@@ -66,9 +66,8 @@ class PTCView(QWidget):
         parts = [f"{int(ok.sum())} point(s)" + (f" ({m.view} pixels, as computed by the engine)" if m.view else "")]
         if m.dark_dn is not None:
             parts.append(f"dark level {m.dark_dn:.2f} DN")
-        if math.isfinite(m.gain_e_per_dn):
-            parts.append(f"system gain K = {1 / m.gain_e_per_dn:.4g} DN/e- (1/K = {m.gain_e_per_dn:.4g} e-/DN)"
-                         + (f", {m.fit_note}" if m.fit_note else ""))
+        if math.isfinite(m.gain_e_per_dn) and m.fit_text:
+            parts.append(m.fit_text + (f" ({m.fit_note})" if m.fit_note else ""))
         excluded = [f"{name}: {reason}" for name, (st, reason) in m.status.items() if st == "excluded" and reason]
         if excluded:
             parts.append(f"{len(excluded)} excluded")
