@@ -23,7 +23,7 @@ from __future__ import annotations
 import numpy as np
 
 from ares.errors import InputError
-from ares.sim import noise
+from ares.sim import fused, noise
 from ares.sim.params import SensorParams
 from ares.sim.patterns import FixedPatterns
 from ares.sim.scene import Scene, resolve_scene
@@ -175,7 +175,7 @@ class SimSensor:
             plan.update(base=base.astype(_F32), sigma=sigma if np.any(sigma) else None)
         else:
             sigma_rc = np.sqrt(var_rc).astype(_F32)
-            plan.update(base=offs, has_q=has_q, mask_q=mask_q, mask_d=mask_d,
+            plan.update(base=offs, has_q=has_q, mask_q=mask_q, mask_d=mask_d, fw=p.full_well_e,
                         sigma=sigma_rc if np.any(sigma_rc) else None,
                         pgr=fp.pixel_gain * fp.response, cgrg=_F32(G) * fp.col_gain[None, :] * fp.row_gain[:, None])
         return plan
@@ -187,20 +187,23 @@ class SimSensor:
         flutter = 1.0
         if p.flutter_pct > 0:
             flutter = max(0.0, 1.0 + p.flutter_pct / 100 * rng.standard_normal())
-        if plan["sigma"] is None:  # no per-pixel temporal noise at all
-            x = plan["base"].copy()
+        if not plan["fast"] and fused.applies(sc, plan, flutter):  # the same codes, one pass (ares.sim.fused)
+            x, self._lag_e = fused.charge_frame(rng, sc, plan, shape, self._lag_e, noise.table())
         else:
-            x = noise.normal(rng, shape, fastz)
-            x *= plan["sigma"]
-        if plan["fast"]:
-            if plan["sigma"] is not None:
-                x += plan["base"]
-            if "signal" in plan:
-                x += _F32(flutter - 1.0) * plan["signal"]
-        else:
-            if plan["sigma"] is not None:
-                x += plan["offs"]
-            self._add_charge(x, sc, plan, rng, fastz, flutter)
+            if plan["sigma"] is None:  # no per-pixel temporal noise at all
+                x = plan["base"].copy()
+            else:
+                x = noise.normal(rng, shape, fastz)
+                x *= plan["sigma"]
+            if plan["fast"]:
+                if plan["sigma"] is not None:
+                    x += plan["base"]
+                if "signal" in plan:
+                    x += _F32(flutter - 1.0) * plan["signal"]
+            else:
+                if plan["sigma"] is not None:
+                    x += plan["offs"]
+                self._add_charge(x, sc, plan, rng, fastz, flutter)
         line = None  # per-row terms: Rt + frame-global
         if p.row_temporal_dn > 0:
             line = p.row_temporal_dn * noise.normal(rng, (shape[0],), fastz)

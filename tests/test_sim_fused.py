@@ -1,0 +1,82 @@
+"""The fused simulator kernels (numba) give exactly the codes of the numpy path: the
+general charge path (photo and dark charge apart, lag carried frame to frame, full-well
+clip) and the INL/DNL ADC lookup, on the shipped sensor and on variants."""
+
+from __future__ import annotations
+
+import dataclasses
+
+import numpy as np
+import pytest
+
+pytest.importorskip("numba")
+
+from ares.sim import SimSensor, fused  # noqa: E402
+from ares.sim.params import SensorParams  # noqa: E402
+
+
+def shipped() -> SensorParams:
+    from ares.hardware.factory import sim_params
+    from ares.protocol import load_system
+
+    return sim_params(load_system("protocols/sim_sensor.xml"))
+
+
+def frames(params: SensorParams, seed: int, on: bool) -> list[np.ndarray]:
+    keep = fused._compiled, fused._compiled_lookup
+    if not on:
+        fused._compiled = fused._compiled_lookup = None
+    try:
+        s = SimSensor(params, seed=seed)
+        out = [s.render(5, exposure_s=0.01, photon_flux=2e5),
+               s.render(3, exposure_s=0.01, photon_flux=0.0),  # the lag carried into darks
+               s.render(5, exposure_s=0.03, photon_flux=3e6),  # past full well: the clip
+               s.render(4, exposure_s=0.01, photon_flux=1e6, temperature_c=45.0)]
+    finally:
+        fused._compiled, fused._compiled_lookup = keep
+    return out
+
+
+VARIANTS = {"shipped": {}, "no_lag": {"lag_fraction": 0.0},
+            "no_dark": {"dark_current_e_per_s": 0.0, "dsnu_e_per_s": 0.0, "dark_tail_e_per_s": 0.0},
+            "ideal_adc": {"adc_inl_lsb": 0.0, "adc_dnl_lsb": 0.0}, "lag_1pct": {"lag_fraction": 0.01},
+            "flutter": {"flutter_pct": 1.0}}  # flutter: the numpy path, still the same codes
+
+
+@pytest.mark.parametrize("variant", list(VARIANTS))
+def test_fused_frames_equal_the_numpy_path(variant):
+    p = dataclasses.replace(shipped(), rows=96, cols=128, **VARIANTS[variant])
+    a, b = frames(p, 11, True), frames(p, 11, False)
+    for x, y in zip(a, b):
+        assert x.dtype == y.dtype and np.array_equal(x, y)
+
+
+def test_fused_adc_lookup_equals_searchsorted():
+    p = shipped()
+    rng = np.random.default_rng(0)
+    s = SimSensor(p, seed=1)
+    adc = s.patterns.adc
+    assert adc.thresholds is not None  # the shipped ADC has INL/DNL
+    x = rng.uniform(-3, adc.max_code + 3, (64, 96)).astype(np.float32)
+    x[0, :8] = [-np.float32(1e9), -1, 0, 0.5, adc.max_code, adc.max_code + 1, 1e9, 2047.5]
+    want = np.searchsorted(adc.thresholds, x.astype(np.float64), side="right").astype(np.uint16)
+    out = np.empty(x.shape, np.uint16)
+    assert fused.adc_lookup(x.copy(), adc._base, adc._tpad, adc._per_cell, adc.max_code, out)
+    assert np.array_equal(out, want)
+
+
+def test_exact_mask_shortcut_matches_the_per_pixel_rule():
+    """The auto shot-noise rule decided from the map's range gives what the per-pixel
+    skewness test gives, on maps below, above and straddling the tolerance."""
+    from ares.sim import noise
+
+    rng = np.random.default_rng(2)
+    v = 4.0
+    for lo, hi in ((0.0, 0.5), (0.0, 3.0), (5.0, 40.0), (50.0, 5000.0), (1e-3, 1e5), (7.5, 8.5)):
+        m = rng.uniform(lo, hi, (40, 50)).astype(np.float32)
+        per_pixel = noise.shot_skewness(m, v) > noise.AUTO_SKEW_TOLERANCE
+        got = noise.exact_mask(m, v, "auto")
+        if per_pixel.all() or not per_pixel.any():
+            assert got is bool(per_pixel.all()), (lo, hi)
+        else:
+            assert np.array_equal(got, per_pixel), (lo, hi)
