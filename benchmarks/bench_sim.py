@@ -74,6 +74,7 @@ def timing_rows(shape, repeat):
     cases.append(("ADC with INL, np.searchsorted per frame (before)", None,
                   median_ms(lambda: np.searchsorted(adc.thresholds, x, side="right"), repeat)))
     cases.append(("ADC with INL, lookup table per frame (bit-identical)", None, median_ms(lambda: adc._lookup(x), repeat)))
+    fused.warm()
     cases.append(("ADC with INL, fused lookup per frame (numba, bit-identical)", None,
                   median_ms(lambda: fused.adc_lookup(x, adc._base, adc._tpad, adc._per_cell, adc.max_code,
                                                      np.empty(x.shape, np.uint16)), repeat)))
@@ -87,10 +88,8 @@ def timing_rows(shape, repeat):
     fast_s, ship = SimSensor(p, 0), SimSensor(sp, 0)
     fast_ms = median_ms(lambda: fast_s.render(8, exposure_s=0.01, photon_flux=mid), repeat) / 8
     cases.append(("fast path, 8-frame stack, per frame (default sensor, 50 % FW)", None, fast_ms))
-    keep = fused._compiled, fused._compiled_lookup
-    fused._compiled = fused._compiled_lookup = None
-    numpy_ms = median_ms(lambda: ship.render(8, exposure_s=0.01, photon_flux=mid), repeat) / 8
-    fused._compiled, fused._compiled_lookup = keep
+    with fused.enabled(False):
+        numpy_ms = median_ms(lambda: ship.render(8, exposure_s=0.01, photon_flux=mid), repeat) / 8
     cases.append(("shipped sim_sensor.xml settings, numpy path, per frame", None, numpy_ms))
     fused_ms = median_ms(lambda: ship.render(8, exposure_s=0.01, photon_flux=mid), repeat) / 8
     cases.append(("shipped sim_sensor.xml settings, fused kernels, per frame", None, fused_ms))

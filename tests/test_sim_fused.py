@@ -23,17 +23,12 @@ def shipped() -> SensorParams:
 
 
 def frames(params: SensorParams, seed: int, on: bool) -> list[np.ndarray]:
-    keep = fused._compiled, fused._compiled_lookup
-    if not on:
-        fused._compiled = fused._compiled_lookup = None
-    try:
+    with fused.enabled(on):
         s = SimSensor(params, seed=seed)
         out = [s.render(5, exposure_s=0.01, photon_flux=2e5),
                s.render(3, exposure_s=0.01, photon_flux=0.0),  # the lag carried into darks
                s.render(5, exposure_s=0.03, photon_flux=3e6),  # past full well: the clip
                s.render(4, exposure_s=0.01, photon_flux=1e6, temperature_c=45.0)]
-    finally:
-        fused._compiled, fused._compiled_lookup = keep
     return out
 
 
@@ -49,6 +44,8 @@ def test_fused_frames_equal_the_numpy_path(variant):
     a, b = frames(p, 11, True), frames(p, 11, False)
     for x, y in zip(a, b):
         assert x.dtype == y.dtype and np.array_equal(x, y)
+    fused.warm()  # warm() loads the very signatures a frame uses: nothing compiles mid-scan
+    assert len(fused._compiled.signatures) == 1 and len(fused._compiled_lookup.signatures) == 1
 
 
 def test_fused_adc_lookup_equals_searchsorted():

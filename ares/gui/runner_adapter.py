@@ -185,6 +185,10 @@ class RunnerJob:
         # RoA row -> the engine's view name of that region in this run
         self.region_names = {row: r.name for row, r in zip(rows, self.scan.regions)}
         warm_imports()
+        if self.scan.system.simulator is not None:  # numba imported and loaded in the GUI thread
+            from ares.sim import fused
+
+            fused.warm()
         self.runner = Runner(self.scan, seed=seed, frames=frames, faults=faults,
                              argv=["ares", "gui", str(self.path)])
         self.runner.add_listener(self._on_event)

@@ -24,7 +24,7 @@ class Eta:
         self.frames_total = frames_total
         self.left = dict(frames_by_kind or {"": frames_total})  # frames still to come, per kind
         self.kind = next(iter(self.left))
-        self.rates: dict[str, tuple[float, int]] = {}  # kind -> its latest finished stack (s, intervals)
+        self.rates: dict[str, list[float]] = {}  # kind -> s/frame of its latest finished stacks
         self.stages_total = stages_total
         self.prior_s = prior_s  # the hardware-time estimate, used until something is measured
         self.t_frames = 0.0  # seconds between consecutive frames of a stack
@@ -46,7 +46,7 @@ class Eta:
             self._stage_t0 = t
         if self._stack[1]:
             self._prev_stack = (self._stack[0], self._stack[1])
-            self.rates[self.kind] = self._prev_stack
+            self.rates.setdefault(self.kind, []).append(self._stack[0] / self._stack[1])
         if kind is not None and kind in self.left:
             self.kind = kind
         self._stack = [0.0, 0]
@@ -96,8 +96,8 @@ class Eta:
         for kind, frames in self.left.items():  # each kind at its own latest rate
             if kind == self.kind and (self._stack[1] >= 4 or kind not in self.rates):
                 rate = latest
-            elif kind in self.rates:
-                rate = self.rates[kind][0] / self.rates[kind][1]
+            elif kind in self.rates:  # the median of its latest three stacks: one slow stack does not swing it
+                rate = statistics.median(self.rates[kind][-3:])
             else:
                 rate = latest  # not measured yet: the nearest we have
             left += frames * rate

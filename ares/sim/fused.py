@@ -8,26 +8,66 @@ once, in the same float32 operations in the same order (no fused multiply-add: n
 default keeps IEEE semantics), from the same random integers drawn by the same
 generator calls in the same order -- so every code matches the numpy path (tested).
 Without numba (``ARES_NO_NUMBA=1`` or not installed) the numpy path runs.
+
+numba is imported and the kernels loaded (from numba's cache, or compiled once) on first
+use or by ``warm()`` -- the runner calls it before a simulated scan's first frame, so the
+0.7 s is never counted as a stage's work and importing the simulator stays light.
 """
 
 from __future__ import annotations
 
+import contextlib
 import os
 
 import numpy as np
 
-try:
-    if os.environ.get("ARES_NO_NUMBA"):
-        raise ImportError("disabled by ARES_NO_NUMBA")
-    from numba import njit
-except ImportError:  # the numpy path
-    njit = None
-
 _F32 = np.float32
+_compiled = _compiled_lookup = None
+_loaded = False
+
+
+def _load() -> None:
+    global _compiled, _compiled_lookup, _loaded
+    if _loaded:
+        return
+    _loaded = True
+    if os.environ.get("ARES_NO_NUMBA"):
+        return
+    try:
+        from numba import njit
+    except ImportError:  # the numpy path
+        return
+    _compiled = njit(cache=True, nogil=True)(_kernel)
+    _compiled_lookup = njit(cache=True, nogil=True)(_lookup_kernel)
 
 
 def available() -> bool:
-    return njit is not None
+    _load()
+    return _compiled is not None
+
+
+@contextlib.contextmanager
+def enabled(on: bool):
+    """Run a block with the fused kernels on or off (tests and benchmarks compare both)."""
+    global _compiled, _compiled_lookup
+    _load()
+    keep = _compiled, _compiled_lookup
+    if not on:
+        _compiled = _compiled_lookup = None
+    try:
+        yield
+    finally:
+        _compiled, _compiled_lookup = keep
+
+
+def warm() -> None:
+    """Load (or compile) both kernels now, with the argument types a frame uses."""
+    if not available():
+        return
+    f, u = np.zeros(2, _F32), np.zeros(2, np.uint16)
+    _compiled(np.zeros(4, _F32), u, u, u, f, f, f, f, True, _F32(0.5), f, True, np.zeros(2, _F32), _F32(1e4),
+              _F32(1.0), f, f, np.zeros(2, _F32))
+    _compiled_lookup(f, np.zeros(4, np.int32), np.full(4, np.inf), 1, 1, np.zeros(2, np.uint16))
 
 
 def _kernel(T, i1, i2, i3, sigma, offs, q, dark_e, has_dark, lag, left, has_left, lag_out, fw, G, pgr, cgrg, x):
@@ -75,12 +115,10 @@ def _kernel(T, i1, i2, i3, sigma, offs, q, dark_e, has_dark, lag, left, has_left
         x[i] = v
 
 
-_compiled = njit(cache=True, nogil=True)(_kernel) if njit is not None else None
-
-
 def applies(sc, plan, flutter: float) -> bool:
     """The case the kernel covers: Gaussian shot noise everywhere (no exact-Poisson pixel,
     the fast normal table), photo-charge present, no flutter this frame."""
+    _load()
     return (_compiled is not None and plan["gauss_fast"] and plan["sigma"] is not None and plan["has_q"]
             and plan["mask_q"] is False and plan["mask_d"] is False and flutter == 1.0)
 
@@ -94,9 +132,11 @@ def charge_frame(rng, sc, plan, shape, left, table):
     has_dark = sc.dark_e is not None
     i3 = rng.integers(0, 1 << 16, size=shape, dtype=np.uint16) if has_dark else i1
 
-    def flat(a):  # one value, or a contiguous per-pixel map
+    def flat(a):  # one value, or a contiguous (writable: one numba signature) per-pixel map
         a = np.asarray(a, _F32)
-        return a.reshape(1) if a.size == 1 else np.ascontiguousarray(np.broadcast_to(a, shape)).ravel()
+        if a.size == 1:
+            return a.reshape(1).copy()
+        return np.ascontiguousarray(a).reshape(-1) if a.shape == shape else np.broadcast_to(a, shape).ravel()
 
     q = flat(sc.q)
     dark = flat(sc.dark_e) if has_dark else q
@@ -128,13 +168,11 @@ def _lookup_kernel(x, base, tpad, per_cell, max_code, out):
         out[i] = code
 
 
-_compiled_lookup = njit(cache=True, nogil=True)(_lookup_kernel) if njit is not None else None
-
-
 def adc_lookup(x: np.ndarray, base: np.ndarray, tpad: np.ndarray, per_cell: int, max_code: int,
                out: np.ndarray) -> bool:
     """Codes of a 2-D float32 frame into ``out`` (uint16) by the ADC's threshold table;
     False when the fused kernel does not apply (the numpy lookup runs instead)."""
+    _load()
     if (_compiled_lookup is None or out is None or out.dtype != np.uint16 or x.dtype != _F32
             or not x.flags.c_contiguous or not out.flags.c_contiguous):
         return False
