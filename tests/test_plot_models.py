@@ -289,3 +289,38 @@ def test_components_model_orders_rows_and_formats_estimates():
     assert rows[1].description == "pixel temporal (read)"
     m.select("centre")
     assert [r.symbol for r in m.rows()] == ["Ps"] and m.rows("dark_components") == []
+
+
+def test_shown_tabs_are_redrawn_at_most_every_refresh_interval_during_a_scan():
+    """While a scan runs the Results panels follow the newest stage at most every
+    REFRESH_S (fake clock): a stage that comes sooner waits for flush(); the scan's end
+    draws it at once."""
+    from ares.gui.events import Done, StageResult
+    from ares.gui.models.session import REFRESH_S, SessionModel
+
+    s = SessionModel()
+    now = [10.0]
+    s.clock = lambda: now[0]
+    s.set_visible({"Results"})
+    s.begin_run("t")
+
+    def stage(k, level):
+        m = np.full((4, 5), float(level))
+        m[0, 0] += 1.0
+        return StageResult(k, f"s{k}", m, np.ones((4, 5)), 4)
+
+    s.handle(stage(1, 100))
+    assert s.panels["MEAN SIGNAL"].stats.highest == 101
+    now[0] += REFRESH_S / 5
+    s.handle(stage(2, 200))  # too soon: the panels still show stage 1 ...
+    assert s.panels["MEAN SIGNAL"].stats.highest == 101
+    s.flush()
+    assert s.panels["MEAN SIGNAL"].stats.highest == 101
+    now[0] += REFRESH_S
+    s.flush()  # ... until the interval has passed
+    assert s.panels["MEAN SIGNAL"].stats.highest == 201
+    now[0] += REFRESH_S / 5
+    s.handle(stage(3, 300))
+    assert s.panels["MEAN SIGNAL"].stats.highest == 201
+    s.handle(Done(None, {}))  # the end draws the newest at once
+    assert s.panels["MEAN SIGNAL"].stats.highest == 301

@@ -294,6 +294,7 @@ class MainWindow(QMainWindow):
             return  # a run that ended before the one now shown: its events no longer draw
         try:
             self.session.handle(ev)
+            self.session.flush()  # shown tabs whose newest data waited (at most every REFRESH_S)
         except Exception as exc:  # noqa: BLE001 -- a drawing bug must not take the run down with it
             log.exception("could not draw %s", type(ev).__name__)
             self.statusBar().showMessage(f"Could not draw a {type(ev).__name__} event: {one_sentence(exc)}")

@@ -7,6 +7,7 @@ Qt view subscribes to one sub-model. Tests drive this class directly, without a 
 from __future__ import annotations
 
 import math
+import time
 
 import numpy as np
 
@@ -29,6 +30,9 @@ PANELS = ("MEAN SIGNAL", "NOISE", "COLUMNS", "ROWS")
 RESULTS, DISTRIBUTIONS, PROFILES, SIGNAL_MAP, NOISE_MAP = (
     "Results", "Pixel Distributions", "Profiles", "Signal Map", "Noise Map")
 LAZY_TABS = (RESULTS, DISTRIBUTIONS, PROFILES, SIGNAL_MAP, NOISE_MAP)
+# While a scan runs, a shown tab is recomputed at most this often (the newest stage or
+# frame wins; ``flush`` catches up, and the scan's end draws everything at once).
+REFRESH_S = 0.5
 
 
 class InfoModel(Observable):
@@ -67,6 +71,9 @@ class SessionModel:
         self.stages = StageStore()
         self.visible: set[str] | None = None  # None: every tab (no window says otherwise)
         self._dirty: set[str] = set()
+        self.throttle = False  # on while a scan runs (begin_run .. its end)
+        self.clock = time.monotonic
+        self._drawn_at: dict[str, float] = {}
         self.last_frame: np.ndarray | None = None
         self.regions.subscribe(lambda _: self._regions_changed())
         self.views.subscribe(lambda _: self._view_changed())
@@ -93,14 +100,30 @@ class SessionModel:
         """The result tabs on screen; hidden tabs' models wait until they are shown."""
         self.visible = set(tabs)
         for tab in [t for t in LAZY_TABS if t in self._dirty and t in self.visible]:
-            self._dirty.discard(tab)
+            self._drawn_at.pop(tab, None)  # shown now: drawn now
             self._recompute(tab)
 
     def _need(self, tab: str) -> bool:
-        if self.visible is None or tab in self.visible:
-            return True
-        self._dirty.add(tab)
-        return False
+        if self.visible is not None and tab not in self.visible:
+            self._dirty.add(tab)
+            return False
+        if self.throttle and self.clock() - self._drawn_at.get(tab, -math.inf) < REFRESH_S:
+            self._dirty.add(tab)  # drawn moments ago: the newest data waits for flush()
+            return False
+        self._drawn_at[tab] = self.clock()
+        self._dirty.discard(tab)
+        return True
+
+    def flush(self, force: bool = False) -> None:
+        """Draw the shown tabs whose newest data waited (every one when ``force``)."""
+        for tab in [t for t in LAZY_TABS if t in self._dirty and (self.visible is None or t in self.visible)]:
+            if force or self.clock() - self._drawn_at.get(tab, -math.inf) >= REFRESH_S:
+                self._drawn_at.pop(tab, None)
+                self._recompute(tab)
+
+    def _end_of_run(self) -> None:
+        self.throttle = False
+        self.flush(force=True)
 
     def _recompute(self, tab: str) -> None:
         if tab == DISTRIBUTIONS and self.last_frame is not None:
@@ -133,6 +156,7 @@ class SessionModel:
         self.defects.clear()
         self.stages.clear()
         self.last_frame = None
+        self.throttle = True
 
     def handle(self, ev) -> None:
         if isinstance(ev, RunInfo):
@@ -155,10 +179,12 @@ class SessionModel:
             self.progress.update(stage=ev.stage, total=ev.total, fraction=ev.fraction,
                                  seconds_remaining=ev.seconds_remaining)
         elif isinstance(ev, Ending):
+            self._end_of_run()
             self.progress.update(state=P.FINISHING, seconds_remaining=None,
                                  message=f"{ev.stages_completed} stage(s) acquired ({ev.status}); "
                                          "analysing and writing the run directory in the background.")
         elif isinstance(ev, Done):
+            self._end_of_run()
             self._summary(ev.summary)
             if ev.run_dir:
                 self.info.update(run_directory=ev.run_dir)
@@ -170,11 +196,13 @@ class SessionModel:
                              else "all passed (or none set)")
             self.progress.update(state=P.DONE, fraction=1.0, seconds_remaining=0.0, message=message)
         elif isinstance(ev, Stopped):
+            self._end_of_run()
             if ev.run_dir:
                 self.info.update(run_directory=ev.run_dir)
             self.progress.update(state=P.STOPPED, seconds_remaining=None,
                                  message=ev.message)
         elif isinstance(ev, Failed):
+            self._end_of_run()
             self.progress.update(state=P.FAILED, seconds_remaining=None, message=ev.message)
 
     # ---- per-event updates ------------------------------------------------------------
@@ -235,10 +263,10 @@ class SessionModel:
         caption = f"stage {ev.stage}: {ev.name}"
         if ev.mean is None:
             caption += " (arrays dropped to bound memory; the run directory has them)"
-        elif self._need(SIGNAL_MAP) | self._need(NOISE_MAP):  # both: a hidden one is marked for later
-            if self.visible is None or SIGNAL_MAP in self.visible:
+        else:
+            if self._need(SIGNAL_MAP):  # (a hidden or just-drawn map is marked for later)
                 self.signal_map.set_image(ev.mean, caption)
-            if self.visible is None or NOISE_MAP in self.visible:
+            if self._need(NOISE_MAP):
                 self.noise_map.set_image(np.sqrt(np.clip(ev.variance, 0, None)), caption)
         for m in (self.signal_map, self.noise_map):
             m.set_rectangles(self._drawn())
