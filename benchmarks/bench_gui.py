@@ -146,7 +146,8 @@ def main() -> int:
     lines = ["## The GUI against headless: `scans/photon_transfer.xml`", "",
              f"26 stages, 432 VGA frames, run directory with the report; {args.runs} interleaved pairs of fresh "
              f"processes, both cores allowed (the window's thread and the scan's share them); the GUI offscreen at "
-             f"1280x800 drawing every tab's models. Load average {load0:.1f} at the start, {load1:.1f} at the end.", "",
+             f"1280x800 showing the Results tab, live image and progress as a desk session does. "
+             f"Load average {load0:.1f} at the start, {load1:.1f} at the end.", "",
              "| how | median wall s | runs (s) |", "|---|---:|---|",
              f"| headless, `Runner.run()` (baseline) | {med['headless']:.2f} | "
              + ", ".join(f"{t:.2f}" for t in times["headless"]) + " |",
