@@ -10,9 +10,10 @@ under load). Automatic collection is suspended for the run and the poll timer co
 by the same generation thresholds. A frame preview or progress
 event replaces an older one of its kind still waiting (never across a
 stage/result/done event), so a fast engine cannot bury the window under stale frames --
-it always shows the newest; and previews are drawn at most every ``PREVIEW_INTERVAL_S``
-(time-decimated: a preview that comes too soon waits for the next poll, or is dropped
-when a newer stage event follows it), so drawing never competes with acquisition. Every failure ends as one ``Failed`` event with one
+it always shows the newest; and previews and progress are drawn at most every
+``PREVIEW_INTERVAL_S`` (time-decimated: one that comes too soon waits for a later poll,
+or is dropped when a newer stage event follows it), so drawing never competes with
+acquisition. Every failure ends as one ``Failed`` event with one
 sentence: ``AresError`` messages as they are, anything else as "Unexpected error in the
 scan engine: ..." (the traceback goes to the log, never to a dialog).
 """
@@ -60,7 +61,7 @@ class EventPump(QObject):
         self.dropped = 0
         self.interval_s = PREVIEW_INTERVAL_S
         self.clock = time.monotonic
-        self._last_preview = -float("inf")
+        self._last: dict[type, float] = {}  # when a preview / progress event was last delivered
 
     def push(self, ev) -> None:
         with self._lock:
@@ -80,24 +81,26 @@ class EventPump(QObject):
         now = self.clock()
         with self._lock:
             items, self._pending = self._pending, []
-        previews = [k for k, ev in enumerate(items) if isinstance(ev, FramePreview)]
-        out, held = [], None
+        newest = {type(ev): k for k, ev in enumerate(items) if isinstance(ev, COALESCE)}
+        out, held = [], []
         for k, ev in enumerate(items):
-            if isinstance(ev, FramePreview) and now - self._last_preview < self.interval_s:
-                if k == previews[-1] and all(isinstance(x, COALESCE) for x in items[k + 1:]):
-                    held = ev  # the newest frame, nothing newer behind it: show it at a later poll
-                else:
+            kind = type(ev)
+            if isinstance(ev, COALESCE) and now - self._last.get(kind, -float("inf")) < self.interval_s:
+                if k == newest[kind] and all(isinstance(x, COALESCE) for x in items[k + 1:]):
+                    held.append(ev)  # the newest of its kind, nothing newer behind it: a later poll
+                elif kind is FramePreview:
                     self.dropped += 1
                 continue
-            if isinstance(ev, FramePreview):
-                self._last_preview = now
+            if isinstance(ev, COALESCE):
+                self._last[kind] = now
             out.append(ev)
-        if held is not None:
+        if held:
             with self._lock:
-                if not any(isinstance(x, FramePreview) for x in self._pending):
-                    self._pending.insert(0, held)
-                else:
-                    self.dropped += 1
+                for ev in reversed(held):  # older than anything pushed meanwhile: in front, unless superseded
+                    if not any(type(x) is type(ev) for x in self._pending):
+                        self._pending.insert(0, ev)
+                    elif type(ev) is FramePreview:
+                        self.dropped += 1
         for ev in out:
             self.event.emit(ev)
 
