@@ -373,6 +373,17 @@ def test_event_pump_draws_previews_at_most_every_interval(qtbot):
     now[0] += 0.1
     pump.drain()  # too soon and superseded by the stage result: dropped
     assert type(got[-1]).__name__ == "StageResult" and pump.dropped == 1
+    pump.push(E.Progress(1, 2, 0.4))
+    pump.drain()  # 0.4 s after the last progress: drawn
+    assert got[-1].fraction == 0.4
+    n = len(got)
+    pump.push(E.Progress(1, 2, 0.5))
+    now[0] += 0.1
+    pump.drain()  # progress too, at most every interval: this one waits ...
+    assert len(got) == n
+    now[0] += 0.2
+    pump.drain()  # ... and comes at a later poll
+    assert got[-1].fraction == 0.5
 
 
 def test_check_display_passes_offscreen():
