@@ -238,9 +238,7 @@ class Runner:
                 try:
                     dark = None
                     pos["dark"] = _position(bench)
-                    if st.dark_after:
-                        pass  # grabbed after the flat, below
-                    elif st.dark_source == "grab":
+                    if st.dark_source == "grab" and not st.dark_after:  # (dark="after": below)
                         apply_settings(bench, system, st.dark_settings, applied, self._cancelled)
                         applied = st.dark_settings
                         dark = self._grab(bench, st, st.dark_frames, vw, max_code, fw, dark=True)
