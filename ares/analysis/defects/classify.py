@@ -13,9 +13,9 @@ import math
 from typing import Callable, Sequence
 
 import numpy as np
-from scipy import stats as sps
 
 from .clusters import find_clusters
+from .dist import chi2_isf, chi2_ppf, trim_mean
 from .histograms import deviation_histograms
 from .lines import LineFlags, line_z
 from .params import DefectThresholds
@@ -60,14 +60,14 @@ class _Dark:
         t = st.exposure_s
         self.rate = self.res / (gain * t) if gain and t else None
         dof = st.n_frames - 1
-        self.pop_var = sampled_median(st.var) / (sps.chi2.median(dof) / dof)
+        self.pop_var = sampled_median(st.var) / (chi2_ppf(0.5, dof) / dof)
         self.expected = self.pop_var + (gain * np.maximum(self.res, 0.0) if gain else 0.0)
         self.var_ratio = st.var / np.maximum(self.expected, 1e-12)
         # per-line temporal variance relative to the typical line: a 10 %-trimmed mean, not
         # a median -- with a pair of integer frames the variances take a few discrete
         # values and a line median jumps between them (false noisy lines at F = 2)
-        cv = sps.trim_mean(self.var_ratio, 0.1, axis=0)
-        rv = sps.trim_mean(self.var_ratio, 0.1, axis=1)
+        cv = trim_mean(self.var_ratio, 0.1, axis=0)
+        rv = trim_mean(self.var_ratio, 0.1, axis=1)
         self.col_var = cv / max(float(np.median(cv)), 1e-12)
         self.row_var = rv / max(float(np.median(rv)), 1e-12)
         self.stuck_ok, self.stuck_why = stuck_in_darks(math.sqrt(self.pop_var), st.n_frames, th.max_false_alarm)
@@ -184,10 +184,10 @@ def classify_defects(
             warm_n += warm
             dof = d.st.n_frames - 1
             vr = d.var_ratio / line_var
-            noisy_n += vr > sps.chi2.isf(th.noisy_p_fa, dof) / dof
+            noisy_n += vr > chi2_isf(th.noisy_p_fa, dof) / dof
             np.maximum(noisy_stat, vr, out=noisy_stat)
             if d.stuck_ok:
-                stuck_n += (d.st.var < th.stuck_var_dn2) & (d.st.var < d.pop_var * sps.chi2.ppf(th.noisy_p_fa, dof) / dof)
+                stuck_n += (d.st.var < th.stuck_var_dn2) & (d.st.var < d.pop_var * chi2_ppf(th.noisy_p_fa, dof) / dof)
         need = _need(max(sum(d.stuck_ok for d in D), 1), th.confirm_fraction)
         stuck = stuck_n >= need if any(d.stuck_ok for d in D) else np.zeros(shape, bool)
         need = _need(nd, th.confirm_fraction)

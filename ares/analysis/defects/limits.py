@@ -25,7 +25,8 @@ from __future__ import annotations
 import math
 
 import numpy as np
-from scipy import stats as sps
+
+from .dist import chi2_isf, chi2_ppf, norm_cdf
 
 Z99 = 2.326  # one-sided 99 % quantile of the normal
 
@@ -39,8 +40,8 @@ def p_constant_codes(sigma_dn: float, frames: int, n_phase: int = 32) -> float:
         return 1.0
     mu = (np.arange(n_phase) + 0.5) / n_phase
     k = np.arange(-int(8 * sigma_dn) - 2, int(8 * sigma_dn) + 3)
-    p = (sps.norm.cdf((k[None, :] + 0.5 - mu[:, None]) / sigma_dn)
-         - sps.norm.cdf((k[None, :] - 0.5 - mu[:, None]) / sigma_dn))
+    p = (norm_cdf((k[None, :] + 0.5 - mu[:, None]) / sigma_dn)
+         - norm_cdf((k[None, :] - 0.5 - mu[:, None]) / sigma_dn))
     return float(np.mean(np.sum(p**frames, axis=1)))
 
 
@@ -59,7 +60,7 @@ def noisy_ratio_99(frames: int, p_fa: float) -> float:
     dof = frames - 1
     if dof < 1:
         return math.inf
-    return float(sps.chi2.isf(p_fa, dof) / sps.chi2.ppf(0.01, dof))
+    return float(chi2_isf(p_fa, dof) / chi2_ppf(0.01, dof))
 
 
 def min_frames_noisy(ratio: float, p_fa: float, f_max: int = 4096) -> int | None:
