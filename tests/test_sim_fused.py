@@ -28,7 +28,9 @@ def frames(params: SensorParams, seed: int, on: bool) -> list[np.ndarray]:
         out = [s.render(5, exposure_s=0.01, photon_flux=2e5),
                s.render(3, exposure_s=0.01, photon_flux=0.0),  # the lag carried into darks
                s.render(5, exposure_s=0.03, photon_flux=3e6),  # past full well: the clip
-               s.render(4, exposure_s=0.01, photon_flux=1e6, temperature_c=45.0)]
+               s.render(4, exposure_s=0.01, photon_flux=1e6, temperature_c=45.0),
+               s.render(3, exposure_s=0.01, photon_flux=300.0),  # low light: exact Poisson by alias
+               s.render(2, exposure_s=2.0, photon_flux=0.0)]  # a long dark
     return out
 
 

@@ -60,6 +60,7 @@ import numpy as np
 from ares.errors import InputError
 
 from . import flat as _flat
+from . import masked_fold
 from .anova import DARK_NAMES
 from .estimate import Estimate
 from .flat import highpass_emva
@@ -151,6 +152,11 @@ class MaskedStackAccumulator:
             self._fold(a[i : i + self.batch])
 
     def _fold(self, x: np.ndarray) -> None:
+        if self._x0 is not None:
+            sums = masked_fold.fold(x, self._x0, self.good, self._s1, self._s2)  # one pass (integer frames)
+            if sums is not None:
+                self._fold_lines(*sums, len(x))
+                return
         d = x.astype(np.float64)
         if x.dtype.kind == "f" and not np.isfinite(d[:, self.good]).all():
             raise InputError(f"frames {self._nf}..{self._nf + len(x) - 1} contain NaN/inf")
@@ -160,14 +166,16 @@ class MaskedStackAccumulator:
         d *= self._g  # masked pixels contribute nothing
         self._s1 += d.sum(axis=0)
         self._s2 += np.einsum("fij,fij->ij", d, d)
-        fr = d.sum(axis=2)
-        fc = d.sum(axis=1)
+        self._fold_lines(d.sum(axis=2), d.sum(axis=1), len(x))
+
+    def _fold_lines(self, fr: np.ndarray, fc: np.ndarray, n: int) -> None:
+        """The row/column/frame-total forms of a folded block's row and column sums."""
         self._r2 += np.einsum("fr,fr->r", fr, fr)
         self._c2 += np.einsum("fc,fc->c", fc, fc)
         t = fr.sum(axis=1)
         self._t2 += float(t @ t)
         self._tot.append(t)
-        self._nf += len(x)
+        self._nf += n
 
     def merge(self, other: "MaskedStackAccumulator") -> "MaskedStackAccumulator":
         """Append the frames of ``other`` (same shape and mask); in place, returns self."""

@@ -5,8 +5,10 @@ steps in ``SimSensor._frame``/``_add_charge``.
 The numpy path makes about a dozen full-frame float32 temporaries per frame (three
 normal deviates, the lag split, the clip, the gain maps); here each pixel is computed
 once, in the same float32 operations in the same order (no fused multiply-add: numba's
-default keeps IEEE semantics), from the same random integers drawn by the same
-generator calls in the same order -- so every code matches the numpy path (tested).
+default keeps IEEE semantics), from the same random numbers drawn by the same generator
+calls in the same order -- so every code matches the numpy path (tested). Each charge
+(photo, dark) is absent, Gaussian from the fast normal table, or exact Poisson of one
+mean by the alias method (low light, short darks): every frame of the shipped scans.
 Without numba (``ARES_NO_NUMBA=1`` or not installed) the numpy path runs.
 
 numba is imported and the kernels loaded (from numba's cache, or compiled once) on first
@@ -17,7 +19,6 @@ use or by ``warm()`` -- the runner calls it before a simulated scan's first fram
 from __future__ import annotations
 
 import contextlib
-import os
 
 import numpy as np
 
@@ -31,14 +32,10 @@ def _load() -> None:
     if _loaded:
         return
     _loaded = True
-    if os.environ.get("ARES_NO_NUMBA"):
-        return
-    try:
-        from numba import njit
-    except ImportError:  # the numpy path
-        return
-    _compiled = njit(cache=True, nogil=True)(_kernel)
-    _compiled_lookup = njit(cache=True, nogil=True)(_lookup_kernel)
+    from ares import jit
+
+    _compiled = jit.compiled(_kernel)  # None: the numpy path
+    _compiled_lookup = jit.compiled(_lookup_kernel)
 
 
 def available() -> bool:
@@ -64,92 +61,157 @@ def warm() -> None:
     """Load (or compile) both kernels now, with the argument types a frame uses."""
     if not available():
         return
-    f, u = np.zeros(2, _F32), np.zeros(2, np.uint16)
-    _compiled(np.zeros(4, _F32), u, u, u, f, f, f, f, True, _F32(0.5), f, True, np.zeros(2, _F32), _F32(1e4),
-              _F32(1.0), f, f, np.zeros(2, _F32))
+    f, u, i, d = np.zeros(2, _F32), np.zeros(2, np.uint16), np.zeros(2, np.int32), np.ones(2)
+    z = _F32(0)
+    _compiled(np.zeros(4, _F32), u, f, f, 1, u, i, d, f, f, d, i, z, 1, u, i, d, f, f, d, i, z, _F32(0.5), f, True,
+              np.zeros(2, _F32), _F32(1e4), _F32(1.0), f, f, np.zeros(2, _F32))
     _compiled_lookup(f, np.zeros(4, np.int32), np.full(4, np.inf), 1, 1, np.zeros(2, np.uint16))
 
 
-def _kernel(T, i1, i2, i3, sigma, offs, q, dark_e, has_dark, lag, left, has_left, lag_out, fw, G, pgr, cgrg, x):
-    """One pass over the raveled frame; ``q`` / ``dark_e`` hold one value (uniform) or one
-    per pixel."""
+NONE, GAUSS, ALIAS = 0, 1, 2  # how a charge is drawn: absent, fast normal table, exact Poisson by alias
+
+
+def _kernel(T, i1, sigma, offs, pm, pg, pa, pu, q, sq, pprob, palias, plo, dm, dg, da, du, dark_e, sd, dprob, dalias,
+            dlo, lag, left, has_left, lag_out, fw, G, pgr, cgrg, x):
+    """One pass over the raveled frame. Photo (``p*``) and dark (``d*``) charge each
+    drawn by mode ``pm``/``dm``: GAUSS from the table indices ``pg``/``dg`` with the mean
+    ``q``/``dark_e`` and its square root ``sq``/``sd`` (one value, or one per pixel), ALIAS from the alias indices and
+    uniforms ``pa, pu``/``da, du`` of one mean's table (``noise.poisson_scalar``)."""
     n = x.size
     q_map, d_map = q.size > 1, dark_e.size > 1
     q0 = q[0]
-    sq0 = np.sqrt(q0)
+    sq0 = sq[0]
     d0 = dark_e[0]
-    sd0 = np.sqrt(d0)
+    sd0 = sd[0]
     for i in range(n):
         v = T[i1[i]] * sigma[i]
         v = v + offs[i]
-        if q_map:
-            qq = q[i]
-            p = T[i2[i]] * np.sqrt(qq)
-        else:
-            qq = q0
-            p = T[i2[i]] * sq0
-        p = p + qq
-        if lag > 0:
-            carried = lag * p
-            lag_out[i] = carried
-            p = p - carried
-            if has_left:
-                p = p + left[i]
-        lim = fw
-        if has_dark:
-            if d_map:
-                de = dark_e[i]
-                d = T[i3[i]] * np.sqrt(de)
+        has_p = pm != NONE
+        p = np.float32(0.0)
+        if pm == GAUSS:
+            if q_map:
+                qq = q[i]
+                p = T[pg[i]] * sq[i]
             else:
-                de = d0
-                d = T[i3[i]] * sd0
-            d = d + de
+                qq = q0
+                p = T[pg[i]] * sq0
+            p = p + qq
+        elif pm == ALIAS:
+            j = pa[i]
+            p = np.float32(j if pu[i] < pprob[j] else palias[j])
+            if plo != 0:
+                p = p + plo
+        if lag > 0:
+            if has_p:
+                carried = lag * p
+                lag_out[i] = carried
+                p = p - carried
+                if has_left:
+                    p = p + left[i]
+            elif has_left:  # a frame without light releases what the frame before left
+                p = left[i]
+                has_p = True
+        lim = fw
+        if dm != NONE:
+            if dm == GAUSS:
+                if d_map:
+                    de = dark_e[i]
+                    d = T[dg[i]] * sd[i]
+                else:
+                    de = d0
+                    d = T[dg[i]] * sd0
+                d = d + de
+            else:
+                j = da[i]
+                d = np.float32(j if du[i] < dprob[j] else dalias[j])
+                if dlo != 0:
+                    d = d + dlo
             if fw < d:
                 d = fw
             v = v + G * d
             lim = fw - d
-        pix = pgr[i] * p
-        if lim < pix:
-            pix = lim
-        v = v + cgrg[i] * pix
+        if has_p:
+            pix = pgr[i] * p
+            if lim < pix:
+                pix = lim
+            v = v + cgrg[i] * pix
         x[i] = v
 
 
+def _mode(mean, exact, has: bool, alias_ok: bool) -> int | None:
+    """How ``noise.shot`` draws this charge (None: a way the kernel does not cover)."""
+    if not has:
+        return NONE
+    if exact is False:
+        return GAUSS
+    if exact is True and alias_ok and np.ndim(mean) == 0 and 0 < float(mean) <= 1e6:
+        return ALIAS
+    return None
+
+
 def applies(sc, plan, flutter: float) -> bool:
-    """The case the kernel covers: Gaussian shot noise everywhere (no exact-Poisson pixel,
-    the fast normal table), photo-charge present, no flutter this frame."""
+    """The cases the kernel covers: the fast normal table for read noise and Gaussian
+    charges, exact Poisson only for a uniform mean (the alias method), no flutter on a
+    lit frame."""
     _load()
-    return (_compiled is not None and plan["gauss_fast"] and plan["sigma"] is not None and plan["has_q"]
-            and plan["mask_q"] is False and plan["mask_d"] is False and flutter == 1.0)
+    if _compiled is None or not plan["gauss_fast"] or plan["sigma"] is None:
+        return False
+    has_q = bool(plan["has_q"])
+    if has_q and flutter != 1.0:
+        return False
+    return (_mode(sc.q, plan["mask_q"], has_q, True) is not None
+            and _mode(sc.dark_e, plan["mask_d"], sc.dark_e is not None, True) is not None)
 
 
 def charge_frame(rng, sc, plan, shape, left, table):
     """(x in DN before the line terms and the ADC, the photo-charge carried to the next
     frame or None): what ``_frame`` + ``_add_charge`` compute on this path, with the
     generator called exactly as they call it (read noise, photo shot, dark shot)."""
+    from ares.sim.noise import _alias_table
+
     i1 = rng.integers(0, 1 << 16, size=shape, dtype=np.uint16)
-    i2 = rng.integers(0, 1 << 16, size=shape, dtype=np.uint16)
-    has_dark = sc.dark_e is not None
-    i3 = rng.integers(0, 1 << 16, size=shape, dtype=np.uint16) if has_dark else i1
-
-    def flat(a):  # one value, or a contiguous (writable: one numba signature) per-pixel map
-        a = np.asarray(a, _F32)
-        if a.size == 1:
-            return a.reshape(1).copy()
-        return np.ascontiguousarray(a).reshape(-1) if a.shape == shape else np.broadcast_to(a, shape).ravel()
-
-    q = flat(sc.q)
-    dark = flat(sc.dark_e) if has_dark else q
-    lag = _F32(sc.lag)
     size = shape[0] * shape[1]
-    lag_out = np.empty(size if lag > 0 else 1, _F32)
+    u16, i32, f64 = np.zeros(1, np.uint16), np.zeros(1, np.int32), np.zeros(1)
+
+    cache = plan.setdefault("fused", {})  # per render call: the stage's maps, flattened once
+
+    def flat(key, a):  # (mean, its float32 square root as numpy takes it): one value, or per pixel
+        if key not in cache:
+            a = np.asarray(a, _F32)
+            if a.size == 1:
+                a = a.reshape(1).copy()  # writable: one numba signature
+            else:
+                a = np.array(np.broadcast_to(a, shape), order="C").reshape(-1)  # a writable copy
+            cache[key] = (a, np.sqrt(a))
+        return cache[key]
+
+    def draws(key, mean, mode):  # (gauss indices, alias indices, uniforms, mean, sqrt, prob, alias, lo)
+        if mode == GAUSS:
+            return (rng.integers(0, 1 << 16, size=size, dtype=np.uint16), i32, f64, *flat(key, mean), f64, i32,
+                    _F32(0))
+        if mode == ALIAS:
+            lo, prob, alias = _alias_table(float(mean))
+            idx = rng.integers(0, len(prob), size=shape, dtype=np.int32).ravel()
+            return u16, idx, rng.random(size=shape).ravel(), *flat("zero", 0.0), prob, alias, _F32(lo)
+        return u16, i32, f64, *flat("zero", 0.0), f64, i32, _F32(0)
+
+    has_q = bool(plan["has_q"])
+    pm = _mode(sc.q, plan["mask_q"], has_q, True)
+    dm = _mode(sc.dark_e, plan["mask_d"], sc.dark_e is not None, True)
+    photo = draws("q", sc.q, pm)
+    dark = draws("dark", sc.dark_e, dm)
+    lag = _F32(sc.lag)
+    carries = lag > 0 and has_q
+    lag_out = np.empty(size if carries else 1, _F32)
+    left = left if lag > 0 else None
     x = np.empty(shape, _F32)
-    maps = [np.ascontiguousarray(plan[k]).ravel() for k in ("sigma", "offs", "pgr", "cgrg")]
-    _compiled(table, i1.ravel(), i2.ravel(), i3.ravel(), maps[0], maps[1], q, dark, has_dark, lag,
+    if "maps" not in cache:
+        cache["maps"] = [np.ascontiguousarray(plan[k]).ravel() for k in ("sigma", "offs", "pgr", "cgrg")]
+    maps = cache["maps"]
+    _compiled(table, i1.ravel(), maps[0], maps[1], pm, *photo, dm, *dark, lag,
               left.ravel() if left is not None else lag_out, left is not None, lag_out, _F32(plan["fw"]),
               _F32(sc.G), maps[2], maps[3], x.ravel())
-    lag_out = lag_out.reshape(shape) if lag > 0 else None
-    return x, lag_out
+    return x, (lag_out.reshape(shape) if carries else None)
 
 
 def _lookup_kernel(x, base, tpad, per_cell, max_code, out):
