@@ -96,12 +96,17 @@ CHILD = r"""
 import sys, time
 from ares.protocol import load_scan
 from ares.scan import Runner, events as ev
+import threading
 k, where = int(sys.argv[2]), sys.argv[3]
 r = Runner(load_scan(sys.argv[1]), out_dir=sys.argv[4])
+committed = threading.Event()  # stage k-1 is committed beside stage k's frames (ares.scan.commit)
 def hold(e):
+    if isinstance(e, ev.StageFinished) and e.index == k - 1:
+        committed.set()
     hit = (where == "between" and isinstance(e, ev.StageFinished) and e.index == k - 1) or \
           (where == "inside" and isinstance(e, ev.FramePreview) and e.index == k and e.frame == 2 and not e.dark)
     if hit:
+        committed.wait(600)
         print("READY", flush=True)
         while True:
             time.sleep(1)

@@ -135,6 +135,8 @@ def test_pause_holds_frames_until_resume(ptc_small):
     out = r.run()
     resumer[0].join()
     assert out.status == "done" and len(out.stages) == 9
+    # the stage acquired before may finish its analysis meanwhile (ares.scan.commit): no frame does
+    log = [e for e in log if not isinstance(e, ev.StageFinished)]
     i = next(k for k, e in enumerate(log) if isinstance(e, ev.Paused))
     assert log[i + 1] == "resume" and isinstance(log[i + 2], ev.Resumed)
     assert isinstance(log[i - 1], ev.Progress) and log[i - 1].index == 1

@@ -27,6 +27,7 @@ from ares.errors import AresError, DeviceGone, FrameError, FrameLost, HardwareEr
 from ares.hardware.waits import Interrupted
 from ares.scan import events as ev
 from ares.scan.apply import apply_settings
+from ares.scan.commit import StageCommitter
 from ares.scan.defect_mask import load_declared_mask, mask_from_dark, scan_thresholds
 from ares.scan.preflight import check_run
 from ares.scan.results import StackSet, analyze_stage, check_limits, scan_level_results, views
@@ -58,11 +59,14 @@ class Runner:
     def __init__(self, scan, *, bench=None, out_dir: str | Path | None = None, seed: int | None = None,
                  frames: int | None = None, faults: dict | None = None, argv: list[str] | None = None,
                  listeners: tuple[Callable, ...] = (), resume_from: list[dict] | None = None,
-                 defer_reports: bool = False):
+                 defer_reports: bool = False, pipeline: bool = True):
         """``resume_from``: the committed stages of an interrupted run in ``out_dir``; the
         run continues at the first missing stage, appending (``ares resume``).
         ``defer_reports``: a run that ends normally leaves its reports to ``write_reports()``
-        (the CLI prints the key figures first: the PDF costs seconds the user need not wait)."""
+        (the CLI prints the key figures first: the PDF costs seconds the user need not wait).
+        ``pipeline``: a finished stage is analysed and committed in a second thread while the
+        next one is acquired (``ares.scan.commit``; same results, files and events)."""
+        self.pipeline = pipeline
         self.scan = scan
         self.defer_reports = defer_reports
         self._pending_reports = None
@@ -145,6 +149,9 @@ class Runner:
                 from ares.sim import fused
 
                 fused.warm()
+            from ares.analysis import masked_fold
+
+            masked_fold.warm()  # (the masked stacks after the first dark stage)
             if writer is not None:  # provenance: what the bench says about itself (sim params, chip id)
                 writer.meta["bench"] = {k: v for k, v in bench.info.items()
                                         if isinstance(v, (str, int, float, bool, dict, list, type(None)))}
@@ -198,7 +205,7 @@ class Runner:
                 bench.close()
 
     def _run(self, bench, writer, completed) -> RunOutcome:
-        scan, system, stages = self.scan, self.system, self.stages
+        scan, stages = self.scan, self.stages
         self._susp = Suspenders(scan.suspend, bench, self._cancelled) if scan.suspend else None
         vw = views(scan)
         max_code = (1 << int(bench.frames.bit_depth)) - 1
@@ -213,7 +220,6 @@ class Runner:
         cache = None  # last dark StackSet that a matched dark may reuse
         self._mask = load_declared_mask(scan, bench.frames.shape)  # else from the first dark stage
         applied: dict | None = None
-        status = "done"
         if completed:  # resuming: the bench, mask and cached dark as the interrupted run left them
             from ares.scan.resume import restore
 
@@ -222,9 +228,21 @@ class Runner:
             if writer is not None and note:
                 writer.meta["resumed"][-1].update(note)
                 writer._write_meta()
+        self._commit = StageCommitter(self._commit_stage, threaded=self.pipeline)
+        try:
+            return self._stages(bench, writer, completed, stages, vw, max_code, cache, applied)
+        except BaseException:
+            self._commit.settle()  # the stages acquired before the error are committed, then it is raised
+            raise
+
+    def _stages(self, bench, writer, completed, stages, vw, max_code, cache, applied) -> RunOutcome:
+        scan, system = self.scan, self.system
+        run_dir = str(writer.dir) if writer else None
+        status = "done"
         for st in stages:
             if st.index < len(completed):
                 continue
+            self._commit.check()
             if self._stop.is_set() or self._abort.is_set():
                 status = "aborted" if self._abort.is_set() else "stopped"
                 break
@@ -306,34 +324,22 @@ class Runner:
                 cache = dark
             after = bench.registers.snapshot()
             new_mask = self._mask is None and st.scene == "dark" and st.settings.get("reg:test_mode", 0) == 0
-            if new_mask:
+            if new_mask:  # before the next stage's frames: they are masked as they arrive
                 self._mask = mask_from_dark(flat, st.name, st.settings.get("exposure"), scan_thresholds(scan))
                 flat.apply_mask(self._mask.mask)  # this stage too, from its kept frames
-            result, arrays = analyze_stage(st, flat, dark)
-            for stack in (flat, dark):
-                if stack is not None:
-                    stack.drop_maps()
-            if st.dark_after:
-                result["dark_after"] = True  # its matched dark followed the flat: a bright->dark cycle
-            if pos.get("end") is not None:
-                result["bench_position"] = pos  # where the frame stream stood (ares resume)
-            if suspensions:
-                result["suspensions"] = suspensions
-            if lost:
-                result["frames_lost"] = lost
-            if self._mask is not None:
-                result["defect_mask"] = self._mask.summary()
-                if new_mask or not completed:  # the mask itself, once, with the stage it came from
-                    arrays["defect_mask"] = self._mask.mask.astype(np.uint8)
-            timing = {"started": t_start, "finished": time.time(), "seconds": time.time() - t_start}
-            if writer:
-                writer.add_stage(result, arrays, before, after, timing)
-            completed.append(dict(result, registers_before=before, registers_after=after, timing=timing))
             self._eta.stage_finished(time.monotonic() - self._t0, st.scene)
-            self._emit(ev.StageFinished(st.index, len(stages), st, result, arrays))
+            extra = {"dark_after": True} if st.dark_after else {}  # its matched dark followed the flat
+            if pos.get("end") is not None:
+                extra["bench_position"] = pos  # where the frame stream stood (ares resume)
+            if suspensions:
+                extra["suspensions"] = suspensions
+            if lost:
+                extra["frames_lost"] = lost
+            self._commit.submit(st, flat, dark, extra, new_mask, before, after, t_start, writer, completed)
         else:
             if self._stop.is_set():
                 status = "done"  # stop during the last stage: the scan is complete anyway
+        self._commit.wait()
         self._emit(ev.Ending(status, len(completed)))
         scan_results, fails = {}, []
         message = ""
@@ -354,16 +360,36 @@ class Runner:
         return RunOutcome(status, writer.dir if writer else None, completed, scan_results, fails, message=message,
                           seed=self.seed)
 
-    def write_reports(self) -> str:
+    def _commit_stage(self, st: Stage, flat, dark, extra: dict, new_mask: bool, before: dict, after: dict,
+                      t_start: float, writer, completed: list) -> None:
+        """Analyse a stage whose frames are all in, write it to the run directory, tell the
+        listeners (``ares.scan.commit``: beside the next stage's acquisition)."""
+        result, arrays = analyze_stage(st, flat, dark)
+        for stack in (flat, dark):
+            if stack is not None:
+                stack.drop_maps()
+        result.update(extra)
+        if self._mask is not None:
+            result["defect_mask"] = self._mask.summary()
+            if new_mask or not completed:  # the mask itself, once, with the stage it came from
+                arrays["defect_mask"] = self._mask.mask.astype(np.uint8)
+        timing = {"started": t_start, "finished": time.time(), "seconds": time.time() - t_start}
+        if writer:
+            writer.add_stage(result, arrays, before, after, timing)
+        completed.append(dict(result, registers_before=before, registers_after=after, timing=timing))
+        self._emit(ev.StageFinished(st.index, len(self.stages), st, result, arrays))
+
+    def write_reports(self, helper=None) -> str:
         """Write the reports a ``defer_reports`` run left pending; returns the report error
-        sentence ("" when written or when nothing was pending)."""
+        sentence ("" when written or when nothing was pending). ``helper``: a report
+        helper process started earlier (``ares.report.pdf_parts.start``)."""
         writer, self._pending_reports = self._pending_reports, None
         if writer is None:
             return ""
-        self._reports(writer)
+        self._reports(writer, helper)
         return writer.meta.get("report_error", "")
 
-    def _reports(self, writer) -> None:
+    def _reports(self, writer, helper=None) -> None:
         """The report module's tables (``<output csv/hdf5>``) and PDF (``<output pdf>``),
         written from the run directory alone once the run has ended (done, stopped or failed)."""
         out = self.scan.output
@@ -373,7 +399,7 @@ class Runner:
         try:
             from ares.report import write_reports
 
-            write_reports(writer.dir, formats)
+            write_reports(writer.dir, formats, helper=helper)
         except Exception as exc:  # the run's data are complete; a report problem is only noted
             writer.meta["report_error"] = f"{type(exc).__name__}: {exc}"
             writer._write_meta()

@@ -81,7 +81,8 @@ def run_once(scan, seed: int, frames: int | None = None, bench=None) -> dict:
     clock = _Clock()
     try:
         t0 = time.perf_counter()
-        out = Runner(scan, bench=bench, seed=seed, frames=frames, listeners=(clock,)).run()
+        out = Runner(scan, bench=bench, seed=seed, frames=frames, listeners=(clock,),
+                     pipeline=False).run()  # acquisition and analysis timed apart: one thread
         wall = time.perf_counter() - t0
         truth = truths(bench) if "sensor" in bench.info and hasattr(bench.frames, "settings") else {}
     finally:
