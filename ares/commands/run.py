@@ -309,9 +309,18 @@ def execute(scan, args, *, seed, frames, faults=None, argv=None, out_dir=None, r
     # like a stop: the stage in flight finishes, run.json says so; a second one aborts
     sigs = (signal.SIGINT, signal.SIGTERM, signal.SIGHUP)
     old = {s_: signal.signal(s_, on_signal) for s_ in sigs} if _main_thread() else {}
+    helper = None
+    if scan.output.pdf and not args.json:  # the report helper imports matplotlib during the scan
+        from ares.report import pdf_parts
+
+        helper = pdf_parts.start(out_dir, background=True)
     t0 = time.monotonic()
     try:
         outcome = runner.run()
+    except BaseException:
+        if helper is not None:
+            helper.close()
+        raise
     finally:
         for s_, h in old.items():
             signal.signal(s_, h)
@@ -324,7 +333,9 @@ def execute(scan, args, *, seed, frames, faults=None, argv=None, out_dir=None, r
         if getattr(runner, "report", None):
             print_precision(runner.report)
         sys.stdout.flush()
-        err = runner.write_reports()
+        err = runner.write_reports(helper)
+    if helper is not None:
+        helper.close()  # (not needed: no report, or --json)
         if err:
             print(f"report: not written ({err})")
         elif outcome.run_dir and scan.output.pdf and not args.quiet:

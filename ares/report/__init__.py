@@ -29,17 +29,31 @@ def key_figures(run_dir) -> dict:
 
 
 def write_reports(run_dir, formats=DEFAULT_FORMATS, out_dir=None, *, pdf_path=None, csv_dir=None,
-                  h5_path=None) -> list[Path]:
+                  h5_path=None, helper=None) -> list[Path]:
     """Write the requested reports ("csv", "pdf", "hdf5"); returns the files written.
     ``pdf_path``/``csv_dir``/``h5_path`` override where each goes (default: ``out_dir``
-    or the run directory)."""
+    or the run directory). ``helper``: a ``pdf_parts`` helper started earlier for this run
+    directory (one is started here otherwise); it is ended here either way."""
     from ares.errors import InputError
-    from ares.report import csv_export, h5_export, pdf, tables
 
     bad = [f for f in formats if f not in FORMATS]
     if bad:
         raise InputError(f"unknown report format '{bad[0]}' (choose from {', '.join(FORMATS)})")
     run = read_run(run_dir)
+    if "pdf" in formats and helper is None:  # a second process draws part of the PDF
+        from ares.report import pdf_parts
+
+        helper = pdf_parts.start(run.dir)
+    try:
+        return _write(run, formats, out_dir, pdf_path, csv_dir, h5_path, helper)
+    finally:
+        if helper is not None:
+            helper.close()
+
+
+def _write(run, formats, out_dir, pdf_path, csv_dir, h5_path, helper) -> list[Path]:
+    from ares.report import csv_export, h5_export, pdf, tables
+
     base = Path(out_dir) if out_dir is not None else run.dir
     groups = tables.ptc_groups(run)
     kf = tables.compute_key_figures(run, groups)
@@ -51,7 +65,7 @@ def write_reports(run_dir, formats=DEFAULT_FORMATS, out_dir=None, *, pdf_path=No
     if "pdf" in formats:
         p = Path(pdf_path) if pdf_path else base / "report.pdf"
         emva = pdf.emva_sheet(run)
-        pdf.write_pdf(run, p, groups, kf, emva)
+        pdf.write_pdf(run, p, groups, kf, emva, helper=helper)
         out.append(p)
         if emva is not None:  # the EMVA 1288 Release 4.0 datasheet on its own, next to the report
             from ares.report import datasheet

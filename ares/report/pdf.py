@@ -12,6 +12,7 @@ from __future__ import annotations
 
 import json
 import textwrap
+from functools import partial
 from pathlib import Path
 
 import matplotlib
@@ -259,26 +260,29 @@ def emva_sheet(run):
     return sheet, general
 
 
-def build_pages(run, groups=None, kf=None, emva=None) -> list[tuple[str, object]]:
+def page_plan(run, groups=None, kf=None, emva=None) -> list[tuple[str, object]]:
+    """The report's pages in order as (title, maker): a maker is a callable drawing the
+    page (``Figure``) or, for pages that come in a data-dependent number, the ``Figure``
+    itself. Deterministic from the run directory, so that another process that plans
+    the same run draws the same page under the same number (``ares.report.pdf_parts``)."""
     groups = tables.ptc_groups(run) if groups is None else groups
     kf = tables.compute_key_figures(run, groups) if kf is None else kf
-    pages = [("title", title_page(run, kf))]
+    pages = [("title", partial(title_page, run, kf))]
     ptc_ok = [g for g in groups if g.result is not None and g.is_curve]
     for g in ptc_ok:
         rows = tables.ptc_rows([g])
-        pages.append((f"ptc x{g.analog_gain:g}", ptc_page(g, rows)))
-        pages.append((f"snr x{g.analog_gain:g}", snr_linearity_page(g, rows)))
+        pages.append((f"ptc x{g.analog_gain:g}", partial(ptc_page, g, rows)))
+        pages.append((f"snr x{g.analog_gain:g}", partial(snr_linearity_page, g, rows)))
         if len(ptc_ok) > 2:  # many gains: the first gain in full, the rest on the gain page
             break
     mid, dark = tables.mid_stage(run), tables.dark_stage(run)
     if mid is not None:
-        pages.append(("components", components_page(run, mid, dark)))
+        pages.append(("components", partial(components_page, run, mid, dark)))
         if len(mid["views"]) > 1:
-            pages.append(("views", views_page(mid)))
+            pages.append(("views", partial(views_page, mid)))
     for st in [s for s in (mid, dark) if s is not None]:
-        arr = run.arrays(st["index"])
-        if "mean" in arr:
-            pages.append((f"maps {st['name']}", maps_page(run, st, arr)))
+        if run.has_array(st["index"], "mean"):
+            pages.append((f"maps {st['name']}", partial(_maps_page, run, st)))
         if st is dark:
             break
     pages += scan_kinds.pages(run, groups)
@@ -287,25 +291,54 @@ def build_pages(run, groups=None, kf=None, emva=None) -> list[tuple[str, object]
 
         pages += datasheet.pages(*emva)
     pages += [("stages", f) for f in stages_pages(run)]
-    for i, (_, fig) in enumerate(pages):
-        fig.text(0.5, 0.012, f"{run.meta.get('scan_name', '')} · {run.dir.resolve().name} · page {i + 1} of "
-                 f"{len(pages)}" + (f" · {run.attribution}" if run.attribution else ""), ha="center", fontsize=7,
-                 color="0.4")
     return pages
 
 
-def write_pdf(run, path: str | Path, groups=None, kf=None, emva=None) -> list[str]:
-    """Write the report to ``path``; returns the page titles."""
+def _maps_page(run, st):
+    return maps_page(run, st, run.arrays(st["index"]))
+
+
+def draw_page(run, pages, i: int):
+    """Page ``i`` of a plan drawn, with its footer (page i of n)."""
+    maker = pages[i][1]
+    fig = maker() if callable(maker) else maker
+    fig.text(0.5, 0.012, f"{run.meta.get('scan_name', '')} · {run.dir.resolve().name} · page {i + 1} of "
+             f"{len(pages)}" + (f" · {run.attribution}" if run.attribution else ""), ha="center", fontsize=7,
+             color="0.4")
+    return fig
+
+
+def build_pages(run, groups=None, kf=None, emva=None) -> list[tuple[str, object]]:
+    """Every page drawn: (title, Figure)."""
+    pages = page_plan(run, groups, kf, emva)
+    return [(t, draw_page(run, pages, i)) for i, (t, _) in enumerate(pages)]
+
+
+def render(run, pages, indices, path: Path) -> None:
+    """Draw the pages ``indices`` of a plan into the PDF ``path`` (in that order)."""
     from matplotlib.backends.backend_pdf import PdfPages
 
+    with matplotlib.rc_context(plots.RC), \
+            PdfPages(path, metadata={"Title": f"ARES report {run.meta.get('scan_name', '')}",
+                                     "Creator": "ares report"}) as pdf:
+        for i in indices:
+            fig = draw_page(run, pages, i)
+            pdf.savefig(fig)
+
+
+def write_pdf(run, path: str | Path, groups=None, kf=None, emva=None, helper=None) -> list[str]:
+    """Write the report to ``path``; returns the page titles. ``helper``: a
+    ``pdf_parts.Helper`` process drawing part of the pages beside this one."""
     path = Path(path)
     path.parent.mkdir(parents=True, exist_ok=True)
     tmp = path.with_name(path.name + ".tmp")
     with matplotlib.rc_context(plots.RC):
-        pages = build_pages(run, groups, kf, emva)
-        with PdfPages(tmp, metadata={"Title": f"ARES report {run.meta.get('scan_name', '')}",
-                                     "Creator": "ares report"}) as pdf:
-            for _, fig in pages:
-                pdf.savefig(fig)
+        pages = page_plan(run, groups, kf, emva)
+    if helper is not None:
+        from ares.report import pdf_parts
+
+        pdf_parts.write_split(run, pages, tmp, helper)
+    else:
+        render(run, pages, range(len(pages)), tmp)
     tmp.replace(path)
     return [t for t, _ in pages]

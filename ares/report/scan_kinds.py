@@ -6,6 +6,7 @@ results and the runner's scan-level results; nothing is re-measured."""
 from __future__ import annotations
 
 import json
+from functools import partial
 
 import numpy as np
 
@@ -421,16 +422,17 @@ def generic_page(name: str, a: dict):
 
 
 def pages(run, groups: list) -> list[tuple[str, object]]:
+    """(title, maker) pairs as ``pdf.page_plan`` takes them."""
     out = []
     ptc_ok = [g for g in groups if g.result is not None and g.is_curve]
     if len(ptc_ok) >= 2:
-        out.append(("gain split", gain_page(run, ptc_ok)))
+        out.append(("gain split", partial(gain_page, run, ptc_ok)))
     series = tables.dark_series(run)
     if any(np.unique(s["exposure_s"]).size >= 2 for s in series.values()):
-        out.append(("dark", dark_page(run, series)))
+        out.append(("dark", partial(dark_page, run, series)))
         temps = [t for t, s in series.items() if t is not None and np.unique(s["exposure_s"]).size >= 2]
         if len(temps) >= 3:
-            out.append(("temperature", temperature_page(run, series)))
+            out.append(("temperature", partial(temperature_page, run, series)))
     out += [("sweep 2d", f) for f in sweep2d_pages(run)]
     seq = [s for s in run.stages if not s.get("coords")]
     if len(seq) >= 2 and any(a.get("scene") == "flat" and b.get("scene") == "dark" for a, b in zip(seq, seq[1:])):
@@ -438,16 +440,16 @@ def pages(run, groups: list) -> list[tuple[str, object]]:
                             or run.arrays(s["index"]).get("frame_means")) for s in seq}
         fms = {k: np.asarray(v, float) for k, v in fms.items() if v is not None}
         if fms:
-            out.append(("frame means", frame_means_page(run, seq, fms)))
+            out.append(("frame means", partial(frame_means_page, run, seq, fms)))
     d = available(run, "defects")
     if d:
-        out.append(("defects", defects_page(run, d)))
+        out.append(("defects", partial(defects_page, run, d)))
         if d.get("shape"):
-            out.append(("defect map", defect_map_page(run, d)))
+            out.append(("defect map", partial(defect_map_page, run, d)))
     d = available(run, "adc_linearity")
     if d:
-        out.append(("adc", adc_page(run, d)))
+        out.append(("adc", partial(adc_page, run, d)))
     for name, a in run.analyses.items():
         if name not in HANDLED and available(run, name):
-            out.append((f"analysis {name}", generic_page(name, a)))
+            out.append((f"analysis {name}", partial(generic_page, name, a)))
     return out

@@ -105,6 +105,16 @@ class Run:
             g = f.get(f"stages/{index:04d}")
             return {} if g is None else {k: g[k][()] for k in g}
 
+    def has_array(self, index: int, name: str) -> bool:
+        """Whether stage ``index`` stored the array ``name`` (without reading it)."""
+        if not self.has_h5:
+            return False
+        import h5py
+
+        with h5py.File(self.dir / "results.h5", "r") as f:
+            g = f.get(f"stages/{index:04d}")
+            return g is not None and name in g
+
 
 def _load_json(path: Path):
     try:

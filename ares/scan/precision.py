@@ -178,8 +178,8 @@ class PrecisionRunner:
             if self._bench is None:
                 bench.close()
 
-    def write_reports(self) -> str:
-        return self.main.write_reports() if self.main is not None else ""
+    def write_reports(self, helper=None) -> str:
+        return self.main.write_reports(helper) if self.main is not None else ""
 
 
 def reached(results: dict, precision, frames: int, rows: list[TargetPlan]) -> dict:
