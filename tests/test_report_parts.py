@@ -4,6 +4,7 @@ run is replaced by this process."""
 
 from __future__ import annotations
 
+import json
 from pathlib import Path
 
 import pytest
@@ -40,23 +41,49 @@ def _one_process(run_dir: Path, tmp: Path, monkeypatch) -> list[str]:
     return _texts(tmp / "one.pdf")
 
 
-def test_two_processes_draw_the_same_report(runs, tmp_path, monkeypatch):
+def test_pages_drawn_by_two_processes_merge_into_the_report(runs, tmp_path, monkeypatch):
+    import matplotlib
+
+    from ares.report import pdf, plots
+    from ares.report.source import read_run
+
     ref = _one_process(runs[0], tmp_path, monkeypatch)
-    assert len(ref) >= pdf_parts.MIN_PAGES
+    run = read_run(runs[0])
+    with matplotlib.rc_context(plots.RC):
+        pages = pdf.page_plan(run)
+    n = len(pages)
+    assert n == len(ref) >= pdf_parts.MIN_PAGES
+    work = tmp_path / "work"
+    work.mkdir()
+    mine = [0, 2, n - 1]  # claimed here first
+    for i in mine:
+        (work / f"claim{i:03d}").touch()
+    helper = pdf_parts.start(runs[0])
+    helper.go(work)
+    assert helper.wait()
+    theirs = json.loads((work / "helper.json").read_text())["pages"]
+    assert sorted(theirs) == [i for i in range(n) if i not in mine]
+    assert theirs == [i for i in pdf_parts.claim_order([t for t, _ in pages]) if i not in mine]  # heaviest first
+    pdf.render(run, pages, mine, work / "main.pdf")
+    pdf_parts.merge(n, [(work / "main.pdf", mine), (work / "helper.pdf", theirs)], tmp_path / "two.pdf", "x")
+    assert _texts(tmp_path / "two.pdf") == ref
+    helper.close()
+
+
+def test_write_reports_with_a_helper_gives_the_same_report(runs, tmp_path, monkeypatch):
+    ref = _one_process(runs[0], tmp_path, monkeypatch)
     helper = pdf_parts.start(runs[0])
     assert helper is not None
     write_reports(runs[0], ("pdf",), pdf_path=tmp_path / "two.pdf", helper=helper)
-    assert helper.proc.returncode == 0  # it drew its share
-    two = _texts(tmp_path / "two.pdf")
-    assert two == ref
-    assert not list(tmp_path.glob("*.tmp*"))  # the part files are gone
+    assert helper.proc.returncode == 0
+    assert _texts(tmp_path / "two.pdf") == ref
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["one.pdf", "two.pdf"]  # no part files left
 
 
 def test_a_helper_for_another_run_is_not_used(runs, tmp_path, monkeypatch):
     ref = _one_process(runs[0], tmp_path, monkeypatch)
     helper = pdf_parts.start(runs[1])  # same scan, other run: same titles, other numbers
     write_reports(runs[0], ("pdf",), pdf_path=tmp_path / "r.pdf", helper=helper)
-    assert helper.proc.returncode == 3
     assert _texts(tmp_path / "r.pdf") == ref
 
 
@@ -68,11 +95,9 @@ def test_a_dead_helper_is_replaced(runs, tmp_path, monkeypatch):
     assert _texts(tmp_path / "r.pdf") == ref
 
 
-def test_split_balances_the_pages():
-    titles = ["title", "ptc x1", "snr x1", "components", "views", "maps a", "maps dark", "defects", "stages"]
-    mine, theirs = pdf_parts.split(titles)
-    assert sorted(mine + theirs) == list(range(len(titles))) and not set(mine) & set(theirs)
-    load = [sum(pdf_parts.weight(titles[i]) for i in part) for part in (mine, theirs)]
-    assert abs(load[0] - load[1]) <= max(pdf_parts.WEIGHTS.values())
-    mine, theirs = pdf_parts.split(titles, 0.0, 100.0)  # a helper that starts late gets nothing
-    assert theirs == []
+def test_claim_order_is_heaviest_first():
+    titles = ["title", "ptc x1", "snr x1", "components", "maps a", "maps dark", "stages"]
+    order = pdf_parts.claim_order(titles)
+    assert sorted(order) == list(range(len(titles)))
+    w = [pdf_parts.weight(titles[i]) for i in order]
+    assert w == sorted(w, reverse=True) and titles[order[0]].startswith("maps")

@@ -40,15 +40,26 @@ def write_reports(run_dir, formats=DEFAULT_FORMATS, out_dir=None, *, pdf_path=No
     if bad:
         raise InputError(f"unknown report format '{bad[0]}' (choose from {', '.join(FORMATS)})")
     run = read_run(run_dir)
-    if "pdf" in formats and helper is None:  # a second process draws part of the PDF
+    if "pdf" in formats:  # a second process draws part of the PDF, from now on
         from ares.report import pdf_parts
 
-        helper = pdf_parts.start(run.dir)
+        helper = helper or pdf_parts.start(run.dir)
+        if helper is not None:
+            p = _pdf_path(run, out_dir, pdf_path)
+            helper.go(p.with_name(p.name + ".parts"))
     try:
         return _write(run, formats, out_dir, pdf_path, csv_dir, h5_path, helper)
     finally:
         if helper is not None:
             helper.close()
+            if helper.workdir is not None:  # (gone already unless the PDF failed before its merge)
+                import shutil
+
+                shutil.rmtree(helper.workdir, ignore_errors=True)
+
+
+def _pdf_path(run, out_dir, pdf_path) -> Path:
+    return Path(pdf_path) if pdf_path else (Path(out_dir) if out_dir is not None else run.dir) / "report.pdf"
 
 
 def _write(run, formats, out_dir, pdf_path, csv_dir, h5_path, helper) -> list[Path]:
@@ -63,7 +74,7 @@ def _write(run, formats, out_dir, pdf_path, csv_dir, h5_path, helper) -> list[Pa
     if "hdf5" in formats:
         out.append(h5_export.write_h5(run, Path(h5_path) if h5_path else base / "report.h5", groups, kf))
     if "pdf" in formats:
-        p = Path(pdf_path) if pdf_path else base / "report.pdf"
+        p = _pdf_path(run, out_dir, pdf_path)
         emva = pdf.emva_sheet(run)
         pdf.write_pdf(run, p, groups, kf, emva, helper=helper)
         out.append(p)

@@ -1,56 +1,70 @@
 """The report PDF drawn by two processes: this one and a helper, merged page by page.
 
 matplotlib draws a page in pure Python under the GIL (0.2-0.9 s a page), so the second
-core can only help from another process. ``write_reports`` starts the helper first
-(``start``): it imports matplotlib and the report modules while this process imports
-its own and plans the pages. Both plan the same pages from the run directory
-(``pdf.page_plan`` is deterministic from it; the helper checks the titles it was sent
-against its own plan); the helper draws the share it is given into a PDF of its own, this
-process draws the rest, and the two are merged in page order with pypdf (pages are
-copied, nothing redrawn).
+core can only help from another process. The helper is started early (``start``: by
+``ares run`` with the scan, niced, or by ``write_reports``) and imports matplotlib and
+the report modules meanwhile. ``Helper.go`` hands it a work directory before this
+process imports its own; from then on both plan the same pages from the run directory
+(``pdf.page_plan`` is deterministic from it) and *claim* them, heaviest first, by
+creating ``claimNNN`` in the work directory (``O_CREAT|O_EXCL``: exactly one process
+gets each page). Whoever is ready first draws the most: no guess of either's speed.
+Each writes the pages it drew into its own PDF plus a JSON of their numbers and the
+plan's fingerprint (run directory + titles); this process merges them in page order with
+pypdf (pages are copied, nothing redrawn).
 
-When the helper cannot be started, fails, or plans other pages, this process draws its
-pages too: the report is the same, only slower. ``ARES_PDF_HELPER=0`` turns it off.
+When the helper cannot be started, fails, hangs past ``HELPER_TIMEOUT_S`` or planned
+another run's pages, this process draws every page it does not hold: the report is the
+same, only slower. ``ARES_PDF_HELPER=0`` turns it off.
 
-The helper's command line: ``python -m ares.report.pdf_parts RUN_DIR``; it reads one
-request line ``PATH<TAB>I,J,K<TAB>TITLES_SHA1`` on stdin (none: exit).
+The helper's command line: ``python -m ares.report.pdf_parts RUN_DIR [--background]``;
+it reads one line on stdin, the work directory (none: it exits).
 """
 
 from __future__ import annotations
 
 import hashlib
+import json
 import logging
 import os
+import shutil
 import subprocess
 import sys
 import tempfile
-import time
 from pathlib import Path
 
 log = logging.getLogger(__name__)
 
-# drawing cost of a page in seconds (matplotlib, one core, the shipped scan's report)
-WEIGHTS = {"maps": 0.75, "ptc": 0.45, "snr": 0.45, "stages": 0.35, "defect map": 0.3}
-WEIGHT = 0.25  # any other page
-HELPER_IMPORT_S = 1.6  # python + numpy + scipy + matplotlib + the report modules (this process has them)
-MIN_PAGES = 4  # fewer pages: one process is as fast
+# drawing cost of a page, relative (matplotlib, the shipped scan's report): claim order
+WEIGHTS = {"maps": 3.0, "ptc": 1.8, "snr": 1.8, "stages": 1.4, "defect map": 1.2}
+HELPER_TIMEOUT_S = 600.0
+MIN_PAGES = 4  # fewer pages: not worth a merge
 
 
 class Helper:
     def __init__(self, run_dir: Path, background: bool = False):
-        self.t0 = time.monotonic()
+        self.workdir: Path | None = None
         self.err = tempfile.TemporaryFile()  # not a pipe: a chatty helper cannot block on it
         self.proc = subprocess.Popen([sys.executable, "-m", "ares.report.pdf_parts", str(run_dir)]
                                      + (["--background"] if background else []),
                                      stdin=subprocess.PIPE, stdout=subprocess.DEVNULL, stderr=self.err, text=True)
 
-    def request(self, path: Path, indices: list[int], titles: list[str], run_dir: Path) -> None:
-        self.proc.stdin.write(f"{path}\t{','.join(map(str, indices))}\t{titles_sha1(titles, run_dir)}\n")
-        self.proc.stdin.close()
+    def go(self, workdir: Path) -> None:
+        """Start drawing into ``workdir`` (created here)."""
+        workdir.mkdir(parents=True, exist_ok=True)
+        self.workdir = workdir
+        try:
+            self.proc.stdin.write(f"{workdir}\n")
+            self.proc.stdin.close()
+        except OSError:  # it died already: this process draws everything
+            pass
 
     def wait(self) -> bool:
-        """True when the helper drew its pages."""
-        self.proc.wait()
+        """True when the helper ended normally."""
+        try:
+            self.proc.wait(timeout=HELPER_TIMEOUT_S)
+        except subprocess.TimeoutExpired:
+            self.proc.kill()
+            self.proc.wait()
         if self.proc.returncode != 0:
             self.err.seek(0)
             log.warning("report helper failed (exit %s): %s", self.proc.returncode,
@@ -75,7 +89,7 @@ class Helper:
 def start(run_dir, background: bool = False) -> Helper | None:
     """A helper process for the report of ``run_dir`` (None when turned off or impossible).
     ``background``: started with the scan, it imports at a lower CPU priority (niceness
-    +10) so that it takes the cycles the scan leaves, not the scan's."""
+    +5): it takes mostly the cycles the scan leaves."""
     if os.environ.get("ARES_PDF_HELPER", "1") == "0" or (os.cpu_count() or 1) < 2:
         return None
     try:
@@ -85,58 +99,92 @@ def start(run_dir, background: bool = False) -> Helper | None:
         return None
 
 
-def titles_sha1(titles: list[str], run_dir) -> str:
+def fingerprint(titles: list[str], run_dir) -> str:
     """What both processes must agree on: the run directory and the page titles."""
     return hashlib.sha1("\n".join([str(Path(run_dir).resolve()), *titles]).encode()).hexdigest()
 
 
 def weight(title: str) -> float:
-    return next((w for k, w in WEIGHTS.items() if title.startswith(k)), WEIGHT)
+    return next((w for k, w in WEIGHTS.items() if title.startswith(k)), 1.0)
 
 
-def split(titles: list[str], own_delay: float = 0.0, helper_delay: float = 0.0) -> tuple[list[int], list[int]]:
-    """(this process's pages, the helper's pages): the heaviest first to the one that
-    would finish first, each starting after its delay (seconds of imports left)."""
-    load = [own_delay, helper_delay]
-    share: tuple[list[int], list[int]] = ([], [])
-    for i in sorted(range(len(titles)), key=lambda i: -weight(titles[i])):
-        k = 0 if load[0] <= load[1] else 1
-        share[k].append(i)
-        load[k] += weight(titles[i])
-    return sorted(share[0]), sorted(share[1])
+def claim_order(titles: list[str]) -> list[int]:
+    """The order both processes claim pages in: the heaviest first."""
+    return sorted(range(len(titles)), key=lambda i: -weight(titles[i]))
+
+
+def draw_claimed(run, pages, workdir: Path, who: str) -> list[int]:
+    """Draw every page of the plan this process can claim into ``workdir/WHO.pdf``; its
+    page numbers (in drawing order) and the plan's fingerprint go to ``WHO.json`` once
+    the PDF is complete. Returns the page numbers."""
+    import matplotlib
+    from matplotlib.backends.backend_pdf import PdfPages
+
+    from ares.report import plots
+    from ares.report.pdf import draw_page
+
+    titles = [t for t, _ in pages]
+    drawn: list[int] = []
+    tmp = workdir / f"{who}.pdf.tmp"
+    with matplotlib.rc_context(plots.RC), PdfPages(tmp) as pdf:
+        for i in claim_order(titles):
+            try:
+                os.close(os.open(workdir / f"claim{i:03d}", os.O_CREAT | os.O_EXCL | os.O_WRONLY))
+            except FileExistsError:
+                continue
+            pdf.savefig(draw_page(run, pages, i))
+            drawn.append(i)
+    tmp.replace(workdir / f"{who}.pdf")
+    (workdir / f"{who}.json.tmp").write_text(json.dumps({"pages": drawn, "plan": fingerprint(titles, run.dir)}))
+    (workdir / f"{who}.json.tmp").replace(workdir / f"{who}.json")
+    return drawn
+
+
+def _helper_part(workdir: Path, plan: str) -> list[int] | None:
+    """The helper's page numbers when its part is complete and of this plan."""
+    try:
+        d = json.loads((workdir / "helper.json").read_text())
+    except (OSError, ValueError):
+        return None
+    return d["pages"] if d.get("plan") == plan and (workdir / "helper.pdf").exists() else None
 
 
 def write_split(run, pages, tmp: Path, helper: Helper) -> None:
-    """Draw ``pages`` into ``tmp`` with the helper's share drawn by the helper."""
+    """Draw ``pages`` into ``tmp``, the helper drawing the pages it claims first."""
     from ares.report.pdf import render
 
     titles = [t for t, _ in pages]
-    mine, theirs = split(titles, 0.0, max(HELPER_IMPORT_S - (time.monotonic() - helper.t0), 0.0))
-    if len(pages) < MIN_PAGES or not theirs:
+    workdir = helper.workdir
+    if workdir is None or len(pages) < MIN_PAGES:
         helper.close()
         render(run, pages, range(len(pages)), tmp)
         return
-    own, part = tmp.with_name(tmp.name + ".a"), tmp.with_name(tmp.name + ".b")
     try:
-        helper.request(part, theirs, titles, run.dir)
-    except OSError:  # it died already
-        pass
-    try:
-        render(run, pages, mine, own)
-        if not (helper.wait() and part.exists()):
-            render(run, pages, theirs, part)  # the helper's share, here
-        merge(len(pages), [(own, mine), (part, theirs)], tmp, run.meta.get("scan_name", ""))
+        mine = draw_claimed(run, pages, workdir, "main")
+        theirs = _helper_part(workdir, fingerprint(titles, run.dir)) if helper.wait() else None
+        parts = [(workdir / "main.pdf", mine)]
+        if theirs:
+            parts.append((workdir / "helper.pdf", theirs))
+        held = set(mine) | set(theirs or [])
+        rest = [i for i in range(len(pages)) if i not in held]
+        if rest:  # the helper's share, here (it failed, or drew another plan)
+            render(run, pages, rest, workdir / "rest.pdf")
+            parts.append((workdir / "rest.pdf", rest))
+        merge(len(pages), parts, tmp, run.meta.get("scan_name", ""))
     finally:
-        for p in (own, part):
-            p.unlink(missing_ok=True)
+        helper.close()
+        shutil.rmtree(workdir, ignore_errors=True)
 
 
 def merge(n: int, parts: list[tuple[Path, list[int]]], out: Path, scan_name: str) -> None:
-    """Pages 0..n-1 of the report from the part files (each: path, the page numbers it holds)."""
+    """Pages 0..n-1 of the report from the part files (each: path, the page numbers it
+    holds in its order)."""
     from pypdf import PdfReader, PdfWriter
 
     where = {}
     for path, indices in parts:
+        if not indices:
+            continue
         reader = PdfReader(path)
         for k, i in enumerate(indices):
             where[i] = (reader, k)
@@ -153,27 +201,23 @@ def main(argv: list[str]) -> int:
     if "--background" in argv:
         argv = [a for a in argv if a != "--background"]
         try:
-            os.nice(10)
+            os.nice(5)
         except OSError:
             pass
-    import matplotlib  # imported while the parent prepares
+    import matplotlib  # imported while the parent scans or prepares
 
     from ares.report import pdf, plots, tables
     from ares.report.source import read_run
 
-    line = sys.stdin.readline().rstrip("\n")
-    if not line:
+    workdir = sys.stdin.readline().rstrip("\n")
+    if not workdir:
         return 0
-    path, indices, sha = line.split("\t")
     run = read_run(argv[0])
     groups = tables.ptc_groups(run)
     kf = tables.compute_key_figures(run, groups)
     with matplotlib.rc_context(plots.RC):
         pages = pdf.page_plan(run, groups, kf, pdf.emva_sheet(run))
-    if titles_sha1([t for t, _ in pages], run.dir) != sha:
-        sys.stderr.write("the helper planned other pages than the report\n")
-        return 3
-    pdf.render(run, pages, [int(i) for i in indices.split(",") if i], Path(path))
+    draw_claimed(run, pages, Path(workdir), "helper")
     return 0
 
 

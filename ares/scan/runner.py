@@ -38,6 +38,7 @@ from ares.scan.suspend import Suspended, Suspenders
 
 
 KEEP_FOR_MASK_BYTES = 256 * 1024 * 1024  # first dark stage kept in memory up to this size
+PIPELINE_MAX_PIXELS = 1 << 22  # larger frames: a stage is analysed before the next is acquired (memory)
 
 
 @dataclass
@@ -65,7 +66,8 @@ class Runner:
         ``defer_reports``: a run that ends normally leaves its reports to ``write_reports()``
         (the CLI prints the key figures first: the PDF costs seconds the user need not wait).
         ``pipeline``: a finished stage is analysed and committed in a second thread while the
-        next one is acquired (``ares.scan.commit``; same results, files and events)."""
+        next one is acquired (``ares.scan.commit``; same results, files and events) -- for
+        frames up to ``PIPELINE_MAX_PIXELS``, beyond which memory matters more."""
         self.pipeline = pipeline
         self.scan = scan
         self.defer_reports = defer_reports
@@ -228,7 +230,8 @@ class Runner:
             if writer is not None and note:
                 writer.meta["resumed"][-1].update(note)
                 writer._write_meta()
-        self._commit = StageCommitter(self._commit_stage, threaded=self.pipeline)
+        pixels = bench.frames.shape[0] * bench.frames.shape[1]  # (a 4096x3072 stage in flight: +0.3 GB)
+        self._commit = StageCommitter(self._commit_stage, threaded=self.pipeline and pixels <= PIPELINE_MAX_PIXELS)
         try:
             return self._stages(bench, writer, completed, stages, vw, max_code, cache, applied)
         except BaseException:
