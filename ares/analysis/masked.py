@@ -108,7 +108,6 @@ class MaskedStackAccumulator:
         self.shape = shape
         self.mask = m.copy()
         self.good = ~m
-        self._g = self.good.astype(np.float64)
         self.batch = max(1, int(batch))
         self._x0 = None  # shift (first frame, 0 at masked pixels)
         R, C = shape
@@ -161,9 +160,9 @@ class MaskedStackAccumulator:
         if x.dtype.kind == "f" and not np.isfinite(d[:, self.good]).all():
             raise InputError(f"frames {self._nf}..{self._nf + len(x) - 1} contain NaN/inf")
         if self._x0 is None:
-            self._x0 = d[0] * self._g
+            self._x0 = np.where(self.good, d[0], 0.0)
         d -= self._x0
-        d *= self._g  # masked pixels contribute nothing
+        d[:, self.mask] = 0.0  # masked pixels contribute nothing
         self._s1 += d.sum(axis=0)
         self._s2 += np.einsum("fij,fij->ij", d, d)
         self._fold_lines(d.sum(axis=2), d.sum(axis=1), len(x))
@@ -248,7 +247,7 @@ class MaskedStackAccumulator:
         return {"T0": t0, "TR": tr, "TC": tc, "Tm": qt / N if N else math.nan}
 
     def nbytes(self) -> int:
-        arrays = [self._s1, self._s2, self._r2, self._c2, self._x0, self.mask, self.good, self._g] + self._tot
+        arrays = [self._s1, self._s2, self._r2, self._c2, self._x0, self.mask, self.good] + self._tot
         return int(sum(a.nbytes for a in arrays if isinstance(a, np.ndarray)))
 
     def __repr__(self) -> str:

@@ -83,6 +83,41 @@ def _kernel(T, i1, sigma, offs, pm, pg, pa, pu, q, sq, pprob, palias, plo, dm, d
     sq0 = sq[0]
     d0 = dark_e[0]
     sd0 = sd[0]
+    if pm == GAUSS and dm == GAUSS:  # most frames: its own loop, no mode test inside -- with them
+        # the compiler keeps the general loop below 1.6x slower (2.9 vs 1.7 ms a VGA frame)
+        for i in range(n):
+            v = T[i1[i]] * sigma[i]
+            v = v + offs[i]
+            if q_map:
+                qq = q[i]
+                p = T[pg[i]] * sq[i]
+            else:
+                qq = q0
+                p = T[pg[i]] * sq0
+            p = p + qq
+            if lag > 0:
+                carried = lag * p
+                lag_out[i] = carried
+                p = p - carried
+                if has_left:
+                    p = p + left[i]
+            if d_map:
+                de = dark_e[i]
+                d = T[dg[i]] * sd[i]
+            else:
+                de = d0
+                d = T[dg[i]] * sd0
+            d = d + de
+            if fw < d:
+                d = fw
+            v = v + G * d
+            lim = fw - d
+            pix = pgr[i] * p
+            if lim < pix:
+                pix = lim
+            v = v + cgrg[i] * pix
+            x[i] = v
+        return
     for i in range(n):
         v = T[i1[i]] * sigma[i]
         v = v + offs[i]
