@@ -106,3 +106,28 @@ def test_stage_work_is_charged_per_scene_and_the_first_stage_one_off_left_out():
         t += work[sc] + (2.0 if i == 0 else 0.0)
         eta.stage_finished(t, sc)
     assert max(abs(e) for e in errors) < 0.02, errors
+
+
+def test_one_off_work_of_the_first_stage_is_not_charged_to_the_next():
+    """At the second stage only the first has ended: its defect-mask time (one-off) must not
+    be charged to every stage still to come."""
+    def at_second_stage(one_off: bool) -> float:
+        eta = Eta(32 + 16 * 10, 11)
+        t = 0.0
+        eta.stage_started(t)
+        for _ in range(32):
+            t += 0.01
+            eta.frame(t)
+        t += 0.05  # stage work every stage has
+        if one_off:
+            eta.one_off(2.0)
+        t += 2.0  # the defect mask, once
+        eta.stage_finished(t)
+        eta.stage_started(t)
+        t += 0.01
+        eta.frame(t)
+        return eta.remaining(t)
+
+    true = 15 * 0.01 + 9 * 16 * 0.01 + 10 * 0.05  # frames left and ten stages' work
+    assert at_second_stage(True) == pytest.approx(true, rel=0.05)
+    assert at_second_stage(False) > 5 * true  # charged to all ten: what it did before

@@ -38,6 +38,7 @@ class Eta:
         self._prev_stack: tuple[float, int] | None = None  # ... of the previous stack
         self._stage_t0: float | None = None  # when the current stage started
         self._stage_frames = 0.0  # frame-loop seconds of the current stage
+        self._one_off = 0.0  # ... and seconds of one-off work in it (the defect mask)
 
     def stage_started(self, t: float, kind: str | None = None) -> None:
         """A stack of the current stage starts at ``t`` (a stage may grab a dark and a flat);
@@ -63,13 +64,18 @@ class Eta:
         self.frames_done += 1
         self.left[self.kind] = max(self.left[self.kind] - 1, 0)
 
+    def one_off(self, seconds: float) -> None:
+        """Work of the current stage that no later stage repeats (building the defect
+        mask): not charged to the stages to come."""
+        self._one_off += seconds
+
     def stage_finished(self, t: float, scene: str | None = None) -> None:
         scene = scene if scene in self.stages_left else next(iter(self.stages_left))
         if self._stage_t0 is not None:
-            self.overheads.append(max(t - self._stage_t0 - self._stage_frames, 0.0))
+            self.overheads.append(max(t - self._stage_t0 - self._stage_frames - self._one_off, 0.0))
             self.scenes.append(scene)
         self.stages_left[scene] = max(self.stages_left[scene] - 1, 0)
-        self._stage_t0, self._stage_frames, self._last = None, 0.0, None
+        self._stage_t0, self._stage_frames, self._last, self._one_off = None, 0.0, None, 0.0
 
     def per_stage(self, scene: str) -> float:
         """A stage's time outside its frame loops: the median of the latest three stages of

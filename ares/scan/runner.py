@@ -328,8 +328,10 @@ class Runner:
             after = bench.registers.snapshot()
             new_mask = self._mask is None and st.scene == "dark" and st.settings.get("reg:test_mode", 0) == 0
             if new_mask:  # before the next stage's frames: they are masked as they arrive
+                t_mask = time.monotonic()
                 self._mask = mask_from_dark(flat, st.name, st.settings.get("exposure"), scan_thresholds(scan))
                 flat.apply_mask(self._mask.mask)  # this stage too, from its kept frames
+                self._eta.one_off(time.monotonic() - t_mask)
             self._eta.stage_finished(time.monotonic() - self._t0, st.scene)
             extra = {"dark_after": True} if st.dark_after else {}  # its matched dark followed the flat
             if pos.get("end") is not None:
