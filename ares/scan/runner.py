@@ -345,6 +345,7 @@ class Runner:
             if self._stop.is_set():
                 status = "done"  # stop during the last stage: the scan is complete anyway
         self._commit.wait()
+        cache = flat = dark = None  # the stacks' sums are committed: free them before the scan-level analyses
         self._emit(ev.Ending(status, len(completed)))
         scan_results, fails = {}, []
         message = ""
