@@ -43,6 +43,16 @@ def test_run_prints_summary(tmp_path, capsys):
         assert words in out, words
 
 
+@pytest.mark.parametrize("helper", ["0", "1"])
+def test_run_names_its_report_with_or_without_the_report_helper(tmp_path, capsys, monkeypatch, helper):
+    monkeypatch.setenv("ARES_PDF_HELPER", helper)
+    assert main(["run", PTC, "--out", str(tmp_path / "r")]) == 0
+    out = capsys.readouterr().out
+    assert f"report: {tmp_path / 'r' / 'report.pdf'}" in out
+    assert (tmp_path / "r" / "report.pdf").stat().st_size > 0
+    assert not list((tmp_path / "r").glob("*.parts")) and not list((tmp_path / "r").glob("*.tmp"))
+
+
 def test_run_json(tmp_path, capsys):
     assert main(["run", PTC, "--out", str(tmp_path / "r"), "--quiet", "--json", "--frames", "3"]) == 0
     d = json.loads(capsys.readouterr().out)

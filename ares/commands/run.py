@@ -334,12 +334,12 @@ def execute(scan, args, *, seed, frames, faults=None, argv=None, out_dir=None, r
             print_precision(runner.report)
         sys.stdout.flush()
         err = runner.write_reports(helper)
-    if helper is not None:
-        helper.close()  # (not needed: no report, or --json)
         if err:
             print(f"report: not written ({err})")
         elif outcome.run_dir and scan.output.pdf and not args.quiet:
             print(f"report: {Path(outcome.run_dir) / 'report.pdf'}")
+    if helper is not None:
+        helper.close()  # (when no report was written: --json, nothing pending)
     if outcome.status in ("stopped", "aborted"):
         sys.stderr.write(f"ares run: {outcome.status} after {len(outcome.stages)} stage(s); "
                          f"completed stages are kept in {outcome.run_dir}\n")
