@@ -31,7 +31,9 @@ from ares.sim.regmap import SIM_REGISTER_MAP
 from ares.sim.sensor import SimSensor
 
 _FAULTS = ("disconnect_after_frames", "reconnect_after_polls", "short_frame_at", "frame_delay_ms")  # delay: a slow camera, for kill tests
-_CHUNK = 16  # frames rendered at a time inside grab()
+_CHUNK = 1  # frames rendered per call inside grab(): one at a time -- the operating point and its plan are
+#   cached across calls, so chunks saved nothing; frames now arrive as they are made (the time remaining
+#   measures the render as frame time) and a 4096x3072 grab holds one frame, not 16 (400 MB)
 
 
 class SimRegisterBus:
