@@ -173,15 +173,23 @@ def _kernel(T, i1, sigma, offs, pm, pg, pa, pu, q, sq, pprob, palias, plo, dm, d
         x[i] = v
 
 
-def _mode(mean, exact, has: bool, alias_ok: bool) -> int | None:
+def _mode(mean, exact, has: bool) -> int | None:
     """How ``noise.shot`` draws this charge (None: a way the kernel does not cover)."""
     if not has:
         return NONE
     if exact is False:
         return GAUSS
-    if exact is True and alias_ok and np.ndim(mean) == 0 and 0 < float(mean) <= 1e6:
+    if exact is True and np.ndim(mean) == 0 and 0 < float(mean) <= 1e6:
         return ALIAS
     return None
+
+
+def _modes(sc, plan) -> tuple[int | None, int | None]:
+    """(photo mode, dark mode) of a plan, decided once per operating point."""
+    if "fused_modes" not in plan:
+        plan["fused_modes"] = (_mode(sc.q, plan["mask_q"], bool(plan["has_q"])),
+                               _mode(sc.dark_e, plan["mask_d"], sc.dark_e is not None))
+    return plan["fused_modes"]
 
 
 def applies(sc, plan, flutter: float) -> bool:
@@ -191,11 +199,9 @@ def applies(sc, plan, flutter: float) -> bool:
     _load()
     if _compiled is None or not plan["gauss_fast"] or plan["sigma"] is None:
         return False
-    has_q = bool(plan["has_q"])
-    if has_q and flutter != 1.0:
+    if plan["has_q"] and flutter != 1.0:  # flutter scales this frame's photo-charge mean: the numpy path
         return False
-    return (_mode(sc.q, plan["mask_q"], has_q, True) is not None
-            and _mode(sc.dark_e, plan["mask_d"], sc.dark_e is not None, True) is not None)
+    return None not in _modes(sc, plan)
 
 
 def charge_frame(rng, sc, plan, shape, left, table):
@@ -208,7 +214,7 @@ def charge_frame(rng, sc, plan, shape, left, table):
     size = shape[0] * shape[1]
     u16, i32, f64 = np.zeros(1, np.uint16), np.zeros(1, np.int32), np.zeros(1)
 
-    cache = plan.setdefault("fused", {})  # per render call: the stage's maps, flattened once
+    cache = plan.setdefault("fused", {})  # per operating point (plan): its maps, flattened once
 
     def flat(key, a):  # (mean, its float32 square root as numpy takes it): one value, or per pixel
         if key not in cache:
@@ -231,8 +237,7 @@ def charge_frame(rng, sc, plan, shape, left, table):
         return u16, i32, f64, *flat("zero", 0.0), f64, i32, _F32(0)
 
     has_q = bool(plan["has_q"])
-    pm = _mode(sc.q, plan["mask_q"], has_q, True)
-    dm = _mode(sc.dark_e, plan["mask_d"], sc.dark_e is not None, True)
+    pm, dm = _modes(sc, plan)
     photo = draws("q", sc.q, pm)
     dark = draws("dark", sc.dark_e, dm)
     lag = _F32(sc.lag)
