@@ -105,10 +105,8 @@ def pair_step(a: np.ndarray, b: np.ndarray, max_code: int | None):
     s3, s4 = pm.stats(False), pm.stats(True)
     M, N = pm.avg.shape
     # temporal variance of the row / column means with the frame-global offset removed
-    dr = np.mean(a, axis=1, dtype=np.float64) - np.mean(b, axis=1, dtype=np.float64)
-    dc = np.mean(a, axis=0, dtype=np.float64) - np.mean(b, axis=0, dtype=np.float64)
-    rv = float(np.var(dr)) / 2
-    cv = float(np.var(dc)) / 2
+    rv = float(np.var(pm.row_diff)) / 2
+    cv = float(np.var(pm.col_diff)) / 2
     try:
         sp = split(pm.avg, s4.var, 2, "4.0", rv, cv)
     except ValueError:

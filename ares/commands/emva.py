@@ -291,8 +291,6 @@ def _meta(args, an: EmvaAnalysis) -> None:
 
 
 def run(args) -> int:
-    from ares.report import datasheet
-
     pitch = getattr(args, "pixel_size_um", None)
     an = analyse_descriptor(args.descriptor, pitch * pitch if pitch else None)  # the .area figures need it
     _meta(args, an)
@@ -315,6 +313,8 @@ def run(args) -> int:
         print(json.dumps(d, indent=2, default=lambda x: None if isinstance(x, float) and math.isnan(x) else x))
     else:
         print(text(an))
+    if args.csv or args.pdf:
+        from ares.report import datasheet  # matplotlib: only for the files that need it
     if args.csv:
         from ares.scan.rundir import write_atomic
 
