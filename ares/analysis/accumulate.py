@@ -583,44 +583,50 @@ class StackAccumulator:
         self._nf = other._nf
 
     # ------------------------------------------------------------------ accessors
-    def _cached(self, key, fn):
+    def _ready(self) -> None:
         self._flush()
         if self._nf == 0:
             raise InputError("no frames were accumulated")
+
+    def _cached(self, key, fn):
+        self._ready()
         if key not in self._cache:
             self._cache[key] = fn()
         return self._cache[key]
 
     def pixel_sum(self) -> np.ndarray:
-        """Sum over frames of each pixel (float64, R x C)."""
-
-        def f():
-            s = self._s1.astype(np.float64)
-            return s + self._nf * self._x0 if self._float else s
-
-        return self._cached("psum", f)
+        """Sum over frames of each pixel (float64, R x C; not cached: the mean map is)."""
+        self._ready()
+        s = self._s1.astype(np.float64)
+        return s + self._nf * self._x0 if self._float else s
 
     def mean_map(self) -> np.ndarray:
         """Time-averaged frame (float64, R x C)."""
-        return self._cached("mean", lambda: self.pixel_sum() / self._nf)
-
-    def _pss_num(self):
-        """n * (per-pixel within SS): exact integers (int64 or longdouble) in int mode."""
 
         def f():
-            n = self._nf
-            if self._float:
-                return np.maximum(n * self._s2 - self._s1 * self._s1, 0.0)
-            s1, s2 = self._s1, self._s2
-            if int(np.abs(s1).max()) ** 2 < 2**62 and n * int(s2.max()) < 2**62:
-                return n * s2 - s1 * s1
-            return np.maximum(n * s2.astype(np.longdouble) - s1.astype(np.longdouble) ** 2, 0)
+            m = self.pixel_sum()
+            m /= self._nf  # in place: one frame of float64 instead of two
+            return m
 
-        return self._cached("pssnum", f)
+        return self._cached("mean", f)
+
+    def _pss_num(self):
+        """n * (per-pixel within SS): exact integers (int64 or longdouble) in int mode. Not
+        cached (a frame of int64; the maps made from it are)."""
+        self._ready()
+        n = self._nf
+        if self._float:
+            return np.maximum(n * self._s2 - self._s1 * self._s1, 0.0)
+        s1, s2 = self._s1, self._s2
+        if int(np.abs(s1).max()) ** 2 < 2**62 and n * int(s2.max()) < 2**62:
+            num = s1 * s1
+            np.subtract(n * s2, num, out=num)
+            return num
+        return np.maximum(n * s2.astype(np.longdouble) - s1.astype(np.longdouble) ** 2, 0)
 
     def pixel_ss(self) -> np.ndarray:
         """Per-pixel sum over frames of squared deviations from the pixel's mean (>= 0)."""
-        return self._cached("pss", lambda: (self._pss_num() / self._nf).astype(np.float64))
+        return self._cached("pss", lambda: (self._pss_num() / self._nf).astype(np.float64, copy=False))
 
     def temporal_var_map(self, ddof: int = 1) -> np.ndarray:
         """Per-pixel temporal variance over frames (ddof=1 by default); NaN if F <= ddof.
@@ -628,11 +634,11 @@ class StackAccumulator:
         For integer data this is the exactly rounded value of the exact rational
         (n*S2 - S1**2) / (n*(n-ddof)).
         """
-        num = self._pss_num()
+        self._ready()
         n = self._nf
         if n <= ddof:
             return np.full(self.shape, np.nan)
-        return (num / (n * (n - ddof))).astype(np.float64)
+        return (self._pss_num() / (n * (n - ddof))).astype(np.float64, copy=False)
 
     def frame_sums(self) -> np.ndarray:
         """(F,) sum of each frame."""

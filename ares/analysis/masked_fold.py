@@ -53,4 +53,4 @@ def fold(x: np.ndarray, x0: np.ndarray, good: np.ndarray, s1: np.ndarray, s2: np
 def warm(dtype=np.uint16) -> None:
     """Load (or compile) the kernel for ``dtype`` frames now (the runner, before a scan)."""
     z = np.zeros((2, 2))
-    fold(np.zeros((1, 2, 2), dtype), z, np.ones((2, 2), bool), z.copy(), z.copy())
+    fold(np.zeros((1, 2, 2), dtype), z.astype(np.float32), np.ones((2, 2), bool), z, z.copy())

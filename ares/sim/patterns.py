@@ -39,7 +39,7 @@ class FixedPatterns:
         self.dark_ref_e_per_s = np.clip(dark, 0.0, None).astype(f32)
         self.col_gain = (1.0 + p.col_gain_pct / 100 * rng["col_gain"].standard_normal(C)).astype(f32)
         self.row_gain = (1.0 + p.row_gain_pct / 100 * rng["row_gain"].standard_normal(R)).astype(f32)
-        self.phase = (np.arange(R)[:, None] % 2) * 2 + (np.arange(C)[None, :] % 2)  # 0..3
+        self.phase = ((np.arange(R)[:, None] % 2) * 2 + (np.arange(C)[None, :] % 2)).astype(np.uint8)  # 0..3
         prnu = np.asarray(p.prnu_pct) / 100
         self.pixel_gain = (1.0 + prnu[self.phase] * rng["pix_gain"].standard_normal((R, C))).astype(f32)
         self.defects: Defects = draw_defects(p, rng["defects"])
