@@ -74,6 +74,22 @@ def test_failed_limits_exit_4(tmp_path, capsys):
     assert load_run(tmp_path / "r").meta["status"] == "done"
 
 
+def test_the_ares_script_ends_without_teardown_and_loses_nothing(tmp_path):
+    """``python -m ares.cli`` (the script's ``console``) ends a run with os._exit: the exit
+    code, every line of stdout and stderr (through pipes) and the run directory's files
+    are all there."""
+    out = tmp_path / "r"
+    p = subprocess.run([sys.executable, "-m", "ares.cli", "run", str(SMALL / "bias_small.xml"), "--out", str(out)],
+                       capture_output=True, text=True, cwd=ROOT, env={**os.environ, "PYTHONPATH": str(ROOT)},
+                       timeout=900)
+    assert p.returncode == 4, p.stderr
+    assert "limit(s) failed" in p.stderr and f"run directory: {out}" in p.stdout
+    assert p.stdout.rstrip().splitlines()[-1].startswith("report: ")
+    rec = load_run(out)
+    assert rec.meta["status"] == "done" and (out / "report.pdf").stat().st_size > 0
+    assert json.loads((out / "run.json").read_text())["status"] == "done"
+
+
 def test_hardware_fault_exit_3(tmp_path, capsys):
     rc = main(["run", PTC, "--out", str(tmp_path / "r"), "-q", "--sim-fault", "disconnect_after_frames=20"])
     err = capsys.readouterr().err.strip()

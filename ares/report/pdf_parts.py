@@ -222,4 +222,9 @@ def main(argv: list[str]) -> int:
 
 
 if __name__ == "__main__":
-    sys.exit(main(sys.argv[1:]))
+    code = main(sys.argv[1:])  # exceptions end the process as usual (traceback, exit 1)
+    # the parts are written and closed, and the parent merges them only once this process
+    # has ended: skip the interpreter's teardown of matplotlib & co. (~0.2 s on its path)
+    sys.stdout.flush()
+    sys.stderr.flush()
+    os._exit(code)
