@@ -65,7 +65,8 @@ def reference_section(repeat: int) -> list[str]:
              "", "The full analysis computes every release at once (3.0, 3.1, 4.0 Linear and General): per step "
              "the 4.0 high-pass and row/column/pixel split of the two-image average (Eq. 32), the stacks' "
              "averaged images, spectrograms and histograms. Before the 4.0 spatial evaluation it was 2.4x the "
-             "decode time.",
+             "decode time, with it 3.5x until the low-pass and the pair statistics became numba kernels (their "
+             "first-use load of ~0.5 s included here).",
              "", "| parameter | published | ARES (Release 3.0 definitions) | relative error |",
              "|---|---:|---:|---:|"]
     for k, ref in PUBLISHED.items():

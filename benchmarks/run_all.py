@@ -29,7 +29,7 @@ with `make bench` (or `python benchmarks/run_all.py --only TOPIC`).
 """
 
 
-ALL_CORES = {"batch", "gui", "scan"}  # batch: 1 vs 2 workers; gui: the window thread next to the scan; scan: make run
+ALL_CORES = {"batch", "gui", "scan", "peer"}  # batch: 1 vs 2 workers; gui: the window thread next to the scan; scan: make run; peer: ares emva vs emva1288
 
 
 def main() -> int:
