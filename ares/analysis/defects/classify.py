@@ -61,8 +61,9 @@ class _Dark:
         self.rate = self.res / (gain * t) if gain and t else None
         dof = st.n_frames - 1
         self.pop_var = sampled_median(st.var) / (chi2_ppf(0.5, dof) / dof)
-        self.expected = self.pop_var + (gain * np.maximum(self.res, 0.0) if gain else 0.0)
-        self.var_ratio = st.var / np.maximum(self.expected, 1e-12)
+        expected = self.pop_var + (gain * np.maximum(self.res, 0.0) if gain else 0.0)
+        self.var_ratio = st.var / np.maximum(expected, 1e-12)
+        del expected  # (a frame of float64: the classification of a 4096x3072 run keeps a dozen)
         # per-line temporal variance relative to the typical line: a 10 %-trimmed mean, not
         # a median -- with a pair of integer frames the variances take a few discrete
         # values and a line median jumps between them (false noisy lines at F = 2)
@@ -169,7 +170,11 @@ def classify_defects(
         stuck_n = np.zeros(shape, np.int16)
         hot_stat = np.full(shape, -np.inf)
         noisy_stat = np.zeros(shape)
-        line_var = col_var[None, :] * row_var[:, None]
+        # the first pass has no bad lines (factors all 1): the maps are used as they are --
+        # the same numbers (x / 1.0 == x) without three frames of float64 temporaries
+        ones = bool(np.all(col_var == 1.0) and np.all(row_var == 1.0) and np.all(col_resp == 1.0)
+                    and np.all(row_resp == 1.0))
+        line_var = None if ones else col_var[None, :] * row_var[:, None]
         for d in D:
             sig = d.z > th.warm_z
             if rate_mode:
@@ -183,7 +188,7 @@ def classify_defects(
             hot_n += hot
             warm_n += warm
             dof = d.st.n_frames - 1
-            vr = d.var_ratio / line_var
+            vr = d.var_ratio if ones else d.var_ratio / line_var
             noisy_n += vr > chi2_isf(th.noisy_p_fa, dof) / dof
             np.maximum(noisy_stat, vr, out=noisy_stat)
             if d.stuck_ok:
@@ -200,7 +205,7 @@ def classify_defects(
         high = np.zeros(shape, bool)
         ratio_stat = np.ones(shape)
         if F:
-            line_resp = col_resp[None, :] * row_resp[:, None]
+            line_resp = None if ones else col_resp[None, :] * row_resp[:, None]
             nf = len(F)
             dn = np.zeros(shape, np.int16)
             ln = np.zeros(shape, np.int16)
@@ -208,8 +213,8 @@ def classify_defects(
             sn = np.zeros(shape, np.int16)
             acc = np.zeros(shape)
             for fl in F:
-                r = fl.ratio / line_resp
-                sig = np.abs(fl.resp - fl.bg * line_resp) > th.warm_z * fl.noise
+                r = fl.ratio if ones else fl.ratio / line_resp
+                sig = np.abs(fl.resp - (fl.bg if ones else fl.bg * line_resp)) > th.warm_z * fl.noise
                 dn += sig & (r < th.dead_fraction)
                 ln += sig & (r < th.low_response_fraction)
                 hn += sig & (r > th.high_response_fraction)
