@@ -15,6 +15,7 @@ timeout, disconnect, short frame) ends the run: the run directory is closed with
 
 from __future__ import annotations
 
+import logging
 import threading
 import time
 from dataclasses import dataclass, field
@@ -35,6 +36,8 @@ from ares.scan.rundir import RunRecord, RunWriter
 from ares.scan.stages import Stage, estimate_seconds
 from ares.scan.eta import Eta
 from ares.scan.suspend import Suspended, Suspenders
+
+log = logging.getLogger(__name__)
 
 
 KEEP_FOR_MASK_BYTES = 256 * 1024 * 1024  # first dark stage kept in memory up to this size
@@ -132,6 +135,7 @@ class Runner:
             raise RuntimeError("a Runner runs once; make a new one to repeat")
         self.state = "running"
         own = self._bench is None
+        self._own_bench, self._bench_closed = own, False
         bench = self._bench
         writer = None
         completed: list[dict] = []
@@ -203,7 +207,7 @@ class Runner:
         finally:
             if writer is not None:
                 writer.stop_heartbeat()
-            if own and bench is not None:
+            if own and bench is not None and not self._bench_closed:
                 bench.close()
 
     def _run(self, bench, writer, completed) -> RunOutcome:
@@ -346,6 +350,12 @@ class Runner:
                 status = "done"  # stop during the last stage: the scan is complete anyway
         self._commit.wait()
         cache = flat = dark = None  # the stacks' sums are committed: free them before the scan-level analyses
+        if self._own_bench:  # no more frames: the devices close now (the light goes off, the simulator's maps go)
+            self._bench_closed = True
+            try:
+                bench.close()
+            except Exception as exc:  # the run's data are complete: a device that will not close is noted
+                log.warning("closing the bench: %s", exc)
         self._emit(ev.Ending(status, len(completed)))
         scan_results, fails = {}, []
         message = ""

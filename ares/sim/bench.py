@@ -263,7 +263,7 @@ class SimFrameSource:
                          f"({expected // 2} of {expected} bytes)")
 
     def close(self) -> None:
-        pass
+        self.sensor.drop_plan()  # the sensor itself stays (bench.info["sensor"]: the truth)
 
 
 def make_sim_bench(params: SensorParams | None = None, seed: int = 0, faults: dict | None = None) -> Bench:

@@ -57,6 +57,11 @@ class SimSensor:
     def shape(self) -> tuple[int, int]:
         return (self.params.rows, self.params.cols)
 
+    def drop_plan(self) -> None:
+        """Forget the cached operating point (its per-pixel maps: ~10 float32 frames); the
+        next render builds it again. Called when the frame source closes."""
+        self._cache_key = self._cache = None
+
     def reset_state(self) -> None:
         """Forget image lag (as after a long dark pause); RTS states stay."""
         self._lag_e = None

@@ -336,6 +336,23 @@ def classify_defects(
     flags["rts"] = rts
     stats["rts"] = rts_stat
 
+    # ---- histograms (the last use of the levels' per-pixel maps: freed after them -- a
+    # 4096x3072 classification held a dozen float64 frames of them to the end)
+    dref = max(D, key=lambda d: d.st.exposure_s or 0.0)
+    fref = max(F, key=lambda f: f.median) if F else None
+    dark_dev = dref.rate if rate_mode else dref.res
+    resp_dev = fref.ratio if F else None
+    for d in D:
+        d.res = d.z = d.rate = d.var_ratio = None
+    for fl in F:
+        fl.resp = fl.bg = fl.ratio = fl.noise = None
+    hists = {"dark_signal": deviation_histograms(dark_dev, "e-/s" if rate_mode else "DN")}
+    del dark_dev
+    if resp_dev is not None:
+        resp_dev = 100.0 * (resp_dev - 1.0)
+        hists["response"] = deviation_histograms(resp_dev, "%")
+    del resp_dev
+
     # ---- mask, primary classes, list
     mask = np.zeros(shape, np.uint16)
     for c in PIXEL_CLASSES:
@@ -387,16 +404,6 @@ def classify_defects(
     # an unavailable count (not measurable at this frame count) cannot pass a limit
     limits = [dict(lim, passed=bool(lim["passed"])) for lim in limits]
 
-    # ---- histograms
-    dref = max(D, key=lambda d: d.st.exposure_s or 0.0)
-    hists = {}
-    if rate_mode:
-        hists["dark_signal"] = deviation_histograms(dref.rate, "e-/s")
-    else:
-        hists["dark_signal"] = deviation_histograms(dref.res, "DN")
-    if F:
-        fref = max(F, key=lambda f: f.median)
-        hists["response"] = deviation_histograms(100.0 * (fref.ratio - 1.0), "%")
     statistics = {
         "stuck": "minimum temporal variance over the dark levels (DN^2)",
         "rts": "level separation / within-level noise",
