@@ -49,7 +49,7 @@ def smooth(img: np.ndarray, release: str = "4.0", border: str = "valid") -> np.n
         raise ValueError(f"unknown high-pass release {release!r}")
     from .lowpass import smooth_full
 
-    y = smooth_full(x - m, *LOWPASS[release])  # numba, float64 throughout
+    y = smooth_full(x, m, *LOWPASS[release])  # numba, float64 throughout
     if y is not None:
         if border == "valid":
             b = HIGHPASS_BORDER[release]

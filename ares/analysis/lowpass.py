@@ -20,12 +20,14 @@ _kernel_c = None
 _loaded = False
 
 
-def _kernel(x, out, tmp, w1, w2, binomial):
-    """Smooth ``x`` (M, N float64) into ``out``: box ``w1``, box ``w2`` (0: none) and the
-    3-tap binomial (if ``binomial``) along axis 0, then the same along axis 1; ``tmp``
-    is a buffer of x's shape. Widths are odd and at most the image's size."""
+def _kernel(x, m, out, tmp, w1, w2, binomial):
+    """Smooth ``x - m`` (M, N float64; ``m`` its mean, for precision) into ``out``: box
+    ``w1``, box ``w2`` (0: none) and the 3-tap binomial (if ``binomial``) along axis 0,
+    then the same along axis 1; ``tmp`` is a buffer of x's shape. Widths are odd and at
+    most the image's size."""
     M, N = x.shape
     src = x
+    c = m  # subtracted while reading x (the first pass), not by a centred copy of it
     # axis 0: whole rows at a time (the inner loops run along contiguous memory)
     acc = np.empty(N)
     bufs = (out, tmp)
@@ -41,7 +43,7 @@ def _kernel(x, out, tmp, w1, w2, binomial):
         for r in range(-h, h + 1):
             rr = -r - 1 if r < 0 else (2 * M - r - 1 if r >= M else r)
             for j in range(N):
-                acc[j] += src[rr, j]
+                acc[j] += src[rr, j] - c
         for j in range(N):
             dst[0, j] = acc[j] * inv
         for i in range(1, M):
@@ -53,6 +55,7 @@ def _kernel(x, out, tmp, w1, w2, binomial):
                 acc[j] += src[ra, j] - src[rs, j]
                 dst[i, j] = acc[j] * inv
         src = dst
+        c = 0.0
         k += 1
     if binomial:
         dst = bufs[k % 2]
@@ -99,10 +102,9 @@ def _kernel(x, out, tmp, w1, w2, binomial):
                 out[i, j] = tmp[i, j]
 
 
-def smooth_full(x: np.ndarray, widths: tuple[int, int], binomial: bool) -> np.ndarray | None:
-    """``x`` (2-D float64, centred by the caller) smoothed at full size with reflected
-    borders, or None when the kernel does not apply (numba missing, image smaller than a
-    filter)."""
+def smooth_full(x: np.ndarray, m: float, widths: tuple[int, int], binomial: bool) -> np.ndarray | None:
+    """``x - m`` (x 2-D float64, m its mean) smoothed at full size with reflected borders,
+    or None when the kernel does not apply (numba missing, image smaller than a filter)."""
     global _kernel_c, _loaded
     if not _loaded:
         from ares import jit
@@ -113,5 +115,5 @@ def smooth_full(x: np.ndarray, widths: tuple[int, int], binomial: bool) -> np.nd
         return None
     x = np.ascontiguousarray(x, np.float64)
     out = np.empty_like(x)
-    _kernel_c(x, out, np.empty_like(x), widths[0], widths[1], binomial)
+    _kernel_c(x, float(m), out, np.empty_like(x), widths[0], widths[1], binomial)
     return out

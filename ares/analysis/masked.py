@@ -63,7 +63,7 @@ from . import flat as _flat
 from . import masked_fold
 from .anova import DARK_NAMES
 from .estimate import Estimate
-from .flat import highpass_emva
+from .emva_spatial import smooth
 
 __all__ = ["MaskedStackAccumulator", "MaskedTable", "masked_table", "decompose_dark_masked",
            "decompose_flat_masked", "masked_components", "henderson_two_way"]
@@ -466,13 +466,16 @@ def _temporal_in_mean(tf: MaskedTable, td: MaskedTable):
 
 
 def _fill_lowpass(d: np.ndarray, good: np.ndarray) -> np.ndarray:
-    """Masked pixels replaced by the EMVA low-pass of the good ones (normalized convolution)."""
-    w = good.astype(np.float64)
-    dz = np.where(good, d, 0.0)
-    low_num = dz - highpass_emva(dz)
-    low_w = w - highpass_emva(w)
-    fill = low_num / np.maximum(low_w, 1e-12)
-    return np.where(good, d, fill)
+    """Masked pixels replaced by the EMVA low-pass of the good ones (normalized convolution:
+    the low-pass of the image with its masked pixels zeroed over the low-pass of the good
+    pixels' indicator). In place where it can: at 4096x3072 each temporary is 96 MB."""
+    fill = smooth(np.where(good, d, 0.0), "4.0", border="reflect")
+    low_w = smooth(good.astype(np.float64), "4.0", border="reflect")
+    np.maximum(low_w, 1e-12, out=low_w)
+    fill /= low_w
+    del low_w
+    np.copyto(fill, d, where=good)
+    return fill
 
 
 def _nonuniformity(flat_acc, dark_acc, tf, td, S, var_S, mode, order):
@@ -501,11 +504,16 @@ def _nonuniformity(flat_acc, dark_acc, tf, td, S, var_S, mode, order):
         if min(R, C) <= 2 * rad + 2:
             msg = f"region too small for the EMVA high-pass (needs > {2 * rad + 2} rows and columns)"
             return {k: Estimate.na(msg, "1") for k in names}
+        # (in place where the numbers stay the same: each temporary is a frame of float64)
         df_ = _fill_lowpass(d, good)
+        del d
         hp = _flat.highpass_emva(df_)[rad:-rad, rad:-rad]
-        low = df_[rad:-rad, rad:-rad] - hp
+        low = np.subtract(df_[rad:-rad, rad:-rad], hp)
+        del df_
         g = good[rad:-rad, rad:-rad]
-        norm = float(np.mean(low[g] ** 2))
+        np.square(low, out=low)
+        norm = float(np.mean(low[g]))
+        del low
         Rv, Cv = hp.shape
         k1, k2, s1, s2 = _flat.hp_factors()
         nrow, ncol = g.sum(axis=1), g.sum(axis=0)
@@ -513,8 +521,14 @@ def _nonuniformity(flat_acc, dark_acc, tf, td, S, var_S, mode, order):
         m = hz.sum() / g.sum()
         mr = np.where(nrow > 0, hz.sum(axis=1) / np.maximum(nrow, 1), m) - m
         mc = np.where(ncol > 0, hz.sum(axis=0) / np.maximum(ncol, 1), m) - m
-        res = hp - m - mr[:, None] - mc[None, :]
-        v_rc = float((res[g] ** 2).mean())
+        del hz
+        res = hp - m
+        del hp
+        res -= mr[:, None]
+        res -= mc[None, :]
+        np.square(res, out=res)
+        v_rc = float(res[g].mean())
+        del res
         v_r = float((mr * mr).mean())
         v_c = float((mc * mc).mean())
         p_tot = v_rc / (k2 - k1 / Cv - k1 / Rv)
