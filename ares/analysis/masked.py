@@ -95,7 +95,12 @@ class MaskedStackAccumulator:
     def decompose_flat(flat_acc, dark_acc, *args) -> dict[str, Estimate]:
         return decompose_flat_masked(flat_acc, dark_acc, *args)
 
-    def __init__(self, shape, mask, batch: int = _CHUNK):
+    def __init__(self, shape, mask, batch: int = _CHUNK, pixels=None):
+        """``pixels``: a ``StackAccumulator`` over the whole frame that is fed the same
+        frames in the same order (a StackSet's full view). With 8/16-bit integer frames
+        its exact integer sums give this stack's per-pixel sums, which are then not kept
+        twice (two float64 frames less per stack; the same numbers: every sum is an
+        exact integer either way)."""
         try:
             shape = tuple(int(s) for s in shape)
         except TypeError:
@@ -111,8 +116,9 @@ class MaskedStackAccumulator:
         self.batch = max(1, int(batch))
         self._x0 = None  # shift (first frame, 0 at masked pixels)
         R, C = shape
-        self._s1 = np.zeros(shape)
-        self._s2 = np.zeros(shape)
+        self._pixels = pixels
+        self._derived = False  # per-pixel sums from ``pixels`` (decided at the first frame)
+        self._s1 = self._s2 = None  # per-pixel sums of the shifted good pixels (own mode)
         self._r2 = np.zeros(R)  # sum_f (row sum of shifted good pixels)^2
         self._c2 = np.zeros(C)
         self._t2 = 0.0
@@ -152,7 +158,9 @@ class MaskedStackAccumulator:
 
     def _fold(self, x: np.ndarray) -> None:
         if self._x0 is not None:
-            sums = masked_fold.fold(x, self._x0, self.good, self._s1, self._s2)  # one pass (integer frames)
+            # one pass (integer frames); only the row/column sums when the pixels' come from elsewhere
+            sums = masked_fold.fold(x, self._x0, self.good, None if self._derived else self._s1,
+                                    None if self._derived else self._s2)
             if sums is not None:
                 self._fold_lines(*sums, len(x))
                 return
@@ -163,11 +171,49 @@ class MaskedStackAccumulator:
             # the shift of 8/16-bit integer frames is exact in float32: half the memory
             small = x.dtype.kind in "uib" and x.dtype.itemsize <= 2
             self._x0 = np.where(self.good, d[0], 0.0).astype(np.float32 if small else np.float64)
+            p = self._pixels
+            self._derived = bool(small and p is not None and tuple(p.shape) == self.shape and not p._float)
+            if not self._derived:
+                self._s1, self._s2 = np.zeros(self.shape), np.zeros(self.shape)
         d -= self._x0
         d[:, self.mask] = 0.0  # masked pixels contribute nothing
-        self._s1 += d.sum(axis=0)
-        self._s2 += np.einsum("fij,fij->ij", d, d)
+        if not self._derived:
+            self._s1 += d.sum(axis=0)
+            self._s2 += np.einsum("fij,fij->ij", d, d)
         self._fold_lines(d.sum(axis=2), d.sum(axis=1), len(x))
+
+    def _sums(self, second: bool = True) -> tuple[np.ndarray, np.ndarray | None]:
+        """(sum over frames of x - x0, of (x - x0)^2) per pixel, 0 at masked pixels, float64.
+        From ``pixels`` (derived mode): S1 - n x0 and S2 + x0 (n x0 - 2 S1) in int64 --
+        exact integers, so equal to the sums this stack would have kept."""
+        if not self._derived:
+            return self._s1, self._s2
+        p = self._pixels
+        if p.n_frames != self._nf:
+            raise InputError(f"the full-frame stack has {p.n_frames} frames, its masked view {self._nf}")
+        p._ready()
+        n = self._nf
+        x0 = self._x0.astype(np.int64)
+        s1 = x0 * n
+        s2 = None
+        if second:
+            t = s1 - p._s1
+            t -= p._s1
+            t *= x0
+            t += p._s2
+            s2 = t.astype(np.float64)
+            del t
+            s2[self.mask] = 0.0
+        np.subtract(p._s1, s1, out=s1)
+        s1 = s1.astype(np.float64)
+        s1[self.mask] = 0.0
+        return s1, s2
+
+    def _materialize(self) -> None:
+        """Keep this stack's own per-pixel sums from now on (before a merge)."""
+        if self._derived:
+            self._s1, self._s2 = self._sums()
+            self._derived, self._pixels = False, None
 
     def _fold_lines(self, fr: np.ndarray, fc: np.ndarray, n: int) -> None:
         """The row/column/frame-total forms of a folded block's row and column sums."""
@@ -188,11 +234,13 @@ class MaskedStackAccumulator:
             return self
         if self._nf == 0:
             self._x0 = other._x0.copy()
+            self._s1, self._s2 = np.zeros(self.shape), np.zeros(self.shape)
+        self._materialize()
         n = other._nf
         dl = other._x0.astype(np.float64) - self._x0  # other's shift relative to ours (0 at masked pixels)
-        s1o = other._s1
+        s1o, s2o = other._sums()
         dr, dc, dt = dl.sum(axis=1), dl.sum(axis=0), float(dl.sum())
-        self._s2 += other._s2 + 2 * dl * s1o + n * dl * dl
+        self._s2 += s2o + 2 * dl * s1o + n * dl * dl
         self._r2 += other._r2 + 2 * dr * s1o.sum(axis=1) + n * dr * dr
         self._c2 += other._c2 + 2 * dc * s1o.sum(axis=0) + n * dc * dc
         self._t2 += other._t2 + 2 * dt * float(s1o.sum()) + n * dt * dt
@@ -209,12 +257,13 @@ class MaskedStackAccumulator:
     def mean_map(self) -> np.ndarray:
         """Time-averaged frame (NaN at masked pixels)."""
         self._need()
-        m = self._x0 + self._s1 / self._nf
+        m = self._x0 + self._sums(False)[0] / self._nf
         return np.where(self.good, m, np.nan)
 
     def pixel_ss(self) -> np.ndarray:
         self._need()
-        return np.where(self.good, np.maximum(self._s2 - self._s1 * self._s1 / self._nf, 0.0), np.nan)
+        s1, s2 = self._sums()
+        return np.where(self.good, np.maximum(s2 - s1 * s1 / self._nf, 0.0), np.nan)
 
     def temporal_var_map(self, ddof: int = 1) -> np.ndarray:
         self._need()
@@ -229,7 +278,7 @@ class MaskedStackAccumulator:
 
     def mean(self) -> float:
         self._need()
-        return float((self._x0.sum(dtype=np.float64) + self._s1.sum() / self._nf) / max(self.n_good, 1))
+        return float((self._x0.sum(dtype=np.float64) + self._sums(False)[0].sum() / self._nf) / max(self.n_good, 1))
 
     def temporal_forms(self) -> dict:
         """The four temporal quadratic forms (summed over frame contrasts) and counts."""
@@ -237,8 +286,8 @@ class MaskedStackAccumulator:
         F = self._nf
         g = self.good
         nr, nc = g.sum(axis=1), g.sum(axis=0)
-        s1 = self._s1
-        t0 = float(np.where(g, self._s2 - s1 * s1 / F, 0.0).sum())
+        s1, s2 = self._sums()
+        t0 = float(np.where(g, s2 - s1 * s1 / F, 0.0).sum())
         qr = self._r2 - s1.sum(axis=1) ** 2 / F
         qc = self._c2 - s1.sum(axis=0) ** 2 / F
         st = float(s1.sum())

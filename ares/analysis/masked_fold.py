@@ -12,7 +12,7 @@ from __future__ import annotations
 
 import numpy as np
 
-_kernel_c = None
+_kernel_c = _lines_c = None
 _loaded = False
 
 
@@ -33,24 +33,47 @@ def _kernel(x, x0, good, s1, s2, fr, fc):
             fr[f, i] = rs
 
 
-def fold(x: np.ndarray, x0: np.ndarray, good: np.ndarray, s1: np.ndarray, s2: np.ndarray):
+def _lines(x, x0, good, fr, fc):
+    """``_kernel`` without the per-pixel sums (a masked stack that reads them from its
+    full-frame stack)."""
+    F, R, C = x.shape
+    for f in range(F):
+        for j in range(C):
+            fc[f, j] = 0.0
+        for i in range(R):
+            rs = 0.0
+            for j in range(C):
+                if good[i, j]:
+                    d = np.float64(x[f, i, j]) - x0[i, j]
+                    rs += d
+                    fc[f, j] += d
+            fr[f, i] = rs
+
+
+def fold(x: np.ndarray, x0: np.ndarray, good: np.ndarray, s1: np.ndarray | None, s2: np.ndarray | None):
     """Add the frames ``x`` (F, R, C integers) shifted by ``x0`` into ``s1``/``s2`` at the
-    good pixels; returns (per-frame row sums (F, R), column sums (F, C)) of the shifted
-    good pixels, or None when the kernel does not apply (numba missing, float frames)."""
-    global _kernel_c, _loaded
+    good pixels (both None: only the line sums); returns (per-frame row sums (F, R),
+    column sums (F, C)) of the shifted good pixels, or None when the kernel does not
+    apply (numba missing, float frames)."""
+    global _kernel_c, _lines_c, _loaded
     if not _loaded:
         from ares import jit
 
-        _kernel_c, _loaded = jit.compiled(_kernel), True
+        _kernel_c, _lines_c, _loaded = jit.compiled(_kernel), jit.compiled(_lines), True
     if _kernel_c is None or x.dtype.kind not in "ui" or x.dtype.itemsize > 2:
         return None
     F, R, C = x.shape
     fr, fc = np.empty((F, R)), np.empty((F, C))
-    _kernel_c(np.ascontiguousarray(x), x0, good, s1, s2, fr, fc)
+    if s1 is None:
+        _lines_c(np.ascontiguousarray(x), x0, good, fr, fc)
+    else:
+        _kernel_c(np.ascontiguousarray(x), x0, good, s1, s2, fr, fc)
     return fr, fc
 
 
 def warm(dtype=np.uint16) -> None:
     """Load (or compile) the kernel for ``dtype`` frames now (the runner, before a scan)."""
     z = np.zeros((2, 2))
-    fold(np.zeros((1, 2, 2), dtype), z.astype(np.float32), np.ones((2, 2), bool), z, z.copy())
+    x, x0, good = np.zeros((1, 2, 2), dtype), z.astype(np.float32), np.ones((2, 2), bool)
+    fold(x, x0, good, z, z.copy())
+    fold(x, x0, good, None, None)

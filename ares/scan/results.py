@@ -65,13 +65,14 @@ class StackSet:
     def __init__(self, shape, views_: dict, max_code: int, histograms: bool = False, mask=None):
         self.views = views_
         # the full view over the good pixels of a defect mask too (ares.scan.defect_mask)
-        self.masked = MaskedStackAccumulator(shape, mask) if mask is not None else None
         self.kept: list[np.ndarray] | None = None  # frames kept to build a mask from (keep_frames)
         self.max_code = max_code
         self.hist = {k: np.zeros(max_code + 1, np.int64) for k in views_
                      if k == "full" or k.startswith(("adc", "cfa_"))} if histograms else {}
         dummy = np.empty(shape, dtype=np.uint8)
         self.acc = {k: StackAccumulator(dummy[s].shape, batch=batch_for(dummy[s].shape)) for k, s in views_.items()}
+        # its per-pixel sums come from the full view's (integer frames): not kept twice
+        self.masked = MaskedStackAccumulator(shape, mask, pixels=self.acc["full"]) if mask is not None else None
         self.at_max = {k: 0 for k in views_}
         self.at_min = {k: 0 for k in views_}
 
@@ -105,7 +106,7 @@ class StackSet:
         the stage the mask was built from); False when no frames were kept."""
         if self.kept is None:
             return False
-        self.masked = MaskedStackAccumulator(self.acc["full"].shape, mask)
+        self.masked = MaskedStackAccumulator(self.acc["full"].shape, mask, pixels=self.acc["full"])
         for f in self.kept:
             self.masked.add(f)
         self.kept = None
