@@ -124,8 +124,15 @@ def main() -> int:
         if k != "imports":
             lines.append(f"| {k} | {v:.0f} | {v / frame_mb:.0f} |")
     worst = max(r["phases"], key=lambda x: x[1])
+    from ares.protocol.scan import load_scan
+    from ares.scan.preflight import memory_bytes
+    from ares.scan.stages import expand
+
+    with tempfile.TemporaryDirectory() as td:  # the estimate `ares validate` prints for this scan
+        sc = load_scan(write_inputs(Path(td), args.frames, args.points))
+        est = memory_bytes(sc, expand(sc, None)) / 2**30
     lines += ["", f"High-water mark of the process: **{r['hwm'] / 1024:.2f} GiB** (target {TARGET_GB:.0f} GB), "
-                  f"highest in: {worst[0]}.", ""]
+                  f"highest in: {worst[0]}. The estimate `ares validate` gives for this scan: {est:.2f} GiB.", ""]
     OUT.write_text("\n".join(lines))
     print("\n".join(lines))
     return 0

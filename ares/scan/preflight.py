@@ -3,10 +3,12 @@
 first (the static checks, with file:line, are in ``ares.protocol.load_scan``; these are
 the ones that depend on the run's arguments and on this machine).
 
-The memory estimate is measured, not derived: ``ares run`` of the shipped dark-current scan
-on a simulated 2048x2048 sensor peaks at 0.93 kB per pixel with 4 frames per stage and
-grows by 4 bytes per pixel per frame of the first dark stage (its frames are kept to
-build the defect mask); regions and channel views add their own accumulators.
+The memory estimate is measured, not derived: the shipped photon-transfer scan on a
+simulated 4096x3072 sensor (``benchmarks/bench_big_memory.py``, 8 frames per stack) peaks
+at about 150 bytes per pixel above the interpreter and its libraries, plus 4 bytes per
+pixel per frame of the first dark stage (its frames are kept to build the defect mask);
+the model adds a third for margin. Regions and channel views add their own accumulators.
+(Before the accumulators shared their per-pixel sums it was 0.93 kB per pixel.)
 """
 
 from __future__ import annotations
@@ -20,7 +22,7 @@ from ares.scan.stages import Stage, expand
 MAX_FRAMES = 100000  # the scan schema's <frames> maximum
 MAX_SEED = 2**63 - 1
 BASE_BYTES = 300e6  # the interpreter, numpy/scipy/h5py and the report's plotting
-BYTES_PER_PIXEL = 1000.0  # full view: accumulators, simulator temporaries, per-pixel maps and the report
+BYTES_PER_PIXEL = 200.0  # full view: accumulators, simulator maps, the analyses' float64 maps and the report
 BYTES_PER_VIEW_PIXEL = 100.0  # each further view (region, Bayer phase, ADC channel) per pixel it covers
 BYTES_PER_KEPT_PIXEL = 4.0  # per frame of the first dark stage, per pixel
 

@@ -56,9 +56,8 @@ class _Dark:
         if self.background_removed:
             self.res = self.res - local_background(self.res)
         self.sigma = robust_sigma(dequantized(self.res, st), floor=1e-9)
-        self.z = self.res / self.sigma
         t = st.exposure_s
-        self.rate = self.res / (gain * t) if gain and t else None
+        self.rate_scale = gain * t if gain and t else None  # res / rate_scale: the excess dark rate, e-/s
         dof = st.n_frames - 1
         self.pop_var = sampled_median(st.var) / (chi2_ppf(0.5, dof) / dof)
         expected = self.pop_var + (gain * np.maximum(self.res, 0.0) if gain else 0.0)
@@ -148,7 +147,7 @@ def classify_defects(
     notes: list[str] = []
     nrow, ncol = shape
     D = [_Dark(s, gain_dn_per_e, th) for s in darks]
-    rate_mode = all(d.rate is not None for d in D)
+    rate_mode = all(d.rate_scale is not None for d in D)
     if not rate_mode:
         why = "no gain" if not gain_dn_per_e else "no exposure time on every dark level"
         notes.append(f"hot/warm classified by robust z of the averaged dark ({why}): "
@@ -176,15 +175,19 @@ def classify_defects(
                     and np.all(row_resp == 1.0))
         line_var = None if ones else col_var[None, :] * row_var[:, None]
         for d in D:
-            sig = d.z > th.warm_z
+            z = d.res / d.sigma  # robust z and rate made here, not kept: a frame of float64 each
+            sig = z > th.warm_z
             if rate_mode:
-                hot = sig & (d.rate > th.hot_e_per_s)
-                warm = sig & (d.rate > th.warm_e_per_s) & ~hot
-                np.maximum(hot_stat, d.rate, out=hot_stat)
+                rate = d.res / d.rate_scale
+                hot = sig & (rate > th.hot_e_per_s)
+                warm = sig & (rate > th.warm_e_per_s) & ~hot
+                np.maximum(hot_stat, rate, out=hot_stat)
+                del rate
             else:
-                hot = d.z > th.hot_z
+                hot = z > th.hot_z
                 warm = sig & ~hot
-                np.maximum(hot_stat, d.z, out=hot_stat)
+                np.maximum(hot_stat, z, out=hot_stat)
+            del z
             hot_n += hot
             warm_n += warm
             dof = d.st.n_frames - 1
@@ -340,10 +343,10 @@ def classify_defects(
     # 4096x3072 classification held a dozen float64 frames of them to the end)
     dref = max(D, key=lambda d: d.st.exposure_s or 0.0)
     fref = max(F, key=lambda f: f.median) if F else None
-    dark_dev = dref.rate if rate_mode else dref.res
+    dark_dev = dref.res / dref.rate_scale if rate_mode else dref.res
     resp_dev = fref.ratio if F else None
     for d in D:
-        d.res = d.z = d.rate = d.var_ratio = None
+        d.res = d.var_ratio = None
     for fl in F:
         fl.resp = fl.bg = fl.ratio = fl.noise = None
     hists = {"dark_signal": deviation_histograms(dark_dev, "e-/s" if rate_mode else "DN")}
