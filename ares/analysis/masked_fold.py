@@ -12,11 +12,16 @@ from __future__ import annotations
 
 import numpy as np
 
-_kernel_c = _lines_c = None
+_kernel_c = None
 _loaded = False
+_NO_SUMS = np.zeros((1, 1))  # stands for s1/s2 when only the line sums are wanted
 
 
-def _kernel(x, x0, good, s1, s2, fr, fc):
+def _kernel(x, x0, good, s1, s2, fr, fc, sums):
+    """Per-frame row and column sums of the shifted good pixels into ``fr``/``fc``; with
+    ``sums`` also the per-pixel sums and sums of squares into ``s1``/``s2`` (without: a
+    masked stack that reads those from its full-frame stack; the test is hoisted out of
+    the loop by the compiler)."""
     F, R, C = x.shape
     for f in range(F):
         for j in range(C):
@@ -26,25 +31,9 @@ def _kernel(x, x0, good, s1, s2, fr, fc):
             for j in range(C):
                 if good[i, j]:
                     d = np.float64(x[f, i, j]) - x0[i, j]
-                    s1[i, j] += d
-                    s2[i, j] += d * d
-                    rs += d
-                    fc[f, j] += d
-            fr[f, i] = rs
-
-
-def _lines(x, x0, good, fr, fc):
-    """``_kernel`` without the per-pixel sums (a masked stack that reads them from its
-    full-frame stack)."""
-    F, R, C = x.shape
-    for f in range(F):
-        for j in range(C):
-            fc[f, j] = 0.0
-        for i in range(R):
-            rs = 0.0
-            for j in range(C):
-                if good[i, j]:
-                    d = np.float64(x[f, i, j]) - x0[i, j]
+                    if sums:
+                        s1[i, j] += d
+                        s2[i, j] += d * d
                     rs += d
                     fc[f, j] += d
             fr[f, i] = rs
@@ -55,19 +44,19 @@ def fold(x: np.ndarray, x0: np.ndarray, good: np.ndarray, s1: np.ndarray | None,
     good pixels (both None: only the line sums); returns (per-frame row sums (F, R),
     column sums (F, C)) of the shifted good pixels, or None when the kernel does not
     apply (numba missing, float frames)."""
-    global _kernel_c, _lines_c, _loaded
+    global _kernel_c, _loaded
     if not _loaded:
         from ares import jit
 
-        _kernel_c, _lines_c, _loaded = jit.compiled(_kernel), jit.compiled(_lines), True
+        _kernel_c, _loaded = jit.compiled(_kernel), True
     if _kernel_c is None or x.dtype.kind not in "ui" or x.dtype.itemsize > 2:
         return None
     F, R, C = x.shape
     fr, fc = np.empty((F, R)), np.empty((F, C))
-    if s1 is None:
-        _lines_c(np.ascontiguousarray(x), x0, good, fr, fc)
-    else:
-        _kernel_c(np.ascontiguousarray(x), x0, good, s1, s2, fr, fc)
+    sums = s1 is not None
+    if not sums:
+        s1 = s2 = _NO_SUMS
+    _kernel_c(np.ascontiguousarray(x), x0, good, s1, s2, fr, fc, sums)
     return fr, fc
 
 
