@@ -119,3 +119,50 @@ def test_conversion_gain_units_and_zones():
     slopes = loglog_slopes(sig, noise)
     assert slopes[len(slopes) // 2] == pytest.approx(0.5, abs=0.1)
     assert r.zones["read_to_shot_e"].value == pytest.approx(r.noise_model["sensor_noise_e"].value ** 2)
+
+
+@pytest.mark.parametrize("seed,a00", [(1, 0.0), (2, 1.5e-6), (3, 4e-6), (4, -5e-7)])
+def test_astier_fit_equals_scipy_curve_fit(seed, a00):
+    """ARES's Levenberg-Marquardt (no scipy.optimize import) against curve_fit with the same
+    weights on noisy photon-transfer data: the same parameters to MINPACK's tolerance and
+    the same standard errors."""
+    from scipy.optimize import curve_fit
+
+    from ares.analysis.ptc_fit import astier_fit
+
+    rng = np.random.default_rng(seed)
+    s = np.geomspace(30, 3500, 24)
+    dof = 2e5
+    truth = astier_model(s, a00, 3.6, 25.0)
+    sig = np.sqrt(2.0 / dof) * truth
+    v = truth + sig * rng.standard_normal(s.size)
+    af = astier_fit(s, v, dof)
+    lf = wls_line(s, v, dof, v_se=np.sqrt(2.0 / dof) * np.abs(v))
+    g0 = 1.0 / lf.slope
+    ref, cov = curve_fit(astier_model, s, v, p0=[0.0, g0, lf.intercept * g0 * g0],
+                         sigma=np.sqrt(2.0 / dof) * np.abs(v), absolute_sigma=True, maxfev=20000)
+    r = (v - astier_model(s, *ref)) / (np.sqrt(2.0 / dof) * np.abs(v))
+    se = np.sqrt(np.diag(cov * max(float(r @ r) / (s.size - 3), 1.0)))
+    assert af.gain_e_per_dn == pytest.approx(ref[1], rel=1e-7)
+    assert af.a00 == pytest.approx(ref[0], rel=1e-4, abs=1e-6 * se[0])
+    assert af.n00 == pytest.approx(ref[2], rel=1e-6, abs=1e-4 * se[2])
+    for mine, theirs in ((af.gain_se, se[1]), (af.a00_se, se[0]), (af.n00_se, se[2])):
+        assert mine == pytest.approx(theirs, rel=1e-4)
+    assert abs(af.gain_e_per_dn - 3.6) < 5 * af.gain_se  # and both find the truth
+
+
+def test_bspline_design_equals_scipy():
+    """The Cox - de Boor design matrix of the Eq. 51 regression (and of its derivative)
+    against scipy.interpolate.BSpline on clamped knots at signal quantiles, both ends included."""
+    from scipy.interpolate import BSpline
+
+    from ares.analysis.ptc_fit import bspline_design
+
+    rng = np.random.default_rng(5)
+    for inner in ([], [700.0], [400.0, 1200.0, 2500.0]):
+        s = np.r_[10.0, np.sort(rng.uniform(10, 3000, 30)), 3000.0]
+        t = np.r_[[s[0]] * 4, inner, [s[-1]] * 4]
+        nb = t.size - 4
+        np.testing.assert_allclose(bspline_design(s, t), BSpline.design_matrix(s, t, 3).toarray(), atol=1e-14)
+        ref = np.array([BSpline(t, np.eye(nb)[j], 3).derivative()(s) for j in range(nb)]).T
+        np.testing.assert_allclose(bspline_design(s, t, derivative=True), ref, rtol=1e-10, atol=1e-18)

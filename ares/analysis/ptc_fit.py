@@ -24,7 +24,6 @@ import math
 from dataclasses import dataclass
 
 import numpy as np
-from scipy.optimize import curve_fit
 
 
 @dataclass(frozen=True)
@@ -148,18 +147,88 @@ def astier_fit(s, v, dof, v_se=None) -> AstierFit:
         sig = np.sqrt(2.0 / dof) * np.maximum(np.abs(v), 1e-12)
     lf = wls_line(s, v, dof, v_se=sig)
     g0 = 1.0 / lf.slope if lf.slope > 0 else 1.0
-    p0 = [0.0, g0, lf.intercept * g0 * g0]
-    try:
-        popt, pcov = curve_fit(astier_model, s, v, p0=p0, sigma=sig, absolute_sigma=True, maxfev=20000)
-    except (RuntimeError, ValueError):
+    p0 = np.array([0.0, g0, lf.intercept * g0 * g0])
+    # a00's scale: the curvature that bends the PTC by a factor ~e over the levels' range
+    a_scale = 1.0 / (2.0 * g0 * max(float(np.max(np.abs(s))), 1e-12))
+    fit = levenberg_marquardt(lambda p: astier_model(s, *p), v, sig, p0, scale=(a_scale, g0, 1.0))
+    if fit is None:
         nan = math.nan
         return AstierFit(nan, nan, nan, nan, nan, nan, nan, s.size)
+    popt, pcov = fit
     r = (v - astier_model(s, *popt)) / sig
     chi2 = float(r @ r) / max(s.size - 3, 1)
     pcov = pcov * max(chi2, 1.0)
     se = np.sqrt(np.diag(pcov))
     return AstierFit(float(popt[1]), float(se[1]), float(popt[0]), float(se[0]), float(popt[2]),
                      float(se[2]), chi2, s.size)
+
+
+def levenberg_marquardt(model, y, sig, p0, scale=None, max_iter: int = 200, rtol: float = 1e-13):
+    """Weighted least squares ``sum(((y - model(p)) / sig)^2)`` from ``p0`` by
+    Levenberg-Marquardt (Marquardt's diagonal scaling, forward-difference Jacobian with
+    MINPACK's relative steps, at least ``sqrt(eps) * scale`` -- a parameter's typical size,
+    for one that starts at 0): (p, covariance inv(J^T J) at p), or None when it does not
+    converge.
+    What ``scipy.optimize.curve_fit(..., absolute_sigma=True)`` returns, converged to
+    ``rtol`` instead of MINPACK's 1.5e-8 (equal to it within that; tested) -- without
+    importing scipy.optimize (0.4 s, every run and ``ares emva`` paid it for this fit)."""
+    p = np.asarray(p0, float).copy()
+    h0 = math.sqrt(np.finfo(float).eps)
+    floor = h0 * (np.abs(p) if scale is None else np.maximum(np.abs(np.asarray(scale, float)), np.abs(p)))
+
+    def resid(q):
+        return (y - model(q)) / sig
+
+    def jac(q, r):  # d(model / sig)/dq: minus the residuals' derivative
+        J = np.empty((r.size, q.size))
+        for j in range(q.size):
+            h = max(h0 * abs(q[j]), floor[j]) or h0
+            qh = q.copy()
+            qh[j] += h
+            J[:, j] = (r - resid(qh)) / h
+        return J
+
+    r = resid(p)
+    cost = float(r @ r)
+    if not math.isfinite(cost):
+        return None
+    lam = 1e-3
+    for _ in range(max_iter):
+        J = jac(p, r)
+        A, g = J.T @ J, J.T @ r
+        d = np.diag(A).copy()
+        d[d <= 0] = 1.0
+        while True:
+            try:
+                step = np.linalg.solve(A + lam * np.diag(d), g)
+            except np.linalg.LinAlgError:
+                step = None
+            if step is not None:
+                pn = p + step
+                rn = resid(pn)
+                cn = float(rn @ rn)
+                if math.isfinite(cn) and cn <= cost:
+                    break
+            lam *= 10.0
+            if lam > 1e16:  # no step lowers the cost: p is the minimum
+                step = np.zeros_like(p)
+                pn, rn, cn = p, r, cost
+                break
+        # converged when the step is negligible in Marquardt's scaled norm (MINPACK's xtol
+        # test: a parameter at 0 does not demand an absolute step of 0) or the cost no
+        # longer falls (ftol)
+        w = np.sqrt(d)
+        done = (float(np.linalg.norm(step * w)) <= rtol * float(np.linalg.norm(p * w))
+                or cost - cn <= rtol * cost or cn == 0.0)
+        p, r, cost = pn, rn, cn
+        lam = max(lam / 10.0, 1e-12)
+        if done:
+            try:
+                J = jac(p, r)
+                return p, np.linalg.inv(J.T @ J)
+            except np.linalg.LinAlgError:
+                return None
+    return None
 
 
 @dataclass(frozen=True)
@@ -220,6 +289,32 @@ def choose_gain_model(s, v, dof, v_se=None, p_min: float = 1e-3) -> GainModel:
     return GainModel("linear", lf, af, line_p, astier_p, f_p, why)
 
 
+def bspline_design(x, t, derivative: bool = False) -> np.ndarray:
+    """Cubic B-spline basis (or its first derivative) on the clamped knots ``t`` at ``x``
+    (inside [t[0], t[-1]], the right end included): the design matrix, (len(x),
+    len(t) - 4), by the Cox - de Boor recursion -- what ``scipy.interpolate.BSpline.
+    design_matrix`` gives (tested), without importing scipy.interpolate (it brings
+    scipy.optimize: 0.4 s)."""
+    x = np.asarray(x, float)
+    t = np.asarray(t, float)
+    k = 3
+    last = int(np.nonzero(t[:-1] < t[1:])[0][-1])  # the last non-empty knot interval takes the right end
+    B = ((t[:-1] <= x[:, None]) & (x[:, None] < t[1:])).astype(float)
+    B[x == t[last + 1], last] = 1.0
+    for p in range(1, k + 1):
+        left_den = t[p:-1] - t[: -p - 1]
+        right_den = t[p + 1:] - t[1:-p]
+        with np.errstate(divide="ignore", invalid="ignore"):
+            if derivative and p == k:
+                a = np.where(left_den > 0, p / left_den, 0.0)
+                b = np.where(right_den > 0, p / right_den, 0.0)
+                return a * B[:, :-1] - b * B[:, 1:]
+            a = np.where(left_den > 0, (x[:, None] - t[: -p - 1]) / left_den, 0.0)
+            b = np.where(right_den > 0, (t[p + 1:] - x[:, None]) / right_den, 0.0)
+        B = a * B[:, :-1] + b * B[:, 1:]
+    return B
+
+
 @dataclass(frozen=True)
 class LocalSlopeCheck:
     """EMVA 1288 4.0 Linear Eq. 51: mean |K_i - K| / K over the fitted levels."""
@@ -233,8 +328,6 @@ def local_slope_check(s, v, v_se, k: float, limit: float = 0.03) -> LocalSlopeCh
     """Local slopes ``K_i`` of a weighted cubic B-spline regression of ``V`` vs ``S``
     (interior knots at signal quantiles, one per four levels, at most three: a smoothing
     regression, not an interpolation) at every fitted level, against the fitted ``K``."""
-    from scipy.interpolate import make_lsq_spline
-
     s = np.asarray(s, float)
     v = np.asarray(v, float)
     e = np.maximum(np.asarray(v_se, float), 1e-300)
@@ -246,26 +339,21 @@ def local_slope_check(s, v, v_se, k: float, limit: float = 0.03) -> LocalSlopeCh
     m = min(max((n - 4) // 4, 0), 3)
     inner = list(np.quantile(s, np.linspace(0, 1, m + 2)[1:-1])) if m else []
     t = np.r_[[s[0]] * 4, inner, [s[-1]] * 4]
+    A = bspline_design(s, t) / e[:, None]  # weighted least squares
+    D = bspline_design(s, t, derivative=True)
     try:
-        spl = make_lsq_spline(s, v, t, k=3, w=1.0 / e)
-    except (ValueError, np.linalg.LinAlgError) as exc:
+        coef, _, rank, _ = np.linalg.lstsq(A, v / e, rcond=None)
+        cov = np.linalg.pinv(A.T @ A)
+    except np.linalg.LinAlgError as exc:
         return LocalSlopeCheck(math.nan, None, f"B-spline regression failed ({exc})")
-    ki = spl.derivative()(s)
+    if rank < A.shape[1]:
+        return LocalSlopeCheck(math.nan, None, "B-spline regression failed (too few distinct levels between the knots)")
+    ki = D @ coef
     dev = float(np.mean(np.abs(ki - k)) / abs(k))
     # the noise floor: what mean |K_i - K| / K a perfectly linear curve gives with these
     # error bars (E|N(0, se)| = se sqrt(2/pi)), from the regression's coefficient covariance
-    floor = math.nan
-    try:
-        from scipy.interpolate import BSpline
-
-        A = BSpline.design_matrix(s, t, 3).toarray() / e[:, None]
-        cov = np.linalg.pinv(A.T @ A)
-        dspl = [BSpline(t, np.eye(cov.shape[0])[j], 3).derivative()(s) for j in range(cov.shape[0])]
-        D = np.array(dspl).T
-        se_k = np.sqrt(np.maximum(np.einsum("ij,jk,ik->i", D, cov, D), 0.0))
-        floor = float(np.mean(se_k) * math.sqrt(2 / math.pi) / abs(k))
-    except (ValueError, np.linalg.LinAlgError, AttributeError):
-        pass
+    se_k = np.sqrt(np.maximum(np.einsum("ij,jk,ik->i", D, cov, D), 0.0))
+    floor = float(np.mean(se_k) * math.sqrt(2 / math.pi) / abs(k))
     excess = dev - floor if math.isfinite(floor) else dev
     if dev < limit:
         return LocalSlopeCheck(dev, True, f"linear model holds: mean |K_i - K|/K = {100 * dev:.2g} % "
