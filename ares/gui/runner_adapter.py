@@ -111,7 +111,7 @@ def quantities(view: dict) -> dict[str, float]:
 # the GIL in a timer callback). Importing them here, in the GUI thread, before the run
 # starts leaves the worker nothing big to import.
 WARM_IMPORTS = (
-    "scipy.optimize", "scipy.stats", "h5py", "matplotlib", "matplotlib.figure",
+    "scipy.special", "scipy.ndimage", "h5py", "matplotlib", "matplotlib.figure",
     "matplotlib.backends.backend_pdf", "ares.sim", "ares.sim.truth", "ares.hardware.factory",
     "ares.analysis", "ares.analysis.ptc", "ares.analysis.ptc_fit", "ares.analysis.levels",
     "ares.analysis.defects", "ares.analysis.dark_current", "ares.analysis.gain_split", "ares.analysis.lag",
