@@ -25,6 +25,27 @@ def test_robust_fit_ignores_outlier_tail():
         value_range(v, "bogus")
 
 
+@pytest.mark.parametrize("seed", [0, 1, 2])
+def test_robust_fit_equals_scipy_curve_fit_on_the_same_bins(seed):
+    """The panels' Gaussian (lsq.levenberg_marquardt) against scipy's curve_fit with the
+    same bins, weights and start: the same mean and sigma to MINPACK's tolerance."""
+    from scipy.optimize import curve_fit
+
+    rng = np.random.default_rng(seed)
+    v = np.r_[rng.normal(50.0, 3.0, 5000), rng.uniform(80, 500, 50)]
+    mu, s = robust_gauss_fit(v)
+    med = float(np.median(v))
+    mad = float(np.median(np.abs(v - med))) * 1.4826
+    counts, edges = np.histogram(v[(v >= med - 4 * mad) & (v <= med + 4 * mad)], bins=128,
+                                 range=(med - 4 * mad, med + 4 * mad))
+    c = 0.5 * (edges[1:] + edges[:-1])
+    k = counts > 0.05 * counts.max()
+    ref, _ = curve_fit(lambda x, a, m, w: a * np.exp(-0.5 * ((x - m) / w) ** 2), c[k], counts[k],
+                       p0=(counts.max(), med, mad), sigma=np.sqrt(counts[k] + 1.0))
+    assert mu == pytest.approx(ref[1], rel=1e-7) and s == pytest.approx(abs(ref[2]), rel=1e-6)
+    assert abs(mu - 50) < 0.2 and abs(s - 3) < 0.2
+
+
 def test_constant_data_fit():
     mu, s = robust_gauss_fit(np.full(1000, 5.0))
     assert mu == 5.0 and s == 0.0

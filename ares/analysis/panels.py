@@ -11,7 +11,6 @@ photon-transfer fit over several (flat, dark) levels.
 from __future__ import annotations
 
 import math
-import warnings
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -59,10 +58,11 @@ def robust_gauss_fit(values: np.ndarray, bins: int = 128) -> tuple[float, float]
     """Gaussian (mean, sigma) fitted to the histogram core.
 
     Start from median and 1.4826*MAD, histogram the values within +-4 robust sigma,
-    fit a Gaussian with scipy's curve_fit to the bins above 5 % of the peak. Falls back
-    to the robust start when the fit fails or the data have (almost) no spread.
+    fit a Gaussian (``lsq.levenberg_marquardt``, Poisson weights) to the bins above 5 % of
+    the peak. Falls back to the robust start when the fit fails or the data have (almost)
+    no spread.
     """
-    from scipy.optimize import curve_fit
+    from .lsq import levenberg_marquardt
 
     v = np.asarray(values, np.float64).ravel()
     v = v[np.isfinite(v)]
@@ -81,20 +81,19 @@ def robust_gauss_fit(values: np.ndarray, bins: int = 128) -> tuple[float, float]
     if keep.sum() < 4:
         return med, mad
 
-    def g(x, a, mu, s):
-        return a * np.exp(-0.5 * ((x - mu) / s) ** 2)
+    x, y = centers[keep], counts[keep].astype(np.float64)
 
-    try:
-        with warnings.catch_warnings():
-            warnings.simplefilter("ignore")
-            p, _ = curve_fit(g, centers[keep], counts[keep], p0=(counts.max(), med, mad),
-                             sigma=np.sqrt(counts[keep] + 1.0), maxfev=2000)
-        mu, s = float(p[1]), abs(float(p[2]))
-        if not (lo <= mu <= hi) or not (0.2 * mad <= s <= 5 * mad):
-            return med, mad
-        return mu, s
-    except (RuntimeError, ValueError):
+    def g(p):
+        return p[0] * np.exp(-0.5 * ((x - p[1]) / p[2]) ** 2)
+
+    with np.errstate(all="ignore"):
+        fit = levenberg_marquardt(g, y, np.sqrt(y + 1.0), np.array([y.max(), med, mad]))
+    if fit is None:
         return med, mad
+    mu, s = float(fit[0][1]), abs(float(fit[0][2]))
+    if not (lo <= mu <= hi) or not (0.2 * mad <= s <= 5 * mad):
+        return med, mad
+    return mu, s
 
 
 def summarize(name: str, data: np.ndarray, unit: str = "DN", range_mode: str = "peak-to-peak",
