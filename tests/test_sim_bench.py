@@ -171,3 +171,40 @@ def test_undefined_test_mode_written_raw_is_refused():
     b.registers.bus.write(SIM_REGISTER_MAP.field("test_mode").address, 3)
     with pytest.raises(InputError, match="test_mode 3 is not defined"):
         grab(b, 1)
+
+
+def test_released_or_closed_grabber_gives_the_same_frames_and_truth():
+    """``release()`` (the runner, between large stages) drops the operating point's maps and
+    ``close()`` the fixed patterns too: both are drawn again from the seed, the same."""
+    def frames(release_at=None):
+        b = make_sim_bench(P, seed=4)
+        b.light.set_level(2e5)
+        out = []
+        for i in range(3):
+            if i == release_at:
+                b.frames.release()
+                assert b.info["sensor"]._cache is None
+            out.append(grab(b, 2))
+        return b, np.stack(out)
+
+    b0, ref = frames()
+    for k in (1, 2):
+        np.testing.assert_array_equal(frames(release_at=k)[1], ref)
+    sensor = b0.info["sensor"]
+    before = sensor.truth(exposure_s=0.01, photon_flux=2e5)
+    b0.close()
+    assert sensor._patterns is None
+    after = sensor.truth(exposure_s=0.01, photon_flux=2e5)
+    def same(a, b):
+        if isinstance(a, dict):
+            assert a.keys() == b.keys()
+            for k in a:
+                same(a[k], b[k])
+        elif isinstance(a, (list, tuple)) and a and isinstance(a[0], (dict, list, tuple, np.ndarray)):
+            assert len(a) == len(b)
+            for x, y in zip(a, b):
+                same(x, y)
+        else:
+            np.testing.assert_array_equal(a, b)
+
+    same(before, after)

@@ -39,13 +39,22 @@ def _arrays(run_dir: Path) -> dict:
 
 
 @pytest.mark.parametrize("scan", ["ptc_small.xml", "bias_small.xml"])
-def test_pipelined_run_equals_one_thread(tmp_path, scan):
+def test_pipelined_run_equals_one_thread(tmp_path, scan, monkeypatch):
+    """One thread (as for frames above 4 Mpx) also releases the simulator's cached maps
+    after each stage: the same run directory either way."""
+    from ares.sim.bench import SimFrameSource
+
     sc = load_scan(SMALL / scan)
     seen = {}
+    released = []
+    real = SimFrameSource.release
+    monkeypatch.setattr(SimFrameSource, "release", lambda self: (released.append(1), real(self)))
     for pipe in (False, True):
         events = []
+        released.clear()
         out = Runner(sc, out_dir=tmp_path / str(pipe), seed=5, pipeline=pipe, listeners=(events.append,)).run()
         assert out.status == "done"
+        assert len(released) == (0 if pipe else len(out.stages))
         seen[pipe] = (out, events)
     (a, _), (b, eb) = seen[False], seen[True]
     assert _stages(tmp_path / "False") == _stages(tmp_path / "True")

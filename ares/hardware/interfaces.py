@@ -42,6 +42,10 @@ class FrameSource(Protocol):
 
     def grab(self, n: int) -> Iterator[Frame]: ...
 
+    # Optional: ``release()`` -- no frames are wanted for a while (a large stage is being
+    # analysed); free what the source caches for its current settings. The runner calls it
+    # when present.
+
 
 @runtime_checkable
 class LightSource(Protocol):

@@ -262,8 +262,13 @@ class SimFrameSource:
         raise FrameError(f"{self.name}: frame {self.frames_delivered - 1} arrived short "
                          f"({expected // 2} of {expected} bytes)")
 
+    def release(self) -> None:
+        """No frames for a while: drop the operating point's cached maps (~10 float32
+        frames, rebuilt by the next grab -- the same frames)."""
+        self.sensor.drop_plan()
+
     def close(self) -> None:
-        self.sensor.drop_plan()  # the sensor itself stays (bench.info["sensor"]: the truth)
+        self.sensor.drop_patterns()  # the sensor itself stays (bench.info["sensor"]: the truth, drawn again)
 
 
 def make_sim_bench(params: SensorParams | None = None, seed: int = 0, faults: dict | None = None) -> Bench:

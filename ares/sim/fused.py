@@ -221,6 +221,8 @@ def charge_frame(rng, sc, plan, shape, left, table):
             a = np.asarray(a, _F32)
             if a.size == 1:
                 a = a.reshape(1).copy()  # writable: one numba signature
+            elif a.shape == tuple(shape) and a.flags.c_contiguous and a.flags.writeable:
+                a = a.reshape(-1)  # the scene's own map (a 4096x3072 copy would be 48 MiB)
             else:
                 a = np.array(np.broadcast_to(a, shape), order="C").reshape(-1)  # a writable copy
             cache[key] = (a, np.sqrt(a))

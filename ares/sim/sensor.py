@@ -46,7 +46,7 @@ class SimSensor:
             raise InputError("simulator: params must be a SensorParams (use SensorParams.from_dict for a dict)")
         self.params = params
         self.seed = int(seed)
-        self.patterns = FixedPatterns(params, self.seed)
+        self._patterns: FixedPatterns | None = FixedPatterns(params, self.seed)
         self.frame_index = 0  # index of the next frame
         self._lag_e: np.ndarray | None = None  # photo-charge (e-) left behind by the last frame
         self._rts_state = self.patterns.rts_state0.copy()  # RTS trap states, carried frame to frame
@@ -56,6 +56,22 @@ class SimSensor:
     @property
     def shape(self) -> tuple[int, int]:
         return (self.params.rows, self.params.cols)
+
+    @property
+    def patterns(self) -> FixedPatterns:
+        """The fixed patterns (drawn from ``seed``: after ``drop_patterns`` the same ones
+        are drawn again when next needed)."""
+        if self._patterns is None:
+            self._patterns = FixedPatterns(self.params, self.seed)
+        return self._patterns
+
+    def drop_patterns(self) -> None:
+        """Forget the fixed patterns, the operating point and the lag state (a closed
+        grabber: ~8 float32 frames); ``truth()`` or a later render draws the same
+        patterns again from the seed."""
+        self.drop_plan()
+        self._patterns = None
+        self._lag_e = None
 
     def drop_plan(self) -> None:
         """Forget the cached operating point (its per-pixel maps: ~10 float32 frames); the
