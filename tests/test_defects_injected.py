@@ -148,6 +148,26 @@ def test_histograms_emva_style(result, inj):
     assert h["accumulated_percent"][-1] == pytest.approx(25.0)  # |dev| >= 3: one pixel of four
 
 
+def test_accumulated_histogram_in_blocks_equals_the_whole_map():
+    """|deviation| is histogrammed a block at a time (no frame-sized temporary): the counts
+    are those of the whole map at once, NaNs dropped, the top edge counted."""
+    from ares.analysis.defects import histograms as H
+
+    rng = np.random.default_rng(3)
+    d = rng.standard_t(3, size=(3 * H._BLOCK // 1000 + 7, 1000))
+    d[5, 7] = np.nan
+    d[9, 9] = -float(np.nanmax(np.abs(d)))  # the largest |deviation| is negative
+    h = deviation_histograms(d, "DN", bins=64)
+    a = np.abs(d[np.isfinite(d)])
+    amax = a.max()
+    assert h["abs_edges"][-1] == amax and h["n_pixels"] == a.size
+    below, _ = np.histogram(a, bins=h["abs_edges"])
+    want = a.size - np.concatenate([[0], np.cumsum(below)])
+    want[-1] = np.count_nonzero(a >= amax)
+    np.testing.assert_array_equal(h["accumulated_percent"], 100.0 * want / a.size)
+    assert h["counts"].sum() == a.size
+
+
 # ---- monotonic threshold sweeps (flag counts: a class's own bit, before precedence)
 SWEEPS = [  # (field, class, +1 if raising the field is stricter else -1, range)
     ("hot_e_per_s", "hot", +1, (5.0, 40.0)),

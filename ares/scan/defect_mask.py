@@ -44,7 +44,7 @@ def mask_from_dark(stackset, stage_name: str, exposure_s: float | None, threshol
     from ares.analysis.defects.result import PIXEL_BITS, PIXEL_CLASSES, primary_class
 
     acc = stackset.acc["full"]
-    st = PixelStats(acc.mean_map().astype(float), acc.temporal_var_map().astype(float), acc.n_frames, exposure_s)
+    st = PixelStats.from_accumulator(acc, exposure_s)  # the float64 maps themselves: no copies
     res = classify_defects([st], None, thresholds=thresholds)
     mask = (res.mask & PIXEL_BITS) != 0
     prim = primary_class(res.mask)

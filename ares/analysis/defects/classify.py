@@ -26,6 +26,8 @@ from .robust import (block_median_background, fast_median, local_background, rem
 from .rts import detect_rts
 from .stats import PixelStats, SeriesCollector
 
+_ROWS = 256  # rows per block of elementwise work on a frame
+
 RtsSource = Callable[[np.ndarray, np.ndarray], np.ndarray] | SeriesCollector
 
 
@@ -84,9 +86,13 @@ class _Flat:
         self.bg = block_median_background(resp, block)
         # where the local response is not positive the ratio is undefined: 1 (neutral)
         with np.errstate(divide="ignore", invalid="ignore"):
-            self.ratio = np.where(self.bg > 0, resp / self.bg, 1.0)
+            self.ratio = resp / self.bg
+        self.ratio[~(self.bg > 0)] = 1.0
         # the deviation must be significant against the noise of the two averaged means
-        self.noise = np.sqrt(st.var / st.n_frames + dark.var / dark.n_frames)
+        # (made in place: a 4096x3072 level would hold three frames of float64 more)
+        self.noise = st.var / st.n_frames
+        self.noise += dark.var / dark.n_frames
+        np.sqrt(self.noise, out=self.noise)
         self.col_ratio = fast_median(self.ratio, axis=0)
         self.row_ratio = fast_median(self.ratio, axis=1)
         # zero variance is a stuck pixel here only where a normal pixel's shot noise makes
@@ -206,7 +212,7 @@ def classify_defects(
         dead = np.zeros(shape, bool)
         low = np.zeros(shape, bool)
         high = np.zeros(shape, bool)
-        ratio_stat = np.ones(shape)
+        ratio_stat = np.broadcast_to(1.0, shape)  # read only at flagged pixels: no frame of ones
         if F:
             line_resp = None if ones else col_resp[None, :] * row_resp[:, None]
             nf = len(F)
@@ -217,7 +223,10 @@ def classify_defects(
             acc = np.zeros(shape)
             for fl in F:
                 r = fl.ratio if ones else fl.ratio / line_resp
-                sig = np.abs(fl.resp - (fl.bg if ones else fl.bg * line_resp)) > th.warm_z * fl.noise
+                sig = np.empty(shape, bool)
+                for i in range(0, nrow, _ROWS):  # a block of rows at a time: no frames of float64 temporaries
+                    b = slice(i, i + _ROWS)
+                    sig[b] = np.abs(fl.resp[b] - (fl.bg[b] if ones else fl.bg[b] * line_resp[b])) > th.warm_z * fl.noise[b]
                 dn += sig & (r < th.dead_fraction)
                 ln += sig & (r < th.low_response_fraction)
                 hn += sig & (r > th.high_response_fraction)
@@ -229,10 +238,11 @@ def classify_defects(
             low = (ln >= needf) & ~dead
             high = hn >= needf
             stuck |= sn >= needf
-            ratio_stat = acc / nf
+            acc /= nf
+            ratio_stat = acc
         flags.update(dead=dead, low_response=low, high_response=high, stuck=stuck)
         stats.update(dead=ratio_stat, low_response=ratio_stat, high_response=ratio_stat)
-        stats["stuck"] = np.minimum.reduce([d.st.var for d in D])
+        stats["stuck"] = D[0].st.var if nd == 1 else np.minimum.reduce([d.st.var for d in D])
         return flags, stats
 
     # ---- what each class can detect at this frame count (limits.py)
@@ -308,7 +318,7 @@ def classify_defects(
     cand = (flags["noisy"] | flags["hot"] | flags["warm"]) & ~flags["stuck"]
     crow, ccol = np.nonzero(cand)
     rts = np.zeros(shape, bool)
-    rts_stat = np.zeros(shape)
+    rts_stat = np.broadcast_to(0.0, shape)  # filled at the candidates, if tested
     rts_available, rts_note = False, ""
     if rts_series is None:
         rts_note = "RTS not available: no time series of the candidate pixels was given"
@@ -333,6 +343,7 @@ def classify_defects(
         else:
             is_rts, sep = detect_rts(series, th.rts_min_separation, th.rts_min_occupancy)
             rts[crow[is_rts], ccol[is_rts]] = True
+            rts_stat = np.zeros(shape)
             rts_stat[crow, ccol] = sep
             rts_available = True
             rts_note = f"{crow.size} candidates (noisy, hot, warm) tested over {nfr} frames"
