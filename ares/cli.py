@@ -52,25 +52,10 @@ def set_blas_threads() -> None:
 
 
 def tune_malloc() -> None:
-    """glibc keeps freed blocks up to 64 MB in the heap and returns free heap memory to the
-    system only above 256 MB (``mallopt``), instead of mapping and unmapping every large
-    numpy temporary: a VGA float64 image is 2.4 MB, above glibc's dynamic threshold in
-    threads, and each new one cost its page faults again -- ``ares emva`` spent 1 s of its
-    4 CPU-s in the kernel for them, 0.2 s with this. The price: up to 256 MB of freed heap
-    stay resident for reuse (measured: +20 MB for ``ares emva``, +60 MB for ``make run``).
-    ``ARES_MALLOC=default`` keeps glibc's settings; other C libraries are left alone."""
-    import os
+    """glibc's allocator settings for a command (see ``ares.malloc``)."""
+    from ares import malloc
 
-    if os.environ.get("ARES_MALLOC") == "default" or not sys.platform.startswith("linux"):
-        return
-    import ctypes
-
-    try:
-        mallopt = ctypes.CDLL(None).mallopt
-    except (OSError, AttributeError):  # not glibc
-        return
-    mallopt(-3, 64 << 20)  # M_MMAP_THRESHOLD
-    mallopt(-1, 256 << 20)  # M_TRIM_THRESHOLD
+    malloc.tune()
 
 
 # Commands that leave nothing behind when they return (no worker processes, no Qt, every

@@ -10,7 +10,8 @@ and run in a child process: a sampler thread there records the resident set (VmR
 every 20 ms) per phase of the run -- building the bench, each stage's frames, the defect
 mask, each stage's analysis, the scan-level analyses, the reports (the PDF drawn in this
 process: the report helper of ``ares run`` is a separate process with its own memory) --
-and the whole process's high-water mark (VmHWM). Baseline in the same child: the
+and the whole process's high-water mark (VmHWM). The child sets glibc's allocator as
+``ares run`` does (``ares.malloc``; ``BENCH_MALLOC=none`` leaves glibc's defaults). Baseline in the same child: the
 interpreter with ARES's scan modules imported; the figures are also given in uint16 frames
 (24 MiB each).
 """
@@ -43,6 +44,10 @@ def sampler():
             order.append(k)
         peak[k] = max(peak.get(k, 0.0), r)
         time.sleep(0.02)
+import os
+if os.environ.get("BENCH_MALLOC") != "none":
+    from ares.cli import tune_malloc
+    tune_malloc()  # as ``ares run`` does
 from ares.protocol.scan import load_scan
 from ares.scan import Runner, events as ev
 import ares.scan.runner as R

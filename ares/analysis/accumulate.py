@@ -625,8 +625,10 @@ class StackAccumulator:
         return np.maximum(n * s2.astype(np.longdouble) - s1.astype(np.longdouble) ** 2, 0)
 
     def pixel_ss(self) -> np.ndarray:
-        """Per-pixel sum over frames of squared deviations from the pixel's mean (>= 0)."""
-        return self._cached("pss", lambda: (self._pss_num() / self._nf).astype(np.float64, copy=False))
+        """Per-pixel sum over frames of squared deviations from the pixel's mean (>= 0).
+        Not cached (a frame of float64; the ANOVA keeps only its total)."""
+        self._ready()
+        return (self._pss_num() / self._nf).astype(np.float64, copy=False)
 
     def temporal_var_map(self, ddof: int = 1) -> np.ndarray:
         """Per-pixel temporal variance over frames (ddof=1 by default); NaN if F <= ddof.

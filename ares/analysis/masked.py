@@ -257,8 +257,11 @@ class MaskedStackAccumulator:
     def mean_map(self) -> np.ndarray:
         """Time-averaged frame (NaN at masked pixels)."""
         self._need()
-        m = self._x0 + self._sums(False)[0] / self._nf
-        return np.where(self.good, m, np.nan)
+        s1 = self._sums(False)[0]
+        m = np.divide(s1, self._nf, out=s1 if self._derived else None)  # (derived sums are a fresh array)
+        m += self._x0
+        m[self.mask] = np.nan
+        return m
 
     def pixel_ss(self) -> np.ndarray:
         self._need()
@@ -531,7 +534,8 @@ def _nonuniformity(flat_acc, dark_acc, tf, td, S, var_S, mode, order):
     names = ("Cg", "Rg", "Pg")
     R, C = flat_acc.shape
     good = flat_acc.good
-    d = flat_acc.mean_map() - dark_acc.mean_map()
+    d = flat_acc.mean_map()  # a fresh array: the difference in place
+    d -= dark_acc.mean_map()
     (tp, vtp), (tr, vtr), (tc, vtc) = _temporal_in_mean(tf, td)
     norm = S * S
     if mode in ("none", "surface"):

@@ -4,11 +4,13 @@ first (the static checks, with file:line, are in ``ares.protocol.load_scan``; th
 the ones that depend on the run's arguments and on this machine).
 
 The memory estimate is measured, not derived: the shipped photon-transfer scan on a
-simulated 4096x3072 sensor (``benchmarks/bench_big_memory.py``, 8 frames per stack) peaks
-at about 150 bytes per pixel above the interpreter and its libraries, plus 4 bytes per
-pixel per frame of the first dark stage (its frames are kept to build the defect mask);
-the model adds a third for margin. Regions and channel views add their own accumulators.
-(Before the accumulators shared their per-pixel sums it was 0.93 kB per pixel.)
+simulated 4096x3072 sensor (``benchmarks/bench_big_memory.py``) peaks at about 105 bytes
+per pixel above the interpreter and its libraries, plus the frames of the first dark stage
+(2 bytes per pixel each, kept to mask that stage too -- only up to ``KEEP_FOR_MASK_BYTES``,
+beyond which that stage goes unmasked); the model adds a third for margin. Regions and
+channel views add their own accumulators. (It was 0.93 kB per pixel before the
+accumulators shared their per-pixel sums, 200 B before the stage analyses stopped caching
+maps they use once.)
 """
 
 from __future__ import annotations
@@ -22,9 +24,9 @@ from ares.scan.stages import Stage, expand
 MAX_FRAMES = 100000  # the scan schema's <frames> maximum
 MAX_SEED = 2**63 - 1
 BASE_BYTES = 300e6  # the interpreter, numpy/scipy/h5py and the report's plotting
-BYTES_PER_PIXEL = 200.0  # full view: accumulators, simulator maps, the analyses' float64 maps and the report
+BYTES_PER_PIXEL = 140.0  # full view: accumulators, simulator maps, the analyses' float64 maps and the report
 BYTES_PER_VIEW_PIXEL = 100.0  # each further view (region, Bayer phase, ADC channel) per pixel it covers
-BYTES_PER_KEPT_PIXEL = 4.0  # per frame of the first dark stage, per pixel
+KEEP_FOR_MASK_BYTES = 256 * 1024 * 1024  # the first dark stage's frames are kept up to this size (16-bit)
 
 
 @dataclass(frozen=True)
@@ -49,8 +51,9 @@ def memory_bytes(scan, stages: list[Stage]) -> float:
     px = float(s.rows) * float(s.cols)
     extra = sum(float(r.width) * float(r.height) for r in scan.regions)
     extra += px * ((s.cfa != "mono") + (s.adc_channels > 1))
-    kept = next((st.frames for st in stages if st.scene == "dark"), 0)
-    return BASE_BYTES + BYTES_PER_PIXEL * px + BYTES_PER_VIEW_PIXEL * extra + BYTES_PER_KEPT_PIXEL * px * kept
+    kept = 2.0 * px * next((st.frames for st in stages if st.scene == "dark"), 0)
+    kept = kept if kept <= KEEP_FOR_MASK_BYTES else 0.0
+    return BASE_BYTES + BYTES_PER_PIXEL * px + BYTES_PER_VIEW_PIXEL * extra + kept
 
 
 def machine_memory() -> tuple[float | None, float | None]:
@@ -87,5 +90,5 @@ def check_run(scan, frames: int | None = None, seed: int | None = None) -> Plan:
         raise InputError(f"{where}: the scan needs about {need / 1e9:.1f} GB of memory ({s.cols}x{s.rows} pixels, "
                          f"{len(scan.regions)} region(s), {max(st.frames for st in stages) if stages else 0} frames "
                          f"per stage at most) but this machine has {total / 1e9:.1f} GB; use a smaller array or "
-                         "fewer frames in the first dark stage")
+                         "fewer or smaller regions")
     return Plan(stages, need, total, avail)

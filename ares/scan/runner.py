@@ -24,13 +24,14 @@ from typing import Callable
 
 import numpy as np
 
+from ares import malloc
 from ares.errors import AresError, DeviceGone, FrameError, FrameLost, HardwareError, InputError, StorageError
 from ares.hardware.waits import Interrupted
 from ares.scan import events as ev
 from ares.scan.apply import apply_settings
 from ares.scan.commit import StageCommitter
 from ares.scan.defect_mask import load_declared_mask, mask_from_dark, scan_thresholds
-from ares.scan.preflight import check_run
+from ares.scan.preflight import KEEP_FOR_MASK_BYTES, check_run
 from ares.scan.results import StackSet, analyze_stage, check_limits, scan_level_results, views
 from ares.scan.rundir import RunRecord, RunWriter
 from ares.scan.stages import Stage, estimate_seconds
@@ -40,8 +41,7 @@ from ares.scan.suspend import Suspended, Suspenders
 log = logging.getLogger(__name__)
 
 
-KEEP_FOR_MASK_BYTES = 256 * 1024 * 1024  # first dark stage kept in memory up to this size
-PIPELINE_MAX_PIXELS = 1 << 22  # larger frames: a stage is analysed before the next is acquired (memory)
+PIPELINE_MAX_PIXELS = malloc.LARGE_FRAME_PIXELS  # larger frames: a stage is analysed before the next is acquired (memory)
 
 
 @dataclass
@@ -235,6 +235,7 @@ class Runner:
                 writer.meta["resumed"][-1].update(note)
                 writer._write_meta()
         pixels = bench.frames.shape[0] * bench.frames.shape[1]  # (a 4096x3072 stage in flight: +0.3 GB)
+        malloc.for_frames(pixels)
         self._commit = StageCommitter(self._commit_stage, threaded=self.pipeline and pixels <= PIPELINE_MAX_PIXELS)
         try:
             return self._stages(bench, writer, completed, stages, vw, max_code, cache, applied)
@@ -257,6 +258,7 @@ class Runner:
             t_start = time.time()
             before = bench.registers.snapshot()
             suspensions, halted, lost = [], False, []
+            flat = dark = None  # the last stage's stacks are the committer's now (a 4096x3072 stack: 0.2 GB)
             while True:  # once, or again after a suspension (ares.scan.suspend) or lost frames
                 fw = writer.frame_writer(st.index, bench.frames.shape, None) if writer else None
                 pos = {}
@@ -325,6 +327,10 @@ class Runner:
                 break
             if fw is not None:
                 fw.close(keep=True)
+            if not self._commit.threaded:  # large frames: the stage is analysed now, the source's caches wait
+                release = getattr(bench.frames, "release", None)
+                if release is not None:
+                    release()
             if st.scene == "dark":
                 cache = flat
             elif st.dark_source == "grab":
