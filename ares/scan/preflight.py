@@ -6,8 +6,8 @@ the ones that depend on the run's arguments and on this machine).
 The memory estimate is measured, not derived: the shipped photon-transfer scan on a
 simulated 4096x3072 sensor (``benchmarks/bench_big_memory.py``) peaks at about 105 bytes
 per pixel above the interpreter and its libraries, plus the frames of the first dark stage
-(2 bytes per pixel each, kept to mask that stage too -- only up to ``KEEP_FOR_MASK_BYTES``,
-beyond which that stage goes unmasked); the model adds a third for margin. Regions and
+(2 bytes per pixel each, kept to mask that stage too: in memory up to ``KEEP_FOR_MASK_BYTES``,
+the rest in a temporary file, ``ares.scan.kept``); the model adds a third for margin. Regions and
 channel views add their own accumulators. (It was 0.93 kB per pixel before the
 accumulators shared their per-pixel sums, 200 B before the stage analyses stopped caching
 maps they use once.)
@@ -26,7 +26,7 @@ MAX_SEED = 2**63 - 1
 BASE_BYTES = 300e6  # the interpreter, numpy/scipy/h5py and the report's plotting
 BYTES_PER_PIXEL = 140.0  # full view: accumulators, simulator maps, the analyses' float64 maps and the report
 BYTES_PER_VIEW_PIXEL = 100.0  # each further view (region, Bayer phase, ADC channel) per pixel it covers
-KEEP_FOR_MASK_BYTES = 256 * 1024 * 1024  # the first dark stage's frames are kept up to this size (16-bit)
+KEEP_FOR_MASK_BYTES = 256 * 1024 * 1024  # the first dark stage's frames kept in memory up to this size
 
 
 @dataclass(frozen=True)
@@ -51,8 +51,7 @@ def memory_bytes(scan, stages: list[Stage]) -> float:
     px = float(s.rows) * float(s.cols)
     extra = sum(float(r.width) * float(r.height) for r in scan.regions)
     extra += px * ((s.cfa != "mono") + (s.adc_channels > 1))
-    kept = 2.0 * px * next((st.frames for st in stages if st.scene == "dark"), 0)
-    kept = kept if kept <= KEEP_FOR_MASK_BYTES else 0.0
+    kept = min(2.0 * px * next((st.frames for st in stages if st.scene == "dark"), 0), KEEP_FOR_MASK_BYTES)
     return BASE_BYTES + BYTES_PER_PIXEL * px + BYTES_PER_VIEW_PIXEL * extra + kept
 
 

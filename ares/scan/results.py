@@ -65,7 +65,7 @@ class StackSet:
     def __init__(self, shape, views_: dict, max_code: int, histograms: bool = False, mask=None):
         self.views = views_
         # the full view over the good pixels of a defect mask too (ares.scan.defect_mask)
-        self.kept: list[np.ndarray] | None = None  # frames kept to build a mask from (keep_frames)
+        self.kept = None  # a KeptFrames (ares.scan.kept): the frames of the stage a mask is built from
         self.max_code = max_code
         self.hist = {k: np.zeros(max_code + 1, np.int64) for k in views_
                      if k == "full" or k.startswith(("adc", "cfa_"))} if histograms else {}
@@ -87,7 +87,7 @@ class StackSet:
         if self.masked is not None:
             self.masked.add(data)
         if self.kept is not None:
-            self.kept.append(np.array(data, copy=True))
+            self.kept.append(data)
 
     def compact(self) -> None:
         """The stack is complete: keep the sums, free the accumulators' working buffers."""
@@ -107,9 +107,12 @@ class StackSet:
         if self.kept is None:
             return False
         self.masked = MaskedStackAccumulator(self.acc["full"].shape, mask, pixels=self.acc["full"])
-        for f in self.kept:
-            self.masked.add(f)
-        self.kept = None
+        try:
+            for f in self.kept:
+                self.masked.add(f)
+        finally:
+            self.kept.close()
+            self.kept = None
         return True
 
     @property

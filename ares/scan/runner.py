@@ -36,6 +36,7 @@ from ares.scan.results import StackSet, analyze_stage, check_limits, scan_level_
 from ares.scan.rundir import RunRecord, RunWriter
 from ares.scan.stages import Stage, estimate_seconds
 from ares.scan.eta import Eta
+from ares.scan.kept import KeptFrames
 from ares.scan.suspend import Suspended, Suspenders
 
 log = logging.getLogger(__name__)
@@ -136,6 +137,7 @@ class Runner:
         self.state = "running"
         own = self._bench is None
         self._own_bench, self._bench_closed = own, False
+        self._scratch_dir = None
         bench = self._bench
         writer = None
         completed: list[dict] = []
@@ -222,6 +224,7 @@ class Runner:
         self._eta = Eta(self._frames_total, len(stages), self._est, frames_by_kind=_frames_by_kind(stages),
                         stages_by_scene={sc: sum(s.scene == sc for s in stages) for sc in ("dark", "flat")})
         run_dir = str(writer.dir) if writer else None
+        self._scratch_dir = run_dir  # kept dark frames beyond memory (ares.scan.kept): on the run's disk
         self._emit(ev.RunStarted(run_dir, len(stages), self._frames_total, self._est))
         cache = None  # last dark StackSet that a matched dark may reuse
         self._mask = load_declared_mask(scan, bench.frames.shape)  # else from the first dark stage
@@ -432,8 +435,9 @@ class Runner:
         mask = getattr(self, "_mask", None)
         ss = StackSet(shape, vw, max_code, histograms="adc_linearity" in self.scan.analyses,
                       mask=mask.mask if mask is not None else None)
-        if mask is None and not dark and st.scene == "dark" and n * shape[0] * shape[1] * 2 <= KEEP_FOR_MASK_BYTES:
-            ss.kept = []  # the stage a defect mask will be built from: keep its frames to mask it too
+        if mask is None and not dark and st.scene == "dark":
+            # the stage a defect mask will be built from: keep its frames to mask it too
+            ss.kept = KeptFrames(KEEP_FOR_MASK_BYTES, self._scratch_dir)
         self._eta.stage_started(time.monotonic() - self._t0,  # waiting for a first frame is stage work
                                 "dark" if dark or st.scene == "dark" else "flat")
         it = iter(src.grab(n))
