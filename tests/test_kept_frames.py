@@ -17,6 +17,7 @@ from ares.errors import StorageError
 from ares.protocol import load_scan
 from ares.scan import Runner
 from ares.scan.kept import KeptFrames
+from run_files import stage_results
 
 SMALL = Path(__file__).resolve().parents[1] / "fixtures" / "xml" / "small"
 
@@ -53,15 +54,6 @@ def test_a_full_disk_is_one_sentence_naming_the_directory(tmp_path, monkeypatch)
         k.append(np.zeros((4, 4), np.uint16))
 
 
-def _stage_results(run_dir: Path) -> list[dict]:
-    out = []
-    for p in sorted((run_dir / "stages").glob("*.json")):
-        d = json.loads(p.read_text())
-        d.pop("timing")
-        out.append(d)
-    return out
-
-
 def test_a_dark_stage_over_the_memory_budget_is_masked_the_same(tmp_path, monkeypatch):
     sc = load_scan(SMALL / "ptc_small.xml")
     a = Runner(sc, out_dir=tmp_path / "memory", seed=3).run()
@@ -72,6 +64,6 @@ def test_a_dark_stage_over_the_memory_budget_is_masked_the_same(tmp_path, monkey
     b = Runner(sc, out_dir=tmp_path / "file", seed=3).run()
     assert a.status == b.status == "done"
     assert spilled and spilled[-1] == len(spilled)
-    ra, rb = _stage_results(tmp_path / "memory"), _stage_results(tmp_path / "file")
+    ra, rb = stage_results(tmp_path / "memory"), stage_results(tmp_path / "file")
     assert "components_masked" in json.dumps(ra[0])  # the dark stage itself is masked
     assert json.dumps(ra, sort_keys=True) == json.dumps(rb, sort_keys=True)

@@ -16,18 +16,10 @@ from ares.protocol import load_scan
 from ares.scan import Runner, events as ev
 from ares.scan.commit import StageCommitter
 from ares.scan.rundir import RunWriter
+from run_files import stage_results
 
 ROOT = Path(__file__).resolve().parents[1]
 SMALL = ROOT / "fixtures" / "xml" / "small"
-
-
-def _stages(run_dir: Path) -> list[dict]:
-    out = []
-    for p in sorted((run_dir / "stages").glob("*.json")):
-        d = json.loads(p.read_text())
-        d.pop("timing")
-        out.append(d)
-    return out
 
 
 def _arrays(run_dir: Path) -> dict:
@@ -57,7 +49,7 @@ def test_pipelined_run_equals_one_thread(tmp_path, scan, monkeypatch):
         assert len(released) == (0 if pipe else len(out.stages))
         seen[pipe] = (out, events)
     (a, _), (b, eb) = seen[False], seen[True]
-    assert _stages(tmp_path / "False") == _stages(tmp_path / "True")
+    assert stage_results(tmp_path / "False") == stage_results(tmp_path / "True")
     arr_a, arr_b = _arrays(tmp_path / "False"), _arrays(tmp_path / "True")
     assert arr_a.keys() == arr_b.keys()
     for k in arr_a:
