@@ -79,3 +79,26 @@ def test_exact_mask_shortcut_matches_the_per_pixel_rule():
             assert got is bool(per_pixel.all()), (lo, hi)
         else:
             assert np.array_equal(got, per_pixel), (lo, hi)
+
+
+@pytest.mark.parametrize("bitgen", [np.random.SFC64, np.random.PCG64, np.random.MT19937, np.random.Philox])
+def test_16_bit_words_from_wider_draws_are_numpys_words(bitgen):
+    """``noise.words16`` (64- or 32-bit draws viewed as uint16) gives exactly the values of
+    ``integers(0, 2**16, dtype=uint16)`` and leaves the generator where it leaves it:
+    whatever is pending from earlier draws, for even and odd sizes and 2-D shapes."""
+    from ares.sim.noise import words16
+
+    for pending in (0, 1, 3):
+        for shape in ((480, 640), (6,), (10,), (7,), (2, 3), (1,)):
+            a, b = np.random.Generator(bitgen(11)), np.random.Generator(bitgen(11))
+            if pending:
+                a.integers(0, 1 << 16, size=pending, dtype=np.uint16)
+                b.integers(0, 1 << 16, size=pending, dtype=np.uint16)
+                a.integers(0, 1 << 32, size=1, dtype=np.uint32)  # a 32-bit half may now be pending
+                b.integers(0, 1 << 32, size=1, dtype=np.uint32)
+            want = a.integers(0, 1 << 16, size=shape, dtype=np.uint16)
+            got = words16(b, shape)
+            assert got.dtype == np.uint16 and got.shape == want.shape
+            np.testing.assert_array_equal(got, want)
+            assert a.integers(0, 1 << 16, size=5, dtype=np.uint16).tolist() == words16(b, (5,)).tolist()
+            assert a.random() == b.random()

@@ -208,9 +208,9 @@ def charge_frame(rng, sc, plan, shape, left, table):
     """(x in DN before the line terms and the ADC, the photo-charge carried to the next
     frame or None): what ``_frame`` + ``_add_charge`` compute on this path, with the
     generator called exactly as they call it (read noise, photo shot, dark shot)."""
-    from ares.sim.noise import _alias_table
+    from ares.sim.noise import _alias_table, words16
 
-    i1 = rng.integers(0, 1 << 16, size=shape, dtype=np.uint16)
+    i1 = words16(rng, shape)
     size = shape[0] * shape[1]
     u16, i32, f64 = np.zeros(1, np.uint16), np.zeros(1, np.int32), np.zeros(1)
 
@@ -230,7 +230,7 @@ def charge_frame(rng, sc, plan, shape, left, table):
 
     def draws(key, mean, mode):  # (gauss indices, alias indices, uniforms, mean, sqrt, prob, alias, lo)
         if mode == GAUSS:
-            return (rng.integers(0, 1 << 16, size=size, dtype=np.uint16), i32, f64, *flat(key, mean), f64, i32,
+            return (words16(rng, size), i32, f64, *flat(key, mean), f64, i32,
                     _F32(0))
         if mode == ALIAS:
             lo, prob, alias = _alias_table(float(mean))
