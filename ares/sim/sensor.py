@@ -75,7 +75,8 @@ class SimSensor:
 
     def drop_plan(self) -> None:
         """Forget the cached operating point (its per-pixel maps: ~10 float32 frames); the
-        next render builds it again. Called when the frame source closes."""
+        next render builds it again. Called by the frame source's ``release()`` (the runner,
+        between large stages) and by ``drop_patterns`` (its ``close()``)."""
         self._cache_key = self._cache = None
 
     def reset_state(self) -> None:
