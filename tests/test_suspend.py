@@ -34,16 +34,19 @@ SCAN = """<?xml version="1.0" encoding="UTF-8"?>
 
 
 class DriftingChamber(SimChamber):
-    """Reads ``drift`` C off its set point on reads number ``start`` .. ``stop - 1``."""
+    """Reads ``drift`` C off its set point on reads number ``start`` .. ``stop - 1``; with
+    ``when_lit``, only while the bench's light is on (so in a lit stage however many reads
+    the dark stage took: their number depends on the machine's speed)."""
 
-    def __init__(self, start: int, stop: float, drift: float = 3.0):
+    def __init__(self, start: int, stop: float, drift: float = 3.0, when_lit: bool = False):
         super().__init__()
         self.reads, self.start, self.stop, self.drift = 0, start, stop, drift
+        self.when_lit, self.light = when_lit, None
         self.drifting = threading.Event()
 
     def get_temperature(self) -> float:
         self.reads += 1
-        off = self.start <= self.reads < self.stop
+        off = self.start <= self.reads < self.stop and (not self.when_lit or self.light.get_level() > 0)
         if off:
             self.drifting.set()
         return super().get_temperature() + (self.drift if off else 0.0)
@@ -58,7 +61,7 @@ def scan_file(tmp_path, timeout=600):
 def run_with(tmp_path, chamber, timeout=600, stopper=None):
     scan = scan_file(tmp_path, timeout)
     bench = make_sim_bench(sim_params(scan.system), seed=3)
-    bench.chamber = chamber
+    bench.chamber, chamber.light = chamber, bench.light
     runner = Runner(scan, bench=bench, out_dir=tmp_path / "run")
     if stopper:
         threading.Thread(target=stopper, args=(runner,), daemon=True).start()
@@ -83,7 +86,7 @@ def test_a_condition_that_never_clears_is_a_hardware_error(tmp_path):
 
     with pytest.raises(HardwareError, match=r"stage 'flat': suspended for 0.05 s and the condition did not clear "
                                             r"\(chamber at 28 C, set point 25 \+/- 0.5 C"):
-        run_with(tmp_path, DriftingChamber(start=4, stop=float("inf")), timeout=0.05)
+        run_with(tmp_path, DriftingChamber(start=0, stop=float("inf"), when_lit=True), timeout=0.05)
     meta = json.loads((tmp_path / "run" / "run.json").read_text())
     assert meta["status"] == "failed" and stage_json(tmp_path / "run", 0)["name"] == "dark"  # the dark is kept
 
