@@ -324,3 +324,42 @@ def test_shown_tabs_are_redrawn_at_most_every_refresh_interval_during_a_scan():
     assert s.panels["MEAN SIGNAL"].stats.highest == 201
     s.handle(Done(None, {}))  # the end draws the newest at once
     assert s.panels["MEAN SIGNAL"].stats.highest == 301
+
+
+def test_the_newest_stage_is_shown_at_most_every_refresh_interval_and_the_ptc_redrawn_once_per_stage():
+    """While a scan runs, a stage result that comes within REFRESH_S of the last one shown
+    waits (components, highlighted PTC point, maps) for flush(), and each stage moves the
+    PTC (dark level, point, highlight) with one notification, not three; every point is
+    still in the PTC model at once."""
+    from ares.gui.events import Done, StageResult
+    from ares.gui.models.session import REFRESH_S, SessionModel
+
+    s = SessionModel()
+    now = [10.0]
+    s.clock = lambda: now[0]
+    s.begin_run("t")
+    redraws = []
+    s.ptc.subscribe(lambda m: redraws.append(len(m.points)))
+
+    def stage(k, dark=False):
+        m = np.full((4, 5), 100.0 * k)
+        return StageResult(k, f"s{k}", m, np.ones((4, 5)), 4, dark=dark,
+                           ptc_point=None if dark else (100.0 * k, 30.0 * k),
+                           components={"full": {"components": {}}})
+
+    s.handle(stage(0, dark=True))
+    s.handle(stage(1))
+    assert redraws == [0, 1]  # one notification per stage
+    assert s.components.caption.startswith("stage 0")  # stage 1 came too soon after stage 0
+    now[0] += REFRESH_S / 5
+    s.handle(stage(2))
+    assert s.components.caption.startswith("stage 0") and s.ptc.highlighted == 0
+    assert [p.stage for p in s.ptc.points] == [1, 2]  # the points are all there
+    now[0] += REFRESH_S
+    s.flush()
+    assert s.components.caption.startswith("stage 2") and s.ptc.highlighted == 2
+    now[0] += REFRESH_S / 5
+    s.handle(stage(3))
+    assert s.components.caption.startswith("stage 2")
+    s.handle(Done(None, {}))  # the end shows the newest at once
+    assert s.components.caption.startswith("stage 3") and s.ptc.highlighted == 3

@@ -30,9 +30,10 @@ PANELS = ("MEAN SIGNAL", "NOISE", "COLUMNS", "ROWS")
 RESULTS, DISTRIBUTIONS, PROFILES, SIGNAL_MAP, NOISE_MAP = (
     "Results", "Pixel Distributions", "Profiles", "Signal Map", "Noise Map")
 LAZY_TABS = (RESULTS, DISTRIBUTIONS, PROFILES, SIGNAL_MAP, NOISE_MAP)
-# While a scan runs, a shown tab is recomputed at most this often (the newest stage or
+# While a scan runs, a shown tab (and the newest stage on every tab) is recomputed at most
+# this often -- each costs the scan a few tens of ms of the shared cores (the newest stage or
 # frame wins; ``flush`` catches up, and the scan's end draws everything at once).
-REFRESH_S = 0.5
+REFRESH_S = 1.0
 
 
 class InfoModel(Observable):
@@ -74,6 +75,7 @@ class SessionModel:
         self.throttle = False  # on while a scan runs (begin_run .. its end)
         self.clock = time.monotonic
         self._drawn_at: dict[str, float] = {}
+        self._result_at, self._result_waits = -math.inf, False  # the newest stage: when shown; waiting?
         self.last_frame: np.ndarray | None = None
         self.regions.subscribe(lambda _: self._regions_changed())
         self.views.subscribe(lambda _: self._view_changed())
@@ -116,6 +118,12 @@ class SessionModel:
 
     def flush(self, force: bool = False) -> None:
         """Draw the shown tabs whose newest data waited (every one when ``force``)."""
+        if self._result_waits and (force or self.clock() - self._result_at >= REFRESH_S):
+            self._result_waits = False
+            if self.stages.following_latest:
+                self._result_at = self.clock()
+                with self.ptc.batch():
+                    self._show_result()
         for tab in [t for t in LAZY_TABS if t in self._dirty and (self.visible is None or t in self.visible)]:
             if force or self.clock() - self._drawn_at.get(tab, -math.inf) >= REFRESH_S:
                 self._drawn_at.pop(tab, None)
@@ -157,6 +165,7 @@ class SessionModel:
         self.stages.clear()
         self.last_frame = None
         self.throttle = True
+        self._result_at, self._result_waits = -math.inf, False
 
     def handle(self, ev) -> None:
         if isinstance(ev, RunInfo):
@@ -229,17 +238,29 @@ class SessionModel:
 
     def _stage_result(self, ev: StageResult) -> None:
         self.stages.add(ev)
-        if self.stages.following_latest:
-            self._show_result()
-        if ev.dark:
-            self.ptc.set_dark(float(np.nanmean(ev.mean)))
-        if ev.ptc_point is not None:
-            self.ptc.view = ev.ptc_view
-            self.ptc.add(ev.stage, ev.name, *ev.ptc_point)
+        with self.ptc.batch():  # one PTC redraw per stage
+            if self.stages.following_latest:
+                self._show_latest()
+            if ev.dark:
+                self.ptc.set_dark(float(np.nanmean(ev.mean)))
+            if ev.ptc_point is not None:
+                self.ptc.view = ev.ptc_view
+                self.ptc.add(ev.stage, ev.name, *ev.ptc_point)
         if ev.coords and ev.quantities:
             self.sweep.add(SweepPoint(ev.stage, ev.group, tuple(ev.coords), dict(ev.settings), dict(ev.quantities)))
         if ev.summary:
             self._summary(ev.summary)
+
+    def _show_latest(self) -> None:
+        """The newest stage on every tab; while a scan runs at most every ``REFRESH_S``
+        (stages a fifth of a second apart would otherwise redraw the window five times a
+        second beside the acquisition): a stage that comes sooner waits for ``flush``."""
+        now = self.clock()
+        if self.throttle and now - self._result_at < REFRESH_S:
+            self._result_waits = True
+            return
+        self._result_at, self._result_waits = now, False
+        self._show_result()
 
     def _show_result(self) -> None:
         """Draw the shown stage on the maps, panels, profiles, components and defects."""
