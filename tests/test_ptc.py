@@ -166,3 +166,21 @@ def test_bspline_design_equals_scipy():
         np.testing.assert_allclose(bspline_design(s, t), BSpline.design_matrix(s, t, 3).toarray(), atol=1e-14)
         ref = np.array([BSpline(t, np.eye(nb)[j], 3).derivative()(s) for j in range(nb)]).T
         np.testing.assert_allclose(bspline_design(s, t, derivative=True), ref, rtol=1e-10, atol=1e-18)
+
+
+def test_astier_fit_on_two_distinct_levels_is_not_available_rather_than_a_value_without_se():
+    """Five levels at only two signals cannot determine three parameters: J^T J is singular
+    to rounding and its inverse has a negative variance. The fit is then all NaN (no
+    gain without its SE), the model choice says why, and nothing warns."""
+    import warnings
+
+    from ares.analysis.ptc_fit import astier_fit, choose_gain_model
+
+    s = np.array([100.0, 100, 200, 200, 200])
+    v = np.array([30.0, 30.5, 58, 58.4, 58.2])
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        af = astier_fit(s, v, 100)
+        gm = choose_gain_model(s, v, 100)
+    assert np.isnan(af.gain_e_per_dn) and np.isnan(af.gain_se) and af.n == 5
+    assert gm.chosen == "linear" and "not determined by these levels" in gm.reason

@@ -53,8 +53,9 @@ def levenberg_marquardt(model, y, sig, p0, scale=None, max_iter: int = 200, rtol
                 step = None
             if step is not None:
                 pn = p + step
-                rn = resid(pn)
-                cn = float(rn @ rn)
+                with np.errstate(over="ignore", invalid="ignore"):  # a wild trial step: rejected below
+                    rn = resid(pn)
+                    cn = float(rn @ rn)
                 if math.isfinite(cn) and cn <= cost:
                     break
             lam *= 10.0

@@ -159,8 +159,11 @@ def astier_fit(s, v, dof, v_se=None) -> AstierFit:
     popt, pcov = fit
     r = (v - astier_model(s, *popt)) / sig
     chi2 = float(r @ r) / max(s.size - 3, 1)
-    pcov = pcov * max(chi2, 1.0)
-    se = np.sqrt(np.diag(pcov))
+    var = np.diag(pcov) * max(chi2, 1.0)
+    if not np.all(np.isfinite(var) & (var > 0)):  # J^T J singular to rounding: the parameters are not
+        nan = math.nan                              # determined by these levels (no SE, so no fit)
+        return AstierFit(nan, nan, nan, nan, nan, nan, nan, s.size)
+    se = np.sqrt(var)
     return AstierFit(float(popt[1]), float(se[1]), float(popt[0]), float(se[0]), float(popt[2]),
                      float(se[2]), chi2, s.size)
 
@@ -208,7 +211,8 @@ def choose_gain_model(s, v, dof, v_se=None, p_min: float = 1e-3) -> GainModel:
                          f"linear: {n} levels are too few to test a curvature term (needs >= 5)")
     af = astier_fit(s, v, dof, v_se=v_se)
     if not (math.isfinite(af.gain_e_per_dn) and af.gain_e_per_dn > 0):
-        return GainModel("linear", lf, None, line_p, math.nan, math.nan, "linear: the Astier fit did not converge")
+        return GainModel("linear", lf, None, line_p, math.nan, math.nan, "linear: the Astier fit did not converge or its "
+                         "parameters are not determined by these levels")
     astier_p = float(special.chdtrc(n - 3, af.chi2_red * (n - 3)))
     chi_line, chi_ast = lf.chi2_red * (n - 2), af.chi2_red * (n - 3)
     f = (chi_line - chi_ast) / max(af.chi2_red, 1e-300)
