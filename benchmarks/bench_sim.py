@@ -76,8 +76,8 @@ def timing_rows(shape, repeat):
     cases.append(("ADC with INL, lookup table per frame (bit-identical)", None, median_ms(lambda: adc._lookup(x), repeat)))
     fused.warm()
     cases.append(("ADC with INL, fused lookup per frame (numba, bit-identical)", None,
-                  median_ms(lambda: fused.adc_lookup(x, adc._base, adc._tpad, adc._per_cell, adc.max_code,
-                                                     np.empty(x.shape, np.uint16)), repeat)))
+                  median_ms(lambda: fused.adc_lookup(x.reshape(rows, cols), adc, np.empty((rows, cols), np.uint16)),
+                            repeat)))
     # the shipped protocols/sim_sensor.xml settings (lag 1e-4, INL/DNL, dark current, defects)
     # against the fast path, both per frame of an 8-frame stack at 50 % full well
     from ares.hardware.factory import sim_params

@@ -50,17 +50,29 @@ def test_fused_frames_equal_the_numpy_path(variant):
     assert len(fused._compiled.signatures) == 1 and len(fused._compiled_lookup.signatures) == 1
 
 
-def test_fused_adc_lookup_equals_searchsorted():
-    p = shipped()
-    rng = np.random.default_rng(0)
-    s = SimSensor(p, seed=1)
-    adc = s.patterns.adc
-    assert adc.thresholds is not None  # the shipped ADC has INL/DNL
-    x = rng.uniform(-3, adc.max_code + 3, (64, 96)).astype(np.float32)
-    x[0, :8] = [-np.float32(1e9), -1, 0, 0.5, adc.max_code, adc.max_code + 1, 1e9, 2047.5]
+@pytest.mark.parametrize("bits, inl, dnl, seed", [(12, 0.5, 0.2, 0), (12, 1.5, 0.1, 1), (10, 3.0, 0.6, 2),
+                                                  (8, 0.0, 0.9, 3), (14, 2.0, 0.3, 4), (16, 1.0, 0.5, 5)])
+def test_fused_adc_lookup_equals_searchsorted(bits, inl, dnl, seed):
+    """The sub-cell kernel gives searchsorted's codes for every input: values at, and one
+    float32 step either side of, each transition level and each sub-cell edge, far
+    outside the range, and random ones (8 to 16 bits: 64 down to 8 sub-cells per LSB)."""
+    from ares.sim.adc import Adc
+
+    adc = Adc(SensorParams(rows=8, cols=8, adc_bits=bits, adc_inl_lsb=inl, adc_dnl_lsb=dnl),
+              np.random.default_rng(seed))
+    sub, S = adc.sub_cells()
+    assert sub.size <= 1 << 20 and S == {8: 64, 10: 64, 12: 64, 14: 32, 16: 8}[bits]
+    t32 = adc.thresholds.astype(np.float32)
+    edges = (-1.0 + np.arange(sub.size + 1) / S).astype(np.float32)[:: max(1, sub.size // 50_000)]
+    x = np.concatenate([
+        np.random.default_rng(seed).uniform(-20, adc.max_code + 20, 100_000).astype(np.float32),
+        t32, np.nextafter(t32, np.float32(-np.inf)), np.nextafter(t32, np.float32(np.inf)),
+        edges, np.nextafter(edges, np.float32(-np.inf)), np.nextafter(edges, np.float32(np.inf)),
+        np.array([-1e30, 1e30, -1, -0.5, 0, 0.5, adc.max_code + 2, adc.max_code + 1.5], np.float32)])
+    x = np.concatenate([x, np.zeros(-x.size % 64, np.float32)]).reshape(-1, 64)
     want = np.searchsorted(adc.thresholds, x.astype(np.float64), side="right").astype(np.uint16)
     out = np.empty(x.shape, np.uint16)
-    assert fused.adc_lookup(x.copy(), adc._base, adc._tpad, adc._per_cell, adc.max_code, out)
+    assert fused.adc_lookup(x.copy(), adc, out)
     assert np.array_equal(out, want)
 
 
@@ -102,3 +114,17 @@ def test_16_bit_words_from_wider_draws_are_numpys_words(bitgen):
             np.testing.assert_array_equal(got, want)
             assert a.integers(0, 1 << 16, size=5, dtype=np.uint16).tolist() == words16(b, (5,)).tolist()
             assert a.random() == b.random()
+
+
+@pytest.mark.parametrize("seed, n", [(0, 1), (1, 7), (2, 76_800), (3, 0)])
+def test_sfc64_kernel_is_numpys_sfc64(seed, n):
+    """The numba SFC64 gives random_raw's outputs and leaves the generator where
+    random_raw leaves it (the next draws of every kind agree); other generators: None."""
+    a = np.random.Generator(np.random.SFC64(seed))
+    b = np.random.Generator(np.random.SFC64(seed))
+    a.random(3)  # mid-stream
+    b.random(3)
+    assert np.array_equal(fused.sfc64_raw(a.bit_generator, n), b.bit_generator.random_raw(n))
+    assert a.bit_generator.state["state"]["state"].tolist() == b.bit_generator.state["state"]["state"].tolist()
+    assert np.array_equal(a.standard_normal(5), b.standard_normal(5)) and a.integers(0, 9) == b.integers(0, 9)
+    assert fused.sfc64_raw(np.random.PCG64(seed), n) is None

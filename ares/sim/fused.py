@@ -23,12 +23,12 @@ import contextlib
 import numpy as np
 
 _F32 = np.float32
-_compiled = _compiled_lookup = None
+_compiled = _compiled_lookup = _compiled_sfc64 = None
 _loaded = False
 
 
 def _load() -> None:
-    global _compiled, _compiled_lookup, _loaded
+    global _compiled, _compiled_lookup, _compiled_sfc64, _loaded
     if _loaded:
         return
     _loaded = True
@@ -36,6 +36,7 @@ def _load() -> None:
 
     _compiled = jit.compiled(_kernel)  # None: the numpy path
     _compiled_lookup = jit.compiled(_lookup_kernel)
+    _compiled_sfc64 = jit.compiled(_sfc64_kernel)
 
 
 def available() -> bool:
@@ -46,15 +47,15 @@ def available() -> bool:
 @contextlib.contextmanager
 def enabled(on: bool):
     """Run a block with the fused kernels on or off (tests and benchmarks compare both)."""
-    global _compiled, _compiled_lookup
+    global _compiled, _compiled_lookup, _compiled_sfc64
     _load()
-    keep = _compiled, _compiled_lookup
+    keep = _compiled, _compiled_lookup, _compiled_sfc64
     if not on:
-        _compiled = _compiled_lookup = None
+        _compiled = _compiled_lookup = _compiled_sfc64 = None
     try:
         yield
     finally:
-        _compiled, _compiled_lookup = keep
+        _compiled, _compiled_lookup, _compiled_sfc64 = keep
 
 
 def warm() -> None:
@@ -65,7 +66,8 @@ def warm() -> None:
     z = _F32(0)
     _compiled(np.zeros(4, _F32), u, f, f, 1, u, i, d, f, f, d, i, z, 1, u, i, d, f, f, d, i, z, _F32(0.5), f, True,
               np.zeros(2, _F32), _F32(1e4), _F32(1.0), f, f, np.zeros(2, _F32))
-    _compiled_lookup(f, np.zeros(4, np.int32), np.full(4, np.inf), 1, 1, np.zeros(2, np.uint16))
+    _compiled_lookup(f, np.zeros(4, np.int32), np.full(4, np.inf), np.float64(64), np.zeros(2, np.uint16))
+    _compiled_sfc64(np.zeros(4, np.uint64), np.zeros(2, np.uint64))
 
 
 NONE, GAUSS, ALIAS = 0, 1, 2  # how a charge is drawn: absent, fast normal table, exact Poisson by alias
@@ -256,29 +258,70 @@ def charge_frame(rng, sc, plan, shape, left, table):
     return x, (lag_out.reshape(shape) if carries else None)
 
 
-def _lookup_kernel(x, base, tpad, per_cell, max_code, out):
-    """``ADC._lookup`` in one pass over the raveled frame: the code is the count of levels
-    at or below the cell floor(x) plus the levels inside the cell that are <= x (compared
-    in float64, as searchsorted does)."""
-    hi = max_code + 1
+def _lookup_kernel(x, sub, tpad, S, out):
+    """``ADC._lookup`` in one pass over the raveled frame, by the sub-cell table
+    (``Adc.sub_cells``): the code of x is the count of levels at or below its sub-cell's
+    left edge, plus -- only in the ~1.5 % of sub-cells that hold a level -- the levels
+    inside it that are <= x (compared in float64, as searchsorted does). x + 1 and the
+    product by S (a power of two) are exact in float64, so is the sub-cell. 2x faster than
+    a unit-cell table with a fixed number of compares per pixel (0.53 vs 1.05 ms a VGA frame)."""
+    last = np.float64(sub.size - 1)
     for i in range(x.size):
-        v = x[i]
-        j = min(max(np.floor(v), -1.0), hi)  # branch-free: the comparisons below are data-dependent
-        b = base[int(j) + 1]
-        code = b
-        vd = np.float64(v)
-        for m in range(per_cell):
-            code += np.int32(vd >= tpad[b + m])
-        out[i] = code
+        v = np.float64(x[i])
+        k = np.floor((v + 1.0) * S)
+        if not k >= 0.0:  # below the range (or NaN): code 0
+            k = 0.0
+        elif k > last:
+            k = last
+        c = sub[int(k)]
+        if c < 0:
+            c = -1 - c
+            while v >= tpad[c]:  # tpad ends in +inf
+                c += 1
+        out[i] = c
 
 
-def adc_lookup(x: np.ndarray, base: np.ndarray, tpad: np.ndarray, per_cell: int, max_code: int,
-               out: np.ndarray) -> bool:
-    """Codes of a 2-D float32 frame into ``out`` (uint16) by the ADC's threshold table;
-    False when the fused kernel does not apply (the numpy lookup runs instead)."""
+def adc_lookup(x: np.ndarray, adc, out: np.ndarray) -> bool:
+    """Codes of a 2-D float32 frame into ``out`` (uint16) by ``adc``'s transition levels
+    (``ares.sim.adc.Adc`` with INL/DNL); False when the fused kernel does not apply (the
+    numpy lookup runs instead)."""
     _load()
     if (_compiled_lookup is None or out is None or out.dtype != np.uint16 or x.dtype != _F32
             or not x.flags.c_contiguous or not out.flags.c_contiguous):
         return False
-    _compiled_lookup(x.ravel(), base, tpad, per_cell, max_code, out.ravel())
+    sub, S = adc.sub_cells()
+    _compiled_lookup(x.ravel(), sub, adc._tpad, np.float64(S), out.ravel())
     return True
+
+
+def _sfc64_kernel(s, out):
+    """numpy's SFC64 (Chris Doty-Humphrey's Small Fast Chaotic generator, as in
+    numpy/random/src/sfc64/sfc64.h): fills ``out`` with the next raw 64-bit outputs of
+    state ``s`` = (a, b, c, counter) and advances ``s``."""
+    a, b, c, w = s[0], s[1], s[2], s[3]
+    one, r11, l3, l24, r40 = np.uint64(1), np.uint64(11), np.uint64(3), np.uint64(24), np.uint64(40)
+    for i in range(out.size):
+        tmp = a + b + w
+        w += one
+        a = b ^ (b >> r11)
+        b = c + (c << l3)
+        c = ((c << l24) | (c >> r40)) + tmp
+        out[i] = tmp
+    s[0], s[1], s[2], s[3] = a, b, c, w
+
+
+def sfc64_raw(bit_generator, n: int) -> np.ndarray | None:
+    """``bit_generator.random_raw(n)`` for numpy's SFC64 -- the same outputs, the generator
+    left in the same state (tested) -- 3.5x faster (numpy calls the generator through a
+    function pointer per draw; 0.08 vs 0.28 ms for a VGA frame's 16-bit words). None when
+    not SFC64 or without numba."""
+    _load()
+    if _compiled_sfc64 is None or type(bit_generator) is not np.random.SFC64:
+        return None
+    st = bit_generator.state
+    s = np.array(st["state"]["state"], np.uint64)
+    out = np.empty(n, np.uint64)
+    _compiled_sfc64(s, out)
+    st["state"]["state"] = s
+    bit_generator.state = st
+    return out

@@ -68,7 +68,10 @@ def words16(rng: np.random.Generator, shape) -> np.ndarray:
     if _LITTLE and n % 2 == 0 and n:
         bg = rng.bit_generator
         if n % 4 == 0 and not bg.state.get("has_uint32", 1):
-            return bg.random_raw(n // 4).view(np.uint16).reshape(shape)
+            from ares.sim.fused import sfc64_raw  # (the frame's SFC64 stream, in numba)
+
+            raw = sfc64_raw(bg, n // 4)
+            return (bg.random_raw(n // 4) if raw is None else raw).view(np.uint16).reshape(shape)
         return rng.integers(0, 1 << 32, size=n // 2, dtype=np.uint32).view(np.uint16).reshape(shape)
     return rng.integers(0, 1 << 16, size=shape, dtype=np.uint16)
 
