@@ -54,8 +54,8 @@ class Adc:
         (a power of two, so sub-cell ``k = floor((x + 1) * S)`` is exact in float64 for a
         float32 x). Entry ``k``: the count of transition levels at or below the sub-cell's
         left edge when no level lies inside it, else ``-1 - count`` (the kernel then compares
-        x with the few levels inside). At most 2^20 entries (S = 64 up to 13 bits, 8 at 16); about 1.5 %
-        of a 12-bit ADC's sub-cells hold a level."""
+        x with the few levels inside). At most 2^20 entries (S = 64 up to 13 bits, 8 at 16);
+        about 1.5 % of a 12-bit ADC's sub-cells hold a level."""
         if self._sub is None:
             m = self.max_code
             S = 1
