@@ -67,10 +67,11 @@ def words16(rng: np.random.Generator, shape) -> np.ndarray:
     n = int(np.prod(shape))
     if _LITTLE and n % 2 == 0 and n:
         bg = rng.bit_generator
-        if n % 4 == 0 and not bg.state.get("has_uint32", 1):
+        state = bg.state
+        if n % 4 == 0 and not state.get("has_uint32", 1):
             from ares.sim.fused import sfc64_raw  # (the frame's SFC64 stream, in numba)
 
-            raw = sfc64_raw(bg, n // 4)
+            raw = sfc64_raw(bg, n // 4, state)
             return (bg.random_raw(n // 4) if raw is None else raw).view(np.uint16).reshape(shape)
         return rng.integers(0, 1 << 32, size=n // 2, dtype=np.uint32).view(np.uint16).reshape(shape)
     return rng.integers(0, 1 << 16, size=shape, dtype=np.uint16)

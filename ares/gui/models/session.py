@@ -121,9 +121,7 @@ class SessionModel:
         if self._result_waits and (force or self.clock() - self._result_at >= REFRESH_S):
             self._result_waits = False
             if self.stages.following_latest:
-                self._result_at = self.clock()
-                with self.ptc.batch():
-                    self._show_result()
+                self._show_latest(force=True)
         for tab in [t for t in LAZY_TABS if t in self._dirty and (self.visible is None or t in self.visible)]:
             if force or self.clock() - self._drawn_at.get(tab, -math.inf) >= REFRESH_S:
                 self._drawn_at.pop(tab, None)
@@ -251,12 +249,12 @@ class SessionModel:
         if ev.summary:
             self._summary(ev.summary)
 
-    def _show_latest(self) -> None:
+    def _show_latest(self, force: bool = False) -> None:
         """The newest stage on every tab; while a scan runs at most every ``REFRESH_S``
         (stages a fifth of a second apart would otherwise redraw the window five times a
         second beside the acquisition): a stage that comes sooner waits for ``flush``."""
         now = self.clock()
-        if self.throttle and now - self._result_at < REFRESH_S:
+        if not force and self.throttle and now - self._result_at < REFRESH_S:
             self._result_waits = True
             return
         self._result_at, self._result_waits = now, False
