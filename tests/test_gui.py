@@ -534,6 +534,41 @@ def test_roa_table_regions_are_what_the_run_analyses_and_saves(window, qtbot, tm
     assert 'name="roa2" x="2" y="3" width="10" height="8"' in saved
 
 
+def test_an_edited_scan_keeps_its_relative_mask_and_leaves_no_temporary_files(tmp_path):
+    """Regions edited in the window make a temporary scan XML: a defect mask named relative
+    to the loaded scan is still that file, and the temporary folder goes with the job."""
+    pytest.importorskip("ares.scan")
+    import json
+    from pathlib import Path
+
+    from ares.gui.runner_adapter import RunnerJob
+
+    sys_xml = os.path.abspath(os.path.join(FIXTURES, "small", "sim_small.xml"))
+    text = open(PTC_SMALL).read().replace('href="sim_small.xml"', f'href="{sys_xml}"')
+    text = text.replace("</analyses>", '</analyses>\n  <defects mask="masks/m.npy"/>')
+    (tmp_path / "masks").mkdir()
+    (tmp_path / "scan.xml").write_text(text)
+    m = np.zeros((24, 32), bool)  # sim_small's array
+    m[3, 5] = True
+    np.save(tmp_path / "masks" / "m.npy", m)
+    job = RunnerJob(tmp_path / "scan.xml", frames=3, regions=[(0, Region(on=True, x=2, y=3, width=10, height=8))])
+    edited = Path(job.scan.source).parent
+    assert edited != tmp_path and edited.is_dir()
+    assert job.scan.defect_mask == str(tmp_path / "masks" / "m.npy")
+    job.discard()  # a job that never runs (Start refused) removes its folder too
+    assert not edited.exists()
+
+    job = RunnerJob(tmp_path / "scan.xml", frames=3, regions=[(0, Region(on=True, x=2, y=3, width=10, height=8))])
+    job.set_output(str(tmp_path / "runs"))
+    edited = Path(job.scan.source).parent
+    job.run(lambda ev: None)
+    assert not edited.exists()
+    run_dir = next((tmp_path / "runs").iterdir())
+    stage = json.loads((run_dir / "stages" / "0001.json").read_text())
+    assert stage["defect_mask"]["masked_pixels"] == 1
+    assert 'mask="' + str(tmp_path / "masks" / "m.npy") + '"' in (run_dir / "xml" / "scan.xml").read_text()
+
+
 def _two_adc_scan(tmp_path, offset_dn: float = 40.0):
     """A dark scan on the small simulated sensor with two column-interleaved ADCs whose
     offsets differ by ``offset_dn``: the full frame's mean-signal histogram has two peaks."""

@@ -250,11 +250,11 @@ class MainWindow(QMainWindow):
             options = getattr(job, "set_output", None)
             if callable(options):
                 options(self.controls.output.root())
-        except AresError as exc:
-            self.show_error(str(exc))
-            return
         except Exception as exc:  # noqa: BLE001
-            self.show_error(one_sentence(exc))
+            discard = getattr(job, "discard", None)
+            if callable(discard):  # a job that will not run leaves no files behind
+                discard()
+            self.show_error(str(exc) if isinstance(exc, AresError) else one_sentence(exc))
             return
         self._set_views(job)
         self.last_error = None

@@ -136,8 +136,10 @@ def edited_scan(scan, rows=None, output=None):
     its regions of analysis (a rectangle the scan has keeps its name, others are roa1,
     roa2...) and the Output Options' ``Output``. An edited scan is written as XML (in a
     temporary folder, its system href made absolute) and becomes the scan's source, so
-    the run directory keeps exactly what ran and ``ares rerun`` repeats it. A region
-    outside the array is one sentence."""
+    the run directory keeps exactly what ran and ``ares rerun`` repeats it; a defect mask
+    file named relative to the scan is made absolute, so it is the same file. The folder
+    goes with the job (``RunnerJob.run``/``discard``). A region outside the array is one
+    sentence."""
     import dataclasses
     import tempfile
 
@@ -163,6 +165,8 @@ def edited_scan(scan, rows=None, output=None):
     if not changes:
         return scan
     src = Path(scan.source)
+    if scan.defect_mask and not Path(scan.defect_mask).is_absolute():
+        changes["defect_mask"] = str((src.parent / scan.defect_mask).resolve())
     tmp = Path(tempfile.mkdtemp(prefix="ares-gui-")) / src.name
     href = str(Path(scan.system_path or scan.system.source).resolve())
     edited = dataclasses.replace(scan, **changes, system_href=href, source=tmp)
@@ -181,7 +185,10 @@ class RunnerJob:
         self.path = Path(path)
         self.scan = load_scan(self.path, system_path=system or None)  # InputError: file and line
         rows = [i for i, _ in regions] if regions is not None else list(range(len(self.scan.regions)))
+        loaded = self.scan
         self.scan = edited_scan(self.scan, None if regions is None else [r for _, r in regions], output)
+        # the edited scan's temporary folder: removed once the run has copied the XML
+        self._edited_dir = Path(self.scan.source).parent if self.scan is not loaded else None
         # RoA row -> the engine's view name of that region in this run
         self.region_names = {row: r.name for row, r in zip(rows, self.scan.regions)}
         warm_imports()
@@ -189,8 +196,12 @@ class RunnerJob:
             from ares.sim import fused
 
             fused.warm()
-        self.runner = Runner(self.scan, seed=seed, frames=frames, faults=faults,
-                             argv=["ares", "gui", str(self.path)])
+        try:
+            self.runner = Runner(self.scan, seed=seed, frames=frames, faults=faults,
+                                 argv=["ares", "gui", str(self.path)])
+        except BaseException:
+            self.discard()
+            raise
         self.runner.add_listener(self._on_event)
         self._emit = None
         self._failed_sent = False
@@ -309,6 +320,16 @@ class RunnerJob:
         except AresError:
             if not self._failed_sent:  # failed before the runner could say so
                 raise
+        finally:
+            self.discard()
+
+    def discard(self) -> None:
+        """Remove the edited scan's temporary folder (the run directory has its copy)."""
+        import shutil
+
+        if self._edited_dir is not None:
+            shutil.rmtree(self._edited_dir, ignore_errors=True)
+            self._edited_dir = None
 
     def _on_event(self, e) -> None:
         from ares.scan import events as ev
