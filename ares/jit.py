@@ -11,11 +11,15 @@ from __future__ import annotations
 import os
 
 
-def compiled(fn):
+def compiled(fn, inline: bool = False):
+    """``inline``: a helper of another kernel, inlined into it (numba IR level), so that
+    constant arguments specialise its code at each call."""
     if os.environ.get("ARES_NO_NUMBA"):
         return None
     try:
         from numba import njit
     except ImportError:
         return None
+    if inline:
+        return njit(inline="always")(fn)
     return njit(cache=True, nogil=True)(fn)

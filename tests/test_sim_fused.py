@@ -128,3 +128,30 @@ def test_sfc64_kernel_is_numpys_sfc64(seed, n):
     assert a.bit_generator.state["state"]["state"].tolist() == b.bit_generator.state["state"]["state"].tolist()
     assert np.array_equal(a.standard_normal(5), b.standard_normal(5)) and a.integers(0, 9) == b.integers(0, 9)
     assert fused.sfc64_raw(np.random.PCG64(seed), n) is None
+
+
+@pytest.mark.parametrize("seed, k, n, pending", [
+    (0, 57, 76_800, False), (1, 517, 1001, True), (2, 1, 10, False),
+    (3, 3 << 29, 20_000, True),  # a quarter of the 32-bit draws rejected: Lemire's rejection taken
+    (4, (1 << 31) - 1, 999, False), (5, 432, 0, True)])
+def test_alias_draws_are_numpys_integers_then_random(seed, k, n, pending):
+    """The alias method's draws in numba: numpy's bounded int32 integers then doubles,
+    from a generator mid-stream (with a 32-bit half pending or not), the generator left
+    where numpy leaves it (the next draws of every kind agree)."""
+    a = np.random.Generator(np.random.SFC64(seed))
+    b = np.random.Generator(np.random.SFC64(seed))
+    for g in (a, b):
+        g.random(3)
+        if pending:  # one 32-bit draw leaves the high half of a 64-bit one for the next
+            g.integers(0, 10, size=1, dtype=np.int32)
+    idx, u = fused.alias_draws(a, k, n)
+    assert idx.dtype == np.int32 and np.array_equal(idx, b.integers(0, k, size=n, dtype=np.int32))
+    assert np.array_equal(u, b.random(size=n))
+    sa, sb = a.bit_generator.state, b.bit_generator.state
+    assert sa["state"]["state"].tolist() == sb["state"]["state"].tolist()
+    assert (sa["has_uint32"], sa["uinteger"]) == (sb["has_uint32"], sb["uinteger"])
+    assert a.integers(0, 1000, size=3, dtype=np.int32).tolist() == b.integers(0, 1000, size=3, dtype=np.int32).tolist()
+    assert a.random() == b.random()
+    pcg = np.random.Generator(np.random.PCG64(seed))  # other generators: numpy's own calls
+    idx, u = fused.alias_draws(pcg, k, 5)
+    assert np.array_equal(idx, np.random.Generator(np.random.PCG64(seed)).integers(0, k, size=5, dtype=np.int32))
