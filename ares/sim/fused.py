@@ -50,19 +50,19 @@ def available() -> bool:
 @contextlib.contextmanager
 def enabled(on: bool):
     """Run a block with the fused kernels on or off (tests and benchmarks compare both)."""
-    global _compiled, _compiled_lookup, _compiled_sfc64
+    global _compiled, _compiled_lookup, _compiled_sfc64, _compiled_alias
     _load()
-    keep = _compiled, _compiled_lookup, _compiled_sfc64
+    keep = _compiled, _compiled_lookup, _compiled_sfc64, _compiled_alias
     if not on:
         _compiled = _compiled_lookup = _compiled_sfc64 = _compiled_alias = None
     try:
         yield
     finally:
-        _compiled, _compiled_lookup, _compiled_sfc64 = keep
+        _compiled, _compiled_lookup, _compiled_sfc64, _compiled_alias = keep
 
 
 def warm() -> None:
-    """Load (or compile) both kernels now, with the argument types a frame uses."""
+    """Load (or compile) the kernels now, with the argument types a frame uses."""
     if not available():
         return
     f, u, i, d = np.zeros(2, _F32), np.zeros(2, np.uint16), np.zeros(2, np.int32), np.ones(2)
