@@ -48,6 +48,7 @@ def test_fused_frames_equal_the_numpy_path(variant):
         assert x.dtype == y.dtype and np.array_equal(x, y)
     fused.warm()  # warm() loads the very signatures a frame uses: nothing compiles mid-scan
     assert len(fused._compiled.signatures) == 1 and len(fused._compiled_lookup.signatures) == 1
+    assert len(fused._compiled_alias.signatures) == 1
 
 
 @pytest.mark.parametrize("bits, inl, dnl, seed", [(12, 0.5, 0.2, 0), (12, 1.5, 0.1, 1), (10, 3.0, 0.6, 2),
