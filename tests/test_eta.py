@@ -131,3 +131,50 @@ def test_one_off_work_of_the_first_stage_is_not_charged_to_the_next():
     true = 15 * 0.01 + 9 * 16 * 0.01 + 10 * 0.05  # frames left and ten stages' work
     assert at_second_stage(True) == pytest.approx(true, rel=0.05)
     assert at_second_stage(False) > 5 * true  # charged to all ten: what it did before
+
+
+def test_an_exposure_sweep_is_charged_by_each_stage_s_exposure():
+    """A dark-current sweep on a real sensor: frames take exposure + readout + the
+    grabber's 2 ms, 10 ms to 1 s. With each stack's model time (exposure + readout) the
+    time left is within 2 % from the second stage on; without it (every frame at the
+    latest rate) it reads far low -- the first stages' short frames charged to the long
+    ones."""
+    exposures = [0.01 + 0.99 * i / 7 for i in range(8)]
+    readout, n, work, overhead = 0.005, 8, 0.05, 0.002  # the grabber's own time a frame
+    truth = [e + readout + overhead for e in exposures]
+    total = sum(n * f + work for f in truth)
+    for model in (True, False):
+        stacks = [("dark", n, e + readout if model else 0.0) for e in exposures]
+        eta = Eta(n * len(exposures), len(exposures), 0.0, stacks=stacks)
+        t, errors = 0.0, []
+        for i, f in enumerate(truth):
+            eta.stage_started(t, "dark")
+            for k in range(n):
+                t += f
+                eta.frame(t)
+                if i >= 1 and k == 1:
+                    errors.append(eta.remaining(t) / (total - t) - 1)
+            t += work
+            eta.stage_finished(t, "dark")
+        worst = max(abs(e) for e in errors)
+        if model:
+            assert worst < 0.02, errors
+        else:
+            assert worst > 0.5, errors
+
+
+def test_stacks_cost_exposure_plus_readout_only_on_a_paced_bench():
+    from ares.protocol import load_scan
+    from ares.scan.runner import _stacks
+    from ares.scan.stages import expand, frame_seconds
+
+    scan = load_scan("scans/dark_current.xml")
+    stages = expand(scan)
+    paced = _stacks(scan, stages, True)
+    assert sum(n for _, n, _ in paced) == sum(st.frames_to_grab() for st in stages)
+    readout = scan.system.timing.readout_s
+    want = [frame_seconds(scan, st) for st in stages if st.scene == "dark"]
+    assert [c for k, _, c in paced][:len(want)] == want  # the sweep's dark stages come first
+    assert want == pytest.approx([st.settings["exposure"] + readout for st in stages if st.scene == "dark"])
+    assert max(want) > 0.5 and min(want) < 0.1  # 10 ms to 1 s
+    assert {c for _, _, c in _stacks(scan, stages, False)} == {0.0}  # the simulator: no model

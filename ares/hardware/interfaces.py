@@ -45,6 +45,10 @@ class FrameSource(Protocol):
     # Optional: ``release()`` -- no frames are wanted for a while (a large stage is being
     # analysed); free what the source caches for its current settings. The runner calls it
     # when present.
+    # Optional: ``exposure_paced`` (default True) -- frames come no faster than the
+    # exposure, as from a real sensor; False for sources that compute or read their frames
+    # (the simulator, replays). The time remaining charges a frame its exposure + readout
+    # only when True.
 
 
 @runtime_checkable

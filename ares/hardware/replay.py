@@ -83,6 +83,8 @@ class ReplayLight:
 class ReplayFrameSource:
     """``FrameSource`` over an EMVA 1288 descriptor, selected by exposure register + light."""
 
+    exposure_paced = False  # files are read, not exposed
+
     def __init__(self, descriptor: EmvaDescriptor, registers: RegisterFile, exposure_field: str,
                  light: ReplayLight, light_tolerance: float = 0.01, name: str | None = None):
         self.descriptor = descriptor

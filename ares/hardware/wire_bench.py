@@ -65,6 +65,7 @@ def build_wire_bench(system, seed: int, faults: dict | None = None) -> Bench:
     try:
         frames = UsbFrameSource.open(g, (s.rows, s.cols), s.adc_bits, backend=EmulatedUsbBackend([grabber]),
                                      channels=s.adc_channels, interleave=s.adc_interleave)
+        frames.exposure_paced = False  # the simulator behind the emulated wire computes its frames
         opened.append(frames)
         regs = RegisterFile(m, bus)
         if readback:

@@ -10,21 +10,40 @@ costs less than a bright one that clips), so frames left of each kind are charge
 their own kind's latest rate -- the dark first stage no longer sets the rate of the
 flats after it.
 
+Each stack may carry a model time per frame (``stacks``): on a bench whose frames come
+no faster than the exposure (real sensors), exposure + readout. What is measured is
+then a frame's time beyond the model (the grabber's and the host's share), added to
+each stack's model time -- so a dark-current sweep from 10 ms to 1 s exposures is
+charged 1 s frames at its last stages, not the 10 ms of its first. Without a model
+(0: the simulator, whose frame time does not follow the exposure) that is the whole
+frame time.
+
 ``Eta`` is fed event times by the runner and knows nothing of clocks itself (tests give
 it made-up times)."""
 
 from __future__ import annotations
 
 import statistics
+from collections import deque
 
 
 class Eta:
     def __init__(self, frames_total: int, stages_total: int, prior_s: float = 0.0,
-                 frames_by_kind: dict[str, int] | None = None, stages_by_scene: dict[str, int] | None = None):
+                 frames_by_kind: dict[str, int] | None = None, stages_by_scene: dict[str, int] | None = None,
+                 stacks: list[tuple[str, int, float]] | None = None):
+        """``stacks``: the scan's stacks in order, (kind, frames, model seconds of a frame);
+        else ``frames_by_kind`` (no model: 0 s), else ``frames_total`` of one kind."""
         self.frames_total = frames_total
-        self.left = dict(frames_by_kind or {"": frames_total})  # frames still to come, per kind
+        if stacks is None:
+            stacks = [(k, n, 0.0) for k, n in (frames_by_kind or {"": frames_total}).items()]
+        self.left: dict[str, deque] = {}  # kind -> [frames, model s a frame] of its stacks to come
+        for kind, n, cost in stacks:
+            self.left.setdefault(kind, deque())
+            if n > 0:
+                self.left[kind].append([n, float(cost)])
         self.kind = next(iter(self.left))
-        self.rates: dict[str, list[float]] = {}  # kind -> s/frame of its latest finished stacks
+        self._cost = 0.0  # model seconds of a frame of the current stack
+        self.rates: dict[str, list[float]] = {}  # kind -> s/frame beyond the model, its latest finished stacks
         self.stages_total = stages_total
         self.prior_s = prior_s  # the hardware-time estimate, used until something is measured
         self.t_frames = 0.0  # seconds between consecutive frames of a stack
@@ -35,7 +54,7 @@ class Eta:
         self.stages_left = dict(stages_by_scene or {"": stages_total})
         self._last: float | None = None  # time of the previous frame in the current stack
         self._stack = [0.0, 0]  # frame-loop seconds and intervals of the current stack
-        self._prev_stack: tuple[float, int] | None = None  # ... of the previous stack
+        self._prev_stack: float | None = None  # s/frame beyond the model of the previous stack
         self._stage_t0: float | None = None  # when the current stage started
         self._stage_frames = 0.0  # frame-loop seconds of the current stage
         self._one_off = 0.0  # ... and seconds of one-off work in it (the defect mask)
@@ -45,11 +64,16 @@ class Eta:
         ``kind`` is one of the ``frames_by_kind`` keys."""
         if self._stage_t0 is None:
             self._stage_t0 = t
+        else:  # the stage's previous stack ended
+            self._stage_frames += self._first_frame()
         if self._stack[1]:
-            self._prev_stack = (self._stack[0], self._stack[1])
-            self.rates.setdefault(self.kind, []).append(self._stack[0] / self._stack[1])
+            beyond = self._stack[0] / self._stack[1] - self._cost
+            self._prev_stack = beyond
+            self.rates.setdefault(self.kind, []).append(beyond)
         if kind is not None and kind in self.left:
             self.kind = kind
+        pool = self.left[self.kind]
+        self._cost = pool[0][1] if pool else self._cost
         self._stack = [0.0, 0]
         self._last = None
 
@@ -62,17 +86,33 @@ class Eta:
             self._stack[1] += 1
         self._last = t
         self.frames_done += 1
-        self.left[self.kind] = max(self.left[self.kind] - 1, 0)
+        pool = self.left[self.kind]
+        if pool:
+            pool[0][0] -= 1
+            if pool[0][0] <= 0:
+                pool.popleft()
 
     def one_off(self, seconds: float) -> None:
         """Work of the current stage that no later stage repeats (building the defect
         mask): not charged to the stages to come."""
         self._one_off += seconds
 
+    def _first_frame(self) -> float:
+        """The current stack's first frame, taken as long as its mean interval: frames are
+        timed by the intervals between them, and the wait for the first one is not stage
+        work (which every later stage would be charged) but a frame."""
+        if self._stack[1]:
+            return self._stack[0] / self._stack[1]
+        if self._last is None:  # no frame yet
+            return 0.0
+        beyond = self.rates.get(self.kind, [self._prev_stack])[-1]  # one frame only: the latest stack's
+        return self._cost + (beyond or 0.0)
+
     def stage_finished(self, t: float, scene: str | None = None) -> None:
         scene = scene if scene in self.stages_left else next(iter(self.stages_left))
         if self._stage_t0 is not None:
-            self.overheads.append(max(t - self._stage_t0 - self._stage_frames - self._one_off, 0.0))
+            frames = self._stage_frames + self._first_frame()
+            self.overheads.append(max(t - self._stage_t0 - frames - self._one_off, 0.0))
             self.scenes.append(scene)
         self.stages_left[scene] = max(self.stages_left[scene] - 1, 0)
         self._stage_t0, self._stage_frames, self._last, self._one_off = None, 0.0, None, 0.0
@@ -87,30 +127,31 @@ class Eta:
         return statistics.median((same or [v for _, v in pairs])[-3:])
 
     def remaining(self, t: float) -> float | None:
-        """Seconds left at ``t``: frames left x s/frame + stages not finished x s/stage, less
-        what the current stage has already spent outside its frame loop."""
+        """Seconds left at ``t``: frames left x (their model time + the measured time beyond
+        it) + stages not finished x s/stage, less what the current stage has already spent
+        outside its frame loop."""
         if self.n_frames == 0:
             return self.prior_s or None
-        # the latest frame rate: the current stack once it has a few frames, else the previous
+        # the latest rate: the current stack once it has a few frames, else the previous
         # one (the first stacks run slower: warm-up, the dark stage kept for the defect mask)
         if self._stack[1] >= 4 or self._prev_stack is None:
             sec, n = self._stack if self._stack[1] else (self.t_frames, self.n_frames)
+            latest = sec / n - self._cost
         else:
-            sec, n = self._prev_stack
-        latest = sec / n
+            latest = self._prev_stack
         left = 0.0
-        for kind, frames in self.left.items():  # each kind at its own latest rate
+        for kind, pool in self.left.items():  # each kind at its own latest rate
             if kind == self.kind and (self._stack[1] >= 4 or kind not in self.rates):
                 rate = latest
             elif kind in self.rates:  # the median of its latest three stacks: one slow stack does not swing it
                 rate = statistics.median(self.rates[kind][-3:])
             else:
                 rate = latest  # not measured yet: the nearest we have
-            left += frames * rate
+            left += sum(frames * (cost + rate) for frames, cost in pool)
         if not self.overheads:
             return left  # no stage has ended yet: its end work is not known
         spent = 0.0
         if self._stage_t0 is not None:
-            spent = max(t - self._stage_t0 - self._stage_frames, 0.0)
+            spent = max(t - self._stage_t0 - self._stage_frames - self._first_frame(), 0.0)
         stages = sum(n * self.per_stage(sc) for sc, n in self.stages_left.items() if n)
         return left + max(stages - spent, 0.0)

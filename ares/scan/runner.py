@@ -34,7 +34,7 @@ from ares.scan.defect_mask import load_declared_mask, mask_from_dark, scan_thres
 from ares.scan.preflight import KEEP_FOR_MASK_BYTES, check_run
 from ares.scan.results import StackSet, analyze_stage, check_limits, scan_level_results, views
 from ares.scan.rundir import RunRecord, RunWriter
-from ares.scan.stages import Stage, estimate_seconds
+from ares.scan.stages import Stage, estimate_seconds, frame_seconds
 from ares.scan.eta import Eta
 from ares.scan.kept import KeptFrames
 from ares.scan.suspend import Suspended, Suspenders
@@ -221,8 +221,10 @@ class Runner:
         self._frames_done = 0
         self._t0 = time.monotonic()
         self._est = self.estimate_seconds()
-        self._eta = Eta(self._frames_total, len(stages), self._est, frames_by_kind=_frames_by_kind(stages),
-                        stages_by_scene={sc: sum(s.scene == sc for s in stages) for sc in ("dark", "flat")})
+        todo = stages[len(completed):]  # (resuming: the stages still to run)
+        self._eta = Eta(self._frames_total, len(todo), self._est,
+                        stacks=_stacks(scan, todo, getattr(bench.frames, "exposure_paced", True)),
+                        stages_by_scene={sc: sum(s.scene == sc for s in todo) for sc in ("dark", "flat")})
         run_dir = str(writer.dir) if writer else None
         self._scratch_dir = run_dir  # kept dark frames beyond memory (ares.scan.kept): on the run's disk
         self._emit(ev.RunStarted(run_dir, len(stages), self._frames_total, self._est))
@@ -491,14 +493,18 @@ def _position(bench) -> dict | None:
     return fn() if callable(fn) else None
 
 
-def _frames_by_kind(stages) -> dict[str, int]:
-    """Frames the scan grabs of dark and of lit scenes (the time remaining charges each at
-    its own rate)."""
-    out = {"dark": 0, "flat": 0}
+def _stacks(scan, stages, paced: bool) -> list[tuple[str, int, float]]:
+    """The stacks the stages grab, in order, as (kind, frames, model seconds of a frame)
+    for the time remaining: a dark stack and a lit one are timed apart; on a bench whose
+    frames follow the exposure (``FrameSource.exposure_paced``, real sensors) a frame's
+    model is exposure + readout, else none (0: the simulator computes its frames)."""
+    out = []
     for st in stages:
+        model = frame_seconds(scan, st) if paced else 0.0
         dark_part = st.dark_frames if st.dark_source == "grab" else 0
-        out["dark" if st.scene == "dark" else "flat"] += st.frames_to_grab() - dark_part
-        out["dark"] += dark_part
+        out.append(("dark" if st.scene == "dark" else "flat", st.frames_to_grab() - dark_part, model))
+        if dark_part:
+            out.append(("dark", dark_part, model))
     return out
 
 

@@ -85,20 +85,26 @@ def expand(scan: Scan, frames: int | None = None) -> list[Stage]:
     return out
 
 
+def frame_seconds(scan: Scan, stage: Stage) -> float:
+    """Hardware time of one frame of ``stage``: its exposure (set, or the exposure field's
+    default) + the system's readout time (s)."""
+    sy = scan.system
+    exp = stage.settings.get("exposure")
+    if exp is None and sy.control_field("exposure") is not None:
+        f = sy.control_field("exposure")
+        exp = f.to_physical(f.default)
+    return (exp or 0.0) + sy.timing.readout_s
+
+
 def estimate_seconds(scan: Scan, stages: list[Stage]) -> float:
     """Hardware time: per frame exposure + readout, per stage the settle time (s)."""
     sy = scan.system
-    readout, settle = sy.timing.readout_s, sy.timing.settle_s
+    settle = sy.timing.settle_s
     ls = sy.light_source.settle_s if sy.light_source else 0.0
     ch = sy.chamber.settle_s if sy.chamber else 0.0
     total, prev_t = 0.0, None
     for s in stages:
-        exp = s.settings.get("exposure")
-        if exp is None and sy.control_field("exposure") is not None:
-            f = sy.control_field("exposure")
-            exp = f.to_physical(f.default)
-        per_frame = (exp or 0.0) + readout
-        total += s.frames_to_grab() * per_frame + settle + ls * (2 if s.dark_source == "grab" else 1)
+        total += s.frames_to_grab() * frame_seconds(scan, s) + settle + ls * (2 if s.dark_source == "grab" else 1)
         t = s.settings.get("temperature")
         if t is not None and t != prev_t:
             total += ch

@@ -137,6 +137,8 @@ class SimChamber:
 class SimFrameSource:
     """Frame grabber over a ``SimSensor``, configured by the registers at each grab."""
 
+    exposure_paced = False  # a frame takes its computing time, whatever the exposure
+
     def __init__(self, sensor: SimSensor, registers: RegisterFile, light: SimLightSource | None = None,
                  chamber: SimChamber | None = None, faults: dict | None = None, name: str = "sim grabber"):
         self.name = name
