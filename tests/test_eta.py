@@ -64,7 +64,8 @@ def test_dark_and_flat_frames_are_charged_at_their_own_rates():
         plan[-1].append((scene, n))
     total = sum(n * rate[k] for stacks in plan for k, n in stacks) + work * len(plan)
     for per_kind in (True, False):
-        eta = Eta(sum(kinds.values()), len(plan), 0.0, frames_by_kind=kinds if per_kind else None)
+        eta = Eta(sum(kinds.values()), len(plan), 0.0,
+                  stacks=[(k, n, 0.0) for k, n in kinds.items()] if per_kind else None)
         t, errors = 0.0, []
         for i, stacks in enumerate(plan):
             for j, (kind, n) in enumerate(stacks):

@@ -29,13 +29,12 @@ from collections import deque
 
 class Eta:
     def __init__(self, frames_total: int, stages_total: int, prior_s: float = 0.0,
-                 frames_by_kind: dict[str, int] | None = None, stages_by_scene: dict[str, int] | None = None,
-                 stacks: list[tuple[str, int, float]] | None = None):
+                 stacks: list[tuple[str, int, float]] | None = None, stages_by_scene: dict[str, int] | None = None):
         """``stacks``: the scan's stacks in order, (kind, frames, model seconds of a frame);
-        else ``frames_by_kind`` (no model: 0 s), else ``frames_total`` of one kind."""
+        else ``frames_total`` frames of one kind without a model."""
         self.frames_total = frames_total
         if stacks is None:
-            stacks = [(k, n, 0.0) for k, n in (frames_by_kind or {"": frames_total}).items()]
+            stacks = [("", frames_total, 0.0)]
         self.left: dict[str, deque] = {}  # kind -> [frames, model s a frame] of its stacks to come
         for kind, n, cost in stacks:
             self.left.setdefault(kind, deque())
@@ -61,7 +60,7 @@ class Eta:
 
     def stage_started(self, t: float, kind: str | None = None) -> None:
         """A stack of the current stage starts at ``t`` (a stage may grab a dark and a flat);
-        ``kind`` is one of the ``frames_by_kind`` keys."""
+        ``kind`` is one of the ``stacks``' kinds."""
         if self._stage_t0 is None:
             self._stage_t0 = t
         else:  # the stage's previous stack ended
