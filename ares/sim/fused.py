@@ -84,7 +84,7 @@ def _kernel(T, i1, sigma, offs, pm, pg, pa, pu, q, sq, pprob, palias, plo, dm, d
     charge (low light) and Gaussian dark charge, or dark charge alone (Gaussian) -- and
     each gets its own copy of the loop with the modes as constants (``_pixels`` is
     inlined), so no mode test runs per pixel: with the tests inside, the compiler keeps
-    the loop 1.6-2.3x slower (a VGA frame: Gaussian 2.9 vs 1.7 ms, exact Poisson 3.9 vs
+    the loop 1.6-1.7x slower (a VGA frame: Gaussian 2.9 vs 1.7 ms, exact Poisson 3.9 vs
     2.5 ms, dark 1.4 vs 0.85 ms)."""
     if pm == GAUSS and dm == GAUSS:
         _pixels(T, i1, sigma, offs, GAUSS, pg, pa, pu, q, sq, pprob, palias, plo, GAUSS, dg, da, du, dark_e, sd,
