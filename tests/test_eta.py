@@ -179,3 +179,23 @@ def test_stacks_cost_exposure_plus_readout_only_on_a_paced_bench():
     assert want == pytest.approx([st.settings["exposure"] + readout for st in stages if st.scene == "dark"])
     assert max(want) > 0.5 and min(want) < 0.1  # 10 ms to 1 s
     assert {c for _, _, c in _stacks(scan, stages, False)} == {0.0}  # the simulator: no model
+
+
+def test_time_between_stages_is_charged_as_stage_work():
+    """Between one stage's end and the next one's first stack the runner sets the bench up,
+    lets the light settle and waits for the previous stage's commit (0.2 s here): that is
+    stage work every stage has, charged to the stages to come (it was charged to none)."""
+    n, per_frame, gap, k = 16, 0.01, 0.2, 10
+    eta = Eta(n * k, k, 0.0)
+    t, errors = 0.0, []
+    total = k * (gap + n * per_frame)
+    for i in range(k):
+        t += gap
+        eta.stage_started(t)
+        for f in range(n):
+            t += per_frame
+            eta.frame(t)
+            if i >= 2 and f == 1:
+                errors.append(eta.remaining(t) / (total - t) - 1)
+        eta.stage_finished(t)
+    assert max(abs(e) for e in errors) < 0.02, errors

@@ -55,14 +55,16 @@ class Eta:
         self._stack = [0.0, 0]  # frame-loop seconds and intervals of the current stack
         self._prev_stack: float | None = None  # s/frame beyond the model of the previous stack
         self._stage_t0: float | None = None  # when the current stage started
+        self._t_end: float | None = None  # when the previous stage ended
         self._stage_frames = 0.0  # frame-loop seconds of the current stage
         self._one_off = 0.0  # ... and seconds of one-off work in it (the defect mask)
 
     def stage_started(self, t: float, kind: str | None = None) -> None:
         """A stack of the current stage starts at ``t`` (a stage may grab a dark and a flat);
         ``kind`` is one of the ``stacks``' kinds."""
-        if self._stage_t0 is None:
-            self._stage_t0 = t
+        if self._stage_t0 is None:  # the stage starts where the previous one ended: setting up,
+            # settling and waiting for the previous stage's commit are this stage's work
+            self._stage_t0 = t if self._t_end is None else min(self._t_end, t)
         else:  # the stage's previous stack ended
             self._stage_frames += self._first_frame()
         if self._stack[1]:
@@ -115,6 +117,7 @@ class Eta:
             self.scenes.append(scene)
         self.stages_left[scene] = max(self.stages_left[scene] - 1, 0)
         self._stage_t0, self._stage_frames, self._last, self._one_off = None, 0.0, None, 0.0
+        self._t_end = t
 
     def per_stage(self, scene: str) -> float:
         """A stage's time outside its frame loops: the median of the latest three stages of
