@@ -43,8 +43,8 @@ def test_highpass_kernel_and_border():
 @pytest.mark.parametrize("shape", [(480, 640), (21, 23), (25, 300)])
 def test_numba_lowpass_equals_the_scipy_passes(monkeypatch, release, border, shape):
     """The one-kernel low-pass (``ares.analysis.lowpass``, float64) against the scipy.ndimage
-    passes it replaces (float32 between passes, reflected borders at every pass): equal
-    within the numpy path's float32 rounding, borders included."""
+    passes it replaces (float64, reflected borders at every pass): equal within float64
+    rounding (running sums against scipy's), borders included."""
     import ares.analysis.lowpass as lp
 
     rng = np.random.default_rng(7)
@@ -57,8 +57,7 @@ def test_numba_lowpass_equals_the_scipy_passes(monkeypatch, release, border, sha
     ref = smooth(img, release, border)
     assert fast.shape == ref.shape
     scale = float(np.abs(img - img.mean()).max())
-    np.testing.assert_allclose(fast, ref, rtol=0, atol=4 * scale * 2.0**-24)
-    assert np.abs(fast - ref).max() > 0  # two paths really ran
+    np.testing.assert_allclose(fast, ref, rtol=0, atol=64 * scale * 2.0**-53)
 
 
 def test_white_noise_gains():

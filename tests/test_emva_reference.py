@@ -113,3 +113,45 @@ def test_cli_json_and_table(analysis, capsys, tmp_path):
     text = capsys.readouterr().out
     assert ATTRIBUTION in text and "PRNU1288" in text
     assert pdf.read_bytes()[:4] == b"%PDF"
+
+
+def _close(a, b, path=""):
+    """Every number of two JSON-like results equal within float64 rounding (1e-12 relative)."""
+    if isinstance(a, dict):
+        assert set(a) == set(b), path
+        for k in a:
+            _close(a[k], b[k], f"{path}/{k}")
+    elif isinstance(a, (list, tuple)):
+        assert len(a) == len(b), path
+        for i, (x, y) in enumerate(zip(a, b)):
+            _close(x, y, f"{path}[{i}]")
+    elif isinstance(a, float):
+        assert a == pytest.approx(b, rel=1e-12, abs=1e-300, nan_ok=True), path
+    else:
+        assert a == b, path
+
+
+def test_the_command_runs_without_numba_and_gives_the_kernels_figures(analysis):
+    """``ares emva`` takes the numpy paths (numba's import and first load cost what its
+    kernels save on one data set): every figure of every release equals the kernels'
+    within float64 rounding, and the command's process never imports numba."""
+    pytest.importorskip("numba")
+    import subprocess
+    import sys
+
+    import ares.analysis.lowpass as lp
+    from ares import jit
+    from ares.commands.emva import analyse_descriptor
+
+    assert lp._kernel_c is not None  # the fixture's analysis ran the kernels
+    with jit.avoided():
+        plain = analyse_descriptor(DESC)
+    _close(analysis.emva.to_json(), plain.emva.to_json())
+    _close(analysis.sheet.to_json(), plain.sheet.to_json())
+    _close(analysis.general.to_json(), plain.general.to_json())
+    _close({k: e.to_dict() for k, e in analysis.release31.items()}, {k: e.to_dict() for k, e in plain.release31.items()})
+    code = ("import sys\nfrom ares.cli import main\nrc = main(['emva', sys.argv[1]])\n"
+            "print('numba' in sys.modules)\nsys.exit(rc)")
+    r = subprocess.run([sys.executable, "-c", code, str(DESC)], capture_output=True, text=True, timeout=600)
+    assert r.returncode == 0, r.stderr
+    assert r.stdout.strip().splitlines()[-1] == "False"

@@ -106,9 +106,11 @@ def smooth_full(x: np.ndarray, m: float, widths: tuple[int, int], binomial: bool
     """``x - m`` (x 2-D float64, m its mean) smoothed at full size with reflected borders,
     or None when the kernel does not apply (numba missing, image smaller than a filter)."""
     global _kernel_c, _loaded
-    if not _loaded:
-        from ares import jit
+    from ares import jit
 
+    if jit.avoiding():  # (ares emva: not worth loading numba for)
+        return None
+    if not _loaded:
         _kernel_c, _loaded = jit.compiled(_kernel), True
     M, N = x.shape
     if _kernel_c is None or min(M, N) < max(max(widths), 3):

@@ -57,9 +57,11 @@ def pair_pass(a: np.ndarray, b: np.ndarray, max_code: int | None):
     column sums of a and b (int64)), or None when the kernel does not apply (numba
     missing; not 8/16-bit integer images of one dtype)."""
     global _kernel_c, _loaded
-    if not _loaded:
-        from ares import jit
+    from ares import jit
 
+    if jit.avoiding():  # (ares emva: not worth loading numba for)
+        return None
+    if not _loaded:
         _kernel_c, _loaded = jit.compiled(_kernel), True
     if _kernel_c is None or a.dtype != b.dtype or a.dtype.kind not in "ui" or a.dtype.itemsize > 2 or a.ndim != 2:
         return None

@@ -291,8 +291,13 @@ def _meta(args, an: EmvaAnalysis) -> None:
 
 
 def run(args) -> int:
+    from ares import jit
+
     pitch = getattr(args, "pixel_size_um", None)
-    an = analyse_descriptor(args.descriptor, pitch * pitch if pitch else None)  # the .area figures need it
+    # one data set: numba's import and first load (~0.5 s, ~100 MB) cost what its kernels
+    # save here (benchmarks/peer.md), and the numpy paths give the same figures
+    with jit.avoided():
+        an = analyse_descriptor(args.descriptor, pitch * pitch if pitch else None)  # the .area figures need it
     _meta(args, an)
     att = attribution_for(an.descriptor)
     if args.release == "4.0-linear":
