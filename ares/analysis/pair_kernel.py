@@ -5,6 +5,7 @@ the images several times and the row/column means twice more (``emva4_sheet.pair
 ~8 ms a VGA pair, a hundred pairs in the reference data set. Here each pixel of both
 images is read once. Every sum is an exact integer (int64), and the averaged image is
 ``float64(a + b) * 0.5`` as in the numpy path, so the results are bit-identical (tested).
+``ares emva`` takes the numpy path (``ares.jit.avoided``: not worth loading numba for).
 """
 
 from __future__ import annotations
