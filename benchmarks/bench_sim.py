@@ -93,6 +93,11 @@ def timing_rows(shape, repeat):
     cases.append(("shipped sim_sensor.xml settings, numpy path, per frame", None, numpy_ms))
     fused_ms = median_ms(lambda: ship.render(8, exposure_s=0.01, photon_flux=mid), repeat) / 8
     cases.append(("shipped sim_sensor.xml settings, fused kernels, per frame", None, fused_ms))
+    low = 130.0 / (sp.qe * 0.01)  # 130 e-: exact Poisson photo charge (the alias method), as 11 of make run's levels
+    cases.append(("shipped settings at 130 e- (exact Poisson), fused kernels, per frame", None,
+                  median_ms(lambda: ship.render(8, exposure_s=0.01, photon_flux=low), repeat) / 8))
+    cases.append(("shipped settings, dark frame, fused kernels, per frame", None,
+                  median_ms(lambda: ship.render(8, exposure_s=0.01, photon_flux=0.0), repeat) / 8))
     SHIPPED[shape] = (fast_ms, numpy_ms, fused_ms)
     out = []
     lagged = SimSensor(p.replace(lag_fraction=0.01), 0)
