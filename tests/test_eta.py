@@ -31,6 +31,25 @@ def simulate(eta: Eta, stages: list[tuple[int, float, float]], upto: int):
     return out
 
 
+def errors_from(eta: Eta, stages, check_from: int) -> list[float]:
+    """Feed stages of one stack each, (s before its first stack, frames, s/frame, s of
+    work after its frames, scene or None); return ETA / true time left - 1 at the second
+    frame of every stage from ``check_from`` on."""
+    total = sum(before + n * f + after for before, n, f, after, _ in stages)
+    t, errors = 0.0, []
+    for i, (before, n, per_frame, after, scene) in enumerate(stages):
+        t += before
+        eta.stage_started(t, "dark" if scene == "dark" else None)
+        for k in range(n):
+            t += per_frame
+            eta.frame(t)
+            if i >= check_from and k == 1:
+                errors.append(eta.remaining(t) / (total - t) - 1)
+        t += after
+        eta.stage_finished(t, scene)
+    return errors
+
+
 def test_steady_scan_is_exact_after_the_first_stage():
     stages = [(16, 0.01, 0.5)] * 10
     got, true, _ = simulate(Eta(160, 10), stages, upto=1)
@@ -95,17 +114,8 @@ def test_stage_work_is_charged_per_scene_and_the_first_stage_one_off_left_out():
     per_frame, n = 0.002, 8
     eta = Eta(len(plan) * n, len(plan), 0.0, stages_by_scene={"dark": plan.count("dark"),
                                                               "flat": plan.count("flat")})
-    total = sum(n * per_frame + work[sc] for sc in plan) + 2.0
-    t, errors = 0.0, []
-    for i, sc in enumerate(plan):
-        eta.stage_started(t)
-        for f in range(n):
-            t += per_frame
-            eta.frame(t)
-            if i >= 3 and f == 1:
-                errors.append(eta.remaining(t) / (total - t) - 1)
-        t += work[sc] + (2.0 if i == 0 else 0.0)
-        eta.stage_finished(t, sc)
+    errors = errors_from(eta, [(0.0, n, per_frame, work[sc] + (2.0 if i == 0 else 0.0), sc)
+                               for i, sc in enumerate(plan)], check_from=3)
     assert max(abs(e) for e in errors) < 0.02, errors
 
 
@@ -142,21 +152,10 @@ def test_an_exposure_sweep_is_charged_by_each_stage_s_exposure():
     ones."""
     exposures = [0.01 + 0.99 * i / 7 for i in range(8)]
     readout, n, work, overhead = 0.005, 8, 0.05, 0.002  # the grabber's own time a frame
-    truth = [e + readout + overhead for e in exposures]
-    total = sum(n * f + work for f in truth)
     for model in (True, False):
         stacks = [("dark", n, e + readout if model else 0.0) for e in exposures]
         eta = Eta(n * len(exposures), len(exposures), 0.0, stacks=stacks)
-        t, errors = 0.0, []
-        for i, f in enumerate(truth):
-            eta.stage_started(t, "dark")
-            for k in range(n):
-                t += f
-                eta.frame(t)
-                if i >= 1 and k == 1:
-                    errors.append(eta.remaining(t) / (total - t) - 1)
-            t += work
-            eta.stage_finished(t, "dark")
+        errors = errors_from(eta, [(0.0, n, e + readout + overhead, work, "dark") for e in exposures], check_from=1)
         worst = max(abs(e) for e in errors)
         if model:
             assert worst < 0.02, errors
@@ -186,16 +185,5 @@ def test_time_between_stages_is_charged_as_stage_work():
     lets the light settle and waits for the previous stage's commit (0.2 s here): that is
     stage work every stage has, charged to the stages to come (it was charged to none)."""
     n, per_frame, gap, k = 16, 0.01, 0.2, 10
-    eta = Eta(n * k, k, 0.0)
-    t, errors = 0.0, []
-    total = k * (gap + n * per_frame)
-    for i in range(k):
-        t += gap
-        eta.stage_started(t)
-        for f in range(n):
-            t += per_frame
-            eta.frame(t)
-            if i >= 2 and f == 1:
-                errors.append(eta.remaining(t) / (total - t) - 1)
-        eta.stage_finished(t)
+    errors = errors_from(Eta(n * k, k, 0.0), [(gap, n, per_frame, 0.0, None)] * k, check_from=2)
     assert max(abs(e) for e in errors) < 0.02, errors
