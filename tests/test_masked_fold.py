@@ -38,3 +38,44 @@ def test_numba_fold_equals_numpy(monkeypatch, dtype, batch):
 def test_float_frames_take_the_numpy_fold():
     x = np.zeros((1, 4, 4), np.float32)
     assert masked_fold.fold(x, np.zeros((4, 4)), np.ones((4, 4), bool), np.zeros((4, 4)), np.zeros((4, 4))) is None
+
+
+@pytest.mark.parametrize("derived", [True, False])
+def test_kept_accessor_results_equal_fresh_ones_and_follow_new_frames(monkeypatch, derived):
+    """The masked stack keeps its sums, mean map, pixel SS and forms between calls (a
+    stage's analysis asks for each several times): the same numbers as computed afresh,
+    read-only, and recomputed once more frames arrive."""
+    import ares.analysis.masked as M
+    from ares.analysis.accumulate import StackAccumulator
+
+    rng = np.random.default_rng(3)
+    shape = (24, 32)
+    mask = rng.random(shape) < 0.05
+    frames = rng.integers(100, 4000, size=(12,) + shape).astype(np.uint16)
+
+    def stack(n):
+        full = StackAccumulator(shape) if derived else None
+        acc = MaskedStackAccumulator(shape, mask, pixels=full)
+        for f in frames[:n]:
+            if full is not None:
+                full.add(f)
+            acc.add(f)
+        return acc
+
+    kept = stack(8)
+    assert kept._derived == derived
+    first = (kept.mean_map(), kept.pixel_ss(), kept.temporal_forms(), kept.mean())
+    assert kept.mean_map() is first[0] and not first[0].flags.writeable  # kept, and read-only
+    monkeypatch.setattr(M, "MEMO_MAX_PIXELS", 0)  # nothing kept: every call computes afresh
+    fresh = stack(8)
+    np.testing.assert_array_equal(first[0], fresh.mean_map())
+    np.testing.assert_array_equal(first[1], fresh.pixel_ss())
+    assert first[2] == fresh.temporal_forms() and first[3] == fresh.mean()
+    assert fresh.decompose_dark()["Pt"].value == kept.decompose_dark()["Pt"].value
+    monkeypatch.undo()
+    if derived:
+        kept._pixels.add_batch(frames[8:])
+    kept.add_batch(frames[8:])  # more frames: the kept results are stale and recomputed
+    grown = stack(12)
+    np.testing.assert_array_equal(kept.mean_map(), grown.mean_map())
+    assert kept.temporal_forms() == grown.temporal_forms()
