@@ -316,7 +316,8 @@ class MaskedStackAccumulator:
 
     def mean(self) -> float:
         self._need()
-        return float((self._x0.sum(dtype=np.float64) + self._sums(False)[0].sum() / self._nf) / max(self.n_good, 1))
+        return self._memo("mean_value", lambda: float(
+            (self._x0.sum(dtype=np.float64) + self._sums(False)[0].sum() / self._nf) / max(self.n_good, 1)))
 
     def temporal_forms(self) -> dict:
         """The four temporal quadratic forms (summed over frame contrasts) and counts."""
