@@ -200,7 +200,8 @@ def main() -> int:
               f"| `emva1288` 1.0.2: parse, load, `Results1288` (baseline) | {pw:.2f} | {pc:.2f} | {pm:.0f} | 1.00 | 1.00 |",
               f"| `ares emva` (every release: 3.0, 3.1, 4.0 Linear and General) | {aw:.2f} | {ac:.2f} | {am:.0f} | "
               f"{pw / aw:.2f}x faster | {am / pm:.2f} |",
-              f"| only importing the libraries `ares emva` uses (numpy, scipy.special and .ndimage, Pillow; not numba) | {med['libs'][0]:.2f} | "
+              "| only importing the libraries `ares emva` uses (numpy, scipy.special and .ndimage, Pillow; not numba) "
+              f"| {med['libs'][0]:.2f} | "
               f"{med['libs'][1]:.2f} | {med['libs'][2]:.0f} | | {med['libs'][2] / pm:.2f} |", "",
               "Decode floor, the 300 PNGs on all cores, timed inside the process:", "",
               "| decoder | wall s |", "|---|---:|"]

@@ -170,8 +170,6 @@ def _pixels(T, i1, sigma, offs, pm, pg, pa, pu, q, sq, pprob, palias, plo, dm, d
         x[i] = v
 
 
-
-
 def _mode(mean, exact, has: bool) -> int | None:
     """How ``noise.shot`` draws this charge (None: a way the kernel does not cover)."""
     if not has:
@@ -349,7 +347,7 @@ def alias_draws(rng, k: int, n: int):
     calls for other generators or without numba."""
     _load()
     bg = rng.bit_generator
-    if _compiled_alias is None or type(bg) is not np.random.SFC64 or not 1 < k < 1 << 31:  # (k = 1: numpy draws nothing)
+    if _compiled_alias is None or type(bg) is not np.random.SFC64 or not 1 < k < 1 << 31:  # k = 1: no draws
         return rng.integers(0, k, size=n, dtype=np.int32), rng.random(size=n)
     st = bg.state
     s = np.array(st["state"]["state"], np.uint64)
