@@ -293,16 +293,20 @@ def test_components_model_orders_rows_and_formats_estimates():
 
 def test_shown_tabs_are_redrawn_at_most_every_refresh_interval_during_a_scan():
     """While a scan runs the Results panels follow the newest stage at most every
-    REFRESH_S (fake clock): a stage that comes sooner waits for flush(); the scan's end
-    draws it at once."""
+    RESULTS_S (fake clock): a stage that comes sooner waits for flush(); the scan's end
+    draws it at once. The run's first stage is drawn at once, even when the tab was
+    drawn (empty) just before the run started."""
     from ares.gui.events import Done, StageResult
-    from ares.gui.models.session import REFRESH_S, SessionModel
+    from ares.gui.models.session import RESULTS_S, SessionModel
 
     s = SessionModel()
     now = [10.0]
     s.clock = lambda: now[0]
     s.set_visible({"Results"})
+    s.throttle = True
+    s._refresh_result()  # e.g. the view chosen as Start Scan is pressed: the empty tab drawn
     s.begin_run("t")
+    now[0] += RESULTS_S / 10
 
     def stage(k, level):
         m = np.full((4, 5), float(level))
@@ -311,15 +315,15 @@ def test_shown_tabs_are_redrawn_at_most_every_refresh_interval_during_a_scan():
 
     s.handle(stage(1, 100))
     assert s.panels["MEAN SIGNAL"].stats.highest == 101
-    now[0] += REFRESH_S / 5
+    now[0] += RESULTS_S / 5
     s.handle(stage(2, 200))  # too soon: the panels still show stage 1 ...
     assert s.panels["MEAN SIGNAL"].stats.highest == 101
     s.flush()
     assert s.panels["MEAN SIGNAL"].stats.highest == 101
-    now[0] += REFRESH_S
+    now[0] += RESULTS_S
     s.flush()  # ... until the interval has passed
     assert s.panels["MEAN SIGNAL"].stats.highest == 201
-    now[0] += REFRESH_S / 5
+    now[0] += RESULTS_S / 5
     s.handle(stage(3, 300))
     assert s.panels["MEAN SIGNAL"].stats.highest == 201
     s.handle(Done(None, {}))  # the end draws the newest at once
@@ -327,12 +331,12 @@ def test_shown_tabs_are_redrawn_at_most_every_refresh_interval_during_a_scan():
 
 
 def test_the_newest_stage_is_shown_at_most_every_refresh_interval_and_the_ptc_redrawn_once_per_stage():
-    """While a scan runs, a stage result that comes within REFRESH_S of the last one shown
+    """While a scan runs, a stage result that comes within RESULTS_S of the last one shown
     waits (components, highlighted PTC point, maps) for flush(), and each stage moves the
     PTC (dark level, point, highlight) with one notification, not three; every point is
     still in the PTC model at once."""
     from ares.gui.events import Done, StageResult
-    from ares.gui.models.session import REFRESH_S, SessionModel
+    from ares.gui.models.session import RESULTS_S, SessionModel
 
     s = SessionModel()
     now = [10.0]
@@ -351,14 +355,14 @@ def test_the_newest_stage_is_shown_at_most_every_refresh_interval_and_the_ptc_re
     s.handle(stage(1))
     assert redraws == [0, 1]  # one notification per stage
     assert s.components.caption.startswith("stage 0")  # stage 1 came too soon after stage 0
-    now[0] += REFRESH_S / 5
+    now[0] += RESULTS_S / 5
     s.handle(stage(2))
     assert s.components.caption.startswith("stage 0") and s.ptc.highlighted == 0
     assert [p.stage for p in s.ptc.points] == [1, 2]  # the points are all there
-    now[0] += REFRESH_S
+    now[0] += RESULTS_S
     s.flush()
     assert s.components.caption.startswith("stage 2") and s.ptc.highlighted == 2
-    now[0] += REFRESH_S / 5
+    now[0] += RESULTS_S / 5
     s.handle(stage(3))
     assert s.components.caption.startswith("stage 2")
     s.handle(Done(None, {}))  # the end shows the newest at once

@@ -30,13 +30,15 @@ PANELS = ("MEAN SIGNAL", "NOISE", "COLUMNS", "ROWS")
 RESULTS, DISTRIBUTIONS, PROFILES, SIGNAL_MAP, NOISE_MAP = (
     "Results", "Pixel Distributions", "Profiles", "Signal Map", "Noise Map")
 LAZY_TABS = (RESULTS, DISTRIBUTIONS, PROFILES, SIGNAL_MAP, NOISE_MAP)
-# While a scan runs, a shown tab (and the newest stage on every tab) is recomputed at most
-# this often -- each costs the scan a few tens of ms of the shared cores and, drawn in Python,
-# holds the interpreter the scan's threads share (the newest stage or frame wins; ``flush``
-# catches up, and the scan's end draws everything at once). Measured on make run's scan
-# (benchmarks/gui.md, 5 pairs each): GUI/headless 1.13 at 1 s, 1.05 at 2 s, 1.02 at 3 s. A
-# real sensor's stage takes longer than this: every stage is still shown as it ends.
-REFRESH_S = 3.0
+# While a scan runs, a shown tab is recomputed at most every REFRESH_S, and the newest stage
+# reaches the tabs at most every RESULTS_S -- each drawing costs the scan a few tens of ms of
+# the shared cores and, being Python, holds the interpreter the scan's threads share (the
+# newest stage or frame wins; ``flush`` catches up, and the scan's end draws everything at
+# once). Measured on make run's scan (benchmarks/gui.md, 5 pairs each): GUI/headless 1.13
+# with the newest stage every 1 s, 1.05 every 2 s, 1.02 every 3 s. A real sensor's stage
+# takes longer than that: every stage is still shown as it ends.
+REFRESH_S = 1.0
+RESULTS_S = 3.0
 
 
 class InfoModel(Observable):
@@ -121,7 +123,7 @@ class SessionModel:
 
     def flush(self, force: bool = False) -> None:
         """Draw the shown tabs whose newest data waited (every one when ``force``)."""
-        if self._result_waits and (force or self.clock() - self._result_at >= REFRESH_S):
+        if self._result_waits and (force or self.clock() - self._result_at >= RESULTS_S):
             self._result_waits = False
             if self.stages.following_latest:
                 self._show_latest(force=True)
@@ -167,6 +169,7 @@ class SessionModel:
         self.last_frame = None
         self.throttle = True
         self._result_at, self._result_waits = -math.inf, False
+        self._drawn_at.clear()  # the run's first frame and first stage are drawn at once
 
     def handle(self, ev) -> None:
         if isinstance(ev, RunInfo):
@@ -253,11 +256,11 @@ class SessionModel:
             self._summary(ev.summary)
 
     def _show_latest(self, force: bool = False) -> None:
-        """The newest stage on every tab; while a scan runs at most every ``REFRESH_S``
+        """The newest stage on every tab; while a scan runs at most every ``RESULTS_S``
         (stages a fifth of a second apart would otherwise redraw the window five times a
         second beside the acquisition): a stage that comes sooner waits for ``flush``."""
         now = self.clock()
-        if not force and self.throttle and now - self._result_at < REFRESH_S:
+        if not force and self.throttle and now - self._result_at < RESULTS_S:
             self._result_waits = True
             return
         self._result_at, self._result_waits = now, False
