@@ -187,3 +187,27 @@ def test_time_between_stages_is_charged_as_stage_work():
     n, per_frame, gap, k = 16, 0.01, 0.2, 10
     errors = errors_from(Eta(n * k, k, 0.0), [(gap, n, per_frame, 0.0, None)] * k, check_from=2)
     assert max(abs(e) for e in errors) < 0.02, errors
+
+
+@pytest.mark.parametrize("paced", [True, False])
+def test_the_runner_plans_exposure_plus_readout_only_for_a_paced_frame_source(monkeypatch, tmp_path, paced):
+    """The runner hands the time remaining each stack's model time from the frame source's
+    ``exposure_paced``: exposure + readout for a real sensor's frames, none for the
+    simulator's (whose frame time does not follow the exposure)."""
+    from pathlib import Path
+
+    import ares.scan.runner as R
+    from ares.protocol import load_scan
+    from ares.sim.bench import SimFrameSource
+
+    small = Path(__file__).resolve().parents[1] / "fixtures" / "xml" / "small"
+    text = (small / "ptc_small.xml").read_text().replace('href="sim_small.xml"', f'href="{small / "sim_small.xml"}"')
+    text = text.replace('<set quantity="exposure" value="0.01"/>', '<set quantity="exposure" value="0.02"/>')
+    (tmp_path / "scan.xml").write_text(text)
+    scan = load_scan(tmp_path / "scan.xml")
+    seen = []
+    monkeypatch.setattr(SimFrameSource, "exposure_paced", paced)
+    monkeypatch.setattr(R, "Eta", lambda *a, **k: seen.append(k["stacks"]) or Eta(*a, **k))
+    assert R.Runner(scan, seed=1, frames=2).run().status == "done"
+    models = {m for _, _, m in seen[0]}
+    assert models == ({0.02 + scan.system.timing.readout_s} if paced else {0.0})
