@@ -149,3 +149,25 @@ def test_not_estimable_is_na(shape, nf, missing):
     for k in DARK_NAMES[1:]:
         assert not d[k].available, k
         assert d[k].note == f"needs >= 2 {missing}", d[k].note
+
+
+def test_the_table_is_kept_by_the_accumulator_until_frames_arrive():
+    """A stage's analysis (and a matched dark reused at every stage) asks for the same
+    table several times: the accumulator keeps it, equal to a fresh one, and computes it
+    anew once more frames are added."""
+    from ares.analysis import anova
+
+    rng = np.random.default_rng(5)
+    frames = rng.integers(100, 200, size=(10, 12, 14)).astype(np.uint16)
+    acc = StackAccumulator((12, 14))
+    acc.add_batch(frames[:6])
+    t1 = anova_table(acc)
+    assert anova_table(acc) is t1
+    fresh = StackAccumulator((12, 14))
+    fresh.add_batch(frames[:6])
+    assert anova._table(fresh).ss == t1.ss and anova._table(fresh).df == t1.df
+    acc.add_batch(frames[6:])
+    t2 = anova_table(acc)
+    assert t2 is not t1 and t2.F == 10
+    fresh.add_batch(frames[6:])
+    assert anova._table(fresh).ss == t2.ss

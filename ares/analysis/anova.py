@@ -59,9 +59,16 @@ class AnovaTable:
 
 
 def anova_table(acc: StackAccumulator) -> AnovaTable:
-    """Three-way ANOVA table from an accumulator (no frame data needed)."""
+    """Three-way ANOVA table from an accumulator (no frame data needed); kept by the
+    accumulator until it changes (a stage's analysis asks for it several times, and a
+    reused matched dark at every stage)."""
     if getattr(acc, "masked", False):  # defect-masked stack: unbalanced ANOVA (masked.py, via the accumulator)
         return acc.anova_table()
+    cached = getattr(acc, "_cached", None)
+    return cached("anova", lambda: _table(acc)) if cached is not None else _table(acc)
+
+
+def _table(acc) -> AnovaTable:
     F = acc.n_frames
     R, C = acc.shape
     mrc = acc.mean_map()

@@ -86,7 +86,7 @@ class MaskedStackAccumulator:
     # the masked ANOVA, reached through the accumulator: anova.py and flat.py dispatch here
     # without importing this module (which imports them)
     def anova_table(self) -> "MaskedTable":
-        return masked_table(self)
+        return self._memo("table", lambda: masked_table(self))  # (kept: see _memo)
 
     def decompose_dark(self, table=None) -> dict[str, Estimate]:
         return decompose_dark_masked(self, table)
