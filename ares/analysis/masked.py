@@ -350,7 +350,7 @@ class MaskedStackAccumulator:
 # ---------------------------------------------------------------------- two-way forms
 def decompose_dark_masked(acc: MaskedStackAccumulator, table: MaskedTable | None = None) -> dict[str, Estimate]:
     """Dark components (as ``anova.decompose_dark``) on the good pixels of a masked stack."""
-    tab = table if isinstance(table, MaskedTable) else masked_table(acc)
+    tab = table if isinstance(table, MaskedTable) else acc.anova_table()
     u = "DN^2"
     if tab.F < 2 or tab.R < 2 or tab.C < 2 or not tab.ok:
         msg = "needs >= 2 frames and >= 2 rows and columns of good pixels"
@@ -388,8 +388,8 @@ def decompose_flat_masked(flat_acc, dark_acc, gain=None, illumination="highpass"
         raise InputError(f"illumination must be 'highpass', 'surface' or 'none', not {illumination!r}")
     if flat_acc.shape != dark_acc.shape or not np.array_equal(flat_acc.mask, dark_acc.mask):
         raise InputError("flat and dark stacks must have the same frame shape and mask")
-    tf = flat_table if isinstance(flat_table, MaskedTable) else masked_table(flat_acc)
-    td = dark_table if isinstance(dark_table, MaskedTable) else masked_table(dark_acc)
+    tf = flat_table if isinstance(flat_table, MaskedTable) else flat_acc.anova_table()
+    td = dark_table if isinstance(dark_table, MaskedTable) else dark_acc.anova_table()
     out: dict[str, Estimate] = {}
     na = "needs >= 2 frames and >= 2 rows and columns of good pixels in both stacks"
     if not (tf.ok and td.ok and tf.F > 1 and td.F > 1):
