@@ -86,18 +86,19 @@ def _kernel(T, i1, sigma, offs, pm, pg, pa, pu, q, sq, pprob, palias, plo, dm, d
     inlined), so no mode test runs per pixel: with the tests inside, the compiler keeps
     the loop 1.6-1.7x slower (a VGA frame: Gaussian 2.9 vs 1.7 ms, exact Poisson 3.9 vs
     2.5 ms, dark 1.4 vs 0.85 ms)."""
+    left = left if has_left else left[:0]  # (empty: nothing carried in)
     if pm == GAUSS and dm == GAUSS:
         _pixels(T, i1, sigma, offs, GAUSS, pg, pa, pu, q, sq, pprob, palias, plo, GAUSS, dg, da, du, dark_e, sd,
-                dprob, dalias, dlo, lag, left if has_left else left[:0], lag_out, fw, G, pgr, cgrg, x)
+                dprob, dalias, dlo, lag, left, lag_out, fw, G, pgr, cgrg, x)
     elif pm == ALIAS and dm == GAUSS:
         _pixels(T, i1, sigma, offs, ALIAS, pg, pa, pu, q, sq, pprob, palias, plo, GAUSS, dg, da, du, dark_e, sd,
-                dprob, dalias, dlo, lag, left if has_left else left[:0], lag_out, fw, G, pgr, cgrg, x)
+                dprob, dalias, dlo, lag, left, lag_out, fw, G, pgr, cgrg, x)
     elif pm == NONE and dm == GAUSS:
         _pixels(T, i1, sigma, offs, NONE, pg, pa, pu, q, sq, pprob, palias, plo, GAUSS, dg, da, du, dark_e, sd,
-                dprob, dalias, dlo, lag, left if has_left else left[:0], lag_out, fw, G, pgr, cgrg, x)
+                dprob, dalias, dlo, lag, left, lag_out, fw, G, pgr, cgrg, x)
     else:
         _pixels(T, i1, sigma, offs, pm, pg, pa, pu, q, sq, pprob, palias, plo, dm, dg, da, du, dark_e, sd,
-                dprob, dalias, dlo, lag, left if has_left else left[:0], lag_out, fw, G, pgr, cgrg, x)
+                dprob, dalias, dlo, lag, left, lag_out, fw, G, pgr, cgrg, x)
 
 
 def _pixels(T, i1, sigma, offs, pm, pg, pa, pu, q, sq, pprob, palias, plo, dm, dg, da, du, dark_e, sd, dprob, dalias,
