@@ -33,6 +33,7 @@ def window(qtbot):
     qtbot.addWidget(w)
     w.resize(1400, 900)
     w.show()
+    w.confirm = lambda title, text: True  # never a modal question (pytest-qt closes the window first)
     yield w
     if w.running:
         w.abort_scan()
@@ -211,6 +212,19 @@ def test_auto_repeat_starts_the_scan_again(window, qtbot):
     window.buttons.auto_repeat.setChecked(False)
     qtbot.waitUntil(lambda: idle(window), timeout=TIMEOUT_MS)
     assert window.session.progress.state == P.DONE
+    started = window.runs_started
+    qtbot.wait(50)  # a next run queued as the last one ended is not started once unticked
+    assert window.runs_started == started and idle(window)
+
+
+def test_unticking_auto_repeat_as_a_run_ends_starts_no_other(window, qtbot):
+    """The next run is queued when a run ends; unticked before it starts, it does not."""
+    window.set_job_factory(tiny(shape=(6, 6), frames=2, levels_e=(0, 10)))
+    window.buttons.auto_repeat.setChecked(True)
+    run_to_end(qtbot, window)  # ends with the next run queued
+    window.buttons.auto_repeat.setChecked(False)
+    qtbot.wait(50)
+    assert window.runs_started == 1 and idle(window)
 
 
 class Broken(DemoScan):

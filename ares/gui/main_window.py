@@ -340,7 +340,12 @@ class MainWindow(QMainWindow):
             run_dir = self.session.info.items.get("run directory")
             self.statusBar().showMessage(f"Scan finished; {run_dir} complete." if run_dir else "Scan finished.")
             if self.buttons.auto_repeat.isChecked() and not self.running:
-                QTimer.singleShot(0, self.start_scan)
+                QTimer.singleShot(0, self._repeat)
+
+    def _repeat(self) -> None:
+        """Auto Repeat's next run, unless it was unticked since the last one ended."""
+        if self.buttons.auto_repeat.isChecked():
+            self.start_scan()
 
     # ---- messages and images ----------------------------------------------------------
     def show_error(self, message: str) -> None:
