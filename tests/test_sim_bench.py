@@ -208,3 +208,50 @@ def test_released_or_closed_grabber_gives_the_same_frames_and_truth():
             np.testing.assert_array_equal(a, b)
 
     same(before, after)
+
+
+@pytest.mark.parametrize("fields", [
+    {"light": 1e4},  # exact Poisson by the alias method
+    {"light": 5e5, "exposure": 0.04},  # a Gaussian draw, reaching the full well
+    {"light": 2e3, "test_mode": 1},  # dark
+    {"light": 0.0, "temperature": 60.0, "exposure": 1.0},  # hot dark: exact per pixel
+    {"light": 1e5, "test_mode": 2},  # the ADC ramp
+    {"light": 1e5, "sf_bias": 2.2, "tx_low": 0.0, "analog_gain": 4.0},
+])
+def test_frame_cost_at_given_settings_is_the_cost_once_they_are_set(fields):
+    """``frame_cost`` (what the time remaining weighs a stage by) at settings not applied
+    equals the cost read after applying them, takes the path ``render`` takes, and draws
+    nothing: the frames after it are the same as without it."""
+    from ares.sim import cost, fused
+
+    b, ref = make_sim_bench(P, seed=4), make_sim_bench(P, seed=4)
+    got = b.frames.frame_cost(fields)
+    for bench in (b, ref):
+        for name, value in fields.items():
+            if name == "light":
+                bench.light.set_level(value)
+            elif name == "temperature":
+                bench.chamber.set_temperature(value)
+            else:
+                bench.registers.set(name, value)
+    assert got == b.frames.frame_cost({})
+    assert np.array_equal(grab(b, 3), grab(ref, 3))
+    s = b.frames.settings()
+    if s.pop("test_mode") != 2:
+        s.pop("streaming")
+        sens = b.frames.sensor
+        sens.render(1, dark=fields.get("test_mode") == 1, **s)
+        sc, plan = sens._cache
+        modes = None if plan["fast"] else fused._modes(sc, plan)
+        assert got == cost.frame_cost(plan["fast"], modes, sens.patterns.adc.thresholds is not None)
+    b.close()
+    ref.close()
+
+
+def test_frame_cost_orders_the_paths_as_they_cost():
+    """Exact Poisson at low light costs more a frame than a Gaussian draw, a dark frame
+    less, and the one-draw fast path least (``benchmarks/sim.md`` measures the times)."""
+    b = make_sim_bench(SensorParams(rows=48, cols=64, lag_fraction=1e-4), seed=1)
+    alias, gauss, dark = (b.frames.frame_cost(f) for f in ({"light": 1e4}, {"light": 5e5}, {"light": 0.0}))
+    fast = make_sim_bench(P, seed=1).frames.frame_cost({"light": 5e5})
+    assert alias > 1.5 * gauss and gauss > dark > fast > 0

@@ -26,6 +26,7 @@ import numpy as np
 from ares.errors import DeviceGone, FrameError, InputError, ValueOutOfRange
 from ares.hardware.interfaces import Bench, Frame
 from ares.hardware.registers import RegisterFile
+from ares.sim import cost
 from ares.sim.params import SensorParams
 from ares.sim.regmap import SIM_REGISTER_MAP
 from ares.sim.sensor import SimSensor
@@ -156,25 +157,47 @@ class SimFrameSource:
         self.frames_delivered = 0
         self._short_fired = False
         self.clock_s = 0.0  # simulated time: sum of exposures
+        self.compute_seconds = 0.0  # wall seconds spent making frames (the time remaining weighs stages by it)
         self._sf0 = SIM_REGISTER_MAP.field("sf_bias").to_physical(SIM_REGISTER_MAP.field("sf_bias").default)
         self._tx0 = SIM_REGISTER_MAP.field("tx_low").to_physical(SIM_REGISTER_MAP.field("tx_low").default)
 
-    def settings(self) -> dict:
-        """The operating point the registers and instruments define now."""
-        r = self.registers
-        sf, tx = r.get("sf_bias"), r.get("tx_low")
+    def settings(self, fields: dict | None = None) -> dict:
+        """The operating point the registers and instruments define now, or would with
+        ``fields`` set (register field -> physical value, ``light``, ``temperature``)."""
+        fields = fields or {}
+        regmap = self.registers.map
+
+        def get(name):
+            if name in fields:  # as the register would hold it
+                f = regmap.field(name)
+                return f.to_physical(f.to_raw(fields[name]))
+            return self.registers.get(name)
+
+        sf, tx = get("sf_bias"), get("tx_low")
+        light = self.light.get_level() if self.light is not None else 0.0
+        temperature = self.chamber.get_temperature() if self.chamber is not None else 25.0
         return dict(
-            exposure_s=r.get("exposure"),
-            analog_gain=r.get("analog_gain"),
-            black_level_dn=r.get("black_level"),
-            test_mode=int(r.get("test_mode")),
-            streaming=int(r.get("streaming")),
-            photon_flux=self.light.get_level() if self.light is not None else 0.0,
-            temperature_c=self.chamber.get_temperature() if self.chamber is not None else 25.0,
+            exposure_s=get("exposure"),
+            analog_gain=get("analog_gain"),
+            black_level_dn=get("black_level"),
+            test_mode=int(get("test_mode")),
+            streaming=int(get("streaming")),
+            photon_flux=fields.get("light", light) if self.light is not None else 0.0,
+            temperature_c=fields.get("temperature", temperature) if self.chamber is not None else 25.0,
             read_noise_scale=1.0 + ((sf - self._sf0) / 0.8) ** 2,
             dark_current_scale=2.0 ** ((tx - self._tx0) / 0.25),
             lag_scale=2.0 ** (-(tx - self._tx0) / 0.25),
         )
+
+    def frame_cost(self, fields: dict) -> float:
+        """Relative cost of a frame with ``fields`` set (as ``settings``): the time
+        remaining charges the stages to come by it (``ares.sim.cost``)."""
+        s = self.settings(fields)
+        mode = s.pop("test_mode")
+        s.pop("streaming")
+        if mode == 2:
+            return cost.RAMP
+        return self.sensor.frame_cost(dark=mode == 1, shot_noise=self.sensor.params.shot_noise, **s)
 
     def grab(self, n: int):
         """Yield ``n`` frames (ares.hardware.interfaces.Frame, uint16 data)."""
@@ -193,10 +216,12 @@ class SimFrameSource:
             k = min(left, _CHUNK, self._frames_until_fault())
             if k == 0:
                 self._raise_fault()
+            t0 = time.perf_counter()
             if mode == 2:
                 data = self.sensor.render_ramp(k)
             else:
                 data = self.sensor.render(k, dark=(mode == 1), shot_noise=self.sensor.params.shot_noise, **s)
+            self.compute_seconds += time.perf_counter() - t0
             for frame in data:
                 if self.faults.get("frame_delay_ms"):
                     time.sleep(self.faults["frame_delay_ms"] / 1000.0)

@@ -182,11 +182,15 @@ def _mode(mean, exact, has: bool) -> int | None:
     return None
 
 
+def modes(sc, has_q: bool, mask_q, mask_d) -> tuple[int | None, int | None]:
+    """(photo mode, dark mode) at an operating point, from ``SimSensor._route``'s choices."""
+    return _mode(sc.q, mask_q, bool(has_q)), _mode(sc.dark_e, mask_d, sc.dark_e is not None)
+
+
 def _modes(sc, plan) -> tuple[int | None, int | None]:
     """(photo mode, dark mode) of a plan, decided once per operating point."""
     if "fused_modes" not in plan:
-        plan["fused_modes"] = (_mode(sc.q, plan["mask_q"], bool(plan["has_q"])),
-                               _mode(sc.dark_e, plan["mask_d"], sc.dark_e is not None))
+        plan["fused_modes"] = modes(sc, plan["has_q"], plan["mask_q"], plan["mask_d"])
     return plan["fused_modes"]
 
 

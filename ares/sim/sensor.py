@@ -23,7 +23,7 @@ from __future__ import annotations
 import numpy as np
 
 from ares.errors import InputError
-from ares.sim import fused, noise
+from ares.sim import cost, fused, noise
 from ares.sim.params import SensorParams
 from ares.sim.patterns import FixedPatterns
 from ares.sim.scene import Scene, resolve_scene
@@ -154,7 +154,32 @@ class SimSensor:
         kw.pop("start_frame", None)
         return build_truth(self, self.scene(**kw))
 
+    def frame_cost(self, **kw) -> float:
+        """Relative cost of computing a frame at an operating point (``render``'s
+        keywords), by the path ``render`` takes for it (``ares.sim.cost``); draws nothing."""
+        sc = self.scene(**kw)
+        has_q, mask_q, mask_d, fast = self._route(sc)
+        modes = None if fast else fused.modes(sc, has_q, mask_q, mask_d)
+        return cost.frame_cost(fast, modes, self.patterns.adc.thresholds is not None)
+
     # ------------------------------------------------------------------------------
+    def _route(self, sc: Scene) -> tuple:
+        """(photo charge present, where photo / dark shot noise is drawn exactly, the fast
+        path applies): the per-operating-point choices that decide a frame's path."""
+        p = self.params
+        has_q = bool(np.any(np.asarray(sc.q) > 0))
+        s2_e = sc.read_noise_e**2 + (p.chain_noise_dn**2 + 1 / 12) / sc.G**2
+        mask_q = noise.exact_mask(sc.q, s2_e, sc.shot_noise) if has_q else False
+        mask_d = noise.exact_mask(sc.dark_e, s2_e, sc.shot_noise) if sc.dark_e is not None else False
+        if np.any(mask_q) or np.any(mask_d) or sc.lag != 0:
+            return has_q, mask_q, mask_d, False
+        fp = self.patterns
+        pg_max = float(np.max(fp.pixel_gain * fp.response))
+        q_max = float(np.max(sc.q))
+        d_max = float(np.max(sc.dark_e)) if sc.dark_e is not None else 0.0
+        hi = pg_max * q_max + d_max + 6 * np.sqrt(pg_max**2 * q_max + d_max) + 6 * sc.read_noise_e
+        return has_q, mask_q, mask_d, bool(hi < p.full_well_e)
+
     def _plan(self, sc: Scene) -> dict:
         """Per-call precomputation: fixed DN maps, per-pixel sigmas, path choice."""
         p, fp = self.params, self.patterns
@@ -171,15 +196,7 @@ class SimSensor:
         gmap = _F32(G) * fp.col_gain[None, :] * fp.row_gain[:, None] * fp.pixel_gain * fp.response
         rn = _F32(G * sc.read_noise_e) * fp.read_noise_factor
         var_rc = rn * rn + _F32(p.chain_noise_dn**2)  # read + chain noise, DN^2 (map)
-        has_q = np.any(np.asarray(sc.q) > 0)
-        s2_e = sc.read_noise_e**2 + (p.chain_noise_dn**2 + 1 / 12) / G**2
-        mask_q = noise.exact_mask(sc.q, s2_e, sc.shot_noise) if has_q else False
-        mask_d = noise.exact_mask(sc.dark_e, s2_e, sc.shot_noise) if sc.dark_e is not None else False
-        pg_max = float(np.max(fp.pixel_gain * fp.response))
-        q_max = float(np.max(sc.q))
-        d_max = float(np.max(sc.dark_e)) if sc.dark_e is not None else 0.0
-        hi = pg_max * q_max + d_max + 6 * np.sqrt(pg_max**2 * q_max + d_max) + 6 * sc.read_noise_e
-        fast = (not np.any(mask_q) and not np.any(mask_d) and sc.lag == 0 and hi < p.full_well_e)
+        has_q, mask_q, mask_d, fast = self._route(sc)
         plan = dict(fast=fast, gauss_fast=sc.shot_noise != "exact", offs=offs, half=half)
         if fast:
             base = offs
