@@ -4,6 +4,8 @@ carry the first stage's one-off work or its slower frames into every later estim
 
 from __future__ import annotations
 
+from types import SimpleNamespace
+
 import pytest
 
 from ares.scan.eta import Eta
@@ -39,7 +41,7 @@ def errors_from(eta: Eta, stages, check_from: int) -> list[float]:
     t, errors = 0.0, []
     for i, (before, n, per_frame, after, scene) in enumerate(stages):
         t += before
-        eta.stage_started(t, "dark" if scene == "dark" else None)
+        eta.stage_started(t, "dark" if scene == "dark" else scene and "flat")
         for k in range(n):
             t += per_frame
             eta.frame(t)
@@ -170,14 +172,16 @@ def test_stacks_cost_exposure_plus_readout_only_on_a_paced_bench():
 
     scan = load_scan("scans/dark_current.xml")
     stages = expand(scan)
-    paced = _stacks(scan, stages, True)
-    assert sum(n for _, n, _ in paced) == sum(st.frames_to_grab() for st in stages)
+    paced = _stacks(scan, stages, SimpleNamespace(exposure_paced=True))
+    assert sum(n for _, n, _, _ in paced) == sum(st.frames_to_grab() for st in stages)
     readout = scan.system.timing.readout_s
     want = [frame_seconds(scan, st) for st in stages if st.scene == "dark"]
-    assert [c for k, _, c in paced][:len(want)] == want  # the sweep's dark stages come first
+    assert [c for k, _, c, _ in paced][:len(want)] == want  # the sweep's dark stages come first
     assert want == pytest.approx([st.settings["exposure"] + readout for st in stages if st.scene == "dark"])
     assert max(want) > 0.5 and min(want) < 0.1  # 10 ms to 1 s
-    assert {c for _, _, c in _stacks(scan, stages, False)} == {0.0}  # the simulator: no model
+    unpaced = _stacks(scan, stages, SimpleNamespace(exposure_paced=False))
+    assert {c for _, _, c, _ in unpaced} == {0.0}  # the simulator: no model
+    assert {w for *_, w in paced + unpaced} == {1.0}  # a source that cannot weigh its frames
 
 
 def test_time_between_stages_is_charged_as_stage_work():
@@ -209,5 +213,89 @@ def test_the_runner_plans_exposure_plus_readout_only_for_a_paced_frame_source(mo
     monkeypatch.setattr(SimFrameSource, "exposure_paced", paced)
     monkeypatch.setattr(R, "Eta", lambda *a, **k: seen.append(k["stacks"]) or Eta(*a, **k))
     assert R.Runner(scan, seed=1, frames=2).run().status == "done"
-    models = {m for _, _, m in seen[0]}
+    models = {m for _, _, m, _ in seen[0]}
     assert models == ({0.02 + scan.system.timing.readout_s} if paced else {0.0})
+
+
+def test_stacks_weighed_by_their_frames_cost_are_charged_by_it():
+    """make run on the simulator: a dark stage, 11 low-light stages whose exact Poisson
+    frames cost the simulator 4.55 ms, 14 brighter ones 2.75 ms (``ares.sim.cost``'s
+    units), each frame also taking 1.2 ms (0.7 in the dark stage) of accumulation and the
+    previous stage's analysis beside it. With each stack's cost and the simulator's own
+    seconds (``compute``), the brighter stages are charged their own time before any has
+    run: within 3 % from the second stage on; without, they are charged at the low-light
+    rate (20 %+ high)."""
+    costs = [1.8] + [4.55] * 11 + [2.75] * 14
+    rest = [7e-4] + [1.2e-3] * 25
+    total = sum(0.01 + (32 if i == 0 else 16) * (c * 1e-3 + r) + 0.005 for i, (c, r) in enumerate(zip(costs, rest)))
+    worst = {}
+    for weighed in (True, False):
+        stacks = [("dark" if i == 0 else "flat", 32 if i == 0 else 16, 0.0, c if weighed else 1.0)
+                  for i, c in enumerate(costs)]
+        eta = Eta(sum(n for _, n, *_ in stacks), len(stacks), 0.0, stacks=stacks,
+                  stages_by_scene={"dark": 1, "flat": len(stacks) - 1})
+        t, made, errors = 0.0, 0.0, []
+        for i, ((kind, n, _, _), c, r) in enumerate(zip(stacks, costs, rest)):
+            t += 0.01
+            eta.stage_started(t, kind)
+            for f in range(n):
+                t += c * 1e-3 + r
+                made += c * 1e-3
+                eta.frame(t, made if weighed else None)
+                if i >= 1 and f == 1:
+                    errors.append(eta.remaining(t) / (total - t) - 1)
+            t += 0.005
+            eta.stage_finished(t, kind)
+        worst[weighed] = max(abs(e) for e in errors)
+    assert worst[True] < 0.03, worst
+    assert worst[False] > 0.20, worst
+
+
+def test_the_simulator_weighs_make_run_s_stages_by_their_path():
+    """The runner's stacks for make run's scan on the simulator: the low-light stages
+    (exact Poisson by the alias method) cost more a frame than the brighter ones, the dark
+    stage least; the weights come from the path ``render`` takes at each stage's settings."""
+    from ares.hardware.factory import build_bench
+    from ares.protocol import load_scan
+    from ares.scan.runner import _stacks
+    from ares.scan.stages import expand
+    from ares.sim import cost
+
+    scan = load_scan("scans/photon_transfer.xml")
+    bench = build_bench(scan.system, seed=1)
+    try:
+        stacks = _stacks(scan, expand(scan), bench.frames)
+    finally:
+        bench.close()
+    weights = [w for *_, w in stacks]
+    alias = cost.BASE + cost.DRAW[cost.fused.ALIAS] + cost.DRAW[cost.fused.GAUSS] + cost.LOOKUP
+    gauss = cost.BASE + 2 * cost.DRAW[cost.fused.GAUSS] + cost.LOOKUP
+    dark = cost.BASE + cost.DRAW[cost.fused.GAUSS] + cost.LOOKUP
+    assert weights == pytest.approx([dark] + [alias] * 11 + [gauss] * 14)
+
+
+def test_the_wait_for_the_last_stage_s_analysis_is_charged():
+    """Each stage's analysis and write (0.1 s here) runs beside the next stage's frames,
+    so only the last one is waited for after the last frame. Told how long the latest
+    took (``end_work``: known once the second stage is in), the time left is within 2 %
+from the third stage to the last;
+    untold, the last stages read far low (a third of the time left at the last stage)."""
+    n, per_frame, gap, commit, k = 16, 0.01, 0.005, 0.1, 10
+    total = k * (gap + n * per_frame) + commit
+    worst = {}
+    for told in (True, False):
+        eta, t, errors = Eta(n * k, k, 0.0), 0.0, []
+        for i in range(k):
+            t += gap
+            eta.stage_started(t)
+            for f in range(n):
+                t += per_frame
+                eta.frame(t)
+                if i >= 2 and f == 1:
+                    errors.append(eta.remaining(t) / (total - t) - 1)
+            eta.stage_finished(t)
+            if told and i:  # the runner learns a commit's time when it submits the next stage
+                eta.end_work(commit)
+        worst[told] = max(abs(e) for e in errors)
+    assert worst[True] < 0.02, worst
+    assert worst[False] > 0.3, worst

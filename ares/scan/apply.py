@@ -32,3 +32,16 @@ def apply_settings(bench, system, settings: dict, previous: dict | None = None, 
             bench.registers.set(key[4:], value)
         else:  # the protocol layer admits no other key
             raise InputError(f"unknown setting '{key}'")
+
+
+def as_fields(system, settings: dict) -> dict:
+    """A stage's settings as the bench's frame source names them: register field ->
+    physical value (``exposure`` and ``analog_gain`` by the system's control fields),
+    ``light`` and ``temperature`` as they are."""
+    out = {}
+    for key, value in settings.items():
+        if key in ("exposure", "analog_gain"):
+            out[getattr(system.controls, key)] = value
+        else:
+            out[key[4:] if key.startswith("reg:") else key] = value
+    return out

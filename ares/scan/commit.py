@@ -18,6 +18,7 @@ from __future__ import annotations
 
 import logging
 import threading
+import time
 from typing import Callable
 
 log = logging.getLogger(__name__)
@@ -29,19 +30,25 @@ class StageCommitter:
         self.threaded = threaded
         self._thread: threading.Thread | None = None
         self._error: BaseException | None = None
+        self.seconds: float | None = None  # how long the latest finished commit took
 
     def submit(self, *args) -> None:
         """Analyse and commit a stage: in the worker thread, after the previous one."""
         self.wait()
         if not self.threaded:
-            self._fn(*args)
+            self._timed(*args)
             return
         self._thread = threading.Thread(target=self._work, args=args, name="ares-stage-commit", daemon=True)
         self._thread.start()
 
+    def _timed(self, *args) -> None:
+        t0 = time.monotonic()
+        self._fn(*args)
+        self.seconds = time.monotonic() - t0
+
     def _work(self, *args) -> None:
         try:
-            self._fn(*args)
+            self._timed(*args)
         except BaseException as exc:  # noqa: BLE001 -- handed to the acquiring thread
             self._error = exc
 

@@ -18,6 +18,16 @@ charged 1 s frames at its last stages, not the 10 ms of its first. Without a mod
 (0: the simulator, whose frame time does not follow the exposure) that is the whole
 frame time.
 
+A stack may also carry a relative cost of its frames (``FrameSource.frame_cost``: the
+simulator's frame costs what its path costs, not the exposure: exact Poisson at low
+light 1.7x a Gaussian draw, so make run's 11 low-light stages would charge the 14
+brighter ones after them 1.4x their time). Rates are then kept per kind and cost. A
+source that also counts the seconds it spends making frames (``compute_seconds``: the
+simulator) lets a stack whose cost has not been timed yet be charged in two parts: the
+source's seconds per unit of cost, from its latest stacks, times the stack's cost, plus
+the rest of a frame's time (accumulating it, previews, the previous stage's analysis
+beside it) as its kind's latest stacks took it.
+
 ``Eta`` is fed event times by the runner and knows nothing of clocks itself (tests give
 it made-up times)."""
 
@@ -29,20 +39,22 @@ from collections import deque
 
 class Eta:
     def __init__(self, frames_total: int, stages_total: int, prior_s: float = 0.0,
-                 stacks: list[tuple[str, int, float]] | None = None, stages_by_scene: dict[str, int] | None = None):
-        """``stacks``: the scan's stacks in order, (kind, frames, model seconds of a frame);
-        else ``frames_total`` frames of one kind without a model."""
+                 stacks: list[tuple] | None = None, stages_by_scene: dict[str, int] | None = None):
+        """``stacks``: the scan's stacks in order, (kind, frames, model seconds of a frame[,
+        relative cost of a frame, default 1]); else ``frames_total`` frames of one kind
+        without a model."""
         self.frames_total = frames_total
         if stacks is None:
             stacks = [("", frames_total, 0.0)]
-        self.left: dict[str, deque] = {}  # kind -> [frames, model s a frame] of its stacks to come
-        for kind, n, cost in stacks:
+        self.left: dict[str, deque] = {}  # kind -> [frames, model s, relative cost] of its stacks to come
+        for kind, n, cost, *weight in stacks:
             self.left.setdefault(kind, deque())
             if n > 0:
-                self.left[kind].append([n, float(cost)])
+                self.left[kind].append([n, float(cost), float(weight[0]) if weight else 1.0])
         self.kind = next(iter(self.left))
         self._cost = 0.0  # model seconds of a frame of the current stack
-        self.rates: dict[str, list[float]] = {}  # kind -> s/frame beyond the model, its latest finished stacks
+        self._weight = 1.0  # ... and its relative cost
+        self.done: list[tuple] = []  # finished stacks: (kind, cost, s/frame beyond the model, source s/frame or None)
         self.stages_total = stages_total
         self.prior_s = prior_s  # the hardware-time estimate, used until something is measured
         self.t_frames = 0.0  # seconds between consecutive frames of a stack
@@ -53,11 +65,13 @@ class Eta:
         self.stages_left = dict(stages_by_scene or {"": stages_total})
         self._last: float | None = None  # time of the previous frame in the current stack
         self._stack = [0.0, 0]  # frame-loop seconds and intervals of the current stack
-        self._prev_stack: float | None = None  # s/frame beyond the model of the previous stack
+        self._compute = [None, None]  # the source's seconds making frames at the stack's first frame, its latest
         self._stage_t0: float | None = None  # when the current stage started
         self._t_end: float | None = None  # when the previous stage ended
         self._stage_frames = 0.0  # frame-loop seconds of the current stage
         self._one_off = 0.0  # ... and seconds of one-off work in it (the defect mask)
+        self.commits: list[float] = []  # seconds of the latest stages' analysis and write
+        self._first_after = 0.0  # the run's first stage's time after its frames (not one-off)
 
     def stage_started(self, t: float, kind: str | None = None) -> None:
         """A stack of the current stage starts at ``t`` (a stage may grab a dark and a flat);
@@ -68,17 +82,23 @@ class Eta:
         else:  # the stage's previous stack ended
             self._stage_frames += self._first_frame()
         if self._stack[1]:
-            beyond = self._stack[0] / self._stack[1] - self._cost
-            self._prev_stack = beyond
-            self.rates.setdefault(self.kind, []).append(beyond)
+            self.done.append(self._stack_record())
         if kind is not None and kind in self.left:
             self.kind = kind
         pool = self.left[self.kind]
-        self._cost = pool[0][1] if pool else self._cost
+        if pool:
+            self._cost, self._weight = pool[0][1], pool[0][2]
         self._stack = [0.0, 0]
         self._last = None
 
-    def frame(self, t: float) -> None:
+    def frame(self, t: float, compute: float | None = None) -> None:
+        """A frame arrived at ``t``; ``compute``: the source's seconds spent making frames
+        so far, where it counts them (timed from the stack's first frame on, as the
+        intervals are: the first frame holds setting up the operating point)."""
+        if self._last is None:
+            self._compute = [compute, compute]
+        else:
+            self._compute[1] = compute
         if self._last is not None:
             self.t_frames += t - self._last
             self._stage_frames += t - self._last
@@ -98,6 +118,11 @@ class Eta:
         mask): not charged to the stages to come."""
         self._one_off += seconds
 
+    def end_work(self, seconds: float) -> None:
+        """A stage's analysis and write took ``seconds`` (after its frames, beside the next
+        stage's: the run waits for the last stage's once its frames are in)."""
+        self.commits.append(seconds)
+
     def _first_frame(self) -> float:
         """The current stack's first frame, taken as long as its mean interval: frames are
         timed by the intervals between them, and the wait for the first one is not stage
@@ -106,54 +131,95 @@ class Eta:
             return self._stack[0] / self._stack[1]
         if self._last is None:  # no frame yet
             return 0.0
-        beyond = self.rates.get(self.kind, [self._prev_stack])[-1]  # one frame only: the latest stack's
-        return self._cost + (beyond or 0.0)
+        return self._cost + self._rates()(self.kind, self._weight)
+
+    def _stack_record(self) -> tuple:
+        """The current stack as (kind, cost, s/frame beyond its model, the source's s/frame
+        making them or None)."""
+        c0, c1 = self._compute
+        source = None if c0 is None or c1 is None else (c1 - c0) / self._stack[1]
+        return self.kind, self._weight, self._stack[0] / self._stack[1] - self._cost, source
+
+    def _rates(self):
+        """(kind, cost) -> seconds beyond the model a frame of a stack to come: the current
+        stack's own once it has a few frames; else the median of its kind and cost's
+        latest six stacks (a burst of slow ones does not swing it); else, not timed yet, by
+        the source's seconds per unit cost and the rest as its kind took it (see the
+        module) or, where the source does not count its seconds, the latest rate."""
+        here = (self.kind, self._weight)
+        by_key: dict[tuple, list[float]] = {}
+        for k, w, r, _ in self.done:
+            by_key.setdefault((k, w), []).append(r)
+        points = {key: statistics.median(v[-6:]) for key, v in by_key.items()}
+        recs = list(self.done)
+        if self._stack[1] >= 4 or (self._stack[1] and not recs):  # (the run's first stack: all it has)
+            recs.append(self._stack_record())
+            points[here] = recs[-1][2]
+        timed = [r for r in recs if r[3] is not None and r[1] > 0]
+        if self._stack[1] and not any(r[0] == self.kind for r in timed):  # its kind's only frames yet
+            cur = self._stack_record()
+            timed += [cur] if cur[3] is not None and cur[1] > 0 else []
+        if timed:
+            speed = statistics.median([c / w for _, w, _, c in timed[-6:]])
+            rest: dict[str, list[float]] = {}
+            for k, _, r, c in timed:
+                rest.setdefault(k, []).append(r - c)
+            rest_of = {k: statistics.median(v[-6:]) for k, v in rest.items()}
+            anyhow = statistics.median([r - c for _, _, r, c in timed[-6:]])
+
+            def guess(kind: str, weight: float) -> float:
+                return rest_of.get(kind, anyhow) + weight * speed
+        else:
+            latest = recs[-1][2] if recs else 0.0
+
+            def guess(kind: str, weight: float) -> float:
+                return latest
+
+        def rate(kind: str, weight: float) -> float:
+            r = points.get((kind, weight))
+            return guess(kind, weight) if r is None else r
+        return rate
 
     def stage_finished(self, t: float, scene: str | None = None) -> None:
         scene = scene if scene in self.stages_left else next(iter(self.stages_left))
         if self._stage_t0 is not None:
             frames = self._stage_frames + self._first_frame()
+            if not self.overheads and self._last is not None:  # the first stage's work after its frames
+                self._first_after = max(t - self._last - self._one_off, 0.0)
             self.overheads.append(max(t - self._stage_t0 - frames - self._one_off, 0.0))
             self.scenes.append(scene)
         self.stages_left[scene] = max(self.stages_left[scene] - 1, 0)
         self._stage_t0, self._stage_frames, self._last, self._one_off = None, 0.0, None, 0.0
         self._t_end = t
 
-    def per_stage(self, scene: str) -> float:
+    def per_stage(self, scene: str, spent: float | None = None) -> float:
         """A stage's time outside its frame loops: the median of the latest three stages of
-        the same scene. The run's first stage (one-off work: the defect mask) counts only
-        while nothing else has been timed; a scene not timed yet takes the others' median."""
+        the same scene; a scene not timed yet takes the others' median. The run's first
+        stage holds one-off work before its first frame (loading, the first operating
+        point: 80 ms against 5-10 ms a stage in make run): while it is the only one timed,
+        a stage whose frames have begun stands in for that part (``spent``: its time
+        outside them so far), the first stage for the work after the frames."""
         pairs = list(zip(self.scenes, self.overheads))
+        if len(pairs) == 1 and spent is not None:
+            return spent + self._first_after
         pairs = pairs[1:] or pairs
         same = [v for sc, v in pairs if sc == scene]
         return statistics.median((same or [v for _, v in pairs])[-3:])
 
     def remaining(self, t: float) -> float | None:
         """Seconds left at ``t``: frames left x (their model time + the measured time beyond
-        it) + stages not finished x s/stage, less what the current stage has already spent
+        it at their kind and cost) + stages not finished x s/stage, less what the current stage has already spent
         outside its frame loop."""
         if self.n_frames == 0:
             return self.prior_s or None
-        # the latest rate: the current stack once it has a few frames, else the previous
-        # one (the first stacks run slower: warm-up, the dark stage kept for the defect mask)
-        if self._stack[1] >= 4 or self._prev_stack is None:
-            sec, n = self._stack if self._stack[1] else (self.t_frames, self.n_frames)
-            latest = sec / n - self._cost
-        else:
-            latest = self._prev_stack
-        left = 0.0
-        for kind, pool in self.left.items():  # each kind at its own latest rate
-            if kind == self.kind and (self._stack[1] >= 4 or kind not in self.rates):
-                rate = latest
-            elif kind in self.rates:  # the median of its latest three stacks: one slow stack does not swing it
-                rate = statistics.median(self.rates[kind][-3:])
-            else:
-                rate = latest  # not measured yet: the nearest we have
-            left += sum(frames * (cost + rate) for frames, cost in pool)
+        rate = self._rates()
+        left = sum(frames * (cost + rate(kind, weight)) for kind, pool in self.left.items()
+                   for frames, cost, weight in pool)
         if not self.overheads:
             return left  # no stage has ended yet: its end work is not known
-        spent = 0.0
-        if self._stage_t0 is not None:
+        spent = None
+        if self._stage_t0 is not None and self._last is not None:
             spent = max(t - self._stage_t0 - self._stage_frames - self._first_frame(), 0.0)
-        stages = sum(n * self.per_stage(sc) for sc, n in self.stages_left.items() if n)
-        return left + max(stages - spent, 0.0)
+        stages = sum(n * self.per_stage(sc, spent) for sc, n in self.stages_left.items() if n)
+        end = statistics.median(self.commits[-3:]) if self.commits else 0.0
+        return left + max(stages - (spent or 0.0), 0.0) + end

@@ -16,6 +16,7 @@ timeout, disconnect, short frame) ends the run: the run directory is closed with
 from __future__ import annotations
 
 import logging
+import math
 import threading
 import time
 from dataclasses import dataclass, field
@@ -28,7 +29,7 @@ from ares import malloc
 from ares.errors import AresError, DeviceGone, FrameError, FrameLost, HardwareError, InputError, StorageError
 from ares.hardware.waits import Interrupted
 from ares.scan import events as ev
-from ares.scan.apply import apply_settings
+from ares.scan.apply import apply_settings, as_fields
 from ares.scan.commit import StageCommitter
 from ares.scan.defect_mask import load_declared_mask, mask_from_dark, scan_thresholds
 from ares.scan.preflight import KEEP_FOR_MASK_BYTES, check_run
@@ -223,7 +224,7 @@ class Runner:
         self._est = self.estimate_seconds()
         todo = stages[len(completed):]  # (resuming: the stages still to run)
         self._eta = Eta(self._frames_total, len(todo), self._est,
-                        stacks=_stacks(scan, todo, getattr(bench.frames, "exposure_paced", True)),
+                        stacks=_stacks(scan, todo, bench.frames),
                         stages_by_scene={sc: sum(s.scene == sc for s in todo) for sc in ("dark", "flat")})
         run_dir = str(writer.dir) if writer else None
         self._scratch_dir = run_dir  # kept dark frames beyond memory (ares.scan.kept): on the run's disk
@@ -356,6 +357,8 @@ class Runner:
             if lost:
                 extra["frames_lost"] = lost
             self._commit.submit(st, flat, dark, extra, new_mask, before, after, t_start, writer, completed)
+            if self._commit.seconds is not None:  # the latest stage's analysis and write: the run
+                self._eta.end_work(self._commit.seconds)  # waits for the last stage's after its frames
         else:
             if self._stop.is_set():
                 status = "done"  # stop during the last stage: the scan is complete anyway
@@ -471,7 +474,7 @@ class Runner:
                 self._frames_done += 1
                 elapsed = time.monotonic() - self._t0
                 fps = self._frames_done / elapsed if elapsed > 0 else 0.0
-                self._eta.frame(elapsed)
+                self._eta.frame(elapsed, getattr(src, "compute_seconds", None))
                 remaining = self._eta.remaining(elapsed)
                 self._emit(ev.FramePreview(st.index, k, n, data, dark))
                 self._emit(ev.Progress(st.index, len(self.stages), self._frames_done, self._frames_total, fps,
@@ -493,18 +496,33 @@ def _position(bench) -> dict | None:
     return fn() if callable(fn) else None
 
 
-def _stacks(scan, stages, paced: bool) -> list[tuple[str, int, float]]:
-    """The stacks the stages grab, in order, as (kind, frames, model seconds of a frame)
-    for the time remaining: a dark stack and a lit one are timed apart; on a bench whose
-    frames follow the exposure (``FrameSource.exposure_paced``, real sensors) a frame's
-    model is exposure + readout, else none (0: the simulator computes its frames)."""
+def _stacks(scan, stages, frames) -> list[tuple[str, int, float, float]]:
+    """The stacks the stages grab, in order, as (kind, frames, model seconds of a frame,
+    relative cost of a frame) for the time remaining: a dark stack and a lit one are timed
+    apart; on a bench whose frames follow the exposure (``FrameSource.exposure_paced``,
+    real sensors) a frame's model is exposure + readout, else none (0: the simulator
+    computes its frames); a source that can tell what a frame at given settings costs it
+    (``FrameSource.frame_cost``: the simulator, by its path) weighs the stacks by it."""
+    paced = getattr(frames, "exposure_paced", True)
+    weigh = getattr(frames, "frame_cost", None)
+
+    def weight(settings: dict) -> float:
+        if weigh is None:
+            return 1.0
+        try:
+            w = float(weigh(as_fields(scan.system, settings)))
+        except AresError:  # a bad setting is reported when the stage applies it
+            return 1.0
+        return w if math.isfinite(w) and w > 0 else 1.0
+
     out = []
     for st in stages:
         model = frame_seconds(scan, st) if paced else 0.0
         dark_part = st.dark_frames if st.dark_source == "grab" else 0
-        out.append(("dark" if st.scene == "dark" else "flat", st.frames_to_grab() - dark_part, model))
+        out.append(("dark" if st.scene == "dark" else "flat", st.frames_to_grab() - dark_part, model,
+                    weight(st.settings)))
         if dark_part:
-            out.append(("dark", dark_part, model))
+            out.append(("dark", dark_part, model, weight(st.dark_settings)))
     return out
 
 
