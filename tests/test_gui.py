@@ -343,7 +343,7 @@ def test_event_pump_keeps_only_the_newest_preview_between_barriers(qtbot):
     from ares.gui.worker import EventPump
 
     pump = EventPump()
-    pump.interval_s = 0.0  # no time decimation here: only the coalescing
+    pump.interval_s = pump.progress_interval_s = 0.0  # no time decimation here: only the coalescing
     got = []
     pump.event.connect(got.append)
     img = np.zeros((2, 2), np.uint16)
@@ -360,6 +360,22 @@ def test_event_pump_keeps_only_the_newest_preview_between_barriers(qtbot):
     assert pump.dropped == 4
 
 
+def test_time_remaining_counts_down_from_when_the_engine_computed_it():
+    """Progress waits up to ``PROGRESS_INTERVAL_S`` (and the window's own work) before it
+    is shown: the time remaining shown is the engine's less that wait."""
+    import time
+
+    from ares.gui.models.session import SessionModel
+
+    s = SessionModel()
+    s.handle(E.Progress(3, 26, 0.1, 5.0, at=time.monotonic() - 1.0))
+    assert 3.9 < s.progress.seconds_remaining <= 4.0
+    s.handle(E.Progress(3, 26, 0.1, 0.5, at=time.monotonic() - 1.0))
+    assert s.progress.seconds_remaining == 0.0
+    s.handle(E.Progress(3, 26, 0.1, None))
+    assert s.progress.seconds_remaining is None
+
+
 def test_event_pump_draws_previews_at_most_every_interval(qtbot):
     """Time decimation on a fake clock: a preview that comes too soon waits for a later
     poll when it is the newest, and is dropped when a newer stage event follows it."""
@@ -368,7 +384,7 @@ def test_event_pump_draws_previews_at_most_every_interval(qtbot):
     pump = EventPump()
     now = [100.0]
     pump.clock = lambda: now[0]
-    pump.interval_s = 0.25
+    pump.interval_s = pump.progress_interval_s = 0.25
     got = []
     pump.event.connect(got.append)
     img = np.zeros((2, 2), np.uint16)

@@ -8,6 +8,7 @@ this one small vocabulary only.
 
 from __future__ import annotations
 
+import time
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -60,6 +61,7 @@ class Progress:
     total: int
     fraction: float
     seconds_remaining: float | None = None
+    at: float = field(default_factory=time.monotonic)  # when the engine computed it (the window counts down from there)
 
 
 @dataclass(frozen=True)

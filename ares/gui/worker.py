@@ -11,7 +11,7 @@ by the same generation thresholds. A frame preview or progress
 event replaces an older one of its kind still waiting (never across a
 stage/result/done event), so a fast engine cannot bury the window under stale frames --
 it always shows the newest; and previews and progress are drawn at most every
-``PREVIEW_INTERVAL_S`` (time-decimated: one that comes too soon waits for a later poll,
+``PREVIEW_INTERVAL_S`` / ``PROGRESS_INTERVAL_S`` (time-decimated: one that comes too soon waits for a later poll,
 or is dropped when a newer stage event follows it), so drawing never competes with
 acquisition. Every failure ends as one ``Failed`` event with one
 sentence: ``AresError`` messages as they are, anything else as "Unexpected error in the
@@ -46,6 +46,7 @@ def one_sentence(exc: BaseException) -> str:
 
 COALESCE = (FramePreview, Progress)
 PREVIEW_INTERVAL_S = 0.4
+PROGRESS_INTERVAL_S = 0.1  # a few labels: cheap to draw, and a stage of make run lasts ~0.15 s
 
 
 class EventPump(QObject):
@@ -59,7 +60,8 @@ class EventPump(QObject):
         self._lock = threading.Lock()
         self._pending: list = []
         self.dropped = 0
-        self.interval_s = PREVIEW_INTERVAL_S
+        self.interval_s = PREVIEW_INTERVAL_S  # previews ...
+        self.progress_interval_s = PROGRESS_INTERVAL_S  # ... and progress, each at most this often
         self.clock = time.monotonic
         self._last: dict[type, float] = {}  # when a preview / progress event was last delivered
 
@@ -85,7 +87,8 @@ class EventPump(QObject):
         out, held = [], []
         for k, ev in enumerate(items):
             kind = type(ev)
-            if isinstance(ev, COALESCE) and now - self._last.get(kind, -float("inf")) < self.interval_s:
+            limit = self.interval_s if kind is FramePreview else self.progress_interval_s
+            if isinstance(ev, COALESCE) and now - self._last.get(kind, -float("inf")) < limit:
                 if k == newest[kind] and all(isinstance(x, COALESCE) for x in items[k + 1:]):
                     held.append(ev)  # the newest of its kind, nothing newer behind it: a later poll
                 elif kind is FramePreview:
