@@ -43,3 +43,23 @@ def test_float_and_mixed_pairs_take_the_numpy_path():
     assert pk.pair_pass(np.ones((4, 5), np.uint16), np.ones((4, 5), np.uint8), None) is None
     pm = pair_moments(a, a * 3)
     assert pm.sa == 20 and pm.sb == 60 and np.all(pm.row_diff == -2)
+
+
+@pytest.mark.parametrize("dtype,shape,hi", [(np.uint16, (1536, 1536), 65536), (np.uint32, (40, 50), 2**24),
+                                            (np.int32, (40, 50), 2**24)])
+def test_numpy_path_sums_of_squares_are_exact_where_float64_would_round(monkeypatch, dtype, shape, hi):
+    """The numpy path takes a - b in float64 and sums its squares there only while every
+    partial sum is an integer below 2**53 (16-bit data up to ~2 Mpixel); beyond that (a
+    2.4 Mpixel 16-bit pair at full range, 24-bit codes in 32-bit images) it sums in int64:
+    the same exact integers as Python's."""
+    rng = np.random.default_rng(5)
+    a = rng.integers(0, hi, shape).astype(dtype)
+    b = rng.integers(0, hi, shape).astype(dtype)
+    a.flat[:7] = hi - 1  # the largest differences
+    b.flat[:7] = 0
+    m = _numpy_path(monkeypatch, a, b, None)
+    d = a.astype(object).ravel() - b.astype(object).ravel()
+    assert m.sdd == sum(int(x) * int(x) for x in d[:100_000]) + int(np.sum(np.square(
+        (a.ravel()[100_000:].astype(np.int64) - b.ravel()[100_000:].astype(np.int64)).astype(object))))
+    assert m.sa == int(a.astype(np.int64).sum()) and m.sb == int(b.astype(np.int64).sum())
+    assert np.array_equal(m.avg, (a.astype(np.float64) + b.astype(np.float64)) / 2)

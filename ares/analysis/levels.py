@@ -97,17 +97,21 @@ def pair_moments(a: np.ndarray, b: np.ndarray, max_code: int | None = None) -> P
         return PairMoments(int(sa), int(sb), int(sdd), n, fmax, (za / n + zb / n) / 2, avg, ra / N - rb / N,
                            ca / M - cb / M)
     if a.dtype.kind in "ui":
-        ai, bi = a.astype(np.int64), b.astype(np.int64)
-        d = ai - bi
-        sa, sb = int(ai.sum()), int(bi.sum())
-        sdd = int(np.dot(d.ravel(), d.ravel()))
+        sa, sb = int(a.sum(dtype=np.int64)), int(b.sum(dtype=np.int64))  # no int64 copies of the images
+        d = np.subtract(a, b, dtype=np.float64)  # exact: |a - b| < 2**32
+        info = np.iinfo(a.dtype)
+        if float(info.max - info.min) ** 2 * d.size < 2.0**53:  # every partial sum of squares is an
+            sdd = int(np.dot(d.ravel(), d.ravel()))  # integer below 2**53: exact (16-bit up to ~2 Mpixel)
+        else:  # int64: exact while the sum stays below 2**63 (24-bit codes up to ~30 Mpixel)
+            di = d.astype(np.int64)
+            sdd = int(np.dot(di.ravel(), di.ravel()))
     else:
-        ai, bi = a.astype(np.float64), b.astype(np.float64)
-        d = ai - bi
-        sa, sb = float(ai.sum()), float(bi.sum())
+        d = np.subtract(a, b, dtype=np.float64)
+        sa, sb = float(a.sum(dtype=np.float64)), float(b.sum(dtype=np.float64))
         sdd = float(np.dot(d.ravel(), d.ravel()))
+    del d
     fa, fb = _clip_fractions(a, max_code), _clip_fractions(b, max_code)
-    avg = (ai + bi).astype(np.float64)
+    avg = np.add(a, b, dtype=np.float64)  # exact for integer data, as the float64 sum of int64 copies was
     avg *= 0.5
     dr = np.mean(a, axis=1, dtype=np.float64) - np.mean(b, axis=1, dtype=np.float64)
     dc = np.mean(a, axis=0, dtype=np.float64) - np.mean(b, axis=0, dtype=np.float64)
