@@ -184,6 +184,14 @@ class LineTemporal:
     cols: float
 
 
+def _square_type(dtype: np.dtype):
+    """The narrowest type that holds the square of every value of an integer ``dtype``."""
+    if dtype.itemsize <= 2:  # (bool: one byte, unsigned)
+        return {(1, False): np.uint16, (2, False): np.uint32, (1, True): np.int16, (2, True): np.int32}[
+            (dtype.itemsize, dtype.kind == "i")]
+    return np.int64  # (32-bit: the sum of squares is exact in int64 while it fits, as before)
+
+
 def stack_moments(frames) -> tuple[SpatialStats, np.ndarray, LineTemporal]:
     """(``SpatialStats``, averaged image <y> (Eq. 33 of EMVA 1288 4.0, float64),
     ``LineTemporal``) of a stack in one streamed pass. Integer data are summed exactly
@@ -203,9 +211,14 @@ def stack_moments(frames) -> tuple[SpatialStats, np.ndarray, LineTemporal]:
             s1, s2 = np.zeros(f.shape, acc), np.zeros(f.shape, acc)
         elif f.shape != s1.shape:
             raise ValueError(f"frame {n} has shape {f.shape}, the first {s1.shape}")
-        x = f.astype(s1.dtype) - shift if shift else f.astype(s1.dtype)
-        s1 += x
-        s2 += x * x
+        if shift:
+            x = f.astype(s1.dtype) - shift
+            s1 += x
+            s2 += x * x
+        else:  # integers: summed as they are (cast in numpy's small buffers), squared in the narrowest
+            x = f  # type that holds them -- no int64 copy of the frame
+            np.add(s1, x, out=s1, casting="unsafe")
+            np.add(s2, np.square(x, dtype=_square_type(x.dtype)), out=s2, casting="unsafe")
         rm = x.mean(axis=1, dtype=np.float64)
         g = float(rm.mean())
         cm = x.mean(axis=0, dtype=np.float64) - g
@@ -216,7 +229,9 @@ def stack_moments(frames) -> tuple[SpatialStats, np.ndarray, LineTemporal]:
     if n < 2:
         raise ValueError("a stack needs shape (frames>=2, rows, cols)")
     avg = s1 / n  # per-pixel mean (minus the shift)
-    var_t = (s2 - s1 * avg) / (n - 1)  # float64 (avg is)
+    var_t = s1 * avg  # the per-pixel temporal variance, float64, in one temporary:
+    np.subtract(s2, var_t, out=var_t)  # (s2 - s1 * avg) / (n - 1)
+    var_t /= n - 1
     st = SpatialStats(float(avg.mean()) + (shift or 0.0), float(np.var(avg, ddof=1)), float(np.mean(var_t)), n,
                       avg.size)
     line = LineTemporal(st.s2_temporal - float(np.var(fm, ddof=1)),
