@@ -37,6 +37,9 @@ import statistics
 from collections import deque
 
 
+KEEP = 6  # stacks a rate is the median of
+
+
 class Eta:
     def __init__(self, frames_total: int, stages_total: int, prior_s: float = 0.0,
                  stacks: list[tuple] | None = None, stages_by_scene: dict[str, int] | None = None):
@@ -47,14 +50,24 @@ class Eta:
         if stacks is None:
             stacks = [("", frames_total, 0.0)]
         self.left: dict[str, deque] = {}  # kind -> [frames, model s, relative cost] of its stacks to come
+        self._totals: dict[str, dict] = {}  # kind -> (model s, relative cost) -> frames to come
         for kind, n, cost, *weight in stacks:
             self.left.setdefault(kind, deque())
+            totals = self._totals.setdefault(kind, {})
             if n > 0:
-                self.left[kind].append([n, float(cost), float(weight[0]) if weight else 1.0])
+                key = (float(cost), float(weight[0]) if weight else 1.0)
+                self.left[kind].append([n, *key])
+                totals[key] = totals.get(key, 0) + n
         self.kind = next(iter(self.left))
         self._cost = 0.0  # model seconds of a frame of the current stack
         self._weight = 1.0  # ... and its relative cost
-        self.done: list[tuple] = []  # finished stacks: (kind, cost, s/frame beyond the model, source s/frame or None)
+        # finished stacks, their latest six: s/frame beyond the model by (kind, cost) and its median;
+        # those the source timed as (kind, cost, s beyond, the source's s), and their rest by kind
+        self._by_key: dict[tuple, deque] = {}
+        self._points: dict[tuple, float] = {}
+        self._timed: deque = deque(maxlen=KEEP)
+        self._rest: dict[str, deque] = {}
+        self._last_rate = 0.0  # the latest finished stack's s/frame beyond its model
         self.stages_total = stages_total
         self.prior_s = prior_s  # the hardware-time estimate, used until something is measured
         self.t_frames = 0.0  # seconds between consecutive frames of a stack
@@ -82,7 +95,7 @@ class Eta:
         else:  # the stage's previous stack ended
             self._stage_frames += self._first_frame()
         if self._stack[1]:
-            self.done.append(self._stack_record())
+            self._finished(self._stack_record())
         if kind is not None and kind in self.left:
             self.kind = kind
         pool = self.left[self.kind]
@@ -99,7 +112,6 @@ class Eta:
             self._compute = [compute, compute]
         else:
             self._compute[1] = compute
-        if self._last is not None:
             self.t_frames += t - self._last
             self._stage_frames += t - self._last
             self.n_frames += 1
@@ -110,6 +122,10 @@ class Eta:
         pool = self.left[self.kind]
         if pool:
             pool[0][0] -= 1
+            totals, key = self._totals[self.kind], tuple(pool[0][1:])
+            totals[key] -= 1
+            if not totals[key]:
+                del totals[key]
             if pool[0][0] <= 0:
                 pool.popleft()
 
@@ -140,6 +156,16 @@ class Eta:
         source = None if c0 is None or c1 is None else (c1 - c0) / self._stack[1]
         return self.kind, self._weight, self._stack[0] / self._stack[1] - self._cost, source
 
+    def _finished(self, rec: tuple) -> None:
+        kind, weight, beyond, source = rec
+        keep = self._by_key.setdefault((kind, weight), deque(maxlen=KEEP))
+        keep.append(beyond)
+        self._points[(kind, weight)] = statistics.median(keep)
+        self._last_rate = beyond
+        if source is not None and weight > 0:
+            self._timed.append(rec)
+            self._rest.setdefault(kind, deque(maxlen=KEEP)).append(beyond - source)
+
     def _rates(self):
         """(kind, cost) -> seconds beyond the model a frame of a stack to come: the current
         stack's own once it has a few frames; else the median of its kind and cost's
@@ -147,36 +173,30 @@ class Eta:
         the source's seconds per unit cost and the rest as its kind took it (see the
         module) or, where the source does not count its seconds, the latest rate."""
         here = (self.kind, self._weight)
-        by_key: dict[tuple, list[float]] = {}
-        for k, w, r, _ in self.done:
-            by_key.setdefault((k, w), []).append(r)
-        points = {key: statistics.median(v[-6:]) for key, v in by_key.items()}
-        recs = list(self.done)
-        if self._stack[1] >= 4 or (self._stack[1] and not recs):  # (the run's first stack: all it has)
-            recs.append(self._stack_record())
-            points[here] = recs[-1][2]
-        timed = [r for r in recs if r[3] is not None and r[1] > 0]
-        if self._stack[1] and not any(r[0] == self.kind for r in timed):  # its kind's only frames yet
-            cur = self._stack_record()
-            timed += [cur] if cur[3] is not None and cur[1] > 0 else []
+        points, timed, rest = self._points, list(self._timed), self._rest
+        cur = self._stack_record() if self._stack[1] else None
+        own = None  # the current stack's own rate, where it is the one to use
+        if cur is not None and (self._stack[1] >= 4 or not self._by_key):  # (the run's first stack: all it has)
+            own = cur[2]
+        if cur is not None and cur[3] is not None and cur[1] > 0 and (own is not None or self.kind not in rest):
+            timed.append(cur)  # (its kind's only frames yet)
+            rest = {**rest, self.kind: [*rest.get(self.kind, ()), cur[2] - cur[3]]}
         if timed:
-            speed = statistics.median([c / w for _, w, _, c in timed[-6:]])
-            rest: dict[str, list[float]] = {}
-            for k, _, r, c in timed:
-                rest.setdefault(k, []).append(r - c)
-            rest_of = {k: statistics.median(v[-6:]) for k, v in rest.items()}
-            anyhow = statistics.median([r - c for _, _, r, c in timed[-6:]])
+            timed = timed[-KEEP:]
+            speed = statistics.median([c / w for _, w, _, c in timed])
+            rest_of = {k: statistics.median(list(v)[-KEEP:]) for k, v in rest.items()}
+            anyhow = statistics.median([r - c for _, _, r, c in timed])
 
             def guess(kind: str, weight: float) -> float:
                 return rest_of.get(kind, anyhow) + weight * speed
         else:
-            latest = recs[-1][2] if recs else 0.0
+            latest = self._last_rate if own is None else own
 
             def guess(kind: str, weight: float) -> float:
                 return latest
 
         def rate(kind: str, weight: float) -> float:
-            r = points.get((kind, weight))
+            r = own if own is not None and (kind, weight) == here else points.get((kind, weight))
             return guess(kind, weight) if r is None else r
         return rate
 
@@ -213,8 +233,8 @@ class Eta:
         if self.n_frames == 0:
             return self.prior_s or None
         rate = self._rates()
-        left = sum(frames * (cost + rate(kind, weight)) for kind, pool in self.left.items()
-                   for frames, cost, weight in pool)
+        left = sum(frames * (cost + rate(kind, weight)) for kind, totals in self._totals.items()
+                   for (cost, weight), frames in totals.items())
         if not self.overheads:
             return left  # no stage has ended yet: its end work is not known
         spent = None
