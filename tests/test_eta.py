@@ -299,3 +299,19 @@ from the third stage to the last;
         worst[told] = max(abs(e) for e in errors)
     assert worst[True] < 0.02, worst
     assert worst[False] > 0.3, worst
+
+
+def test_a_frame_source_that_fails_to_cost_its_frames_does_not_stop_the_scan(caplog):
+    """``frame_cost`` only weighs the time remaining: a source whose costing raises (a bug,
+    a device that cannot tell) gets unweighted stacks and a log line, and the scan runs."""
+    from ares.protocol import load_scan
+    from ares.scan.runner import _stacks
+    from ares.scan.stages import expand
+
+    def broken(fields):
+        raise ZeroDivisionError("no cost model")
+
+    scan = load_scan("scans/photon_transfer.xml")
+    stacks = _stacks(scan, expand(scan), SimpleNamespace(exposure_paced=False, frame_cost=broken, name="grabber"))
+    assert {w for *_, w in stacks} == {1.0}
+    assert caplog.text.count("could not cost") == 1 and "grabber" in caplog.text

@@ -507,11 +507,17 @@ def _stacks(scan, stages, frames) -> list[tuple[str, int, float, float]]:
     weigh = getattr(frames, "frame_cost", None)
 
     def weight(settings: dict) -> float:
+        nonlocal weigh
         if weigh is None:
             return 1.0
         try:
             w = float(weigh(as_fields(scan.system, settings)))
         except AresError:  # a bad setting is reported when the stage applies it
+            return 1.0
+        except Exception as exc:  # noqa: BLE001 -- a time estimate never stops a scan
+            log.warning("frame source %s could not cost a stage's frames (%s); time remaining unweighted",
+                        getattr(frames, "name", "?"), exc)
+            weigh = None  # (once)
             return 1.0
         return w if math.isfinite(w) and w > 0 else 1.0
 
