@@ -84,14 +84,18 @@ class Eta:
         self._stage_frames = 0.0  # frame-loop seconds of the current stage
         self._one_off = 0.0  # ... and seconds of one-off work in it (the defect mask)
         self.commits: list[float] = []  # seconds of the latest stages' analysis and write
-        self._first_after = 0.0  # the run's first stage's time after its frames (not one-off)
+        self.afters: list[float] = []  # per finished stage: its time after its last frame (not one-off)
+        self._scene = ""  # the current stage's scene
 
-    def stage_started(self, t: float, kind: str | None = None) -> None:
+    def stage_started(self, t: float, kind: str | None = None, scene: str | None = None) -> None:
         """A stack of the current stage starts at ``t`` (a stage may grab a dark and a flat);
-        ``kind`` is one of the ``stacks``' kinds."""
+        ``kind`` is one of the ``stacks``' kinds, ``scene`` the stage's (else its first
+        stack's kind)."""
         if self._stage_t0 is None:  # the stage starts where the previous one ended: setting up,
             # settling and waiting for the previous stage's commit are this stage's work
             self._stage_t0 = t if self._t_end is None else min(self._t_end, t)
+            scene = scene or (kind if kind is not None else self.kind)
+            self._scene = scene if scene in self.stages_left else next(iter(self.stages_left))
         else:  # the stage's previous stack ended
             self._stage_frames += self._first_frame()
         if self._stack[1]:
@@ -204,8 +208,7 @@ class Eta:
         scene = scene if scene in self.stages_left else next(iter(self.stages_left))
         if self._stage_t0 is not None:
             frames = self._stage_frames + self._first_frame()
-            if not self.overheads and self._last is not None:  # the first stage's work after its frames
-                self._first_after = max(t - self._last - self._one_off, 0.0)
+            self.afters.append(max(t - self._last - self._one_off, 0.0) if self._last is not None else 0.0)
             self.overheads.append(max(t - self._stage_t0 - frames - self._one_off, 0.0))
             self.scenes.append(scene)
         self.stages_left[scene] = max(self.stages_left[scene] - 1, 0)
@@ -214,17 +217,20 @@ class Eta:
 
     def per_stage(self, scene: str, spent: float | None = None) -> float:
         """A stage's time outside its frame loops: the median of the latest three stages of
-        the same scene; a scene not timed yet takes the others' median. The run's first
-        stage holds one-off work before its first frame (loading, the first operating
-        point: 80 ms against 5-10 ms a stage in make run): while it is the only one timed,
-        a stage whose frames have begun stands in for that part (``spent``: its time
-        outside them so far), the first stage for the work after the frames."""
-        pairs = list(zip(self.scenes, self.overheads))
-        if len(pairs) == 1 and spent is not None:
-            return spent + self._first_after
-        pairs = pairs[1:] or pairs
-        same = [v for sc, v in pairs if sc == scene]
-        return statistics.median((same or [v for _, v in pairs])[-3:])
+        the same scene (a scene not timed yet: of the others), after the run's first, and
+        of the current stage once its frames have begun -- its time outside them so far
+        (``spent``) plus the time stages took after their frames. The run's first stages
+        hold one-off work before their first frame (loading, the first operating point:
+        80 ms against 5-10 ms a stage in make run; on a scan that opens with an ADC ramp,
+        its first lit stage too): the current stage outvotes one such stage early on, and
+        stands in alone while only the first stage has been timed."""
+        pairs = list(zip(self.scenes, self.overheads, self.afters))[1:]
+        same = [p for p in pairs if p[0] == scene] or pairs
+        values = [v for _, v, _ in same[-3:]]
+        if spent is not None and scene == self._scene:
+            after = [a for _, _, a in same[-3:]] or self.afters
+            values.append(spent + statistics.median(after))
+        return statistics.median(values or self.overheads)
 
     def remaining(self, t: float) -> float | None:
         """Seconds left at ``t``: frames left x (their model time + the measured time beyond

@@ -444,7 +444,7 @@ class Runner:
             # the stage a defect mask will be built from: keep its frames to mask it too
             ss.kept = KeptFrames(KEEP_FOR_MASK_BYTES, self._scratch_dir)
         self._eta.stage_started(time.monotonic() - self._t0,  # waiting for a first frame is stage work
-                                "dark" if dark or st.scene == "dark" else "flat")
+                                "dark" if dark or st.scene == "dark" else "flat", st.scene)
         it = iter(src.grab(n))
         k = 0
         try:

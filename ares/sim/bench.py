@@ -196,7 +196,7 @@ class SimFrameSource:
         mode = s.pop("test_mode")
         s.pop("streaming")
         if mode == 2:
-            return cost.RAMP
+            return cost.ramp_cost(self.sensor.patterns.adc.thresholds is not None)
         return self.sensor.frame_cost(dark=mode == 1, shot_noise=self.sensor.params.shot_noise, **s)
 
     def grab(self, n: int):

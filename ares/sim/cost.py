@@ -19,14 +19,29 @@ from ares.sim import fused
 FAST = 1.2  # one normal draw a pixel for every temporal term (SimSensor's fast path)
 BASE = 0.85  # the general path's read noise, offsets and full-well clip, with no charge drawn
 DRAW = {fused.NONE: 0.0, fused.GAUSS: 0.95, fused.ALIAS: 2.75}  # + a charge drawn this way
-MAP = 12.0  # + a charge drawn exactly per pixel (a unit-rate arrival count; grows with the mean)
+NUMPY = 1.5  # the general path without the fused kernel (measured 1.35-1.55x on dark, Gaussian and alias frames)
+EXACT = 14.0  # + numpy's Poisson draw for every pixel (46 ns a pixel); a map draws it only where it must
 LOOKUP = 0.65  # + an ADC with INL/DNL (a code table searched per pixel)
-RAMP = 0.5  # an ADC ramp test pattern
+RAMP = 4.2  # an ADC ramp test pattern (float64 levels through the ADC: 2.3x a dark frame) ...
+RAMP_LOOKUP = 5.2  # ... + its code table lookup (float64: numpy's, not the fused one; 3.8x a dark frame in all)
 
 
-def frame_cost(fast: bool, modes: tuple[int | None, int | None], lookup: bool) -> float:
+def frame_cost(fast: bool, modes: tuple[int | None, int | None], lookup: bool, numpy_path: bool = False,
+               exact: float = 0.0) -> float:
     """Relative cost of a frame: ``fast`` (SimSensor's one-draw path), else the photo and
-    dark charges' ``fused`` modes (None: drawn on the numpy path per pixel); ``lookup``: an
-    ADC with a code table."""
-    cost = FAST if fast else BASE + sum(MAP if m is None else DRAW[m] for m in modes)
+    dark charges' ``fused`` modes (None: drawn per pixel on the numpy path, a normal draw
+    everywhere and numpy's Poisson on the fraction ``exact`` of the pixels, summed over
+    both charges); ``numpy_path``: the fused kernel does not apply; ``lookup``: an ADC with
+    a code table."""
+    if fast:
+        cost = FAST
+    else:
+        cost = BASE + sum(DRAW[fused.GAUSS if m is None else m] for m in modes)
+        cost = cost * NUMPY if numpy_path else cost
+        cost += EXACT * exact
     return cost + (LOOKUP if lookup else 0.0)
+
+
+def ramp_cost(lookup: bool) -> float:
+    """Relative cost of an ADC ramp frame (test_mode 2), ``lookup``: an ADC with a code table."""
+    return RAMP + (RAMP_LOOKUP if lookup else 0.0)

@@ -62,7 +62,12 @@ def enabled(on: bool):
 
 
 def warm() -> None:
-    """Load (or compile) the kernels now, with the argument types a frame uses."""
+    """Build the normal table every frame reads (its scipy import: 0.1 s) and load (or
+    compile) the kernels, with the argument types a frame uses: before a scan's stages, so
+    that none of them is charged this one-off work (an ADC-ramp first stage needs neither)."""
+    from ares.sim.noise import table
+
+    table()
     if not available():
         return
     f, u, i, d = np.zeros(2, _F32), np.zeros(2, np.uint16), np.zeros(2, np.int32), np.ones(2)

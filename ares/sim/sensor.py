@@ -157,10 +157,23 @@ class SimSensor:
     def frame_cost(self, **kw) -> float:
         """Relative cost of computing a frame at an operating point (``render``'s
         keywords), by the path ``render`` takes for it (``ares.sim.cost``); draws nothing."""
+        fast, modes, numpy_path, exact = self.frame_path(**kw)
+        return cost.frame_cost(fast, modes, self.patterns.adc.thresholds is not None, numpy_path, exact)
+
+    def frame_path(self, **kw) -> tuple[bool, tuple, bool, float]:
+        """The path ``render`` takes at an operating point: (the fast path, the photo and dark
+        charges' ``fused`` modes, the fused kernel does not apply, the fraction of pixels
+        whose charge is drawn exactly per pixel, summed over both charges)."""
         sc = self.scene(**kw)
         has_q, mask_q, mask_d, fast = self._route(sc)
-        modes = None if fast else fused.modes(sc, has_q, mask_q, mask_d)
-        return cost.frame_cost(fast, modes, self.patterns.adc.thresholds is not None)
+        if fast:
+            return True, (), False, 0.0
+        modes = fused.modes(sc, has_q, mask_q, mask_d)
+        numpy_path = (None in modes or sc.shot_noise == "exact" or (has_q and self.params.flutter_pct > 0)
+                      or not fused.available())
+        exact = sum(1.0 if mask is True else float(np.mean(mask))
+                    for m, mask in zip(modes, (mask_q, mask_d)) if m is None)
+        return False, modes, numpy_path, exact
 
     # ------------------------------------------------------------------------------
     def _route(self, sc: Scene) -> tuple:
