@@ -70,8 +70,7 @@ class Eta:
         self._last_rate = 0.0  # the latest finished stack's s/frame beyond its model
         self.stages_total = stages_total
         self.prior_s = prior_s  # the hardware-time estimate, used until something is measured
-        self.t_frames = 0.0  # seconds between consecutive frames of a stack
-        self.n_frames = 0  # frame intervals those seconds cover
+        self.n_frames = 0  # frame intervals timed
         self.frames_done = 0
         self.overheads: list[float] = []  # per finished stage: its time outside the frame loops
         self.scenes: list[str] = []  # ... and its scene (a dark stage's analysis is lighter than a flat's)
@@ -116,7 +115,6 @@ class Eta:
             self._compute = [compute, compute]
         else:
             self._compute[1] = compute
-            self.t_frames += t - self._last
             self._stage_frames += t - self._last
             self.n_frames += 1
             self._stack[0] += t - self._last
