@@ -158,9 +158,12 @@ class Runner:
                 from ares.sim import fused
 
                 fused.warm()
-            from ares.analysis import masked_fold
+            from ares.analysis import flat, lowpass, masked_fold
 
             masked_fold.warm()  # (the masked stacks after the first dark stage)
+            if any(st.scene == "flat" for st in self.stages):  # the EMVA high-pass of a lit stage's
+                lowpass.warm()  # analysis: its kernel and gains loaded now, not beside the first
+                flat.hp_factors()  # lit stage's frames
             if writer is not None:  # provenance: what the bench says about itself (sim params, chip id)
                 writer.meta["bench"] = {k: v for k, v in bench.info.items()
                                         if isinstance(v, (str, int, float, bool, dict, list, type(None)))}
