@@ -191,7 +191,7 @@ class SessionModel:
         elif isinstance(ev, Progress):
             left = ev.seconds_remaining  # counted down by the time the event waited to be shown
             self.progress.update(stage=ev.stage, total=ev.total, fraction=ev.fraction,
-                                 seconds_remaining=None if left is None else max(left - (time.monotonic() - ev.at), 0.0))
+                                 seconds_remaining=None if left is None else max(left - (self.clock() - ev.at), 0.0))
         elif isinstance(ev, Ending):
             self._end_of_run()
             self.progress.update(state=P.FINISHING, seconds_remaining=None,
