@@ -26,10 +26,8 @@ def apply_settings(bench, system, settings: dict, previous: dict | None = None, 
             if changed:
                 bench.light.set_level(value)
                 bench.light.settle(cancel)
-        elif key in ("exposure", "analog_gain"):
-            bench.registers.set(getattr(system.controls, key), value)
-        elif key.startswith("reg:"):
-            bench.registers.set(key[4:], value)
+        elif (name := register_field(system, key)) is not None:
+            bench.registers.set(name, value)
         else:  # the protocol layer admits no other key
             raise InputError(f"unknown setting '{key}'")
 
@@ -38,10 +36,12 @@ def as_fields(system, settings: dict) -> dict:
     """A stage's settings as the bench's frame source names them: register field ->
     physical value (``exposure`` and ``analog_gain`` by the system's control fields),
     ``light`` and ``temperature`` as they are."""
-    out = {}
-    for key, value in settings.items():
-        if key in ("exposure", "analog_gain"):
-            out[getattr(system.controls, key)] = value
-        else:
-            out[key[4:] if key.startswith("reg:") else key] = value
-    return out
+    return {register_field(system, key) or key: value for key, value in settings.items()}
+
+
+def register_field(system, key: str) -> str | None:
+    """The register field a setting writes (``exposure``/``analog_gain``: the system's
+    control fields; ``reg:NAME``: NAME), None for an instrument's (light, temperature)."""
+    if key in ("exposure", "analog_gain"):
+        return getattr(system.controls, key)
+    return key[4:] if key.startswith("reg:") else None

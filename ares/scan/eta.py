@@ -71,9 +71,12 @@ class Eta:
         self.stages_total = stages_total
         self.prior_s = prior_s  # the hardware-time estimate, used until something is measured
         self.n_frames = 0  # frame intervals timed
-        self.frames_done = 0
         self.overheads: list[float] = []  # per finished stage: its time outside the frame loops
-        self.scenes: list[str] = []  # ... and its scene (a dark stage's analysis is lighter than a flat's)
+        # ... of the latest three stages after the run's first, with their time after their frames:
+        # by scene (a dark stage's analysis is lighter than a flat's) and of any scene
+        self._recent: dict[str, deque] = {}
+        self._recent_any: deque = deque(maxlen=3)
+        self._first_after = 0.0  # the run's first stage's time after its frames
         self.stages_left = dict(stages_by_scene or {"": stages_total})
         self._last: float | None = None  # time of the previous frame in the current stack
         self._stack = [0.0, 0]  # frame-loop seconds and intervals of the current stack
@@ -83,7 +86,6 @@ class Eta:
         self._stage_frames = 0.0  # frame-loop seconds of the current stage
         self._one_off = 0.0  # ... and seconds of one-off work in it (the defect mask)
         self.commits: list[float] = []  # seconds of the latest stages' analysis and write
-        self.afters: list[float] = []  # per finished stage: its time after its last frame (not one-off)
         self._scene = ""  # the current stage's scene
 
     def stage_started(self, t: float, kind: str | None = None, scene: str | None = None) -> None:
@@ -120,7 +122,6 @@ class Eta:
             self._stack[0] += t - self._last
             self._stack[1] += 1
         self._last = t
-        self.frames_done += 1
         pool = self.left[self.kind]
         if pool:
             pool[0][0] -= 1
@@ -206,9 +207,14 @@ class Eta:
         scene = scene if scene in self.stages_left else next(iter(self.stages_left))
         if self._stage_t0 is not None:
             frames = self._stage_frames + self._first_frame()
-            self.afters.append(max(t - self._last - self._one_off, 0.0) if self._last is not None else 0.0)
-            self.overheads.append(max(t - self._stage_t0 - frames - self._one_off, 0.0))
-            self.scenes.append(scene)
+            after = max(t - self._last - self._one_off, 0.0) if self._last is not None else 0.0
+            overhead = max(t - self._stage_t0 - frames - self._one_off, 0.0)
+            if self.overheads:
+                self._recent.setdefault(scene, deque(maxlen=3)).append((overhead, after))
+                self._recent_any.append((overhead, after))
+            else:
+                self._first_after = after
+            self.overheads.append(overhead)
         self.stages_left[scene] = max(self.stages_left[scene] - 1, 0)
         self._stage_t0, self._stage_frames, self._last, self._one_off = None, 0.0, None, 0.0
         self._t_end = t
@@ -222,12 +228,10 @@ class Eta:
         80 ms against 5-10 ms a stage in make run; on a scan that opens with an ADC ramp,
         its first lit stage too): the current stage outvotes one such stage early on, and
         stands in alone while only the first stage has been timed."""
-        pairs = list(zip(self.scenes, self.overheads, self.afters))[1:]
-        same = [p for p in pairs if p[0] == scene] or pairs
-        values = [v for _, v, _ in same[-3:]]
+        same = self._recent.get(scene) or self._recent_any
+        values = [v for v, _ in same]
         if spent is not None and scene == self._scene:
-            after = [a for _, _, a in same[-3:]] or self.afters
-            values.append(spent + statistics.median(after))
+            values.append(spent + (statistics.median([a for _, a in same]) if same else self._first_after))
         return statistics.median(values or self.overheads)
 
     def remaining(self, t: float) -> float | None:
