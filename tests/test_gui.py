@@ -126,6 +126,7 @@ def test_scan_runs_from_start_button_to_done(window, qtbot):
     assert set(window.distributions.plots) == {0, 1}
     assert s.panels["MEAN SIGNAL"].counts.sum() == 60
     assert window.results.panels["MEAN SIGNAL"].labels["mean"].text() != "n/a"
+    show_tab(window, "PTC")
     assert len(s.ptc.points) == 2 and len(window.ptc.sets["pending"].xData) == 2  # no engine fit in the demo
     assert window.preview.image_item.image is not None and window.preview.rectangle_count == 2
     assert set(window.preview.rois) == {0}  # Draw ticked: editable with the mouse
@@ -305,7 +306,9 @@ def test_runner_scan_from_file_to_done(window, qtbot, tmp_path):
     assert s.distributions[0].counts.sum() == 16 * 12
     assert s.panels["MEAN SIGNAL"].stats.n == 16 * 12
     assert len(s.ptc.points) == 8 and s.ptc.gain_e_per_dn > 0  # the engine's fit, drawn as a line
-    assert window.ptc.line.xData is not None
+    assert window.ptc.line.xData is None  # a tab not in front is not drawn ...
+    show_tab(window, "PTC")
+    assert window.ptc.line.xData is not None  # ... until it is shown
     run_dir = s.info.items["run directory"]
     assert os.path.isdir(run_dir) and run_dir.startswith(str(tmp_path))
     assert "PTC: read noise" in s.info.items
@@ -314,6 +317,7 @@ def test_runner_scan_from_file_to_done(window, qtbot, tmp_path):
     assert {"full", "centre"} <= set(s.components.views)
     symbols = [r.symbol for which in ("components", "dark_components") for r in s.components.rows(which)]
     assert {"Pt", "Ps", "Cs", "Rt"} <= set(symbols)
+    show_tab(window, "Components")
     shown = sum(t.rowCount() for t in window.components.tables.values())
     assert shown == len(symbols)
 
@@ -435,6 +439,7 @@ def test_photon_transfer_scan_fills_defect_counts_and_information(window, qtbot,
     assert s.progress.state == P.DONE, s.progress.message
     names = [r.name for r in s.defects.rows]
     assert "hot" in names and "dead" in names
+    show_tab(window, "Defect Counts")
     table = window.defects.table
     assert table.rowCount() == len(names) and table.item(0, 0).text() == names[0]
     assert s.defects.caption.startswith("Scan-level defect classification")
@@ -451,6 +456,7 @@ def test_photon_transfer_scan_fills_defect_counts_and_information(window, qtbot,
     window.defects.overlay.setChecked(False)
     assert window.preview.overlay_items == []
     assert "PTC: conversion gain" in s.info.items and "defect thresholds" in s.info.items
+    show_tab(window, "PTC")
     caption = window.ptc.caption.text()  # the fitted gain with its SE, as the engine states it
     assert "system gain K = " in caption and "±" in caption and "DN/e-" in caption
     assert s.info.items["scan"] == path
@@ -500,6 +506,7 @@ def test_two_axis_sweep_fills_the_sweep_map(window, qtbot, tmp_path):
     assert [name for name, _ in m.axes()] == ["sf_bias (V)", "tx_low (V)"]  # units from the register map
     assert "Pt: pixel temporal (read), DN^2" in m.quantities
     assert "image lag (%)" in m.quantities  # dark="after": every point is a bright->dark cycle
+    show_tab(window, "Sweep Map")
     assert window.sweep.stack.currentWidget() is window.sweep.map_plot
     assert window.sweep.map_image.image.shape == (2, 3)
     window.sweep.quantity.setCurrentText("Pt: pixel temporal (read), DN^2")
@@ -634,7 +641,9 @@ def test_channel_view_on_a_two_adc_sensor_gives_the_per_channel_sigma(window, qt
         assert st.fitted_sigma == pytest.approx(channel.std(ddof=1), rel=0.3)  # one peak: the fit finds it
         assert st.fitted_sigma < full_sigma / 3  # the full frame's two peaks 40 DN apart
         assert window.components.model.view == f"adc{k}"  # the engine's decomposition of the same pixels
+        show_tab(window, "Components")
         assert window.components.tables["components"].rowCount() > 0
+        show_tab(window, "Results")
         assert window.results.caption.text().endswith(s.views.labels[f"adc{k}"])
     # the stage browser: the first stage on every tab, then back to following the scan
     show_tab(window, "Signal Map")
@@ -767,6 +776,7 @@ def test_input_images_are_analysed_as_ares_analyze_does(window, qtbot, tmp_path)
     for k in ("o", "Pt", "Ps", "Rt", "Ct", "G", "Pg", "q"):
         assert got[k] == want[k], k  # the same numbers, SEs and verdicts
     assert want["Pt"]["value"] == pytest.approx(4 + 1 / 12, rel=0.15)  # 2 DN read noise + quantization
+    show_tab(window, "Components")
     assert window.components.tables["components"].rowCount() >= 13
     assert s.last_result.mean.shape == (20, 24) and s.panels["MEAN SIGNAL"].stats.n == 20 * 24
     tab.inputs.setText(str(tmp_path / "missing"))  # a bad path: one sentence naming it

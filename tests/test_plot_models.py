@@ -63,6 +63,22 @@ def test_integer_histogram_bins_are_centred_on_integers():
     assert dict(zip(centres[counts > 0].tolist(), counts[counts > 0].tolist())) == {10.0: 2, 11.0: 1, 13.0: 1}
 
 
+def test_histogram_counts_each_value_in_the_bin_its_edges_say():
+    """Equal bins are counted directly (no sort of the values): each value lands where the
+    returned edges put it, values on an edge included, for floats and wide integer bins."""
+    rng = np.random.default_rng(3)
+    cases = [(rng.normal(50.0, 7.0, 20001), 20.0, 80.0, 64, False),
+             (np.linspace(0.0, 1.0, 65), 0.0, 1.0, 64, False),  # every value on an edge
+             (rng.integers(0, 4096, 30001).astype(np.uint16), 0.0, 4095.0, 64, True)]
+    for v, frm, to, bins, integer in cases:
+        edges, counts = histogram(v, frm, to, bins, integer=integer)
+        x = v.astype(np.float64)
+        x = x[(x >= edges[0]) & (x <= edges[-1])]
+        k = np.minimum(np.searchsorted(edges, x, side="right") - 1, edges.size - 2)  # last bin closed
+        assert counts.tolist() == np.bincount(k, minlength=edges.size - 1).tolist()
+        assert np.allclose(np.diff(edges), edges[1] - edges[0])
+
+
 def test_fitted_numbers_come_from_the_engine_and_ignore_a_defect_tail():
     from ares.analysis.panels import robust_gauss_fit
 
@@ -367,3 +383,22 @@ def test_the_newest_stage_is_shown_at_most_every_refresh_interval_and_the_ptc_re
     assert s.components.caption.startswith("stage 2")
     s.handle(Done(None, {}))  # the end shows the newest at once
     assert s.components.caption.startswith("stage 3") and s.ptc.highlighted == 3
+
+
+def test_live_image_levels_hold_over_frame_noise_and_follow_a_new_light_level():
+    from ares.gui.models.image import ImageModel, robust_levels
+
+    rng = np.random.default_rng(4)
+    frame = lambda level: rng.normal(level, 10.0, (120, 160))  # noqa: E731
+    m = ImageModel("live")
+    first = frame(1000.0)
+    m.set_image(first)
+    assert m.levels == robust_levels(first)
+    for _ in range(5):  # the same light, new noise: the colour scale holds still
+        m.set_image(frame(1000.0))
+        assert m.levels == robust_levels(first)
+    brighter = frame(1200.0)  # a new stage's level: followed at once
+    m.set_image(brighter)
+    assert m.levels == robust_levels(brighter)
+    m.set_image(brighter, levels=(0.0, 4095.0))  # levels asked for are always shown
+    assert m.levels == (0.0, 4095.0)

@@ -7,6 +7,7 @@ import sys
 
 from PySide6.QtWidgets import QHeaderView, QTableWidget, QTableWidgetItem, QVBoxLayout, QWidget
 
+from .layout import redraw_when_shown
 from .models.session import InfoModel
 
 
@@ -38,7 +39,7 @@ class InfoPanel(QWidget):
         self.table.horizontalHeader().setStretchLastSection(True)
         self.table.setEditTriggers(QTableWidget.EditTrigger.NoEditTriggers)
         QVBoxLayout(self).addWidget(self.table)
-        model.subscribe(lambda _: self.refresh())
+        redraw_when_shown(self, model)
         self.refresh()
 
     def refresh(self) -> None:

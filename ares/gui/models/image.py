@@ -13,6 +13,11 @@ from .regions import Region
 
 
 LEVEL_SAMPLES = 1 << 16
+# A new frame keeps the shown levels while its own differ from them by less than this
+# fraction of their span at both ends: the colour scale holds still over a stage (frame to
+# frame noise no longer redraws the colour bar's axis at every preview) and follows a
+# change of light level at once.
+STEADY_LEVELS = 0.05
 
 
 def robust_levels(image: np.ndarray, lo_pct: float = 0.5, hi_pct: float = 99.5) -> tuple[float, float]:
@@ -46,7 +51,10 @@ class ImageModel(Observable):
         self.image = None if image is None else np.asarray(image)
         self.caption = caption
         if self.image is not None:
-            self.levels = levels if levels is not None else robust_levels(self.image)
+            new = levels if levels is not None else robust_levels(self.image)
+            lo, hi = self.levels
+            if levels is not None or max(abs(new[0] - lo), abs(new[1] - hi)) > STEADY_LEVELS * (hi - lo):
+                self.levels = new
         self._changed()
 
     def set_rectangles(self, rectangles: list[tuple[int, Region]]) -> None:

@@ -86,10 +86,9 @@ def histogram(values: np.ndarray, frm: float, to: float, bins: int = DEFAULT_BIN
         width = max(1, math.ceil((to - frm) / bins))
         start = math.floor(frm) - 0.5
         n = max(1, math.ceil((to + 0.5 - start) / width))
-        edges = start + width * np.arange(n + 1, dtype=np.float64)
-    else:
-        edges = np.linspace(frm, to, bins + 1)
-    counts, edges = np.histogram(v.astype(np.float64), bins=edges)
+        frm, to, bins = start, start + width * n, n
+    # equal bins given as (count, range): numpy's direct binning, not a sort of the values
+    counts, edges = np.histogram(v, bins=bins, range=(frm, to))
     return edges, counts
 
 

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 from PySide6.QtWidgets import QHeaderView, QLabel, QTableWidget, QTableWidgetItem, QVBoxLayout, QWidget
 
+from ..layout import redraw_when_shown
 from ..models.components import ComponentsModel
 
 
@@ -29,7 +30,7 @@ class ComponentsView(QWidget):
             lay.addWidget(self.titles[which])
             lay.addWidget(t, 1)
             self.tables[which] = t
-        model.subscribe(lambda _: self.refresh())
+        redraw_when_shown(self, model)
         self.refresh()
 
     def refresh(self) -> None:

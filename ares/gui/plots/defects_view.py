@@ -8,6 +8,7 @@ from PySide6.QtGui import QColor
 from PySide6.QtWidgets import (QCheckBox, QHeaderView, QLabel, QPushButton, QTableWidget, QTableWidgetItem, QVBoxLayout,
                                QWidget)
 
+from ..layout import redraw_when_shown
 from ..models.defects import DEFECT_COLORS, DefectCountsModel, reclassify, threshold_defaults
 
 
@@ -44,7 +45,7 @@ class DefectCountsView(QWidget):
         lay.addWidget(QLabel("Thresholds (edited values replace the scan's <defects>):"))
         lay.addWidget(self.thresholds, 2)
         lay.addWidget(self.reclassify_button)
-        model.subscribe(lambda _: self.refresh())
+        redraw_when_shown(self, model)
         self.refresh()
 
     def refresh(self) -> None:

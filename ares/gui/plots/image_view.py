@@ -66,6 +66,7 @@ class ImagePlot(QWidget):
         lay.addLayout(top)
         lay.addWidget(self.plot, 1)
         self._shape = None
+        self._levels = None
         self.overlay_items: list = []
         self.overlay = overlay  # a DefectCountsModel: its map drawn over the image when switched on
         if overlay is not None:
@@ -81,7 +82,8 @@ class ImagePlot(QWidget):
         if m.image is not None:
             image = m.image if m.image.dtype.kind in "ui" else np.asarray(m.image, dtype=np.float32)
             self.image_item.setImage(image, autoLevels=False, levels=m.levels)  # frames as they come: no copy
-            if self.colorbar is not None:
+            if self.colorbar is not None and m.levels != self._levels:  # its axis redrawn only on a change
+                self._levels = m.levels
                 self.colorbar.setLevels(m.levels)
             if m.image.shape != self._shape:
                 self._shape = m.image.shape

@@ -9,6 +9,7 @@ from PySide6.QtCore import Qt
 from PySide6.QtWidgets import QLabel, QVBoxLayout, QWidget
 
 from ..models.ptc import PTCModel
+from ..layout import redraw_when_shown
 from . import DecadeAxis, plain_axes
 
 
@@ -45,7 +46,7 @@ class PTCView(QWidget):
         lay = QVBoxLayout(self)
         lay.addWidget(self.plot, 1)
         lay.addWidget(self.caption)
-        model.subscribe(lambda _: self.refresh())
+        redraw_when_shown(self, model)
         self.refresh()
 
     def refresh(self) -> None:

@@ -7,6 +7,7 @@ import pyqtgraph as pg
 from PySide6.QtWidgets import QComboBox, QHBoxLayout, QLabel, QStackedWidget, QVBoxLayout, QWidget
 
 from ..models.sweep import SweepModel
+from ..layout import redraw_when_shown
 from . import plain_axes
 
 
@@ -38,7 +39,7 @@ class SweepView(QWidget):
         lay.addLayout(top)
         lay.addWidget(self.stack, 1)
         self.quantity.currentTextChanged.connect(self._chosen)
-        model.subscribe(lambda _: self.refresh())
+        redraw_when_shown(self, model)
         self.refresh()
 
     def _chosen(self, text: str) -> None:
