@@ -98,8 +98,19 @@ def gui(out: str) -> dict:
         last[0] = shown
 
     p.subscribe(seen)
-    ended = []  # when the last frame is in (the engine's Ending: the state turns to finishing)
-    p.subscribe(lambda m: m.state == P.FINISHING and not ended and ended.append(time.perf_counter()))
+    ended = []  # when the last frame is in: the engine's Ending, timed in the scan's thread as it is
+    # emitted (the window shows it up to a poll later, which is not part of the time remaining)
+    from ares.gui import runner_adapter
+    from ares.scan import events as scan_events
+
+    forward = runner_adapter.RunnerJob._on_event
+
+    def on_event(job, e):
+        if isinstance(e, scan_events.Ending) and not ended:
+            ended.append(time.perf_counter())
+        forward(job, e)
+
+    runner_adapter.RunnerJob._on_event = on_event
     from PySide6.QtCore import QEventLoop
 
     loop = QEventLoop()
@@ -108,7 +119,8 @@ def gui(out: str) -> dict:
     w.scan_thread.finished.connect(loop.quit)  # after the window's own slot: the run directory is complete
     loop.exec()  # events, not a polling timer: the harness takes no CPU from the scan
     seconds = time.perf_counter() - t0
-    t_end = ended[0] if ended else time.perf_counter()
+    assert ended, "the engine's Ending was not seen"
+    t_end = ended[0]
     assert w.session.progress.state == "Done", w.session.progress.message
     return {"seconds": seconds, "cpu": _cpu() - c0, "previews_dropped": w.previews_dropped,
             "eta": [(s, shown, t_end - t) for s, t, shown in eta]}

@@ -111,3 +111,30 @@ def test_committer_order_errors_and_settle():
     one = StageCommitter(work, threaded=False)
     with pytest.raises(ValueError):
         one.submit(2)
+
+
+def test_a_commit_is_timed_by_its_thread_s_cpu_not_by_the_wall_clock():
+    """The run waits for the last stage's commit when it has the cores to itself, so the
+    Time Remaining charges a commit's CPU time: waiting (here on an event, as a commit
+    beside the next stage's frames waits for the cores) is not counted; work is."""
+    import time
+
+    gate = threading.Event()
+
+    def waits():
+        gate.wait(0.3)
+
+    def works():
+        c0 = time.thread_time()
+        while time.thread_time() - c0 < 0.05:
+            pass
+
+    for threaded in (True, False):
+        c = StageCommitter(waits, threaded=threaded)
+        c.submit()
+        c.wait()
+        assert c.cpu_seconds < 0.05, c.cpu_seconds  # 0.3 s of waiting
+        c = StageCommitter(works, threaded=threaded)
+        c.submit()
+        c.wait()
+        assert c.cpu_seconds >= 0.05

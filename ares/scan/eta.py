@@ -138,8 +138,9 @@ class Eta:
         self._one_off += seconds
 
     def end_work(self, seconds: float) -> None:
-        """A stage's analysis and write took ``seconds`` (after its frames, beside the next
-        stage's: the run waits for the last stage's once its frames are in)."""
+        """A stage's analysis and write took ``seconds`` of its thread's CPU (after its
+        frames, beside the next stage's: the run waits for the last stage's once its frames
+        are in, when it has the cores to itself)."""
         self.commits.append(seconds)
 
     def _first_frame(self) -> float:

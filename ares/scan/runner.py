@@ -360,8 +360,8 @@ class Runner:
             if lost:
                 extra["frames_lost"] = lost
             self._commit.submit(st, flat, dark, extra, new_mask, before, after, t_start, writer, completed)
-            if self._commit.seconds is not None:  # the latest stage's analysis and write: the run
-                self._eta.end_work(self._commit.seconds)  # waits for the last stage's after its frames
+            if self._commit.cpu_seconds is not None:  # the latest stage's analysis and write: the run
+                self._eta.end_work(self._commit.cpu_seconds)  # waits for the last stage's after its frames
         else:
             if self._stop.is_set():
                 status = "done"  # stop during the last stage: the scan is complete anyway
