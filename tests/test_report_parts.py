@@ -70,6 +70,29 @@ def test_pages_drawn_by_two_processes_merge_into_the_report(runs, tmp_path, monk
     helper.close()
 
 
+def test_a_helper_left_no_page_ends_normally(runs, tmp_path):
+    """Every page claimed here before the helper was ready (a short report, a slow
+    helper): it draws nothing, says so, and exits 0 -- the report is not redrawn."""
+    import matplotlib
+
+    from ares.report import pdf, plots
+    from ares.report.source import read_run
+
+    run = read_run(runs[0])
+    with matplotlib.rc_context(plots.RC):
+        titles = [t for t, _ in pdf.page_plan(run)]
+    work = tmp_path / "work"
+    work.mkdir()
+    for i in range(len(titles)):
+        (work / f"claim{i:03d}").touch()
+    helper = pdf_parts.start(runs[0])
+    helper.go(work)
+    assert helper.wait(), helper.proc.returncode
+    assert pdf_parts._helper_part(work, pdf_parts.fingerprint(titles, run.dir)) == []
+    assert not (work / "helper.pdf").exists() and not (work / "helper.pdf.tmp").exists()
+    helper.close()
+
+
 def test_write_reports_with_a_helper_gives_the_same_report(runs, tmp_path, monkeypatch):
     ref = _one_process(runs[0], tmp_path, monkeypatch)
     helper = pdf_parts.start(runs[0])

@@ -134,19 +134,24 @@ def draw_claimed(run, pages, workdir: Path, who: str) -> list[int]:
                 continue
             pdf.savefig(draw_page(run, pages, i))
             drawn.append(i)
-    tmp.replace(workdir / f"{who}.pdf")
+    if drawn:
+        tmp.replace(workdir / f"{who}.pdf")
+    else:  # the other process claimed every page first (matplotlib writes no file for no page)
+        tmp.unlink(missing_ok=True)
     (workdir / f"{who}.json.tmp").write_text(json.dumps({"pages": drawn, "plan": fingerprint(titles, run.dir)}))
     (workdir / f"{who}.json.tmp").replace(workdir / f"{who}.json")
     return drawn
 
 
 def _helper_part(workdir: Path, plan: str) -> list[int] | None:
-    """The helper's page numbers when its part is complete and of this plan."""
+    """The helper's page numbers when its part is complete and of this plan (none: it
+    drew no page, and has no PDF)."""
     try:
         d = json.loads((workdir / "helper.json").read_text())
     except (OSError, ValueError):
         return None
-    return d["pages"] if d.get("plan") == plan and (workdir / "helper.pdf").exists() else None
+    complete = not d["pages"] or (workdir / "helper.pdf").exists()
+    return d["pages"] if d.get("plan") == plan and complete else None
 
 
 def write_split(run, pages, tmp: Path, helper: Helper) -> None:
