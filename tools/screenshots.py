@@ -47,9 +47,12 @@ def main() -> int:
     w.controls.output.directory.setText(runs)
     s = w.session
 
+    def show(tab: str) -> None:
+        w.result_tabs.setCurrentIndex(RESULT_TABS.index(tab))
+
     def shot(name: str, tab: str | None = None, control: int | None = None) -> None:
         if tab is not None:
-            w.result_tabs.setCurrentIndex(RESULT_TABS.index(tab))
+            show(tab)
         if control is not None:
             w.controls.setCurrentIndex(control)
         settle(app)
@@ -72,15 +75,17 @@ def main() -> int:
     shot("2_scan_ptc", "PTC", control=0)
     shot("3_scan_components", "Components")
     wait(app, lambda: not w.running and not w.finishing)
+    show("Defect Counts")  # a tab is drawn when shown: then its controls, as a user would
     w.defects.overlay.setChecked(True)
-    shot("4_defects_overlay", "Defect Counts")
+    shot("4_defects_overlay")
     w.view_bar.choose_stage(None)
     assert w.load_scan(ROOT / "scans" / "bias_sweep_2d.xml")
     w.start_scan()
     wait(app, lambda: not w.running and not w.finishing)
-    if "image lag (%)" in s.sweep.quantities:
-        w.sweep.quantity.setCurrentText("image lag (%)")
-    shot("5_bias_sweep_lag_map", "Sweep Map")
+    show("Sweep Map")
+    assert "image lag (%)" in s.sweep.quantities, s.sweep.quantities
+    w.sweep.quantity.setCurrentText("image lag (%)")
+    shot("5_bias_sweep_lag_map")
     tab = w.controls.instruments
     tab.path.setText(str(ROOT / "protocols" / "sim_sensor.xml"))
     tab.choose(str(ROOT / "protocols" / "sim_sensor.xml"))
