@@ -402,3 +402,42 @@ def test_live_image_levels_hold_over_frame_noise_and_follow_a_new_light_level():
     assert m.levels == robust_levels(brighter)
     m.set_image(brighter, levels=(0.0, 4095.0))  # levels asked for are always shown
     assert m.levels == (0.0, 4095.0)
+
+
+def test_results_panels_are_computed_by_the_session_s_executor_while_a_scan_runs():
+    """With an executor (the window's thread), a stage's panels are computed there and
+    shown at the next flush once ready -- the same numbers as computed in place; a range
+    mode chosen meanwhile is kept; the run's end waits for them."""
+    import threading
+    from concurrent.futures import ThreadPoolExecutor
+
+    from ares.gui.events import Done, StageResult
+    from ares.gui.models.session import SessionModel
+
+    rng = np.random.default_rng(6)
+    mean, var = rng.normal(500.0, 5.0, (40, 50)), rng.normal(9.0, 0.5, (40, 50))
+    ref = SessionModel()
+    ref.handle(StageResult(1, "a", mean, var, 4))
+
+    gate = threading.Event()
+    pool = ThreadPoolExecutor(1)
+    s = SessionModel()
+    s.executor = pool
+    s.begin_run("t")
+    pool.submit(gate.wait)  # the stats thread busy: the job waits behind it
+    try:
+        s.handle(StageResult(1, "a", mean, var, 4))
+        assert s.panels["MEAN SIGNAL"].stats.n == 0  # not computed here
+        s.panels["NOISE"].set_range_mode(MEAN_3_SIGMA)  # chosen while it is computed
+        s.flush()
+        assert s.panels["MEAN SIGNAL"].stats.n == 0  # not ready: not waited for
+    finally:
+        gate.set()
+    s.handle(Done(None, {}))  # the end waits for it and shows it
+    for name in ("MEAN SIGNAL", "COLUMNS", "ROWS"):
+        assert s.panels[name].stats == ref.panels[name].stats, name
+        assert s.panels[name].counts.tolist() == ref.panels[name].counts.tolist()
+    assert s.panels["NOISE"].range_mode == MEAN_3_SIGMA
+    ref.panels["NOISE"].set_range_mode(MEAN_3_SIGMA)
+    assert s.panels["NOISE"].stats == ref.panels["NOISE"].stats
+    pool.shutdown()

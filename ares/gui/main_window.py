@@ -4,6 +4,7 @@ progress line and the result tabs on the right."""
 from __future__ import annotations
 
 import logging
+from concurrent.futures import ThreadPoolExecutor
 from pathlib import Path
 from typing import Callable
 
@@ -43,6 +44,9 @@ class MainWindow(QMainWindow):
         super().__init__()
         self.setWindowTitle("ARES — image sensor characterization")
         self.session = session or SessionModel()
+        # the Results panels' statistics while a scan runs, off this thread (see SessionModel)
+        self._stats_pool = ThreadPoolExecutor(1, thread_name_prefix="ares-gui-stats")
+        self.session.executor = self._stats_pool
         self.scan_path: str | None = None
         self.job_factory: Callable[[], engine.Job] = engine.DemoScan
         self.scan_thread: ScanThread | None = None
@@ -415,4 +419,6 @@ class MainWindow(QMainWindow):
             event.ignore()
             return
         self.controls.instruments.disconnect_bench()
+        self.session.executor = None
+        self._stats_pool.shutdown()
         super().closeEvent(event)

@@ -78,6 +78,11 @@ class SessionModel:
         self.visible: set[str] | None = None  # None: every tab (no window says otherwise)
         self._dirty: set[str] = set()
         self.throttle = False  # on while a scan runs (begin_run .. its end)
+        # an executor (``submit``) for the Results panels' statistics while a scan runs: the
+        # window gives one thread, so a large sensor's panels (1-2 s each at 12 Mpx) do not
+        # hold the window; their result is shown at the next ``flush``. None: computed here.
+        self.executor = None
+        self._panel_job = None
         self.clock = time.monotonic
         self._drawn_at: dict[str, float] = {}
         self._result_at, self._result_waits = -math.inf, False  # the newest stage: when shown; waiting?
@@ -122,7 +127,9 @@ class SessionModel:
         return True
 
     def flush(self, force: bool = False) -> None:
-        """Draw the shown tabs whose newest data waited (every one when ``force``)."""
+        """Draw the shown tabs whose newest data waited (every one when ``force``), and the
+        Results panels computed in the background once they are ready (``force``: waits)."""
+        self._show_panels(wait=force)
         if self._result_waits and (force or self.clock() - self._result_at >= RESULTS_S):
             self._result_waits = False
             if self.stages.following_latest:
@@ -312,6 +319,9 @@ class SessionModel:
     def _refresh_panels(self) -> None:
         if not self._need(RESULTS):
             return
+        if self._panel_job is not None:  # what is drawn now replaces what was being computed
+            self._panel_job.cancel()
+            self._panel_job = None
         ev = self.last_result
         mean = None if ev is None or ev.mean is None else self.views.pixels(ev.mean)
         if mean is None:
@@ -319,10 +329,24 @@ class SessionModel:
                 m.clear()
             return
         var = self.views.pixels(ev.variance)
-        self.panels["MEAN SIGNAL"].set_values(mean)
-        self.panels["NOISE"].set_values(np.sqrt(np.clip(var, 0, None)))
-        self.panels["COLUMNS"].set_values(mean.mean(axis=0))
-        self.panels["ROWS"].set_values(mean.mean(axis=1))
+        values = {"MEAN SIGNAL": mean, "NOISE": np.sqrt(np.clip(var, 0, None)),
+                  "COLUMNS": mean.mean(axis=0), "ROWS": mean.mean(axis=1)}
+        if self.executor is None or not self.throttle:
+            for name, v in values.items():
+                self.panels[name].set_values(v)
+            return
+        jobs = {name: self.panels[name].job(v) for name, v in values.items()}
+        self._panel_job = self.executor.submit(lambda: {name: job() for name, job in jobs.items()})
+
+    def _show_panels(self, wait: bool) -> None:
+        job = self._panel_job
+        if job is None or not (wait or job.done()):
+            return
+        self._panel_job = None
+        if job.cancelled():
+            return
+        for name, state in job.result().items():
+            self.panels[name].show(state)
 
     def _refresh_profiles(self) -> None:
         if not self._need(PROFILES):

@@ -92,6 +92,40 @@ def histogram(values: np.ndarray, frm: float, to: float, bins: int = DEFAULT_BIN
     return edges, counts
 
 
+@dataclass(frozen=True)
+class PanelState:
+    """What a panel shows: its values (finite), range mode and From/To, histogram, numbers."""
+    values: np.ndarray
+    range_mode: str
+    range: tuple[float, float]
+    edges: np.ndarray
+    counts: np.ndarray
+    stats: PanelStats
+
+
+def finite(values: np.ndarray | None) -> np.ndarray:
+    v = np.zeros(0) if values is None else np.asarray(values).ravel()
+    return v[np.isfinite(v)] if v.dtype.kind == "f" else v
+
+
+def panel_state(v: np.ndarray, range_mode: str, manual: tuple[float, float], title: str, unit: str,
+                bins: int) -> PanelState:
+    """A panel's state for the finite values ``v`` (pure: runs in any thread)."""
+    frm, to = manual if range_mode == MANUAL else auto_range(v, range_mode)
+    integer = v.dtype.kind in "iu"
+    edges, counts = histogram(v, frm, to, bins_for(v.size, bins), integer=integer)
+    inside = v[(v >= frm) & (v <= to)].astype(np.float64) if v.size else np.zeros(0)
+    stats = PanelStats()
+    if inside.size:
+        from ares.analysis.panels import summarize
+
+        p = summarize(title, inside, unit, range_mode="peak-to-peak", bins=8)
+        stats = PanelStats(n=int(inside.size), mean=p.mean, sigma=p.sigma if inside.size > 1 else math.nan,
+                           fitted_mean=p.fitted_mean, fitted_sigma=p.fitted_sigma, lowest=p.lowest,
+                           highest=p.highest)
+    return PanelState(v, range_mode, (float(frm), float(to)), edges, counts, stats)
+
+
 class StatsPanelModel(Observable):
     """One panel: its values, display range, histogram and statistics."""
 
@@ -109,9 +143,21 @@ class StatsPanelModel(Observable):
 
     # ---- inputs ---------------------------------------------------------------------
     def set_values(self, values: np.ndarray | None) -> None:
-        v = np.zeros(0) if values is None else np.asarray(values).ravel()
-        self.values = v[np.isfinite(v)] if v.dtype.kind == "f" else v
-        self._recompute()
+        self.show(self.job(values)())
+
+    def job(self, values: np.ndarray | None):
+        """The work of ``set_values(values)`` as a call for any thread (the range mode and
+        From/To as they are now); ``show`` its result in this one."""
+        mode, manual, title, unit, bins = self.range_mode, self.range, self.title, self.unit, self.bins
+        return lambda: panel_state(finite(values), mode, manual, title, unit, bins)
+
+    def show(self, state: PanelState) -> None:
+        """Show ``state`` (from ``job``); a range chosen meanwhile is kept: recomputed here."""
+        if state.range_mode != self.range_mode or (self.range_mode == MANUAL and state.range != self.range):
+            state = panel_state(state.values, self.range_mode, self.range, self.title, self.unit, self.bins)
+        self.values, self.range, self.edges, self.counts, self.stats = (
+            state.values, state.range, state.edges, state.counts, state.stats)
+        self._changed()
 
     def set_range_mode(self, mode: str) -> None:
         if mode not in RANGE_MODES:
@@ -135,26 +181,4 @@ class StatsPanelModel(Observable):
 
     # ---- derived --------------------------------------------------------------------
     def _recompute(self) -> None:
-        v = self.values
-        if self.range_mode != MANUAL:
-            self.range = auto_range(v, self.range_mode)
-        frm, to = self.range
-        integer = v.dtype.kind in "iu"
-        self.edges, self.counts = histogram(v, frm, to, bins_for(v.size, self.bins), integer=integer)
-        inside = v[(v >= frm) & (v <= to)].astype(np.float64) if v.size else np.zeros(0)
-        if inside.size == 0:
-            self.stats = PanelStats()
-        else:
-            from ares.analysis.panels import summarize
-
-            p = summarize(self.title, inside, self.unit, range_mode="peak-to-peak", bins=8)
-            self.stats = PanelStats(
-                n=int(inside.size),
-                mean=p.mean,
-                sigma=p.sigma if inside.size > 1 else math.nan,
-                fitted_mean=p.fitted_mean,
-                fitted_sigma=p.fitted_sigma,
-                lowest=p.lowest,
-                highest=p.highest,
-            )
-        self._changed()
+        self.show(panel_state(self.values, self.range_mode, self.range, self.title, self.unit, self.bins))
