@@ -78,11 +78,12 @@ class SessionModel:
         self.visible: set[str] | None = None  # None: every tab (no window says otherwise)
         self._dirty: set[str] = set()
         self.throttle = False  # on while a scan runs (begin_run .. its end)
-        # an executor (``submit``) for the Results panels' statistics while a scan runs: the
-        # window gives one thread, so a large sensor's panels (1-2 s each at 12 Mpx) do not
-        # hold the window; their result is shown at the next ``flush``. None: computed here.
+        # an executor (``submit``) for the statistics panels (Results, Pixel Distributions)
+        # while a scan runs: the window gives one thread, so a large sensor's panels (1-2 s
+        # each at 12 Mpx) do not hold the window; they are shown at the next ``flush``.
+        # None: computed here.
         self.executor = None
-        self._panel_job = None
+        self._jobs: dict[str, object] = {}  # "panels" / "distributions" -> the work in flight
         self.clock = time.monotonic
         self._drawn_at: dict[str, float] = {}
         self._result_at, self._result_waits = -math.inf, False  # the newest stage: when shown; waiting?
@@ -129,7 +130,8 @@ class SessionModel:
     def flush(self, force: bool = False) -> None:
         """Draw the shown tabs whose newest data waited (every one when ``force``), and the
         Results panels computed in the background once they are ready (``force``: waits)."""
-        self._show_panels(wait=force)
+        for key in list(self._jobs):
+            self._show_computed(key, wait=force)
         if self._result_waits and (force or self.clock() - self._result_at >= RESULTS_S):
             self._result_waits = False
             if self.stages.following_latest:
@@ -234,6 +236,7 @@ class SessionModel:
         keys = {i for i, _ in active}
         changed = set(self.distributions) != keys
         mask = self.views.channel_mask(image.shape)  # a Bayer phase or ADC channel: its pixels only
+        work = []
         for i, region in active:
             model = self.distributions.get(i)
             if model is None:
@@ -242,7 +245,8 @@ class SessionModel:
             pixels = region.crop(image)
             if mask is not None and pixels is not None:
                 pixels = pixels[region.crop(mask)]
-            model.set_values(pixels)
+            work.append((model, pixels))
+        self._compute("distributions", work)
         for i in set(self.distributions) - keys:
             del self.distributions[i]
         if changed:
@@ -319,34 +323,37 @@ class SessionModel:
     def _refresh_panels(self) -> None:
         if not self._need(RESULTS):
             return
-        if self._panel_job is not None:  # what is drawn now replaces what was being computed
-            self._panel_job.cancel()
-            self._panel_job = None
         ev = self.last_result
         mean = None if ev is None or ev.mean is None else self.views.pixels(ev.mean)
         if mean is None:
-            for m in self.panels.values():
-                m.clear()
+            self._compute("panels", [(m, None) for m in self.panels.values()])
             return
         var = self.views.pixels(ev.variance)
-        values = {"MEAN SIGNAL": mean, "NOISE": np.sqrt(np.clip(var, 0, None)),
-                  "COLUMNS": mean.mean(axis=0), "ROWS": mean.mean(axis=1)}
-        if self.executor is None or not self.throttle:
-            for name, v in values.items():
-                self.panels[name].set_values(v)
-            return
-        jobs = {name: self.panels[name].job(v) for name, v in values.items()}
-        self._panel_job = self.executor.submit(lambda: {name: job() for name, job in jobs.items()})
+        p = self.panels
+        self._compute("panels", [(p["MEAN SIGNAL"], mean), (p["NOISE"], np.sqrt(np.clip(var, 0, None))),
+                                 (p["COLUMNS"], mean.mean(axis=0)), (p["ROWS"], mean.mean(axis=1))])
 
-    def _show_panels(self, wait: bool) -> None:
-        job = self._panel_job
+    def _compute(self, key: str, work: list[tuple[StatsPanelModel, np.ndarray | None]]) -> None:
+        """Give each panel its values: in the executor while a scan runs (shown by
+        ``flush``; this work replaces ``key``'s still in flight), else here and now."""
+        old = self._jobs.pop(key, None)
+        if old is not None:
+            old.cancel()  # (one already running finishes; its result is not shown)
+        if self.executor is None or not self.throttle:
+            for model, values in work:
+                model.set_values(values)
+            return
+        jobs = [(model, model.job(values)) for model, values in work]
+        self._jobs[key] = self.executor.submit(lambda: [(model, job()) for model, job in jobs])
+
+    def _show_computed(self, key: str, wait: bool) -> None:
+        job = self._jobs.get(key)
         if job is None or not (wait or job.done()):
             return
-        self._panel_job = None
-        if job.cancelled():
-            return
-        for name, state in job.result().items():
-            self.panels[name].show(state)
+        del self._jobs[key]
+        if not job.cancelled():
+            for model, state in job.result():
+                model.show(state)
 
     def _refresh_profiles(self) -> None:
         if not self._need(PROFILES):
