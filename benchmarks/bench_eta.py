@@ -113,6 +113,23 @@ def _checked(calls: list, left: list[float]) -> list[float]:
     return out
 
 
+def unit_costs(calls: list) -> dict[float, float]:
+    """The simulator's ms a frame per unit of modelled cost, median over the stacks of each cost."""
+    stacks = next(k for name, _, k in calls if name == "init")["stacks"]
+    out: dict[float, list[float]] = {}
+    k, first, last, n = -1, None, None, 0
+    for name, a, _ in [*calls, ("stage_started", (), {})]:
+        if name == "stage_started":
+            if k >= 0 and n > 1 and first is not None and last is not None:
+                w = round(stacks[k][3], 2)
+                out.setdefault(w, []).append(1000 * (last - first) / (n - 1) / w)
+            k, first, last, n = k + 1, None, None, 0
+        elif name == "frame" and len(a) > 1 and a[1] is not None:
+            first = a[1] if first is None else first
+            last, n = a[1], n + 1
+    return {w: statistics.median(v) for w, v in out.items()}
+
+
 def main() -> int:
     ap = argparse.ArgumentParser()
     ap.add_argument("--runs", type=int, default=8, help="runs of make run's scan")
@@ -152,13 +169,24 @@ def main() -> int:
         cells = [f"{100 * statistics.fmean(r[i] for r in e):+.0f}±{100 * statistics.pstdev([r[i] for r in e]):.0f}"
                  for i in range(len(e[0]))]
         lines.append(f"| {label} | " + " | ".join(cells) + " |")
-    lines += ["", "Without the costs, make run's 14 brighter stages are charged at the 11 low-light stages' rate "
-              "(exact Poisson costs the simulator 1.5x a Gaussian draw in the scan): +15-25 % until they begin. "
-              "The scatter that is left is this VM's: stage times vary by about 10 % in bursts that no estimate "
-              "made before them can see. The largest errors are in a scan's first stages after the first (the "
-              "first lit stage after an ADC ramp, lag's six stages: its whole scan lasts half a second) and in "
-              "the last ones, where little time is left. Largest error: median over the runs of the largest "
-              "difference between the time shown and the time left."]
+    per_unit: dict[float, list[float]] = {}
+    for c, _ in recorded["photon_transfer"]:
+        for w, v in unit_costs(c).items():
+            per_unit.setdefault(w, []).append(v)
+    low = range(0, 11)  # stages 2-12: the exact-Poisson low-light stages, the 14 brighter ones still to come
+    early = {label: statistics.fmean(r[i] for r in e for i in low) for label, e in (("fed", errs), ("none", base))}
+    lines += ["", "Without the costs, make run's 14 brighter stages are charged at the 11 low-light stages' rate; "
+              "with them, at the rate the simulator's path costs (`sim/cost.py`: exact Poisson 1.5x a Gaussian "
+              f"draw). Stages 2-12 in this run: {100 * early['fed']:+.0f} % as fed, {100 * early['none']:+.0f} % "
+              "without costs (mean signed error). The simulator's own milliseconds a frame per unit of modelled "
+              "cost, median of each run, by stack cost: "
+              + "; ".join(f"{w:g}: " + ", ".join(f"{v:.2f}" for v in vs) for w, vs in sorted(per_unit.items()))
+              + ". The constants were measured on one machine; where the paths' relative costs differ from them, "
+              "nothing in the scan shows it until the first stage of the other path is timed. The scatter that is left is the VM's: stage times vary by 10 % or more in "
+              "bursts that no estimate made before them can see. The largest errors are in a scan's first stages "
+              "after the first (the first lit stage after an ADC ramp, lag's six stages: its whole scan lasts half "
+              "a second) and in the last ones, where little time is left. Largest error: median over the runs of "
+              "the largest difference between the time shown and the time left."]
     text = "\n".join(lines) + "\n"
     (Path(__file__).parent / "eta.md").write_text(text)
     print(text)
