@@ -44,7 +44,8 @@ class MainWindow(QMainWindow):
         super().__init__()
         self.setWindowTitle("ARES — image sensor characterization")
         self.session = session or SessionModel()
-        # the Results panels' statistics while a scan runs, off this thread (see SessionModel)
+        # the statistics panels (Results, Pixel Distributions) while a scan runs, off this
+        # thread (see SessionModel)
         self._stats_pool = ThreadPoolExecutor(1, thread_name_prefix="ares-gui-stats")
         self.session.executor = self._stats_pool
         self.scan_path: str | None = None

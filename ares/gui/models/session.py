@@ -129,7 +129,7 @@ class SessionModel:
 
     def flush(self, force: bool = False) -> None:
         """Draw the shown tabs whose newest data waited (every one when ``force``), and the
-        Results panels computed in the background once they are ready (``force``: waits)."""
+        statistics panels computed in the executor once they are ready (``force``: waits)."""
         for key in list(self._jobs):
             self._show_computed(key, wait=force)
         if self._result_waits and (force or self.clock() - self._result_at >= RESULTS_S):

@@ -8,8 +8,8 @@ import pyqtgraph as pg
 from PySide6.QtCore import Qt
 from PySide6.QtWidgets import QLabel, QVBoxLayout, QWidget
 
-from ..models.ptc import PTCModel
 from ..layout import redraw_when_shown
+from ..models.ptc import PTCModel
 from . import DecadeAxis, plain_axes
 
 
