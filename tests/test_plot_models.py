@@ -406,8 +406,9 @@ def test_live_image_levels_hold_over_frame_noise_and_follow_a_new_light_level():
 
 def test_results_panels_are_computed_by_the_session_s_executor_while_a_scan_runs():
     """With an executor (the window's thread), a stage's panels are computed there and
-    shown at the next flush once ready -- the same numbers as computed in place; a range
-    mode chosen meanwhile is kept; the run's end waits for them."""
+    shown at a flush once ready -- the same numbers as computed in place; a range mode
+    chosen meanwhile is kept; ``settle`` (the scan thread's end) waits for them; once the
+    executor is not available (no scan thread), they are computed in place."""
     import threading
     from concurrent.futures import ThreadPoolExecutor
 
@@ -419,8 +420,14 @@ def test_results_panels_are_computed_by_the_session_s_executor_while_a_scan_runs
     ref = SessionModel()
     ref.handle(StageResult(1, "a", mean, var, 4))
 
+    class Executor(ThreadPoolExecutor):
+        on = True
+
+        def available(self):
+            return self.on
+
     gate = threading.Event()
-    pool = ThreadPoolExecutor(1)
+    pool = Executor(1)
     s = SessionModel()
     s.executor = pool
     s.begin_run("t")
@@ -433,11 +440,44 @@ def test_results_panels_are_computed_by_the_session_s_executor_while_a_scan_runs
         assert s.panels["MEAN SIGNAL"].stats.n == 0  # not ready: not waited for
     finally:
         gate.set()
-    s.handle(Done(None, {}))  # the end waits for it and shows it
+    s.handle(Done(None, {}))  # the run's end (its newest stage drawn: in the executor too) ...
+    s.settle()  # ... and the scan thread's: every panel computed is shown
+    assert not s._jobs
     for name in ("MEAN SIGNAL", "COLUMNS", "ROWS"):
         assert s.panels[name].stats == ref.panels[name].stats, name
         assert s.panels[name].counts.tolist() == ref.panels[name].counts.tolist()
     assert s.panels["NOISE"].range_mode == MEAN_3_SIGMA
     ref.panels["NOISE"].set_range_mode(MEAN_3_SIGMA)
     assert s.panels["NOISE"].stats == ref.panels["NOISE"].stats
+    pool.on = False  # no scan thread: in place
+    s.select_view("full")
+    assert not s._jobs and s.panels["MEAN SIGNAL"].stats == ref.panels["MEAN SIGNAL"].stats
+    pool.shutdown()
+
+
+def test_a_failing_panel_computation_is_logged_and_the_run_s_end_still_comes(monkeypatch, caplog):
+    """A bug in the statistics, in the executor: ``settle`` (which the scan thread's end
+    waits on) logs it and returns; the panels keep what they showed."""
+    from concurrent.futures import ThreadPoolExecutor
+
+    from ares.gui.events import StageResult
+    from ares.gui.models import stats
+    from ares.gui.models.session import SessionModel
+
+    class Executor(ThreadPoolExecutor):
+        def available(self):
+            return True
+
+    def broken(*a, **k):
+        raise FloatingPointError("a bug")
+
+    monkeypatch.setattr(stats, "panel_state", broken)
+    pool = Executor(1)
+    s = SessionModel()
+    s.executor = pool
+    s.begin_run("t")
+    s.handle(StageResult(1, "a", np.ones((4, 5)), np.ones((4, 5)), 4))
+    s.settle()
+    assert not s._jobs and s.panels["MEAN SIGNAL"].stats.n == 0
+    assert "statistics could not be computed" in caplog.text and "a bug" in caplog.text
     pool.shutdown()

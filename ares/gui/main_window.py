@@ -4,7 +4,6 @@ progress line and the result tabs on the right."""
 from __future__ import annotations
 
 import logging
-from concurrent.futures import ThreadPoolExecutor
 from pathlib import Path
 from typing import Callable
 
@@ -31,7 +30,7 @@ from .plots.sweep_view import SweepView
 from .results_panel import ResultsTab
 from .view_bar import ViewBar
 from .scan_panel import ControlTabs, ProgressLine, ScanButtons
-from .worker import ScanThread, one_sentence
+from .worker import ScanThread, StatsExecutor, one_sentence
 
 RESULT_TABS = ("Results", "Pixel Distributions", "Profiles", "Signal Map", "Noise Map", "PTC",
                "Sweep Map", "Components", "Defect Counts", "Information")
@@ -46,7 +45,7 @@ class MainWindow(QMainWindow):
         self.session = session or SessionModel()
         # the statistics panels (Results, Pixel Distributions) while a scan runs, off this
         # thread (see SessionModel)
-        self._stats_pool = ThreadPoolExecutor(1, thread_name_prefix="ares-gui-stats")
+        self._stats_pool = StatsExecutor()
         self.session.executor = self._stats_pool
         self.scan_path: str | None = None
         self.job_factory: Callable[[], engine.Job] = engine.DemoScan
@@ -267,6 +266,8 @@ class MainWindow(QMainWindow):
         self.session.begin_run(getattr(job, "title", ""))
         thread = self.scan_thread = ScanThread(job, self)
         thread.event.connect(lambda ev: self._on_event(ev, thread))
+        thread.timer.timeout.connect(self._flush)  # statistics computed meanwhile are shown
+        thread.settle = self.session.settle  # ... and the last of them before the run is over
         thread.finished.connect(lambda: self._on_finished(thread))
         self.buttons.set_running(True)
         self.statusBar().showMessage(f"Running {getattr(job, 'title', 'scan')}…")
@@ -293,6 +294,13 @@ class MainWindow(QMainWindow):
         if self.scan_thread is not None:
             self.scan_thread.abort()
             self.statusBar().showMessage("Aborting…")
+
+    def _flush(self) -> None:
+        try:
+            self.session.flush()
+        except Exception as exc:  # noqa: BLE001 -- a drawing bug must not take the run down with it
+            log.exception("could not draw")
+            self.statusBar().showMessage(f"Could not draw: {one_sentence(exc)}")
 
     def _on_event(self, ev, thread=None) -> None:
         if thread is not None and thread is not self.scan_thread and thread is not self._newest:

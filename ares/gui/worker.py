@@ -147,6 +147,27 @@ class _GuiThreadGc:
             gc.collect(gen)
 
 
+class StatsExecutor:
+    """One thread for the window's statistics panels (``SessionModel.executor``), offered
+    only while a scan thread runs: automatic garbage collection is then held in the
+    window's thread (see the module), so this thread's work never finalizes Qt objects."""
+
+    def __init__(self) -> None:
+        from concurrent.futures import ThreadPoolExecutor
+
+        self._pool = ThreadPoolExecutor(1, thread_name_prefix="ares-gui-stats")
+
+    @staticmethod
+    def available() -> bool:
+        return _GuiThreadGc.active > 0
+
+    def submit(self, fn):
+        return self._pool.submit(fn)
+
+    def shutdown(self) -> None:
+        self._pool.shutdown()
+
+
 class ScanThread(QObject):
     """One run: the job in a Python thread, its events drained by a GUI-thread timer."""
 
@@ -165,6 +186,7 @@ class ScanThread(QObject):
         self.timer.setInterval(self.POLL_MS)
         self.timer.timeout.connect(self._poll)
         self._done = False
+        self.settle = lambda: None  # called in the window's thread before the run's end is told
 
     def start(self) -> None:
         _GuiThreadGc.acquire()
@@ -176,6 +198,7 @@ class ScanThread(QObject):
         self.pump.drain()
         _GuiThreadGc.collect()
         if not alive and not self._done:  # everything the job pushed has been delivered
+            self.settle()
             self._end()
             self.finished.emit()
 
@@ -204,6 +227,7 @@ class ScanThread(QObject):
             self.thread.join(ms / 1000)
         if self.thread.ident is not None and not self.thread.is_alive() and not self._done:
             self.pump.drain()  # e.g. the window is closing: no poll will come to end the run
+            self.settle()
             self._end()
             self.finished.emit()
         return not self.thread.is_alive()

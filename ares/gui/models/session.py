@@ -6,6 +6,7 @@ Qt view subscribes to one sub-model. Tests drive this class directly, without a 
 
 from __future__ import annotations
 
+import logging
 import math
 import time
 
@@ -23,6 +24,8 @@ from .regions import Region, RegionSet, full_frame
 from .stats import StatsPanelModel
 from .sweep import SweepModel, SweepPoint
 from .views import StageStore, ViewModel
+
+log = logging.getLogger(__name__)
 
 PANELS = ("MEAN SIGNAL", "NOISE", "COLUMNS", "ROWS")
 # Result tabs whose models are computed only while the tab is shown (the window says
@@ -78,10 +81,10 @@ class SessionModel:
         self.visible: set[str] | None = None  # None: every tab (no window says otherwise)
         self._dirty: set[str] = set()
         self.throttle = False  # on while a scan runs (begin_run .. its end)
-        # an executor (``submit``) for the statistics panels (Results, Pixel Distributions)
-        # while a scan runs: the window gives one thread, so a large sensor's panels (1-2 s
-        # each at 12 Mpx) do not hold the window; they are shown at the next ``flush``.
-        # None: computed here.
+        # an executor for the statistics panels (Results, Pixel Distributions): ``submit``,
+        # and ``available()`` while it may be used (the window's: while a scan thread runs).
+        # A large sensor's panels (1-2 s each at 12 Mpx) then do not hold the window; they
+        # are shown at a later ``flush``, the last at ``settle``. None: computed here.
         self.executor = None
         self._jobs: dict[str, object] = {}  # "panels" / "distributions" -> the work in flight
         self.clock = time.monotonic
@@ -129,9 +132,9 @@ class SessionModel:
 
     def flush(self, force: bool = False) -> None:
         """Draw the shown tabs whose newest data waited (every one when ``force``), and the
-        statistics panels computed in the executor once they are ready (``force``: waits)."""
+        statistics panels the executor has computed."""
         for key in list(self._jobs):
-            self._show_computed(key, wait=force)
+            self._show_computed(key, wait=False)
         if self._result_waits and (force or self.clock() - self._result_at >= RESULTS_S):
             self._result_waits = False
             if self.stages.following_latest:
@@ -140,6 +143,11 @@ class SessionModel:
             if force or self.clock() - self._drawn_at.get(tab, -math.inf) >= REFRESH_S:
                 self._drawn_at.pop(tab, None)
                 self._recompute(tab)
+
+    def settle(self) -> None:
+        """Wait for the statistics panels still being computed, and show them."""
+        for key in list(self._jobs):
+            self._show_computed(key, wait=True)
 
     def _end_of_run(self) -> None:
         self.throttle = False
@@ -339,7 +347,7 @@ class SessionModel:
         old = self._jobs.pop(key, None)
         if old is not None:
             old.cancel()  # (one already running finishes; its result is not shown)
-        if self.executor is None or not self.throttle:
+        if self.executor is None or not self.executor.available():
             for model, values in work:
                 model.set_values(values)
             return
@@ -351,9 +359,15 @@ class SessionModel:
         if job is None or not (wait or job.done()):
             return
         del self._jobs[key]
-        if not job.cancelled():
-            for model, state in job.result():
-                model.show(state)
+        if job.cancelled():
+            return
+        try:
+            states = job.result()
+        except Exception:  # noqa: BLE001 -- a bug in a panel's statistics must not end the run's drawing
+            log.exception("the %s statistics could not be computed", key)
+            return
+        for model, state in states:
+            model.show(state)
 
     def _refresh_profiles(self) -> None:
         if not self._need(PROFILES):
