@@ -434,15 +434,21 @@ def test_results_panels_are_computed_by_the_session_s_executor_while_a_scan_runs
     pool.submit(gate.wait)  # the stats thread busy: the job waits behind it
     try:
         s.handle(StageResult(1, "a", mean, var, 4))
-        assert s.panels["MEAN SIGNAL"].stats.n == 0  # not computed here
+        assert s.panels["MEAN SIGNAL"].stats.n == 0 and s.panels_stage is None  # not computed here
+        s.handle(StageResult(2, "b", mean + 1, var, 4))  # a newer stage, drawn later (RESULTS_S)
         s.panels["NOISE"].set_range_mode(MEAN_3_SIGMA)  # chosen while it is computed
         s.flush()
         assert s.panels["MEAN SIGNAL"].stats.n == 0  # not ready: not waited for
     finally:
         gate.set()
+    assert s.last_result.stage == 2
+    s._jobs["panels"].result(timeout=600)  # (a bound, not a speed requirement)
+    s.flush()  # the poll timer's flush: stage 1's panels, shown as such
+    assert s.panels_stage.stage == 1 and s.panels["MEAN SIGNAL"].stats == ref.panels["MEAN SIGNAL"].stats
     s.handle(Done(None, {}))  # the run's end (its newest stage drawn: in the executor too) ...
     s.settle()  # ... and the scan thread's: every panel computed is shown
-    assert not s._jobs
+    assert not s._jobs and s.panels_stage.stage == 2
+    ref.handle(StageResult(2, "b", mean + 1, var, 4))
     for name in ("MEAN SIGNAL", "COLUMNS", "ROWS"):
         assert s.panels[name].stats == ref.panels[name].stats, name
         assert s.panels[name].counts.tolist() == ref.panels[name].counts.tolist()

@@ -8,7 +8,7 @@ from PySide6.QtCore import Qt
 from PySide6.QtWidgets import (QComboBox, QDoubleSpinBox, QGridLayout, QGroupBox, QLabel,
                                QPushButton, QVBoxLayout, QWidget)
 
-from .models.session import PANELS, SessionModel
+from .models.session import PANELS, RESULTS_S, SessionModel
 from .models.stats import RANGE_MODES, StatsPanelModel
 from .plots.histogram_view import HistogramPlot
 
@@ -125,11 +125,13 @@ class ResultsTab(QWidget):
         self._caption()
 
     def _caption(self) -> None:
-        ev = self.session.last_result
+        ev = self.session.panels_stage
         if ev is None:
             self.caption.setText("No stage result yet.")
         elif ev.mean is None:
             self.caption.setText(f"Stage {ev.stage} ({ev.name}): its arrays were dropped to bound memory.")
         else:
+            live = (f" (while the scan runs, its newest stage is drawn at most every {RESULTS_S:g} s)"
+                    if self.session.throttle and self.session.stages.following_latest else "")
             self.caption.setText(f"Stage {ev.stage} ({ev.name}), {ev.frames} frames, "
-                                 f"{self.session.region_label(ev.mean.shape)}")
+                                 f"{self.session.region_label(ev.mean.shape)}{live}")

@@ -87,6 +87,8 @@ class SessionModel:
         # are shown at a later ``flush``, the last at ``settle``. None: computed here.
         self.executor = None
         self._jobs: dict[str, object] = {}  # "panels" / "distributions" -> the work in flight
+        self._before: dict[str, object] = {}  # ... and what to do before it is shown
+        self.panels_stage: StageResult | None = None  # the stage the Results panels show
         self.clock = time.monotonic
         self._drawn_at: dict[str, float] = {}
         self._result_at, self._result_waits = -math.inf, False  # the newest stage: when shown; waiting?
@@ -333,32 +335,41 @@ class SessionModel:
             return
         ev = self.last_result
         mean = None if ev is None or ev.mean is None else self.views.pixels(ev.mean)
+
+        def shown():  # the stage the panels show (newer ones may have come while they were computed)
+            self.panels_stage = ev
         if mean is None:
-            self._compute("panels", [(m, None) for m in self.panels.values()])
+            self._compute("panels", [(m, None) for m in self.panels.values()], shown)
             return
         var = self.views.pixels(ev.variance)
         p = self.panels
         self._compute("panels", [(p["MEAN SIGNAL"], mean), (p["NOISE"], np.sqrt(np.clip(var, 0, None))),
-                                 (p["COLUMNS"], mean.mean(axis=0)), (p["ROWS"], mean.mean(axis=1))])
+                                 (p["COLUMNS"], mean.mean(axis=0)), (p["ROWS"], mean.mean(axis=1))], shown)
 
-    def _compute(self, key: str, work: list[tuple[StatsPanelModel, np.ndarray | None]]) -> None:
+    def _compute(self, key: str, work: list[tuple[StatsPanelModel, np.ndarray | None]], before=None) -> None:
         """Give each panel its values: in the executor while a scan runs (shown by
-        ``flush``; this work replaces ``key``'s still in flight), else here and now."""
+        ``flush``; this work replaces ``key``'s still in flight), else here and now;
+        ``before()`` is called just before they are shown."""
         old = self._jobs.pop(key, None)
+        self._before.pop(key, None)
         if old is not None:
             old.cancel()  # (one already running finishes; its result is not shown)
+        before = before or (lambda: None)
         if self.executor is None or not self.executor.available():
+            before()
             for model, values in work:
                 model.set_values(values)
             return
         jobs = [(model, model.job(values)) for model, values in work]
         self._jobs[key] = self.executor.submit(lambda: [(model, job()) for model, job in jobs])
+        self._before[key] = before
 
     def _show_computed(self, key: str, wait: bool) -> None:
         job = self._jobs.get(key)
         if job is None or not (wait or job.done()):
             return
         del self._jobs[key]
+        before = self._before.pop(key)
         if job.cancelled():
             return
         try:
@@ -366,6 +377,7 @@ class SessionModel:
         except Exception:  # noqa: BLE001 -- a bug in a panel's statistics must not end the run's drawing
             log.exception("the %s statistics could not be computed", key)
             return
+        before()
         for model, state in states:
             model.show(state)
 
