@@ -290,17 +290,13 @@ FIXTURES = os.path.join(os.path.dirname(__file__), os.pardir, "fixtures", "xml")
 PTC_SMALL = os.path.join(FIXTURES, "small", "ptc_small.xml")
 
 
-def test_the_results_caption_says_when_the_newest_stage_is_drawn_at_intervals(qtbot):
+def test_the_results_caption_says_when_the_newest_stage_is_drawn_at_intervals(window):
     """While a scan runs the Results tab shows the newest stage at most every RESULTS_S:
     its caption says so (a stage shown from a while ago is not mistaken for a stuck scan),
     and no longer once the scan is over."""
     from ares.gui.events import Done, StageResult
-    from ares.gui.models.session import SessionModel
-    from ares.gui.results_panel import ResultsTab
 
-    s = SessionModel()
-    tab = ResultsTab(s)
-    qtbot.addWidget(tab)
+    s, tab = window.session, window.results
     s.begin_run("t")
     s.handle(StageResult(1, "dark", np.ones((4, 5)), np.ones((4, 5)), 3))
     assert tab.caption.text() == ("Stage 1 (dark), 3 frames, full frame (while the scan runs, its newest stage "

@@ -37,17 +37,19 @@ class SmallIntFolds:
             segs = None
         m = c // k if k else len(segs)
         g = -(-nb // (_SQ_FRAMES // 2))  # groups of squares (8 frames at the least)
+        # zeroed, not np.empty: no BLAS call ever meets uninitialized memory (the stress test
+        # once saw "invalid value encountered in matmul" here on finite integer input)
         p = self._kp = {
             "nb": nb, "n": n, "k": k, "m": m, "segs": segs, "dtype": dtype,
-            "t": np.empty((nb, n, c), np.float32),  # the block as float32 (exact)
-            "xb": np.empty((nb, n, c), dtype),  # gathered block (frames given as a list)
-            "A": np.empty((g, n * c), np.float32),  # float32 sums of squares (approximate)
-            "L": np.empty((g, n * c), np.uint16),  # the same sums modulo 2**16 (exact)
-            "Lf": np.empty((g, n * c), np.float32),
-            "o1": np.empty(n * c, np.float32),
-            "ofc": np.empty((nb, c), np.float32),
+            "t": np.zeros((nb, n, c), np.float32),  # the block as float32 (exact)
+            "xb": np.zeros((nb, n, c), dtype),  # gathered block (frames given as a list)
+            "A": np.zeros((g, n * c), np.float32),  # float32 sums of squares (approximate)
+            "L": np.zeros((g, n * c), np.uint16),  # the same sums modulo 2**16 (exact)
+            "Lf": np.zeros((g, n * c), np.float32),
+            "o1": np.zeros(n * c, np.float32),
+            "ofc": np.zeros((nb, c), np.float32),
             "fc32": np.zeros((nb, c), np.float32),
-            "rowp": np.empty((nb, r, m), np.float32),
+            "rowp": np.zeros((nb, r, m), np.float32),
             "ones_k": np.ones(max(k, _MAX_RUN), np.float32),
             "ones_n": np.ones(n, np.float32),
             "ones_b": np.ones(nb, np.float32),
