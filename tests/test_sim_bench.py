@@ -254,6 +254,30 @@ def test_frame_cost_at_given_settings_is_the_cost_once_they_are_set(fields):
     ref.close()
 
 
+@pytest.mark.parametrize("params, kw", [
+    (dict(read_noise_e=0.0, chain_noise_dn=0.0), dict(photon_flux=1e5)),  # no per-pixel temporal noise
+    (dict(flutter_pct=1.0), dict(photon_flux=1e5)),  # flutter scales a lit frame's charge
+    (dict(flutter_pct=1.0), dict(photon_flux=0.0)),  # ... and does nothing to a dark one
+    (dict(), dict(photon_flux=1e5, shot_noise="exact")),
+    (dict(), dict(photon_flux=3e3)),  # the alias method
+])
+def test_frame_path_names_the_kernel_choice_render_makes(params, kw):
+    """``frame_path`` (costing, no plan built) and ``render`` decide the fused kernel by
+    the one predicate ``fused.covers``: the same answer on the cases that bypass it."""
+    from ares.sim import fused
+    from ares.sim.sensor import SimSensor
+
+    sens = SimSensor(SensorParams(rows=16, cols=24, lag_fraction=1e-3, **params), seed=2)  # lag: not the fast path
+    kw = dict(exposure_s=0.01, **kw)
+    fast, modes, numpy_path, _ = sens.frame_path(**kw)
+    sens.render(1, **kw)
+    sc, plan = sens._cache
+    assert not fast and not plan["fast"]
+    assert numpy_path == (not fused.applies(sc, plan, 1.0 + params.get("flutter_pct", 0.0) / 100))
+    if params.get("read_noise_e") == 0.0 or kw.get("shot_noise") == "exact" or kw["photon_flux"] and "flutter_pct" in params:
+        assert numpy_path
+
+
 def test_frame_cost_orders_the_paths_as_they_cost():
     """Exact Poisson at low light costs more a frame than a Gaussian draw, a dark frame
     less, and the one-draw fast path least (``benchmarks/sim.md`` measures the times)."""

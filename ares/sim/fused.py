@@ -199,16 +199,19 @@ def _modes(sc, plan) -> tuple[int | None, int | None]:
     return plan["fused_modes"]
 
 
+def covers(modes: tuple, gauss_fast: bool, temporal_noise: bool, lit_flutter: bool) -> bool:
+    """The cases the kernel covers, from an operating point's route (``SimSensor._route``):
+    both charges' ``modes`` drawn a way it knows (the fast normal table, exact Poisson only
+    for a uniform mean by the alias method), the normal table for Gaussians
+    (``gauss_fast``), per-pixel read or chain noise present (``temporal_noise``), and no
+    flutter scaling a lit frame's photo charge (``lit_flutter``)."""
+    return available() and gauss_fast and temporal_noise and not lit_flutter and None not in modes
+
+
 def applies(sc, plan, flutter: float) -> bool:
-    """The cases the kernel covers: the fast normal table for read noise and Gaussian
-    charges, exact Poisson only for a uniform mean (the alias method), no flutter on a
-    lit frame."""
-    _load()
-    if _compiled is None or not plan["gauss_fast"] or plan["sigma"] is None:
-        return False
-    if plan["has_q"] and flutter != 1.0:  # flutter scales this frame's photo-charge mean: the numpy path
-        return False
-    return None not in _modes(sc, plan)
+    """``covers`` for a frame about to be drawn with ``plan`` and this frame's ``flutter``."""
+    return covers(_modes(sc, plan) if "has_q" in plan else (None,), plan["gauss_fast"], plan["sigma"] is not None,
+                  bool(plan["has_q"]) and flutter != 1.0)
 
 
 def charge_frame(rng, sc, plan, shape, left, table):

@@ -169,8 +169,9 @@ class SimSensor:
         if fast:
             return True, (), False, 0.0
         modes = fused.modes(sc, has_q, mask_q, mask_d)
-        numpy_path = (None in modes or sc.shot_noise == "exact" or (has_q and self.params.flutter_pct > 0)
-                      or not fused.available())
+        p = self.params
+        temporal = p.chain_noise_dn != 0 or (sc.G * sc.read_noise_e != 0 and bool(np.any(self.patterns.read_noise_factor)))
+        numpy_path = not fused.covers(modes, sc.shot_noise != "exact", temporal, has_q and p.flutter_pct > 0)
         exact = sum(1.0 if mask is True else float(np.mean(mask))
                     for m, mask in zip(modes, (mask_q, mask_d)) if m is None)
         return False, modes, numpy_path, exact
