@@ -37,7 +37,11 @@ def frames(params: SensorParams, seed: int, on: bool) -> list[np.ndarray]:
 VARIANTS = {"shipped": {}, "no_lag": {"lag_fraction": 0.0},
             "no_dark": {"dark_current_e_per_s": 0.0, "dsnu_e_per_s": 0.0, "dark_tail_e_per_s": 0.0},
             "ideal_adc": {"adc_inl_lsb": 0.0, "adc_dnl_lsb": 0.0}, "lag_1pct": {"lag_fraction": 0.01},
-            "flutter": {"flutter_pct": 1.0}}  # flutter: the numpy path, still the same codes
+            "flutter": {"flutter_pct": 1.0},  # flutter: the numpy path, still the same codes
+            # the line terms the lookup adds in its pass: frame-global alone, none at all
+            "frame_global_only": {"row_temporal_dn": 0.0}, "no_line_terms": {"row_temporal_dn": 0.0,
+                                                                              "col_temporal_dn": 0.0, "frame_global_dn": 0.0},
+            "no_rts": {"rts_rate_ppm": 0.0}, "many_rts": {"rts_rate_ppm": 2e4}, "adc_gains": {"adc_gain": (1.0, 1.03)}}  # gains: the numpy lookup
 
 
 @pytest.mark.parametrize("variant", list(VARIANTS))

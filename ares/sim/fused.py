@@ -74,7 +74,7 @@ def warm() -> None:
     z = _F32(0)
     _compiled(np.zeros(4, _F32), u, f, f, 1, u, i, d, f, f, d, i, z, 1, u, i, d, f, f, d, i, z, _F32(0.5), f, True,
               np.zeros(2, _F32), _F32(1e4), _F32(1.0), f, f, np.zeros(2, _F32))
-    _compiled_lookup(f, np.zeros(4, np.int32), np.full(4, np.inf), np.float64(64), np.zeros(2, np.uint16))
+    _compiled_lookup(f, f, f, np.zeros(4, np.int32), np.full(4, np.inf), np.float64(64), np.zeros(2, np.uint16))
     _compiled_sfc64(np.zeros(4, np.uint64), np.zeros(2, np.uint64))
     _compiled_alias(np.zeros(4, np.uint64), np.zeros(2, np.uint64), np.int64(3), np.zeros(2, np.int32), np.zeros(2))
 
@@ -266,39 +266,53 @@ def charge_frame(rng, sc, plan, shape, left, table):
     return x, (lag_out.reshape(shape) if carries else None)
 
 
-def _lookup_kernel(x, sub, tpad, S, out):
-    """``ADC._lookup`` in one pass over the raveled frame, by the sub-cell table
+def _lookup_kernel(x, row, col, sub, tpad, S, out):
+    """``ADC._lookup`` of ``(x + row term) + column term`` (float32, as numpy adds them to
+    the frame) in one pass over the raveled frame, by the sub-cell table
     (``Adc.sub_cells``): the code of x is the count of levels at or below its sub-cell's
     left edge, plus -- only in the ~1.5 % of sub-cells that hold a level -- the levels
     inside it that are <= x (compared in float64, as searchsorted does). x + 1 and the
     product by S (a power of two) are exact in float64, so is the sub-cell. 2x faster than
-    a unit-cell table with a fixed number of compares per pixel (0.53 vs 1.05 ms a VGA frame)."""
-    last = np.float64(sub.size - 1)
-    for i in range(x.size):
-        v = np.float64(x[i])
-        k = np.floor((v + 1.0) * S)
-        if not k >= 0.0:  # below the range (or NaN): code 0
-            k = 0.0
-        elif k > last:
-            k = last
-        c = sub[int(k)]
-        if c < 0:
-            c = -1 - c
-            while v >= tpad[c]:  # tpad ends in +inf
-                c += 1
-        out[i] = c
+    a unit-cell table with a fixed number of compares per pixel (measured when it was chosen)."""
+    top = sub.size - 1
+    last = np.float64(top)
+    ncol = col.size
+    i = 0
+    for r in range(x.size // ncol):
+        a = row[r]
+        for j in range(ncol):
+            v = np.float64((x[i] + a) + col[j])
+            t = (v + 1.0) * S
+            if not t >= 0.0:  # below the range (or NaN): code 0
+                k = 0
+            elif t >= last:
+                k = top
+            else:
+                k = int(t)  # floor: t >= 0
+            c = sub[k]
+            if c < 0:
+                c = -1 - c
+                while v >= tpad[c]:  # tpad ends in +inf
+                    c += 1
+            out[i] = c
+            i += 1
 
 
-def adc_lookup(x: np.ndarray, adc, out: np.ndarray) -> bool:
+def adc_lookup(x: np.ndarray, adc, out: np.ndarray, row: np.ndarray | None = None,
+               col: np.ndarray | None = None) -> bool:
     """Codes of a 2-D float32 frame into ``out`` (uint16) by ``adc``'s transition levels
-    (``ares.sim.adc.Adc`` with INL/DNL); False when the fused kernel does not apply (the
-    numpy lookup runs instead)."""
+    (``ares.sim.adc.Adc`` with INL/DNL), the frame first given its per-row and per-column
+    terms ``row`` and ``col`` (float32; ``x`` is left as it was); False when the fused
+    kernel does not apply (the numpy lookup runs instead)."""
     _load()
     if (_compiled_lookup is None or out is None or out.dtype != np.uint16 or x.dtype != _F32
-            or not x.flags.c_contiguous or not out.flags.c_contiguous):
+            or not x.flags.c_contiguous or not out.flags.c_contiguous or adc.thresholds is None):
         return False
+    rows, cols = x.shape
+    row = np.zeros(rows, _F32) if row is None else np.ascontiguousarray(row, _F32)
+    col = np.zeros(cols, _F32) if col is None else np.ascontiguousarray(col, _F32)
     sub, S = adc.sub_cells()
-    _compiled_lookup(x.ravel(), sub, adc._tpad, np.float64(S), out.ravel())
+    _compiled_lookup(x.ravel(), row, col, sub, adc._tpad, np.float64(S), out.ravel())
     return True
 
 

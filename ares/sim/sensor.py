@@ -257,25 +257,40 @@ class SimSensor:
                 if plan["sigma"] is not None:
                     x += plan["offs"]
                 self._add_charge(x, sc, plan, rng, fastz, flutter)
-        line = None  # per-row terms: Rt + frame-global
+        row = None  # per-row terms: Rt + frame-global
         if p.row_temporal_dn > 0:
-            line = p.row_temporal_dn * noise.normal(rng, (shape[0],), fastz)
+            row = p.row_temporal_dn * noise.normal(rng, (shape[0],), fastz)
         if p.frame_global_dn > 0:
             g = _F32(p.frame_global_dn * rng.standard_normal())
-            line = g if line is None else line + g
-        if line is not None:
-            x += np.reshape(line, (-1, 1)) if np.ndim(line) else line
-        if p.col_temporal_dn > 0:
-            x += p.col_temporal_dn * noise.normal(rng, (shape[1],), fastz)
+            row = np.full(shape[0], g, _F32) if row is None else row + g
+        col = p.col_temporal_dn * noise.normal(rng, (shape[1],), fastz) if p.col_temporal_dn > 0 else None
         rts = fp.defects.index["rts"]
+        bump = None
         if len(rts):
             st = self._rts_state
             flip = rng.random(len(rts)) < p.rts_switch_prob
             st[flip] = 1.0 - st[flip]
-            x.ravel()[rts] += _F32(sc.G) * fp.defects.rts_amplitude_e * st
-        if not fp.adc.unit_gain:
-            fp.adc.apply_channels(x, sc.black_level_dn)
-        codes = fp.adc.quantize(x, out=out, half_added=plan["half"])
+            bump = _F32(sc.G) * fp.defects.rts_amplitude_e * st
+        adc = fp.adc
+        if adc.unit_gain and fused.adc_lookup(x, adc, out, row, col):  # the line terms added in its pass
+            codes = out
+            if bump is not None:  # the RTS pixels again, with their bump, as the numpy path adds it
+                v = x.ravel()[rts]
+                if row is not None:
+                    v += row[rts // shape[1]]
+                if col is not None:
+                    v += col[rts % shape[1]]
+                codes.ravel()[rts] = adc.quantize((v + bump).astype(_F32))
+        else:
+            if row is not None:
+                x += row[:, None]
+            if col is not None:
+                x += col
+            if bump is not None:
+                x.ravel()[rts] += bump
+            if not adc.unit_gain:
+                adc.apply_channels(x, sc.black_level_dn)
+            codes = adc.quantize(x, out=out, half_added=plan["half"])
         stuck = fp.defects.index["stuck"]
         if len(stuck):
             codes.ravel()[stuck] = fp.defects.stuck_code
