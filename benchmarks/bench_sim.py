@@ -37,6 +37,20 @@ def median_ms(fn, repeat):
     return 1e3 * float(np.median(ts))
 
 
+def paired_ms(fa, fb, repeat):
+    """(median ms of fa, of fb, median and quartiles of the per-round ratio fb / fa): the two
+    timed alternately, so that both see the same machine load."""
+    fa(), fb()
+    ta, tb = [], []
+    for _ in range(repeat):
+        for fn, ts in ((fa, ta), (fb, tb)):
+            t0 = time.perf_counter()
+            fn()
+            ts.append(time.perf_counter() - t0)
+    r = np.array(tb) / np.array(ta)
+    return 1e3 * float(np.median(ta)), 1e3 * float(np.median(tb)), float(np.median(r)), tuple(np.percentile(r, [25, 75]))
+
+
 def timing_rows(shape, repeat):
     rows, cols = shape
     size = rows * cols
@@ -86,19 +100,20 @@ def timing_rows(shape, repeat):
     sp = sim_params(load_system(Path(__file__).resolve().parent.parent / "protocols" / "sim_sensor.xml"))
     sp = sp.replace(rows=rows, cols=cols)
     fast_s, ship = SimSensor(p, 0), SimSensor(sp, 0)
-    fast_ms = median_ms(lambda: fast_s.render(8, exposure_s=0.01, photon_flux=mid), repeat) / 8
+    fast_ms, fused_ms, ratio, quart = paired_ms(lambda: fast_s.render(8, exposure_s=0.01, photon_flux=mid),
+                                                lambda: ship.render(8, exposure_s=0.01, photon_flux=mid), 2 * repeat)
+    fast_ms, fused_ms = fast_ms / 8, fused_ms / 8
     cases.append(("fast path, 8-frame stack, per frame (default sensor, 50 % FW)", None, fast_ms))
     with fused.enabled(False):
         numpy_ms = median_ms(lambda: ship.render(8, exposure_s=0.01, photon_flux=mid), repeat) / 8
     cases.append(("shipped sim_sensor.xml settings, numpy path, per frame", None, numpy_ms))
-    fused_ms = median_ms(lambda: ship.render(8, exposure_s=0.01, photon_flux=mid), repeat) / 8
     cases.append(("shipped sim_sensor.xml settings, fused kernels, per frame", None, fused_ms))
     low = 130.0 / (sp.qe * 0.01)  # 130 e-: exact Poisson photo charge (the alias method), as 11 of make run's levels
     cases.append(("shipped settings at 130 e- (exact Poisson), fused kernels, per frame", None,
                   median_ms(lambda: ship.render(8, exposure_s=0.01, photon_flux=low), repeat) / 8))
     cases.append(("shipped settings, dark frame, fused kernels, per frame", None,
                   median_ms(lambda: ship.render(8, exposure_s=0.01, photon_flux=0.0), repeat) / 8))
-    SHIPPED[shape] = (fast_ms, numpy_ms, fused_ms)
+    SHIPPED[shape] = (fast_ms, numpy_ms, fused_ms, ratio, quart)
     out = []
     lagged = SimSensor(p.replace(lag_fraction=0.01), 0)
     for name, kw, fixed in cases:
@@ -162,9 +177,10 @@ def main():
         lines += [f"## One frame, {shape[1]}x{shape[0]}, default SensorParams (G = {g:.2f} DN/e-, all defects on)", "",
                   "| case | median ms/frame | ratio to numpy Poisson |", "|---|---:|---:|"]
         lines += [f"| {name} | {ms:.2f} | {ratio:.3f} |" for name, ms, ratio in rows]
-        fast_ms, numpy_ms, fused_ms = SHIPPED[shape]
-        lines += ["", f"Shipped settings against the fast path: {fused_ms / fast_ms:.2f}x with the fused kernels "
-                      f"(numba; target <= 2x), {numpy_ms / fast_ms:.2f}x on the numpy path; fused / numpy "
+        fast_ms, numpy_ms, fused_ms, ratio, (lo, hi) = SHIPPED[shape]
+        lines += ["", f"Shipped settings against the fast path: {ratio:.2f}x with the fused kernels "
+                      f"(numba; target <= 2x; median of {2 * args.repeat} rounds timed alternately, quartiles "
+                      f"{lo:.2f}-{hi:.2f}x), {numpy_ms / fast_ms:.2f}x on the numpy path; fused / numpy "
                       f"{fused_ms / numpy_ms:.2f}. Same codes on both paths (tests/test_sim_fused.py)."]
         lines.append("")
     rows, n = shot_error_rows(args.samples)
