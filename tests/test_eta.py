@@ -4,6 +4,7 @@ carry the first stage's one-off work or its slower frames into every later estim
 
 from __future__ import annotations
 
+import time
 from types import SimpleNamespace
 
 import pytest
@@ -215,6 +216,43 @@ def test_the_runner_plans_exposure_plus_readout_only_for_a_paced_frame_source(mo
     assert R.Runner(scan, seed=1, frames=2).run().status == "done"
     models = {m for _, _, m, _ in seen[0]}
     assert models == ({0.02 + scan.system.timing.readout_s} if paced else {0.0})
+
+
+def test_a_paced_simulator_is_planned_as_a_sensor_and_gives_the_same_run(tmp_path, monkeypatch):
+    """``<simulator paced="true">``: the frames come at exposure + readout, so the time
+    remaining plans each stack as a real sensor's (model exposure + readout, no cost
+    weights, the simulator's own seconds not counted: its work hides behind the exposure);
+    the frames, and so every result, are those of the unpaced simulator."""
+    from pathlib import Path
+
+    import ares.scan.runner as R
+    from ares.protocol import load_scan
+
+    small = Path(__file__).resolve().parents[1] / "fixtures" / "xml" / "small"
+    system = (small / "sim_small.xml").read_text()
+    assert '<simulator seed="7">' in system
+    (tmp_path / "paced.xml").write_text(system.replace('<simulator seed="7">', '<simulator seed="7" paced="true">'))
+    (tmp_path / "plain.xml").write_text(system)
+    seen, computes, results = [], [], {}
+    monkeypatch.setattr(R, "Eta", lambda *a, **k: seen.append(k["stacks"]) or Eta(*a, **k))
+    monkeypatch.setattr(Eta, "frame", lambda self, t, compute=None, _f=Eta.frame: computes.append(compute) or _f(self, t, compute))
+    for name in ("plain", "paced"):
+        text = (small / "ptc_small.xml").read_text().replace('href="sim_small.xml"', f'href="{name}.xml"')
+        (tmp_path / f"{name}_scan.xml").write_text(text)
+        scan = load_scan(tmp_path / f"{name}_scan.xml")
+        assert scan.system.simulator.paced == (name == "paced")
+        r = R.Runner(scan, out_dir=tmp_path / name, seed=1, frames=2)
+        t0 = time.monotonic()
+        assert r.run().status == "done"
+        took = time.monotonic() - t0
+        results[name] = {f: (tmp_path / name / f).read_bytes() for f in ("key_figures.csv", "ptc.csv", "components.csv")}
+    frames = sum(n for _, n, _, _ in seen[1])
+    period = 0.01 + scan.system.timing.readout_s
+    assert {m for _, _, m, _ in seen[1]} == {period} and {w for *_, w in seen[1]} == {1.0}
+    assert {m for _, _, m, _ in seen[0]} == {0.0}  # the plain simulator: no model, weighed by its cost
+    assert set(computes[-frames:]) == {None} and None not in computes[:frames]
+    assert took >= frames * period  # (a lower bound: a slow machine only adds to it)
+    assert results["paced"] == results["plain"]
 
 
 def test_stacks_weighed_by_their_frames_cost_are_charged_by_it():

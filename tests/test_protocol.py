@@ -52,6 +52,7 @@ EXPECTED = {
     "sweep_without_axis.xml": (6, "<sweep> is missing"),
     "sweep_zero_points.xml": (6, "<linear points=...> must be >= 1, got '0'"),
     "system_adc_channels.xml": (9, "2 channels but interleave='none'"),
+    "system_paced_wire.xml": (33, "applies to the direct simulator"),
     "system_unknown_sim_param.xml": (37, "<simulator>: unknown simulator parameter 'lag_fracton'"),
     "system_sim_contradicts_sensor.xml": (36, "simulator parameter 'adc_bits' = 10 contradicts the sensor's 12"),
     "system_sim_param_out_of_range.xml": (37, "<simulator>: "),  # wording: ares.sim.SensorParams

@@ -290,3 +290,14 @@ def test_frame_cost_orders_the_paths_as_they_cost():
     sparse, hot = (b.frames.frame_cost(f) for f in ({"light": 0.0, "exposure": 0.2},
                                                     {"light": 0.0, "exposure": 1.0, "temperature": 60.0}))
     assert dark < sparse < 2 * dark and hot > 5 * dark
+
+
+@pytest.mark.parametrize("readout", [-0.001, float("nan"), float("inf")])
+def test_a_paced_simulator_refuses_an_impossible_readout_time(readout):
+    with pytest.raises(InputError, match="readout time"):
+        make_sim_bench(P, seed=1, readout_s=readout)
+
+
+def test_only_a_paced_simulator_says_its_frames_follow_the_exposure():
+    assert make_sim_bench(P, seed=1, readout_s=0.0).frames.exposure_paced
+    assert not make_sim_bench(P, seed=1).frames.exposure_paced

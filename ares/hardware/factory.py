@@ -60,7 +60,8 @@ def build_bench(system, *, seed: int | None = None, faults: dict | None = None) 
     if system.simulator is not None:
         from ares.sim import make_sim_bench
 
-        bench = make_sim_bench(sim_params(system), system.simulator.seed if seed is None else seed, faults)
+        bench = make_sim_bench(sim_params(system), system.simulator.seed if seed is None else seed, faults,
+                               readout_s=system.timing.readout_s if system.simulator.paced else None)
         bench.info.setdefault("system", system.name)
         return bench
     if faults:

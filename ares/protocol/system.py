@@ -70,6 +70,7 @@ class Simulator:
     seed: int = 0
     params: dict = field(default_factory=dict)  # typed values for ares.sim.SensorParams.from_dict
     wire: bool = False  # behind emulators of the declared I2C bus, USB grabber and serial instruments
+    paced: bool = False  # frames delivered at the sensor's frame period (exposure + <timing readout_s>)
 
 
 REPLAY_LIGHT_PORT = "replay"  # port of the virtual light source a replay system presents
@@ -260,7 +261,10 @@ def system_from_tree(tree, path) -> System:
     sim = None
     if sim_el is not None:
         sim = Simulator(_int(sim_el.get("seed"), 0), dict(_param(path, p) for p in sim_el.iterfind("param")),
-                        _bool(sim_el.get("wire"), False))
+                        _bool(sim_el.get("wire"), False), _bool(sim_el.get("paced"), False))
+        if sim.paced and sim.wire:
+            raise fail(path, sim_el.sourceline, "<simulator paced=\"true\"> applies to the direct simulator; "
+                                                "behind the wires (wire=\"true\") frames come as fast as they are made")
     light = serial_from_el(path, root.find("devices/light_source"), "light_source")
     rep_el = root.find("replay")
     replay = None
@@ -381,7 +385,8 @@ def system_to_tree(sy: System) -> etree._ElementTree:
         if sy.chamber:
             serial_to_el(d, "chamber", sy.chamber)
     if sy.simulator:
-        sim = _set(etree.SubElement(root, "simulator"), seed=sy.simulator.seed, wire=sy.simulator.wire or None)
+        sim = _set(etree.SubElement(root, "simulator"), seed=sy.simulator.seed, wire=sy.simulator.wire or None,
+                   paced=sy.simulator.paced or None)
         for k, v in sy.simulator.params.items():
             t = {bool: "bool", int: "int", float: "float", tuple: "floats"}.get(type(v), "str")
             v = " ".join(repr(float(x)) for x in v) if t == "floats" else v

@@ -477,7 +477,8 @@ class Runner:
                 self._frames_done += 1
                 elapsed = time.monotonic() - self._t0
                 fps = self._frames_done / elapsed if elapsed > 0 else 0.0
-                self._eta.frame(elapsed, getattr(src, "compute_seconds", None))
+                self._eta.frame(elapsed, None if getattr(src, "exposure_paced", True)
+                                else getattr(src, "compute_seconds", None))
                 remaining = self._eta.remaining(elapsed)
                 self._emit(ev.FramePreview(st.index, k, n, data, dark))
                 self._emit(ev.Progress(st.index, len(self.stages), self._frames_done, self._frames_total, fps,
@@ -505,9 +506,10 @@ def _stacks(scan, stages, frames) -> list[tuple[str, int, float, float]]:
     apart; on a bench whose frames follow the exposure (``FrameSource.exposure_paced``,
     real sensors) a frame's model is exposure + readout, else none (0: the simulator
     computes its frames); a source that can tell what a frame at given settings costs it
-    (``FrameSource.frame_cost``: the simulator, by its path) weighs the stacks by it."""
+    (``FrameSource.frame_cost``: the simulator, by its path) weighs the stacks by it, unless
+    paced (its work then hides behind the exposure: a paced simulator)."""
     paced = getattr(frames, "exposure_paced", True)
-    weigh = getattr(frames, "frame_cost", None)
+    weigh = None if paced else getattr(frames, "frame_cost", None)
 
     def weight(settings: dict) -> float:
         nonlocal weigh

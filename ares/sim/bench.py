@@ -141,8 +141,17 @@ class SimFrameSource:
     exposure_paced = False  # a frame takes its computing time, whatever the exposure
 
     def __init__(self, sensor: SimSensor, registers: RegisterFile, light: SimLightSource | None = None,
-                 chamber: SimChamber | None = None, faults: dict | None = None, name: str = "sim grabber"):
+                 chamber: SimChamber | None = None, faults: dict | None = None, name: str = "sim grabber",
+                 readout_s: float | None = None):
+        """``readout_s``: paced, as a sensor streams -- a frame comes no sooner than its
+        exposure + ``readout_s`` after the one before (the first: after the grab starts), or
+        when computed if that is later; None: as soon as computed."""
         self.name = name
+        if readout_s is not None:
+            if not (math.isfinite(readout_s) and readout_s >= 0):
+                raise InputError(f"{name}: the readout time must be a finite number >= 0 s, not {readout_s!r}")
+            self.exposure_paced = True  # the time remaining models a frame as exposure + readout
+        self.readout_s = readout_s
         self.sensor = sensor
         self.registers = registers
         self.light = light
@@ -212,6 +221,7 @@ class SimFrameSource:
             raise InputError(f"{self.name}: test_mode {mode} is not defined (0 normal, 1 dark, 2 ADC ramp)")
         meta = dict(s, test_mode=mode)
         left = int(n)
+        last = time.perf_counter()  # (paced) when the frame before was delivered
         while left:
             k = min(left, _CHUNK, self._frames_until_fault())
             if k == 0:
@@ -225,6 +235,12 @@ class SimFrameSource:
             for frame in data:
                 if self.faults.get("frame_delay_ms"):
                     time.sleep(self.faults["frame_delay_ms"] / 1000.0)
+                if self.readout_s is not None:
+                    due = last + s["exposure_s"] + self.readout_s
+                    now = time.perf_counter()
+                    if now < due:
+                        time.sleep(due - now)
+                    last = max(due, now)
                 # Count before yielding: a consumer that stops after n frames must leave
                 # the counter at n, or fault-injection points drift by one.
                 index, stamp = self.frames_delivered, self.clock_s
@@ -298,13 +314,15 @@ class SimFrameSource:
         self.sensor.drop_patterns()  # the sensor itself stays (bench.info["sensor"]: the truth, drawn again)
 
 
-def make_sim_bench(params: SensorParams | None = None, seed: int = 0, faults: dict | None = None) -> Bench:
-    """A complete simulated bench; ``bench.info["sensor"]`` is the SimSensor (for truth)."""
+def make_sim_bench(params: SensorParams | None = None, seed: int = 0, faults: dict | None = None,
+                   readout_s: float | None = None) -> Bench:
+    """A complete simulated bench; ``bench.info["sensor"]`` is the SimSensor (for truth);
+    ``readout_s``: frames paced as a sensor streams them (``SimFrameSource``)."""
     sensor = SimSensor(params, seed)
     bus = SimRegisterBus()
     regs = RegisterFile(SIM_REGISTER_MAP, bus)
     light, chamber = SimLightSource(), SimChamber()
-    frames = SimFrameSource(sensor, regs, light, chamber, faults)
+    frames = SimFrameSource(sensor, regs, light, chamber, faults, readout_s=readout_s)
     return Bench(registers=regs, frames=frames, light=light, chamber=chamber,
                  info={"simulator": True, "seed": int(seed), "sensor": sensor,
                        "params": sensor.params.to_dict(), "chip_id": regs.get("chip_id")})
