@@ -209,9 +209,9 @@ def covers(modes: tuple, gauss_fast: bool, temporal_noise: bool, lit_flutter: bo
 
 
 def applies(sc, plan, flutter: float) -> bool:
-    """``covers`` for a frame about to be drawn with ``plan`` and this frame's ``flutter``."""
-    return covers(_modes(sc, plan) if "has_q" in plan else (None,), plan["gauss_fast"], plan["sigma"] is not None,
-                  bool(plan["has_q"]) and flutter != 1.0)
+    """``covers`` for a frame about to be drawn with a general-path ``plan`` (not the fast
+    path's) and this frame's ``flutter``."""
+    return covers(_modes(sc, plan), plan["gauss_fast"], plan["sigma"] is not None, bool(plan["has_q"]) and flutter != 1.0)
 
 
 def charge_frame(rng, sc, plan, shape, left, table):
