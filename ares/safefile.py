@@ -55,5 +55,16 @@ def confine(path: Path, roots: list[Path], where: str) -> Path:
         rr = Path(os.path.realpath(r))
         if rp == rr or rr in rp.parents:
             return rp
-    raise InputError(f"{where}: references {path}, outside the data directory "
+    link = f" (a link to {rp})" if _through_link(Path(os.path.abspath(path)), roots) else ""
+    raise InputError(f"{where}: references {path}{link}, outside the data directory "
                      f"{', '.join(str(r) for r in roots)}; ARES reads only files below it")
+
+
+def _through_link(path: Path, roots: list[Path]) -> bool:
+    """Whether ``path`` or a folder of it below the root it is written under is a symbolic link."""
+    for q in (path, *path.parents):
+        if not any(Path(os.path.abspath(r)) in q.parents for r in roots):
+            return False  # at or above the root, or never below it
+        if q.is_symlink():
+            return True
+    return False

@@ -101,6 +101,29 @@ def test_missing_image_and_single_image_level(tmp_path):
         read_descriptor(p)
 
 
+def test_images_outside_the_data_directory_are_refused(tmp_path):
+    """A descriptor reads only images below its own directory: a path climbing out of it,
+    or a link inside it to a file elsewhere, is refused naming the line (and the link's
+    target), before any image is read."""
+    data = tmp_path / "set"
+    data.mkdir()
+    p = make_set(data)
+    _png(tmp_path / "outside.png", np.zeros((6, 8)))
+    text = p.read_text()
+    p.write_text(text.replace("images\\b_000_0.png", "..\\outside.png"))
+    with pytest.raises(InputError) as ei:
+        read_descriptor(p)
+    line = text.splitlines().index("i images\\b_000_0.png") + 1
+    assert f"{p}:{line}: references" in str(ei.value) and "outside the data directory" in str(ei.value)
+    assert "a link to" not in str(ei.value)
+    (data / "images" / "b_000_0.png").unlink()
+    (data / "images" / "b_000_0.png").symlink_to(tmp_path / "outside.png")
+    p.write_text(text)
+    with pytest.raises(InputError) as ei:
+        read_descriptor(p)
+    assert f"{p}:{line}:" in str(ei.value) and f"(a link to {tmp_path / 'outside.png'})" in str(ei.value)
+
+
 def test_image_larger_than_declared_bits(tmp_path):
     p = make_set(tmp_path, bits=6)
     d = read_descriptor(p)
