@@ -101,6 +101,28 @@ def test_missing_image_and_single_image_level(tmp_path):
         read_descriptor(p)
 
 
+def test_an_image_too_narrow_for_the_declared_bits_is_refused(tmp_path):
+    """An 8-bit image in a 12-bit set (truncated, or another camera's): refused naming the
+    file, by the command and by the replay source alike; 8-bit data in 16-bit images are fine."""
+    from ares.cli import main
+
+    p = make_set(tmp_path)
+    Image.fromarray(np.full((6, 8), 100, np.uint8)).save(tmp_path / "images" / "b_001_0.png")
+    d = read_descriptor(p)
+    with pytest.raises(InputError, match=r"b_001_0.png: the image has 8 bits a pixel, too few for the 12-bit"):
+        load_level(d, d.temporal_bright[1])
+    src = EmvaReplaySource(d, d.temporal_bright)
+    src.set_level(1)
+    with pytest.raises(InputError, match="too few for the 12-bit"):
+        list(src.grab(1))
+    assert main(["emva", str(p)]) == 2
+    eight = p.read_text().replace("n 12 8 6", "n 8 8 6")
+    p.write_text(eight)
+    d = read_descriptor(p)
+    stack = load_level(d, d.temporal_bright[1])  # the 8-bit image beside a 16-bit one holding 8-bit values
+    assert stack.dtype == np.uint16 and (stack[0] == 100).all() and stack[1].max() < 256
+
+
 def test_images_outside_the_data_directory_are_refused(tmp_path):
     """A descriptor reads only images below its own directory: a path climbing out of it,
     or a link inside it to a file elsewhere, is refused naming the line (and the link's

@@ -186,18 +186,28 @@ def read_descriptor(path: str | Path, check_files: bool = True) -> EmvaDescripto
     return EmvaDescriptor(path, version, fmt[0], fmt[1], fmt[2], tuple(levels))
 
 
+def read_checked(desc: EmvaDescriptor, p: Path) -> np.ndarray:
+    """One image of the set, checked against the ``n`` record: its size, an image type
+    that can hold the declared bits (an 8-bit image in a 12-bit set has lost bits or is
+    not this set's), and no value above them."""
+    a = read_image(p)
+    if a.shape != (desc.height, desc.width):
+        raise InputError(
+            f"{p}: image is {a.shape[1]}x{a.shape[0]}, descriptor {desc.path} declares "
+            f"{desc.width}x{desc.height}"
+        )
+    if 8 * a.dtype.itemsize < desc.bits:
+        raise InputError(f"{p}: the image has {8 * a.dtype.itemsize} bits a pixel, too few for the {desc.bits}-bit "
+                         f"data descriptor {desc.path} declares (such data are stored as 16-bit images)")
+    if int(a.max()) >= (1 << desc.bits):
+        raise InputError(f"{p}: pixel value {int(a.max())} exceeds the declared {desc.bits} bits")
+    return a
+
+
 def iter_level(desc: EmvaDescriptor, level: EmvaLevel):
     """The images of one level one at a time, each checked against the ``n`` record."""
     for p in level.images:
-        a = read_image(p)
-        if a.shape != (desc.height, desc.width):
-            raise InputError(
-                f"{p}: image is {a.shape[1]}x{a.shape[0]}, descriptor {desc.path} declares "
-                f"{desc.width}x{desc.height}"
-            )
-        if int(a.max()) >= (1 << desc.bits):
-            raise InputError(f"{p}: pixel value {int(a.max())} exceeds the declared {desc.bits} bits")
-        yield a
+        yield read_checked(desc, p)
 
 
 def load_level(desc: EmvaDescriptor, level: EmvaLevel) -> np.ndarray:
@@ -238,9 +248,7 @@ class EmvaReplaySource:
         for _ in range(n):
             p = lv.images[self._pos % len(lv.images)]
             self._pos += 1
-            data = read_image(p)
-            if data.shape != self.shape:
-                raise InputError(f"{p}: image shape {data.shape} differs from {self.shape}")
+            data = read_checked(self.descriptor, p)
             meta = {"exposure_s": lv.exposure_s, "photons": lv.photons, "dark": lv.dark,
                     "level": self._level, "path": str(p)}
             yield Frame(data=data, index=self._count, timestamp=float(self._count), meta=meta)
