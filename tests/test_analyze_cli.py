@@ -85,6 +85,19 @@ def test_missing_or_corrupt_files_one_sentence(tmp_path, capsys, make, msg):
     assert msg in err and err.count("\n") == 1 and "Traceback" not in err
 
 
+def test_an_8_bit_image_among_16_bit_ones_is_refused(tmp_path, capsys):
+    """A folder's odd file out (an 8-bit export beside the camera's 16-bit frames) stops
+    the analysis naming it, instead of entering the stack as a frame 10x darker."""
+    rng = np.random.default_rng(0)
+    for i in range(3):
+        Image.fromarray(rng.normal(1000, 10, (8, 9)).astype(np.uint16)).save(tmp_path / f"f{i}.png")
+    Image.fromarray(rng.normal(100, 3, (8, 9)).astype(np.uint8)).save(tmp_path / "f3.png")
+    assert main(["analyze", str(tmp_path)]) == 2
+    err = capsys.readouterr().err
+    assert f"{tmp_path / 'f3.png'}: uint8 data among the uint16 frames of {tmp_path / 'f0.png'}" in err
+    assert err.count("\n") == 1
+
+
 def test_shape_mismatch_and_bad_roi(tmp_path, capsys):
     np.save(tmp_path / "a.npy", _stack(shape=(8, 8)))
     np.save(tmp_path / "b.npy", _stack(shape=(8, 9)))

@@ -109,22 +109,23 @@ def _iter_npy(path: Path) -> Iterator[np.ndarray]:
             yield a.reshape((cols, rows)).T if fortran else a.reshape(rows, cols)
 
 
-def _iter_one(spec) -> Iterator[np.ndarray]:
+def _iter_one(spec) -> Iterator[tuple[str | Path, np.ndarray]]:
+    """(where each frame comes from: the file, or file:array; the frame) of one spec."""
     path, inner = split_spec(spec)
     if path.is_dir():
         files = sorted(p for p in path.iterdir() if p.suffix.lower() in IMAGE_SUFFIXES)
         if not files:
             raise InputError(f"{path}: folder holds no PNG/TIFF images")
         for p in files:
-            yield read_image(p)
+            yield p, read_image(p)
         return
     if not path.is_file():
         raise InputError(f"{path}: file not found")
     suf = path.suffix.lower()
     if suf in IMAGE_SUFFIXES:
-        yield read_image(path)
+        yield path, read_image(path)
     elif suf == ".npy":
-        yield from _iter_npy(path)
+        yield from ((path, f) for f in _iter_npy(path))
     elif suf == ".npz":
         try:
             z = np.load(path, allow_pickle=False)
@@ -142,27 +143,31 @@ def _iter_one(spec) -> Iterator[np.ndarray]:
                     a = z[n]
                 except (ValueError, OSError, EOFError, zipfile.BadZipFile, zlib.error) as exc:
                     raise InputError(f"{path}:{n}: corrupt array ({exc})") from None
-                yield from _frames_of_array(a, f"{path}:{n}")
+                yield from ((f"{path}:{n}", f) for f in _frames_of_array(a, f"{path}:{n}"))
     elif suf in _H5_SUFFIXES:
-        yield from _iter_h5(path, inner)
+        yield from ((spec, f) for f in _iter_h5(path, inner))
     else:
         raise InputError(f"{path}: unknown stack format '{suf}' (use PNG/TIFF, .npy, .npz or .h5:/dataset)")
 
 
 def iter_frames(specs: Sequence[str | Path]) -> Iterator[np.ndarray]:
-    """Yield the 2-D frames of every spec in order, checking they share one shape."""
+    """Yield the 2-D frames of every spec in order, checking they share one shape and one
+    data type (an 8-bit image among 16-bit ones is an export or another camera's frame,
+    not one of this stack's)."""
     if isinstance(specs, (str, Path)):
         specs = [specs]
     if not specs:
         raise InputError("no stack files given")
-    shape = None
-    first = None
+    shape = dtype = first = None
     for spec in specs:
-        for frame in _iter_one(spec):
+        for where, frame in _iter_one(spec):
             if shape is None:
-                shape, first = frame.shape, spec
+                shape, dtype, first = frame.shape, frame.dtype, where
             elif frame.shape != shape:
-                raise InputError(f"{spec}: frame shape {frame.shape} differs from {shape} of {first}")
+                raise InputError(f"{where}: frame shape {frame.shape} differs from {shape} of {first}")
+            elif frame.dtype != dtype:
+                raise InputError(f"{where}: {frame.dtype} data among the {dtype} frames of {first}; "
+                                 "a stack's frames share one data type")
             yield frame
 
 
