@@ -76,6 +76,17 @@ def test_nan_rows_are_excluded_with_a_reason(capsys, tmp_path):
     assert abs(d["gain_dn_per_e"]["value"] - K_TRUE) < 3 * d["gain_dn_per_e"]["se"]
 
 
+def test_values_whose_squares_overflow_are_excluded_not_a_traceback(capsys, tmp_path):
+    """A row of 1e200 DN^2 (a unit slip, a corrupt export) has a variance SE beyond float64:
+    that row is excluded with the reason, the other rows still give the gain."""
+    rws = rows()
+    rws[3]["bright_variance_dn2"] = "1e200"
+    d = run_json(capsys, write(tmp_path / "t.csv", rws))
+    st = d["level_status"]
+    assert st[3]["status"] == "excluded" and "its square overflows" in st[3]["reason"]
+    assert abs(d["gain_dn_per_e"]["value"] - K_TRUE) < 3 * d["gain_dn_per_e"]["se"]
+
+
 def test_whitespace_table_with_columns_and_no_dark(capsys, tmp_path):
     rws = rows()
     lines = [f"{float(r['signal_dn'])} {float(r['variance_dn2'])}" for r in rws]

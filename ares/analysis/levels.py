@@ -42,7 +42,7 @@ class LevelStats:
         """Standard error of ``var`` for Gaussian data: ``sqrt(2/dof) * var``, plus the
         sampling of its row- and column-correlated parts when known (``line_var2``): those
         are drawn once per row or column, not once per pixel."""
-        return math.sqrt(2.0 / self.dof * self.var**2 + self.line_var2)
+        return math.sqrt(2.0 / self.dof * (self.var * self.var) + self.line_var2)  # (x * x: inf past float range, where ** raises)
 
 
 def _clip_fractions(frames: np.ndarray, max_code: int | None) -> tuple[float, float]:

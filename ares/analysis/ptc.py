@@ -163,8 +163,10 @@ def classify_levels(bright: Sequence[LevelStats], dark: Sequence[LevelStats],
     s_min_signif = float(S[signif].min()) if signif.any() else math.inf
     for i in range(n):
         b = bright[i]
-        if not (math.isfinite(S[i]) and math.isfinite(V[i]) and math.isfinite(Vse[i])):
+        if not (math.isfinite(S[i]) and math.isfinite(V[i])):
             status[i], reason[i] = "excluded", "non-finite mean or variance"
+        elif not math.isfinite(Vse[i]):
+            status[i], reason[i] = "excluded", f"variance {V[i]:.3g} DN^2 beyond float64 arithmetic (its square overflows)"
         elif b.frac_at_max - dark[i].frac_at_max > clip_limit:
             # pixels already at the maximum code in the dark (hot, stuck high) are defects,
             # not saturation: only the excess over the dark's fraction counts
