@@ -82,6 +82,26 @@ def test_ptc_gain_read_noise_full_well_and_exclusions():
     assert r.dynamic_range_db.available and r.sensitivity_threshold_e.available
 
 
+def test_degenerate_inputs_give_verdicts_not_exceptions():
+    """Through the API (no table bounds): a variance whose square overflows float64
+    excludes its level with the reason; weights that single out one level leave the line
+    fit not available instead of raising; photon counts that are all 0 give QE n/a."""
+    from dataclasses import replace
+
+    bright, dark, ne = make_ptc(shape=(32, 32), levels=np.geomspace(50, 8000, 12))
+    bright = list(bright)
+    bright[4] = replace(bright[4], var=1e200)
+    r = analyze_ptc(bright, dark, photons=ne)
+    st = {lv.index: (lv.status, lv.reason) for lv in r.levels}
+    assert st[4][0] == "excluded" and "its square overflows" in st[4][1]
+    assert abs(r.gain_dn_per_e.value - 0.25) < 4 * r.gain_dn_per_e.se
+    s = np.linspace(100, 1000, 6)
+    lf = wls_line(s, 0.25 * s, 1e4, v_se=np.r_[1e-300, np.ones(5)])
+    assert math.isnan(lf.slope) or lf.slope == pytest.approx(0.25, rel=1e-6)  # never an exception
+    r0 = analyze_ptc(make_ptc(shape=(32, 32), levels=np.geomspace(50, 8000, 12))[0], dark, photons=np.zeros(12))
+    assert not r0.qe.available and "does not rise with the photon counts" in r0.qe.note
+
+
 def test_clipped_and_nonmonotonic_levels_are_excluded_with_reason():
     ne = np.array([100, 300, 600, 1000, 1500, 2000, 2600, 3200, 4000, 4800, 5600, 6400, 7000, 7750, 8200.0])
     bright, dark, _ = make_ptc(levels=ne, shape=(64, 64), bits=11, fw=1e6)  # ADC clips near 7800 e-

@@ -76,15 +76,34 @@ def test_nan_rows_are_excluded_with_a_reason(capsys, tmp_path):
     assert abs(d["gain_dn_per_e"]["value"] - K_TRUE) < 3 * d["gain_dn_per_e"]["se"]
 
 
-def test_values_whose_squares_overflow_are_excluded_not_a_traceback(capsys, tmp_path):
-    """A row of 1e200 DN^2 (a unit slip, a corrupt export) has a variance SE beyond float64:
-    that row is excluded with the reason, the other rows still give the gain."""
+def test_values_beyond_a_measurement_are_refused_and_infinities_excluded(capsys, tmp_path):
+    """A cell beyond what a measurement holds (1e200 DN^2: a unit slip, a corrupt export) is
+    one sentence naming its line and column, exit 2; an infinite cell is an empty one: its
+    level is excluded with the reason and the rest still give the gain."""
     rws = rows()
     rws[3]["bright_variance_dn2"] = "1e200"
+    assert main(["ptc", str(write(tmp_path / "t.csv", rws))]) == 2
+    err = capsys.readouterr().err
+    assert "t.csv:5: column 'var' = 1e+200 DN^2 is outside what a measurement holds" in err and err.count("\n") == 1
+    rws[3]["bright_variance_dn2"] = "-inf"
     d = run_json(capsys, write(tmp_path / "t.csv", rws))
-    st = d["level_status"]
-    assert st[3]["status"] == "excluded" and "its square overflows" in st[3]["reason"]
+    assert d["level_status"][3]["status"] == "excluded" and "non-finite" in d["level_status"][3]["reason"]
     assert abs(d["gain_dn_per_e"]["value"] - K_TRUE) < 3 * d["gain_dn_per_e"]["se"]
+
+
+@pytest.mark.parametrize("column, value, fragment", [
+    ("n_frames", "1e200", "n_frames 1e+200 is not a frame count"),
+    ("n_frames", "2.5", "n_frames 2.5 is not a frame count"),
+    ("n_pixels", "0", "n_pixels 0 is not a pixel count"),
+    ("exposure_s", "-0.01", "column 'exposure' = -0.01 s is outside"),
+])
+def test_counts_and_axes_out_of_range_name_the_line(capsys, tmp_path, column, value, fragment):
+    rws = rows()
+    assert column in rws[0]
+    rws[2][column] = value
+    assert main(["ptc", str(write(tmp_path / "t.csv", rws))]) == 2
+    err = capsys.readouterr().err
+    assert "t.csv:4:" in err and fragment in err and "Traceback" not in err
 
 
 def test_whitespace_table_with_columns_and_no_dark(capsys, tmp_path):

@@ -132,7 +132,7 @@ class PtcResult:
 def _inv(e: Estimate, unit: str, note: str = "") -> Estimate:
     if not e.available or e.value == 0:
         return Estimate.na("gain not available", unit)
-    return Estimate(1.0 / e.value, e.se / e.value**2, unit, note)
+    return Estimate(1.0 / e.value, e.se / e.value / e.value, unit, note)
 
 
 def _nominal(n: int, exposure_s, photons):
@@ -389,8 +389,11 @@ def analyze_ptc(bright: Sequence[LevelStats], dark: Sequence[LevelStats], *, exp
     # QE (responsivity R = slope of S vs photons, origin fit over the fit range) / K (Eq. 52)
     if photons is not None and gain.available and fit:
         R = origin_fit([lv.photons for lv in fit], [lv.signal for lv in fit])
-        qv = R.slope / gain.value
-        qe = Estimate(qv, qv * math.hypot(R.slope_se / R.slope, gain.se / gain.value), "", "R/K (EMVA 1288 Eq. 52)")
+        if R.slope > 0 and math.isfinite(R.slope):
+            qv = R.slope / gain.value
+            qe = Estimate(qv, qv * math.hypot(R.slope_se / R.slope, gain.se / gain.value), "", "R/K (EMVA 1288 Eq. 52)")
+        else:
+            qe = Estimate.na(f"the signal does not rise with the photon counts (responsivity {R.slope:.3g} DN/photon)", "")
     else:
         qe = Estimate.na("photon counts not given", "")
 

@@ -104,7 +104,12 @@ def wls_line(s, v, dof, through_origin: bool = False, v_se=None) -> LineFit:
     coef, *_ = np.linalg.lstsq(Aw, yw, rcond=None)
     r = yw - Aw @ coef
     chi2 = float(r @ r) / (n - p)
-    cov = np.linalg.inv(Aw.T @ Aw) * max(chi2, 1.0)
+    try:
+        cov = np.linalg.inv(Aw.T @ Aw) * max(chi2, 1.0)
+    except np.linalg.LinAlgError:  # the weights single out fewer levels than parameters: no fit
+        return LineFit(math.nan, math.nan, math.nan, math.nan, n=n)
+    if not np.all(np.diag(cov) >= 0):  # (the same, seen through rounding)
+        return LineFit(math.nan, math.nan, math.nan, math.nan, n=n)
     se = np.sqrt(np.diag(cov))
     if through_origin:
         return LineFit(float(coef[0]), float(se[0]), 0.0, 0.0, chi2, n)

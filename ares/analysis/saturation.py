@@ -182,7 +182,7 @@ def index_linearity_turnoff(x, signal, tol: float = 0.01, fit_lo: float = 0.05,
         return -1
     smax = np.max(s[fin])
     sel = fin & (s >= fit_lo * smax) & (s <= fit_hi * smax)
-    if sel.sum() < 2:
+    if sel.sum() < 2 or np.ptp(x[sel]) == 0:  # a line needs two distinct illuminations
         return -1
     a, b = np.polyfit(x[sel], s[sel], 1)
     pred = a * x + b

@@ -20,7 +20,8 @@ from ares.errors import InputError
 
 NAME = "ptc"
 HELP = "photon transfer (gain, read noise, saturation, full well) from a mean/variance table"
-UNKNOWN_PIXELS = 10**12  # no pixel counts: SEs from the fits' residual scatter
+UNKNOWN_PIXELS = 10**12  # no pixel counts: SEs from the fits' residual scatter (and the most a level may hold)
+MAX_FRAMES = 10**9  # frames a level may average
 
 
 def add_arguments(p) -> None:
@@ -52,17 +53,22 @@ def _levels(table, pixels: int | None, frames: int | None):
         c = col(name)
         return default if c is None or not math.isfinite(c[i]) else c[i]
 
+    def count(name, i, default, lo, hi, what):  # a whole number lo .. hi, else one sentence naming the line
+        x = val(name, i, default)
+        if not (lo <= x <= hi and x == int(x)):
+            raise InputError(f"{table.path}:{table.lines[i]}: {name} {x:g} is not a {what} "
+                             f"(a whole number from {lo:g} to {hi:g})")
+        return int(x)
+
     if col("dark_mean") is None and col("dark_var") is None:
         notes.append("no dark columns: the means and variances are taken as dark-subtracted; read noise needs them")
     bright, dark, seen = [], [], {}
     for i in range(n):
-        npx = int(val("n_pixels", i, pixels if pixels is not None else UNKNOWN_PIXELS))
-        nfr = int(val("n_frames", i, frames if frames is not None else 2))
-        if npx < 1 or nfr < 2:
-            raise InputError(f"{table.path}:{table.lines[i]}: a level needs >= 1 pixel and >= 2 frames "
-                             f"(has {npx} and {nfr})")
+        npx = count("n_pixels", i, pixels if pixels is not None else UNKNOWN_PIXELS, 1, UNKNOWN_PIXELS, "pixel count")
+        nfr = count("n_frames", i, frames if frames is not None else 2, 2, MAX_FRAMES, "frame count")
         bright.append(LevelStats(col("mean")[i], col("var")[i], npx, nfr, val("frac_at_max", i, 0.0)))
-        key = (val("dark_mean", i, 0.0), val("dark_var", i, 0.0), npx, int(val("dark_n_frames", i, nfr)))
+        key = (val("dark_mean", i, 0.0), val("dark_var", i, 0.0), npx,
+               count("dark_n_frames", i, nfr, 2, MAX_FRAMES, "frame count"))
         if key not in seen:  # one dark level shared by many rows is one measurement
             seen[key] = LevelStats(*key)
         dark.append(seen[key])

@@ -22,8 +22,9 @@ field            header names                                       needed
 
 The report's ``ptc.csv`` (``ares report``) is such a table. Variances are *raw* (bright
 and dark apart); without pixel counts the standard errors come from the fits' residual
-scatter. Rows whose numbers are not finite are kept and reported by the analysis as
-excluded, with the reason; a malformed row is one sentence naming the file and line.
+scatter. Rows whose numbers are empty or not finite are kept and reported by the analysis
+as excluded, with the reason; a malformed row, or a value beyond what a measurement holds
+(``BOUNDS``: a unit slip, a corrupt export), is one sentence naming the file and line.
 """
 
 from __future__ import annotations
@@ -52,6 +53,13 @@ ALIASES = {
     "signal_se": ("signal_se", "signal_se_dn"),
 }
 REQUIRED = ("mean", "var")
+# what a measurement can hold (a 40-bit ADC's DN and their squares, a day's exposure ...):
+# a finite value beyond is a unit slip or a corrupt export, named at its line; counts are
+# checked by ``ares ptc`` (its --pixels/--frames fill them in)
+_DN, _DN2 = 2.0**40, 2.0**80
+BOUNDS = {"mean": (-_DN, _DN, "DN"), "dark_mean": (-_DN, _DN, "DN"), "var": (-_DN2, _DN2, "DN^2"),
+          "dark_var": (-_DN2, _DN2, "DN^2"), "frac_at_max": (0.0, 1.0, ""), "exposure": (0.0, 1e6, "s"),
+          "photons": (0.0, 1e15, "photons"), "signal_se": (0.0, _DN, "DN")}
 
 
 @dataclass
@@ -83,13 +91,22 @@ def _split(line: str, delim: str | None) -> list[str]:
 
 
 def _number(text: str, path: Path, lineno: int, col: str) -> float:
+    """The cell's value; NaN where empty or not finite (the level is then excluded, with
+    the reason); one sentence for text or a value beyond ``BOUNDS``."""
     t = text.strip()
     if t == "" or t.lower() in ("nan", "na", "n/a", "none", "null"):
         return math.nan
     try:
-        return float(t)
+        x = float(t)
     except ValueError:
         raise InputError(f"{path}:{lineno}: column '{col}' is not a number") from None  # content never echoed
+    if not math.isfinite(x):
+        return math.nan
+    lo, hi, unit = BOUNDS.get(col, (-math.inf, math.inf, ""))
+    if not lo <= x <= hi:
+        raise InputError(f"{path}:{lineno}: column '{col}' = {x:g}{' ' + unit if unit else ''} is outside what a "
+                         f"measurement holds ({lo:g} .. {hi:g})")
+    return x
 
 
 def read_ptc_table(path: str | Path, columns: list[str] | None = None) -> PtcTable:
