@@ -163,6 +163,17 @@ def test_nan_inf_is_clear_error(bad):
         a.add_batch(x)
 
 
+def test_float_values_beyond_a_sensor_are_a_clear_error():
+    """1e303 DN (a unit slip or a corrupt export) would overflow the squares: refused
+    naming the frame; 2^40 DN itself is accepted."""
+    a = StackAccumulator((3, 3))
+    a.add(np.full((3, 3), 2.0**40))
+    x = np.zeros((4, 3, 3))
+    x[3, 1, 1] = -1e303
+    with pytest.raises(InputError, match=r"frame 4 contains 1e\+303 DN, beyond a sensor's values"):
+        a.add_batch(x)
+
+
 def test_mismatched_shape_is_clear_error():
     a = StackAccumulator((4, 5))
     a.add(np.zeros((4, 5), np.uint16))

@@ -107,3 +107,21 @@ def test_shape_mismatch_and_bad_roi(tmp_path, capsys):
     assert "outside" in capsys.readouterr().err
     with pytest.raises(Exception):
         list(iter_frames([]))
+
+
+@pytest.mark.parametrize("argv, fragment", [
+    (["analyze", "x.npy", "--gain", "0"], "argument --gain: must be a finite number > 0, got '0'"),
+    (["analyze", "x.npy", "--gain", "nan"], "argument --gain: must be a finite number, got 'nan'"),
+    (["analyze", "x.npy", "--gain", "1e300"], "a gain of 1e+300 DN/e- is beyond any sensor's"),
+    (["defects", "--dark", "x.npy", "--gain", "-0.3"], "argument --gain: must be a finite number > 0"),
+    (["defects", "--dark", "x.npy", "--exposure", "-1"], "argument --exposure: must be a finite number >= 0"),
+    (["emva", "d.txt", "--pixel-size-um", "inf"], "argument --pixel-size-um: must be a finite number"),
+    (["ptc", "t.csv", "--adc-lsb-uv", "abc"], "argument --adc-lsb-uv: 'abc' is not a number"),
+])
+def test_physical_options_out_of_range_are_refused_by_the_parser(capsys, argv, fragment):
+    """A gain of 0 or 1e300, a negative exposure ...: one sentence naming the option and
+    exit 2 before any file is read (the analysis would divide by them)."""
+    with pytest.raises(SystemExit) as ei:
+        main(argv)
+    assert ei.value.code == 2
+    assert fragment in capsys.readouterr().err

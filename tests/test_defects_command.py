@@ -56,8 +56,7 @@ def test_text_and_limit_failure(files, capsys):
     (["--dark", "missing.npy"], ["missing.npy", "not found"]),
     (["--dark", "DARK", "--set", "hot_e_per_second=3"], ["unknown defect parameter"]),
     (["--dark", "DARK", "--exposure", "1", "2"], ["--exposure"]),
-    (["--dark", "DARK", "--gain", "-1"], ["--gain"]),
-])
+])  # (a gain out of range: the parser's, test_analyze_cli.test_physical_options_out_of_range_...)
 def test_user_errors_one_sentence_exit_2(files, capsys, argv, words):
     tmp, _ = files
     argv = [str(tmp / "dark_a.npy") if a == "DARK" else a for a in argv]

@@ -37,6 +37,11 @@ from ares.errors import InputError
 
 from .small_int_fold import SmallIntFolds
 
+# The largest magnitude a frame value may have: a 40-bit ADC's full scale. Its square and
+# sums of a million frames of it stay far inside float64; a value beyond is a unit slip or
+# a corrupt export, refused with one sentence (ptc_table bounds its tables by it too).
+MAX_DN = 2.0**40
+
 __all__ = ["StackAccumulator"]
 
 def _as_frames(frames) -> np.ndarray:
@@ -144,12 +149,16 @@ class StackAccumulator(SmallIntFolds):
                 f"frame {first_index} has shape {tuple(a.shape[-2:])}, but this stack's frames are {self.shape}"
             )
         if a.dtype.kind == "f":
-            ok = np.isfinite(a)
+            ok = np.abs(a) <= MAX_DN  # (False for NaN)
             if not ok.all():
                 bad = first_index
                 if a.ndim == 3:
                     bad += int(np.argmin(ok.reshape(len(a), -1).all(axis=1)))
-                raise InputError(f"frame {bad} contains NaN/inf")
+                x = a[bad - first_index] if a.ndim == 3 else a
+                if not np.isfinite(x).all():
+                    raise InputError(f"frame {bad} contains NaN/inf")
+                raise InputError(f"frame {bad} contains {float(np.abs(x).max()):g} DN, beyond a sensor's values "
+                                 "(|x| <= 2^40 DN)")
 
     def add(self, frame, copy: bool = True) -> None:
         """Add one 2-D frame (integer or finite float).

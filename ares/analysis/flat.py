@@ -226,7 +226,7 @@ def shot_noise_estimates(S: float, var_S: float, dpt: float, var_dpt: float, gai
         G = float(gain)
         out["G"] = Estimate(G, 0.0, "DN/e-", "given")
         out["q"] = Estimate(S / G, math.sqrt(var_S) / abs(G), "e-")
-        out["delta"] = Estimate(dpt / G**2, math.sqrt(var_dpt) / G**2, "e-^2")
+        out["delta"] = Estimate(dpt / (G * G), math.sqrt(var_dpt) / (G * G), "e-^2")
         ratio = dpt / (G * S)
         out["poisson_ratio"] = Estimate(ratio, abs(ratio) * math.sqrt(var_dpt / dpt**2 + var_S / S**2), "1")
     return out

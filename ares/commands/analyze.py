@@ -15,6 +15,7 @@ import json
 import math
 
 from ares import labels
+from ares.commands.argtypes import gain
 from ares.errors import InputError
 
 # the analysis is imported when the command runs, not when `ares --help` builds its parser
@@ -30,7 +31,7 @@ def add_arguments(p) -> None:
     p.add_argument("files", nargs="+", help="stack files (flat stack when --dark is given)")
     p.add_argument("--dark", nargs="+", default=None, metavar="FILE", help="dark stack files")
     p.add_argument("--roi", default=None, metavar="X,Y,W,H", help="region of analysis (default: full frame)")
-    p.add_argument("--gain", type=float, default=None, help="conversion gain in DN/e- (enables the Poisson check)")
+    p.add_argument("--gain", type=gain, default=None, help="conversion gain in DN/e- (enables the Poisson check)")
     p.add_argument("--illumination", choices=("highpass", "surface", "none"), default="highpass",
                    help="removal of smooth illumination before the gain non-uniformity (default: highpass, EMVA 4.0)")
     p.add_argument("--json", action="store_true", help="print JSON keyed by component name")

@@ -17,6 +17,7 @@ import json
 import math
 from pathlib import Path
 
+from ares.commands.argtypes import gain, non_negative
 from ares.errors import InputError, LimitsFailed
 
 # numpy and the analysis are imported when the command runs (`ares --help` stays light)
@@ -33,10 +34,10 @@ def add_arguments(p) -> None:
                    help="dark frames/stacks of one level (repeat the option for more levels)")
     p.add_argument("--flat", nargs="+", action="append", default=None, metavar="FILE",
                    help="illuminated frames/stacks of one level (repeatable)")
-    p.add_argument("--gain", type=float, default=None, metavar="K", help="system gain in DN/e-")
-    p.add_argument("--exposure", type=float, nargs="+", default=None, metavar="S",
+    p.add_argument("--gain", type=gain, default=None, metavar="K", help="system gain in DN/e-")
+    p.add_argument("--exposure", type=non_negative, nargs="+", default=None, metavar="S",
                    help="exposure time(s) in s: one for all levels, or one per dark level")
-    p.add_argument("--flat-exposure", type=float, nargs="+", default=None, metavar="S",
+    p.add_argument("--flat-exposure", type=non_negative, nargs="+", default=None, metavar="S",
                    help="exposure time(s) of the flat levels (default: --exposure)")
     p.add_argument("--set", dest="settings", action="append", default=[], metavar="NAME=VALUE",
                    help="override a threshold or limit, e.g. --set hot_e_per_s=5 --set max_hot=100")
@@ -196,8 +197,6 @@ def run(args) -> int:
     import numpy as np
 
     th = _thresholds(args.settings)
-    if args.gain is not None and not args.gain > 0:
-        raise InputError("--gain must be a positive number of DN per electron")
     regions = BAYER_PHASES if args.bayer else None
     results, shape = classify_files(args.dark, args.flat or [], gain=args.gain, exposure=args.exposure,
                              flat_exposure=args.flat_exposure, thresholds=th, regions=regions)

@@ -14,6 +14,7 @@ import math
 from dataclasses import dataclass
 from pathlib import Path
 
+from ares.commands.argtypes import positive
 from ares.errors import InputError
 
 # numpy, scipy and the analysis are imported when the command runs (`ares --help` stays light)
@@ -272,8 +273,8 @@ def add_arguments(parser) -> None:
     for opt, what in (("--vendor", "camera vendor"), ("--model", "camera model"), ("--serial", "serial number"),
                       ("--date", "measurement date (the datasheet must state it)")):
         parser.add_argument(opt, help=f"{what}, for the datasheet header")
-    parser.add_argument("--wavelength-nm", type=float, help="light source centroid wavelength (nm)")
-    parser.add_argument("--pixel-size-um", type=float, help="pixel pitch (um): gives mu_e.min.area and mu_e.sat.area")
+    parser.add_argument("--wavelength-nm", type=positive, help="light source centroid wavelength (nm)")
+    parser.add_argument("--pixel-size-um", type=positive, help="pixel pitch (um): gives mu_e.min.area and mu_e.sat.area")
 
 
 def _meta(args, an: EmvaAnalysis) -> None:

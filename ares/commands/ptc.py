@@ -16,6 +16,7 @@ import math
 from pathlib import Path
 
 from ares.analysis.estimate import format_dict
+from ares.commands.argtypes import positive
 from ares.errors import InputError
 
 NAME = "ptc"
@@ -32,7 +33,7 @@ def add_arguments(p) -> None:
     p.add_argument("--pixels", type=int, default=None, help="pixels per level when the table has no n_pixels column")
     p.add_argument("--frames", type=int, default=None,
                    help="frames per level when the table has no n_frames column (default 2: a pair)")
-    p.add_argument("--adc-lsb-uv", type=float, default=None, help="ADC LSB in uV (for the conversion gain in uV/e-)")
+    p.add_argument("--adc-lsb-uv", type=positive, default=None, help="ADC LSB in uV (for the conversion gain in uV/e-)")
     p.add_argument("--json", action="store_true", help="print the result as JSON")
     p.add_argument("--pdf", default=None, metavar="FILE", help="write the PTC, SNR and linearity plots to a PDF")
 

@@ -35,6 +35,7 @@ import math
 from dataclasses import dataclass, field
 from pathlib import Path
 
+from ares.analysis.accumulate import MAX_DN
 from ares.errors import InputError
 from ares.safefile import read_regular
 
@@ -56,7 +57,7 @@ REQUIRED = ("mean", "var")
 # what a measurement can hold (a 40-bit ADC's DN and their squares, a day's exposure ...):
 # a finite value beyond is a unit slip or a corrupt export, named at its line; counts are
 # checked by ``ares ptc`` (its --pixels/--frames fill them in)
-_DN, _DN2 = 2.0**40, 2.0**80
+_DN, _DN2 = MAX_DN, MAX_DN**2
 BOUNDS = {"mean": (-_DN, _DN, "DN"), "dark_mean": (-_DN, _DN, "DN"), "var": (-_DN2, _DN2, "DN^2"),
           "dark_var": (-_DN2, _DN2, "DN^2"), "frac_at_max": (0.0, 1.0, ""), "exposure": (0.0, 1e6, "s"),
           "photons": (0.0, 1e15, "photons"), "signal_se": (0.0, _DN, "DN")}
