@@ -82,3 +82,11 @@ def test_bayer_channels(files, capsys):
         assert all(d["y"] % 2 == int(name[0]) and d["x"] % 2 == int(name[1]) for d in ch["defects"])
     png = np.asarray(Image.open(tmp / "bayer.png"))
     assert all(png[y, x] & 1 for y, x in hot)
+
+
+def test_bayer_phases_of_a_one_row_frame_are_one_sentence(tmp_path, capsys):
+    """--bayer on frames one row high: phase '10' has no pixel -- one sentence, exit 2."""
+    np.save(tmp_path / "one.npy", np.random.default_rng(0).normal(100, 3, (4, 1, 6)).astype(np.uint16))
+    assert main(["defects", "--dark", str(tmp_path / "one.npy"), "--bayer"]) == 2
+    err = capsys.readouterr().err
+    assert "region '10' holds no pixel of a 6x1 frame" in err and err.count("\n") == 1

@@ -20,6 +20,8 @@ from typing import Mapping, Sequence
 
 import numpy as np
 
+from ares.errors import InputError
+
 from .params import DefectThresholds
 from .result import BITS, PIXEL_CLASSES, DefectResult
 from .stats import PixelStats, SeriesCollector, candidate_series, masked_population_stats, pixel_stats
@@ -109,6 +111,8 @@ def classify_regions(
     for name, (rs, cs) in regions.items():
         r0, _, rstep = rs.indices(shape[0])
         c0, _, cstep = cs.indices(shape[1])
+        if not (len(range(*rs.indices(shape[0]))) and len(range(*cs.indices(shape[1])))):
+            raise InputError(f"region '{name}' holds no pixel of a {shape[1]}x{shape[0]} frame")
         series = None
         if isinstance(rts_series, SeriesCollector):
             series = rts_series.region(rs, cs, shape)
