@@ -162,6 +162,58 @@ def test_emva_command_on_small_set(tmp_path, capsys):
     assert "K" in out and "data:" in out
 
 
+@pytest.mark.parametrize("release", ["4.0-linear", "4.0-general", "3.1", "3.0"])
+def test_a_set_without_photon_counts_gives_verdicts(tmp_path, capsys, release):
+    """Photon counts all 0 (a lab that did not calibrate its light): every release still
+    answers, exit 0 -- the gain where the data give it, QE and the photon figures "not
+    available" with the reason -- and no warning or traceback on stderr."""
+    import json
+    import re
+
+    from ares.cli import main
+
+    p = make_set(tmp_path, levels=8)
+    p.write_text(re.sub(r"^b (\S+) \S+$", r"b \1 0", p.read_text(), flags=re.M))
+    assert main(["emva", str(p), "--release", release, "--json", "--pdf", str(tmp_path / "r.pdf")]) == 0
+    out, err = capsys.readouterr()
+    assert err == "" and (tmp_path / "r.pdf").stat().st_size > 1000
+    flat = json.dumps(json.loads(out))
+    assert "NaN" not in flat and "Infinity" not in flat
+    if release != "4.0-general":
+        doc = json.loads(out)
+        qe = next(v for k, v in _walk(doc) if k in ("QE", "qe"))
+        assert qe["value"] is None and "photon" in qe["note"]
+
+
+def _walk(doc):
+    if isinstance(doc, dict):
+        for k, v in doc.items():
+            if isinstance(v, dict) and "value" in v:
+                yield k, v
+            else:
+                yield from _walk(v)
+    elif isinstance(doc, list):
+        for v in doc:
+            yield from _walk(v)
+
+
+def test_a_set_of_constant_images_gives_verdicts(tmp_path, capsys):
+    """Every image the same value (a stuck sensor, a test pattern): no gain can be fitted
+    -- K "not available" with the reason, exit 0, nothing on stderr."""
+    import json
+
+    from ares.cli import main
+
+    p = make_set(tmp_path, levels=8)
+    for f in (tmp_path / "images").glob("*.png"):
+        _png(f, np.full((6, 8), 300))
+    assert main(["emva", str(p), "--json"]) == 0
+    out, err = capsys.readouterr()
+    assert err == ""
+    k = next(v for key, v in _walk(json.loads(out)) if key == "K")
+    assert k["value"] is None and k["note"]
+
+
 def test_replay_select_by_exposure_and_light(tmp_path):
     from ares.hardware.emva_descriptor import EmvaReplayLight
     from ares.hardware.interfaces import LightSource

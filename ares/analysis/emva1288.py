@@ -97,21 +97,43 @@ def _line_b0(x, y):
 def emva1288_results(temporal: TemporalData, spatial_bright: SpatialStats | None = None,
                      spatial_dark: SpatialStats | None = None,
                      index_u_ysat: int | None = None) -> Emva1288Result:
+    """The Release 3.0 set as the reference implementation computes it. Each figure whose
+    preconditions fail (no two levels with signal up to 70 % of saturation, a gain or a
+    responsivity that does not rise, photon counts all zero, no level in the linearity
+    window) is "not available" with the reason, never a number from a failed fit."""
     td = temporal
     Y = td.u_y - td.u_ydark
     V = td.s2_y - td.s2_ydark
     isat = index_u_ysat if index_u_ysat is not None else index_max_variance(td.s2_y)
-    imax = int(np.max(np.nonzero(Y <= 0.7 * Y[isat])[0]))
-    sl = slice(0, imax + 1)
-    K, K_se = _line_b0(Y[sl], V[sl])
-    R, R_se = _line_b0(td.u_p[sl], Y[sl])
-    QE = R / K
-    QE_se = QE * math.hypot(R_se / R, K_se / K)
+    below = np.nonzero(Y <= 0.7 * Y[isat])[0]
+    imax = int(below.max()) if below.size else -1
     vals: dict[str, Estimate] = {}
     extra: dict[str, Estimate] = {}
-    vals["K"] = Estimate(K, K_se, "DN/e-", "origin fit of s2_y-s2_y.dark vs mu_y-mu_y.dark up to 70 % sat")
-    extra["R"] = Estimate(R, R_se, "DN/p", "responsivity, origin fit")
-    vals["QE"] = Estimate(100 * QE, 100 * QE_se, "%", "R/K")
+    na = Estimate.na
+    K = R = math.nan
+    if not (Y[isat] > 0 and imax >= 1):
+        why_k = why_r = (f"no two levels with signal above dark up to 70 % of saturation (signal at saturation "
+                         f"{Y[isat]:.3g} DN)")
+    else:
+        sl = slice(0, imax + 1)
+        K, K_se = _line_b0(Y[sl], V[sl])
+        R, R_se = _line_b0(td.u_p[sl], Y[sl])
+        why_k = "" if K > 0 and math.isfinite(K_se) else f"the variance does not rise with the signal (K = {K:.3g})"
+        why_r = ("" if R > 0 and math.isfinite(R_se) else
+                 "the data set gives no photon counts (all 0)" if not np.any(td.u_p[sl] > 0) else
+                 f"the signal does not rise with the photon counts (responsivity {R:.3g} DN/photon)")
+    why_qe = why_k or why_r
+    if not why_k:
+        vals["K"] = Estimate(K, K_se, "DN/e-", "origin fit of s2_y-s2_y.dark vs mu_y-mu_y.dark up to 70 % sat")
+    else:
+        vals["K"] = na(why_k, "DN/e-")
+    extra["R"] = Estimate(R, R_se, "DN/p", "responsivity, origin fit") if not why_r else na(why_r, "DN/p")
+    if not why_qe:
+        QE = R / K
+        QE_se = QE * math.hypot(R_se / R, K_se / K)
+        vals["QE"] = Estimate(100 * QE, 100 * QE_se, "%", "R/K")
+    else:
+        vals["QE"] = na(why_qe, "%")
 
     nexp = np.unique(td.texp_s).size
     if nexp <= 2:
@@ -120,30 +142,46 @@ def emva1288_results(temporal: TemporalData, spatial_bright: SpatialStats | None
         lf = line_fit(td.texp_s, td.s2_ydark)
         s2d, s2d_se = lf.intercept, lf.intercept_se
     note = "intercept of s2_y.dark vs exposure"
-    if s2d < 0.24:
+    if not s2d >= 0.24:
         s2d, note = 0.24, "lower limit 0.24 DN^2 (quantization-dominated)"
     syd = math.sqrt(s2d)
     vals["sigma_y_dark"] = Estimate(syd, s2d_se / (2 * syd), "DN", note)
-    sigma_d = math.sqrt(s2d - S2Q) / K
-    extra["sigma_d"] = Estimate(sigma_d, sigma_d * K_se / K, "e-", "sqrt(sigma_y.dark^2 - 1/12)/K")
+    if not why_k:
+        sigma_d = math.sqrt(s2d - S2Q) / K
+        extra["sigma_d"] = Estimate(sigma_d, sigma_d * K_se / K, "e-", "sqrt(sigma_y.dark^2 - 1/12)/K")
+    else:
+        extra["sigma_d"] = na(why_k, "e-")
 
     u_p_sat = float(td.u_p[isat])
-    u_e_sat = QE * u_p_sat
-    vals["u_e_sat"] = Estimate(u_e_sat, u_e_sat * QE_se / QE, "e-", "QE * mu_p.sat (EMVA 1288 3.0)")
     extra["u_p_sat"] = Estimate(u_p_sat, math.nan, "p", "photons at the maximum-variance level")
-    extra["u_e_sat_signal"] = Estimate(Y[isat] / K, Y[isat] / K * K_se / K, "e-",
-                                       "(mu_y.sat - mu_y.dark)/K (alternative definition)")
-    vals["SNR_max"] = Estimate(math.sqrt(u_e_sat), 0.5 * math.sqrt(u_e_sat) * QE_se / QE, "", "sqrt(mu_e.sat)")
-    extra["SNR_max_dB"] = Estimate(20 * math.log10(math.sqrt(u_e_sat)), math.nan, "dB", "")
-    u_p_min = (syd / K + 0.5) / QE
-    extra["u_p_min"] = Estimate(u_p_min, math.nan, "p", "(sigma_y.dark/K + 1/2)/QE")
-    extra["u_e_min"] = Estimate(QE * u_p_min, math.nan, "e-", "QE * mu_p.min")
-    DR = u_p_sat / u_p_min
-    vals["DR"] = Estimate(DR, math.nan, "", "mu_p.sat / mu_p.min")
-    extra["DR_dB"] = Estimate(20 * math.log10(DR), math.nan, "dB", "")
+    if not why_k and Y[isat] > 0:
+        extra["u_e_sat_signal"] = Estimate(Y[isat] / K, Y[isat] / K * K_se / K, "e-",
+                                           "(mu_y.sat - mu_y.dark)/K (alternative definition)")
+    else:
+        extra["u_e_sat_signal"] = na(why_k or "no signal at saturation", "e-")
+    why_sat = why_qe or ("" if u_p_sat > 0 else "no photons at the saturation level")
+    if not why_sat:
+        u_e_sat = QE * u_p_sat
+        vals["u_e_sat"] = Estimate(u_e_sat, u_e_sat * QE_se / QE, "e-", "QE * mu_p.sat (EMVA 1288 3.0)")
+        vals["SNR_max"] = Estimate(math.sqrt(u_e_sat), 0.5 * math.sqrt(u_e_sat) * QE_se / QE, "", "sqrt(mu_e.sat)")
+        extra["SNR_max_dB"] = Estimate(20 * math.log10(math.sqrt(u_e_sat)), math.nan, "dB", "")
+        u_p_min = (syd / K + 0.5) / QE
+        extra["u_p_min"] = Estimate(u_p_min, math.nan, "p", "(sigma_y.dark/K + 1/2)/QE")
+        extra["u_e_min"] = Estimate(QE * u_p_min, math.nan, "e-", "QE * mu_p.min")
+        DR = u_p_sat / u_p_min
+        vals["DR"] = Estimate(DR, math.nan, "", "mu_p.sat / mu_p.min")
+        extra["DR_dB"] = Estimate(20 * math.log10(DR), math.nan, "dB", "")
+    else:
+        for key, unit, into in (("u_e_sat", "e-", vals), ("SNR_max", "", vals), ("SNR_max_dB", "dB", extra),
+                                ("u_p_min", "p", extra), ("u_e_min", "e-", extra), ("DR", "", vals),
+                                ("DR_dB", "dB", extra)):
+            into[key] = na(why_sat, unit)
 
     if nexp <= 2:
-        vals["u_I_mean"] = Estimate.na("needs more than two exposure times", "e-/s")
+        vals["u_I_mean"] = na("needs more than two exposure times", "e-/s")
+    elif why_k:
+        vals["u_I_mean"] = na(why_k, "e-/s")
+        extra["u_I_var"] = na(why_k, "e-/s")
     else:
         lf = line_fit(td.texp_s, td.u_ydark)
         vals["u_I_mean"] = Estimate(lf.slope / K, math.hypot(lf.slope_se / K, lf.slope * K_se / K**2), "e-/s",
@@ -152,41 +190,59 @@ def emva1288_results(temporal: TemporalData, spatial_bright: SpatialStats | None
         # EMVA 1288 4.0 Linear Section 7.1: the variance slope (DN^2/s) divided by K^2
         extra["u_I_var"] = (Estimate(lv.slope / K**2, math.hypot(lv.slope_se / K**2, 2 * lv.slope * K_se / K**3),
                                      "e-/s", "slope of s2_y.dark vs exposure / K^2 (EMVA 1288 4.0 Section 7.1)")
-                            if lv.slope > 0 else Estimate.na("dark variance does not grow with exposure", "e-/s"))
+                            if lv.slope > 0 else na("dark variance does not grow with exposure", "e-/s"))
 
     if spatial_dark is not None:
         s2yd = spatial_dark.s2_spatial
-        vals["DSNU1288"] = (Estimate(math.sqrt(s2yd) / K, math.sqrt(s2yd) / K * K_se / K, "e-",
+        vals["DSNU1288"] = (na(why_k, "e-") if why_k else
+                            Estimate(math.sqrt(s2yd) / K, math.sqrt(s2yd) / K * K_se / K, "e-",
                                      "sqrt(s2_y.dark spatial)/K, stack average, temporal/L removed")
-                            if s2yd >= 0 else Estimate.na("negative dark spatial variance", "e-"))
+                            if s2yd >= 0 else na("negative dark spatial variance", "e-"))
         extra["DSNU1288_DN"] = Estimate(math.sqrt(max(s2yd, 0)), math.nan, "DN", "")
     else:
-        vals["DSNU1288"] = Estimate.na("no dark stack", "e-")
+        vals["DSNU1288"] = na("no dark stack", "e-")
     if spatial_bright is not None and spatial_dark is not None:
         d2 = spatial_bright.s2_spatial - spatial_dark.s2_spatial
         sig = spatial_bright.mean - spatial_dark.mean
         vals["PRNU1288"] = (Estimate(100 * math.sqrt(d2) / sig, math.nan, "%",
                                      "sqrt(s2_y - s2_y.dark)/(mu_y - mu_y.dark), no high-pass (3.0)")
-                            if d2 > 0 and sig > 0 else Estimate.na("no spatial signal variance above dark", "%"))
+                            if d2 > 0 and sig > 0 else na("no spatial signal variance above dark", "%"))
     else:
-        vals["PRNU1288"] = Estimate.na("no bright and dark stacks", "%")
+        vals["PRNU1288"] = na("no bright and dark stacks", "%")
 
-    # linearity: 5..95 % of saturation, fit minimising relative deviations (reference implementation)
-    vmin, vmax = 0.05 * Y[isat], 0.95 * Y[isat]
-    lo = int(np.min(np.nonzero(Y >= vmin)[0]))
-    hi = int(np.max(np.nonzero(Y <= vmax)[0]))
-    X_, Y_ = td.u_p[lo:hi + 1], Y[lo:hi + 1]
-    xy = np.sum(X_ / Y_)
-    xy2 = np.sum(X_ / Y_**2)
-    x2y2 = np.sum((X_ / Y_) ** 2)
-    _y = np.sum(1 / Y_)
-    _y2 = np.sum(1 / Y_**2)
-    b = (xy * xy2 - x2y2 * _y) / (xy2**2 - x2y2 * _y2)
-    a = (xy - b * xy2) / x2y2
-    dev = 100 * (Y - (a * td.u_p + b)) / (a * td.u_p + b)
-    vals["LE_min"] = Estimate(float(np.min(dev[lo:hi + 1])), math.nan, "%", "5-95 % of saturation")
-    vals["LE_max"] = Estimate(float(np.max(dev[lo:hi + 1])), math.nan, "%", "5-95 % of saturation")
+    dev, window, why_le = _linearity(td.u_p, Y, isat)
+    for key, pick in (("LE_min", np.min), ("LE_max", np.max)):
+        vals[key] = na(why_le, "%") if why_le else Estimate(float(pick(dev[window])), math.nan, "%",
+                                                             "5-95 % of saturation")
     return Emva1288Result(vals, isat, imax, dev, td, extra)
+
+
+def _linearity(u_p: np.ndarray, Y: np.ndarray, isat: int) -> tuple[np.ndarray, slice, str]:
+    """(deviation in % of every level from the line, the 5-95 % window, "" or why not
+    available): the line fitted minimising relative deviations (reference implementation)."""
+    nan = np.full(Y.shape, math.nan)
+    if not Y[isat] > 0:
+        return nan, slice(0, 0), "no signal at saturation"
+    inside = np.nonzero((Y >= 0.05 * Y[isat]) & (Y <= 0.95 * Y[isat]))[0]
+    if inside.size < 2:
+        return nan, slice(0, 0), "fewer than two levels between 5 and 95 % of saturation"
+    lo, hi = int(np.min(np.nonzero(Y >= 0.05 * Y[isat])[0])), int(np.max(np.nonzero(Y <= 0.95 * Y[isat])[0]))
+    if hi - lo < 1:
+        return nan, slice(0, 0), "fewer than two levels between 5 and 95 % of saturation"
+    X_, Y_ = u_p[lo:hi + 1], Y[lo:hi + 1]
+    with np.errstate(divide="ignore", invalid="ignore"):
+        xy = np.sum(X_ / Y_)
+        xy2 = np.sum(X_ / Y_**2)
+        x2y2 = np.sum((X_ / Y_) ** 2)
+        _y = np.sum(1 / Y_)
+        _y2 = np.sum(1 / Y_**2)
+        b = (xy * xy2 - x2y2 * _y) / (xy2**2 - x2y2 * _y2)
+        a = (xy - b * xy2) / x2y2
+        line = a * u_p + b
+        dev = 100 * (Y - line) / line
+    if not (np.all(Y_ > 0) and np.all(np.isfinite(dev[lo:hi + 1]))):
+        return nan, slice(0, 0), "no line through the photon counts fits the levels (photon counts zero or all equal)"
+    return dev, slice(lo, hi + 1), ""
 
 
 def spatial_from_stacks(bright: np.ndarray, dark: np.ndarray) -> tuple[SpatialStats, SpatialStats]:

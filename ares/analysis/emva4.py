@@ -58,10 +58,13 @@ class Emva4Result:
 
 
 def _ols(x: np.ndarray, y: np.ndarray, through_origin: bool) -> tuple[float, float, float]:
-    """(slope, its SE, offset) of a least-squares line; SE from the residual scatter."""
+    """(slope, its SE, offset) of a least-squares line; SE from the residual scatter. NaN
+    when the x values do not spread (no line)."""
     n = x.size
     if through_origin:
         sxx = float(np.dot(x, x))
+        if not sxx > 0:
+            return math.nan, math.nan, math.nan
         b = float(np.dot(x, y)) / sxx
         dof = n - 1
         r = y - b * x
@@ -69,6 +72,8 @@ def _ols(x: np.ndarray, y: np.ndarray, through_origin: bool) -> tuple[float, flo
         return b, se, 0.0
     xm, ym = x.mean(), y.mean()
     sxx = float(np.dot(x - xm, x - xm))
+    if not sxx > 0:
+        return math.nan, math.nan, math.nan
     b = float(np.dot(x - xm, y - ym)) / sxx
     a = ym - b * xm
     dof = n - 2
@@ -135,23 +140,35 @@ def emva4_linear(bright: Sequence[LevelStats], dark: Sequence[LevelStats], photo
     isat, sat_text, bound = saturation_index(frac)
     y_sat = mu[isat] if isat is not None else math.nan
     limit = FIT_MAX * y_sat if isat is not None else np.inf
-    fit = [i for i in range(len(b)) if 0 < mu[i] <= limit and np.isfinite(var[i]) and up[i] > 0]
+    fit = [i for i in range(len(b)) if 0 < mu[i] <= limit and np.isfinite(var[i])]  # Eq. 50: no photons needed
+    lit = [i for i in fit if up[i] > 0]  # Eq. 49's
     if isat is None:
         notes.append("K and R fitted over every level with signal (saturation unknown: the 0 - 70 % range of "
                      "Eqs. 49/50 cannot be set)")
-    if len(fit) < 3:
-        na = f"needs >= 3 levels between the dark and 70 % of saturation, has {len(fit)}"
+    def not_available(why: str) -> Emva4Result:
         for k, u in (("K", "DN/e-"), ("R", "DN/photon"), ("QE", "%")):
-            v[k] = Estimate.na(na, u)
+            v[k] = Estimate.na(why, u)
         return Emva4Result(v, isat, fit, [], sat_text, None, np.full(len(b), np.nan), notes)
+
+    if len(fit) < 3:
+        return not_available(f"needs >= 3 levels between the dark and 70 % of saturation, has {len(fit)}")
     x = np.asarray(fit)
     K, K_se, _ = _ols(mu[x], var[x], through_origin=False)  # Eq. 50
-    R, R_se, _ = _ols(up[x], mu[x], through_origin=True)  # Eq. 49
+    if not (K > 0 and math.isfinite(K_se)):
+        return not_available(f"the temporal variance does not rise with the signal (slope {K:.3g} DN/e-)")
     v["K"] = Estimate(K, K_se, "DN/e-", "slope of s2_y - s2_y.dark vs mu_y - mu_y.dark, 0-70 % of saturation "
                                         "(EMVA 1288 4.0 Linear Eq. 50)")
-    v["R"] = Estimate(R, R_se, "DN/photon", "slope of mu_y - mu_y.dark vs mu_p through 0 (Eq. 49)")
-    eta = R / K
-    v["QE"] = Estimate(100 * eta, 100 * eta * math.hypot(R_se / R, K_se / K), "%", "eta = R / K (Eq. 52)")
+    R, R_se, _ = _ols(up[lit], mu[lit], through_origin=True) if len(lit) >= 3 else (math.nan, math.nan, 0.0)  # Eq. 49
+    why_r = ("" if R > 0 and math.isfinite(R_se) else
+             f"needs photon counts > 0 at >= 3 of those levels, has {len(lit)}" if len(lit) < 3 else
+             f"the signal does not rise with the photon counts (slope {R:.3g} DN/photon)")
+    eta = math.nan
+    if why_r:
+        v["R"], v["QE"] = Estimate.na(why_r, "DN/photon"), Estimate.na(why_r, "%")
+    else:
+        v["R"] = Estimate(R, R_se, "DN/photon", "slope of mu_y - mu_y.dark vs mu_p through 0 (Eq. 49)")
+        eta = R / K
+        v["QE"] = Estimate(100 * eta, 100 * eta * math.hypot(R_se / R, K_se / K), "%", "eta = R / K (Eq. 52)")
     var_se = np.hypot([q.var_se for q in b], [q.var_se for q in d])
     check = local_slope_check(mu[x], var[x], var_se[x], K)  # Eq. 51
     notes.append(check.note)
@@ -180,9 +197,13 @@ def emva4_linear(bright: Sequence[LevelStats], dark: Sequence[LevelStats], photo
     mu_e_min_se = a * a / root * a_rel
     if small:
         v["mu_e_min"] = Estimate.limit(mu_e_min, "upper", "e-", "sqrt(sigma_y.dark^2/K^2 + 1/4) + 1/2 (Eq. 26)")
-        v["mu_p_min"] = Estimate.limit(mu_e_min / eta, "upper", "photons", "mu_e.min / eta (Eq. 26)")
     else:
         v["mu_e_min"] = Estimate(mu_e_min, mu_e_min_se, "e-", "sqrt(sigma_y.dark^2/K^2 + 1/4) + 1/2 (Eq. 26)")
+    if why_r:
+        v["mu_p_min"] = Estimate.na(why_r, "photons")
+    elif small:
+        v["mu_p_min"] = Estimate.limit(mu_e_min / eta, "upper", "photons", "mu_e.min / eta (Eq. 26)")
+    else:
         v["mu_p_min"] = Estimate(mu_e_min / eta, (mu_e_min / eta) * math.hypot(mu_e_min_se / mu_e_min,
                                                                                 v["QE"].se / v["QE"].value),
                                  "photons", "mu_e.min / eta (Eq. 26)")
@@ -205,13 +226,16 @@ def emva4_linear(bright: Sequence[LevelStats], dark: Sequence[LevelStats], photo
     mu_e_sat = y_sat / K
     v["mu_y_sat"] = est(y_sat, y_se / y_sat, "DN", "mu_y.sat - mu_y.dark by the histogram criterion (Section 6.6)")
     v["mu_e_sat"] = est(mu_e_sat, math.hypot(y_se / y_sat, K_se / K), "e-", "(mu_y.sat - mu_y.dark) / K (Eq. 24)")
-    v["mu_p_sat"] = est(y_sat / R, math.hypot(y_se / y_sat, R_se / R), "photons", "(mu_y.sat - mu_y.dark) / R")
+    v["mu_p_sat"] = (Estimate.na(why_r, "photons") if why_r else
+                     est(y_sat / R, math.hypot(y_se / y_sat, R_se / R), "photons", "(mu_y.sat - mu_y.dark) / R"))
     snr = math.sqrt(mu_e_sat)
     rel_snr = 0.5 * v["mu_e_sat"].se / mu_e_sat if not bound else 0.0
     v["SNR_max"] = est(snr, rel_snr, "", "sqrt(mu_e.sat) (Eq. 55)")
     v["SNR_max_db"] = est(20 * math.log10(snr), 0.0, "dB", "20 log10 SNR_max") if bound else \
         Estimate(20 * math.log10(snr), 20 / math.log(10) * rel_snr, "dB", "20 log10 SNR_max")
-    if v["mu_p_min"].bound:  # DR from an upper-limit threshold and the saturation: a lower limit
+    if why_r:
+        v["DR"], v["DR_db"] = Estimate.na(why_r, ""), Estimate.na(why_r, "dB")
+    elif v["mu_p_min"].bound:  # DR from an upper-limit threshold and the saturation: a lower limit
         dr = (y_sat / R) / v["mu_p_min"].value
         v["DR"] = Estimate.limit(dr, "lower", "", "mu_p.sat / mu_p.min (Eq. 28); mu_p.min is an upper limit")
         v["DR_db"] = Estimate.limit(20 * math.log10(dr), "lower", "dB", "20 log10 DR")

@@ -160,8 +160,12 @@ def emva_general(bright: list[LevelStats], dark: list[LevelStats], photons, mean
     P = intervals if intervals is not None else intervals_for(use.size + 1)
     snr_y = np.where(sy > 0, sig / np.where(sy > 0, sy, 1.0), np.nan)
     snr_p = np.full(up.size, np.nan)
+    na = ""
     if use.size + 1 <= P + 3:
         na = f"needs more than {P + 3} levels up to saturation for a {P}-interval B-spline, has {use.size}"
+    elif not float(up[top]) > 0:
+        na = "the photon counts are zero up to saturation: no characteristic curve"
+    if na:
         for k, u in (("mu_p_min", "photons"), ("mu_p_sat", "photons"), ("DR", ""), ("DR_db", "dB"),
                      ("SNR_max", ""), ("SNR_max_db", "dB"), ("sigma_d", "photons"), ("R_d", "DN/photon")):
             v[k] = Estimate.na(na, u)
@@ -201,11 +205,16 @@ def emva_general(bright: list[LevelStats], dark: list[LevelStats], photons, mean
                      "input SNR is about one): mu_p.min is extrapolated from the lowest steps")
     else:
         v["mu_p_min"] = Estimate.na("too few levels with a positive slope of the characteristic curve", "photons")
-    j = int(np.nanargmax(np.where(ok[: top + 1], snr_p[: top + 1], -np.inf)))
-    smax = float(snr_p[j])
-    smax_se = smax * math.sqrt(1.0 / max(b[j].dof, 1) * 0.5 + (float(curve.se(up[j], True)) / slope[j]) ** 2)
-    v["SNR_max"] = Estimate(smax, smax_se, "", f"largest SNR_p (level {j}, Section 6.8)")
-    v["SNR_max_db"] = Estimate(20 * math.log10(smax), 20 / math.log(10) * smax_se / smax, "dB", "20 log10 SNR_max")
+    if ok[: top + 1].any():
+        j = int(np.nanargmax(np.where(ok[: top + 1], snr_p[: top + 1], -np.inf)))
+        smax = float(snr_p[j])
+        smax_se = smax * math.sqrt(1.0 / max(b[j].dof, 1) * 0.5 + (float(curve.se(up[j], True)) / slope[j]) ** 2)
+        v["SNR_max"] = Estimate(smax, smax_se, "", f"largest SNR_p (level {j}, Section 6.8)")
+        v["SNR_max_db"] = Estimate(20 * math.log10(smax), 20 / math.log(10) * smax_se / smax, "dB",
+                                   "20 log10 SNR_max")
+    else:
+        why = "no level up to saturation with a rising characteristic curve and temporal noise"
+        v["SNR_max"], v["SNR_max_db"] = Estimate.na(why, ""), Estimate.na(why, "dB")
     if isat is None:
         for key, u in (("mu_p_sat", "photons"), ("DR", ""), ("DR_db", "dB")):
             v[key] = Estimate.na(sat_text, u)
@@ -214,7 +223,7 @@ def emva_general(bright: list[LevelStats], dark: list[LevelStats], photons, mean
         v["mu_p_sat"] = (Estimate.limit(psat, "lower", "photons", "photons at mu_y.sat; lower limit") if bound else
                          Estimate(psat, 0.0, "photons", "photons at mu_y.sat (histogram criterion)"))
         mn = v["mu_p_min"]
-        if mn.available:
+        if mn.available and psat > 0 and mn.value > 0:
             dr = psat / mn.value
             if mn.bound == "upper" or bound:
                 v["DR"] = Estimate.limit(dr, "lower", "", "mu_p.sat / mu_p.min (General Eq. 21)")
@@ -224,6 +233,6 @@ def emva_general(bright: list[LevelStats], dark: list[LevelStats], photons, mean
                 v["DR"] = Estimate(dr, dr * rel, "", "mu_p.sat / mu_p.min (General Eq. 21)")
                 v["DR_db"] = Estimate(20 * math.log10(dr), 20 / math.log(10) * rel, "dB", "20 log10 DR")
         else:
-            v["DR"] = Estimate.na("mu_p.min not available", "")
-            v["DR_db"] = Estimate.na("mu_p.min not available", "dB")
+            why = "mu_p.min not available" if not mn.available else "no photons at saturation or at mu_p.min"
+            v["DR"], v["DR_db"] = Estimate.na(why, ""), Estimate.na(why, "dB")
     return GeneralResult(v, curve, up, sig, sy, snr_y, snr_p, md, isat, sat_text, notes)

@@ -200,12 +200,17 @@ def write_pdf(an: EmvaAnalysis, out: Path, release: str = "3.0") -> None:
     with PdfPages(out) as pdf:
         fig, ax = plt.subplots(2, 2, figsize=(11, 8.5))
         ax[0, 0].plot(Y, V, "o", ms=3, label="data")
-        xs = np.linspace(0, Y[an.emva.index_sensitivity_max], 10)
-        ax[0, 0].plot(xs, K * xs, "-", label=f"K = {an.emva.values['K'].text()}")
+        if an.emva.values["K"].available:
+            xs = np.linspace(0, Y[an.emva.index_sensitivity_max], 10)
+            ax[0, 0].plot(xs, K * xs, "-", label=f"K = {an.emva.values['K'].text()}")
         ax[0, 0].set(xlabel="mu_y - mu_y.dark [DN]", ylabel="s2_y - s2_y.dark [DN^2]", title="Photon transfer")
         ax[0, 0].legend()
         snr = np.where(td.s2_y > 0, Y / np.sqrt(np.maximum(td.s2_y, 1e-12)), np.nan)
-        ax[0, 1].loglog(td.u_p, np.maximum(snr, 1e-3), "o", ms=3)
+        lit = td.u_p > 0
+        if lit.any():
+            ax[0, 1].loglog(td.u_p[lit], np.maximum(snr[lit], 1e-3), "o", ms=3)
+        else:
+            ax[0, 1].text(0.5, 0.5, "no photon counts in the data set", ha="center", transform=ax[0, 1].transAxes)
         ax[0, 1].set(xlabel="photons per pixel", ylabel="SNR", title="SNR")
         ax[1, 0].plot(td.u_p, an.emva.linearity_deviation_pct, "o", ms=3)
         ax[1, 0].set(xlabel="photons per pixel", ylabel="deviation [%]", title="Linearity error",

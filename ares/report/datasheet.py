@@ -99,6 +99,12 @@ def _op_table(fig: Figure, m: dict, top: float) -> float:
     return y
 
 
+def _shown(sheet, key: str) -> str:
+    """A figure's text for a title, "not available" where the evaluation stopped before it."""
+    e = sheet.values.get(key)
+    return e.text() if e is not None else "not available"
+
+
 def _ptc_axes(ax, sheet, large: bool = False) -> None:
     c = sheet.curves
     v, sig = c["var"], c["signal"]
@@ -199,7 +205,7 @@ def photon_transfer_page(sheet) -> Figure:
     d.plot(x[okd], dev[okd], "o-", ms=2.5, lw=0.6, color="C0")
     d.axhline(0, color="0.5", lw=0.6)
     d.set(xlabel="irradiation (photons/pixel)", ylabel="deviation (%)",
-          title=f"Linearity error LE = {sheet.values['LE'].text()}")
+          title=f"Linearity error LE = {_shown(sheet, 'LE')}")
     n = len(x)
     pick = np.unique(np.linspace(0, n - 1, min(n, 18)).round().astype(int))
     data = [[str(i), f"{x[i]:.4g}", f"{sig[i]:.4g}", f"{c['var'][i]:.4g}", f"{c['snr'][i]:.3g}",
@@ -224,7 +230,7 @@ def dark_current_page(sheet) -> Figure:
             p = np.polyfit(t, y, 1)
             ts = np.array([t.min(), t.max()])
             ax.plot(ts, np.polyval(p, ts), "-", label="mono fit")
-        ax.set(xlabel="exposure time (s)", ylabel=lab, title=f"{SYMBOLS[key]} = {sheet.values[key].text()}")
+        ax.set(xlabel="exposure time (s)", ylabel=lab, title=f"{SYMBOLS[key]} = {_shown(sheet, key)}")
         ax.legend(fontsize=6.5)
     y = 0.54
     temps = c.get("dark_vs_temperature")
