@@ -145,6 +145,7 @@ def emva4_linear(bright: Sequence[LevelStats], dark: Sequence[LevelStats], photo
     if isat is None:
         notes.append("K and R fitted over every level with signal (saturation unknown: the 0 - 70 % range of "
                      "Eqs. 49/50 cannot be set)")
+
     def not_available(why: str) -> Emva4Result:
         for k, u in (("K", "DN/e-"), ("R", "DN/photon"), ("QE", "%")):
             v[k] = Estimate.na(why, u)
