@@ -125,3 +125,33 @@ def test_physical_options_out_of_range_are_refused_by_the_parser(capsys, argv, f
         main(argv)
     assert ei.value.code == 2
     assert fragment in capsys.readouterr().err
+
+
+def test_fuzzed_stacks_end_in_a_result_or_one_sentence(tmp_path, capsys):
+    """Odd stacks (constant, one row or column, one pixel, NaN, 1e303, negative floats,
+    bool, uint32 at full scale), with and without a dark, in text and JSON: exit 0 or 2
+    with one sentence, never an exception or a numpy warning (errors here)."""
+    import random
+    import warnings
+
+    rnd, rng = random.Random(3), np.random.default_rng(3)
+    kinds = ["const", "nan", "huge", "neg", "one_px", "row1", "col1", "two_frames", "bool", "uint32max", "plain"]
+    for trial, kind in enumerate(kinds * 2):
+        n, r, c = rnd.choice([2, 3, 8]), rnd.choice([2, 5, 16]), rnd.choice([2, 7, 16])
+        a = rng.normal(1000, 5, (n, r, c))
+        a = {"const": np.full(a.shape, 7.0), "huge": a * 1e300, "neg": a - 5000, "one_px": a[:, :1, :1],
+             "row1": a[:, :1, :], "col1": a[:, :, :1], "two_frames": a[:2], "bool": a > 1000,
+             "uint32max": np.full(a.shape, 2**32 - 1, np.uint32)}.get(kind, a)
+        if kind == "nan":
+            a.flat[rnd.randrange(a.size)] = np.nan
+        if kind in ("const", "one_px", "row1", "col1", "two_frames", "plain"):
+            a = a.astype(np.uint16)
+        np.save(tmp_path / "f.npy", a)
+        np.save(tmp_path / "d.npy", rng.normal(100, 2, a.shape).astype(np.uint16))
+        dark = ["--dark", str(tmp_path / "d.npy")] if trial % 2 else []
+        for extra in ([], ["--json"]):
+            with warnings.catch_warnings():
+                warnings.simplefilter("error")
+                rc = main(["analyze", str(tmp_path / "f.npy"), *dark, *extra])
+            err = capsys.readouterr().err
+            assert rc in (0, 2) and (rc == 0) == (err == "") and err.count("\n") <= 1, (kind, dark, err)
