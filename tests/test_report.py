@@ -370,6 +370,22 @@ def test_bad_directories_raise_one_sentence(tmp_path, runs, capsys):
     assert capsys.readouterr().err.strip() == f"ares report: {missing}: run directory does not exist"
 
 
+@pytest.mark.parametrize("damage", ["deleted", "truncated", "not hdf5"])
+def test_a_stage_file_missing_or_damaged_is_one_sentence_not_a_report_without_it(tmp_path, runs, capsys, damage):
+    """results.h5 links each stage's arrays from stages/NNNN.h5; h5py reads a link it
+    cannot follow as absent, so the report came out without that stage's maps, exit 0."""
+    bad = tmp_path / "bad"
+    shutil.copytree(runs / "ptc", bad)
+    f = bad / "stages" / "0002.h5"
+    if damage == "deleted":
+        f.unlink()
+    else:
+        f.write_bytes(f.read_bytes()[:800] if damage == "truncated" else b"x" * 4000)
+    assert main(["report", str(bad)]) == 2
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and f"{f}: a stage's arrays are missing or not HDF5" in err and "ares rerun" in err
+
+
 def test_cli_writes_only_what_is_asked(runs, tmp_path, capsys):
     run = tmp_path / "run"
     shutil.copytree(runs / "ptc", run)

@@ -116,6 +116,22 @@ class Run:
             return g is not None and name in g
 
 
+def _broken_stage_links(f) -> list[str]:
+    """The stage files (paths relative to the run directory) that results.h5 links to and
+    that cannot be opened."""
+    import h5py
+
+    group = f.get("stages")
+    if group is None:
+        return []
+    out = []
+    for name in group:
+        link = group.get(name, getlink=True)
+        if isinstance(link, h5py.ExternalLink) and group.get(name) is None:
+            out.append(link.filename)
+    return out
+
+
 def _load_json(path: Path):
     try:
         return json.loads(path.read_text())
@@ -174,8 +190,12 @@ def read_run(run_dir: str | Path) -> Run:
         import h5py
 
         try:
-            with h5py.File(d / "results.h5", "r"):
-                pass
+            with h5py.File(d / "results.h5", "r") as f:
+                broken = _broken_stage_links(f)
         except OSError as exc:
             raise InputError(f"{d / 'results.h5'}: unreadable HDF5 ({exc})") from None
+        if broken:  # h5py reads a link it cannot follow as absent: the report would lack them, silently
+            raise InputError(f"{d / broken[0]}: a stage's arrays are missing or not HDF5"
+                             + (f" ({len(broken)} stage files)" if len(broken) > 1 else "")
+                             + f"; `ares rerun {d}` makes the run again")
     return Run(d, meta, stages, sr, has_h5, _attribution(d, meta), notes)
