@@ -190,6 +190,19 @@ def test_resume_refuses_a_done_or_live_run(tmp_path, reference, capsys):
     assert "still running" in capsys.readouterr().err
 
 
+def test_resume_names_a_stage_taken_out_of_a_complete_run(tmp_path, reference, capsys):
+    """A done run whose stage 1 was deleted is not complete: resume names the gap (it said
+    'the run is complete (N-1 stage(s))')."""
+    import shutil
+
+    edited = tmp_path / "edited"
+    shutil.copytree(reference, edited)
+    for f in (edited / "stages").glob("0001.*"):
+        f.unlink()
+    assert main(["resume", str(edited)]) == 2
+    assert "stage 1 is missing but stage 2 is there; the run directory was edited" in capsys.readouterr().err
+
+
 def test_concurrent_runs_into_one_out_never_nest(tmp_path):
     out = tmp_path / "same"
     procs = [subprocess.Popen([sys.executable, "-m", "ares.cli", "run", str(SCAN), "--out", str(out), "--quiet"],

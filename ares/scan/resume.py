@@ -27,13 +27,13 @@ def resumable(run) -> list[dict]:
     if status == "running":
         raise InputError(f"{run.dir}: the run is still running (process {run.meta.get('pid')} on "
                          f"{run.meta.get('host')}); stop it first")
-    if status == "done":
-        raise InputError(f"{run.dir}: the run is complete ({len(run.stages)} stage(s)); nothing to resume")
     stages = sorted(run.stages, key=lambda s: s["index"])
-    for k, st in enumerate(stages):
+    for k, st in enumerate(stages):  # (first: a complete run with a stage taken out is not complete)
         if st["index"] != k:
             raise InputError(f"{run.dir}: stage {k} is missing but stage {st['index']} is there; the run "
                              "directory was edited and cannot be resumed")
+    if status == "done":
+        raise InputError(f"{run.dir}: the run is complete ({len(run.stages)} stage(s)); nothing to resume")
     return stages
 
 
