@@ -38,26 +38,86 @@ def test_highpass_kernel_and_border():
         highpass(np.ones((20, 50)))
 
 
+def _scipy_passes(img, release, border):
+    """The definition, as scipy.ndimage passes: float64, reflected borders at every pass."""
+    from scipy import ndimage
+
+    x = np.asarray(img, np.float64)
+    m = x.mean()
+    x = x - m
+    for ax in (0, 1):
+        if release == "4.0":
+            x = ndimage.uniform_filter1d(x, 7, axis=ax, mode="reflect")
+            x = ndimage.uniform_filter1d(x, 11, axis=ax, mode="reflect")
+            x = ndimage.correlate1d(x, [0.25, 0.5, 0.25], axis=ax, mode="reflect")
+        else:
+            x = ndimage.uniform_filter1d(x, 5, axis=ax, mode="reflect")
+    if border == "valid":
+        b = {"4.0": 9, "3.1": 2}[release]
+        x = x[b:-b, b:-b]
+    return x + m
+
+
 @pytest.mark.parametrize("release", ["4.0", "3.1"])
 @pytest.mark.parametrize("border", ["valid", "reflect"])
-@pytest.mark.parametrize("shape", [(480, 640), (21, 23), (25, 300)])
-def test_numba_lowpass_equals_the_scipy_passes(monkeypatch, release, border, shape):
-    """The one-kernel low-pass (``ares.analysis.lowpass``, float64) against the scipy.ndimage
-    passes it replaces (float64, reflected borders at every pass): equal within float64
-    rounding (running sums against scipy's), borders included."""
+@pytest.mark.parametrize("shape", [(480, 640), (21, 23), (25, 300), (7, 9)])
+@pytest.mark.parametrize("path", ["numba", "numpy float", "numpy integer"])
+def test_every_lowpass_path_equals_the_scipy_passes(monkeypatch, release, border, shape, path):
+    """The numba kernel (``ares.analysis.lowpass``, float64), the numpy path (binary-doubling
+    box sums, float64 on the centred image) and the exact integer path all equal the
+    scipy.ndimage passes within float64 rounding, borders included (images smaller than
+    the filters: repeated reflection)."""
     import ares.analysis.lowpass as lp
 
+    if border == "valid" and min(shape) <= 2 * {"4.0": 9, "3.1": 2}[release] + 2:
+        pytest.skip("too small for the valid part")
     rng = np.random.default_rng(7)
     img = rng.normal(1000, 10, shape) + np.linspace(0, 80, shape[1])[None, :] + (rng.random(shape) < 0.01) * 500
-    fast = smooth(img, release, border)
-    if lp._kernel_c is None:
-        pytest.skip("numba not available: only the scipy path exists")
-    monkeypatch.setattr(lp, "_kernel_c", None)
-    monkeypatch.setattr(lp, "_loaded", True)
-    ref = smooth(img, release, border)
-    assert fast.shape == ref.shape
+    if path == "numpy integer":
+        img = np.rint(img).astype(np.uint16)
+    elif path == "numpy float":
+        monkeypatch.setattr(lp, "_kernel_c", None)
+        monkeypatch.setattr(lp, "_loaded", True)
+    got = smooth(img, release, border)
+    if path == "numba" and lp._kernel_c is None:
+        pytest.skip("numba not available")
+    ref = _scipy_passes(img, release, border)
+    assert got.shape == ref.shape
     scale = float(np.abs(img - img.mean()).max())
-    np.testing.assert_allclose(fast, ref, rtol=0, atol=64 * scale * 2.0**-53)
+    np.testing.assert_allclose(got, ref, rtol=0, atol=64 * scale * 2.0**-53)
+
+
+@pytest.mark.parametrize("release,b", [("4.0", 9), ("3.1", 2)])
+@pytest.mark.parametrize("dtype,hi", [(np.int32, 2**14), (np.uint16, 2**16), (np.int64, 2**31)])
+def test_integer_images_are_highpassed_exactly(release, b, dtype, hi):
+    """An integer image (a pair's sum) is filtered in integers: W x - S equals the exact
+    integer convolution, and the only rounding is the division by the weight W (int32 work
+    when W times the range fits, int64 otherwise)."""
+    rng = np.random.default_rng(3)
+    img = rng.integers(0, hi, (40, 47)).astype(dtype)
+    img[3, 5] = hi - 1
+    k = (np.convolve(np.convolve(np.ones(7, np.int64), np.ones(11, np.int64)), [1, 2, 1]) if release == "4.0"
+         else np.ones(5, np.int64))
+    W = int(k.sum()) ** 2
+    x = img.astype(object)  # Python integers: no rounding anywhere
+    rows = np.array([[sum(int(k[t]) * x[i + t, j] for t in range(k.size)) for j in range(x.shape[1])]
+                     for i in range(x.shape[0] - k.size + 1)], dtype=object)
+    S = np.array([[sum(int(k[t]) * rows[i, j + t] for t in range(k.size)) for j in range(x.shape[1] - k.size + 1)]
+                  for i in range(rows.shape[0])], dtype=object)
+    exact = (W * x[b:-b, b:-b] - S).astype(np.float64) * (1.0 / W)
+    assert np.array_equal(highpass(img, release), exact)
+
+
+def test_a_pair_split_from_its_integer_sum_equals_the_float_average():
+    """``split`` of a pair's exact sum with scale 1/2 (what ``pair_step`` does) against the
+    split of the float64 average image: the same variances within float64 rounding."""
+    rng = np.random.default_rng(11)
+    a = rng.integers(100, 4000, (M, N)).astype(np.uint16)
+    b = rng.integers(100, 4000, (M, N)).astype(np.uint16)
+    s_int = split(np.add(a, b, dtype=np.int32), 30.0, 2, "4.0", 0.1, 0.2, scale=0.5)
+    s_avg = split((a.astype(np.float64) + b) / 2, 30.0, 2, "4.0", 0.1, 0.2)
+    for k in ("total", "col", "row", "pix", "mean", "se_total"):
+        assert getattr(s_int, k) == pytest.approx(getattr(s_avg, k), rel=1e-12), k
 
 
 def test_white_noise_gains():

@@ -37,16 +37,122 @@ HIGHPASS_BORDER = {"4.0": 9, "3.1": 2, "none": 0}
 LOWPASS = {"4.0": ((7, 11), True), "3.1": ((5, 0), False)}  # box widths, 3-tap binomial (Section 8.1, Eq. 84)
 
 
+# each pass: (box widths applied one after the other, half width = the edge a pass reads)
+_PASSES = {"4.0": (((7,), 3), ((11,), 5), ((2, 2), 1)), "3.1": (((5,), 2),)}
+
+
+def _box_sums(v: np.ndarray, w: int, step: int) -> np.ndarray:
+    """Sums of ``w`` >= 2 samples ``step`` apart, of a flat image (``step`` = its row length:
+    along the columns; 1: along the rows, where the last w - 1 sums of each row run into the
+    next and the caller drops them), by binary doubling: pairs, quads, ... as whole-array
+    slices, then the pieces ``w``'s binary digits name -- log2(w) + popcount(w) - 1
+    additions, none per tap, every one over contiguous memory. Exact for integer arrays
+    (the caller keeps every sum inside their type). The result may be a view of an array
+    made here, never of ``v``."""
+    out_len = v.size - (w - 1) * step
+    pieces = []
+    span, off, rest = 1, 0, w
+    while True:
+        if rest & 1:
+            pieces.append(v[off * step:off * step + out_len])
+            off += span
+        rest >>= 1
+        if not rest:
+            break
+        n = v.size - span * step
+        v = v[:n] + v[span * step:span * step + n]
+        span *= 2
+    if len(pieces) == 1:
+        return pieces[0]
+    out = pieces[0] + pieces[1]
+    for p in pieces[2:]:
+        out += p
+    return out
+
+
+def _rows_of(v: np.ndarray, rows: int, row_len: int, cols: int) -> np.ndarray:
+    """The first ``cols`` samples of each of ``rows`` rows of ``row_len`` in the flat ``v``."""
+    return np.lib.stride_tricks.as_strided(v, (rows, cols), (row_len * v.itemsize, v.itemsize), writeable=False)
+
+
+def _lowpass_sums(x: np.ndarray, release: str, border: str) -> tuple[np.ndarray, int]:
+    """(S, W): the low-pass of ``x`` as unnormalized sums ``S`` with total weight ``W`` (the
+    smoothed image is S / W). Section 8.1: box 7, box 11, the 3-tap binomial (= box 2
+    twice), along each axis; Eq. 84: box 5. ``border="reflect"``: each pass sees
+    half-sample-symmetric edges, scipy.ndimage's ``reflect``; ``"valid"``: the
+    ``HIGHPASS_BORDER`` rows and columns the filters do not reach completely are dropped."""
+    W = 1
+    for widths, h in _PASSES[release]:  # along the columns (axis 0): shifts by whole rows
+        if border == "reflect":
+            x = np.pad(x, ((h, h), (0, 0)), mode="symmetric")
+        cols = x.shape[1]
+        v = np.ascontiguousarray(x).ravel()
+        for w in widths:
+            v = _box_sums(v, w, cols)
+            W *= w
+        x = v.reshape(-1, cols)
+    rows = x.shape[0]
+    if border == "valid":  # along the rows: one flat pass each, the sums across row ends dropped at the end
+        cols = x.shape[1]
+        v, lost = np.ascontiguousarray(x).ravel(), 0
+        for widths, _ in _PASSES[release]:
+            for w in widths:
+                v = _box_sums(v, w, 1)
+                W *= w
+                lost += w - 1
+        return _rows_of(v, rows, cols, cols - lost), W
+    for widths, h in _PASSES[release]:
+        x = np.pad(x, ((0, 0), (h, h)), mode="symmetric")  # (a new, contiguous array)
+        cols = x.shape[1]
+        v = x.ravel()
+        for w in widths:
+            v = _box_sums(v, w, 1)
+            W *= w
+        x = _rows_of(v, rows, cols, cols - 2 * h)
+    return x, W
+
+
+def _weight(release: str) -> int:
+    """The low-pass's total weight: the product of its box widths, squared (both axes)."""
+    return math.prod(w for widths, _ in _PASSES[release] for w in widths) ** 2
+
+
+def _integer_work_type(x: np.ndarray, W: int):
+    """(type, centre) to sum an integer image ``x`` in exactly: int32 when W times the
+    largest distance from the centre fits it (12-bit data always), else int64."""
+    lo, hi = int(x.min()), int(x.max())
+    c = (lo + hi) // 2
+    return (np.int32 if max(hi - c, c - lo) * W < 2**31 else np.int64), c
+
+
+def _check_size(x: np.ndarray, release: str) -> None:
+    b = HIGHPASS_BORDER[release]
+    if x.shape[0] <= 2 * b + 2 or x.shape[1] <= 2 * b + 2:
+        raise ValueError(f"the {release} high-pass needs more than {2 * b + 2} rows and columns, "
+                         f"the image has {x.shape[0]} x {x.shape[1]}")
+
+
 def smooth(img: np.ndarray, release: str = "4.0", border: str = "valid") -> np.ndarray:
     """The low-pass of Section 8.1 (4.0: 7x7 box, 11x11 box, 3x3 binomial) or Eq. 84 (3.1:
-    5x5 box), separable. ``border="valid"``: only where the filters need no pixel outside
-    the image (``HIGHPASS_BORDER`` dropped); ``"reflect"``: the image's shape, reflected
-    edges (for normalized convolution of masked images). The one implementation of the
-    EMVA high-pass in ARES (``flat`` and ``masked`` use it too)."""
-    x = np.asarray(img, np.float64)
-    m = float(x.mean()) if x.size else 0.0
-    if release not in LOWPASS:
+    5x5 box), separable, float64. ``border="valid"``: only where the filters need no pixel
+    outside the image (``HIGHPASS_BORDER`` dropped); ``"reflect"``: the image's shape,
+    reflected edges (for normalized convolution of masked images). The one implementation
+    of the EMVA high-pass in ARES (``flat`` and ``masked`` use it too). Integer images are
+    summed exactly; float images in float64 after subtracting their mean, as the numba
+    kernel (``lowpass``) does: the paths agree within float64 rounding."""
+    x = np.asarray(img)
+    if release not in _PASSES:
         raise ValueError(f"unknown high-pass release {release!r}")
+    if border == "valid":
+        _check_size(x, release)
+    if x.dtype.kind in "ui" and x.size:
+        t, c = _integer_work_type(x, _weight(release))
+        S, W = _lowpass_sums(np.subtract(x, c, dtype=t), release, border)
+        out = S * (1.0 / W)
+        out += c
+        return out
+    x = np.asarray(x, np.float64)
+    m = float(x.mean()) if x.size else 0.0
     from .lowpass import smooth_full
 
     y = smooth_full(x, m, *LOWPASS[release])  # numba, float64 throughout
@@ -54,39 +160,40 @@ def smooth(img: np.ndarray, release: str = "4.0", border: str = "valid") -> np.n
         if border == "valid":
             b = HIGHPASS_BORDER[release]
             y = y[b:-b, b:-b]
-        y += m
-        return y
-    from scipy import ndimage
+    else:
+        S, W = _lowpass_sums(x - m, release, border)
+        y = S * (1.0 / W)
+    y += m
+    return y
 
-    # centred, float64 throughout (as the kernel): the two paths agree within float64
-    # rounding, so a figure does not depend on whether numba was loaded
-    x = x - m
-    mode = "reflect"
-    for ax in (0, 1):
-        if release == "4.0":
-            x = ndimage.uniform_filter1d(x, 7, axis=ax, mode=mode)
-            x = ndimage.uniform_filter1d(x, 11, axis=ax, mode=mode)
-            x = ndimage.correlate1d(x, [0.25, 0.5, 0.25], axis=ax, mode=mode)
-        else:
-            x = ndimage.uniform_filter1d(x, 5, axis=ax, mode=mode)
-    if border == "valid":
-        b = HIGHPASS_BORDER[release]
-        x = x[b:-b, b:-b]
-    x += m
-    return x
+
+def _highpass_scaled(x: np.ndarray, release: str) -> tuple[np.ndarray, float]:
+    """(z, f): the high-passed image is ``z * f``; z is a new float64 array (exact integers
+    for an integer image: W x - S, the division by the weight W left to the caller)."""
+    if release == "none":
+        return np.array(x, np.float64), 1.0  # a copy: callers centre it in place
+    _check_size(x, release)
+    b = HIGHPASS_BORDER[release]
+    if x.dtype.kind in "ui":
+        t, c = _integer_work_type(x, _weight(release))
+        xc = np.subtract(x, c, dtype=t)
+        S, W = _lowpass_sums(xc, release, "valid")
+        z = np.multiply(xc[b:-b, b:-b], float(W))  # W x - S: exact in float64 (below 2**53)
+        z -= S
+        return z, 1.0 / W
+    x = np.asarray(x, np.float64)
+    return x[b:-b, b:-b] - smooth(x, release), 1.0
 
 
 def highpass(img: np.ndarray, release: str = "4.0") -> np.ndarray:
-    """Image minus its smoothed version (Section 8.1), border rows/columns dropped.
-    ``release="none"`` returns the image as float64 (the profiles of Section 8.7)."""
-    x = np.asarray(img, np.float64)
-    if release == "none":
-        return x
-    b = HIGHPASS_BORDER[release]
-    if x.shape[0] <= 2 * b + 2 or x.shape[1] <= 2 * b + 2:
-        raise ValueError(f"the {release} high-pass needs more than {2 * b + 2} rows and columns, "
-                         f"the image has {x.shape[0]} x {x.shape[1]}")
-    return x[b:-b, b:-b] - smooth(x, release)
+    """Image minus its smoothed version (Section 8.1), border rows/columns dropped, float64.
+    An integer image (e.g. the sum of a pair) is filtered exactly: the only rounding is the
+    final division by the filter's weight. ``release="none"`` returns the image as a float64
+    copy (the profiles of Section 8.7)."""
+    z, f = _highpass_scaled(np.asarray(img), release)
+    if f != 1.0:
+        z *= f
+    return z
 
 
 def kernel_1d(release: str) -> np.ndarray:
@@ -147,23 +254,29 @@ def temporal_parts(temporal_var: float, rows: int, cols: int, row_var: float | N
 
 
 def split(img: np.ndarray, temporal_var: float, L: int, release: str = "4.0", row_var: float | None = None,
-          col_var: float | None = None) -> Split:
+          col_var: float | None = None, scale: float = 1.0) -> Split:
     """Column, row and pixel spatial variances of ``img`` (the average of ``L`` images whose
     pixel temporal variance is ``temporal_var``), after the high-pass of ``release``
     ("4.0", "3.1" or "none"). ``row_var``/``col_var``: the temporal variances of the row and
     column means (frame offset removed) when measured -- then row- and column-correlated
     temporal noise (which averaging over L images leaves as var/L) is not taken for a row or
-    column pattern; without them Eqs. 39 - 41 as written (white temporal noise)."""
-    x = np.asarray(img, np.float64)
-    mean = float(x.mean())
+    column pattern; without them Eqs. 39 - 41 as written (white temporal noise).
+    ``scale``: the averaged image is ``img * scale`` (a pair's exact integer sum, 0.5)."""
+    x = np.asarray(img)
+    mean = float(x.mean(dtype=np.float64)) * scale
     w, tr, tc = temporal_parts(temporal_var, x.shape[0], x.shape[1], row_var, col_var)
-    y = highpass(x, release)
-    M, N = y.shape
+    z, f = _highpass_scaled(x, release)  # the filtered image is z * f * scale
+    f2 = (f * scale) ** 2
+    M, N = z.shape
     w, tr, tc = w / L, tr / L, tc / L  # residual temporal variance of the average (Eq. 36)
-    mu = y.mean()
-    s2_meas = float(np.mean((y - mu) ** 2))  # Eq. 35
-    cav = float(np.mean((y.mean(axis=0) - mu) ** 2))  # Eq. 41 (before the temporal term)
-    rav = float(np.mean((y.mean(axis=1) - mu) ** 2))
+    col_means = z.mean(axis=0)
+    mu = float(col_means.mean())  # (every column has M pixels)
+    z -= mu
+    s2_meas = float(np.dot(z.ravel(), z.ravel())) / z.size * f2  # Eq. 35
+    col_means -= mu
+    cav = float(np.dot(col_means, col_means)) / N * f2  # Eq. 41 (before the temporal term)
+    row_means = z.mean(axis=1)
+    rav = float(np.dot(row_means, row_means)) / M * f2
     g1, g2 = white_gains(release)
     # measured = A @ (col, row, pix) + temporal terms (Eq. 42 with the high-pass gains)
     A = np.array([[g1, 0.0, g1 / M], [0.0, g1, g1 / N], [g1, g1, g2]])
