@@ -204,13 +204,13 @@ def choose_gain_model(s, v, dof, v_se=None, p_min: float = 1e-3) -> GainModel:
     improves the fit significantly (F-test p < ``p_min``, robust to a common excess
     scatter) and ``a00`` differs from 0 by more than 3 SE. Brighter-fatter flattening of a
     deep-well CCD's PTC then no longer pulls a straight-line gain (Astier et al. 2019)."""
-    from scipy import special  # chi-square and F tails without scipy.stats' 0.9 s import
+    from .tails import chi2_sf, f_sf
 
     s = np.asarray(s, float)
     v = np.asarray(v, float)
     lf = wls_line(s, v, dof, v_se=v_se)
     n = s.size
-    line_p = float(special.chdtrc(n - 2, lf.chi2_red * (n - 2))) if n > 2 and math.isfinite(lf.chi2_red) else math.nan
+    line_p = chi2_sf(n - 2, lf.chi2_red * (n - 2)) if n > 2 and math.isfinite(lf.chi2_red) else math.nan
     if n < 5:
         return GainModel("linear", lf, None, line_p, math.nan, math.nan,
                          f"linear: {n} levels are too few to test a curvature term (needs >= 5)")
@@ -218,10 +218,10 @@ def choose_gain_model(s, v, dof, v_se=None, p_min: float = 1e-3) -> GainModel:
     if not (math.isfinite(af.gain_e_per_dn) and af.gain_e_per_dn > 0):
         return GainModel("linear", lf, None, line_p, math.nan, math.nan, "linear: the Astier fit did not converge or its "
                          "parameters are not determined by these levels")
-    astier_p = float(special.chdtrc(n - 3, af.chi2_red * (n - 3)))
+    astier_p = chi2_sf(n - 3, af.chi2_red * (n - 3))
     chi_line, chi_ast = lf.chi2_red * (n - 2), af.chi2_red * (n - 3)
     f = (chi_line - chi_ast) / max(af.chi2_red, 1e-300)
-    f_p = float(special.fdtrc(1, n - 3, f)) if f > 0 else 1.0
+    f_p = f_sf(1, n - 3, f) if f > 0 else 1.0
     a_sig = abs(af.a00) / af.a00_se if af.a00_se > 0 else math.inf
     if line_p < p_min and f_p < p_min and a_sig > 3:
         return GainModel("astier", lf, af, line_p, astier_p, f_p,
