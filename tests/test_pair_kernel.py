@@ -31,8 +31,9 @@ def test_pair_kernel_is_bit_identical_to_numpy(monkeypatch, dtype, max_code):
     ref = _numpy_path(monkeypatch, a, b, max_code)
     for k in ("sa", "sb", "sdd", "n", "fmax", "fmin"):
         assert getattr(fast, k) == getattr(ref, k), k
-    for k in ("avg", "row_diff", "col_diff"):
+    for k in ("total", "row_diff", "col_diff"):
         assert np.array_equal(getattr(fast, k), getattr(ref, k)), k
+    assert fast.total.dtype == ref.total.dtype == np.int32
     assert fast.stats(True) == ref.stats(True) and fast.stats(False) == ref.stats(False)
     assert fast.fmin > 0 and (max_code is None or fast.fmax > 0)
 

@@ -103,14 +103,14 @@ def pair_step(a: np.ndarray, b: np.ndarray, max_code: int | None):
 
     pm = pair_moments(a, b, max_code)
     s3, s4 = pm.stats(False), pm.stats(True)
-    M, N = pm.avg.shape
+    M, N = pm.total.shape
     # temporal variance of the row / column means with the frame-global offset removed
     rv = float(np.var(pm.row_diff)) / 2
     cv = float(np.var(pm.col_diff)) / 2
     try:
-        sp = split(pm.avg, s4.var, 2, "4.0", rv, cv)
+        sp = split(pm.total, s4.var, 2, "4.0", rv, cv, scale=0.5)
     except ValueError:
-        sp = split(pm.avg, s4.var, 2, "none", rv, cv)
+        sp = split(pm.total, s4.var, 2, "none", rv, cv, scale=0.5)
     _, R, C = temporal_parts(s4.var, M, N, rv, cv)  # row/column-correlated temporal parts
     s4 = dataclasses.replace(s4, line_var2=2 * max(R, 0.0) ** 2 / M + 2 * max(C, 0.0) ** 2 / N)
     return s3, s4, sp, (pm.sa - pm.sb) / pm.n

@@ -46,16 +46,20 @@ class LevelStats:
 
 
 def _clip_fractions(frames: np.ndarray, max_code: int | None) -> tuple[float, float]:
+    """(fraction >= max_code, fraction == 0); counted only when the extremes reach them
+    (two fast reductions instead of two comparisons of the whole stack, usually)."""
     n = frames.size
-    at_min = float(np.count_nonzero(frames == 0)) / n if frames.dtype.kind in "ui" else 0.0
-    if max_code is None:
-        return 0.0, at_min
-    return float(np.count_nonzero(frames >= max_code)) / n, at_min
+    at_min = at_max = 0.0
+    if frames.dtype.kind in "ui" and n and frames.min() == 0:
+        at_min = float(np.count_nonzero(frames == 0)) / n
+    if max_code is not None and n and frames.max() >= max_code:
+        at_max = float(np.count_nonzero(frames >= max_code)) / n
+    return at_max, at_min
 
 
 @dataclass(frozen=True)
 class PairMoments:
-    """One visit of a two-image level: exact sums, clip fractions and the averaged image,
+    """One visit of a two-image level: exact sums, clip fractions and the pair's sum image,
     from which both releases' statistics follow (``stats``)."""
 
     sa: float
@@ -64,9 +68,14 @@ class PairMoments:
     n: int
     fmax: float
     fmin: float
-    avg: np.ndarray  # (a + b) / 2, float64
+    total: np.ndarray  # a + b: exact integers (int32 for 8/16-bit data, int64 above) or float64
     row_diff: np.ndarray  # mean of each row of a minus that of b, float64
     col_diff: np.ndarray  # the same for the columns
+
+    @property
+    def avg(self) -> np.ndarray:
+        """The averaged image (a + b) / 2, float64."""
+        return self.total * 0.5
 
     def stats(self, offset_correction: bool = True) -> LevelStats:
         mu_a, mu_b = self.sa / self.n, self.sb / self.n
@@ -78,7 +87,20 @@ class PairMoments:
 
     @functools.cached_property
     def avg_var(self) -> float:  # both releases' stats read it
-        return float(np.var(self.avg, ddof=1))
+        t = self.total
+        n = t.size
+        if t.dtype.kind == "i" and n > 1 and float(max(int(t.max()), -int(t.min()))) ** 2 * n < 2.0**53:
+            tf = t.astype(np.float64).ravel()  # every partial sum below is an integer below 2**53: exact
+            s1, s2 = int(tf.sum()), int(np.dot(tf, tf))
+            return (n * s2 - s1 * s1) / (n * (n - 1)) / 4.0  # exact integers, one rounding
+        return float(np.var(t, ddof=1)) / 4.0
+
+
+def _sum_type(dtype: np.dtype):
+    """The type ``a + b`` is exact in: int32 for 8/16-bit integers, int64 for wider ones."""
+    if dtype.kind in "uib":
+        return np.int32 if dtype.itemsize <= 2 else np.int64
+    return np.float64
 
 
 def pair_moments(a: np.ndarray, b: np.ndarray, max_code: int | None = None) -> PairMoments:
@@ -90,32 +112,32 @@ def pair_moments(a: np.ndarray, b: np.ndarray, max_code: int | None = None) -> P
 
     one = pair_pass(a, b, max_code)  # numba: one read of each pixel, the same numbers
     if one is not None:
-        (sa, sb, sdd, ma, mb, za, zb), avg, ra, rb, ca, cb = one
+        (sa, sb, sdd, ma, mb, za, zb), total, rd, cd = one
         n = a.size
         fmax = (ma / n + mb / n) / 2 if max_code is not None else 0.0
         M, N = a.shape
-        return PairMoments(int(sa), int(sb), int(sdd), n, fmax, (za / n + zb / n) / 2, avg, ra / N - rb / N,
-                           ca / M - cb / M)
+        return PairMoments(int(sa), int(sb), int(sdd), n, fmax, (za / n + zb / n) / 2, total, rd / N, cd / M)
+    d = np.subtract(a, b, dtype=np.float64)  # exact for integers: |a - b| < 2**33
+    # row and column sums of a - b: exact integers in float64 (below 2**53) for integer data
+    dr, dc = d.sum(axis=1), d.sum(axis=0)
     if a.dtype.kind in "ui":
-        sa, sb = int(a.sum(dtype=np.int64)), int(b.sum(dtype=np.int64))  # no int64 copies of the images
-        d = np.subtract(a, b, dtype=np.float64)  # exact: |a - b| < 2**32
-        info = np.iinfo(a.dtype)
+        sa = int(a.sum(dtype=np.int64))  # no int64 copy of the image
+        sb = sa - int(dr.sum())
+        info = np.iinfo(np.result_type(a, b)) if b.dtype.kind in "ui" else np.iinfo(a.dtype)
         if float(info.max - info.min) ** 2 * d.size < 2.0**53:  # every partial sum of squares is an
             sdd = int(np.dot(d.ravel(), d.ravel()))  # integer below 2**53: exact (16-bit up to ~2 Mpixel)
         else:  # int64: exact while the sum stays below 2**63 (24-bit codes up to ~30 Mpixel)
             di = d.astype(np.int64)
             sdd = int(np.dot(di.ravel(), di.ravel()))
     else:
-        d = np.subtract(a, b, dtype=np.float64)
         sa, sb = float(a.sum(dtype=np.float64)), float(b.sum(dtype=np.float64))
         sdd = float(np.dot(d.ravel(), d.ravel()))
+    dr /= a.shape[1]
+    dc /= a.shape[0]
     del d
     fa, fb = _clip_fractions(a, max_code), _clip_fractions(b, max_code)
-    avg = np.add(a, b, dtype=np.float64)  # exact for integer data, as the float64 sum of int64 copies was
-    avg *= 0.5
-    dr = np.mean(a, axis=1, dtype=np.float64) - np.mean(b, axis=1, dtype=np.float64)
-    dc = np.mean(a, axis=0, dtype=np.float64) - np.mean(b, axis=0, dtype=np.float64)
-    return PairMoments(sa, sb, sdd, a.size, (fa[0] + fb[0]) / 2, (fa[1] + fb[1]) / 2, avg, dr, dc)
+    total = np.add(a, b, dtype=_sum_type(a.dtype if a.dtype == b.dtype else np.result_type(a, b)))
+    return PairMoments(sa, sb, sdd, a.size, (fa[0] + fb[0]) / 2, (fa[1] + fb[1]) / 2, total, dr, dc)
 
 
 def pair_stats(a: np.ndarray, b: np.ndarray, max_code: int | None = None,
