@@ -30,3 +30,18 @@ def test_integer_stacks_give_the_int64_sums(dtype, lo, hi):
     mean, s2m, s2t, ref_avg = reference(frames)
     assert (st.mean, st.s2_measured, st.s2_temporal) == pytest.approx((mean, s2m, s2t), rel=1e-15, abs=1e-12)
     assert np.array_equal(avg, ref_avg)
+
+
+@pytest.mark.parametrize("hi,L", [(65536, 5), (4096, 300)])
+def test_uint32_partial_sums_fold_before_they_overflow(hi, L):
+    """Unsigned 8/16-bit frames are summed in uint32 and folded into the int64 totals before
+    a sum of values or squares could pass 2**32: full-scale 16-bit frames (every frame folds)
+    and stacks long enough to fold mid-way give the exact int64 sums."""
+    rng = np.random.default_rng(5)
+    dtype = np.uint8 if hi == 256 else np.uint16
+    frames = [np.full((6, 7), hi - 1, dtype) if i % 3 == 0 else rng.integers(0, hi, (6, 7)).astype(dtype)
+              for i in range(L)]
+    st, avg, _ = stack_moments(iter(frames))
+    mean, s2m, s2t, ref_avg = reference(frames)
+    assert np.array_equal(avg, ref_avg)
+    assert (st.mean, st.s2_measured, st.s2_temporal) == pytest.approx((mean, s2m, s2t), rel=1e-15, abs=1e-12)

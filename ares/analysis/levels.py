@@ -214,12 +214,42 @@ def _square_type(dtype: np.dtype):
     return np.int64  # (32-bit: the sum of squares is exact in int64 while it fits, as before)
 
 
+class _NarrowSums:
+    """Per-pixel sums of unsigned 8/16-bit frames and of their squares kept in uint32 (numpy
+    adds them 2-3x faster than into int64: half the memory traffic) and folded into the int64
+    totals before either could overflow -- exact whatever the stack length."""
+
+    LIMIT = 2**32 - 1
+
+    def __init__(self, s1: np.ndarray, s2: np.ndarray):
+        self.s1, self.s2 = s1, s2
+        self.n1, self.n2 = np.zeros(s1.shape, np.uint32), np.zeros(s1.shape, np.uint32)
+        self.room1 = self.room2 = self.LIMIT
+
+    def add(self, f: np.ndarray) -> None:
+        hi = int(f.max())
+        if hi > self.room1:
+            self.fold()
+        if hi * hi > self.room2:  # (16-bit data near full scale: every frame, as int64 adds)
+            self.fold()
+        np.add(self.n1, f, out=self.n1)
+        np.add(self.n2, np.square(f, dtype=np.uint32), out=self.n2)
+        self.room1 -= hi
+        self.room2 -= hi * hi
+
+    def fold(self) -> None:
+        for acc, part in ((self.s1, self.n1), (self.s2, self.n2)):
+            np.add(acc, part, out=acc)
+            part.fill(0)
+        self.room1 = self.room2 = self.LIMIT
+
+
 def stack_moments(frames) -> tuple[SpatialStats, np.ndarray, LineTemporal]:
     """(``SpatialStats``, averaged image <y> (Eq. 33 of EMVA 1288 4.0, float64),
     ``LineTemporal``) of a stack in one streamed pass. Integer data are summed exactly
     (int64 per-pixel sums of x and x^2); floats are summed in float64 after subtracting the
     first frame's mean (no cancellation)."""
-    s1 = s2 = shift = None
+    s1 = s2 = shift = narrow = None
     n = 0
     fm, r1, r2, c1, c2 = [], 0.0, 0.0, 0.0, 0.0
     for f in frames:
@@ -231,25 +261,38 @@ def stack_moments(frames) -> tuple[SpatialStats, np.ndarray, LineTemporal]:
             acc = np.int64 if exact else np.float64
             shift = 0 if exact else float(f.mean())
             s1, s2 = np.zeros(f.shape, acc), np.zeros(f.shape, acc)
+            if f.dtype.kind in "ub" and f.dtype.itemsize <= 2:
+                narrow = _NarrowSums(s1, s2)
         elif f.shape != s1.shape:
             raise ValueError(f"frame {n} has shape {f.shape}, the first {s1.shape}")
-        if shift:
-            x = f.astype(s1.dtype) - shift
-            s1 += x
-            s2 += x * x
-        else:  # integers: summed as they are (cast in numpy's small buffers), squared in the narrowest
-            x = f  # type that holds them -- no int64 copy of the frame
-            np.add(s1, x, out=s1, casting="unsafe")
-            np.add(s2, np.square(x, dtype=_square_type(x.dtype)), out=s2, casting="unsafe")
-        rm = x.mean(axis=1, dtype=np.float64)
+        if narrow is not None and f.dtype.kind in "ub" and f.dtype.itemsize <= 2:
+            x = f
+            narrow.add(x)
+            # exact uint32 row and column sums (rows and columns of < 65537 pixels); the same
+            # float64 means as numpy's mean of the frame
+            rm = x.sum(axis=1, dtype=np.uint32) / x.shape[1]
+            cm = x.sum(axis=0, dtype=np.uint32) / x.shape[0]
+        else:
+            if shift:
+                x = f.astype(s1.dtype) - shift
+                s1 += x
+                s2 += x * x
+            else:  # integers: summed as they are (cast in numpy's small buffers), squared in the narrowest
+                x = f  # type that holds them -- no int64 copy of the frame
+                np.add(s1, x, out=s1, casting="unsafe")
+                np.add(s2, np.square(x, dtype=_square_type(x.dtype)), out=s2, casting="unsafe")
+            rm = x.mean(axis=1, dtype=np.float64)
+            cm = x.mean(axis=0, dtype=np.float64)
         g = float(rm.mean())
-        cm = x.mean(axis=0, dtype=np.float64) - g
+        cm -= g
         rm -= g
         fm.append(g)
         r1, r2, c1, c2 = r1 + rm, r2 + rm * rm, c1 + cm, c2 + cm * cm
         n += 1
     if n < 2:
         raise ValueError("a stack needs shape (frames>=2, rows, cols)")
+    if narrow is not None:
+        narrow.fold()
     avg = s1 / n  # per-pixel mean (minus the shift)
     var_t = s1 * avg  # the per-pixel temporal variance, float64, in one temporary:
     np.subtract(s2, var_t, out=var_t)  # (s2 - s1 * avg) / (n - 1)
