@@ -25,7 +25,7 @@ import numpy as np
 
 from ares.errors import InputError
 from ares.hardware.imagefile import read_image
-from ares.safefile import confine, read_regular
+from ares.safefile import Confinement, read_regular
 from ares.hardware.interfaces import Frame
 
 
@@ -106,6 +106,7 @@ def read_descriptor(path: str | Path, check_files: bool = True) -> EmvaDescripto
     path = Path(path)
     text = read_regular(path, MAX_DESCRIPTOR_BYTES, "descriptor file").decode("utf-8", errors="replace")
     base = path.parent  # every image it references must lie below it (safefile.confine)
+    confine = Confinement([base])
     version = ""
     fmt: tuple[int, int, int] | None = None
     levels: list[EmvaLevel] = []
@@ -137,7 +138,7 @@ def read_descriptor(path: str | Path, check_files: bool = True) -> EmvaDescripto
                 raise InputError(f"{where}: image record before any 'b' or 'd' level record")
             rel = line[1:].strip()
             p = base.joinpath(*PureWindowsPath(rel).parts) if "\\" in rel else base / rel
-            p = confine(p, [base], where)
+            p = confine(p, where)
             if check_files and not p.is_file():
                 raise InputError(f"{where}: image file {p} not found")
             cur["images"].append(p)
