@@ -94,7 +94,6 @@ def console() -> None:
     and object of numpy, scipy, numba, matplotlib, h5py) took 0.4 - 0.6 s after
     ``make run``'s last line, for nothing. stdout/stderr and the log are flushed first;
     the run directory's files are closed and fsynced by then."""
-    import logging
     import os
     import threading
 
@@ -105,7 +104,9 @@ def console() -> None:
             sys.stderr.flush()
         except (OSError, ValueError):  # a closed pipe: the normal exit reports nothing more either
             pass
-        logging.shutdown()
+        logging = sys.modules.get("logging")  # flushed if anything used it (not imported for this)
+        if logging is not None:
+            logging.shutdown()
         os._exit(code)
     sys.exit(code)
 

@@ -6,7 +6,8 @@ from __future__ import annotations
 
 import numpy as np
 
-from ares.analysis.emva4_sheet import EmvaInput, StackImage, pair_step
+from ares.analysis.emva4_sheet import EmvaInput, StackImage
+from ares.analysis.levels import pair_step
 from ares.analysis.levels import stack_moments
 from ares.sim import SensorParams, SimSensor
 

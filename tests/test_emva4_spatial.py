@@ -9,7 +9,8 @@ import numpy as np
 import pytest
 
 from ares.analysis import emva_graphs as graphs
-from ares.analysis.emva4_sheet import dark_current_4, pair_step
+from ares.analysis.emva4_sheet import dark_current_4
+from ares.analysis.levels import pair_step
 from ares.analysis.emva_general import beta3, beta3_prime, bspline_fit
 from ares.analysis.emva_spatial import dsnu, highpass, prnu, smooth, split, white_gains
 from ares.analysis.estimate import Estimate

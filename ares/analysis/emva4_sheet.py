@@ -11,7 +11,6 @@ order and units of the datasheet's one-column table. Pure numpy: no I/O.
 
 from __future__ import annotations
 
-import dataclasses
 import math
 from dataclasses import dataclass, field
 
@@ -19,7 +18,7 @@ import numpy as np
 
 from . import emva_graphs as graphs
 from .emva4 import Emva4Result, emva4_linear
-from .emva_spatial import Split, dsnu, prnu, snr_model, snr_total_model, split, temporal_parts
+from .emva_spatial import Split, dsnu, prnu, snr_model, snr_total_model, split
 from .estimate import Estimate
 from .levels import LevelStats, LineTemporal
 
@@ -92,28 +91,6 @@ class EmvaSheet:
         for k, v in self.values.items():
             out["values"][k] = {"symbol": SYMBOLS.get(k, k), **v.to_dict()}
         return out
-
-
-def pair_step(a: np.ndarray, b: np.ndarray, max_code: int | None):
-    """Everything every release reads from one two-image step, in one visit of the images:
-    (Release 3.0 ``LevelStats``, Release 4.0 ``LevelStats`` (Eq. 18), the averaged image's
-    spatial variances (Eq. 32 with the 4.0 high-pass; unfiltered when the image is smaller
-    than the filter), mu[0] - mu[1])."""
-    from .levels import pair_moments
-
-    pm = pair_moments(a, b, max_code)
-    s3, s4 = pm.stats(False), pm.stats(True)
-    M, N = pm.total.shape
-    # temporal variance of the row / column means with the frame-global offset removed
-    rv = float(np.var(pm.row_diff)) / 2
-    cv = float(np.var(pm.col_diff)) / 2
-    try:
-        sp = split(pm.total, s4.var, 2, "4.0", rv, cv, scale=0.5)
-    except ValueError:
-        sp = split(pm.total, s4.var, 2, "none", rv, cv, scale=0.5)
-    _, R, C = temporal_parts(s4.var, M, N, rv, cv)  # row/column-correlated temporal parts
-    s4 = dataclasses.replace(s4, line_var2=2 * max(R, 0.0) ** 2 / M + 2 * max(C, 0.0) ** 2 / N)
-    return s3, s4, sp, (pm.sa - pm.sb) / pm.n
 
 
 def _scaled(e: Estimate, f: float, unit: str, note: str) -> Estimate:

@@ -14,6 +14,7 @@ Accumulation is exact: int64 for integer data, float64 on data shifted by its me
 
 from __future__ import annotations
 
+import dataclasses
 import functools
 import math
 from dataclasses import dataclass
@@ -138,6 +139,28 @@ def pair_moments(a: np.ndarray, b: np.ndarray, max_code: int | None = None) -> P
     fa, fb = _clip_fractions(a, max_code), _clip_fractions(b, max_code)
     total = np.add(a, b, dtype=_sum_type(a.dtype if a.dtype == b.dtype else np.result_type(a, b)))
     return PairMoments(sa, sb, sdd, a.size, (fa[0] + fb[0]) / 2, (fa[1] + fb[1]) / 2, total, dr, dc)
+
+
+def pair_step(a: np.ndarray, b: np.ndarray, max_code: int | None):
+    """Everything every EMVA 1288 release reads from one two-image step, in one visit of
+    the images: (Release 3.0 ``LevelStats``, Release 4.0 ``LevelStats`` (Eq. 18), the
+    averaged image's spatial variances (``emva_spatial.Split``: Eq. 32 with the 4.0
+    high-pass; unfiltered when the image is smaller than the filter), mu[0] - mu[1])."""
+    from .emva_spatial import split, temporal_parts
+
+    pm = pair_moments(a, b, max_code)
+    s3, s4 = pm.stats(False), pm.stats(True)
+    M, N = pm.total.shape
+    # temporal variance of the row / column means with the frame-global offset removed
+    rv = float(np.var(pm.row_diff)) / 2
+    cv = float(np.var(pm.col_diff)) / 2
+    try:
+        sp = split(pm.total, s4.var, 2, "4.0", rv, cv, scale=0.5)
+    except ValueError:
+        sp = split(pm.total, s4.var, 2, "none", rv, cv, scale=0.5)
+    _, R, C = temporal_parts(s4.var, M, N, rv, cv)  # row/column-correlated temporal parts
+    s4 = dataclasses.replace(s4, line_var2=2 * max(R, 0.0) ** 2 / M + 2 * max(C, 0.0) ** 2 / N)
+    return s3, s4, sp, (pm.sa - pm.sb) / pm.n
 
 
 def pair_stats(a: np.ndarray, b: np.ndarray, max_code: int | None = None,

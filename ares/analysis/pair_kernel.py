@@ -1,7 +1,7 @@
 """One pass over a two-image level for ``levels.pair_moments`` (numba, ``ares.jit``).
 
 The numpy path forms the difference and the sum of the images and reduces them and the
-images several times (``emva4_sheet.pair_step``). Here each pixel of both images is read
+images several times (``levels.pair_step``). Here each pixel of both images is read
 once. Every sum is an exact integer (int64), and the sum image is ``a + b`` (int32) as in
 the numpy path, so the results are bit-identical (tested).
 ``ares emva`` takes the numpy path (``ares.jit.avoided``: not worth loading numba for).

@@ -33,7 +33,7 @@ def read_noise(dark: Sequence[LevelStats], exposure_s: Sequence[float] | None,
     if not (np.all(np.isfinite(v)) and np.all(se > 0)):
         why = "no dark temporal variance (dark levels missing, zero or non-finite)"
         return Estimate.na(why, "DN"), Estimate.na(why, "e-"), False
-    if t is not None and np.unique(t).size >= 3:
+    if t is not None and len(set(np.asarray(t, float).tolist())) >= 3:
         lf = line_fit(t, v)
         s2, s2_se, how = lf.intercept, lf.intercept_se, "intercept of dark variance vs exposure"
     else:

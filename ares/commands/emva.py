@@ -50,7 +50,7 @@ def attribution_for(desc: EmvaDescriptor) -> str:
 
 
 def _pair(desc, lv, max_code):
-    from ares.analysis.emva4_sheet import pair_step
+    from ares.analysis.levels import pair_step
     from ares.hardware.emva_descriptor import load_level
 
     a = load_level(desc, lv)
@@ -65,11 +65,7 @@ def analyse_descriptor(path: str | Path | EmvaDescriptor, pixel_area_um2: float 
 
     import numpy as np
 
-    from ares.analysis.emva1288 import TemporalData, emva1288_results
-    from ares.analysis.emva4_sheet import EmvaInput, StackImage, evaluate_linear
-    from ares.analysis.emva_general import emva_general
-    from ares.analysis.levels import stack_moments
-    from ares.analysis.ptc import analyze_ptc
+    from ares.analysis.levels import pair_step, stack_moments  # noqa: F401 -- (before the threads need them)
     from ares.hardware.emva_descriptor import EmvaDescriptor, iter_level, read_descriptor
 
     desc = path if isinstance(path, EmvaDescriptor) else read_descriptor(path)
@@ -82,12 +78,26 @@ def analyse_descriptor(path: str | Path | EmvaDescriptor, pixel_area_um2: float 
     for lv in tb:
         dl = desc.dark_for(lv, "temporal")
         darks.setdefault(dl.exposure_ns, dl)
-    # every two-image level once, on all cores: PNG decoding (Pillow) and the numpy/scipy work
-    # release the GIL; each task holds only its own two images, and the results do not depend
-    # on the order the threads finish in
+    stack_levels = []
+    if desc.spatial_bright:
+        lv = desc.spatial_bright[0]
+        stack_levels = [lv, desc.dark_for(lv, "spatial")]
+    # every image once, on all cores: inflating the PNGs and the numpy work release the GIL.
+    # The two stacks (streamed: memory independent of their length) go first, the two-image
+    # levels fill in around them; each task holds only its own images, and the results do
+    # not depend on the order the threads finish in
     with ThreadPoolExecutor(min(os.cpu_count() or 1, 4)) as ex:
-        bright = list(ex.map(lambda lv: _pair(desc, lv, max_code), tb))
-        dark = dict(zip(darks, ex.map(lambda lv: _pair(desc, lv, max_code), darks.values())))
+        stacks = [ex.submit(stack_moments, iter_level(desc, lv)) for lv in stack_levels]
+        bright = ex.map(lambda lv: _pair(desc, lv, max_code), tb)
+        dark = ex.map(lambda lv: _pair(desc, lv, max_code), darks.values())
+        # the fits' modules load while the images are read (the threads hardly need the GIL)
+        from ares.analysis.emva1288 import TemporalData, emva1288_results
+        from ares.analysis.emva4_sheet import EmvaInput, StackImage, evaluate_linear
+        from ares.analysis.emva_general import emva_general
+        from ares.analysis.ptc import analyze_ptc
+
+        bright, dark = list(bright), dict(zip(darks, dark))
+        stacks = [f.result() for f in stacks]
     for lv, (s3, s4, sp, md) in zip(tb, bright):
         b3.append(s3)
         b4.append(s4)
@@ -101,13 +111,8 @@ def analyse_descriptor(path: str | Path | EmvaDescriptor, pixel_area_um2: float 
     td = TemporalData(texp, up, np.array([x.mean for x in b3]), np.array([x.var for x in b3]),
                       np.array([x.mean for x in d3]), np.array([x.var for x in d3]), b3[0].n_pixels)
     sb = sd = stack_b = stack_d = None
-    if desc.spatial_bright:
-        lv = desc.spatial_bright[0]
-        dl = desc.dark_for(lv, "spatial")
-        with ThreadPoolExecutor(2) as ex:  # the two stacks side by side, each streamed (memory independent of L)
-            fb = ex.submit(stack_moments, iter_level(desc, lv))
-            sd, img_d, line_d = stack_moments(iter_level(desc, dl))
-            sb, img_b, line_b = fb.result()
+    if stacks:
+        (lv, dl), ((sb, img_b, line_b), (sd, img_d, line_d)) = stack_levels, stacks
         stack_b = StackImage(img_b, sb.s2_temporal, sb.n_frames, lv.photons, lv.exposure_s, line_b)
         stack_d = StackImage(img_d, sd.s2_temporal, sd.n_frames, 0.0, dl.exposure_s, line_d)
     res = emva1288_results(td, sb, sd)
