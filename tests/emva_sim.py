@@ -36,8 +36,8 @@ def simulate(seed: int, L: int = 100, flux_map=None, **params):
         dark.append(sd[1])
         steps.append((sb[2], sd[2]))
     t50 = 0.5 * t_sat
-    stb, img_b, line_b = stack_moments(s.render(L, exposure_s=t50, photon_flux=flux, analog_gain=GAIN))
-    std, img_d, line_d = stack_moments(s.render(L, exposure_s=t50, dark=True, analog_gain=GAIN))
+    stb, img_b, line_b, _ = stack_moments(s.render(L, exposure_s=t50, photon_flux=flux, analog_gain=GAIN))
+    std, img_d, line_d, _ = stack_moments(s.render(L, exposure_s=t50, dark=True, analog_gain=GAIN))
     tdc = np.linspace(0.1, 0.8, 8)
     dm, dv = [], []
     for t in tdc:

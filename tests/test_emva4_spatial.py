@@ -189,7 +189,7 @@ def test_temporal_residual_is_removed_and_line_noise_not_taken_for_a_pattern():
     L = 40
     frames = [np.round(500 + rng.normal(0, 2, (M, N)) + rng.normal(0, 1.5, (M, 1))).astype(np.uint16)
               for _ in range(L)]
-    st, avg, line = stack_moments(frames)
+    st, avg, line, _ = stack_moments(frames)
     good = split(avg, line.pixel, L, "none", line.rows, line.cols)
     naive = split(avg, st.s2_temporal, L, "none")
     for part in ("row", "col", "pix"):
@@ -294,3 +294,24 @@ def test_bspline_is_exact_for_cubics_and_its_slope_too():
     np.testing.assert_allclose(beta3_prime(np.array([-1.5, -0.5, 0.3, 1.2])),
                                (beta3(np.array([-1.5, -0.5, 0.3, 1.2]) + h) - beta3(np.array([-1.5, -0.5, 0.3, 1.2]) - h))
                                / (2 * h), atol=1e-6)
+
+
+def test_a_stack_high_passed_from_its_integer_sum_equals_the_float_average():
+    """``StackImage`` with the stack's exact integer sum (what ``ares emva`` keeps) gives the
+    split, the 3.1 variance and the high-passed image of the float64 average within float64
+    rounding; ``prepare`` computes them once (a second call reads them back)."""
+    from ares.analysis.emva4_sheet import StackImage
+
+    rng = np.random.default_rng(12)
+    frames = [rng.integers(200, 3000, (M, N)).astype(np.uint16) for _ in range(9)]
+    st, avg, line, total = stack_moments(iter(frames))
+    assert total is not None and total.dtype == np.uint32
+    exact = StackImage(avg, st.s2_temporal, 9, line=line, total=total).prepare()
+    plain = StackImage(avg, st.s2_temporal, 9, line=line)
+    np.testing.assert_allclose(exact.highpassed("4.0"), plain.highpassed("4.0"), rtol=0, atol=1e-9)
+    assert exact.highpassed_var("3.1") == pytest.approx(plain.highpassed_var("3.1"), rel=1e-12)
+    for k in ("total", "col", "row", "pix", "se_total"):
+        assert getattr(exact.split("4.0"), k) == pytest.approx(getattr(plain.split("4.0"), k), rel=1e-10), k
+    assert exact.split("4.0") is exact.split("4.0")  # computed once
+    tiny = StackImage(avg[:15, :15], st.s2_temporal, 9).prepare()  # smaller than the 4.0 filter
+    assert tiny.split("none").rows == 15

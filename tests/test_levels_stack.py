@@ -26,7 +26,7 @@ def test_integer_stacks_give_the_int64_sums(dtype, lo, hi):
     frames = [rng.integers(lo, hi, (23, 31)).astype(dtype) for _ in range(9)]
     frames[0][0, :4] = hi - 1 if dtype != np.bool_ else True  # the extremes, whose squares need the wider type
     frames[1][0, :4] = lo
-    st, avg, _ = stack_moments(iter(frames))
+    st, avg, _, _ = stack_moments(iter(frames))
     mean, s2m, s2t, ref_avg = reference(frames)
     assert (st.mean, st.s2_measured, st.s2_temporal) == pytest.approx((mean, s2m, s2t), rel=1e-15, abs=1e-12)
     assert np.array_equal(avg, ref_avg)
@@ -41,7 +41,7 @@ def test_uint32_partial_sums_fold_before_they_overflow(hi, L):
     dtype = np.uint8 if hi == 256 else np.uint16
     frames = [np.full((6, 7), hi - 1, dtype) if i % 3 == 0 else rng.integers(0, hi, (6, 7)).astype(dtype)
               for i in range(L)]
-    st, avg, _ = stack_moments(iter(frames))
+    st, avg, _, _ = stack_moments(iter(frames))
     mean, s2m, s2t, ref_avg = reference(frames)
     assert np.array_equal(avg, ref_avg)
     assert (st.mean, st.s2_measured, st.s2_temporal) == pytest.approx((mean, s2m, s2t), rel=1e-15, abs=1e-12)

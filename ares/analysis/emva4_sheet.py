@@ -52,11 +52,44 @@ class StackImage:
     photons: float = 0.0
     exposure_s: float = math.nan
     line: "LineTemporal | None" = None  # offset-free pixel, row-mean and column-mean temporal variances
+    total: "np.ndarray | None" = field(default=None, repr=False)  # exact integer sum of the L frames
+    _memo: dict = field(default_factory=dict, init=False, repr=False, compare=False)
+
+    def highpassed(self, release: str) -> np.ndarray:
+        """The averaged image after the high-pass of ``release`` (Section 8.1; "none": as it
+        is). From the exact integer sum when there is one: 2x faster, half the memory."""
+        from .emva_spatial import highpass
+
+        if self.total is not None and release != "none":
+            return highpass(self.total, release, 1.0 / self.L)
+        return highpass(self.mean_image, release)
 
     def split(self, release: str) -> Split:
-        if self.line is None:
-            return split(self.mean_image, self.temporal_var, self.L, release)
-        return split(self.mean_image, self.line.pixel, self.L, release, self.line.rows, self.line.cols)
+        """``emva_spatial.split`` of the averaged image, computed once."""
+        if ("split", release) not in self._memo:
+            t, rows, cols = ((self.temporal_var, None, None) if self.line is None else
+                             (self.line.pixel, self.line.rows, self.line.cols))
+            self._memo["split", release] = split(self.mean_image, t, self.L, release, rows, cols,
+                                                 highpassed=self.highpassed(release))
+        return self._memo["split", release]
+
+    def highpassed_var(self, release: str) -> float:
+        """The variance of the high-passed averaged image (Release 3.1's Eq. 86 reads only
+        it), computed once."""
+        if ("var", release) not in self._memo:
+            self._memo["var", release] = float(np.var(self.highpassed(release)))
+        return self._memo["var", release]
+
+    def prepare(self) -> "StackImage":
+        """Compute the figures every release reads (the 4.0 split, or the unfiltered split for
+        an image smaller than the filter, and the 3.1 high-passed variance) -- in a worker
+        thread while other images are still read. The images are not kept (memory)."""
+        try:
+            self.split("4.0")
+            self.highpassed_var("3.1")
+        except ValueError:  # smaller than a filter: evaluate_linear and release31 say so
+            self.split("none")
+        return self
 
 
 @dataclass
@@ -119,10 +152,8 @@ def dark_current_4(t, mu, s2, K: Estimate, min_exposures: int = 6) -> dict[str, 
 
 
 def _stack_graphs(sd: StackImage, sb: StackImage | None, hp: str, v: dict) -> dict:
-    from .emva_spatial import highpass
-
     g: dict = {}
-    dark_hp = highpass(sd.mean_image, hp)
+    dark_hp = sd.highpassed(hp)
     s_dark = v["DSNU1288_DN"].value if v["DSNU1288_DN"].available else math.nan
     g["dark_lines"] = {"DSNU1288": s_dark, "sigma_y_stack": math.sqrt(max(sd.temporal_var, 0.0))}
     g["spectrogram_dsnu_h"] = graphs.spectrogram(dark_hp, "horizontal")
@@ -134,7 +165,7 @@ def _stack_graphs(sd: StackImage, sb: StackImage | None, hp: str, v: dict) -> di
     if sb is not None:
         prnu_img = sb.mean_image - sd.mean_image
         mean = float(prnu_img.mean())
-        prnu_hp = highpass(prnu_img, hp)
+        prnu_hp = sb.highpassed(hp) - dark_hp  # the high-pass is linear
         rel = 100.0 / mean if mean > 0 else math.nan
         g["prnu_lines"] = {"PRNU1288": v["PRNU1288"].value, "sigma_y_stack": math.sqrt(max(sb.temporal_var, 0)) * rel}
         g["spectrogram_prnu_h"] = graphs.spectrogram(prnu_hp, "horizontal", rel)

@@ -185,14 +185,15 @@ def _highpass_scaled(x: np.ndarray, release: str) -> tuple[np.ndarray, float]:
     return x[b:-b, b:-b] - smooth(x, release), 1.0
 
 
-def highpass(img: np.ndarray, release: str = "4.0") -> np.ndarray:
-    """Image minus its smoothed version (Section 8.1), border rows/columns dropped, float64.
-    An integer image (e.g. the sum of a pair) is filtered exactly: the only rounding is the
-    final division by the filter's weight. ``release="none"`` returns the image as a float64
-    copy (the profiles of Section 8.7)."""
+def highpass(img: np.ndarray, release: str = "4.0", scale: float = 1.0) -> np.ndarray:
+    """Image (times ``scale``) minus its smoothed version (Section 8.1), border rows/columns
+    dropped, float64. An integer image (e.g. the sum of a pair or a stack, ``scale`` 1/L) is
+    filtered exactly: the only rounding is the final division by the filter's weight and
+    the scale. ``release="none"`` returns the image as a float64 copy (the profiles of
+    Section 8.7)."""
     z, f = _highpass_scaled(np.asarray(img), release)
-    if f != 1.0:
-        z *= f
+    if f * scale != 1.0:
+        z *= f * scale
     return z
 
 
@@ -254,18 +255,22 @@ def temporal_parts(temporal_var: float, rows: int, cols: int, row_var: float | N
 
 
 def split(img: np.ndarray, temporal_var: float, L: int, release: str = "4.0", row_var: float | None = None,
-          col_var: float | None = None, scale: float = 1.0) -> Split:
+          col_var: float | None = None, scale: float = 1.0, highpassed: np.ndarray | None = None) -> Split:
     """Column, row and pixel spatial variances of ``img`` (the average of ``L`` images whose
     pixel temporal variance is ``temporal_var``), after the high-pass of ``release``
     ("4.0", "3.1" or "none"). ``row_var``/``col_var``: the temporal variances of the row and
     column means (frame offset removed) when measured -- then row- and column-correlated
     temporal noise (which averaging over L images leaves as var/L) is not taken for a row or
     column pattern; without them Eqs. 39 - 41 as written (white temporal noise).
-    ``scale``: the averaged image is ``img * scale`` (a pair's exact integer sum, 0.5)."""
+    ``scale``: the averaged image is ``img * scale`` (a pair's exact integer sum, 0.5).
+    ``highpassed``: ``highpass(img, release)`` when the caller has it (centred in place)."""
     x = np.asarray(img)
     mean = float(x.mean(dtype=np.float64)) * scale
     w, tr, tc = temporal_parts(temporal_var, x.shape[0], x.shape[1], row_var, col_var)
-    z, f = _highpass_scaled(x, release)  # the filtered image is z * f * scale
+    if highpassed is not None:
+        z, f = np.asarray(highpassed, np.float64), 1.0
+    else:
+        z, f = _highpass_scaled(x, release)  # the filtered image is z * f * scale
     f2 = (f * scale) ** 2
     M, N = z.shape
     w, tr, tc = w / L, tr / L, tc / L  # residual temporal variance of the average (Eq. 36)

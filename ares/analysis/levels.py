@@ -18,6 +18,7 @@ import dataclasses
 import functools
 import math
 from dataclasses import dataclass
+from typing import NamedTuple
 
 import numpy as np
 
@@ -239,21 +240,21 @@ def _square_type(dtype: np.dtype):
 
 class _NarrowSums:
     """Per-pixel sums of unsigned 8/16-bit frames and of their squares kept in uint32 (numpy
-    adds them 2-3x faster than into int64: half the memory traffic) and folded into the int64
-    totals before either could overflow -- exact whatever the stack length."""
+    adds them 2-3x faster than into int64: half the memory traffic), folded into int64
+    totals before either could overflow -- exact whatever the stack length. The int64
+    totals are made only when a fold is needed: a stack of a few hundred 12-bit frames
+    never needs them (two 8-byte images less per stack)."""
 
     LIMIT = 2**32 - 1
 
-    def __init__(self, s1: np.ndarray, s2: np.ndarray):
-        self.s1, self.s2 = s1, s2
-        self.n1, self.n2 = np.zeros(s1.shape, np.uint32), np.zeros(s1.shape, np.uint32)
+    def __init__(self, shape: tuple[int, int]):
+        self.s1 = self.s2 = None
+        self.n1, self.n2 = np.zeros(shape, np.uint32), np.zeros(shape, np.uint32)
         self.room1 = self.room2 = self.LIMIT
 
     def add(self, f: np.ndarray) -> None:
         hi = int(f.max())
-        if hi > self.room1:
-            self.fold()
-        if hi * hi > self.room2:  # (16-bit data near full scale: every frame, as int64 adds)
+        if hi > self.room1 or hi * hi > self.room2:  # (16-bit data near full scale: every frame)
             self.fold()
         np.add(self.n1, f, out=self.n1)
         np.add(self.n2, np.square(f, dtype=np.uint32), out=self.n2)
@@ -261,34 +262,55 @@ class _NarrowSums:
         self.room2 -= hi * hi
 
     def fold(self) -> None:
+        if self.s1 is None:
+            self.s1, self.s2 = np.zeros(self.n1.shape, np.int64), np.zeros(self.n1.shape, np.int64)
         for acc, part in ((self.s1, self.n1), (self.s2, self.n2)):
             np.add(acc, part, out=acc)
             part.fill(0)
         self.room1 = self.room2 = self.LIMIT
 
+    def totals(self) -> tuple[np.ndarray, np.ndarray]:
+        """(sum x, sum x^2): the uint32 sums if they never folded, else the int64 totals."""
+        if self.s1 is None:
+            return self.n1, self.n2
+        self.fold()
+        return self.s1, self.s2
 
-def stack_moments(frames) -> tuple[SpatialStats, np.ndarray, LineTemporal]:
-    """(``SpatialStats``, averaged image <y> (Eq. 33 of EMVA 1288 4.0, float64),
-    ``LineTemporal``) of a stack in one streamed pass. Integer data are summed exactly
-    (int64 per-pixel sums of x and x^2); floats are summed in float64 after subtracting the
-    first frame's mean (no cancellation)."""
-    s1 = s2 = shift = narrow = None
+
+class StackMoments(NamedTuple):
+    stats: SpatialStats
+    mean_image: np.ndarray  # <y>, Eq. 33 of EMVA 1288 4.0, float64
+    line: LineTemporal
+    total: np.ndarray | None  # the exact per-pixel sum of integer frames (uint32 or int64), else None
+
+
+def stack_moments(frames) -> StackMoments:
+    """The statistics, averaged image, line temporal variances and (integer frames) the
+    exact sum image of a stack, in one streamed pass. Integer data are summed exactly
+    (per-pixel sums of x and x^2); floats are summed in float64 after subtracting the first
+    frame's mean (no cancellation)."""
+    s1 = s2 = shift = narrow = shape = None
     n = 0
     fm, r1, r2, c1, c2 = [], 0.0, 0.0, 0.0, 0.0
     for f in frames:
         f = np.asarray(f)
         if f.ndim != 2:
             raise ValueError("a stack needs shape (frames>=2, rows, cols)")
-        if s1 is None:
+        if shape is None:
+            shape = f.shape
             exact = f.dtype.kind in "ub" or (f.dtype.kind == "i" and f.dtype.itemsize <= 4)
             acc = np.int64 if exact else np.float64
             shift = 0 if exact else float(f.mean())
-            s1, s2 = np.zeros(f.shape, acc), np.zeros(f.shape, acc)
             if f.dtype.kind in "ub" and f.dtype.itemsize <= 2:
-                narrow = _NarrowSums(s1, s2)
-        elif f.shape != s1.shape:
-            raise ValueError(f"frame {n} has shape {f.shape}, the first {s1.shape}")
-        if narrow is not None and f.dtype.kind in "ub" and f.dtype.itemsize <= 2:
+                narrow = _NarrowSums(shape)
+            else:
+                s1, s2 = np.zeros(shape, acc), np.zeros(shape, acc)
+        elif f.shape != shape:
+            raise ValueError(f"frame {n} has shape {f.shape}, the first {shape}")
+        if narrow is not None and not (f.dtype.kind in "ub" and f.dtype.itemsize <= 2):  # (a wider frame
+            narrow.fold()  # in a stack that began narrow: int64 from here on)
+            s1, s2, narrow = narrow.s1, narrow.s2, None
+        if narrow is not None:
             x = f
             narrow.add(x)
             # exact uint32 row and column sums (rows and columns of < 65537 pixels); the same
@@ -315,7 +337,7 @@ def stack_moments(frames) -> tuple[SpatialStats, np.ndarray, LineTemporal]:
     if n < 2:
         raise ValueError("a stack needs shape (frames>=2, rows, cols)")
     if narrow is not None:
-        narrow.fold()
+        s1, s2 = narrow.totals()
     avg = s1 / n  # per-pixel mean (minus the shift)
     var_t = s1 * avg  # the per-pixel temporal variance, float64, in one temporary:
     np.subtract(s2, var_t, out=var_t)  # (s2 - s1 * avg) / (n - 1)
@@ -326,4 +348,4 @@ def stack_moments(frames) -> tuple[SpatialStats, np.ndarray, LineTemporal]:
                         float(np.mean((r2 - r1 * r1 / n) / (n - 1))), float(np.mean((c2 - c1 * c1 / n) / (n - 1))))
     if shift:
         avg += shift
-    return st, avg, line
+    return StackMoments(st, avg, line, None if shift or s1.dtype.kind == "f" else s1)

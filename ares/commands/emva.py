@@ -57,6 +57,17 @@ def _pair(desc, lv, max_code):
     return pair_step(a[0], a[1], max_code)
 
 
+def _stack(desc, lv):
+    """A stack level, streamed: its ``SpatialStats`` and its ``StackImage`` with what every
+    release reads from it computed (in a worker thread, beside the other images)."""
+    from ares.analysis.emva4_sheet import StackImage
+    from ares.analysis.levels import stack_moments
+    from ares.hardware.emva_descriptor import iter_level
+
+    st, img, line, total = stack_moments(iter_level(desc, lv))
+    return st, StackImage(img, st.s2_temporal, st.n_frames, lv.photons, lv.exposure_s, line, total).prepare()
+
+
 def analyse_descriptor(path: str | Path | EmvaDescriptor, pixel_area_um2: float | None = None) -> EmvaAnalysis:
     """Every release's statistics in one pass over the images (each image decoded once;
     the stacks streamed, memory independent of their length)."""
@@ -65,8 +76,8 @@ def analyse_descriptor(path: str | Path | EmvaDescriptor, pixel_area_um2: float 
 
     import numpy as np
 
-    from ares.analysis.levels import pair_step, stack_moments  # noqa: F401 -- (before the threads need them)
-    from ares.hardware.emva_descriptor import EmvaDescriptor, iter_level, read_descriptor
+    from ares.analysis import emva_spatial, levels  # noqa: F401 -- loaded before the threads need them
+    from ares.hardware.emva_descriptor import EmvaDescriptor, read_descriptor
 
     desc = path if isinstance(path, EmvaDescriptor) else read_descriptor(path)
     max_code = (1 << desc.bits) - 1
@@ -87,12 +98,12 @@ def analyse_descriptor(path: str | Path | EmvaDescriptor, pixel_area_um2: float 
     # levels fill in around them; each task holds only its own images, and the results do
     # not depend on the order the threads finish in
     with ThreadPoolExecutor(min(os.cpu_count() or 1, 4)) as ex:
-        stacks = [ex.submit(stack_moments, iter_level(desc, lv)) for lv in stack_levels]
+        stacks = [ex.submit(_stack, desc, lv) for lv in stack_levels]
         bright = ex.map(lambda lv: _pair(desc, lv, max_code), tb)
         dark = ex.map(lambda lv: _pair(desc, lv, max_code), darks.values())
         # the fits' modules load while the images are read (the threads hardly need the GIL)
         from ares.analysis.emva1288 import TemporalData, emva1288_results
-        from ares.analysis.emva4_sheet import EmvaInput, StackImage, evaluate_linear
+        from ares.analysis.emva4_sheet import EmvaInput, evaluate_linear
         from ares.analysis.emva_general import emva_general
         from ares.analysis.ptc import analyze_ptc
 
@@ -112,9 +123,7 @@ def analyse_descriptor(path: str | Path | EmvaDescriptor, pixel_area_um2: float 
                       np.array([x.mean for x in d3]), np.array([x.var for x in d3]), b3[0].n_pixels)
     sb = sd = stack_b = stack_d = None
     if stacks:
-        (lv, dl), ((sb, img_b, line_b), (sd, img_d, line_d)) = stack_levels, stacks
-        stack_b = StackImage(img_b, sb.s2_temporal, sb.n_frames, lv.photons, lv.exposure_s, line_b)
-        stack_d = StackImage(img_d, sd.s2_temporal, sd.n_frames, 0.0, dl.exposure_s, line_d)
+        (sb, stack_b), (sd, stack_d) = stacks
     res = emva1288_results(td, sb, sd)
     ptc = analyze_ptc(b4, d4, exposure_s=texp, photons=up)
     inp = EmvaInput(up, texp, b4, d4, steps, np.array(diffs), stack_d, stack_b, pixel_area_um2=pixel_area_um2,
@@ -130,17 +139,13 @@ def analyse_descriptor(path: str | Path | EmvaDescriptor, pixel_area_um2: float 
 def release31(res, stack_b, stack_d) -> dict:
     """Release 3.1 = the 3.0 set with DSNU1288/PRNU1288 from 5x5-box high-passed stacks,
     the spatial standard deviation divided by 0.96 (Linear 4.0 Appendix C.5, Eqs. 84 - 86)."""
-    import numpy as np
-
-    from ares.analysis.emva_spatial import highpass
     from ares.analysis.estimate import Estimate
 
     K = res.values["K"]
     out = {k: e for k, e in res.values.items()}
 
     def s2(st):  # Eq. 86: the filter keeps 0.96^2 of a white pattern and of the temporal residual
-        y = highpass(st.mean_image, "3.1")
-        return float(np.var(y)) / 0.96**2 - st.temporal_var / st.L
+        return st.highpassed_var("3.1") / 0.96**2 - st.temporal_var / st.L
 
     try:
         d2, b2 = s2(stack_d), s2(stack_b)
