@@ -39,10 +39,11 @@ def spectrogram(img: np.ndarray, direction: str = "horizontal", scale: float = 1
         y = y.T
     elif direction != "horizontal":
         raise ValueError(f"direction is 'horizontal' or 'vertical', not {direction!r}")
-    y = y - y.mean()
     n = y.shape[1]
-    f = np.fft.rfft(y, axis=1) / math.sqrt(n)  # Eq. 70
-    p = np.mean(f.real**2 + f.imag**2, axis=0)  # Eq. 71 (v = 0 .. N/2)
+    f = np.fft.rfft(y, axis=1)  # Eq. 70 (times sqrt(N)); the image mean is taken out of the
+    f[:, 0] -= float(y.mean()) * n  # v = 0 bin, where it is all (no centred copy of the image)
+    p = np.einsum("ij,ij->j", f.real, f.real) + np.einsum("ij,ij->j", f.imag, f.imag)
+    p /= y.shape[0] * n  # Eq. 71: the mean over the lines of |F(v)|^2 / N (v = 0 .. N/2)
     return Spectrogram(np.arange(p.size) / n, np.sqrt(p) * scale)
 
 

@@ -240,41 +240,48 @@ def _square_type(dtype: np.dtype):
 
 class _NarrowSums:
     """Per-pixel sums of unsigned 8/16-bit frames and of their squares kept in uint32 (numpy
-    adds them 2-3x faster than into int64: half the memory traffic), folded into int64
-    totals before either could overflow -- exact whatever the stack length. The int64
-    totals are made only when a fold is needed: a stack of a few hundred 12-bit frames
-    never needs them (two 8-byte images less per stack)."""
+    adds them 2-3x faster than into int64: half the memory traffic), each folded into an
+    int64 total before it could overflow -- exact whatever the stack length. A total is
+    made only when its sum needs folding: the sum of values never does below 65537 frames,
+    the sum of squares of 12-bit data after 256 (an 8-byte image less per stack and sum)."""
 
     LIMIT = 2**32 - 1
 
     def __init__(self, shape: tuple[int, int]):
-        self.s1 = self.s2 = None
-        self.n1, self.n2 = np.zeros(shape, np.uint32), np.zeros(shape, np.uint32)
-        self.room1 = self.room2 = self.LIMIT
+        self.parts = [np.zeros(shape, np.uint32), np.zeros(shape, np.uint32)]  # sum x, sum x^2
+        self.totals_: list[np.ndarray | None] = [None, None]
+        self.room = [self.LIMIT, self.LIMIT]
 
     def add(self, f: np.ndarray) -> None:
         hi = int(f.max())
-        if hi > self.room1 or hi * hi > self.room2:  # (16-bit data near full scale: every frame)
-            self.fold()
-        np.add(self.n1, f, out=self.n1)
-        np.add(self.n2, np.square(f, dtype=np.uint32), out=self.n2)
-        self.room1 -= hi
-        self.room2 -= hi * hi
+        for k, need in ((0, hi), (1, hi * hi)):  # (16-bit data near full scale: squares fold every frame)
+            if need > self.room[k]:
+                self._fold(k)
+            self.room[k] -= need
+        np.add(self.parts[0], f, out=self.parts[0])
+        np.add(self.parts[1], np.square(f, dtype=np.uint32), out=self.parts[1])
 
-    def fold(self) -> None:
-        if self.s1 is None:
-            self.s1, self.s2 = np.zeros(self.n1.shape, np.int64), np.zeros(self.n1.shape, np.int64)
-        for acc, part in ((self.s1, self.n1), (self.s2, self.n2)):
-            np.add(acc, part, out=acc)
-            part.fill(0)
-        self.room1 = self.room2 = self.LIMIT
+    def _fold(self, k: int) -> None:
+        if self.totals_[k] is None:
+            self.totals_[k] = np.zeros(self.parts[k].shape, np.int64)
+        np.add(self.totals_[k], self.parts[k], out=self.totals_[k])
+        self.parts[k].fill(0)
+        self.room[k] = self.LIMIT
 
     def totals(self) -> tuple[np.ndarray, np.ndarray]:
-        """(sum x, sum x^2): the uint32 sums if they never folded, else the int64 totals."""
-        if self.s1 is None:
-            return self.n1, self.n2
-        self.fold()
-        return self.s1, self.s2
+        """(sum x, sum x^2), each the uint32 sum if it never folded, else its int64 total."""
+        out = []
+        for k in (0, 1):
+            if self.totals_[k] is not None:
+                self._fold(k)
+            out.append(self.parts[k] if self.totals_[k] is None else self.totals_[k])
+        return out[0], out[1]
+
+    def widen(self) -> tuple[np.ndarray, np.ndarray]:
+        """Both sums as int64 totals, for adding wider frames from here on."""
+        for k in (0, 1):
+            self._fold(k)
+        return self.totals_[0], self.totals_[1]
 
 
 class StackMoments(NamedTuple):
@@ -308,8 +315,7 @@ def stack_moments(frames) -> StackMoments:
         elif f.shape != shape:
             raise ValueError(f"frame {n} has shape {f.shape}, the first {shape}")
         if narrow is not None and not (f.dtype.kind in "ub" and f.dtype.itemsize <= 2):  # (a wider frame
-            narrow.fold()  # in a stack that began narrow: int64 from here on)
-            s1, s2, narrow = narrow.s1, narrow.s2, None
+            (s1, s2), narrow = narrow.widen(), None  # in a stack that began narrow: int64 from here on)
         if narrow is not None:
             x = f
             narrow.add(x)
