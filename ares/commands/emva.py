@@ -50,11 +50,13 @@ def attribution_for(desc: EmvaDescriptor) -> str:
 
 
 def _pair(desc, lv, max_code):
-    from ares.analysis.levels import pair_step
-    from ares.hardware.emva_descriptor import load_level
+    import itertools
 
-    a = load_level(desc, lv)
-    return pair_step(a[0], a[1], max_code)
+    from ares.analysis.levels import pair_step
+    from ares.hardware.emva_descriptor import iter_level
+
+    a, b = itertools.islice(iter_level(desc, lv), 2)  # (not stacked: no copy of the two images)
+    return pair_step(a, b, max_code)
 
 
 def _stack(desc, lv):
