@@ -108,3 +108,19 @@ def test_extra_bytes_after_the_image_data_are_not_taken():
     data = (png.SIGNATURE + chunk(b"IHDR", struct.pack(">IIBBBBB", 4, 3, 8, 0, 0, 0, 0))
             + chunk(b"IDAT", zlib.compress(raw)) + chunk(b"IEND", b""))
     assert png.decode(data, MAX_PIXELS) is None  # too long for its header: Pillow decides
+
+
+def test_zlib_inflates_the_same_pixels_when_isal_is_missing(monkeypatch):
+    img = np.random.default_rng(3).integers(0, 4096, (20, 30)).astype(np.uint16)
+    data = unfiltered_png(img)
+    monkeypatch.setattr(png, "_inflate", zlib)
+    assert np.array_equal(png.decode(data, MAX_PIXELS), img)
+    i = data.index(b"IDAT") + 30  # a flipped byte inside the stream, its CRC made to match
+    body_start = data.index(b"IDAT")
+    n = int.from_bytes(data[body_start - 4:body_start], "big")
+    body = bytearray(data[body_start:body_start + 4 + n])
+    body[i - body_start] ^= 0xFF
+    forged = data[:body_start] + bytes(body) + zlib.crc32(bytes(body)).to_bytes(4, "big") + data[body_start + 8 + n:]
+    assert png.decode(forged, MAX_PIXELS) is None  # zlib's own checks refuse it: Pillow words the error
+    monkeypatch.undo()
+    assert png.decode(forged, MAX_PIXELS) is None  # and ISA-L's
