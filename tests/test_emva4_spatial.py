@@ -60,8 +60,9 @@ def _scipy_passes(img, release, border):
 
 
 @pytest.mark.parametrize("release", ["4.0", "3.1"])
-@pytest.mark.parametrize("border", ["valid", "reflect"])
-@pytest.mark.parametrize("shape", [(480, 640), (21, 23), (25, 300), (7, 9)])
+@pytest.mark.parametrize("border,shape", [("valid", (480, 640)), ("valid", (21, 23)), ("valid", (25, 300)),
+                                          ("reflect", (480, 640)), ("reflect", (21, 23)), ("reflect", (25, 300)),
+                                          ("reflect", (7, 9))])
 @pytest.mark.parametrize("path", ["numba", "numpy float", "numpy integer"])
 def test_every_lowpass_path_equals_the_scipy_passes(monkeypatch, release, border, shape, path):
     """The numba kernel (``ares.analysis.lowpass``, float64), the numpy path (binary-doubling
@@ -70,8 +71,6 @@ def test_every_lowpass_path_equals_the_scipy_passes(monkeypatch, release, border
     the filters: repeated reflection)."""
     import ares.analysis.lowpass as lp
 
-    if border == "valid" and min(shape) <= 2 * {"4.0": 9, "3.1": 2}[release] + 2:
-        pytest.skip("too small for the valid part")
     rng = np.random.default_rng(7)
     img = rng.normal(1000, 10, shape) + np.linspace(0, 80, shape[1])[None, :] + (rng.random(shape) < 0.01) * 500
     if path == "numpy integer":
