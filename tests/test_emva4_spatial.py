@@ -314,3 +314,21 @@ def test_a_stack_high_passed_from_its_integer_sum_equals_the_float_average():
     assert exact.split("4.0") is exact.split("4.0")  # computed once
     tiny = StackImage(avg[:15, :15], st.s2_temporal, 9).prepare()  # smaller than the 4.0 filter
     assert tiny.split("none").rows == 15
+
+
+@pytest.mark.parametrize("release", ["4.0", "3.1", "none"])
+@pytest.mark.parametrize("kind", ["integer sum", "float"])
+def test_split_in_row_blocks_equals_the_whole_image(monkeypatch, release, kind):
+    """``split`` high-passes a large image a block of rows at a time: blocks of a few rows
+    give the variances of the whole image within float64 rounding."""
+    import ares.analysis.emva_spatial as es
+
+    rng = np.random.default_rng(21)
+    img = rng.integers(500, 3500, (M, N)) + (np.arange(N) % 7)[None, :] * 3 + (np.arange(M) % 5)[:, None] * 4
+    img = img.astype(np.int32) if kind == "integer sum" else img * 0.5
+    scale = 0.5 if kind == "integer sum" else 1.0
+    whole = split(img, 25.0, 2, release, 0.3, 0.2, scale=scale)
+    monkeypatch.setattr(es, "BLOCK_PIXELS", 3 * N)  # blocks of 3 or 4 rows
+    blocks = split(img, 25.0, 2, release, 0.3, 0.2, scale=scale)
+    for k in ("total", "col", "row", "pix", "mean", "se_total", "rows", "cols"):
+        assert getattr(blocks, k) == pytest.approx(getattr(whole, k), rel=1e-11), k

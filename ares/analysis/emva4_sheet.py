@@ -69,8 +69,9 @@ class StackImage:
         if ("split", release) not in self._memo:
             t, rows, cols = ((self.temporal_var, None, None) if self.line is None else
                              (self.line.pixel, self.line.rows, self.line.cols))
-            self._memo["split", release] = split(self.mean_image, t, self.L, release, rows, cols,
-                                                 highpassed=self.highpassed(release))
+            img, scale = ((self.total, 1.0 / self.L) if self.total is not None and release != "none"
+                          else (self.mean_image, 1.0))  # (the exact sum: high-passed in integers)
+            self._memo["split", release] = split(img, t, self.L, release, rows, cols, scale=scale)
         return self._memo["split", release]
 
     def highpassed_var(self, release: str) -> float:

@@ -26,6 +26,7 @@ Pure numpy: no I/O.
 
 from __future__ import annotations
 
+import functools
 import math
 from dataclasses import dataclass
 
@@ -207,6 +208,7 @@ def kernel_1d(release: str) -> np.ndarray:
     return k
 
 
+@functools.lru_cache(maxsize=None)  # (floats of a release name: every split reads them)
 def white_gains(release: str) -> tuple[float, float]:
     """(g1, g2): the share of a white 1-D (row or column) and 2-D pattern's variance that the
     high-pass keeps, sum h^2 for h = delta - smoothing kernel."""
@@ -254,33 +256,49 @@ def temporal_parts(temporal_var: float, rows: int, cols: int, row_var: float | N
     return w, row_var - w / cols, col_var - w / rows
 
 
+BLOCK_PIXELS = 1 << 20  # ``split`` high-passes an image a block of rows (about this many pixels) at a time
+
+
 def split(img: np.ndarray, temporal_var: float, L: int, release: str = "4.0", row_var: float | None = None,
-          col_var: float | None = None, scale: float = 1.0, highpassed: np.ndarray | None = None) -> Split:
+          col_var: float | None = None, scale: float = 1.0) -> Split:
     """Column, row and pixel spatial variances of ``img`` (the average of ``L`` images whose
     pixel temporal variance is ``temporal_var``), after the high-pass of ``release``
     ("4.0", "3.1" or "none"). ``row_var``/``col_var``: the temporal variances of the row and
     column means (frame offset removed) when measured -- then row- and column-correlated
     temporal noise (which averaging over L images leaves as var/L) is not taken for a row or
     column pattern; without them Eqs. 39 - 41 as written (white temporal noise).
-    ``scale``: the averaged image is ``img * scale`` (a pair's exact integer sum, 0.5).
-    ``highpassed``: ``highpass(img, release)`` when the caller has it (centred in place)."""
+    ``scale``: the averaged image is ``img * scale`` (an exact integer sum: a pair's 1/2, a
+    stack's 1/L). A large image is high-passed a block of rows at a time (each block with
+    the ``HIGHPASS_BORDER`` rows the filter reads around it; the valid filter reads nothing
+    outside it, so the sums are those of the whole filtered image): a 12 Mpx frame's
+    temporaries are 8 MB each, not 100. (Smaller blocks would stay in cache, but their
+    extra numpy calls hold the GIL: two threads splitting VGA pairs in blocks of 64 K pixels
+    were slower than one.)"""
     x = np.asarray(img)
     mean = float(x.mean(dtype=np.float64)) * scale
     w, tr, tc = temporal_parts(temporal_var, x.shape[0], x.shape[1], row_var, col_var)
-    if highpassed is not None:
-        z, f = np.asarray(highpassed, np.float64), 1.0
-    else:
-        z, f = _highpass_scaled(x, release)  # the filtered image is z * f * scale
+    if release != "none":
+        _check_size(x, release)
+    b = HIGHPASS_BORDER[release]
+    M, N = x.shape[0] - 2 * b, x.shape[1] - 2 * b
+    blocks = max(1, M // max(3, BLOCK_PIXELS // x.shape[1]))  # (each block >= 3 rows: what the filter needs)
+    col_sums, row_means, sq, c0 = np.zeros(N), np.empty(M), 0.0, None
+    for r0, r1 in zip([M * i // blocks for i in range(blocks)], [M * (i + 1) // blocks for i in range(blocks)]):
+        z, f = _highpass_scaled(x[r0:r1 + 2 * b], release)  # rows r0..r1 of the filtered image, / (f * scale)
+        if c0 is None:  # sums about the first block's mean: no cancellation whatever the offset
+            c0 = float(z.mean())
+        z -= c0
+        col_sums += z.sum(axis=0)
+        row_means[r0:r1] = z.mean(axis=1)
+        sq += float(np.dot(z.ravel(), z.ravel()))
     f2 = (f * scale) ** 2
-    M, N = z.shape
     w, tr, tc = w / L, tr / L, tc / L  # residual temporal variance of the average (Eq. 36)
-    col_means = z.mean(axis=0)
-    mu = float(col_means.mean())  # (every column has M pixels)
-    z -= mu
-    s2_meas = float(np.dot(z.ravel(), z.ravel())) / z.size * f2  # Eq. 35
-    col_means -= mu
+    col_means = col_sums / M
+    d = float(col_means.mean())  # the mean minus c0 (every column has M pixels)
+    s2_meas = (sq / (M * N) - d * d) * f2  # Eq. 35
+    col_means -= d
     cav = float(np.dot(col_means, col_means)) / N * f2  # Eq. 41 (before the temporal term)
-    row_means = z.mean(axis=1)
+    row_means -= d
     rav = float(np.dot(row_means, row_means)) / M * f2
     g1, g2 = white_gains(release)
     # measured = A @ (col, row, pix) + temporal terms (Eq. 42 with the high-pass gains)
