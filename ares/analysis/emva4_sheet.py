@@ -163,16 +163,19 @@ def _stack_graphs(sd: StackImage, sb: StackImage | None, hp: str, v: dict) -> di
     g["profile_dsnu_v"] = graphs.profiles(sd.mean_image, "vertical")
     g["hist_dsnu"] = graphs.log_histogram(dark_hp, sd.L)
     g["acc_dsnu"] = graphs.accumulated_histogram(dark_hp, sd.L)
-    if sb is not None:
+    if sb is not None:  # (one image-sized temporary at a time besides the two high-passed ones)
+        prnu_hp = sb.highpassed(hp)
+        prnu_hp -= dark_hp  # the high-pass is linear
+        del dark_hp
         prnu_img = sb.mean_image - sd.mean_image
         mean = float(prnu_img.mean())
-        prnu_hp = sb.highpassed(hp) - dark_hp  # the high-pass is linear
         rel = 100.0 / mean if mean > 0 else math.nan
         g["prnu_lines"] = {"PRNU1288": v["PRNU1288"].value, "sigma_y_stack": math.sqrt(max(sb.temporal_var, 0)) * rel}
-        g["spectrogram_prnu_h"] = graphs.spectrogram(prnu_hp, "horizontal", rel)
-        g["spectrogram_prnu_v"] = graphs.spectrogram(prnu_hp, "vertical", rel)
         g["profile_prnu_h"] = graphs.profiles(prnu_img, "horizontal")
         g["profile_prnu_v"] = graphs.profiles(prnu_img, "vertical")
+        del prnu_img
+        g["spectrogram_prnu_h"] = graphs.spectrogram(prnu_hp, "horizontal", rel)
+        g["spectrogram_prnu_v"] = graphs.spectrogram(prnu_hp, "vertical", rel)
         g["hist_prnu"] = graphs.log_histogram(prnu_hp, sb.L)
         g["acc_prnu"] = graphs.accumulated_histogram(prnu_hp, sb.L)
     return g

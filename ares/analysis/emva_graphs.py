@@ -86,14 +86,24 @@ def _bins(span: float, L: int) -> tuple[int, int]:
     return I, Q
 
 
+def _bin_index(t: np.ndarray, L: int, I: float, Q: int) -> np.ndarray:
+    """floor(L t / I + 1e-9) clipped to 0 .. Q - 1 (Eqs. 74, 79), in place in ``t`` (a
+    temporary of the caller's): one image-sized float64 and one int copy, not five."""
+    t *= L
+    t /= I
+    t += 1e-9
+    np.floor(t, out=t)
+    np.clip(t, 0, Q - 1, out=t)
+    return t.astype(np.intp)
+
+
 def log_histogram(img: np.ndarray, L: int) -> Histogram:
     """Eqs. 73 - 76 for an averaged (L images), high-pass filtered image."""
     y = np.asarray(img, np.float64).ravel()
     mu = float(y.mean())
     ymin, ymax = float(y.min()), float(y.max())
     I, Q = _bins(ymax - ymin, L)
-    q = np.floor(L * (y - ymin) / I + 1e-9).astype(np.int64)  # Eq. 74
-    counts = np.bincount(np.clip(q, 0, Q - 1), minlength=Q)
+    counts = np.bincount(_bin_index(y - ymin, L, I, Q), minlength=Q)  # Eq. 74
     centers = ymin + (I - 1) / (2 * L) + np.arange(Q) * I / L - mu  # Eq. 75, relative to the mean
     s = float(y.std())
     model = (I / L) * y.size / (math.sqrt(2 * math.pi) * s) * np.exp(-centers**2 / (2 * s * s)) if s > 0 \
@@ -111,9 +121,9 @@ class Accumulated:
 def accumulated_histogram(img: np.ndarray, L: int) -> Accumulated:
     """Eqs. 77 - 81: the histogram of |y - mu| summed from the top."""
     y = np.asarray(img, np.float64).ravel()
-    d = np.abs(y - y.mean())  # Eq. 77
+    d = y - y.mean()
+    np.abs(d, out=d)  # Eq. 77
     I, Q = _bins(float(d.max()), L)
-    q = np.floor(L * d / I + 1e-9).astype(np.int64)  # Eq. 79
-    h = np.bincount(np.clip(q, 0, Q - 1), minlength=Q)
+    h = np.bincount(_bin_index(d, L, I, Q), minlength=Q)  # Eq. 79
     H = np.cumsum(h[::-1])[::-1]  # Eq. 81
     return Accumulated((I - 1) / (2 * L) + np.arange(Q) * I / L, H, 100.0 * H / y.size)  # Eq. 80

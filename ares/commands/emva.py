@@ -111,6 +111,9 @@ def analyse_descriptor(path: str | Path | EmvaDescriptor, pixel_area_um2: float 
 
         bright, dark = list(bright), dict(zip(darks, dark))
         stacks = [f.result() for f in stacks]
+    from ares import malloc
+
+    malloc.release()  # the threads' freed temporaries, before the fits' and graphs' own
     for lv, (s3, s4, sp, md) in zip(tb, bright):
         b3.append(s3)
         b4.append(s4)
