@@ -150,6 +150,7 @@ def pair_step(a: np.ndarray, b: np.ndarray, max_code: int | None):
     from .emva_spatial import split, temporal_parts
 
     pm = pair_moments(a, b, max_code)
+    del a, b  # (the caller may hold no other reference: the high-pass below needs neither)
     s3, s4 = pm.stats(False), pm.stats(True)
     M, N = pm.total.shape
     # temporal variance of the row / column means with the frame-global offset removed

@@ -55,8 +55,9 @@ def _pair(desc, lv, max_code):
     from ares.analysis.levels import pair_step
     from ares.hardware.emva_descriptor import iter_level
 
-    a, b = itertools.islice(iter_level(desc, lv), 2)  # (not stacked: no copy of the two images)
-    return pair_step(a, b, max_code)
+    # the two images as read (not stacked into a copy), referenced only by pair_step, which
+    # lets them go once it has their sums
+    return pair_step(*itertools.islice(iter_level(desc, lv), 2), max_code)
 
 
 def _stack(desc, lv):
