@@ -45,3 +45,17 @@ def test_uint32_partial_sums_fold_before_they_overflow(hi, L):
     mean, s2m, s2t, ref_avg = reference(frames)
     assert np.array_equal(avg, ref_avg)
     assert (st.mean, st.s2_measured, st.s2_temporal) == pytest.approx((mean, s2m, s2t), rel=1e-15, abs=1e-12)
+
+
+def test_wrap_counts_fold_into_int64_after_65535_frames():
+    """Full-scale 16-bit frames wrap the uint32 sum of squares every frame; the uint16 wrap
+    count is emptied into an int64 total every 65535 frames: 70000 frames give Python's
+    exact sums."""
+    L = 70000
+    frames = [np.array([[65535, 1, 40000]], np.uint16)] * (L - 2) + [np.array([[0, 7, 3]], np.uint16)] * 2
+    st, avg, _, total = stack_moments(iter(frames))
+    s1 = [sum(int(f[0, j]) for f in frames) for j in range(3)]
+    s2 = [sum(int(f[0, j]) ** 2 for f in frames) for j in range(3)]
+    assert total.ravel().tolist() == s1
+    ref_t = np.mean([(s2[j] - s1[j] * (s1[j] / L)) / (L - 1) for j in range(3)])
+    assert st.s2_temporal == pytest.approx(ref_t, rel=1e-9)

@@ -239,43 +239,79 @@ def _square_type(dtype: np.dtype):
     return np.int64  # (32-bit: the sum of squares is exact in int64 while it fits, as before)
 
 
+class _Carried:
+    """A per-pixel sum held as int64 total + uint16 wrap count x 2**32 + uint32 part; row
+    blocks of it come out as int64 (``[r0:r1]``), the whole image never needs to."""
+
+    def __init__(self, total, carry, part):
+        self.total, self.carry, self.part = total, carry, part
+
+    def __getitem__(self, rows: slice) -> np.ndarray:
+        out = self.part[rows].astype(np.int64)
+        if self.carry is not None:
+            out += self.carry[rows].astype(np.int64) << 32
+        if self.total is not None:
+            out += self.total[rows]
+        return out
+
+    def whole(self) -> np.ndarray:
+        return self[0:self.part.shape[0]]
+
+
 class _NarrowSums:
     """Per-pixel sums of unsigned 8/16-bit frames and of their squares kept in uint32 (numpy
-    adds them 2-3x faster than into int64: half the memory traffic), each folded into an
-    int64 total before it could overflow -- exact whatever the stack length. A total is
-    made only when its sum needs folding: the sum of values never does below 65537 frames,
-    the sum of squares of 12-bit data after 256 (an 8-byte image less per stack and sum)."""
+    adds them 2-3x faster than into int64: half the memory traffic), exact whatever the
+    stack length: when a sum could pass 2**32 (the squares of 12-bit data after 256 frames),
+    its wraps are counted per pixel in uint16 (a frame's value or square is below 2**32, so
+    it wraps at most once: where the new sum is below what was added), and every 65535
+    frames the count goes into an int64 total. A 500-frame 12-bit stack holds 2 + 4 + 4
+    bytes a pixel, not 8 + 8 (memory of a stack's accumulation near independent of L)."""
 
     LIMIT = 2**32 - 1
 
     def __init__(self, shape: tuple[int, int]):
         self.parts = [np.zeros(shape, np.uint32), np.zeros(shape, np.uint32)]  # sum x, sum x^2
+        self.carries: list[np.ndarray | None] = [None, None]
+        self.counted = [0, 0]  # frames added since the wrap count was last emptied
         self.totals_: list[np.ndarray | None] = [None, None]
         self.room = [self.LIMIT, self.LIMIT]
+        self._sq = np.empty(shape, np.uint32)  # the frame's squares and wraps, in buffers kept for
+        self._wrapped = np.empty(shape, np.bool_)  # the stack (no allocation a frame: the heap stays put)
 
     def add(self, f: np.ndarray) -> None:
         hi = int(f.max())
-        for k, need in ((0, hi), (1, hi * hi)):  # (16-bit data near full scale: squares fold every frame)
-            if need > self.room[k]:
+        sq = np.square(f, out=self._sq, dtype=np.uint32)
+        for k, x, need in ((0, f, hi), (1, sq, hi * hi)):
+            part = self.parts[k]
+            if self.carries[k] is None and need > self.room[k]:
+                self.carries[k] = np.zeros(part.shape, np.uint16)
+            np.add(part, x, out=part)
+            if self.carries[k] is None:
+                self.room[k] -= need
+                continue
+            np.add(self.carries[k], np.less(part, x, out=self._wrapped), out=self.carries[k], casting="unsafe")
+            self.counted[k] += 1
+            if self.counted[k] == 65535:
                 self._fold(k)
-            self.room[k] -= need
-        np.add(self.parts[0], f, out=self.parts[0])
-        np.add(self.parts[1], np.square(f, dtype=np.uint32), out=self.parts[1])
 
     def _fold(self, k: int) -> None:
+        """Move part and wrap count into the int64 total."""
         if self.totals_[k] is None:
             self.totals_[k] = np.zeros(self.parts[k].shape, np.int64)
-        np.add(self.totals_[k], self.parts[k], out=self.totals_[k])
+        self.totals_[k] += _Carried(None, self.carries[k], self.parts[k]).whole()
         self.parts[k].fill(0)
-        self.room[k] = self.LIMIT
+        if self.carries[k] is not None:
+            self.carries[k].fill(0)
+        self.counted[k] = 0
 
-    def totals(self) -> tuple[np.ndarray, np.ndarray]:
-        """(sum x, sum x^2), each the uint32 sum if it never folded, else its int64 total."""
-        out = []
-        for k in (0, 1):
-            if self.totals_[k] is not None:
-                self._fold(k)
-            out.append(self.parts[k] if self.totals_[k] is None else self.totals_[k])
+    def totals(self) -> tuple[np.ndarray, "np.ndarray | _Carried"]:
+        """(sum x, sum x^2): the uint32 sum if it never wrapped; else sum x as int64, and
+        sum x^2 as a ``_Carried`` (row blocks of int64 on demand)."""
+        self._sq = self._wrapped = None
+        out = [p if c is None and t is None else _Carried(t, c, p)
+               for p, c, t in zip(self.parts, self.carries, self.totals_)]
+        if isinstance(out[0], _Carried):
+            out[0] = out[0].whole()
         return out[0], out[1]
 
     def widen(self) -> tuple[np.ndarray, np.ndarray]:
@@ -345,12 +381,20 @@ def stack_moments(frames) -> StackMoments:
         raise ValueError("a stack needs shape (frames>=2, rows, cols)")
     if narrow is not None:
         s1, s2 = narrow.totals()
+        narrow = None
     avg = s1 / n  # per-pixel mean (minus the shift)
-    var_t = s1 * avg  # the per-pixel temporal variance, float64, in one temporary:
-    np.subtract(s2, var_t, out=var_t)  # (s2 - s1 * avg) / (n - 1)
-    var_t /= n - 1
-    st = SpatialStats(float(avg.mean()) + (shift or 0.0), float(np.var(avg, ddof=1)), float(np.mean(var_t)), n,
-                      avg.size)
+    mean_avg = float(avg.mean())
+    # the mean per-pixel temporal variance, sum (s2 - s1 * avg) / (n - 1), and the spatial
+    # variance of avg, a block of rows at a time: no image-sized temporaries beside avg
+    rows = max(1, (1 << 16) // max(avg.shape[1], 1))
+    sum_t = sum_s = 0.0
+    for r in range(0, avg.shape[0], rows):
+        v = s1[r:r + rows] * avg[r:r + rows]
+        np.subtract(s2[r:r + rows], v, out=v)
+        sum_t += float(v.sum())
+        np.subtract(avg[r:r + rows], mean_avg, out=v)
+        sum_s += float(np.dot(v.ravel(), v.ravel()))
+    st = SpatialStats(mean_avg + (shift or 0.0), sum_s / (avg.size - 1), sum_t / (n - 1) / avg.size, n, avg.size)
     line = LineTemporal(st.s2_temporal - float(np.var(fm, ddof=1)),
                         float(np.mean((r2 - r1 * r1 / n) / (n - 1))), float(np.mean((c2 - c1 * c1 / n) / (n - 1))))
     if shift:
