@@ -2,7 +2,7 @@
 
 Only regular files are read (a FIFO would hang, /dev/zero would fill the memory), the
 size is checked before reading, and error sentences name the file but never echo its
-content. ``confine`` keeps paths that a descriptor or recording references inside the
+content. ``Confinement`` keeps paths that a descriptor or recording references inside the
 directories the user named, or says which path escapes.
 """
 
@@ -76,11 +76,6 @@ class Confinement:
         link = f" (a link to {rp})" if _through_link(Path(os.path.abspath(path)), self.roots) else ""
         raise InputError(f"{where}: references {path}{link}, outside the data directory "
                          f"{', '.join(str(r) for r in self.roots)}; ARES reads only files below it")
-
-
-def confine(path: Path, roots: list[Path], where: str) -> Path:
-    """``path`` resolved, if it lies inside one of ``roots`` (see ``Confinement``)."""
-    return Confinement(roots)(path, where)
 
 
 def _through_link(path: Path, roots: list[Path]) -> bool:

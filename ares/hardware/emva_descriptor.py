@@ -105,7 +105,7 @@ def read_descriptor(path: str | Path, check_files: bool = True) -> EmvaDescripto
     """Parse an EMVA 1288 descriptor file; image paths are resolved, optionally checked."""
     path = Path(path)
     text = read_regular(path, MAX_DESCRIPTOR_BYTES, "descriptor file").decode("utf-8", errors="replace")
-    base = path.parent  # every image it references must lie below it (safefile.confine)
+    base = path.parent  # every image it references must lie below it (safefile.Confinement)
     confine = Confinement([base])
     version = ""
     fmt: tuple[int, int, int] | None = None
