@@ -223,12 +223,11 @@ def _linearity(u_p: np.ndarray, Y: np.ndarray, isat: int) -> tuple[np.ndarray, s
     nan = np.full(Y.shape, math.nan)
     if not Y[isat] > 0:
         return nan, slice(0, 0), "no signal at saturation"
-    inside = np.nonzero((Y >= 0.05 * Y[isat]) & (Y <= 0.95 * Y[isat]))[0]
-    if inside.size < 2:
+    above, below = Y >= 0.05 * Y[isat], Y <= 0.95 * Y[isat]
+    if np.count_nonzero(above & below) < 2:
         return nan, slice(0, 0), "fewer than two levels between 5 and 95 % of saturation"
-    lo, hi = int(np.min(np.nonzero(Y >= 0.05 * Y[isat])[0])), int(np.max(np.nonzero(Y <= 0.95 * Y[isat])[0]))
-    if hi - lo < 1:
-        return nan, slice(0, 0), "fewer than two levels between 5 and 95 % of saturation"
+    # the reference implementation's window: from the first level above 5 % to the last below 95 %
+    lo, hi = int(np.argmax(above)), int(np.nonzero(below)[0][-1])
     X_, Y_ = u_p[lo:hi + 1], Y[lo:hi + 1]
     with np.errstate(divide="ignore", invalid="ignore"):
         xy = np.sum(X_ / Y_)

@@ -111,7 +111,7 @@ def classify_regions(
     for name, (rs, cs) in regions.items():
         r0, _, rstep = rs.indices(shape[0])
         c0, _, cstep = cs.indices(shape[1])
-        if not (len(range(*rs.indices(shape[0]))) and len(range(*cs.indices(shape[1])))):
+        if not (len(range(shape[0])[rs]) and len(range(shape[1])[cs])):
             raise InputError(f"region '{name}' holds no pixel of a {shape[1]}x{shape[0]} frame")
         series = None
         if isinstance(rts_series, SeriesCollector):
