@@ -260,7 +260,7 @@ BLOCK_PIXELS = 1 << 20  # ``split`` high-passes an image a block of rows (about 
 
 
 def split(img: np.ndarray, temporal_var: float, L: int, release: str = "4.0", row_var: float | None = None,
-          col_var: float | None = None, scale: float = 1.0) -> Split:
+          col_var: float | None = None, scale: float = 1.0, mean: float | None = None) -> Split:
     """Column, row and pixel spatial variances of ``img`` (the average of ``L`` images whose
     pixel temporal variance is ``temporal_var``), after the high-pass of ``release``
     ("4.0", "3.1" or "none"). ``row_var``/``col_var``: the temporal variances of the row and
@@ -273,9 +273,11 @@ def split(img: np.ndarray, temporal_var: float, L: int, release: str = "4.0", ro
     outside it, so the sums are those of the whole filtered image): a 12 Mpx frame's
     temporaries are 8 MB each, not 100. (Smaller blocks would stay in cache, but their
     extra numpy calls hold the GIL: two threads splitting VGA pairs in blocks of 64 K pixels
-    were slower than one.)"""
+    were slower than one.) ``mean``: the mean of ``img * scale`` when the caller knows it (a
+    pair's, from its exact sums)."""
     x = np.asarray(img)
-    mean = float(x.mean(dtype=np.float64)) * scale
+    if mean is None:
+        mean = float(x.mean(dtype=np.float64)) * scale
     w, tr, tc = temporal_parts(temporal_var, x.shape[0], x.shape[1], row_var, col_var)
     if release != "none":
         _check_size(x, release)

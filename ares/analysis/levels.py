@@ -93,7 +93,7 @@ class PairMoments:
         n = t.size
         if t.dtype.kind == "i" and n > 1 and float(max(int(t.max()), -int(t.min()))) ** 2 * n < 2.0**53:
             tf = t.astype(np.float64).ravel()  # every partial sum below is an integer below 2**53: exact
-            s1, s2 = int(tf.sum()), int(np.dot(tf, tf))
+            s1, s2 = self.sa + self.sb, int(np.dot(tf, tf))  # (the sum of a + b is known)
             return (n * s2 - s1 * s1) / (n * (n - 1)) / 4.0  # exact integers, one rounding
         return float(np.var(t, ddof=1)) / 4.0
 
@@ -157,9 +157,9 @@ def pair_step(a: np.ndarray, b: np.ndarray, max_code: int | None):
     rv = float(np.var(pm.row_diff)) / 2
     cv = float(np.var(pm.col_diff)) / 2
     try:
-        sp = split(pm.total, s4.var, 2, "4.0", rv, cv, scale=0.5)
+        sp = split(pm.total, s4.var, 2, "4.0", rv, cv, scale=0.5, mean=s4.mean)
     except ValueError:
-        sp = split(pm.total, s4.var, 2, "none", rv, cv, scale=0.5)
+        sp = split(pm.total, s4.var, 2, "none", rv, cv, scale=0.5, mean=s4.mean)
     _, R, C = temporal_parts(s4.var, M, N, rv, cv)  # row/column-correlated temporal parts
     s4 = dataclasses.replace(s4, line_var2=2 * max(R, 0.0) ** 2 / M + 2 * max(C, 0.0) ** 2 / N)
     return s3, s4, sp, (pm.sa - pm.sb) / pm.n

@@ -31,6 +31,7 @@ import numpy as np
 
 from ares.analysis.estimate import Estimate
 from ares.analysis.levels import LevelStats
+from ares.analysis.median import fast_median
 from ares.analysis.ptc_fit import (AstierFit, GainModel, LineFit, LocalSlopeCheck, choose_gain_model,
                                    local_slope_check, origin_fit)
 from ares.analysis.ptc_noise import loglog_slopes, noise_model, read_noise, sensitivity_threshold
@@ -454,12 +455,13 @@ def _plateau(levels: Sequence[PtcLevel], br: SaturationBracket, gain: Estimate) 
         return Estimate.na("no level beyond saturation with collapsed variance (all pixels clipped)", "e-")
     smax = max(lv.signal for lv in top)
     top = [lv for lv in top if lv.signal >= 0.995 * smax]
-    if np.median([lv.frac_at_max for lv in top]) > 0.5:
+    if fast_median(np.array([lv.frac_at_max for lv in top])) > 0.5:
         return Estimate.na("the plateau is at the ADC maximum code: ADC-limited, not the pixel full well", "e-")
     sv = np.array([lv.signal for lv in top])
-    if not br.contains(float(np.median(sv))):
-        return Estimate.na(f"the plateau ({np.median(sv):.5g} DN) is outside the saturation bracket: {br.reason}", "e-")
-    v = float(np.median(sv)) / gain.value
+    med = float(fast_median(sv))
+    if not br.contains(med):
+        return Estimate.na(f"the plateau ({med:.5g} DN) is outside the saturation bracket: {br.reason}", "e-")
+    v = med / gain.value
     spread = float(np.std(sv, ddof=1) / math.sqrt(sv.size)) / gain.value if sv.size > 1 else 0.0
     return Estimate(v, math.hypot(spread, v * gain.se / gain.value), "e-",
                     f"saturated plateau: median signal of {sv.size} fully clipped level(s) / K")

@@ -267,6 +267,17 @@ class LocalSlopeCheck:
     note: str
 
 
+def sorted_quantiles(s: np.ndarray, q: np.ndarray) -> np.ndarray:
+    """``np.quantile(s, q)`` (its default linear method, the same floats) of an ascending
+    ``s``: numpy's quantile imports ``numpy.ma`` on first use, 12 ms of ``ares emva``."""
+    pos = np.asarray(q, float) * (s.size - 1)
+    lo = np.floor(pos).astype(np.intp)
+    t = pos - lo
+    a, b = s[lo], s[np.minimum(lo + 1, s.size - 1)]
+    d = b - a
+    return np.where(t >= 0.5, b - d * (1 - t), a + d * t)  # numpy's two-sided lerp
+
+
 def local_slope_check(s, v, v_se, k: float, limit: float = 0.03) -> LocalSlopeCheck:
     """Local slopes ``K_i`` of a weighted cubic B-spline regression of ``V`` vs ``S``
     (interior knots at signal quantiles, one per four levels, at most three: a smoothing
@@ -280,7 +291,7 @@ def local_slope_check(s, v, v_se, k: float, limit: float = 0.03) -> LocalSlopeCh
     o = np.argsort(s)
     s, v, e = s[o], v[o], e[o]
     m = min(max((n - 4) // 4, 0), 3)
-    inner = list(np.quantile(s, np.linspace(0, 1, m + 2)[1:-1])) if m else []
+    inner = list(sorted_quantiles(s, np.linspace(0, 1, m + 2)[1:-1])) if m else []
     t = np.r_[[s[0]] * 4, inner, [s[-1]] * 4]
     A = bspline_design(s, t) / e[:, None]  # weighted least squares
     D = bspline_design(s, t, derivative=True)

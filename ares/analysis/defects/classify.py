@@ -14,6 +14,8 @@ from typing import Callable, Sequence
 
 import numpy as np
 
+from ares.analysis.median import fast_median
+
 from .clusters import find_clusters
 from .dist import chi2_isf, chi2_ppf, trim_mean
 from .histograms import deviation_histograms
@@ -21,8 +23,7 @@ from .lines import LineFlags, line_z
 from .params import DefectThresholds
 from .result import BITS, DEFECT_DTYPE, PIXEL_CLASSES, DefectResult, primary_class
 from .limits import hot_limit_text, noisy_available, p_constant_codes, stuck_in_darks
-from .robust import (block_median_background, fast_median, local_background, remove_lines, robust_sigma,
-                     sampled_median, structure_ratio)
+from .robust import block_median_background, local_background, remove_lines, robust_sigma, sampled_median, structure_ratio
 from .rts import detect_rts
 from .stats import PixelStats, SeriesCollector
 
