@@ -56,8 +56,10 @@ def _pair(desc, lv, max_code):
     from ares.hardware.emva_descriptor import iter_level
 
     # the two images as read (not stacked into a copy), referenced only by pair_step, which
-    # lets them go once it has their sums
-    return pair_step(*itertools.islice(iter_level(desc, lv), 2), max_code)
+    # lets them go once it has their sums (passed as pair_step(*two), the argument tuple
+    # would hold them to its end: 1.2 MB a thread through the high-pass)
+    two = itertools.islice(iter_level(desc, lv), 2)  # (a temporal level has two: read_descriptor)
+    return pair_step(next(two), next(two), max_code)
 
 
 def _stack(desc, lv):
