@@ -332,3 +332,25 @@ def test_split_in_row_blocks_equals_the_whole_image(monkeypatch, release, kind):
     blocks = split(img, 25.0, 2, release, 0.3, 0.2, scale=scale)
     for k in ("total", "col", "row", "pix", "mean", "se_total", "rows", "cols"):
         assert getattr(blocks, k) == pytest.approx(getattr(whole, k), rel=1e-11), k
+
+
+@pytest.mark.parametrize("release", ["4.0", "3.1"])
+@pytest.mark.parametrize("dtype", [np.uint32, np.int64])
+def test_highpass_in_row_blocks_is_the_whole_images(monkeypatch, release, dtype):
+    """``highpass`` filters an integer image a block of rows at a time: every pixel's exact
+    sums are those of the whole image, so is every value (a stack's sum: uint32, or int64
+    when its range times the filter's weight leaves int32 -- then per block, some blocks
+    may fit int32, the same values)."""
+    import ares.analysis.emva_spatial as es
+
+    rng = np.random.default_rng(22)
+    img = rng.integers(0, 4096 * 500, (M, N)).astype(dtype)
+    img[: M // 2] //= 1000  # some blocks narrow enough for int32 work, some not
+    monkeypatch.setattr(es, "BLOCK_PIXELS", 1 << 30)
+    whole = es.highpass(img, release, 1 / 500)
+    monkeypatch.setattr(es, "BLOCK_PIXELS", 3 * N)  # blocks of 3 or 4 rows
+    assert np.array_equal(es.highpass(img, release, 1 / 500), whole)
+    # and the float64 smoothing of the same image (rounding only)
+    b = es.HIGHPASS_BORDER[release]
+    ref = (img * (1 / 500))[b:-b, b:-b] - es.smooth(img * (1 / 500), release)
+    assert np.allclose(whole, ref, rtol=0, atol=1e-9 * float(np.abs(ref).max()))

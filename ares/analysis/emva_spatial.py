@@ -191,11 +191,30 @@ def highpass(img: np.ndarray, release: str = "4.0", scale: float = 1.0) -> np.nd
     dropped, float64. An integer image (e.g. the sum of a pair or a stack, ``scale`` 1/L) is
     filtered exactly: the only rounding is the final division by the filter's weight and
     the scale. ``release="none"`` returns the image as a float64 copy (the profiles of
-    Section 8.7)."""
-    z, f = _highpass_scaled(np.asarray(img), release)
-    if f * scale != 1.0:
-        z *= f * scale
-    return z
+    Section 8.7). An integer image is filtered a block of rows at a time (``split``'s blocks:
+    each pixel's exact sums are the same, so is the result), its temporaries ~1 MB each --
+    a long stack's sum needs int64 sums, and whole-image ones had made ``ares emva``'s peak
+    grow with the stack length."""
+    x = np.asarray(img)
+    if release == "none" or x.dtype.kind not in "ui":
+        z, f = _highpass_scaled(x, release)
+        if f * scale != 1.0:
+            z *= f * scale
+        return z
+    _check_size(x, release)
+    b = HIGHPASS_BORDER[release]
+    out = np.empty((x.shape[0] - 2 * b, x.shape[1] - 2 * b))
+    for r0, r1 in _row_blocks(out.shape[0], x.shape[1]):
+        z, f = _highpass_scaled(x[r0:r1 + 2 * b], release)
+        np.multiply(z, f * scale, out=out[r0:r1])
+    return out
+
+
+def _row_blocks(rows: int, row_len: int):
+    """(first, end) of the blocks of filtered rows ``split`` and ``highpass`` work in: about
+    ``BLOCK_PIXELS`` each, at least 3 rows (what the filter needs)."""
+    blocks = max(1, rows // max(3, BLOCK_PIXELS // row_len))
+    return zip([rows * i // blocks for i in range(blocks)], [rows * (i + 1) // blocks for i in range(blocks)])
 
 
 def kernel_1d(release: str) -> np.ndarray:
@@ -285,9 +304,8 @@ def split(img: np.ndarray, temporal_var: float, L: int, release: str = "4.0", ro
         _check_size(x, release)
     b = HIGHPASS_BORDER[release]
     M, N = x.shape[0] - 2 * b, x.shape[1] - 2 * b
-    blocks = max(1, M // max(3, BLOCK_PIXELS // x.shape[1]))  # (each block >= 3 rows: what the filter needs)
     col_sums, row_means, sq, c0 = np.zeros(N), np.empty(M), 0.0, None
-    for r0, r1 in zip([M * i // blocks for i in range(blocks)], [M * (i + 1) // blocks for i in range(blocks)]):
+    for r0, r1 in _row_blocks(M, x.shape[1]):
         z, f = _highpass_scaled(x[r0:r1 + 2 * b], release)  # rows r0..r1 of the filtered image, / (f * scale)
         if c0 is None:  # sums about the first block's mean: no cancellation whatever the offset
             c0 = float(z.mean())
