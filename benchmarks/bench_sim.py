@@ -113,7 +113,18 @@ def timing_rows(shape, repeat):
                   median_ms(lambda: ship.render(8, exposure_s=0.01, photon_flux=low), repeat) / 8))
     cases.append(("shipped settings, dark frame, fused kernels, per frame", None,
                   median_ms(lambda: ship.render(8, exposure_s=0.01, photon_flux=0.0), repeat) / 8))
-    SHIPPED[shape] = (fast_ms, numpy_ms, fused_ms, ratio, quart)
+    # where the shipped frame's time goes: the same sensor without its lag takes the fast path (its
+    # INL ADC included); the lag forces the general path, whose random draws alone are three 16-bit
+    # words a pixel (read noise, photo and dark shot noise: the lag carries the photo charge alone,
+    # so they are not one draw) where the fast path draws one
+    no_lag = SimSensor(sp.replace(lag_fraction=0.0), 0)
+    assert no_lag.frame_path(exposure_s=0.01, photon_flux=mid)[0], "the row below is the fast path"
+    own_fast = median_ms(lambda: no_lag.render(8, exposure_s=0.01, photon_flux=mid), repeat) / 8
+    cases.append(("shipped settings without their lag: the fast path (INL ADC), per frame", None, own_fast))
+    frng = np.random.default_rng(1)
+    draws3 = median_ms(lambda: [noise.words16(frng, size) for _ in range(3)], repeat)
+    cases.append(("the general path's random words (three a pixel), per frame", None, draws3))
+    SHIPPED[shape] = (fast_ms, numpy_ms, fused_ms, ratio, quart, own_fast, draws3)
     out = []
     lagged = SimSensor(p.replace(lag_fraction=0.01), 0)
     for name, kw, fixed in cases:
@@ -177,11 +188,16 @@ def main():
         lines += [f"## One frame, {shape[1]}x{shape[0]}, default SensorParams (G = {g:.2f} DN/e-, all defects on)", "",
                   "| case | median ms/frame | ratio to numpy Poisson |", "|---|---:|---:|"]
         lines += [f"| {name} | {ms:.2f} | {ratio:.3f} |" for name, ms, ratio in rows]
-        fast_ms, numpy_ms, fused_ms, ratio, (lo, hi) = SHIPPED[shape]
+        fast_ms, numpy_ms, fused_ms, ratio, (lo, hi), own_fast, draws3 = SHIPPED[shape]
         lines += ["", f"Shipped settings against the fast path: {ratio:.2f}x with the fused kernels "
                       f"(numba; target <= 2x; median of {2 * args.repeat} rounds timed alternately, quartiles "
                       f"{lo:.2f}-{hi:.2f}x), {numpy_ms / fast_ms:.2f}x on the numpy path; fused / numpy "
-                      f"{fused_ms / numpy_ms:.2f}. Same codes on both paths (tests/test_sim_fused.py)."]
+                      f"{fused_ms / numpy_ms:.2f}. Same codes on both paths (tests/test_sim_fused.py). "
+                      f"Without its lag (1e-4) the shipped sensor's frame takes the fast path, "
+                      f"{own_fast / fast_ms:.2f}x the default sensor's (INL/DNL look-up included); the lag forces "
+                      f"the general path (the photo charge drawn apart from the read noise and the dark charge, "
+                      f"to carry its share into the next frame), {fused_ms / own_fast:.2f}x that, whose random "
+                      f"words alone take {draws3 / fast_ms:.2f}x the default sensor's whole fast-path frame."]
         lines.append("")
     rows, n = shot_error_rows(args.samples)
     lines += ["## Shot noise: fast Gaussian vs exact Poisson", "",
