@@ -6,8 +6,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from ares.analysis.median import fast_median
-from ares.analysis.ptc_fit import sorted_quantiles
+from ares.analysis.median import fast_median, sorted_quantiles
 
 
 @pytest.mark.parametrize("shape", [(1,), (2,), (7,), (8,), (5, 6), (6, 5), (3, 4, 5)])

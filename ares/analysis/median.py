@@ -1,5 +1,5 @@
-"""The median without numpy's extras: one partition instead of two, and no ``numpy.ma``
-(``np.median`` and ``np.quantile`` import it on first use: 12 ms of ``ares emva``)."""
+"""Medians and quantiles without ``numpy.ma`` (``np.median`` and ``np.quantile`` import it
+on first use: 12 ms of ``ares emva``), the same floats as numpy's (tested)."""
 
 from __future__ import annotations
 
@@ -20,3 +20,13 @@ def fast_median(a: np.ndarray, axis: int | None = None) -> np.ndarray | float:
         return hi.astype(np.float64)
     lo = np.take(p, np.arange(k), axis=axis).max(axis=axis)
     return (lo.astype(np.float64) + hi) / 2.0
+
+
+def sorted_quantiles(s: np.ndarray, q: np.ndarray) -> np.ndarray:
+    """``np.quantile(s, q)`` (its default linear method) of an ascending ``s``."""
+    pos = np.asarray(q, float) * (s.size - 1)
+    lo = np.floor(pos).astype(np.intp)
+    t = pos - lo
+    a, b = s[lo], s[np.minimum(lo + 1, s.size - 1)]
+    d = b - a
+    return np.where(t >= 0.5, b - d * (1 - t), a + d * t)  # numpy's two-sided lerp

@@ -26,6 +26,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from .lsq import levenberg_marquardt
+from .median import sorted_quantiles
 
 
 @dataclass(frozen=True)
@@ -265,17 +266,6 @@ class LocalSlopeCheck:
     mean_rel_dev: float
     holds: bool | None  # None: not testable (too few levels)
     note: str
-
-
-def sorted_quantiles(s: np.ndarray, q: np.ndarray) -> np.ndarray:
-    """``np.quantile(s, q)`` (its default linear method, the same floats) of an ascending
-    ``s``: numpy's quantile imports ``numpy.ma`` on first use, 12 ms of ``ares emva``."""
-    pos = np.asarray(q, float) * (s.size - 1)
-    lo = np.floor(pos).astype(np.intp)
-    t = pos - lo
-    a, b = s[lo], s[np.minimum(lo + 1, s.size - 1)]
-    d = b - a
-    return np.where(t >= 0.5, b - d * (1 - t), a + d * t)  # numpy's two-sided lerp
 
 
 def local_slope_check(s, v, v_se, k: float, limit: float = 0.03) -> LocalSlopeCheck:
