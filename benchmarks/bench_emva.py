@@ -76,8 +76,9 @@ def reference_section(repeat: int) -> list[str]:
              "the 4.0 high-pass and row/column/pixel split of the two-image average (Eq. 32), the stacks' "
              "averaged images, spectrograms and histograms. Decoding is ARES's PNG reader (the reference set's "
              "PNGs are unfiltered: CRCs, ISA-L inflate, byte swap; 2.6x faster than Pillow). The statistics are "
-             "numpy on exact integers: a pair's sum and a stack's sum are high-passed in int32 (binary-doubling "
-             "box sums over contiguous memory, ~1 ms a VGA image); the numba kernels (pair pass, float low-pass) "
+             "numpy on exact integers: a pair's sum and a stack's sum are high-passed in integers (int32; int64 "
+             "for a long stack's sum), in row blocks of 128 K pixels that stay in a core's cache (binary-doubling "
+             "box sums over contiguous memory, ~1.3 ms a VGA image); the numba kernels (pair pass, float low-pass) "
              "are not loaded by the command (their import and first load, ~0.5 s and ~100 MB, would cost more "
              "than they save here). Every image is visited once; benchmarks/peer.md has the whole command "
              "on both cores against the EMVA reference package.",
