@@ -11,8 +11,10 @@ Both cores (the commands are allowed to use them). Each round runs, interleaved:
 * ``ares emva DESCRIPTOR``, the whole command;
 * the decode floor: the same 300 PNGs decoded by each available decoder (ARES's own PNG
   reader, Pillow; OpenCV and imagecodecs when installable into the peer's venv) with one
-  thread per core, timed inside the process (no interpreter start, no imports): the
-  fastest one counts, and the fastest other than ARES's is given beside it.
+  thread per core, timed inside the process (no interpreter start, no imports), each with
+  glibc's default allocator and with the settings ARES's commands use (``ares.malloc``: no
+  page faults for each image): the fastest one counts, and the fastest other than ARES's
+  is given beside it.
 
 Both commands run as installed: bytecode cached (``PYTHONDONTWRITEBYTECODE`` is dropped
 from the environment and each command runs once before the timed rounds).
@@ -53,6 +55,10 @@ process.Emva1288(sys.argv[1]).results()
 FLOOR = """
 import os, sys, time
 from concurrent.futures import ThreadPoolExecutor
+TUNED = sys.argv[2:] == ["tuned"]
+if TUNED:  # glibc's allocator set as ARES sets it for its commands (no page faults for each image)
+    from ares import malloc
+    malloc.tune()
 import numpy as np
 paths = [l.split(None, 1)[1].strip().replace("\\\\", "/") for l in open(sys.argv[1]) if l.startswith("i ")]
 paths = [os.path.join(os.path.dirname(sys.argv[1]), p) for p in paths]
@@ -92,7 +98,7 @@ for name, f in dec.items():
         list(ex.map(f, paths[:8]))  # warm the libraries and the threads
         t = time.perf_counter()
         n = sum(1 for _ in ex.map(f, paths))
-        print(name, n, time.perf_counter() - t)
+        print(name + (", ARES's malloc settings" if TUNED else ""), n, time.perf_counter() - t)
 """
 
 
@@ -219,8 +225,8 @@ def main() -> int:
             res[name].append(measured(argv)[:3])
         res["libs"].append(measured(libs)[:3])
         analysis.append(float(measured(inproc)[3].split()[-1]))
-        for exe in (str(py), sys.executable):
-            out = measured([exe, FLOOR, str(DESC)])[3]
+        for exe, tuned in ((str(py), []), (sys.executable, []), (str(py), ["tuned"]), (sys.executable, ["tuned"])):
+            out = measured([exe, FLOOR, str(DESC), *tuned])[3]
             for ln in out.splitlines():
                 name, n, s = ln.rsplit(None, 2)
                 floor.setdefault(f"{name} ({'peer venv' if exe == str(py) else 'ARES venv'})", []).append(float(s))
