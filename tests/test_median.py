@@ -6,7 +6,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from ares.analysis.median import fast_median, sorted_quantiles
+from ares.analysis.median import fast_median, n_distinct, sorted_quantiles
 
 
 @pytest.mark.parametrize("shape", [(1,), (2,), (7,), (8,), (5, 6), (6, 5), (3, 4, 5)])
@@ -25,3 +25,9 @@ def test_sorted_quantiles_are_numpys(n):
     s = np.sort(np.round(rng.lognormal(5, 2, n), 1))  # ties included
     q = np.r_[0.0, np.linspace(0, 1, 7)[1:-1], 1.0, 0.5, 1 / 3, 0.999999]
     assert np.array_equal(sorted_quantiles(s, q), np.quantile(s, q))
+
+
+def test_n_distinct_is_numpys_unique_count():
+    t = [0.01, 0.02, 0.01, 0.04, np.float32(0.02), 0.04, 1e-9]  # float32 0.02 is another float64
+    assert n_distinct(t) == np.unique(np.asarray(t, float)).size == 5
+    assert n_distinct(np.array([3.0])) == 1 and n_distinct([]) == 0

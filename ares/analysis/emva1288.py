@@ -37,6 +37,7 @@ import numpy as np
 
 from ares.analysis.estimate import Estimate
 from ares.analysis.levels import SpatialStats, pair_stats, spatial_stats
+from ares.analysis.median import n_distinct
 from ares.analysis.ptc_fit import line_fit, origin_fit
 from ares.analysis.saturation import index_max_variance
 
@@ -135,7 +136,7 @@ def emva1288_results(temporal: TemporalData, spatial_bright: SpatialStats | None
     else:
         vals["QE"] = na(why_qe, "%")
 
-    nexp = len(set(np.asarray(td.texp_s, float).tolist()))  # (np.unique imports numpy.ma: 13 ms)
+    nexp = n_distinct(td.texp_s)
     if nexp <= 2:
         s2d, s2d_se = float(td.s2_ydark[0]), math.nan
     else:

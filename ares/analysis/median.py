@@ -1,5 +1,5 @@
-"""Medians and quantiles without ``numpy.ma`` (``np.median`` and ``np.quantile`` import it
-on first use: 12 ms of ``ares emva``), the same floats as numpy's (tested)."""
+"""Order statistics without ``numpy.ma`` (``np.median``, ``np.quantile`` and ``np.unique``
+import it on first use: 12 ms of ``ares emva``), the same results as numpy's (tested)."""
 
 from __future__ import annotations
 
@@ -30,3 +30,8 @@ def sorted_quantiles(s: np.ndarray, q: np.ndarray) -> np.ndarray:
     a, b = s[lo], s[np.minimum(lo + 1, s.size - 1)]
     d = b - a
     return np.where(t >= 0.5, b - d * (1 - t), a + d * t)  # numpy's two-sided lerp
+
+
+def n_distinct(values) -> int:
+    """``np.unique(values).size`` of a 1-D sequence of numbers (exposure times, a few dozen)."""
+    return len(set(np.asarray(values, float).ravel().tolist()))

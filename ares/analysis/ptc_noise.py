@@ -11,6 +11,7 @@ import numpy as np
 
 from ares.analysis.estimate import Estimate
 from ares.analysis.levels import LevelStats
+from ares.analysis.median import n_distinct
 from ares.analysis.ptc_fit import line_fit
 
 QUANT_VAR = 1.0 / 12.0  # DN^2, uniform quantization noise
@@ -33,7 +34,7 @@ def read_noise(dark: Sequence[LevelStats], exposure_s: Sequence[float] | None,
     if not (np.all(np.isfinite(v)) and np.all(se > 0)):
         why = "no dark temporal variance (dark levels missing, zero or non-finite)"
         return Estimate.na(why, "DN"), Estimate.na(why, "e-"), False
-    if t is not None and len(set(np.asarray(t, float).tolist())) >= 3:
+    if t is not None and n_distinct(t) >= 3:
         lf = line_fit(t, v)
         s2, s2_se, how = lf.intercept, lf.intercept_se, "intercept of dark variance vs exposure"
     else:
