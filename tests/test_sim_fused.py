@@ -60,7 +60,7 @@ def test_fused_frames_equal_the_numpy_path(variant):
 def test_fused_adc_lookup_equals_searchsorted(bits, inl, dnl, seed):
     """The sub-cell kernel gives searchsorted's codes for every input: values at, and one
     float32 step either side of, each transition level and each sub-cell edge, far
-    outside the range, and random ones (8 to 16 bits: 64 down to 8 sub-cells per LSB)."""
+    outside the range and infinite, and random ones (8 to 16 bits: 64 down to 8 sub-cells per LSB)."""
     from ares.sim.adc import Adc
 
     adc = Adc(SensorParams(rows=8, cols=8, adc_bits=bits, adc_inl_lsb=inl, adc_dnl_lsb=dnl),
@@ -73,7 +73,7 @@ def test_fused_adc_lookup_equals_searchsorted(bits, inl, dnl, seed):
         np.random.default_rng(seed).uniform(-20, adc.max_code + 20, 100_000).astype(np.float32),
         t32, np.nextafter(t32, np.float32(-np.inf)), np.nextafter(t32, np.float32(np.inf)),
         edges, np.nextafter(edges, np.float32(-np.inf)), np.nextafter(edges, np.float32(np.inf)),
-        np.array([-1e30, 1e30, -1, -0.5, 0, 0.5, adc.max_code + 2, adc.max_code + 1.5], np.float32)])
+        np.array([-np.inf, -1e30, 1e30, np.inf, -1, -0.5, 0, 0.5, adc.max_code + 2, adc.max_code + 1.5], np.float32)])
     x = np.concatenate([x, np.zeros(-x.size % 64, np.float32)]).reshape(-1, 64)
     want = np.searchsorted(adc.thresholds, x.astype(np.float64), side="right").astype(np.uint16)
     out = np.empty(x.shape, np.uint16)
