@@ -116,14 +116,21 @@ def _v(ms, df):  # unbiased estimate of var(MS) for MS ~ E chi2(df)/df
     return 2.0 * ms * ms / (df + 2) if df > 0 else math.inf
 
 
-def _fit_surface(d: np.ndarray, order: int):
+def _fit_surface(d: np.ndarray, order: int, good: np.ndarray | None = None):
+    """(fit, row, column, mixed term counts): the least-squares polynomial surface of total
+    ``order`` in the row and column coordinates, fitted to the pixels ``good`` (all when
+    None) and evaluated everywhere."""
     R, C = d.shape
     y = np.linspace(-1, 1, R) if R > 1 else np.zeros(1)
     x = np.linspace(-1, 1, C) if C > 1 else np.zeros(1)
     Y, X = np.meshgrid(y, x, indexing="ij")
     terms = [(i, j) for i in range(order + 1) for j in range(order + 1 - i)]
     A = np.stack([(Y**i * X**j).ravel() for i, j in terms], axis=1)
-    coef, *_ = np.linalg.lstsq(A, d.ravel(), rcond=None)
+    if good is None:
+        coef, *_ = np.linalg.lstsq(A, d.ravel(), rcond=None)
+    else:
+        g = good.ravel()
+        coef, *_ = np.linalg.lstsq(A[g], d.ravel()[g], rcond=None)
     fit = (A @ coef).reshape(R, C)
     n_rows = sum(1 for i, j in terms if i > 0 and j == 0)
     n_cols = sum(1 for i, j in terms if j > 0 and i == 0)

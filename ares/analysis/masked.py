@@ -449,7 +449,7 @@ def _nonuniformity(flat_acc, dark_acc, tf, td, S, var_S, mode, order):
         if mode == "surface":
             if min(R, C) <= order + 2:
                 return {k: Estimate.na(f"region too small for an order-{order} surface", "1") for k in names}
-            fit, nr_, nc_, nm_ = _fit_surface_good(d, good, order)
+            fit, nr_, nc_, nm_ = _flat._fit_surface(d, order, good)
             d = d - fit
             norm = float(np.mean(fit[good] ** 2))
             ddof = (nr_, nc_, nm_)
@@ -506,22 +506,6 @@ def _nonuniformity(flat_acc, dark_acc, tf, td, S, var_S, mode, order):
         se = math.sqrt(var / norm**2 + (2 * rel) ** 2 * var_S / norm)
         out[k] = Estimate(rel, se, "1")
     return out
-
-
-def _fit_surface_good(d, good, order):
-    R, C = d.shape
-    y = np.linspace(-1, 1, R) if R > 1 else np.zeros(1)
-    x = np.linspace(-1, 1, C) if C > 1 else np.zeros(1)
-    Y, X = np.meshgrid(y, x, indexing="ij")
-    terms = [(i, j) for i in range(order + 1) for j in range(order + 1 - i)]
-    A = np.stack([(Y**i * X**j).ravel() for i, j in terms], axis=1)
-    g = good.ravel()
-    coef, *_ = np.linalg.lstsq(A[g], d.ravel()[g], rcond=None)
-    fit = (A @ coef).reshape(R, C)
-    n_rows = sum(1 for i, j in terms if i > 0 and j == 0)
-    n_cols = sum(1 for i, j in terms if j > 0 and i == 0)
-    n_mixed = sum(1 for i, j in terms if i > 0 and j > 0)
-    return fit, n_rows, n_cols, n_mixed
 
 
 # ---------------------------------------------------------------------- convenience

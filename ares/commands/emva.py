@@ -34,19 +34,7 @@ class EmvaAnalysis:
     sheet: "EmvaSheet | None" = None  # Release 4.0 Linear, every Table 2 figure and the graph data
     general: "GeneralResult | None" = None  # Release 4.0 General
     release31: "dict | None" = None  # Release 3.1: the 3.0 set with the 5x5 high-pass DSNU/PRNU
-
-
-def attribution_for(desc: EmvaDescriptor) -> str:
-    """The attribution line to show with results; the Basler notice for the reference set."""
-    from ares.analysis.emva1288 import ATTRIBUTION
-
-    try:
-        head = desc.path.read_text(errors="replace")[:2000]
-    except OSError:
-        head = ""
-    if "Basler" in head:
-        return ATTRIBUTION
-    return f"data: {desc.path}"
+    attribution: str = ""  # the line shown with every result (``emva_descriptor.attribution``)
 
 
 def _pair(desc, lv, max_code):
@@ -82,7 +70,7 @@ def analyse_descriptor(path: str | Path | EmvaDescriptor, pixel_area_um2: float 
     import numpy as np
 
     from ares.analysis import emva_spatial, levels  # noqa: F401 -- loaded before the threads need them
-    from ares.hardware.emva_descriptor import EmvaDescriptor, read_descriptor
+    from ares.hardware.emva_descriptor import EmvaDescriptor, attribution, read_descriptor
 
     desc = path if isinstance(path, EmvaDescriptor) else read_descriptor(path)
     max_code = (1 << desc.bits) - 1
@@ -141,7 +129,7 @@ def analyse_descriptor(path: str | Path | EmvaDescriptor, pixel_area_um2: float 
     r31 = None
     if stack_b is not None:
         r31 = release31(res, stack_b, stack_d)
-    return EmvaAnalysis(desc, res, ptc, b4, d4, sheet.photon_transfer, sheet, general, r31)
+    return EmvaAnalysis(desc, res, ptc, b4, d4, sheet.photon_transfer, sheet, general, r31, attribution(desc))
 
 
 def release31(res, stack_b, stack_d) -> dict:
@@ -195,7 +183,7 @@ def format_table(an: EmvaAnalysis) -> str:
         lines.append(f"excluded levels ({len(ex)}):")
         for i, why in ex:
             lines.append(f"  level {i}: {why}")
-    lines += ["", attribution_for(an.descriptor)]
+    lines += ["", an.attribution]
     return "\n".join(lines)
 
 
@@ -210,7 +198,7 @@ def write_pdf(an: EmvaAnalysis, out: Path, release: str = "3.0") -> None:
     import matplotlib.pyplot as plt
     from matplotlib.backends.backend_pdf import PdfPages
 
-    att = attribution_for(an.descriptor)
+    att = an.attribution
     td = an.emva.temporal
     Y = td.u_y - td.u_ydark
     V = td.s2_y - td.s2_ydark
@@ -261,7 +249,7 @@ def format_table4(an: EmvaAnalysis) -> str:
     sh = an.sheet
     lines = [f"{sh.release}: {an.descriptor.path}", *_value_lines(sh.values, SYMBOLS),
              f"saturation: {sh.photon_transfer.saturation}"]
-    lines += [f"note: {n}" for n in sh.notes] + ["", attribution_for(an.descriptor)]
+    lines += [f"note: {n}" for n in sh.notes] + ["", an.attribution]
     return "\n".join(lines)
 
 
@@ -271,7 +259,7 @@ def format_general(an: EmvaAnalysis) -> str:
              f"saturation: {g.saturation}"]
     lines += [f"note: {n}" for n in g.notes]
     lines += ["K, the quantum efficiency and values in electrons are not defined in the General model "
-              "(General Section 6.7)", "", attribution_for(an.descriptor)]
+              "(General Section 6.7)", "", an.attribution]
     return "\n".join(lines)
 
 
@@ -279,7 +267,7 @@ def format_table31(an: EmvaAnalysis) -> str:
     lines = [f"EMVA 1288 Release 3.1: {an.descriptor.path}", *_value_lines(an.release31 or {})]
     lines += ["Release 3.1 as documented in Appendix D of Release 4.0 Linear: the 3.0 set with DSNU1288/PRNU1288 "
               "from 5x5 high-passed stacks (Appendix C.5); the 3.1 saturation search refinement is not specified in "
-              "the texts ARES has, so saturation is the 3.0 maximum-variance level", "", attribution_for(an.descriptor)]
+              "the texts ARES has, so saturation is the 3.0 maximum-variance level", "", an.attribution]
     return "\n".join(lines)
 
 
@@ -309,7 +297,7 @@ def _meta(args, an: EmvaAnalysis) -> None:
         m["wavelength_nm"] = args.wavelength_nm
         m["wavelength"] = f"{args.wavelength_nm:g} nm"
     m.setdefault("date", "not recorded in the descriptor")
-    m["footer"] = attribution_for(an.descriptor)
+    m["footer"] = an.attribution
     m["data_mode"] = f"Mono {an.descriptor.bits}"
     m["exposure_control"] = "exposure time"
 
@@ -323,7 +311,7 @@ def run(args) -> int:
     with jit.avoided():
         an = analyse_descriptor(args.descriptor, pitch * pitch if pitch else None)  # the .area figures need it
     _meta(args, an)
-    att = attribution_for(an.descriptor)
+    att = an.attribution
     if args.release == "4.0-linear":
         d = an.sheet.to_json()
         text = format_table4

@@ -205,6 +205,20 @@ def read_checked(desc: EmvaDescriptor, p: Path) -> np.ndarray:
     return a
 
 
+def attribution(desc: EmvaDescriptor) -> str:
+    """The line to show with results derived from the data (the Basler notice for the
+    EMVA 1288 reference set)."""
+    try:
+        head = desc.path.read_text(errors="replace")[:2000]
+    except OSError:
+        head = ""
+    if "Basler" in head:
+        from ares.analysis.emva1288 import ATTRIBUTION
+
+        return ATTRIBUTION
+    return f"recorded data: {desc.path}"
+
+
 def iter_level(desc: EmvaDescriptor, level: EmvaLevel):
     """The images of one level one at a time, each checked against the ``n`` record."""
     for p in level.images:

@@ -33,7 +33,7 @@ from pathlib import Path
 from typing import Iterator
 
 from ares.errors import InputError
-from ares.hardware.emva_descriptor import EmvaDescriptor, EmvaLevel, read_descriptor
+from ares.hardware.emva_descriptor import EmvaDescriptor, EmvaLevel, attribution, read_descriptor
 from ares.hardware.imagefile import read_image
 from ares.hardware.interfaces import Bench, Frame
 from ares.hardware.registers import RegisterFile
@@ -153,20 +153,6 @@ class ReplayFrameSource:
 
     def close(self) -> None:
         pass
-
-
-def attribution(desc: EmvaDescriptor) -> str:
-    """The line to show with results derived from the data (the Basler notice for the
-    EMVA 1288 reference set)."""
-    try:
-        head = desc.path.read_text(errors="replace")[:2000]
-    except OSError:
-        head = ""
-    if "Basler" in head:
-        from ares.analysis.emva1288 import ATTRIBUTION
-
-        return ATTRIBUTION
-    return f"recorded data: {desc.path}"
 
 
 IMAGE_SUFFIXES = (".png", ".tif", ".tiff")
