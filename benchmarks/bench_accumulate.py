@@ -27,6 +27,7 @@ sys.path.insert(0, str(HERE.parent))
 
 from ares.analysis.accumulate import StackAccumulator  # noqa: E402
 from ares.analysis.anova import decompose_dark  # noqa: E402
+from topic_table import publish  # (benchmarks/topic_table.py, beside this script)
 
 R, C = 1080, 1920
 # CPU time of this (single-threaded) process: robust to time-slicing by other jobs on
@@ -153,10 +154,7 @@ def main() -> int:
         "With `keep_profiles=True` the per-frame row/column sums (8 bytes x frames x (rows+cols)) are kept for "
         "row/column time series; the ANOVA itself needs only exact running scalars.",
     ]
-    text = "\n".join(lines) + "\n"
-    print(text)
-    (HERE / "accumulate.md").write_text(text)
-    return 0
+    return publish("accumulate", lines)
 
 
 if __name__ == "__main__":

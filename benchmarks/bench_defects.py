@@ -19,6 +19,7 @@ import numpy as np
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 from ares.analysis.defects import classify_defects, classify_stack, pixel_stats  # noqa: E402
+from topic_table import publish  # (benchmarks/topic_table.py, beside this script)
 
 R, C, F, FF = 1080, 1920, 100, 100
 REPEATS = 5
@@ -99,10 +100,7 @@ def main() -> int:
           "| step | median (s) | best (s) | median vs baseline |", "|---|---:|---:|---:|"]
     md += [f"| {name} | {t[0]:.2f} | {t[1]:.2f} | {t[0] / t_base[0]:.2f}x |" for name, t in rows]
     md += ["", f"Counts: { {k: v for k, v in res.counts.items() if v} }", ""]
-    text = "\n".join(md)
-    print(text)
-    (Path(__file__).resolve().parent / "defects.md").write_text(text)
-    return 0
+    return publish("defects", md)
 
 
 if __name__ == "__main__":

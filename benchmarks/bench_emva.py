@@ -23,8 +23,8 @@ import numpy as np
 from ares.analysis.emva1288 import ATTRIBUTION
 from ares.analysis.levels import stack_stats
 from ares.analysis.ptc import analyze_ptc
+from topic_table import publish  # (benchmarks/topic_table.py, beside this script)
 
-OUT = Path(__file__).with_name("emva.md")
 DESC = Path(__file__).resolve().parents[2] / "shared" / "data" / "EMVA1288_ReferenceSet_001_CCD_12Bit" / \
     "EMVA1288_Data.txt"
 PUBLISHED = {"K": 0.280769, "sigma_y_dark": 3.07342, "u_e_sat": 13972.6, "QE": 45.14, "DSNU1288": 0.5518,
@@ -137,9 +137,7 @@ def main() -> int:
              "one core. Ratios to the baseline measured in the same run are the stable figures.", ""]
     lines += reference_section(args.repeat)
     lines += sim_section(args.repeat)
-    OUT.write_text("\n".join(lines))
-    print("\n".join(lines))
-    return 0
+    return publish("emva", lines)
 
 
 if __name__ == "__main__":

@@ -31,6 +31,7 @@ from ares.protocol import load_scan  # noqa: E402
 from ares.scan import events as ev  # noqa: E402
 from ares.scan import runner as R  # noqa: E402
 from ares.scan.eta import Eta  # noqa: E402
+from topic_table import publish  # (benchmarks/topic_table.py, beside this script)
 
 CALLS = ("stage_started", "frame", "one_off", "stage_finished", "end_work")
 
@@ -217,10 +218,7 @@ def main() -> int:
         lines.append(f"| {name} | {len(replay(*runs[0])) + 1} | {statistics.median(t for _, t in runs):.1f} | "
                      f"{100 * statistics.fmean(flat):.1f} % | {sum(e <= 0.10 for e in flat)}/{len(flat)} | "
                      f"{statistics.median(seconds_off(c, t) for c, t in runs):.2f} |")
-    text = "\n".join(lines) + "\n"
-    (Path(__file__).parent / "eta.md").write_text(text)
-    print(text)
-    return 0
+    return publish("eta", lines)
 
 
 if __name__ == "__main__":

@@ -23,6 +23,7 @@ import sys
 import tempfile
 import time
 from pathlib import Path
+from topic_table import publish  # (benchmarks/topic_table.py, beside this script)
 
 ROOT = Path(__file__).resolve().parent.parent
 SCAN = str(ROOT / "scans" / "photon_transfer.xml")
@@ -211,10 +212,7 @@ def main() -> int:
     lines += ["", f"Mean absolute error {100 * statistics.fmean(abs(e) for e in errors):.0f} %, "
               f"{sum(abs(e) <= 0.1 for e in errors)} of {len(errors)} within 10 % (target: within 10 % after the "
               "first stage). `benchmarks/eta.md` has every stage of headless runs."]
-    text = "\n".join(lines) + "\n"
-    (Path(__file__).with_name("gui.md")).write_text(text)
-    print(text)
-    return 0
+    return publish("gui", lines)
 
 
 if __name__ == "__main__":

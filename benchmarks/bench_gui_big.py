@@ -21,6 +21,7 @@ import sys
 import tempfile
 import time
 from pathlib import Path
+from topic_table import publish  # (benchmarks/topic_table.py, beside this script)
 
 ROOT = Path(__file__).resolve().parent.parent
 sys.path.insert(0, str(Path(__file__).resolve().parent))
@@ -104,10 +105,7 @@ def main() -> int:
                      f"| {statistics.median(r['seconds'] for r in rows):.1f} | "
                      + ", ".join(f"{r['longest']:.2f}" for r in rows) + " | "
                      + ", ".join(f"{r['count']}, {r['over']:.1f}" for r in rows) + " |")
-    text = "\n".join(lines) + "\n"
-    (Path(__file__).parent / "gui_big.md").write_text(text)
-    print(text)
-    return 0
+    return publish("gui_big", lines)
 
 
 if __name__ == "__main__":

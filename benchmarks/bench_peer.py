@@ -37,10 +37,10 @@ import time
 from pathlib import Path
 
 import numpy as np
+from topic_table import publish  # (benchmarks/topic_table.py, beside this script)
 
 ROOT = Path(__file__).resolve().parents[1]
 HERE = ROOT / "benchmarks"
-OUT = HERE / "peer.md"
 DESC = ROOT.parent / "shared" / "data" / "EMVA1288_ReferenceSet_001_CCD_12Bit" / "EMVA1288_Data.txt"
 VENV = HERE / ".peer-venv"
 PEER_REQ = ["numpy<2", "pillow<13", "emva1288==1.0.2"]
@@ -205,12 +205,10 @@ def main() -> int:
     args = ap.parse_args()
     lines = ["# `ares emva` against the EMVA 1288 reference package", ""]
     if not DESC.is_file():
-        OUT.write_text("\n".join(lines + [f"Skipped: {DESC} not found.", ""]))
-        return 0
+        return publish("peer", lines + [f"Skipped: {DESC} not found."])
     py = peer_python()
     if py is None:
-        OUT.write_text("\n".join(lines + ["Skipped: the peer's venv could not be installed.", ""]))
-        return 0
+        return publish("peer", lines + ["Skipped: the peer's venv could not be installed."])
     ares = [sys.executable, ARES, "emva", str(DESC)]
     peer = [str(py), PEER, str(DESC)]
     libs = [sys.executable, "import numpy, isal.isal_zlib"]  # what ares emva loads
@@ -271,9 +269,7 @@ def main() -> int:
                   "of L images each.", "", "| L | wall s | peak RSS MiB |", "|---:|---:|---:|"]
         lines += [f"| {L} | {w:.2f} | {m:.0f} |" for L, w, m in rows]
         lines += ["", f"L = 500 / L = 50 peak memory: **{rows[1][2] / rows[0][2]:.3f}** (target within 10 %).", ""]
-    OUT.write_text("\n".join(lines))
-    print("\n".join(lines))
-    return 0
+    return publish("peer", lines)
 
 
 if __name__ == "__main__":

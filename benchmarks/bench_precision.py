@@ -12,6 +12,7 @@ ROOT = Path(__file__).resolve().parents[1]
 sys.path[:0] = [str(ROOT), str(ROOT / "tests")]
 
 from precision_study import TARGETS, run_study  # noqa: E402
+from topic_table import publish  # (benchmarks/topic_table.py, beside this script)
 
 
 def main() -> int:
@@ -35,10 +36,7 @@ def main() -> int:
              "sit at the same z: that is the PTC estimator at this precision, not the rule. The hindsight count is "
              "the smallest fixed count at which 95 % of the seeds meet every target (each run's SE scaled by "
              "1/sqrt(n - 1) from its own frame count), and the fixed scan at that count is run to confirm it."]
-    text = "\n".join(lines) + "\n"
-    (Path(__file__).parent / "precision.md").write_text(text)
-    print(text)
-    return 0
+    return publish("precision", lines)
 
 
 if __name__ == "__main__":

@@ -20,6 +20,7 @@ import sys
 import tempfile
 import time
 from pathlib import Path
+from topic_table import publish  # (benchmarks/topic_table.py, beside this script)
 
 ROOT = Path(__file__).resolve().parent.parent
 BASE = "ff369b1"  # the last commit before the speed work (issue "Speed where the user waits")
@@ -68,10 +69,7 @@ def main() -> int:
                      f"{', '.join(f'{w:.2f}' for w, _ in rows[name])} |")
     lines += ["", f"Speed-up (baseline wall / now, per pair): median {statistics.median(ratios):.2f}x "
               f"(pairs {', '.join(f'{r:.2f}' for r in ratios)}); target >= 3x.", ""]
-    text = "\n".join(lines)
-    (Path(__file__).parent / "scan.md").write_text(text)
-    print(text)
-    return 0
+    return publish("scan", lines)
 
 
 if __name__ == "__main__":

@@ -22,8 +22,8 @@ from scipy import stats
 
 from ares.sim import SensorParams, SimSensor, make_sim_bench
 from ares.sim import fused, noise
+from topic_table import publish  # (benchmarks/topic_table.py, beside this script)
 
-OUT = Path(__file__).with_name("sim.md")
 SHIPPED: dict = {}  # shape -> (fast path, shipped numpy, shipped fused) ms per frame
 
 
@@ -215,8 +215,7 @@ def main():
     m, v, k, zmax = table_stats()
     lines += ["", "## Fast N(0,1) table (2^16 inverse-CDF entries)", "",
               f"4e6 draws: mean {m:.5f}, variance {v:.5f}, kurtosis {k:.4f} (normal: 3), max |z| {zmax:.3f}.", ""]
-    OUT.write_text("\n".join(lines))
-    print("\n".join(lines))
+    publish("sim", lines)
 
 
 if __name__ == "__main__":

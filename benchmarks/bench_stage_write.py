@@ -16,6 +16,7 @@ from pathlib import Path
 
 import h5py
 import numpy as np
+from topic_table import publish  # (benchmarks/topic_table.py, beside this script)
 
 REPEATS = 9
 
@@ -52,10 +53,7 @@ def main() -> int:
              "| filter | ms per stage | ratio | kB | size ratio |", "|---|---:|---:|---:|---:|"]
     lines += [f"| {label} | {1e3 * t:.1f} | {t / base_t:.2f} | {b // 1024} | {b / base_b:.2f} |"
               for label, t, b in rows]
-    text = "\n".join(lines) + "\n"
-    (Path(__file__).parent / "stage_write.md").write_text(text)
-    print(text)
-    return 0
+    return publish("stage_write", lines)
 
 
 if __name__ == "__main__":

@@ -9,7 +9,7 @@ import statistics
 import subprocess
 import sys
 import time
-from pathlib import Path
+from topic_table import publish  # (benchmarks/topic_table.py, beside this script)
 
 REPEATS = 15
 
@@ -37,10 +37,7 @@ def main() -> int:
     lines += ["", "`ares validate` loads no scipy, matplotlib, h5py or Qt (a test checks it): the simulator's "
               "normal table, the 4.0 high-pass factors and the defect classifier are built or imported on first use "
               "(before: 1.5 s, scipy.stats and scipy.signal at import)."]
-    text = "\n".join(lines) + "\n"
-    (Path(__file__).parent / "startup.md").write_text(text)
-    print(text)
-    return 0
+    return publish("startup", lines)
 
 
 if __name__ == "__main__":

@@ -15,6 +15,7 @@ import tempfile
 from pathlib import Path
 
 import numpy as np
+from topic_table import publish  # (benchmarks/topic_table.py, beside this script)
 
 ROOT = Path(__file__).resolve().parents[1]
 R, C, F = 1080, 1920, 20
@@ -87,10 +88,7 @@ def main() -> int:
         lines += ["", f"`ares emva` on the EMVA 1288 reference CCD (300 PNGs of 640x480, spatial levels of 50 "
                   f"frames, streamed): peak {emva:.0f} MiB, {emva - base:.0f} MiB above the baseline (395 MiB "
                   "before the spatial statistics were streamed)."]
-    text = "\n".join(lines) + "\n"
-    (Path(__file__).parent / "stream_memory.md").write_text(text)
-    print(text)
-    return 0
+    return publish("stream_memory", lines)
 
 
 if __name__ == "__main__":

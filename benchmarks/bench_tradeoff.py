@@ -12,6 +12,7 @@ import sys
 import tempfile
 import time
 from pathlib import Path
+from topic_table import publish  # (benchmarks/topic_table.py, beside this script)
 
 ROOT = Path(__file__).resolve().parents[1]
 FIGS = {"gain_ptc": "gain, PTC fit", "gain_one_level": "gain, one level", "read_noise": "read noise",
@@ -42,10 +43,7 @@ def main() -> int:
                          f"{r[f'{key}_spread_pct'] or 'n/a'} | {r[f'{key}_se_pct'] or 'n/a'} |")
     lines += ["", f"Recommended for the default targets (gain 0.5 %, read noise 2 %): {info['recommendation']}.", "",
               "![error against time](tradeoff.png)"]
-    text = "\n".join(lines) + "\n"
-    (Path(__file__).parent / "tradeoff.md").write_text(text)
-    print(text)
-    return 0
+    return publish("tradeoff", lines)
 
 
 if __name__ == "__main__":

@@ -1,7 +1,8 @@
 """Run every benchmarks/bench_*.py pinned to one core and rebuild benchmarks/README.md.
 
 Each bench script measures its own baseline in the same run (figures are ratios, since
-these machines are shared and noisy) and writes its table to benchmarks/<topic>.md;
+these machines are shared and noisy) and writes its table to benchmarks/<topic>.md
+(``topic_table.publish``);
 this script runs them and concatenates the tables under a common header.
 
     python benchmarks/run_all.py [--only sim,accumulate] [--no-run]
