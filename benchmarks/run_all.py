@@ -2,8 +2,8 @@
 
 Each bench script measures its own baseline in the same run (figures are ratios, since
 these machines are shared and noisy) and writes its table to benchmarks/<topic>.md
-(``topic_table.publish``);
-this script runs them and concatenates the tables under a common header.
+(``topic_table.publish``); this script runs them and concatenates the tables under a
+common header.
 
     python benchmarks/run_all.py [--only sim,accumulate] [--no-run]
 """
