@@ -34,7 +34,6 @@ class EmvaAnalysis:
     sheet: "EmvaSheet | None" = None  # Release 4.0 Linear, every Table 2 figure and the graph data
     general: "GeneralResult | None" = None  # Release 4.0 General
     release31: "dict | None" = None  # Release 3.1: the 3.0 set with the 5x5 high-pass DSNU/PRNU
-    attribution: str = ""  # the line shown with every result (``emva_descriptor.attribution``)
 
 
 def _pair(desc, lv, max_code):
@@ -70,7 +69,7 @@ def analyse_descriptor(path: str | Path | EmvaDescriptor, pixel_area_um2: float 
     import numpy as np
 
     from ares.analysis import emva_spatial, levels  # noqa: F401 -- loaded before the threads need them
-    from ares.hardware.emva_descriptor import EmvaDescriptor, attribution, read_descriptor
+    from ares.hardware.emva_descriptor import EmvaDescriptor, read_descriptor
 
     desc = path if isinstance(path, EmvaDescriptor) else read_descriptor(path)
     max_code = (1 << desc.bits) - 1
@@ -129,7 +128,7 @@ def analyse_descriptor(path: str | Path | EmvaDescriptor, pixel_area_um2: float 
     r31 = None
     if stack_b is not None:
         r31 = release31(res, stack_b, stack_d)
-    return EmvaAnalysis(desc, res, ptc, b4, d4, sheet.photon_transfer, sheet, general, r31, attribution(desc))
+    return EmvaAnalysis(desc, res, ptc, b4, d4, sheet.photon_transfer, sheet, general, r31)
 
 
 def release31(res, stack_b, stack_d) -> dict:
@@ -183,7 +182,7 @@ def format_table(an: EmvaAnalysis) -> str:
         lines.append(f"excluded levels ({len(ex)}):")
         for i, why in ex:
             lines.append(f"  level {i}: {why}")
-    lines += ["", an.attribution]
+    lines += ["", an.descriptor.attribution]
     return "\n".join(lines)
 
 
@@ -198,7 +197,7 @@ def write_pdf(an: EmvaAnalysis, out: Path, release: str = "3.0") -> None:
     import matplotlib.pyplot as plt
     from matplotlib.backends.backend_pdf import PdfPages
 
-    att = an.attribution
+    att = an.descriptor.attribution
     td = an.emva.temporal
     Y = td.u_y - td.u_ydark
     V = td.s2_y - td.s2_ydark
@@ -249,7 +248,7 @@ def format_table4(an: EmvaAnalysis) -> str:
     sh = an.sheet
     lines = [f"{sh.release}: {an.descriptor.path}", *_value_lines(sh.values, SYMBOLS),
              f"saturation: {sh.photon_transfer.saturation}"]
-    lines += [f"note: {n}" for n in sh.notes] + ["", an.attribution]
+    lines += [f"note: {n}" for n in sh.notes] + ["", an.descriptor.attribution]
     return "\n".join(lines)
 
 
@@ -259,7 +258,7 @@ def format_general(an: EmvaAnalysis) -> str:
              f"saturation: {g.saturation}"]
     lines += [f"note: {n}" for n in g.notes]
     lines += ["K, the quantum efficiency and values in electrons are not defined in the General model "
-              "(General Section 6.7)", "", an.attribution]
+              "(General Section 6.7)", "", an.descriptor.attribution]
     return "\n".join(lines)
 
 
@@ -267,7 +266,7 @@ def format_table31(an: EmvaAnalysis) -> str:
     lines = [f"EMVA 1288 Release 3.1: {an.descriptor.path}", *_value_lines(an.release31 or {})]
     lines += ["Release 3.1 as documented in Appendix D of Release 4.0 Linear: the 3.0 set with DSNU1288/PRNU1288 "
               "from 5x5 high-passed stacks (Appendix C.5); the 3.1 saturation search refinement is not specified in "
-              "the texts ARES has, so saturation is the 3.0 maximum-variance level", "", an.attribution]
+              "the texts ARES has, so saturation is the 3.0 maximum-variance level", "", an.descriptor.attribution]
     return "\n".join(lines)
 
 
@@ -297,7 +296,7 @@ def _meta(args, an: EmvaAnalysis) -> None:
         m["wavelength_nm"] = args.wavelength_nm
         m["wavelength"] = f"{args.wavelength_nm:g} nm"
     m.setdefault("date", "not recorded in the descriptor")
-    m["footer"] = an.attribution
+    m["footer"] = an.descriptor.attribution
     m["data_mode"] = f"Mono {an.descriptor.bits}"
     m["exposure_control"] = "exposure time"
 
@@ -311,7 +310,7 @@ def run(args) -> int:
     with jit.avoided():
         an = analyse_descriptor(args.descriptor, pitch * pitch if pitch else None)  # the .area figures need it
     _meta(args, an)
-    att = an.attribution
+    att = an.descriptor.attribution
     if args.release == "4.0-linear":
         d = an.sheet.to_json()
         text = format_table4

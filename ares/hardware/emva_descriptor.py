@@ -57,6 +57,7 @@ class EmvaDescriptor:
     width: int
     height: int
     levels: tuple[EmvaLevel, ...] = field(default_factory=tuple)
+    attribution: str = ""  # the line shown with results derived from the data
 
     def select(self, kind: str, dark: bool) -> list[EmvaLevel]:
         return [lv for lv in self.levels if lv.kind == kind and lv.dark == dark]
@@ -184,7 +185,17 @@ def read_descriptor(path: str | Path, check_files: bool = True) -> EmvaDescripto
         if key in seen:
             raise InputError(f"{path}:{lv.line}: duplicate {lv.kind} level at exposure {lv.exposure_ns:g} ns")
         seen.add(key)
-    return EmvaDescriptor(path, version, fmt[0], fmt[1], fmt[2], tuple(levels))
+    return EmvaDescriptor(path, version, fmt[0], fmt[1], fmt[2], tuple(levels), _attribution(text, path))
+
+
+def _attribution(text: str, path: Path) -> str:
+    """The Basler notice for the EMVA 1288 reference set (its descriptor's header names
+    Basler), else the descriptor's path."""
+    if "Basler" in text[:2000]:
+        from ares.analysis.emva1288 import ATTRIBUTION
+
+        return ATTRIBUTION
+    return f"recorded data: {path}"
 
 
 def read_checked(desc: EmvaDescriptor, p: Path) -> np.ndarray:
@@ -203,20 +214,6 @@ def read_checked(desc: EmvaDescriptor, p: Path) -> np.ndarray:
     if int(a.max()) >= (1 << desc.bits):
         raise InputError(f"{p}: pixel value {int(a.max())} exceeds the declared {desc.bits} bits")
     return a
-
-
-def attribution(desc: EmvaDescriptor) -> str:
-    """The line to show with results derived from the data (the Basler notice for the
-    EMVA 1288 reference set)."""
-    try:
-        head = desc.path.read_text(errors="replace")[:2000]
-    except OSError:
-        head = ""
-    if "Basler" in head:
-        from ares.analysis.emva1288 import ATTRIBUTION
-
-        return ATTRIBUTION
-    return f"recorded data: {desc.path}"
 
 
 def iter_level(desc: EmvaDescriptor, level: EmvaLevel):

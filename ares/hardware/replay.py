@@ -33,7 +33,7 @@ from pathlib import Path
 from typing import Iterator
 
 from ares.errors import InputError
-from ares.hardware.emva_descriptor import EmvaDescriptor, EmvaLevel, attribution, read_descriptor
+from ares.hardware.emva_descriptor import EmvaDescriptor, EmvaLevel, read_descriptor
 from ares.hardware.imagefile import read_image
 from ares.hardware.interfaces import Bench, Frame
 from ares.hardware.registers import RegisterFile
@@ -187,7 +187,8 @@ def descriptor_from_recordings(system) -> EmvaDescriptor:
             raise InputError(f"{where}: <recording images='{rec.images}'> finds no PNG/TIFF files {looked}")
         levels.append(EmvaLevel(rec.light == 0, rec.exposure * 1e9, rec.light * rec.exposure, tuple(files), rec.line))
     s = system.sensor
-    return EmvaDescriptor(Path(system.source), "", s.adc_bits, s.cols, s.rows, tuple(levels))
+    return EmvaDescriptor(Path(system.source), "", s.adc_bits, s.cols, s.rows, tuple(levels),
+                          f"recorded images ({len(levels)} recordings, {system.source})")
 
 
 def build_replay_bench(system) -> Bench:
@@ -195,8 +196,7 @@ def build_replay_bench(system) -> Bench:
     sentence naming the system file, the line and the path looked for."""
     r = system.replay
     if r.recordings:
-        desc = descriptor_from_recordings(system)
-        return _bench(system, desc, f"recorded images ({len(desc.levels)} recordings, {system.source})")
+        return _bench(system, descriptor_from_recordings(system))
     if not r.path.is_file():
         how = (f"from ${r.env}" if r.from_env else
                f"'{r.descriptor}'" + (f"; set ${r.env} to override" if r.env else ""))
@@ -209,10 +209,10 @@ def build_replay_bench(system) -> Bench:
     if (desc.height, desc.width, desc.bits) != want:
         raise InputError(f"{r.where()}: <replay> descriptor {desc.path} records {desc.width}x{desc.height} "
                          f"{desc.bits}-bit images but <sensor> declares {want[1]}x{want[0]} {want[2]}-bit")
-    return _bench(system, desc, attribution(desc))
+    return _bench(system, desc)
 
 
-def _bench(system, desc: EmvaDescriptor, attrib: str) -> Bench:
+def _bench(system, desc: EmvaDescriptor) -> Bench:
     r = system.replay
     regs = RegisterFile(system.registers, MemoryBus(f"{system.name}:registers"))
     for f in system.registers.fields:  # power-on defaults, as a real sensor would have
@@ -221,6 +221,6 @@ def _bench(system, desc: EmvaDescriptor, attrib: str) -> Bench:
     light = ReplayLight(f"{system.name}:light")
     frames = ReplayFrameSource(desc, regs, system.controls.exposure, light, r.light_tolerance,
                                name=f"replay '{system.name}'")
-    info = {"system": system.name, "replay_descriptor": str(desc.path), "attribution": attrib,
+    info = {"system": system.name, "replay_descriptor": str(desc.path), "attribution": desc.attribution,
             "recorded_levels": len(desc.levels)}
     return Bench(regs, frames, light, None, info)
