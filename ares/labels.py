@@ -14,6 +14,7 @@ COMPONENTS = {
     "Ps": "pixel FPN (DSNU)", "Pt": "pixel temporal (read)", "G": "conversion gain", "Cg": "column gain NU",
     "Rg": "row gain NU", "Pg": "pixel gain NU (PRNU)", "q": "photo-charge", "delta": "shot noise",
     "frame_global": "frame-global temporal offset", "signal": "signal (flat - dark)",
+    "poisson_ratio": "Poisson check: delta / q (1 when the given gain is right)",
 }
 
 PTC_FIGURES = (
