@@ -115,3 +115,20 @@ def test_bench_grid_defaults_to_the_scans_own_sensor():
     assert s.label().startswith("640x480 ")
     ns.quick = True
     assert _grid(ns, scan)["size"] == (64,)
+
+
+def test_resume_summary_counts_the_stages_it_ran(tmp_path, capsys):
+    """The resume summary said "26 stage(s) in 4.7 s" when 16 ran: the time is this
+    session's and is now charged to the stages run now."""
+    import json as _json
+
+    d = tmp_path / "run"
+    scan = ROOT / "fixtures" / "xml" / "small" / "ptc_small.xml"
+    assert main(["run", str(scan), "--out", str(d), "--quiet", "--sim-fault", "disconnect_after_frames=13"]) == 3
+    kept = len(list((d / "stages").glob("[0-9][0-9][0-9][0-9].json")))
+    capsys.readouterr()
+    assert main(["resume", str(d), "--quiet"]) == 0
+    total = len(list((d / "stages").glob("[0-9][0-9][0-9][0-9].json")))
+    out = capsys.readouterr().out
+    assert 0 < kept < total and _json.loads((d / "run.json").read_text())["status"] == "done"
+    assert f"{total} stage(s): {total - kept} run now in " in out and f"after {kept} resumed" in out

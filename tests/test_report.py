@@ -395,8 +395,10 @@ def test_cli_writes_only_what_is_asked(runs, tmp_path, capsys):
     assert sorted(p.name for p in (tmp_path / "c").iterdir()) == ["components.csv", "key_figures.csv", "levels.csv",
                                                                   "ptc.csv", "summary.csv"]
     assert not (run / "report.pdf").exists()
-    out = capsys.readouterr().out.split()
-    assert len(out) == 5
+    cap = capsys.readouterr()
+    assert len(cap.out.split()) == 5
+    # what was left out is said (it was skipped silently), with the option that asks for it
+    assert "not written: report.h5 (--hdf5 FILE), report.pdf (--pdf FILE)" in cap.err
 
 
 def test_two_axis_sweep_maps_have_axis_units(tmp_path):
