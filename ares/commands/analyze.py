@@ -123,6 +123,8 @@ def run(args) -> int:
         line = f"  {name:<14} {component_text(name, e.to_dict()):<34} {component_label(name)}"
         if name in elec and name != "o" and elec[name].available:
             line += f"; in electrons {component_text(name, elec[name].to_dict())}"
+        if e.available and e.note:  # how it was made, or why it has no SE (n/a's reason is in the text)
+            line += f"  ({e.note})"
         print(line)
     if args.dark:
         fg = an.flat_stack_components["frame_global"]

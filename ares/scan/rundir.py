@@ -443,5 +443,11 @@ def load_run(run_dir: str | Path) -> RunRecord:
         if sha256(p.read_bytes()) != meta[key.replace("_file", "_sha256")]:
             raise InputError(f"{p}: SHA-256 differs from the one recorded in run.json (file was modified)")
     scan = load_scan(d / meta["scan_file"], system_path=d / meta["system_file"])
+    if scan.system.replay is not None:  # recorded data where the run found it, not below xml/
+        import dataclasses
+
+        from ares.hardware.replay import relocate_replay
+
+        scan = dataclasses.replace(scan, system=relocate_replay(scan.system, meta.get("bench")))
     stages = [json.loads(p.read_text()) for p in sorted((d / "stages").glob("[0-9][0-9][0-9][0-9].json"))]
     return RunRecord(d, meta, scan, stages)
