@@ -349,11 +349,14 @@ class RunnerJob:
         elif isinstance(e, ev.Ending):
             emit(G.Ending(e.status, e.stages_completed))
         elif isinstance(e, ev.Done):
+            summary = summarize(e.scan_results or {}, self.scan.defects)
+            summary["limits_set"] = len(self.scan.limits)
             if e.status == "done":
-                emit(G.Done(e.run_dir, summarize(e.scan_results, self.scan.defects), tuple(e.limit_failures)))
+                emit(G.Done(e.run_dir, summary, tuple(e.limit_failures)))
             else:
                 kept = f"; {e.stages_completed} completed stage(s) kept" + (f" in {e.run_dir}" if e.run_dir else "")
-                emit(G.Stopped(f"Scan {e.status}{kept}.", aborted=(e.status == "aborted"), run_dir=e.run_dir))
+                emit(G.Stopped(f"Scan {e.status}{kept}.", aborted=(e.status == "aborted"), run_dir=e.run_dir,
+                               summary=summary))
         elif isinstance(e, ev.Failed):
             self._failed_sent = True
             msg = e.message.strip()
