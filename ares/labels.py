@@ -14,6 +14,7 @@ COMPONENTS = {
     "Ps": "pixel FPN (DSNU)", "Pt": "pixel temporal (read)", "G": "conversion gain", "Cg": "column gain NU",
     "Rg": "row gain NU", "Pg": "pixel gain NU (PRNU)", "q": "photo-charge", "delta": "shot noise",
     "frame_global": "frame-global temporal offset", "signal": "signal (flat - dark)",
+    "poisson_ratio": "Poisson check: delta / q (1 when the given gain is right)",
 }
 
 PTC_FIGURES = (
@@ -33,3 +34,58 @@ def component_label(c: str, part: str = "components") -> str:
     if c == "delta":
         return "shot-noise variance (= q when G is estimated from this level)"
     return COMPONENTS.get(c, "")
+
+
+# ------------------------------------------------------------------ units in names
+# One naming scheme for every table column and HDF5 dataset: the quantity, then its unit as a
+# suffix (mean_dn, var_dn2, exposure_s, G_dn_per_e, light_photons_per_pixel_s); a quantity
+# without a unit (a count, a ratio of like quantities) has none. HDF5 datasets carry the unit
+# as written (attribute "unit") as well.
+_SUFFIX = {"DN": "dn", "DN^2": "dn2", "DN/e-": "dn_per_e", "e-/DN": "e_per_dn", "e-": "e", "e-^2": "e2",
+           "1": "rel_var", "%": "pct", "dB": "db", "s": "s", "C": "c", "x": "x", "e-/s": "e_per_s",
+           "DN/s": "dn_per_s", "uV/e-": "uv_per_e"}
+_UNIT = {v: k for k, v in _SUFFIX.items()}
+
+
+def unit_suffix(unit: str) -> str:
+    """``DN^2`` -> ``dn2``, ``photons/pixel/s`` -> ``photons_per_pixel_s``, ``V`` -> ``v``."""
+    if unit in _SUFFIX:
+        return _SUFFIX[unit]
+    out = unit.lower().replace("^2", "2").replace("/", "_per_").replace("µ", "u").replace("°", "")
+    return "".join(ch if ch.isalnum() else "_" for ch in out).strip("_")
+
+
+def with_unit(name: str, unit: str) -> str:
+    """A column name with its unit: ``with_unit("Ps", "DN^2")`` -> ``Ps_dn2``."""
+    suffix = unit_suffix(unit) if unit else ""
+    return f"{name}_{suffix}" if suffix and not name.endswith("_" + suffix) else name
+
+
+# numeric columns that are counts, indices or fractions (unit "1"), and the analog gain factor
+COUNT_COLUMNS = {"index", "stage_index", "frames", "dark_frames", "n_pixels", "n_frames", "dark_n_frames",
+                 "frac_at_max", "frac_at_min", "dark_frac_at_max", "dark_frac_at_min"}
+
+
+def unit_of_column(name: str) -> str:
+    """The unit a column name carries by the scheme above ("" when it names none)."""
+    if name in COUNT_COLUMNS:
+        return "1"
+    if name == "analog_gain":
+        return "x"
+    if name == "seconds":
+        return "s"
+    for suffix in sorted(_UNIT, key=len, reverse=True):
+        if name.endswith("_" + suffix):
+            return _UNIT[suffix]
+    if name.startswith("photons_per_pixel"):
+        return "photons/pixel"
+    return ""
+
+
+# the unit of each per-stage array in a run directory's HDF5 files (attribute "unit")
+ARRAY_UNITS = {"mean": "DN", "variance": "DN^2", "frame_means": "DN", "dark_mean": "DN", "frames": "DN",
+               "dark": "DN", "defect_mask": "1 (0: good, else a defect class code)"}
+
+
+def array_unit(name: str) -> str:
+    return "counts per code" if name.startswith("hist_") else ARRAY_UNITS.get(name, "")

@@ -51,8 +51,8 @@ def test_table_with_dark_png_and_h5_roi(tmp_path, capsys):
     assert "20 rows x 28 columns" in text
     assert "conversion gain" in text and "DN/e-" in text
     assert "flat stack frame-global" in text
-    g = [line for line in text.splitlines() if line.startswith("G ")][0]
-    assert abs(float(g.split()[3]) - 0.5) < 0.1
+    g = [line.split() for line in text.splitlines() if line.split()[:1] == ["G"]][0]
+    assert g[2] == "±" and abs(float(g[1]) - 0.5) < 0.1
 
 
 def test_npz_and_folder(tmp_path):
@@ -112,7 +112,10 @@ def test_shape_mismatch_and_bad_roi(tmp_path, capsys):
 @pytest.mark.parametrize("argv, fragment", [
     (["analyze", "x.npy", "--gain", "0"], "argument --gain: must be a finite number > 0, got '0'"),
     (["analyze", "x.npy", "--gain", "nan"], "argument --gain: must be a finite number, got 'nan'"),
-    (["analyze", "x.npy", "--gain", "1e300"], "a gain of 1e+300 DN/e- is beyond any sensor's"),
+    (["analyze", "x.npy", "--gain", "1e300DN/e-"], "a gain of 1e+300 DN/e- is beyond any sensor's"),
+    (["analyze", "x.npy", "--gain", "70"], "a bare gain of 70 is outside 0.001-50 DN/e- (sensors' range): "
+                                           "a conversion gain is written 70uV/e- (with --adc-lsb-uv)"),
+    (["analyze", "x.npy", "--gain", "70 mV"], "unknown gain unit 'mV'"),
     (["defects", "--dark", "x.npy", "--gain", "-0.3"], "argument --gain: must be a finite number > 0"),
     (["defects", "--dark", "x.npy", "--exposure", "-1"], "argument --exposure: must be a finite number >= 0"),
     (["emva", "d.txt", "--pixel-size-um", "inf"], "argument --pixel-size-um: must be a finite number"),

@@ -139,8 +139,8 @@ def test_csv_tables_equal_run_directory(runs, tmp_path):
         assert float(r["signal_dn"]) == full[lv]["mean_dn"] - full[dk]["mean_dn"]
         assert float(r["variance_dn2"]) == full[lv]["var_dn2"] - full[dk]["var_dn2"]
         assert float(r["variance_se_dn2"]) > 0
-        assert float(r["exposure_s"]) == st["settings"]["exposure"] and float(r["light"]) == st["settings"]["light"]
-        assert float(r["photons"]) == pytest.approx(st["settings"]["light"] * st["settings"]["exposure"])
+        assert float(r["exposure_s"]) == st["settings"]["exposure"] and float(r["light_photons_per_pixel_per_s"]) == st["settings"]["light"]
+        assert float(r["photons_per_pixel"]) == pytest.approx(st["settings"]["light"] * st["settings"]["exposure"])
         assert (r["status"], r["reason"]) == (status[r["stage"]]["status"], status[r["stage"]]["reason"])
 
     comp = _csv(tmp_path / "components.csv")
@@ -395,8 +395,10 @@ def test_cli_writes_only_what_is_asked(runs, tmp_path, capsys):
     assert sorted(p.name for p in (tmp_path / "c").iterdir()) == ["components.csv", "key_figures.csv", "levels.csv",
                                                                   "ptc.csv", "summary.csv"]
     assert not (run / "report.pdf").exists()
-    out = capsys.readouterr().out.split()
-    assert len(out) == 5
+    cap = capsys.readouterr()
+    assert len(cap.out.split()) == 5
+    # what was left out is said (it was skipped silently), with the option that asks for it
+    assert "not written: report.h5 (--hdf5 FILE), report.pdf (--pdf FILE)" in cap.err
 
 
 def test_two_axis_sweep_maps_have_axis_units(tmp_path):

@@ -58,7 +58,7 @@ def test_hdf5_csv_and_frames(run_dir):
         assert "dark_mean" in g and json.loads(g.attrs["result"])["name"] == "ptc[3]"
         assert f["stages"].get("0004", getlink=True).filename == "stages/0004.h5"  # index of external links
     rows = list(csv.DictReader((run_dir / "summary.csv").open()))
-    assert len(rows) == 9 and rows[4]["name"] == "ptc[3]" and float(rows[4]["light"]) > 0
+    assert len(rows) == 9 and rows[4]["name"] == "ptc[3]" and float(rows[4]["light_photons_per_pixel_per_s"]) > 0
     with h5py.File(run_dir / "frames" / "0001.h5", "r") as f:  # scan asks for raw frames
         assert f["frames"].shape == (4, 24, 32) and f["frames"].chunks == (1, 24, 32)
         assert f["frames"].dtype.kind == "u"

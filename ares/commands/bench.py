@@ -38,12 +38,14 @@ def _words(text: str) -> tuple[str, ...]:
 
 def add_arguments(parser) -> None:
     parser.add_argument("scan", metavar="SCAN", help="scan XML with a light or exposure sweep")
-    parser.add_argument("--quick", action="store_true", help="a small grid on a 64x64 sensor (under a minute)")
+    parser.add_argument("--quick", action="store_true",
+                        help="a small grid on a 64x64 cut of the sensor (under a minute; its recommendation is for 64x64)")
     parser.add_argument("--seeds", type=int, help="seeds per setting (default 3, --quick 2)")
     parser.add_argument("--frames", type=_ints, metavar="N,N", help="frames per stage (default 2,4,8,16)")
     parser.add_argument("--levels", type=_ints, metavar="N,N", help="sweep points (default 9,17,25)")
     parser.add_argument("--spacing", type=_words, metavar="log,linear", help="sweep spacing (default log,linear)")
-    parser.add_argument("--size", type=_ints, metavar="N,N", help="sensor rows = cols (default 64,128,256)")
+    parser.add_argument("--size", type=_ints, metavar="N,N",
+                        help="square sensor sizes rows = cols (default: the scan's own sensor; --quick 64)")
     parser.add_argument("--fidelity", type=_words, metavar="auto,exact",
                         help="simulator shot noise: auto, exact, gaussian (default auto,exact)")
     parser.add_argument("--target", action="append", default=[], metavar="FIGURE=PCT",
@@ -89,13 +91,15 @@ class _Bar:
         sys.stderr.flush()
 
 
-def _grid(args) -> dict:
-    from ares.tuning.grid import FULL, QUICK
+def _grid(args, scan) -> dict:
+    from ares.tuning.grid import FULL, QUICK, own_size
 
     g = dict(QUICK if args.quick else FULL)
     for k in ("frames", "levels", "spacing", "size", "fidelity"):
         if getattr(args, k):
             g[k] = getattr(args, k)
+    if g["size"] is None:
+        g["size"] = (own_size(scan),)
     if min(g["frames"]) < 2:
         raise InputError("--frames: every stage needs at least 2 frames")
     if min(g["levels"]) < 3:
@@ -114,8 +118,9 @@ def run(args) -> int:
     targets = _targets(args.target)
     pilot = args.pilot or scan.system.simulator is None
     out = Path(args.out) if args.out else Path("runs") / f"bench_{scan.name}_{time.strftime('%Y%m%d-%H%M%S')}"
+    gridmod.sweep_axis(scan)  # a scan it cannot benchmark (no 1-D level sweep) is refused before any run
+    g = _grid(args, scan)
     out.mkdir(parents=True, exist_ok=True)
-    g = _grid(args)
     rows, labels, summaries = [], [], []
     if pilot:
         n0 = min(g["frames"]) if args.frames else scan.frames
@@ -153,6 +158,7 @@ def run(args) -> int:
                 bar.step(s.label())
             labels.append(s.label())
             summaries.append(summarize(runs))
+    own = gridmod.own_size(scan)
     best, sentence = recommend(labels, summaries, targets)
     _write(out, labels, summaries, rows, best, sentence, targets, pilot)
     plot(labels, summaries, best, out / "bench.png", out / "bench.pdf",
@@ -161,6 +167,9 @@ def run(args) -> int:
     print(f"ares bench {scan.name}: {len(labels)} setting(s), "
           f"{'one pilot run (SEs predicted for other frame counts)' if pilot else f'{len(rows)} runs'}")
     print(f"recommended: {sentence}")
+    if not pilot and own not in {tuple(s.rows_cols) for s in gridmod.settings(g)}:
+        print(f"note: measured on {', '.join(sorted({s.label().split()[0] for s in gridmod.settings(g)}))} cuts of "
+              f"the sensor, not on the scan's own {own[1]}x{own[0]}: run without --quick/--size for its own size")
     print(f"table: {out / 'bench.csv'}\nplot: {out / 'bench.png'} and {out / 'bench.pdf'}")
     return 0
 

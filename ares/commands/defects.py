@@ -17,7 +17,7 @@ import json
 import math
 from pathlib import Path
 
-from ares.commands.argtypes import gain, non_negative
+from ares.commands.argtypes import gain, non_negative, positive
 from ares.errors import InputError, LimitsFailed
 
 # numpy and the analysis are imported when the command runs (`ares --help` stays light)
@@ -34,7 +34,10 @@ def add_arguments(p) -> None:
                    help="dark frames/stacks of one level (repeat the option for more levels)")
     p.add_argument("--flat", nargs="+", action="append", default=None, metavar="FILE",
                    help="illuminated frames/stacks of one level (repeatable)")
-    p.add_argument("--gain", type=gain, default=None, metavar="K", help="system gain in DN/e-")
+    p.add_argument("--gain", type=gain, default=None, metavar="K",
+                   help="system gain with its unit: 0.28DN/e-, 3.57e-/DN or 70uV/e- (needs --adc-lsb-uv); a bare number is DN/e-")
+    p.add_argument("--adc-lsb-uv", type=positive, default=None, metavar="UV",
+                   help="the ADC step in uV (to turn a gain in uV/e- into DN/e-)")
     p.add_argument("--exposure", type=non_negative, nargs="+", default=None, metavar="S",
                    help="exposure time(s) in s: one for all levels, or one per dark level")
     p.add_argument("--flat-exposure", type=non_negative, nargs="+", default=None, metavar="S",
@@ -198,8 +201,9 @@ def run(args) -> int:
 
     th = _thresholds(args.settings)
     regions = BAYER_PHASES if args.bayer else None
-    results, shape = classify_files(args.dark, args.flat or [], gain=args.gain, exposure=args.exposure,
-                             flat_exposure=args.flat_exposure, thresholds=th, regions=regions)
+    k = args.gain.dn_per_e(args.adc_lsb_uv) if args.gain is not None else None
+    results, shape = classify_files(args.dark, args.flat or [], gain=k, exposure=args.exposure,
+                                    flat_exposure=args.flat_exposure, thresholds=th, regions=regions)
     mask = np.zeros(shape, np.uint16)
     for name, res in results.items():
         rs, cs = regions[name] if regions else (slice(None), slice(None))

@@ -42,4 +42,10 @@ def run(args) -> int:
             print(note, file=sys.stderr)
         for p in files:
             print(p)
+    skipped = [f"{name} ({opt})" for fmt, name, opt in (("csv", "CSV tables", "--csv DIR"),
+                                                         ("hdf5", "report.h5", "--hdf5 FILE"),
+                                                         ("pdf", "report.pdf", "--pdf FILE")) if fmt not in formats]
+    if skipped:  # never silently: say what was left out and how to ask for it
+        print(f"not written: {', '.join(skipped)} -- only the files named by an option are written when any is given",
+              file=sys.stderr)
     return 0

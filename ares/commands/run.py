@@ -163,7 +163,7 @@ def dry_run(scan, frames: int | None, seed: int | None = None, out=None) -> None
         elif s.dark_source == "reuse":
             dark = " + dark (reused)"
         sets = ", ".join(f"{k.removeprefix('reg:')}={v:g}" for k, v in s.settings.items())
-        out.write(f"  {s.index:4d}  {s.name:<18} {s.scene:<4} {s.frames:4d} frames{dark:<18} {sets}\n")
+        out.write(f"  {s.index + 1:4d}  {s.name:<18} {s.scene:<4} {s.frames:4d} frames{dark:<18} {sets}\n")
         total += s.frames_to_grab()
     est = estimate_seconds(scan, stages)
     out.write(f"total: {total} frames, estimated {fmt_s(est)} ({est:.1f} s) of exposure, readout and settling\n")
@@ -175,10 +175,15 @@ def _num(d) -> str:
     return format_dict(d, with_reason=True)
 
 
-def print_summary(outcome, scan, seconds: float, out=None) -> None:
+def print_summary(outcome, scan, seconds: float, out=None, resumed: int = 0) -> None:
+    """``resumed``: stages committed before this session (``ares resume``): the time is this
+    session's, so it is charged to the stages it ran, not to the run's total."""
     out = out or sys.stdout
     res = outcome.scan_results
-    out.write(f"\n{scan.name}: {outcome.status}, {len(outcome.stages)} stage(s) in {seconds:.1f} s"
+    n = len(outcome.stages)
+    count = f"{n} stage(s) in {seconds:.1f} s" if not resumed else \
+        f"{n} stage(s): {n - resumed} run now in {seconds:.1f} s after {resumed} resumed from the run directory"
+    out.write(f"\n{scan.name}: {outcome.status}, {count}"
               f"{', seed ' + str(outcome.seed) if outcome.seed is not None else ''}\n")
     if outcome.run_dir:
         out.write(f"run directory: {outcome.run_dir}\n")
@@ -329,7 +334,7 @@ def execute(scan, args, *, seed, frames, faults=None, argv=None, out_dir=None, r
         json.dump(_json_summary(outcome, scan, seconds), sys.stdout, indent=1, default=str)
         sys.stdout.write("\n")
     else:
-        print_summary(outcome, scan, seconds)  # the key figures before the report (the PDF takes seconds)
+        print_summary(outcome, scan, seconds, resumed=len(resume_from or ()))  # the key figures before the report (the PDF takes seconds)
         if getattr(runner, "report", None):
             print_precision(runner.report)
         sys.stdout.flush()

@@ -30,6 +30,10 @@ def validate_one(path) -> tuple[str, str]:
     system = load_system(path)
     if system.simulator is not None:
         sim_params(system)
+    if system.replay is not None:  # a run on it would refuse missing or mismatched data
+        from ares.hardware.replay import replay_descriptor
+
+        replay_descriptor(system)
     return kind, ""
 
 

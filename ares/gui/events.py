@@ -94,6 +94,7 @@ class Stopped:
     message: str = "stopped"
     aborted: bool = False
     run_dir: str | None = None
+    summary: dict = field(default_factory=dict)  # the stopped run's own scan-level figures (as Done's)
 
 
 @dataclass(frozen=True)

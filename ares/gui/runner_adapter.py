@@ -258,17 +258,8 @@ class RunnerJob:
         return [Region(True, True, r.x, r.y, r.width, r.height) for r in self.scan.regions]
 
     def setting_units(self) -> dict[str, str]:
-        """Unit of every setting a stage can carry (register fields and quantities), from the system XML."""
-        system = self.scan.system
-        out = {f"reg:{f.name}": f.unit for f in (system.registers.fields if system.registers else ()) if f.unit}
-        for q in ("exposure", "analog_gain"):
-            f = system.control_field(q)
-            out[q] = (f.unit if f is not None and f.unit else {"exposure": "s", "analog_gain": "x"}[q])
-        dev = system.light_source
-        out["light"] = dev.unit if dev is not None and dev.unit else (
-            "photons/pixel/s" if system.simulator is not None else "")
-        out["temperature"] = "°C"
-        return {k: v for k, v in out.items() if v}
+        """Unit of every setting a stage can carry, from the system XML."""
+        return self.scan.system.setting_units()
 
     def channel_views(self) -> tuple[dict, dict]:
         """The engine's Bayer-phase and ADC-channel views of the sensor (slices) and their labels."""
@@ -349,11 +340,14 @@ class RunnerJob:
         elif isinstance(e, ev.Ending):
             emit(G.Ending(e.status, e.stages_completed))
         elif isinstance(e, ev.Done):
+            summary = summarize(e.scan_results or {}, self.scan.defects)
+            summary["limits_set"] = len(self.scan.limits)
             if e.status == "done":
-                emit(G.Done(e.run_dir, summarize(e.scan_results, self.scan.defects), tuple(e.limit_failures)))
+                emit(G.Done(e.run_dir, summary, tuple(e.limit_failures)))
             else:
                 kept = f"; {e.stages_completed} completed stage(s) kept" + (f" in {e.run_dir}" if e.run_dir else "")
-                emit(G.Stopped(f"Scan {e.status}{kept}.", aborted=(e.status == "aborted"), run_dir=e.run_dir))
+                emit(G.Stopped(f"Scan {e.status}{kept}.", aborted=(e.status == "aborted"), run_dir=e.run_dir,
+                               summary=summary))
         elif isinstance(e, ev.Failed):
             self._failed_sent = True
             msg = e.message.strip()

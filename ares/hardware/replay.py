@@ -192,11 +192,18 @@ def descriptor_from_recordings(system) -> EmvaDescriptor:
 
 
 def build_replay_bench(system) -> Bench:
-    """The bench of a ``<replay>`` system; a missing descriptor (or recording) is one
-    sentence naming the system file, the line and the path looked for."""
+    """The bench of a ``<replay>`` system (its data checked by ``replay_descriptor``)."""
+    return _bench(system, replay_descriptor(system))
+
+
+def replay_descriptor(system) -> EmvaDescriptor:
+    """The recorded data a ``<replay>`` system names, read and checked against <sensor>; a
+    missing descriptor (or recording) is one sentence naming the system file, the line and
+    the path looked for. ``ares validate`` and ``ares run``'s preflight call it too, so a
+    scan whose data is missing is refused before a run directory exists."""
     r = system.replay
     if r.recordings:
-        return _bench(system, descriptor_from_recordings(system))
+        return descriptor_from_recordings(system)
     if not r.path.is_file():
         how = (f"from ${r.env}" if r.from_env else
                f"'{r.descriptor}'" + (f"; set ${r.env} to override" if r.env else ""))
@@ -209,7 +216,35 @@ def build_replay_bench(system) -> Bench:
     if (desc.height, desc.width, desc.bits) != want:
         raise InputError(f"{r.where()}: <replay> descriptor {desc.path} records {desc.width}x{desc.height} "
                          f"{desc.bits}-bit images but <sensor> declares {want[1]}x{want[0]} {want[2]}-bit")
-    return _bench(system, desc)
+    return desc
+
+
+def _sha256(path: Path) -> str:
+    import hashlib
+
+    return hashlib.sha256(path.read_bytes()).hexdigest()
+
+
+def relocate_replay(system, bench_meta: dict | None):
+    """The system of a recorded run, its data found where the run found it: the run
+    directory keeps the system XML verbatim, so a relative ``descriptor=`` (or recording
+    folder) now points below the run's ``xml/``. ``run.json`` keeps the absolute path the
+    run used (``replay_path``) and the descriptor's SHA-256; where the XML-relative path is
+    missing (and no environment variable chose another), that path is used, and a
+    descriptor whose content changed since is refused in one sentence."""
+    r = getattr(system, "replay", None)
+    if r is None or not bench_meta or r.from_env or not bench_meta.get("replay_path"):
+        return system
+    import dataclasses
+
+    recorded = Path(bench_meta["replay_path"])
+    if r.path.exists() or not recorded.exists():
+        return system  # (missing at both: the bench says so, naming the XML's path)
+    want = bench_meta.get("replay_sha256")
+    if want and recorded.is_file() and _sha256(recorded) != want:
+        raise InputError(f"{recorded}: the recorded data's descriptor changed since the run (SHA-256 differs "
+                         "from run.json's); the run cannot be repeated on it")
+    return dataclasses.replace(system, replay=dataclasses.replace(r, path=recorded))
 
 
 def _bench(system, desc: EmvaDescriptor) -> Bench:
@@ -222,5 +257,6 @@ def _bench(system, desc: EmvaDescriptor) -> Bench:
     frames = ReplayFrameSource(desc, regs, system.controls.exposure, light, r.light_tolerance,
                                name=f"replay '{system.name}'")
     info = {"system": system.name, "replay_descriptor": str(desc.path), "attribution": desc.attribution,
-            "recorded_levels": len(desc.levels)}
+            "recorded_levels": len(desc.levels), "replay_path": str(r.path),
+            "replay_sha256": _sha256(r.path) if r.path.is_file() else None}
     return Bench(regs, frames, light, None, info)

@@ -147,6 +147,20 @@ class System:
         name = getattr(self.controls, quantity, None)
         return self.registers.field(name) if name else None
 
+    def setting_units(self) -> dict[str, str]:
+        """Unit of every setting a stage can carry: register fields (``reg:sf_bias`` -> V,
+        as the register map declares), ``exposure`` (s, or its control field's unit),
+        ``analog_gain`` (x), ``light`` (the light source's unit; photons/pixel/s on the
+        simulator) and ``temperature`` (C). The one source for axis labels and CSV columns."""
+        out = {f"reg:{f.name}": f.unit for f in (self.registers.fields if self.registers else ()) if f.unit}
+        for q, default in (("exposure", "s"), ("analog_gain", "x")):
+            f = self.control_field(q)
+            out[q] = f.unit if f is not None and f.unit else default
+        dev = self.light_source
+        out["light"] = dev.unit if dev is not None and dev.unit else "photons/pixel/s"
+        out["temperature"] = "C"
+        return {k: v for k, v in out.items() if v}
+
 
 # ---------------------------------------------------------------- loading
 

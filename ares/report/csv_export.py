@@ -44,22 +44,35 @@ def _write(path: Path, text: str) -> Path:
     return path
 
 
+def summary_row(result: dict, units: dict[str, str]) -> dict:
+    """A stage's row of ``summary.csv`` (the runner writes it as stages finish; a run
+    directory without it gets it rebuilt by ``summary_rows``): settings and components
+    named with their units (``exposure_s``, ``reg:sf_bias_v``, ``Ps_dn2``, ``Ps_se_dn2``,
+    ``Pg_rel_var``: ``ares.labels.with_unit``; ``units`` from ``System.setting_units``)."""
+    from ares.labels import with_unit
+
+    row = {"index": result["index"], "name": result["name"], "scene": result["scene"], "frames": result["frames"],
+           "dark_frames": result.get("dark_frames", 0)}
+    for k, v in result["settings"].items():
+        row[with_unit(k, units.get(k, ""))] = v
+    full = result["views"]["full"]
+    row["mean_dn"] = full["level"]["mean_dn"]
+    row["var_dn2"] = full["level"]["var_dn2"]
+    if "dark_level" in full:
+        row["dark_mean_dn"] = full["dark_level"]["mean_dn"]
+        row["dark_var_dn2"] = full["dark_level"]["var_dn2"]
+    for k, e in (full.get("components") or {}).items():
+        unit = e.get("unit", "")
+        row[with_unit(k, unit)] = e.get("value")
+        row[with_unit(f"{k}_se", unit)] = e.get("se")
+    return row
+
+
 def summary_rows(run) -> tuple[list[dict], list[str]]:
     """The runner's per-stage table (its ``summary.csv`` layout), rebuilt from the stage
     results -- for a run directory written without CSV output."""
-    rows: list[dict] = []
-    for st in run.stages:
-        full = st["views"]["full"]
-        row = {"index": st["index"], "name": st["name"], "scene": st["scene"], "frames": st["frames"],
-               "dark_frames": st.get("dark_frames", 0), **st["settings"],
-               "mean_dn": full["level"]["mean_dn"], "var_dn2": full["level"]["var_dn2"]}
-        if "dark_level" in full:
-            row["dark_mean_dn"] = full["dark_level"]["mean_dn"]
-            row["dark_var_dn2"] = full["dark_level"]["var_dn2"]
-        for k, e in (full.get("components") or {}).items():
-            row[k] = e.get("value")
-            row[f"{k}_se"] = e.get("se")
-        rows.append(row)
+    units = run.setting_units
+    rows = [summary_row(st, units) for st in run.stages]
     cols: list[str] = []
     for r in rows:
         cols += [k for k in r if k not in cols]
@@ -86,7 +99,7 @@ def write_csv(run, out_dir: str | Path, groups=None, kf=None) -> list[Path]:
         elif run.stages:
             extra.append(_write(out / "summary.csv", to_csv(*summary_rows(run))))
     return extra + [
-        _write(out / "ptc.csv", to_csv(tables.ptc_rows(groups), tables.PTC_COLUMNS)),
+        _write(out / "ptc.csv", to_csv(*tables.ptc_export(run, groups))),
         _write(out / "components.csv", to_csv(comp, tables.COMPONENT_COLUMNS)),
         _write(out / "levels.csv", to_csv([r for st in run.stages for r in tables.level_rows(st)],
                                           tables.LEVEL_COLUMNS)),

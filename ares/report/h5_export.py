@@ -30,9 +30,18 @@ def _column(values: list):
 
 
 def _table(group, rows: list[dict], columns) -> None:
+    """One dataset per column, each with its unit (attribute ``unit``: from the column's name,
+    ``ares.labels``; a table with a ``unit`` column says so for its ``value`` and ``se``)."""
+    from ares.labels import unit_of_column
+
     group.attrs["columns"] = json.dumps(list(columns))
     for c in columns:
-        group.create_dataset(c, data=_column([r.get(c) for r in rows]))
+        ds = group.create_dataset(c, data=_column([r.get(c) for r in rows]))
+        unit = unit_of_column(c)
+        if c in ("value", "se") and "unit" in columns:
+            unit = "per row: the 'unit' column"
+        if unit:
+            ds.attrs["unit"] = unit
 
 
 def write_h5(run, path: str | Path, groups=None, kf=None) -> Path:
@@ -52,7 +61,7 @@ def write_h5(run, path: str | Path, groups=None, kf=None) -> Path:
         if run.attribution:
             f.attrs["attribution"] = run.attribution
         _table(f.create_group("key_figures"), [dict(r) for r in key_figure_rows(kf)], KEY_FIGURE_COLUMNS)
-        _table(f.create_group("ptc"), tables.ptc_rows(groups), tables.PTC_COLUMNS)
+        _table(f.create_group("ptc"), *tables.ptc_export(run, groups))
         _table(f.create_group("components"), [r for st in run.stages for r in tables.component_rows(st)],
                tables.COMPONENT_COLUMNS)
         _table(f.create_group("levels"), [r for st in run.stages for r in tables.level_rows(st)],

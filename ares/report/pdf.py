@@ -113,8 +113,8 @@ def snr_linearity_page(g: tables.PtcGroup, rows: list[dict]):
     fig = new_page(f"SNR and linearity (analog gain x{g.analog_gain:g})")
     ax1 = fig.add_axes([0.11, 0.58, 0.83, 0.34])
     plots.snr_curve(ax1, g.result, "signal-to-noise ratio")
-    ax2 = fig.add_axes([0.11, 0.27, 0.83, 0.23])
-    ax3 = fig.add_axes([0.11, 0.07, 0.83, 0.15], sharex=ax2)
+    ax2 = fig.add_axes([0.11, 0.29, 0.83, 0.21])
+    ax3 = fig.add_axes([0.11, 0.07, 0.83, 0.15])  # its own x axis: log for a log-spaced sweep
     plots.linearity(ax2, ax3, rows, "linearity: signal vs illumination")
     return fig
 

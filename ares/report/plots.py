@@ -216,15 +216,20 @@ def linearity(ax, ax_dev, rows: list[dict], title: str) -> None:
     if good.any():
         hidden = int(np.sum(np.isfinite(x) & (x > x[good].max() * 1.15)))
         pos = x[good & (x > 0)]
-        if pos.size >= 2 and pos.max() / pos.min() > 100:  # log-spaced sweep
-            ax.set_xscale("log")
-            ax.set_xlim(pos.min() / 1.5, x[good].max() * 1.3)
+        # signal vs illumination on linear axes (EMVA 1288's linearity graph): on a log x axis
+        # the fitted line (with its offset) looks curved. The deviation panel below takes a log
+        # x axis for a log-spaced sweep, so that its low levels are not crowded at 0.
+        ax.set_xlim(-0.02 * x[good].max(), x[good].max() * 1.15)
+        if pos.size >= 2 and pos.max() / pos.min() > 100:
+            ax_dev.set_xscale("log")
+            ax_dev.set_xlim(pos.min() / 1.5, x[good].max() * 1.3)
         else:
-            ax.set_xlim(-0.02 * x[good].max(), x[good].max() * 1.15)
+            ax_dev.set_xlim(-0.02 * x[good].max(), x[good].max() * 1.15)
         if hidden:
             ax.text(0.98, 0.03, f"{hidden} excluded level(s) beyond the axis", transform=ax.transAxes,
                     ha="right", fontsize=7, color="C3")
     ax.legend(loc="upper left")
+    ax.set_xlabel(xl, fontsize=8)
     ax_dev.set_xlabel(xl)
     ax_dev.set_ylabel("deviation from line (%)")
     ax_dev.grid(alpha=0.3)

@@ -64,27 +64,36 @@ def dark_page(run, series: dict):
     fig = new_page("Dark signal vs exposure", "dark stages; dark current = slope of the dark mean vs exposure")
     dc = available(run, "dark_current")
     ax1 = fig.add_axes([0.11, 0.64, 0.83, 0.27])
-    ax2 = fig.add_axes([0.11, 0.3 if dc else 0.1, 0.83, 0.27])
+    # temporal and spatial variance on axes of their own: the spatial (DSNU) variance is
+    # orders above the temporal one, whose slope (the dark shot noise) would be flat beside it
+    y2 = 0.3 if dc else 0.1
+    ax2 = fig.add_axes([0.11, y2, 0.37, 0.25])
+    ax3 = fig.add_axes([0.59, y2, 0.35, 0.25])
     for k, (t, s) in enumerate(sorted(series.items(), key=lambda kv: (kv[0] is None, kv[0] or 0))):
         lab = "" if t is None else f"{t:g} C"
         ax1.plot(s["exposure_s"], s["mean_dn"], "o", color=f"C{k}", label=lab or "dark mean")
-        ax2.plot(s["exposure_s"], s["var_dn2"], "o", color=f"C{k}", label=(lab + " temporal").strip())
-        ax2.plot(s["exposure_s"], s["spatial_var_dn2"], "s", mfc="none", color=f"C{k}",
-                 label=(lab + " spatial").strip())
+        ax2.plot(s["exposure_s"], s["var_dn2"], "o", color=f"C{k}", label=lab or "temporal")
+        ax3.plot(s["exposure_s"], s["spatial_var_dn2"], "s", mfc="none", color=f"C{k}", label=lab or "spatial")
         if np.unique(s["exposure_s"]).size >= 2:
             lf = line_fit(s["exposure_s"], s["mean_dn"])
             xs = np.linspace(0, s["exposure_s"].max(), 20)
             ax1.plot(xs, lf.intercept + lf.slope * xs, "-", color=f"C{k}", lw=0.8,
-                     label=f"{lab} fit: {lf.slope:.4g} ± {lf.slope_se:.2g} DN/s".strip())
+                     label=f"{lab} fit: {tables.fmt_value(lf.slope, lf.slope_se, 'DN/s')}".strip())
+            lv = line_fit(s["exposure_s"], s["var_dn2"])
+            ax2.plot(xs, lv.intercept + lv.slope * xs, "-", color=f"C{k}", lw=0.8,
+                     label=f"{lab} slope {tables.fmt_value(lv.slope, lv.slope_se, 'DN^2/s')}".strip())
     ax1.set_xlabel("exposure (s)")
     ax1.set_ylabel("dark mean (DN)")
     ax1.set_title("dark mean vs exposure")
     ax2.set_xlabel("exposure (s)")
-    ax2.set_ylabel("variance (DN^2)")
-    ax2.set_title("dark temporal and spatial variance vs exposure")
-    for a in (ax1, ax2):
+    ax2.set_ylabel("temporal variance (DN^2)")
+    ax2.set_title("temporal variance vs exposure", fontsize=9)
+    ax3.set_xlabel("exposure (s)")
+    ax3.set_ylabel("spatial variance (DN^2)")
+    ax3.set_title("spatial variance (DSNU^2) vs exposure", fontsize=9)
+    for a in (ax1, ax2, ax3):
         a.grid(alpha=0.3)
-        a.legend(fontsize=7, ncol=2)
+        a.legend(fontsize=7, ncol=2 if a is ax1 else 1)
     if dc:
         rows = [r for r in analysis_rows(dc, skip_na=True) if not r[0].endswith("temperature_c")]
         _table(fig, 0.22, rows, "dark_current analysis (scan_results.json)", n=12)

@@ -84,16 +84,9 @@ class Run:
         try:
             from ares.protocol import load_system
 
-            sy = load_system(self.dir / rel)
+            return load_system(self.dir / rel).setting_units()
         except Exception:  # noqa: BLE001 -- a label without its unit, never a failed report
             return units
-        if sy.light_source is not None and sy.light_source.unit:
-            units["light"] = sy.light_source.unit
-        for name in sy.registers.names():
-            u = sy.registers.field(name).unit
-            if u:
-                units[f"reg:{name}"] = u
-        return units
 
     def arrays(self, index: int) -> dict[str, np.ndarray]:
         """Arrays of stage ``index`` from results.h5 ({} when absent)."""

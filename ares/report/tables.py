@@ -212,6 +212,15 @@ PTC_COLUMNS = ("analog_gain", "stage_index", "stage", "exposure_s", "light", "ph
                "reason", "bright_variance_dn2", "n_pixels", "n_frames", "dark_n_frames", "signal_se_dn")
 
 
+def ptc_export(run, groups: list[PtcGroup]) -> tuple[list[dict], list[str]]:
+    """``ptc_rows`` as ptc.csv and report.h5 hold them: every column named with its unit
+    (``light`` -> ``light_<the light source's unit>``, ``photons`` -> ``photons_per_pixel``;
+    ``ares ptc`` reads both spellings)."""
+    rename = {"light": labels.with_unit("light", run.setting_units.get("light", "")), "photons": "photons_per_pixel"}
+    rows = [{rename.get(k, k): v for k, v in r.items()} for r in ptc_rows(groups)]
+    return rows, [rename.get(c, c) for c in PTC_COLUMNS]
+
+
 def ptc_rows(groups: list[PtcGroup]) -> list[dict]:
     """One row per PTC level: the stage numbers, dark-subtracted signal/variance, SE, status."""
     rows = []

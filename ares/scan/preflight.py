@@ -82,6 +82,10 @@ def check_run(scan, frames: int | None = None, seed: int | None = None) -> Plan:
         from ares.hardware.factory import sim_params
 
         sim_params(scan.system)
+    if scan.system.replay is not None:  # recorded data: there, readable, of the declared sensor
+        from ares.hardware.replay import replay_descriptor
+
+        replay_descriptor(scan.system)
     need = memory_bytes(scan, stages)
     total, avail = machine_memory()
     if total is not None and need > total:

@@ -29,7 +29,9 @@ Layout (all paths relative to the run directory)::
                         written as NNNN.h5.partial and renamed when the stage completes
     summary.csv         one row per completed stage: index, name, scene, frames,
                         settings..., mean/variance and the main components of view
-                        "full" (rewritten atomically per stage)
+                        "full", every column named with its unit (exposure_s,
+                        Ps_dn2: ares.labels.with_unit) (rewritten atomically per stage);
+                        every HDF5 dataset carries its unit as attribute "unit"
     scan_results.json   scan-level analyses (PTC fit ...) and limit checks, at the end
 
 Each stage's files are flushed (fsync) before the next stage starts, so killing a run
@@ -59,6 +61,7 @@ from pathlib import Path
 import numpy as np
 
 from ares.errors import InputError, StorageError
+from ares.labels import array_unit
 from ares.runstate import Heartbeat, effective_status, is_storage_error, owner, storage_sentence
 
 SUMMARY_COMPONENTS = ("o", "Pt", "Ps", "Rt", "Rs", "Ct", "Cs", "frame_global")
@@ -223,7 +226,7 @@ class RunWriter:
         self.scan = scan
         self.meta = json.loads((self.dir / "run.json").read_text())
         self.save_frames = bool(self.meta.get("save_frames"))
-        self.rows = [summary_row(st) for st in stages]
+        self.rows = [_summary_row(st, self.scan) for st in stages]
         self.h5_stages = [f"{st['index']:04d}" for st in stages if (self.dir / "stages" / f"{st['index']:04d}.h5").exists()]
         resumed = list(self.meta.get("resumed") or [])
         resumed.append({"at": time.strftime("%Y-%m-%dT%H:%M:%S%z"), "from_stage": len(stages),
@@ -268,7 +271,7 @@ class RunWriter:
             dump_json(self.dir / "stages" / f"{i:04d}.json", record)
             if self.scan.output.hdf5:
                 self._write_index(f"{i:04d}")
-            self.rows.append(summary_row(result))
+            self.rows.append(_summary_row(result, self.scan))
             if self.scan.output.csv:
                 write_atomic(self.dir / "summary.csv", summary_csv(self.rows))
         self.meta["stages_completed"] = len(self.rows)
@@ -290,9 +293,11 @@ class RunWriter:
                 # stage (12x the plain write) to save 18 % on float32 noise; integer maps
                 # (the defect mask) shrink >10x for ~nothing (benchmarks/stage_write.md)
                 packed = a.ndim == 2 and a.dtype.kind in "iub"
-                f.create_dataset(k, data=a, chunks=a.shape if packed and a.size else None,
-                                 compression="gzip" if packed else None, compression_opts=1 if packed else None,
-                                 shuffle=packed)
+                ds = f.create_dataset(k, data=a, chunks=a.shape if packed and a.size else None,
+                                      compression="gzip" if packed else None, compression_opts=1 if packed else None,
+                                      shuffle=packed)
+                if array_unit(k):
+                    ds.attrs["unit"] = array_unit(k)
             f.attrs["name"] = result["name"]
             f.attrs["scene"] = result["scene"]
             f.attrs["settings"] = json.dumps(_clean(result["settings"]))
@@ -353,6 +358,7 @@ class FrameWriter:
         if ds is None:
             ds = self.ds[key] = self.f.create_dataset(key, shape=(0, *self.shape), maxshape=(None, *self.shape),
                                                       dtype=data.dtype, chunks=(1, *self.shape))
+            ds.attrs["unit"] = array_unit(key)
         ds.resize(ds.shape[0] + 1, axis=0)
         ds[-1] = data
 
@@ -364,21 +370,10 @@ class FrameWriter:
             self.partial.unlink(missing_ok=True)
 
 
-def summary_row(result: dict) -> dict:
-    row = {"index": result["index"], "name": result["name"], "scene": result["scene"], "frames": result["frames"],
-           "dark_frames": result["dark_frames"]}
-    for k, v in result["settings"].items():
-        row[k] = v
-    full = result["views"]["full"]
-    row["mean_dn"] = full["level"]["mean_dn"]
-    row["var_dn2"] = full["level"]["var_dn2"]
-    if "dark_level" in full:
-        row["dark_mean_dn"] = full["dark_level"]["mean_dn"]
-        row["dark_var_dn2"] = full["dark_level"]["var_dn2"]
-    for k, e in full["components"].items():
-        row[k] = e.get("value")
-        row[f"{k}_se"] = e.get("se")
-    return row
+def _summary_row(result: dict, scan) -> dict:
+    from ares.report.csv_export import summary_row  # (the report's layout; imported when a stage is written)
+
+    return summary_row(result, scan.system.setting_units())
 
 
 def summary_csv(rows: list[dict]) -> bytes:
@@ -443,5 +438,11 @@ def load_run(run_dir: str | Path) -> RunRecord:
         if sha256(p.read_bytes()) != meta[key.replace("_file", "_sha256")]:
             raise InputError(f"{p}: SHA-256 differs from the one recorded in run.json (file was modified)")
     scan = load_scan(d / meta["scan_file"], system_path=d / meta["system_file"])
+    if scan.system.replay is not None:  # recorded data where the run found it, not below xml/
+        import dataclasses
+
+        from ares.hardware.replay import relocate_replay
+
+        scan = dataclasses.replace(scan, system=relocate_replay(scan.system, meta.get("bench")))
     stages = [json.loads(p.read_text()) for p in sorted((d / "stages").glob("[0-9][0-9][0-9][0-9].json"))]
     return RunRecord(d, meta, scan, stages)

@@ -59,6 +59,11 @@ class InfoModel(Observable):
         self.items.update({k.replace("_", " "): str(v) for k, v in items.items()})
         self._changed()
 
+    def forget(self, keys) -> None:
+        if any(k in self.items for k in keys):
+            self.items = {k: v for k, v in self.items.items() if k not in keys}
+            self._changed()
+
 
 class SessionModel:
     def __init__(self, regions: RegionSet | None = None) -> None:
@@ -76,6 +81,7 @@ class SessionModel:
         self.components = ComponentsModel()
         self.defects = DefectCountsModel()
         self.info = InfoModel()
+        self._result_keys: set[str] = set()  # Information items that are a run's figures
         self.views = ViewModel(self.regions)
         self.stages = StageStore()
         self.visible: set[str] | None = None  # None: every tab (no window says otherwise)
@@ -178,6 +184,8 @@ class SessionModel:
 
     # ---- run lifecycle ----------------------------------------------------------------
     def begin_run(self, title: str = "") -> None:
+        self.info.forget(self._result_keys)  # the previous run's figures are not this run's
+        self._result_keys = set()
         self.progress.reset()
         self.progress.update(state=P.RUNNING, message=f"Running {title}".strip())
         self.ptc.clear()
@@ -225,11 +233,15 @@ class SessionModel:
             if ev.limit_failures:
                 message = (f"Scan finished; {len(ev.limit_failures)} limit(s) failed: "
                            + "; ".join(ev.limit_failures) + ".")
-            self.info.update(limits=message.removeprefix("Scan finished; ") if ev.limit_failures
-                             else "all passed (or none set)")
+            n = int(ev.summary.get("limits_set", -1)) if isinstance(ev.summary, dict) else -1
+            limits = (message.removeprefix("Scan finished; ") if ev.limit_failures
+                      else "none set" if n == 0 else f"all {n} passed" if n > 0 else "all passed")
+            self._results({"limits": limits})
             self.progress.update(state=P.DONE, fraction=1.0, seconds_remaining=0.0, message=message)
         elif isinstance(ev, Stopped):
             self._end_of_run()
+            self._summary(ev.summary)  # the stopped run's own figures (or their reasons), never another's
+            self._results({"limits": "not checked (the run was stopped)"})
             if ev.run_dir:
                 self.info.update(run_directory=ev.run_dir)
             self.progress.update(state=P.STOPPED, seconds_remaining=None,
@@ -390,10 +402,15 @@ class SessionModel:
         else:
             self.profiles.update(ev.mean, self.regions.active() or [(-1, full_frame(ev.mean.shape))])
 
+    def _results(self, items: dict) -> None:
+        """Figures of the run shown in the Information tab: forgotten when the next run starts."""
+        self._result_keys |= set(items)
+        self.info.update(items)
+
     def _summary(self, summary: dict) -> None:
         results = summary.get("results")
         if isinstance(results, dict) and results:
-            self.info.update(results)
+            self._results(results)
         if summary.get("ptc_level_status"):
             self.ptc.set_status(summary["ptc_level_status"])
         gain = summary.get("gain_e_per_dn")
