@@ -127,3 +127,42 @@ def format_dict(d, with_unit: bool = True, with_reason: bool = False) -> str:
     if not isinstance(d, dict):
         return "n/a"
     return Estimate.from_dict(d).text(with_unit, with_reason)
+
+
+# The relative gain spreads of the 13-component model (variances of G·Cg, G·Rg, G·Pg over G):
+# every surface shows them as % rms, the datasheet's unit; JSON/CSV/HDF5 keep the variance.
+GAIN_SPREADS = ("Cg", "Rg", "Pg")
+
+
+def component_display(c: str, d: dict) -> tuple[str, str]:
+    """(value ± SE, unit) of a component's JSON form as every surface shows it: gain
+    spreads (relative variances) as % rms with the SE propagated; a variance estimated
+    below 0 as an upper limit when within 2 SE of 0, else "the model does not fit"; the
+    rest as value ± SE with the SE's digits (``format_value``)."""
+    v, se = d.get("value"), d.get("se")
+    finite_se = se is not None and math.isfinite(se)
+    if v is None or not math.isfinite(v):
+        return "n/a" + (f" ({d['note']})" if d.get("note") else ""), d.get("unit", "")
+    if c in GAIN_SPREADS:
+        if v <= 0:
+            ub = 100 * math.sqrt(max(v, 0.0) + 2 * se) if finite_se else math.nan
+            return (f"< {ub:.2g} (variance ≤ 0)" if math.isfinite(ub) else "n/a (negative variance)"), "% rms"
+        r = 100 * math.sqrt(v)
+        return format_value(r, 100 * se / (2 * math.sqrt(v)) if finite_se else None), "% rms"
+    unit = d.get("unit", "")
+    if v < 0 and unit.endswith("^2"):  # a variance estimated below 0: a bound or a misfit
+        if finite_se and v + 2 * se >= 0:
+            return f"< {format_value(v + 2 * se)} (est. {v:.2g})", unit
+        return f"n/a (negative variance {v:.3g} ± {se:.2g} {unit}: the model does not fit)", unit
+    return format_value(v, se), unit
+
+
+def component_text(c: str, d: dict) -> str:
+    """``component_display`` as one string, the unit after the number."""
+    text, unit = component_display(c, d)
+    if text.startswith("n/a") or not unit:
+        return text
+    if text.startswith("<") and "(" in text:  # "< 0.23 (variance ≤ 0)" -> "< 0.23 % rms (variance ≤ 0)"
+        head, _, tail = text.partition(" (")
+        return f"{head} {unit} ({tail}"
+    return f"{text} {unit}"

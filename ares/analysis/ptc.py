@@ -391,12 +391,12 @@ def analyze_ptc(bright: Sequence[LevelStats], dark: Sequence[LevelStats], *, exp
     if photons is not None and gain.available and fit:
         R = origin_fit([lv.photons for lv in fit], [lv.signal for lv in fit])
         if R.slope > 0 and math.isfinite(R.slope):
-            qv = R.slope / gain.value
-            qe = Estimate(qv, qv * math.hypot(R.slope_se / R.slope, gain.se / gain.value), "", "R/K (EMVA 1288 Eq. 52)")
+            qv = 100 * R.slope / gain.value  # in %, as every surface states it
+            qe = Estimate(qv, qv * math.hypot(R.slope_se / R.slope, gain.se / gain.value), "%", "R/K (EMVA 1288 Eq. 52)")
         else:
-            qe = Estimate.na(f"the signal does not rise with the photon counts (responsivity {R.slope:.3g} DN/photon)", "")
+            qe = Estimate.na(f"the signal does not rise with the photon counts (responsivity {R.slope:.3g} DN/photon)", "%")
     else:
-        qe = Estimate.na("photon counts not given", "")
+        qe = Estimate.na("photon counts not given", "%")
 
     sens = sensitivity_threshold(rn_dn, gain)
     sat = fw["saturation_capacity"]

@@ -120,21 +120,32 @@ def snr_linearity_page(g: tables.PtcGroup, rows: list[dict]):
 
 
 def _component_table(fig, y: float, stage: dict, part: str, title: str) -> float:
-    comps = stage["views"]["full"].get(part) or {}
+    """A stage's components of ``part``; with a defect mask (``components_masked``, the
+    figures the terminal and the key figures state) those are the values, and the
+    all-pixel estimate stands beside each under its own heading."""
+    full = stage["views"]["full"]
+    masked = part == "components" and bool(full.get("components_masked"))
+    comps = (full.get("components_masked") if masked else full.get(part)) or {}
     rows = []
     for c in tables._ordered(comps):
         e = comps[c]
         n = tables.COMPONENTS.index(c) + 1 if c in tables.COMPONENTS else ""
-        rows.append([f"{n} {c}".strip(), tables.component_text(c, e),
-                     tables.component_label(c, part), e.get("note", "")])
+        row = [f"{n} {c}".strip(), tables.component_text(c, e)]
+        if masked:
+            row.append(tables.component_text(c, (full.get("components") or {}).get(c) or {}))
+        rows.append(row + [tables.component_label(c, part), e.get("note", "")])
+    if masked:
+        title += f": {full.get('masked_pixels', 0)} defect pixels excluded"
+        return text_table(fig, (0.06, y, 0.9), ["component", "defects excluded", "all pixels", "meaning", "note"],
+                          rows, [0.12, 0.23, 0.23, 0.22, 0.2], fontsize=8, title=title,
+                          max_chars=[12, 26, 26, 26, 24])
     return text_table(fig, (0.06, y, 0.9), ["component", "value ± SE", "meaning", "note"], rows,
                       [0.14, 0.3, 0.26, 0.3], fontsize=8.5, title=title, max_chars=[14, 30, 30, 36])
 
 
 def components_page(run, mid: dict | None, dark: dict | None):
     fig = new_page("Noise components (ANOVA, view 'full')",
-                   "13-component model v = o + Cs + Ct + Rs + Rt + Ps + Pt + G·Cg·Rg·Pg·(q + delta); "
-                   "variances in DN^2")
+                   "model v = o+Cs+Ct+Rs+Rt+Ps+Pt+G·Cg·Rg·Pg·(q+delta); variances in DN^2, Cg/Rg/Pg in % rms")
     y = 0.92
     if mid is not None:
         s = ", ".join(f"{k}={v:g}" if isinstance(v, (int, float)) else f"{k}={v}" for k, v in mid["settings"].items())
@@ -142,7 +153,8 @@ def components_page(run, mid: dict | None, dark: dict | None):
         fig.text(0.06, y - 0.003, plots.clip("settings: " + s, 130), fontsize=7.5, va="top", color="0.3")
         y -= 0.04
         if "flat_anova" in mid["views"]["full"]:
-            y = _component_table(fig, y, mid, "flat_anova", f"ANOVA of the flat stack itself ({mid['name']})")
+            y = _component_table(fig, y, mid, "flat_anova", f"ANOVA of the flat stack itself ({mid['name']}, "
+                                                            "all pixels)")
             y -= 0.03
     if dark is not None and dark is not mid and y > 0.3:
         _component_table(fig, y, dark, "components", f"dark stage {dark['name']}")
@@ -152,22 +164,37 @@ def components_page(run, mid: dict | None, dark: dict | None):
 VIEW_COLUMNS = ("Pt", "Ps", "Rt", "Rs", "Ct", "Cs", "G", "Pg")
 
 
+def _num(x) -> str:
+    return "n/a" if x is None else f"{x:.4g}"
+
+
+def _view_cell(c: str, d: dict) -> str:
+    """A component's value in the per-view table: gain spreads in % rms, as on every other
+    surface (their SEs are in components.csv with the rest)."""
+    if c in tables.GAIN_SPREADS:
+        return tables.component_display(c, d)[0].split(" ± ")[0]
+    return _num(d.get("value"))
+
+
 def views_page(stage: dict):
-    """The main components of every view (regions, CFA phases, ADC channels) of a stage."""
+    """The main components of every view (regions, CFA phases, ADC channels) of a stage;
+    the full frame also without its defect pixels where a mask was applied (the values
+    the terminal and the key figures state)."""
     fig = new_page(f"Components per view: stage {stage['name']}",
-                   "variances in DN^2, G in DN/e-, Pg relative; standard errors in components.csv")
+                   "variances in DN^2, G in DN/e-, Pg in % rms; '(masked)': defect pixels excluded; "
+                   "standard errors in components.csv")
     rows = []
+    listed = []
     for view, v in stage["views"].items():
-        comps, lv = v.get("components") or {}, v.get("level") or {}
-
-        def f(x):
-            return "n/a" if x is None else f"{x:.4g}"
-
-        rows.append([view, str(lv.get("n_pixels", "")), f(lv.get("mean_dn")), f(lv.get("var_dn2"))]
-                    + [f((comps.get(c) or {}).get("value")) for c in VIEW_COLUMNS])
+        listed.append((view, v.get("components") or {}, v.get("level") or {}))
+        if v.get("components_masked"):
+            listed.append((f"{view} (masked)", v["components_masked"], v.get("level_masked") or {}))
+    for view, comps, lv in listed:
+        rows.append([view, str(lv.get("n_pixels", "")), _num(lv.get("mean_dn")), _num(lv.get("var_dn2"))]
+                    + [_view_cell(c, comps.get(c) or {}) for c in VIEW_COLUMNS])
     y = text_table(fig, (0.04, 0.92, 0.93), ["view", "pixels", "mean", "var"] + list(VIEW_COLUMNS), rows[:30],
-                   [0.1, 0.07, 0.08, 0.08] + [0.085] * len(VIEW_COLUMNS), fontsize=7.5,
-                   max_chars=[12, 8, 9, 9] + [9] * len(VIEW_COLUMNS))
+                   [0.13, 0.07, 0.08, 0.08] + [0.08] * len(VIEW_COLUMNS), fontsize=7.5,
+                   max_chars=[18, 8, 9, 9] + [9] * len(VIEW_COLUMNS))
     var_c = [c for c in VIEW_COLUMNS if c not in ("G", "Pg")]
     views = list(stage["views"])[:12]
     if y > 0.35:

@@ -15,7 +15,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ares.analysis.estimate import Estimate, format_value
+from ares.analysis.estimate import (GAIN_SPREADS, Estimate, component_display, component_text,  # noqa: F401
+                                    format_value)  # (component_* re-exported for the report pages)
 from ares.analysis.levels import LevelStats
 from ares import labels
 from ares.analysis.ptc import PtcResult, analyze_ptc
@@ -24,32 +25,14 @@ from ares.analysis.ptc import PtcResult, analyze_ptc
 COMPONENTS = ("o", "Cs", "Ct", "Rs", "Rt", "Ps", "Pt", "G", "Cg", "Rg", "Pg", "q", "delta")
 EXTRA_COMPONENTS = ("frame_global", "signal")
 COMPONENT_LABELS = labels.COMPONENTS
-COMPONENT_PARTS = ("components", "dark_components", "flat_anova")
-GAIN_SPREADS = ("Cg", "Rg", "Pg")  # relative variances of the gain, shown as % rms
+# "components" holds every pixel; "components_masked" (the figures the terminal and the key
+# figures state where the run masked its defect pixels) leaves the defect pixels out
+COMPONENT_PARTS = ("components", "components_masked", "dark_components", "flat_anova")
+PART_NOTES = {"components": "all pixels", "components_masked": "defect pixels excluded"}
 
 
 component_label = labels.component_label
 
-
-def component_text(c: str, e: dict) -> str:
-    """A component as a datasheet reader expects it: gain spreads (relative variances) as
-    % rms with their SE propagated; the rest as value ± SE unit with the SE's digits."""
-    v, se = e.get("value"), e.get("se")
-    if c in GAIN_SPREADS and v is not None and math.isfinite(v):
-        if v <= 0:
-            ub = 100 * math.sqrt(max(v, 0.0) + 2 * se) if se is not None and math.isfinite(se) else math.nan
-            return (f"< {ub:.2g} % rms (variance ≤ 0)" if math.isfinite(ub) else "n/a (negative variance)")
-        r = 100 * math.sqrt(v)
-        rse = 100 * se / (2 * math.sqrt(v)) if se is not None and math.isfinite(se) else None
-        return fmt_value(r, rse, "% rms")
-    if v is None:
-        return "n/a" + (f" ({e['note']})" if e.get("note") else "")
-    unit = e.get("unit", "")
-    if v < 0 and unit.endswith("^2"):  # a variance estimated below 0: a bound or a misfit
-        if se is not None and math.isfinite(se) and v + 2 * se >= 0:
-            return f"< {fmt_value(v + 2 * se, None, unit)} (est. {v:.2g})"  # consistent with 0
-        return f"n/a (negative variance {v:.3g} ± {se:.2g} {unit}: the model does not fit)"
-    return fmt_value(v, se, unit)
 
 FULL_WELL_LABELS = {
     "saturation_capacity": "saturation capacity (EMVA 1288 4.0)",
@@ -271,7 +254,9 @@ def component_rows(stage: dict, views: list[str] | None = None) -> list[dict]:
                 e = comps[c] if isinstance(comps[c], dict) else {}
                 rows.append({"stage_index": stage["index"], "stage": stage["name"], "scene": stage.get("scene"),
                              "view": view, "part": part, "component": c,
-                             "description": COMPONENT_LABELS.get(c, ""), "value": e.get("value"),
+                             "description": COMPONENT_LABELS.get(c, "") + (
+                                 f" ({PART_NOTES[part]})" if part in PART_NOTES and "components_masked" in v else ""),
+                             "value": e.get("value"),
                              "se": e.get("se"), "unit": e.get("unit", ""), "note": e.get("note", "")})
     return rows
 
@@ -403,7 +388,7 @@ def compute_key_figures(run, groups: list[PtcGroup] | None = None) -> dict:
                                                   "prnu_pct": "PRNU (total-noise model)"}.get(k, k), e,
                                                  "PTC recomputed")
         q = pick("qe", res and res.qe)
-        if q.available and q.unit in ("", "1"):  # a fraction: shown in % as a datasheet does
+        if q.available and q.unit in ("", "1"):  # a fraction (run directories before QE was in %)
             q = Estimate(100 * q.value, 100 * q.se, "%", q.note)
         kf["qe"] = _entry("quantum efficiency", q, src)
         kf["linearity_error_pct"] = _entry("linearity error",

@@ -11,7 +11,7 @@ import math
 from dataclasses import dataclass
 
 from ares import labels
-from ares.analysis.estimate import format_value
+from ares.analysis.estimate import component_display
 
 from .observable import Observable
 
@@ -30,9 +30,17 @@ class ComponentRow:
 
     @property
     def text(self) -> str:
-        if not math.isfinite(self.value):
-            return "n/a" + (f" ({self.note})" if self.note else "")
-        return format_value(self.value, self.se)
+        """The value as the CLI and the PDF show it (gain spreads in % rms, the SE's digits)."""
+        return self._shown()[0]
+
+    @property
+    def shown_unit(self) -> str:
+        return self._shown()[1]
+
+    def _shown(self) -> tuple[str, str]:
+        d = {"value": self.value if math.isfinite(self.value) else None,
+             "se": self.se if math.isfinite(self.se) else None, "unit": self.unit, "note": self.note}
+        return component_display(self.symbol, d)
 
 
 def _num(v) -> float:
@@ -60,8 +68,17 @@ class ComponentsModel(Observable):
             self.view = view
             self._changed()
 
+    def masked_pixels(self) -> int:
+        """Defect pixels left out of the view's components (0: none, or no mask)."""
+        v = self.views.get(self.view) or {}
+        return int(v.get("masked_pixels") or 0) if v.get("components_masked") else 0
+
     def rows(self, which: str = "components") -> list[ComponentRow]:
-        comps = (self.views.get(self.view) or {}).get(which) or {}
+        """The view's components as the terminal and the report state them: with a defect
+        mask, the decomposition without the defect pixels (``components_masked``)."""
+        v = self.views.get(self.view) or {}
+        comps = (v.get("components_masked") if which == "components" and v.get("components_masked")
+                 else v.get(which)) or {}
         order = [k for k in DESCRIPTIONS if k in comps] + [k for k in comps if k not in DESCRIPTIONS]
         out = []
         for k in order:

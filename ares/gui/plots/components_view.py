@@ -42,7 +42,9 @@ class ComponentsView(QWidget):
             self.caption.setText(f"{m.caption}: the engine has no decomposition of this view "
                                  f"(views: {', '.join(m.views)}).")
         else:
-            self.caption.setText(f"{m.caption}, engine view '{m.view}'")
+            n = m.masked_pixels()
+            self.caption.setText(f"{m.caption}, engine view '{m.view}'"
+                                 + (f"; {n} defect pixels excluded (as the report and the terminal)" if n else ""))
         for which, table in self.tables.items():
             rows = m.rows(which)
             visible = which == "components" or bool(rows)  # the dark table only when reported apart
@@ -50,5 +52,5 @@ class ComponentsView(QWidget):
             self.titles[which].setVisible(visible)
             table.setRowCount(len(rows))
             for r, row in enumerate(rows):
-                for c, text in enumerate((row.symbol, row.description, row.text, row.unit)):
+                for c, text in enumerate((row.symbol, row.description, row.text, row.shown_unit)):
                     table.setItem(r, c, QTableWidgetItem(text))

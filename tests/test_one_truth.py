@@ -1,0 +1,211 @@
+"""One truth on every surface (issue 34): each shipped scan is run as a user runs it, and
+every figure is read back from what the user sees -- the terminal, scan_results.json,
+key_figures.csv, report.h5, the PDF's text and the window's models -- and compared:
+the same value, SE, unit, digits and verdict wherever it appears. A key figure that is
+in the tables but missing from the PDF, or a component the terminal prints that the PDF,
+the CSV or the window state differently, fails.
+
+(The terminal is a summary: it prints the photon-transfer figures, the decomposition's
+components and every scan-level analysis's estimates, not the derived table rows such as
+the alternative full-well definitions; those are in the PDF, CSV, HDF5 and JSON.)"""
+
+from __future__ import annotations
+
+import csv
+import json
+import math
+import re
+from pathlib import Path
+
+import h5py
+import pytest
+
+from ares import labels
+from ares.analysis.estimate import Estimate, component_text, format_dict
+from ares.cli import main
+from pdftext import page_texts
+
+ROOT = Path(__file__).resolve().parents[1]
+DATA = ROOT.parent / "shared" / "data" / "EMVA1288_ReferenceSet_001_CCD_12Bit" / "EMVA1288_Data.txt"
+SCANS = ["photon_transfer", "ptc_exposure", "dark_current", "temperature", "gain", "bias_sweep_2d",
+         "adc_linearity", "lag", "emva_reference"]
+
+
+def _squash(text: str) -> str:
+    return re.sub(r"\s+", " ", text)
+
+
+def _run(name: str, tmp: Path, capsys) -> tuple[Path, str]:
+    if name == "emva_reference" and not DATA.is_file():
+        pytest.skip("the EMVA reference data set is not in ../shared/data/")
+    out = tmp / "run"
+    args = ["run", str(ROOT / "scans" / f"{name}.xml"), "--out", str(out), "--seed", "3"]
+    if name != "emva_reference":
+        args += ["--frames", "3"]
+    capsys.readouterr()
+    assert main(args) in (0, 4)
+    return out, capsys.readouterr().out
+
+
+def _terminal_blocks(text: str) -> tuple[dict, dict]:
+    """(photon-transfer label -> text, component -> text) as printed."""
+    ptc, comps, block = {}, {}, None
+    ptc_labels = {label for _, label in labels.PTC_FIGURES}
+    for line in text.splitlines():
+        if line == "photon transfer:":
+            block = "ptc"
+            continue
+        if line.startswith("noise components at stage"):
+            block = "comps"
+            continue
+        if not line.startswith("  "):
+            block = None
+            continue
+        if block == "ptc":
+            label = next((lb for lb in sorted(ptc_labels, key=len, reverse=True)
+                          if line[2:2 + 26].rstrip() == lb), None)
+            if label:
+                ptc[label] = line[2 + 26:].strip()
+        elif block == "comps" and not line.startswith("   "):
+            m = re.match(r"  (\S+)\s+(.*)$", line)
+            if m and m.group(1) in labels.COMPONENTS:
+                # the text is everything up to the label, which starts after >= 1 space at col 51
+                comps[m.group(1)] = line[17:51].rstrip() if len(line) > 51 and line[51 - 1] == " " else \
+                    line[17:].rsplit("  ", 1)[0].strip()
+    return ptc, comps
+
+
+def _key_figures(run: Path) -> list[dict]:
+    with open(run / "key_figures.csv", newline="") as fh:
+        return list(csv.DictReader(fh))
+
+
+def _h5_key_figures(run: Path) -> list[dict]:
+    with h5py.File(run / "report.h5", "r") as f:
+        g = f["key_figures"]
+        cols = json.loads(g.attrs["columns"])
+        data = {c: g[c][()] for c in cols}
+    n = len(next(iter(data.values()))) if data else 0
+    rows = []
+    for i in range(n):
+        r = {}
+        for c in cols:
+            v = data[c][i]
+            r[c] = v.decode() if isinstance(v, bytes) else v
+        rows.append(r)
+    return rows
+
+
+def _num(x) -> float:
+    try:
+        return float(x)
+    except (TypeError, ValueError):
+        return math.nan
+
+
+def _same(a: float, b: float) -> bool:
+    return (math.isnan(a) and math.isnan(b)) or a == b or abs(a - b) <= 1e-12 * max(abs(a), abs(b))
+
+
+def _at(tree: dict, dotted: str):
+    node = tree
+    for part in dotted.split("."):
+        if not isinstance(node, dict) or part not in node:
+            return None
+        node = node[part]
+    return node
+
+
+@pytest.mark.parametrize("name", SCANS)
+def test_every_figure_is_the_same_on_every_surface(name, tmp_path, capsys):
+    run, terminal = _run(name, tmp_path, capsys)
+    res = json.loads((run / "scan_results.json").read_text())["analyses"]
+    kf = _key_figures(run)
+    pdf = _squash(" ".join(page_texts(run / "report.pdf")))
+
+    # CSV and HDF5: the same rows
+    h5 = _h5_key_figures(run)
+    assert [r["name"] for r in kf] == [r["name"] for r in h5]
+    for a, b in zip(kf, h5):
+        assert _same(_num(a["value"]), _num(b["value"])) and _same(_num(a["se"]), _num(b["se"])), a["name"]
+        assert (a["unit"], a["verdict"], a["label"]) == (b["unit"], b["verdict"], b["label"]), a["name"]
+
+    # CSV and JSON: a figure taken from scan_results.json is that figure, to the bit
+    for r in kf:
+        src = r.get("source", "")
+        if src.startswith("scan_results.json: "):
+            analysis = src.removeprefix("scan_results.json: ")
+            j = _at(res.get(analysis) or {}, r["name"].removeprefix(analysis + ".")) \
+                if r["name"].startswith(analysis + ".") else (res.get(analysis) or {}).get(r["name"])
+            if isinstance(j, dict) and "value" in j:
+                assert _same(_num(r["value"]), _num(j["value"])), (r["name"], r["value"], j)
+                assert _same(_num(r["se"]), _num(j.get("se"))), (r["name"], r["se"], j)
+                assert r["unit"] == j.get("unit", ""), r["name"]
+
+    # every available key figure is in the PDF with the same digits and unit
+    for r in kf:
+        e = Estimate(_num(r["value"]), _num(r["se"]), r["unit"],
+                     bound={"upper limit": "upper", "lower limit": "lower"}.get(r["verdict"], ""))
+        if e.available:
+            assert _squash(e.text()) in pdf, f"{name}: key figure {r['name']} = {e.text()} not in the PDF"
+
+    # terminal: the photon-transfer block as the JSON and the key figures state it, and
+    # the window's Information tab the same
+    ptc_t, comps_t = _terminal_blocks(terminal)
+    ptc = res.get("ptc") or {}
+    by_name = {r["name"]: r for r in kf}
+    from ares.gui.runner_adapter import summarize
+
+    gui = summarize(res)["results"]
+    for key, label in labels.PTC_FIGURES:
+        if label not in ptc_t:
+            continue
+        assert ptc_t[label] == format_dict(ptc.get(key), with_reason=True), (name, key)
+        if key in by_name and by_name[key]["verdict"] == "ok":
+            r = by_name[key]
+            assert ptc_t[label] == Estimate(_num(r["value"]), _num(r["se"]), r["unit"]).text(), (name, key)
+        if f"PTC: {label}" in gui:
+            assert gui[f"PTC: {label}"] == ptc_t[label], (name, key)
+
+    # the decomposition: terminal, JSON, components.csv, the PDF's components page and the
+    # window's Noise Components table state the same components
+    dec = res.get("decomposition")
+    if isinstance(dec, dict) and dec.get("components"):
+        assert comps_t, f"{name}: the terminal printed no components"
+        for c, text in comps_t.items():
+            assert text == component_text(c, dec["components"][c]), (name, c, text)
+        stage = next(json.loads(p.read_text()) for p in sorted((run / "stages").glob("*.json"))
+                     if json.loads(p.read_text())["name"] == dec["stage"])
+        part = "components_masked" if "components_masked" in stage["views"]["full"] else "components"
+        with open(run / "components.csv", newline="") as fh:
+            rows = {r["component"]: r for r in csv.DictReader(fh)
+                    if r["stage"] == dec["stage"] and r["view"] == "full" and r["part"] == part}
+        from ares.gui.models.components import ComponentsModel
+
+        m = ComponentsModel()
+        m.set_stage("x", stage["views"])
+        shown = {row.symbol: f"{row.text} {row.shown_unit}".strip() for row in m.rows()}
+        for c, d in dec["components"].items():
+            text = component_text(c, d)
+            assert _same(_num(rows[c]["value"]), _num(d.get("value"))), (name, c)
+            if d.get("value") is not None:
+                assert _squash(text) in pdf, f"{name}: component {c} = {text} not on the PDF's components page"
+                assert shown[c] == text.split(" (")[0] if text.startswith("<") else shown[c] == text, \
+                    (name, c, shown[c], text)
+
+
+def test_masked_and_unmasked_components_carry_distinct_names_everywhere(tmp_path, capsys):
+    """The PDF's noise page showed the all-pixel Ps (86.6 DN^2) under "DSNU" while the
+    terminal showed the defect-free 0.0785 DN^2: both are now shown under their own
+    headings in the PDF, and components.csv tells them apart by part and description."""
+    run, terminal = _run("photon_transfer", tmp_path, capsys)
+    pages = [_squash(t) for t in page_texts(run / "report.pdf")]
+    page = next(p for p in pages if "Noise components (ANOVA" in p)
+    assert "defects excluded" in page and "all pixels" in page and "defect pixels excluded" in page
+    with open(run / "components.csv", newline="") as fh:
+        rows = [r for r in csv.DictReader(fh) if r["view"] == "full" and r["component"] == "Ps"]
+    parts = {r["part"]: r["description"] for r in rows if r["scene"] == "flat"}
+    assert parts["components"].endswith("(all pixels)")
+    assert parts["components_masked"].endswith("(defect pixels excluded)")
+    views = next(p for p in pages if "Components per view" in p)
+    assert "full (masked)" in views and "'(masked)': defect pixels excluded" in views and "Pg in % rms" in views
