@@ -96,7 +96,7 @@ def analyse_descriptor(path: str | Path | EmvaDescriptor, pixel_area_um2: float 
         # the fits' modules load while the images are read (the threads hardly need the GIL)
         from ares.analysis.emva1288 import TemporalData, emva1288_results
         from ares.analysis.emva4_sheet import EmvaInput, evaluate_linear
-        from ares.analysis.emva_general import emva_general
+        from ares.analysis.emva_general_table import general_from_input
         from ares.analysis.ptc import analyze_ptc
 
         bright, dark = list(bright), dict(zip(darks, dark))
@@ -124,7 +124,7 @@ def analyse_descriptor(path: str | Path | EmvaDescriptor, pixel_area_um2: float 
     inp = EmvaInput(up, texp, b4, d4, steps, np.array(diffs), stack_d, stack_b, pixel_area_um2=pixel_area_um2,
                     meta={"source": str(desc.path), "bits": desc.bits, "width": desc.width, "height": desc.height})
     sheet = evaluate_linear(inp)
-    general = emva_general(b4, d4, up, mean_diff=np.array(diffs))
+    general = general_from_input(inp, sheet.photon_transfer)  # the whole General Table 2
     r31 = None
     if stack_b is not None:
         r31 = release31(res, stack_b, stack_d)
