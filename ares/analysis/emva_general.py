@@ -168,11 +168,11 @@ def emva_general(bright: list[LevelStats], dark: list[LevelStats], photons, mean
     notes: list[str] = []
     top = isat if isat is not None else up.size - 1
     use = np.arange(top + 1)
-    P = intervals if intervals is not None else intervals_for(use.size + 1)
+    P = intervals if intervals is not None else intervals_for(use.size)
     snr_y = np.where(sy > 0, sig / np.where(sy > 0, sy, 1.0), np.nan)
     snr_p = np.full(up.size, np.nan)
     na = ""
-    if use.size + 1 <= P + 3:
+    if use.size <= P + 3:
         na = f"needs more than {P + 3} levels up to saturation for a {P}-interval B-spline, has {use.size}"
     elif not float(up[top]) > 0:
         na = "the photon counts are zero up to saturation: no characteristic curve"
@@ -193,7 +193,9 @@ def emva_general(bright: list[LevelStats], dark: list[LevelStats], photons, mean
     # temporal dark noise (Section 6.7 "Temporal dark noise"), sigma_d in photons (Eqs. 50/51)
     dl = dark_var_lowest if dark_var_lowest is not None else d[0]
     s2d, s2d_se, how = dl.var, dl.var_se, "temporal dark noise at the lowest exposure"
-    if dark_var_lowest is None and texp is not None and np.unique(texp).size >= 2:  # method I (Section 6.7)
+    from .median import n_distinct  # (np.unique would import numpy.ma)
+
+    if dark_var_lowest is None and texp is not None and n_distinct(texp) >= 2:  # method I (Section 6.7)
         from .ptc_fit import line_fit
 
         lf = line_fit(texp, np.array([x.var for x in d]))
