@@ -336,11 +336,13 @@ def local_slope_check(s, v, v_se, k: float, limit: float = 0.03) -> LocalSlopeCh
     excess = dev - floor if math.isfinite(floor) else dev
     if dev < limit:
         return LocalSlopeCheck(dev, True, f"linear model holds: mean |K_i - K|/K = {100 * dev:.2g} % "
-                                          f"< {100 * limit:g} % (EMVA 1288 4.0 Linear Eq. 51)")
+                                          f"< {100 * limit:g} % (ARES's variant of EMVA 1288 4.0 Linear Eq. 51, "
+                                          "option eq51_noise_floor)")
     if excess < limit and math.isfinite(floor):
         return LocalSlopeCheck(dev, True, f"linear model holds: mean |K_i - K|/K = {100 * dev:.2g} %, of which "
                                           f"{100 * floor:.2g} % is the noise of the local slopes; the excess "
                                           f"{100 * excess:.2g} % < {100 * limit:g} % (ARES option eq51_noise_floor, "
                                           "beyond EMVA 1288 4.0 Linear Eq. 51: noise floor removed)")
     return LocalSlopeCheck(dev, False, f"the linear model does not hold here: mean |K_i - K|/K = {100 * dev:.2g} % "
-                                       f">= {100 * limit:g} % (EMVA 1288 4.0 Linear Eq. 51); use the general model")
+                                       f">= {100 * limit:g} % (ARES's variant of EMVA 1288 4.0 Linear Eq. 51, option "
+                                       "eq51_noise_floor); use the general model")
