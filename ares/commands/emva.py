@@ -352,8 +352,11 @@ def format_table4(an: EmvaAnalysis) -> str:
 
 
 def format_general(an: EmvaAnalysis) -> str:
+    from ares.analysis.emva_general_table import GENERAL_TABLE2
+
     g = an.general
-    lines = [f"EMVA 1288 Release 4.0 General: {an.descriptor.path}", *_value_lines(g.values),
+    lines = [f"EMVA 1288 Release 4.0 General: {an.descriptor.path}",
+             *_value_lines(g.values, {k: s for k, s, _ in GENERAL_TABLE2}),
              f"saturation: {g.saturation}"]
     lines += [f"note: {n}" for n in g.notes]
     lines += ["K, the quantum efficiency and values in electrons are not defined in the General model "
