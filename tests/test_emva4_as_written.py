@@ -17,7 +17,7 @@ import pytest
 
 DESC = Path(__file__).resolve().parents[2] / "shared" / "data" / "EMVA1288_ReferenceSet_001_CCD_12Bit" / \
     "EMVA1288_Data.txt"
-pytestmark = pytest.mark.skipif(not DESC.is_file(), reason="the EMVA reference data set is not in ../shared/data/")
+on_ccd = pytest.mark.skipif(not DESC.is_file(), reason="the EMVA reference data set is not in ../shared/data/")
 
 
 def _pair(desc, lv):
@@ -78,6 +78,7 @@ def out():
     return json.loads(buf.getvalue())
 
 
+@on_ccd
 @pytest.mark.parametrize("name", ["mu_p_sat", "mu_e_sat", "SNR_max", "DR"])
 def test_saturation_figures_follow_eq_24(text, out, name):
     """On the reference CCD within 0.2 % of the Eq. 24-based values (the photons measured at
@@ -92,6 +93,7 @@ def test_saturation_figures_follow_eq_24(text, out, name):
     assert fit["value"] < 0.995 * v["mu_e_sat"]["value"]
 
 
+@on_ccd
 def test_maximum_value_found_in_the_data(text, out):
     assert text["ymax"] == 4095
     assert any("maximum value 4095 DN, found in the data" in n for n in out["notes"])
@@ -114,6 +116,7 @@ def _eq51(text, P):
     return float(np.mean(np.abs(ki - text["K"])) / text["K"])
 
 
+@on_ccd
 def test_eq51_as_written(text, out):
     """The text's local-slope check holds on this CCD (2.89 % < 3 %, P = 6: "6 to 8
     intervals" for ~50 steps, General Section 6.6); ARES's noise-floor variant (4.2 %, does
@@ -168,6 +171,7 @@ def splits(text):
             _split(np.array([np.asarray(f, np.float64) for f in iter_level(desc, lv)])))
 
 
+@on_ccd
 @pytest.mark.parametrize("part", ["col", "row", "pix"])
 def test_row_column_split_by_eqs_36_39_41(text, out, splits, part):
     """DSNU1288 and PRNU1288 .col/.row/.pix (Eqs. 66, 67) from the text's split, within a
@@ -190,6 +194,7 @@ def test_row_column_split_by_eqs_36_39_41(text, out, splits, part):
         assert v["DSNU1288_row.rowcol_corrected"]["verdict"] == "upper limit"
 
 
+@on_ccd
 def test_dark_current_value_with_sigma(text, out):
     """Section 7.1: the dark current is reported with its one-sigma error from the
     regression of the dark means over the exposure times (divided by K)."""
@@ -209,3 +214,48 @@ def test_dark_current_value_with_sigma(text, out):
     assert e["verdict"] == "ok"
     assert e["value"] == pytest.approx(b / text["K"], rel=1e-3)
     assert e["se"] == pytest.approx(math.sqrt(cov[0, 0]) / text["K"], rel=0.02)
+
+
+def _clipping_set(tmp_path, top=4000):
+    """A 12-bit set (Release 3.0 descriptor) whose camera clips at ``top`` < 2^12 - 1:
+    14 levels of 30 x 40 pixels, gain 1 DN/e-, the brightest ones clipped."""
+    from PIL import Image
+
+    rng = np.random.default_rng(11)
+    lines = ["# clipping at a maximum value below 2^k - 1", "v 3.0", "n 12 40 30"]
+    means = np.r_[np.linspace(150, 3400, 10), 3650, 3760, 3850, 3990]
+    frames = {}
+    for k, m in enumerate(means):
+        lines.append(f"b {1000.0 * (k + 1)} {2 * m}")
+        for j in range(2):
+            img = np.minimum(rng.poisson(m, (30, 40)) + 100, top)
+            frames[f"b_{k:03d}_{j}"] = img
+            lines.append(f"i images\\b_{k:03d}_{j}.png")
+    for k in range(len(means)):
+        lines.append(f"d {1000.0 * (k + 1)}")
+        for j in range(2):
+            frames[f"d_{k:03d}_{j}"] = rng.poisson(4, (30, 40)) + 100
+            lines.append(f"i images\\d_{k:03d}_{j}.png")
+    (tmp_path / "images").mkdir()
+    for name, img in frames.items():
+        Image.fromarray(img.astype(np.uint16)).save(tmp_path / "images" / f"{name}.png")
+    (tmp_path / "data.txt").write_text("\n".join(lines) + "\n")
+    return tmp_path / "data.txt", means, frames
+
+
+def test_saturation_at_a_maximum_value_found_below_2k_minus_1(tmp_path, capsys):
+    """Section 6.6: "first find the maximum possible value", which may be below 2^k - 1: a
+    camera clipping at 4000 DN gets its saturation step from the fraction of pixels at 4000
+    (the brightest step with at most 0.2 % there, counted here from the images), not
+    "saturation not reached" as a search for 4095 would say."""
+    from ares.cli import main
+
+    path, means, frames = _clipping_set(tmp_path)
+    frac = np.array([np.mean([np.mean(frames[f"b_{k:03d}_{j}"] == 4000) for j in range(2)])
+                     for k in range(len(means))])
+    isat = int(np.flatnonzero(frac > 0.002)[0]) - 1
+    assert main(["emva", str(path), "--json"]) == 0
+    out = json.loads(capsys.readouterr().out)
+    assert any("maximum value 4000 DN, found in the data" in n and "2^k - 1 = 4095" in n for n in out["notes"])
+    assert out["saturation"].startswith(f"mu_y.sat at level {isat}")
+    assert out["values"]["mu_p_sat"]["value"] == pytest.approx(2 * means[isat])
