@@ -79,6 +79,8 @@ def _nonuniformity(v: dict, res, stack_dark, stack_bright) -> None:
     except ValueError as exc:
         ds, hp = stack_dark.split("none"), f"without the high-pass ({exc})"
     r, r_rel = rd.value, rd.se / rd.value
+    s2, se2 = ds.get("total")  # General Section 8.3: DSNU1288 in photons and also in DN
+    v["DSNU1288_DN"] = _std_estimate(s2, se2, 1.0, 0.0, "DN", f"s_y.dark (General Section 8.3), {hp}")
     for part, suffix in PARTS:
         s2, se2 = ds.get(part)
         v["DSNU1288" + suffix.replace(".", "_")] = _std_estimate(
