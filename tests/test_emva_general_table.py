@@ -193,3 +193,21 @@ def test_nonlinear_set_general_table(nonlinear):
     rd = v["R_d"].value
     by_hand = 100 * math.sqrt(bs.total / slope**2 - ds.total / rd**2) / inp.stack_bright.photons
     assert v["PRNU1288"].value == pytest.approx(by_hand, rel=1e-9)
+
+
+def test_total_snr_eq_60(nonlinear):
+    """Eq. 60 per step from its parts: mu_p / sqrt(sigma_p^2 + s_p^2), both variances carried to
+    the input by the local slope (Eq. 56); below the temporal SNR_p wherever there is a
+    spatial variance, and equal to it with none."""
+    inp, sh, g = nonlinear
+    order = np.argsort(inp.photons, kind="stable")
+    s2 = np.array([inp.step_split[i][0].total for i in order])
+    j = g.index_sat // 2
+    slope = float(g.curve.slope(g.photons[j]))
+    by_hand = g.photons[j] / math.sqrt(g.sigma_y[j] ** 2 / slope**2 + s2[j] / slope**2)
+    assert g.snr_p_total[j] == pytest.approx(by_hand, rel=1e-9)
+    ok = np.isfinite(g.snr_p_total) & np.isfinite(g.snr_p)
+    assert np.all(g.snr_p_total[ok] <= g.snr_p[ok] * (1 + 1e-12))
+    from ares.analysis.emva_general_table import total_snr
+
+    assert np.allclose(total_snr(g, np.zeros_like(s2))[ok], g.snr_p[ok], rtol=1e-9)

@@ -140,6 +140,7 @@ class GeneralResult:
     index_sat: int | None
     saturation: str
     notes: list[str] = field(default_factory=list)
+    snr_p_total: "np.ndarray | None" = None  # Eq. 60 per step (when the steps' spatial variances are known)
 
     def to_json(self) -> dict:
         return {k: v.to_dict() for k, v in self.values.items()}

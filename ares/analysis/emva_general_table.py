@@ -12,6 +12,7 @@ itself, so that each is a value with its SE or verdict, or "not available" with 
   (Eq. 56) -- R_d at zero exposure, the slope at mu_p.50 for the bright image;
 * the linearity error LE (Linear Eqs. 59 - 63 on the characteristic curve) if the curve is
   linear by the Linear Eq. 51 check, otherwise the statement that it is not;
+* the total input SNR per step (Eq. 60, ``GeneralResult.snr_p_total``);
 * dark current from the mean and from the variance in photons/s (Section 7.1: the slopes
   over the exposure time divided by R_d and R_d^2), as value +- its one-sigma error; a rate
   not above its error also gets the upper limit mu_I + sigma_I (``*_upper``).
@@ -159,8 +160,23 @@ def _dark_current(v: dict, dark, texp, dark_series) -> None:
         v.update(with_upper_limit(key, e))
 
 
+def total_snr(res, step_spatial_var) -> "np.ndarray":
+    """Eq. 60: SNR_p.total = mu_p / sqrt(sigma_p^2 + s_p^2) per step, the temporal and the
+    spatial variance of the output (``step_spatial_var``, DN^2, sorted as ``res.photons``)
+    carried to the input by the local slope of the characteristic curve (Eq. 56); NaN where
+    the slope is not positive."""
+    out = np.full(res.photons.size, np.nan)
+    if res.curve is None:
+        return out
+    slope = res.curve.slope(res.photons)
+    s2 = np.asarray(step_spatial_var, float)
+    ok = (slope > 0) & (res.photons > 0) & np.isfinite(s2)
+    out[ok] = res.photons[ok] * slope[ok] / np.sqrt(res.sigma_y[ok] ** 2 + np.maximum(s2[ok], 0.0))
+    return out
+
+
 def complete(res, dark, texp, *, stack_dark=None, stack_bright=None, dark_series=None,
-             pixel_area_um2: float | None = None, linear=None) -> None:
+             pixel_area_um2: float | None = None, linear=None, step_spatial_var=None) -> None:
     """Fill ``res.values`` with the whole General Table 2 (module docstring), in its order,
     followed by what else was computed (R_d, the upper-limit readings). ``dark`` and
     ``texp``: the darks and exposure times of the steps, sorted as ``res.photons``;
@@ -178,6 +194,8 @@ def complete(res, dark, texp, *, stack_dark=None, stack_bright=None, dark_series
     _nonuniformity(v, res, stack_dark, stack_bright)
     _linearity(v, res, linear)
     _dark_current(v, dark, texp, dark_series)
+    if step_spatial_var is not None:
+        res.snr_p_total = total_snr(res, step_spatial_var)
     for k, _, u in GENERAL_TABLE2:
         v.setdefault(k, Estimate.na("not computed: too few levels for the characteristic curve", u))
     order = [k for k, _, _ in GENERAL_TABLE2]
@@ -190,6 +208,11 @@ def general_from_input(inp, linear=None):
     Linear ``Emva4Result`` of the same data."""
     from .emva_general import emva_general
 
+    s2 = None
+    if inp.step_split is not None:  # the bright pair's spatial variance at each step (Eq. 32), sorted
+        order = np.argsort(np.asarray(inp.photons, float), kind="stable")
+        s2 = np.array([inp.step_split[i][0].total for i in order])
     return emva_general(inp.bright, inp.dark, inp.photons, mean_diff=inp.mean_diff, exposure_s=inp.exposure_s,
                         table=dict(stack_dark=inp.stack_dark, stack_bright=inp.stack_bright,
-                                   dark_series=inp.dark_series, pixel_area_um2=inp.pixel_area_um2, linear=linear))
+                                   dark_series=inp.dark_series, pixel_area_um2=inp.pixel_area_um2, linear=linear,
+                                   step_spatial_var=s2))
