@@ -181,16 +181,19 @@ def test_two_images_give_eq_32():
 
 def test_temporal_residual_is_removed_and_line_noise_not_taken_for_a_pattern():
     """A stack of pure temporal noise (no pattern at all) with row-correlated temporal noise:
-    the split of its average is ~0 in every part when the measured row/column temporal
-    variances are given (stack_moments), while the white-noise assumption of Eqs. 39 - 41
-    would report the row noise / L as a row pattern."""
+    the split of its average is ~0 in every part under option rowcol_corrected
+    (``Split.extended``, the measured row/column temporal variances of stack_moments given),
+    while the white-noise assumption of Eqs. 39 - 41 as written (the split itself, whether
+    or not they are given) reports the row noise / L as a row pattern."""
     rng = np.random.default_rng(104)  # per test: independent of the test order
     L = 40
     frames = [np.round(500 + rng.normal(0, 2, (M, N)) + rng.normal(0, 1.5, (M, 1))).astype(np.uint16)
               for _ in range(L)]
     st, avg, line, _ = stack_moments(frames)
-    good = split(avg, line.pixel, L, "none", line.rows, line.cols)
+    given = split(avg, line.pixel, L, "none", line.rows, line.cols)
+    good = given.extended
     naive = split(avg, st.s2_temporal, L, "none")
+    assert given.row == pytest.approx(split(avg, line.pixel, L, "none").row, rel=1e-12)  # the text by default
     for part in ("row", "col", "pix"):
         v, se = good.get(part)
         assert abs(v) < 3 * se + 1e-3, (part, v, se)

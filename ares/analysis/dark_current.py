@@ -66,6 +66,17 @@ def dark_current(exposure_s, dark_mean_dn, gain_dn_per_e: Estimate | float, dark
     return DarkCurrent(rate_dn, rate_e, rv, Estimate(lf.intercept, lf.intercept_se, "DN", "dark mean at t = 0"))
 
 
+def with_upper_limit(key: str, e: Estimate) -> dict[str, Estimate]:
+    """A dark current as EMVA 1288 4.0 Section 7.1 asks (Linear and General alike): the
+    value with its one-sigma error from the regression, always; when it is not above that
+    error, also the upper limit mu_I + sigma_I (provided it is > 0) as ``<key>_upper``."""
+    out = {key: e}
+    if e.available and e.value <= e.se and e.value + e.se > 0:
+        out[key + "_upper"] = Estimate.limit(e.value + e.se, "upper", e.unit, "mu_I + sigma_I: the rate is not above "
+                                                                           "its one-sigma error (Section 7.1)")
+    return out
+
+
 @dataclass(frozen=True)
 class DsnuFit:
     a_dn: Estimate  # exposure-independent spatial sigma (offset FPN)

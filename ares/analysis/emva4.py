@@ -10,12 +10,15 @@ the photons per pixel of each level:
   clips gives no saturation and no figure that needs it);
 * responsivity R (Eq. 49, zero offset) and overall system gain K (Eq. 50, offset and
   slope) over the levels from the minimum to 70 % of saturation; quantum efficiency
-  eta = R / K (Eq. 52); the local-slope linearity check (Eq. 51, ``ptc_fit``);
+  eta = R / K (Eq. 52); the local-slope linearity check (Eq. 51 as written:
+  ``ptc_fit.local_slope_check_text``; ARES's noise-floor variant beside it,
+  ``linear_noise_floor``, option ``eq51_noise_floor``);
 * temporal dark noise sigma_y.dark (DN) at the lowest exposure and sigma_d (e-) without
   quantization noise (Eq. 53), or its upper limit 0.40 / K when sigma_y.dark^2 < 0.24
   (Eq. 54, sigma_y.dark set to 0.49);
 * absolute sensitivity threshold mu_p.min by the exact Eq. 26 (the Eq. 88 form);
-  saturation capacity mu_p.sat and mu_e.sat (Eq. 24); SNR_max = sqrt(mu_e.sat) (Eq. 55)
+  saturation capacity mu_p.sat: the photons measured at the saturation step (Section 6.6,
+  "Saturation capacity"), mu_e.sat = eta mu_p.sat (Eq. 24); SNR_max = sqrt(mu_e.sat) (Eq. 55)
   and the dynamic range DR = mu_p.sat / mu_p.min (Eq. 28), as ratios and in dB;
 * the single linearity error LE (Section 6.9, Eqs. 59 - 63): mean |relative deviation|
   from the 1/y^2-weighted regression of mu_y - mu_y.dark on the photons, 5 - 95 % of
@@ -35,6 +38,7 @@ import numpy as np
 
 from .estimate import Estimate
 from .levels import LevelStats
+from .ptc_fit import LocalSlopeCheck
 
 SAT_WINDOW = (0.001, 0.002)  # Section 6.6: 0.1 - 0.2 % of the pixels at the maximum value
 FIT_MAX = 0.70  # Eqs. 49/50: 0 .. 70 % of saturation
@@ -49,9 +53,12 @@ class Emva4Result:
     fit_levels: list[int]  # levels of the K and R regressions
     le_levels: list[int]  # levels of the linearity error
     saturation: str  # one sentence: how mu_y.sat was found, or why not
-    linear: bool | None = None  # the Eq. 51 local-slope check (None: could not be made)
+    linear: bool | None = None  # the Eq. 51 local-slope check as written (None: could not be made)
     deviation_pct: np.ndarray = field(default_factory=lambda: np.zeros(0))  # Eq. 62 per level (NaN outside)
     notes: list[str] = field(default_factory=list)
+    linear_check: "LocalSlopeCheck | None" = None  # Eq. 51 as written: mean |K_i - K|/K, P, sentence
+    linear_noise_floor: "LocalSlopeCheck | None" = None  # ARES option eq51_noise_floor (beyond the text)
+    mu_e_sat_fit: "Estimate | None" = None  # ARES's former (mu_y.sat - mu_y.dark) / K, for comparison only
 
     def to_json(self) -> dict:
         return {k: v.to_dict() for k, v in self.values.items()}
@@ -126,7 +133,7 @@ def emva4_linear(bright: Sequence[LevelStats], dark: Sequence[LevelStats], photo
     """The Release 4.0 Linear parameter set (see the module docstring). ``bright[i]`` and
     ``dark[i]`` are level i and its dark at the same exposure; ``photons[i]`` is mu_p.
     Levels may come in any order: they are sorted by photons."""
-    from .ptc_fit import local_slope_check
+    from .ptc_fit import local_slope_check, local_slope_check_text
 
     order = np.argsort(np.asarray(photons, float), kind="stable")
     b = [bright[i] for i in order]
@@ -171,7 +178,13 @@ def emva4_linear(bright: Sequence[LevelStats], dark: Sequence[LevelStats], photo
         eta = R / K
         v["QE"] = Estimate(100 * eta, 100 * eta * math.hypot(R_se / R, K_se / K), "%", "eta = R / K (Eq. 52)")
     var_se = np.hypot([q.var_se for q in b], [q.var_se for q in d])
-    check = local_slope_check(mu[x], var[x], var_se[x], K)  # Eq. 51
+    if isat is not None:  # Eq. 51 as written: the spline over every level up to saturation
+        upto = np.arange(isat + 1)
+        check = local_slope_check_text(mu[upto], var[upto], K, y_sat)
+    else:
+        check = LocalSlopeCheck(math.nan, None, "Eq. 51 needs the saturation (its B-spline runs from 0 to it): "
+                                                + sat_text)
+    floor_check = local_slope_check(mu[x], var[x], var_se[x], K)  # ARES option eq51_noise_floor
     notes.append(check.note)
     linear = check.holds
 
@@ -215,7 +228,7 @@ def emva4_linear(bright: Sequence[LevelStats], dark: Sequence[LevelStats], photo
         for k, u in (("mu_y_sat", "DN"), ("mu_p_sat", "photons"), ("mu_e_sat", "e-"), ("SNR_max", ""),
                      ("SNR_max_db", "dB"), ("DR", ""), ("DR_db", "dB"), ("LE", "%")):
             v[k] = Estimate.na(sat_text, u)
-        return Emva4Result(v, isat, fit, le_levels, sat_text, linear, dev, notes)
+        return Emva4Result(v, isat, fit, le_levels, sat_text, linear, dev, notes, check, floor_check)
     n_b = b[isat]
     y_se = math.sqrt(max(n_b.var, 0.0) / max(n_b.n_pixels * n_b.n_frames, 1))
 
@@ -224,26 +237,36 @@ def emva4_linear(bright: Sequence[LevelStats], dark: Sequence[LevelStats], photo
         return Estimate.limit(val, bound, unit, note + "; lower limit (no level in the 0.1 - 0.2 % window)") \
             if bound else e
 
-    mu_e_sat = y_sat / K
     v["mu_y_sat"] = est(y_sat, y_se / y_sat, "DN", "mu_y.sat - mu_y.dark by the histogram criterion (Section 6.6)")
-    v["mu_e_sat"] = est(mu_e_sat, math.hypot(y_se / y_sat, K_se / K), "e-", "(mu_y.sat - mu_y.dark) / K (Eq. 24)")
-    v["mu_p_sat"] = (Estimate.na(why_r, "photons") if why_r else
-                     est(y_sat / R, math.hypot(y_se / y_sat, R_se / R), "photons", "(mu_y.sat - mu_y.dark) / R"))
-    snr = math.sqrt(mu_e_sat)
-    rel_snr = 0.5 * v["mu_e_sat"].se / mu_e_sat if not bound else 0.0
-    v["SNR_max"] = est(snr, rel_snr, "", "sqrt(mu_e.sat) (Eq. 55)")
-    v["SNR_max_db"] = est(20 * math.log10(snr), 0.0, "dB", "20 log10 SNR_max") if bound else \
-        Estimate(20 * math.log10(snr), 20 / math.log(10) * rel_snr, "dB", "20 log10 SNR_max")
-    if why_r:
-        v["DR"], v["DR_db"] = Estimate.na(why_r, ""), Estimate.na(why_r, "dB")
+    e_fit = est(y_sat / K, math.hypot(y_se / y_sat, K_se / K), "e-", "(mu_y.sat - mu_y.dark) / K (ARES before "
+                                                                    "issue 35; not the text)")
+    p_sat = float(up[isat])  # the photons measured at the saturation step (Section 6.6)
+    if why_r or not p_sat > 0:
+        why = why_r or "no photon count at the saturation step"
+        for k, u in (("mu_p_sat", "photons"), ("mu_e_sat", "e-"), ("SNR_max", ""), ("SNR_max_db", "dB")):
+            v[k] = Estimate.na(why, u)
+    else:
+        eta_rel = v["QE"].se / v["QE"].value
+        v["mu_p_sat"] = est(p_sat, 0.0, "photons", "photons at the saturation step (EMVA 1288 4.0 Linear "
+                                                   "Section 6.6)")
+        mu_e_sat = eta * p_sat
+        v["mu_e_sat"] = est(mu_e_sat, eta_rel, "e-", "eta mu_p.sat (Eq. 24)")
+        snr = math.sqrt(mu_e_sat)
+        rel_snr = 0.5 * eta_rel if not bound else 0.0
+        v["SNR_max"] = est(snr, rel_snr, "", "sqrt(mu_e.sat) (Eq. 55)")
+        v["SNR_max_db"] = est(20 * math.log10(snr), 0.0, "dB", "20 log10 SNR_max") if bound else \
+            Estimate(20 * math.log10(snr), 20 / math.log(10) * rel_snr, "dB", "20 log10 SNR_max")
+    if not v["mu_p_sat"].available:
+        v["DR"], v["DR_db"] = Estimate.na(v["mu_p_sat"].note, ""), Estimate.na(v["mu_p_sat"].note, "dB")
+    elif not v["mu_p_min"].available:
+        v["DR"], v["DR_db"] = Estimate.na(v["mu_p_min"].note, ""), Estimate.na(v["mu_p_min"].note, "dB")
     elif v["mu_p_min"].bound:  # DR from an upper-limit threshold and the saturation: a lower limit
-        dr = (y_sat / R) / v["mu_p_min"].value
+        dr = p_sat / v["mu_p_min"].value
         v["DR"] = Estimate.limit(dr, "lower", "", "mu_p.sat / mu_p.min (Eq. 28); mu_p.min is an upper limit")
         v["DR_db"] = Estimate.limit(20 * math.log10(dr), "lower", "dB", "20 log10 DR")
     else:
-        dr = (y_sat / R) / v["mu_p_min"].value
-        rel = math.hypot(v["mu_p_sat"].se / v["mu_p_sat"].value if not bound else 0.0,
-                         v["mu_p_min"].se / v["mu_p_min"].value)
+        dr = p_sat / v["mu_p_min"].value
+        rel = v["mu_p_min"].se / v["mu_p_min"].value
         v["DR"] = est(dr, rel, "", "mu_p.sat / mu_p.min (Eq. 28)")
         v["DR_db"] = Estimate.limit(20 * math.log10(dr), bound, "dB", "20 log10 DR") if bound else \
             Estimate(20 * math.log10(dr), 20 / math.log(10) * rel, "dB", "20 log10 DR")
@@ -257,4 +280,4 @@ def emva4_linear(bright: Sequence[LevelStats], dark: Sequence[LevelStats], photo
         dev[li] = dv
         v["LE"] = Estimate(le, le_se, "%", "mean |deviation| from the 1/y^2-weighted line, 5-95 % of saturation "
                                            "(Eqs. 59-63)")
-    return Emva4Result(v, isat, fit, le_levels, sat_text, linear, dev, notes)
+    return Emva4Result(v, isat, fit, le_levels, sat_text, linear, dev, notes, check, floor_check, e_fit)

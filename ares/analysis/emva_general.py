@@ -6,15 +6,20 @@ no linearity assumption (General document, Sections 2.2, 2.4, 6.6 - 6.8).
 * output SNR_y = (mu_y - mu_y.dark) / sigma_y (Eq. 7) and input SNR_p = mu_p / sigma_y *
   d mu_y / d mu_p (Eq. 10); the ideal sensor sqrt(mu_p) (Eq. 15);
 * mu_p.min: the B-spline regression of the inverse relation mu_p(SNR_p) over the levels
-  below saturation, evaluated at SNR_p = 1 (Section 6.8); SNR_max: the largest SNR_p;
+  below saturation, evaluated at SNR_p = 1 (Section 6.8), only where the steps reach
+  SNR_p = 1 (else the upper limit "below the lowest step"); SNR_max: the largest SNR_p;
 * saturation mu_p.sat by the histogram criterion (Section 6.7, as Linear Section 6.6);
   DR = mu_p.sat / mu_p.min (Eq. 21);
-* temporal dark noise sigma_y.dark (DN, quantization included) and sigma_d in photons:
+* temporal dark noise sigma_y.dark (DN, quantization included): with the exposure time
+  varied (method I of Section 6.3) the offset at t = 0 of the regression of sigma_y.dark^2
+  over the exposure times, else the darks at the lowest exposure; sigma_d in photons:
   sqrt(sigma_y.dark^2 - 1/12) / R_d with R_d the slope of the characteristic curve at
   mu_p = 0 (Eq. 50), or the upper limit 0.40 / R_d when sigma_y.dark^2 < 0.24 (Eq. 51).
 
 K, the quantum efficiency and anything in electrons are not defined in the General model
-(Section 6.7). Standard errors: the B-spline fits are linear least squares, so a value that
+(Section 6.7): Table 2's rows for them say "cannot be measured" (``emva_general_table``, which
+completes Table 2 of the General document: photon units, nonuniformity Eqs. 55 - 60,
+dark current in photons/s). Standard errors: the B-spline fits are linear least squares, so a value that
 is a linear functional of the coefficients gets the SE from the coefficient covariance
 (residual scatter); mu_p.min's SE also carries the scatter of the SNR_p points.
 Pure numpy: no I/O.
@@ -135,15 +140,21 @@ class GeneralResult:
     index_sat: int | None
     saturation: str
     notes: list[str] = field(default_factory=list)
+    snr_p_total: "np.ndarray | None" = None  # Eq. 60 per step (when the steps' spatial variances are known)
 
     def to_json(self) -> dict:
         return {k: v.to_dict() for k, v in self.values.items()}
 
 
 def emva_general(bright: list[LevelStats], dark: list[LevelStats], photons, mean_diff=None,
-                 dark_var_lowest: LevelStats | None = None, intervals: int | None = None) -> GeneralResult:
+                 dark_var_lowest: LevelStats | None = None, intervals: int | None = None, *,
+                 exposure_s=None, table: dict | None = None) -> GeneralResult:
     """The Release 4.0 General evaluation (see the module docstring). ``bright[i]``/``dark[i]``
-    are level i and its dark (two-image statistics, Eq. 18); ``photons[i]`` its mu_p."""
+    are level i and its dark (two-image statistics, Eq. 18); ``photons[i]`` its mu_p;
+    ``exposure_s[i]`` its exposure time (method I: the dark noise is the regression's offset).
+    ``table``: keyword arguments of ``emva_general_table.complete`` (stacks, dark series,
+    pixel area, the Linear result) -- the whole of Table 2 is always given, each entry a value
+    or the reason it is not."""
     order = np.argsort(np.asarray(photons, float), kind="stable")
     up = np.asarray(photons, float)[order]
     b = [bright[i] for i in order]
@@ -152,16 +163,17 @@ def emva_general(bright: list[LevelStats], dark: list[LevelStats], photons, mean
     var = np.array([x.var for x in b])
     sy = np.sqrt(np.maximum(var, 0.0))
     md = np.asarray(mean_diff, float)[order] if mean_diff is not None else np.full(up.size, np.nan)
+    texp = np.asarray(exposure_s, float)[order] if exposure_s is not None else None
     isat, sat_text, bound = saturation_index(np.array([x.frac_at_max for x in b]))
     v: dict[str, Estimate] = {}
     notes: list[str] = []
     top = isat if isat is not None else up.size - 1
     use = np.arange(top + 1)
-    P = intervals if intervals is not None else intervals_for(use.size + 1)
+    P = intervals if intervals is not None else intervals_for(use.size)
     snr_y = np.where(sy > 0, sig / np.where(sy > 0, sy, 1.0), np.nan)
     snr_p = np.full(up.size, np.nan)
     na = ""
-    if use.size + 1 <= P + 3:
+    if use.size <= P + 3:
         na = f"needs more than {P + 3} levels up to saturation for a {P}-interval B-spline, has {use.size}"
     elif not float(up[top]) > 0:
         na = "the photon counts are zero up to saturation: no characteristic curve"
@@ -169,29 +181,40 @@ def emva_general(bright: list[LevelStats], dark: list[LevelStats], photons, mean
         for k, u in (("mu_p_min", "photons"), ("mu_p_sat", "photons"), ("DR", ""), ("DR_db", "dB"),
                      ("SNR_max", ""), ("SNR_max_db", "dB"), ("sigma_d", "photons"), ("R_d", "DN/photon")):
             v[k] = Estimate.na(na, u)
-        return GeneralResult(v, None, up, sig, sy, snr_y, snr_p, md, isat, sat_text, notes)
+        res = GeneralResult(v, None, up, sig, sy, snr_y, snr_p, md, isat, sat_text, notes)
+        from .emva_general_table import complete
+
+        complete(res, d, texp, **(table or {}))
+        return res
     x_max = float(up[top])
-    # the curve passes through (0, 0) by construction (dark subtracted): add that point
-    curve = bspline_fit(np.r_[0.0, up[use]], np.r_[0.0, sig[use]], P, x_max)
+    curve = bspline_fit(up[use], sig[use], P, x_max)  # Eq. 47: the measured points only
     slope = curve.slope(up)
     ok = (slope > 0) & (sy > 0) & (up > 0)
     snr_p[ok] = up[ok] / sy[ok] * slope[ok]  # Eq. 10
     # temporal dark noise (Section 6.7 "Temporal dark noise"), sigma_d in photons (Eqs. 50/51)
     dl = dark_var_lowest if dark_var_lowest is not None else d[0]
-    s2d = dl.var
+    s2d, s2d_se, how = dl.var, dl.var_se, "temporal dark noise at the lowest exposure"
+    from .median import n_distinct  # (np.unique would import numpy.ma)
+
+    if dark_var_lowest is None and texp is not None and n_distinct(texp) >= 2:  # method I (Section 6.7)
+        from .ptc_fit import line_fit
+
+        lf = line_fit(texp, np.array([x.var for x in d]))
+        s2d, s2d_se = lf.intercept, lf.intercept_se
+        how = "offset at t = 0 of sigma_y.dark^2 over the exposure times (General Section 6.7, method I)"
     rd = float(curve.slope(0.0))
     rd_se = float(curve.se(0.0, derivative=True))
     v["R_d"] = Estimate(rd, rd_se, "DN/photon", "slope of the characteristic curve at mu_p = 0 (Eq. 25)")
     small = s2d < 0.24
     v["sigma_y_dark"] = Estimate.limit(0.49, "upper", "DN", "sigma_y.dark^2 < 0.24: quantization dominates") if \
-        small else Estimate(math.sqrt(s2d), dl.var_se / (2 * math.sqrt(s2d)), "DN", "temporal dark noise")
+        small else Estimate(math.sqrt(s2d), s2d_se / (2 * math.sqrt(s2d)), "DN", how)
     if rd <= 0:
         v["sigma_d"] = Estimate.na("the characteristic curve does not rise at mu_p = 0", "photons")
     elif small:
         v["sigma_d"] = Estimate.limit(0.40 / rd, "upper", "photons", "0.40 / R_d (General Eq. 51)")
     else:
         sd = math.sqrt(max(s2d - 1 / 12, 0.0)) / rd
-        v["sigma_d"] = Estimate(sd, sd * math.hypot(dl.var_se / (2 * max(s2d - 1 / 12, 1e-12)), rd_se / rd),
+        v["sigma_d"] = Estimate(sd, sd * math.hypot(s2d_se / (2 * max(s2d - 1 / 12, 1e-12)), rd_se / rd),
                                 "photons", "sqrt(sigma_y.dark^2 - 1/12) / R_d (General Eq. 50)")
     # mu_p.min: B-spline of mu_p(SNR_p) at SNR_p = 1 (Section 6.8)
     k = np.flatnonzero(ok[: top + 1])
@@ -200,9 +223,14 @@ def emva_general(bright: list[LevelStats], dark: list[LevelStats], photons, mean
         v["mu_p_min"] = Estimate(float(inv(1.0)), float(inv.se(1.0)), "photons",
                                  "B-spline of mu_p vs SNR_p at SNR_p = 1 (General Section 6.8)")
     elif k.size > 5 and np.nanmin(snr_p[k]) >= 1:
-        v["mu_p_min"] = _threshold_below(up[k], snr_p[k])
+        low = float(up[k[0]])
+        v["mu_p_min"] = Estimate.limit(low, "upper", "photons", f"below the lowest step: every step has SNR_p > 1, "
+                                                                 f"so mu_p.min < {low:.4g} photons (the regression "
+                                                                 "of Section 6.8 has no step at SNR_p = 1)")
         notes.append("no exposure step reaches down to SNR_p = 1 (General Section 6.5 asks for steps where the "
-                     "input SNR is about one): mu_p.min is extrapolated from the lowest steps")
+                     "input SNR is about one): mu_p.min is only known to be below the lowest step; ARES's "
+                     "extrapolation (option general_threshold_extrapolated, beyond the text) is "
+                     + _threshold_below(up[k], snr_p[k]).text())
     else:
         v["mu_p_min"] = Estimate.na("too few levels with a positive slope of the characteristic curve", "photons")
     if ok[: top + 1].any():
@@ -235,4 +263,8 @@ def emva_general(bright: list[LevelStats], dark: list[LevelStats], photons, mean
         else:
             why = "mu_p.min not available" if not mn.available else "no photons at saturation or at mu_p.min"
             v["DR"], v["DR_db"] = Estimate.na(why, ""), Estimate.na(why, "dB")
-    return GeneralResult(v, curve, up, sig, sy, snr_y, snr_p, md, isat, sat_text, notes)
+    res = GeneralResult(v, curve, up, sig, sy, snr_y, snr_p, md, isat, sat_text, notes)
+    from .emva_general_table import complete
+
+    complete(res, d, texp, **(table or {}))
+    return res

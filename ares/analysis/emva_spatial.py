@@ -9,13 +9,15 @@
 * ``split``: total, column, row and pixel spatial variances of an averaged image
   (Eqs. 35 - 44) with the residual temporal variance sigma^2 / L removed (Eq. 36); two
   images are the L = 2 case of the same equations (Eq. 32 is var(<y>) - sigma^2/2).
-  After the high-pass, a white pattern keeps only part of its variance: ``g2`` of the
-  pixel and temporal parts (the 2-D white-noise gain, 1 - 8e-5 for the 4.0 filter) and
-  ``g1`` of a column or row pattern (the 1-D gain, ~0.89: the filter also removes the
-  long-wavelength share of a white column pattern). ARES solves Eq. 42 with these gains,
-  so the components estimate the sensor's white row/column/pixel patterns without the
-  filter's bias -- the principle of Appendix C.5, Eq. 86, which divides the 3.1 result by
-  0.96; with gains 1 the solution is exactly Eq. 43.
+  By default exactly as written: Eq. 36, the white-noise temporal terms of Eqs. 39 - 41
+  and the solution Eq. 43. ``Split.extended`` holds ARES's option ``rowcol_corrected``
+  (beyond the text, shown beside the text's values, never instead of them): after the
+  high-pass, a white pattern keeps only part of its variance: ``g2`` of the pixel and
+  temporal parts (the 2-D white-noise gain, 1 - 8e-5 for the 4.0 filter) and ``g1`` of a
+  column or row pattern (the 1-D gain, ~0.89: the filter also removes the long-wavelength
+  share of a white column pattern), and row- or column-correlated temporal noise, when
+  measured, is not taken for a pattern; Eq. 42 is solved with these gains and terms (the
+  principle of Appendix C.5, Eq. 86, which divides the 3.1 result by 0.96).
 * ``nonuniformity``: DSNU1288 (Eq. 66) and PRNU1288 (Eq. 67) and their .row/.col/.pix
   parts (Section 8.3), each with its standard error (Gaussian sampling of a variance from
   the number of columns, rows or pixels behind it) or an upper limit when the variance is
@@ -26,6 +28,7 @@ Pure numpy: no I/O.
 
 from __future__ import annotations
 
+import dataclasses
 import functools
 import math
 from dataclasses import dataclass
@@ -257,6 +260,7 @@ class Split:
     rows: int  # M, N after the high-pass border
     cols: int
     L: int
+    extended: "Split | None" = None  # ARES option rowcol_corrected (filter gains, row/column temporal noise)
 
     def get(self, part: str) -> tuple[float, float]:
         return getattr(self, part), getattr(self, "se_" + part)
@@ -279,13 +283,17 @@ BLOCK_PIXELS = 1 << 17  # ``split`` high-passes an image a block of rows (about 
 
 
 def split(img: np.ndarray, temporal_var: float, L: int, release: str = "4.0", row_var: float | None = None,
-          col_var: float | None = None, scale: float = 1.0, mean: float | None = None) -> Split:
+          col_var: float | None = None, scale: float = 1.0, mean: float | None = None,
+          temporal_var_text: float | None = None) -> Split:
     """Column, row and pixel spatial variances of ``img`` (the average of ``L`` images whose
     pixel temporal variance is ``temporal_var``), after the high-pass of ``release``
     ("4.0", "3.1" or "none"). ``row_var``/``col_var``: the temporal variances of the row and
-    column means (frame offset removed) when measured -- then row- and column-correlated
-    temporal noise (which averaging over L images leaves as var/L) is not taken for a row or
-    column pattern; without them Eqs. 39 - 41 as written (white temporal noise).
+    column means (frame offset removed) when measured -- then, in ``Split.extended`` (option
+    ``rowcol_corrected``), row- and column-correlated temporal noise (which averaging over L
+    images leaves as var/L) is not taken for a row or column pattern. The returned split
+    itself is Eqs. 36, 39 - 41, 43 as written, with sigma^2 = ``temporal_var_text`` when
+    given (Eq. 57's per-pixel temporal variance, frame offsets included), else
+    ``temporal_var``.
     ``scale``: the averaged image is ``img * scale`` (an exact integer sum: a pair's 1/2, a
     stack's 1/L). A large image is high-passed a block of rows at a time (each block with
     the ``HIGHPASS_BORDER`` rows the filter reads around it; the valid filter reads nothing
@@ -322,8 +330,20 @@ def split(img: np.ndarray, temporal_var: float, L: int, release: str = "4.0", ro
     cav = float(np.dot(col_means, col_means)) / N * f2  # Eq. 41 (before the temporal term)
     row_means -= d
     rav = float(np.dot(row_means, row_means)) / M * f2
+    text = _solve(cav, rav, s2_meas, M, N, L, mean, 1.0, 1.0,
+                  (temporal_var if temporal_var_text is None else temporal_var_text) / L, 0.0, 0.0)
     g1, g2 = white_gains(release)
-    # measured = A @ (col, row, pix) + temporal terms (Eq. 42 with the high-pass gains)
+    ext = _solve(cav, rav, s2_meas, M, N, L, mean, g1, g2, w, tr, tc)
+    return dataclasses.replace(text, extended=ext)
+
+
+def _solve(cav: float, rav: float, s2_meas: float, M: int, N: int, L: int, mean: float, g1: float, g2: float,
+           w: float, tr: float, tc: float) -> Split:
+    """Eq. 42 for (col, row, pix) from the measured column- and row-mean variances and the
+    total (Eqs. 35, 41) with the residual temporal variances of the average (white ``w``,
+    row- and column-correlated ``tr``, ``tc``) removed; ``g1``/``g2`` the high-pass gains
+    of a 1-D and a 2-D white pattern. With g = 1 and tr = tc = 0: Eqs. 36, 39 - 41 and 43
+    as written."""
     A = np.array([[g1, 0.0, g1 / M], [0.0, g1, g1 / N], [g1, g1, g2]])
     b = np.array([cav - g1 * (tc + w / M), rav - g1 * (tr + w / N), s2_meas - g2 * w - g1 * (tr + tc)])
     col, row, pix = np.linalg.solve(A, b)
@@ -391,3 +411,26 @@ def snr_model(photons: np.ndarray, eta: float, sigma_d_e: float, K: float) -> np
     """Temporal SNR of the linear model (Eq. 21)."""
     e = eta * np.asarray(photons, float)
     return e / np.sqrt(sigma_d_e**2 + (1 / 12) / K**2 + e)
+
+
+ROWCOL = "rowcol_corrected"  # the option name of Split.extended
+
+
+def nonuniformity_rowcol_corrected(dark: Split, bright: Split | None, K: float, K_se: float) -> dict[str, Estimate]:
+    """DSNU1288/PRNU1288 and their parts from ``Split.extended`` (ARES option
+    ``rowcol_corrected``, beyond the text), keyed ``<key>.rowcol_corrected`` and labelled,
+    for showing beside the text's values."""
+    out: dict[str, Estimate] = {}
+    if dark.extended is None:
+        return out
+    parts = dsnu(dark.extended, K, K_se)
+    if bright is not None and bright.extended is not None:
+        parts.update(prnu(bright.extended, dark.extended))
+    label = ("ARES option rowcol_corrected, beyond EMVA 1288 4.0 Eqs. 39 - 41: high-pass gains of row/column/pixel "
+             "patterns and measured row/column temporal noise removed; ")
+    for k, e in parts.items():
+        if k == "DSNU1288_DN":
+            continue
+        e2 = dataclasses.replace(e, note=label + e.note)
+        out[f"{k}.{ROWCOL}"] = e2
+    return out

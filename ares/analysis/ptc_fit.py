@@ -9,9 +9,15 @@
 
 - ``choose_gain_model``: the line or the Astier form, chosen by the data (an F-test of the
   extra curvature term and the significance of ``a00``), with both residual tests reported.
-- ``local_slope_check``: EMVA 1288 4.0 Linear, Section 6.6, Eq. 51 -- the local slopes of a
-  cubic B-spline regression of the PTC must stay within 3 % (mean relative deviation) of
-  ``K`` for the linear model to hold.
+- ``local_slope_check_text``: EMVA 1288 4.0 Linear, Section 6.6, Eq. 51 as written -- the
+  cubic B-spline regression of the General document (Eqs. 44 - 49: P equal intervals from 0
+  to saturation, unweighted least squares) through the photon transfer curve; the mean
+  |K_i - K| / K of its local slopes at the levels within 0 - 70 % of saturation must stay
+  below 3 % for the linear model to hold.
+- ``local_slope_check``: ARES's variant (option ``eq51_noise_floor``): a weighted spline with
+  at most three interior knots at signal quantiles over the fitted levels only, the linear
+  model rejected only when the deviation exceeds 3 % by more than the noise of the local
+  slopes. Reported beside the text's check, never instead of it.
 
 Every fit returns a ``LineFit``/``AstierFit`` with standard errors; the covariance is
 scaled by the reduced chi-square when that exceeds one (model scatter beyond the
@@ -266,10 +272,39 @@ class LocalSlopeCheck:
     mean_rel_dev: float
     holds: bool | None  # None: not testable (too few levels)
     note: str
+    intervals: int = 0  # P of the text's B-spline (0: the noise-floor variant's quantile knots)
+
+
+def local_slope_check_text(s, v, k: float, s_sat: float, limit: float = 0.03,
+                           intervals: int | None = None) -> LocalSlopeCheck:
+    """Eq. 51 as written (Linear Section 6.6): the General document's cubic B-spline (its
+    Eqs. 44 - 47, P equal intervals of width s_sat / P from 0 to the saturation signal
+    ``s_sat``, unweighted least squares) fitted to the photon transfer curve ``v`` vs ``s``
+    at every level up to saturation; its derivative (Eq. 48) at the levels within 0 - 70 %
+    of saturation is K_i; the linear model holds when mean |K_i - K| / K < 3 %. P: 6 - 8
+    for ~50 steps, more for more and fewer for fewer (General Section 6.6)."""
+    from .emva_general import bspline_fit, intervals_for
+
+    s = np.asarray(s, float)
+    v = np.asarray(v, float)
+    use = np.isfinite(s) & np.isfinite(v) & (s <= s_sat)
+    s, v = s[use], v[use]
+    P = intervals if intervals is not None else intervals_for(s.size)
+    inner = s <= 0.7 * s_sat
+    if not (math.isfinite(k) and k != 0 and math.isfinite(s_sat) and s_sat > 0) or s.size <= P + 3 or not inner.any():
+        return LocalSlopeCheck(math.nan, None, f"needs more than {P + 3} levels up to saturation and a gain "
+                                               f"(has {s.size})", P)
+    spline = bspline_fit(s, v, P, s_sat)
+    ki = spline.slope(s[inner])
+    dev = float(np.mean(np.abs(ki - k)) / abs(k))
+    verdict = "holds" if dev < limit else "does not hold: use the general model (EMVA 1288 4.0 General)"
+    return LocalSlopeCheck(dev, dev < limit, f"Eq. 51 (EMVA 1288 4.0 Linear, as written): mean |K_i - K|/K = "
+                                             f"{100 * dev:.2f} % over {int(inner.sum())} levels (cubic B-spline, "
+                                             f"{P} equal intervals up to saturation): the linear model {verdict}", P)
 
 
 def local_slope_check(s, v, v_se, k: float, limit: float = 0.03) -> LocalSlopeCheck:
-    """Local slopes ``K_i`` of a weighted cubic B-spline regression of ``V`` vs ``S``
+    """ARES's variant of Eq. 51 (option ``eq51_noise_floor``, beyond the text): local slopes ``K_i`` of a weighted cubic B-spline regression of ``V`` vs ``S``
     (interior knots at signal quantiles, one per four levels, at most three: a smoothing
     regression, not an interpolation) at every fitted level, against the fitted ``K``."""
     s = np.asarray(s, float)
@@ -301,11 +336,13 @@ def local_slope_check(s, v, v_se, k: float, limit: float = 0.03) -> LocalSlopeCh
     excess = dev - floor if math.isfinite(floor) else dev
     if dev < limit:
         return LocalSlopeCheck(dev, True, f"linear model holds: mean |K_i - K|/K = {100 * dev:.2g} % "
-                                          f"< {100 * limit:g} % (EMVA 1288 4.0 Linear Eq. 51)")
+                                          f"< {100 * limit:g} % (ARES's variant of EMVA 1288 4.0 Linear Eq. 51, "
+                                          "option eq51_noise_floor)")
     if excess < limit and math.isfinite(floor):
         return LocalSlopeCheck(dev, True, f"linear model holds: mean |K_i - K|/K = {100 * dev:.2g} %, of which "
                                           f"{100 * floor:.2g} % is the noise of the local slopes; the excess "
-                                          f"{100 * excess:.2g} % < {100 * limit:g} % (EMVA 1288 4.0 Linear Eq. 51, "
-                                          "noise floor removed)")
+                                          f"{100 * excess:.2g} % < {100 * limit:g} % (ARES option eq51_noise_floor, "
+                                          "beyond EMVA 1288 4.0 Linear Eq. 51: noise floor removed)")
     return LocalSlopeCheck(dev, False, f"the linear model does not hold here: mean |K_i - K|/K = {100 * dev:.2g} % "
-                                       f">= {100 * limit:g} % (EMVA 1288 4.0 Linear Eq. 51); use the general model")
+                                       f">= {100 * limit:g} % (ARES's variant of EMVA 1288 4.0 Linear Eq. 51, option "
+                                       "eq51_noise_floor); use the general model")

@@ -11,6 +11,7 @@ from __future__ import annotations
 
 import json
 import math
+import dataclasses
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -34,10 +35,14 @@ class EmvaAnalysis:
     sheet: "EmvaSheet | None" = None  # Release 4.0 Linear, every Table 2 figure and the graph data
     general: "GeneralResult | None" = None  # Release 4.0 General
     release31: "dict | None" = None  # Release 3.1: the 3.0 set with the 5x5 high-pass DSNU/PRNU
+    inp: "EmvaInput | None" = None  # what the 4.0 evaluations read (the stacks: the extensions' splits)
+    max_code: "int | None" = None  # the maximum value found in the data (Linear Section 6.6)
 
 
 def _pair(desc, lv, max_code):
     import itertools
+
+    import numpy as np
 
     from ares.analysis.levels import pair_step
     from ares.hardware.emva_descriptor import iter_level
@@ -46,7 +51,10 @@ def _pair(desc, lv, max_code):
     # lets them go once it has their sums (passed as pair_step(*two), the argument tuple
     # would hold them to its end: 1.2 MB a thread through the high-pass)
     two = itertools.islice(iter_level(desc, lv), 2)  # (a temporal level has two: read_descriptor)
-    return pair_step(next(two), next(two), max_code)
+    a, b = next(two), next(two)
+    top = max(a.max(), b.max())  # the largest value of the pair and how many samples have it
+    at_top = (int(np.count_nonzero(a == top)) + int(np.count_nonzero(b == top))) / (a.size + b.size)
+    return (*pair_step(a, b, max_code), (int(top), at_top))
 
 
 def _stack(desc, lv):
@@ -96,7 +104,7 @@ def analyse_descriptor(path: str | Path | EmvaDescriptor, pixel_area_um2: float 
         # the fits' modules load while the images are read (the threads hardly need the GIL)
         from ares.analysis.emva1288 import TemporalData, emva1288_results
         from ares.analysis.emva4_sheet import EmvaInput, evaluate_linear
-        from ares.analysis.emva_general import emva_general
+        from ares.analysis.emva_general_table import general_from_input
         from ares.analysis.ptc import analyze_ptc
 
         bright, dark = list(bright), dict(zip(darks, dark))
@@ -104,12 +112,15 @@ def analyse_descriptor(path: str | Path | EmvaDescriptor, pixel_area_um2: float 
     from ares import malloc
 
     malloc.release()  # the threads' freed temporaries, before the fits' and graphs' own
-    for lv, (s3, s4, sp, md) in zip(tb, bright):
+    found = max(t[0] for *_, t in bright)  # Linear Section 6.6: the maximum value is found, not assumed
+    for lv, (s3, s4, sp, md, (top, at_top)) in zip(tb, bright):
+        if found != max_code:  # the fraction at the found maximum (0 where a level does not reach it)
+            s3, s4 = (dataclasses.replace(x, frac_at_max=at_top if top == found else 0.0) for x in (s3, s4))
         b3.append(s3)
         b4.append(s4)
         diffs.append(md)
         dk = dark[desc.dark_for(lv, "temporal").exposure_ns]
-        d3.append(dk[0])
+        d3.append(dk[0])  # (dk[4], the dark pair's maximum, is not the saturation value)
         d4.append(dk[1])
         steps.append((sp, dk[2]))
     texp = np.array([lv.exposure_s for lv in tb])
@@ -123,12 +134,100 @@ def analyse_descriptor(path: str | Path | EmvaDescriptor, pixel_area_um2: float 
     ptc = analyze_ptc(b4, d4, exposure_s=texp, photons=up)
     inp = EmvaInput(up, texp, b4, d4, steps, np.array(diffs), stack_d, stack_b, pixel_area_um2=pixel_area_um2,
                     meta={"source": str(desc.path), "bits": desc.bits, "width": desc.width, "height": desc.height})
+    inp.notes.append(f"maximum value {found} DN, found in the data (EMVA 1288 4.0 Linear Section 6.6)"
+                     + ("" if found == max_code else f"; not the {desc.bits}-bit 2^k - 1 = {max_code}"))
     sheet = evaluate_linear(inp)
-    general = emva_general(b4, d4, up, mean_diff=np.array(diffs))
+    _dark_current_as_written(sheet, inp)
+    general = general_from_input(inp, sheet.photon_transfer)  # the whole General Table 2
     r31 = None
     if stack_b is not None:
         r31 = release31(res, stack_b, stack_d)
-    return EmvaAnalysis(desc, res, ptc, b4, d4, sheet.photon_transfer, sheet, general, r31)
+    return EmvaAnalysis(desc, res, ptc, b4, d4, sheet.photon_transfer, sheet, general, r31, inp, found)
+
+
+def _dark_current_as_written(sheet, inp) -> None:
+    """Linear Section 7.1 as written: each dark current as value +- its one-sigma error,
+    and, when it is not above that error, also the upper limit mu_I + sigma_I beside it
+    (``mu_I_mean_upper``, ``mu_I_var_upper``)."""
+    import numpy as np
+
+    from ares.analysis.dark_current import dark_current, with_upper_limit
+
+    if inp.dark_series is not None:
+        t, mu, s2 = inp.dark_series
+    else:
+        t, mu, s2 = inp.exposure_s, np.array([d.mean for d in inp.dark]), np.array([d.var for d in inp.dark])
+    dc = dark_current(t, mu, sheet.values["K"], s2)
+    extra = {}
+    for key, e in (("mu_I_mean", dc.rate_e_per_s), ("mu_I_var", dc.rate_from_variance_e_per_s)):
+        extra.update(with_upper_limit(key, e))
+    sheet.values = beside(sheet.values, extra)
+
+
+def beside(values: dict, extra: dict) -> dict:
+    """``values`` with each key of ``extra`` replaced in place, or (a new key ``<key>_...`` or
+    ``<key>.<option>``) inserted right after the entry it belongs to."""
+    out = dict(values)
+    out.update({k: e for k, e in extra.items() if k in values})
+    for k, e in extra.items():
+        if k in values:
+            continue
+        base = k.split(".")[0]
+        while base and base not in out:
+            base = base.rpartition("_")[0]
+        if not base:
+            out[k] = e
+            continue
+        items = list(out.items())
+        i = [a for a, _ in items].index(base) + 1
+        while i < len(items) and (items[i][0].startswith(base + ".") or items[i][0].startswith(base + "_upper")):
+            i += 1
+        out = dict(items[:i] + [(k, e)] + items[i:])
+    return out
+
+
+EXTENSIONS = {
+    "rowcol_corrected": "DSNU1288/PRNU1288 .row/.col/.pix with the high-pass gains of 1-D and 2-D white patterns and "
+                        "the measured row/column temporal noise removed (beyond Eqs. 39 - 41)",
+    "eq51_noise_floor": "the Eq. 51 local-slope check with at most 3 quantile knots over 0 - 70 % and the noise of "
+                        "the local slopes removed (beyond Eq. 51)",
+    "mu_e_sat_fit": "mu_e.sat as (mu_y.sat - mu_y.dark) / K (beyond Eq. 24, which takes the measured photons)",
+}
+
+
+def apply_extensions(an: EmvaAnalysis, names) -> None:
+    """Add the values of ARES's named options (``EXTENSIONS``) beside the text's, each keyed
+    ``<key>.<option>`` and labelled in its note; the text's values are left as they are."""
+    from ares.analysis.emva_spatial import nonuniformity_rowcol_corrected
+
+    sh, pt = an.sheet, an.sheet.photon_transfer
+    extra = {}
+    K = sh.values["K"]
+    if "rowcol_corrected" in names and an.inp is not None and an.inp.stack_dark is not None and K.available:
+        sd, sb = an.inp.stack_dark, an.inp.stack_bright
+        try:
+            ds, bs = sd.split("4.0"), sb.split("4.0") if sb is not None else None
+        except ValueError:
+            ds, bs = sd.split("none"), sb.split("none") if sb is not None else None
+        extra.update(nonuniformity_rowcol_corrected(ds, bs, K.value, K.se))
+    if "eq51_noise_floor" in names and pt.linear_noise_floor is not None:
+        sh.notes.append("ARES option eq51_noise_floor (beyond Eq. 51): " + pt.linear_noise_floor.note)
+    if "mu_e_sat_fit" in names and pt.mu_e_sat_fit is not None:
+        e = pt.mu_e_sat_fit
+        extra["mu_e_sat.mu_e_sat_fit"] = dataclasses.replace(e, note="ARES option mu_e_sat_fit, beyond Eq. 24: " + e.note)
+    sh.values = beside(sh.values, extra)
+
+
+def eq51_json(pt) -> dict:
+    """The Eq. 51 check as written (and ARES's variant, labelled) for the JSON."""
+    def one(c):
+        if c is None:
+            return None
+        return {"mean_rel_dev_pct": 100 * c.mean_rel_dev if math.isfinite(c.mean_rel_dev) else None,
+                "holds": c.holds, "intervals": c.intervals or None, "note": c.note}
+    return {"as_written": one(pt.linear_check),
+            "eq51_noise_floor": {**(one(pt.linear_noise_floor) or {}),
+                                 "option": "ARES option eq51_noise_floor, beyond the text"}}
 
 
 def release31(res, stack_b, stack_d) -> dict:
@@ -253,8 +352,11 @@ def format_table4(an: EmvaAnalysis) -> str:
 
 
 def format_general(an: EmvaAnalysis) -> str:
+    from ares.analysis.emva_general_table import GENERAL_TABLE2
+
     g = an.general
-    lines = [f"EMVA 1288 Release 4.0 General: {an.descriptor.path}", *_value_lines(g.values),
+    lines = [f"EMVA 1288 Release 4.0 General: {an.descriptor.path}",
+             *_value_lines(g.values, {k: s for k, s, _ in GENERAL_TABLE2}),
              f"saturation: {g.saturation}"]
     lines += [f"note: {n}" for n in g.notes]
     lines += ["K, the quantum efficiency and values in electrons are not defined in the General model "
@@ -285,6 +387,9 @@ def add_arguments(parser) -> None:
         parser.add_argument(opt, help=f"{what}, for the datasheet header")
     parser.add_argument("--wavelength-nm", type=positive, help="light source centroid wavelength (nm)")
     parser.add_argument("--pixel-size-um", type=positive, help="pixel pitch (um): gives mu_e.min.area and mu_e.sat.area")
+    parser.add_argument("--extension", action="append", choices=sorted(EXTENSIONS), default=[],
+                        help="also give the value of one of ARES's methods beyond the text (repeatable), beside the "
+                             "text's value and labelled: " + "; ".join(f"{k}: {v}" for k, v in EXTENSIONS.items()))
 
 
 def _meta(args, an: EmvaAnalysis) -> None:
@@ -310,13 +415,21 @@ def run(args) -> int:
     with jit.avoided():
         an = analyse_descriptor(args.descriptor, pitch * pitch if pitch else None)  # the .area figures need it
     _meta(args, an)
+    apply_extensions(an, getattr(args, "extension", None) or [])
     att = an.descriptor.attribution
     if args.release == "4.0-linear":
         d = an.sheet.to_json()
+        d["eq51"] = eq51_json(an.sheet.photon_transfer)
         text = format_table4
     elif args.release == "4.0-general":
+        from ares.analysis.emva_general_table import GENERAL_TABLE2
+
         d = {"release": "EMVA 1288 Release 4.0 General", "values": an.general.to_json(),
              "saturation": an.general.saturation, "notes": an.general.notes}
+        sym = {k: s for k, s, _ in GENERAL_TABLE2}
+        for k, e in d["values"].items():
+            if k in sym:
+                e["symbol"] = sym[k]
         text = format_general
     elif args.release == "3.1":
         d = {"release": "EMVA 1288 Release 3.1", "values": {k: e.to_dict() for k, e in (an.release31 or {}).items()}}

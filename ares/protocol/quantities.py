@@ -34,7 +34,8 @@ PRODUCES: dict[str, frozenset[str]] = {
                         "mu_e_min", "mu_e_min_area", "mu_e_sat", "mu_e_sat_area", "DR", "DR_db", "DSNU1288",
                         "DSNU1288_col", "DSNU1288_row", "DSNU1288_pix", "PRNU1288", "PRNU1288_col", "PRNU1288_row",
                         "PRNU1288_pix", "LE", "mu_I_mean", "mu_I_var", "R", "mu_p_min", "mu_p_sat", "mu_y_sat",
-                        "DSNU1288_DN", "sigma_y_stack_dark", "sigma_y_stack_50", "R_d"}),
+                        "DSNU1288_DN", "sigma_y_stack_dark", "sigma_y_stack_50", "R_d",
+                        "mu_p_min_area", "mu_p_sat_area"}),  # (General Table 2, photons per µm²)
 }
 
 

@@ -200,13 +200,13 @@ def _dark_series(run) -> dict:
 def evaluate(run):
     """(sheet, general, reason): the Release 4.0 Linear sheet and the General result."""
     from ares.analysis.emva4_sheet import evaluate_linear
-    from ares.analysis.emva_general import emva_general
+    from ares.analysis.emva_general_table import general_from_input
 
     inp, why = build_input(run)
     if inp is None:
         return None, None, why
     sheet = evaluate_linear(inp)
-    general = emva_general(inp.bright, inp.dark, inp.photons, mean_diff=inp.mean_diff)
+    general = general_from_input(inp, sheet.photon_transfer)  # the whole General Table 2
     return sheet, general, ""
 
 
