@@ -10,6 +10,8 @@ $(BIN)/.installed: pyproject.toml
 	$(PY) -m venv $(VENV)
 	$(BIN)/python -m pip install --quiet --upgrade pip
 	$(BIN)/python -m pip install --quiet -e '.[test]'
+	# numba compiles the kernels once per machine: here, not in the first run (benchmarks/first_run.md)
+	$(BIN)/python -m ares.jit
 	touch $@
 
 # Main job: a full headless photon-transfer scan on the simulated sensor.

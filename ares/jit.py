@@ -11,14 +11,22 @@ block, and numba is not loaded for them (honoured by the kernels that command us
 ``analysis/lowpass.py``, ``analysis/pair_kernel.py``); each agrees with its numpy path
 exactly or within float64 rounding (tested). Outside the block nothing changes, so a
 process that calls the command in-line (tests, a batch worker) keeps its kernels.
+
+First use on a machine: numba compiles each kernel once (~10 s for all of them on this
+project's 2-core VM) and caches it. ``make`` does that at install (``python -m ares.jit``,
+``warm_all``), so the first ``make run`` does not wait for it (``benchmarks/first_run.md``);
+a kernel that still has to be compiled says so once on stderr when stderr is a terminal
+(or ``ARES_ANNOUNCE_COMPILE=1``), so a slow first run is not a mystery.
 """
 
 from __future__ import annotations
 
 import contextlib
 import os
+import sys
 
 _avoiding = 0
+_announced = False
 
 
 @contextlib.contextmanager
@@ -46,4 +54,53 @@ def compiled(fn, inline: bool = False):
         return None
     if inline:
         return njit(inline="always")(fn)
-    return njit(cache=True, nogil=True)(fn)
+    d = njit(cache=True, nogil=True)(fn)
+    if not cached(d):
+        _announce(fn.__qualname__)
+    return d
+
+
+def cached(dispatcher) -> bool:
+    """Whether numba's cache holds ``dispatcher``'s compiled code (its index file exists);
+    True when that cannot be told (no cache, a numba that keeps it elsewhere)."""
+    try:
+        return os.path.exists(dispatcher._cache._cache_file._index_path)
+    except (AttributeError, TypeError):
+        return True
+
+
+def _announce(name: str) -> None:
+    global _announced
+    if _announced:
+        return
+    _announced = True
+    if os.environ.get("ARES_ANNOUNCE_COMPILE") == "1" or (sys.stderr is not None and sys.stderr.isatty()):
+        sys.stderr.write(f"ares: compiling the numba kernels for this machine ({name} first), once: later runs "
+                         "load them from the cache (make does this at install)\n")
+        sys.stderr.flush()
+
+
+def warm_all() -> float:
+    """Compile (or load) every kernel with the argument types the commands use; returns
+    the seconds it took. ``python -m ares.jit`` runs it (the Makefile's install step)."""
+    import time
+
+    import numpy as np
+
+    t0 = time.perf_counter()
+    from ares.analysis import lowpass, masked_fold, pair_kernel
+    from ares.sim import fused
+
+    fused.warm()
+    lowpass.warm()
+    for dtype in (np.uint8, np.uint16):
+        masked_fold.warm(dtype)
+        pair_kernel.pair_pass(np.zeros((4, 4), dtype), np.zeros((4, 4), dtype), None)
+    return time.perf_counter() - t0
+
+
+if __name__ == "__main__":  # python -m ares.jit: the install step of the Makefile
+    if os.environ.get("ARES_NO_NUMBA"):
+        print("ARES_NO_NUMBA is set: nothing to compile")
+    else:
+        print(f"numba kernels compiled or loaded in {warm_all():.1f} s")
