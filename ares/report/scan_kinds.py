@@ -158,26 +158,30 @@ def gain_page(run, groups: list):
     ax1.set_title("system gain vs analog gain")
     ax1.grid(alpha=0.3, which="both")
     ax1.legend()
-    ax2 = fig.add_axes([0.11, 0.3, 0.83, 0.26])
-    ax2.errorbar(ag, [e.value for e in rn_dn], yerr=[e.se for e in rn_dn], fmt="o", capsize=2,
-                 label="read noise at the output (DN)")
-    ax2.errorbar(ag, [e.value for e in rn_e], yerr=[e.se for e in rn_e], fmt="s", capsize=2,
-                 label="input-referred read noise (e-)")
+    ax2 = fig.add_axes([0.11, 0.3, 0.78, 0.26])
+    ax2e = ax2.twinx()  # the two noises in their own units: DN at the output (left), e- at the input (right)
+    ax2.errorbar(ag, [e.value for e in rn_dn], yerr=[e.se for e in rn_dn], fmt="o", capsize=2, color="C0",
+                 label="read noise at the output (DN, left)")
+    ax2e.errorbar(ag, [e.value for e in rn_e], yerr=[e.se for e in rn_e], fmt="s", capsize=2, color="C1",
+                  label="input-referred read noise (e-, right)")
     if gs:
         pix, chain = tables.est(gs.get("pixel_noise_e")), tables.est(gs.get("chain_noise_dn"))
         kv = np.array([k.value for k in K])
         if pix.available and chain.available:
             ax2.plot(ag, np.sqrt((pix.value * kv) ** 2 + chain.value**2), "-", color="C0", lw=0.8,
                      label=f"model: pixel {pix.value:.3g} e- x K (+) chain {chain.value:.3g} DN")
-            ax2.plot(ag, np.sqrt(pix.value**2 + (chain.value / kv) ** 2), "-", color="C1", lw=0.8,
-                     label="model, input-referred")
+            ax2e.plot(ag, np.sqrt(pix.value**2 + (chain.value / kv) ** 2), "-", color="C1", lw=0.8,
+                      label="model, input-referred")
     ax2.set_xscale("log", base=2)
     ax2.set_xticks(ag, [f"x{a:g}" for a in ag])
     ax2.set_xlabel("analog gain")
-    ax2.set_ylabel("noise")
+    ax2.set_ylabel("read noise at the output (DN rms)", color="C0")
+    ax2e.set_ylabel("input-referred read noise (e- rms)", color="C1")
     ax2.set_title("read noise at the output (DN) and referred to the input (e-)")
     ax2.grid(alpha=0.3, which="both")
-    ax2.legend(fontsize=7)
+    h1, l1 = ax2.get_legend_handles_labels()
+    h2, l2 = ax2e.get_legend_handles_labels()
+    ax2.legend(h1 + h2, l1 + l2, fontsize=7)
     y = text_table(fig, (0.08, 0.21, 0.84), ["analog gain", "K (DN/e-)", "read noise (DN)", "read noise (e-)"],
                    [[f"x{g.analog_gain:g}", k.text(with_unit=False), a.text(with_unit=False), b.text(with_unit=False)]
                     for g, k, a, b in zip(ok, K, rn_dn, rn_e)], [0.2, 0.27, 0.27, 0.26], fontsize=8)
