@@ -26,9 +26,10 @@ EXPECT = {
     "temperature": (["Dark current vs temperature", "2-D sweep", "temperature (C)", "exposure (s)"],
                     ["Photon transfer", "SNR and linearity"]),
     "gain": (["Gain split: conversion gain and noise vs analog gain", "Photon transfer (analog gain x1)"], []),
-    "bias_sweep_2d": (["2-D sweep", "tx_low (V)", "sf_bias (V)"], ["Photon transfer", "SNR and linearity"]),
+    "bias_sweep_2d": (["2-D sweep", "tx_low (V)", "sf_bias (V)", "image lag"], ["Photon transfer", "SNR and linearity"]),
     "adc_linearity": (["ADC linearity: INL and DNL", "integral non-linearity"], []),
-    "lag": (["Frame means per stage and image lag"], ["Photon transfer", "SNR and linearity"]),
+    "lag": (["Frame means per stage and image lag", "Image lag", "lag vs frame", "lag vs tx_low",
+             "tx_low (V)"], ["Photon transfer", "SNR and linearity"]),
     "emva_reference": (["Scan-level analysis: emva1288", "EMVA 1288 reference data set"], []),
 }
 

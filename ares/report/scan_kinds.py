@@ -232,6 +232,9 @@ def sweep2d_pages(run) -> list:
                 panels.append((f"{c}: {tables.COMPONENT_LABELS[c]}", u,
                                grid(lambda s, c=c: full(s)["components"][c]["value"])))
         panels = panels[:4]
+        cycles = ((available(run, "lag") or {}).get("cycles") or {})
+        if any(s["name"] in cycles for s in sts):  # dark="after": the lag of every point (the window's lag map)
+            panels.append(("image lag", "%", grid(lambda s: (cycles[s["name"]].get("lag_pct") or {}).get("value"))))
         fig = new_page(f"2-D sweep '{name}': {ky.removeprefix('reg:')} x {kx.removeprefix('reg:')}",
                        f"{len(sts)} stages; values of view 'full'")
         units = run.setting_units
@@ -239,8 +242,10 @@ def sweep2d_pages(run) -> list:
         def label(k):
             return k.removeprefix("reg:") + (f" ({units[k]})" if units.get(k) else "")
 
+        rows = (len(panels) + 1) // 2
+        h = 0.86 / rows  # 2 columns; the colour bar and its label beside each panel, clear of the next
         for i, (t, u, a) in enumerate(panels):
-            ax = fig.add_axes([0.1 + 0.47 * (i % 2), 0.56 - 0.47 * (i // 2), 0.32, 0.33])
+            ax = fig.add_axes([0.09 + 0.48 * (i % 2), 0.92 - h * (i // 2 + 1) + 0.07, 0.28, h - 0.11])
             plots.grid_image(fig, ax, a, xv, yv, label(kx), label(ky), t, u)
         figs.append(fig)
     return figs
@@ -292,6 +297,51 @@ def frame_means_page(run, stages: list[dict], arrays: dict):
         text_table(fig, (0.08, y - 0.03, 0.84), ["bright stage", "dark stage", "lag (%)", "bright signal (DN)",
                                                   "settings that vary"], crow[:20], [0.16, 0.14, 0.2, 0.18, 0.32],
                    fontsize=8, title="image lag (scan_results.json)", max_chars=[18, 16, 22, 14, 40])
+    return fig
+
+
+def lag_page(run, stages: list[dict], arrays: dict, lag: dict):
+    """What a datasheet reader looks for in image lag: each dark stack's excess over its
+    settled level, frame by frame on linear axes (the 0.2-0.7 DN that a log axis of frame
+    means hides), and the lag against the setting the scan varies, with its SE."""
+    fig = new_page("Image lag", "dark frames after each bright stack minus their settled level; "
+                   "lag = first-frame excess / bright signal")
+    cyc = lag["cycles"]
+    by_name = {st["name"]: st for st in stages}
+    vary = sorted({k for c in cyc.values() for k in (c.get("settings") or {})
+                   if len({json.dumps((c2.get("settings") or {}).get(k)) for c2 in cyc.values()}) > 1})
+    ax = fig.add_axes([0.11, 0.56, 0.83, 0.34])
+    for k, (bright, c) in enumerate(cyc.items()):
+        dark = by_name.get(c.get("dark_stage"))
+        fm = arrays.get(dark["index"]) if dark is not None else None
+        if fm is None or len(fm) < 3:
+            continue
+        fm = np.asarray(fm, float)
+        settled = float(np.mean(fm[2:])) if len(fm) > 2 else float(fm[-1])
+        label = ", ".join(f"{v.removeprefix('reg:')}={c['settings'][v]:g}" for v in vary
+                          if isinstance((c.get("settings") or {}).get(v), (int, float))) or bright
+        ax.plot(np.arange(1, len(fm) + 1), fm - settled, "o-", ms=3, color=f"C{k % 10}", label=label)
+    ax.axhline(0, color="0.4", lw=0.8)
+    ax.set_xlabel("dark frame after the bright stack")
+    ax.set_ylabel("frame mean - settled dark (DN)")
+    ax.set_title("lag vs frame")
+    ax.grid(alpha=0.3)
+    ax.legend(fontsize=7, ncol=3)
+    num = [v for v in vary if all(isinstance((c.get("settings") or {}).get(v), (int, float)) for c in cyc.values())]
+    if num:
+        key = num[0]
+        xs = [c["settings"][key] for c in cyc.values()]
+        ys = [(c.get("lag_pct") or {}).get("value") for c in cyc.values()]
+        es = [(c.get("lag_pct") or {}).get("se") for c in cyc.values()]
+        ok = [i for i, y in enumerate(ys) if y is not None]
+        ax2 = fig.add_axes([0.11, 0.12, 0.83, 0.32])
+        ax2.errorbar([xs[i] for i in ok], [ys[i] for i in ok], yerr=[es[i] or 0 for i in ok], fmt="o-", capsize=3)
+        ax2.axhline(0, color="0.4", lw=0.8)
+        unit = run.setting_units.get(key, "")
+        ax2.set_xlabel(f"{key.removeprefix('reg:')}" + (f" ({unit})" if unit else ""))
+        ax2.set_ylabel("image lag (% of the bright signal)")
+        ax2.set_title(f"lag vs {key.removeprefix('reg:')} (error bars: 1 SE)")
+        ax2.grid(alpha=0.3)
     return fig
 
 
@@ -454,6 +504,9 @@ def pages(run, groups: list) -> list[tuple[str, object]]:
         fms = {k: np.asarray(v, float) for k, v in fms.items() if v is not None}
         if fms:
             out.append(("frame means", partial(frame_means_page, run, seq, fms)))
+            lag = available(run, "lag")
+            if lag and isinstance(lag.get("cycles"), dict) and lag["cycles"]:
+                out.append(("lag", partial(lag_page, run, seq, fms, lag)))
     d = available(run, "defects")
     if d:
         out.append(("defects", partial(defects_page, run, d)))
