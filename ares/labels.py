@@ -43,7 +43,7 @@ def component_label(c: str, part: str = "components") -> str:
 # as written (attribute "unit") as well.
 _SUFFIX = {"DN": "dn", "DN^2": "dn2", "DN/e-": "dn_per_e", "e-/DN": "e_per_dn", "e-": "e", "e-^2": "e2",
            "1": "rel_var", "%": "pct", "dB": "db", "s": "s", "C": "c", "x": "x", "e-/s": "e_per_s",
-           "DN/s": "dn_per_s", "uV/e-": "uv_per_e"}
+           "DN/s": "dn_per_s", "uV/e-": "uv_per_e", "LSB": "lsb"}
 _UNIT = {v: k for k, v in _SUFFIX.items()}
 
 
@@ -62,7 +62,7 @@ def with_unit(name: str, unit: str) -> str:
 
 
 # numeric columns that are counts, indices or fractions (unit "1"), and the analog gain factor
-COUNT_COLUMNS = {"index", "stage_index", "frames", "dark_frames", "n_pixels", "n_frames", "dark_n_frames",
+COUNT_COLUMNS = {"index", "stage_index", "code", "transition", "frames", "dark_frames", "n_pixels", "n_frames", "dark_n_frames",
                  "frac_at_max", "frac_at_min", "dark_frac_at_max", "dark_frac_at_min"}
 
 

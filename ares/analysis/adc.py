@@ -31,6 +31,31 @@ class InlDnl:
     last: int
     samples: int
     missing_codes: np.ndarray
+    per_code: float = math.nan  # code density: mean count of an interior code (the counting statistics)
+
+    def dnl_se(self) -> np.ndarray:
+        """Counting SE of each code's DNL (code density): a code's count is Poisson, so
+        SE(DNL_k) = sqrt(w_k / m) with w_k its relative width and m the mean count per code."""
+        return np.sqrt(np.clip(self.dnl + 1.0, 0.0, None) / self.per_code)
+
+    def inl_se(self) -> np.ndarray:
+        """Counting SE of each transition's INL (code density): the count below transition
+        j of M interior codes is binomial with the total fixed by the endpoint fit, so
+        SE(INL_j) = sqrt(M p (1 - p) / m) with p = j / M (0 at both ends)."""
+        M = self.last - self.first
+        j = np.arange(1, self.inl.size + 1) - self.first
+        p = np.clip(j / M, 0.0, 1.0)
+        se = np.sqrt(M * p * (1 - p) / self.per_code)
+        return np.where(np.isfinite(self.inl), se, np.nan)
+
+    def at_extremes(self) -> dict[str, tuple[float, float]]:
+        """(value, counting SE) of the DNL and INL extremes (LSB)."""
+        out = {}
+        for name, a, se in (("dnl", self.dnl, self.dnl_se()), ("inl", self.inl, self.inl_se())):
+            for which, arg in (("max", np.nanargmax), ("min", np.nanargmin)):
+                i = int(arg(a))
+                out[f"{name}_{which}"] = (float(a[i]), float(se[i]))
+        return out
 
     @property
     def dnl_max(self) -> float:
@@ -86,7 +111,12 @@ def code_density(codes: np.ndarray, max_code: int, input_density: str = "uniform
     else:
         raise ValueError(f"unknown input density {input_density!r}")
     width = np.diff(t)
-    return _from_widths(width, lo, hi, max_code, int(c.size))
+    r = _from_widths(width, lo, hi, max_code, int(c.size))
+    if input_density == "uniform":
+        from dataclasses import replace
+
+        r = replace(r, per_code=float(h[lo:hi + 1].sum()) / (hi - lo + 1))
+    return r
 
 
 def ramp_transitions(codes_per_frame: np.ndarray, max_code: int, x0: float | None = None,

@@ -104,7 +104,14 @@ def write_csv(run, out_dir: str | Path, groups=None, kf=None) -> list[Path]:
         _write(out / "levels.csv", to_csv([r for st in run.stages for r in tables.level_rows(st)],
                                           tables.LEVEL_COLUMNS)),
         _write(out / "key_figures.csv", to_csv(key_figure_rows(kf), KEY_FIGURE_COLUMNS)),
-    ] + _emva_csv(run, out)
+    ] + _emva_csv(run, out) + _adc_csv(run, out)
+
+
+def _adc_csv(run, out: Path) -> list[Path]:
+    """``adc_inl_dnl.csv``: every code's DNL and every transition's INL with their counting
+    SEs, per channel, when the scan ran the ``adc_linearity`` analysis."""
+    rows = tables.adc_rows(run)
+    return [_write(out / "adc_inl_dnl.csv", to_csv(rows, tables.ADC_COLUMNS))] if rows else []
 
 
 EMVA_COLUMNS = ("release", "quantity", "symbol", "value", "se", "unit", "verdict", "definition")

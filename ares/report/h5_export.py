@@ -66,6 +66,9 @@ def write_h5(run, path: str | Path, groups=None, kf=None) -> Path:
                tables.COMPONENT_COLUMNS)
         _table(f.create_group("levels"), [r for st in run.stages for r in tables.level_rows(st)],
                tables.LEVEL_COLUMNS)
+        adc = tables.adc_rows(run)
+        if adc:
+            _table(f.create_group("adc_inl_dnl"), adc, tables.ADC_COLUMNS)
         if run.has_h5:
             target = run.dir / "results.h5"
             same_dir = path.parent.resolve() == run.dir.resolve()

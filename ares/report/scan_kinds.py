@@ -422,37 +422,22 @@ def adc_page(run, d: dict):
     histograms in results.h5 -- the curves (code-density test, as the runner)."""
     fig = new_page("ADC linearity: INL and DNL", "code-density test on the ramp stage(s): "
                    + ", ".join(d.get("stages") or []))
-    hists: dict = {}
-    for st in run.stages:
-        if st["name"] in (d.get("stages") or []):
-            for k, a in run.arrays(st["index"]).items():
-                if k.startswith("hist_"):
-                    hists[k[5:]] = hists.get(k[5:], 0) + np.asarray(a)
-    chans = list((d.get("channels") or {}).keys())
-    curves = {}
-    if hists:
-        from ares.analysis.adc import code_density
-
-        for ch in chans:
-            h = hists.get(ch)
-            if h is None:
-                continue
-            try:
-                curves[ch] = code_density(np.repeat(np.arange(h.size), h.astype(np.int64)), h.size - 1)
-            except ValueError:
-                pass
+    curves = tables.adc_curves(run, d)
     y = 0.92
     if curves:
         ax1 = fig.add_axes([0.11, 0.66, 0.83, 0.25])
         ax2 = fig.add_axes([0.11, 0.35, 0.83, 0.25], sharex=ax1)
-        for ch, r in curves.items():
-            ax1.plot(r.codes, r.dnl, lw=0.6, label=ch)
-            ax2.plot(np.arange(1, r.inl.size + 1), r.inl, lw=0.8, label=ch)
+        for k, (ch, r) in enumerate(curves.items()):
+            ax1.plot(r.codes, r.dnl, lw=0.6, label=ch, color=f"C{k}")
+            t = np.arange(1, r.inl.size + 1)
+            ax2.plot(t, r.inl, lw=0.8, label=ch, color=f"C{k}")
+            se = r.inl_se()  # the counting statistics' 1-SE band (adc_inl_dnl.csv has every code's SE)
+            ax2.fill_between(t, r.inl - se, r.inl + se, color=f"C{k}", alpha=0.15, lw=0)
         ax1.set_ylabel("DNL (LSB)")
         ax1.set_title("differential non-linearity")
         ax2.set_ylabel("INL (LSB)")
         ax2.set_xlabel("code")
-        ax2.set_title("integral non-linearity (endpoint fit)")
+        ax2.set_title("integral non-linearity (endpoint fit; band: 1 SE of the counts)")
         for a in (ax1, ax2):
             a.grid(alpha=0.3)
             a.legend()
@@ -507,14 +492,14 @@ def pages(run, groups: list) -> list[tuple[str, object]]:
             lag = available(run, "lag")
             if lag and isinstance(lag.get("cycles"), dict) and lag["cycles"]:
                 out.append(("lag", partial(lag_page, run, seq, fms, lag)))
+    d = available(run, "adc_linearity")
+    if d:
+        out.append(("adc", partial(adc_page, run, d)))
     d = available(run, "defects")
     if d:
         out.append(("defects", partial(defects_page, run, d)))
         if d.get("shape"):
             out.append(("defect map", partial(defect_map_page, run, d)))
-    d = available(run, "adc_linearity")
-    if d:
-        out.append(("adc", partial(adc_page, run, d)))
     for name, a in run.analyses.items():
         if name not in HANDLED and available(run, name):
             out.append((f"analysis {name}", partial(generic_page, name, a)))

@@ -531,3 +531,46 @@ def dark_current_figures(run, gain: Estimate | None) -> dict:
             kf[key + "_e_per_s"] = _entry("dark current" + at, dc.rate_e_per_s,
                                           "computed by the report from dark stages")
     return kf
+
+
+# ------------------------------------------------------------------ ADC curves
+
+ADC_COLUMNS = ("channel", "code", "dnl_lsb", "dnl_se_lsb", "transition", "inl_lsb", "inl_se_lsb")
+
+
+def adc_curves(run, d: dict) -> dict:
+    """Channel -> ``InlDnl`` of the ``adc_linearity`` analysis ``d``: the code-density test
+    on its ramp stages' code histograms in results.h5, as the runner computed its extremes."""
+    from ares.analysis.adc import code_density
+
+    hists: dict = {}
+    for st in run.stages:
+        if st["name"] in (d.get("stages") or []):
+            for k, a in run.arrays(st["index"]).items():
+                if k.startswith("hist_"):
+                    hists[k[5:]] = hists.get(k[5:], 0) + np.asarray(a)
+    out = {}
+    for ch in (d.get("channels") or {}):
+        h = hists.get(ch)
+        if h is None:
+            continue
+        try:
+            out[ch] = code_density(np.repeat(np.arange(h.size), h.astype(np.int64)), h.size - 1)
+        except ValueError:
+            pass
+    return out
+
+
+def adc_rows(run) -> list[dict]:
+    """The INL/DNL curves per channel with their counting SEs (adc_inl_dnl.csv)."""
+    d = run.analyses.get("adc_linearity")
+    if not isinstance(d, dict) or not d.get("channels"):
+        return []
+    rows = []
+    for ch, r in adc_curves(run, d).items():
+        dse, ise = r.dnl_se(), r.inl_se()
+        for k in range(r.first, r.last):
+            j = k + 1  # transition k+1 lies between codes k and k+1
+            rows.append({"channel": ch, "code": k, "dnl_lsb": float(r.dnl[k]), "dnl_se_lsb": float(dse[k]),
+                         "transition": j, "inl_lsb": float(r.inl[j - 1]), "inl_se_lsb": float(ise[j - 1])})
+    return rows

@@ -1,0 +1,48 @@
+"""INL/DNL with standard errors (issue 38: the ADC page gave bare extremes and the curves
+were not exported). The code-density test's counting SE against a Monte Carlo of an ideal
+ADC, and the curves in adc_inl_dnl.csv / report.h5 with the extremes the JSON states."""
+
+from __future__ import annotations
+
+import csv
+import json
+from pathlib import Path
+
+import h5py
+import numpy as np
+import pytest
+
+from ares.analysis.adc import code_density
+from ares.cli import main
+
+ROOT = Path(__file__).resolve().parents[1]
+
+
+def test_counting_se_matches_the_spread_of_an_ideal_adc():
+    rng = np.random.default_rng(11)
+    reps = [code_density(np.floor(rng.uniform(0, 256, 20000)).astype(int), 255) for _ in range(300)]
+    for k in (40, 128, 200):
+        dnl = np.array([r.dnl[k] for r in reps])
+        inl = np.array([r.inl[k] for r in reps])
+        # 300 replicates: the spread is known to ~4 %; the SE within 12 % of it
+        assert np.mean([r.dnl_se()[k] for r in reps]) == pytest.approx(dnl.std(ddof=1), rel=0.12)
+        assert np.mean([r.inl_se()[k] for r in reps]) == pytest.approx(inl.std(ddof=1), rel=0.12)
+        assert abs(dnl.mean()) < 3 * dnl.std() / np.sqrt(300) + 0.01  # unbiased on an ideal ADC
+
+
+def test_adc_scan_reports_extremes_with_se_and_exports_the_curves(tmp_path):
+    out = tmp_path / "run"
+    assert main(["run", str(ROOT / "scans" / "adc_linearity.xml"), "--out", str(out), "--frames", "3",
+                 "--seed", "2", "--quiet"]) in (0, 4)
+    res = json.loads((out / "scan_results.json").read_text())["analyses"]["adc_linearity"]
+    with open(out / "adc_inl_dnl.csv", newline="") as fh:
+        rows = list(csv.DictReader(fh))
+    for ch, c in res["channels"].items():
+        mine = [r for r in rows if r["channel"] == ch]
+        assert mine, ch
+        for key in ("dnl_max_lsb", "inl_min_lsb"):
+            assert c[key]["se"] is not None and c[key]["se"] > 0 and c[key]["verdict"] == "ok"
+        assert max(float(r["dnl_lsb"]) for r in mine) == pytest.approx(c["dnl_max_lsb"]["value"])
+        assert min(float(r["inl_lsb"]) for r in mine) == pytest.approx(c["inl_min_lsb"]["value"])
+    with h5py.File(out / "report.h5", "r") as h:
+        assert h["adc_inl_dnl/inl_lsb"].attrs["unit"] == "LSB" and h["adc_inl_dnl/inl_lsb"].size == len(rows)
