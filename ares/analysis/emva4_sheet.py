@@ -133,6 +133,18 @@ class EmvaSheet:
         return out
 
 
+def exposure_control(exposures_s, photons=None) -> str:
+    """How the exposure steps were made, read from the data (Section 6.3): exposure time
+    varied (method I) or the light varied at one exposure time (method II)."""
+    t = np.asarray(exposures_s, float)
+    t = t[np.isfinite(t)]
+    if t.size == 0:
+        return "not given"
+    if np.unique(np.round(t, 12)).size > 1:
+        return "exposure time varied (method I)"
+    return f"light varied at a constant exposure of {1e3 * float(t[0]):.4g} ms (method II)"
+
+
 def _scaled(e: Estimate, f: float, unit: str, note: str) -> Estimate:
     if not e.available:
         return Estimate.na(e.note, unit)
@@ -265,6 +277,8 @@ def _curves(inp: EmvaInput, pt: Emva4Result, v: dict, t, mu, s2) -> dict:
          "fit_levels": pt.fit_levels, "le_levels": pt.le_levels, "index_sat": pt.index_sat,
          "deviation_pct": pt.deviation_pct, "dark_t": np.asarray(t, float), "dark_mu": np.asarray(mu, float),
          "dark_s2": np.asarray(s2, float)}
+    if inp.mean_diff is not None:  # mu[0] - mu[1] of each pair: the stability graph (Fig. 6)
+        c["mean_diff"] = np.asarray(inp.mean_diff, float)[order]
     c["snr"] = np.where(var_b > 0, sig / np.sqrt(np.maximum(var_b, 1e-300)), np.nan)
     if inp.step_split is not None:
         ss = [inp.step_split[i] for i in order]

@@ -84,6 +84,10 @@ def _write(run, formats, out_dir, pdf_path, csv_dir, h5_path, helper) -> list[Pa
             ds = p.with_name("emva_datasheet.pdf")
             datasheet.write_datasheet(emva[0], ds, emva[1])
             out.append(ds)
+            if emva[1] is not None:  # Release 4.0 General: its own datasheet
+                dg = p.with_name("emva_datasheet_general.pdf")
+                datasheet.write_datasheet(emva[0], dg, emva[1], "4.0-general")
+                out.append(dg)
     return out
 
 
