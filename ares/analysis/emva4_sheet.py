@@ -142,7 +142,7 @@ def exposure_control(exposures_s, photons=None) -> str:
         return "not given"
     if np.unique(np.round(t, 12)).size > 1:
         return "exposure time varied (method I)"
-    return f"light varied at a constant exposure of {1e3 * float(t[0]):.4g} ms (method II)"
+    return f"light varied at {1e3 * float(t[0]):.4g} ms exposure (method II)"
 
 
 def _scaled(e: Estimate, f: float, unit: str, note: str) -> Estimate:
@@ -263,7 +263,9 @@ def evaluate_linear(inp: EmvaInput, highpass_release: str = "4.0") -> EmvaSheet:
     if inp.temperatures:
         curves["dark_vs_temperature"] = [(T, dark_current_4(tt, m, s, K)["mu_I_mean"])
                                          for T, tt, m, s in inp.temperatures]
-    return EmvaSheet("EMVA 1288 Release 4.0 Linear", v, pt, curves, notes, dict(inp.meta))
+    meta = dict(inp.meta)
+    meta.setdefault("exposure_control", exposure_control(inp.exposure_s))  # read from the steps themselves
+    return EmvaSheet("EMVA 1288 Release 4.0 Linear", v, pt, curves, notes, meta)
 
 
 def _curves(inp: EmvaInput, pt: Emva4Result, v: dict, t, mu, s2) -> dict:

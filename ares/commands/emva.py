@@ -288,8 +288,6 @@ def add_arguments(parser) -> None:
 
 
 def _meta(args, an: EmvaAnalysis) -> None:
-    from ares.analysis.emva4_sheet import exposure_control
-
     m = an.sheet.meta
     for k in ("vendor", "model", "serial", "date"):
         if getattr(args, k, None):
@@ -303,9 +301,7 @@ def _meta(args, an: EmvaAnalysis) -> None:
     m["resolution"] = f"{an.descriptor.width} x {an.descriptor.height} pixels"
     if getattr(args, "pixel_size_um", None):
         m["pixel_size"] = f"{args.pixel_size_um:g} x {args.pixel_size_um:g} µm"
-    lit = an.descriptor.temporal_bright
-    m["exposure_control"] = exposure_control([lv.exposure_s for lv in lit])
-    ts = sorted({lv.exposure_s for lv in lit})
+    ts = sorted({lv.exposure_s for lv in an.descriptor.temporal_bright})
     if ts:
         m["exposure_time"] = f"{1e3 * ts[0]:.4g} - {1e3 * ts[-1]:.4g} ms" if len(ts) > 1 else f"{1e3 * ts[0]:.4g} ms"
 
