@@ -104,7 +104,7 @@ def _warning(fig: Figure, text: str | None, y: float) -> float:
 
     if not text:
         return y
-    for w in textwrap.wrap(text, 150):
+    for w in textwrap.wrap(text, 132):
         fig.text(0.06, y, w, fontsize=6.6, color="C3", weight="bold", va="top")
         y -= 0.011
     return y - 0.002

@@ -143,7 +143,7 @@ def linearity_page(sheet, rel: str = LINEAR) -> Figure:
     b.plot(x[okd], dev[okd], "o-", ms=2.5, lw=0.6, color="C0", label="mono data")
     b.axhline(0, color="0.5", lw=0.6)
     b.set(xlabel="irradiation (photons/pixel)", ylabel="deviation (%)",
-          title=f"b  Deviation from the regression (Eq. 62): LE = {_shown(sheet, 'LE')}")
+          title=f"b  Linearity error: deviation from the regression (Eq. 62), LE = {_shown(sheet, 'LE')}")
     return fig
 
 
