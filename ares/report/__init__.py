@@ -5,7 +5,8 @@
   runner's ``summary.csv``), ``report.pdf`` and -- with "hdf5" in ``formats`` --
   ``report.h5`` (the same tables, linking the run's results.h5), written into the run
   directory (or ``out_dir``); a scan with the ``emva4`` analysis also gets
-  ``emva_datasheet.pdf`` and ``emva_datasheet.csv`` (EMVA 1288 Release 4.0).
+  ``emva_datasheet.pdf``, ``emva_datasheet_general.pdf`` and ``emva_datasheet.csv``
+  (EMVA 1288 Release 4.0).
 - ``key_figures(run_dir) -> dict``: ``{name: {label, value, se, unit, note, source}}``.
 
 A partial run (stopped, failed, killed) is reported as far as it goes and says so; a
