@@ -211,3 +211,12 @@ def test_peak_table_rows():
     rows = peak_rows(c, specs)
     assert len(rows) == 1 and rows[0][0] == "DSNU, horizontal"
     assert float(rows[0][3]) == pytest.approx(1.5, abs=0.05)
+
+
+def test_pattern_at_nyquist():
+    """An alternating +-A pattern (0.5 cycles/pixel): the Nyquist bin holds A^2 N, not A^2 N / 4."""
+    rng = np.random.default_rng(5)
+    img = rng.normal(0, 0.5, (M, N)) + 1.5 * np.where(np.arange(N) % 2, 1.0, -1.0)[None, :]
+    pk = graphs.spectrum_peaks(graphs.spectrogram(img, "horizontal"))
+    assert len(pk) == 1 and pk[0].freq == 0.5
+    assert pk[0].amplitude == pytest.approx(1.5, abs=0.05)

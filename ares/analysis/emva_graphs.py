@@ -127,11 +127,12 @@ def spectrum_peaks(s: Spectrogram, false_alarm: float = 0.01, max_peaks: int = 4
         while b < nb and not seen[b + 1] and p[b + 1] > lo_thr[b + 1] * level[b + 1]:
             b += 1
         seen[a:b + 1] = True
-        excess = float(np.sum(p[a:b + 1] - level[a:b + 1]))
+        w = np.where(np.arange(a, b + 1) == nb, 0.25, 1.0)  # Nyquist: p = A^2 N there, not A^2 N / 4
+        excess = float(np.sum(w * (p[a:b + 1] - level[a:b + 1])))
         ratio = float(p[v] / level[v])
         pf = min(1.0, nb * float(gamma.sf(ratio, shape[v], scale=1.0 / shape[v])))
         peaks.append(Peak(float(s.freq[v]), (int(a), int(b)), 2.0 * math.sqrt(max(excess, 0.0) / n),
-                          2.0 * math.sqrt(float(np.sum(level[a:b + 1])) / n), ratio, pf))
+                          2.0 * math.sqrt(float(np.sum(w * level[a:b + 1])) / n), ratio, pf))
         if len(peaks) >= max_peaks:
             break
     return peaks
