@@ -23,10 +23,9 @@ import io
 from pathlib import Path
 
 import matplotlib
-import numpy as np
 from matplotlib.figure import Figure
 
-from ares.analysis.emva4_sheet import EXTRA, SYMBOLS, TABLE2
+from ares.analysis.emva4_sheet import SYMBOLS
 from ares.report import datasheet_pages as dp
 from ares.report.datasheet_pages import GENERAL, LINEAR, given, value_text
 from ares.report.plots import A4, RC
@@ -39,7 +38,6 @@ GROUPS = (("Quantum efficiency", ("QE",)), ("Overall system gain", ("K", "K_inv"
           ("Spatial nonuniformities", ("DSNU1288", "DSNU1288_col", "DSNU1288_row", "DSNU1288_pix", "PRNU1288",
                                        "PRNU1288_col", "PRNU1288_row", "PRNU1288_pix")),
           ("Linearity error", ("LE",)), ("Dark current", ("mu_I_mean", "mu_I_var")))
-UNITS = {k: u for k, _, u in TABLE2 + EXTRA}
 
 
 def rows(sheet, general=None) -> list[dict]:
@@ -127,9 +125,7 @@ def _table_column(fig: Figure, groups, values: dict, y: float) -> float:
 
 def cell(e) -> str:
     """A summary-sheet value: the figure with its unit, or why there is none."""
-    if e.available:
-        return value_text(e) + (f" {e.unit}" if e.unit else "")
-    return "cannot be measured" if "cannot be measured" in (e.note or "").lower() else "n/a"
+    return value_text(e) + (f" {e.unit}" if e.available and e.unit else "")
 
 
 def summary_page(sheet) -> Figure:

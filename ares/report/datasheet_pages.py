@@ -21,7 +21,11 @@ GENERAL = "EMVA 1288 Release 4.0 General"
 
 
 def value_text(e) -> str:
-    return e.text(with_unit=False) if e.available else "n/a"
+    """A value without its unit; where there is none, "cannot be measured" when the text says
+    so (the General model's K, eta, electrons), else "n/a" (the reason is on the notes page)."""
+    if e.available:
+        return e.text(with_unit=False)
+    return "cannot be measured" if "cannot be measured" in (e.note or "").lower() else "n/a"
 
 
 def given(m: dict, k: str, unit: str = "") -> str:
