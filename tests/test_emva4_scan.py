@@ -37,8 +37,12 @@ def test_datasheet_pdf_follows_section_10_2(run_dir):
         assert text in first, text
     body = " ".join(pages[1:])
     for graph in ("Section 6.6", "Linearity error", "Dark current (Section 7)", "Section 8.6", "Section 8.7",
-                  "Section 8.8", "Accumulated log histogram", "General 6.6 - 6.8", "Measurement, release and notes"):
+                  "Section 8.8", "Accumulated log histogram", "Stability check (Fig. 6)", "Measurement, release and notes"):
         assert graph in body, graph
+    general = page_texts(run_dir / "emva_datasheet_general.pdf")  # Release 4.0 General: a datasheet of its own
+    assert "Summary Sheet (Release 4.0 General)" in general[0]
+    assert all("Release 4.0 General ·" in p and "Release 4.0 Linear" not in p for p in general)
+    assert "General 6.6 - 6.8" in " ".join(general)
     report = page_texts(run_dir / "report.pdf")
     assert any("Summary Sheet for Operation Point 1" in p for p in report)  # also in the run's report
 

@@ -133,6 +133,18 @@ class EmvaSheet:
         return out
 
 
+def exposure_control(exposures_s, photons=None) -> str:
+    """How the exposure steps were made, read from the data (Section 6.3): exposure time
+    varied (method I) or the light varied at one exposure time (method II)."""
+    t = np.asarray(exposures_s, float)
+    t = t[np.isfinite(t)]
+    if t.size == 0:
+        return "not given"
+    if np.unique(np.round(t, 12)).size > 1:
+        return "exposure time varied (method I)"
+    return f"light varied at {1e3 * float(t[0]):.4g} ms exposure (method II)"
+
+
 def _scaled(e: Estimate, f: float, unit: str, note: str) -> Estimate:
     if not e.available:
         return Estimate.na(e.note, unit)
@@ -251,7 +263,9 @@ def evaluate_linear(inp: EmvaInput, highpass_release: str = "4.0") -> EmvaSheet:
     if inp.temperatures:
         curves["dark_vs_temperature"] = [(T, dark_current_4(tt, m, s, K)["mu_I_mean"])
                                          for T, tt, m, s in inp.temperatures]
-    return EmvaSheet("EMVA 1288 Release 4.0 Linear", v, pt, curves, notes, dict(inp.meta))
+    meta = dict(inp.meta)
+    meta.setdefault("exposure_control", exposure_control(inp.exposure_s))  # read from the steps themselves
+    return EmvaSheet("EMVA 1288 Release 4.0 Linear", v, pt, curves, notes, meta)
 
 
 def _curves(inp: EmvaInput, pt: Emva4Result, v: dict, t, mu, s2) -> dict:
@@ -265,6 +279,8 @@ def _curves(inp: EmvaInput, pt: Emva4Result, v: dict, t, mu, s2) -> dict:
          "fit_levels": pt.fit_levels, "le_levels": pt.le_levels, "index_sat": pt.index_sat,
          "deviation_pct": pt.deviation_pct, "dark_t": np.asarray(t, float), "dark_mu": np.asarray(mu, float),
          "dark_s2": np.asarray(s2, float)}
+    if inp.mean_diff is not None:  # mu[0] - mu[1] of each pair: the stability graph (Fig. 6)
+        c["mean_diff"] = np.asarray(inp.mean_diff, float)[order]
     c["snr"] = np.where(var_b > 0, sig / np.sqrt(np.maximum(var_b, 1e-300)), np.nan)
     if inp.step_split is not None:
         ss = [inp.step_split[i] for i in order]

@@ -29,6 +29,7 @@ MAX_BINS = 256
 class Spectrogram:
     freq: np.ndarray  # cycles per pixel, 0 .. 0.5
     sqrt_power: np.ndarray  # sqrt(P[v]) in the image's unit (DN, or % when relative)
+    lines: int = 0  # how many lines (rows or columns) the power is the mean of
 
 
 def spectrogram(img: np.ndarray, direction: str = "horizontal", scale: float = 1.0) -> Spectrogram:
@@ -44,12 +45,97 @@ def spectrogram(img: np.ndarray, direction: str = "horizontal", scale: float = 1
     f[:, 0] -= float(y.mean()) * n  # v = 0 bin, where it is all (no centred copy of the image)
     p = np.einsum("ij,ij->j", f.real, f.real) + np.einsum("ij,ij->j", f.imag, f.imag)
     p /= y.shape[0] * n  # Eq. 71: the mean over the lines of |F(v)|^2 / N (v = 0 .. N/2)
-    return Spectrogram(np.arange(p.size) / n, np.sqrt(p) * scale)
+    return Spectrogram(np.arange(p.size) / n, np.sqrt(p) * scale, y.shape[0])
 
 
 def pattern_amplitude(power: np.ndarray, n: int, vmin: int, vmax: int) -> float:
     """Amplitude of a periodic pattern from the power spectrum bins vmin..vmax (Eq. 72)."""
     return 2.0 * math.sqrt(float(np.sum(power[vmin:vmax + 1])) / n)
+
+
+@dataclass(frozen=True)
+class Peak:
+    freq: float  # cycles/pixel of the strongest bin
+    bins: tuple[int, int]  # first and last bin summed
+    amplitude: float  # Eq. 72 over the whole peak, noise power taken out (unit of the spectrogram)
+    noise_amplitude: float  # the same sum of the noise level alone: what noise bins of that width give
+    ratio: float  # strongest bin's power / the local noise level
+    p_false: float  # chance that noise alone puts a bin this high anywhere in the spectrum
+
+
+def _noise_level(p: np.ndarray, mask: np.ndarray, half: int) -> np.ndarray:
+    """Running median of the power over +-half bins, bins in ``mask`` (peaks) left out."""
+    q = np.where(mask, np.nan, p)
+    out = np.empty_like(p)
+    for v in range(p.size):
+        w = q[max(1, v - half): v + half + 1]
+        out[v] = np.nanmedian(w) if np.isfinite(w).any() else np.nanmedian(q[1:])
+    return out
+
+
+def spectrum_peaks(s: Spectrogram, false_alarm: float = 0.01, max_peaks: int = 4) -> list[Peak]:
+    """Periodic patterns in a spectrogram (Section 8.6) above its noise.
+
+    Noise: with the power the mean over M independent lines, a noise bin's power over its
+    expectation is Gamma(M, 1/M) distributed (each line's |F(v)|^2 is exponential). The
+    expectation is taken as the running median of the power (peaks left out, twice). A bin is
+    a peak when noise alone would exceed it with probability ``false_alarm`` over the whole
+    spectrum (Bonferroni over the bins 1 .. N/2). Its amplitude is Eq. 72 over all the
+    contiguous bins of the peak above the noise level (a pattern between two bins leaks into
+    its neighbours: the walk goes on while a bin is above the level noise exceeds in 10 % of
+    bins), each bin's noise level subtracted."""
+    from scipy.stats import gamma
+
+    p = np.asarray(s.sqrt_power, float) ** 2
+    m = max(int(s.lines), 1)
+    n = 2 * (p.size - 1)
+    nb = p.size - 1
+    if nb < 3:
+        return []
+    half = max(8, nb // 16)
+    shape = np.full(p.size, float(m))
+    shape[-1] = m / 2  # the Nyquist bin of a line is real: one degree of freedom per line, not two
+    thr = gamma.isf(false_alarm / nb, shape, scale=1.0 / shape)
+    lo_thr = gamma.isf(0.1, shape, scale=1.0 / shape)  # where a peak's flank ends: back into the noise
+    mask = np.zeros(p.size, bool)
+    mask[0] = True
+    for _ in range(3):
+        level = _noise_level(p, mask, half)
+        hot = (p > thr * level) & (np.arange(p.size) > 0)
+        new = mask.copy()
+        for v in np.flatnonzero(hot):
+            a = v
+            while a > 1 and p[a - 1] > lo_thr[a - 1] * level[a - 1]:
+                a -= 1
+            b = v
+            while b < nb and p[b + 1] > lo_thr[b + 1] * level[b + 1]:
+                b += 1
+            new[a:b + 1] = True
+        if np.array_equal(new, mask):
+            break
+        mask = new
+    level = _noise_level(p, mask, half)
+    peaks: list[Peak] = []
+    seen = np.zeros(p.size, bool)
+    for v in np.argsort(p[1:])[::-1] + 1:
+        if seen[v] or not p[v] > thr[v] * level[v] or not level[v] > 0:
+            continue
+        a = v
+        while a > 1 and not seen[a - 1] and p[a - 1] > lo_thr[a - 1] * level[a - 1]:
+            a -= 1
+        b = v
+        while b < nb and not seen[b + 1] and p[b + 1] > lo_thr[b + 1] * level[b + 1]:
+            b += 1
+        seen[a:b + 1] = True
+        w = np.where(np.arange(a, b + 1) == nb, 0.25, 1.0)  # Nyquist: p = A^2 N there, not A^2 N / 4
+        excess = float(np.sum(w * (p[a:b + 1] - level[a:b + 1])))
+        ratio = float(p[v] / level[v])
+        pf = min(1.0, nb * float(gamma.sf(ratio, shape[v], scale=1.0 / shape[v])))
+        peaks.append(Peak(float(s.freq[v]), (int(a), int(b)), 2.0 * math.sqrt(max(excess, 0.0) / n),
+                          2.0 * math.sqrt(float(np.sum(w * level[a:b + 1])) / n), ratio, pf))
+        if len(peaks) >= max_peaks:
+            break
+    return peaks
 
 
 def profiles(img: np.ndarray, direction: str = "horizontal") -> dict[str, np.ndarray]:

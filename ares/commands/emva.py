@@ -403,7 +403,12 @@ def _meta(args, an: EmvaAnalysis) -> None:
     m.setdefault("date", "not recorded in the descriptor")
     m["footer"] = an.descriptor.attribution
     m["data_mode"] = f"Mono {an.descriptor.bits}"
-    m["exposure_control"] = "exposure time"
+    m["resolution"] = f"{an.descriptor.width} x {an.descriptor.height} pixels"
+    if getattr(args, "pixel_size_um", None):
+        m["pixel_size"] = f"{args.pixel_size_um:g} x {args.pixel_size_um:g} µm"
+    ts = sorted({lv.exposure_s for lv in an.descriptor.temporal_bright})
+    if ts:
+        m["exposure_time"] = f"{1e3 * ts[0]:.4g} - {1e3 * ts[-1]:.4g} ms" if len(ts) > 1 else f"{1e3 * ts[0]:.4g} ms"
 
 
 def run(args) -> int:
@@ -451,8 +456,7 @@ def run(args) -> int:
         write_atomic(Path(args.csv), datasheet.to_csv(an.sheet, gen).encode())
     if args.pdf:
         if args.release.startswith("4.0"):
-            datasheet.write_datasheet(an.sheet, Path(args.pdf),
-                                      an.general if args.release == "4.0-general" else None)
+            datasheet.write_datasheet(an.sheet, Path(args.pdf), an.general, args.release)
         else:
             write_pdf(an, Path(args.pdf), args.release)
     return 0

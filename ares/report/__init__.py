@@ -5,7 +5,8 @@
   runner's ``summary.csv``), ``report.pdf`` and -- with "hdf5" in ``formats`` --
   ``report.h5`` (the same tables, linking the run's results.h5), written into the run
   directory (or ``out_dir``); a scan with the ``emva4`` analysis also gets
-  ``emva_datasheet.pdf`` and ``emva_datasheet.csv`` (EMVA 1288 Release 4.0).
+  ``emva_datasheet.pdf``, ``emva_datasheet_general.pdf`` and ``emva_datasheet.csv``
+  (EMVA 1288 Release 4.0).
 - ``key_figures(run_dir) -> dict``: ``{name: {label, value, se, unit, note, source}}``.
 
 A partial run (stopped, failed, killed) is reported as far as it goes and says so; a
@@ -84,6 +85,10 @@ def _write(run, formats, out_dir, pdf_path, csv_dir, h5_path, helper) -> list[Pa
             ds = p.with_name("emva_datasheet.pdf")
             datasheet.write_datasheet(emva[0], ds, emva[1])
             out.append(ds)
+            if emva[1] is not None:  # Release 4.0 General: its own datasheet
+                dg = p.with_name("emva_datasheet_general.pdf")
+                datasheet.write_datasheet(emva[0], dg, emva[1], "4.0-general")
+                out.append(dg)
     return out
 
 

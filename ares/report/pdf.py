@@ -317,6 +317,9 @@ def page_plan(run, groups=None, kf=None, emva=None) -> list[tuple[str, object]]:
         from ares.report import datasheet
 
         pages += datasheet.pages(*emva)
+        if emva[1] is not None:  # Release 4.0 General's own summary and graphs (its other pages repeat these)
+            pages += [(t, f) for t, f in datasheet.pages(*emva, "4.0-general") if t in ("EMVA General summary",
+                                                                                        "EMVA general")]
     pages += [("stages", f) for f in stages_pages(run)]
     return pages
 
