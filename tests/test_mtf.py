@@ -123,3 +123,19 @@ def test_bayer_channels_each_see_the_optics():
     for name, r in res.items():
         assert r.nyquist == 0.25
         assert r.mtf50.value == pytest.approx(truth, rel=0.03), name
+
+
+def test_mtf_command(tmp_path, capsys):
+    import json
+
+    from ares.cli import main
+
+    rng = np.random.default_rng(0)
+    f = tmp_path / "edge.npy"
+    np.save(f, (edge_map(200, 64, 5.0, SIGMA) * 2000 + 100 + rng.normal(0, 20, (200, 64))).astype(np.uint16))
+    assert main(["mtf", str(f), "--bits", "12", "--json", "--pdf", str(tmp_path / "m.pdf")]) == 0
+    d = json.loads(capsys.readouterr().out)["channels"]["mono"]
+    assert d["mtf50_cy_per_px"]["value"] == pytest.approx(true_mtf50(5.0, SIGMA), rel=0.02)
+    assert (tmp_path / "m.pdf").stat().st_size > 1000
+    assert main(["mtf", str(f), "--roi", "1,2,3"]) != 0
+    assert "X,Y,W,H" in capsys.readouterr().err
