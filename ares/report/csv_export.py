@@ -91,7 +91,17 @@ def write_csv(run, out_dir: str | Path, groups=None, kf=None) -> list[Path]:
         _write(out / "levels.csv", to_csv([r for st in run.stages for r in tables.level_rows(st)],
                                           tables.LEVEL_COLUMNS)),
         _write(out / "key_figures.csv", to_csv(key_figure_rows(kf), KEY_FIGURE_COLUMNS)),
-    ] + _emva_csv(run, out)
+    ] + _emva_csv(run, out) + _mtf_csv(run, out)
+
+
+def _mtf_csv(run, out: Path) -> list[Path]:
+    """``mtf.csv`` when the scan ran the ``mtf`` analysis (ares.report.mtf_page)."""
+    a = run.analyses.get("mtf")
+    if not isinstance(a, dict) or "stages" not in a:
+        return []
+    from ares.report.mtf_page import MTF_COLUMNS, mtf_csv_rows
+
+    return [_write(out / "mtf.csv", to_csv(mtf_csv_rows(a), MTF_COLUMNS))]
 
 
 EMVA_COLUMNS = ("release", "quantity", "symbol", "value", "se", "unit", "verdict", "definition")

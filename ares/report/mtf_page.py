@@ -42,8 +42,30 @@ def mtf_page(channels: dict[str, dict], title: str, subtitle: str = ""):
     rows = []
     for name, d in channels.items():
         ests = [Estimate.from_dict(d[k]) for k in ("mtf50_cy_per_px", "mtf_at_nyquist", "angle_deg")]
-        why = next((e.note for e in ests if not e.available), "")
+        why = next((e.note for e in ests if not e.available), "ok")
         rows.append([name] + [e.text(with_unit=False) for e in ests] + [why])
     text_table(fig, (0.08, 0.43, 0.86), ["channel", "MTF50 (cy/px)", "MTF at Nyquist", "edge angle (deg)", "verdict"],
                rows, [8, 18, 16, 16, 42], fontsize=8, title="MTF figures (± SE)", max_chars=[8, 22, 20, 20, 70])
     return fig
+
+
+MTF_COLUMNS = ("stage", "channel", "freq_cy_per_px", "mtf", "mtf50_cy_per_px", "mtf50_se", "mtf_at_nyquist",
+               "mtf_at_nyquist_se", "verdict")
+
+
+def mtf_csv_rows(a: dict) -> list[dict]:
+    """``mtf.csv``: each stage's and channel's curve; the first row of each carries MTF50 and
+    MTF at Nyquist with their SEs and verdict (the reason when not available)."""
+    rows = []
+    for stage, s in (a.get("stages") or {}).items():
+        for ch, d in s["channels"].items():
+            e50, en = d["mtf50_cy_per_px"], d["mtf_at_nyquist"]
+            head = {"stage": stage, "channel": ch, "mtf50_cy_per_px": e50.get("value"), "mtf50_se": e50.get("se"),
+                    "mtf_at_nyquist": en.get("value"), "mtf_at_nyquist_se": en.get("se"),
+                    "verdict": e50.get("note", "") if e50.get("value") is None else e50.get("verdict", "")}
+            curve = list(zip(d.get("freq_cy_per_px") or [], d.get("mtf") or []))
+            if not curve:
+                rows.append(head)
+            for i, (f, m) in enumerate(curve):
+                rows.append({**(head if i == 0 else {"stage": stage, "channel": ch}), "freq_cy_per_px": f, "mtf": m})
+    return rows
