@@ -21,6 +21,7 @@ def _stacks(rn, seed, frames=20):
     return s.truth(exposure_s=0.01, photon_flux=FLUX, black_level_dn=100), light, dark
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("rn", [0.15, 0.3, 0.45])
 def test_gain_and_read_noise_against_truth_over_5_seeds(rn):
     for seed in range(5):

@@ -42,7 +42,8 @@ def _model(x, K, s_e, H, o, n_total, kmax):
 def _comb_start(codes: np.ndarray, h: np.ndarray, K: float) -> float:
     """Where the comb of spacing K sits: the phase of the histogram's K-periodic component."""
     ph = np.angle(np.sum(h * np.exp(-2j * np.pi * codes / K)))
-    lo = float(np.quantile(np.repeat(codes, h.astype(np.int64)), 0.002)) if h.sum() < 5e7 else float(codes[0])
+    cdf = np.cumsum(h) / h.sum()
+    lo = float(codes[int(np.searchsorted(cdf, 0.002))])
     base = ph / (2 * np.pi) * K
     return base + K * math.ceil((lo - base) / K - 0.5)
 
@@ -66,22 +67,37 @@ def fit_histogram(values, *, read_noise_limit_e: float = READ_NOISE_LIMIT_E) -> 
     """``{"K", "read_noise_e", "mean_e", "offset_dn"}`` Estimates (and the histogram and model
     for the report) from the integer values of a low-light stack (any shape)."""
     v = np.asarray(values).ravel()
-    unit = {"K": "DN/e-", "read_noise_e": "e-", "mean_e": "e-", "offset_dn": "DN"}
-
-    def na(why, extra=None):
-        out = {k: Estimate.na(why, u) for k, u in unit.items()}
-        out.update(extra or {})
-        return out
-
     if v.size < 1000:
-        return na(f"only {v.size} values; the histogram needs at least 1000")
+        return _na(f"only {v.size} values; the histogram needs at least 1000")
     lo, hi = int(np.floor(v.min())), int(np.ceil(v.max()))
     if hi - lo > 100000:
-        return na(f"the values span {hi - lo} codes; a photon-counting histogram needs a low-light stack")
-    codes = np.arange(lo, hi + 1, dtype=np.float64)
-    h = np.bincount(np.rint(v).astype(np.int64) - lo, minlength=codes.size).astype(np.float64)
+        return _na(f"the values span {hi - lo} codes; a photon-counting histogram needs a low-light stack")
+    h = np.bincount(np.rint(v).astype(np.int64) - lo, minlength=hi - lo + 1)
+    return fit_code_histogram(np.arange(lo, hi + 1), h, read_noise_limit_e=read_noise_limit_e)
+
+
+_UNIT = {"K": "DN/e-", "read_noise_e": "e-", "mean_e": "e-", "offset_dn": "DN"}
+
+
+def _na(why, extra=None):
+    out = {k: Estimate.na(why, u) for k, u in _UNIT.items()}
+    out.update(extra or {})
+    return out
+
+
+def fit_code_histogram(codes, counts, *, read_noise_limit_e: float = READ_NOISE_LIMIT_E) -> dict:
+    """As ``fit_histogram``, from a histogram of integer codes (``counts[i]`` values at
+    ``codes[i]``; the zero-count ends are trimmed)."""
+    codes = np.asarray(codes, np.float64)
+    h = np.asarray(counts, np.float64)
+    nz = np.nonzero(h)[0]
+    if nz.size == 0 or h.sum() < 1000:
+        return _na(f"only {int(h.sum())} values; the histogram needs at least 1000")
+    codes, h = codes[nz[0]:nz[-1] + 1], h[nz[0]:nz[-1] + 1]
+    na = _na
     n = float(h.sum())
-    mean, var = float(v.mean()), float(v.var())
+    mean = float((codes * h).sum() / n)
+    var = float((h * (codes - mean) ** 2).sum() / n)
     K0 = _gain_guess(codes, h)
     if not math.isfinite(K0) or K0 < 2:
         rn = _rn_from_ptc(mean, var, K0)
@@ -130,24 +146,26 @@ def _rn_from_ptc(mean, var, K) -> str:
 
 
 def photon_transfer(light, dark) -> dict:
-    """The photon-transfer estimate from a light and a dark stack (frames, ...): K from the
-    temporal variance over the mean (EMVA 1288 4.0 Linear Eq. 43's two-point form), read
-    noise = dark temporal sigma / K; SEs by first-order propagation of the sample variances."""
+    """The photon-transfer estimate from a light and a dark stack (frames, ...)."""
     L = np.asarray(light, np.float64).reshape(len(light), -1)
     D = np.asarray(dark, np.float64).reshape(len(dark), -1)
-    n_l, n_d = L.size, D.size
-    vl = float(np.mean(np.var(L, axis=0, ddof=1)))
-    vd = float(np.mean(np.var(D, axis=0, ddof=1)))
-    dm = float(L.mean() - D.mean())
-    if dm <= 0:
+    return photon_transfer_levels(float(L.mean()), float(np.mean(np.var(L, axis=0, ddof=1))), L.shape[0],
+                                  float(D.mean()), float(np.mean(np.var(D, axis=0, ddof=1))), D.shape[0], L.shape[1])
+
+
+def photon_transfer_levels(mean_l, var_l, frames_l, mean_d, var_d, frames_d, pixels) -> dict:
+    """K from the light and dark temporal variances over the mean difference (EMVA 1288 4.0
+    Linear Eq. 43's two-point form), read noise = dark temporal sigma / K; SEs by first-order
+    propagation of the pooled sample variances (var of one ~ 2 v^2 / (pixels (frames - 1)))."""
+    dm = mean_l - mean_d
+    if not dm > 0:
         why = "the light stack is not brighter than the dark stack"
         return {"K": Estimate.na(why, "DN/e-"), "read_noise_e": Estimate.na(why, "e-")}
-    K = (vl - vd) / dm
-    # var of a pooled sample variance ~ 2 v^2 / (N - pixels); the means' errors are negligible
-    se_vl = vl * math.sqrt(2.0 / max(n_l - L.shape[1], 1))
-    se_vd = vd * math.sqrt(2.0 / max(n_d - D.shape[1], 1))
+    K = (var_l - var_d) / dm
+    se_vl = var_l * math.sqrt(2.0 / max(pixels * (frames_l - 1), 1))
+    se_vd = var_d * math.sqrt(2.0 / max(pixels * (frames_d - 1), 1))
     se_K = math.hypot(se_vl, se_vd) / dm
-    rn = math.sqrt(max(vd, 0)) / K
-    se_rn = rn * math.hypot(se_vd / (2 * vd) if vd > 0 else 0.0, se_K / K)
+    rn = math.sqrt(max(var_d, 0)) / K
+    se_rn = rn * math.hypot(se_vd / (2 * var_d) if var_d > 0 else 0.0, se_K / K)
     how = "photon transfer (light and dark temporal variances)"
     return {"K": Estimate(K, se_K, "DN/e-", how), "read_noise_e": Estimate(rn, se_rn, "e-", how)}
