@@ -8,12 +8,13 @@ from __future__ import annotations
 
 import numpy as np
 
-from ares.analysis.photon_counting import fit_code_histogram, photon_transfer_levels
 from ares.scan.results import register_scan_analysis
 
 
 @register_scan_analysis("photon_counting")
 def photon_counting(run) -> dict:
+    from ares.analysis.photon_counting import fit_code_histogram, photon_transfer_levels  # scipy: only when run
+
     out = {}
     for st in run.stages:
         if st["scene"] != "flat":

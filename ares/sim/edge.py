@@ -18,19 +18,21 @@ from __future__ import annotations
 import math
 
 import numpy as np
-from scipy.optimize import brentq
-from scipy.special import ndtr
 
 _SQ2PI = math.sqrt(2.0 * math.pi)
 
 
 def _f2(x: np.ndarray) -> np.ndarray:
     """Second antiderivative of the standard normal CDF: ((x^2+1) Phi(x) + x phi(x)) / 2."""
+    from scipy.special import ndtr
+
     return 0.5 * ((x * x + 1.0) * ndtr(x) + x * np.exp(-0.5 * x * x) / _SQ2PI)
 
 
 def edge_map(rows: int, cols: int, angle_deg: float, sigma: float, low: float = 0.25) -> np.ndarray:
     """Relative illumination (``low`` .. 1) of each pixel, float64 (rows, cols)."""
+    from scipy.special import ndtr
+
     th = math.radians(angle_deg)
     a, b = abs(math.cos(th)), abs(math.sin(th))
     y, x = np.mgrid[0:rows, 0:cols].astype(np.float64)
@@ -61,4 +63,6 @@ def true_mtf(f, angle_deg: float, sigma: float, crosstalk_pct: float = 0.0) -> n
 
 def true_mtf50(angle_deg: float, sigma: float, crosstalk_pct: float = 0.0) -> float:
     """The frequency (cycles/pixel) where the closed-form MTF falls to 0.5."""
+    from scipy.optimize import brentq
+
     return float(brentq(lambda f: true_mtf(f, angle_deg, sigma, crosstalk_pct) - 0.5, 1e-6, 0.9))
