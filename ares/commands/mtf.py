@@ -43,21 +43,12 @@ def _roi(spec: str, shape) -> tuple[slice, slice]:
 
 def _write_pdf(channels: dict, path: Path, title: str) -> None:
     import matplotlib
-    from matplotlib.backends.backend_pdf import PdfPages
 
     from ares.report import plots
     from ares.report.mtf_page import mtf_page
 
     with matplotlib.rc_context(plots.RC):
-        fig = mtf_page(channels, "Slanted-edge MTF", title)
-        tmp = path.with_name(path.name + ".tmp")
-        try:
-            with PdfPages(tmp, metadata={"Title": f"ARES MTF {title}", "Creator": "ares mtf"}) as pdf:
-                pdf.savefig(fig)
-            tmp.replace(path)
-        except OSError as exc:
-            tmp.unlink(missing_ok=True)
-            raise InputError(f"{path}: cannot write the PDF ({exc.strerror or exc})") from None
+        plots.save_pdf([mtf_page(channels, "Slanted-edge MTF", title)], path, f"ARES MTF {title}", "ares mtf")
 
 
 def run(args) -> int:
