@@ -30,3 +30,11 @@ def test_mtf_scan_against_truth(tmp_path):
     out = tmp_path / "run"
     assert (out / "mtf.csv").read_text().startswith("stage,channel,freq_cy_per_px,mtf")
     assert "Slanted-edge MTF" in pdf_text(out / "report.pdf")
+
+
+def test_mtf_limit_names_validate():
+    from ares.protocol.quantities import unknown_limit
+
+    assert unknown_limit("mtf.mtf50_cy_per_px", ["mtf"]) is None
+    assert unknown_limit("photon_counting.read_noise_e", ["photon_counting"]) is None
+    assert unknown_limit("mtf50_cy_per_px", ["ptc"]) is not None
