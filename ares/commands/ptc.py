@@ -137,8 +137,6 @@ def _text(d: dict) -> str:
 
 
 def write_pdf(r, names: list[str], path: Path, title: str) -> None:
-    from matplotlib.backends.backend_pdf import PdfPages
-
     from ares.report import plots
 
     rows = [{"signal_dn": lv.signal, "variance_dn2": lv.variance, "variance_se_dn2": lv.variance_se,
@@ -154,14 +152,7 @@ def write_pdf(r, names: list[str], path: Path, title: str) -> None:
         if notes:
             fig.text(0.1, 0.02, "\n".join(plots.clip(n, 140) for n in notes[:8]), fontsize=6, va="bottom")
 
-        tmp = path.with_name(path.name + ".tmp")
-        try:
-            with PdfPages(tmp, metadata={"Title": f"ARES photon transfer {title}", "Creator": "ares ptc"}) as pdf:
-                pdf.savefig(fig)
-            tmp.replace(path)
-        except OSError as exc:
-            tmp.unlink(missing_ok=True)
-            raise InputError(f"{path}: cannot write the PDF ({exc.strerror or exc})") from None
+        plots.save_pdf([fig], path, f"ARES photon transfer {title}", "ares ptc")
 
 
 def run(args) -> int:

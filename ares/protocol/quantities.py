@@ -36,6 +36,9 @@ PRODUCES: dict[str, frozenset[str]] = {
                         "PRNU1288_pix", "LE", "mu_I_mean", "mu_I_var", "R", "mu_p_min", "mu_p_sat", "mu_y_sat",
                         "DSNU1288_DN", "sigma_y_stack_dark", "sigma_y_stack_50", "R_d",
                         "mu_p_min_area", "mu_p_sat_area"}),  # (General Table 2, photons per µm²)
+    "mtf": frozenset({"mtf50_cy_per_px", "mtf_at_nyquist", "angle_deg", "edge_step_snr", "nyquist_cy_per_px",
+                      "frames"}),
+    "photon_counting": frozenset({"K", "read_noise_e", "mean_e", "offset_dn", "chi2_ndf"}),
 }
 
 

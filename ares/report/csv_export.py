@@ -104,7 +104,7 @@ def write_csv(run, out_dir: str | Path, groups=None, kf=None) -> list[Path]:
         _write(out / "levels.csv", to_csv([r for st in run.stages for r in tables.level_rows(st)],
                                           tables.LEVEL_COLUMNS)),
         _write(out / "key_figures.csv", to_csv(key_figure_rows(kf), KEY_FIGURE_COLUMNS)),
-    ] + _emva_csv(run, out) + _adc_csv(run, out)
+    ] + _emva_csv(run, out) + _adc_csv(run, out) + _mtf_csv(run, out)
 
 
 def _adc_csv(run, out: Path) -> list[Path]:
@@ -112,6 +112,16 @@ def _adc_csv(run, out: Path) -> list[Path]:
     SEs, per channel, when the scan ran the ``adc_linearity`` analysis."""
     rows = tables.adc_rows(run)
     return [_write(out / "adc_inl_dnl.csv", to_csv(rows, tables.ADC_COLUMNS))] if rows else []
+
+
+def _mtf_csv(run, out: Path) -> list[Path]:
+    """``mtf.csv`` when the scan ran the ``mtf`` analysis (ares.report.mtf_page)."""
+    a = run.analyses.get("mtf")
+    if not isinstance(a, dict) or "stages" not in a:
+        return []
+    from ares.report.mtf_page import MTF_COLUMNS, mtf_csv_rows
+
+    return [_write(out / "mtf.csv", to_csv(mtf_csv_rows(a), MTF_COLUMNS))]
 
 
 EMVA_COLUMNS = ("release", "quantity", "symbol", "value", "se", "unit", "verdict", "definition")

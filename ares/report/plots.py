@@ -31,6 +31,26 @@ def new_page(title: str, subtitle: str = "") -> Figure:
     return fig
 
 
+def save_pdf(figs: list, path, title: str, creator: str) -> None:
+    """Write ``figs`` to the PDF ``path`` (tmp -> rename); one InputError sentence if it cannot."""
+    from pathlib import Path
+
+    from matplotlib.backends.backend_pdf import PdfPages
+
+    from ares.errors import InputError
+
+    path = Path(path)
+    tmp = path.with_name(path.name + ".tmp")
+    try:
+        with PdfPages(tmp, metadata={"Title": title, "Creator": creator}) as pdf:
+            for fig in figs:
+                pdf.savefig(fig)
+        tmp.replace(path)
+    except OSError as exc:
+        tmp.unlink(missing_ok=True)
+        raise InputError(f"{path}: cannot write the PDF ({exc.strerror or exc})") from None
+
+
 def clip(s: str, n: int) -> str:
     s = str(s)
     return s if len(s) <= n else s[: n - 1] + "…"

@@ -13,7 +13,7 @@ import numpy as np
 from ares.report import plots, tables
 from ares.report.plots import new_page, text_table
 
-HANDLED = ("ptc", "decomposition", "dark_current", "temperature", "gain_split", "lag", "defects", "adc_linearity",
+HANDLED = ("mtf", "photon_counting", "ptc", "decomposition", "dark_current", "temperature", "gain_split", "lag", "defects", "adc_linearity",
            "emva4")
 
 
@@ -500,6 +500,19 @@ def pages(run, groups: list) -> list[tuple[str, object]]:
         out.append(("defects", partial(defects_page, run, d)))
         if d.get("shape"):
             out.append(("defect map", partial(defect_map_page, run, d)))
+    d = available(run, "mtf")
+    if d:  # the slanted-edge MTF, one page per stage (ares.report.mtf_page)
+        from ares.report.mtf_page import mtf_page
+
+        for stage, s in d["stages"].items():
+            out.append((f"mtf {stage}", partial(mtf_page, s["channels"], f"Slanted-edge MTF: stage {stage}",
+                                                f"ISO 12233 e-SFR of the {'dark-subtracted ' if s['dark_subtracted'] else ''}"
+                                                f"mean of {s['frames']} frames")))
+    d = available(run, "photon_counting")
+    if d:  # the photon-counting histogram, one page per stage (ares.report.photon_counting_page)
+        from ares.report.photon_counting_page import photon_counting_page
+
+        out += [(f"photon counting {k}", partial(photon_counting_page, k, v)) for k, v in d["stages"].items()]
     for name, a in run.analyses.items():
         if name not in HANDLED and available(run, name):
             out.append((f"analysis {name}", partial(generic_page, name, a)))

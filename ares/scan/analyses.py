@@ -409,3 +409,7 @@ def check_defect_thresholds(scan) -> None:
     from ares.analysis.defects import DefectThresholds
 
     DefectThresholds.from_attrs(dict(scan.defects), where=f"{scan.source}: <defects>")
+
+
+from ares.scan import mtf_analysis  # noqa: E402,F401  (registers "mtf")
+from ares.scan import photon_counting_analysis  # noqa: E402,F401  (registers "photon_counting")

@@ -15,7 +15,7 @@ Layout (all paths relative to the run directory)::
                         and the mask summary (defect_mask: count, source, classes)
     stages/NNNN.h5      HDF5 arrays of the stage: mean, variance (per-pixel temporal, DN^2),
                         frame_means, dark_mean (matched dark), hist_<view> (code histograms,
-                        adc_linearity scans only), defect_mask (uint8, 1 = excluded from the
+                        adc_linearity and photon_counting scans only), defect_mask (uint8, 1 = excluded from the
                         masked figures; on the stage the mask was built from or first used
                         with, see ares.scan.defect_mask); chunked, gzip; attrs name, scene,
                         settings (JSON), result (JSON)

@@ -441,7 +441,7 @@ class Runner:
         src = bench.frames
         shape = tuple(src.shape)
         mask = getattr(self, "_mask", None)
-        ss = StackSet(shape, vw, max_code, histograms="adc_linearity" in self.scan.analyses,
+        ss = StackSet(shape, vw, max_code, histograms=bool({"adc_linearity", "photon_counting"} & set(self.scan.analyses)),
                       mask=mask.mask if mask is not None else None)
         if mask is None and not dark and st.scene == "dark":
             # the stage a defect mask will be built from: keep its frames to mask it too

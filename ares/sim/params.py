@@ -119,6 +119,12 @@ class SensorParams:
     # --- fidelity -----------------------------------------------------------------------
     shot_noise: str = "auto"  # "auto" (exact Poisson where distinguishable), "exact", "gaussian"
 
+    # --- illumination pattern (ares.sim.edge) ----------------------------------------------
+    illumination: str = "uniform"  # "uniform" or "slanted_edge" (the light level is the bright side's)
+    edge_angle_deg: float = 5.0  # slanted edge: tilt from the vertical
+    edge_psf_sigma_px: float = 0.6  # slanted edge: Gaussian optical PSF width, pixels
+    edge_low: float = 0.25  # slanted edge: dark side's illumination relative to the bright side
+
     # ------------------------------------------------------------------------------
     def __post_init__(self):
         for name in ("prnu_pct", "cfa_response", "adc_offset_dn", "adc_gain"):
@@ -178,6 +184,10 @@ class SensorParams:
             self._fail("lag_fraction", "must be below 1")
         if self.shot_noise not in ("auto", "exact", "gaussian"):
             self._fail("shot_noise", "must be 'auto', 'exact' or 'gaussian'")
+        if self.illumination not in ("uniform", "slanted_edge"):
+            self._fail("illumination", "must be 'uniform' or 'slanted_edge'")
+        if self.edge_psf_sigma_px <= 0 or not 0 <= self.edge_low < 1 or abs(self.edge_angle_deg) >= 45:
+            self._fail("edge_psf_sigma_px", "must be > 0, with edge_low in [0, 1) and |edge_angle_deg| < 45")
         if not 0 <= self.dead_response < 1:
             self._fail("dead_response", "must be in [0, 1)")
         if not 0 <= self.rts_switch_prob <= 1:

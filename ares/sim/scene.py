@@ -8,12 +8,14 @@ renderer skips them.
 
 from __future__ import annotations
 
+import functools
 import math
 from dataclasses import dataclass
 
 import numpy as np
 
 from ares.errors import InputError
+from ares.sim.edge import edge_map
 from ares.sim.noise import SHOT_MODES
 from ares.sim.params import SensorParams
 from ares.sim.patterns import FixedPatterns
@@ -57,6 +59,13 @@ def _crosstalk(q: np.ndarray, pct: float) -> np.ndarray:
     return ((1.0 - k) * q + (k / 4.0) * nb).astype(np.float32)
 
 
+@functools.lru_cache(maxsize=2)
+def _edge(rows, cols, angle, sigma, low) -> np.ndarray:
+    m = edge_map(rows, cols, angle, sigma, low)
+    m.flags.writeable = False
+    return m
+
+
 def resolve_scene(p: SensorParams, fp: FixedPatterns, *, exposure_s, photon_flux, temperature_c, analog_gain,
                   black_level_dn, dark, shot_noise, read_noise_scale=1.0, dark_current_scale=1.0,
                   lag_scale=1.0) -> Scene:
@@ -82,6 +91,8 @@ def resolve_scene(p: SensorParams, fp: FixedPatterns, *, exposure_s, photon_flux
         raise InputError(f"simulator: photon_flux map has shape {flux.shape}, the sensor is {(p.rows, p.cols)}")
     if not np.all(np.isfinite(flux)) or np.any(flux < 0):
         raise InputError("simulator: photon_flux must be finite and not negative (photons/pixel/s)")
+    if p.illumination == "slanted_edge":
+        flux = flux * _edge(p.rows, p.cols, p.edge_angle_deg, p.edge_psf_sigma_px, p.edge_low)
     lit = t > 0 and bool(np.any(flux > 0))
     if not dark and (lit or p.added_photocharge_e > 0):
         qq = flux * (t * p.qe)

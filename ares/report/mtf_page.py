@@ -1,0 +1,71 @@
+"""The MTF report page: each channel's e-SFR curve with MTF50 and the Nyquist frequency
+marked, and a table of MTF50, MTF at Nyquist and the edge angle with their SEs (or "not
+available" and why). Drawn from the JSON form (``SfrResult.to_dict``), so the scan report
+and ``ares mtf --pdf`` draw the same page."""
+
+from __future__ import annotations
+
+from ares.analysis.estimate import Estimate
+from ares.report.plots import new_page, text_table
+
+
+def mtf_page(channels: dict[str, dict], title: str, subtitle: str = ""):
+    """``channels``: name -> ``SfrResult.to_dict()`` (with the curve)."""
+    fig = new_page(title, subtitle or "slanted edge, ISO 12233 e-SFR (4x oversampled ESF)")
+    ax = fig.add_axes([0.11, 0.50, 0.83, 0.40])
+    nyqs = set()
+    for i, (name, d) in enumerate(channels.items()):
+        f, m = d.get("freq_cy_per_px"), d.get("mtf")
+        if not f:
+            continue
+        line, = ax.plot(f, m, "-", lw=1.2, label=name)
+        e50 = Estimate.from_dict(d["mtf50_cy_per_px"])
+        if e50.available:
+            ax.plot([e50.value], [0.5], "o", color=line.get_color(), ms=5)
+            ax.annotate(f"MTF50 {e50.value:.3f}", (e50.value, 0.5), textcoords="offset points",
+                        xytext=(8, 4 + 10 * i), fontsize=7, color=line.get_color())
+        en = Estimate.from_dict(d["mtf_at_nyquist"])
+        if en.available:
+            ax.plot([d["nyquist_cy_per_px"]], [en.value], "s", color=line.get_color(), ms=4)
+        nyqs.add(d["nyquist_cy_per_px"])
+    for n in sorted(nyqs):
+        ax.axvline(n, color="0.4", ls="--", lw=0.8)
+        ax.text(n, 1.02, f" Nyquist {n:g}", fontsize=7, color="0.3", va="bottom")
+    ax.axhline(0.5, color="0.7", lw=0.6)
+    ax.set_xlim(0, max([2 * n for n in nyqs] or [1.0]))
+    ax.set_ylim(0, 1.1)
+    ax.set_xlabel("spatial frequency (cycles per sensor pixel, along the edge normal)")
+    ax.set_ylabel("MTF (SFR)")
+    ax.grid(alpha=0.3)
+    if any(d.get("freq_cy_per_px") for d in channels.values()):
+        ax.legend(loc="upper right")
+    rows = []
+    for name, d in channels.items():
+        ests = [Estimate.from_dict(d[k]) for k in ("mtf50_cy_per_px", "mtf_at_nyquist", "angle_deg")]
+        why = next((e.note for e in ests if not e.available), "ok")
+        rows.append([name] + [e.text(with_unit=False) for e in ests] + [why])
+    text_table(fig, (0.08, 0.43, 0.86), ["channel", "MTF50 (cy/px)", "MTF at Nyquist", "edge angle (deg)", "verdict"],
+               rows, [8, 18, 16, 16, 42], fontsize=8, title="MTF figures (± SE)", max_chars=[8, 22, 20, 20, 70])
+    return fig
+
+
+MTF_COLUMNS = ("stage", "channel", "freq_cy_per_px", "mtf", "mtf50_cy_per_px", "mtf50_se", "mtf_at_nyquist",
+               "mtf_at_nyquist_se", "verdict")
+
+
+def mtf_csv_rows(a: dict) -> list[dict]:
+    """``mtf.csv``: each stage's and channel's curve; the first row of each carries MTF50 and
+    MTF at Nyquist with their SEs and verdict (the reason when not available)."""
+    rows = []
+    for stage, s in (a.get("stages") or {}).items():
+        for ch, d in s["channels"].items():
+            e50, en = d["mtf50_cy_per_px"], d["mtf_at_nyquist"]
+            head = {"stage": stage, "channel": ch, "mtf50_cy_per_px": e50.get("value"), "mtf50_se": e50.get("se"),
+                    "mtf_at_nyquist": en.get("value"), "mtf_at_nyquist_se": en.get("se"),
+                    "verdict": e50.get("note", "") if e50.get("value") is None else e50.get("verdict", "")}
+            curve = list(zip(d.get("freq_cy_per_px") or [], d.get("mtf") or []))
+            if not curve:
+                rows.append(head)
+            for i, (f, m) in enumerate(curve):
+                rows.append({**(head if i == 0 else {"stage": stage, "channel": ch}), "freq_cy_per_px": f, "mtf": m})
+    return rows

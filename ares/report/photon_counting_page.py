@@ -1,0 +1,54 @@
+"""The photon-counting report page: the code histogram of a low-light stack with the fitted
+Poisson-weighted Gaussians (each electron peak and their sum), the Pearson residuals, and a
+table of K, read noise, mean electrons and offset beside the photon-transfer estimate."""
+
+from __future__ import annotations
+
+import numpy as np
+from scipy.special import ndtr
+from scipy.stats import poisson
+
+from ares.analysis.estimate import Estimate
+from ares.report.plots import new_page, text_table
+
+
+def photon_counting_page(stage: str, d: dict):
+    fig = new_page(f"Photon-counting histogram: stage {stage}",
+                   "code histogram of the low-light stack, Poisson-weighted Gaussians fitted (Starkey & Fossum 2016)")
+    est = {k: Estimate.from_dict(d[k]) for k in ("K", "read_noise_e", "mean_e", "offset_dn")}
+    hist = d.get("histogram")
+    if hist:
+        x = np.asarray(hist["codes"], float)
+        h = np.asarray(hist["counts"], float)
+        m = np.asarray(hist["model"], float)
+        ax = fig.add_axes([0.11, 0.55, 0.83, 0.36])
+        ax.bar(x, h, width=1.0, color="0.75", label="counts")
+        ax.plot(x, m, "-", color="C3", lw=1.2, label=f"fit (chi2/ndf {hist['chi2_ndf']:.2f})")
+        if all(e.available for e in est.values()):
+            K, s, H, o = (est[k].value for k in ("K", "read_noise_e", "mean_e", "offset_dn"))
+            n = h.sum()
+            for k in range(int(H + 5 * np.sqrt(H) + 3)):
+                c = o + K * k
+                comp = n * poisson.pmf(k, H) * (ndtr((x + 0.5 - c) / (K * s)) - ndtr((x - 0.5 - c) / (K * s)))
+                ax.plot(x, comp, "--", lw=0.8, color="C0", label="electron peaks" if k == 0 else None)
+                if comp.max() > 0.02 * h.max():
+                    ax.text(c, comp.max(), f"{k} e-", fontsize=7, ha="center", va="bottom", color="C0")
+        ax.set_ylabel("pixels x frames")
+        ax.legend(loc="upper right")
+        ax.grid(alpha=0.3)
+        ax2 = fig.add_axes([0.11, 0.40, 0.83, 0.12], sharex=ax)
+        ax2.plot(x, (h - m) / np.sqrt(np.maximum(m, 1.0)), ".", ms=3, color="k")
+        ax2.axhline(0, color="0.5", lw=0.6)
+        ax2.set_ylabel("residual / sqrt(model)")
+        ax2.set_xlabel("code (DN)")
+        ax2.grid(alpha=0.3)
+    pt = {k: Estimate.from_dict(v) for k, v in (d.get("photon_transfer") or {}).items()}
+    names = {"K": "gain K (DN/e-)", "read_noise_e": "read noise (e-)", "mean_e": "mean electrons (e-)",
+             "offset_dn": "offset (DN)"}
+    rows = [[names[k], e.text(with_unit=False), pt[k].text(with_unit=False) if k in pt else "-",
+             "ok" if e.available else e.note] for k, e in est.items()]
+    text_table(fig, (0.08, 0.33 if hist else 0.9, 0.86), ["quantity", "histogram fit (± SE)",
+                                                          "photon transfer (± SE)", "verdict"],
+               rows, [18, 18, 21, 30], fontsize=8, title="Photon counting beside photon transfer",
+               max_chars=[24, 24, 24, 70])
+    return fig

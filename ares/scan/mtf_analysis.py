@@ -1,0 +1,43 @@
+"""The scan-level ``mtf`` analysis: the slanted-edge MTF (ISO 12233 e-SFR,
+``ares.analysis.mtf``) of each flat stage's dark-subtracted mean image, per Bayer channel
+when the system's sensor declares a CFA. Registered by importing this module (ares.scan.analyses)."""
+
+from __future__ import annotations
+
+import numpy as np
+
+from ares.analysis.mtf import CHANNEL_NAMES, sfr_channels
+from ares.scan.results import register_scan_analysis
+
+
+@register_scan_analysis("mtf")
+def mtf(run) -> dict:
+    sensor = run.system.sensor
+    cfa = sensor.cfa if (sensor.cfa or "").upper() in CHANNEL_NAMES else None
+    full = float(2 ** sensor.adc_bits - 1)
+    out = {}
+    for st in run.stages:
+        if st["scene"] != "flat":
+            continue
+        arr = run.arrays(st["index"])
+        if "mean" not in arr:
+            continue
+        mean = np.asarray(arr["mean"], np.float64)
+        # clipping is judged on the raw mean (a pixel at full scale in every frame); the
+        # SFR is taken of the dark-subtracted mean
+        clipped = int(np.sum(mean >= full - 0.5))
+        img = mean - np.asarray(arr["dark_mean"], np.float64) if "dark_mean" in arr else mean
+        res = sfr_channels(img, cfa)
+        chans = {k: r.to_dict() for k, r in res.items()}
+        if clipped:
+            why = (f"clipping: {clipped} pixels are at the full-scale code {full:g} in every frame; "
+                   "lower the exposure or the light")
+            chans = {k: {"angle_deg": d["angle_deg"], "mtf50_cy_per_px": {"value": None, "se": None, "unit": "cy/px",
+                                                                          "verdict": "not available", "note": why},
+                         "mtf_at_nyquist": {"value": None, "se": None, "unit": "", "verdict": "not available",
+                                            "note": why}, "nyquist_cy_per_px": d["nyquist_cy_per_px"]}
+                     for k, d in chans.items()}
+        out[st["name"]] = {"frames": st["frames"], "dark_subtracted": "dark_mean" in arr, "channels": chans}
+    if not out:
+        return {"status": "not available", "note": "no flat stage with a mean image (an edge target) in the run"}
+    return {"stages": out}

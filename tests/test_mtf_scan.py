@@ -1,0 +1,40 @@
+"""scans/mtf.xml on the simulator: MTF50 and MTF at Nyquist against the edge scene's
+closed-form truth (ares.sim.edge), mtf.csv and the report page."""
+
+from pathlib import Path
+
+import pytest
+from pdftext import pdf_text
+
+from ares.protocol import load_scan
+from ares.scan.runner import Runner
+from ares.sim.edge import true_mtf, true_mtf50
+
+ROOT = Path(__file__).resolve().parents[1]
+
+
+@pytest.mark.slow
+def test_mtf_scan_against_truth(tmp_path):
+    run = Runner(load_scan(ROOT / "scans" / "mtf.xml"), out_dir=tmp_path / "run", frames=4).run()
+    d = run.scan_results["mtf"]["stages"]["edge"]["channels"]["mono"]
+    sim = load_scan(ROOT / "scans" / "mtf.xml").system.simulator.params
+    ang, sig = sim["edge_angle_deg"], sim["edge_psf_sigma_px"]
+    xt = sim.get("crosstalk_pct", 1.0)  # the simulator's default
+    t50 = true_mtf50(ang, sig, xt)
+    e50 = d["mtf50_cy_per_px"]
+    assert e50["verdict"] == "ok" and abs(e50["value"] / t50 - 1) < 0.02
+    assert abs(e50["value"] - t50) < 4 * e50["se"]
+    en = d["mtf_at_nyquist"]
+    assert abs(en["value"] - float(true_mtf(0.5, ang, sig, xt))) < 4 * en["se"]
+    assert d["angle_deg"]["value"] == pytest.approx(ang, abs=0.1)
+    out = tmp_path / "run"
+    assert (out / "mtf.csv").read_text().startswith("stage,channel,freq_cy_per_px,mtf")
+    assert "Slanted-edge MTF" in pdf_text(out / "report.pdf")
+
+
+def test_mtf_limit_names_validate():
+    from ares.protocol.quantities import unknown_limit
+
+    assert unknown_limit("mtf.mtf50_cy_per_px", ["mtf"]) is None
+    assert unknown_limit("photon_counting.read_noise_e", ["photon_counting"]) is None
+    assert unknown_limit("mtf50_cy_per_px", ["ptc"]) is not None
