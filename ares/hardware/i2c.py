@@ -30,14 +30,28 @@ class I2CRegisterBus:
         self.retries, self.verify, self.value_endian = int(retries), bool(verify), value_endian
         self.readback = None  # ImageRowReadback for sensors without I2C read
         self.retried = 0  # transactions that needed a retry (a flaky bus shows here)
-        if smbus is None:
-            try:
-                from smbus2 import SMBus
+        self._given = smbus  # an emulated adapter (tests) is reopened as itself
+        self.smbus = smbus if smbus is not None else self._open()
 
-                smbus = SMBus(bus)
-            except (OSError, FileNotFoundError) as exc:
-                raise DeviceGone(f"I2C bus {bus} ('{name}'): cannot open /dev/i2c-{bus} ({exc.strerror or exc})") from None
-        self.smbus = smbus
+    def _open(self):
+        if self._given is not None:
+            return self._given
+        try:
+            from smbus2 import SMBus
+
+            return SMBus(self.bus_number)
+        except (OSError, FileNotFoundError) as exc:
+            raise DeviceGone(f"I2C bus {self.bus_number} ('{self.name}'): cannot open /dev/i2c-{self.bus_number} "
+                             f"({exc.strerror or exc})", "registers") from None
+
+    def reconnect(self) -> None:
+        """Open the adapter again and address the device once (``DeviceGone`` while it is away)."""
+        from smbus2 import i2c_msg
+
+        if self._given is None:
+            self.close()
+        self.smbus = self._open()
+        self._transfer(0, "reconnect", i2c_msg.write(self.address, bytes(self.abytes)))  # set the pointer: an ACK
 
     def _where(self, reg: int) -> str:
         return (f"I2C device 0x{self.address:02x} on bus {self.bus_number} ('{self.name}'), "
@@ -56,11 +70,12 @@ class I2CRegisterBus:
                 return
             except OSError as exc:
                 if exc.errno in _GONE:
-                    raise DeviceGone(f"{self._where(reg)}: device gone on {what} ({exc.strerror or exc})") from None
+                    raise DeviceGone(f"{self._where(reg)}: device gone on {what} ({exc.strerror or exc})",
+                                     "registers") from None
                 last = exc
         kind = "timeout" if last.errno == errno.ETIMEDOUT else "no acknowledge"
         raise DeviceGone(f"{self._where(reg)}: {kind} on {what} after {self.retries + 1} attempt(s) "
-                         f"({last.strerror or last})")
+                         f"({last.strerror or last})", "registers")
 
     def read(self, address: int) -> int:
         if self.readback is not None:

@@ -41,6 +41,7 @@ def range_text(lo: float | None, hi: float | None, unit: str) -> str:
 
 class SerialInstrument:
     DEFAULT = DEFAULT_LIGHT
+    ROLE = "light"  # the bench part a DeviceGone names (a recovery reopens this port, not another)
 
     def __init__(self, port, cfg, *, sleep=time.sleep, clock=time.monotonic):
         self.port, self.cfg, self._sleep, self._clock = port, cfg, sleep, clock
@@ -60,7 +61,7 @@ class SerialInstrument:
             port = serial.serial_for_url(cfg.port, baudrate=cfg.baud, bytesize=cfg.bytesize, parity=cfg.parity,
                                          stopbits=cfg.stopbits, timeout=cfg.timeout_s)
         except (serial.SerialException, OSError, ValueError) as exc:
-            raise DeviceGone(f"{cfg.name}: cannot open serial port {cfg.port} ({exc})") from None
+            raise DeviceGone(f"{cfg.name}: cannot open serial port {cfg.port} ({exc})", cls.ROLE) from None
         return cls(port, cfg, **kw)
 
     def _line(self) -> bytes:
@@ -74,9 +75,10 @@ class SerialInstrument:
             self.port.write((command + p.terminator).encode("ascii"))
             line = self._line()
         except OSError as exc:
-            raise DeviceGone(f"{self.name} on {self.cfg.port}: port error on '{command}' ({exc})") from None
+            raise DeviceGone(f"{self.name} on {self.cfg.port}: port error on '{command}' ({exc})", self.ROLE) from None
         if not line.endswith(p.reply_terminator.encode("ascii")):
-            raise DeviceGone(f"{self.name} on {self.cfg.port}: no reply to '{command}' within {self.cfg.timeout_s:g} s")
+            raise DeviceGone(f"{self.name} on {self.cfg.port}: no reply to '{command}' within {self.cfg.timeout_s:g} s",
+                             self.ROLE)
         reply = line.decode("ascii", "replace").strip()
         m = re.fullmatch(p.error, reply)
         if m:
@@ -122,6 +124,15 @@ class SerialInstrument:
     def close(self) -> None:
         self.port.close()
 
+    def reconnect(self) -> None:
+        """Open the port again and ask for the identification (``DeviceGone`` while away)."""
+        try:
+            self.port.close()
+        except Exception:  # noqa: BLE001 -- a port that is gone may not close cleanly
+            pass
+        self.port = type(self).open(self.cfg).port
+        self.identify()
+
 
 class SerialLightSource(SerialInstrument):
     def set_level(self, level: float) -> None:
@@ -136,6 +147,7 @@ class SerialLightSource(SerialInstrument):
 
 class SerialChamber(SerialInstrument):
     DEFAULT = DEFAULT_CHAMBER
+    ROLE = "chamber"
     _setpoint: float | None = None
 
     def set_temperature(self, celsius: float) -> None:
