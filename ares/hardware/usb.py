@@ -54,6 +54,7 @@ class UsbFrameSource:
         self._buf = np.empty(self.payload, np.uint8)
         self._carry = bytearray()  # bytes read past the end of a frame (a stream without transfer framing)
         self.count = 0  # frames delivered
+        self.frame_time_s = 0.0  # exposure + readout + margin of the current settings (ares.scan.apply)
         self.counter_mode = counter_mode(cfg)
         # continuous: the device counts from 0 after open, so a lost first frame is a gap too
         self.last_counter: int | None = -1 if self.counter_mode == "continuous" else None
@@ -119,6 +120,36 @@ class UsbFrameSource:
             return HardwareError(f"{self.name}: endpoint stalled during {what} ({exc})")
         return HardwareError(f"{self.name}: USB error during {what} ({exc})")
 
+    # ------------------------------------------------------------ timing
+    @property
+    def timeout_ms(self) -> int:
+        """One bulk read's timeout: the XML's ``timeout_ms``, or longer when a frame takes
+        longer (exposure + readout + margin, from ``set_frame_time``)."""
+        return max(int(self.cfg.timeout_ms), int(round(1000 * self.frame_time_s)))
+
+    def set_frame_time(self, seconds: float) -> None:
+        """The current frame time (exposure + ``<timing readout_s>`` + ``margin_s``): a 20 s
+        exposure is not a 2 s timeout."""
+        self.frame_time_s = max(0.0, float(seconds))
+
+    def flush(self) -> None:
+        """Drop what the device and the host still hold (frames exposed at earlier settings):
+        the bytes carried over, then reads with a short timeout until none come (at most two
+        frames' worth: a free-running sensor never runs dry)."""
+        core = _usb()
+        self._carry.clear()
+        left = 2 * self.frame_bytes
+        while left > 0:
+            try:
+                n = self.dev.read(self.cfg.endpoint, self._chunk, timeout=10)
+            except core.USBTimeoutError:
+                return
+            except core.USBError as exc:
+                raise self._usb_error(exc, "the flush before a stack") from None
+            if not n:
+                return
+            left -= n
+
     # ------------------------------------------------------------ bytes
     def _read(self, want: int, deadline: float) -> memoryview:
         """One bulk read of up to ``want`` bytes (fewer = the transfer ended)."""
@@ -131,10 +162,10 @@ class UsbFrameSource:
         if buf is None:  # header, payload, chunk and remainder sizes: a handful, kept
             buf = self._bufs[want] = array.array("B", bytes(want))
         try:
-            n = self.dev.read(self.cfg.endpoint, buf, timeout=self.cfg.timeout_ms)
+            n = self.dev.read(self.cfg.endpoint, buf, timeout=self.timeout_ms)
         except core.USBTimeoutError:
             raise HardwareError(f"{self.name}: no data on endpoint 0x{self.cfg.endpoint:02x} within "
-                                f"{self.cfg.timeout_ms} ms (timeout) at frame {self.count}") from None
+                                f"{self.timeout_ms} ms (timeout) at frame {self.count}") from None
         except core.USBError as exc:
             raise self._usb_error(exc, f"frame {self.count}") from None
         return memoryview(buf)[:n]
@@ -185,7 +216,7 @@ class UsbFrameSource:
 
     # ------------------------------------------------------------ frames
     def _frame(self) -> Frame:
-        deadline = time.monotonic() + self.watchdog_s
+        deadline = time.monotonic() + self.watchdog_s + self.frame_time_s
         h = self._header(deadline)
         self._lost_sync = False
         if h is not None:
