@@ -3,8 +3,11 @@
 One register access is one combined transaction: write the register address
 (``address_bits/8`` bytes, most significant first), then read or write ``value_bits/8``
 bytes in the bus's ``value_endian`` byte order -- the usual 8/16-bit-address CIS
-convention. A NACK or timeout is retried ``retries`` times (the XML's ``<i2c retries>``);
-then one ``DeviceGone`` names bus, device and register (``RegisterFile`` adds the field).
+convention. A NACK (the kernel's ENXIO or EREMOTEIO: a sensor busy or still powering up) or
+a timeout is retried ``retries`` times (the XML's ``<i2c retries>``) after a pause that
+doubles from ``BACKOFF_S``; then one ``DeviceGone`` names bus, device and register
+(``RegisterFile`` adds the field). An adapter that is gone (ENODEV, ENOENT, EBADF) is not
+retried.
 With ``verify`` every write is read back and compared.
 
 Sensors without I2C read (``readback="image_row"``): reads come from an image row the
@@ -14,20 +17,24 @@ sensor fills with its registers (``ImageRowReadback``).
 from __future__ import annotations
 
 import errno
+import time
 
 from ares.errors import DeviceGone, HardwareError, ValueOutOfRange
 
-_GONE = {errno.ENODEV, errno.ENXIO, errno.ENOENT, errno.EBADF}
+_GONE = {errno.ENODEV, errno.ENOENT, errno.EBADF}  # the adapter itself; ENXIO is a NACK (retried)
+BACKOFF_S = 0.001  # the first pause before a retry, doubled each attempt
 
 
 class I2CRegisterBus:
     def __init__(self, bus: int, address: int, address_bits: int = 16, value_bits: int = 8, *,
-                 name: str = "i2c", smbus=None, retries: int = 2, verify: bool = False, value_endian: str = "big"):
+                 name: str = "i2c", smbus=None, retries: int = 2, verify: bool = False, value_endian: str = "big",
+                 sleep=time.sleep):
         self.name = name
         self.bus_number, self.address = bus, address
         self.abytes, self.vbytes = address_bits // 8, value_bits // 8
         self.value_bits, self.address_bits = value_bits, address_bits
         self.retries, self.verify, self.value_endian = int(retries), bool(verify), value_endian
+        self._sleep = sleep
         self.readback = None  # ImageRowReadback for sensors without I2C read
         self.retried = 0  # transactions that needed a retry (a flaky bus shows here)
         self._given = smbus  # an emulated adapter (tests) is reopened as itself
@@ -73,6 +80,8 @@ class I2CRegisterBus:
                     raise DeviceGone(f"{self._where(reg)}: device gone on {what} ({exc.strerror or exc})",
                                      "registers") from None
                 last = exc
+                if attempt < self.retries:
+                    self._sleep(BACKOFF_S * (1 << attempt))
         kind = "timeout" if last.errno == errno.ETIMEDOUT else "no acknowledge"
         raise DeviceGone(f"{self._where(reg)}: {kind} on {what} after {self.retries + 1} attempt(s) "
                          f"({last.strerror or last})", "registers")
