@@ -14,7 +14,9 @@ Without ``<protocol>`` the built-in dialect (``ares.hardware.line_protocol.DEFAU
 
 The port may be a device (``/dev/ttyUSB0``) or any pyserial URL (``socket://``,
 ``rfc2217://``, ``loop://``, and ``aresemu://NAME`` for ARES's instrument emulators).
-Values are range-checked against the XML's min/max before anything is sent. A missing
+Values are range-checked against the XML's min/max before anything is sent. The input
+buffer is flushed before every command, so a reply that came after its command timed out
+cannot answer the next one. A missing
 reply (timeout) is ``DeviceGone``; a reply matching the error pattern is a
 ``HardwareError`` quoting it, and so is a reply the command's pattern does not match.
 Every wait (light settle, chamber settle and soak) is bounded by the XML's timeouts and
@@ -72,6 +74,9 @@ class SerialInstrument:
     def query(self, command: str) -> str:
         p = self.protocol
         try:
+            flush = getattr(self.port, "reset_input_buffer", None)
+            if flush is not None:  # a late reply to an earlier command must not answer this one
+                flush()
             self.port.write((command + p.terminator).encode("ascii"))
             line = self._line()
         except OSError as exc:
