@@ -50,7 +50,13 @@ class ValueOutOfRange(InputError):
 
 
 class DeviceGone(HardwareError):
-    """A device stopped answering (unplugged, bus error)."""
+    """A device stopped answering (unplugged, bus error). ``device`` names the bench part
+    that failed ("frames", "registers", "light", "chamber"), so a recovery reconnects that
+    one and not another."""
+
+    def __init__(self, message: str = "", device: str = "frames"):
+        super().__init__(message)
+        self.device = device
 
 
 class FrameError(HardwareError):

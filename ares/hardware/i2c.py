@@ -3,8 +3,11 @@
 One register access is one combined transaction: write the register address
 (``address_bits/8`` bytes, most significant first), then read or write ``value_bits/8``
 bytes in the bus's ``value_endian`` byte order -- the usual 8/16-bit-address CIS
-convention. A NACK or timeout is retried ``retries`` times (the XML's ``<i2c retries>``);
-then one ``DeviceGone`` names bus, device and register (``RegisterFile`` adds the field).
+convention. A NACK (the kernel's ENXIO or EREMOTEIO: a sensor busy or still powering up) or
+a timeout is retried ``retries`` times (the XML's ``<i2c retries>``) after a pause that
+doubles from ``BACKOFF_S``; then one ``DeviceGone`` names bus, device and register
+(``RegisterFile`` adds the field). An adapter that is gone (ENODEV, ENOENT, EBADF) is not
+retried.
 With ``verify`` every write is read back and compared.
 
 Sensors without I2C read (``readback="image_row"``): reads come from an image row the
@@ -14,30 +17,48 @@ sensor fills with its registers (``ImageRowReadback``).
 from __future__ import annotations
 
 import errno
+import time
 
 from ares.errors import DeviceGone, HardwareError, ValueOutOfRange
 
-_GONE = {errno.ENODEV, errno.ENXIO, errno.ENOENT, errno.EBADF}
+_GONE = {errno.ENODEV, errno.ENOENT, errno.EBADF}  # the adapter itself; ENXIO is a NACK (retried)
+BACKOFF_S = 0.001  # the first pause before a retry, doubled each attempt
 
 
 class I2CRegisterBus:
     def __init__(self, bus: int, address: int, address_bits: int = 16, value_bits: int = 8, *,
-                 name: str = "i2c", smbus=None, retries: int = 2, verify: bool = False, value_endian: str = "big"):
+                 name: str = "i2c", smbus=None, retries: int = 2, verify: bool = False, value_endian: str = "big",
+                 sleep=time.sleep):
         self.name = name
         self.bus_number, self.address = bus, address
         self.abytes, self.vbytes = address_bits // 8, value_bits // 8
         self.value_bits, self.address_bits = value_bits, address_bits
         self.retries, self.verify, self.value_endian = int(retries), bool(verify), value_endian
+        self._sleep = sleep
         self.readback = None  # ImageRowReadback for sensors without I2C read
         self.retried = 0  # transactions that needed a retry (a flaky bus shows here)
-        if smbus is None:
-            try:
-                from smbus2 import SMBus
+        self._given = smbus  # an emulated adapter (tests) is reopened as itself
+        self.smbus = smbus if smbus is not None else self._open()
 
-                smbus = SMBus(bus)
-            except (OSError, FileNotFoundError) as exc:
-                raise DeviceGone(f"I2C bus {bus} ('{name}'): cannot open /dev/i2c-{bus} ({exc.strerror or exc})") from None
-        self.smbus = smbus
+    def _open(self):
+        if self._given is not None:
+            return self._given
+        try:
+            from smbus2 import SMBus
+
+            return SMBus(self.bus_number)
+        except (OSError, FileNotFoundError) as exc:
+            raise DeviceGone(f"I2C bus {self.bus_number} ('{self.name}'): cannot open /dev/i2c-{self.bus_number} "
+                             f"({exc.strerror or exc})", "registers") from None
+
+    def reconnect(self) -> None:
+        """Open the adapter again and address the device once (``DeviceGone`` while it is away)."""
+        from smbus2 import i2c_msg
+
+        if self._given is None:
+            self.close()
+        self.smbus = self._open()
+        self._transfer(0, "reconnect", i2c_msg.write(self.address, bytes(self.abytes)))  # set the pointer: an ACK
 
     def _where(self, reg: int) -> str:
         return (f"I2C device 0x{self.address:02x} on bus {self.bus_number} ('{self.name}'), "
@@ -56,11 +77,14 @@ class I2CRegisterBus:
                 return
             except OSError as exc:
                 if exc.errno in _GONE:
-                    raise DeviceGone(f"{self._where(reg)}: device gone on {what} ({exc.strerror or exc})") from None
+                    raise DeviceGone(f"{self._where(reg)}: device gone on {what} ({exc.strerror or exc})",
+                                     "registers") from None
                 last = exc
+                if attempt < self.retries:
+                    self._sleep(BACKOFF_S * (1 << attempt))
         kind = "timeout" if last.errno == errno.ETIMEDOUT else "no acknowledge"
         raise DeviceGone(f"{self._where(reg)}: {kind} on {what} after {self.retries + 1} attempt(s) "
-                         f"({last.strerror or last})")
+                         f"({last.strerror or last})", "registers")
 
     def read(self, address: int) -> int:
         if self.readback is not None:

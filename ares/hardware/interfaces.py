@@ -94,14 +94,19 @@ class Bench:
     info: dict = field(default_factory=dict)
     closers: list = field(default_factory=list)  # called after the devices close (emulators unregister)
 
-    def reconnect(self) -> None:
-        """Find the frame source again after it was unplugged (``DeviceGone`` while it is
-        still away, or when it cannot be looked for)."""
-        again = getattr(self.frames, "reconnect", None)
-        if again is None:
-            from ares.errors import DeviceGone
+    def reconnect(self, device: str = "frames") -> None:
+        """Find the bench part that failed again after it was unplugged: ``device`` is
+        ``DeviceGone.device`` ("frames", "registers", "light", "chamber"); only that part is
+        reopened. ``DeviceGone`` while it is still away; ``HardwareError`` when it cannot be
+        looked for at all (no reconnect: waiting would not help)."""
+        from ares.errors import HardwareError
 
-            raise DeviceGone(f"{self.frames.name}: cannot reconnect (this frame source has no reconnect)")
+        part = {"frames": self.frames, "registers": getattr(self.registers, "bus", None), "light": self.light,
+                "chamber": self.chamber}.get(device)
+        again = getattr(part, "reconnect", None)
+        if again is None:
+            name = getattr(part, "name", device)
+            raise HardwareError(f"{name}: cannot reconnect (this {device} device has no reconnect)")
         again()
 
     def close(self) -> None:

@@ -21,7 +21,9 @@ def _naming(name: str):
     try:
         yield
     except HardwareError as exc:
-        raise type(exc)(f"{exc} (field '{name}')") from None
+        again = type(exc)(f"{exc} (field '{name}')")
+        again.__dict__.update(exc.__dict__)  # which device failed (DeviceGone.device), a loss's kind
+        raise again from None
 
 
 @dataclass(frozen=True)

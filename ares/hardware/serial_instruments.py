@@ -14,7 +14,9 @@ Without ``<protocol>`` the built-in dialect (``ares.hardware.line_protocol.DEFAU
 
 The port may be a device (``/dev/ttyUSB0``) or any pyserial URL (``socket://``,
 ``rfc2217://``, ``loop://``, and ``aresemu://NAME`` for ARES's instrument emulators).
-Values are range-checked against the XML's min/max before anything is sent. A missing
+Values are range-checked against the XML's min/max before anything is sent. The input
+buffer is flushed before every command, so a reply that came after its command timed out
+cannot answer the next one. A missing
 reply (timeout) is ``DeviceGone``; a reply matching the error pattern is a
 ``HardwareError`` quoting it, and so is a reply the command's pattern does not match.
 Every wait (light settle, chamber settle and soak) is bounded by the XML's timeouts and
@@ -41,6 +43,7 @@ def range_text(lo: float | None, hi: float | None, unit: str) -> str:
 
 class SerialInstrument:
     DEFAULT = DEFAULT_LIGHT
+    ROLE = "light"  # the bench part a DeviceGone names (a recovery reopens this port, not another)
 
     def __init__(self, port, cfg, *, sleep=time.sleep, clock=time.monotonic):
         self.port, self.cfg, self._sleep, self._clock = port, cfg, sleep, clock
@@ -60,7 +63,7 @@ class SerialInstrument:
             port = serial.serial_for_url(cfg.port, baudrate=cfg.baud, bytesize=cfg.bytesize, parity=cfg.parity,
                                          stopbits=cfg.stopbits, timeout=cfg.timeout_s)
         except (serial.SerialException, OSError, ValueError) as exc:
-            raise DeviceGone(f"{cfg.name}: cannot open serial port {cfg.port} ({exc})") from None
+            raise DeviceGone(f"{cfg.name}: cannot open serial port {cfg.port} ({exc})", cls.ROLE) from None
         return cls(port, cfg, **kw)
 
     def _line(self) -> bytes:
@@ -71,12 +74,16 @@ class SerialInstrument:
     def query(self, command: str) -> str:
         p = self.protocol
         try:
+            flush = getattr(self.port, "reset_input_buffer", None)
+            if flush is not None:  # a late reply to an earlier command must not answer this one
+                flush()
             self.port.write((command + p.terminator).encode("ascii"))
             line = self._line()
         except OSError as exc:
-            raise DeviceGone(f"{self.name} on {self.cfg.port}: port error on '{command}' ({exc})") from None
+            raise DeviceGone(f"{self.name} on {self.cfg.port}: port error on '{command}' ({exc})", self.ROLE) from None
         if not line.endswith(p.reply_terminator.encode("ascii")):
-            raise DeviceGone(f"{self.name} on {self.cfg.port}: no reply to '{command}' within {self.cfg.timeout_s:g} s")
+            raise DeviceGone(f"{self.name} on {self.cfg.port}: no reply to '{command}' within {self.cfg.timeout_s:g} s",
+                             self.ROLE)
         reply = line.decode("ascii", "replace").strip()
         m = re.fullmatch(p.error, reply)
         if m:
@@ -122,6 +129,15 @@ class SerialInstrument:
     def close(self) -> None:
         self.port.close()
 
+    def reconnect(self) -> None:
+        """Open the port again and ask for the identification (``DeviceGone`` while away)."""
+        try:
+            self.port.close()
+        except Exception:  # noqa: BLE001 -- a port that is gone may not close cleanly
+            pass
+        self.port = type(self).open(self.cfg).port
+        self.identify()
+
 
 class SerialLightSource(SerialInstrument):
     def set_level(self, level: float) -> None:
@@ -136,6 +152,7 @@ class SerialLightSource(SerialInstrument):
 
 class SerialChamber(SerialInstrument):
     DEFAULT = DEFAULT_CHAMBER
+    ROLE = "chamber"
     _setpoint: float | None = None
 
     def set_temperature(self, celsius: float) -> None:

@@ -54,8 +54,13 @@ class UsbFrameSource:
         self._buf = np.empty(self.payload, np.uint8)
         self._carry = bytearray()  # bytes read past the end of a frame (a stream without transfer framing)
         self.count = 0  # frames delivered
-        self.last_counter: int | None = None
+        self.frame_time_s = 0.0  # exposure + readout + margin of the current settings (ares.scan.apply)
+        self.counter_mode = counter_mode(cfg)
+        # continuous: the device counts from 0 after open, so a lost first frame is a gap too
+        self.last_counter: int | None = -1 if self.counter_mode == "continuous" else None
+        self._first = True  # the next frame is a grab's first (a device reset shows there)
         self.dropped = self.corrupt = self.short = self.resyncs = self.skipped_bytes = 0
+        self.counter_resets = 0  # a continuous counter that went back between grabs (device restarted)
         self._lost_sync = False  # searching for a sync word (counted once per search)
 
     # ------------------------------------------------------------ open / control
@@ -115,6 +120,36 @@ class UsbFrameSource:
             return HardwareError(f"{self.name}: endpoint stalled during {what} ({exc})")
         return HardwareError(f"{self.name}: USB error during {what} ({exc})")
 
+    # ------------------------------------------------------------ timing
+    @property
+    def timeout_ms(self) -> int:
+        """One bulk read's timeout: the XML's ``timeout_ms``, or longer when a frame takes
+        longer (exposure + readout + margin, from ``set_frame_time``)."""
+        return max(int(self.cfg.timeout_ms), int(round(1000 * self.frame_time_s)))
+
+    def set_frame_time(self, seconds: float) -> None:
+        """The current frame time (exposure + ``<timing readout_s>`` + ``margin_s``): a 20 s
+        exposure is not a 2 s timeout."""
+        self.frame_time_s = max(0.0, float(seconds))
+
+    def flush(self) -> None:
+        """Drop what the device and the host still hold (frames exposed at earlier settings):
+        the bytes carried over, then reads with a short timeout until none come (at most two
+        frames' worth: a free-running sensor never runs dry)."""
+        core = _usb()
+        self._carry.clear()
+        left = 2 * self.frame_bytes
+        while left > 0:
+            try:
+                n = self.dev.read(self.cfg.endpoint, self._chunk, timeout=10)
+            except core.USBTimeoutError:
+                return
+            except core.USBError as exc:
+                raise self._usb_error(exc, "the flush before a stack") from None
+            if not n:
+                return
+            left -= n
+
     # ------------------------------------------------------------ bytes
     def _read(self, want: int, deadline: float) -> memoryview:
         """One bulk read of up to ``want`` bytes (fewer = the transfer ended)."""
@@ -127,10 +162,10 @@ class UsbFrameSource:
         if buf is None:  # header, payload, chunk and remainder sizes: a handful, kept
             buf = self._bufs[want] = array.array("B", bytes(want))
         try:
-            n = self.dev.read(self.cfg.endpoint, buf, timeout=self.cfg.timeout_ms)
+            n = self.dev.read(self.cfg.endpoint, buf, timeout=self.timeout_ms)
         except core.USBTimeoutError:
             raise HardwareError(f"{self.name}: no data on endpoint 0x{self.cfg.endpoint:02x} within "
-                                f"{self.cfg.timeout_ms} ms (timeout) at frame {self.count}") from None
+                                f"{self.timeout_ms} ms (timeout) at frame {self.count}") from None
         except core.USBError as exc:
             raise self._usb_error(exc, f"frame {self.count}") from None
         return memoryview(buf)[:n]
@@ -181,7 +216,7 @@ class UsbFrameSource:
 
     # ------------------------------------------------------------ frames
     def _frame(self) -> Frame:
-        deadline = time.monotonic() + self.watchdog_s
+        deadline = time.monotonic() + self.watchdog_s + self.frame_time_s
         h = self._header(deadline)
         self._lost_sync = False
         if h is not None:
@@ -195,6 +230,8 @@ class UsbFrameSource:
         where = f"frame {self.count}" + (f" (device counter {h.counter})" if h is not None else "")
         if got < self.payload:
             self.short += 1
+            if h is not None:  # the frame was sent: the re-grab must not count it as dropped
+                self.last_counter = h.counter
             raise FrameLost(f"{self.name}: {where} arrived short ({got + self.head} of {self.frame_bytes} bytes)",
                             "short")
         if h is not None:
@@ -203,7 +240,16 @@ class UsbFrameSource:
                 self.last_counter = h.counter
                 raise FrameLost(f"{self.name}: {where} is corrupt (payload CRC mismatch)", "corrupt")
             gap = 0 if self.last_counter is None else (h.counter - self.last_counter - 1) & 0xFFFFFFFF
+            last, first, self._first = self.last_counter, self._first, False
             self.last_counter = h.counter
+            if gap >= 1 << 31:  # the counter went back
+                if first:  # between grabs: the device restarted its count; follow it
+                    self.counter_resets += 1
+                    gap = 0
+                else:
+                    self.corrupt += 1
+                    raise FrameLost(f"{self.name}: the frame counter went back from {last} to {h.counter} at {where} "
+                                    "(the device restarted mid-grab)", "corrupt")
             if gap:
                 self.dropped += gap
                 raise FrameLost(f"{self.name}: {gap} frame(s) dropped before {where} (frame counter jumped "
@@ -221,8 +267,11 @@ class UsbFrameSource:
         return Frame(data, self.count, time.time(), meta)
 
     def grab(self, n: int):
-        if not any(c.when == "start" for c in self.cfg.controls):
-            self.last_counter = None  # free-running: frames between grabs are not read, not lost
+        if self.counter_mode == "free_running":
+            self.last_counter = None  # frames between grabs are not read, not lost: checked within the grab
+        elif self.counter_mode == "per_grab":
+            self.last_counter = -1  # the device counts from 0 at every start
+        self._first = True
         self._control("start", n)
         ok = False
         try:
@@ -239,9 +288,13 @@ class UsbFrameSource:
                     raise  # otherwise the error in flight is the one to report
 
     def stats(self) -> dict:
-        """Counters for the run record: frames, dropped, corrupt, short, resyncs, skipped bytes."""
-        return {"frames": self.count, "dropped": self.dropped, "corrupt": self.corrupt, "short": self.short,
-                "resyncs": self.resyncs, "skipped_bytes": self.skipped_bytes}
+        """Counters for the run record: frames, dropped, corrupt, short, resyncs, skipped bytes
+        (and counter resets, when a continuous counter restarted between grabs)."""
+        out = {"frames": self.count, "dropped": self.dropped, "corrupt": self.corrupt, "short": self.short,
+               "resyncs": self.resyncs, "skipped_bytes": self.skipped_bytes}
+        if self.counter_resets:
+            out["counter_resets"] = self.counter_resets
+        return out
 
     def close(self) -> None:
         try:
@@ -250,6 +303,16 @@ class UsbFrameSource:
             usb.util.dispose_resources(self.dev)
         except Exception:  # closing a vanished device must not mask the original error
             pass
+
+
+def counter_mode(cfg) -> str:
+    """How the device's frame counter runs (``<usb_grabber counter=...>``): "continuous" (from
+    0 after open, on through every grab), "per_grab" (from 0 at every start) or
+    "free_running" (the sensor streams between grabs: checked within a grab only).
+    Undeclared: free-running without a 'start' control, else continuous."""
+    if cfg.counter:
+        return cfg.counter
+    return "continuous" if any(c.when == "start" for c in cfg.controls) else "free_running"
 
 
 def _serial_of(dev) -> str | None:

@@ -123,6 +123,7 @@ class UsbGrabber:
     wire_order: str = "image"  # ares.hardware.pixels.WIRE_ORDERS
     interface: int = 0
     controls: tuple[UsbControl, ...] = ()
+    counter: str | None = None  # "continuous", "per_grab", "free_running" (ares.hardware.usb.counter_mode)
 
 
 def _data(s: str | None) -> bytes:
@@ -138,7 +139,7 @@ def usb_from_el(path, g) -> UsbGrabber:
     u = UsbGrabber(g.get("name"), _int(g.get("vid")), _int(g.get("pid")), _int(g.get("endpoint")), g.get("format"),
                    _int(g.get("header_bytes"), 0), _int(g.get("timeout_ms"), 1000), g.get("serial"),
                    g.get("header", "none"), _int(g.get("chunk_bytes"), 1 << 20), _int(g.get("watchdog_ms")),
-                   g.get("wire_order", "image"), _int(g.get("interface"), 0), tuple(ctl))
+                   g.get("wire_order", "image"), _int(g.get("interface"), 0), tuple(ctl), g.get("counter"))
     if u.vid > 0xFFFF or u.pid > 0xFFFF:
         raise fail(path, g.sourceline, "USB vid/pid must be 16-bit numbers")
     pixel_format(u.format)  # the schema lists the names; this keeps one table
@@ -154,7 +155,8 @@ def usb_to_el(parent, g: UsbGrabber):
               endpoint=f"0x{g.endpoint:02X}", format=g.format, header_bytes=g.header_bytes or None,
               timeout_ms=g.timeout_ms, serial=g.serial, header=None if g.header == "none" else g.header,
               chunk_bytes=None if g.chunk_bytes == 1 << 20 else g.chunk_bytes, watchdog_ms=g.watchdog_ms,
-              wire_order=None if g.wire_order == "image" else g.wire_order, interface=g.interface or None)
+              wire_order=None if g.wire_order == "image" else g.wire_order, interface=g.interface or None,
+              counter=g.counter)
     for c in g.controls:
         _set(etree.SubElement(el, "control"), when=c.when, request_type=f"0x{c.request_type:02X}",
              request=f"0x{c.request:02X}", value=c.value, index=c.index,

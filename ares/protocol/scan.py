@@ -154,6 +154,7 @@ class Suspend:
     poll_s: float = 1.0
     hold_s: float = 0.0
     timeout_s: float = 600.0
+    max_recoveries: int = 5  # pauses of one stage before the run fails (a device that keeps failing)
 
 
 @dataclass(frozen=True)
@@ -364,7 +365,8 @@ def scan_from_tree(tree, path, system: System | None = None, system_path=None) -
                                                "has none)")
             if q == "light" and system.light_source is None and system.simulator is None:
                 raise fail(path, c.sourceline, f"a light condition needs a light source (system '{system.name}' has none)")
-        suspend = Suspend(conds, float(su.get("poll_s", 1)), float(su.get("hold_s", 0)), float(su.get("timeout_s", 600)))
+        suspend = Suspend(conds, float(su.get("poll_s", 1)), float(su.get("hold_s", 0)), float(su.get("timeout_s", 600)),
+                          int(su.get("max_recoveries", 5)))
     out = root.find("output")
     output = Output() if out is None else Output(
         *(out.get(k, d) in ("true", "1") for k, d in
@@ -453,7 +455,7 @@ def scan_to_tree(sc: Scan) -> etree._ElementTree:
             _set(etree.SubElement(pe, "target"), quantity=t.quantity, rel=t.rel, abs=t.abs)
     if sc.suspend is not None:
         su = _set(etree.SubElement(root, "suspend"), poll_s=sc.suspend.poll_s, hold_s=sc.suspend.hold_s,
-                  timeout_s=sc.suspend.timeout_s)
+                  timeout_s=sc.suspend.timeout_s, max_recoveries=sc.suspend.max_recoveries)
         for q, tol in sc.suspend.conditions:
             _set(etree.SubElement(su, "condition"), quantity=q, tolerance=tol if q != "device" else None)
     o = sc.output

@@ -61,8 +61,21 @@ class Controls:
 
 @dataclass(frozen=True)
 class Timing:
-    readout_s: float = 0.0  # per frame, on top of the exposure (for duration estimates)
-    settle_s: float = 0.0  # after settings change
+    readout_s: float = 0.0  # per frame, on top of the exposure (durations, read timeouts)
+    settle_s: float = 0.0  # wait after a register change before the stage's frames
+    discard_frames: int = 0  # frames grabbed and dropped after a register change (exposed at the old settings)
+    flush: bool = False  # drain what the frame source holds before every stack
+    margin_s: float = 0.5  # read timeouts: at least exposure + readout_s + margin_s
+    after: tuple = ()  # (quantity, settle_s, discard_frames): <after quantity="light|temperature|registers">
+
+    def after_change(self, quantity: str) -> tuple[float, int]:
+        """(settle seconds, frames to discard) after ``quantity`` changed ("registers",
+        "light", "temperature"): its ``<after>`` element, else the register defaults for
+        registers and nothing for an instrument (its own settle is in its device element)."""
+        for q, settle, discard in self.after:
+            if q == quantity:
+                return settle, discard
+        return (self.settle_s, self.discard_frames) if quantity == "registers" else (0.0, 0)
 
 
 @dataclass(frozen=True)
@@ -266,7 +279,11 @@ def system_from_tree(tree, path) -> System:
                 raise fail(path, ctl.sourceline, f"<controls {q}='{name}'> names no register field "
                                                  f"(known: {', '.join(regmap.names())})")
     tim = root.find("timing")
-    timing = Timing() if tim is None else Timing(_float(tim.get("readout_s"), 0.0), _float(tim.get("settle_s"), 0.0))
+    timing = Timing() if tim is None else Timing(
+        _float(tim.get("readout_s"), 0.0), _float(tim.get("settle_s"), 0.0), int(tim.get("discard_frames", 0)),
+        tim.get("flush", "false") in ("true", "1"), _float(tim.get("margin_s"), 0.5),
+        tuple((a.get("quantity"), _float(a.get("settle_s"), 0.0), int(a.get("discard_frames", 0)))
+              for a in tim.iterfind("after")))
     buses = tuple(i2c_from_el(path, el) for el in root.iterfind("buses/i2c"))
     g = root.find("devices/usb_grabber")
     grabber = None if g is None else usb_from_el(path, g)
@@ -383,7 +400,12 @@ def system_to_tree(sy: System) -> etree._ElementTree:
     if c != Controls():
         _set(etree.SubElement(root, "controls"), exposure=c.exposure, analog_gain=c.analog_gain, black_level=c.black_level)
     if sy.timing != Timing():
-        _set(etree.SubElement(root, "timing"), readout_s=float(sy.timing.readout_s), settle_s=float(sy.timing.settle_s))
+        t = sy.timing
+        te = _set(etree.SubElement(root, "timing"), readout_s=float(t.readout_s), settle_s=float(t.settle_s),
+                  discard_frames=t.discard_frames or None, flush="true" if t.flush else None,
+                  margin_s=None if t.margin_s == 0.5 else t.margin_s)
+        for q, settle, discard in t.after:
+            _set(etree.SubElement(te, "after"), quantity=q, settle_s=settle, discard_frames=discard or None)
     if sy.buses:
         b = etree.SubElement(root, "buses")
         for bus in sy.buses:

@@ -1,8 +1,12 @@
-"""Apply a stage's resolved settings to a bench (slow instruments first, light last)."""
+"""Apply a stage's resolved settings to a bench (slow instruments first, light last), then
+let the bench settle as the system XML declares (``<timing>``): wait ``settle_s`` and drop
+``discard_frames`` frames after a change (frames still exposed at the old settings), drain
+the frame source (``flush``), and tell it the frame time its read timeouts must cover."""
 
 from __future__ import annotations
 
 from ares.errors import InputError
+from ares.hardware.waits import wait
 
 
 def apply_settings(bench, system, settings: dict, previous: dict | None = None, cancel=None) -> None:
@@ -10,8 +14,11 @@ def apply_settings(bench, system, settings: dict, previous: dict | None = None, 
     a callable that is true when the run is asked to stop; an instrument's wait then ends
     with ``ares.hardware.waits.Interrupted``."""
     prev = previous or {}
+    kinds = set()  # what changed: "registers", "light", "temperature"
     for key, value in settings.items():
         changed = prev.get(key) != value
+        if changed:
+            kinds.add(key if key in ("light", "temperature") else "registers")
         if key == "temperature":
             if bench.chamber is None:
                 raise InputError(f"system '{system.name}' has no thermal chamber to set {value:g} C")
@@ -30,6 +37,31 @@ def apply_settings(bench, system, settings: dict, previous: dict | None = None, 
             bench.registers.set(name, value)
         else:  # the protocol layer admits no other key
             raise InputError(f"unknown setting '{key}'")
+    settle(bench, system, settings, kinds, cancel)
+
+
+def settle(bench, system, settings: dict, kinds: set, cancel=None) -> None:
+    """After the changes ``kinds``: the longest declared settle time, the most frames to
+    discard (``Timing.after_change``), a flush when declared; the frame time (exposure +
+    readout) to the frame source's read timeouts."""
+    t = getattr(system, "timing", None)
+    if t is None:
+        return
+    frame_time = getattr(bench.frames, "set_frame_time", None)
+    if frame_time is not None and "exposure" in settings:
+        frame_time(float(settings["exposure"]) + t.readout_s + t.margin_s)
+    waits = [t.after_change(k) for k in kinds]
+    seconds = max((w[0] for w in waits), default=0.0)
+    discard = max((w[1] for w in waits), default=0)
+    if seconds > 0:
+        wait(seconds, cancel)
+    if discard:
+        for _ in bench.frames.grab(discard):
+            pass
+    if t.flush:
+        flush = getattr(bench.frames, "flush", None)
+        if flush is not None:
+            flush()
 
 
 def as_fields(system, settings: dict) -> dict:

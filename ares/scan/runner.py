@@ -314,7 +314,7 @@ class Runner:
                         raise
                     self._emit(ev.Paused(st.index))
                     try:
-                        suspensions.append(self._susp.wait_out(exc, st.name))
+                        suspensions.append(self._susp.wait_out(exc, st.name, len(suspensions)))
                     except Interrupted:
                         status, halted = ("aborted" if self._abort.is_set() else "stopped"), True
                         break

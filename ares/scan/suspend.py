@@ -6,11 +6,14 @@ The runner checks the conditions when a stack starts and then at most every ``po
 while frames arrive. A failed check raises ``Suspended``; the runner drops the frames of
 the stage in flight (they may have been taken out of tolerance), waits here until every
 condition has held for ``hold_s``, and acquires the stage again. Each pause is recorded in
-the stage's JSON (``suspensions``: reason, seconds). A ``device`` condition does the same
-when the frame source is unplugged (``DeviceGone``): the bench looks for it every
-``poll_s``, and when it is back every setting is applied again. A pause longer than
-``timeout_s`` is a hardware error naming the condition; a stop or abort ends the wait
-within 0.1 s.
+the stage's JSON (``suspensions``: reason, device, attempts, seconds). A ``device``
+condition does the same when a device is unplugged or stops answering (``DeviceGone``):
+the bench reopens the device that failed (``DeviceGone.device``: frame source, register
+bus, light source or chamber -- never another), first after ``poll_s`` and then with the
+pause doubled each attempt up to ``BACKOFF_CAP`` x ``poll_s``; when it is back every
+setting is applied again. Bounded: a pause longer than ``timeout_s`` is a hardware error
+naming the condition, and so is a stage paused more than ``max_recoveries`` times (a device
+that comes back only to fail again); a stop or abort ends the wait within 0.1 s.
 """
 
 from __future__ import annotations
@@ -18,7 +21,9 @@ from __future__ import annotations
 import time
 
 from ares.errors import DeviceGone, HardwareError
-from ares.hardware.waits import wait
+from ares.hardware.waits import Interrupted, wait
+
+BACKOFF_CAP = 16  # the longest pause between reconnect attempts, in poll_s
 
 
 class Suspended(Exception):
@@ -63,26 +68,39 @@ class Suspenders:
         return isinstance(exc, Suspended) or (isinstance(exc, DeviceGone)
                                               and any(q == "device" for q, _ in self.spec.conditions))
 
-    def wait_out(self, exc: Exception, stage: str) -> dict:
-        """Wait until the cause of ``exc`` has cleared; the pause as a record."""
+    def wait_out(self, exc: Exception, stage: str, earlier: int = 0) -> dict:
+        """Wait until the cause of ``exc`` has cleared; the pause as a record. ``earlier``:
+        the stage's pauses so far -- past ``max_recoveries`` the run fails instead."""
+        limit = self.spec.max_recoveries
+        if earlier >= limit:
+            raise HardwareError(f"stage '{stage}': {exc} -- again after {earlier} recover{'y' if earlier == 1 else 'ies'}"
+                                f" (max_recoveries={limit} of <suspend> in the scan)")
+        if self.cancel is not None and self.cancel():
+            raise Interrupted
         if isinstance(exc, Suspended):
             return self.wait_clear(exc.settings, exc.reason, stage)
-        return self.wait_reconnect(str(exc), stage)
+        return self.wait_reconnect(str(exc), stage, getattr(exc, "device", "frames"))
 
-    def wait_reconnect(self, reason: str, stage: str) -> dict:
-        """The frame source was unplugged: look for it every ``poll_s`` until it is back
-        (the pause as a record) or ``timeout_s`` has passed (``DeviceGone``)."""
-        t0, started = self._clock(), time.time()
+    def wait_reconnect(self, reason: str, stage: str, device: str = "frames") -> dict:
+        """``device`` was unplugged or stopped answering: reopen it (that one only) with a
+        growing pause between attempts until it is back (the pause as a record) or
+        ``timeout_s`` has passed (``DeviceGone``)."""
+        t0, started, attempts = self._clock(), time.time(), 0
+        pause = self.spec.poll_s
         while True:
             try:
-                self.bench.reconnect()
-                return {"stage": stage, "reason": reason, "started": started,
-                        "seconds": round(self._clock() - t0, 3)}
+                attempts += 1
+                self.bench.reconnect(device)
+                return {"stage": stage, "reason": reason, "device": device, "attempts": attempts,
+                        "started": started, "seconds": round(self._clock() - t0, 3)}
             except DeviceGone as exc:
                 if self._clock() - t0 >= self.spec.timeout_s:
-                    raise DeviceGone(f"stage '{stage}': {reason}; not back after {self.spec.timeout_s:g} s "
-                                     f"({exc}; timeout_s of <suspend> in the scan)") from None
-            wait(self.spec.poll_s, self.cancel, sleep=self._sleep, clock=self._clock)
+                    raise DeviceGone(f"stage '{stage}': {reason}; not back after {self.spec.timeout_s:g} s and "
+                                     f"{attempts} attempt(s) ({exc}; timeout_s of <suspend> in the scan)",
+                                     device) from None
+            left = self.spec.timeout_s - (self._clock() - t0)
+            wait(max(0.0, min(pause, left)), self.cancel, sleep=self._sleep, clock=self._clock)
+            pause = min(2 * pause, BACKOFF_CAP * self.spec.poll_s)
 
     def wait_clear(self, settings: dict, reason: str, stage: str) -> dict:
         """Wait until every condition has held ``hold_s``; the pause as a record."""

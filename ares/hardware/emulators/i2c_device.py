@@ -9,8 +9,10 @@ followed by a read message returns values from there. The registers live in a
 write. A device at another address does not acknowledge.
 
 Faults (``--sim-fault`` keys, N = 0-based transaction count): ``i2c_nack_at`` (NACK) and
-``i2c_timeout_at`` (the bus times out), each for ``i2c_fault_count`` transactions in a row
-(default 1: a retry succeeds); ``i2c_disconnect_at`` (the adapter is gone from then on).
+``i2c_timeout_at`` (the bus times out), ``i2c_enxio_at`` (a NACK as the kernel's i2c-dev
+reports it for an absent address, ENXIO), each for ``i2c_fault_count`` transactions in a row
+(default 1: a retry succeeds); ``i2c_disconnect_at`` (the adapter is gone from then on, or
+with ``i2c_gone_for=K`` for K transactions: a host that reconnects finds it again).
 """
 
 from __future__ import annotations
@@ -18,7 +20,7 @@ from __future__ import annotations
 import ctypes
 import errno
 
-FAULTS = ("i2c_nack_at", "i2c_fault_count", "i2c_timeout_at", "i2c_disconnect_at")
+FAULTS = ("i2c_nack_at", "i2c_enxio_at", "i2c_fault_count", "i2c_timeout_at", "i2c_disconnect_at", "i2c_gone_for")
 
 
 class EmulatedSMBus:
@@ -37,9 +39,13 @@ class EmulatedSMBus:
     def _fault(self) -> None:
         n = self.transactions
         self.transactions += 1
-        if self.gone or n == self.faults.get("i2c_disconnect_at"):
+        at = self.faults.get("i2c_disconnect_at")
+        if self.gone or n == at:
             self.gone = True
-            raise OSError(errno.ENODEV, "No such device")
+            back = self.faults.get("i2c_gone_for")
+            if not back or n < at + back:
+                raise OSError(errno.ENODEV, "No such device")
+            self.gone = False
         k = self.faults.get("i2c_fault_count", 1)
         at = self.faults.get("i2c_timeout_at")
         if at is not None and at <= n < at + k:
@@ -47,6 +53,9 @@ class EmulatedSMBus:
         at = self.faults.get("i2c_nack_at")
         if at is not None and at <= n < at + k:
             raise OSError(errno.EREMOTEIO, "Remote I/O error")
+        at = self.faults.get("i2c_enxio_at")
+        if at is not None and at <= n < at + k:
+            raise OSError(errno.ENXIO, "No such device or address")
 
     def i2c_rdwr(self, *msgs) -> None:
         self._fault()

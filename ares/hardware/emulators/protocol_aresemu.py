@@ -6,7 +6,7 @@ from __future__ import annotations
 
 from serial.serialutil import PortNotOpenError, SerialBase, SerialException
 
-from ares.hardware.emulators.serial_device import lookup
+from ares.hardware.emulators.serial_device import Late, lookup
 
 
 class Serial(SerialBase):
@@ -18,6 +18,7 @@ class Serial(SerialBase):
         if self.instrument is None:
             raise SerialException(f"no emulated instrument '{name}' is running")
         self._rx = bytearray()
+        self._late = bytearray()  # a late reply: in the input buffer once the host's read has timed out
         self.is_open = True
 
     def close(self):
@@ -46,7 +47,9 @@ class Serial(SerialBase):
         for line in text.splitlines():
             if line.strip():
                 reply = self.instrument.handle(line)
-                if reply is not None:
+                if isinstance(reply, Late):
+                    self._late += (reply + "\n").encode("ascii")
+                elif reply is not None:
                     self._rx += (reply + "\n").encode("ascii")
         return len(data)
 
@@ -55,4 +58,7 @@ class Serial(SerialBase):
             raise PortNotOpenError()
         out = bytes(self._rx[:size])
         del self._rx[:size]
+        if not out and self._late:  # the host's read timed out; the late reply arrives now
+            self._rx += self._late
+            self._late.clear()
         return out

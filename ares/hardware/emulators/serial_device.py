@@ -5,7 +5,8 @@ after ``register(NAME, instrument)``.
 
 Faults (``--sim-fault`` keys, ROLE = ``light`` or ``chamber``, N = 0-based command count):
 ``ROLE_timeout_at`` (no reply), ``ROLE_wrong_reply_at`` (a reply of the wrong form),
-``ROLE_error_at`` (``ERR`` reply), ``ROLE_disconnect_at`` (the port is gone from then on).
+``ROLE_error_at`` (``ERR`` reply), ``ROLE_disconnect_at`` (the port is gone from then on),
+``ROLE_late_at`` (the reply comes after the host's read timed out: it waits in the input buffer).
 """
 
 from __future__ import annotations
@@ -35,7 +36,11 @@ def lookup(name: str) -> "EmulatedInstrument | None":
 
 
 def faults_for(role: str) -> tuple[str, ...]:
-    return tuple(f"{role}_{k}" for k in ("timeout_at", "wrong_reply_at", "error_at", "disconnect_at"))
+    return tuple(f"{role}_{k}" for k in ("timeout_at", "wrong_reply_at", "error_at", "disconnect_at", "late_at"))
+
+
+class Late(str):
+    """A reply that arrives only after the host's read has timed out (``ROLE_late_at``)."""
 
 
 FAULTS = faults_for("light") + faults_for("chamber")
@@ -65,6 +70,9 @@ class EmulatedInstrument:
             raise OSError(5, "Input/output error (port gone)")
         if n == self.faults.get("timeout_at"):
             return None
+        if n == self.faults.get("late_at"):
+            cmd, _, arg = line.strip().partition(" ")
+            return Late(self.answer(cmd.upper(), arg.strip()))
         if n == self.faults.get("wrong_reply_at"):
             return "?#%"
         if n == self.faults.get("error_at"):

@@ -19,11 +19,16 @@ bytes altered after the CRC), ``usb_short_at`` (half the payload, then the trans
 ends), ``usb_garbage_at`` (junk bytes before frame N: the host resynchronises),
 ``usb_timeout_at`` (no data: the read times out), ``usb_disconnect_at`` (unplugged; with
 ``usb_reconnect_after_polls`` = M it is found again at the M-th search).
+
+``usb_pipeline_frames`` = K: a sensor that keeps exposing after a stop -- K frames exposed at
+the settings of that moment wait in the device and come first at the next start (what a
+settings change must discard: ``<timing discard_frames>``).
 """
 
 from __future__ import annotations
 
 import errno
+import itertools
 import time
 from types import SimpleNamespace
 
@@ -33,7 +38,7 @@ from ares.hardware import frame_header as fh
 from ares.hardware.pixels import pack, pixel_format, to_wire_order
 
 FAULTS = ("usb_drop_at", "usb_corrupt_at", "usb_short_at", "usb_garbage_at", "usb_timeout_at",
-          "usb_disconnect_at", "usb_reconnect_after_polls")
+          "usb_disconnect_at", "usb_reconnect_after_polls", "usb_pipeline_frames")
 
 
 class EmulatedGrabber:
@@ -51,6 +56,7 @@ class EmulatedGrabber:
         self.connected = True
         self.polls = 0
         self._gen = None  # armed frames
+        self._queued: list = []  # frames exposed after the last stop (usb_pipeline_frames)
         self._owed = 0  # frames dropped while armed: rendered again after the armed ones
         self._out = memoryview(b"")  # the current transfer, what is left of it
         self.configuration = 0
@@ -99,10 +105,15 @@ class EmulatedGrabber:
         for c in self.cfg.controls:
             if (c.request_type, c.request) == (request_type, request):
                 if c.when == "start" and self._start is not None:
-                    self._gen = iter(self.frames.grab(int(value)))
+                    queued, self._queued = self._queued[:int(value)], []
+                    fresh = int(value) - len(queued)
+                    self._gen = itertools.chain(queued, self.frames.grab(fresh) if fresh else ())
                     self._out, self._owed = memoryview(b""), 0
                 elif c.when == "stop":
                     self._gen, self._out = None, memoryview(b"")
+                    k = self.faults.get("usb_pipeline_frames", 0)
+                    if k and not self._queued:  # exposed now, at the settings of now
+                        self._queued = list(self.frames.grab(k))
         return len(data or b"") if not request_type & 0x80 else bytes(max(1, len(data or b"")))
 
     def _next_transfer(self) -> None:
