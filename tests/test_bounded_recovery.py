@@ -171,8 +171,11 @@ CAMPAIGN = [k for k in wire_faults() if k.endswith("_at")]
 @pytest.mark.parametrize("fault", CAMPAIGN)
 def test_fault_campaign_every_kind_ends_in_0_or_3(fault, tmp_path):
     """Each fault kind at several positions (frame / transaction / command counts): the run
-    recovers within the limits (exit 0) or fails truthfully (exit 3), never hangs."""
+    recovers within the limits (exit 0) or fails truthfully (exit 3), never hangs. The
+    suite runs one position per kind; ARES_FULL_CAMPAIGN=1 runs them all (18 kinds x 2-3)."""
     positions = {"usb": (0, 3, 7), "i2c": (5, I2C_AT, 120), "light": (0, 2), "chamber": (0, 1)}[fault.split("_")[0]]
+    if not os.environ.get("ARES_FULL_CAMPAIGN"):  # the suite's budget: one position per kind (each a process)
+        positions = positions[len(positions) // 2:][:1]
     scan = _scan(tmp_path, timeout_s=0.3, chamber=True)
     for at in positions:
         out = tmp_path / f"run{at}"
