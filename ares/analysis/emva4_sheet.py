@@ -77,7 +77,10 @@ class StackImage:
             t, rows, cols = ((self.temporal_var, None, None) if self.line is None else
                              (self.line.pixel, self.line.rows, self.line.cols))
             img, scale = self._filtered(release)
-            self._memo["split", release] = split(img, t, self.L, release, rows, cols, scale=scale)
+            # sigma^2 of Eq. 57 as written: the stack's temporal variance (the extension keeps
+            # the offset-free pixel variance of the line model)
+            self._memo["split", release] = split(img, t, self.L, release, rows, cols, scale=scale,
+                                                  temporal_var_text=self.temporal_var)
         return self._memo["split", release]
 
     def highpassed_var(self, release: str) -> float:
@@ -140,7 +143,8 @@ def exposure_control(exposures_s, photons=None) -> str:
     t = t[np.isfinite(t)]
     if t.size == 0:
         return "not given"
-    if np.unique(np.round(t, 12)).size > 1:
+    r = np.round(t, 12)
+    if r.max() > r.min():  # (not np.unique: it loads numpy.ma, which ares emva does without)
         return "exposure time varied (method I)"
     return f"light varied at {1e3 * float(t[0]):.4g} ms exposure (method II)"
 
@@ -155,18 +159,15 @@ def _scaled(e: Estimate, f: float, unit: str, note: str) -> Estimate:
 
 def dark_current_4(t, mu, s2, K: Estimate, min_exposures: int = 6) -> dict[str, Estimate]:
     """Section 7.1 (``ares.analysis.dark_current``): slopes of the dark mean (DN/s, / K) and
-    of the dark temporal variance (DN^2/s, / K^2). A rate not above its SE is reported as
-    the upper limit mu_I + sigma_I (the text's rule for exposures too short to measure it)."""
-    from .dark_current import dark_current
+    of the dark temporal variance (DN^2/s, / K^2), each as value +- its one-sigma error, and
+    where it is not above that error also the upper limit mu_I + sigma_I beside it
+    (``mu_I_mean_upper``, ``mu_I_var_upper``: ``dark_current.with_upper_limit``)."""
+    from .dark_current import dark_current, with_upper_limit
 
     dc = dark_current(t, mu, K, s2, min_exposures=min_exposures)
     out: dict[str, Estimate] = {}
     for key, e in (("mu_I_mean", dc.rate_e_per_s), ("mu_I_var", dc.rate_from_variance_e_per_s)):
-        if e.available and e.value <= e.se:
-            e = (Estimate.limit(e.value + e.se, "upper", "e-/s", e.note + "; not above its SE: upper limit mu_I + "
-                                                                         "sigma_I (Section 7.1)")
-                 if e.value + e.se > 0 else Estimate.na("dark signal does not grow with the exposure time", "e-/s"))
-        out[key] = e
+        out.update(with_upper_limit(key, e))
     return out
 
 

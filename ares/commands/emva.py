@@ -137,31 +137,11 @@ def analyse_descriptor(path: str | Path | EmvaDescriptor, pixel_area_um2: float 
     inp.notes.append(f"maximum value {found} DN, found in the data (EMVA 1288 4.0 Linear Section 6.6)"
                      + ("" if found == max_code else f"; not the {desc.bits}-bit 2^k - 1 = {max_code}"))
     sheet = evaluate_linear(inp)
-    _dark_current_as_written(sheet, inp)
     general = general_from_input(inp, sheet.photon_transfer)  # the whole General Table 2
     r31 = None
     if stack_b is not None:
         r31 = release31(res, stack_b, stack_d)
     return EmvaAnalysis(desc, res, ptc, b4, d4, sheet.photon_transfer, sheet, general, r31, inp, found)
-
-
-def _dark_current_as_written(sheet, inp) -> None:
-    """Linear Section 7.1 as written: each dark current as value +- its one-sigma error,
-    and, when it is not above that error, also the upper limit mu_I + sigma_I beside it
-    (``mu_I_mean_upper``, ``mu_I_var_upper``)."""
-    import numpy as np
-
-    from ares.analysis.dark_current import dark_current, with_upper_limit
-
-    if inp.dark_series is not None:
-        t, mu, s2 = inp.dark_series
-    else:
-        t, mu, s2 = inp.exposure_s, np.array([d.mean for d in inp.dark]), np.array([d.var for d in inp.dark])
-    dc = dark_current(t, mu, sheet.values["K"], s2)
-    extra = {}
-    for key, e in (("mu_I_mean", dc.rate_e_per_s), ("mu_I_var", dc.rate_from_variance_e_per_s)):
-        extra.update(with_upper_limit(key, e))
-    sheet.values = beside(sheet.values, extra)
 
 
 def beside(values: dict, extra: dict) -> dict:

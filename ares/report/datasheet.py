@@ -253,7 +253,9 @@ def pages(sheet, general=None, release: str = "4.0-linear") -> list[tuple[str, F
         out = [("EMVA summary", summary_page(sheet)), ("EMVA basic information", basic_information_page(sheet, rel)),
                ("EMVA photon transfer", dp.photon_transfer_page(sheet, rel)),
                ("EMVA linearity", dp.linearity_page(sheet, rel)),
-               ("EMVA dark current", dp.dark_current_page(sheet, rel))]
+               ("EMVA dark current", dp.dark_current_page(sheet, rel)),
+               ("EMVA values", dp.values_page(sheet, sheet.values, "Release 4.0 Linear: every value with its "
+                                              "definition", "values", rel))]
     for title, fn in (("EMVA spatial variances", dp.spatial_steps_page), ("EMVA spectrograms", dp.spectrogram_page),
                       ("EMVA profiles", dp.profiles_page), ("EMVA histograms", dp.histogram_page)):
         f = fn(sheet, rel)

@@ -415,9 +415,16 @@ def general_pages(sheet, general, rel: str = GENERAL) -> list[Figure]:
     general_curve_axes(fig.add_axes([0.1, 0.68, 0.8, 0.22]), g)
     general_snr_axes(fig.add_axes([0.1, 0.38, 0.8, 0.22]), g)
     stability_axes(fig.add_axes([0.1, 0.08, 0.8, 0.22]), g.signal, g.sigma_y, g.mean_diff)
-    fig2 = Figure(figsize=A4)
-    _header(fig2, sheet, "Release 4.0 General: every value with its definition", "general values", rel)
-    data = [[k, value_text(e), e.unit, e.note] for k, e in g.values.items()]
-    text_table(fig2, (0.06, 0.9, 0.88), ["quantity", "value", "unit", "definition"], data, [1.1, 1.2, 0.8, 4.5],
-               fontsize=7, max_chars=[18, 22, 12, 80])
-    return [fig, fig2]
+    return [fig, values_page(sheet, g.values, "Release 4.0 General: every value with its definition",
+                             "general values", rel)]
+
+
+def values_page(sheet, values: dict, title: str, page: str, rel: str = LINEAR) -> Figure:
+    """Every value of a release with its definition: the figures the summary sheet leaves
+    out (R, µp.min, the stacks' temporal noise ...) are on the datasheet too, as in its CSV."""
+    fig = Figure(figsize=A4)
+    _header(fig, sheet, title, page, rel)
+    data = [[k, value_text(e), e.unit, e.note] for k, e in values.items()]
+    text_table(fig, (0.06, 0.9, 0.88), ["quantity", "value", "unit", "definition"], data, [1.1, 1.2, 0.8, 4.5],
+               fontsize=7 if len(data) <= 45 else 6, max_chars=[18, 22, 12, 80])
+    return fig

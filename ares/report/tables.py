@@ -59,7 +59,7 @@ def est(d) -> Estimate:
     """An ``Estimate`` from its JSON dict (None -> not available)."""
     if not isinstance(d, dict):
         return Estimate.na("not in the run directory")
-    return Estimate(_nan(d.get("value")), _nan(d.get("se")), d.get("unit") or "", d.get("note") or "")
+    return Estimate.from_dict(d)  # (with its verdict: an upper or lower limit stays one)
 
 
 # ------------------------------------------------------------------ PTC groups
