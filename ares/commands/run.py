@@ -294,21 +294,10 @@ def execute(scan, args, *, seed, frames, faults=None, argv=None, out_dir=None, r
                         resume_from=resume_from, defer_reports=not args.json)
     if not args.quiet:
         runner.add_listener(ProgressBar())
-    hits = []
-
-    def on_signal(signum, frame):
-        hits.append(1)
-        name = {signal.SIGINT: "Ctrl-C", signal.SIGTERM: "SIGTERM", signal.SIGHUP: "SIGHUP"}.get(signum, "signal")
-        if len(hits) == 1:
-            sys.stderr.write(f"\n{name}: stopping after the current stage ({name} again to abort)\n")
-            runner.stop()
-        else:
-            runner.abort()
-
     # Ctrl-C, SIGTERM (kill, a job scheduler) and SIGHUP (the terminal closed) end a run
-    # like a stop: the stage in flight finishes, run.json says so; a second one aborts
-    sigs = (signal.SIGINT, signal.SIGTERM, signal.SIGHUP)
-    old = {s_: signal.signal(s_, on_signal) for s_ in sigs} if _main_thread() else {}
+    # like a stop: the stage in flight finishes, run.json says so; a second one aborts.
+    # While the reports are written, one abandons them (``Signals``)
+    sigs = Signals(runner).install()
     helper = None
     if scan.output.pdf and not args.json:  # the report helper imports matplotlib during the scan
         from ares.report import pdf_parts
@@ -316,30 +305,34 @@ def execute(scan, args, *, seed, frames, faults=None, argv=None, out_dir=None, r
         helper = pdf_parts.start(out_dir, background=True)
     t0 = time.monotonic()
     try:
-        outcome = runner.run()
-    except BaseException:
+        try:
+            outcome = runner.run()
+        except BaseException:
+            if helper is not None:
+                helper.kill()
+            raise
+        sigs.phase = "reports"
+        seconds = time.monotonic() - t0
+        if args.json:
+            json.dump(_json_summary(outcome, scan, seconds), sys.stdout, indent=1, default=str)
+            sys.stdout.write("\n")
+        else:
+            print_summary(outcome, scan, seconds)  # the key figures before the report (the PDF takes seconds)
+            if getattr(runner, "report", None):
+                print_precision(runner.report)
+            sys.stdout.flush()
+            err = runner.write_reports(helper)
+            if err:
+                print(f"report: not written ({err})")
+            elif outcome.run_dir and scan.output.pdf and not args.quiet:
+                print(f"report: {Path(outcome.run_dir) / 'report.pdf'}")
         if helper is not None:
-            helper.close()
-        raise
+            helper.close()  # (when no report was written: --json, nothing pending)
+    except ReportsAbandoned as exc:
+        return abandon_reports(exc, outcome.run_dir, helper, getattr(args, "command", None) or "run",
+                               len(outcome.stages))
     finally:
-        for s_, h in old.items():
-            signal.signal(s_, h)
-    seconds = time.monotonic() - t0
-    if args.json:
-        json.dump(_json_summary(outcome, scan, seconds), sys.stdout, indent=1, default=str)
-        sys.stdout.write("\n")
-    else:
-        print_summary(outcome, scan, seconds)  # the key figures before the report (the PDF takes seconds)
-        if getattr(runner, "report", None):
-            print_precision(runner.report)
-        sys.stdout.flush()
-        err = runner.write_reports(helper)
-        if err:
-            print(f"report: not written ({err})")
-        elif outcome.run_dir and scan.output.pdf and not args.quiet:
-            print(f"report: {Path(outcome.run_dir) / 'report.pdf'}")
-    if helper is not None:
-        helper.close()  # (when no report was written: --json, nothing pending)
+        sigs.restore()
     if outcome.status in ("stopped", "aborted"):
         sys.stderr.write(f"ares run: {outcome.status} after {len(outcome.stages)} stage(s); "
                          f"completed stages are kept in {outcome.run_dir}\n")
@@ -353,6 +346,99 @@ def execute(scan, args, *, seed, frames, faults=None, argv=None, out_dir=None, r
                          f"{'; '.join(outcome.limit_failures)}\n")
         return 4
     return 0
+
+
+class ReportsAbandoned(BaseException):
+    """A signal while the reports were written (not an ``Exception``: nothing on the way
+    treats it as a report error)."""
+
+
+SIGNAL_NAMES = {signal.SIGINT: "Ctrl-C", signal.SIGTERM: "SIGTERM", signal.SIGHUP: "SIGHUP"}
+
+
+class Signals:
+    """The run's SIGINT/SIGTERM/SIGHUP handler. During the scan (``phase`` "scan") the first
+    signal stops after the current stage and a second aborts; during the reports (``phase``
+    "reports") the first abandons them (``ReportsAbandoned`` is raised where the main thread
+    is) and any later one is ignored while that is recorded."""
+
+    SIGS = (signal.SIGINT, signal.SIGTERM, signal.SIGHUP)
+
+    def __init__(self, runner=None):
+        self.runner, self.hits, self.old = runner, 0, {}
+        self.phase = "scan" if runner is not None else "reports"
+
+    def install(self) -> "Signals":
+        if _main_thread():
+            self.old = {s: signal.signal(s, self) for s in self.SIGS}
+        return self
+
+    def restore(self) -> None:
+        for s, h in self.old.items():
+            signal.signal(s, h)
+        self.old = {}
+
+    def __call__(self, signum, frame) -> None:
+        self.hits += 1
+        name = SIGNAL_NAMES.get(signum, "signal")
+        if self.phase == "reports":
+            self.phase = "abandoning"
+            raise ReportsAbandoned(name)
+        if self.phase == "abandoning":
+            return
+        if self.hits == 1:
+            sys.stderr.write(f"\n{name}: stopping after the current stage ({name} again to abort)\n")
+            self.runner.stop()
+        else:
+            self.runner.abort()
+
+
+def abandon_reports(exc: ReportsAbandoned, run_dir, helper, command: str, stages: int) -> int:
+    """After a signal during the reports: the helper ended, the temporary files removed,
+    run.json saying ``reports incomplete``; one line, exit 130."""
+    from ares.scan.rundir import clean_report_leftovers, set_reports_state
+
+    if helper is not None:
+        helper.kill()
+    if run_dir is not None:
+        clean_report_leftovers(Path(run_dir))
+        set_reports_state(run_dir, "incomplete", report_note=f"{exc} while the reports were written")
+    sys.stderr.write(f"ares {command}: {exc} while writing the reports: the {stages} completed stage(s) are kept in "
+                     f"{run_dir}, the reports are incomplete; `ares resume {run_dir}` writes them\n")
+    return 130
+
+
+def finish_reports(run_, args) -> int:
+    """``ares resume`` of a run whose stages are complete but whose reports are not: write
+    the reports its scan promises, under the same signal handling as ``ares run``."""
+    from ares.report import pdf_parts, write_reports
+    from ares.runstate import owner
+    from ares.scan.rundir import clean_report_leftovers, set_reports_state
+
+    out = run_.scan.output
+    formats = [f for f, on in (("csv", out.csv), ("hdf5", out.hdf5), ("pdf", out.pdf)) if on]
+    clean_report_leftovers(run_.dir)
+    set_reports_state(run_.dir, "writing", **owner())  # (this process writes them: the run reads as done)
+    sigs = Signals().install()
+    helper = None
+    try:
+        helper = pdf_parts.start(run_.dir) if "pdf" in formats else None
+        write_reports(run_.dir, formats, helper=helper)
+    except ReportsAbandoned as exc:
+        return abandon_reports(exc, run_.dir, helper, getattr(args, "command", None) or "resume", len(run_.stages))
+    finally:
+        sigs.restore()
+    set_reports_state(run_.dir, "complete")
+    if not args.quiet:
+        print(f"{run_.dir}: the reports of the complete run are written ({', '.join(formats)})")
+    return 4 if _limit_failures(run_.dir) else 0
+
+
+def _limit_failures(run_dir: Path) -> list:
+    try:
+        return list(json.loads((Path(run_dir) / "scan_results.json").read_text()).get("limit_failures") or [])
+    except (OSError, ValueError):
+        return []
 
 
 def _main_thread() -> bool:
