@@ -56,9 +56,13 @@ def _faults(items: list[str]) -> dict | None:
     return out or None
 
 
-def default_out(scan_name: str) -> Path:
-    base = Path("runs") / f"{scan_name}_{time.strftime('%Y%m%d-%H%M%S')}"
-    p, k = base, 1
+def default_out(scan_name: str, parent: Path = Path("runs")) -> Path:
+    """The first free ``PARENT/<scan>_<time>[_k]`` (free in ``parent``: the folder it goes in)."""
+    return _first_free(parent / f"{scan_name}_{time.strftime('%Y%m%d-%H%M%S')}")
+
+
+def _first_free(base: Path, k: int = 1) -> Path:
+    p = base if k == 1 else base.with_name(f"{base.name}_{k}")
     while p.exists():
         k += 1
         p = base.with_name(f"{base.name}_{k}")
@@ -77,16 +81,15 @@ def resolve_out(out: str | Path | None, scan_name: str) -> Path:
     if not p.is_dir():
         raise InputError(f"--out {p}: exists and is not a directory")
     if (p / "run.json").exists() or (p / CLAIM).exists():  # a run directory, or one being made
-        k = 2
-        while (q := p.with_name(f"{p.name}_{k}")).exists():
-            k += 1
-        return q
-    return p / default_out(scan_name).name
+        return _first_free(p, 2)
+    return default_out(scan_name, p)
 
 
-def claim_out(out, scan_name: str, tries: int = 20) -> Path:
-    """``resolve_out`` and claim the directory; a concurrent run that took it first moves
-    this one to the next free name (never into the other run's folder)."""
+def claim_out(out, scan_name: str, tries: int = 10000) -> Path:
+    """``resolve_out`` and claim the directory (created exclusively, ``claim_run_dir``); a
+    concurrent run that took the name first moves this one to the next free name (never
+    into the other run's folder). Each refusal means that name now exists, so the next
+    one is new: any number of concurrent runs into the same --out get one each."""
     from ares.scan.rundir import claim_run_dir
 
     if out is not None and not str(out).strip():
