@@ -99,25 +99,62 @@ def effective_status(meta: dict, now: float | None = None) -> tuple[str, str]:
 
 def os_errno(exc: BaseException) -> int | None:
     """The errno of an OS error, also when a library wraps it in its message only
-    (h5py/HDF5: "... errno = 27, error message = 'File too large'")."""
-    if not isinstance(exc, OSError):
-        return None
-    if exc.errno is not None:
+    (h5py/HDF5 raise OSError or RuntimeError "... file write failed: ... filename = 'x',
+    ... errno = 27, error message = 'File too large' ...")."""
+    if isinstance(exc, OSError) and exc.errno is not None:
         return exc.errno
+    if not isinstance(exc, (OSError, RuntimeError)):
+        return None
     import re
 
     m = re.search(r"errno = (\d+)", str(exc))
     return int(m.group(1)) if m else None
 
 
-def storage_sentence(exc: OSError, path) -> str:
+def storage_sentence(exc: BaseException, path) -> str:
+    """One sentence: the file (the error's own when it names one) and what the disk said."""
+    import re
+
     code = os_errno(exc)
-    why = STORAGE_ERRNOS.get(code, exc.strerror or type(exc).__name__)
-    return f"cannot write {path}: {why}"
+    why = STORAGE_ERRNOS.get(code, getattr(exc, "strerror", None) or type(exc).__name__)
+    named = getattr(exc, "filename", None)
+    if named is None:
+        m = re.search(r"filename = '([^']*)'", str(exc))
+        named = m.group(1) if m else None
+    return f"cannot write {named or path}: {why}"
 
 
 def is_storage_error(exc: BaseException) -> bool:
     return os_errno(exc) in STORAGE_ERRNOS
+
+
+def quiet_unraisable_storage_errors() -> None:
+    """HDF5 reports a failed write again each time h5py frees one of the file's objects
+    (a traceback through ``h5py/_objects.pyx`` printed by the excepthook, then "Exception
+    ignored in: h5py._objects.ObjectID.__dealloc__"): the error itself is reported as one
+    sentence, so those echoes of a storage error are dropped (nothing else is)."""
+    import sys
+
+    def echo(exc, tb) -> bool:
+        while tb is not None:
+            if "_objects.pyx" in tb.tb_frame.f_code.co_filename:
+                return is_storage_error(exc)
+            tb = tb.tb_next
+        return False
+
+    unraisable, excepthook = sys.unraisablehook, sys.excepthook
+    if getattr(unraisable, "__name__", "") == "quiet_unraisable":
+        return
+
+    def quiet_unraisable(u):
+        if not is_storage_error(u.exc_value):
+            unraisable(u)
+
+    def quiet_excepthook(typ, exc, tb):
+        if not echo(exc, tb):
+            excepthook(typ, exc, tb)
+
+    sys.unraisablehook, sys.excepthook = quiet_unraisable, quiet_excepthook
 
 
 class Heartbeat:

@@ -55,3 +55,67 @@ def test_many_concurrent_claims_into_one_out(tmp_path):
         assert p.returncode == 0, e
         paths.append(o.strip())
     assert len(set(paths)) == 8
+
+
+# ---------------------------------------------------------------- storage errors -> exit 5
+
+SMALL = ROOT / "fixtures" / "xml" / "small" / "ptc_small.xml"
+STORAGE = [errno_ for errno_ in ("EFBIG", "EDQUOT", "ENOSPC", "EROFS", "EACCES", "EIO")]
+
+
+@pytest.mark.parametrize("name, how", [(n, "os") for n in STORAGE] + [("EFBIG", "hdf5")])
+def test_every_storage_errno_is_one_sentence_exit_5(name, how, tmp_path, capsys, monkeypatch):
+    """The disk refuses the first stage's files (an OSError with its errno, or h5py's
+    RuntimeError that carries it only in its text): exit 5, one sentence naming the file,
+    run.json 'failed'."""
+    import errno
+    import json
+
+    import ares.scan.rundir as rd
+    from ares.cli import main
+
+    code = getattr(errno, name)
+    if how == "os":
+        def refuse(self, i, result, arrays):
+            raise OSError(code, os.strerror(code), str(self.dir / "stages" / f"{i:04d}.h5"))
+    else:
+        def refuse(self, i, result, arrays):
+            raise RuntimeError(f"Unable to synchronously create dataset (file write failed: time = x, filename = "
+                               f"'{self.dir}/stages/{i:04d}.h5.tmp', file descriptor = 4, errno = {code}, "
+                               f"error message = '{os.strerror(code)}', buf = 0x1, total write size = 8)")
+    monkeypatch.setattr(rd.RunWriter, "_write_stage_h5", refuse)
+    d = tmp_path / "run"
+    rc = main(["run", str(SMALL), "--out", str(d), "--quiet", "--frames", "2"])
+    err = capsys.readouterr().err
+    assert rc == 5, err
+    assert err.count("\n") == 1 and "Traceback" not in err and f"{d}/stages/0000.h5" in err
+    assert json.loads((d / "run.json").read_text())["status"] == "failed"
+
+
+def test_file_size_limit_is_exit_5_and_resume_writes_the_reports(tmp_path):
+    """`ulimit -f` (Python ignores SIGXFSZ: the write fails with EFBIG) while the reports
+    are written: exit 5 and one sentence (it was a 63-line traceback, exit 1); with the limit
+    lifted, `ares resume` writes the reports and the run reads as done."""
+    import json
+    import resource
+
+    from ares.runstate import effective_status
+
+    d = tmp_path / "run"
+    env = {**os.environ, "PYTHONPATH": str(ROOT), "ARES_PDF_HELPER": "0"}
+
+    def limit():
+        resource.setrlimit(resource.RLIMIT_FSIZE, (100 * 1024, resource.RLIM_INFINITY))
+
+    p = subprocess.run([sys.executable, "-m", "ares.cli", "run", str(SMALL), "--out", str(d), "--quiet",
+                        "--frames", "2"], cwd=tmp_path, env=env, preexec_fn=limit, capture_output=True, text=True)
+    assert p.returncode == 5, p.stderr
+    assert p.stderr.count("\n") == 1 and "Traceback" not in p.stderr and "file-size limit" in p.stderr
+    assert effective_status(json.loads((d / "run.json").read_text()))[0] == "reports incomplete"
+    assert not list(d.glob("*.tmp"))
+    p = subprocess.run([sys.executable, "-m", "ares.cli", "resume", str(d), "--quiet"], cwd=tmp_path, env=env,
+                       capture_output=True, text=True)
+    assert p.returncode == 0, p.stderr
+    meta = json.loads((d / "run.json").read_text())
+    assert effective_status(meta)[0] == "done" and meta["reports"] == "complete"
+    assert all((d / f).is_file() for f in ("ptc.csv", "components.csv", "key_figures.csv", "report.h5", "report.pdf"))

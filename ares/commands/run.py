@@ -284,6 +284,9 @@ def execute(scan, args, *, seed, frames, faults=None, argv=None, out_dir=None, r
     from ares.scan import Runner
     from ares.scan.preflight import check_run
 
+    from ares.runstate import quiet_unraisable_storage_errors
+
+    quiet_unraisable_storage_errors()
     if resume_from is None:
         check_run(scan, frames, seed)  # refused before a run directory exists (Runner checks again)
         out_dir = claim_out(out_dir, scan.name)

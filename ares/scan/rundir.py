@@ -110,7 +110,7 @@ def storage(path):
     (``StorageError``), and the temporary file of an atomic write is not left behind."""
     try:
         yield
-    except OSError as exc:
+    except (OSError, RuntimeError) as exc:  # (h5py wraps a failed write in a RuntimeError)
         if is_storage_error(exc):
             raise StorageError(storage_sentence(exc, path)) from None
         raise

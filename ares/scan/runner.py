@@ -429,6 +429,9 @@ class Runner:
         if writer is None:
             return ""
         self._reports(writer, helper)
+        if writer.meta.get("reports") == "incomplete":  # the disk refused them: exit 5, resume writes them
+            raise StorageError(f"{writer.meta['report_error']}; the reports are incomplete (the stages are kept: "
+                               f"`ares resume {writer.dir}` writes the reports once the disk allows)")
         return writer.meta.get("report_error", "")
 
     def _reports(self, writer, helper=None) -> None:
@@ -444,6 +447,15 @@ class Runner:
 
             write_reports(writer.dir, formats, helper=helper)
         except Exception as exc:  # the run's data are complete; a report problem is only noted
+            if is_storage_error(exc):  # (the disk: the reports can be written later)
+                from ares.scan.rundir import clean_report_leftovers
+
+                clean_report_leftovers(writer.dir)
+                try:
+                    writer.set_reports("incomplete", report_error=storage_sentence(exc, writer.dir))
+                except (StorageError, OSError):
+                    writer.meta.update(reports="incomplete", report_error=storage_sentence(exc, writer.dir))
+                return
             writer.set_reports("failed", report_error=f"{type(exc).__name__}: {exc}")
         else:
             writer.set_reports("complete")
