@@ -119,3 +119,66 @@ def test_file_size_limit_is_exit_5_and_resume_writes_the_reports(tmp_path):
     meta = json.loads((d / "run.json").read_text())
     assert effective_status(meta)[0] == "done" and meta["reports"] == "complete"
     assert all((d / f).is_file() for f in ("ptc.csv", "components.csv", "key_figures.csv", "report.h5", "report.pdf"))
+
+
+# ---------------------------------------------------------------- sizes from headers and fields
+
+
+def _npy_header(f, shape, descr="<f8"):
+    from numpy.lib import format as npf
+
+    npf.write_array_header_1_0(f, {"descr": descr, "fortran_order": False, "shape": shape})
+
+
+def test_npy_header_claiming_74_gib_is_refused_before_allocating(tmp_path, capsys):
+    """A 192-byte .npy whose header claims shape (1e5, 1e5, 1e5): one sentence naming the
+    file and the frame limit (it was a traceback "Unable to allocate 74.5 GiB")."""
+    from ares.cli import main
+    from ares.hardware.imagefile import MAX_PIXELS
+
+    p = tmp_path / "bomb.npy"
+    with open(p, "wb") as f:
+        _npy_header(f, (100000, 100000, 100000))
+        f.write(b"\0" * 64)
+    assert p.stat().st_size == 192
+    assert main(["analyze", str(p)]) == 2
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and str(p) in err and str(MAX_PIXELS) in err and "Traceback" not in err
+
+
+def test_npy_and_npz_headers_claiming_more_than_the_file_holds(tmp_path, capsys):
+    import io
+    import zipfile
+
+    from ares.cli import main
+
+    p = tmp_path / "short.npy"
+    with open(p, "wb") as f:
+        _npy_header(f, (5000, 1000, 1000), "<u2")  # 10 GB claimed, 64 bytes there
+        f.write(b"\0" * 64)
+    assert main(["analyze", str(p)]) == 2
+    err = capsys.readouterr().err
+    assert "the file holds 64 bytes" in err and str(p) in err
+    b = io.BytesIO()
+    _npy_header(b, (20000, 10000))
+    b.write(b"\0" * 64)
+    z = tmp_path / "bomb.npz"
+    with zipfile.ZipFile(z, "w") as zf:
+        zf.writestr("a.npy", b.getvalue())
+    assert main(["analyze", str(z)]) == 2
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and f"{z}:a" in err and "the file holds 64 bytes" in err
+
+
+def test_ptc_table_with_a_10_mb_field(tmp_path, capsys):
+    """`ares ptc` on a table with a 10 MB field: one sentence naming file, line and the
+    parser's limit (it was a traceback `_csv.Error: field larger than field limit`)."""
+    import csv
+
+    from ares.cli import main
+
+    p = tmp_path / "big.csv"
+    p.write_text("mean,var,dark_mean,dark_var\n1,2,3,4\n1," + "9" * 10_000_000 + ",3,4\n")
+    assert main(["ptc", str(p)]) == 2
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and f"{p}:3" in err and str(csv.field_size_limit()) in err
