@@ -182,3 +182,23 @@ def test_ptc_table_with_a_10_mb_field(tmp_path, capsys):
     assert main(["ptc", str(p)]) == 2
     err = capsys.readouterr().err
     assert err.count("\n") == 1 and f"{p}:3" in err and str(csv.field_size_limit()) in err
+
+
+# ---------------------------------------------------------------- not a regular file
+
+
+@pytest.mark.parametrize("args", [["analyze", "{x}"], ["run", str(SMALL), "--system", "{x}", "--dry-run"]])
+@pytest.mark.parametrize("kind", ["fifo", "devzero"])
+def test_fifo_and_dev_zero_are_not_regular_files(args, kind, tmp_path, capsys):
+    """A FIFO or /dev/zero given as a frame stack or a system: refused at once as "not a
+    regular file" (it said "file not found")."""
+    from ares.cli import main
+
+    if kind == "fifo":
+        x = tmp_path / "pipe.npy"
+        os.mkfifo(x)
+    else:
+        x = Path("/dev/zero")
+    assert main([a.format(x=x) for a in args]) == 2
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and f"{x}: not a regular file" in err and "not found" not in err

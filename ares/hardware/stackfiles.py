@@ -161,7 +161,9 @@ def _iter_one(spec) -> Iterator[tuple[str | Path, np.ndarray]]:
             yield p, read_image(p)
         return
     if not path.is_file():
-        raise InputError(f"{path}: file not found")
+        from ares.safefile import not_a_file
+
+        raise not_a_file(path)
     suf = path.suffix.lower()
     if suf in IMAGE_SUFFIXES:
         yield path, read_image(path)
