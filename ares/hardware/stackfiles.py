@@ -119,7 +119,10 @@ def _iter_npy(path: Path) -> Iterator[np.ndarray]:
         if dtype.hasobject or (dtype.kind not in "uif" and dtype.kind != "b"):
             raise InputError(f"{path}: data of type {dtype} are not image data")
         _check_frame_size(shape, str(path))
-        _check_holds(shape, dtype, os.fstat(f.fileno()).st_size - f.tell(), str(path))
+        n, per = (shape[0] if len(shape) == 3 else 1), shape[-2] * shape[-1]
+        have = (os.fstat(f.fileno()).st_size - f.tell()) // dtype.itemsize  # values the file holds
+        if have < n * per:  # (said before allocating what the header claims)
+            raise InputError(f"{path}: truncated: frame {have // per} of {n} is short ({have % per} of {per} values)")
         if fortran and len(shape) == 3:
             raise InputError(f"{path}: a Fortran-ordered stack cannot be read frame by frame; save it in C order")
         rows, cols = shape[-2:]
