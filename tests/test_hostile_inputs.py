@@ -202,3 +202,19 @@ def test_fifo_and_dev_zero_are_not_regular_files(args, kind, tmp_path, capsys):
     assert main([a.format(x=x) for a in args]) == 2
     err = capsys.readouterr().err
     assert err.count("\n") == 1 and f"{x}: not a regular file" in err and "not found" not in err
+
+
+# ---------------------------------------------------------------- hostile XML
+
+
+def test_a_200000_by_200000_simulated_sensor_is_refused(tmp_path, capsys):
+    """A 200000x200000 array (4e10 pixels) was accepted: refused naming the frame limit."""
+    from ares.cli import main
+    from ares.hardware.imagefile import MAX_PIXELS
+
+    text = (SMALL.parent / "sim_small.xml").read_text().replace('rows="24" cols="32"', 'rows="200000" cols="200000"')
+    (tmp_path / "sim_small.xml").write_text(text)
+    (tmp_path / "ptc_small.xml").write_bytes(SMALL.read_bytes())
+    assert main(["run", str(tmp_path / "ptc_small.xml"), "--dry-run"]) == 2
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and "sim_small.xml:" in err and str(MAX_PIXELS) in err and "Traceback" not in err
