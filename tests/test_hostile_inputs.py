@@ -207,14 +207,22 @@ def test_fifo_and_dev_zero_are_not_regular_files(args, kind, tmp_path, capsys):
 # ---------------------------------------------------------------- hostile XML
 
 
-def test_a_200000_by_200000_simulated_sensor_is_refused(tmp_path, capsys):
-    """A 200000x200000 array (4e10 pixels) was accepted: refused naming the frame limit."""
+def test_doctype_text_in_a_comment_is_accepted_and_a_10_mb_attribute_names_the_parser_limit(tmp_path, capsys):
     from ares.cli import main
-    from ares.hardware.imagefile import MAX_PIXELS
 
-    text = (SMALL.parent / "sim_small.xml").read_text().replace('rows="24" cols="32"', 'rows="200000" cols="200000"')
-    (tmp_path / "sim_small.xml").write_text(text)
-    (tmp_path / "ptc_small.xml").write_bytes(SMALL.read_bytes())
-    assert main(["run", str(tmp_path / "ptc_small.xml"), "--dry-run"]) == 2
+    (tmp_path / "sim_small.xml").write_bytes((SMALL.parent / "sim_small.xml").read_bytes())
+    text = SMALL.read_text()
+    ok = tmp_path / "comment.xml"
+    ok.write_text(text.replace("<scan name", "<!-- see <!DOCTYPE html> --><scan name"))
+    assert main(["run", str(ok), "--dry-run"]) == 0
+    capsys.readouterr()
+    big = tmp_path / "big.xml"
+    big.write_text(text.replace('<region name="centre"', '<region name="' + "a" * 10_000_000 + '"'))
+    assert main(["run", str(big), "--dry-run"]) == 2
     err = capsys.readouterr().err
-    assert err.count("\n") == 1 and "sim_small.xml:" in err and str(MAX_PIXELS) in err and "Traceback" not in err
+    assert err.count("\n") == 1 and f"{big}:" in err and "XML parser's limit" in err
+    bad = tmp_path / "real.xml"  # a real DOCTYPE is still refused
+    bad.write_text(text.replace("<scan name", "<!DOCTYPE scan><scan name").replace(
+        '<?xml version="1.0" encoding="UTF-8"?>\n', ""))
+    assert main(["run", str(bad), "--dry-run"]) == 2
+    assert "DOCTYPE" in capsys.readouterr().err

@@ -212,11 +212,6 @@ def system_from_tree(tree, path) -> System:
     s = root.find("sensor")
     arr = s.find("array")
     rows, cols = int(arr.get("rows")), int(arr.get("cols"))
-    from ares.hardware.imagefile import MAX_PIXELS  # (the largest frame any reader of ARES accepts)
-
-    if rows * cols > MAX_PIXELS:
-        raise fail(path, arr.sourceline, f"<array> {cols}x{rows} is {rows * cols} pixels, more than a frame can have "
-                                         f"({MAX_PIXELS} pixels, {MAX_PIXELS >> 20} Mpx: an image sensor is smaller)")
     ob = []
     for el in s.iterfind("optical_black/region"):
         r = _region(el)
