@@ -6,7 +6,9 @@ Layout (all paths relative to the run directory)::
                         verbatim XML, seed, frame override, argv, software and dependency
                         versions, bench info (simulator parameters with their defaults,
                         chip id), start/end time, status (running/done/stopped/aborted/
-                        failed), message, stages completed. Rewritten atomically.
+                        failed), message, stages completed, reports (writing /
+                        complete / incomplete / failed: ``ares.runstate``). Rewritten
+                        atomically.
     xml/<scan file>     the scan XML, byte for byte
     xml/<system file>   the system XML, byte for byte (``ares rerun`` loads these two)
     stages/NNNN.json    per completed stage: resolved settings, register snapshots
