@@ -34,6 +34,17 @@ def check_regular(path: str | Path, max_bytes: int, what: str = "file") -> int:
     return st.st_size
 
 
+def not_a_file(path: str | Path, what: str = "file") -> InputError:
+    """The sentence for a path that is not a readable regular file: missing, a directory,
+    or a device/FIFO/socket (``/dev/zero``, a pipe) -- never "not found" for those."""
+    p = Path(path)
+    if p.is_dir():
+        return InputError(f"{p}: is a directory, not a {what}")
+    if os.path.lexists(p) and p.exists():
+        return InputError(f"{p}: not a regular file (a device, FIFO or socket); ARES reads {what}s from regular files")
+    return InputError(f"{p}: {what} not found")
+
+
 def read_regular(path: str | Path, max_bytes: int, what: str = "file") -> bytes:
     """The bytes of a regular file of at most ``max_bytes`` (checked before reading)."""
     check_regular(path, max_bytes, what)

@@ -29,8 +29,18 @@ def run(args) -> int:
 
     formats = [f for f, opt in (("csv", args.csv), ("hdf5", args.hdf5), ("pdf", args.pdf)) if opt] \
         or ["csv", "hdf5", "pdf"]
+    from ares.runstate import REPORTS_INCOMPLETE, owner
+    from ares.scan.rundir import clean_report_leftovers, set_reports_state
+
     r = read_run(args.run_dir)
+    repair = r.status == REPORTS_INCOMPLETE and not (args.pdf or args.csv or args.hdf5)
+    if repair:  # the reports a signal cut short, written now: the run reads as done again
+        clean_report_leftovers(r.dir)
+        set_reports_state(r.dir, "writing", **owner())
+        r = read_run(args.run_dir)
     files = write_reports(args.run_dir, formats, pdf_path=args.pdf, csv_dir=args.csv, h5_path=args.hdf5)
+    if repair:
+        set_reports_state(r.dir, "complete")
     note = r.incompleteness()
     if args.json:
         kf = tables.compute_key_figures(r)

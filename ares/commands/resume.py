@@ -3,7 +3,8 @@
 The run directory alone says what to do (``ares.scan.resume``): the verbatim XML, the
 seed and frame override, the committed stages, the bench state and the defect mask. The
 missing stages are appended to the same directory; progress, Ctrl-C/SIGTERM handling,
-summary and exit codes are those of ``ares run``. A run that is done, still running, or
+summary and exit codes are those of ``ares run``. A run whose stages are complete but
+whose reports were cut short (``reports incomplete``) gets its reports written. A run that is done, still running, or
 whose directory was edited is refused with one sentence.
 """
 
@@ -26,7 +27,13 @@ def run(args) -> int:
     from ares.scan.rundir import load_run
     from ares.scan.resume import resumable
 
+    from ares.runstate import REPORTS_INCOMPLETE, effective_status
+
     run_ = load_run(args.run_dir)
+    if effective_status(run_.meta)[0] == REPORTS_INCOMPLETE:  # stages complete, reports not: write them
+        from ares.commands.run import finish_reports
+
+        return finish_reports(run_, args)
     stages = resumable(run_)
     meta = run_.meta
     return execute(run_.scan, args, seed=meta.get("seed"), frames=meta.get("frames_override"),

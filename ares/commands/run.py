@@ -56,9 +56,13 @@ def _faults(items: list[str]) -> dict | None:
     return out or None
 
 
-def default_out(scan_name: str) -> Path:
-    base = Path("runs") / f"{scan_name}_{time.strftime('%Y%m%d-%H%M%S')}"
-    p, k = base, 1
+def default_out(scan_name: str, parent: Path = Path("runs")) -> Path:
+    """The first free ``PARENT/<scan>_<time>[_k]`` (free in ``parent``: the folder it goes in)."""
+    return _first_free(parent / f"{scan_name}_{time.strftime('%Y%m%d-%H%M%S')}")
+
+
+def _first_free(base: Path, k: int = 1) -> Path:
+    p = base if k == 1 else base.with_name(f"{base.name}_{k}")
     while p.exists():
         k += 1
         p = base.with_name(f"{base.name}_{k}")
@@ -77,16 +81,15 @@ def resolve_out(out: str | Path | None, scan_name: str) -> Path:
     if not p.is_dir():
         raise InputError(f"--out {p}: exists and is not a directory")
     if (p / "run.json").exists() or (p / CLAIM).exists():  # a run directory, or one being made
-        k = 2
-        while (q := p.with_name(f"{p.name}_{k}")).exists():
-            k += 1
-        return q
-    return p / default_out(scan_name).name
+        return _first_free(p, 2)
+    return default_out(scan_name, p)
 
 
-def claim_out(out, scan_name: str, tries: int = 20) -> Path:
-    """``resolve_out`` and claim the directory; a concurrent run that took it first moves
-    this one to the next free name (never into the other run's folder)."""
+def claim_out(out, scan_name: str, tries: int = 10000) -> Path:
+    """``resolve_out`` and claim the directory (created exclusively, ``claim_run_dir``); a
+    concurrent run that took the name first moves this one to the next free name (never
+    into the other run's folder). Each refusal means that name now exists, so the next
+    one is new: any number of concurrent runs into the same --out get one each."""
     from ares.scan.rundir import claim_run_dir
 
     if out is not None and not str(out).strip():
@@ -286,6 +289,9 @@ def execute(scan, args, *, seed, frames, faults=None, argv=None, out_dir=None, r
     from ares.scan import Runner
     from ares.scan.preflight import check_run
 
+    from ares.runstate import quiet_unraisable_storage_errors
+
+    quiet_unraisable_storage_errors()
     if resume_from is None:
         check_run(scan, frames, seed)  # refused before a run directory exists (Runner checks again)
         out_dir = claim_out(out_dir, scan.name)
@@ -299,21 +305,10 @@ def execute(scan, args, *, seed, frames, faults=None, argv=None, out_dir=None, r
                         resume_from=resume_from, defer_reports=not args.json)
     if not args.quiet:
         runner.add_listener(ProgressBar())
-    hits = []
-
-    def on_signal(signum, frame):
-        hits.append(1)
-        name = {signal.SIGINT: "Ctrl-C", signal.SIGTERM: "SIGTERM", signal.SIGHUP: "SIGHUP"}.get(signum, "signal")
-        if len(hits) == 1:
-            sys.stderr.write(f"\n{name}: stopping after the current stage ({name} again to abort)\n")
-            runner.stop()
-        else:
-            runner.abort()
-
     # Ctrl-C, SIGTERM (kill, a job scheduler) and SIGHUP (the terminal closed) end a run
-    # like a stop: the stage in flight finishes, run.json says so; a second one aborts
-    sigs = (signal.SIGINT, signal.SIGTERM, signal.SIGHUP)
-    old = {s_: signal.signal(s_, on_signal) for s_ in sigs} if _main_thread() else {}
+    # like a stop: the stage in flight finishes, run.json says so; a second one aborts.
+    # While the reports are written, one abandons them (``Signals``)
+    sigs = Signals(runner).install()
     helper = None
     if scan.output.pdf and not args.json:  # the report helper imports matplotlib during the scan
         from ares.report import pdf_parts
@@ -321,30 +316,35 @@ def execute(scan, args, *, seed, frames, faults=None, argv=None, out_dir=None, r
         helper = pdf_parts.start(out_dir, background=True)
     t0 = time.monotonic()
     try:
-        outcome = runner.run()
-    except BaseException:
+        try:
+            outcome = runner.run()
+        except BaseException:
+            if helper is not None:
+                helper.kill()
+            raise
+        sigs.phase = "reports"
+        seconds = time.monotonic() - t0
+        if args.json:
+            json.dump(_json_summary(outcome, scan, seconds), sys.stdout, indent=1, default=str)
+            sys.stdout.write("\n")
+        else:
+            # the key figures before the report (the PDF takes seconds)
+            print_summary(outcome, scan, seconds, resumed=len(resume_from or ()))
+            if getattr(runner, "report", None):
+                print_precision(runner.report)
+            sys.stdout.flush()
+            err = runner.write_reports(helper)
+            if err:
+                print(f"report: not written ({err})")
+            elif outcome.run_dir and scan.output.pdf and not args.quiet:
+                print(f"report: {Path(outcome.run_dir) / 'report.pdf'}")
         if helper is not None:
-            helper.close()
-        raise
+            helper.close()  # (when no report was written: --json, nothing pending)
+    except ReportsAbandoned as exc:
+        return abandon_reports(exc, outcome.run_dir, helper, getattr(args, "command", None) or "run",
+                               len(outcome.stages))
     finally:
-        for s_, h in old.items():
-            signal.signal(s_, h)
-    seconds = time.monotonic() - t0
-    if args.json:
-        json.dump(_json_summary(outcome, scan, seconds), sys.stdout, indent=1, default=str)
-        sys.stdout.write("\n")
-    else:
-        print_summary(outcome, scan, seconds, resumed=len(resume_from or ()))  # the key figures before the report (the PDF takes seconds)
-        if getattr(runner, "report", None):
-            print_precision(runner.report)
-        sys.stdout.flush()
-        err = runner.write_reports(helper)
-        if err:
-            print(f"report: not written ({err})")
-        elif outcome.run_dir and scan.output.pdf and not args.quiet:
-            print(f"report: {Path(outcome.run_dir) / 'report.pdf'}")
-    if helper is not None:
-        helper.close()  # (when no report was written: --json, nothing pending)
+        sigs.restore()
     if outcome.status in ("stopped", "aborted"):
         sys.stderr.write(f"ares run: {outcome.status} after {len(outcome.stages)} stage(s); "
                          f"completed stages are kept in {outcome.run_dir}\n")
@@ -358,6 +358,99 @@ def execute(scan, args, *, seed, frames, faults=None, argv=None, out_dir=None, r
                          f"{'; '.join(outcome.limit_failures)}\n")
         return 4
     return 0
+
+
+class ReportsAbandoned(BaseException):
+    """A signal while the reports were written (not an ``Exception``: nothing on the way
+    treats it as a report error)."""
+
+
+SIGNAL_NAMES = {signal.SIGINT: "Ctrl-C", signal.SIGTERM: "SIGTERM", signal.SIGHUP: "SIGHUP"}
+
+
+class Signals:
+    """The run's SIGINT/SIGTERM/SIGHUP handler. During the scan (``phase`` "scan") the first
+    signal stops after the current stage and a second aborts; during the reports (``phase``
+    "reports") the first abandons them (``ReportsAbandoned`` is raised where the main thread
+    is) and any later one is ignored while that is recorded."""
+
+    SIGS = (signal.SIGINT, signal.SIGTERM, signal.SIGHUP)
+
+    def __init__(self, runner=None):
+        self.runner, self.hits, self.old = runner, 0, {}
+        self.phase = "scan" if runner is not None else "reports"
+
+    def install(self) -> "Signals":
+        if _main_thread():
+            self.old = {s: signal.signal(s, self) for s in self.SIGS}
+        return self
+
+    def restore(self) -> None:
+        for s, h in self.old.items():
+            signal.signal(s, h)
+        self.old = {}
+
+    def __call__(self, signum, frame) -> None:
+        self.hits += 1
+        name = SIGNAL_NAMES.get(signum, "signal")
+        if self.phase == "reports":
+            self.phase = "abandoning"
+            raise ReportsAbandoned(name)
+        if self.phase == "abandoning":
+            return
+        if self.hits == 1:
+            sys.stderr.write(f"\n{name}: stopping after the current stage ({name} again to abort)\n")
+            self.runner.stop()
+        else:
+            self.runner.abort()
+
+
+def abandon_reports(exc: ReportsAbandoned, run_dir, helper, command: str, stages: int) -> int:
+    """After a signal during the reports: the helper ended, the temporary files removed,
+    run.json saying ``reports incomplete``; one line, exit 130."""
+    from ares.scan.rundir import clean_report_leftovers, set_reports_state
+
+    if helper is not None:
+        helper.kill()
+    if run_dir is not None:
+        clean_report_leftovers(Path(run_dir))
+        set_reports_state(run_dir, "incomplete", report_note=f"{exc} while the reports were written")
+    sys.stderr.write(f"ares {command}: {exc} while writing the reports: the {stages} completed stage(s) are kept in "
+                     f"{run_dir}, the reports are incomplete; `ares resume {run_dir}` writes them\n")
+    return 130
+
+
+def finish_reports(run_, args) -> int:
+    """``ares resume`` of a run whose stages are complete but whose reports are not: write
+    the reports its scan promises, under the same signal handling as ``ares run``."""
+    from ares.report import pdf_parts, write_reports
+    from ares.runstate import owner
+    from ares.scan.rundir import clean_report_leftovers, set_reports_state
+
+    out = run_.scan.output
+    formats = [f for f, on in (("csv", out.csv), ("hdf5", out.hdf5), ("pdf", out.pdf)) if on]
+    clean_report_leftovers(run_.dir)
+    set_reports_state(run_.dir, "writing", **owner())  # (this process writes them: the run reads as done)
+    sigs = Signals().install()
+    helper = None
+    try:
+        helper = pdf_parts.start(run_.dir) if "pdf" in formats else None
+        write_reports(run_.dir, formats, helper=helper)
+    except ReportsAbandoned as exc:
+        return abandon_reports(exc, run_.dir, helper, getattr(args, "command", None) or "resume", len(run_.stages))
+    finally:
+        sigs.restore()
+    set_reports_state(run_.dir, "complete")
+    if not args.quiet:
+        print(f"{run_.dir}: the reports of the complete run are written ({', '.join(formats)})")
+    return 4 if _limit_failures(run_.dir) else 0
+
+
+def _limit_failures(run_dir: Path) -> list:
+    try:
+        return list(json.loads((Path(run_dir) / "scan_results.json").read_text()).get("limit_failures") or [])
+    except (OSError, ValueError):
+        return []
 
 
 def _main_thread() -> bool:

@@ -20,7 +20,9 @@ MAX_PIXELS = 1 << 28  # 268 Mpx (16384 x 16384): larger headers are refused befo
 def read_image(path: str | Path) -> np.ndarray:
     path = Path(path)
     if not path.is_file():
-        raise InputError(f"{path}: image file not found")
+        from ares.safefile import not_a_file
+
+        raise not_a_file(path, "image file")
     from ares.hardware import png
 
     try:

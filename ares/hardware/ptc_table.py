@@ -85,10 +85,14 @@ def _read_text(path: Path) -> str:
         raise InputError(f"{path}: not a text table (not UTF-8)") from None
 
 
-def _split(line: str, delim: str | None) -> list[str]:
+def _split(line: str, delim: str | None, path: Path | None = None, lineno: int = 0) -> list[str]:
     if delim is None:
         return line.split()
-    return next(csv.reader(io.StringIO(line), delimiter=delim))
+    try:
+        return next(csv.reader(io.StringIO(line), delimiter=delim))
+    except csv.Error:  # a field over the CSV parser's limit (or a broken quote): content never echoed
+        raise InputError(f"{path}:{lineno}: a field is longer than {csv.field_size_limit()} characters (the CSV "
+                         "parser's field limit) or badly quoted; not a PTC table") from None
 
 
 def _number(text: str, path: Path, lineno: int, col: str) -> float:
@@ -120,7 +124,7 @@ def read_ptc_table(path: str | Path, columns: list[str] | None = None) -> PtcTab
         raise InputError(f"{path}: the table has no rows")
     first = rows[0][1]
     delim = next((d for d in (",", ";", "\t") if d in first), None)
-    header_cells = [c.strip().lower() for c in _split(first, delim)]
+    header_cells = [c.strip().lower() for c in _split(first, delim, path, rows[0][0])]
     has_header = columns is None and any(_is_word(c) for c in header_cells)
     if columns is not None:
         names = [c.strip().lower() for c in columns]
@@ -150,7 +154,7 @@ def read_ptc_table(path: str | Path, columns: list[str] | None = None) -> PtcTab
     lines = []
     width = max(index.values()) + 1
     for lineno, ln in rows:
-        cells = _split(ln, delim)
+        cells = _split(ln, delim, path, lineno)
         if len(cells) < width:
             raise InputError(f"{path}:{lineno}: {len(cells)} column(s), the table needs at least {width}")
         for f, i in index.items():

@@ -9,11 +9,14 @@ Accepted specs (any mix, in order; their frames are concatenated):
   a bare ``file.h5`` works when it holds exactly one 2-D/3-D dataset.
 
 Every problem (missing file, unreadable/corrupt data, wrong dimensions, frames of
-different shapes) raises ``InputError`` with one sentence naming the file.
+different shapes) raises ``InputError`` with one sentence naming the file. A shape read
+from a header (``.npy``/``.npz``/HDF5) is checked before anything is allocated: a frame
+of at most ``MAX_PIXELS`` (the image reader's limit), and no more data than the file holds.
 """
 
 from __future__ import annotations
 
+import os
 import zipfile
 import zlib
 from pathlib import Path
@@ -22,7 +25,7 @@ from typing import Iterator, Sequence
 import numpy as np
 
 from ares.errors import InputError
-from ares.hardware.imagefile import read_image
+from ares.hardware.imagefile import MAX_PIXELS, read_image
 
 __all__ = ["iter_frames", "stack_shape", "load_stack", "split_spec", "IMAGE_SUFFIXES"]
 
@@ -46,8 +49,25 @@ def _check_ndim(arr_shape, where: str) -> None:
         raise InputError(f"{where}: expected a 2-D frame or a 3-D (frames, rows, cols) stack, got shape {tuple(arr_shape)}")
 
 
+def _check_frame_size(shape, where: str) -> None:
+    """A frame of the header's shape fits the limit (checked before allocating it)."""
+    rows, cols = (int(n) for n in shape[-2:])
+    if rows * cols > MAX_PIXELS:
+        raise InputError(f"{where}: the header claims {cols}x{rows} frames ({rows * cols} pixels), more than a frame "
+                         f"can have ({MAX_PIXELS} pixels, {MAX_PIXELS >> 20} Mpx); not read")
+
+
+def _check_holds(shape, dtype, available: int, where: str) -> None:
+    """The data the header's shape needs are in the file (``available`` bytes after the header)."""
+    need = int(np.prod([int(n) for n in shape], dtype=object)) * dtype.itemsize
+    if need > available:
+        raise InputError(f"{where}: the header claims shape {tuple(int(n) for n in shape)} ({need} bytes of "
+                         f"{dtype}) but the file holds {available} bytes of data; truncated or corrupt, not read")
+
+
 def _frames_of_array(a, where: str) -> Iterator[np.ndarray]:
     _check_ndim(a.shape, where)
+    _check_frame_size(a.shape, where)
     if a.dtype.kind not in "uif" and a.dtype.kind != "b":
         raise InputError(f"{where}: data of type {a.dtype} are not image data")
     if a.ndim == 2:
@@ -98,6 +118,11 @@ def _iter_npy(path: Path) -> Iterator[np.ndarray]:
         _check_ndim(shape, str(path))
         if dtype.hasobject or (dtype.kind not in "uif" and dtype.kind != "b"):
             raise InputError(f"{path}: data of type {dtype} are not image data")
+        _check_frame_size(shape, str(path))
+        n, per = (shape[0] if len(shape) == 3 else 1), shape[-2] * shape[-1]
+        have = (os.fstat(f.fileno()).st_size - f.tell()) // dtype.itemsize  # values the file holds
+        if have < n * per:  # (said before allocating what the header claims)
+            raise InputError(f"{path}: truncated: frame {have // per} of {n} is short ({have % per} of {per} values)")
         if fortran and len(shape) == 3:
             raise InputError(f"{path}: a Fortran-ordered stack cannot be read frame by frame; save it in C order")
         rows, cols = shape[-2:]
@@ -107,6 +132,25 @@ def _iter_npy(path: Path) -> Iterator[np.ndarray]:
                 raise InputError(f"{path}: truncated: frame {i} of {shape[0] if len(shape) == 3 else 1} is short "
                                  f"({a.size} of {rows * cols} values)")
             yield a.reshape((cols, rows)).T if fortran else a.reshape(rows, cols)
+
+
+def _check_npz_member(z, name: str, where: str) -> None:
+    """The header of an .npz member, checked before numpy allocates the array it claims."""
+    from numpy.lib import format as npf
+
+    member = name if name in z.zip.namelist() else name + ".npy"
+    try:
+        info = z.zip.getinfo(member)
+        with z.zip.open(member) as f:
+            version = npf.read_magic(f)
+            read_header = npf.read_array_header_1_0 if version == (1, 0) else npf.read_array_header_2_0
+            shape, _, dtype = read_header(f)
+            header = f.tell()
+    except Exception:  # untrusted bytes: numpy's own error reads them back; z[n] says it in one sentence
+        return
+    if len(shape) in (2, 3):
+        _check_frame_size(shape, where)
+    _check_holds(shape, dtype, info.file_size - header, where)
 
 
 def _iter_one(spec) -> Iterator[tuple[str | Path, np.ndarray]]:
@@ -120,7 +164,9 @@ def _iter_one(spec) -> Iterator[tuple[str | Path, np.ndarray]]:
             yield p, read_image(p)
         return
     if not path.is_file():
-        raise InputError(f"{path}: file not found")
+        from ares.safefile import not_a_file
+
+        raise not_a_file(path)
     suf = path.suffix.lower()
     if suf in IMAGE_SUFFIXES:
         yield path, read_image(path)
@@ -139,6 +185,7 @@ def _iter_one(spec) -> Iterator[tuple[str | Path, np.ndarray]]:
             for n in names:
                 if n not in z.files:
                     raise InputError(f"{path}: no array '{n}' (has {', '.join(z.files)})")
+                _check_npz_member(z, n, f"{path}:{n}")
                 try:
                     a = z[n]
                 except (ValueError, OSError, EOFError, zipfile.BadZipFile, zlib.error) as exc:

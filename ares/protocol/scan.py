@@ -388,7 +388,9 @@ def load_scan(path: str | Path, system: System | None = None, system_path: str |
     """Load and check a scan XML and its system (or ``system``/``system_path`` instead of its href)."""
     tree = xmlsafe.load(path, "scan")
     if system is None and system_path is not None and not Path(system_path).is_file():
-        raise InputError(f"{system_path}: system file not found")
+        from ares.safefile import not_a_file
+
+        raise not_a_file(system_path, "system file")
     return scan_from_tree(tree, path, system, system_path)
 
 

@@ -46,7 +46,10 @@ def parse(data: bytes, path) -> etree._ElementTree:
     """Parse bytes into a tree; refuses DOCTYPE/ENTITY declarations and non-XML."""
     if not data.strip():
         raise fail(path, 1, "file is empty; expected an XML document")
-    m = re.search(rb"<!(DOCTYPE|ENTITY)", data)
+    # (the text "<!DOCTYPE" inside a comment or CDATA is no declaration: those are blanked
+    # first, newlines kept for the line number; the parsed tree is checked again below)
+    m = re.search(rb"<!(DOCTYPE|ENTITY)", re.sub(rb"<!--.*?-->|<!\[CDATA\[.*?\]\]>",
+                                                 lambda c: re.sub(rb"[^\n]", b" ", c.group()), data, flags=re.S))
     if m:
         line = data.count(b"\n", 0, m.start()) + 1
         raise fail(path, line, f"<!{m.group(1).decode()}> declarations are not allowed "
@@ -57,6 +60,9 @@ def parse(data: bytes, path) -> etree._ElementTree:
         line = exc.lineno or (exc.position[0] if getattr(exc, "position", None) else 0)
         msg = str(exc.msg if hasattr(exc, "msg") else exc)
         msg = re.sub(r",? line \d+, column \d+$", "", msg).strip()
+        if "limit exceeded" in msg.lower() or "huge" in msg.lower():
+            raise fail(path, line, "an attribute or text is longer than the XML parser's limit (libxml2's "
+                                   "10,000,000 characters; ARES does not lift it)") from None
         raise fail(path, line, f"not well-formed XML ({msg})") from None
     except ValueError as exc:  # e.g. unicode strings with encoding declaration
         raise fail(path, 1, f"not readable as XML ({exc})") from None

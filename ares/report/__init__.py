@@ -50,6 +50,10 @@ def write_reports(run_dir, formats=DEFAULT_FORMATS, out_dir=None, *, pdf_path=No
             helper.go(p.with_name(p.name + ".parts"))
     try:
         return _write(run, formats, out_dir, pdf_path, csv_dir, h5_path, helper)
+    except BaseException:  # a signal abandoned the reports, or an error: the helper ends now
+        if helper is not None:
+            helper.kill()
+        raise
     finally:
         if helper is not None:
             helper.close()

@@ -16,8 +16,13 @@ When the helper cannot be started, fails, hangs past ``HELPER_TIMEOUT_S`` or pla
 another run's pages, this process draws every page it does not hold: the report is the
 same, only slower. ``ARES_PDF_HELPER=0`` turns it off.
 
-The helper's command line: ``python -m ares.report.pdf_parts RUN_DIR [--background]``;
-it reads one line on stdin, the work directory (none: it exits).
+The helper's command line: ``python -m ares.report.pdf_parts RUN_DIR [--background]
+[--parent PID]``; it reads one line on stdin, the work directory (none: it exits).
+
+The helper never outlives the run: it runs in its own process group (a Ctrl-C at the
+terminal reaches only the run, which then ends it), ``kill`` ends and reaps it on every
+path that abandons the report, and on Linux it asks the kernel to kill it when its
+parent dies (``PR_SET_PDEATHSIG``: a SIGKILLed run leaves no helper drawing pages).
 """
 
 from __future__ import annotations
@@ -27,6 +32,7 @@ import json
 import logging
 import os
 import shutil
+import signal
 import subprocess
 import sys
 import tempfile
@@ -44,9 +50,10 @@ class Helper:
     def __init__(self, run_dir: Path, background: bool = False):
         self.workdir: Path | None = None
         self.err = tempfile.TemporaryFile()  # not a pipe: a chatty helper cannot block on it
-        self.proc = subprocess.Popen([sys.executable, "-m", "ares.report.pdf_parts", str(run_dir)]
-                                     + (["--background"] if background else []),
-                                     stdin=subprocess.PIPE, stdout=subprocess.DEVNULL, stderr=self.err, text=True)
+        self.proc = subprocess.Popen([sys.executable, "-m", "ares.report.pdf_parts", str(run_dir),
+                                      "--parent", str(os.getpid())] + (["--background"] if background else []),
+                                     stdin=subprocess.PIPE, stdout=subprocess.DEVNULL, stderr=self.err, text=True,
+                                     process_group=0)
 
     def go(self, workdir: Path) -> None:
         """Start drawing into ``workdir`` (created here)."""
@@ -70,6 +77,20 @@ class Helper:
             log.warning("report helper failed (exit %s): %s", self.proc.returncode,
                         self.err.read().decode(errors="replace").strip()[-500:])
         return self.proc.returncode == 0
+
+    def kill(self) -> None:
+        """End the helper (and anything it started) now, and reap it: the report is abandoned."""
+        if self.proc.poll() is None:
+            try:
+                os.killpg(self.proc.pid, signal.SIGKILL)
+            except OSError:
+                self.proc.kill()
+            self.proc.wait()
+        try:
+            self.proc.stdin.close()
+        except OSError:
+            pass
+        self.err.close()
 
     def close(self) -> None:
         """End a helper that was not (or no longer) needed."""
@@ -176,6 +197,9 @@ def write_split(run, pages, tmp: Path, helper: Helper) -> None:
             render(run, pages, rest, workdir / "rest.pdf")
             parts.append((workdir / "rest.pdf", rest))
         merge(len(pages), parts, tmp, run.meta.get("scan_name", ""))
+    except BaseException:  # a signal or an error: the helper's pages are not waited for
+        helper.kill()
+        raise
     finally:
         helper.close()
         shutil.rmtree(workdir, ignore_errors=True)
@@ -202,7 +226,27 @@ def merge(n: int, parts: list[tuple[Path, list[int]]], out: Path, scan_name: str
         w.write(f)
 
 
+def die_with_parent(parent: int) -> bool:
+    """Ask the kernel to SIGKILL this process when its parent ends (Linux); False when the
+    parent is gone already (it died before the request)."""
+    if sys.platform.startswith("linux"):
+        try:
+            import ctypes
+
+            libc = ctypes.CDLL(None, use_errno=True)
+            libc.prctl(1, signal.SIGKILL, 0, 0, 0)  # PR_SET_PDEATHSIG
+        except (OSError, AttributeError):
+            pass
+    return os.getppid() == parent
+
+
 def main(argv: list[str]) -> int:
+    if "--parent" in argv:
+        k = argv.index("--parent")
+        parent = int(argv[k + 1])
+        argv = argv[:k] + argv[k + 2:]
+        if not die_with_parent(parent):
+            return 0
     if "--background" in argv:
         argv = [a for a in argv if a != "--background"]
         try:

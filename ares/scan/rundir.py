@@ -6,7 +6,9 @@ Layout (all paths relative to the run directory)::
                         verbatim XML, seed, frame override, argv, software and dependency
                         versions, bench info (simulator parameters with their defaults,
                         chip id), start/end time, status (running/done/stopped/aborted/
-                        failed), message, stages completed. Rewritten atomically.
+                        failed), message, stages completed, reports (writing /
+                        complete / incomplete / failed: ``ares.runstate``). Rewritten
+                        atomically.
     xml/<scan file>     the scan XML, byte for byte
     xml/<system file>   the system XML, byte for byte (``ares rerun`` loads these two)
     stages/NNNN.json    per completed stage: resolved settings, register snapshots
@@ -113,7 +115,7 @@ def storage(path):
     (``StorageError``), and the temporary file of an atomic write is not left behind."""
     try:
         yield
-    except OSError as exc:
+    except (OSError, RuntimeError) as exc:  # (h5py wraps a failed write in a RuntimeError)
         if is_storage_error(exc):
             raise StorageError(storage_sentence(exc, path)) from None
         raise
@@ -232,6 +234,7 @@ class RunWriter:
         resumed.append({"at": time.strftime("%Y-%m-%dT%H:%M:%S%z"), "from_stage": len(stages),
                         "previous_status": self.meta.get("status"), "previous_message": self.meta.get("message")})
         self.meta.update(owner(), status="running", message="", finished=None, resumed=resumed)
+        self.meta.pop("reports", None)  # (written again at its end)
         for leftover in (self.dir / "stages").glob("*.tmp"):  # a stage write the kill cut short
             leftover.unlink()
         self._write_meta()
@@ -324,13 +327,22 @@ class RunWriter:
 
     # -- end ------------------------------------------------------------------
     def finish(self, status: str, message: str = "", scan_results: dict | None = None,
-               limit_failures: list | None = None) -> None:
+               limit_failures: list | None = None, reports: str | None = None) -> None:
+        """The run's end in run.json; ``reports="writing"`` when report files are still to
+        come (``ares.runstate``: the run reads as done only once they are complete)."""
         self.stop_heartbeat()
+        if reports is not None:
+            self.meta["reports"] = reports
         if scan_results is not None or limit_failures:
             with storage(self.dir / "scan_results.json"):
                 dump_json(self.dir / "scan_results.json",
                           {"analyses": scan_results or {}, "limit_failures": list(limit_failures or [])})
         self.meta.update(status=status, message=message, finished=time.strftime("%Y-%m-%dT%H:%M:%S%z"))
+        self._write_meta()
+
+    def set_reports(self, state: str, **extra) -> None:
+        """``reports`` in run.json (writing / complete / incomplete, see ``ares.runstate``)."""
+        self.meta.update(extra, reports=state)
         self._write_meta()
 
     def stop_heartbeat(self) -> None:
@@ -418,6 +430,31 @@ class RunRecord:
         with h5py.File(self.dir / "results.h5", "r") as f:
             g = f.get(f"stages/{index:04d}")
             return {} if g is None else {k: g[k][()] for k in g}
+
+
+def set_reports_state(run_dir, state: str, **extra) -> None:
+    """``reports`` (and ``extra``) in the run.json of a run no writer holds any more."""
+    path = Path(run_dir) / "run.json"
+    with storage(path):
+        meta = json.loads(path.read_text())
+        meta.update(extra, reports=state)
+        dump_json(path, meta)
+
+
+REPORT_LEFTOVERS = ("*.tmp", "report.pdf.parts", "*.pdf.parts")
+
+
+def clean_report_leftovers(run_dir: Path) -> None:
+    """The temporary files of report writing that a signal or a kill cut short (every
+    report file is written under a temporary name and renamed: these are never complete)."""
+    import shutil
+
+    for pattern in REPORT_LEFTOVERS:
+        for p in Path(run_dir).glob(pattern):
+            if p.is_dir():
+                shutil.rmtree(p, ignore_errors=True)
+            else:
+                p.unlink(missing_ok=True)
 
 
 def load_run(run_dir: str | Path) -> RunRecord:

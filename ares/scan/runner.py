@@ -34,6 +34,7 @@ from ares.scan.commit import StageCommitter
 from ares.scan.defect_mask import load_declared_mask, mask_from_dark, scan_thresholds
 from ares.scan.preflight import KEEP_FOR_MASK_BYTES, check_run
 from ares.scan.results import StackSet, analyze_stage, check_limits, scan_level_results, views
+from ares.runstate import is_storage_error, storage_sentence
 from ares.scan.rundir import RunRecord, RunWriter
 from ares.scan.stages import Stage, estimate_seconds, frame_seconds
 from ares.scan.eta import Eta
@@ -202,6 +203,13 @@ class Runner:
             return RunOutcome("aborted", writer.dir if writer else None, completed, message="interrupted",
                               seed=self.seed)
         except Exception as exc:  # a bug: record it, tell the listeners, keep the traceback
+            if is_storage_error(exc):  # (an OS error a library raised outside a storage() block)
+                msg = storage_sentence(exc, getattr(exc, "filename", None) or (writer.dir if writer else "the run"))
+                if writer is not None:
+                    _finish_quietly(writer, "failed", msg)
+                self.state = "failed"
+                self._emit(ev.Failed(msg, str(writer.dir) if writer else None, len(completed)))
+                raise StorageError(msg) from None
             msg = f"internal error: {type(exc).__name__}: {exc}"
             if writer is not None:
                 _finish_quietly(writer, "failed", msg)
@@ -386,8 +394,9 @@ class Runner:
                 message = "scan-level analysis failed: " + "; ".join(f"{k}: {v}" for k, v in broken.items())
             if status == "done":
                 fails = check_limits(scan, scan_results)
-        if writer:
-            writer.finish(status, message or "; ".join(fails), scan_results, fails)
+        if writer:  # the reports to come are part of the run: "done" reads so only once they are written
+            writer.finish(status, message or "; ".join(fails), scan_results, fails,
+                          reports="writing" if completed and self._report_formats() else None)
         self.state = status
         self._emit(ev.Done(status, run_dir, len(completed), scan_results, tuple(fails)))
         return RunOutcome(status, writer.dir if writer else None, completed, scan_results, fails, message=message,
@@ -420,22 +429,41 @@ class Runner:
         if writer is None:
             return ""
         self._reports(writer, helper)
+        if writer.meta.get("reports") == "incomplete":  # the disk refused them: exit 5, resume writes them
+            raise StorageError(f"{writer.meta['report_error']}; the reports are incomplete (the stages are kept: "
+                               f"`ares resume {writer.dir}` writes the reports once the disk allows)")
         return writer.meta.get("report_error", "")
 
     def _reports(self, writer, helper=None) -> None:
         """The report module's tables (``<output csv/hdf5>``) and PDF (``<output pdf>``),
         written from the run directory alone once the run has ended (done, stopped or failed)."""
-        out = self.scan.output
-        formats = [f for f, on in (("csv", out.csv), ("hdf5", out.hdf5), ("pdf", out.pdf)) if on]
+        formats = self._report_formats()
         if not formats:
             return
+        if writer.meta.get("reports") != "writing":
+            writer.set_reports("writing")
         try:
             from ares.report import write_reports
 
             write_reports(writer.dir, formats, helper=helper)
         except Exception as exc:  # the run's data are complete; a report problem is only noted
-            writer.meta["report_error"] = f"{type(exc).__name__}: {exc}"
-            writer._write_meta()
+            if is_storage_error(exc):  # (the disk: the reports can be written later)
+                from ares.scan.rundir import clean_report_leftovers
+
+                clean_report_leftovers(writer.dir)
+                try:
+                    writer.set_reports("incomplete", report_error=storage_sentence(exc, writer.dir))
+                except (StorageError, OSError):
+                    writer.meta.update(reports="incomplete", report_error=storage_sentence(exc, writer.dir))
+                return
+            writer.set_reports("failed", report_error=f"{type(exc).__name__}: {exc}")
+        else:
+            writer.set_reports("complete")
+
+    def _report_formats(self) -> list[str]:
+        """The report files the scan promises (``<output csv/hdf5/pdf>``)."""
+        out = self.scan.output
+        return [f for f, on in (("csv", out.csv), ("hdf5", out.hdf5), ("pdf", out.pdf)) if on]
 
     def _grab(self, bench, st: Stage, n: int, vw, max_code, fw, dark: bool) -> StackSet:
         src = bench.frames

@@ -1,0 +1,228 @@
+"""Issue 41: run-directory names, storage errors, sizes read from headers and text
+fields, the hostile-XML decisions. Each test failed before the change it covers."""
+
+from __future__ import annotations
+
+import os
+import subprocess
+import sys
+from pathlib import Path
+
+import pytest
+
+ROOT = Path(__file__).resolve().parents[1]
+
+# ---------------------------------------------------------------- run-directory names
+
+
+def test_run_names_are_unique_in_the_out_folder(tmp_path, monkeypatch):
+    """--out a non-empty folder that is not a run directory, the same second for every run:
+    each claim gets its own name, counted in that folder (it was checked against ./runs/)."""
+    from ares.commands import run as cmd
+
+    monkeypatch.chdir(tmp_path)
+    monkeypatch.setattr(cmd.time, "strftime", lambda fmt: "20260101-000000")
+    out = tmp_path / "shared"
+    out.mkdir()
+    (out / "notes.txt").write_text("not a run")
+    got = [cmd.claim_out(out, "s") for _ in range(5)]
+    for p in got:
+        (p / "run.json").write_text("{}")  # (a run writes it: the claim alone is this process's)
+    assert len(set(got)) == 5 and all(p.parent == out for p in got)
+
+
+_CLAIM = """
+import sys, time
+from ares.commands import run as cmd
+cmd.time.strftime = lambda fmt: "20260101-000000"
+p = cmd.claim_out(sys.argv[1], "s")
+(p / "run.json").write_text("{}")
+print(p)
+"""
+
+
+def test_many_concurrent_claims_into_one_out(tmp_path):
+    """8 processes claim run directories in the same --out at once: 8 distinct names."""
+    out = tmp_path / "shared"
+    out.mkdir()
+    (out / "notes.txt").write_text("x")
+    env = {**os.environ, "PYTHONPATH": str(ROOT)}
+    procs = [subprocess.Popen([sys.executable, "-c", _CLAIM, str(out)], cwd=tmp_path, env=env,
+                              stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True) for _ in range(8)]
+    paths = []
+    for p in procs:
+        o, e = p.communicate()
+        assert p.returncode == 0, e
+        paths.append(o.strip())
+    assert len(set(paths)) == 8
+
+
+# ---------------------------------------------------------------- storage errors -> exit 5
+
+SMALL = ROOT / "fixtures" / "xml" / "small" / "ptc_small.xml"
+STORAGE = [errno_ for errno_ in ("EFBIG", "EDQUOT", "ENOSPC", "EROFS", "EACCES", "EIO")]
+
+
+@pytest.mark.parametrize("name, how", [(n, "os") for n in STORAGE] + [("EFBIG", "hdf5")])
+def test_every_storage_errno_is_one_sentence_exit_5(name, how, tmp_path, capsys, monkeypatch):
+    """The disk refuses the first stage's files (an OSError with its errno, or h5py's
+    RuntimeError that carries it only in its text): exit 5, one sentence naming the file,
+    run.json 'failed'."""
+    import errno
+    import json
+
+    import ares.scan.rundir as rd
+    from ares.cli import main
+
+    code = getattr(errno, name)
+    if how == "os":
+        def refuse(self, i, result, arrays):
+            raise OSError(code, os.strerror(code), str(self.dir / "stages" / f"{i:04d}.h5"))
+    else:
+        def refuse(self, i, result, arrays):
+            raise RuntimeError(f"Unable to synchronously create dataset (file write failed: time = x, filename = "
+                               f"'{self.dir}/stages/{i:04d}.h5.tmp', file descriptor = 4, errno = {code}, "
+                               f"error message = '{os.strerror(code)}', buf = 0x1, total write size = 8)")
+    monkeypatch.setattr(rd.RunWriter, "_write_stage_h5", refuse)
+    d = tmp_path / "run"
+    rc = main(["run", str(SMALL), "--out", str(d), "--quiet", "--frames", "2"])
+    err = capsys.readouterr().err
+    assert rc == 5, err
+    assert err.count("\n") == 1 and "Traceback" not in err and f"{d}/stages/0000.h5" in err
+    assert json.loads((d / "run.json").read_text())["status"] == "failed"
+
+
+def test_file_size_limit_is_exit_5_and_resume_writes_the_reports(tmp_path):
+    """`ulimit -f` (Python ignores SIGXFSZ: the write fails with EFBIG) while the reports
+    are written: exit 5 and one sentence (it was a 63-line traceback, exit 1); with the limit
+    lifted, `ares resume` writes the reports and the run reads as done."""
+    import json
+    import resource
+
+    from ares.runstate import effective_status
+
+    d = tmp_path / "run"
+    env = {**os.environ, "PYTHONPATH": str(ROOT), "ARES_PDF_HELPER": "0"}
+
+    def limit():
+        resource.setrlimit(resource.RLIMIT_FSIZE, (100 * 1024, resource.RLIM_INFINITY))
+
+    p = subprocess.run([sys.executable, "-m", "ares.cli", "run", str(SMALL), "--out", str(d), "--quiet",
+                        "--frames", "2"], cwd=tmp_path, env=env, preexec_fn=limit, capture_output=True, text=True)
+    assert p.returncode == 5, p.stderr
+    assert p.stderr.count("\n") == 1 and "Traceback" not in p.stderr and "file-size limit" in p.stderr
+    assert effective_status(json.loads((d / "run.json").read_text()))[0] == "reports incomplete"
+    assert not list(d.glob("*.tmp"))
+    p = subprocess.run([sys.executable, "-m", "ares.cli", "resume", str(d), "--quiet"], cwd=tmp_path, env=env,
+                       capture_output=True, text=True)
+    assert p.returncode == 0, p.stderr
+    meta = json.loads((d / "run.json").read_text())
+    assert effective_status(meta)[0] == "done" and meta["reports"] == "complete"
+    assert all((d / f).is_file() for f in ("ptc.csv", "components.csv", "key_figures.csv", "report.h5", "report.pdf"))
+
+
+# ---------------------------------------------------------------- sizes from headers and fields
+
+
+def _npy_header(f, shape, descr="<f8"):
+    from numpy.lib import format as npf
+
+    npf.write_array_header_1_0(f, {"descr": descr, "fortran_order": False, "shape": shape})
+
+
+def test_npy_header_claiming_74_gib_is_refused_before_allocating(tmp_path, capsys):
+    """A 192-byte .npy whose header claims shape (1e5, 1e5, 1e5): one sentence naming the
+    file and the frame limit (it was a traceback "Unable to allocate 74.5 GiB")."""
+    from ares.cli import main
+    from ares.hardware.imagefile import MAX_PIXELS
+
+    p = tmp_path / "bomb.npy"
+    with open(p, "wb") as f:
+        _npy_header(f, (100000, 100000, 100000))
+        f.write(b"\0" * 64)
+    assert p.stat().st_size == 192
+    assert main(["analyze", str(p)]) == 2
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and str(p) in err and str(MAX_PIXELS) in err and "Traceback" not in err
+
+
+def test_npy_and_npz_headers_claiming_more_than_the_file_holds(tmp_path, capsys):
+    import io
+    import zipfile
+
+    from ares.cli import main
+
+    p = tmp_path / "short.npy"
+    with open(p, "wb") as f:
+        _npy_header(f, (5000, 1000, 1000), "<u2")  # 10 GB claimed, 64 bytes there
+        f.write(b"\0" * 64)
+    assert main(["analyze", str(p)]) == 2
+    err = capsys.readouterr().err
+    assert f"{p}: truncated: frame 0 of 5000 is short (32 of 1000000 values)" in err
+    b = io.BytesIO()
+    _npy_header(b, (20000, 10000))
+    b.write(b"\0" * 64)
+    z = tmp_path / "bomb.npz"
+    with zipfile.ZipFile(z, "w") as zf:
+        zf.writestr("a.npy", b.getvalue())
+    assert main(["analyze", str(z)]) == 2
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and f"{z}:a" in err and "the file holds 64 bytes" in err
+
+
+def test_ptc_table_with_a_10_mb_field(tmp_path, capsys):
+    """`ares ptc` on a table with a 10 MB field: one sentence naming file, line and the
+    parser's limit (it was a traceback `_csv.Error: field larger than field limit`)."""
+    import csv
+
+    from ares.cli import main
+
+    p = tmp_path / "big.csv"
+    p.write_text("mean,var,dark_mean,dark_var\n1,2,3,4\n1," + "9" * 10_000_000 + ",3,4\n")
+    assert main(["ptc", str(p)]) == 2
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and f"{p}:3" in err and str(csv.field_size_limit()) in err
+
+
+# ---------------------------------------------------------------- not a regular file
+
+
+@pytest.mark.parametrize("args", [["analyze", "{x}"], ["run", str(SMALL), "--system", "{x}", "--dry-run"]])
+@pytest.mark.parametrize("kind", ["fifo", "devzero"])
+def test_fifo_and_dev_zero_are_not_regular_files(args, kind, tmp_path, capsys):
+    """A FIFO or /dev/zero given as a frame stack or a system: refused at once as "not a
+    regular file" (it said "file not found")."""
+    from ares.cli import main
+
+    if kind == "fifo":
+        x = tmp_path / "pipe.npy"
+        os.mkfifo(x)
+    else:
+        x = Path("/dev/zero")
+    assert main([a.format(x=x) for a in args]) == 2
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and f"{x}: not a regular file" in err and "not found" not in err
+
+
+# ---------------------------------------------------------------- hostile XML
+
+
+def test_doctype_text_in_a_comment_is_accepted_and_a_10_mb_attribute_names_the_parser_limit(tmp_path, capsys):
+    from ares.cli import main
+
+    (tmp_path / "sim_small.xml").write_bytes((SMALL.parent / "sim_small.xml").read_bytes())
+    text = SMALL.read_text()
+    ok = tmp_path / "comment.xml"
+    ok.write_text(text.replace("<scan name", "<!-- see <!DOCTYPE html> --><scan name"))
+    assert main(["run", str(ok), "--dry-run"]) == 0
+    capsys.readouterr()
+    big = tmp_path / "big.xml"
+    big.write_text(text.replace('<region name="centre"', '<region name="' + "a" * 10_000_000 + '"'))
+    assert main(["run", str(big), "--dry-run"]) == 2
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and f"{big}:" in err and "XML parser's limit" in err
+    bad = tmp_path / "real.xml"  # a real DOCTYPE is still refused
+    bad.write_text(text.replace("<scan name", "<!DOCTYPE scan><scan name").replace(
+        '<?xml version="1.0" encoding="UTF-8"?>\n', ""))
+    assert main(["run", str(bad), "--dry-run"]) == 2
+    assert "DOCTYPE" in capsys.readouterr().err
