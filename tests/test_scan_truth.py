@@ -277,13 +277,9 @@ def test_defect_mask_takes_the_defects_out_of_the_noise_figures(pt):
     unmasked = d["components_unmasked"]["Ps"]
     assert (unmasked["value"] - real["Ps"]) > 100 * unmasked["se"]
     assert d["masked_pixels"] > 0 and d["mask_source"].startswith("dark stage")
-    mask = None  # the mask in force for the mid-level stage: the latest stored at or before it
-    for st in stages:  # (issue 34: a flat stage extends the dark stage's mask with dead pixels)
-        if st["index"] > mid["index"]:
-            break
-        with h5py.File(RUN_DIRS["photon_transfer"] / "stages" / f"{st['index']:04d}.h5") as f:
-            if "defect_mask" in f:
-                mask = f["defect_mask"][()].astype(bool)
+    first = next(s for s in stages if s.get("defect_mask"))
+    with h5py.File(RUN_DIRS["photon_transfer"] / "stages" / f"{first['index']:04d}.h5") as f:
+        mask = f["defect_mask"][()].astype(bool)
     assert int(mask.sum()) == d["masked_pixels"]
     for cls in ("stuck", "noisy"):
         r, c = t["defects"][cls]

@@ -52,40 +52,6 @@ def mask_from_dark(stackset, stage_name: str, exposure_s: float | None, threshol
     return DefectMask(mask, f"dark stage {stage_name}", classes)
 
 
-def extend_with_flat(mask: DefectMask, flat_set, dark_set, stage_name: str, thresholds,
-                     max_code: int) -> DefectMask | None:
-    """The mask plus the pixel defects only light shows (dead, low/high response, stuck with
-    no response) from a finished flat stage and its matched dark, or None when this flat
-    cannot show them: a dead pixel (response < dead_fraction of the local median) must
-    differ from a normal one by ``warm_z`` times the noise of the two averaged means, and
-    no pixel may sit at the code ceiling. Issue 34: dead pixels never entered the mask
-    (built from the dark stage alone) and put the masked PRNU 27 SE above the truth."""
-    from ares.analysis.defects import PixelStats, classify_defects
-    from ares.analysis.defects.result import BITS, PIXEL_CLASSES, primary_class
-
-    fa, da = flat_set.acc["full"], dark_set.acc["full"]
-    if fa.n_frames < 2 or da.n_frames < 2:
-        return None
-    fs = PixelStats.from_accumulator(fa)
-    ds = PixelStats.from_accumulator(da)
-    resp = float(np.median(fs.mean - ds.mean))
-    noise = float(np.sqrt(np.median(fs.var) / fs.n_frames + np.median(ds.var) / ds.n_frames))
-    if not (1.0 - thresholds.dead_fraction) * resp > 2.0 * thresholds.warm_z * noise:
-        return None  # too little light: the response test would miss dead pixels
-    if flat_set.at_max["full"] > 0.002 * fs.mean.size * fs.n_frames or float(np.percentile(fs.mean, 99.9)) >= max_code:
-        return None  # clipped: a saturated neighbourhood hides a low response
-    res = classify_defects([ds], [fs], thresholds=thresholds)
-    light = BITS["dead"] | BITS["low_response"] | BITS["high_response"] | BITS["stuck"]
-    new = (res.mask & light) != 0
-    prim = primary_class(res.mask)
-    classes = dict(mask.classes)
-    for i, c in enumerate(PIXEL_CLASSES):
-        n = int(np.count_nonzero(new & (prim == i) & ~mask.mask))
-        if n and BITS[c] & light:
-            classes[c] = classes.get(c, 0) + n
-    return DefectMask(mask.mask | new, f"{mask.source} + flat stage {stage_name}", classes)
-
-
 def load_mask_file(path: Path, shape: tuple[int, int]) -> DefectMask:
     """A declared mask: ``.npy`` (bool or integer, non-zero = defect) or a PNG/TIFF image
     (non-zero = defect), the sensor's full array shape."""

@@ -40,12 +40,12 @@ def resumable(run) -> list[dict]:
 def _mask_of(runner, completed: list[dict]):
     from ares.scan.defect_mask import DefectMask
 
-    summ = next((s["defect_mask"] for s in reversed(completed) if s.get("defect_mask")), None)
+    summ = next((s["defect_mask"] for s in completed if s.get("defect_mask")), None)
     if not summ:
         return None
     import h5py
 
-    for st in reversed(completed):  # the latest mask: a flat stage may have extended the dark's
+    for st in completed:
         path = runner.out_dir / "stages" / f"{st['index']:04d}.h5"
         if not path.exists():
             continue

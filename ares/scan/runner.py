@@ -31,7 +31,7 @@ from ares.hardware.waits import Interrupted
 from ares.scan import events as ev
 from ares.scan.apply import apply_settings, as_fields
 from ares.scan.commit import StageCommitter
-from ares.scan.defect_mask import extend_with_flat, load_declared_mask, mask_from_dark, scan_thresholds
+from ares.scan.defect_mask import load_declared_mask, mask_from_dark, scan_thresholds
 from ares.scan.preflight import KEEP_FOR_MASK_BYTES, check_run
 from ares.scan.results import StackSet, analyze_stage, check_limits, scan_level_results, views
 from ares.scan.rundir import RunRecord, RunWriter
@@ -234,14 +234,12 @@ class Runner:
         self._emit(ev.RunStarted(run_dir, len(stages), self._frames_total, self._est))
         cache = None  # last dark StackSet that a matched dark may reuse
         self._mask = load_declared_mask(scan, bench.frames.shape)  # else from the first dark stage
-        self._mask_has_flat = self._mask is not None  # a declared mask is the user's: not extended
         applied: dict | None = None
         if completed:  # resuming: the bench, mask and cached dark as the interrupted run left them
             from ares.scan.resume import restore
 
             cache, applied, mask, note = restore(self, bench, completed, vw, max_code)
             self._mask = mask or self._mask
-            self._mask_has_flat = self._mask is not None and (self._mask_has_flat or "flat stage" in self._mask.source)
             if writer is not None and note:
                 writer.meta["resumed"][-1].update(note)
                 writer._write_meta()
@@ -353,12 +351,6 @@ class Runner:
                 self._mask = mask_from_dark(flat, st.name, st.settings.get("exposure"), scan_thresholds(scan))
                 flat.apply_mask(self._mask.mask)  # this stage too, from its kept frames
                 self._eta.one_off(time.monotonic() - t_mask)
-            elif self._mask is not None and not self._mask_has_flat and st.scene == "flat" and dark is not None:
-                ext = extend_with_flat(self._mask, flat, dark, st.name, scan_thresholds(scan), max_code)
-                if ext is not None:  # dead pixels out of every later stage's figures (issue 34)
-                    self._mask, self._mask_has_flat, new_mask = ext, True, True
-                    if cache is not None:
-                        cache.masked = None  # a reused dark masked the old way is grabbed again
             self._eta.stage_finished(time.monotonic() - self._t0, st.scene)
             extra = {"dark_after": True} if st.dark_after else {}  # its matched dark followed the flat
             if pos.get("end") is not None:
