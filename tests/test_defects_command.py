@@ -48,7 +48,8 @@ def test_text_and_limit_failure(files, capsys):
     rc = main(["defects", "--dark", str(tmp / "dark_a.npy"), "--set", "max_hot=0"])
     captured = capsys.readouterr()
     assert rc == 4
-    assert "hot" in captured.out and "RTS not available: 50 frames" in captured.out
+    # 50 frames are enough for the RTS test since issue 34 (it needs >= 12)
+    assert "hot" in captured.out and "RTS not available" not in captured.out
     assert captured.err.strip() == "ares defects: defect limits failed: hot"
 
 

@@ -76,13 +76,13 @@ def test_two_pass_streaming_matches_stack(inj, stats, result):
 
 
 def test_rts_not_available_with_few_frames(inj):
-    res = classify_stack(inj.dark[:60], gain_dn_per_e=inj.gain, exposure_s=inj.exposure_s)
+    # issue 34: RTS needs >= 12 frames (the two-level split of fewer frames finds a gap in a
+    # single-level series too often); an untested RTS pixel is never called hot
+    res = classify_stack(inj.dark[:8], gain_dn_per_e=inj.gain, exposure_s=inj.exposure_s)
     assert not res.rts_available and res.counts["rts"] is None
-    assert "60 frames" in res.rts_note and "rts_min_frames=100" in res.rts_note
-    # RTS pixels are still flagged (mostly as noisy; one that never switched as warm), not lost
+    assert "8 frames" in res.rts_note and "needs >= 12 frames" in res.rts_note
     r, c = inj.truth["rts"]
-    assert res.class_map("noisy")[r, c].mean() >= 0.95
-    assert res.defective()[r, c].mean() >= 0.97
+    assert not res.class_map("hot")[r, c].any()
 
 
 def _telegraph(rng, n, frames, amp, p_switch=0.1):

@@ -14,7 +14,7 @@ def test_defaults_follow_science_notes():
     assert th.hot_e_per_s == 5.0 and th.warm_z == 4.8
     assert th.low_response_fraction == 0.8 and th.dead_fraction == 0.5
     assert th.stuck_var_dn2 == pytest.approx(1 / 12)
-    assert th.rts_min_frames == 100 and th.confirm_fraction == 0.7
+    assert th.rts_min_frames == 12 and th.confirm_fraction == 0.7  # issue 34: RTS from 12 frames
     assert th.line_hot_count == 20 and th.line_dead_count == 100
     assert th.limits() == {}
 

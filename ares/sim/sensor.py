@@ -58,6 +58,12 @@ class SimSensor:
         return (self.params.rows, self.params.cols)
 
     @property
+    def rts_state(self) -> np.ndarray:
+        """The RTS pixels' trap states (0 low, 1 high; order of ``truth()['defects']['rts']``)
+        in the last frame rendered: the per-frame truth of which RTS pixels switched."""
+        return self._rts_state.astype(np.int8)
+
+    @property
     def patterns(self) -> FixedPatterns:
         """The fixed patterns (drawn from ``seed``: after ``drop_patterns`` the same ones
         are drawn again when next needed)."""

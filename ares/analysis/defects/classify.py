@@ -24,7 +24,7 @@ from .params import DefectThresholds
 from .result import BITS, DEFECT_DTYPE, PIXEL_CLASSES, DefectResult, primary_class
 from .limits import hot_limit_text, noisy_available, p_constant_codes, stuck_in_darks
 from .robust import block_median_background, local_background, remove_lines, robust_sigma, sampled_median, structure_ratio
-from .rts import detect_rts
+from .rts import detect_rts, rts_threshold
 from .stats import PixelStats, SeriesCollector
 
 _ROWS = 256  # rows per block of elementwise work on a frame
@@ -182,7 +182,18 @@ def classify_defects(
                     and np.all(row_resp == 1.0))
         line_var = None if ones else col_var[None, :] * row_var[:, None]
         for d in D:
-            z = d.res / d.sigma  # robust z and rate made here, not kept: a frame of float64 each
+            # robust z and rate made here, not kept: a frame of float64 each. The mean of a
+            # pixel with its own excess temporal noise (a noisy or RTS pixel) scatters by
+            # sqrt(excess variance / F) more: a mean offset is significant only against both,
+            # or every noisy pixel with few frames is also "hot". Only a significant excess
+            # (chi-square at rts_p_fa) counts: with 2 frames a normal variance swings 10x.
+            dof = d.st.n_frames - 1
+            with np.errstate(divide="ignore", invalid="ignore"):
+                z = np.where(d.var_ratio > chi2_isf(th.rts_p_fa, dof) / dof, d.st.var * (1.0 - 1.0 / d.var_ratio), 0.0)
+            z /= d.st.n_frames
+            z += d.sigma * d.sigma
+            np.sqrt(z, out=z)
+            np.divide(d.res, z, out=z)
             sig = z > th.warm_z
             if rate_mode:
                 rate = d.res / d.rate_scale
@@ -273,6 +284,25 @@ def classify_defects(
 
     ones_c, ones_r = np.ones(ncol), np.ones(nrow)
     flags, stats = pixel_flags(ones_c, ones_r, ones_c, ones_r)
+    # one code in every frame of every dark level: no dark shot noise, so not a hot or warm
+    # pixel (whose excess charge is Poisson) -- stuck where stuck can be tested, otherwise
+    # left unclassified (a pixel that fits no class it can test goes into none)
+    # Only where such a pixel's own shot noise makes one code in every frame improbable
+    # (with K known; with 2 frames a warm pixel repeats its code often).
+    const = np.logical_and.reduce([d.st.var <= 0.0 for d in D]) & (flags["hot"] | flags["warm"] | flags["noisy"])
+    if gain_dn_per_e:
+        for r, c in zip(*np.nonzero(const)):
+            const[r, c] = all(p_constant_codes(math.sqrt(d.pop_var + gain_dn_per_e * max(float(d.res[r, c]), 0.0)),
+                                               d.st.n_frames) <= th.rts_p_fa for d in D)
+    else:
+        const &= np.array([p_constant_codes(math.sqrt(d.pop_var), d.st.n_frames) <= th.rts_p_fa for d in D]).all()
+    if not stuck_ok:
+        odd = const & (flags["hot"] | flags["warm"])
+        if odd.any():
+            notes.append(f"{int(odd.sum())} pixels repeat one code in every dark frame with a dark signal far from "
+                         "their neighbours': stuck or hot cannot be told at this frame count, left unclassified")
+    for c in ("hot", "warm", "noisy"):
+        flags[c] &= ~const
 
     # ---- lines
     lines = {}
@@ -316,7 +346,14 @@ def classify_defects(
     # ---- RTS (pass 2 on the candidates: noisy pixels, and hot/warm ones -- an RTS that
     # sits mostly in its high state looks like a warm pixel whose variance the
     # dark-shot-noise allowance explains)
-    cand = (flags["noisy"] | flags["hot"] | flags["warm"]) & ~flags["stuck"]
+    # and every pixel whose variance in the series' level (the first dark) is above the
+    # chi-square limit at rts_p_fa: an RTS of a few sigma raises the variance only a few
+    # times, below the noisy limit at 16 frames. The separation of a Gaussian series is
+    # independent of its sample variance (Basu), so the joint false alarm per normal
+    # pixel is rts_p_fa^2.
+    dof0 = D[0].st.n_frames - 1
+    cand = (flags["noisy"] | flags["hot"] | flags["warm"]
+            | (D[0].var_ratio > chi2_isf(th.rts_p_fa, dof0) / dof0)) & ~flags["stuck"] & ~const
     crow, ccol = np.nonzero(cand)
     rts = np.zeros(shape, bool)
     rts_stat = np.broadcast_to(0.0, shape)  # filled at the candidates, if tested
@@ -339,15 +376,19 @@ def classify_defects(
         if series.ndim != 2 or series.shape[1] != crow.size:
             raise ValueError(f"rts_series returned shape {series.shape}, expected (frames, {crow.size})")
         if nfr < th.rts_min_frames:
-            rts_note = (f"RTS not available: {nfr} frames in the time series, "
-                        f"at least rts_min_frames={th.rts_min_frames} are needed")
+            rts_note = (f"RTS not available: {nfr} frames in the time series, needs >= {th.rts_min_frames} "
+                        f"frames (rts_min_frames={th.rts_min_frames}: over fewer a single-level series splits "
+                        "into two apparent levels too often)")
         else:
-            is_rts, sep = detect_rts(series, th.rts_min_separation, th.rts_min_occupancy)
+            thr = rts_threshold(nfr, th.rts_min_separation, th.rts_min_occupancy, th.rts_p_fa)
+            is_rts, sep = detect_rts(series, thr, th.rts_min_occupancy)
             rts[crow[is_rts], ccol[is_rts]] = True
             rts_stat = np.zeros(shape)
             rts_stat[crow, ccol] = sep
             rts_available = True
-            rts_note = f"{crow.size} candidates (noisy, hot, warm) tested over {nfr} frames"
+            rts_note = (f"{crow.size} candidates (noisy, hot, warm, raised variance) tested over {nfr} frames; "
+                        f"finds telegraph amplitudes >= {thr:.2g}x the within-level noise")
+            detection["rts"] = rts_note
     flags["rts"] = rts
     stats["rts"] = rts_stat
 

@@ -34,11 +34,15 @@ channel; "z" is a robust z-score, sigma = 1.4826 * MAD):
   room in a 1-per-megapixel budget); with K known the expected variance of a pixel
   includes the shot noise of its excess dark signal (K * excess DN), so hot pixels are
   not also noisy.
-* rts -- a noisy, hot or warm pixel (the pass-1 candidates) whose time series splits
-  into two levels separated by at least ``rts_min_separation`` (4) times the
-  within-level noise, each level holding at least ``rts_min_occupancy`` (3 %) of the
-  frames; needs >= ``rts_min_frames`` (100) frames, else RTS is "not available" with the
-  reason. Detects amplitudes >= 5x the pixel's temporal noise.
+* rts -- multi-level temporal behaviour: a candidate (hot, warm, noisy, or a temporal
+  variance above the chi-square limit at p = ``rts_p_fa``) whose time series splits into
+  two levels separated by at least ``rts_min_separation`` (4) times the within-level noise
+  AND by more than a single-level Gaussian series of that many frames shows with
+  probability ``rts_p_fa`` (1e-3; ``rts.null_separation``: 5.9 at 16 frames, 3.4 at 100),
+  each level holding at least ``rts_min_occupancy`` (3 %) of the frames; needs >=
+  ``rts_min_frames`` (12) frames, else RTS is "not available, needs >= 12 frames". A
+  noisy pixel is one whose variance is high WITHOUT such levels, a hot pixel one whose
+  mean dark rate is high: RTS takes precedence over both.
 * bad columns / rows -- >= ``line_hot_count`` (20) hot/warm or >= ``line_dead_count``
   (100) dead/low-response/stuck pixels in the line, or a line's median dark offset or
   median response more than ``line_z`` (6) robust sigmas from its neighbours, or its
@@ -97,9 +101,10 @@ class DefectThresholds:
     noisy_detect_ratio: float = 10.0
     max_plausible_fraction: float = 0.01
     # random telegraph signal
-    rts_min_frames: int = 100
+    rts_min_frames: int = 12
     rts_min_separation: float = 4.0
     rts_min_occupancy: float = 0.03
+    rts_p_fa: float = 1e-3
     # lines
     line_hot_count: int = 20
     line_dead_count: int = 100
@@ -162,7 +167,7 @@ class DefectThresholds:
                 object.__setattr__(self, f.name, int(v))  # 20.0 from an XML float -> 20
         if self.noisy_detect_ratio < 1:
             raise bad("noisy_detect_ratio", "must be at least 1")
-        for name in ("confirm_fraction", "noisy_p_fa", "rts_min_occupancy", "max_false_alarm",
+        for name in ("confirm_fraction", "noisy_p_fa", "rts_p_fa", "rts_min_occupancy", "max_false_alarm",
                      "max_plausible_fraction"):
             if not 0 < getattr(self, name) <= 1:
                 raise bad(name, "must be in (0, 1]")

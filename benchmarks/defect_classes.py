@@ -1,0 +1,132 @@
+"""Defect classes by behaviour against the simulator's truth (issue 34): the per-class
+confusion matrix, recall and precision at 4, 16 and 64 frames.
+
+Two sensors, default thresholds except where named:
+
+* ``shipped``: the shipped simulator (protocols/sim_sensor.xml: VGA, seed 1, defect rates
+  of SensorParams: 15 hot, 61 warm, 31 RTS, 6 dead, 2 stuck, 31 noisy) at the main job's
+  operating point (10 ms, 25 C) and in a long dark (4 s, 40 C; hot_e_per_s=120,
+  warm_e_per_s=15 -- the simulator's warm pixels reach 80 e-/s, from 26.5, its hot ones start at
+  177 e-/s at 40 C) where hot pixels have a measurable rate; a flat at ~5000 e- each.
+* ``dense``: 200 x 160 with 2000 ppm of every class (1000 stuck), RTS amplitude 40 e- (0.2-0.7 e-/s over 90 s: below warm),
+  switching with probability 0.2 per frame, 90 s at 5 C (hot 8.5-25 e-/s, warm 1.3-3.8).
+
+"rts (levels seen)" are the RTS pixels whose trap held each state in >= 2 frames of the
+dark stack and whose amplitude is >= the frame count's separation threshold + 2 times the
+pixel's temporal noise; the others ("rts (not seen)") showed no levels in these frames --
+a classifier may call them good (or noisy, for an unresolved two-level variance), never hot.
+
+    python benchmarks/defect_classes.py            # writes benchmarks/defect_classes.md
+"""
+
+from __future__ import annotations
+
+import sys
+import time
+from pathlib import Path
+
+import numpy as np
+
+from ares import sim
+from ares.analysis.defects import DefectThresholds, classify_stack
+from ares.analysis.defects.result import PIXEL_CLASSES, primary_class
+from ares.analysis.defects.rts import rts_threshold
+from ares.sim.defect_truth import render_with_rts_states, rts_levels_seen, truth_labels
+
+OUT = Path(__file__).with_suffix(".md")
+FRAMES = (4, 16, 64)
+ROWS = ("good", "hot", "warm", "rts (levels seen)", "rts (not seen)", "dead", "stuck", "noisy")
+COLS = ("good",) + PIXEL_CLASSES
+
+
+def shipped_params() -> sim.SensorParams:
+    return sim.SensorParams(rows=480, cols=640, adc_bits=12, lag_fraction=1e-4, adc_inl_lsb=0.5)
+
+
+def dense_params() -> sim.SensorParams:
+    return sim.SensorParams(rows=160, cols=200, hot_rate_ppm=2000, warm_rate_ppm=2000, rts_rate_ppm=2000,
+                            dead_rate_ppm=2000, stuck_rate_ppm=1000, noisy_rate_ppm=2000, rts_amplitude_e=40.0,
+                            rts_switch_prob=0.2)
+
+
+CASES = {
+    "shipped, main job (10 ms, 25 C)": (shipped_params, 1, dict(exposure_s=0.01, temperature_c=25.0), 8.3e5, {}),
+    "shipped, long dark (4 s, 40 C)": (shipped_params, 1, dict(exposure_s=4.0, temperature_c=40.0), 2.1e3,
+                                       dict(hot_e_per_s=120, warm_e_per_s=15)),
+    "dense (90 s, 5 C)": (dense_params, 7, dict(exposure_s=90.0, temperature_c=5.0), 93.0, {}),
+}
+
+
+def score(params_fn, seed: int, op: dict, flux: float, th_kw: dict, frames: int) -> dict:
+    """Render, classify, and the confusion matrix {true row: {predicted: count}}."""
+    p = params_fn()
+    s = sim.SimSensor(p, seed)
+    dark, states = render_with_rts_states(s, frames, dark=True, **op)
+    flat = s.render(frames, photon_flux=flux, **op)
+    truth = s.truth(dark=True, **op)
+    th = DefectThresholds(**th_kw)
+    t0 = time.perf_counter()
+    res = classify_stack(dark, flat, gain_dn_per_e=p.gain_dn_per_e(), exposure_s=op["exposure_s"], thresholds=th)
+    secs = time.perf_counter() - t0
+    lab = truth_labels(truth, dark.shape[1:])
+    sigma = float(np.sqrt(np.median(dark.var(axis=0, ddof=1))))
+    amp = truth["defects"]["properties"]["rts_amplitude_e"] * p.gain_dn_per_e()
+    thr = rts_threshold(frames, th.rts_min_separation, th.rts_min_occupancy, th.rts_p_fa)
+    seen = rts_levels_seen(states, 2) & (amp >= (thr + 2.0) * sigma)
+    rr, rc = truth["defects"]["rts"]
+    lab = lab.astype("U20")
+    lab[rr[seen], rc[seen]] = "rts (levels seen)"
+    lab[rr[~seen], rc[~seen]] = "rts (not seen)"
+    lab[lab == ""] = "good"
+    prim = primary_class(res.mask)
+    pred = np.where(prim >= 0, np.array(PIXEL_CLASSES)[np.maximum(prim, 0)], "good")
+    m = {r: {c: int(np.count_nonzero((lab == r) & (pred == c))) for c in COLS} for r in ROWS}
+    return dict(matrix=m, unavailable=dict(res.unavailable), seconds=secs, rts_threshold=thr)
+
+
+def recall_precision(m: dict, cls: str) -> tuple[float | None, float | None]:
+    row = "rts (levels seen)" if cls == "rts" else cls
+    n_true = sum(m[row].values())
+    n_pred = sum(m[r][cls] for r in ROWS)
+    tp = m[row][cls]
+    true_any = tp + (m["rts (not seen)"][cls] if cls == "rts" else 0)
+    return (tp / n_true if n_true else None), (true_any / n_pred if n_pred else None)
+
+
+def _pct(x) -> str:
+    return "-" if x is None else f"{100 * x:.0f} %"
+
+
+def main() -> int:
+    lines = ["# Defect classes against the simulator's truth", "",
+             (__doc__ or "").split("\n\n    python")[0].strip(), "",
+             "Rows: the simulator's class; columns: the class ARES gives the pixel (its primary class). "
+             "Recall: found in its class / pixels of the class (RTS: of those whose levels were seen); "
+             "precision: of the pixels given the class, those truly of it. A class that is not available "
+             "at the frame count shows \"n/a\" and the reason.", ""]
+    for name, (pf, seed, op, flux, th_kw) in CASES.items():
+        for f in FRAMES:
+            r = score(pf, seed, op, flux, th_kw, f)
+            m = r["matrix"]
+            lines += [f"## {name}, {f} frames", "",
+                      f"RTS separation threshold {r['rts_threshold']:.2f} sigma_w; classification "
+                      f"{r['seconds']:.2f} s.", "",
+                      "| true \\ given | " + " | ".join(COLS) + " |", "|---|" + "---:|" * len(COLS)]
+            for row in ROWS:
+                lines.append(f"| {row} | " + " | ".join(str(m[row][c]) for c in COLS) + " |")
+            lines += ["", "| class | recall | precision | verdict |", "|---|---:|---:|---|"]
+            for cls in ("hot", "warm", "rts", "dead", "stuck", "noisy"):
+                if cls in r["unavailable"]:
+                    lines.append(f"| {cls} | n/a | n/a | not available: {r['unavailable'][cls]} |")
+                    continue
+                rec, prec = recall_precision(m, cls)
+                lines.append(f"| {cls} | {_pct(rec)} | {_pct(prec)} | |")
+            lines.append("")
+            print(name, f, "done", file=sys.stderr)
+    OUT.write_text("\n".join(lines) + "\n")
+    print(f"wrote {OUT}")
+    return 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())
