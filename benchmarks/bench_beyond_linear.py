@@ -9,7 +9,7 @@ the SE is honest), and the difference to the plain ISO 12233 implementation of t
 Photon-counting histogram (ares.analysis.photon_counting): gain and read noise against the
 simulator's truth at 0.15-0.7 e- read noise, bias, spread/SE, and photon transfer beside it.
 
-    PYTHONPATH=. python benchmarks/beyond_linear.py
+    PYTHONPATH=. python benchmarks/bench_beyond_linear.py
 """
 
 from __future__ import annotations

@@ -16,7 +16,7 @@ dark stack and whose amplitude is >= the frame count's separation threshold + 2 
 pixel's temporal noise; the others ("rts (not seen)") showed no levels in these frames --
 a classifier may call them good (or noisy, for an unresolved two-level variance), never hot.
 
-    python benchmarks/defect_classes.py            # writes benchmarks/defect_classes.md
+    python benchmarks/bench_defect_classes.py            # writes benchmarks/defect_classes.md
 """
 
 from __future__ import annotations
@@ -33,7 +33,7 @@ from ares.analysis.defects.result import PIXEL_CLASSES, primary_class
 from ares.analysis.defects.rts import rts_threshold
 from ares.sim.defect_truth import render_with_rts_states, rts_levels_seen, truth_labels
 
-OUT = Path(__file__).with_suffix(".md")
+OUT = Path(__file__).with_name("defect_classes.md")
 FRAMES = (4, 16, 64)
 ROWS = ("good", "hot", "warm", "rts (levels seen)", "rts (not seen)", "dead", "stuck", "noisy")
 COLS = ("good",) + PIXEL_CLASSES
