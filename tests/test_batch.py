@@ -131,7 +131,8 @@ def test_lot_file_limits_yield_and_report_files(client, runs, tmp_path):
     from pdftext import pdf_text
 
     text = pdf_text(out / "lot.pdf")
-    assert "Lot report: wafer_7" in text and "Yield per limit" in text and "wafer map" in text
+    assert "Lot report: wafer_7" in text and "Yield per limit" in text and "Wafer maps: verdict and bin" in text
+    assert "Appendix: every item (1/1)" in text and "Appendix: every error" in text
     # without the failing item and with a limit they meet: exit 0
     ok = base / "ok.xml"  # item paths are relative to the lot file
     ok.write_text(lot.read_text().replace('  <item path="bad" sensor="BAD"/>\n', "")
