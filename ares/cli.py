@@ -15,7 +15,8 @@ import sys
 from ares import __version__
 from ares.errors import AresError
 
-COMMANDS = ["run", "resume", "validate", "rerun", "analyze", "emva", "ptc", "mtf", "defects", "report", "batch", "bench", "gui"]
+COMMANDS = ["run", "resume", "validate", "rerun", "analyze", "emva", "ptc", "mtf", "defects", "report", "batch", "lots",
+            "bench", "gui"]
 
 
 def _modules():

@@ -114,18 +114,25 @@ def test_lot_file_limits_yield_and_report_files(client, runs, tmp_path):
     assert len(rows) == N_RUNS + 1
     good = [r for r in rows if r["status"] == "done"]
     assert all(r["read_noise_e <= 100"] == "pass" and r["gain_dn_per_e >= 0.5"] == "FAIL" for r in good)
-    assert all(r["passed"] == "FAIL" for r in good) and rows[-1]["status"] == "error"
-    assert rows[0]["sensor"] == "S0"
+    assert all(r["verdict"] == "FAIL" for r in good) and rows[-1]["status"] == "error"
+    # the errored item fails every limit and stays in the yield's denominator
+    assert rows[-1]["verdict"] == "error" and rows[-1]["read_noise_e <= 100"] == "FAIL"
+    assert rows[0]["serial"] == "S0" and rows[0]["lot"] == "wafer_7" and (rows[4]["x"], rows[4]["y"]) == ("1.0", "1.0")
+    assert rows[0]["run_dir"] == str(dirs[0]) and len(rows[0]["content_hash"]) == 64 and rows[0]["started"]
+    from ares import __version__
+
+    assert rows[0]["ares_version"] == __version__
     import h5py
 
     with h5py.File(out / "lot.h5") as f:
-        assert json.loads(f.attrs["yield"]) == {"read_noise_e <= 100": [N_RUNS, N_RUNS],
-                                                "gain_dn_per_e >= 0.5": [0, N_RUNS]}
+        assert json.loads(f.attrs["yield"]) == {"read_noise_e <= 100": [N_RUNS, N_RUNS + 1],
+                                                "gain_dn_per_e >= 0.5": [0, N_RUNS + 1]}
         assert f["items/gain_dn_per_e"].shape == (N_RUNS + 1,)
     from pdftext import pdf_text
 
     text = pdf_text(out / "lot.pdf")
-    assert "Lot report: wafer_7" in text and "Yield per limit" in text and "wafer map" in text
+    assert "Lot report: wafer_7" in text and "Yield per limit" in text and "Wafer maps: verdict and bin" in text
+    assert "Appendix: every item (1/1)" in text and "Appendix: every error" in text
     # without the failing item and with a limit they meet: exit 0
     ok = base / "ok.xml"  # item paths are relative to the lot file
     ok.write_text(lot.read_text().replace('  <item path="bad" sensor="BAD"/>\n', "")
@@ -191,7 +198,9 @@ def test_stack_and_descriptor_items(client, tmp_path):
         from ares.commands.emva import analyse_descriptor
 
         assert res[1]["kind"] == "emva"
-        assert res[1]["figures"]["K"]["value"] == analyse_descriptor(desc).sheet.values["K"].value
+        # EMVA 1288 4.0's K is the lot vocabulary's gain_dn_per_e (one name for every item kind)
+        assert "K" not in res[1]["figures"] and res[1]["figures"]["gain_dn_per_e"]["symbol"] == "K"
+        assert res[1]["figures"]["gain_dn_per_e"]["value"] == analyse_descriptor(desc).sheet.values["K"].value
 
 
 def test_rerun_any_item_on_a_worker(client, runs, tmp_path):

@@ -45,8 +45,8 @@ def make_client(scheduler: str | None = None, workers: int | None = None):
     return Client(cluster)
 
 
-def run_items(client, paths: list[str], cache_dir: str | None, progress=None, rerun_into: str | None = None
-              ) -> list[dict]:
+def run_items(client, paths: list[str], cache_dir: str | None, progress=None, rerun_into: str | None = None,
+              verify: bool = False) -> list[dict]:
     """Every item's result (``items.process``; with ``rerun_into``, run directories are first
     repeated there by ``items.rerun``) in the order given; ``progress(done, total, result)``
     after each completes (in completion order)."""
@@ -54,33 +54,52 @@ def run_items(client, paths: list[str], cache_dir: str | None, progress=None, re
 
     from ares.batch.items import RUN, kind_of, process, rerun
 
-    futures = [client.submit(rerun, p, rerun_into, cache_dir, pure=False) if rerun_into and kind_of(p) == RUN
-               else client.submit(process, p, cache_dir, pure=False) for p in paths]
+    futures = [client.submit(rerun, p, rerun_into, cache_dir, verify, pure=False)
+               if rerun_into and kind_of(p) == RUN else client.submit(process, p, cache_dir, verify, pure=False)
+               for p in paths]
     index = {f.key: i for i, f in enumerate(futures)}
     out: list[dict | None] = [None] * len(paths)
     for k, fut in enumerate(as_completed(futures), 1):
         try:
             r = fut.result()
         except Exception as exc:  # noqa: BLE001 -- a worker lost mid-task: the item failed, the lot goes on
-            r = {"item": paths[index[fut.key]], "status": "error", "error": f"{paths[index[fut.key]]}: worker "
-                                                                            f"failed ({type(exc).__name__}: {exc})"}
+            p = paths[index[fut.key]]
+            r = {"item": p, "status": "error",
+                 "error": f"{p}: worker failed ({type(exc).__name__}: {' '.join(str(exc).split())})"}
         out[index[fut.key]] = r
         if progress:
             progress(k, len(paths), r)
     return out  # type: ignore[return-value]
 
 
-def progress_line(stream=sys.stderr):
+def progress_line(stream=sys.stderr, log=None, quiet: bool = False):
+    """``progress(done, total, result)``: a line on ``stream`` (done, failed, items/s, ETA;
+    a new line every 5 % and at the end when the stream is not a terminal) and one line
+    per item in the open text file ``log``."""
     t0 = time.perf_counter()
+    failed = [0]
+    tty = hasattr(stream, "isatty") and stream.isatty()
+    step = [0]
 
     def show(done: int, total: int, r: dict) -> None:
-        w = 30
-        bar = "#" * (w * done // total) + "-" * (w - w * done // total)
+        el = time.perf_counter() - t0
+        failed[0] += r.get("status") == "error"
         what = "cached" if r.get("cached") else ("FAILED" if r.get("status") == "error" else "done")
-        stream.write(f"\r[{bar}] {done}/{total}  {time.perf_counter() - t0:6.1f} s  {Path(r['item']).name}: "
-                     f"{what}".ljust(100)[:100])
-        if done == total:
-            stream.write("\n")
+        rate = done / el if el > 0 else float("inf")
+        eta = (total - done) / rate if rate > 0 else float("nan")
+        line = (f"{done}/{total} done, {failed[0]} failed, {rate:.2f} items/s, ETA {eta:.0f} s  "
+                f"{Path(r['item']).name}: {what}")
+        if log is not None:
+            stamp = time.strftime("%Y-%m-%dT%H:%M:%S", time.gmtime())
+            log.write(f"{stamp} {line}" + (f" -- {r['error']}" if r.get("error") else "") + "\n")
+            log.flush()
+        if quiet:
+            return
+        if tty:
+            stream.write("\r" + line.ljust(110)[:110] + ("\n" if done == total else ""))
+        elif done == total or done * 20 // total > step[0]:
+            step[0] = done * 20 // total
+            stream.write(line + "\n")
         stream.flush()
 
     return show

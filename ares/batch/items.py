@@ -51,19 +51,34 @@ def _files(path: Path, kind: str) -> list[Path]:
     return sorted(f for f in p.iterdir() if f.is_file()) if p.is_dir() else [p]
 
 
-def content_hash(path: str | Path, kind: str) -> str:
+BLOCK = 1 << 16  # the cheap key reads this much at each end of every file
+
+
+def content_hash(path: str | Path, kind: str, full: bool = True) -> str:
     """SHA-256 over the item's input files (relative names and bytes), the item spec and the
-    ARES version: a changed file, a changed dataset name or a new ARES recomputes."""
+    ARES version: a changed file, a changed dataset name or a new ARES recomputes.
+
+    ``full=False`` is the cheap cache key: each file's size and modification time plus its
+    first and last ``BLOCK`` bytes (a rewrite that keeps size, time and both ends is not seen
+    -- ``ares batch --verify`` uses the full hash)."""
     from ares import __version__
 
     path = Path(path)
-    h = hashlib.sha256(f"{kind}\0{__version__}\0{Path(str(path)).name}\0".encode())
+    h = hashlib.sha256(f"{kind}\0{__version__}\0{'full' if full else 'quick'}\0{Path(str(path)).name}\0".encode())
     base = path if path.is_dir() else path.parent
     for f in _files(path, kind):
         h.update(str(f.relative_to(base) if f.is_relative_to(base) else f.name).encode() + b"\0")
         with open(f, "rb") as fh:
-            for chunk in iter(lambda: fh.read(1 << 20), b""):
-                h.update(chunk)
+            if full:
+                for chunk in iter(lambda: fh.read(1 << 20), b""):
+                    h.update(chunk)
+                continue
+            st = os.fstat(fh.fileno())
+            h.update(f"{st.st_size}\0{st.st_mtime_ns}\0".encode())
+            h.update(fh.read(BLOCK))
+            if st.st_size > BLOCK:
+                fh.seek(max(BLOCK, st.st_size - BLOCK))
+                h.update(fh.read(BLOCK))
     return h.hexdigest()
 
 
@@ -104,7 +119,10 @@ def analyse(path: str | Path, kind: str) -> tuple[dict, str]:
     if kind == RUN:
         return _figures_of_run(Path(path))
     if kind == EMVA:
-        return _figures_of_descriptor(Path(path))
+        from ares.batch.vocabulary import canonical_figures
+
+        figures, status = _figures_of_descriptor(Path(path))
+        return canonical_figures(figures), status
     return _figures_of_stack(str(path))
 
 
@@ -118,23 +136,41 @@ def _clean(o):
     return o
 
 
-def process(path: str, cache_dir: str | None = None) -> dict:
-    """The worker task: {item, kind, hash, status, figures, cached} or {item, status
-    "error", error}. The cache entry (``<cache_dir>/<hash>.json``) is written atomically."""
+def one_line(path: str, exc: BaseException) -> str:
+    """A worker's failure as one sentence naming the item (never a traceback)."""
     from ares.errors import AresError
 
-    item = {"item": str(path)}
+    msg = " ".join(str(exc).split()) or type(exc).__name__
+    if not isinstance(exc, (AresError, OSError)):
+        msg = f"{type(exc).__name__}: {msg}"
+    return msg if str(path) in msg else f"{path}: {msg}"
+
+
+def process(path: str, cache_dir: str | None = None, verify: bool = False) -> dict:
+    """The worker task: {item, kind, hash, key, status, figures, cached, started, ares_version}
+    or {item, status "error", error}. ``hash`` is the full content hash (traceability; only
+    computed when the item is analysed or ``verify``), ``key`` the cheap cache key. The cache
+    entry (``<cache_dir>/<key>.json``) is written atomically."""
+    import datetime
+
+    from ares import __version__
+
+    item = {"item": str(path), "ares_version": __version__,
+            "started": datetime.datetime.now(datetime.timezone.utc).isoformat(timespec="seconds")}
     try:
+        if not _file(path).exists():
+            raise FileNotFoundError(f"{path}: no such file or directory on worker {os.uname().nodename} "
+                                    "(the workers must see the client's files, e.g. on a shared file system)")
         kind = kind_of(path)
         item["kind"] = kind
-        digest = content_hash(path, kind)
-        item["hash"] = digest
+        digest = content_hash(path, kind, full=verify)
         entry = Path(cache_dir) / f"{digest}.json" if cache_dir else None
         if entry is not None and entry.is_file():
             try:
                 return {**json.loads(entry.read_text()), "item": str(path), "cached": True}
             except (OSError, json.JSONDecodeError):
                 pass  # an unreadable cache entry is recomputed
+        item["hash"] = digest if verify else content_hash(path, kind)
         figures, status = analyse(path, kind)
         out = _clean({**item, "status": status, "figures": figures, "cached": False})
         if entry is not None:
@@ -143,20 +179,16 @@ def process(path: str, cache_dir: str | None = None) -> dict:
             tmp.write_text(json.dumps(out))
             tmp.replace(entry)
         return out
-    except (AresError, OSError, ValueError, KeyError) as exc:
-        msg = str(exc).strip() or type(exc).__name__
-        if isinstance(exc, (KeyError, ValueError)):
-            msg = f"{type(exc).__name__}: {msg}"
-        return {**item, "status": "error", "error": f"{path}: {msg}" if str(path) not in msg else msg}
+    except Exception as exc:  # noqa: BLE001 -- any failure of one item is that item's one line
+        return {**item, "status": "error", "error": one_line(path, exc)}
 
 
-def rerun(path: str, out_root: str, cache_dir: str | None = None) -> dict:
+def rerun(path: str, out_root: str, cache_dir: str | None = None, verify: bool = False) -> dict:
     """The worker task of ``ares batch --rerun``: repeat a run from its directory alone (as
     ``ares rerun``: verbatim XML, seed, frame override) into ``out_root``, then analyse the new
     run; the result says how many stage results reproduce the original's. A run on hardware
     needs that hardware at the worker that gets it."""
     from ares.commands.rerun import compare
-    from ares.errors import AresError
     from ares.scan import Runner, load_run
 
     try:
@@ -170,8 +202,8 @@ def rerun(path: str, out_root: str, cache_dir: str | None = None) -> dict:
         outcome = Runner(rec.scan, out_dir=out, seed=rec.meta.get("seed"),
                          frames=rec.meta.get("frames_override")).run()
         same, n, diff = compare(rec, load_run(outcome.run_dir))
-    except (AresError, OSError, ValueError, KeyError) as exc:
-        return {"item": str(path), "status": "error", "error": f"{path}: rerun failed ({exc})"}
-    res = process(str(outcome.run_dir), cache_dir)
+    except Exception as exc:  # noqa: BLE001 -- one line per item, never a traceback
+        return {"item": str(path), "status": "error", "error": one_line(path, RuntimeError(f"rerun failed ({exc})"))}
+    res = process(str(outcome.run_dir), cache_dir, verify)
     res.update(rerun_of=str(path), reproduced=f"{same}/{n}", differ=diff[:5])
     return res

@@ -34,6 +34,11 @@ def add_arguments(p) -> None:
                                                         "report the new runs")
     p.add_argument("--stack", metavar="SPEC", help="one huge stack (.npy or file.h5:/dataset) split over workers")
     p.add_argument("--split", type=int, default=0, metavar="N", help="frame chunks for --stack (default: workers)")
+    p.add_argument("--verify", action="store_true", help="cache keys from the full content hash of every file "
+                                                         "(default: size, time and the first/last blocks)")
+    p.add_argument("--db", metavar="PATH|URL", help="results database the lot is appended to (default "
+                                                    "OUT/results.sqlite; postgresql://... for PostgreSQL)")
+    p.add_argument("--no-db", action="store_true", help="do not append the lot to a results database")
     p.add_argument("--json", action="store_true", help="print the results as JSON")
     p.add_argument("--quiet", "-q", action="store_true", help="no progress line")
 
@@ -43,8 +48,16 @@ def _stack(args, client) -> int:
     from ares.batch.cluster import split_accumulate
     from ares.labels import COMPONENTS
 
+    from ares.batch.items import one_line
+    from ares.errors import InputError
+
     n = args.split or len(client.scheduler_info()["workers"]) or 1
-    acc = split_accumulate(client, args.stack, n)
+    try:
+        acc = split_accumulate(client, _absolute(args.stack), n)
+    except InputError:
+        raise
+    except Exception as exc:  # noqa: BLE001 -- a worker's failure is one sentence, never a traceback
+        raise InputError(one_line(args.stack, exc)) from None
     comps = decompose_dark(acc)
     if args.json:
         print(json.dumps({k: e.to_dict() for k, e in comps.items()}, indent=2))
@@ -55,6 +68,15 @@ def _stack(args, client) -> int:
     return 0
 
 
+def _absolute(spec: str) -> str:
+    """The item spec with its file made absolute on the client (``file.h5:/dataset`` keeps
+    its dataset): workers on a scheduler resolve nothing in their own working directory."""
+    from ares.hardware.stackfiles import split_spec
+
+    p, inner = split_spec(spec)
+    return str(p.resolve()) + (f":{inner}" if inner else "")
+
+
 def run(args) -> int:
     from ares.batch import lot_report
     from ares.batch.cluster import make_client, progress_line, run_items
@@ -62,7 +84,7 @@ def run(args) -> int:
     from ares.protocol.lot import load_lot
 
     lot = load_lot(args.lot) if args.lot else None
-    paths = [str(Path(p)) for p in args.items] + [str(it.path) for it in (lot.items if lot else ())]
+    paths = [_absolute(p) for p in args.items] + [_absolute(str(it.path)) for it in (lot.items if lot else ())]
     if not paths and not args.stack:
         raise InputError("ares batch: no items (give run directories / data sets, or a lot file with <item>s)")
     from ares.hardware.stackfiles import split_spec
@@ -80,21 +102,39 @@ def run(args) -> int:
         if args.no_cache:
             for p in cache.glob("*.json"):
                 p.unlink()
-        results = run_items(client, paths, str(cache.resolve()), None if args.quiet else progress_line(),
-                            rerun_into=str((out / "reruns").resolve()) if args.rerun else None)
+        with open(out / "lot.log", "a", encoding="utf-8") as log:
+            log.write(f"# ares batch: {len(paths)} item(s), scheduler {args.scheduler or 'local'}\n")
+            show = progress_line(log=log, quiet=args.quiet)
+            partial = out / "lot.partial.csv"
+
+            def progress(done, total, r):
+                show(done, total, r)
+                with open(partial, "a", encoding="utf-8") as fh:  # the partial table, as items finish
+                    fh.write(f"{done},{r['item']},{r.get('status')},{r.get('error', '')}\n")
+
+            partial.write_text("done,item,status,error\n")
+            results = run_items(client, paths, str(cache.resolve()), progress,
+                                rerun_into=str((out / "reruns").resolve()) if args.rerun else None,
+                                verify=args.verify)
     finally:
         client.close()
         cluster = getattr(client, "cluster", None)
         if cluster is not None:
             cluster.close()
-    meta = {str(it.path): {"sensor": it.sensor, "x": it.x, "y": it.y} for it in (lot.items if lot else ())}
+    meta = {_absolute(str(it.path)): {"sensor": it.sensor, "x": it.x, "y": it.y} for it in (lot.items if lot else ())}
     judged = lot_report.judge(results, lot.limits if lot else (), meta)
     name = lot.name if lot else out.resolve().name
     from ares.scan.rundir import write_atomic
 
-    write_atomic(out / "lot.csv", lot_report.to_csv(judged).encode())
+    write_atomic(out / "lot.csv", lot_report.to_csv(judged, name).encode())
     lot_report.write_h5(judged, out / "lot.h5", name)
     lot_report.write_pdf(judged, out / "lot.pdf", name)
+    (out / "lot.partial.csv").unlink(missing_ok=True)
+    if not args.no_db:
+        from ares.batch import db
+
+        with db.connect(args.db or str(out / "results.sqlite")) as conn:
+            db.append_lot(conn, name, judged)
     if args.json:
         print(json.dumps({"lot": name, "yield": judged.yields, "items": results}, indent=2))
     else:
@@ -103,7 +143,9 @@ def run(args) -> int:
         print(f"lot {name}: {len(results)} item(s), {n_cached} from the cache, {n_err} failed; "
               f"report in {out}/lot.csv, lot.h5, lot.pdf")
         for k, (a, b) in judged.yields.items():
-            print(f"  yield {k}: {a}/{b}")
+            print(f"  yield {k}: {a}/{b} ({b} item(s) of the lot, errored ones count as failed)")
+        if not judged.limits:
+            print(f"  {lot_report.NO_LIMITS}: no item is judged pass or fail")
         for r in results:
             if r.get("rerun_of"):
                 print(f"  rerun of {r['rerun_of']}: {r['reproduced']} stage result(s) reproduced -> {r['item']}")
