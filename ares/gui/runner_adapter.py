@@ -350,7 +350,10 @@ class RunnerJob:
             emit(G.Ending(e.status, e.stages_completed))
         elif isinstance(e, ev.Done):
             if e.status == "done":
-                emit(G.Done(e.run_dir, summarize(e.scan_results, self.scan.defects), tuple(e.limit_failures)))
+                from ares.scan.results import limits_verdict
+
+                lim = limits_verdict(e.status, len(self.scan.limits), e.limit_failures)["text"]
+                emit(G.Done(e.run_dir, summarize(e.scan_results, self.scan.defects), tuple(e.limit_failures), lim))
             else:
                 kept = f"; {e.stages_completed} completed stage(s) kept" + (f" in {e.run_dir}" if e.run_dir else "")
                 emit(G.Stopped(f"Scan {e.status}{kept}.", aborted=(e.status == "aborted"), run_dir=e.run_dir))

@@ -33,7 +33,7 @@ from ares.scan.apply import apply_settings, as_fields
 from ares.scan.commit import StageCommitter
 from ares.scan.defect_mask import load_declared_mask, mask_from_dark, scan_thresholds
 from ares.scan.preflight import KEEP_FOR_MASK_BYTES, check_run
-from ares.scan.results import StackSet, analyze_stage, check_limits, scan_level_results, views
+from ares.scan.results import StackSet, analyze_stage, check_limits, limits_verdict, scan_level_results, views
 from ares.scan.rundir import RunRecord, RunWriter
 from ares.scan.stages import Stage, estimate_seconds, frame_seconds
 from ares.scan.eta import Eta
@@ -387,7 +387,8 @@ class Runner:
             if status == "done":
                 fails = check_limits(scan, scan_results)
         if writer:
-            writer.finish(status, message or "; ".join(fails), scan_results, fails)
+            writer.finish(status, message or "; ".join(fails), scan_results, fails,
+                          limits_verdict(status, len(scan.limits), fails))
         self.state = status
         self._emit(ev.Done(status, run_dir, len(completed), scan_results, tuple(fails)))
         return RunOutcome(status, writer.dir if writer else None, completed, scan_results, fails, message=message,

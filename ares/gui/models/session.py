@@ -225,8 +225,8 @@ class SessionModel:
             if ev.limit_failures:
                 message = (f"Scan finished; {len(ev.limit_failures)} limit(s) failed: "
                            + "; ".join(ev.limit_failures) + ".")
-            self.info.update(limits=message.removeprefix("Scan finished; ") if ev.limit_failures
-                             else "all passed (or none set)")
+            self.info.update(limits=ev.limits.removeprefix("limits: ") if ev.limits
+                             else message.removeprefix("Scan finished; ") if ev.limit_failures else "not recorded")
             self.progress.update(state=P.DONE, fraction=1.0, seconds_remaining=0.0, message=message)
         elif isinstance(ev, Stopped):
             self._end_of_run()
