@@ -68,6 +68,7 @@ def _fmt(v: float) -> str:
 
 def run(args) -> int:
     from ares.analysis.decompose import COMPONENT_NAMES, UNITS_NOTE, StackAnalysis
+    from ares.analysis.physical import variances_in_range
 
     main = accumulate_files(args.files, args.roi, "flat" if args.dark else "input")
     if args.dark:
@@ -84,7 +85,7 @@ def run(args) -> int:
         for k, e in extra.items():
             out[k] = e.to_dict()
         if args.dark:
-            out["_flat_stack"] = {k: e.to_dict() for k, e in an.flat_stack_components.items()}
+            out["_flat_stack"] = {k: e.to_dict() for k, e in variances_in_range(an.flat_stack_components).items()}
         out["_meta"] = {
             "units": UNITS_NOTE,
             "frames": {"dark" if args.dark else "input": an.dark.n_frames, **({"flat": main.n_frames} if args.dark else {})},
