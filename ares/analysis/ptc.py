@@ -90,6 +90,14 @@ class PtcResult:
     turnoff_e: Estimate = field(default_factory=lambda: Estimate.na("not computed", "e-"))
     turnoff_definitions_dn: dict[str, Estimate] = field(default_factory=dict)  # published definitions by name
 
+    def gain_headline(self) -> dict:
+        """Which estimator gives the headline K and why (one sentence)."""
+        k = self.gain_dn_per_e
+        if not k.available:
+            return {"estimator": None, "reason": k.note}
+        is_ast = (self.gain_astier_dn_per_e.available and k.value == self.gain_astier_dn_per_e.value)
+        return {"estimator": "astier" if is_ast else "line", "reason": k.note.split("; ")[0]}
+
     def used(self, status: str = "fit") -> list[PtcLevel]:
         return [lv for lv in self.levels if lv.status == status]
 
@@ -108,6 +116,7 @@ class PtcResult:
             "gain_dn_per_e": self.gain_dn_per_e.to_dict(), "gain_e_per_dn": self.gain_e_per_dn.to_dict(),
             "gain_line_dn_per_e": self.gain_wls_dn_per_e.to_dict(),
             "gain_model": self.gain_model.to_dict() if self.gain_model else None,
+            "gain_headline": self.gain_headline(),
             "linearity_check": {"mean_rel_dev": lin.mean_rel_dev if math.isfinite(lin.mean_rel_dev) else None,
                                 "holds": lin.holds, "note": lin.note} if lin else None,
             "conversion_gain_uv_per_e": self.conversion_gain_uv_per_e.to_dict(),
@@ -229,6 +238,9 @@ def classify_levels(bright: Sequence[LevelStats], dark: Sequence[LevelStats],
     return levels, br
 
 
+HEADLINE_P_MIN = 1e-3  # the chi-square probability below which a fit fails its own residual check
+
+
 def _gain_estimates(fit: list[PtcLevel], signal_se, fit_note: str):
     """(chosen K, WLS line K, EMVA origin K, Astier K, GainModel). The weights are
     ``1/se(V)^2``, or with ``signal_se`` the effective variance ``se(V)^2 + (K se(S))^2``
@@ -264,8 +276,14 @@ def _gain_estimates(fit: list[PtcLevel], signal_se, fit_note: str):
     else:
         k_ast = Estimate.na("Astier fit needs >= 5 levels", "DN/e-")
     chosen = k_ast if gm.chosen == "astier" else k_wls
+    reason = gm.reason
+    if gm.chosen == "astier" and not gm.astier_p >= HEADLINE_P_MIN:  # a fit failing its own check is no headline
+        chosen = k_wls
+        reason = (f"line (EMVA 1288 4.0 Eq. 50 definition): the Astier fit, preferred to the line, fails its own "
+                  f"residual check (chi2/dof {ast.chi2_red:.3g}, p {gm.astier_p:.2g}); neither model describes these "
+                  "levels within their errors")
     if chosen.available:
-        chosen = Estimate(chosen.value, chosen.se, chosen.unit, f"{gm.reason}; {chosen.note}")
+        chosen = Estimate(chosen.value, chosen.se, chosen.unit, f"{reason}; {chosen.note}")
     return chosen, k_wls, k_org, k_ast, gm
 
 

@@ -80,14 +80,17 @@ def _curve_below(s, v, se):
     return predict, chi2
 
 
-def ptc_turnoff(signal, var, var_se, nsigma: float = 4.0, min_levels: int = 4, confirm: int = 3) -> int:
+def ptc_turnoff(signal, var, var_se, nsigma: float = 4.0, min_levels: int = 4, confirm: int = 3,
+                rel_floor: float = 0.02) -> int:
     """Number of levels, from the bottom of the signal-sorted input, that lie on the PTC.
 
     The curve is followed from below and stops at the first significant departure: level
     ``i`` departs when its variance is below the curve fitted to the levels under it by
     more than ``nsigma`` standard errors (a drop of the variance/mean ratio; its own SE,
     inflated by the fit's excess scatter, combined with the prediction's), or below the
-    highest variance under it by more than ``nsigma`` SE (a drop of the variance itself).
+    highest variance under it by more than ``nsigma`` SE (a drop of the variance itself) --
+    and, in either case, by more than ``rel_floor`` (2 %) of it: with millions of pixels the
+    SEs are tiny and a sensor's own percent-level wiggles of the curve are not a turnoff.
     A departure counts when at least half of the next ``confirm`` levels depart too (or it
     is the last level), so a single noisy level low on the curve does not end it. Whatever
     lies beyond the first departure -- an outlier row above the turnover, an upturn after
@@ -106,8 +109,8 @@ def ptc_turnoff(signal, var, var_se, nsigma: float = 4.0, min_levels: int = 4, c
 
         def departs(j: int) -> bool:
             pred, pred_se = predict(s[j])
-            below_curve = v[j] - pred < -nsigma * math.hypot(e[j] * scale, pred_se)
-            below_top = v[j] < v[top] - nsigma * scale * math.hypot(e[j], e[top])
+            below_curve = v[j] - pred < -max(nsigma * math.hypot(e[j] * scale, pred_se), rel_floor * pred)
+            below_top = v[j] < v[top] - max(nsigma * scale * math.hypot(e[j], e[top]), rel_floor * v[top])
             return below_curve or below_top
 
         if departs(i):
