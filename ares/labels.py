@@ -19,8 +19,10 @@ COMPONENTS = {
 
 PTC_FIGURES = (
     ("conversion_gain_uv_per_e", "conversion gain"), ("gain_dn_per_e", "system gain K"), ("gain_e_per_dn", "1/K"),
-    ("read_noise_e", "read noise"), ("read_noise_dn", "read noise (output)"), ("full_well_e", "full well (charge)"),
-    ("saturation_capacity_e", "saturation capacity"), ("dynamic_range_db", "dynamic range"),
+    ("read_noise_e", "read noise sigma_d (no quant.)"),
+    ("read_noise_dn", "dark noise sigma_y.dark (incl. quant.)"), ("full_well_e", "full well (charge)"),
+    ("saturation_capacity_e", "saturation capacity"), ("turnoff_dn", "PTC turnoff"),
+    ("turnoff_e", "PTC turnoff (charge)"), ("dynamic_range_db", "dynamic range"),
 )
 PTC_LABELS = dict(PTC_FIGURES)
 

@@ -41,7 +41,7 @@ def test_run_prints_summary(tmp_path, capsys):
     assert main(["run", PTC, "--out", str(tmp_path / "r"), "--quiet"]) == 0
     out = capsys.readouterr().out
     for words in ("ptc_small: done, 9 stage(s)", "conversion gain", "uV/e-", "read noise", "full well",
-                  "noise components at stage", "Pt ", "all 1 limit(s) passed"):
+                  "noise components at stage", "Pt ", "limits: all 1 passed"):
         assert words in out, words
 
 

@@ -356,7 +356,9 @@ def test_runner_scan_from_file_to_done(window, qtbot, tmp_path):
     assert window.ptc.line.xData is not None  # ... until it is shown
     run_dir = s.info.items["run directory"]
     assert os.path.isdir(run_dir) and run_dir.startswith(str(tmp_path))
-    assert "PTC: read noise" in s.info.items
+    from ares.labels import PTC_LABELS
+
+    assert f"PTC: {PTC_LABELS['read_noise_e']}" in s.info.items
     assert window.preview.rectangle_count == 1
     # the engine's noise decomposition of the last stage, per view
     assert {"full", "centre"} <= set(s.components.views)

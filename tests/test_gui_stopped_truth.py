@@ -64,7 +64,7 @@ def test_after_stop_every_tab_shows_the_stopped_runs_own_figures(window, qtbot, 
     shown = {k: v for k, v in s.info.items.items() if k.startswith("PTC")}
     # the stopped run's figures, as its scan_results.json states them -- none of the first run's
     assert shown == {k: v for k, v in own.items() if k.startswith("PTC")}
-    assert s.info.items["limits"] == "not checked (the run was stopped)"
+    assert s.info.items["limits"].startswith("not checked (the run is stopped")
     ptc = res.get("ptc") or {}
     g = (ptc.get("gain_e_per_dn") or {}).get("value")
     if g is not None:  # the engine fitted the levels the stopped run has: the PTC tab draws that fit
@@ -85,4 +85,4 @@ def test_limits_read_none_set_for_a_scan_without_limits(window, qtbot, tmp_path)
     window.set_job_factory(lambda: RunnerJob(str(scan), frames=3), str(scan))
     run_to_end(qtbot, window)
     assert window.session.progress.state == P.DONE
-    assert window.session.info.items["limits"] == "none set"
+    assert window.session.info.items["limits"].startswith("none set")

@@ -18,9 +18,11 @@ import numpy as np
 
 from ares.analysis.estimate import Estimate
 from ares.analysis.median import n_distinct
+from ares.analysis.physical import in_range
 from ares.analysis.ptc_fit import line_fit
 
 MIN_EXPOSURES = 6
+QUANT_SIGMA_DN = 0.24  # EMVA 1288 4.0 Linear Section 6.6: below it the dark noise is quantization noise
 
 
 @dataclass(frozen=True)
@@ -49,11 +51,17 @@ def dark_current(exposure_s, dark_mean_dn, gain_dn_per_e: Estimate | float, dark
         na = Estimate.na(f"needs >= {min_exposures} distinct exposure times, got {distinct}", "e-/s")
         return DarkCurrent(Estimate.na(na.note, "DN/s"), na, na, Estimate.na(na.note, "DN"))
     lf = line_fit(t, m)
-    rate_dn = Estimate(lf.slope, lf.slope_se, "DN/s", "slope of dark mean vs exposure")
-    rate_e = _div(rate_dn, gain_dn_per_e, "e-/s", "slope of dark mean vs exposure / K")
+    rate_dn = in_range(Estimate(lf.slope, lf.slope_se, "DN/s", "slope of dark mean vs exposure"), 0.0,
+                       what="dark current")
+    rate_e = in_range(_div(Estimate(lf.slope, lf.slope_se, "DN/s"), gain_dn_per_e, "e-/s",
+                           "slope of dark mean vs exposure / K"), 0.0, what="dark current")
     k = gain_dn_per_e.value if isinstance(gain_dn_per_e, Estimate) else float(gain_dn_per_e)
     if dark_var_dn2 is not None and not (math.isfinite(k) and k > 0):
         rv = Estimate.na("gain not available", "e-/s")
+    elif dark_var_dn2 is not None and np.nanmin(np.asarray(dark_var_dn2, float)) < QUANT_SIGMA_DN**2:
+        rv = Estimate.na(f"the dark temporal noise ({math.sqrt(max(np.nanmin(dark_var_dn2), 0)):.3g} DN) is below "
+                         f"{QUANT_SIGMA_DN} DN: dominated by quantization noise, its slope does not measure the "
+                         "dark current (EMVA 1288 4.0 Linear Section 6.6)", "e-/s")
     elif dark_var_dn2 is not None:
         lv = line_fit(t, np.asarray(dark_var_dn2, float))
         kse = gain_dn_per_e.se if isinstance(gain_dn_per_e, Estimate) and math.isfinite(gain_dn_per_e.se) else 0.0
@@ -61,6 +69,13 @@ def dark_current(exposure_s, dark_mean_dn, gain_dn_per_e: Estimate | float, dark
         se = math.hypot(lv.slope_se / k**2, 2 * v * kse / k)
         rv = Estimate(v, se, "e-/s", "slope of dark temporal variance vs exposure / K^2 (cross-check; EMVA 1288 "
                                      "4.0 Section 7.1)")
+        # the variance's rise over the exposures must exceed the quantization noise's 1/12 DN^2 to be measured
+        rise = lv.slope * float(np.ptp(t))
+        if 0 < rise < 1.0 / 12.0:
+            rv = Estimate.limit(v + 3 * se, "upper", "e-/s",
+                                f"the dark variance rises {rise:.3g} DN^2 over the exposures, below the quantization "
+                                "noise (1/12 DN^2): only an upper limit (value + 3 SE)")
+        rv = in_range(rv, 0.0, what="dark current from the variance")
     else:
         rv = Estimate.na("dark variances not given", "e-/s")
     return DarkCurrent(rate_dn, rate_e, rv, Estimate(lf.intercept, lf.intercept_se, "DN", "dark mean at t = 0"))

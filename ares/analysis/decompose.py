@@ -18,6 +18,7 @@ from .accumulate import StackAccumulator
 from .anova import DARK_NAMES, AnovaTable, anova_table, decompose_dark, in_electrons, sigma_view
 from .estimate import Estimate
 from .flat import GAIN_NAMES, decompose_flat, gain_na
+from .physical import variances_in_range
 
 __all__ = ["StackAnalysis", "COMPONENT_NAMES", "UNITS_NOTE"]
 
@@ -100,8 +101,10 @@ class StackAnalysis:
         )
 
     def components(self) -> dict[str, Estimate]:
-        """All components keyed by the model's names (see module docstring)."""
-        d = dict(self.dark_components)
+        """All components keyed by the model's names (see module docstring), as shown: a
+        variance below zero is an upper limit or not available (``ares.analysis.physical``;
+        ``dark_components`` keeps the unbiased raw estimates for averaging)."""
+        d = variances_in_range(dict(self.dark_components))
         g = self.gain_components
         d.update({k: g[k] for k in GAIN_NAMES})
         return d

@@ -35,8 +35,8 @@ from ares.analysis.median import fast_median
 from ares.analysis.ptc_fit import (AstierFit, GainModel, LineFit, LocalSlopeCheck, choose_gain_model,
                                    local_slope_check, origin_fit)
 from ares.analysis.ptc_noise import loglog_slopes, noise_model, read_noise, sensitivity_threshold
-from ares.analysis.saturation import (SaturationBracket, index_linearity_turnoff, index_max_code, ptc_turnoff,
-                                      saturation_bracket)
+from ares.analysis.saturation import (SaturationBracket, index_linearity_turnoff, index_max_code, index_variance_drop,
+                                      ptc_turnoff, saturation_bracket)
 
 __all__ = ["PtcLevel", "PtcResult", "analyze_ptc", "classify_levels", "loglog_slopes"]
 
@@ -86,6 +86,17 @@ class PtcResult:
     gain_model: GainModel | None = None
     linearity_check: LocalSlopeCheck | None = None
     gain_wls_dn_per_e: Estimate = field(default_factory=lambda: Estimate.na("not computed", "DN/e-"))
+    turnoff_dn: Estimate = field(default_factory=lambda: Estimate.na("not computed", "DN"))  # headline turnoff
+    turnoff_e: Estimate = field(default_factory=lambda: Estimate.na("not computed", "e-"))
+    turnoff_definitions_dn: dict[str, Estimate] = field(default_factory=dict)  # published definitions by name
+
+    def gain_headline(self) -> dict:
+        """Which estimator gives the headline K and why (one sentence)."""
+        k = self.gain_dn_per_e
+        if not k.available:
+            return {"estimator": None, "reason": k.note}
+        is_ast = (self.gain_astier_dn_per_e.available and k.value == self.gain_astier_dn_per_e.value)
+        return {"estimator": "astier" if is_ast else "line", "reason": k.note.split("; ")[0]}
 
     def used(self, status: str = "fit") -> list[PtcLevel]:
         return [lv for lv in self.levels if lv.status == status]
@@ -105,6 +116,7 @@ class PtcResult:
             "gain_dn_per_e": self.gain_dn_per_e.to_dict(), "gain_e_per_dn": self.gain_e_per_dn.to_dict(),
             "gain_line_dn_per_e": self.gain_wls_dn_per_e.to_dict(),
             "gain_model": self.gain_model.to_dict() if self.gain_model else None,
+            "gain_headline": self.gain_headline(),
             "linearity_check": {"mean_rel_dev": lin.mean_rel_dev if math.isfinite(lin.mean_rel_dev) else None,
                                 "holds": lin.holds, "note": lin.note} if lin else None,
             "conversion_gain_uv_per_e": self.conversion_gain_uv_per_e.to_dict(),
@@ -122,6 +134,8 @@ class PtcResult:
             "dynamic_range_db": self.dynamic_range_db.to_dict(), "qe": self.qe.to_dict(),
             "linearity_error_pct": self.linearity_error_pct.to_dict(),
             "saturation_stage": name(self.saturation_index),
+            "turnoff_dn": self.turnoff_dn.to_dict(), "turnoff_e": self.turnoff_e.to_dict(),
+            "turnoff_definitions_dn": {k_: v.to_dict() for k_, v in self.turnoff_definitions_dn.items()},
             "level_status": [{"stage": names[lv.index], "status": lv.status, "reason": lv.reason}
                              for lv in self.levels],
         }
@@ -206,19 +220,12 @@ def classify_levels(bright: Sequence[LevelStats], dark: Sequence[LevelStats],
                 status[i], clipped[i] = "excluded", True
                 reason[i] = "beyond saturation: brighter than a clipped level"
     cand = sorted((i for i in range(n) if status[i] != "excluded"), key=lambda i: S[i])
-    if cand:  # variance pivot: brighter levels whose variance fell significantly below the maximum
-        imax = cand[int(np.argmax(V[cand]))]
-        for i in cand[cand.index(imax) + 1:]:
-            if V[i] < V[imax] - nsigma * math.hypot(Vse[i], Vse[imax]):
-                status[i], clipped[i] = "excluded", True
-                reason[i] = (f"beyond the variance maximum: {V[i]:.5g} DN^2 at S = {S[i]:.5g} DN, below "
-                             f"{V[imax]:.5g} DN^2 at S = {S[imax]:.5g} DN (saturated)")
-        cand = [i for i in cand if status[i] != "excluded"]
     n_on = ptc_turnoff(S[cand], V[cand], Vse[cand], nsigma=nsigma) if cand else 0
     for i in cand[n_on:]:
         status[i], clipped[i] = "excluded", True
-        reason[i] = (f"beyond the PTC turnoff: variance {V[i]:.5g} DN^2 falls below the curve of the levels "
-                     f"under it by > {nsigma:g} SE")
+        reason[i] = (f"beyond the PTC turnoff: the curve followed from below first departs (variance below "
+                     f"the curve of the levels under it, or below their maximum, by > {nsigma:g} SE) at "
+                     f"S = {S[cand[n_on]]:.5g} DN")
     on_curve = np.array([st != "excluded" for st in status])
     br = saturation_bracket(S, clipped, on_curve, nominal)
     if br.reached:
@@ -229,6 +236,9 @@ def classify_levels(bright: Sequence[LevelStats], dark: Sequence[LevelStats],
                        float(bright[i].spatial_var), float(bright[i].frac_at_max), float(t[i]), float(p[i]),
                        status[i], reason[i], bool(clipped[i])) for i in range(n)]
     return levels, br
+
+
+HEADLINE_P_MIN = 1e-3  # the chi-square probability below which a fit fails its own residual check
 
 
 def _gain_estimates(fit: list[PtcLevel], signal_se, fit_note: str):
@@ -266,8 +276,14 @@ def _gain_estimates(fit: list[PtcLevel], signal_se, fit_note: str):
     else:
         k_ast = Estimate.na("Astier fit needs >= 5 levels", "DN/e-")
     chosen = k_ast if gm.chosen == "astier" else k_wls
+    reason = gm.reason
+    if gm.chosen == "astier" and not gm.astier_p >= HEADLINE_P_MIN:  # a fit failing its own check is no headline
+        chosen = k_wls
+        reason = (f"line (EMVA 1288 4.0 Eq. 50 definition): the Astier fit, preferred to the line, fails its own "
+                  f"residual check (chi2/dof {ast.chi2_red:.3g}, p {gm.astier_p:.2g}); neither model describes these "
+                  "levels within their errors")
     if chosen.available:
-        chosen = Estimate(chosen.value, chosen.se, chosen.unit, f"{gm.reason}; {chosen.note}")
+        chosen = Estimate(chosen.value, chosen.se, chosen.unit, f"{reason}; {chosen.note}")
     return chosen, k_wls, k_org, k_ast, gm
 
 
@@ -437,8 +453,60 @@ def analyze_ptc(bright: Sequence[LevelStats], dark: Sequence[LevelStats], *, exp
         "signal_e": np.array([lv.signal / gain.value for lv in good]) if gain.available else np.array([]),
     }
     nm, zones = noise_model(good, dark, gain)
+    to_dn, to_e, to_defs = _turnoffs(levels, br, gain, clip_limit)
     return PtcResult(levels, gain, e_per_dn, cg, k_org, k_ast, gm.astier, gvr, rn_dn, rn_e, upper, sat_i, fw, drn,
-                     drdb, sens, qe, le, snr, nm, zones, br, head, gm, lin, k_wls)
+                     drdb, sens, qe, le, snr, nm, zones, br, head, gm, lin, k_wls, to_dn, to_e, to_defs)
+
+
+TURNOFF_NOTE = ("PTC turnoff: the last level of the curve followed from below before its first significant "
+                "departure (variance/mean ratio or variance dropping by > 4 SE); SE: the level spacing/sqrt(12)")
+
+
+def _turnoffs(levels: Sequence[PtcLevel], br: SaturationBracket, gain: Estimate,
+              clip_limit: float) -> tuple[Estimate, Estimate, dict[str, Estimate]]:
+    """The headline turnoff in DN and e- (``ptc_turnoff``), and the published definitions
+    by name in DN, each the signal of one level with the level spacing there as its SE."""
+    meas = sorted((lv for lv in levels if math.isfinite(lv.signal) and math.isfinite(lv.variance) and lv.signal > 0
+                   and not lv.reason.startswith(("non-monotonic", "no significant", "non-finite"))),
+                  key=lambda lv: lv.signal)
+    pos = {lv.index: j for j, lv in enumerate(meas)}
+
+    def at(i: int, note: str, bound: str = "") -> Estimate:
+        if i < 0 or i not in pos:
+            return Estimate.na("not found in the data", "DN")
+        j = pos[i]
+        s = meas[j].signal
+        if bound:
+            return Estimate.limit(s, bound, "DN", note)
+        nxt = [lv.signal for lv in meas[j + 1:] if lv.signal > s]
+        return Estimate(s, (nxt[0] - s) / math.sqrt(12) if nxt else math.nan, "DN", note)
+
+    if br.last_ok < 0:
+        head = Estimate.na(br.reason, "DN")
+    elif br.reached:
+        head = at(br.last_ok, TURNOFF_NOTE)
+    else:
+        head = at(br.last_ok, f"a lower limit: {br.reason}", "lower")
+    if head.available and gain.available:
+        v = head.value / gain.value
+        se = (v * math.hypot(head.se / head.value if math.isfinite(head.se) else 0.0, gain.se / gain.value)
+              if not head.bound else math.nan)
+        head_e = Estimate(v, se, "e-", head.note, head.bound)
+    else:
+        head_e = Estimate.na(head.note if not head.available else "gain not available", "e-")
+    var = [lv.variance for lv in meas]
+    idx = [lv.index for lv in meas]
+    im = index_max_code([lv.frac_at_max for lv in meas], clip_limit)
+    defs = {
+        "ptc_turnoff": head,
+        "emva4_saturation": at(idx[im] if im >= 0 and meas else -1, "EMVA 1288 4.0 Section 6.6: the highest level "
+                               f"before the first with > {100 * clip_limit:g} % of samples at the maximum code"),
+        "max_variance": at(idx[int(np.argmax(var))] if meas else -1,
+                           "EMVA 1288 3.0: the level of maximum temporal variance"),
+        "lsst_turnoff": at(idx[index_variance_drop(var)] if meas else -1,
+                           "LSST-style: the level before the first level-to-level drop of the variance"),
+    }
+    return head, head_e, defs
 
 
 def _plateau(levels: Sequence[PtcLevel], br: SaturationBracket, gain: Estimate) -> Estimate:

@@ -16,6 +16,10 @@ from ares.analysis.ptc_fit import line_fit
 
 QUANT_VAR = 1.0 / 12.0  # DN^2, uniform quantization noise
 QUANT_LIMIT = 0.24  # DN^2, EMVA 1288 4.0 Linear Section 6.6: below this quantization dominates
+# the two read-noise figures differ by definition: the one in DN keeps the quantization noise
+DARK_NOISE_DEF = "sigma_y.dark: dark temporal noise at the output, quantization noise (1/12 DN^2) included"
+READ_NOISE_DEF = ("sigma_d: read noise in e-, quantization noise removed, sqrt(sigma_y.dark^2 - 1/12)/K "
+                  "(EMVA 1288 4.0 Linear Eq. 53) -- not sigma_y.dark/K")
 QUANT_FLOOR_DN = 0.49  # DN, the sigma_y.dark set in its place (Eq. 54: sigma_d < 0.40 / K)
 
 
@@ -53,14 +57,14 @@ def read_noise(dark: Sequence[LevelStats], exposure_s: Sequence[float] | None,
             return dn, Estimate.na("gain not available", "e-"), True
         val = math.sqrt(QUANT_FLOOR_DN**2 - QUANT_VAR) / gain.value
         return dn, Estimate.limit(val, "upper", "e-", note), True
-    dn = Estimate(math.sqrt(s2), s2_se / (2 * math.sqrt(s2)), "DN", how)
+    dn = Estimate(math.sqrt(s2), s2_se / (2 * math.sqrt(s2)), "DN", f"{DARK_NOISE_DEF}; {how}")
     if not gain.available:
         return dn, Estimate.na("gain not available", "e-"), False
     num = math.sqrt(max(s2 - QUANT_VAR, 0.0))
     val = num / gain.value
     d_s2 = s2_se / (2 * num) / gain.value if num > 0 else math.nan
     se_e = math.hypot(d_s2, val * gain.se / gain.value)
-    return dn, Estimate(val, se_e, "e-", "sqrt(sigma_y.dark^2 - 1/12)/K (EMVA 1288 4.0 Linear Eq. 53); " + how), False
+    return dn, Estimate(val, se_e, "e-", f"{READ_NOISE_DEF}; {how}"), False
 
 
 def sensitivity_threshold(read_noise_dn: Estimate, gain: Estimate) -> Estimate:

@@ -6,8 +6,10 @@
 - ``index_max_code``: EMVA 1288 Release 4.0 Linear, Section 6.6 (histogram criterion) --
   the highest level, before the first violation, with no more than ``limit`` (0.2 %) of
   the samples at the maximum code.
-- ``ptc_turnoff``: the highest level (in signal order) whose temporal variance still
-  follows the photon-transfer curve defined by the levels below it (see its docstring).
+- ``ptc_turnoff``: the headline turnoff -- the curve followed from below up to its first
+  significant departure (see its docstring).
+- ``index_variance_drop``: LSST-style turnoff -- the level before the first level-to-level
+  drop of the variance.
 - ``saturation_bracket``: saturation lies between the last unclipped level and the first
   clipped one; every full-well definition is checked against that bracket.
 - ``index_linearity_turnoff``: last level before the first above the linearity fit range
@@ -78,32 +80,55 @@ def _curve_below(s, v, se):
     return predict, chi2
 
 
-def ptc_turnoff(signal, var, var_se, nsigma: float = 4.0, min_levels: int = 4) -> int:
+def ptc_turnoff(signal, var, var_se, nsigma: float = 4.0, min_levels: int = 4, confirm: int = 3,
+                rel_floor: float = 0.02) -> int:
     """Number of levels, from the bottom of the signal-sorted input, that lie on the PTC.
 
-    The levels are peeled from the top: while the highest remaining level's variance is
-    below the curve fitted to the levels under it by more than ``nsigma`` standard errors
-    (its own, inflated by the fit's excess scatter, combined with the prediction's), it is
-    beyond the turnoff. Clipping biases the variance *down* and grows fast with signal, so
-    the roll-off is peeled level by level; a noise spike above the curve, a dip below it
-    further down, or a smooth brighter-fatter flattening (absorbed by the parabola) do not
-    end the curve early, and a level already rolling off is never kept because the curve
-    is fitted to the levels below it only (no late turnoff from a fit that bends to the
-    roll-off). Inputs must be sorted by signal and free of clipped or empty levels.
+    The curve is followed from below and stops at the first significant departure: level
+    ``i`` departs when its variance is below the curve fitted to the levels under it by
+    more than ``nsigma`` standard errors (a drop of the variance/mean ratio; its own SE,
+    inflated by the fit's excess scatter, combined with the prediction's), or below the
+    highest variance under it by more than ``nsigma`` SE (a drop of the variance itself) --
+    and, in either case, by more than ``rel_floor`` (2 %) of it: with millions of pixels the
+    SEs are tiny and a sensor's own percent-level wiggles of the curve are not a turnoff.
+    A departure counts when at least half of the next ``confirm`` levels depart too (or it
+    is the last level), so a single noisy level low on the curve does not end it. Whatever
+    lies beyond the first departure -- an outlier row above the turnover, an upturn after
+    the drop, a second hump -- cannot move the turnoff. A smooth brighter-fatter
+    flattening is absorbed by the parabola. Inputs must be sorted by signal (ties keep
+    their order: duplicated rows are two measurements) and free of clipped or empty levels.
     """
     s = np.asarray(signal, float)
     v = np.asarray(var, float)
     e = np.maximum(np.asarray(var_se, float), 1e-300)
     n = s.size
-    while n > min_levels:
-        predict, chi2 = _curve_below(s[: n - 1], v[: n - 1], e[: n - 1])
-        pred, pred_se = predict(s[n - 1])
+    for i in range(min_levels, n):
+        predict, chi2 = _curve_below(s[:i], v[:i], e[:i])
         scale = math.sqrt(max(chi2, 1.0))
-        z = (v[n - 1] - pred) / math.hypot(e[n - 1] * scale, pred_se)
-        if z >= -nsigma:
-            break
-        n -= 1
+        top = int(np.argmax(v[:i]))
+
+        def departs(j: int) -> bool:
+            pred, pred_se = predict(s[j])
+            below_curve = v[j] - pred < -max(nsigma * math.hypot(e[j] * scale, pred_se), rel_floor * pred)
+            below_top = v[j] < v[top] - max(nsigma * scale * math.hypot(e[j], e[top]), rel_floor * v[top])
+            return below_curve or below_top
+
+        if departs(i):
+            after = range(i + 1, min(i + 1 + confirm, n))
+            if len(after) == 0 or 2 * sum(departs(j) for j in after) >= len(after):
+                return i
     return n
+
+
+def index_variance_drop(var) -> int:
+    """LSST-style turnoff (the photon-transfer "pivot" of LSST's calibration pipeline, as
+    commonly described): in signal order, the level before the first level whose variance
+    is lower than the level below it; the last level when the variance never drops."""
+    v = np.asarray(var, float)
+    if v.size == 0:
+        return -1
+    drops = np.flatnonzero(np.diff(v) < 0)
+    return int(drops[0]) if drops.size else v.size - 1
 
 
 # ----------------------------------------------------------------- saturation bracket

@@ -81,6 +81,7 @@ def input_files(args) -> list:
 
 def run(args) -> int:
     from ares.analysis.decompose import COMPONENT_NAMES, UNITS_NOTE, StackAnalysis
+    from ares.analysis.physical import variances_in_range
 
     files = input_files(args)
     k = args.gain.dn_per_e(args.adc_lsb_uv) if args.gain is not None else None
@@ -99,7 +100,7 @@ def run(args) -> int:
         for k, e in extra.items():
             out[k] = e.to_dict()
         if args.dark:
-            out["_flat_stack"] = {k: e.to_dict() for k, e in an.flat_stack_components.items()}
+            out["_flat_stack"] = {k: e.to_dict() for k, e in variances_in_range(an.flat_stack_components).items()}
         out["_meta"] = {
             "units": UNITS_NOTE,
             "frames": {"dark" if args.dark else "input": an.dark.n_frames, **({"flat": main.n_frames} if args.dark else {})},

@@ -251,7 +251,7 @@ def format_table(an: EmvaAnalysis) -> str:
     lines += ["", "ARES photon transfer (Release 4.0 pair variance, weighted fits):"]
     rows = [("gain (WLS)", p.gain_dn_per_e), ("gain (origin)", p.gain_origin_dn_per_e),
             ("gain (Astier)", p.gain_astier_dn_per_e), ("1/gain", p.gain_e_per_dn),
-            ("read noise", p.read_noise_e), ("read noise", p.read_noise_dn)]
+            ("read noise sigma_d", p.read_noise_e), ("dark noise sig_y.d", p.read_noise_dn)]
     rows += [(f"full well {k}", v) for k, v in p.full_well_e.items()]
     rows += [("dynamic range", p.dynamic_range_db), ("linearity err", p.linearity_error_pct)]
     for name, e in rows:

@@ -236,8 +236,9 @@ def print_summary(outcome, scan, seconds: float, out=None, resumed: int = 0) -> 
         meta = _read_meta(Path(outcome.run_dir))
         if meta.get("report_error"):
             out.write(f"report: not written ({meta['report_error']})\n")
-    if outcome.status == "done" and scan.limits and not outcome.limit_failures:
-        out.write(f"all {len(scan.limits)} limit(s) passed\n")
+    from ares.scan.results import limits_verdict
+
+    out.write(limits_verdict(outcome.status, len(scan.limits), outcome.limit_failures)["text"] + "\n")
 
 
 def print_precision(rep: dict, out=None) -> None:
@@ -460,11 +461,13 @@ def _main_thread() -> bool:
 
 
 def _json_summary(outcome, scan, seconds) -> dict:
+    from ares.scan.results import limits_verdict
     from ares.scan.rundir import _clean
 
     return _clean({"scan": scan.name, "status": outcome.status, "run_dir": str(outcome.run_dir),
                    "seed": outcome.seed, "stages": len(outcome.stages), "seconds": seconds,
-                   "scan_results": outcome.scan_results, "limit_failures": outcome.limit_failures})
+                   "scan_results": outcome.scan_results, "limit_failures": outcome.limit_failures,
+                   "limits": limits_verdict(outcome.status, len(scan.limits), outcome.limit_failures)})
 
 
 def run(args) -> int:

@@ -46,7 +46,8 @@ def summarize(scan_results: dict, thresholds: tuple = ()) -> dict:
             # the figures as the engine states them: the digits their SE supports
             out["gain_text"] = (f"system gain K = {_fmt(ptc.get('gain_dn_per_e'))}, "
                                 f"1/K = {_fmt(ptc.get('gain_e_per_dn'))}")
-        for key in ("conversion_gain_uv_per_e", "gain_dn_per_e", "read_noise_e", "full_well_e", "dynamic_range_db"):
+        for key in ("conversion_gain_uv_per_e", "gain_dn_per_e", "read_noise_e", "full_well_e", "turnoff_dn",
+                    "dynamic_range_db"):
             label = labels.PTC_LABELS[key]
             text = _fmt(ptc.get(key))
             if text:
@@ -340,10 +341,13 @@ class RunnerJob:
         elif isinstance(e, ev.Ending):
             emit(G.Ending(e.status, e.stages_completed))
         elif isinstance(e, ev.Done):
+            from ares.scan.results import limits_verdict
+
             summary = summarize(e.scan_results or {}, self.scan.defects)
-            summary["limits_set"] = len(self.scan.limits)
+            # the run's limits line, as the terminal and run.json state it
+            summary["limits_text"] = limits_verdict(e.status, len(self.scan.limits), e.limit_failures)["text"]
             if e.status == "done":
-                emit(G.Done(e.run_dir, summary, tuple(e.limit_failures)))
+                emit(G.Done(e.run_dir, summary, tuple(e.limit_failures), summary["limits_text"]))
             else:
                 kept = f"; {e.stages_completed} completed stage(s) kept" + (f" in {e.run_dir}" if e.run_dir else "")
                 emit(G.Stopped(f"Scan {e.status}{kept}.", aborted=(e.status == "aborted"), run_dir=e.run_dir,

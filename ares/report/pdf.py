@@ -66,11 +66,11 @@ def title_page(run, kf: dict) -> "plots.Figure":
     for note in run.notes:
         fig.text(0.06, y, note, fontsize=8.5, va="top", color="C3")
         y -= 0.018
-    lf = run.limit_failures
-    if run.scan_results is not None:
-        msg = "limits: all passed" if not lf else f"limits: {len(lf)} failed -- " + "; ".join(lf)
-        for line in textwrap.wrap(msg, 115)[:4]:
-            fig.text(0.06, y, line, fontsize=9, va="top", color="C3" if lf else "C2")
+    lim = run.limits
+    if run.scan_results is not None or lim["state"] == "not checked":
+        color = {"failed": "C3", "passed": "C2"}.get(lim["state"], "0.35")  # green only for limits checked and passed
+        for line in textwrap.wrap(lim["text"], 115)[:4]:
+            fig.text(0.06, y, line, fontsize=9, va="top", color=color)
             y -= 0.017
         y -= 0.003
     na = [f"{k} ({a.get('note') or a.get('status')})" for k, a in run.analyses.items()

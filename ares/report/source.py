@@ -52,6 +52,20 @@ class Run:
     def limit_failures(self) -> list:
         return list((self.scan_results or {}).get("limit_failures") or [])
 
+    @property
+    def limits(self) -> dict:
+        """The run's limits verdict (``ares.scan.results.limits_verdict``); a run recorded
+        before it was written says what it can: failures, not checked, or passed/none set."""
+        rec = (self.scan_results or {}).get("limits")
+        if isinstance(rec, dict) and rec.get("text"):
+            return rec
+        lf = self.limit_failures
+        if lf:
+            return {"state": "failed", "text": f"limits: {len(lf)} failed -- " + "; ".join(lf)}
+        if self.status != "done":
+            return {"state": "not checked", "text": f"limits: not checked (the run is {self.status})"}
+        return {"state": "passed", "text": "limits: none failed (the run predates recording whether any were set)"}
+
     def description(self) -> str:
         """The scan XML's <description> ("" if none or unreadable)."""
         try:

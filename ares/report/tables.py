@@ -363,8 +363,8 @@ def compute_key_figures(run, groups: list[PtcGroup] | None = None) -> dict:
         if res is not None:
             kf["gain_origin_dn_per_e"] = _entry("K, EMVA 1288 origin fit", res.gain_origin_dn_per_e, "PTC recomputed")
             kf["gain_astier_dn_per_e"] = _entry("K, Astier 2019 fit", res.gain_astier_dn_per_e, "PTC recomputed")
-        kf["read_noise_e"] = _entry("read noise", pick("read_noise_e", res and res.read_noise_e), src)
-        kf["read_noise_dn"] = _entry("read noise (output)", pick("read_noise_dn", res and res.read_noise_dn), src)
+        for key in ("read_noise_e", "read_noise_dn"):  # distinct names: with / without quantization noise
+            kf[key] = _entry(labels.PTC_LABELS[key], pick(key, res and getattr(res, key)), src)
         kf["full_well_e"] = _entry("full well (charge capacity)", pick("full_well_e", res and res.full_well), src)
         fwd = stored.get("full_well_definitions") if have_stored else None
         fw = {k: est(v) for k, v in fwd.items()} if fwd else (res.full_well_e if res is not None else {})

@@ -289,6 +289,22 @@ def names_quantity(key: str, quantity: str) -> bool:
     return all(part in it for part in q[:-1])
 
 
+def limits_verdict(status: str, n_limits: int, fails) -> dict:
+    """What the run says about its limits, the same on every surface (terminal, run JSON,
+    report): ``state`` is "none set" (the scan sets none), "not checked" (the run did not
+    finish: nothing was checked), "failed" or "passed"; ``text`` the one line shown."""
+    fails = list(fails or [])
+    if n_limits == 0:
+        state, text = "none set", "limits: none set (the scan sets no limits)"
+    elif fails:
+        state, text = "failed", f"limits: {len(fails)} of {n_limits} failed -- " + "; ".join(fails)
+    elif status != "done":
+        state, text = "not checked", f"limits: not checked (the run is {status}; {n_limits} limit(s) set)"
+    else:
+        state, text = "passed", f"limits: all {n_limits} passed"
+    return {"state": state, "text": text, "n_limits": n_limits}
+
+
 def check_limits(scan, results: dict) -> list[str]:
     """One sentence per failed limit; a quantity no analysis produced fails too."""
     flat = flatten(results)

@@ -327,16 +327,19 @@ class RunWriter:
 
     # -- end ------------------------------------------------------------------
     def finish(self, status: str, message: str = "", scan_results: dict | None = None,
-               limit_failures: list | None = None, reports: str | None = None) -> None:
+               limit_failures: list | None = None, reports: str | None = None,
+               limits: dict | None = None) -> None:
         """The run's end in run.json; ``reports="writing"`` when report files are still to
         come (``ares.runstate``: the run reads as done only once they are complete)."""
         self.stop_heartbeat()
         if reports is not None:
             self.meta["reports"] = reports
         if scan_results is not None or limit_failures:
+            doc = {"analyses": scan_results or {}, "limit_failures": list(limit_failures or [])}
+            if limits is not None:  # ares.scan.results.limits_verdict: none set / not checked / failed / passed
+                doc["limits"] = limits
             with storage(self.dir / "scan_results.json"):
-                dump_json(self.dir / "scan_results.json",
-                          {"analyses": scan_results or {}, "limit_failures": list(limit_failures or [])})
+                dump_json(self.dir / "scan_results.json", doc)
         self.meta.update(status=status, message=message, finished=time.strftime("%Y-%m-%dT%H:%M:%S%z"))
         self._write_meta()
 

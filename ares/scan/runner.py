@@ -33,7 +33,7 @@ from ares.scan.apply import apply_settings, as_fields
 from ares.scan.commit import StageCommitter
 from ares.scan.defect_mask import load_declared_mask, mask_from_dark, scan_thresholds
 from ares.scan.preflight import KEEP_FOR_MASK_BYTES, check_run
-from ares.scan.results import StackSet, analyze_stage, check_limits, scan_level_results, views
+from ares.scan.results import StackSet, analyze_stage, check_limits, limits_verdict, scan_level_results, views
 from ares.runstate import is_storage_error, storage_sentence
 from ares.scan.rundir import RunRecord, RunWriter
 from ares.scan.stages import Stage, estimate_seconds, frame_seconds
@@ -396,7 +396,8 @@ class Runner:
                 fails = check_limits(scan, scan_results)
         if writer:  # the reports to come are part of the run: "done" reads so only once they are written
             writer.finish(status, message or "; ".join(fails), scan_results, fails,
-                          reports="writing" if completed and self._report_formats() else None)
+                          reports="writing" if completed and self._report_formats() else None,
+                          limits=limits_verdict(status, len(scan.limits), fails))
         self.state = status
         self._emit(ev.Done(status, run_dir, len(completed), scan_results, tuple(fails)))
         return RunOutcome(status, writer.dir if writer else None, completed, scan_results, fails, message=message,

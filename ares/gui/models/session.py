@@ -233,15 +233,13 @@ class SessionModel:
             if ev.limit_failures:
                 message = (f"Scan finished; {len(ev.limit_failures)} limit(s) failed: "
                            + "; ".join(ev.limit_failures) + ".")
-            n = int(ev.summary.get("limits_set", -1)) if isinstance(ev.summary, dict) else -1
-            limits = (message.removeprefix("Scan finished; ") if ev.limit_failures
-                      else "none set" if n == 0 else f"all {n} passed" if n > 0 else "all passed")
-            self._results({"limits": limits})
+            self._results({"limits": ev.limits.removeprefix("limits: ") if ev.limits
+                           else message.removeprefix("Scan finished; ") if ev.limit_failures else "not recorded"})
             self.progress.update(state=P.DONE, fraction=1.0, seconds_remaining=0.0, message=message)
         elif isinstance(ev, Stopped):
             self._end_of_run()
             self._summary(ev.summary)  # the stopped run's own figures (or their reasons), never another's
-            self._results({"limits": "not checked (the run was stopped)"})
+            self._results({"limits": str(ev.summary.get("limits_text", "limits: not checked")).removeprefix("limits: ")})
             if ev.run_dir:
                 self.info.update(run_directory=ev.run_dir)
             self.progress.update(state=P.STOPPED, seconds_remaining=None,

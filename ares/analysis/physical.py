@@ -1,0 +1,55 @@
+"""The physical-range guard: a figure outside its physical range is never verdict "ok".
+
+Every estimator that makes a figure with a physical bound (a variance or a dark current is
+>= 0; an SNR is <= sqrt of the full well in e-) passes it through ``in_range`` where the
+Estimate is made, so every surface (CLI, JSON, CSV, PDF, GUI) shows the same verdict:
+
+- inside the range: unchanged;
+- outside it but within ``NSIGMA`` standard errors of the bound: only a limit is known --
+  an upper limit ``value + NSIGMA * se`` (for a minimum) or a lower limit (for a maximum),
+  with the reason;
+- further outside (or outside without an SE): not available, with the reason (the model or
+  the data do not hold: e.g. correlated noise, drift, the quantization floor).
+"""
+
+from __future__ import annotations
+
+import math
+
+from ares.analysis.estimate import Estimate
+
+NSIGMA = 3.0
+
+
+def in_range(e: Estimate, minimum: float | None = None, maximum: float | None = None, what: str = "") -> Estimate:
+    """``e`` judged against ``[minimum, maximum]`` (see the module docstring)."""
+    if not e.available or e.bound:
+        return e
+    name = what or "the value"
+    se = e.se if math.isfinite(e.se) and e.se > 0 else 0.0
+    if minimum is not None and e.value < minimum:
+        z = (minimum - e.value) / se if se else math.inf
+        if z <= NSIGMA:
+            return Estimate.limit(e.value + NSIGMA * se, "upper", e.unit,
+                                  f"{name} {e.value:.3g} is below its physical minimum {minimum:g} by {z:.2g} SE: "
+                                  f"only an upper limit (value + {NSIGMA:g} SE)")
+        return Estimate.na(f"{name} {e.value:.3g} {e.unit} is {'far' if not se else f'{z:.3g} SE'} below its "
+                           f"physical minimum {minimum:g}: the model does not hold for these data", e.unit)
+    if maximum is not None and e.value > maximum:
+        z = (e.value - maximum) / se if se else math.inf
+        if z <= NSIGMA:
+            return Estimate.limit(e.value - NSIGMA * se, "lower", e.unit,
+                                  f"{name} {e.value:.3g} is above its physical maximum {maximum:.4g} by {z:.2g} SE: "
+                                  f"only a lower limit (value - {NSIGMA:g} SE)")
+        return Estimate.na(f"{name} {e.value:.3g} {e.unit} is {'far' if not se else f'{z:.3g} SE'} above its "
+                           f"physical maximum {maximum:.4g}: the model does not hold for these data", e.unit)
+    return e
+
+
+VARIANCE_COMPONENTS = ("Cs", "Ct", "Rs", "Rt", "Ps", "Pt", "frame_global")
+
+
+def variances_in_range(components: dict[str, Estimate]) -> dict[str, Estimate]:
+    """The variance components of a decomposition (DN^2) judged against >= 0."""
+    return {k: in_range(e, minimum=0.0, what=f"variance {k}") if k in VARIANCE_COMPONENTS else e
+            for k, e in components.items()}

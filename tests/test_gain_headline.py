@@ -1,0 +1,45 @@
+"""The headline conversion gain (issue 34): a fit that fails its own consistency check is
+never the headline, and the result says which estimator is the headline and why."""
+
+from __future__ import annotations
+
+import csv
+import json
+
+import numpy as np
+
+from ares.cli import main
+
+
+def test_astier_failing_its_check_is_not_the_headline(tmp_path, capsys):
+    # a brighter-fatter curve with a 1 % wiggle and tiny errors: the line fails, the
+    # curvature term is significant, and the Astier fit fails its residual check too
+    s = np.geomspace(50, 8000, 30)
+    v = 4 + 0.25 * s * (1 - 2.5e-5 * s) * (1 + 0.01 * np.sin(s / 300.0))
+    path = tmp_path / "bf.csv"
+    with open(path, "w", newline="") as f:
+        w = csv.writer(f)
+        w.writerow(["mean", "var", "n_pixels", "n_frames"])
+        w.writerows([a, b, 10**6, 16] for a, b in zip(s, v))
+    assert main(["ptc", str(path), "--json"]) == 0
+    d = json.loads(capsys.readouterr().out)
+    gm = d["gain_model"]
+    assert gm["chosen"] == "astier" and gm["astier_p"] < 1e-3  # the model the data prefer fails its check
+    head = d["gain_headline"]
+    assert head["estimator"] == "line" and "fails its own residual check" in head["reason"]
+    assert d["gain_dn_per_e"]["value"] == d["gain_line_dn_per_e"]["value"]
+
+
+def test_headline_named_on_a_clean_line(tmp_path, capsys):
+    s = np.geomspace(50, 8000, 20)
+    rng = np.random.default_rng(2)
+    v = (4 + 0.25 * s) * (1 + 0.003 * rng.standard_normal(s.size))
+    path = tmp_path / "line.csv"
+    with open(path, "w", newline="") as f:
+        w = csv.writer(f)
+        w.writerow(["mean", "var", "n_pixels", "n_frames"])
+        w.writerows([a, b, 10**5, 2] for a, b in zip(s, v))
+    assert main(["ptc", str(path), "--json"]) == 0
+    d = json.loads(capsys.readouterr().out)
+    assert d["gain_headline"]["estimator"] == "line" and d["gain_headline"]["reason"].startswith("linear")
+    assert abs(d["gain_dn_per_e"]["value"] - 0.25) < 4 * d["gain_dn_per_e"]["se"]
