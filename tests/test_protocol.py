@@ -85,7 +85,7 @@ EXPECTED = {
     "limit_nan.xml": (10, "<limit max=...> must be a finite number"),
     "limit_misspelt.xml": (10, "limit on 'read_nosie_e': unknown quantity; did you mean 'read_noise_e'"),
     "limit_analysis_not_listed.xml": (10, "no analysis of this scan produces it (add <analysis name=\"ptc\"/>)"),
-    "limit_wrong_analysis_path.xml": (10, "analysis 'decomposition' does not produce 'read_noise_e' (ptc does)"),
+    "limit_wrong_analysis_path.xml": (10, "analysis 'decomposition' does not produce 'read_noise_e' (ptc, photon_counting does)"),
     "limit_no_analyses.xml": (9, "limit on 'Pt': no analysis of this scan produces it"),
     "limit_bad_path.xml": (10, "<limit quantity=...> must be well formed, got 'ptc..gain'"),
     "defect_unknown_threshold.xml": (9, "unknown defect parameter 'hot_e_per_second'"),

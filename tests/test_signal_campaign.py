@@ -153,7 +153,9 @@ def test_signal_at_a_random_moment_then_resume(seed, how, when, scan, reference,
     meta = json.loads((d / "run.json").read_text())
     status, _ = effective_status(meta)
     missing = [f for f in PROMISED if not (d / f).is_file()]
-    assert (status == "done") == (not missing and meta.get("reports") == "complete"), (status, missing, meta)
+    # done only with every promised file complete (a stopped run writes its reports too)
+    if status == "done":
+        assert not missing and meta.get("reports") == "complete", (status, missing, meta)
     assert not list(d.glob("*.tmp")) or rc == -9
     assert none_left(d), processes_of(d)  # the PDF helper ended with the run, even after SIGKILL
     if status != "done":

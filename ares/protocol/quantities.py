@@ -15,7 +15,8 @@ PRODUCES: dict[str, frozenset[str]] = {
         "read_noise_dn", "full_well_e", "saturation_capacity_e", "dynamic_range_db", "sensitivity_threshold_e",
         "linearity_error_pct", "mean_rel_dev", "qe", "a00_per_e", "ptc_turnoff", "plateau", "bracket",
         "linearity_1pct", "max_variance", "max_code", "saturation_capacity", "low_e", "high_e",
-        "defect_pixels_excluded", "line_chi2_red", "line_p", "astier_chi2_red", "astier_p", "curvature_f_test_p"}),
+        "defect_pixels_excluded", "line_chi2_red", "line_p", "astier_chi2_red", "astier_p", "curvature_f_test_p",
+        "turnoff_dn", "turnoff_e", "emva4_saturation", "lsst_turnoff"}),
     "decomposition": frozenset({
         "G", "Pg", "Cg", "Rg", "Ps", "Cs", "Rs", "Pt", "Ct", "Rt", "o", "q", "delta", "frame_global",
         "masked_pixels"}),
