@@ -1,5 +1,6 @@
 """Every shipped scan, run with few frames on the simulator, leaves a report whose pages
-match what it measured (issue: reports for every scan kind): a dark-current scan has its
+match what it measured, and states every figure the same on every surface (terminal,
+JSON, CSV, HDF5, PDF, the window's models: ``one_truth.check_surfaces``) (issue: reports for every scan kind): a dark-current scan has its
 dark-current pages, a 2-D sweep its maps with axis units, an ADC scan its INL/DNL page, and
 no scan gets photon-transfer pages it did not measure; no page is blank. (emva_4.xml is
 checked in test_emva4_scan.py; emva_reference.xml needs ../shared/data.)"""
@@ -11,6 +12,7 @@ from pathlib import Path
 import pytest
 
 from ares.cli import main
+from one_truth import check_masked_names, check_surfaces
 from pdfrender import ink, render
 from pdftext import page_texts
 
@@ -35,14 +37,16 @@ EXPECT = {
 
 
 @pytest.mark.parametrize("name", sorted(EXPECT))
-def test_report_pages_match_what_the_scan_measured(name, tmp_path):
+def test_report_pages_match_what_the_scan_measured(name, tmp_path, capsys):
     if name == "emva_reference" and not DATA.is_file():
         pytest.skip("the EMVA reference data set is not in ../shared/data/")
     out = tmp_path / "run"
     args = ["run", str(ROOT / "scans" / f"{name}.xml"), "--out", str(out), "--seed", "2", "--quiet"]
     if name != "emva_reference":
         args += ["--frames", "3"]
+    capsys.readouterr()
     assert main(args) in (0, 4)  # 4: a limit failed with so few frames -- the report is still written
+    terminal = capsys.readouterr().out
     pdf = out / "report.pdf"
     assert pdf.is_file(), f"{name}: no report.pdf"
     pages = page_texts(pdf)
@@ -57,3 +61,6 @@ def test_report_pages_match_what_the_scan_measured(name, tmp_path):
         assert ink(png) > 0.002, f"{png.name}: blank page"
     for csv in ("summary.csv", "key_figures.csv", "levels.csv"):
         assert (out / csv).is_file(), csv
+    check_surfaces(name, out, terminal)
+    if name == "photon_transfer":
+        check_masked_names(out)

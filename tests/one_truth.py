@@ -1,5 +1,6 @@
-"""One truth on every surface (issue 34): each shipped scan is run as a user runs it, and
-every figure is read back from what the user sees -- the terminal, scan_results.json,
+"""One truth on every surface (issue 34): each shipped scan is run as a user runs it
+(``test_report_kinds`` runs them and calls ``check_surfaces``), and every figure is read
+back from what the user sees -- the terminal, scan_results.json,
 key_figures.csv, report.h5, the PDF's text and the window's models -- and compared:
 the same value, SE, unit, digits and verdict wherever it appears. A key figure that is
 in the tables but missing from the PDF, or a component the terminal prints that the PDF,
@@ -18,33 +19,15 @@ import re
 from pathlib import Path
 
 import h5py
-import pytest
 
 from ares import labels
 from ares.analysis.estimate import Estimate, component_text, format_dict
-from ares.cli import main
 from pdftext import page_texts
 
-ROOT = Path(__file__).resolve().parents[1]
-DATA = ROOT.parent / "shared" / "data" / "EMVA1288_ReferenceSet_001_CCD_12Bit" / "EMVA1288_Data.txt"
-SCANS = ["photon_transfer", "ptc_exposure", "dark_current", "temperature", "gain", "bias_sweep_2d",
-         "adc_linearity", "lag", "emva_reference"]
 
 
 def _squash(text: str) -> str:
     return re.sub(r"\s+", " ", text)
-
-
-def _run(name: str, tmp: Path, capsys) -> tuple[Path, str]:
-    if name == "emva_reference" and not DATA.is_file():
-        pytest.skip("the EMVA reference data set is not in ../shared/data/")
-    out = tmp / "run"
-    args = ["run", str(ROOT / "scans" / f"{name}.xml"), "--out", str(out), "--seed", "3"]
-    if name != "emva_reference":
-        args += ["--frames", "3"]
-    capsys.readouterr()
-    assert main(args) in (0, 4)
-    return out, capsys.readouterr().out
 
 
 def _terminal_blocks(text: str) -> tuple[dict, dict]:
@@ -116,9 +99,9 @@ def _at(tree: dict, dotted: str):
     return node
 
 
-@pytest.mark.parametrize("name", SCANS)
-def test_every_figure_is_the_same_on_every_surface(name, tmp_path, capsys):
-    run, terminal = _run(name, tmp_path, capsys)
+def check_surfaces(name: str, run: Path, terminal: str) -> None:
+    """Every figure of the run in ``run`` the same on every surface (``terminal``: what
+    ``ares run`` printed on stdout)."""
     res = json.loads((run / "scan_results.json").read_text())["analyses"]
     kf = _key_figures(run)
     pdf = _squash(" ".join(page_texts(run / "report.pdf")))
@@ -194,11 +177,10 @@ def test_every_figure_is_the_same_on_every_surface(name, tmp_path, capsys):
                     (name, c, shown[c], text)
 
 
-def test_masked_and_unmasked_components_carry_distinct_names_everywhere(tmp_path, capsys):
+def check_masked_names(run: Path) -> None:
     """The PDF's noise page showed the all-pixel Ps (86.6 DN^2) under "DSNU" while the
     terminal showed the defect-free 0.0785 DN^2: both are now shown under their own
     headings in the PDF, and components.csv tells them apart by part and description."""
-    run, terminal = _run("photon_transfer", tmp_path, capsys)
     pages = [_squash(t) for t in page_texts(run / "report.pdf")]
     page = next(p for p in pages if "Noise components (ANOVA" in p)
     assert "defects excluded" in page and "all pixels" in page and "defect pixels excluded" in page
