@@ -46,9 +46,9 @@ def _terminal_blocks(text: str) -> tuple[dict, dict]:
             continue
         if block == "ptc":
             label = next((lb for lb in sorted(ptc_labels, key=len, reverse=True)
-                          if line[2:2 + 26].rstrip() == lb), None)
+                          if line[2:].startswith(lb + " ")), None)
             if label:
-                ptc[label] = line[2 + 26:].strip()
+                ptc[label] = line[2 + len(label):].strip()
         elif block == "comps" and not line.startswith("   "):
             m = re.match(r"  (\S+)\s+(.*)$", line)
             if m and m.group(1) in labels.COMPONENTS:

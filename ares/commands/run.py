@@ -200,12 +200,13 @@ def print_summary(outcome, scan, seconds: float, out=None, resumed: int = 0) -> 
         out.write("photon transfer:\n")
         from ares.labels import PTC_FIGURES
 
+        w = max(len(label) for _, label in PTC_FIGURES)  # one column for the longest label
         for key, label in PTC_FIGURES:
-            out.write(f"  {label:<26} {_num(p.get(key))}\n")
+            out.write(f"  {label:<{w}} {_num(p.get(key))}\n")
         for label, key in (("gain model", "gain_model"), ("linearity (Eq. 51)", "linearity_check"),
                            ("saturation", "saturation")):
             if isinstance(p.get(key), dict):
-                out.write(f"  {label:<26} {p[key].get('reason') or p[key].get('note')}\n")
+                out.write(f"  {label:<{w}} {p[key].get('reason') or p[key].get('note')}\n")
     elif isinstance(p, dict):
         out.write(f"photon transfer: {p.get('note', p.get('status'))}\n")
     d = res.get("decomposition")
