@@ -33,7 +33,7 @@ from ares.analysis.estimate import Estimate
 from ares.analysis.levels import LevelStats
 from ares.analysis.median import fast_median
 from ares.analysis.ptc_fit import (AstierFit, GainModel, LineFit, LocalSlopeCheck, choose_gain_model,
-                                   local_slope_check, origin_fit)
+                                   local_slope_check, local_slope_check_text, origin_fit)
 from ares.analysis.ptc_noise import loglog_slopes, noise_model, read_noise, sensitivity_threshold
 from ares.analysis.saturation import (SaturationBracket, index_linearity_turnoff, index_max_code, index_variance_drop,
                                       ptc_turnoff, saturation_bracket)
@@ -89,6 +89,9 @@ class PtcResult:
     turnoff_dn: Estimate = field(default_factory=lambda: Estimate.na("not computed", "DN"))  # headline turnoff
     turnoff_e: Estimate = field(default_factory=lambda: Estimate.na("not computed", "e-"))
     turnoff_definitions_dn: dict[str, Estimate] = field(default_factory=dict)  # published definitions by name
+    # Eq. 51 as written (EMVA 1288 4.0 Linear Section 6.6), shown beside ``linearity_check``
+    # (ARES's variant, option eq51_noise_floor), never replaced by it
+    linearity_check_text: LocalSlopeCheck | None = None
 
     def gain_headline(self) -> dict:
         """Which estimator gives the headline K and why (one sentence)."""
@@ -119,6 +122,10 @@ class PtcResult:
             "gain_headline": self.gain_headline(),
             "linearity_check": {"mean_rel_dev": lin.mean_rel_dev if math.isfinite(lin.mean_rel_dev) else None,
                                 "holds": lin.holds, "note": lin.note} if lin else None,
+            "linearity_check_text": ({"mean_rel_dev": self.linearity_check_text.mean_rel_dev
+                                      if math.isfinite(self.linearity_check_text.mean_rel_dev) else None,
+                                      "holds": self.linearity_check_text.holds,
+                                      "note": self.linearity_check_text.note} if self.linearity_check_text else None),
             "conversion_gain_uv_per_e": self.conversion_gain_uv_per_e.to_dict(),
             "read_noise_dn": self.read_noise_dn.to_dict(), "read_noise_e": self.read_noise_e.to_dict(),
             "read_noise_is_upper_limit": self.read_noise_is_upper_limit,
@@ -454,8 +461,10 @@ def analyze_ptc(bright: Sequence[LevelStats], dark: Sequence[LevelStats], *, exp
     }
     nm, zones = noise_model(good, dark, gain)
     to_dn, to_e, to_defs = _turnoffs(levels, br, gain, clip_limit)
+    s_sat = max((lv.signal for lv in good), default=math.nan)  # the last level on the curve
+    lin_text = local_slope_check_text([lv.signal for lv in good], [lv.variance for lv in good], k_wls.value, s_sat)
     return PtcResult(levels, gain, e_per_dn, cg, k_org, k_ast, gm.astier, gvr, rn_dn, rn_e, upper, sat_i, fw, drn,
-                     drdb, sens, qe, le, snr, nm, zones, br, head, gm, lin, k_wls, to_dn, to_e, to_defs)
+                     drdb, sens, qe, le, snr, nm, zones, br, head, gm, lin, k_wls, to_dn, to_e, to_defs, lin_text)
 
 
 TURNOFF_NOTE = ("PTC turnoff: the last level of the curve followed from below before its first significant "

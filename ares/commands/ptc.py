@@ -121,12 +121,15 @@ def _text(d: dict) -> str:
     out = [f"photon transfer of {d['table']} ({d['levels']} levels)"]
     from ares.labels import PTC_FIGURES
 
+    w = max(len(label) for _, label in PTC_FIGURES)
     for key, label in PTC_FIGURES:
-        out.append(f"  {label:<22} {format_dict(d.get(key), with_reason=True)}")
-    for label, key, field in (("gain model", "gain_model", "reason"), ("linearity (Eq. 51)", "linearity_check", "note"),
+        out.append(f"  {label:<{w}} {format_dict(d.get(key), with_reason=True)}")
+    for label, key, field in (("gain model", "gain_model", "reason"),
+                              ("linearity (Eq. 51)", "linearity_check_text", "note"),
+                              ("linearity (ARES option)", "linearity_check", "note"),
                               ("saturation", "saturation", "reason")):
         if isinstance(d.get(key), dict):
-            out.append(f"  {label:<22} {d[key][field]}")
+            out.append(f"  {label:<{w}} {d[key][field]}")
     for n in d.get("notes", []):
         out.append(f"  note: {n}")
     dropped = [s for s in d["level_status"] if s["status"] == "excluded"]

@@ -203,8 +203,8 @@ def print_summary(outcome, scan, seconds: float, out=None, resumed: int = 0) -> 
         w = max(len(label) for _, label in PTC_FIGURES)  # one column for the longest label
         for key, label in PTC_FIGURES:
             out.write(f"  {label:<{w}} {_num(p.get(key))}\n")
-        for label, key in (("gain model", "gain_model"), ("linearity (Eq. 51)", "linearity_check"),
-                           ("saturation", "saturation")):
+        for label, key in (("gain model", "gain_model"), ("linearity (Eq. 51)", "linearity_check_text"),
+                           ("linearity (ARES option)", "linearity_check"), ("saturation", "saturation")):
             if isinstance(p.get(key), dict):
                 out.write(f"  {label:<{w}} {p[key].get('reason') or p[key].get('note')}\n")
     elif isinstance(p, dict):
