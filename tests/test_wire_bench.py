@@ -233,15 +233,15 @@ def test_watchdog_ends_a_trickling_frame():
     from ares.hardware.emulators.usb_device import EmulatedGrabber, EmulatedUsbBackend
     from ares.hardware.usb import UsbFrameSource
 
-    class Trickle(EmulatedGrabber):
-        def bulk_read(self, endpoint, size):
+    class Trickle(EmulatedGrabber):  # a full-speed device: 64-byte packets
+        def bulk_read(self, endpoint, size, timeout_ms=None):
             time.sleep(0.01)
-            return super().bulk_read(endpoint, min(size, 64))
+            return super().bulk_read(endpoint, min(size, 64), timeout_ms)
 
     sy = load_system(WIRE)
     cfg = dataclasses.replace(sy.usb_grabber, watchdog_ms=100, chunk_bytes=64)
     dev = build_bench(load_system(ROOT / "protocols" / "sim_sensor.xml"), seed=1)
-    src = UsbFrameSource.open(cfg, (480, 640), 12, backend=EmulatedUsbBackend([Trickle(dev.frames, cfg)]))
+    src = UsbFrameSource.open(cfg, (480, 640), 12, backend=EmulatedUsbBackend([Trickle(dev.frames, cfg, max_packet=64)]))
     with pytest.raises(HardwareError, match=r"grabber.*watchdog: frame 0 not complete within 100 ms"):
         next(src.grab(1))
 

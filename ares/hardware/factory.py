@@ -78,7 +78,7 @@ def build_bench(system, *, seed: int | None = None, faults: dict | None = None) 
 
 
 def build_real_bench(system) -> Bench:
-    from ares.hardware.i2c import I2CRegisterBus
+    from ares.hardware.i2c import open_i2c_bus
     from ares.hardware.serial_instruments import SerialChamber, SerialLightSource
     from ares.hardware.usb import UsbFrameSource
 
@@ -87,10 +87,11 @@ def build_real_bench(system) -> Bench:
     if system.usb_grabber is None:
         raise InputError(f"system '{system.name}' declares no <usb_grabber> frame source")
     b, s = system.buses[0], system.sensor
-    bus = I2CRegisterBus(b.bus, b.address, system.registers.address_bits, system.registers.value_bits, name=b.name,
-                         retries=b.retries, verify=b.verify, value_endian=b.value_endian)
+    bus = open_i2c_bus(b, system.registers)
     opened = [bus]
     try:
+        if b.readback != "image_row":  # an image-row sensor is connected once its frames flow
+            bus.connect()
         regs = RegisterFile(system.registers, bus)
         g = system.usb_grabber
         frames = UsbFrameSource.open(g, (s.rows, s.cols), s.adc_bits, channels=s.adc_channels,
@@ -101,6 +102,7 @@ def build_real_bench(system) -> Bench:
 
             enable = (lambda on: regs.set(b.readback_field, 1 if on else 0)) if b.readback_field else None
             bus.readback = ImageRowReadback(bus, frames, b.readback_row, b.readback_start, enable)
+            bus.connect()
         light = SerialLightSource.open(system.light_source) if system.light_source else None
         opened.append(light)
         chamber = SerialChamber.open(system.chamber) if system.chamber else None

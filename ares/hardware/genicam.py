@@ -5,7 +5,9 @@ is a producer shipped inside the ``genicam`` package, e.g. its simulated camera
 ``genicam:viky.cti``) and the camera (id, serial number or index). ``<set node value>``
 writes features at open (pixel format, size); ``<feature field node scale>`` makes a
 feature a register field of the system (``feature_map``), so scans set exposure or gain
-on a camera exactly as on an I2C sensor: through ``RegisterFile`` over ``FeatureBus``.
+on a camera exactly as on an I2C sensor: through ``FeatureFile`` (a ``RegisterFile`` that
+passes the feature's own typed value: floats and negative values intact, checked against
+the node's type, limits and increment first -- ``ares.hardware.genicam_features``).
 
 Buffers are converted to uint8/uint16 frames: Mono8/10/12/14/16 and the packed
 Mono10p/12p/14p (``ares.hardware.pixels``). A gap in the buffer's frame id is a dropped
@@ -95,12 +97,14 @@ class GenICamCamera:
             raise InputError(f"{self.name}: has no GenICam feature '{name}'") from None
 
     def write(self, name: str, value) -> None:
+        """Set feature ``name``, checked first against its type and limits
+        (``ares.hardware.genicam_features.coerce``)."""
+        from ares.hardware.genicam_features import coerce
+
         n = self.node(name)
+        v = coerce(self.name, name, n, value)
         try:
-            cur = n.value
-            n.value = type(cur)(value) if not isinstance(cur, str) else str(value)
-        except InputError:
-            raise
+            n.value = v
         except Exception as exc:
             raise HardwareError(f"{self.name}: cannot set feature {name} to {value} ({exc})") from None
 
@@ -219,13 +223,13 @@ def build_genicam_bench(system):
     """A ``Bench`` for a ``<genicam>`` system: the camera's features as register fields,
     its buffers as frames; serial instruments as declared."""
     from ares.hardware.interfaces import Bench
-    from ares.hardware.registers import RegisterFile
+    from ares.hardware.genicam_features import FeatureFile
     from ares.hardware.serial_instruments import SerialChamber, SerialLightSource
 
     cam = GenICamCamera(system.genicam)
     opened = [cam]
     try:
-        regs = RegisterFile(system.registers, FeatureBus(cam))
+        regs = FeatureFile(system.registers, FeatureBus(cam))
         frames = GenICamFrameSource(cam, (system.sensor.rows, system.sensor.cols), system.sensor.adc_bits)
         light = SerialLightSource.open(system.light_source) if system.light_source else None
         opened.append(light)

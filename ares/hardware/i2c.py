@@ -8,7 +8,14 @@ a timeout is retried ``retries`` times (the XML's ``<i2c retries>``) after a pau
 doubles from ``BACKOFF_S``; then one ``DeviceGone`` names bus, device and register
 (``RegisterFile`` adds the field). An adapter that is gone (ENODEV, ENOENT, EBADF) is not
 retried.
-With ``verify`` every write is read back and compared.
+With ``verify`` every write is read back and compared, except registers declared
+``volatile`` (self-clearing triggers, status bits: the device changes them).
+
+``connect()`` (at open and after a reconnect): the adapter's clock where the kernel shows it
+(device tree ``clock-frequency`` under sysfs) must not exceed the declared ``speed_hz`` (the
+kernel sets the bus speed; user space cannot); the chip-ID register must read the declared
+value (a wrong or absent chip is refused before anything is written to it); then the
+``<init>`` sequence: power-up writes (not verified: resets clear themselves) and waits.
 
 Sensors without I2C read (``readback="image_row"``): reads come from an image row the
 sensor fills with its registers (``ImageRowReadback``).
@@ -28,13 +35,17 @@ BACKOFF_S = 0.001  # the first pause before a retry, doubled each attempt
 class I2CRegisterBus:
     def __init__(self, bus: int, address: int, address_bits: int = 16, value_bits: int = 8, *,
                  name: str = "i2c", smbus=None, retries: int = 2, verify: bool = False, value_endian: str = "big",
-                 sleep=time.sleep):
+                 sleep=time.sleep, volatile=frozenset(), speed_hz: int | None = None, chip_id=None, init=(),
+                 sysfs: str = "/sys/bus/i2c/devices"):
         self.name = name
         self.bus_number, self.address = bus, address
         self.abytes, self.vbytes = address_bits // 8, value_bits // 8
         self.value_bits, self.address_bits = value_bits, address_bits
         self.retries, self.verify, self.value_endian = int(retries), bool(verify), value_endian
         self._sleep = sleep
+        self.volatile = frozenset(volatile)  # register addresses not verified by read-back
+        self.speed_hz, self.chip_id, self.init, self.sysfs = speed_hz, chip_id, tuple(init), sysfs
+        self.adapter_hz: int | None = None  # the adapter's clock, when the kernel shows it
         self.readback = None  # ImageRowReadback for sensors without I2C read
         self.retried = 0  # transactions that needed a retry (a flaky bus shows here)
         self._given = smbus  # an emulated adapter (tests) is reopened as itself
@@ -59,6 +70,35 @@ class I2CRegisterBus:
             self.close()
         self.smbus = self._open()
         self._transfer(0, "reconnect", i2c_msg.write(self.address, bytes(self.abytes)))  # set the pointer: an ACK
+        self.connect()  # a replugged sensor powered up again: its init again
+
+    def connect(self) -> None:
+        """Speed check, chip-ID check and the ``<init>`` sequence (module docstring)."""
+        import os
+
+        path = os.path.join(self.sysfs, f"i2c-{self.bus_number}", "of_node", "clock-frequency")
+        self.adapter_hz = None
+        if self._given is None:  # a kernel adapter (an emulated one has no sysfs node)
+            try:
+                with open(path, "rb") as fh:
+                    self.adapter_hz = int.from_bytes(fh.read(4), "big")
+            except OSError:  # no device tree node (x86, USB adapters): the speed cannot be read
+                pass
+        if self.speed_hz and self.adapter_hz and self.adapter_hz > self.speed_hz:
+            raise HardwareError(f"I2C bus {self.bus_number} ('{self.name}') runs at {self.adapter_hz} Hz (its "
+                                f"clock-frequency) but the system XML declares speed_hz={self.speed_hz} for "
+                                f"device 0x{self.address:02x}: slow the adapter down in the device tree")
+        if self.chip_id is not None:
+            reg, want = self.chip_id
+            got = self.read(reg)
+            if got != want:
+                raise HardwareError(f"{self._where(reg)}: chip ID reads 0x{got:x} but the system XML expects "
+                                    f"0x{want:x} (a different sensor, or none, at this address)")
+        for kind, a, v in self.init:
+            if kind == "wait":
+                self._sleep(a)
+            else:
+                self.write(a, v, verify=False)
 
     def _where(self, reg: int) -> str:
         return (f"I2C device 0x{self.address:02x} on bus {self.bus_number} ('{self.name}'), "
@@ -97,7 +137,7 @@ class I2CRegisterBus:
         self._transfer(address, "read", w, r)
         return int.from_bytes(bytes(r), self.value_endian)
 
-    def write(self, address: int, value: int) -> None:
+    def write(self, address: int, value: int, verify: bool | None = None) -> None:
         from smbus2 import i2c_msg
 
         self._check(address)
@@ -108,7 +148,7 @@ class I2CRegisterBus:
         self._transfer(address, "write", msg)
         if self.readback is not None:
             self.readback.written(address, value)
-        elif self.verify:
+        elif (self.verify if verify is None else verify) and address not in self.volatile:
             got = self.read(address)
             if got != value:
                 raise HardwareError(f"{self._where(address)}: wrote 0x{value:x} but read back 0x{got:x} "
@@ -118,6 +158,15 @@ class I2CRegisterBus:
         close = getattr(self.smbus, "close", None)
         if close:
             close()
+
+
+def open_i2c_bus(b, regmap, smbus=None) -> I2CRegisterBus:
+    """The sensor's bus from its ``<i2c>`` declaration and register map (volatile fields'
+    addresses are not verified), not yet connected (``connect()``)."""
+    volatile = {f.address + k for f in regmap.fields if f.volatile for k in range(f.count)}
+    return I2CRegisterBus(b.bus, b.address, regmap.address_bits, regmap.value_bits, name=b.name, smbus=smbus,
+                          retries=b.retries, verify=b.verify, value_endian=b.value_endian, volatile=volatile,
+                          speed_hz=b.speed_hz, chip_id=b.chip_id, init=b.init)
 
 
 class ImageRowReadback:

@@ -24,6 +24,8 @@ class LineProtocol:
     reply_terminator: str = "\n"  # ends each reply line
     error: str = r"ERR\s*(?P<text>.*)"  # a reply matching this is the instrument refusing
     commands: tuple[Command, ...] = ()
+    echo: bool = False  # the instrument sends each command line back before its reply
+    retries: int = 0  # further attempts after a garbled or missing reply (never after an error reply)
 
     def command(self, name: str) -> Command | None:
         return next((c for c in self.commands if c.name == name), None)

@@ -41,6 +41,7 @@ class Field:
     maximum: float | None = None  # physical
     default: int = 0  # raw
     description: str = ""
+    volatile: bool = False  # the device changes it (self-clearing, status): a write is not verified by read-back
 
     @property
     def width(self) -> int:

@@ -16,9 +16,14 @@ The port may be a device (``/dev/ttyUSB0``) or any pyserial URL (``socket://``,
 ``rfc2217://``, ``loop://``, and ``aresemu://NAME`` for ARES's instrument emulators).
 Values are range-checked against the XML's min/max before anything is sent. The input
 buffer is flushed before every command, so a reply that came after its command timed out
-cannot answer the next one. A missing
-reply (timeout) is ``DeviceGone``; a reply matching the error pattern is a
-``HardwareError`` quoting it, and so is a reply the command's pattern does not match.
+cannot answer the next one. ``<protocol echo="true">``: the instrument sends the command
+line back first; it must come back unchanged. A garbled reply (bytes that are not printable
+ASCII, a bad echo, a reply the command's pattern does not match) or none at all is tried
+again ``retries`` times (``<protocol retries>``, default 0); a reply matching the error
+pattern is the instrument refusing (``HardwareError`` quoting it, never retried).
+A silent instrument (timeout, the port still open) is a ``HardwareError``: reopening the
+port would not help. A port that is gone (an OS error on write or read: an unplugged USB
+adapter, a closed pty) is ``DeviceGone``: the recovery reopens that port.
 Every wait (light settle, chamber settle and soak) is bounded by the XML's timeouts and
 cut short within 0.1 s by the run's stop/abort request (``ares.hardware.waits``).
 """
@@ -71,25 +76,56 @@ class SerialInstrument:
         read_until = getattr(self.port, "read_until", None)
         return read_until(term) if read_until is not None else self.port.readline()
 
-    def query(self, command: str) -> str:
+    def _exchange(self, command: str) -> str | None:
+        """One attempt: flush, send, (echo,) reply line. None: no whole line in time."""
         p = self.protocol
+        term = p.reply_terminator.encode("ascii")
         try:
             flush = getattr(self.port, "reset_input_buffer", None)
             if flush is not None:  # a late reply to an earlier command must not answer this one
                 flush()
             self.port.write((command + p.terminator).encode("ascii"))
+            if p.echo:
+                echo = self._line()
+                if not echo.endswith(term):
+                    return None
+                if _text(echo) != command:
+                    raise _Garbled(f"echo '{_text(echo)}' of '{command}' is not the command (garbled)")
             line = self._line()
         except OSError as exc:
             raise DeviceGone(f"{self.name} on {self.cfg.port}: port error on '{command}' ({exc})", self.ROLE) from None
-        if not line.endswith(p.reply_terminator.encode("ascii")):
-            raise DeviceGone(f"{self.name} on {self.cfg.port}: no reply to '{command}' within {self.cfg.timeout_s:g} s",
-                             self.ROLE)
-        reply = line.decode("ascii", "replace").strip()
-        m = re.fullmatch(p.error, reply)
-        if m:
-            text = m.groupdict().get("text") or reply
-            raise HardwareError(f"{self.name} on {self.cfg.port}: refused '{command}': {text.strip()}")
-        return reply
+        return line.decode("ascii", "replace").strip() if line.endswith(term) else _garbled_check(line)
+
+    def query(self, command: str, pattern: str | None = None):
+        """Send ``command`` and return its reply (with ``pattern``: the match object),
+        retrying a garbled or missing reply ``retries`` times."""
+        p = self.protocol
+        self.retried = getattr(self, "retried", 0)
+        for attempt in range(p.retries + 1):
+            try:
+                reply = self._exchange(command)
+                if reply is None:
+                    why = (f"no reply to '{command}' within {self.cfg.timeout_s:g} s (timeout: the instrument is "
+                           "silent, its port open)")
+                    continue
+                _printable(reply, command)
+                m = re.fullmatch(p.error, reply)
+                if m:
+                    text = m.groupdict().get("text") or reply
+                    raise HardwareError(f"{self.name} on {self.cfg.port}: refused '{command}': {text.strip()}")
+                if pattern is None:
+                    return reply
+                m = re.fullmatch(pattern, reply)
+                if m is not None:
+                    return m
+                why = f"reply '{reply}' to '{command}' does not match '{pattern}' (wrong reply)"
+            except _Garbled as exc:
+                why = str(exc)
+            finally:
+                if attempt:
+                    self.retried += 1
+        tries = f" after {p.retries + 1} attempts" if p.retries else ""
+        raise HardwareError(f"{self.name} on {self.cfg.port}: {why}{tries}")
 
     def _do(self, name: str, value: float | None = None) -> str:
         """Send command ``name`` of the protocol; the reply must match its pattern. Returns the
@@ -97,13 +133,8 @@ class SerialInstrument:
         c = self.protocol.command(name)
         if c is None:
             raise HardwareError(f"{self.name} on {self.cfg.port}: its <protocol> has no '{name}' command")
-        text = c.send.format(value=value)
-        reply = self.query(text)
-        m = re.fullmatch(c.reply, reply)
-        if m is None:
-            raise HardwareError(f"{self.name} on {self.cfg.port}: reply '{reply}' to '{text}' does not match "
-                                f"'{c.reply}' (wrong reply)")
-        return m.groupdict().get("value") or reply
+        m = self.query(c.send.format(value=value), c.reply)
+        return m.groupdict().get("value") or m.group(0)
 
     def _number(self, name: str) -> float:
         got = self._do(name)
@@ -137,6 +168,27 @@ class SerialInstrument:
             pass
         self.port = type(self).open(self.cfg).port
         self.identify()
+
+
+class _Garbled(Exception):
+    """A reply line that is not the instrument speaking its protocol (line noise)."""
+
+
+def _text(line: bytes) -> str:
+    return line.decode("ascii", "replace").strip()
+
+
+def _printable(reply: str, command: str) -> None:
+    bad = [c for c in reply if not (" " <= c <= "~" or c == "\t")]
+    if bad:
+        raise _Garbled(f"reply {reply!r} to '{command}' holds bytes that are not printable ASCII (garbled)")
+
+
+def _garbled_check(line: bytes) -> None:
+    """A partial line without its terminator: garbled when bytes came, else silence (None)."""
+    if line:
+        raise _Garbled(f"partial reply {_text(line)!r} without its terminator (garbled)")
+    return None
 
 
 class SerialLightSource(SerialInstrument):

@@ -15,6 +15,14 @@ fails, as it declares. A read that times out is a ``HardwareError``; a device th
 vanishes is ``DeviceGone``; and a watchdog (``watchdog_ms`` for a whole frame) ends a
 grab whose data trickle in without ever completing a frame. Every sentence names the
 grabber.
+
+USB packet rules: every bulk read asks for a whole number of the endpoint's
+wMaxPacketSize (from its descriptor), so a device packet never overflows the host's buffer
+(libusb's ``[Errno 75] Overflow``); bytes read past what a step needed are carried to the
+next. ``header_packet="own"`` (the header is a short packet of its own): the header read
+asks for one packet. ``"inline"`` (FX3-style: header and payload in one transfer): the
+first read asks for the whole frame and the header is parsed out of its first packet. A
+zero-length packet ending the previous transfer is skipped.
 """
 
 from __future__ import annotations
@@ -49,9 +57,13 @@ class UsbFrameSource:
         self.head = fh.SIZE if cfg.header == "ares32" else int(cfg.header_bytes)
         self.frame_bytes = self.head + self.payload
         self.watchdog_s = (cfg.watchdog_ms or 4 * cfg.timeout_ms) / 1000.0
-        self._chunk = array.array("B", bytes(max(64, min(int(cfg.chunk_bytes), self.frame_bytes))))
+        self.max_packet = _max_packet(device, cfg)
+        self.inline = getattr(cfg, "header_packet", "own") == "inline"
+        self._chunk = array.array("B", bytes(_whole_packets(min(int(cfg.chunk_bytes), self.frame_bytes),
+                                                            self.max_packet)))
         self._bufs = {len(self._chunk): self._chunk}
         self._buf = np.empty(self.payload, np.uint8)
+        self._ended = False  # the last read ended its transfer (short packet)
         self._carry = bytearray()  # bytes read past the end of a frame (a stream without transfer framing)
         self.count = 0  # frames delivered
         self.frame_time_s = 0.0  # exposure + readout + margin of the current settings (ares.scan.apply)
@@ -116,6 +128,9 @@ class UsbFrameSource:
     def _usb_error(self, exc, what: str) -> HardwareError:
         if getattr(exc, "errno", None) in (errno.ENODEV, 19) or "No such device" in str(exc):
             return DeviceGone(f"{self.name}: device disconnected during {what}")
+        if getattr(exc, "errno", None) == errno.EOVERFLOW:
+            return HardwareError(f"{self.name}: the device sent a packet larger than the read during {what} "
+                                 f"(overflow; reads are whole {self.max_packet}-byte packets: check wMaxPacketSize)")
         if getattr(exc, "errno", None) == errno.EPIPE:
             return HardwareError(f"{self.name}: endpoint stalled during {what} ({exc})")
         return HardwareError(f"{self.name}: USB error during {what} ({exc})")
@@ -152,12 +167,13 @@ class UsbFrameSource:
 
     # ------------------------------------------------------------ bytes
     def _read(self, want: int, deadline: float) -> memoryview:
-        """One bulk read of up to ``want`` bytes (fewer = the transfer ended)."""
+        """One bulk read of at least ``want`` bytes rounded up to whole packets (more may
+        come: the caller carries them; fewer than asked = the transfer ended)."""
         core = _usb()
         if time.monotonic() > deadline:
             raise HardwareError(f"{self.name}: watchdog: frame {self.count} not complete within "
                                 f"{self.watchdog_s * 1000:.0f} ms (watchdog_ms)")
-        want = min(want, len(self._chunk))
+        want = min(_whole_packets(want, self.max_packet), len(self._chunk))
         buf = self._bufs.get(want)
         if buf is None:  # header, payload, chunk and remainder sizes: a handful, kept
             buf = self._bufs[want] = array.array("B", bytes(want))
@@ -168,6 +184,7 @@ class UsbFrameSource:
                                 f"{self.timeout_ms} ms (timeout) at frame {self.count}") from None
         except core.USBError as exc:
             raise self._usb_error(exc, f"frame {self.count}") from None
+        self._ended = n < want  # a short packet (or ZLP): this transfer is over
         return memoryview(buf)[:n]
 
     def _header(self, deadline: float):
@@ -178,8 +195,8 @@ class UsbFrameSource:
             return None
         while True:
             while len(self._carry) < fh.SIZE:
-                got = self._read(fh.SIZE - len(self._carry), deadline)
-                self._carry += got
+                need = (self.frame_bytes if self.inline else fh.SIZE) - len(self._carry)
+                self._carry += self._read(need, deadline)
             try:
                 h = fh.decode(self._carry)
                 del self._carry[:fh.SIZE]
@@ -197,19 +214,28 @@ class UsbFrameSource:
         """Fill ``self._buf[:size]`` (or discard ``size`` bytes); returns the bytes received
         before the transfer ended (== size when whole)."""
         got = 0
+        # inline: the carried bytes came in the header's transfer; if it ended, so did the frame
+        ended = self.inline and self._ended and bool(self._carry)
         if self._carry:
             k = min(len(self._carry), size)
             if not skip:
                 self._buf[:k] = np.frombuffer(self._carry, np.uint8, count=k)
             del self._carry[:k]
             got = k
-        while got < size:
+        zlp_skipped = got > 0
+        while got < size and not ended:
             want = min(size - got, len(self._chunk))
             mv = self._read(want, deadline)
             n = len(mv)
+            if n == 0 and not zlp_skipped:  # the ZLP that ended the header's transfer
+                zlp_skipped = True
+                continue
+            take = min(n, size - got)
             if not skip:
-                self._buf[got:got + n] = np.frombuffer(mv, np.uint8)
-            got += n
+                self._buf[got:got + take] = np.frombuffer(mv[:take], np.uint8)
+            if n > take:  # the next frame's first bytes (a stream without transfer framing)
+                self._carry += mv[take:]
+            got += take
             if n < want:
                 break
         return got
@@ -313,6 +339,24 @@ def counter_mode(cfg) -> str:
     if cfg.counter:
         return cfg.counter
     return "continuous" if any(c.when == "start" for c in cfg.controls) else "free_running"
+
+
+def _whole_packets(n: int, packet: int) -> int:
+    """``n`` bytes rounded up to whole packets (at least one)."""
+    return max(1, -(-int(n) // packet)) * packet
+
+
+def _max_packet(dev, cfg) -> int:
+    """wMaxPacketSize of the grabber's IN endpoint, from its descriptor (512, the USB 2.0
+    high-speed bulk size, when the descriptor cannot be read)."""
+    try:
+        import usb.util
+
+        intf = dev.get_active_configuration()[(cfg.interface, 0)]
+        ep = usb.util.find_descriptor(intf, bEndpointAddress=cfg.endpoint)
+        return int(ep.wMaxPacketSize) & 0x7FF if ep is not None else 512
+    except Exception:  # a device without readable descriptors: the common high-speed size
+        return 512
 
 
 def _serial_of(dev) -> str | None:

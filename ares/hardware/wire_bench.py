@@ -41,7 +41,7 @@ def build_wire_bench(system, seed: int, faults: dict | None = None) -> Bench:
     from ares.hardware.emulators.serial_device import EmulatedChamber, EmulatedInstrument, register, unregister
     from ares.hardware.emulators.usb_device import EmulatedGrabber, EmulatedUsbBackend
     from ares.hardware.factory import sim_params
-    from ares.hardware.i2c import I2CRegisterBus, ImageRowReadback
+    from ares.hardware.i2c import ImageRowReadback, open_i2c_bus
     from ares.hardware.serial_instruments import SerialChamber, SerialLightSource
     from ares.hardware.usb import UsbFrameSource
     from ares.sim import make_sim_bench
@@ -55,12 +55,12 @@ def build_wire_bench(system, seed: int, faults: dict | None = None) -> Bench:
     readback = b.readback == "image_row"
     smbus = EmulatedSMBus(b.address, dev.registers.bus, address_bits=m.address_bits, value_bits=m.value_bits,
                           value_endian=b.value_endian, faults=wire_f, readable=not readback)
-    bus = I2CRegisterBus(b.bus, b.address, m.address_bits, m.value_bits, name=b.name, smbus=smbus,
-                         retries=b.retries, verify=b.verify, value_endian=b.value_endian)
+    bus = open_i2c_bus(b, m, smbus)
     grabber = EmulatedGrabber(dev.frames, g, channels=s.adc_channels, interleave=s.adc_interleave, faults=wire_f,
                               serial=g.serial or "ARES-EMU-0001",
                               embed=(b.readback_row, b.readback_start, dev.registers.bus, m.value_bits)
-                              if readback else None)
+                              if readback else None,
+                              latency=lambda: dev.registers.get("exposure") + system.timing.readout_s)
     emulated, opened = [], [bus]
     try:
         frames = UsbFrameSource.open(g, (s.rows, s.cols), s.adc_bits, backend=EmulatedUsbBackend([grabber]),
@@ -70,6 +70,7 @@ def build_wire_bench(system, seed: int, faults: dict | None = None) -> Bench:
         regs = RegisterFile(m, bus)
         if readback:
             bus.readback = ImageRowReadback(bus, frames, b.readback_row, b.readback_start)
+        bus.connect()
         inst = {}
         for role, cfg, emu, host, device in (("light", system.light_source, EmulatedInstrument, SerialLightSource,
                                               dev.light),

@@ -72,24 +72,42 @@ class I2CBus:
     readback_row: int = 0
     readback_start: int = 0
     readback_field: str | None = None
+    chip_id: tuple[int, int] | None = None  # (register, expected value): checked at connect
+    init: tuple[tuple[str, float, int], ...] = ()  # ("write", register, value) / ("wait", seconds, 0), at connect
 
 
 def i2c_from_el(path, el) -> I2CBus:
     b = I2CBus(el.get("name"), int(el.get("bus")), _int(el.get("address")), _int(el.get("speed_hz"), 400000),
                _int(el.get("retries"), 2), _bool(el.get("verify")), el.get("value_endian", "big"),
                el.get("readback", "i2c"), _int(el.get("readback_row"), 0), _int(el.get("readback_start"), 0),
-               el.get("readback_field"))
+               el.get("readback_field"), _chip_id(el.find("chip_id")),
+               tuple(("write", _int(s.get("register")), _int(s.get("value"))) if s.tag == "write"
+                     else ("wait", float(s.get("ms")) / 1000.0, 0)
+                     for s in el.iterfind("init/*") if isinstance(s.tag, str)))
     if b.address > 0x7F:
         raise fail(path, el.sourceline, f"I2C bus '{b.name}': address 0x{b.address:x} is not a 7-bit address")
     return b
+
+
+def _chip_id(el):
+    return None if el is None else (_int(el.get("register")), _int(el.get("value")))
 
 
 def i2c_to_el(parent, b: I2CBus):
     d = I2CBus(b.name, b.bus, b.address)
     kw = {k: getattr(b, k) for k in ("retries", "verify", "value_endian", "readback", "readback_row",
                                       "readback_start", "readback_field") if getattr(b, k) != getattr(d, k)}
-    _set(etree.SubElement(parent, "i2c"), name=b.name, bus=b.bus, address=f"0x{b.address:02X}",
-         speed_hz=b.speed_hz, **kw)
+    el = _set(etree.SubElement(parent, "i2c"), name=b.name, bus=b.bus, address=f"0x{b.address:02X}",
+              speed_hz=b.speed_hz, **kw)
+    if b.chip_id is not None:
+        _set(etree.SubElement(el, "chip_id"), register=f"0x{b.chip_id[0]:04X}", value=f"0x{b.chip_id[1]:X}")
+    if b.init:
+        init = etree.SubElement(el, "init")
+        for kind, a, v in b.init:
+            if kind == "write":
+                _set(etree.SubElement(init, "write"), register=f"0x{a:04X}", value=f"0x{v:X}")
+            else:
+                _set(etree.SubElement(init, "wait"), ms=1000.0 * a)
 
 
 # ---------------------------------------------------------------- USB grabber
@@ -124,6 +142,7 @@ class UsbGrabber:
     interface: int = 0
     controls: tuple[UsbControl, ...] = ()
     counter: str | None = None  # "continuous", "per_grab", "free_running" (ares.hardware.usb.counter_mode)
+    header_packet: str = "own"  # "own": the header is a short packet of its own; "inline": one transfer with the payload
 
 
 def _data(s: str | None) -> bytes:
@@ -139,7 +158,8 @@ def usb_from_el(path, g) -> UsbGrabber:
     u = UsbGrabber(g.get("name"), _int(g.get("vid")), _int(g.get("pid")), _int(g.get("endpoint")), g.get("format"),
                    _int(g.get("header_bytes"), 0), _int(g.get("timeout_ms"), 1000), g.get("serial"),
                    g.get("header", "none"), _int(g.get("chunk_bytes"), 1 << 20), _int(g.get("watchdog_ms")),
-                   g.get("wire_order", "image"), _int(g.get("interface"), 0), tuple(ctl), g.get("counter"))
+                   g.get("wire_order", "image"), _int(g.get("interface"), 0), tuple(ctl), g.get("counter"),
+                   g.get("header_packet", "own"))
     if u.vid > 0xFFFF or u.pid > 0xFFFF:
         raise fail(path, g.sourceline, "USB vid/pid must be 16-bit numbers")
     pixel_format(u.format)  # the schema lists the names; this keeps one table
@@ -156,7 +176,7 @@ def usb_to_el(parent, g: UsbGrabber):
               timeout_ms=g.timeout_ms, serial=g.serial, header=None if g.header == "none" else g.header,
               chunk_bytes=None if g.chunk_bytes == 1 << 20 else g.chunk_bytes, watchdog_ms=g.watchdog_ms,
               wire_order=None if g.wire_order == "image" else g.wire_order, interface=g.interface or None,
-              counter=g.counter)
+              counter=g.counter, header_packet=None if g.header_packet == "own" else g.header_packet)
     for c in g.controls:
         _set(etree.SubElement(el, "control"), when=c.when, request_type=f"0x{c.request_type:02X}",
              request=f"0x{c.request:02X}", value=c.value, index=c.index,
@@ -211,7 +231,8 @@ def serial_from_el(path, el, kind: str) -> SerialInstrument | None:
                 raise fail(path, c.sourceline, f"<command name='{c.get('name')}'>: {exc}") from None
             cmds.append(Command(c.get("name"), c.get("send"), c.get("reply")))
         proto = LineProtocol(_unescape(p.get("terminator", "\\n")), _unescape(p.get("reply_terminator", "\\n")),
-                             p.get("error", LineProtocol.error), tuple(cmds))
+                             p.get("error", LineProtocol.error), tuple(cmds), _bool(p.get("echo")),
+                             _int(p.get("retries"), 0))
         missing = [n for n in NEEDS[kind] if proto.command(n) is None]
         if missing:
             raise fail(path, p.sourceline, f"<{kind}> <protocol> declares no command named "
@@ -235,7 +256,8 @@ def serial_to_el(parent, tag, s: SerialInstrument):
               hold_s=s.hold_s)
     if s.protocol is not None:
         p = _set(etree.SubElement(el, "protocol"), terminator=_escape(s.protocol.terminator),
-                 reply_terminator=_escape(s.protocol.reply_terminator), error=s.protocol.error)
+                 reply_terminator=_escape(s.protocol.reply_terminator), error=s.protocol.error,
+                 echo=True if s.protocol.echo else None, retries=s.protocol.retries or None)
         for c in s.protocol.commands:
             _set(etree.SubElement(p, "command"), name=c.name, send=c.send, reply=c.reply)
 

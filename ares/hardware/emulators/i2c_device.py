@@ -19,6 +19,7 @@ from __future__ import annotations
 
 import ctypes
 import errno
+from contextlib import contextmanager
 
 FAULTS = ("i2c_nack_at", "i2c_enxio_at", "i2c_fault_count", "i2c_timeout_at", "i2c_disconnect_at", "i2c_gone_for")
 
@@ -88,3 +89,65 @@ class EmulatedSMBus:
 
     def close(self) -> None:
         pass
+
+
+class KernelI2C:
+    """The kernel side of ``/dev/i2c-N`` for the real smbus2 code: ``os.open`` of the device
+    node and the ioctls smbus2 issues (``I2C_FUNCS``, ``I2C_RDWR``), served by one
+    ``EmulatedSMBus`` per bus number. ``with KernelI2C({1: emu}).installed():`` -- everything
+    above the kernel call (message structs, the ioctl data) is smbus2's own."""
+
+    I2C_FUNCS, I2C_RDWR = 0x0705, 0x0707
+    _FD0 = 1 << 20  # file descriptors no real file has
+
+    def __init__(self, adapters: dict):
+        self.adapters = dict(adapters)
+        self.opened: list[str] = []
+
+    def _open(self, real, path, flags, *args):
+        path = str(path)
+        if not path.startswith("/dev/i2c-"):
+            return real.open(path, flags, *args)
+        bus = int(path.rsplit("-", 1)[1])
+        if bus not in self.adapters:
+            raise FileNotFoundError(errno.ENOENT, "No such file or directory", path)
+        self.opened.append(path)
+        return self._FD0 + bus
+
+    def ioctl(self, fd, request, arg, *rest):
+        emu = self.adapters.get(fd - self._FD0)
+        if emu is None:
+            raise OSError(errno.EBADF, "Bad file descriptor")
+        if request == self.I2C_FUNCS:
+            arg.value = 0x1  # I2C_FUNC_I2C: combined transactions
+        elif request == self.I2C_RDWR:
+            emu.i2c_rdwr(*(arg.msgs[k] for k in range(arg.nmsgs)))
+        else:
+            raise OSError(errno.ENOTTY, "Inappropriate ioctl for device")
+        return 0
+
+    @contextmanager
+    def installed(self):
+        import os
+
+        import smbus2.smbus2 as lib
+
+        kernel = self
+
+        class _Os:  # os for smbus2: the device nodes are ours, everything else is the real os
+            def __getattr__(self, name):
+                return getattr(os, name)
+
+            def open(self, path, flags, *args):
+                return kernel._open(os, path, flags, *args)
+
+            def close(self, fd):
+                if fd < kernel._FD0:
+                    os.close(fd)
+
+        saved = lib.os, lib.ioctl
+        lib.os, lib.ioctl = _Os(), self.ioctl
+        try:
+            yield self
+        finally:
+            lib.os, lib.ioctl = saved

@@ -6,9 +6,18 @@ descriptors (the serial number), ``set_configuration``, control transfers and bu
 
 The device side (``EmulatedGrabber``) streams a frame source's frames in the declared wire
 format: the ``ares32`` header (with payload CRC), the pixel format packed as declared and
-the ADC channels in the declared wire order. One frame is one bulk transfer: a read never
-crosses into the next frame, and a read that returns fewer bytes than asked ends the
-transfer (a USB short packet). With a ``start`` control whose value is ``frames`` the
+the ADC channels in the declared wire order.
+
+USB packet rules, as a host controller enforces them (``bulk_read``): the device sends
+packets of ``max_packet`` bytes (its endpoint descriptor's wMaxPacketSize); a transfer
+ends with a short packet, or with a zero-length packet (ZLP) when its length is a multiple
+of ``max_packet``. A host read of N bytes ends when N bytes came or at a short packet; a
+packet larger than the room left in the host's buffer is an overflow (libusb's
+``[Errno 75] Overflow``: the packet is lost). With ``header_packet="own"`` the header (with
+any junk before it) is a transfer of its own and the payload another; with ``"inline"``
+(FX3-style firmware) header and payload are one transfer. A frame that takes longer than
+the host's read timeout (``latency``: exposure + readout of the current settings) is a
+timeout, decided in model time (nothing sleeps). With a ``start`` control whose value is ``frames`` the
 device renders that many frames when it is armed (the frame source reads its registers
 then, as the simulated bench does); without one it renders a frame whenever the host
 reads and nothing is pending.
@@ -30,6 +39,7 @@ from __future__ import annotations
 import errno
 import itertools
 import time
+from collections import deque
 from types import SimpleNamespace
 
 import numpy as np
@@ -45,7 +55,8 @@ class EmulatedGrabber:
     """The device: descriptors, control requests and the bulk-IN byte stream."""
 
     def __init__(self, frames, cfg, *, channels: int = 1, interleave: str = "none", faults: dict | None = None,
-                 serial: str = "ARES-EMU-0001", crc: bool = True, embed=None):
+                 serial: str = "ARES-EMU-0001", crc: bool = True, embed=None, max_packet: int = 512,
+                 zlp: bool = True, latency=None):
         self.frames, self.cfg = frames, cfg
         self.fmt = pixel_format(cfg.format)
         self.channels, self.interleave = channels, interleave
@@ -58,7 +69,11 @@ class EmulatedGrabber:
         self._gen = None  # armed frames
         self._queued: list = []  # frames exposed after the last stop (usb_pipeline_frames)
         self._owed = 0  # frames dropped while armed: rendered again after the armed ones
-        self._out = memoryview(b"")  # the current transfer, what is left of it
+        self._out: deque = deque()  # packets sent and not yet read by the host
+        self.max_packet, self.zlp = int(max_packet), bool(zlp)
+        self.header_packet = getattr(cfg, "header_packet", "own")
+        self.latency = latency  # callable: seconds a frame takes at the current settings (None: no wait)
+        self.overflows = 0
         self.configuration = 0
         start = [c for c in cfg.controls if c.when == "start"]
         self._start = start[0] if start and start[0].value == "frames" else None
@@ -83,7 +98,7 @@ class EmulatedGrabber:
 
     def endpoint_descriptor(self):
         return SimpleNamespace(bLength=7, bDescriptorType=5, bEndpointAddress=self.cfg.endpoint, bmAttributes=2,
-                               wMaxPacketSize=512, bInterval=0, bRefresh=0, bSynchAddress=0, extra_descriptors=[])
+                               wMaxPacketSize=self.max_packet, bInterval=0, bRefresh=0, bSynchAddress=0, extra_descriptors=[])
 
     def _string(self, index: int) -> bytes:
         if index == 0:
@@ -108,15 +123,24 @@ class EmulatedGrabber:
                     queued, self._queued = self._queued[:int(value)], []
                     fresh = int(value) - len(queued)
                     self._gen = itertools.chain(queued, self.frames.grab(fresh) if fresh else ())
-                    self._out, self._owed = memoryview(b""), 0
+                    self._out, self._owed = deque(), 0
                 elif c.when == "stop":
-                    self._gen, self._out = None, memoryview(b"")
+                    self._gen, self._out = None, deque()
                     k = self.faults.get("usb_pipeline_frames", 0)
                     if k and not self._queued:  # exposed now, at the settings of now
                         self._queued = list(self.frames.grab(k))
         return len(data or b"") if not request_type & 0x80 else bytes(max(1, len(data or b"")))
 
-    def _next_transfer(self) -> None:
+    def _send(self, transfer: bytes) -> None:
+        """One transfer as packets: full ones, then a short one (a ZLP when it ends on a
+        packet boundary and the device sends them)."""
+        m = self.max_packet
+        for k in range(0, len(transfer), m):
+            self._out.append(transfer[k:k + m])
+        if self.zlp and len(transfer) % m == 0:
+            self._out.append(b"")
+
+    def _next_transfer(self, timeout_ms: int | None = None) -> None:
         n = self.counter
         if n == self.faults.get("usb_disconnect_at"):
             self.connected = False
@@ -126,6 +150,8 @@ class EmulatedGrabber:
             self.faults.pop("usb_timeout_at")
             time.sleep(self.cfg.timeout_ms / 1000.0)
             raise _usb_error(errno.ETIMEDOUT, "Operation timed out", timeout=True)
+        if self.latency is not None and timeout_ms and 1000 * self.latency() > timeout_ms:
+            raise _usb_error(errno.ETIMEDOUT, "Operation timed out", timeout=True)  # the frame is still exposing
         if self._start is None:
             frame = next(iter(self.frames.grab(1)))
         else:
@@ -144,7 +170,7 @@ class EmulatedGrabber:
         if n == self.faults.get("usb_drop_at"):  # rendered, lost: the next frame shows the gap
             self.faults.pop("usb_drop_at")
             self._owed += 1
-            return self._next_transfer()
+            return self._next_transfer(timeout_ms)
         img = np.asarray(frame.data)
         if self.embed is not None:
             img = self._embed(img)
@@ -163,7 +189,11 @@ class EmulatedGrabber:
         if n == self.faults.get("usb_garbage_at"):
             self.faults.pop("usb_garbage_at")
             junk = bytes(range(7, 250)) + fh.SYNC[:2]
-        self._out = memoryview(junk + head + bytes(payload))
+        if self.header_packet == "inline":
+            self._send(junk + head + bytes(payload))
+        else:
+            self._send(junk + head)
+            self._send(bytes(payload))
 
     def _embed(self, img: np.ndarray) -> np.ndarray:
         """A sensor without I2C read: its registers, one byte per pixel, in an image row."""
@@ -179,14 +209,23 @@ class EmulatedGrabber:
         img[row, :len(out)] = np.frombuffer(bytes(out), np.uint8)
         return img
 
-    def bulk_read(self, endpoint: int, size: int) -> memoryview:
+    def bulk_read(self, endpoint: int, size: int, timeout_ms: int | None = None) -> bytes:
+        """One host read of up to ``size`` bytes under the packet rules (module docstring)."""
         self._gone()
         if endpoint != self.cfg.endpoint:
             raise _usb_error(errno.EPIPE, f"endpoint 0x{endpoint:02x} does not exist")
-        if not len(self._out):
-            self._next_transfer()
-        part, self._out = self._out[:size], self._out[size:]
-        return part
+        got = bytearray()
+        while len(got) < size:
+            if not self._out:
+                self._next_transfer(timeout_ms)
+            packet = self._out.popleft()
+            if len(packet) > size - len(got):
+                self.overflows += 1
+                raise _usb_error(errno.EOVERFLOW, "Overflow")
+            got += packet
+            if len(packet) < self.max_packet:  # short packet or ZLP: the transfer ended
+                break
+        return bytes(got)
 
     def present(self) -> bool:
         """Seen by a search: a disconnected device comes back at the M-th search after it left."""
@@ -195,7 +234,7 @@ class EmulatedGrabber:
             back = self.faults.get("usb_reconnect_after_polls")
             if back is not None and self.polls >= back:
                 self.connected = True
-                self._gen, self._out = None, memoryview(b"")
+                self._gen, self._out = None, deque()
         return self.connected
 
 
@@ -262,7 +301,7 @@ class EmulatedUsbBackend(_backend_base()):
         pass
 
     def bulk_read(self, dev_handle, ep, intf, buff, timeout):
-        part = dev_handle.bulk_read(ep, len(buff))
+        part = dev_handle.bulk_read(ep, len(buff), timeout)
         n = len(part)
         memoryview(buff).cast("B")[:n] = part
         return n
