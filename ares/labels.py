@@ -86,7 +86,11 @@ def unit_of_column(name: str) -> str:
 
 # the unit of each per-stage array in a run directory's HDF5 files (attribute "unit")
 ARRAY_UNITS = {"mean": "DN", "variance": "DN^2", "frame_means": "DN", "dark_mean": "DN", "frames": "DN",
-               "dark": "DN", "defect_mask": "1 (0: good, else a defect class code)"}
+               "dark": "DN", "defect_mask": "1 (0: good, else a defect class code)",
+               "frame_counter": "1 (the device's frame counter, else the frame source's count)",
+               "frame_timestamp": "s (host time at arrival; the simulator's model clock)",
+               "frame_temperature": "C (the device's, as it reports it)"}
+ARRAY_UNITS.update({f"dark_{k}": ARRAY_UNITS[k] for k in ("frame_counter", "frame_timestamp", "frame_temperature")})
 
 
 def array_unit(name: str) -> str:

@@ -75,6 +75,17 @@ class StackSet:
         self.masked = MaskedStackAccumulator(shape, mask, pixels=self.acc["full"]) if mask is not None else None
         self.at_max = {k: 0 for k in views_}
         self.at_min = {k: 0 for k in views_}
+        self.frame_meta: list[tuple[int, float, float]] = []  # (counter, timestamp, temperature C or nan) per frame
+
+    def note_frame(self, frame) -> None:
+        """A frame's metadata: the device's frame counter (ares32 header ``counter``, GenICam
+        ``frame_id``; else the frame source's own count), its timestamp, and the device
+        temperature when the source reports one (``temperature_c``)."""
+        m = frame.meta or {}
+        counter = m.get("counter", m.get("frame_id"))
+        t = m.get("temperature_c")
+        self.frame_meta.append((int(frame.index if counter is None else counter), float(frame.timestamp),
+                                float("nan") if t is None else float(t)))
 
     def add(self, data: np.ndarray) -> None:
         for k, s in self.views.items():
@@ -217,7 +228,21 @@ def analyze_stage(stage, flat: StackSet, dark: StackSet | None) -> tuple[dict, d
         arrays["dark_mean"] = dark.acc["full"].mean_map().astype(np.float32)
     for k, h in flat.hist.items():
         arrays[f"hist_{k}"] = h  # code histogram (only when the scan asks for adc_linearity)
+    for prefix, stack in (("", flat), ("dark_", dark)):
+        arrays.update(frame_meta_arrays(stack, prefix) if stack is not None else {})
     return res, arrays
+
+
+def frame_meta_arrays(stack: StackSet, prefix: str = "") -> dict:
+    """Per-frame metadata of a stack as arrays (``frame_counter``, ``frame_timestamp``,
+    ``frame_temperature`` when any frame carried one); none when the stack recorded none."""
+    if not stack.frame_meta:
+        return {}
+    counter, stamp, temp = (np.asarray(c) for c in zip(*stack.frame_meta))
+    out = {f"{prefix}frame_counter": counter.astype(np.int64), f"{prefix}frame_timestamp": stamp.astype(np.float64)}
+    if np.isfinite(temp).any():
+        out[f"{prefix}frame_temperature"] = temp.astype(np.float64)
+    return out
 
 
 # ------------------------------------------------------------ scan-level analyses

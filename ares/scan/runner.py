@@ -501,6 +501,7 @@ class Runner:
                     raise FrameError(f"{src.name}: short frame {k} (shape {data.shape[1] if data.ndim > 1 else '?'}x"
                                      f"{data.shape[0]}, expected {shape[1]}x{shape[0]})")
                 ss.add(data)
+                ss.note_frame(frame)
                 if fw is not None:
                     fw.add(data, dark=dark)
                 self._frames_done += 1

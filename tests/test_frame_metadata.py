@@ -1,0 +1,55 @@
+"""Per-frame metadata in the run (issue 36, finding 9): each stage's frame counters and
+timestamps (and the device temperature where the source reports one) in the stage's HDF5,
+reached from report.h5's /stages -- on the wire bench the counters are the USB header's."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import h5py
+import numpy as np
+
+from ares.cli import main
+
+ROOT = Path(__file__).resolve().parents[1]
+
+
+def _scan(tmp_path: Path, system: str) -> Path:
+    p = tmp_path / "meta.xml"
+    p.write_text(f"""<?xml version="1.0"?>
+<scan name="meta" version="1">
+  <system href="{ROOT / 'protocols' / system}"/>
+  <settings><set quantity="exposure" value="0.01"/></settings>
+  <frames>3</frames>
+  <stages>
+    <stage name="dark" scene="dark"/>
+    <sweep name="ptc" scene="flat"><axis quantity="light"><values>1e5</values></axis></sweep>
+    <stage name="warm" scene="dark"><set quantity="temperature" value="30"/></stage>
+  </stages>
+  <output pdf="false"/>
+</scan>
+""")
+    return p
+
+
+def test_usb_frame_counters_and_timestamps_per_stage_in_report_h5(tmp_path):
+    out = tmp_path / "run"
+    assert main(["run", str(_scan(tmp_path, "sim_wire.xml")), "--out", str(out), "-q"]) == 0
+    with h5py.File(out / "report.h5", "r") as f:
+        counters = [list(f[f"stages/{k:04d}/frame_counter"][()]) for k in range(3)]
+        stamps = np.concatenate([f[f"stages/{k:04d}/frame_timestamp"][()] for k in range(3)])
+        assert f["stages/0000/frame_counter"].attrs["unit"].startswith("1 (the device's frame counter")
+        assert "frame_temperature" not in f["stages/0000"]  # the USB header carries none
+    flat = [c for c in counters]
+    assert flat[0] == [0, 1, 2]  # the device counter from the ares32 header, continuous over stages
+    assert all(b[0] > a[-1] for a, b in zip(flat, flat[1:])) and all(np.diff(c).tolist() == [1, 1] for c in flat)
+    assert np.all(np.diff(stamps) >= 0)
+
+
+def test_simulator_temperature_per_frame(tmp_path):
+    out = tmp_path / "run"
+    assert main(["run", str(_scan(tmp_path, "sim_sensor.xml")), "--out", str(out), "-q"]) == 0
+    with h5py.File(out / "report.h5", "r") as f:
+        t = [f[f"stages/{k:04d}/frame_temperature"][()] for k in (0, 2)]
+        assert f["stages/0002/frame_temperature"].attrs["unit"].startswith("C")
+    assert np.all(t[0] == t[0][0]) and np.allclose(t[1], 30.0, atol=0.5) and len(t[1]) == 3
