@@ -19,7 +19,10 @@ Layout (all paths relative to the run directory)::
                         frame_means, dark_mean (matched dark), hist_<view> (code histograms,
                         adc_linearity and photon_counting scans only), defect_mask (uint8, 1 = excluded from the
                         masked figures; on the stage the mask was built from or first used
-                        with, see ares.scan.defect_mask); chunked, gzip; attrs name, scene,
+                        with, see ares.scan.defect_mask); chunked, gzip; per frame:
+                        frame_counter (the device's counter, else the source's count),
+                        frame_timestamp (s), frame_temperature (C, when the device reports
+                        one), dark_frame_* likewise for the matched dark; attrs name, scene,
                         settings (JSON), result (JSON)
     results.h5          HDF5 index: /stages/NNNN are external links to stages/NNNN.h5, so
                         h5py.File("results.h5")["stages/0003/mean"] just works (keep the
