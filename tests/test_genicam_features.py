@@ -87,3 +87,12 @@ def test_each_type_takes_its_values():
         assert got == stored and type(got) is type(stored)
     with pytest.raises(ValueOutOfRange, match=r"register field 'analog_gain': -8 dB is below its minimum -6"):
         regs.set("analog_gain", -8)  # the XML's limit, before the camera's
+
+
+def test_a_node_with_one_limit_names_the_open_range():
+    cam, _ = _camera()
+    cam.nodes.Gain.max = None
+    with pytest.raises(ValueOutOfRange, match=r"feature Gain: -7 is outside >= -6$"):
+        cam.write("Gain", -7)
+    cam.write("Gain", 100.0)
+    assert cam.nodes.Gain.value == 100.0

@@ -19,6 +19,7 @@ import math
 
 from ares.errors import HardwareError, InputError, ValueOutOfRange
 from ares.hardware.registers import RegisterFile
+from ares.hardware.serial_instruments import range_text
 
 _TRUE, _FALSE = ("true", "1", "on"), ("false", "0", "off")
 
@@ -73,8 +74,7 @@ def coerce(camera: str, name: str, node, value):
     if k == "integer" and v != round(v):
         raise ValueOutOfRange(f"{where} is an Integer: {value} is not a whole number")
     if (lo is not None and v < lo) or (hi is not None and v > hi):
-        raise ValueOutOfRange(f"{where}: {value:g} is outside {lo:g} .. {hi:g}" if isinstance(value, (int, float))
-                              else f"{where}: {value} is outside {lo:g} .. {hi:g}")
+        raise ValueOutOfRange(f"{where}: {v:g} is outside {range_text(lo, hi, '')}")
     if inc is not None:
         base = lo if lo is not None else 0
         steps = (v - base) / inc
@@ -99,12 +99,7 @@ class FeatureFile(RegisterFile):
         if f.access == "ro":
             raise InputError(f"register field '{name}' is read-only and cannot be written")
         physical = float(physical)
-        if f.minimum is not None and physical < f.minimum - 1e-12 * max(1.0, abs(f.minimum)):
-            raise ValueOutOfRange(f"register field '{name}': {physical:g} {f.unit} is below its minimum "
-                                  f"{f.minimum:g}".rstrip())
-        if f.maximum is not None and physical > f.maximum + 1e-12 * max(1.0, abs(f.maximum)):
-            raise ValueOutOfRange(f"register field '{name}': {physical:g} {f.unit} is above its maximum "
-                                  f"{f.maximum:g}".rstrip())
+        f.check(physical)
         self.camera.write(self.nodes[name], (physical - f.offset) / f.scale)
 
     def get(self, name: str) -> float:

@@ -51,8 +51,8 @@ class Field:
     def mask(self) -> int:
         return ((1 << self.width) - 1) << self.lsb
 
-    def to_raw(self, physical: float) -> int:
-        """Physical value -> raw integer, range-checked (one clear sentence on failure)."""
+    def check(self, physical: float) -> None:
+        """``ValueOutOfRange`` (one sentence) when ``physical`` is outside the field's limits."""
         if self.minimum is not None and physical < self.minimum - 1e-12 * max(1.0, abs(self.minimum)):
             raise ValueOutOfRange(
                 f"register field '{self.name}': {physical:g} {self.unit} is below its minimum {self.minimum:g}".rstrip()
@@ -61,6 +61,10 @@ class Field:
             raise ValueOutOfRange(
                 f"register field '{self.name}': {physical:g} {self.unit} is above its maximum {self.maximum:g}".rstrip()
             )
+
+    def to_raw(self, physical: float) -> int:
+        """Physical value -> raw integer, range-checked (one clear sentence on failure)."""
+        self.check(physical)
         raw = round((physical - self.offset) / self.scale)
         if raw < 0 or raw >= (1 << self.width):
             raise ValueOutOfRange(
