@@ -90,6 +90,8 @@ def test_photon_transfer_scan_through_the_wires_equals_direct(tmp_path):
             keys = []
             fa.visit(keys.append)
             for k in keys:
+                if k.endswith("frame_timestamp"):  # host time at arrival vs the simulator's model clock
+                    continue
                 if isinstance(fa[k], h5py.Dataset):
                     assert np.array_equal(fa[k][()], fb[k][()]), (n, k)
     assert (tmp_path / "wire" / "key_figures.csv").read_text() == (tmp_path / "direct" / "key_figures.csv").read_text()
