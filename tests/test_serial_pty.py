@@ -33,6 +33,13 @@ class PtyInstrument:
         self.thread = threading.Thread(target=self._serve, daemon=True)
         self.thread.start()
 
+    def close(self):
+        """End the instrument: with its slave closed too, the master reads EIO and the thread ends."""
+        os.close(self.slave)
+        if not self.closed.is_set():
+            os.close(self.master)
+        self.thread.join(timeout=10)
+
     def _serve(self):
         buf = b""
         while True:
@@ -84,6 +91,7 @@ def test_an_echoing_instrument_is_understood_when_declared():
         plain.close()
     finally:
         led.close()
+        dev.close()
 
 
 def test_line_noise_is_retried_within_the_bound():
@@ -98,6 +106,7 @@ def test_line_noise_is_retried_within_the_bound():
         assert len(dev.received) == 4
     finally:
         led.close()
+        dev.close()
 
 
 def test_a_silent_instrument_is_a_timeout_not_an_unplugged_port():
@@ -115,3 +124,4 @@ def test_a_silent_instrument_is_a_timeout_not_an_unplugged_port():
         assert e.value.device == "light" and dev.closed.is_set()
     finally:
         led.close()
+        dev.close()

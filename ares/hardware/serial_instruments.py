@@ -54,6 +54,7 @@ class SerialInstrument:
         self.port, self.cfg, self._sleep, self._clock = port, cfg, sleep, clock
         self.name = cfg.name
         self.protocol = cfg.protocol or self.DEFAULT
+        self.retried = 0  # commands that needed a retry (a noisy line shows here)
 
     def _wait(self, seconds: float, cancel=None) -> None:
         wait(seconds, cancel, sleep=self._sleep, clock=self._clock)
@@ -100,7 +101,6 @@ class SerialInstrument:
         """Send ``command`` and return its reply (with ``pattern``: the match object),
         retrying a garbled or missing reply ``retries`` times."""
         p = self.protocol
-        self.retried = getattr(self, "retried", 0)
         for attempt in range(p.retries + 1):
             try:
                 reply = self._exchange(command)
