@@ -46,8 +46,8 @@ def damaged(tmp_path_factory):
     xml.write_text(SCAN.format(system=system.name, **dict(PTC, extra='<output pdf="false" csv="false"/>')))
     good = base / "good"
     assert main(["run", str(xml), "--out", str(good), "--seed", "3", "-q"]) == 0
-    out = {"good": good}
-    for damage in ("corrupt array", "deleted stage", "truncated hdf5"):
+    out = {"good": good, "xml": xml}
+    for damage in ("corrupt array", "deleted stage", "truncated hdf5"):  # (keys of EXPECT)
         d = base / damage.replace(" ", "_")
         shutil.copytree(good, d)
         h5 = d / "stages" / f"{STAGE}.h5"
@@ -203,3 +203,23 @@ def test_hashes_are_of_the_array_values_not_the_file_layout():
     b[1, 2] += 1
     assert array_sha256(b) != array_sha256(a) != array_sha256(a.astype(np.float64))
     assert array_sha256(a) != array_sha256(a.reshape(4, 3))
+
+
+def test_resume_records_a_stage_committed_just_before_the_kill(damaged, tmp_path, capsys):
+    """A kill between a stage's JSON (the commit) and run.json leaves that stage without its
+    recorded SHA-256: `ares resume` records it, so the finished run checks clean instead of
+    reading as corrupt ("not written by this run")."""
+    from ares.report import read_run
+
+    d = tmp_path / "run"
+    assert main(["run", str(damaged["xml"]), "--out", str(d), "--quiet", "--sim-fault", "disconnect_after_frames=13"]) == 3
+    meta = json.loads((d / "run.json").read_text())
+    last = max(meta["stage_sha256"])
+    del meta["stage_sha256"][last]  # as if the kill came before run.json recorded it
+    (d / "run.json").write_text(json.dumps(meta))
+    assert main(["resume", str(d), "--quiet"]) == 0
+    capsys.readouterr()
+    meta = json.loads((d / "run.json").read_text())
+    assert meta["status"] == "done" and last in meta["stage_sha256"]
+    assert sorted(meta["stage_sha256"]) == sorted(p.stem for p in (d / "stages").glob("[0-9][0-9][0-9][0-9].json"))
+    read_run(d, verify_arrays=True)  # (raises RunDamaged if any stage differs from its record)
