@@ -223,3 +223,13 @@ def test_resume_records_a_stage_committed_just_before_the_kill(damaged, tmp_path
     assert meta["status"] == "done" and last in meta["stage_sha256"]
     assert sorted(meta["stage_sha256"]) == sorted(p.stem for p in (d / "stages").glob("[0-9][0-9][0-9][0-9].json"))
     read_run(d, verify_arrays=True)  # (raises RunDamaged if any stage differs from its record)
+
+
+def test_ares_rerun_reruns_but_names_a_corrupt_original(damaged, tmp_path, capsys):
+    """stages/0002.h5's 'mean' bytes flipped: `ares rerun` still repeats the run (it needs only
+    the verbatim XML), reports 10 of 10 stages reproduced against the recorded hashes, and
+    ends with the original's one sentence, exit 2 -- it used to say only "reproduced", exit 0."""
+    assert main(["rerun", str(damaged["corrupt array"]), "--out", str(tmp_path / "again"), "-q"]) == 2
+    err = capsys.readouterr().err
+    assert "reproduced: 10 of 10 stage result(s) identical" in err
+    assert f"original run: {damaged['corrupt array']}: {EXPECT['corrupt array']}" in err
