@@ -383,7 +383,10 @@ def test_a_stage_file_missing_or_damaged_is_one_sentence_not_a_report_without_it
         f.write_bytes(f.read_bytes()[:800] if damage == "truncated" else b"x" * 4000)
     assert main(["report", str(bad)]) == 2
     err = capsys.readouterr().err
-    assert err.count("\n") == 1 and f"{f}: a stage's arrays are missing or not HDF5" in err and "ares rerun" in err
+    what = {"deleted": "incomplete: stage 2 ('ptc[1]'): its arrays (stages/0002.h5) are missing",
+            "truncated": "corrupt: stage 2 ('ptc[1]'): stages/0002.h5 is truncated (800 of ",
+            "not hdf5": "corrupt: stage 2 ('ptc[1]'): stages/0002.h5 is truncated (4000 of "}[damage]
+    assert err.count("\n") == 1 and f"{bad}: {what}" in err and "ares rerun" in err
 
 
 def test_cli_writes_only_what_is_asked(runs, tmp_path, capsys):

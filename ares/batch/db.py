@@ -182,12 +182,26 @@ def find_lot(db: Db, ref: str) -> int:
     return int(rows[0][0])
 
 
+NUMERIC_ITEM_COLUMNS = ("x", "y")
+
+
+def quantities(db: Db, lot_id: int) -> list[str]:
+    """The canonical names of the quantities measured in a lot, sorted."""
+    return [r[0] for r in db.query("SELECT DISTINCT quantity FROM figures WHERE lot_id = ? ORDER BY quantity",
+                                   (lot_id,))]
+
+
+def numeric_columns(db: Db, lot_id: int) -> set[str]:
+    """The columns of ``item_rows`` that hold numbers (wafer x/y, each quantity and its SE);
+    the others are text."""
+    return set(NUMERIC_ITEM_COLUMNS) | {c for q in quantities(db, lot_id) for c in (q, f"{q}_se")}
+
+
 def item_rows(db: Db, lot_id: int) -> tuple[list[str], list[tuple]]:
     """The lot's items, one row each: the traceability columns, then value and SE of every
     quantity (sorted by name), then every limit's outcome."""
     items = db.query(f"SELECT idx, {', '.join(ITEM_COLUMNS)} FROM items WHERE lot_id = ? ORDER BY idx", (lot_id,))
-    qs = [r[0] for r in db.query("SELECT DISTINCT quantity FROM figures WHERE lot_id = ? ORDER BY quantity",
-                                 (lot_id,))]
+    qs = quantities(db, lot_id)
     ls = [r[0] for r in db.query("SELECT DISTINCT limit_text FROM checks WHERE lot_id = ? ORDER BY limit_text",
                                  (lot_id,))]
     figs = {(i, q): (v, s) for i, q, v, s in db.query("SELECT idx, quantity, value, se FROM figures WHERE lot_id = ?",

@@ -83,11 +83,12 @@ def content_hash(path: str | Path, kind: str, full: bool = True) -> str:
 
 
 def _figures_of_run(path: Path) -> tuple[dict, str]:
-    from ares.report import key_figures, read_run
+    from ares.report import read_run, tables
 
-    kf = key_figures(path)
+    run = read_run(path, verify_arrays=True)  # incomplete / corrupt: the item's one line (ares.runcheck)
+    kf = tables.compute_key_figures(run)
     return ({k: {"label": v["label"], "value": v["value"], "se": v["se"], "unit": v["unit"],
-                 "verdict": v.get("verdict", ""), "note": v["note"]} for k, v in kf.items()}, read_run(path).status)
+                 "verdict": v.get("verdict", ""), "note": v["note"]} for k, v in kf.items()}, run.status)
 
 
 def _figures_of_descriptor(path: Path) -> tuple[dict, str]:
@@ -188,11 +189,12 @@ def rerun(path: str, out_root: str, cache_dir: str | None = None, verify: bool =
     ``ares rerun``: verbatim XML, seed, frame override) into ``out_root``, then analyse the new
     run; the result says how many stage results reproduce the original's. A run on hardware
     needs that hardware at the worker that gets it."""
-    from ares.commands.rerun import compare
+    from ares.commands.rerun import compare, original_damage
     from ares.scan import Runner, load_run
 
     try:
         rec = load_run(path)
+        damage = original_damage(rec)  # (the rerun runs all the same: it needs only the verbatim XML)
         root = Path(out_root)
         root.mkdir(parents=True, exist_ok=True)
         out = root / Path(path).name
@@ -206,4 +208,7 @@ def rerun(path: str, out_root: str, cache_dir: str | None = None, verify: bool =
         return {"item": str(path), "status": "error", "error": one_line(path, RuntimeError(f"rerun failed ({exc})"))}
     res = process(str(outcome.run_dir), cache_dir, verify)
     res.update(rerun_of=str(path), reproduced=f"{same}/{n}", differ=diff[:5])
+    if damage:  # the original is not what was written: the item fails, saying so (and what the rerun gave)
+        res.update(status="error", error=f"{damage} (its rerun {outcome.run_dir}: {same} of {n} stage(s) and "
+                                         f"their arrays reproduce the recorded ones)")
     return res

@@ -148,7 +148,9 @@ def run(args) -> int:
             print(f"  {lot_report.NO_LIMITS}: no item is judged pass or fail")
         for r in results:
             if r.get("rerun_of"):
-                print(f"  rerun of {r['rerun_of']}: {r['reproduced']} stage result(s) reproduced -> {r['item']}")
+                differ = f" (differ: {'; '.join(r['differ'])})" if r.get("differ") else ""
+                print(f"  rerun of {r['rerun_of']}: {r['reproduced']} stage result(s) and their arrays reproduced"
+                      f"{differ} -> {r['item']}")
             if r.get("status") == "error":
                 print(f"  FAILED {r['error']}", file=sys.stderr)
     if any(r.get("status") == "error" for r in results):

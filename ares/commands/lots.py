@@ -2,7 +2,9 @@
 
 ``list``: every lot with its items, passed, failed and errored (yield = passed / items);
 ``compare LOT_A LOT_B``: per quantity, items measured, median and interquartile range in each;
-``export LOT --csv FILE``: every item of a lot, its traceability, figures, SEs and limit outcomes.
+``export LOT [--csv FILE] [--parquet FILE]``: every item of a lot, its traceability, figures, SEs
+and limit outcomes -- the same rows and columns in CSV and in Parquet (numbers as float64, an
+absent figure as null; text as UTF-8 strings).
 """
 
 from __future__ import annotations
@@ -19,7 +21,8 @@ def add_arguments(p) -> None:
     p.add_argument("lots", nargs="*", metavar="LOT", help="lot name or id (compare: two; export: one)")
     p.add_argument("--db", metavar="PATH|URL", default="lot/results.sqlite",
                    help="SQLite file or postgresql:// URL (default lot/results.sqlite, as ares batch)")
-    p.add_argument("--csv", metavar="FILE", help="export: the CSV file (default: standard output)")
+    p.add_argument("--csv", metavar="FILE", help="export: the CSV file (default: standard output, unless --parquet)")
+    p.add_argument("--parquet", metavar="FILE", help="export: a Parquet file of the same rows (typed columns)")
 
 
 def _list(db) -> None:
@@ -50,10 +53,16 @@ def _compare(db, a: str, b: str) -> None:
         print(f"{q:<28} {cells[0]}   {cells[1]}")
 
 
-def _export(db, ref: str, path: str | None) -> None:
+def _export(db, ref: str, path: str | None, parquet: str | None = None) -> None:
     from ares.batch import db as rdb
 
-    cols, rows = rdb.item_rows(db, rdb.find_lot(db, ref))
+    lot_id = rdb.find_lot(db, ref)
+    cols, rows = rdb.item_rows(db, lot_id)
+    if parquet:
+        write_parquet(parquet, cols, rows, rdb.numeric_columns(db, lot_id))
+        print(f"lot {ref}: {len(rows)} item(s) -> {parquet}", file=sys.stderr)
+        if not path:
+            return
     fh = open(path, "w", newline="", encoding="utf-8") if path else sys.stdout
     try:
         w = csv.writer(fh, lineterminator="\n")
@@ -65,6 +74,23 @@ def _export(db, ref: str, path: str | None) -> None:
             fh.close()
     if path:
         print(f"lot {ref}: {len(rows)} item(s) -> {path}", file=sys.stderr)
+
+
+def write_parquet(path: str, cols: list[str], rows: list[tuple], numeric: set[str]) -> None:
+    """The rows as a Parquet file (written as .tmp and renamed): ``numeric`` columns float64,
+    the others strings; None is null."""
+    import os
+
+    import pyarrow as pa
+    import pyarrow.parquet as pq
+
+    fields = [pa.field(c, pa.float64() if c in numeric else pa.string()) for c in cols]
+    data = {c: [r[i] for r in rows] for i, c in enumerate(cols)}
+    data = {c: [None if v is None else (float(v) if c in numeric else str(v)) for v in vs] for c, vs in data.items()}
+    table = pa.table(data, schema=pa.schema(fields))
+    tmp = f"{path}.tmp"
+    pq.write_table(table, tmp)
+    os.replace(tmp, path)
 
 
 def run(args) -> int:
@@ -84,5 +110,5 @@ def run(args) -> int:
         elif args.action == "compare":
             _compare(db, *args.lots)
         else:
-            _export(db, args.lots[0], args.csv)
+            _export(db, args.lots[0], args.csv, args.parquet)
     return 0

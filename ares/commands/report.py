@@ -32,7 +32,7 @@ def run(args) -> int:
     from ares.runstate import REPORTS_INCOMPLETE, owner
     from ares.scan.rundir import clean_report_leftovers, set_reports_state
 
-    r = read_run(args.run_dir)
+    r = read_run(args.run_dir, verify_arrays=True)  # (incomplete / corrupt: one sentence, exit 2)
     repair = r.status == REPORTS_INCOMPLETE and not (args.pdf or args.csv or args.hdf5)
     if repair:  # the reports a signal cut short, written now: the run reads as done again
         clean_report_leftovers(r.dir)

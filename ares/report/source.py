@@ -159,7 +159,13 @@ def _attribution(d: Path, meta: dict) -> str:
     return ATTRIBUTION if any(m in blob for m in _EMVA_MARKERS) else ""
 
 
-def read_run(run_dir: str | Path) -> Run:
+def read_run(run_dir: str | Path, verify_arrays: bool = False) -> Run:
+    """The run directory, checked against the hashes recorded as it was written
+    (``ares.runcheck``: a missing or modified stage file, a truncated HDF5 raise
+    ``RunDamaged``); ``verify_arrays`` also hashes every stored array (``ares report``,
+    ``ares batch``: once per run, not on every read)."""
+    from ares.runcheck import check_run
+
     d = Path(run_dir)
     if not d.exists():
         raise InputError(f"{d}: run directory does not exist")
@@ -187,6 +193,7 @@ def read_run(run_dir: str | Path) -> Run:
         if not isinstance(st, dict) or "views" not in st or "full" not in st["views"]:
             raise InputError(f"{p}: not an ARES stage result (no views.full)")
         stages.append(st)
+    check_run(d, meta, stages, arrays=verify_arrays)
     sr = None
     if (d / "scan_results.json").is_file():
         sr = _load_json(d / "scan_results.json")

@@ -7,14 +7,16 @@ Layout (all paths relative to the run directory)::
                         versions, bench info (simulator parameters with their defaults,
                         chip id), start/end time, status (running/done/stopped/aborted/
                         failed), message, stages completed, reports (writing /
-                        complete / incomplete / failed: ``ares.runstate``). Rewritten
+                        complete / incomplete / failed: ``ares.runstate``), stage_sha256
+                        (SHA-256 of each stages/NNNN.json: ``ares.runcheck``). Rewritten
                         atomically.
     xml/<scan file>     the scan XML, byte for byte
     xml/<system file>   the system XML, byte for byte (``ares rerun`` loads these two)
     stages/NNNN.json    per completed stage: resolved settings, register snapshots
                         before/after, timing, results per view (see ares.scan.results);
                         with a defect mask also level_masked, components_masked (full view)
-                        and the mask summary (defect_mask: count, source, classes)
+                        and the mask summary (defect_mask: count, source, classes);
+                        arrays_sha256 (each array of NNNN.h5) and h5_bytes (``ares.runcheck``)
     stages/NNNN.h5      HDF5 arrays of the stage: mean, variance (per-pixel temporal, DN^2),
                         frame_means, dark_mean (matched dark), hist_<view> (code histograms,
                         adc_linearity and photon_counting scans only), defect_mask (uint8, 1 = excluded from the
@@ -145,8 +147,11 @@ def _fsync(path: Path) -> None:
         os.fsync(fh.fileno())
 
 
-def dump_json(path: Path, obj) -> None:
-    write_atomic(path, json.dumps(_clean(obj), indent=1, default=_json_default, allow_nan=False).encode())
+def dump_json(path: Path, obj) -> str:
+    """Write ``obj`` as strict JSON (atomically); the SHA-256 of the bytes written."""
+    data = json.dumps(_clean(obj), indent=1, default=_json_default, allow_nan=False).encode()
+    write_atomic(path, data)
+    return sha256(data)
 
 
 CLAIM = ".ares-claim"
@@ -216,7 +221,7 @@ class RunWriter:
             "seed": seed, "frames_override": frames_override, "argv": argv or [],
             "versions": versions(), "started": time.strftime("%Y-%m-%dT%H:%M:%S%z"),
             "finished": None, "status": "running", "message": "", "stages_completed": 0, "stages_total": None,
-            "save_frames": save_frames,
+            "save_frames": save_frames, "stage_sha256": {},
         }
         self.meta.update(owner())
         self._write_meta()
@@ -240,6 +245,11 @@ class RunWriter:
         self.meta.pop("reports", None)  # (written again at its end)
         for leftover in (self.dir / "stages").glob("*.tmp"):  # a stage write the kill cut short
             leftover.unlink()
+        recorded = self.meta["stage_sha256"] = dict(self.meta.get("stage_sha256") or {})
+        for st in stages:  # a stage committed (its JSON written) just before the kill reached run.json
+            key = f"{st['index']:04d}"
+            if key not in recorded:
+                recorded[key] = sha256((self.dir / "stages" / f"{key}.json").read_bytes())
         self._write_meta()
         self._heartbeat = Heartbeat(self.beat).start()
         return self
@@ -272,9 +282,11 @@ class RunWriter:
         i = result["index"]
         record = dict(result, registers_before=registers_before, registers_after=registers_after, timing=timing)
         with storage(self.dir / "stages"):
-            if self.scan.output.hdf5:
-                self._write_stage_h5(i, result, arrays)
-            dump_json(self.dir / "stages" / f"{i:04d}.json", record)
+            if self.scan.output.hdf5:  # its arrays' hashes go into the JSON (ares.runcheck)
+                record["arrays_sha256"], record["h5_bytes"] = self._write_stage_h5(i, result, arrays)
+            digest = dump_json(self.dir / "stages" / f"{i:04d}.json", record)
+            with self._lock:  # (a new dict: the heartbeat thread may be serialising the old one)
+                self.meta["stage_sha256"] = {**self.meta.get("stage_sha256", {}), f"{i:04d}": digest}
             if self.scan.output.hdf5:
                 self._write_index(f"{i:04d}")
             self.rows.append(_summary_row(result, self.scan))
@@ -284,17 +296,22 @@ class RunWriter:
         self.meta["heartbeat"] = time.time()
         self._write_meta()
 
-    def _write_stage_h5(self, i: int, result: dict, arrays: dict) -> None:
+    def _write_stage_h5(self, i: int, result: dict, arrays: dict) -> tuple[dict, int]:
         """Stage arrays into stages/NNNN.h5 (tmp -> fsync -> rename): at every instant the
-        file is complete or absent."""
+        file is complete or absent. Returns each array's SHA-256 (of the bytes in memory, as
+        they are written: ~1 ms a VGA float map, benchmarks/stage_write.md) and the file's size."""
         import h5py
+
+        from ares.runcheck import array_sha256
 
         name = f"{i:04d}"
         path = self.dir / "stages" / f"{name}.h5"
         tmp = path.with_name(path.name + ".tmp")
+        hashes = {}
         with h5py.File(tmp, "w") as f:
             for k, a in arrays.items():
                 a = np.asarray(a)
+                hashes[k] = array_sha256(a)
                 # float maps are written as they are: byte shuffle + gzip-1 took 60 ms a VGA
                 # stage (12x the plain write) to save 18 % on float32 noise; integer maps
                 # (the defect mask) shrink >10x for ~nothing (benchmarks/stage_write.md)
@@ -309,7 +326,9 @@ class RunWriter:
             f.attrs["settings"] = json.dumps(_clean(result["settings"]))
             f.attrs["result"] = json.dumps(_clean(result), default=_json_default)
         _fsync(tmp)
+        size = tmp.stat().st_size
         os.replace(tmp, path)
+        return hashes, size
 
     def _write_index(self, name: str) -> None:
         """Rewrite the small results.h5 index of external links (tmp -> fsync -> rename)."""
