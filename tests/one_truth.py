@@ -140,6 +140,12 @@ def check_surfaces(name: str, run: Path, terminal: str) -> None:
     from ares.gui.runner_adapter import summarize
 
     gui = summarize(res)["results"]
+    # one turnoff (issue 34): turnoff_dn / turnoff_e, not a second "full well, PTC turnoff"
+    # with another SE for the same level
+    assert not any("ptc_turnoff" in r["name"] for r in kf), name
+    for key in ("turnoff_dn", "turnoff_e"):
+        if isinstance(ptc.get(key), dict):
+            assert key in by_name and by_name[key]["verdict"] == ptc[key]["verdict"], (name, key)
     for key, label in labels.PTC_FIGURES:
         if label not in ptc_t:
             continue

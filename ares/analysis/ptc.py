@@ -334,8 +334,8 @@ def _full_well(levels: list[PtcLevel], br: SaturationBracket, gain: Estimate, cl
         fw["max_code"] = checked(good[im].index if im >= 0 else -1,
                                  f"EMVA 1288 4.0: highest level with <= {100 * clip_limit:g} % of pixels at max code")
     fw["plateau"] = _plateau(levels, br, k)
-    fw["ptc_turnoff"] = checked(br.last_ok, "PTC turnoff: the highest level whose variance follows the curve "
-                                            "of the levels below it (4 SE)")
+    # (the PTC turnoff is not a full-well definition here: it is one figure, turnoff_dn /
+    # turnoff_e, whose SE says it is located only to within the level spacing -- issue 34)
     if xlin is not None:
         on = [lv for lv in levels if lv.status != "excluded" or lv.clipped]
         xs = np.asarray(xlin, float)
@@ -468,7 +468,8 @@ def analyze_ptc(bright: Sequence[LevelStats], dark: Sequence[LevelStats], *, exp
 
 
 TURNOFF_NOTE = ("PTC turnoff: the last level of the curve followed from below before its first significant "
-                "departure (variance/mean ratio or variance dropping by > 4 SE); SE: the level spacing/sqrt(12)")
+                "departure (variance/mean ratio or variance dropping by > 4 SE); located only to within the "
+                "level spacing: SE = spacing to the next level / sqrt(3)")
 
 
 def _turnoffs(levels: Sequence[PtcLevel], br: SaturationBracket, gain: Estimate,
@@ -488,7 +489,11 @@ def _turnoffs(levels: Sequence[PtcLevel], br: SaturationBracket, gain: Estimate,
         if bound:
             return Estimate.limit(s, bound, "DN", note)
         nxt = [lv.signal for lv in meas[j + 1:] if lv.signal > s]
-        return Estimate(s, (nxt[0] - s) / math.sqrt(12) if nxt else math.nan, "DN", note)
+        # the level found is the last one before the departure: the turnoff itself lies
+        # anywhere between it and the next level, so its error is the rms distance from this
+        # level to a point uniform in that interval, spacing/sqrt(3) (not the signal's own SE,
+        # which is ~1000x smaller and says nothing about where the curve turns)
+        return Estimate(s, (nxt[0] - s) / math.sqrt(3) if nxt else math.nan, "DN", note)
 
     if br.last_ok < 0:
         head = Estimate.na(br.reason, "DN")

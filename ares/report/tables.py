@@ -40,7 +40,6 @@ FULL_WELL_LABELS = {
     "max_variance": "full well, max variance (EMVA 1288 3.0)",
     "max_code": "full well, max code (EMVA 1288 4.0)",
     "plateau": "full well, saturated plateau",
-    "ptc_turnoff": "full well, PTC turnoff",
     "linearity_1pct": "full well, 1 % linearity limit",
 }
 
@@ -369,7 +368,11 @@ def compute_key_figures(run, groups: list[PtcGroup] | None = None) -> dict:
         fwd = stored.get("full_well_definitions") if have_stored else None
         fw = {k: est(v) for k, v in fwd.items()} if fwd else (res.full_well_e if res is not None else {})
         for k, e in fw.items():
+            if k == "ptc_turnoff":  # run directories before issue 34: the turnoff is one figure, below
+                continue
             kf[f"full_well_e.{k}"] = _entry(FULL_WELL_LABELS.get(k, f"full well ({k})"), e, src)
+        for key in ("turnoff_dn", "turnoff_e"):  # one turnoff, SE from the level spacing
+            kf[key] = _entry(labels.PTC_LABELS[key], pick(key, res and getattr(res, key)), src)
         kf["dynamic_range_db"] = _entry("dynamic range", pick("dynamic_range_db", res and res.dynamic_range_db), src)
         if res is not None:
             s = _snr_max(res)
