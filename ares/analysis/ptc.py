@@ -457,6 +457,9 @@ def analyze_ptc(bright: Sequence[LevelStats], dark: Sequence[LevelStats], *, exp
     snr = {
         "signal_dn": np.array([lv.signal for lv in good]),
         "snr": np.array([lv.signal / math.sqrt(lv.total_var) for lv in good]),
+        # SE of signal / sqrt(variance) from the variance's chi-square scatter: SNR sqrt(1 / (2 dof))
+        "snr_se": np.array([lv.signal / math.sqrt(lv.total_var) * math.sqrt(0.5 / lv.dof) if lv.dof > 0
+                            else math.nan for lv in good]),
         "signal_e": np.array([lv.signal / gain.value for lv in good]) if gain.available else np.array([]),
     }
     nm, zones = noise_model(good, dark, gain)

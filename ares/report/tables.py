@@ -19,6 +19,7 @@ from ares.analysis.estimate import (GAIN_SPREADS, Estimate, component_display, c
                                     format_value)  # (component_* re-exported for the report pages)
 from ares.analysis.levels import LevelStats
 from ares import labels
+from ares.analysis.physical import snr_db, snr_in_range
 from ares.analysis.ptc import PtcResult, analyze_ptc
 
 # the 13 components (DESIGN.md / seed 001) in model order, then the extras ARES reports
@@ -318,13 +319,17 @@ def _entry(label: str, e: Estimate, source: str) -> dict:
             "verdict": e.verdict}
 
 
-def _snr_max(res: PtcResult) -> Estimate:
+def _snr_max(res: PtcResult, well_e: float) -> Estimate:
+    """The largest measured SNR, judged against sqrt of the full well (``well_e``, e-):
+    above it the noise was mis-measured (``ares.analysis.physical.snr_in_range``)."""
     snr = res.snr.get("snr")
     if snr is None or not len(snr):
         return Estimate.na("no valid PTC level")
     i = int(np.argmax(snr))
-    return Estimate(float(snr[i]), math.nan, "",
-                    f"max measured signal / temporal noise (at {res.snr['signal_dn'][i]:.5g} DN)")
+    se = res.snr["snr_se"][i] if "snr_se" in res.snr else math.nan
+    s = Estimate(float(snr[i]), float(se), "",
+                 f"max measured signal / temporal noise (at {res.snr['signal_dn'][i]:.5g} DN)")
+    return snr_in_range(s, well_e, "SNR max (measured)")
 
 
 def _flat_estimates(d: dict, prefix: str = "") -> list[tuple[str, dict]]:
@@ -375,11 +380,11 @@ def compute_key_figures(run, groups: list[PtcGroup] | None = None) -> dict:
             kf[key] = _entry(labels.PTC_LABELS[key], pick(key, res and getattr(res, key)), src)
         kf["dynamic_range_db"] = _entry("dynamic range", pick("dynamic_range_db", res and res.dynamic_range_db), src)
         if res is not None:
-            s = _snr_max(res)
+            well = est(kf["full_well_e"])  # the charge capacity: no SNR above its square root
+            s = _snr_max(res, well.value if well.available else math.nan)
             kf["snr_max"] = _entry("SNR max (measured)", s, "PTC recomputed")
             if s.available:
-                kf["snr_max_db"] = _entry("SNR max (measured)", Estimate(20 * math.log10(s.value), math.nan, "dB",
-                                                                         s.note), "PTC recomputed")
+                kf["snr_max_db"] = _entry("SNR max (measured)", snr_db(s, s.note), "PTC recomputed")
             fwv = fw.get("saturation_capacity")
             if fwv is not None and fwv.available:
                 kf["snr_max_emva"] = _entry("SNR max (EMVA 1288 4.0 Eq. 55)",
