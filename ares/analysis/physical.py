@@ -21,8 +21,10 @@ from ares.analysis.estimate import Estimate
 NSIGMA = 3.0
 
 
-def in_range(e: Estimate, minimum: float | None = None, maximum: float | None = None, what: str = "") -> Estimate:
-    """``e`` judged against ``[minimum, maximum]`` (see the module docstring)."""
+def in_range(e: Estimate, minimum: float | None = None, maximum: float | None = None, what: str = "",
+             bound_se: float = 0.0) -> Estimate:
+    """``e`` judged against ``[minimum, maximum]`` (see the module docstring); ``bound_se``:
+    the SE of a bound that is itself measured (combined with ``e.se``)."""
     if not e.available:
         return e
     if e.bound:  # a limit on the wrong side of its physical bound is impossible too
@@ -35,6 +37,8 @@ def in_range(e: Estimate, minimum: float | None = None, maximum: float | None = 
         return e
     name = what or "the value"
     se = e.se if math.isfinite(e.se) and e.se > 0 else 0.0
+    if math.isfinite(bound_se) and bound_se > 0:
+        se = math.hypot(se, bound_se)
     if minimum is not None and e.value < minimum:
         z = (minimum - e.value) / se if se else math.inf
         if z <= NSIGMA:
@@ -63,7 +67,8 @@ def variances_in_range(components: dict[str, Estimate]) -> dict[str, Estimate]:
             for k, e in components.items()}
 
 
-def snr_in_range(snr: Estimate, charge: float, what: str = "SNR", of: str = "the full well") -> Estimate:
+def snr_in_range(snr: Estimate, charge: float, what: str = "SNR", of: str = "the full well",
+                 charge_se: float = 0.0) -> Estimate:
     """An SNR judged against its physical maximum sqrt(``charge``): shot noise alone gives
     SNR = sqrt(N) for N collected charges (or N photons for an ideal detector, QE = 1), and
     every other noise lowers it, so an SNR above sqrt of the well (of the photons) means the
@@ -71,7 +76,9 @@ def snr_in_range(snr: Estimate, charge: float, what: str = "SNR", of: str = "the
     above 1). No bound is applied when ``charge`` is not a positive finite number."""
     if not (isinstance(charge, (int, float)) and math.isfinite(charge) and charge > 0):
         return snr
-    return in_range(snr, maximum=math.sqrt(charge), what=f"{what} (at most sqrt of {of}, {charge:.4g})")
+    bse = 0.5 * charge_se / math.sqrt(charge) if math.isfinite(charge_se) else 0.0
+    return in_range(snr, maximum=math.sqrt(charge), what=f"{what} (at most sqrt of {of}, {charge:.4g})",
+                    bound_se=bse)
 
 
 def snr_db(snr: Estimate, note: str = "20 log10 SNR") -> Estimate:

@@ -118,6 +118,9 @@ class PtcResult:
         return {
             "gain_dn_per_e": self.gain_dn_per_e.to_dict(), "gain_e_per_dn": self.gain_e_per_dn.to_dict(),
             "gain_line_dn_per_e": self.gain_wls_dn_per_e.to_dict(),
+            # the other estimators the PTC plot draws, so no surface shows a K the JSON lacks
+            "gain_origin_dn_per_e": self.gain_origin_dn_per_e.to_dict(),
+            "gain_astier_dn_per_e": self.gain_astier_dn_per_e.to_dict(),
             "gain_model": self.gain_model.to_dict() if self.gain_model else None,
             "gain_headline": self.gain_headline(),
             "linearity_check": {"mean_rel_dev": lin.mean_rel_dev if math.isfinite(lin.mean_rel_dev) else None,
@@ -286,7 +289,7 @@ def _gain_estimates(fit: list[PtcLevel], signal_se, fit_note: str):
     reason = gm.reason
     if gm.chosen == "astier" and not gm.astier_p >= HEADLINE_P_MIN:  # a fit failing its own check is no headline
         chosen = k_wls
-        reason = (f"line (EMVA 1288 4.0 Eq. 50 definition): the Astier fit, preferred to the line, fails its own "
+        reason = (f"weighted line: the Astier fit, preferred to the line, fails its own "
                   f"residual check (chi2/dof {ast.chi2_red:.3g}, p {gm.astier_p:.2g}); neither model describes these "
                   "levels within their errors")
     if chosen.available:
