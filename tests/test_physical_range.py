@@ -126,8 +126,10 @@ def _emva(capsys, desc, release, as_json=True):
 
 def _shown_as_verdict(text: str, key: str) -> bool:
     """A figure's row in `ares emva`'s table shows "n/a" or a limit ("< x", "> x"), not a value."""
-    line = next(ln for ln in text.splitlines() if ln.split()[:1] == [key])
-    cell = line[:62]  # quantity, symbol, value (the definition / reason follows)
+    lines = text.splitlines()
+    end = next(ln for ln in lines if ln.startswith("quantity")).index("value") + len("value")
+    line = next(ln for ln in lines if ln.split()[:1] == [key])
+    cell = line[:end]  # quantity, symbol, value (right-aligned under "value"; the reason follows)
     return "n/a" in cell or re.search(r"[<>] ?[\d.]", cell) is not None
 
 
