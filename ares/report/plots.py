@@ -112,7 +112,8 @@ def ptc_variance(ax, rows: list[dict], res, title: str) -> list[str]:
         xs = np.linspace(0, smax * 1.05, 50)
         head = {"line": "WLS line", "astier": "Astier"}.get(res.gain_headline().get("estimator"), "line")
         for e, name, ls in ((res.gain_dn_per_e, f"headline ({head})", "-"),
-                            (res.gain_origin_dn_per_e, "EMVA origin fit", "--"), (res.gain_astier_dn_per_e, "Astier", ":")):
+                            (res.gain_origin_dn_per_e, "EMVA origin fit", "--"),
+                            (res.gain_astier_dn_per_e, "Astier", ":")):
             if e.available:  # each K with the digits its SE supports, as in the tables
                 ax.plot(xs, e.value * xs, ls=ls, lw=1, color="0.2" if ls == "-" else "0.5",
                         label=f"{name}: K = {e.text()}")

@@ -362,7 +362,7 @@ def compute_key_figures(run, groups: list[PtcGroup] | None = None) -> dict:
         kf["gain_dn_per_e"] = _entry(f"system gain K (analog gain x{ag:g})",
                                      pick("gain_dn_per_e", res and res.gain_dn_per_e), src)
         stmt = (stored.get("gain_headline") or {}).get("statement")
-        if stmt and kf["gain_dn_per_e"]["value"] is not None:  # beside EMVA 1288 4.0 Eq. 50 (ares.analysis.gain_compare)
+        if stmt and kf["gain_dn_per_e"]["value"] is not None:  # beside 4.0 Eq. 50 (ares.analysis.gain_compare)
             kf["gain_dn_per_e"]["note"] = stmt
         kf["gain_e_per_dn"] = _entry("inverse gain 1/K", pick("gain_e_per_dn", res and res.gain_e_per_dn), src)
         kf["conversion_gain_uv_per_e"] = _entry(
