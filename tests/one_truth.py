@@ -140,6 +140,21 @@ def check_surfaces(name: str, run: Path, terminal: str) -> None:
     from ares.gui.runner_adapter import summarize
 
     gui = summarize(res)["results"]
+    # one turnoff (issue 34): turnoff_dn / turnoff_e, not a second "full well, PTC turnoff"
+    # with another SE for the same level
+    assert not any("ptc_turnoff" in r["name"] for r in kf), name
+    for key in ("turnoff_dn", "turnoff_e"):
+        if isinstance(ptc.get(key), dict):
+            assert key in by_name and by_name[key]["verdict"] == ptc[key]["verdict"], (name, key)
+    # the headline K beside EMVA 1288 4.0 Eq. 50 (a scan with emva4): one sentence on the
+    # terminal, in the key figures, on the report's page 1 and on the datasheet's notes page
+    stmt = (ptc.get("gain_headline") or {}).get("statement")
+    if stmt:
+        assert "headline K" in terminal and stmt in terminal, name
+        assert by_name["gain_dn_per_e"]["note"] == stmt, name
+        assert _squash(stmt) in _squash(page_texts(run / "report.pdf")[0]), f"{name}: K statement not on page 1"
+        sheet = _squash(" ".join(page_texts(run / "emva_datasheet.pdf")))
+        assert _squash(stmt) in sheet, f"{name}: K statement not on the datasheet"
     for key, label in labels.PTC_FIGURES:
         if label not in ptc_t:
             continue

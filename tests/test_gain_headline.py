@@ -7,6 +7,7 @@ import csv
 import json
 
 import numpy as np
+import pytest
 
 from ares.cli import main
 
@@ -43,3 +44,24 @@ def test_headline_named_on_a_clean_line(tmp_path, capsys):
     d = json.loads(capsys.readouterr().out)
     assert d["gain_headline"]["estimator"] == "line" and d["gain_headline"]["reason"].startswith("linear")
     assert abs(d["gain_dn_per_e"]["value"] - 0.25) < 4 * d["gain_dn_per_e"]["se"]
+
+
+def test_k_statement_closed_form():
+    """The sentence naming the headline K beside EMVA 1288 4.0 Eq. 50: the difference, its
+    combined SE, and the cause only when they differ beyond 2 SE."""
+    from ares.analysis.estimate import Estimate
+    from ares.analysis.gain_compare import k_statement
+
+    d = k_statement(Estimate(0.2828, 0.0010, "DN/e-"), "line", "weighted line: the Astier fit fails its own "
+                    "residual check", Estimate(0.2767, 0.0011, "DN/e-"), 37.8)
+    assert d["difference"]["value"] == pytest.approx(0.0061)
+    assert d["difference"]["se"] == pytest.approx(0.0014866, rel=1e-4)
+    assert d["z"] == pytest.approx(0.0061 / 0.0014866, rel=1e-4)
+    st = d["statement"]
+    assert "ARES's weighted line" in st and "because the Astier fit fails its own residual check" in st
+    assert "Eq. 50 as written" in st and "0.2767 ± 0.0011" in st and "(line chi2/dof 37.8)" in st
+    same = k_statement(Estimate(0.2800, 0.0010, "DN/e-"), "line", "linear: residuals consistent",
+                       Estimate(0.2790, 0.0011, "DN/e-"))
+    assert "consistent within their errors" in same["statement"] and "weight the same levels" not in same["statement"]
+    na = k_statement(Estimate(0.28, 0.001, "DN/e-"), "line", "", Estimate.na("saturation not reached", "DN/e-"))
+    assert "not available" in na["statement"] and "difference" not in na

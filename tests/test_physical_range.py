@@ -5,8 +5,11 @@ never verdict "ok", but an upper limit or "not available" with the reason."""
 from __future__ import annotations
 
 import json
+import math
+import re
 
 import numpy as np
+import pytest
 
 from ares.analysis.dark_current import dark_current
 from ares.analysis.estimate import Estimate
@@ -96,3 +99,116 @@ def test_negative_dark_current_from_the_variance_is_not_ok():
     var = 2.0 - 40.0 * T + np.array([0.001, -0.001, 0.0, 0.001, -0.001, 0.0])
     dc = dark_current(T, 10.0 + 0.001 * T, Estimate(0.2, 1e-3, "DN/e-"), var)
     assert dc.rate_from_variance_e_per_s.verdict == "not available"
+
+
+# ---------------------------------------------------------------- through the commands
+# Out-of-range inputs fed to `ares emva` and `ares analyze` as a user would: no "ok" verdict
+# for the figures they make impossible, in the JSON nor in the printed table. (`ares ptc`
+# prints no SNR or dark current; its negative-variance levels are excluded with a reason,
+# tests/test_turnoff.py and tests/test_ptc_command.py.)
+
+def _verdicts(tree, path=""):
+    """{dotted path: (value, verdict)} of every estimate in a JSON tree."""
+    out = {}
+    if isinstance(tree, dict):
+        if "verdict" in tree and "value" in tree:
+            out[path] = (tree["value"], tree["verdict"])
+        for k, v in tree.items():
+            out.update(_verdicts(v, f"{path}.{k}" if path else k))
+    return out
+
+
+def _emva(capsys, desc, release, as_json=True):
+    assert main(["emva", str(desc), "--release", release] + (["--json"] if as_json else [])) == 0
+    out = capsys.readouterr().out
+    return json.loads(out) if as_json else out
+
+
+def _shown_as_verdict(text: str, key: str) -> bool:
+    """A figure's row in `ares emva`'s table shows "n/a" or a limit ("< x", "> x"), not a value."""
+    lines = text.splitlines()
+    end = next(ln for ln in lines if ln.startswith("quantity")).index("value") + len("value")
+    line = next(ln for ln in lines if ln.split()[:1] == [key])
+    cell = line[:end]  # quantity, symbol, value (right-aligned under "value"; the reason follows)
+    return "n/a" in cell or re.search(r"[<>] ?[\d.]", cell) is not None
+
+
+@pytest.fixture(scope="module")
+def qe_above_one(tmp_path_factory):
+    """Photons declared 1.6x too low (a QE of 128 %): SNR_max = sqrt(eta mu_p.sat) above
+    sqrt(mu_p.sat), which no sensor reaches; and a dark level falling 2000 DN/s with exposure."""
+    from emva_pngset import write_set
+
+    return write_set(tmp_path_factory.mktemp("qe"), qe=0.8, photons_scale=1 / 1.6, dark_slope_dn_per_s=-2000.0)
+
+
+@pytest.mark.parametrize("release,keys", [("4.0-linear", ("SNR_max", "SNR_max_db", "SNR_max_inv", "mu_I_mean")),
+                                          ("4.0-general", ("SNR_max", "SNR_max_db", "SNR_max_inv")),
+                                          ("3.0", ("SNR_max",))])
+def test_emva_snr_above_sqrt_of_the_photons_is_never_ok(capsys, qe_above_one, release, keys):
+    d = _emva(capsys, qe_above_one, release)
+    v = _verdicts(d.get("values", d))
+    for k in keys:
+        assert v[k][1] != "ok", (release, k, v[k])
+    if release == "4.0-linear":
+        assert v["SNR_max"][1] == "not available"
+        text = _emva(capsys, qe_above_one, release, as_json=False)
+        for k in keys:
+            assert _shown_as_verdict(text, k), k
+
+
+def test_emva_dark_current_from_a_variance_at_the_quantization_floor(capsys, tmp_path):
+    """An 8-bit camera whose dark noise (0.15 DN) is below the quantization floor: the dark
+    current from the variance's slope is not a measurement."""
+    from emva_pngset import write_set
+
+    desc = write_set(tmp_path, bits=8, K=0.02, dark_sigma_dn=0.15, qe=0.6)
+    v = _verdicts(_emva(capsys, desc, "4.0-linear")["values"])
+    assert v["mu_I_var"][1] != "ok" and v["mu_I_var"][1] == "not available", v["mu_I_var"]
+    text = _emva(capsys, desc, "4.0-linear", as_json=False)
+    assert _shown_as_verdict(text, "mu_I_var")
+
+
+def test_analyze_negative_variances_in_json_and_text(tmp_path, capsys):
+    """`ares analyze` on a dark stack whose row and column means were removed: the row and
+    column variances come out far below 0 -- not "ok" in the JSON, not a bare number in the text."""
+    np.save(tmp_path / "dark.npy", _row_col_centred_dark(seed=2))
+    assert main(["analyze", str(tmp_path / "dark.npy"), "--json"]) == 0
+    v = _verdicts(json.loads(capsys.readouterr().out))
+    for k, (val, verdict) in v.items():
+        assert not (verdict == "ok" and val is not None and val < 0), (k, val)
+    assert v["Rs"][1] != "ok" and v["Cs"][1] != "ok"
+    assert main(["analyze", str(tmp_path / "dark.npy")]) == 0
+    text = capsys.readouterr().out
+    for k in ("Rs", "Cs"):
+        line = next(ln for ln in text.splitlines() if ln.split()[:1] == [k])
+        assert "n/a" in line or "<" in line, line
+
+
+def test_key_figure_snr_is_judged_against_sqrt_of_the_full_well():
+    """The report's "SNR max (measured)" (key figures: CSV, HDF5, PDF) is judged against sqrt
+    of the run's full well: with the well the curve shows, the largest SNR (shot-noise
+    limited, below sqrt(well)) stays "ok" with an SE; against a well it exceeds (a full well
+    measured too low) it is not available, saying why."""
+    from types import SimpleNamespace
+
+    from ares.analysis.levels import LevelStats
+    from ares.analysis.ptc import analyze_ptc
+    from ares.report.tables import PtcGroup, _snr_max, compute_key_figures
+
+    K, n = 0.25, 20
+    q = np.r_[np.geomspace(100, 16000, n - 4), [16000 * 1.05, 16000 * 1.1, 16000 * 1.2, 16000 * 1.3]]
+    s = K * np.minimum(q, 16000)
+    v = K * K * np.minimum(q, 16000) + 4.0
+    v[n - 4:] = 0.5  # the saturated plateau: every pixel clipped
+    bright = [LevelStats(100 + a, b, 100000, 16, 0.0) for a, b in zip(s, v)]
+    dark = [LevelStats(100.0, 4.0, 100000, 16) for _ in s]
+    res = analyze_ptc(bright, dark, photons=q / 0.6)
+    g = PtcGroup(1.0, [], res, {}, list(q / 1e6), [None] * n, list(q / 0.6))
+    kf = compute_key_figures(SimpleNamespace(analyses={}, stages=[], complete=True), [g])
+    well, snr = kf["full_well_e"]["value"], kf["snr_max"]
+    assert well == pytest.approx(16000, rel=0.05)
+    assert snr["verdict"] == "ok" and snr["value"] < math.sqrt(well) and snr["se"] > 0
+    assert kf["snr_max_db"]["verdict"] == "ok"
+    low = _snr_max(res, 0.5 * snr["value"] ** 2)  # SNR = 1.41 sqrt(well)
+    assert low.verdict == "not available" and "physical maximum" in low.note

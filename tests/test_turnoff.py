@@ -127,3 +127,19 @@ def test_text_output_shows_the_turnoff(capsys, tmp_path):
     assert main(["ptc", str(write(tmp_path / "c.csv", s, v))]) == 0
     out = capsys.readouterr().out
     assert "PTC turnoff" in out and "PTC turnoff (charge)" in out
+
+
+def test_one_turnoff_figure_whose_se_is_the_level_spacing(capsys, tmp_path):
+    """The turnoff was two figures: "full well, PTC turnoff" 8807 +- 2.6 e- (the signal's SE
+    and K's) and "PTC turnoff (charge)" 8810 +- 920 e- (the level spacing), the same level.
+    The turnoff is known only to lie between the last level on the curve and the next one, so
+    one figure stays, with the rms distance to a point in that interval as its SE."""
+    s, v = curve("clean")
+    d = ptc_json(capsys, write(tmp_path / "c.csv", s, v))
+    assert "ptc_turnoff" not in d["full_well_definitions"]
+    dn = d["turnoff_dn"]
+    assert dn["value"] == pytest.approx(T) and dn["se"] == pytest.approx(0.02 * T / math.sqrt(3), rel=1e-6)
+    assert "level spacing" in dn["note"]
+    e = d["turnoff_e"]
+    k = d["gain_dn_per_e"]
+    assert e["se"] == pytest.approx(e["value"] * math.hypot(dn["se"] / dn["value"], k["se"] / k["value"]))

@@ -38,6 +38,7 @@ import numpy as np
 from ares.analysis.estimate import Estimate
 from ares.analysis.levels import SpatialStats, pair_stats, spatial_stats
 from ares.analysis.median import n_distinct
+from ares.analysis.physical import snr_db, snr_in_range
 from ares.analysis.ptc_fit import line_fit, origin_fit
 from ares.analysis.saturation import index_max_variance
 
@@ -164,8 +165,10 @@ def emva1288_results(temporal: TemporalData, spatial_bright: SpatialStats | None
     if not why_sat:
         u_e_sat = QE * u_p_sat
         vals["u_e_sat"] = Estimate(u_e_sat, u_e_sat * QE_se / QE, "e-", "QE * mu_p.sat (EMVA 1288 3.0)")
-        vals["SNR_max"] = Estimate(math.sqrt(u_e_sat), 0.5 * math.sqrt(u_e_sat) * QE_se / QE, "", "sqrt(mu_e.sat)")
-        extra["SNR_max_dB"] = Estimate(20 * math.log10(math.sqrt(u_e_sat)), math.nan, "dB", "")
+        # no sensor beats the photon shot noise: SNR_max <= sqrt(mu_p.sat) (a QE above 1 breaks it)
+        vals["SNR_max"] = snr_in_range(Estimate(math.sqrt(u_e_sat), 0.5 * math.sqrt(u_e_sat) * QE_se / QE, "",
+                                                "sqrt(mu_e.sat)"), u_p_sat, "SNR_max", "the photons at saturation")
+        extra["SNR_max_dB"] = snr_db(vals["SNR_max"], "20 log10 SNR_max")
         u_p_min = (syd / K + 0.5) / QE
         extra["u_p_min"] = Estimate(u_p_min, math.nan, "p", "(sigma_y.dark/K + 1/2)/QE")
         extra["u_e_min"] = Estimate(QE * u_p_min, math.nan, "e-", "QE * mu_p.min")

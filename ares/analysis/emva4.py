@@ -38,6 +38,7 @@ import numpy as np
 
 from .estimate import Estimate
 from .levels import LevelStats
+from .physical import snr_db, snr_in_range
 from .ptc_fit import LocalSlopeCheck
 
 SAT_WINDOW = (0.001, 0.002)  # Section 6.6: 0.1 - 0.2 % of the pixels at the maximum value
@@ -253,9 +254,10 @@ def emva4_linear(bright: Sequence[LevelStats], dark: Sequence[LevelStats], photo
         v["mu_e_sat"] = est(mu_e_sat, eta_rel, "e-", "eta mu_p.sat (Eq. 24)")
         snr = math.sqrt(mu_e_sat)
         rel_snr = 0.5 * eta_rel if not bound else 0.0
-        v["SNR_max"] = est(snr, rel_snr, "", "sqrt(mu_e.sat) (Eq. 55)")
-        v["SNR_max_db"] = est(20 * math.log10(snr), 0.0, "dB", "20 log10 SNR_max") if bound else \
-            Estimate(20 * math.log10(snr), 20 / math.log(10) * rel_snr, "dB", "20 log10 SNR_max")
+        # no sensor beats the photon shot noise: SNR_max <= sqrt(mu_p.sat) (an eta above 1 breaks it)
+        v["SNR_max"] = snr_in_range(est(snr, rel_snr, "", "sqrt(mu_e.sat) (Eq. 55)"), p_sat, "SNR_max",
+                                    "the photons at saturation")
+        v["SNR_max_db"] = snr_db(v["SNR_max"], "20 log10 SNR_max")
     if not v["mu_p_sat"].available:
         v["DR"], v["DR_db"] = Estimate.na(v["mu_p_sat"].note, ""), Estimate.na(v["mu_p_sat"].note, "dB")
     elif not v["mu_p_min"].available:

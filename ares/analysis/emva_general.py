@@ -34,6 +34,7 @@ import numpy as np
 
 from .emva4 import saturation_index
 from .estimate import Estimate
+from .physical import snr_db, snr_in_range
 from .levels import LevelStats
 
 
@@ -237,9 +238,10 @@ def emva_general(bright: list[LevelStats], dark: list[LevelStats], photons, mean
         j = int(np.nanargmax(np.where(ok[: top + 1], snr_p[: top + 1], -np.inf)))
         smax = float(snr_p[j])
         smax_se = smax * math.sqrt(1.0 / max(b[j].dof, 1) * 0.5 + (float(curve.se(up[j], True)) / slope[j]) ** 2)
-        v["SNR_max"] = Estimate(smax, smax_se, "", f"largest SNR_p (level {j}, Section 6.8)")
-        v["SNR_max_db"] = Estimate(20 * math.log10(smax), 20 / math.log(10) * smax_se / smax, "dB",
-                                   "20 log10 SNR_max")
+        # no sensor beats the photon shot noise: SNR_p <= sqrt(mu_p) at that level
+        v["SNR_max"] = snr_in_range(Estimate(smax, smax_se, "", f"largest SNR_p (level {j}, Section 6.8)"),
+                                    float(up[j]), "SNR_max", f"the photons at level {j}")
+        v["SNR_max_db"] = snr_db(v["SNR_max"], "20 log10 SNR_max")
     else:
         why = "no level up to saturation with a rising characteristic curve and temporal noise"
         v["SNR_max"], v["SNR_max_db"] = Estimate.na(why, ""), Estimate.na(why, "dB")

@@ -118,6 +118,9 @@ class PtcResult:
         return {
             "gain_dn_per_e": self.gain_dn_per_e.to_dict(), "gain_e_per_dn": self.gain_e_per_dn.to_dict(),
             "gain_line_dn_per_e": self.gain_wls_dn_per_e.to_dict(),
+            # the other estimators the PTC plot draws, so no surface shows a K the JSON lacks
+            "gain_origin_dn_per_e": self.gain_origin_dn_per_e.to_dict(),
+            "gain_astier_dn_per_e": self.gain_astier_dn_per_e.to_dict(),
             "gain_model": self.gain_model.to_dict() if self.gain_model else None,
             "gain_headline": self.gain_headline(),
             "linearity_check": {"mean_rel_dev": lin.mean_rel_dev if math.isfinite(lin.mean_rel_dev) else None,
@@ -286,7 +289,7 @@ def _gain_estimates(fit: list[PtcLevel], signal_se, fit_note: str):
     reason = gm.reason
     if gm.chosen == "astier" and not gm.astier_p >= HEADLINE_P_MIN:  # a fit failing its own check is no headline
         chosen = k_wls
-        reason = (f"line (EMVA 1288 4.0 Eq. 50 definition): the Astier fit, preferred to the line, fails its own "
+        reason = (f"weighted line: the Astier fit, preferred to the line, fails its own "
                   f"residual check (chi2/dof {ast.chi2_red:.3g}, p {gm.astier_p:.2g}); neither model describes these "
                   "levels within their errors")
     if chosen.available:
@@ -334,8 +337,8 @@ def _full_well(levels: list[PtcLevel], br: SaturationBracket, gain: Estimate, cl
         fw["max_code"] = checked(good[im].index if im >= 0 else -1,
                                  f"EMVA 1288 4.0: highest level with <= {100 * clip_limit:g} % of pixels at max code")
     fw["plateau"] = _plateau(levels, br, k)
-    fw["ptc_turnoff"] = checked(br.last_ok, "PTC turnoff: the highest level whose variance follows the curve "
-                                            "of the levels below it (4 SE)")
+    # (the PTC turnoff is not a full-well definition here: it is one figure, turnoff_dn /
+    # turnoff_e, whose SE says it is located only to within the level spacing -- issue 34)
     if xlin is not None:
         on = [lv for lv in levels if lv.status != "excluded" or lv.clipped]
         xs = np.asarray(xlin, float)
@@ -457,6 +460,9 @@ def analyze_ptc(bright: Sequence[LevelStats], dark: Sequence[LevelStats], *, exp
     snr = {
         "signal_dn": np.array([lv.signal for lv in good]),
         "snr": np.array([lv.signal / math.sqrt(lv.total_var) for lv in good]),
+        # SE of signal / sqrt(variance) from the variance's chi-square scatter: SNR sqrt(1 / (2 dof))
+        "snr_se": np.array([lv.signal / math.sqrt(lv.total_var) * math.sqrt(0.5 / lv.dof) if lv.dof > 0
+                            else math.nan for lv in good]),
         "signal_e": np.array([lv.signal / gain.value for lv in good]) if gain.available else np.array([]),
     }
     nm, zones = noise_model(good, dark, gain)
@@ -468,7 +474,8 @@ def analyze_ptc(bright: Sequence[LevelStats], dark: Sequence[LevelStats], *, exp
 
 
 TURNOFF_NOTE = ("PTC turnoff: the last level of the curve followed from below before its first significant "
-                "departure (variance/mean ratio or variance dropping by > 4 SE); SE: the level spacing/sqrt(12)")
+                "departure (variance/mean ratio or variance dropping by > 4 SE); located only to within the "
+                "level spacing: SE = spacing to the next level / sqrt(3)")
 
 
 def _turnoffs(levels: Sequence[PtcLevel], br: SaturationBracket, gain: Estimate,
@@ -488,7 +495,11 @@ def _turnoffs(levels: Sequence[PtcLevel], br: SaturationBracket, gain: Estimate,
         if bound:
             return Estimate.limit(s, bound, "DN", note)
         nxt = [lv.signal for lv in meas[j + 1:] if lv.signal > s]
-        return Estimate(s, (nxt[0] - s) / math.sqrt(12) if nxt else math.nan, "DN", note)
+        # the level found is the last one before the departure: the turnoff itself lies
+        # anywhere between it and the next level, so its error is the rms distance from this
+        # level to a point uniform in that interval, spacing/sqrt(3) (not the signal's own SE,
+        # which is ~1000x smaller and says nothing about where the curve turns)
+        return Estimate(s, (nxt[0] - s) / math.sqrt(3) if nxt else math.nan, "DN", note)
 
     if br.last_ok < 0:
         head = Estimate.na(br.reason, "DN")

@@ -128,7 +128,7 @@ def run(args) -> int:
             line += f"  ({e.note})"
         print(line)
     if args.dark:
-        fg = an.flat_stack_components["frame_global"]
+        fg = variances_in_range(an.flat_stack_components)["frame_global"]  # as --json states it
         print(f"  {'':<14} {component_text('frame_global', fg.to_dict()):<34} flat stack frame-global "
               "(light-source flicker + dark frame-global)")
     print("Variances in DN^2 (e-^2 in electrons); Cg, Rg, Pg as % rms of the relative gain (--json: their "

@@ -313,10 +313,11 @@ RELEASES = ("4.0-linear", "4.0-general", "3.1", "3.0")
 
 
 def _value_lines(values: dict, symbols: dict | None = None) -> list[str]:
-    lines = [f"{'quantity':<20}{'symbol':<15}{'value':>26}  {'unit':<10} definition / reason"]
+    sw = max([15] + [len((symbols or {}).get(k, k)) + 1 for k in values])  # a long symbol shifted the values
+    lines = [f"{'quantity':<20}{'symbol':<{sw}}{'value':>26}  {'unit':<10} definition / reason"]
     for k, e in values.items():
         val = e.text(with_unit=False) if e.available else "n/a"
-        lines.append(f"{k:<20}{(symbols or {}).get(k, k):<15}{val:>26}  {e.unit:<10} {e.note}")
+        lines.append(f"{k:<20}{(symbols or {}).get(k, k):<{sw}}{val:>26}  {e.unit:<10} {e.note}")
     return lines
 
 

@@ -207,6 +207,9 @@ def print_summary(outcome, scan, seconds: float, out=None, resumed: int = 0) -> 
                            ("linearity (ARES option)", "linearity_check"), ("saturation", "saturation")):
             if isinstance(p.get(key), dict):
                 out.write(f"  {label:<{w}} {p[key].get('reason') or p[key].get('note')}\n")
+        if isinstance(p.get("gain_headline"), dict) and p["gain_headline"].get("statement"):
+            # beside the EMVA 1288 4.0 Eq. 50 K (a scan with emva4): which is the headline and why
+            out.write(f"  {'headline K':<{w}} {p['gain_headline']['statement']}\n")
     elif isinstance(p, dict):
         out.write(f"photon transfer: {p.get('note', p.get('status'))}\n")
     d = res.get("decomposition")

@@ -47,7 +47,7 @@ def summarize(scan_results: dict, thresholds: tuple = ()) -> dict:
             out["gain_text"] = (f"system gain K = {_fmt(ptc.get('gain_dn_per_e'))}, "
                                 f"1/K = {_fmt(ptc.get('gain_e_per_dn'))}")
         for key in ("conversion_gain_uv_per_e", "gain_dn_per_e", "read_noise_e", "full_well_e", "turnoff_dn",
-                    "dynamic_range_db"):
+                    "turnoff_e", "dynamic_range_db"):
             label = labels.PTC_LABELS[key]
             text = _fmt(ptc.get(key))
             if text:

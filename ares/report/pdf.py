@@ -23,7 +23,8 @@ from ares.report.plots import new_page, text_table
 
 
 def _kf_rows(kf: dict) -> list[list[str]]:
-    return [[v["label"], tables.fmt_value(v["value"], v["se"], v["unit"]), v.get("note") or ""]
+    return [[v["label"], tables.fmt_value(v["value"], v["se"], v["unit"], v.get("verdict", "")),
+             v.get("note") or ""]
             for v in kf.values()]
 
 
@@ -66,6 +67,12 @@ def title_page(run, kf: dict) -> "plots.Figure":
     for note in run.notes:
         fig.text(0.06, y, note, fontsize=8.5, va="top", color="C3")
         y -= 0.018
+    stmt = k_statement_of(run)
+    if stmt:
+        for line in textwrap.wrap(stmt, 118)[:6]:
+            fig.text(0.06, y, line, fontsize=8, va="top", color="0.15")
+            y -= 0.016
+        y -= 0.004
     lim = run.limits
     if run.scan_results is not None or lim["state"] == "not checked":
         color = {"failed": "C3", "passed": "C2"}.get(lim["state"], "0.35")  # green only for limits checked and passed
@@ -284,7 +291,15 @@ def emva_sheet(run):
     if sheet is None:
         run.notes.append(f"EMVA 1288 datasheet not drawn: {why}")
         return None
+    stmt = k_statement_of(run)
+    if stmt:  # the datasheet's K (Eq. 50) and the report's headline K: the same sentence on both
+        sheet.notes.append(stmt)
     return sheet, general
+
+
+def k_statement_of(run) -> str:
+    """The sentence naming the headline K beside the EMVA 1288 4.0 Eq. 50 K ("" without one)."""
+    return (((run.analyses.get("ptc") or {}).get("gain_headline") or {}).get("statement") or "")
 
 
 def page_plan(run, groups=None, kf=None, emva=None) -> list[tuple[str, object]]:

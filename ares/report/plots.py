@@ -110,11 +110,13 @@ def ptc_variance(ax, rows: list[dict], res, title: str) -> list[str]:
         fit = [lv for lv in res.levels if lv.status == "fit"]
         smax = max([lv.signal for lv in res.levels if lv.status != "excluded"] or [1.0])
         xs = np.linspace(0, smax * 1.05, 50)
-        for e, name, ls in ((res.gain_dn_per_e, "WLS line", "-"), (res.gain_origin_dn_per_e, "EMVA origin fit", "--"),
+        head = {"line": "WLS line", "astier": "Astier"}.get(res.gain_headline().get("estimator"), "line")
+        for e, name, ls in ((res.gain_dn_per_e, f"headline ({head})", "-"),
+                            (res.gain_origin_dn_per_e, "EMVA origin fit", "--"),
                             (res.gain_astier_dn_per_e, "Astier", ":")):
-            if e.available:
+            if e.available:  # each K with the digits its SE supports, as in the tables
                 ax.plot(xs, e.value * xs, ls=ls, lw=1, color="0.2" if ls == "-" else "0.5",
-                        label=f"{name}: K = {e.value:.4g} DN/e-")
+                        label=f"{name}: K = {e.text()}")
         if fit:
             ax.axvspan(0, max(lv.signal for lv in fit), color="C0", alpha=0.05, lw=0)
     k = 0

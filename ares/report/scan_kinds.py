@@ -34,7 +34,8 @@ def analysis_rows(a: dict, prefix: str = "", skip_na: bool = False) -> list[list
         elif isinstance(v, dict) and "value" in v and "unit" in v:
             if skip_na and v.get("value") is None:
                 continue
-            rows.append([key, tables.fmt_value(v.get("value"), v.get("se"), v.get("unit", "")), v.get("note", "")])
+            rows.append([key, tables.fmt_value(v.get("value"), v.get("se"), v.get("unit", ""), v.get("verdict", "")),
+                         v.get("note", "")])
         elif isinstance(v, dict) and k == "settings":
             rows.append([key, ", ".join(f"{a_.removeprefix('reg:')}={b}" for a_, b in v.items()), ""])
         elif isinstance(v, dict):

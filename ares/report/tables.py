@@ -19,6 +19,7 @@ from ares.analysis.estimate import (GAIN_SPREADS, Estimate, component_display, c
                                     format_value)  # (component_* re-exported for the report pages)
 from ares.analysis.levels import LevelStats
 from ares import labels
+from ares.analysis.physical import snr_db, snr_in_range
 from ares.analysis.ptc import PtcResult, analyze_ptc
 
 # the 13 components (DESIGN.md / seed 001) in model order, then the extras ARES reports
@@ -40,7 +41,6 @@ FULL_WELL_LABELS = {
     "max_variance": "full well, max variance (EMVA 1288 3.0)",
     "max_code": "full well, max code (EMVA 1288 4.0)",
     "plateau": "full well, saturated plateau",
-    "ptc_turnoff": "full well, PTC turnoff",
     "linearity_1pct": "full well, 1 % linearity limit",
 }
 
@@ -319,13 +319,17 @@ def _entry(label: str, e: Estimate, source: str) -> dict:
             "verdict": e.verdict}
 
 
-def _snr_max(res: PtcResult) -> Estimate:
+def _snr_max(res: PtcResult, well_e: float, well_se: float = 0.0) -> Estimate:
+    """The largest measured SNR, judged against sqrt of the full well (``well_e``, e-):
+    above it the noise was mis-measured (``ares.analysis.physical.snr_in_range``)."""
     snr = res.snr.get("snr")
     if snr is None or not len(snr):
         return Estimate.na("no valid PTC level")
     i = int(np.argmax(snr))
-    return Estimate(float(snr[i]), math.nan, "",
-                    f"max measured signal / temporal noise (at {res.snr['signal_dn'][i]:.5g} DN)")
+    se = res.snr["snr_se"][i] if "snr_se" in res.snr else math.nan
+    s = Estimate(float(snr[i]), float(se), "",
+                 f"max measured signal / temporal noise (at {res.snr['signal_dn'][i]:.5g} DN)")
+    return snr_in_range(s, well_e, "SNR max (measured)", charge_se=well_se)
 
 
 def _flat_estimates(d: dict, prefix: str = "") -> list[tuple[str, dict]]:
@@ -357,6 +361,9 @@ def compute_key_figures(run, groups: list[PtcGroup] | None = None) -> dict:
         ag = stored.get("analog_gain", g0.analog_gain if g0 else 1.0)
         kf["gain_dn_per_e"] = _entry(f"system gain K (analog gain x{ag:g})",
                                      pick("gain_dn_per_e", res and res.gain_dn_per_e), src)
+        stmt = (stored.get("gain_headline") or {}).get("statement")
+        if stmt and kf["gain_dn_per_e"]["value"] is not None:  # beside 4.0 Eq. 50 (ares.analysis.gain_compare)
+            kf["gain_dn_per_e"]["note"] = stmt
         kf["gain_e_per_dn"] = _entry("inverse gain 1/K", pick("gain_e_per_dn", res and res.gain_e_per_dn), src)
         kf["conversion_gain_uv_per_e"] = _entry(
             "conversion gain", pick("conversion_gain_uv_per_e", res and res.conversion_gain_uv_per_e), src)
@@ -369,14 +376,19 @@ def compute_key_figures(run, groups: list[PtcGroup] | None = None) -> dict:
         fwd = stored.get("full_well_definitions") if have_stored else None
         fw = {k: est(v) for k, v in fwd.items()} if fwd else (res.full_well_e if res is not None else {})
         for k, e in fw.items():
+            if k == "ptc_turnoff":  # run directories before issue 34: the turnoff is one figure, below
+                continue
             kf[f"full_well_e.{k}"] = _entry(FULL_WELL_LABELS.get(k, f"full well ({k})"), e, src)
+        for key in ("turnoff_dn", "turnoff_e"):  # one turnoff, SE from the level spacing
+            kf[key] = _entry(labels.PTC_LABELS[key], pick(key, res and getattr(res, key)), src)
         kf["dynamic_range_db"] = _entry("dynamic range", pick("dynamic_range_db", res and res.dynamic_range_db), src)
         if res is not None:
-            s = _snr_max(res)
+            well = est(kf["full_well_e"])  # the charge capacity: no SNR above its square root
+            s = _snr_max(res, well.value if well.available else math.nan, well.se)
             kf["snr_max"] = _entry("SNR max (measured)", s, "PTC recomputed")
             if s.available:
-                kf["snr_max_db"] = _entry("SNR max (measured)", Estimate(20 * math.log10(s.value), math.nan, "dB",
-                                                                         s.note), "PTC recomputed")
+                kf["snr_max_db"] = _entry("SNR max (measured)", snr_db(s, "20 log10 SNR max (measured)"),
+                                          "PTC recomputed")
             fwv = fw.get("saturation_capacity")
             if fwv is not None and fwv.available:
                 kf["snr_max_emva"] = _entry("SNR max (EMVA 1288 4.0 Eq. 55)",
@@ -486,10 +498,14 @@ def analysis_label(aname: str, key: str) -> str:
     return base + (f" ({' '.join(where)})" if where else "")
 
 
-def fmt_value(v, se=None, unit: str = "") -> str:
-    """``value ± se unit`` with the digits the SE supports (``ares.analysis.estimate``)."""
+def fmt_value(v, se=None, unit: str = "", verdict: str = "") -> str:
+    """``value ± se unit`` with the digits the SE supports (``ares.analysis.estimate``); a
+    limit (``verdict`` "upper limit"/"lower limit") as ``< x``/``> x``, as every other surface."""
     if v is None or (isinstance(v, float) and not math.isfinite(v)):
         return "n/a"
+    bound = {"upper limit": "upper", "lower limit": "lower"}.get(verdict, "")
+    if bound:
+        return Estimate(float(v), math.nan, unit, "", bound).text()
     return format_value(v, se) + (f" {unit}" if unit else "")
 
 

@@ -276,7 +276,29 @@ def scan_level_results(run) -> dict:
             out[name] = fn(run)
         except Exception as exc:  # an analysis bug must not lose the run: record it
             out[name] = {"status": "error", "note": f"{type(exc).__name__}: {exc}"}
+    compare_gains(out)
     return out
+
+
+def compare_gains(out: dict) -> None:
+    """A scan with both ``ptc`` and ``emva4``: the photon transfer's ``gain_headline`` gets
+    the EMVA 1288 4.0 Eq. 50 K beside it and one sentence saying which is the headline, why
+    and how far apart they are (``ares.analysis.gain_compare``) -- the report, the terminal
+    and the datasheet all show that sentence."""
+    from ares.analysis.estimate import Estimate
+    from ares.analysis.gain_compare import k_statement
+
+    ptc, e4 = out.get("ptc"), out.get("emva4")
+    if not (isinstance(ptc, dict) and isinstance(e4, dict) and isinstance(ptc.get("gain_headline"), dict)):
+        return
+    k4 = (e4.get("values") or {}).get("K")
+    if not isinstance(k4, dict) or not isinstance(ptc.get("gain_dn_per_e"), dict):
+        return
+    head = ptc["gain_headline"]
+    chi2 = (ptc.get("gain_model") or {}).get("line_chi2_red")
+    ptc["gain_headline"] = {**head, **k_statement(Estimate.from_dict(ptc["gain_dn_per_e"]), head.get("estimator"),
+                                                  head.get("reason", ""), Estimate.from_dict(k4),
+                                                  chi2 if isinstance(chi2, (int, float)) else math.nan)}
 
 
 def leaves(results: dict, prefix: str = ""):
