@@ -5,7 +5,9 @@ The kernel forms linear sums in float32 (exact below 2**24) and rebuilds each gr
 arithmetic). These tests hit the worst cases of that argument: full-scale codes (largest
 squares and float32 rounding), 256-frame boundaries of the float32 totals, widths with
 and without a column-run divisor, signed data, mixed dtypes, merges and 10,000 frames.
-Every comparison is against exact integer arithmetic (int64 / Python int).
+Every comparison is against exact integer arithmetic (int64 / Python int), for both
+kernels: the fused numba one (``ares.analysis.int_fold``) and the numpy one it replaces
+where numba is available.
 """
 
 from __future__ import annotations
@@ -13,7 +15,20 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
+from ares.analysis import int_fold
 from ares.analysis.accumulate import StackAccumulator
+
+
+@pytest.fixture(autouse=True, params=["numba", "numpy"])
+def kernel(request, monkeypatch):
+    """Every test here runs on the fused numba kernel and on the numpy kernel."""
+    if request.param == "numba":
+        int_fold.warm()
+        if int_fold._kernel_c is None:
+            pytest.skip("numba is not available here (ARES_NO_NUMBA or not installed)")
+    else:
+        monkeypatch.setattr(int_fold, "fold", lambda *a, **k: None)
+    return request.param
 
 
 def _exact(frames):
