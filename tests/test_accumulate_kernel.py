@@ -203,3 +203,17 @@ def test_tall_frames_column_sums_over_many_row_runs(dtype):
     x[::2, ::3] = info.min
     for mode in ("add", "batch"):
         _check(_feed((700, 40), x, mode), x)
+
+
+@pytest.mark.parametrize("dtype", [np.uint8, np.uint16, np.int16])
+def test_clip_counts_equal_numpy(dtype):
+    """The one-pass count of clipped values (at or above the top code, and 0) on whole
+    frames and strided Bayer planes, the top code inside and beyond the type's range."""
+    rng = np.random.default_rng(2)
+    info = np.iinfo(dtype)
+    d = rng.integers(max(info.min, -5), min(info.max, 4100), (37, 50)).astype(dtype)
+    d[0, :7] = 0
+    for top in (4095, 200, 70000):
+        for view in (d, d[::2, 1::2]):
+            want = (int(np.count_nonzero(view >= top)), int(np.count_nonzero(view == 0)))
+            assert int_fold.extremes(view, top) == want

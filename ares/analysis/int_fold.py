@@ -17,6 +17,8 @@ import numpy as np
 
 _kernel_c = None
 _loaded = False
+_extremes_c = None
+_extremes_loaded = False
 
 
 def _kernel(x, off, s1, s2, fr, fc):
@@ -31,11 +33,40 @@ def _kernel(x, off, s1, s2, fr, fc):
             rs = np.int64(0)
             for j in range(C):
                 v = np.int64(x[f, i, j]) + off
+                u = np.uint32(v)  # |v| < 2**16: v*v < 2**32 is exact modulo 2**32 (a vector multiply)
                 s1[i, j] += v
-                s2[i, j] += v * v
+                s2[i, j] += np.int64(np.uint32(u * u))
                 rs += v
                 fc[f, j] += v
             fr[f, i] = rs
+
+
+def _extremes_kernel(d, top):
+    """(values >= top, values == 0) of a frame (any strides: a region or a Bayer plane)."""
+    n_top = 0
+    n_zero = 0
+    R, C = d.shape
+    for i in range(R):
+        for j in range(C):
+            v = d[i, j]
+            n_top += v >= top
+            n_zero += v == 0
+    return n_top, n_zero
+
+
+def extremes(d: np.ndarray, top: int) -> tuple[int, int]:
+    """How many values of the 2-D frame ``d`` are at or above ``top`` (clipped high) and how
+    many are 0 (clipped low): one pass where the kernel is available, else numpy's two."""
+    global _extremes_c, _extremes_loaded
+    from ares import jit
+
+    if not jit.avoiding() and d.ndim == 2 and d.dtype.kind in "ui":
+        if not _extremes_loaded:
+            _extremes_c, _extremes_loaded = jit.compiled(_extremes_kernel), True
+        if _extremes_c is not None:
+            a, b = _extremes_c(d, d.dtype.type(min(top, np.iinfo(d.dtype).max)))
+            return int(a) if top <= np.iinfo(d.dtype).max else 0, int(b)
+    return int(np.count_nonzero(d >= top)), int(np.count_nonzero(d == 0))
 
 
 def fold(x, off: int, s1: np.ndarray, s2: np.ndarray):
@@ -65,3 +96,6 @@ def warm() -> None:
     for dtype in (np.uint8, np.int8, np.uint16, np.int16):
         s = np.zeros((2, 2), np.int64)
         fold(np.zeros((1, 2, 2), dtype), 0, s, s.copy())
+        z = np.zeros((4, 4), dtype)
+        extremes(z, 1)  # a whole frame
+        extremes(z[::2, ::2], 1)  # a Bayer plane (strided)
