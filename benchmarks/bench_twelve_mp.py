@@ -1,8 +1,8 @@
 """A full EMVA 1288 Release 4.0 measurement on a 12-megapixel sensor: the scan end to end,
 then ``ares emva`` against the reference package on its recorded images. Writes
-benchmarks/twelve_mp.md.
+benchmarks/twelve_mp.md (the scan) and benchmarks/twelve_mp_peer.md (the comparison).
 
-    python benchmarks/bench_twelve_mp.py [--rows 3072 --cols 4096] [--skip-peer] [--peer-mem-gb 16]
+    python benchmarks/bench_twelve_mp.py [--rows 3072 --cols 4096] [--skip-scan] [--skip-peer] [--peer-mem-gb 16]
 
 1. ``scans/emva_4.xml`` (86 photon-transfer steps with matched darks, 100-image bright and
    dark stacks, 8 dark-current exposures: 560 frames) on ``protocols/sim_sensor.xml`` with
@@ -200,66 +200,75 @@ def main() -> int:
     ap = argparse.ArgumentParser()
     ap.add_argument("--rows", type=int, default=3072)
     ap.add_argument("--cols", type=int, default=4096)
+    ap.add_argument("--skip-scan", action="store_true")
     ap.add_argument("--skip-peer", action="store_true")
     ap.add_argument("--peer-mem-gb", type=float, default=16.0)
     ap.add_argument("--peer-timeout-min", type=float, default=90.0)
     ap.add_argument("--work", default=None, help="folder for the recorded set (needs ~14 GB at 4096x3072)")
     args = ap.parse_args()
-    import bench_peer as bp
-
     load0 = os.getloadavg()[0]
     mp = args.rows * args.cols / 1e6
-    lines = [f"## EMVA 1288 4.0 on a {args.cols}x{args.rows} sensor (`bench_twelve_mp.py`)", ""]
+    size = f"{args.cols}x{args.rows} ({mp:.1f} Mpx)"
     with tempfile.TemporaryDirectory(dir=args.work) as td:
         td = Path(td)
-        r = run_child(write_inputs(td / "a", args.rows, args.cols, raw=False), td / "a" / "run")
-        sp = r["spent"]
-        lines += [f"`scans/emva_4.xml` (86 photon-transfer steps with matched darks, 100-image bright and dark "
-                  f"stacks, 8 dark-current exposures: 560 frames) on `protocols/sim_sensor.xml` at {args.cols}x"
-                  f"{args.rows} ({mp:.1f} Mpx), as `ares run` runs it, reports included; status {r['status']}. "
-                  f"{platform.machine()}, {os.cpu_count()} cores, Python {platform.python_version()}.", "",
-                  "| figure | value |", "|---|---:|",
-                  f"| wall time | {r['wall'] / 60:.1f} min |",
-                  f"| CPU time (both cores) | {r['cpu'] / 60:.1f} min |",
-                  f"| peak memory (VmHWM; target {TARGET_GB:.0f} GB) | **{r['hwm_mb'] / 1024:.2f} GiB** |"]
-        for k, v in sp.items():
-            lines.append(f"| {k} | {v / 60:.1f} min ({100 * v / r['wall']:.0f} %) |")
-        if r.get("sim_s") is not None:
-            lines.append(f"| of the acquisition: the simulator rendering frames (a camera's work) | "
-                         f"{r['sim_s'] / 60:.1f} min ({100 * r['sim_s'] / r['wall']:.0f} %) |")
+        if not args.skip_scan:
+            r = run_child(write_inputs(td / "a", args.rows, args.cols, raw=False), td / "a" / "run")
+            lines = [f"## EMVA 1288 4.0 on a {args.cols}x{args.rows} sensor (`bench_twelve_mp.py`)", "",
+                     f"`scans/emva_4.xml` (86 photon-transfer steps with matched darks, 100-image bright and dark "
+                     f"stacks, 8 dark-current exposures: 560 frames) on `protocols/sim_sensor.xml` at {size}, as "
+                     f"`ares run` runs it, reports included; status {r['status']}. {platform.machine()}, "
+                     f"{os.cpu_count()} cores, Python {platform.python_version()}.", "",
+                     "| figure | value |", "|---|---:|",
+                     f"| wall time | {r['wall'] / 60:.1f} min |",
+                     f"| CPU time (both cores) | {r['cpu'] / 60:.1f} min |",
+                     f"| peak memory (VmHWM; target {TARGET_GB:.0f} GB) | **{r['hwm_mb'] / 1024:.2f} GiB** |"]
+            for k, v in r["spent"].items():
+                lines.append(f"| {k} | {v / 60:.1f} min ({100 * v / r['wall']:.0f} %) |")
+            if r.get("sim_s") is not None:
+                lines.append(f"| of the acquisition: the simulator rendering frames (a camera's work) | "
+                             f"{r['sim_s'] / 60:.1f} min ({100 * r['sim_s'] / r['wall']:.0f} %) |")
+            publish("twelve_mp", lines + _load_line(load0))
         if not args.skip_peer:
-            rec = run_child(write_inputs(td / "b", args.rows, args.cols, raw=True), td / "b" / "run")
-            desc, n = write_descriptor(td / "b" / "run", td / "set")
-            shutil.rmtree(td / "b" / "run" / "frames")
-            ares = [sys.executable, bp.ARES, "emva", str(desc)]
-            bp.measured(ares)  # bytecode cached, files in the page cache where they fit
-            aw, ac, am, _ = bp.measured(ares)
-            py = bp.peer_python()
-            lines += ["", f"The recorded images of that scan ({n} uncompressed 16-bit TIFFs, "
-                          f"{n * mp * 2:.0f} MB, written as an EMVA 1288 descriptor set; recording run status "
-                          f"{rec['status']}):", "",
-                      "| command | wall s | CPU s | peak RSS MiB | wall vs peer | memory vs peer |",
-                      "|---|---:|---:|---:|---:|---:|"]
-            if py is None:
-                lines.append(f"| `ares emva` | {aw:.1f} | {ac:.1f} | {am:.0f} | | |")
-                lines += ["", "The reference package's venv could not be made: no comparison."]
-            else:
-                pw, _, pm, why = peer_run(py, desc, args.peer_mem_gb, args.peer_timeout_min * 60)
-                if why is None:
-                    lines += [f"| `emva1288` 1.0.2 (baseline) | {pw:.1f} | | {pm:.0f} | 1.00 | 1.00 |",
-                              f"| `ares emva` (every release) | {aw:.1f} | {ac:.1f} | {am:.0f} | "
-                              f"{pw / aw:.1f}x faster | {am / pm:.2f} |", "",
-                              f"`ares emva` against the reference package on the same files: **{pw / aw:.1f}x** "
-                              f"faster (target 4x), **{am / pm:.2f}** of its peak memory (target 0.5)."]
-                else:
-                    lines += [f"| `emva1288` 1.0.2 | {why}: after {pw:.0f} s | | {pm:.0f} | | |",
-                              f"| `ares emva` (every release) | {aw:.1f} | {ac:.1f} | {am:.0f} | | |", "",
-                              f"The reference package did not finish on this set ({why}); `ares emva` did, in "
-                              f"{aw:.0f} s at {am / 1024:.2f} GiB."]
-    load1 = os.getloadavg()[0]
-    lines += ["", f"Load average {load0:.1f} at the start, {load1:.1f} at the end (other work on the machine "
-                  "lengthens the wall times; CPU time and memory are less affected).", ""]
-    return publish("twelve_mp", lines)
+            publish("twelve_mp_peer", _peer(args, td, size, mp) + _load_line(load0))
+    return 0
+
+
+def _load_line(load0: float) -> list[str]:
+    return ["", f"Load average {load0:.1f} at the start, {os.getloadavg()[0]:.1f} at the end (other work on the "
+                "machine lengthens the wall times; CPU time and memory are less affected).", ""]
+
+
+def _peer(args, td: Path, size: str, mp: float) -> list[str]:
+    import bench_peer as bp
+
+    rec = run_child(write_inputs(td / "b", args.rows, args.cols, raw=True), td / "b" / "run")
+    desc, n = write_descriptor(td / "b" / "run", td / "set")
+    shutil.rmtree(td / "b" / "run" / "frames")
+    ares = [sys.executable, bp.ARES, "emva", str(desc)]
+    bp.measured(ares)  # bytecode cached, files in the page cache where they fit
+    aw, ac, am, _ = bp.measured(ares)
+    py = bp.peer_python()
+    lines = [f"## `ares emva` against the reference package on a {size} set (`bench_twelve_mp.py`)", "",
+             f"The recorded images of `scans/emva_4.xml` at {size} (recording run status {rec['status']}): the "
+             f"photon-transfer steps and the two 100-image stacks, {n} uncompressed 16-bit TIFFs "
+             f"({n * mp * 2 / 1e3:.1f} GB), as an EMVA 1288 descriptor set (the dark-current exposures left out: "
+             "the reference package wants a bright level at every exposure).", "",
+             "| command | wall s | CPU s | peak RSS MiB | wall vs peer | memory vs peer |",
+             "|---|---:|---:|---:|---:|---:|"]
+    if py is None:
+        return lines + [f"| `ares emva` | {aw:.1f} | {ac:.1f} | {am:.0f} | | |", "",
+                        "The reference package's venv could not be made: no comparison."]
+    pw, _, pm, why = peer_run(py, desc, args.peer_mem_gb, args.peer_timeout_min * 60)
+    if why is None:
+        return lines + [f"| `emva1288` 1.0.2 (baseline) | {pw:.1f} | | {pm:.0f} | 1.00 | 1.00 |",
+                        f"| `ares emva` (every release) | {aw:.1f} | {ac:.1f} | {am:.0f} | {pw / aw:.1f}x faster | "
+                        f"{am / pm:.2f} |", "",
+                        f"`ares emva` against the reference package on the same files: **{pw / aw:.1f}x** faster "
+                        f"(target 4x), **{am / pm:.2f}** of its peak memory (target 0.5)."]
+    return lines + [f"| `emva1288` 1.0.2 | {why}: after {pw:.0f} s | | {pm:.0f} | | |",
+                    f"| `ares emva` (every release) | {aw:.1f} | {ac:.1f} | {am:.0f} | | |", "",
+                    f"The reference package did not finish on this set ({why}); `ares emva` did, in {aw:.0f} s at "
+                    f"{am / 1024:.2f} GiB."]
 
 
 if __name__ == "__main__":
