@@ -5,7 +5,9 @@ The kernel forms linear sums in float32 (exact below 2**24) and rebuilds each gr
 arithmetic). These tests hit the worst cases of that argument: full-scale codes (largest
 squares and float32 rounding), 256-frame boundaries of the float32 totals, widths with
 and without a column-run divisor, signed data, mixed dtypes, merges and 10,000 frames.
-Every comparison is against exact integer arithmetic (int64 / Python int).
+Every comparison is against exact integer arithmetic (int64 / Python int), for both
+kernels: the fused numba one (``ares.analysis.int_fold``) and the numpy one it replaces
+where numba is available.
 """
 
 from __future__ import annotations
@@ -13,7 +15,20 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
+from ares.analysis import int_fold
 from ares.analysis.accumulate import StackAccumulator
+
+
+@pytest.fixture(autouse=True, params=["numba", "numpy"])
+def kernel(request, monkeypatch):
+    """Every test here runs on the fused numba kernel and on the numpy kernel."""
+    if request.param == "numba":
+        int_fold.warm()
+        if int_fold._kernel_c is None:
+            pytest.skip("numba is not available here (ARES_NO_NUMBA or not installed)")
+    else:
+        monkeypatch.setattr(int_fold, "fold", lambda *a, **k: None)
+    return request.param
 
 
 def _exact(frames):
@@ -188,3 +203,17 @@ def test_tall_frames_column_sums_over_many_row_runs(dtype):
     x[::2, ::3] = info.min
     for mode in ("add", "batch"):
         _check(_feed((700, 40), x, mode), x)
+
+
+@pytest.mark.parametrize("dtype", [np.uint8, np.uint16, np.int16])
+def test_clip_counts_equal_numpy(dtype):
+    """The one-pass count of clipped values (at or above the top code, and 0) on whole
+    frames and strided Bayer planes, the top code inside and beyond the type's range."""
+    rng = np.random.default_rng(2)
+    info = np.iinfo(dtype)
+    d = rng.integers(max(info.min, -5), min(info.max, 4100), (37, 50)).astype(dtype)
+    d[0, :7] = 0
+    for top in (4095, 200, 70000):
+        for view in (d, d[::2, 1::2]):
+            want = (int(np.count_nonzero(view >= top)), int(np.count_nonzero(view == 0)))
+            assert int_fold.extremes(view, top) == want

@@ -235,3 +235,17 @@ def test_highpass_autocorrelation_equals_scipy_correlate2d():
         ref = correlate2d(h, h)
         assert ours.shape == ref.shape
         assert np.allclose(ours, ref, rtol=0, atol=1e-14 * np.abs(ref).max())
+
+
+@pytest.mark.parametrize("mode", ["highpass", "none", "surface"])
+def test_flat_equal_to_its_dark_is_not_available(mode):
+    """The light never came on: the flat stack is the dark stack. The gain non-uniformity has
+    no signal to be relative to -- 'not available' with the reason, never a division by zero."""
+    rng = np.random.default_rng(5)
+    frames = render(rng, make_patterns(rng))
+    f, d = StackAccumulator((R, C)), StackAccumulator((R, C))
+    f.add_batch(frames)
+    d.add_batch(frames)
+    res = decompose_flat(f, d, illumination=mode)
+    for k in ("Cg", "Rg", "Pg"):
+        assert not res[k].available and "no signal above dark" in res[k].note, res[k]

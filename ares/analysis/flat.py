@@ -187,11 +187,13 @@ def decompose_flat(
         out.update({k: Estimate.na(na, u) for k, u in (("G", "DN/e-"), ("q", "e-"), ("delta", "e-^2"))})
     else:
         out.update(shot_noise_estimates(S, var_S, dpt, var_dpt, gain))
-    # ---- gain non-uniformity (not measurable on a saturated or dark level)
-    out.update(_nonuniformity(flat_acc, dark_acc, tf, td, S, var_S, illumination, surface_order))
+    # ---- gain non-uniformity (not measurable on a saturated or dark level: a flat equal to its
+    # dark -- the light never came on -- would divide by a zero signal)
     why = no_shot_noise(S, var_S, dpt, var_dpt) if ok_t else ""
     if why:
         out.update({k: Estimate.na(why, "1") for k in ("Cg", "Rg", "Pg")})
+    else:
+        out.update(_nonuniformity(flat_acc, dark_acc, tf, td, S, var_S, illumination, surface_order))
     order = ["G", "Cg", "Rg", "Pg", "q", "delta", "signal"] + (["poisson_ratio"] if "poisson_ratio" in out else [])
     return {k: out[k] for k in order}
 
@@ -319,6 +321,8 @@ def _nonuniformity(flat_acc, dark_acc, tf, td, S, var_S, mode, order):
         cg = c_tot - tc
         var_cg = 2 * (v_c / k1) ** 2 / dfc + vtc
     s2_ = norm
+    if not s2_ > 0:  # (a flat-field surface or high-pass residue of zero: nothing to normalise by)
+        return {k: Estimate.na("no signal above dark to normalise the gain non-uniformity by", "1") for k in names}
     out = {}
     for k, val, var in (("Cg", cg, var_cg), ("Rg", rg, var_rg), ("Pg", pg, var_pg)):
         rel = val / s2_

@@ -118,6 +118,7 @@ class MaskedStackAccumulator:
         R, C = shape
         self._pixels = pixels
         self._derived = False  # per-pixel sums from ``pixels`` (decided at the first frame)
+        self._plan = False  # masked_fold.line_plan of the shift (made at the second frame; None: none applies)
         self._s1 = self._s2 = None  # per-pixel sums of the shifted good pixels (own mode)
         self._r2 = np.zeros(R)  # sum_f (row sum of shifted good pixels)^2
         self._c2 = np.zeros(C)
@@ -158,10 +159,19 @@ class MaskedStackAccumulator:
             self._fold(a[i : i + self.batch])
 
     def _fold(self, x: np.ndarray) -> None:
+        if self._x0 is None and x.dtype.kind in "ui" and x.dtype.itemsize <= 2:
+            self._first(x[0], True)  # (the shift straight from the integers: no float64 copy of the block)
         if self._x0 is not None:
             # one pass (integer frames); only the row/column sums when the pixels' come from elsewhere
-            sums = masked_fold.fold(x, self._x0, self.good, None if self._derived else self._s1,
-                                    None if self._derived else self._s2)
+            if self._derived:
+                if self._plan is False:
+                    self._plan = masked_fold.line_plan(self._x0, self.good)
+                sums = masked_fold.lines(x, self._plan)
+            else:
+                sums = None
+            if sums is None:
+                sums = masked_fold.fold(x, self._x0, self.good, None if self._derived else self._s1,
+                                        None if self._derived else self._s2)
             if sums is not None:
                 self._fold_lines(*sums, len(x))
                 return
@@ -169,19 +179,23 @@ class MaskedStackAccumulator:
         if x.dtype.kind == "f" and not np.isfinite(d[:, self.good]).all():
             raise InputError(f"frames {self._nf}..{self._nf + len(x) - 1} contain NaN/inf")
         if self._x0 is None:
-            # the shift of 8/16-bit integer frames is exact in float32: half the memory
-            small = x.dtype.kind in "uib" and x.dtype.itemsize <= 2
-            self._x0 = np.where(self.good, d[0], 0.0).astype(np.float32 if small else np.float64)
-            p = self._pixels
-            self._derived = bool(small and p is not None and tuple(p.shape) == self.shape and not p._float)
-            if not self._derived:
-                self._s1, self._s2 = np.zeros(self.shape), np.zeros(self.shape)
+            self._first(d[0], x.dtype.kind in "uib" and x.dtype.itemsize <= 2)
         d -= self._x0
         d[:, self.mask] = 0.0  # masked pixels contribute nothing
         if not self._derived:
             self._s1 += d.sum(axis=0)
             self._s2 += np.einsum("fij,fij->ij", d, d)
         self._fold_lines(d.sum(axis=2), d.sum(axis=1), len(x))
+
+    def _first(self, frame: np.ndarray, small: bool) -> None:
+        """The stack's shift from its first frame (0 at masked pixels) and where its per-pixel
+        sums come from. The shift of 8/16-bit integer frames is exact in float32: half the
+        memory; their sums can come from the full-frame stack (``pixels``)."""
+        self._x0 = np.where(self.good, frame, frame.dtype.type(0)).astype(np.float32 if small else np.float64)
+        p = self._pixels
+        self._derived = bool(small and p is not None and tuple(p.shape) == self.shape and not p._float)
+        if not self._derived:
+            self._s1, self._s2 = np.zeros(self.shape), np.zeros(self.shape)
 
     def _memo(self, key, fn):
         """``fn()``, kept until the stack changes (frames added or merged) for frames up to

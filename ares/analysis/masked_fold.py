@@ -6,6 +6,11 @@ of memory traffic a VGA frame, in the scan's acquiring thread. Here each good pi
 read once. Integer frames make every sum here an exact integer in float64 (|values| <
 2**16, sums far below 2**53), so the order of summation cannot change a bit: the
 results equal the numpy fold's exactly (tested). Float frames keep the numpy fold.
+
+A masked stack whose per-pixel sums come from its full-frame stack (``pixels``) only needs
+the row and column sums: ``lines`` forms them from every pixel's value, the few masked
+pixels' and the shift's sums subtracted, in int64 (no test per pixel; a third of the
+pass's time on a 4096x3072 frame).
 """
 
 from __future__ import annotations
@@ -14,6 +19,10 @@ import numpy as np
 
 _kernel_c = None
 _loaded = False
+_lines_c = None
+_lines_loaded = False
+_shift_c = None
+_shift_loaded = False
 _NO_SUMS = np.zeros((1, 1))  # stands for s1/s2 when only the line sums are wanted
 
 
@@ -37,6 +46,76 @@ def _kernel(x, x0, good, s1, s2, fr, fc, sums):
                     rs += d
                     fc[f, j] += d
             fr[f, i] = rs
+
+
+def _lines_kernel(x, x0r, x0c, bi, bj, fr, fc):
+    """Per-frame row/column sums of x - x0 over the good pixels, in int64: every pixel's
+    sums, less the masked pixels' values (``bi``, ``bj``), less the good pixels' shift
+    summed once per stack (``x0r``, ``x0c``). No test per pixel: a plain pass over the frame."""
+    F, R, C = x.shape
+    for f in range(F):
+        for j in range(C):
+            fc[f, j] = -x0c[j]
+        for i in range(R):
+            rs = np.int64(0)
+            for j in range(C):
+                v = np.int64(x[f, i, j])
+                rs += v
+                fc[f, j] += v
+            fr[f, i] = rs - x0r[i]
+        for k in range(bi.shape[0]):
+            v = np.int64(x[f, bi[k], bj[k]])
+            fr[f, bi[k]] -= v
+            fc[f, bj[k]] -= v
+
+
+def _shift_kernel(x0, good, xr, xc):
+    R, C = x0.shape
+    for i in range(R):
+        rs = np.int64(0)
+        for j in range(C):
+            if good[i, j]:
+                v = np.int64(x0[i, j])
+                rs += v
+                xc[j] += v
+        xr[i] = rs
+
+
+def line_plan(x0: np.ndarray, good: np.ndarray):
+    """What ``lines`` needs for a stack, once: the shift (integer-valued: the first of the
+    stack's 8/16-bit frames) summed over the good pixels of each row and column (int64) and
+    the masked pixels' coordinates; None without numba (the caller's other folds apply)."""
+    global _shift_c, _shift_loaded
+    if not _shift_loaded:
+        from ares import jit
+
+        _shift_c, _shift_loaded = jit.compiled(_shift_kernel), True
+    if _shift_c is None:
+        return None
+    R, C = x0.shape
+    xr, xc = np.zeros(R, np.int64), np.zeros(C, np.int64)
+    _shift_c(x0, good, xr, xc)
+    bi, bj = np.nonzero(~good)
+    return xr, xc, bi.astype(np.int64), bj.astype(np.int64)
+
+
+def lines(x: np.ndarray, plan):
+    """(row sums (F, R), column sums (F, C)) of the shifted good pixels of the integer frames
+    ``x`` as float64 -- exact integers, so equal to the numpy fold's bit for bit -- or None
+    when the kernel does not apply (no plan, numba missing, float frames)."""
+    global _lines_c, _lines_loaded
+    if plan is None or x.dtype.kind not in "ui" or x.dtype.itemsize > 2:
+        return None
+    if not _lines_loaded:
+        from ares import jit
+
+        _lines_c, _lines_loaded = jit.compiled(_lines_kernel), True
+    if _lines_c is None:
+        return None
+    F, R, C = x.shape
+    fr, fc = np.empty((F, R), np.int64), np.empty((F, C), np.int64)
+    _lines_c(np.ascontiguousarray(x), *plan, fr, fc)
+    return fr.astype(np.float64), fc.astype(np.float64)
 
 
 def fold(x: np.ndarray, x0: np.ndarray, good: np.ndarray, s1: np.ndarray | None, s2: np.ndarray | None):
@@ -66,3 +145,4 @@ def warm(dtype=np.uint16) -> None:
     x, x0, good = np.zeros((1, 2, 2), dtype), z.astype(np.float32), np.ones((2, 2), bool)
     fold(x, x0, good, z, z.copy())
     fold(x, x0, good, None, None)
+    lines(x, line_plan(x0, good))

@@ -23,7 +23,7 @@ from typing import Callable
 
 import numpy as np
 
-from ares.analysis import StackAccumulator, anova_table, decompose_dark
+from ares.analysis import StackAccumulator, anova_table, decompose_dark, int_fold
 from ares.analysis.masked import MaskedStackAccumulator
 from ares.errors import InputError
 
@@ -91,8 +91,9 @@ class StackSet:
         for k, s in self.views.items():
             d = data[s]
             self.acc[k].add(d)
-            self.at_max[k] += int(np.count_nonzero(d >= self.max_code))
-            self.at_min[k] += int(np.count_nonzero(d == 0))
+            hi, lo = int_fold.extremes(d, self.max_code)
+            self.at_max[k] += hi
+            self.at_min[k] += lo
             if k in self.hist:
                 self.hist[k] += np.bincount(d.ravel(), minlength=self.max_code + 1)[: self.max_code + 1]
         if self.masked is not None:

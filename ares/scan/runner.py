@@ -159,8 +159,9 @@ class Runner:
                 from ares.sim import fused
 
                 fused.warm()
-            from ares.analysis import flat, lowpass, masked_fold
+            from ares.analysis import flat, int_fold, lowpass, masked_fold
 
+            int_fold.warm()  # every stack's sums
             masked_fold.warm()  # (the masked stacks after the first dark stage)
             if any(st.scene == "flat" for st in self.stages):  # the EMVA high-pass of a lit stage's
                 lowpass.warm()  # analysis: its kernel and gains loaded now, not beside the first

@@ -1,0 +1,101 @@
+"""One pass over a block of 8/16-bit frames for ``StackAccumulator`` (numba, ``ares.jit``).
+
+The numpy kernel (``ares.analysis.small_int_fold``) keeps every partial sum exact in
+float32 and rebuilds the squares from two float32 parts: seven passes over the block and
+its scratch, and float32 totals moved to int64 when the stack ends. Here each pixel of
+the block is read once and added in int64 straight into the accumulator's sums: the pixel
+sums, the sums of squares, the per-frame row and column sums. Every value is an integer
+below 2**16 and every sum an int64 far from overflow (2**32 per square, 2**31 frames), so
+the order of summation cannot change a bit: the results equal the numpy kernel's exactly
+(tested). On a 4096x3072 stream this is what lets the live pipeline keep up with 30
+frames/s (``benchmarks/live_pipeline.md``).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+_kernel_c = None
+_loaded = False
+_extremes_c = None
+_extremes_loaded = False
+
+
+def _kernel(x, off, s1, s2, fr, fc):
+    """Add the frames ``x`` (B, R, C small integers) plus ``off`` into ``s1``/``s2`` (R, C
+    int64); ``fr`` (B, R) and ``fc`` (B, C) int64 get the per-frame row and column sums."""
+    B, R, C = x.shape
+    for f in range(B):
+        for j in range(C):
+            fc[f, j] = 0
+    for i in range(R):
+        for f in range(B):
+            rs = np.int64(0)
+            for j in range(C):
+                v = np.int64(x[f, i, j]) + off
+                u = np.uint32(v)  # |v| < 2**16: v*v < 2**32 is exact modulo 2**32 (a vector multiply)
+                s1[i, j] += v
+                s2[i, j] += np.int64(np.uint32(u * u))
+                rs += v
+                fc[f, j] += v
+            fr[f, i] = rs
+
+
+def _extremes_kernel(d, top):
+    """(values >= top, values == 0) of a frame (any strides: a region or a Bayer plane)."""
+    n_top = 0
+    n_zero = 0
+    R, C = d.shape
+    for i in range(R):
+        for j in range(C):
+            v = d[i, j]
+            n_top += v >= top
+            n_zero += v == 0
+    return n_top, n_zero
+
+
+def extremes(d: np.ndarray, top: int) -> tuple[int, int]:
+    """How many values of the 2-D frame ``d`` are at or above ``top`` (clipped high) and how
+    many are 0 (clipped low): one pass where the kernel is available, else numpy's two."""
+    global _extremes_c, _extremes_loaded
+    from ares import jit
+
+    if not jit.avoiding() and d.ndim == 2 and d.dtype.kind in "ui":
+        if not _extremes_loaded:
+            _extremes_c, _extremes_loaded = jit.compiled(_extremes_kernel), True
+        if _extremes_c is not None:
+            a, b = _extremes_c(d, d.dtype.type(min(top, np.iinfo(d.dtype).max)))
+            return int(a) if top <= np.iinfo(d.dtype).max else 0, int(b)
+    return int(np.count_nonzero(d >= top)), int(np.count_nonzero(d == 0))
+
+
+def fold(x, off: int, s1: np.ndarray, s2: np.ndarray):
+    """Fold the block ``x`` (a (B, R, C) array or a list of (R, C) arrays of one 8/16-bit
+    integer type; each value stands for value + ``off``) into the int64 sums ``s1``/``s2``;
+    returns the per-frame (row sums (B, R), column sums (B, C)) as int64, or None when the
+    kernel is not available (numba missing or ``ARES_NO_NUMBA``): the caller's numpy path."""
+    global _kernel_c, _loaded
+    from ares import jit
+
+    if jit.avoiding():  # (ares emva: not worth loading numba for)
+        return None
+    if not _loaded:
+        _kernel_c, _loaded = jit.compiled(_kernel), True
+    if _kernel_c is None:
+        return None
+    if isinstance(x, list):
+        x = np.stack(x)
+    B, R, C = x.shape
+    fr, fc = np.empty((B, R), np.int64), np.empty((B, C), np.int64)
+    _kernel_c(np.ascontiguousarray(x), np.int64(off), s1, s2, fr, fc)
+    return fr, fc
+
+
+def warm() -> None:
+    """Load (or compile) the kernel for every frame type it meets now (the runner, before a scan)."""
+    for dtype in (np.uint8, np.int8, np.uint16, np.int16):
+        s = np.zeros((2, 2), np.int64)
+        fold(np.zeros((1, 2, 2), dtype), 0, s, s.copy())
+        z = np.zeros((4, 4), dtype)
+        extremes(z, 1)  # a whole frame
+        extremes(z[::2, ::2], 1)  # a Bayer plane (strided)
