@@ -27,8 +27,13 @@ def test_astier_failing_its_check_is_not_the_headline(tmp_path, capsys):
     gm = d["gain_model"]
     assert gm["chosen"] == "astier" and gm["astier_p"] < 1e-3  # the model the data prefer fails its check
     head = d["gain_headline"]
-    assert head["estimator"] == "line" and "fails its own residual check" in head["reason"]
-    assert d["gain_dn_per_e"]["value"] == d["gain_line_dn_per_e"]["value"]
+    # the line fails its check too: the headline is the unweighted line (Eq. 50's form),
+    # whose slope is the closed-form OLS slope of these levels
+    assert gm["line_p"] < 1e-3
+    assert head["estimator"] == "ols" and "fails its own residual check" in head["reason"]
+    ols = np.polyfit(s, v, 1)[0]
+    assert d["gain_dn_per_e"]["value"] == pytest.approx(ols, rel=1e-4)
+    assert d["gain_dn_per_e"]["value"] != d["gain_line_dn_per_e"]["value"]
 
 
 def test_headline_named_on_a_clean_line(tmp_path, capsys):

@@ -6,8 +6,11 @@ Eq. 50, defines K as the slope of an (unweighted) least-squares line with unknow
 sigma_y^2 - sigma_y.dark^2 versus mu_y - mu_y.dark over 0-70 % of saturation: that is THE K
 of an EMVA datasheet. ARES's photon-transfer headline is its weighted line (each level by
 1/se(V)^2, the minimum-variance slope when the line holds) or the Astier 2019 fit when the
-data choose it and it passes its own check. Where the curve is a line within its errors the
-two agree; where it is not, the weights move the slope. ``k_statement`` says which is the
+data choose it and it passes its own check. Where neither passes its residual check (the
+levels' variance errors do not describe their scatter), the headline is the unweighted line
+with offset over the same levels -- Eq. 50's form, so on 0-70 % of saturation it is Eq. 50's
+K. Where the curve is a line within its errors the two agree; where it is not, the weights
+move the slope. ``k_statement`` says which is the
 headline, why, and by how much (in combined SE) the two differ -- one sentence shown on the
 report, the terminal and the datasheet alike.
 """
@@ -21,6 +24,7 @@ from ares.analysis.estimate import Estimate
 ESTIMATORS = {
     "line": "ARES's weighted line (WLS, each level weighted by 1/se(V)^2)",
     "astier": "the Astier 2019 fit (brighter-fatter curvature)",
+    "ols": "the unweighted line with offset (OLS, SE from the residual scatter)",
 }
 EQ50 = ("EMVA 1288 4.0 Linear Section 6.6 Eq. 50 as written (unweighted least squares with offset, "
         "0-70 % of saturation)")
@@ -47,7 +51,7 @@ def k_statement(head: Estimate, estimator: str | None, why: str, eq50: Estimate,
                  + (f" (line chi2/dof {line_chi2_red:.3g})" if math.isfinite(line_chi2_red) else ""))
     else:
         cause = "consistent within their errors"
-    if why.split(":", 1)[0] in ("line", "weighted line", "linear", "Astier 2019"):
+    if why.split(":", 1)[0] in ("line", "weighted line", "unweighted line", "linear", "Astier 2019"):
         why = why.split(": ", 1)[-1]  # the estimator is named already
     out["statement"] = (f"System gain K: the report's headline is {name}, {head.text()}, because {why}. The EMVA "
                         f"1288 datasheet's K is {EQ50}, {eq50.text()}. They differ by "

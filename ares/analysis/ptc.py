@@ -32,7 +32,7 @@ import numpy as np
 from ares.analysis.estimate import Estimate
 from ares.analysis.levels import LevelStats
 from ares.analysis.median import fast_median
-from ares.analysis.ptc_fit import (AstierFit, GainModel, LineFit, LocalSlopeCheck, choose_gain_model,
+from ares.analysis.ptc_fit import (AstierFit, GainModel, LineFit, LocalSlopeCheck, choose_gain_model, line_fit,
                                    local_slope_check, local_slope_check_text, origin_fit)
 from ares.analysis.ptc_noise import loglog_slopes, noise_model, read_noise, sensitivity_threshold
 from ares.analysis.saturation import (SaturationBracket, index_linearity_turnoff, index_max_code, index_variance_drop,
@@ -98,8 +98,11 @@ class PtcResult:
         k = self.gain_dn_per_e
         if not k.available:
             return {"estimator": None, "reason": k.note}
+        reason = k.note.split("; ")[0]
+        if reason.startswith("unweighted line"):
+            return {"estimator": "ols", "reason": reason}
         is_ast = (self.gain_astier_dn_per_e.available and k.value == self.gain_astier_dn_per_e.value)
-        return {"estimator": "astier" if is_ast else "line", "reason": k.note.split("; ")[0]}
+        return {"estimator": "astier" if is_ast else "line", "reason": reason}
 
     def used(self, status: str = "fit") -> list[PtcLevel]:
         return [lv for lv in self.levels if lv.status == status]
@@ -287,11 +290,24 @@ def _gain_estimates(fit: list[PtcLevel], signal_se, fit_note: str):
         k_ast = Estimate.na("Astier fit needs >= 5 levels", "DN/e-")
     chosen = k_ast if gm.chosen == "astier" else k_wls
     reason = gm.reason
-    if gm.chosen == "astier" and not gm.astier_p >= HEADLINE_P_MIN:  # a fit failing its own check is no headline
-        chosen = k_wls
-        reason = (f"weighted line: the Astier fit, preferred to the line, fails its own "
-                  f"residual check (chi2/dof {ast.chi2_red:.3g}, p {gm.astier_p:.2g}); neither model describes these "
-                  "levels within their errors")
+    # a fit failing its own residual check is never the headline (issue 34): where neither
+    # weighted model passes, the variance errors do not describe the scatter and weights
+    # only move the slope, so the headline is the unweighted line with offset -- the form of
+    # EMVA 1288 4.0 Linear Section 6.6 Eq. 50 -- with its SE from the scatter itself
+    line_fails = gm.line_p < HEADLINE_P_MIN
+    astier_fails = gm.chosen == "astier" and not gm.astier_p >= HEADLINE_P_MIN
+    if line_fails and (gm.chosen != "astier" or astier_fails):
+        lf = line_fit(S, V)
+        k_ols = (Estimate(lf.slope, lf.slope_se, "DN/e-", f"unweighted line of V vs S (SE from the residual "
+                                                           f"scatter), {fit_note}")
+                 if math.isfinite(lf.slope) and lf.slope > 3 * lf.slope_se else k_wls)
+        tried = (f"the Astier fit, preferred to the line, fails its own residual check (chi2/dof "
+                 f"{ast.chi2_red:.3g}, p {gm.astier_p:.2g})" if astier_fails else
+                 "the Astier curvature term does not explain the residuals")
+        chosen = k_ols
+        reason = (f"unweighted line: the weighted line fails its own residual check (chi2/dof "
+                  f"{gm.line.chi2_red:.3g}, p {gm.line_p:.2g}) and {tried}: the levels' variance errors do not "
+                  "describe their scatter, so the slope is not weighted by them (the form of EMVA 1288 4.0 Eq. 50)")
     if chosen.available:
         chosen = Estimate(chosen.value, chosen.se, chosen.unit, f"{reason}; {chosen.note}")
     return chosen, k_wls, k_org, k_ast, gm

@@ -110,7 +110,7 @@ def ptc_variance(ax, rows: list[dict], res, title: str) -> list[str]:
         fit = [lv for lv in res.levels if lv.status == "fit"]
         smax = max([lv.signal for lv in res.levels if lv.status != "excluded"] or [1.0])
         xs = np.linspace(0, smax * 1.05, 50)
-        head = {"line": "WLS line", "astier": "Astier"}.get(res.gain_headline().get("estimator"), "line")
+        head = {"line": "WLS line", "astier": "Astier", "ols": "OLS line"}.get(res.gain_headline().get("estimator"), "line")
         for e, name, ls in ((res.gain_dn_per_e, f"headline ({head})", "-"),
                             (res.gain_origin_dn_per_e, "EMVA origin fit", "--"),
                             (res.gain_astier_dn_per_e, "Astier", ":")):
