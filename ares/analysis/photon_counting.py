@@ -9,8 +9,8 @@ Poisson mixture of Gaussians, one per electron number ``k``::
 with the conversion gain ``K`` (DN/e-), read noise ``sigma_e`` (e-), mean electrons ``H``
 and offset ``o`` (DN). Integer codes are fitted as the integral of each Gaussian over its
 code's width (the quantizer), by weighted least squares on the code histogram (first with
-the counts as weights, then with the first fit's model: Pearson); the SEs are the fit's
-covariance. Below about 0.5 e- read noise the peaks separate and the fit determines K and
+the counts as weights, then iteratively reweighted with the model's own Poisson variance:
+the maximum-likelihood fit); the SEs are its inverse Fisher information. Below about 0.5 e- read noise the peaks separate and the fit determines K and
 sigma_e far better than photon transfer; above it the verdict is "not available".
 
 ``photon_transfer`` gives the photon-transfer estimate of the same stack (light and dark
@@ -113,8 +113,7 @@ def fit_code_histogram(codes, counts, *, read_noise_limit_e: float = READ_NOISE_
         f = lambda x, K, s, H, o, kmax=kmax: _model(x, K, s, H, o, n, kmax)  # noqa: E731
         try:
             p, _ = curve_fit(f, codes, h, p0=[K0, 0.3, H0, o0], sigma=np.sqrt(np.maximum(h, 1.0)))
-            m = np.maximum(f(codes, *p), 1e-3)
-            p, cov = curve_fit(f, codes, h, p0=p, sigma=np.sqrt(m))
+            p, cov = _poisson_ml(f, codes, h, p)
         except (RuntimeError, ValueError):
             continue
         chi2 = float(np.sum((h - f(codes, *p)) ** 2 / np.maximum(f(codes, *p), 1.0)))
@@ -134,11 +133,28 @@ def fit_code_histogram(codes, counts, *, read_noise_limit_e: float = READ_NOISE_
                   f"limit ~{read_noise_limit_e:g} e-)", extra)
     if s_e > read_noise_limit_e or not np.all(np.isfinite(se)) or se[0] > 0.05 * K:
         return na(f"read noise {s_e:.2f} e- too high for separated peaks (limit ~{read_noise_limit_e:g} e-)", extra)
-    how = "photon-counting histogram fit (Starkey & Fossum 2016); SE from the fit covariance"
+    how = "photon-counting histogram fit (Starkey & Fossum 2016); SE from the Poisson Fisher information"
     out = {"K": Estimate(K, float(se[0]), "DN/e-", how), "read_noise_e": Estimate(s_e, float(se[1]), "e-", how),
            "mean_e": Estimate(H, float(se[2]), "e-", how), "offset_dn": Estimate(o, float(se[3]), "DN", how)}
     out.update(extra)
     return out
+
+
+def _poisson_ml(f, codes, h, p, rounds: int = 6):
+    """The Poisson maximum-likelihood fit by iteratively reweighted least squares (weights the
+    model's own variance, re-evaluated until the parameters stop moving), and its covariance:
+    the inverse Fisher information ``(J^T V^-1 J)^-1``, the counts' Poisson variance taken as
+    known (``absolute_sigma``; rescaling by the reduced chi-square would shrink it by the
+    near-empty tail bins' small Pearson terms)."""
+    for _ in range(rounds):
+        m = np.maximum(f(codes, *p), 1e-3)
+        q, cov = curve_fit(f, codes, h, p0=p, sigma=np.sqrt(m), absolute_sigma=True)
+        se = np.sqrt(np.clip(np.diag(cov), 1e-300, None))
+        done = bool(np.all(np.abs(q - p) < 1e-3 * se))
+        p = q
+        if done:
+            break
+    return p, cov
 
 
 def _rn_from_ptc(mean, var, K) -> str:
