@@ -23,8 +23,7 @@ import math
 
 import numpy as np
 from scipy.optimize import curve_fit
-from scipy.special import ndtr
-from scipy.stats import poisson
+from scipy.special import gammaln, ndtr
 
 from ares.analysis.estimate import Estimate
 
@@ -32,11 +31,15 @@ READ_NOISE_LIMIT_E = 0.5  # above it the electron peaks merge (Starkey & Fossum 
 
 
 def _model(x, K, s_e, H, o, n_total, kmax):
+    """Expected counts at the integer codes ``x`` (consecutive): each Gaussian integrated over
+    its code's width, the code boundaries' CDF computed once."""
     k = np.arange(kmax + 1)[:, None]
-    w = poisson.pmf(k, H)
+    h = max(float(H), 1e-12)
+    w = np.exp(k * math.log(h) - h - gammaln(k + 1.0))  # Poisson pmf
     s = max(abs(K * s_e), 1e-6)
-    c = o + K * k
-    return n_total * np.sum(w * (ndtr((x + 0.5 - c) / s) - ndtr((x - 0.5 - c) / s)), axis=0)
+    edges = np.append(x - 0.5, x[-1] + 0.5)
+    cdf = ndtr((edges[None, :] - (o + K * k)) / s)
+    return n_total * np.sum(w * np.diff(cdf, axis=1), axis=0)
 
 
 def _comb_start(codes: np.ndarray, h: np.ndarray, K: float) -> float:
@@ -86,14 +89,16 @@ def _na(why, extra=None):
 
 
 def fit_code_histogram(codes, counts, *, read_noise_limit_e: float = READ_NOISE_LIMIT_E) -> dict:
-    """As ``fit_histogram``, from a histogram of integer codes (``counts[i]`` values at
-    ``codes[i]``; the zero-count ends are trimmed)."""
+    """As ``fit_histogram``, from a histogram of consecutive integer codes (``counts[i]``
+    values at ``codes[i]``; the zero-count ends are trimmed)."""
     codes = np.asarray(codes, np.float64)
     h = np.asarray(counts, np.float64)
     nz = np.nonzero(h)[0]
     if nz.size == 0 or h.sum() < 1000:
         return _na(f"only {int(h.sum())} values; the histogram needs at least 1000")
     codes, h = codes[nz[0]:nz[-1] + 1], h[nz[0]:nz[-1] + 1]
+    if codes.size > 1 and np.any(np.diff(codes) != 1):
+        return _na("the histogram's codes are not consecutive integers (one count per code is needed)")
     na = _na
     n = float(h.sum())
     mean = float((codes * h).sum() / n)
