@@ -20,9 +20,10 @@ means and temporal variances) to show beside it.
 from __future__ import annotations
 
 import math
+import warnings
 
 import numpy as np
-from scipy.optimize import curve_fit
+from scipy.optimize import OptimizeWarning, curve_fit
 from scipy.special import gammaln, ndtr
 
 from ares.analysis.estimate import Estimate
@@ -153,7 +154,9 @@ def _poisson_ml(f, codes, h, p, rounds: int = 6):
     near-empty tail bins' small Pearson terms)."""
     for _ in range(rounds):
         m = np.maximum(f(codes, *p), 1e-3)
-        q, cov = curve_fit(f, codes, h, p0=p, sigma=np.sqrt(m), absolute_sigma=True)
+        with warnings.catch_warnings():  # a singular covariance comes back as inf: judged by the caller
+            warnings.simplefilter("ignore", OptimizeWarning)
+            q, cov = curve_fit(f, codes, h, p0=p, sigma=np.sqrt(m), absolute_sigma=True)
         se = np.sqrt(np.clip(np.diag(cov), 1e-300, None))
         done = bool(np.all(np.abs(q - p) < 1e-3 * se))
         p = q
