@@ -122,7 +122,9 @@ def fit_code_histogram(codes, counts, *, read_noise_limit_e: float = READ_NOISE_
         kmax = int(H0 + 8 * math.sqrt(H0) + 8)
         f = lambda x, K, s, H, o, kmax=kmax: _model(x, K, s, H, o, n, kmax)  # noqa: E731
         try:
-            p, _ = curve_fit(f, codes, h, p0=[K0, 0.3, H0, o0], sigma=np.sqrt(np.maximum(h, 1.0)))
+            with warnings.catch_warnings():  # a singular covariance here: the ML rounds follow
+                warnings.simplefilter("ignore", OptimizeWarning)
+                p, _ = curve_fit(f, codes, h, p0=[K0, 0.3, H0, o0], sigma=np.sqrt(np.maximum(h, 1.0)))
             p, cov = _poisson_ml(f, codes, h, p)
         except (RuntimeError, ValueError):
             continue
