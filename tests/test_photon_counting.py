@@ -1,6 +1,7 @@
 """Photon-counting histogram (ares.analysis.photon_counting, Starkey & Fossum 2016) against
 the simulator's truth: a deep sub-electron sensor (K = 10 DN/e-, no fixed-pattern noise,
-exact Poisson photo-charge) at 0.15-0.45 e- read noise, 5 seeds each. The gain's SE grows
+exact Poisson photo-charge) at 0.15-0.45 e- read noise, 5 seeds each (slow), and one cheap
+fixed-seed check of the SEs' spread/SE ratio at 0.45 e-. The gain's SE grows
 with the read noise (0.5 % at 0.45 e- for 64x64x20 values): the 0.5 % target needs ~8x that
 (128x128x40), used for every level here."""
 
@@ -34,6 +35,26 @@ def test_gain_and_read_noise_against_truth_over_5_seeds(rn):
         assert abs(s.value / t["read_noise_e"] - 1) < 0.03, (seed, s)
         assert abs(K.value - t["G"]) < 4 * K.se and abs(s.value - t["read_noise_e"]) < 4 * s.se
         assert abs(r["mean_e"].value - float(np.mean(t["maps"]["q"]))) < 4 * r["mean_e"].se + 0.01
+
+
+def test_spread_over_se_at_045_e_fixed_seeds():
+    """The SEs say how far the estimates scatter: at 0.45 e- (the peaks overlapping most) the
+    spread of K and read noise over 10 fixed seeds (64x64x20 values each) over the mean SE.
+    A ratio from 10 seeds is itself uncertain by ~24 %, and on these small stacks the
+    simulator's estimates scatter more than the Fisher SE says (these seeds: K 1.42, read
+    noise 1.50; model-drawn histograms of the same size give 0.93); the band 0.5-1.8 fails an
+    SE off by a factor 2 either way. The 0.7-1.3 target is the benchmark's (40-120 seeds of
+    128x128x40 values, benchmarks/beyond_linear.md)."""
+    k, s = [], []
+    for seed in range(10):
+        t, light, _ = _stacks(0.45, 300 + seed)
+        r = fit_histogram(light)
+        k.append((r["K"].value / t["G"] - 1, r["K"].se / t["G"]))
+        s.append((r["read_noise_e"].value / 0.45 - 1, r["read_noise_e"].se / 0.45))
+    for name, a in (("K", np.array(k)), ("read noise", np.array(s))):
+        ratio = a[:, 0].std(ddof=1) / a[:, 1].mean()
+        assert 0.5 < ratio < 1.8, (name, ratio)
+        assert abs(a[:, 0].mean()) < 3 * a[:, 1].mean() / np.sqrt(len(a)) + 1e-4, name  # no bias beyond the SE
 
 
 def test_photon_transfer_beside_it():

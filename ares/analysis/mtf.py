@@ -1,28 +1,36 @@
 """Spatial frequency response by the slanted-edge method (ISO 12233:2017 e-SFR).
 
-The steps of the standard's e-SFR (Annex D; the sfrmat3/4 reference implementation):
+The steps of the standard's e-SFR (ISO 12233:2017 Annex D, as its reference implementation
+sfrmat3 by Burns carries them out):
 
 1. the edge runs near the vertical in the region of interest (a near-horizontal one is
    transposed first); each row is differentiated ([-1/2, +1/2]) and the centroid of its
-   Hamming-windowed derivative located; a straight line ``x = a + b y`` is fitted to the
-   centroids (twice: the second pass windows each row around the first line);
-2. the rows used are trimmed to a whole number of phase cycles (``rows * |b|`` integer);
-3. every pixel is projected onto the edge normal and the values averaged in bins of a
-   quarter pixel (4x oversampled edge-spread function, ESF); empty bins are interpolated;
-   the ESF is kept within ``HALF_WIDTH`` pixels of the edge (the region every row covers);
-4. the ESF is differentiated (central difference) into the line-spread function (LSF),
-   which is Hamming-windowed about its centroid;
-5. the modulus of its DFT, normalised to 1 at zero frequency, is the SFR; it is divided by
-   the derivative's own transfer ``sinc(2 f d)`` (the standard's frequency correction)
+   Hamming-windowed derivative located (the window centred on the row's middle); a
+   first-order polynomial ``x = a + b y`` is fitted to the centroids, then again with each
+   row's window centred on the first line;
+2. the first ``round(floor(rows |b|) / |b|)`` rows are kept (a whole number of phase cycles);
+3. every pixel is projected along the edge onto the row axis (``x - (a + b y)``) and the
+   values averaged in bins of a quarter pixel, ``4 x columns`` bins centred on the edge (the
+   4x oversampled edge-spread function, ESF); an empty bin takes its neighbours' line;
+4. the ESF is differentiated by the [-1/2, 0, +1/2] FIR into the line-spread function (LSF),
+   and a Hamming window the length of the array is centred on the LSF's centroid;
+5. the modulus of its DFT, normalised to 1 at zero frequency, is divided by the FIR's own
+   transfer ``sinc(2 k / n)`` (the derivative correction; sfrmat3's ``fir2fix`` has it one
+   index off, the exact form is used here) and the frequency axis ``k / (n d)``, d = 1/4
+   pixel, is rescaled by 1 / cos(angle) to cycles per pixel along the edge normal;
 6. MTF50 (the first frequency where the SFR falls to 0.5, linear interpolation) and the
    SFR at the Nyquist frequency (0.5 cycles/pixel; 0.25 cycles per sensor pixel for one
    channel of a Bayer mosaic) are read off.
 
-Frequencies are in cycles per pixel *along the edge normal* (ESF distances are measured
-along the normal, so no cos(angle) correction is needed afterwards). Standard errors come
+One option beside the standard: ``esf_half_width`` (e.g. ``LOW_NOISE_HALF_WIDTH``) keeps only
+the ESF within that many pixels of the edge that every row covers, less noise in the LSF's
+window; the standard value (None) bins the whole region.
+
+Standard errors come
 from a parametric bootstrap (fixed seed): the image analysed again with noise of its own
 level added (each side's noise from row-to-row differences, the variance interpolated in
-the level), which carries the noise through the edge fit, the binning and the DFT. Verdicts: the edge angle must lie in 2-22 degrees, the edge step must be at
+the level), which carries the noise through the edge fit, the binning and the DFT.
+Verdicts: the edge angle must lie in 2-22 degrees, the edge step must be at
 least ``MIN_STEP_SNR`` times the pixel noise, and no pixel of the region may be clipped.
 """
 
@@ -39,7 +47,7 @@ OVERSAMPLE = 4
 ANGLE_RANGE_DEG = (2.0, 22.0)
 MIN_STEP_SNR = 10.0  # edge step / pixel noise below this: "too little contrast"
 BOOTSTRAP = 40
-HALF_WIDTH = 16.0  # pixels of the ESF kept either side of the edge (less noise in the LSF window)
+LOW_NOISE_HALF_WIDTH = 16.0  # the option esf_half_width: ESF kept within 16 px of the edge (not the standard)
 CHANNEL_NAMES = {"RGGB": ("R", "Gr", "Gb", "B"), "GRBG": ("Gr", "R", "B", "Gb"),
                  "GBRG": ("Gb", "B", "R", "Gr"), "BGGR": ("B", "Gb", "Gr", "R")}
 
@@ -69,16 +77,21 @@ class SfrResult:
 
 
 def _hamming(n: int, mid: float) -> np.ndarray:
-    """A Hamming window of n samples centred on ``mid`` (sfrmat's asymmetric ``ahamming``)."""
+    """A Hamming window of n samples centred on ``mid`` (sfrmat's ``ahamming``: the half-width
+    is the longer side, so the window reaches 0.08 at the farther end)."""
     half = max(mid, n - 1 - mid, 1.0)
     return 0.54 + 0.46 * np.cos(np.pi * (np.arange(n) - mid) / half)
 
 
 def _centroids(img: np.ndarray, centre: np.ndarray | None) -> np.ndarray:
-    d = np.diff(img, axis=1)  # derivative between x and x+1, at x + 0.5
+    """Each row's centroid of its [-1/2, +1/2] derivative (at x + 0.5) times a Hamming window
+    centred on the row's middle (first pass) or on ``centre`` (second pass)."""
+    d = np.diff(img, axis=1) / 2.0
     d = d * np.sign(d.sum()) if d.sum() else d
     x = np.arange(d.shape[1]) + 0.5
-    if centre is not None:
+    if centre is None:
+        d = d * _hamming(d.shape[1], (d.shape[1] - 1) / 2.0)[None, :]
+    else:
         d = d * np.stack([_hamming(d.shape[1], c - 0.5) for c in centre])
     s = d.sum(axis=1)
     s[s == 0] = np.nan
@@ -86,7 +99,8 @@ def _centroids(img: np.ndarray, centre: np.ndarray | None) -> np.ndarray:
 
 
 def fit_edge(img: np.ndarray) -> tuple[float, float]:
-    """(a, b) of the edge line ``x = a + b y`` from the rows' windowed derivative centroids."""
+    """(a, b) of the edge line ``x = a + b y`` from the rows' windowed derivative centroids
+    (first-order polynomial, fitted twice: the second pass windows each row on the first line)."""
     y = np.arange(img.shape[0], dtype=np.float64)
     c = _centroids(img, None)
     ok = np.isfinite(c)
@@ -97,19 +111,26 @@ def fit_edge(img: np.ndarray) -> tuple[float, float]:
     return float(a), float(b)
 
 
-def _esf_mtf(img: np.ndarray, a: float, b: float):
-    """(freq cycles/pixel along the normal, SFR) from rows ``img`` and the edge line."""
+def _esf_mtf(img: np.ndarray, a: float, b: float, half_width: float | None = None):
+    """(freq in cycles/pixel along the edge normal, SFR, ESF) from rows ``img`` and the edge
+    line ``x = a + b y``: the standard's projection along the edge onto the row axis in bins of
+    a quarter pixel, ``4 x columns`` bins centred on the edge (``half_width``: only the bins
+    within that many pixels of the edge, see ``sfr``), the frequency axis rescaled by
+    1 / cos(angle) for the bins' spacing along the normal."""
     R, C = img.shape
     cos = 1.0 / math.sqrt(1.0 + b * b)
     y = np.arange(R, dtype=np.float64)[:, None]
     x = np.arange(C, dtype=np.float64)[None, :]
-    dist = (x - (a + b * y)) * cos  # along the normal
-    lo = max(float(np.max(-(a + b * y))) * cos, -HALF_WIDTH)  # the distance range every row covers,
-    hi = min(float(np.min(C - 1 - (a + b * y))) * cos, HALF_WIDTH)  # at most HALF_WIDTH either side
-    nb = int(math.floor((hi - lo) * OVERSAMPLE))
-    if nb < 8 * OVERSAMPLE:
-        return None
-    idx = np.floor((dist - lo) * OVERSAMPLE).astype(np.int64).ravel()
+    rel = x - (a + b * y)  # along the rows, from the edge
+    nb = C * OVERSAMPLE
+    lo = -nb // 2
+    if half_width is not None:  # the distance range every row covers, at most half_width either side
+        lo_d = max(float(np.max(-(a + b * y))), -half_width / cos)
+        hi_d = min(float(np.min(C - 1 - (a + b * y))), half_width / cos)
+        lo, nb = int(math.ceil(lo_d * OVERSAMPLE)), int(math.floor((hi_d - lo_d) * OVERSAMPLE))
+        if nb < 8 * OVERSAMPLE:
+            return None
+    idx = (np.floor(rel * OVERSAMPLE).astype(np.int64) - lo).ravel()
     v = img.ravel()
     keep = (idx >= 0) & (idx < nb)
     cnt = np.bincount(idx[keep], minlength=nb)
@@ -118,22 +139,26 @@ def _esf_mtf(img: np.ndarray, a: float, b: float):
     if have.sum() < nb // 2:
         return None
     k = np.arange(nb)
-    esf = np.interp(k, k[have], tot[have] / cnt[have])
+    esf = np.interp(k, k[have], tot[have] / cnt[have])  # an empty bin: its neighbours' line
     lsf = np.zeros(nb)
-    lsf[1:-1] = (esf[2:] - esf[:-2]) / 2.0
+    lsf[1:-1] = (esf[2:] - esf[:-2]) / 2.0  # [-1/2, 0, +1/2]
     lsf[0], lsf[-1] = lsf[1], lsf[-2]
     if lsf.sum() < 0:
         lsf = -lsf
-    w = np.clip(lsf, 0, None)
-    mid = float((w * k).sum() / w.sum()) if w.sum() > 0 else nb / 2
-    spec = np.abs(np.fft.rfft(lsf * _hamming(nb, mid)))
+    mid = int(round(float((lsf * k).sum() / lsf.sum()))) if lsf.sum() > 0 else nb // 2
+    # the standard shifts the LSF's centroid to the array's middle and applies a symmetric
+    # Hamming window of the array's length: the same |DFT| as this window about the centroid,
+    # with the samples the shift pushes out dropped
+    half = (nb - 1) / 2.0
+    w = np.where(np.abs(k - mid) <= half, 0.54 + 0.46 * np.cos(np.pi * (k - mid) / half), 0.0)
+    spec = np.abs(np.fft.rfft(lsf * w))
     if spec[0] <= 0:
         return None
-    dlt = 1.0 / OVERSAMPLE
-    freq = np.arange(spec.size) / (nb * dlt)
-    corr = np.sinc(2 * freq * dlt)  # the central difference's transfer (standard step 5)
-    corr = np.where(freq * dlt < 0.4, corr, np.nan)
+    kf = np.arange(spec.size) / nb  # cycles per bin
+    corr = np.sinc(2 * kf)  # the central difference's own transfer (its FIR correction)
+    corr = np.where(kf < 0.4, corr, np.nan)
     mtf = spec / spec[0] / corr
+    freq = kf * OVERSAMPLE / cos  # bins are 1/4 pixel along the rows, cos/4 along the normal
     ok = np.isfinite(mtf)
     return freq[ok], mtf[ok], esf
 
@@ -172,25 +197,27 @@ def _noise_map(img: np.ndarray, a: float, b: float) -> np.ndarray:
     return np.sqrt(np.clip(var, min(v0, v1), max(v0, v1)))
 
 
-def _one(img: np.ndarray):
+def _one(img: np.ndarray, half_width: float | None = None):
     a, b = fit_edge(img)
     R = img.shape[0]
-    if abs(b) > 1e-6:  # whole phase cycles (standard step 2)
-        n = int(math.floor(math.floor(R * abs(b)) / abs(b)))
+    if abs(b) > 1e-6:  # whole phase cycles: the first round(floor(R |b|) / |b|) rows (step 2)
+        n = int(round(math.floor(R * abs(b)) / abs(b)))
         if n >= 16:
-            s = (R - n) // 2
-            img, a = img[s:s + n], a + b * s
-    r = _esf_mtf(img, a, b)
+            img = img[:n]
+    r = _esf_mtf(img, a, b, half_width)
     return a, b, r
 
 
 def sfr(image, *, max_code: float | None = None, pixel_scale: int = 1, bootstrap: int = BOOTSTRAP,
-        seed: int = 0) -> SfrResult:
+        seed: int = 0, esf_half_width: float | None = None) -> SfrResult:
     """The e-SFR of one edge region (2-D array; a near-horizontal edge is transposed).
 
     ``max_code``: the full-scale code (clipping check; None: not checked);
     ``pixel_scale``: sensor pixels per image pixel (2 for one channel of a Bayer mosaic),
-    frequencies are reported per sensor pixel."""
+    frequencies are reported per sensor pixel;
+    ``esf_half_width``: None (the standard) bins the whole region; a number (e.g.
+    ``LOW_NOISE_HALF_WIDTH``) keeps only the ESF within that many pixels of the edge that every
+    row covers, less noise in the LSF's window at the cost of the standard's tails."""
     img = np.asarray(image, dtype=np.float64)
     nyq = 0.5 / pixel_scale
     na = lambda why: SfrResult(np.zeros(0), np.zeros(0), nyq, Estimate.na(why, "deg"),  # noqa: E731
@@ -209,7 +236,7 @@ def sfr(image, *, max_code: float | None = None, pixel_scale: int = 1, bootstrap
     if gy > gx:
         img = img.T
     try:
-        a, b, r = _one(img)
+        a, b, r = _one(img, esf_half_width)
     except (np.linalg.LinAlgError, ValueError, TypeError):
         r = None
     if r is None:
@@ -232,12 +259,12 @@ def sfr(image, *, max_code: float | None = None, pixel_scale: int = 1, bootstrap
     f50 = mtf50_of(freq, mtf) / pixel_scale
     fs = freq / pixel_scale
     mn = float(np.interp(nyq, fs, mtf))
-    sig = _noise_map(img, *_one(img)[:2])
+    sig = _noise_map(img, a, b)
     rng = np.random.default_rng(seed)
     boot = []
     for _ in range(bootstrap):  # parametric: the same image with noise of its own level added again
         try:
-            _, bb, rb = _one(img + sig * rng.standard_normal(img.shape))
+            _, bb, rb = _one(img + sig * rng.standard_normal(img.shape), esf_half_width)
         except (np.linalg.LinAlgError, ValueError, TypeError):
             continue
         if rb is None:

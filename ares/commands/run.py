@@ -269,11 +269,12 @@ def _read_meta(run_dir: Path) -> dict:
 
 
 def _print_estimates(d: dict, out, indent: str, depth: int = 0) -> None:
-    """Estimates (``{"value", "se", "unit"}``) of an analysis result, nested one level."""
+    """Estimates (``{"value", "se", "unit"}``) of an analysis result, nested up to four levels
+    (the MTF's stages -> stage -> channels -> channel)."""
     for k, v in d.items():
         if isinstance(v, dict) and "value" in v and "unit" in v:
             out.write(f"{indent}{k:<26} {_num(v)}\n")
-        elif isinstance(v, dict) and depth < 2 and any(isinstance(x, dict) for x in v.values()):
+        elif isinstance(v, dict) and depth < 4 and any(isinstance(x, dict) for x in v.values()):
             out.write(f"{indent}{k}:\n")
             _print_estimates(v, out, indent + "  ", depth + 1)
         elif isinstance(v, (int, str)) and not isinstance(v, bool) and k in ("counts", "dark_stage"):
