@@ -413,3 +413,4 @@ def check_defect_thresholds(scan) -> None:
 
 from ares.scan import mtf_analysis  # noqa: E402,F401  (registers "mtf")
 from ares.scan import photon_counting_analysis  # noqa: E402,F401  (registers "photon_counting")
+from ares.scan import spectral_qe_analysis  # noqa: E402,F401  (registers "spectral_qe")
