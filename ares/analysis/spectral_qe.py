@@ -33,6 +33,17 @@ SATURATED_FRACTION = 0.001  # more pixels than this at the top code: the point i
 DARK_SIGMAS = 5.0  # a net signal below this many dark temporal sigmas is too dark to measure
 
 
+def spectral_groups(stages: list[dict]) -> set[str]:
+    """The stage groups (``<sweep>`` names) that sweep the wavelength: two or more distinct
+    ``wavelength`` settings. Their stages are spectral points, not photon-transfer levels
+    (the photons per pixel of a photon-transfer level are light x exposure at one wavelength)."""
+    by_group: dict[str, set] = {}
+    for st in stages:
+        if "wavelength" in st["settings"]:
+            by_group.setdefault(st["group"], set()).add(st["settings"]["wavelength"])
+    return {g for g, w in by_group.items() if len(w) >= 2}
+
+
 def responsivity_at(nm_table, r_table, u_table, nm: float) -> tuple[float, float] | None:
     """(R, u(R)) in A/W at ``nm``, linear between the table's points; None outside it."""
     if not nm_table[0] <= nm <= nm_table[-1]:
@@ -83,13 +94,12 @@ def qe_point(p: SpectralPoint, K: Estimate, table, pd_area_m2: float, pixel_area
 
     rr = responsivity_at(*table, p.wavelength_nm)
     if rr is None:
-        return na(f"{p.wavelength_nm:g} nm is outside the photodiode's calibration table "
-                  f"({table[0][0]:g}-{table[0][-1]:g} nm)")
+        return na(f"outside the photodiode's calibration table ({table[0][0]:g}-{table[0][-1]:g} nm)")
     if p.frac_at_max > SATURATED_FRACTION:
-        return na(f"saturated: {100 * p.frac_at_max:.2g} % of the pixels at the top code")
+        return na(f"saturated ({100 * p.frac_at_max:.2g} % of the pixels at the top code)")
     floor = DARK_SIGMAS * p.dark_sigma_dn
     if not net > floor:
-        return na(f"too dark: net signal {net:.3g} DN is below {DARK_SIGMAS:g} dark sigmas ({floor:.3g} DN)")
+        return na(f"too dark (net signal {net:.3g} DN below {DARK_SIGMAS:g} dark sigmas, {floor:.3g} DN)")
     pd = p.pd_light - p.pd_dark
     if not pd > 0:
         return na("the photodiode read no light above its dark reading")

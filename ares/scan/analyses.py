@@ -28,11 +28,15 @@ def _e(x: Estimate) -> dict:
 
 
 def _ptc_groups(run) -> dict:
-    """Flat stages with a matched dark, grouped by analog gain (one PTC per gain)."""
+    """Flat stages with a matched dark, grouped by analog gain (one PTC per gain); a
+    wavelength sweep's stages are spectral points, not levels (``spectral_groups``)."""
+    from ares.analysis.spectral_qe import spectral_groups
+
     groups: dict = {}
+    spectral = spectral_groups(run.stages)
     for st in run.stages:
         full = st["views"]["full"]
-        if st["scene"] != "flat" or "dark_level" not in full:
+        if st["scene"] != "flat" or "dark_level" not in full or st["group"] in spectral:
             continue
         groups.setdefault(st["settings"].get("analog_gain", 1.0), []).append(st)
     return groups

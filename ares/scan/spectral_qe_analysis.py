@@ -13,15 +13,8 @@ from __future__ import annotations
 import math
 
 from ares.analysis.estimate import Estimate
+from ares.analysis.spectral_qe import spectral_groups
 from ares.scan.results import register_scan_analysis
-
-
-def spectral_groups(stages: list[dict]) -> set[str]:
-    by_group: dict[str, set] = {}
-    for st in stages:
-        if "wavelength" in st["settings"]:
-            by_group.setdefault(st["group"], set()).add(st["settings"]["wavelength"])
-    return {g for g, w in by_group.items() if len(w) >= 2}
 
 
 def _frame_se(level: dict) -> float:
@@ -49,21 +42,21 @@ def _point(st: dict):
 
 
 def _gain(run, stages: list[dict]) -> tuple[Estimate, str]:
-    from ares.scan.analyses import ptc_one
+    """K from the photon-transfer levels at the spectral points' analog gain, as the ``ptc``
+    analysis computes it (``ares.scan.analyses``), and where it came from."""
+    from ares.scan.analyses import _ptc_groups, ptc_one
 
     gains = {st["settings"].get("analog_gain", 1.0) for st in stages}
-    ptc = [st for st in run.stages if st["scene"] == "flat" and "dark_level" in st["views"]["full"]
-           and st["group"] not in spectral_groups(run.stages)
-           and st["settings"].get("analog_gain", 1.0) in gains]
     if len(gains) != 1:
         return Estimate.na("the spectral stages use more than one analog gain", "DN/e-"), ""
+    gain = gains.pop()
+    ptc = _ptc_groups(run).get(gain, [])
     if len(ptc) < 2:
         return Estimate.na("needs a photon-transfer sweep (2 or more flat levels with a matched dark) at the "
                            "spectral points' operation point", "DN/e-"), ""
-    r = ptc_one(run, ptc, gains.pop())
-    k = r.get("gain_dn_per_e") or {}
+    k = ptc_one(run, ptc, gain).get("gain_dn_per_e")
     where = f"photon transfer of {len(ptc)} levels ({', '.join(sorted({s['group'] for s in ptc}))})"
-    return Estimate.from_dict(k) if k else Estimate.na("photon transfer gave no K", "DN/e-"), where
+    return (Estimate.from_dict(k) if k else Estimate.na("photon transfer gave no K", "DN/e-")), where
 
 
 def point_key(nm: float) -> str:
