@@ -15,7 +15,9 @@ The relative uncertainty of each point combines, in quadrature, the calibration 
 uncertainty of ``R`` at that wavelength (linear between its points), the SE of ``K``, the SE
 of the net mean signal (from the scatter of the frame means of the light and dark stacks)
 and the SE of the net photodiode reading. A wavelength outside the calibration table, a
-saturated point or one too dark to measure is "not available" with the reason.
+saturated point (pixels at the top code, or a temporal variance below half the shot noise
+K x signal: clipped at the full well) or one too dark to measure (net signal below 5 dark
+temporal sigmas) is "not available" with the reason.
 
 Pure: numbers in, Estimates out (``ares.scan.spectral_qe_analysis`` feeds it a run).
 """
@@ -30,6 +32,7 @@ from ares.analysis.estimate import Estimate
 H_PLANCK = 6.62607015e-34  # J s (SI; Eq. 4 of the standard quotes 6.6260755e-34: 5e-7 relative)
 C_LIGHT = 2.99792458e8  # m/s
 SATURATED_FRACTION = 0.001  # more pixels than this at the top code: the point is saturated
+SHOT_FRACTION = 0.5  # a temporal variance below this share of the shot noise K x signal: the pixels clip
 DARK_SIGMAS = 5.0  # a net signal below this many dark temporal sigmas is too dark to measure
 
 
@@ -74,6 +77,7 @@ class SpectralPoint:
     dark_se_dn: float
     dark_sigma_dn: float
     frac_at_max: float
+    var_dn2: float  # temporal variance of the lit stack (shot noise: ~ K x net signal below saturation)
     pd_light: float
     pd_light_se: float
     pd_dark: float
@@ -97,6 +101,10 @@ def qe_point(p: SpectralPoint, K: Estimate, table, pd_area_m2: float, pixel_area
         return na(f"outside the photodiode's calibration table ({table[0][0]:g}-{table[0][-1]:g} nm)")
     if p.frac_at_max > SATURATED_FRACTION:
         return na(f"saturated ({100 * p.frac_at_max:.2g} % of the pixels at the top code)")
+    shot = p.var_dn2 - p.dark_sigma_dn**2
+    if K.available and net > 0 and shot < SHOT_FRACTION * K.value * net:  # full well: the variance collapses
+        return na(f"saturated (temporal variance {shot:.3g} DN^2 is below half the shot noise K x signal, "
+                  f"{K.value * net:.3g} DN^2: the pixels clip)")
     floor = DARK_SIGMAS * p.dark_sigma_dn
     if not net > floor:
         return na(f"too dark (net signal {net:.3g} DN below {DARK_SIGMAS:g} dark sigmas, {floor:.3g} DN)")

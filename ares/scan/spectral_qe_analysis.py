@@ -38,7 +38,7 @@ def _point(st: dict):
     return SpectralPoint(nm, sp["bandwidth_nm"] if sp.get("bandwidth_nm") is not None else math.nan,
                          st["settings"].get("exposure", math.nan), lv["mean_dn"], _frame_se(lv), dk["mean_dn"],
                          _frame_se(dk), math.sqrt(max(dk["var_dn2"] or 0.0, 0.0)), lv["frac_at_max"],
-                         light, light_se, dark, dark_se)
+                         lv["var_dn2"] if lv["var_dn2"] is not None else math.nan, light, light_se, dark, dark_se)
 
 
 def _gain(run, stages: list[dict]) -> tuple[Estimate, str]:
@@ -60,7 +60,8 @@ def _gain(run, stages: list[dict]) -> tuple[Estimate, str]:
 
 
 def point_key(nm: float) -> str:
-    """``550nm``; ``402_5nm`` (no dot: a key of a dotted path)."""
+    """``550nm``; ``402_5nm`` (no dot: a key of a dotted path); a wavelength measured in two
+    sweeps gets the second sweep's name appended (``550nm_long``)."""
     return f"{nm:g}nm".replace(".", "_")
 
 
@@ -91,7 +92,10 @@ def spectral_qe(run) -> dict:
         out = {"stage": st["name"], "wavelength_nm": p.wavelength_nm,
                "bandwidth_nm": None if math.isnan(p.bandwidth_nm) else p.bandwidth_nm}
         out.update({k: (v.to_dict() if isinstance(v, Estimate) else v) for k, v in r.items()})
-        points[point_key(p.wavelength_nm)] = out
+        key = point_key(p.wavelength_nm)
+        if key in points:  # the same wavelength in another sweep (another exposure, Section 9.2)
+            key = f"{key}_{st['group']}" if f"{key}_{st['group']}" not in points else f"{key}_{st['index']}"
+        points[key] = out
     bw = [p["bandwidth_nm"] for p in points.values() if p["bandwidth_nm"] is not None]
     res = {"gain_dn_per_e": K.to_dict(), "gain_source": where, "points": points,
            "calibration": {"file": pd.calibration, "range_nm": [t.wavelength_nm[0], t.wavelength_nm[-1]],
