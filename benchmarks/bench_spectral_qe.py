@@ -52,7 +52,7 @@ def _table(pd_error_pct: float) -> list[str]:
                     na[key] = q["note"]
                     continue
                 b = p["budget"]  # the SE's parts that change from run to run (not the calibration's)
-                stat = q["value"] * (b["K"] ** 2 + b["signal"] ** 2 + b["photodiode"] ** 2) ** 0.5
+                stat = q["value"] * (b["u_gain"] ** 2 + b["u_signal"] ** 2 + b["u_photodiode"] ** 2) ** 0.5
                 rows.setdefault(key, []).append((p["wavelength_nm"], q["value"] - 100 * truth.qe_at(p["wavelength_nm"]),
                                                  q["se"], stat))
     out = ["| wavelength (nm) | true QE (%) | mean error (points) | worst error (points) | spread (points) "

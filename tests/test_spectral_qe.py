@@ -67,7 +67,11 @@ def test_qe_against_the_simulator_truth(tmp_path):
         b = pts[key]["budget"]
         assert q["se"] / q["value"] == pytest.approx(math.sqrt(sum(v * v for v in b.values())), rel=1e-9)
     # the calibration's share: u(R) / R, both linear between the table's 400 and 450 nm rows
-    assert pts["425nm"]["budget"]["calibration"] == pytest.approx((0.0027 + 0.0024) / (0.18 + 0.24), rel=1e-9)
+    assert pts["425nm"]["budget"]["u_calibration"] == pytest.approx((0.0027 + 0.0024) / (0.18 + 0.24), rel=1e-9)
+    from ares.protocol.quantities import PRODUCES
+    from ares.scan.results import flatten
+
+    assert {k.split(".")[-1] for k in flatten(res)} <= PRODUCES["spectral_qe"]  # what a limit may name
     assert pts["1050nm"]["qe"]["verdict"] == "not available"
     assert pts["1050nm"]["qe"]["note"] == "outside the photodiode's calibration table (350-1000 nm)"
     # the bright and dim sweeps: saturated and too dark, said so (they are spectral points too)

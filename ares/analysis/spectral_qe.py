@@ -87,7 +87,8 @@ class SpectralPoint:
 def qe_point(p: SpectralPoint, K: Estimate, table, pd_area_m2: float, pixel_area_m2: float,
              reading: str = "current") -> dict:
     """``{"qe" (%), "mu_p" (photons), "net_signal_dn"}`` as Estimates, plus the relative
-    uncertainty budget (``budget``: calibration, K, signal, photodiode) when available.
+    uncertainty budget (``budget``: ``u_calibration``, ``u_gain``, ``u_signal``, ``u_photodiode``,
+    each relative) when available.
     ``table``: (wavelengths nm, R A/W, u(R) A/W)."""
     net = p.mean_dn - p.dark_dn
     net_se = math.hypot(p.mean_se_dn, p.dark_se_dn)
@@ -126,7 +127,7 @@ def qe_point(p: SpectralPoint, K: Estimate, table, pd_area_m2: float, pixel_area
     return {"qe": Estimate(100 * qe, 100 * qe * rel, "%", "Eq. (82)"),
             "mu_p": Estimate(mu_p, mu_p * math.hypot(rel_cal, rel_pd), "photons", "Eq. (3)"),
             "net_signal_dn": signal,
-            "budget": {"calibration": rel_cal, "K": rel_k, "signal": rel_sig, "photodiode": rel_pd}}
+            "budget": {"u_calibration": rel_cal, "u_gain": rel_k, "u_signal": rel_sig, "u_photodiode": rel_pd}}
 
 
 def mean_se(values) -> tuple[float, float]:

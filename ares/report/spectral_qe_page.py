@@ -64,8 +64,7 @@ def spectral_csv_rows(a: dict) -> list[dict]:
         rows.append({"stage": p["stage"], "wavelength_nm": p["wavelength_nm"], "bandwidth_nm": p.get("bandwidth_nm"),
                      "qe_pct": q.get("value"), "qe_se_pct": q.get("se"), "mu_p_photons": m.get("value"),
                      "mu_p_se_photons": m.get("se"), "net_signal_dn": s.get("value"), "net_signal_se_dn": s.get("se"),
-                     **{f"u_{k2}_pct": (100 * b[k1] if k1 in b else None)
-                        for k1, k2 in (("calibration", "calibration"), ("K", "gain"), ("signal", "signal"),
-                                       ("photodiode", "photodiode"))},
+                     **{f"{k}_pct": (100 * b[k] if k in b else None)
+                        for k in ("u_calibration", "u_gain", "u_signal", "u_photodiode")},
                      "verdict": q.get("verdict") if q.get("value") is not None else q.get("note", "")})
     return rows
