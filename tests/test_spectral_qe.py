@@ -155,3 +155,63 @@ def test_emulated_instruments_speak_their_dialects():
         assert i == pytest.approx(r * sim.power_w() + 2e-11, rel=0.005)
     finally:
         bench.close()
+
+
+def test_qe_point_is_eq_82_with_eq_3_and_its_budget():
+    """Closed form: 1 uW on a 1 cm^2 diode at 500 nm, 3.3 um pixels, 10 ms -> mu_p by Eq. (3)."""
+    from ares.analysis.estimate import Estimate
+    from ares.analysis.spectral_qe import C_LIGHT, H_PLANCK, SpectralPoint, qe_point
+
+    table = ((400.0, 600.0), (0.2, 0.4), (0.002, 0.004))  # R(500) = 0.3 A/W, u = 0.003
+    mu_p = (3.3e-6) ** 2 * (1e-6 / 1e-4) * 0.01 * 500e-9 / (H_PLANCK * C_LIGHT)
+    K = Estimate(0.25, 0.0025, "DN/e-")
+    net = 0.25 * 0.6 * mu_p  # QE 60 %
+    p = SpectralPoint(500.0, 5.0, 0.01, 64 + net, 0.1, 64.0, 0.1, 1.0, 0.0, 0.25 * net + 1.0,
+                      0.3e-6 + 1e-11, 3e-10, 1e-11, 3e-10)
+    r = qe_point(p, K, table, 1e-4, (3.3e-6) ** 2)
+    assert r["mu_p"].value == pytest.approx(mu_p, rel=1e-12) and r["qe"].value == pytest.approx(60.0, rel=1e-12)
+    b = r["budget"]
+    assert b["u_calibration"] == pytest.approx(0.01) and b["u_gain"] == pytest.approx(0.01)
+    assert b["u_photodiode"] == pytest.approx(math.hypot(3e-10, 3e-10) / 0.3e-6)
+    # a power meter's reading is the power itself: the same QE
+    pw = SpectralPoint(*[getattr(p, f) for f in ("wavelength_nm", "bandwidth_nm", "exposure_s", "mean_dn",
+                                                 "mean_se_dn", "dark_dn", "dark_se_dn", "dark_sigma_dn",
+                                                 "frac_at_max", "var_dn2")], 1e-6, 1e-9, 0.0, 0.0)
+    assert qe_point(pw, K, table, 1e-4, (3.3e-6) ** 2, "power")["qe"].value == pytest.approx(60.0, rel=1e-12)
+
+
+def test_a_silent_photodiode_meter_is_one_sentence(tmp_path):
+    from ares.errors import HardwareError
+    from ares.hardware.factory import build_bench
+
+    bench = build_bench(load_system(ROOT / "protocols" / "sim_spectral.xml"))
+    try:
+        bench.photodiode.port.instrument.faults = {"timeout_at": bench.photodiode.port.instrument.commands}
+        with pytest.raises(HardwareError) as e:
+            bench.photodiode.read()
+        assert str(e.value) == "pd on aresemu://pm100: no reply to 'MEAS:CURR?' within 2 s (timeout: the instrument " \
+                               "is silent, its port open)"
+    finally:
+        bench.close()
+
+
+def test_power_meter_reading(tmp_path):
+    from ares.hardware.factory import build_bench
+
+    d = _bench_dir(tmp_path)
+    x = (d / "sim_spectral.xml").read_text()
+    (d / "sim_spectral.xml").write_text(x.replace('reading="current"', 'reading="power"').replace(
+        '<command name="read" send="MEAS:CURR?"', '<command name="wavelength" send="SENS:CORR:WAV {value:.1f};*OPC?" '
+        'reply="1"/>\n        <command name="read" send="MEAS:POW?"'))
+    sy = load_system(d / "sim_spectral.xml")
+    bench = build_bench(sy)
+    try:
+        from ares.scan.apply import apply_settings
+
+        apply_settings(bench, sy, {"wavelength": 800.0, "light": 1e6})
+        assert bench.photodiode.port.instrument.log[-1] == "SENS:CORR:WAV 800.0;*OPC?"  # told the wavelength
+        w = bench.photodiode.read()
+        assert bench.photodiode.port.instrument.log[-1] == "MEAS:POW?"
+        assert w == pytest.approx(bench.photodiode.port.instrument.device.power_w(), rel=0.005)
+    finally:
+        bench.close()

@@ -8,7 +8,8 @@ Cornerstone-like) and reference photodiode meter (``MEAS:CURR?``, ``MEAS:POW?``,
 ``SENS:CORR:WAV nm;*OPC?``, Thorlabs PM100-like SCPI) answer in front of the simulator's
 (``ares.sim.spectral``).
 
-Faults (``--sim-fault`` keys, ROLE = ``light``, ``chamber``, ``monochromator`` or ``photodiode``, N = 0-based command count):
+Faults (``--sim-fault`` keys, ROLE = ``light`` or ``chamber``; ``monochromator`` and ``photodiode``
+in a faults dict given to their emulators, N = 0-based command count):
 ``ROLE_timeout_at`` (no reply), ``ROLE_wrong_reply_at`` (a reply of the wrong form),
 ``ROLE_error_at`` (``ERR`` reply), ``ROLE_disconnect_at`` (the port is gone from then on),
 ``ROLE_late_at`` (the reply comes after the host's read timed out: it waits in the input buffer).
@@ -48,7 +49,8 @@ class Late(str):
     """A reply that arrives only after the host's read has timed out (``ROLE_late_at``)."""
 
 
-FAULTS = faults_for("light") + faults_for("chamber") + faults_for("monochromator") + faults_for("photodiode")
+FAULTS = faults_for("light") + faults_for("chamber")  # (the spectral devices' emulators take their ROLE_ keys
+#   from a faults dict given to them; the command line's --sim-fault does not offer them yet)
 
 
 class EmulatedInstrument:
