@@ -277,8 +277,7 @@ class Runner:
             self._emit(ev.StageStarted(st.index, len(stages), st))
             t_start = time.time()
             before = bench.registers.snapshot()
-            suspensions, halted, lost = [], False, []
-            spectral = None
+            suspensions, halted, lost, spectral = [], False, [], None
             flat = dark = None  # the last stage's stacks are the committer's now (a 4096x3072 stack: 0.2 GB)
             while True:  # once, or again after a suspension (ares.scan.suspend) or lost frames
                 fw = writer.frame_writer(st.index, bench.frames.shape, None) if writer else None
