@@ -45,7 +45,8 @@ def component_label(c: str, part: str = "components") -> str:
 # as written (attribute "unit") as well.
 _SUFFIX = {"DN": "dn", "DN^2": "dn2", "DN/e-": "dn_per_e", "e-/DN": "e_per_dn", "e-": "e", "e-^2": "e2",
            "1": "rel_var", "%": "pct", "dB": "db", "s": "s", "C": "c", "x": "x", "e-/s": "e_per_s",
-           "DN/s": "dn_per_s", "uV/e-": "uv_per_e", "LSB": "lsb"}
+           "DN/s": "dn_per_s", "uV/e-": "uv_per_e", "LSB": "lsb", "nm": "nm", "A": "a", "W": "w", "A/W": "a_per_w",
+           "photons": "photons"}
 _UNIT = {v: k for k, v in _SUFFIX.items()}
 
 

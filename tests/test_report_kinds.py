@@ -33,6 +33,8 @@ EXPECT = {
     "lag": (["Frame means per stage and image lag", "Image lag", "lag vs frame", "lag vs tx_low",
              "tx_low (V)"], ["Photon transfer", "SNR and linearity"]),
     "emva_reference": (["Scan-level analysis: emva1288", "EMVA 1288 reference data set"], []),
+    "spectral_qe": (["Spectral quantum efficiency", "QE per wavelength", "outside the photodiode's calibration table",
+                     "Photon transfer (analog gain x1)"], ["Scan-level analysis: spectral_qe"]),
 }
 
 

@@ -63,6 +63,13 @@ def build_bench(system, *, seed: int | None = None, faults: dict | None = None) 
         bench = make_sim_bench(sim_params(system), system.simulator.seed if seed is None else seed, faults,
                                readout_s=system.timing.readout_s if system.simulator.paced else None)
         bench.info.setdefault("system", system.name)
+        from ares.hardware.spectral_bench import attach_simulated
+
+        try:
+            attach_simulated(bench, system, bench, seed=system.simulator.seed if seed is None else seed)
+        except BaseException:
+            bench.close()
+            raise
         return bench
     if faults:
         raise InputError("fault injection is only available on the simulated bench")
@@ -106,9 +113,14 @@ def build_real_bench(system) -> Bench:
         light = SerialLightSource.open(system.light_source) if system.light_source else None
         opened.append(light)
         chamber = SerialChamber.open(system.chamber) if system.chamber else None
+        opened.append(chamber)
+        bench = Bench(regs, frames, light, chamber, {"system": system.name})
+        from ares.hardware.spectral_bench import open_spectral
+
+        open_spectral(bench, system, opened)
     except BaseException:
         for dev in opened:
             if dev is not None and hasattr(dev, "close"):
                 dev.close()
         raise
-    return Bench(regs, frames, light, chamber, {"system": system.name})
+    return bench

@@ -83,6 +83,32 @@ class Chamber(Protocol):
     def settle(self, cancel=None) -> None: ...
 
 
+@runtime_checkable
+class Monochromator(Protocol):
+    """Wavelength-selectable light (nm); ``bandwidth()`` is its FWHM in nm (NaN if unknown)."""
+
+    name: str
+
+    def set_wavelength(self, nm: float) -> None: ...
+
+    def get_wavelength(self) -> float: ...
+
+    def bandwidth(self) -> float: ...
+
+    def settle(self, cancel=None) -> None: ...
+
+
+@runtime_checkable
+class Photodiode(Protocol):
+    """A calibrated reference photodiode's meter: ``read()`` in A (or W: a power meter)."""
+
+    name: str
+
+    def read(self) -> float: ...
+
+    def set_wavelength(self, nm: float) -> None: ...
+
+
 @dataclass
 class Bench:
     """What a scan drives: the sensor's registers, a frame source, optional instruments."""
@@ -93,6 +119,8 @@ class Bench:
     chamber: Chamber | None = None
     info: dict = field(default_factory=dict)
     closers: list = field(default_factory=list)  # called after the devices close (emulators unregister)
+    monochromator: Monochromator | None = None  # spectral bench (EMVA 1288 4.0 Linear, Section 9)
+    photodiode: Photodiode | None = None
 
     def reconnect(self, device: str = "frames") -> None:
         """Find the bench part that failed again after it was unplugged: ``device`` is
@@ -102,7 +130,8 @@ class Bench:
         from ares.errors import HardwareError
 
         part = {"frames": self.frames, "registers": getattr(self.registers, "bus", None), "light": self.light,
-                "chamber": self.chamber}.get(device)
+                "chamber": self.chamber, "monochromator": self.monochromator,
+                "photodiode": self.photodiode}.get(device)
         again = getattr(part, "reconnect", None)
         if again is None:
             name = getattr(part, "name", device)
@@ -110,7 +139,7 @@ class Bench:
         again()
 
     def close(self) -> None:
-        for dev in (self.frames, self.light, self.chamber, self.registers.bus):
+        for dev in (self.frames, self.light, self.chamber, self.monochromator, self.photodiode, self.registers.bus):
             close = getattr(dev, "close", None)
             if callable(close):
                 close()

@@ -38,3 +38,14 @@ DEFAULT_LIGHT = LineProtocol(commands=(
 DEFAULT_CHAMBER = LineProtocol(commands=(
     Command("identify", "*IDN?", r".+"), Command("set", "TEMP {value:.2f}", "OK"),
     Command("get", "TEMP?", r"(?P<value>\S+)"), Command("stable", "STABLE?", r"(?P<value>[01])")))
+# Spectral bench (EMVA 1288 4.0 Linear, Section 9.1): a monochromator in an Oriel/Newport
+# Cornerstone-like dialect, a reference photodiode on a Thorlabs PM100-like (SCPI) meter.
+DEFAULT_MONOCHROMATOR = LineProtocol(commands=(
+    Command("identify", "*IDN?", r".+"), Command("set", "GOWAVE {value:.2f}", "OK"),
+    Command("get", "WAVE?", r"(?P<value>\S+)"), Command("bandwidth", "BANDPASS?", r"(?P<value>\S+)")))
+DEFAULT_PHOTODIODE = LineProtocol(commands=(
+    Command("identify", "*IDN?", r".+"), Command("read", "MEAS:CURR?", r"(?P<value>\S+)"),
+    Command("wavelength", "SENS:CORR:WAV {value:.1f};*OPC?", "1")))
+DEFAULT_POWER_METER = LineProtocol(commands=(
+    Command("identify", "*IDN?", r".+"), Command("read", "MEAS:POW?", r"(?P<value>\S+)"),
+    Command("wavelength", "SENS:CORR:WAV {value:.1f};*OPC?", "1")))

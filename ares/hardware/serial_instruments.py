@@ -36,7 +36,8 @@ import time
 
 from ares.errors import DeviceGone, HardwareError, ValueOutOfRange
 from ares.hardware.waits import wait
-from ares.hardware.line_protocol import DEFAULT_CHAMBER, DEFAULT_LIGHT
+from ares.hardware.line_protocol import (DEFAULT_CHAMBER, DEFAULT_LIGHT, DEFAULT_MONOCHROMATOR, DEFAULT_PHOTODIODE,
+                                         DEFAULT_POWER_METER)
 
 
 def range_text(lo: float | None, hi: float | None, unit: str) -> str:
@@ -243,3 +244,49 @@ class SerialChamber(SerialInstrument):
                                     f"(settle_timeout_s in the system XML; {why})")
             self._wait(cfg.poll_s, cancel)
         self._wait(cfg.settle_s, cancel)
+
+
+class SerialMonochromator(SerialInstrument):
+    """The spectral bench's wavelength-selectable light (EMVA 1288 4.0 Linear, Section 9.1):
+    ``set``/``get`` the wavelength in nm (range-checked against the XML's min/max), and the
+    FWHM bandwidth when its protocol has a ``bandwidth`` command (NaN without)."""
+
+    DEFAULT = DEFAULT_MONOCHROMATOR
+    ROLE = "monochromator"
+
+    def set_wavelength(self, nm: float) -> None:
+        self._do("set", self._check(nm, "wavelength", "nm"))
+
+    def get_wavelength(self) -> float:
+        return self._number("get")
+
+    def bandwidth(self) -> float:
+        return self._number("bandwidth") if self.protocol.command("bandwidth") is not None else math.nan
+
+    def settle(self, cancel=None) -> None:
+        self._wait(self.cfg.settle_s, cancel)
+
+
+class SerialPhotodiode(SerialInstrument):
+    """The calibrated reference photodiode on its meter: ``read()`` is one reading (A, or W
+    for ``reading="power"``); ``set_wavelength`` tells a power meter the wavelength its
+    correction applies to (protocol command ``wavelength``, when it has one)."""
+
+    DEFAULT = DEFAULT_PHOTODIODE
+    ROLE = "photodiode"
+
+    def __init__(self, port, cfg, *, reading: str = "current", **kw):
+        super().__init__(port, cfg, **kw)
+        if cfg.protocol is None and reading == "power":
+            self.protocol = DEFAULT_POWER_METER
+
+    @classmethod
+    def open(cls, cfg, reading: str = "current", **kw):
+        return super().open(cfg, reading=reading, **kw)
+
+    def read(self) -> float:
+        return self._number("read")
+
+    def set_wavelength(self, nm: float) -> None:
+        if self.protocol.command("wavelength") is not None:
+            self._do("wavelength", float(nm))

@@ -97,4 +97,11 @@ def build_wire_bench(system, seed: int, faults: dict | None = None) -> Bench:
     bench = Bench(regs, frames, inst.get("light"), inst.get("chamber"), info)
     bench.closers.extend(lambda n=n, e=e: unregister(n, e) for n, e in emulated)
     bench.emulators = {"usb": grabber, "i2c": smbus, **{n: e for n, e in emulated}, "device": dev}
+    from ares.hardware.spectral_bench import attach_simulated
+
+    try:
+        attach_simulated(bench, system, dev, wire_f, seed)
+    except BaseException:
+        bench.close()
+        raise
     return bench

@@ -9,7 +9,7 @@ from __future__ import annotations
 
 import codecs
 import re
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 from lxml import etree
 
@@ -185,7 +185,8 @@ def usb_to_el(parent, g: UsbGrabber):
 
 # ---------------------------------------------------------------- serial instruments
 
-NEEDS = {"light_source": ("set", "get"), "chamber": ("set", "get")}
+NEEDS = {"light_source": ("set", "get"), "chamber": ("set", "get"), "monochromator": ("set", "get"),
+         "photodiode": ("read",)}
 
 
 @dataclass(frozen=True)
@@ -260,6 +261,49 @@ def serial_to_el(parent, tag, s: SerialInstrument):
                  echo=True if s.protocol.echo else None, retries=s.protocol.retries or None)
         for c in s.protocol.commands:
             _set(etree.SubElement(p, "command"), name=c.name, send=c.send, reply=c.reply)
+
+
+@dataclass(frozen=True)
+class Photodiode:
+    """``<photodiode name port ... area_mm2 reading calibration samples>``: the calibrated
+    reference photodiode of a spectral bench (EMVA 1288 4.0 Linear, Section 9.3), on a
+    serial meter. ``reading``: "current" (A, turned into power by the calibration table's
+    responsivity) or "power" (W, a power meter told the wavelength); ``calibration``: its
+    table (A/W vs nm with uncertainties, ``ares.protocol.calibration``), relative to the
+    system file, as written (``table``: loaded); ``samples``: readings averaged per stack."""
+
+    serial: SerialInstrument
+    area_mm2: float
+    calibration: str
+    reading: str = "current"
+    samples: int = 5
+    table: object = field(default=None, compare=False)  # ares.protocol.calibration.CalibrationTable
+
+
+def photodiode_from_el(path, el) -> Photodiode | None:
+    if el is None:
+        return None
+    from pathlib import Path
+
+    from ares.errors import InputError
+    from ares.protocol.calibration import load_calibration
+
+    ser = serial_from_el(path, el, "photodiode")
+    raw = el.get("calibration")
+    where = Path(path).parent / raw
+    if not where.is_file():
+        raise fail(path, el.sourceline, f"<photodiode calibration='{raw}'>: {where.absolute()} not found")
+    try:
+        table = load_calibration(where)
+    except InputError as exc:
+        raise InputError(f"{exc} (the calibration table of <photodiode> at {path}:{el.sourceline})") from None
+    return Photodiode(ser, float(el.get("area_mm2")), raw, el.get("reading", "current"), _int(el.get("samples"), 5),
+                      table)
+
+
+def photodiode_to_el(parent, p: Photodiode):
+    serial_to_el(parent, "photodiode", p.serial)
+    _set(parent[-1], area_mm2=p.area_mm2, reading=p.reading, calibration=p.calibration, samples=p.samples)
 
 
 # ---------------------------------------------------------------- GenICam

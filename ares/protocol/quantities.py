@@ -40,6 +40,9 @@ PRODUCES: dict[str, frozenset[str]] = {
     "mtf": frozenset({"mtf50_cy_per_px", "mtf_at_nyquist", "angle_deg", "edge_step_snr", "nyquist_cy_per_px",
                       "frames"}),
     "photon_counting": frozenset({"K", "read_noise_e", "mean_e", "offset_dn", "chi2_ndf"}),
+    "spectral_qe": frozenset({"qe", "mu_p", "net_signal_dn", "gain_dn_per_e", "wavelength_nm", "bandwidth_nm",
+                              "u_calibration", "u_gain", "u_signal", "u_photodiode", "area_mm2", "pixel_pitch_um",
+                              "range_nm"}),
 }
 
 

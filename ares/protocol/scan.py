@@ -4,7 +4,8 @@
 the system XML it names (or the one given), and checks every setting and sweep point
 against that system's register fields and instruments before any hardware is touched.
 Setting keys: the quantities ``exposure`` (s), ``light`` (photons/pixel/s or the light
-source's unit), ``temperature`` (deg C), ``analog_gain`` (x), or ``reg:<field>`` for a
+source's unit), ``temperature`` (deg C), ``analog_gain`` (x), ``wavelength`` (nm, the
+monochromator's), or ``reg:<field>`` for a
 register field in its physical unit.
 """
 
@@ -23,7 +24,7 @@ from ares.protocol.quantities import unknown_limit
 from ares.protocol.system import Region, System, _check_region, _region, _set, load_system
 from ares.protocol.xmlsafe import fail
 
-QUANTITIES = ("exposure", "light", "temperature", "analog_gain")
+QUANTITIES = ("exposure", "light", "temperature", "analog_gain", "wavelength")
 MAX_STAGES = 10000
 MAX_REGIONS = 256
 
@@ -259,6 +260,16 @@ class _Checker:
                 raise fail(self.path, line, f"system '{sy.name}' has no light source")
             if ls is not None and ls.max is not None and value > ls.max:
                 raise fail(self.path, line, f"light level {value:g} is above the light source's maximum {ls.max:g}")
+        elif key == "wavelength":
+            f = None
+            mo = sy.monochromator
+            if mo is None:
+                raise fail(self.path, line, f"system '{sy.name}' has no monochromator to set {value:g} nm")
+            if (mo.min is not None and value < mo.min) or (mo.max is not None and value > mo.max) or value <= 0:
+                from ares.hardware.serial_instruments import range_text
+
+                raise fail(self.path, line, f"wavelength {value:g} nm is outside the monochromator's range "
+                                            f"{range_text(mo.min, mo.max, 'nm')}")
         else:  # temperature
             f = None
             ch = sy.chamber

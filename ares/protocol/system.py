@@ -16,8 +16,9 @@ from lxml import etree
 from ares.errors import InputError
 from ares.hardware.registers import Field, RegisterMap
 from ares.protocol import xmlsafe
-from ares.protocol.devices import (GenICam, I2CBus, SerialInstrument, UsbGrabber, _bool, _float, _int, _set,
-                                   genicam_from_el, genicam_to_el, i2c_from_el, i2c_to_el, serial_from_el, serial_to_el,
+from ares.protocol.devices import (GenICam, I2CBus, Photodiode, SerialInstrument, UsbGrabber, _bool, _float, _int, _set,
+                                   genicam_from_el, genicam_to_el, i2c_from_el, i2c_to_el, photodiode_from_el,
+                                   photodiode_to_el, serial_from_el, serial_to_el,
                                    usb_from_el, usb_to_el)
 from ares.protocol.xmlsafe import fail
 
@@ -151,6 +152,8 @@ class System:
     usb_grabber: UsbGrabber | None = None
     light_source: SerialInstrument | None = None
     chamber: SerialInstrument | None = None
+    monochromator: SerialInstrument | None = None  # spectral bench: wavelength-selectable light (nm)
+    photodiode: Photodiode | None = None  # spectral bench: the calibrated reference photodiode
     genicam: GenICam | None = None
     simulator: Simulator | None = None
     replay: Replay | None = None
@@ -172,6 +175,8 @@ class System:
         dev = self.light_source
         out["light"] = dev.unit if dev is not None and dev.unit else "photons/pixel/s"
         out["temperature"] = "C"
+        if self.monochromator is not None:
+            out["wavelength"] = self.monochromator.unit or "nm"
         return {k: v for k, v in out.items() if v}
 
 
@@ -308,6 +313,8 @@ def system_from_tree(tree, path) -> System:
         description=(desc.text or "").strip() if desc is not None else "",
         sensor=sensor, registers=regmap, controls=controls, timing=timing, buses=buses, usb_grabber=grabber,
         light_source=light, chamber=serial_from_el(path, root.find("devices/chamber"), "chamber"), genicam=cam,
+        monochromator=serial_from_el(path, root.find("devices/monochromator"), "monochromator"),
+        photodiode=photodiode_from_el(path, root.find("devices/photodiode")),
         simulator=sim, replay=replay, source=Path(path),
     )
 
@@ -410,7 +417,8 @@ def system_to_tree(sy: System) -> etree._ElementTree:
         b = etree.SubElement(root, "buses")
         for bus in sy.buses:
             i2c_to_el(b, bus)
-    if sy.usb_grabber or sy.genicam or (sy.light_source and not sy.replay) or sy.chamber:
+    if sy.usb_grabber or sy.genicam or (sy.light_source and not sy.replay) or sy.chamber or sy.monochromator \
+            or sy.photodiode:
         d = etree.SubElement(root, "devices")
         if sy.usb_grabber:
             usb_to_el(d, sy.usb_grabber)
@@ -420,6 +428,10 @@ def system_to_tree(sy: System) -> etree._ElementTree:
             serial_to_el(d, "light_source", sy.light_source)
         if sy.chamber:
             serial_to_el(d, "chamber", sy.chamber)
+        if sy.monochromator:
+            serial_to_el(d, "monochromator", sy.monochromator)
+        if sy.photodiode:
+            photodiode_to_el(d, sy.photodiode)
     if sy.simulator:
         sim = _set(etree.SubElement(root, "simulator"), seed=sy.simulator.seed, wire=sy.simulator.wire or None,
                    paced=sy.simulator.paced or None)

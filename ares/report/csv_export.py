@@ -104,7 +104,7 @@ def write_csv(run, out_dir: str | Path, groups=None, kf=None) -> list[Path]:
         _write(out / "levels.csv", to_csv([r for st in run.stages for r in tables.level_rows(st)],
                                           tables.LEVEL_COLUMNS)),
         _write(out / "key_figures.csv", to_csv(key_figure_rows(kf), KEY_FIGURE_COLUMNS)),
-    ] + _emva_csv(run, out) + _adc_csv(run, out) + _mtf_csv(run, out)
+    ] + _emva_csv(run, out) + _adc_csv(run, out) + _mtf_csv(run, out) + _spectral_csv(run, out)
 
 
 def _adc_csv(run, out: Path) -> list[Path]:
@@ -122,6 +122,16 @@ def _mtf_csv(run, out: Path) -> list[Path]:
     from ares.report.mtf_page import MTF_COLUMNS, mtf_csv_rows
 
     return [_write(out / "mtf.csv", to_csv(mtf_csv_rows(a), MTF_COLUMNS))]
+
+
+def _spectral_csv(run, out: Path) -> list[Path]:
+    """``spectral_qe.csv`` when the scan ran the ``spectral_qe`` analysis (ares.report.spectral_qe_page)."""
+    a = run.analyses.get("spectral_qe")
+    if not isinstance(a, dict) or "points" not in a:
+        return []
+    from ares.report.spectral_qe_page import SPECTRAL_COLUMNS, spectral_csv_rows
+
+    return [_write(out / "spectral_qe.csv", to_csv(spectral_csv_rows(a), SPECTRAL_COLUMNS))]
 
 
 EMVA_COLUMNS = ("release", "quantity", "symbol", "value", "se", "unit", "verdict", "definition")

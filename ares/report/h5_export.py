@@ -1,6 +1,7 @@
 """HDF5 export of the report tables: ``report.h5``.
 
-Layout: ``/key_figures``, ``/ptc``, ``/components``, ``/levels`` -- one group per table, one 1-D
+Layout: ``/key_figures``, ``/ptc``, ``/components``, ``/levels`` (and ``/adc_inl_dnl``,
+``/spectral_qe`` when the scan ran those analyses) -- one group per table, one 1-D
 dataset per column (float64, or UTF-8 strings), attribute ``columns`` giving the order;
 root attributes ``run`` (run.json) and ``scan_results`` (scan_results.json) as JSON;
 ``/stages`` links to the run's own ``results.h5`` per-stage arrays (an HDF5 external
@@ -69,6 +70,11 @@ def write_h5(run, path: str | Path, groups=None, kf=None) -> Path:
         adc = tables.adc_rows(run)
         if adc:
             _table(f.create_group("adc_inl_dnl"), adc, tables.ADC_COLUMNS)
+        sq = run.analyses.get("spectral_qe")
+        if isinstance(sq, dict) and "points" in sq:  # QE(lambda): the same rows as spectral_qe.csv
+            from ares.report.spectral_qe_page import SPECTRAL_COLUMNS, spectral_csv_rows
+
+            _table(f.create_group("spectral_qe"), spectral_csv_rows(sq), SPECTRAL_COLUMNS)
         if run.has_h5:
             target = run.dir / "results.h5"
             same_dir = path.parent.resolve() == run.dir.resolve()

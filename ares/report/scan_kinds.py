@@ -13,7 +13,7 @@ import numpy as np
 from ares.report import plots, tables
 from ares.report.plots import new_page, text_table
 
-HANDLED = ("mtf", "photon_counting", "ptc", "decomposition", "dark_current", "temperature", "gain_split", "lag", "defects", "adc_linearity",
+HANDLED = ("mtf", "photon_counting", "spectral_qe", "ptc", "decomposition", "dark_current", "temperature", "gain_split", "lag", "defects", "adc_linearity",
            "emva4")
 
 
@@ -514,6 +514,11 @@ def pages(run, groups: list) -> list[tuple[str, object]]:
         from ares.report.photon_counting_page import photon_counting_page
 
         out += [(f"photon counting {k}", partial(photon_counting_page, k, v)) for k, v in d["stages"].items()]
+    d = available(run, "spectral_qe")
+    if d:  # QE(lambda) with error bars (ares.report.spectral_qe_page)
+        from ares.report.spectral_qe_page import spectral_qe_page
+
+        out.append(("spectral QE", partial(spectral_qe_page, d)))
     for name, a in run.analyses.items():
         if name not in HANDLED and available(run, name):
             out.append((f"analysis {name}", partial(generic_page, name, a)))

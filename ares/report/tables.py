@@ -165,10 +165,13 @@ def ptc_level_keys(stages: list[dict]) -> tuple[str, str]:
 
 def ptc_groups(run) -> list[PtcGroup]:
     """Flat stages with a matched dark, one group per analog gain (as the runner groups)."""
+    from ares.analysis.spectral_qe import spectral_groups
+
     groups: dict[float, list[dict]] = {}
+    spectral = spectral_groups(run.stages)  # a wavelength sweep's stages are not photon-transfer levels
     for st in run.stages:
         full = st["views"]["full"]
-        if st.get("scene") == "flat" and "dark_level" in full:
+        if st.get("scene") == "flat" and "dark_level" in full and st.get("group") not in spectral:
             groups.setdefault(float(st["settings"].get("analog_gain", 1.0)), []).append(st)
     out = []
     for g, sts in groups.items():
@@ -480,9 +483,10 @@ ANALYSIS_LABELS = {
     "rate_at_ref_dn_per_s": "dark current at the reference temperature", "pixel_noise_e": "pixel noise (gain split)",
     "chain_noise_dn": "chain noise (gain split)", "crossover_gain_dn_per_e": "crossover gain (gain split)",
     "lag_pct": "image lag", "dnl_max_lsb": "DNL max", "dnl_min_lsb": "DNL min", "inl_max_lsb": "INL max",
-    "inl_min_lsb": "INL min",
+    "inl_min_lsb": "INL min", "qe": "quantum efficiency", "mu_p": "photons per pixel mu_p",
+    "net_signal_dn": "net signal mu_y - mu_y.dark", "gain_dn_per_e": "system gain K (photon transfer)",
 }
-_PATH_NOISE = ("by_temperature", "cycles", "channels", "values")
+_PATH_NOISE = ("by_temperature", "cycles", "channels", "values", "points")
 
 
 def analysis_label(aname: str, key: str) -> str:

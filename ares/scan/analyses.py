@@ -28,11 +28,15 @@ def _e(x: Estimate) -> dict:
 
 
 def _ptc_groups(run) -> dict:
-    """Flat stages with a matched dark, grouped by analog gain (one PTC per gain)."""
+    """Flat stages with a matched dark, grouped by analog gain (one PTC per gain); a
+    wavelength sweep's stages are spectral points, not levels (``spectral_groups``)."""
+    from ares.analysis.spectral_qe import spectral_groups
+
     groups: dict = {}
+    spectral = spectral_groups(run.stages)
     for st in run.stages:
         full = st["views"]["full"]
-        if st["scene"] != "flat" or "dark_level" not in full:
+        if st["scene"] != "flat" or "dark_level" not in full or st["group"] in spectral:
             continue
         groups.setdefault(st["settings"].get("analog_gain", 1.0), []).append(st)
     return groups
@@ -413,3 +417,4 @@ def check_defect_thresholds(scan) -> None:
 
 from ares.scan import mtf_analysis  # noqa: E402,F401  (registers "mtf")
 from ares.scan import photon_counting_analysis  # noqa: E402,F401  (registers "photon_counting")
+from ares.scan import spectral_qe_analysis  # noqa: E402,F401  (registers "spectral_qe")

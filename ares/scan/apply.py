@@ -18,7 +18,7 @@ def apply_settings(bench, system, settings: dict, previous: dict | None = None, 
     for key, value in settings.items():
         changed = prev.get(key) != value
         if changed:
-            kinds.add(key if key in ("light", "temperature") else "registers")
+            kinds.add(key if key in ("light", "temperature", "wavelength") else "registers")
         if key == "temperature":
             if bench.chamber is None:
                 raise InputError(f"system '{system.name}' has no thermal chamber to set {value:g} C")
@@ -33,6 +33,14 @@ def apply_settings(bench, system, settings: dict, previous: dict | None = None, 
             if changed:
                 bench.light.set_level(value)
                 bench.light.settle(cancel)
+        elif key == "wavelength":
+            if getattr(bench, "monochromator", None) is None:
+                raise InputError(f"system '{system.name}' has no monochromator to set {value:g} nm")
+            if changed:
+                bench.monochromator.set_wavelength(value)
+                if getattr(bench, "photodiode", None) is not None:  # a power meter corrects for it
+                    bench.photodiode.set_wavelength(value)
+                bench.monochromator.settle(cancel)
         elif (name := register_field(system, key)) is not None:
             bench.registers.set(name, value)
         else:  # the protocol layer admits no other key
@@ -67,13 +75,13 @@ def settle(bench, system, settings: dict, kinds: set, cancel=None) -> None:
 def as_fields(system, settings: dict) -> dict:
     """A stage's settings as the bench's frame source names them: register field ->
     physical value (``exposure`` and ``analog_gain`` by the system's control fields),
-    ``light`` and ``temperature`` as they are."""
+    ``light``, ``temperature`` and ``wavelength`` as they are."""
     return {register_field(system, key) or key: value for key, value in settings.items()}
 
 
 def register_field(system, key: str) -> str | None:
     """The register field a setting writes (``exposure``/``analog_gain``: the system's
-    control fields; ``reg:NAME``: NAME), None for an instrument's (light, temperature)."""
+    control fields; ``reg:NAME``: NAME), None for an instrument's (light, temperature, wavelength)."""
     if key in ("exposure", "analog_gain"):
         return getattr(system.controls, key)
     return key[4:] if key.startswith("reg:") else None

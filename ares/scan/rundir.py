@@ -213,6 +213,7 @@ class RunWriter:
         with storage(self.dir):
             write_atomic(self.dir / "xml" / scan_name, scan_bytes)
             write_atomic(self.dir / "xml" / sys_name, sys_bytes)
+            _copy_calibration(scan.system, sys_path, self.dir)
         self.meta = {
             "format": "ares-run/1", "scan_name": scan.name, "system_name": scan.system.name,
             "scan_file": f"xml/{scan_name}", "system_file": f"xml/{sys_name}",
@@ -480,6 +481,20 @@ def clean_report_leftovers(run_dir: Path) -> None:
                 shutil.rmtree(p, ignore_errors=True)
             else:
                 p.unlink(missing_ok=True)
+
+
+def _copy_calibration(system, sys_path: Path, run_dir: Path) -> None:
+    """The photodiode's calibration table beside the system file's copy (``xml/``), at the
+    path the system file names it by, so the run directory loads alone (an absolute path
+    is left as it is; a relative one leading out of the run directory is not copied)."""
+    pd = getattr(system, "photodiode", None)
+    if pd is None or Path(pd.calibration).is_absolute():
+        return
+    target = (run_dir / "xml" / pd.calibration).resolve()
+    if run_dir.resolve() not in target.parents:
+        return
+    target.parent.mkdir(parents=True, exist_ok=True)
+    write_atomic(target, (sys_path.parent / pd.calibration).read_bytes())
 
 
 def load_run(run_dir: str | Path) -> RunRecord:

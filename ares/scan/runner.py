@@ -33,6 +33,7 @@ from ares.scan.apply import apply_settings, as_fields
 from ares.scan.commit import StageCommitter
 from ares.scan.defect_mask import load_declared_mask, mask_from_dark, scan_thresholds
 from ares.scan.preflight import KEEP_FOR_MASK_BYTES, check_run
+from ares.scan.spectral_readings import photodiode_readings, spectral_readings
 from ares.scan.results import StackSet, analyze_stage, check_limits, limits_verdict, scan_level_results, views
 from ares.runstate import is_storage_error, storage_sentence
 from ares.scan.rundir import RunRecord, RunWriter
@@ -265,6 +266,7 @@ class Runner:
         scan, system = self.scan, self.system
         run_dir = str(writer.dir) if writer else None
         status = "done"
+        pd_dark = None  # the photodiode's dark readings, kept with the dark stack a later stage reuses
         for st in stages:
             if st.index < len(completed):
                 continue
@@ -275,7 +277,7 @@ class Runner:
             self._emit(ev.StageStarted(st.index, len(stages), st))
             t_start = time.time()
             before = bench.registers.snapshot()
-            suspensions, halted, lost = [], False, []
+            suspensions, halted, lost, spectral = [], False, [], None
             flat = dark = None  # the last stage's stacks are the committer's now (a 4096x3072 stack: 0.2 GB)
             while True:  # once, or again after a suspension (ares.scan.suspend) or lost frames
                 fw = writer.frame_writer(st.index, bench.frames.shape, None) if writer else None
@@ -287,22 +289,26 @@ class Runner:
                         apply_settings(bench, system, st.dark_settings, applied, self._cancelled)
                         applied = st.dark_settings
                         dark = self._grab(bench, st, st.dark_frames, vw, max_code, fw, dark=True)
+                        pd_dark = photodiode_readings(bench, system)
                     elif st.dark_source == "reuse" and cache is not None and cache.masked is None and self._mask is not None:
                         # the dark to reuse predates the defect mask and kept no frames: grab it again
                         apply_settings(bench, system, st.dark_settings, applied, self._cancelled)
                         applied = st.dark_settings
                         dark = cache = self._grab(bench, st, st.dark_frames, vw, max_code, fw, dark=True)
+                        pd_dark = photodiode_readings(bench, system)
                     elif st.dark_source == "reuse":
                         dark = cache
                     apply_settings(bench, system, st.settings, applied, self._cancelled)
                     applied = dict(st.settings)
                     pos["flat"] = _position(bench)
                     flat = self._grab(bench, st, st.frames, vw, max_code, fw, dark=False)
+                    spectral = spectral_readings(bench, system)
                     if st.dark_after:  # the bright->dark cycle the lag analysis reads
                         pos["dark"] = _position(bench)
                         apply_settings(bench, system, st.dark_settings, applied, self._cancelled)
                         applied = st.dark_settings
                         dark = self._grab(bench, st, st.dark_frames, vw, max_code, fw, dark=True)
+                        pd_dark = photodiode_readings(bench, system)
                     pos["end"] = _position(bench)
                 except FrameLost as exc:  # dropped/corrupt/short frames: acquire the stage again, or fail
                     if fw is not None:
@@ -362,6 +368,8 @@ class Runner:
                 self._eta.one_off(time.monotonic() - t_mask)
             self._eta.stage_finished(time.monotonic() - self._t0, st.scene)
             extra = {"dark_after": True} if st.dark_after else {}  # its matched dark followed the flat
+            if spectral is not None:  # the monochromator's wavelength and the photodiode, lit and dark
+                extra["spectral"] = dict(spectral, pd_dark=pd_dark if dark is not None else None)
             if pos.get("end") is not None:
                 extra["bench_position"] = pos  # where the frame stream stood (ares resume)
             if suspensions:

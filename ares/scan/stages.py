@@ -18,7 +18,7 @@ from dataclasses import dataclass, field
 from ares.protocol import Scan
 
 # Order in which settings reach the hardware: slow things first, light last.
-_ORDER = {"temperature": 0, "exposure": 2, "analog_gain": 3, "light": 4}
+_ORDER = {"temperature": 0, "exposure": 2, "analog_gain": 3, "wavelength": 3.5, "light": 4}
 
 
 def _order(key: str) -> tuple[int, str]:

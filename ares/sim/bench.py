@@ -156,6 +156,7 @@ class SimFrameSource:
         self.registers = registers
         self.light = light
         self.chamber = chamber
+        self.monochromator = None  # ares.sim.spectral.SimMonochromator: the light's wavelength sets the QE
         self.shape = sensor.shape
         self.bit_depth = sensor.params.adc_bits
         faults = dict(faults or {})
@@ -185,13 +186,17 @@ class SimFrameSource:
         sf, tx = get("sf_bias"), get("tx_low")
         light = self.light.get_level() if self.light is not None else 0.0
         temperature = self.chamber.get_temperature() if self.chamber is not None else 25.0
+        flux = fields.get("light", light) if self.light is not None else 0.0
+        if self.monochromator is not None:  # the sensor's QE at the monochromator's wavelength (its truth)
+            p = self.sensor.params
+            flux *= p.qe_at(fields.get("wavelength", self.monochromator.get_wavelength())) / p.qe
         return dict(
             exposure_s=get("exposure"),
             analog_gain=get("analog_gain"),
             black_level_dn=get("black_level"),
             test_mode=int(get("test_mode")),
             streaming=int(get("streaming")),
-            photon_flux=fields.get("light", light) if self.light is not None else 0.0,
+            photon_flux=flux,
             temperature_c=fields.get("temperature", temperature) if self.chamber is not None else 25.0,
             read_noise_scale=1.0 + ((sf - self._sf0) / 0.8) ** 2,
             dark_current_scale=2.0 ** ((tx - self._tx0) / 0.25),

@@ -41,6 +41,7 @@ _NON_NEGATIVE = (
     "warm_mean_e_per_s", "rts_rate_ppm", "rts_amplitude_e", "dead_rate_ppm",
     "stuck_rate_ppm", "noisy_rate_ppm", "bad_column_offset_dn", "crosstalk_pct",
     "adc_inl_lsb", "adc_dnl_lsb", "lag_fraction", "added_photocharge_e", "flutter_pct",
+    "mono_fwhm_nm", "photodiode_noise_pct", "photodiode_dark_a",
 )
 _POSITIVE = ("full_well_e", "conversion_gain_uv_per_e", "adc_lsb_uv", "qe", "dark_doubling_c")
 _PPM = ("hot_rate_ppm", "warm_rate_ppm", "rts_rate_ppm", "dead_rate_ppm", "stuck_rate_ppm", "noisy_rate_ppm")
@@ -125,6 +126,14 @@ class SensorParams:
     edge_psf_sigma_px: float = 0.6  # slanted edge: Gaussian optical PSF width, pixels
     edge_low: float = 0.25  # slanted edge: dark side's illumination relative to the bright side
 
+    # --- spectral response (ares.sim.spectral; used when a monochromator is on the bench) ---
+    qe_curve_nm: tuple = ()  # wavelengths (nm, increasing) of the QE(lambda) table; () = flat at qe
+    qe_curve: tuple = ()  # QE at those wavelengths (0..1), linear between them, the end values beyond
+    mono_fwhm_nm: float = 5.0  # simulated monochromator's bandwidth (FWHM); the line is taken as monochromatic
+    photodiode_noise_pct: float = 0.1  # reference photodiode: relative noise of one reading (Gaussian)
+    photodiode_dark_a: float = 2e-11  # reference photodiode: dark current (A) under every reading
+    photodiode_error_pct: float = 0.0  # its true responsivity differs from its calibration table by this
+
     # ------------------------------------------------------------------------------
     def __post_init__(self):
         for name in ("prnu_pct", "cfa_response", "adc_offset_dn", "adc_gain"):
@@ -136,6 +145,11 @@ class SensorParams:
             except (TypeError, ValueError):
                 raise InputError(f"simulator parameter '{name}' must be a list of numbers") from None
             object.__setattr__(self, name, value)
+        for name in ("qe_curve_nm", "qe_curve"):
+            try:
+                object.__setattr__(self, name, tuple(float(v) for v in getattr(self, name)))
+            except (TypeError, ValueError):
+                raise InputError(f"simulator parameter '{name}' must be a list of numbers") from None
         for f in fields(self):
             v = getattr(self, f.name)
             if isinstance(f.default, float):
@@ -188,6 +202,9 @@ class SensorParams:
             self._fail("illumination", "must be 'uniform' or 'slanted_edge'")
         if self.edge_psf_sigma_px <= 0 or not 0 <= self.edge_low < 1 or abs(self.edge_angle_deg) >= 45:
             self._fail("edge_psf_sigma_px", "must be > 0, with edge_low in [0, 1) and |edge_angle_deg| < 45")
+        self._validate_qe_curve()
+        if self.photodiode_error_pct <= -100:
+            self._fail("photodiode_error_pct", "must be above -100 %")
         if not 0 <= self.dead_response < 1:
             self._fail("dead_response", "must be in [0, 1)")
         if not 0 <= self.rts_switch_prob <= 1:
@@ -208,6 +225,32 @@ class SensorParams:
             self._fail("cfa", f"must be None or one of {', '.join(CFA_PATTERNS)}")
         if self.stuck_code_dn is not None and not 0 <= self.stuck_code_dn < (1 << self.adc_bits):
             self._fail("stuck_code_dn", "must be None or a code of the ADC")
+
+    def _validate_qe_curve(self):
+        nm, qe = self.qe_curve_nm, self.qe_curve
+        if len(nm) != len(qe):
+            self._fail("qe_curve", f"has {len(qe)} values for {len(nm)} wavelengths in qe_curve_nm")
+        if nm and len(nm) < 2:
+            self._fail("qe_curve_nm", "needs at least 2 wavelengths (or none: QE flat at qe)")
+        if any(b <= a for a, b in zip(nm, nm[1:])) or (nm and nm[0] <= 0):
+            self._fail("qe_curve_nm", "must be positive wavelengths in increasing order")
+        if any(not 0 <= v <= 1 for v in qe):
+            self._fail("qe_curve", "must hold quantum efficiencies between 0 and 1")
+
+    def qe_at(self, wavelength_nm: float) -> float:
+        """The simulated sensor's QE at ``wavelength_nm`` (the truth of a spectral scan): the
+        ``qe_curve`` table, linear between its points and its end values beyond; ``qe``
+        without a table."""
+        nm, qe = self.qe_curve_nm, self.qe_curve
+        if not nm:
+            return self.qe
+        if wavelength_nm <= nm[0]:
+            return qe[0]
+        if wavelength_nm >= nm[-1]:
+            return qe[-1]
+        i = next(k for k in range(1, len(nm)) if nm[k] >= wavelength_nm)
+        f = (wavelength_nm - nm[i - 1]) / (nm[i] - nm[i - 1])
+        return qe[i - 1] + f * (qe[i] - qe[i - 1])
 
     # ------------------------------------------------------------------------------
     @property

@@ -3,7 +3,13 @@ built-in line dialect (``ares.hardware.line_protocol``), in front of the simulat
 and chamber. A host opens them as the pyserial URL ``aresemu://NAME`` (``protocol_aresemu``)
 after ``register(NAME, instrument)``.
 
-Faults (``--sim-fault`` keys, ROLE = ``light`` or ``chamber``, N = 0-based command count):
+The spectral bench's monochromator (``GOWAVE nm``/``WAVE?``/``BANDPASS?``, Oriel/Newport
+Cornerstone-like) and reference photodiode meter (``MEAS:CURR?``, ``MEAS:POW?``,
+``SENS:CORR:WAV nm;*OPC?``, Thorlabs PM100-like SCPI) answer in front of the simulator's
+(``ares.sim.spectral``).
+
+Faults (``--sim-fault`` keys, ROLE = ``light`` or ``chamber``; ``monochromator`` and ``photodiode``
+in a faults dict given to their emulators, N = 0-based command count):
 ``ROLE_timeout_at`` (no reply), ``ROLE_wrong_reply_at`` (a reply of the wrong form),
 ``ROLE_error_at`` (``ERR`` reply), ``ROLE_disconnect_at`` (the port is gone from then on),
 ``ROLE_late_at`` (the reply comes after the host's read timed out: it waits in the input buffer).
@@ -43,7 +49,8 @@ class Late(str):
     """A reply that arrives only after the host's read has timed out (``ROLE_late_at``)."""
 
 
-FAULTS = faults_for("light") + faults_for("chamber")
+FAULTS = faults_for("light") + faults_for("chamber")  # (the spectral devices' emulators take their ROLE_ keys
+#   from a faults dict given to them; the command line's --sim-fault does not offer them yet)
 
 
 class EmulatedInstrument:
@@ -107,3 +114,38 @@ class EmulatedChamber(EmulatedInstrument):
         if cmd == "STABLE?":
             return "1"
         return super().answer(cmd, arg)
+
+
+class EmulatedMonochromator(EmulatedInstrument):
+    role = "monochromator"
+    ident = "ARES,EMULATED-CS130,0,1.0"
+
+    def answer(self, cmd: str, arg: str) -> str:
+        if cmd == "GOWAVE":
+            self.device.set_wavelength(float(arg))
+            return "OK"
+        if cmd == "WAVE?":
+            return f"{self.device.get_wavelength():.3f}"
+        if cmd == "BANDPASS?":
+            return f"{self.device.bandwidth():.2f}"
+        if cmd == "*IDN?":
+            return self.ident
+        return f"ERR unknown command '{cmd}'"
+
+
+class EmulatedPowerMeter(EmulatedInstrument):
+    role = "photodiode"
+    ident = "ARES,EMULATED-PM100,0,1.0"
+
+    def answer(self, cmd: str, arg: str) -> str:
+        if cmd in ("MEAS:CURR?", "MEAS:POW?"):
+            want = "current" if cmd == "MEAS:CURR?" else "power"
+            if want != self.device.reading:
+                return f"ERR this meter's sensor reads {self.device.reading}"
+            return f"{self.device.read():.6E}"
+        if cmd == "SENS:CORR:WAV":
+            self.device.set_wavelength(float(arg.split(";", 1)[0]))
+            return "1"
+        if cmd == "*IDN?":
+            return self.ident
+        return f"ERR unknown command '{cmd}'"
