@@ -70,7 +70,7 @@ def test_window_builds_with_ares_tabs_and_controls(window):
     b = window.buttons
     assert (b.start.text(), b.stop.text(), b.auto_repeat.text()) == ("Start Scan", "Stop Scan", "Auto Repeat")
     assert b.start.isEnabled() and not b.stop.isEnabled()
-    assert window.progress_line.stage.text() == "0 0"
+    assert window.progress_line.stage.text() == P.IDLE_TEXT
     assert set(window.results.panels) == {"MEAN SIGNAL", "NOISE", "COLUMNS", "ROWS"}
     assert window.session.info.items["ARES version"]
 

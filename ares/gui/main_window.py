@@ -101,7 +101,7 @@ class MainWindow(QMainWindow):
         split = self.main_split = QSplitter(Qt.Orientation.Horizontal)
         split.addWidget(left)
         split.addWidget(right)
-        split.setSizes([440, 860])  # at 1280 px the Results panels fit without scrolling
+        split.setSizes([470, 830])  # at 1280 px every control tab's name and the Results panels fit
         self.setCentralWidget(split)
         self._menus()
         self.statusBar().showMessage("Ready.")

@@ -12,7 +12,7 @@ from .models import progress as P
 from .models.progress import ProgressModel
 from .models.session import SessionModel
 from .instrument_panel import InstrumentationTab
-from .layout import scrolled
+from .layout import ElidedLabel, scrolled
 from .regions_table import RegionsTable
 
 CONTROL_TABS = ("Scan", "Regions of Analysis", "Output Options", "Input Images", "Instrumentation")
@@ -211,7 +211,14 @@ class ControlTabs(QTabWidget):
         self.setUsesScrollButtons(True)
         for w, name in zip((self.scan, self.regions, self.output, self.inputs, self.instruments), CONTROL_TABS):
             self.addTab(scrolled(w), name)
-        self.setStyleSheet("QTabBar::tab { padding: 4px 7px; }")  # all five tabs fit the control column
+        self.setStyleSheet("QTabBar::tab { padding: 4px 6px; }")
+
+    def minimumSizeHint(self):  # noqa: N802 -- Qt's name
+        """Wide enough for every tab's name: none is cut or hidden behind scroll buttons."""
+        hint = super().minimumSizeHint()
+        bar = self.tabBar()
+        hint.setWidth(max(hint.width(), sum(bar.tabSizeHint(i).width() for i in range(self.count())) + 4))
+        return hint
 
 
 class ProgressLine(QWidget):
@@ -220,24 +227,25 @@ class ProgressLine(QWidget):
     def __init__(self, model: ProgressModel, parent=None) -> None:
         super().__init__(parent)
         self.model = model
-        self.stage = QLabel()
+        # the run's state is always whole; the stage text takes what the column leaves and
+        # is elided when longer, whole in its tooltip (never pushed off the window)
+        self.stage = ElidedLabel()
         self.remaining = QLabel()
         self.state = QLabel()
         self.bar = QProgressBar()
         self.bar.setRange(0, 1000)
         self.bar.setTextVisible(False)
-        self.bar.setMaximumWidth(220)
+        self.bar.setMaximumWidth(160)
         lay = QHBoxLayout(self)
         lay.setContentsMargins(0, 0, 0, 0)
         lay.addWidget(QLabel("<b>Current Stage:</b>"))
-        lay.addWidget(self.stage)
-        lay.addSpacing(16)
+        lay.addWidget(self.stage, 3)
+        lay.addSpacing(10)
         lay.addWidget(QLabel("<b>Time Remaining:</b>"))
         lay.addWidget(self.remaining)
-        lay.addSpacing(16)
-        lay.addWidget(self.bar)
+        lay.addSpacing(10)
+        lay.addWidget(self.bar, 1)
         lay.addWidget(self.state)
-        lay.addStretch(1)
         model.subscribe(lambda _: self.refresh())
         self.refresh()
 

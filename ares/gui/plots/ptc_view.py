@@ -43,6 +43,7 @@ class PTCView(QWidget):
             self.plot.addItem(item)
 
         self.caption = QLabel()
+        self.caption.setWordWrap(True)  # a long fit text never widens the tab past the window
         lay = QVBoxLayout(self)
         lay.addWidget(self.plot, 1)
         lay.addWidget(self.caption)
