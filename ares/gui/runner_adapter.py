@@ -16,6 +16,7 @@ from ares.analysis.estimate import format_dict
 from ares.errors import AresError
 
 from . import events as G
+from .models.session import headline_key
 
 
 def _value(d):
@@ -46,16 +47,21 @@ def summarize(scan_results: dict, thresholds: tuple = ()) -> dict:
             # the figures as the engine states them: the digits their SE supports
             out["gain_text"] = (f"system gain K = {_fmt(ptc.get('gain_dn_per_e'))}, "
                                 f"1/K = {_fmt(ptc.get('gain_e_per_dn'))}")
-        for key in ("conversion_gain_uv_per_e", "gain_dn_per_e", "read_noise_e", "full_well_e", "turnoff_dn",
-                    "turnoff_e", "dynamic_range_db"):
-            label = labels.PTC_LABELS[key]
+        for key, label in labels.PTC_FIGURES:  # the terminal's figures, its order and wording
             text = _fmt(ptc.get(key))
             if text:
-                out["results"][f"PTC: {label}"] = text
+                out["results"][headline_key(label)] = text
         if isinstance(ptc.get("level_status"), list):
             out["ptc_level_status"] = ptc["level_status"]
         if "note" in ptc and "gain_dn_per_e" not in ptc:
             out["results"]["PTC"] = str(ptc["note"])
+    d = scan_results.get("decomposition")
+    if isinstance(d, dict) and isinstance(d.get("components"), dict):
+        from ares.analysis.estimate import component_text
+
+        for c in labels.HEADLINE_COMPONENTS:  # DSNU, PRNU as the terminal prints them
+            if isinstance(d["components"].get(c), dict):
+                out["results"][headline_key(labels.COMPONENTS[c], c)] = component_text(c, d["components"][c])
     defects = scan_results.get("defects")
     if isinstance(defects, dict):
         counts = defects.get("counts")

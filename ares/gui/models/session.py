@@ -12,6 +12,7 @@ import time
 
 import numpy as np
 
+from ...labels import COMPONENTS, HEADLINE_COMPONENTS, PTC_FIGURES
 from ..events import Done, Ending, Failed, FramePreview, Progress, RunInfo, StageResult, StageStarted, Stopped
 from . import progress as P
 from .components import ComponentsModel
@@ -44,10 +45,28 @@ REFRESH_S = 1.0
 RESULTS_S = 3.0
 
 
+def headline_key(label: str, component: str | None = None) -> str:
+    """The Information tab's name of a headline figure: ``PTC: <label>`` for a photon-transfer
+    figure of ``labels.PTC_FIGURES``, ``<meaning> (<symbol>)`` for a component."""
+    return f"{label} [{component}]" if component else f"PTC: {label}"
+
+
+# The headline figures, in the terminal's order (ares.commands.run.print_summary): they head
+# the Information tab, above the versions, the scan and the run directory.
+HEADLINE = tuple(headline_key(label) for _, label in PTC_FIGURES) + tuple(
+    headline_key(COMPONENTS[c], c) for c in HEADLINE_COMPONENTS)
+
+
 class InfoModel(Observable):
     def __init__(self) -> None:
         super().__init__()
         self.items: dict[str, str] = {}
+
+    def ordered(self) -> list[tuple[str, str]]:
+        """The items, the headline figures first (in ``HEADLINE``'s order), then the rest as added."""
+        rank = {k: i for i, k in enumerate(HEADLINE)}
+        head = sorted((k for k in self.items if k in rank), key=rank.__getitem__)
+        return [(k, self.items[k]) for k in head] + [(k, v) for k, v in self.items.items() if k not in rank]
 
     def replace(self, mapping: dict) -> None:
         self.items = {str(k): str(v) for k, v in mapping.items()}
