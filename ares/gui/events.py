@@ -48,6 +48,9 @@ class StageResult:
     # temporal variance above dark in DN²), None for a dark stage or when not computed
     ptc_point: tuple[float, float] | None = None
     ptc_view: str = ""  # which pixels the engine used for ptc_point ("full", a region ...)
+    # the same point for every view the engine computed (view name -> point): the PTC tab
+    # follows the View selector like every other tab
+    ptc_points: dict = field(default_factory=dict)
     group: str = ""  # the sweep (or single stage) this stage belongs to
     coords: tuple = ()  # grid indices within a sweep; () for a single stage
     quantities: dict = field(default_factory=dict)  # engine numbers for the sweep map: label -> value

@@ -212,7 +212,7 @@ class RunnerJob:
         self.runner.add_listener(self._on_event)
         self._emit = None
         self._failed_sent = False
-        self._dark_level: dict | None = None
+        self._dark_level: dict[str, dict] = {}  # view -> the last dark stage's level
         scan, system = self.scan, self.scan.system
         self.title = f"{scan.name} ({self.path.name})"
         sensor = system.sensor
@@ -366,18 +366,18 @@ class RunnerJob:
     def _stage_result(self, e) -> G.StageResult:
         r = e.result
         full = r["views"]["full"]
-        level = full["level"]
-        dark = full.get("dark_level")
-        if r["scene"] == "dark":
-            self._dark_level = level
-        elif dark is None:
-            dark = self._dark_level
-        point = None
-        if r["scene"] == "flat" and dark is not None:
-            var = level.get("var_dn2")
-            dvar = dark.get("var_dn2")
-            if var is not None and dvar is not None:
-                point = (level["mean_dn"] - dark["mean_dn"], var - dvar)
+        points = {}  # view -> (signal above dark, temporal variance above dark), as the engine states them
+        for name, v in r["views"].items():
+            level, dark = v.get("level") or {}, v.get("dark_level")
+            if r["scene"] == "dark":
+                self._dark_level[name] = level
+            elif dark is None:
+                dark = self._dark_level.get(name)
+            if r["scene"] == "flat" and dark is not None:
+                var, dvar = level.get("var_dn2"), dark.get("var_dn2")
+                if var is not None and dvar is not None and level.get("mean_dn") is not None:
+                    points[name] = (level["mean_dn"] - dark["mean_dn"], var - dvar)
+        point = points.get("full")
         values = quantities(full)
         from ares.scan.analyses import stage_lag_cycle
 
@@ -386,7 +386,7 @@ class RunnerJob:
             values["image lag (%)"] = cycle[0].value
         return G.StageResult(e.index + 1, r["name"], e.arrays["mean"], e.arrays["variance"], r["frames"],
                              dark=(r["scene"] == "dark"), settings=dict(r["settings"]), ptc_point=point,
-                             ptc_view="full", group=r.get("group", ""), coords=tuple(r.get("coords") or ()),
+                             ptc_view="full", ptc_points=points, group=r.get("group", ""), coords=tuple(r.get("coords") or ()),
                              quantities=values,
                              components={v: {k: d[k] for k in ("components", "dark_components") if k in d}
                                          for v, d in r["views"].items()})

@@ -298,9 +298,10 @@ class SessionModel:
                 self._show_latest()
             if ev.dark:
                 self.ptc.set_dark(float(np.nanmean(ev.mean)))
-            if ev.ptc_point is not None:
-                self.ptc.view = ev.ptc_view
-                self.ptc.add(ev.stage, ev.name, *ev.ptc_point)
+            self.ptc.select(self.views.engine_view(None))
+            points = ev.ptc_points or ({ev.ptc_view or "full": ev.ptc_point} if ev.ptc_point is not None else {})
+            for view, point in points.items():  # every view's: the PTC tab shows the chosen one
+                self.ptc.add(ev.stage, ev.name, *point, view=view)
         if ev.coords and ev.quantities:
             self.sweep.add(SweepPoint(ev.stage, ev.group, tuple(ev.coords), dict(ev.settings), dict(ev.quantities)))
         if ev.summary:
@@ -355,6 +356,7 @@ class SessionModel:
     def _refresh_result(self) -> None:
         self._refresh_panels()
         self._refresh_profiles()
+        self.ptc.select(self.views.engine_view(None))  # the View selector drives the PTC tab too
         ev = self.last_result
         if ev is not None and ev.mean is not None:
             self.components.select(self.views.engine_view(ev.mean.shape))
