@@ -5,7 +5,7 @@ from __future__ import annotations
 
 from PySide6.QtCore import Signal
 from PySide6.QtWidgets import (QCheckBox, QFileDialog, QFormLayout, QHBoxLayout, QLabel,
-                               QLineEdit, QPlainTextEdit, QProgressBar, QPushButton,
+                               QLineEdit, QPlainTextEdit, QProgressBar, QPushButton, QSpinBox,
                                QTabWidget, QVBoxLayout, QWidget)
 
 from .models import progress as P
@@ -61,13 +61,31 @@ class ScanTab(QWidget):
         font.setStyleHint(font.StyleHint.Monospace)
         font.setFamily("monospace")
         self.details.setFont(font)
+        # a shorter (or longer) scan without editing its XML: as ``ares run --frames N``
+        from ares.scan.preflight import MAX_FRAMES
+
+        self.frames = QSpinBox()
+        self.frames.setRange(1, MAX_FRAMES)  # 1 stands for "the scan's own" (a stage needs 2 frames or more)
+        self.frames.setSpecialValueText("as in the scan")
+        self.frames.setValue(1)
+        self.frames.setToolTip("Frames of every stage, dark stacks included, as `ares run --frames N`: "
+                               "fewer for a quick look, more for smaller SEs. The run directory records it.")
         top = QHBoxLayout()
         top.addWidget(self.file, 1)
         top.addWidget(self.open_button)
+        count = QHBoxLayout()
+        count.addWidget(QLabel("Frames per stage:"))
+        count.addWidget(self.frames)
+        count.addStretch(1)
         lay = QVBoxLayout(self)
         lay.addLayout(top)
+        lay.addLayout(count)
         lay.addWidget(self.details)
         self.open_button.clicked.connect(self.open_requested)
+
+    def frame_count(self) -> int | None:
+        """The frames every stage takes (None: each stage's own, as the scan says)."""
+        return self.frames.value() if self.frames.value() >= 2 else None
 
     def show_job(self, path: str | None, title: str, info: dict, stage_lines: list[str] | None = None) -> None:
         self.file.setText(f"Scan file: {path}" if path else f"Built-in: {title}")
