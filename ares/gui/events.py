@@ -102,8 +102,18 @@ class Stopped:
 
 
 @dataclass(frozen=True)
+class ReportsWritten:
+    """A stopped or aborted run's reports are finished (its ``Stopped`` said they were
+    being written): ``message`` says where and in what state (run.json's ``reports``)."""
+
+    message: str
+    state: str = "complete"
+
+
+@dataclass(frozen=True)
 class Failed:
     message: str  # one sentence, never a traceback
 
 
-GuiEvent = RunInfo | StageStarted | FramePreview | StageResult | Progress | Ending | Done | Stopped | Failed
+GuiEvent = (RunInfo | StageStarted | FramePreview | StageResult | Progress | Ending | Done | Stopped | ReportsWritten
+            | Failed)

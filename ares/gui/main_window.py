@@ -14,7 +14,7 @@ from PySide6.QtWidgets import QFileDialog, QMainWindow, QMessageBox, QSplitter, 
 from ares.errors import AresError
 
 from . import engine
-from .events import Ending, Failed, Stopped
+from .events import Ending, Failed, ReportsWritten, Stopped
 from .info_panel import InfoPanel, versions
 from .layout import scrolled
 from .models import progress as P
@@ -325,7 +325,7 @@ class MainWindow(QMainWindow):
             self.statusBar().showMessage(self.session.progress.message)
         elif isinstance(ev, Failed):
             self.show_error(ev.message)
-        elif isinstance(ev, Stopped):
+        elif isinstance(ev, (Stopped, ReportsWritten)):  # "kept in DIR", then its reports' state
             self.statusBar().showMessage(ev.message)
 
     @property

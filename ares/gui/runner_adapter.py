@@ -93,6 +93,21 @@ def summarize(scan_results: dict, thresholds: tuple = ()) -> dict:
     return out
 
 
+def _meta(run_dir) -> dict:
+    """A run directory's run.json ({} when there is none or it cannot be read)."""
+    import json
+
+    try:
+        return json.loads((Path(run_dir) / "run.json").read_text()) if run_dir else {}
+    except (OSError, ValueError):
+        return {}
+
+
+def _reports_state(run_dir) -> str | None:
+    """run.json's ``reports``: "writing", "complete", "failed", "incomplete" or None."""
+    return _meta(run_dir).get("reports")
+
+
 COMPONENT_LABELS = {k: v for k, v in labels.COMPONENTS.items() if k not in ("o", "q", "delta", "signal")}
 
 
@@ -212,6 +227,8 @@ class RunnerJob:
         self.runner.add_listener(self._on_event)
         self._emit = None
         self._failed_sent = False
+        self._stopped: str | None = None  # a stopped run's message while its reports are written
+        self._stopped_dir: str | None = None
         self._dark_level: dict[str, dict] = {}  # view -> the last dark stage's level
         scan, system = self.scan, self.scan.system
         self.title = f"{scan.name} ({self.path.name})"
@@ -313,13 +330,27 @@ class RunnerJob:
     # ---- running ----------------------------------------------------------------------
     def run(self, emit) -> None:
         self._emit = emit
+        self._stopped = None
         try:
-            self.runner.run()
+            self.runner.run()  # (the reports are written before it returns)
         except AresError:
             if not self._failed_sent:  # failed before the runner could say so
                 raise
         finally:
             self.discard()
+            if self._stopped:
+                self._reports_written()
+
+    def _reports_written(self) -> None:
+        """The stopped run's reports are done: say so, from run.json (never before)."""
+        run_dir = self._stopped_dir
+        state = _reports_state(run_dir) or "not recorded"
+        if state == "complete":
+            message = f"{self._stopped}; its reports are complete."
+        else:
+            error = _meta(run_dir).get("report_error")
+            message = f"{self._stopped}; its reports are {state}" + (f": {error}" if error else "") + "."
+        self._emit(G.ReportsWritten(message, state))
 
     def discard(self) -> None:
         """Remove the edited scan's temporary folder (the run directory has its copy)."""
@@ -356,8 +387,11 @@ class RunnerJob:
                 emit(G.Done(e.run_dir, summary, tuple(e.limit_failures), summary["limits_text"]))
             else:
                 kept = f"; {e.stages_completed} completed stage(s) kept" + (f" in {e.run_dir}" if e.run_dir else "")
-                emit(G.Stopped(f"Scan {e.status}{kept}.", aborted=(e.status == "aborted"), run_dir=e.run_dir,
-                               summary=summary))
+                # the reports follow this event: said so, and ReportsWritten once they are there
+                self._stopped = f"Scan {e.status}{kept}" if _reports_state(e.run_dir) == "writing" else None
+                self._stopped_dir = e.run_dir
+                emit(G.Stopped(f"Scan {e.status}{kept}" + ("; writing its reports…" if self._stopped else "."),
+                               aborted=(e.status == "aborted"), run_dir=e.run_dir, summary=summary))
         elif isinstance(e, ev.Failed):
             self._failed_sent = True
             msg = e.message.strip()

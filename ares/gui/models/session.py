@@ -13,7 +13,8 @@ import time
 import numpy as np
 
 from ...labels import COMPONENTS, HEADLINE_COMPONENTS, PTC_FIGURES
-from ..events import Done, Ending, Failed, FramePreview, Progress, RunInfo, StageResult, StageStarted, Stopped
+from ..events import (Done, Ending, Failed, FramePreview, Progress, ReportsWritten, RunInfo, StageResult, StageStarted,
+                      Stopped)
 from . import progress as P
 from .components import ComponentsModel
 from .defects import DefectCountsModel
@@ -263,6 +264,8 @@ class SessionModel:
                 self.info.update(run_directory=ev.run_dir)
             self.progress.update(state=P.STOPPED, seconds_remaining=None,
                                  message=ev.message)
+        elif isinstance(ev, ReportsWritten):
+            self.progress.update(message=ev.message)
         elif isinstance(ev, Failed):
             self._end_of_run()
             self.progress.update(state=P.FAILED, seconds_remaining=None, message=ev.message)
