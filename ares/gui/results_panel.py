@@ -31,7 +31,7 @@ class StatsPanel(QGroupBox):
         self.histogram.setMinimumHeight(120)
         self.mode = QComboBox()
         self.mode.addItems(RANGE_MODES)
-        self.mode.setMinimumContentsLength(6)  # the panels' 2 x 2 grid fits a 1280-pixel screen
+        self.mode.setMinimumContentsLength(11)  # the panels' 2 x 2 grid fits a 1280-pixel screen
         self.mode.setSizeAdjustPolicy(QComboBox.SizeAdjustPolicy.AdjustToMinimumContentsLengthWithIcon)
         self.frm = self._spin()
         self.to = self._spin()
@@ -46,7 +46,7 @@ class StatsPanel(QGroupBox):
         stats.setHorizontalSpacing(4)
         stats.setVerticalSpacing(2)
         stats.addWidget(QLabel("Range Mode:"), 0, 0, right)
-        stats.addWidget(self.mode, 0, 1)
+        stats.addWidget(self.mode, 0, 1, 1, 2)  # its text whole: it spans the To: label's column
         stats.addWidget(self.restore_button, 0, 3)
         stats.addWidget(QLabel("From:"), 1, 0, right)
         stats.addWidget(self.frm, 1, 1)

@@ -255,7 +255,7 @@ class ProgressLine(QWidget):
         self.bar.setTextVisible(False)
         self.bar.setMaximumWidth(160)
         lay = QHBoxLayout(self)
-        lay.setContentsMargins(0, 0, 0, 0)
+        lay.setContentsMargins(0, 0, 8, 0)  # the state clear of the window's edge
         lay.addWidget(QLabel("<b>Current Stage:</b>"))
         lay.addWidget(self.stage, 3)
         lay.addSpacing(10)
