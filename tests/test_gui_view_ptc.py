@@ -1,4 +1,4 @@
-"""The View selector drives the PTC tab too (issue 38: it showed the full frame whatever was
+"""The View selector drives the PTC and Sweep Map tabs too (issue 38: it showed the full frame whatever was
 chosen). On a sensor whose second ADC channel has 1.5x the gain, the adc1 view's photon
 transfer has 1.5x the slope of adc0's (the simulator's truth), a region's points are its own
 pixels', and the engine's fit verdicts (of the full frame) are drawn in the full-frame view only."""
@@ -65,6 +65,17 @@ def test_the_ptc_tab_shows_the_view_chosen_in_the_view_bar(window, qtbot, tmp_pa
         assert f"adc{k}" in window.ptc.caption.text()
         slopes[k] = _slope(s.ptc.points)
     assert slopes[1] / slopes[0] == pytest.approx(ADC1_GAIN, rel=0.1), slopes
+
+    # the Sweep Map follows the same choice: each ADC channel's mean signal (1.5x the gain: 1.5x the signal)
+    show_tab(window, "Sweep Map")
+    means = {}
+    for k in (0, 1):
+        window.view_bar.choose_view(f"adc{k}")
+        window.sweep.quantity.setCurrentText("mean signal (DN)")
+        assert f"view 'adc{k}'" in window.sweep.caption.text()
+        means[k] = window.session.sweep.curve()[1]
+    signal = (means[1] - means[1][0]) / (means[0] - means[0][0])  # above the sweep's first (dimmest) level
+    assert np.median(signal[2:6]) == pytest.approx(ADC1_GAIN, rel=0.05), signal
 
     # a region: its own pixels' signal, from the stage arrays the window holds
     window.view_bar.choose_view("roa0")

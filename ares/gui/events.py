@@ -54,6 +54,7 @@ class StageResult:
     group: str = ""  # the sweep (or single stage) this stage belongs to
     coords: tuple = ()  # grid indices within a sweep; () for a single stage
     quantities: dict = field(default_factory=dict)  # engine numbers for the sweep map: label -> value
+    view_quantities: dict = field(default_factory=dict)  # ... of every view: view -> {label -> value}
     components: dict = field(default_factory=dict)  # view -> {"components": {...}, "dark_components": {...}}
     summary: dict = field(default_factory=dict)
 

@@ -421,6 +421,6 @@ class RunnerJob:
         return G.StageResult(e.index + 1, r["name"], e.arrays["mean"], e.arrays["variance"], r["frames"],
                              dark=(r["scene"] == "dark"), settings=dict(r["settings"]), ptc_point=point,
                              ptc_view="full", ptc_points=points, group=r.get("group", ""), coords=tuple(r.get("coords") or ()),
-                             quantities=values,
+                             quantities=values, view_quantities={k: quantities(v) for k, v in r["views"].items()},
                              components={v: {k: d[k] for k in ("components", "dark_components") if k in d}
                                          for v, d in r["views"].items()})

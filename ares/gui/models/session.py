@@ -306,7 +306,8 @@ class SessionModel:
             for view, point in points.items():  # every view's: the PTC tab shows the chosen one
                 self.ptc.add(ev.stage, ev.name, *point, view=view)
         if ev.coords and ev.quantities:
-            self.sweep.add(SweepPoint(ev.stage, ev.group, tuple(ev.coords), dict(ev.settings), dict(ev.quantities)))
+            self.sweep.add(SweepPoint(ev.stage, ev.group, tuple(ev.coords), dict(ev.settings), dict(ev.quantities),
+                                      dict(ev.view_quantities)))
         if ev.summary:
             self._summary(ev.summary)
 
@@ -359,7 +360,9 @@ class SessionModel:
     def _refresh_result(self) -> None:
         self._refresh_panels()
         self._refresh_profiles()
-        self.ptc.select(self.views.engine_view(None))  # the View selector drives the PTC tab too
+        view = self.views.engine_view(None)  # the View selector drives the PTC and Sweep Map tabs too
+        self.ptc.select(view)
+        self.sweep.select(view)
         ev = self.last_result
         if ev is not None and ev.mean is not None:
             self.components.select(self.views.engine_view(ev.mean.shape))

@@ -64,7 +64,8 @@ class SweepView(QWidget):
             self.curve.setData([], [])
             return
         axes = m.axes()
-        self.caption.setText(f"sweep '{pts[-1].group}': {len(pts)} stage(s) over "
+        view = "full frame" if m.view == "full" else f"view '{m.view}'"
+        self.caption.setText(f"sweep '{pts[-1].group}', {view}: {len(pts)} stage(s) over "
                              + " × ".join(f"{name} ({len(v)})" for name, v in axes))
         if m.ndim == 1:
             self.stack.setCurrentWidget(self.curve_plot)
