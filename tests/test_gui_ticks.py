@@ -55,15 +55,20 @@ def test_nice_ticks_are_three_or_more_distinct_labels_within_the_range(lo, hi):
     assert all(abs(float(t) - v) <= step / 2 for v, t in ticks)  # each label reads as its value
 
 
+def _shown(qtbot, view, width: int, height: int):
+    qtbot.addWidget(view)
+    view.resize(width, height)
+    view.show()
+    qtbot.waitExposed(view)
+    return view
+
+
 def _sweep_map(qtbot, lo, hi):
     from ares.gui.models.sweep import SweepModel, SweepPoint
     from ares.gui.plots.sweep_view import SweepView
 
     m = SweepModel()
-    view = SweepView(m)
-    qtbot.addWidget(view)
-    view.resize(790, 640)
-    view.show()
+    view = _shown(qtbot, SweepView(m), 790, 640)
     k = 0
     for i in range(4):
         for j in range(3):
@@ -89,10 +94,7 @@ def test_image_colour_bar_draws_three_or_more_labels_for_a_tiny_range(qtbot):
     from ares.gui.plots.image_view import ImagePlot
 
     m = ImageModel("prnu map")
-    view = ImagePlot(m)
-    qtbot.addWidget(view)
-    view.resize(500, 400)
-    view.show()
+    view = _shown(qtbot, ImagePlot(m), 500, 400)
     m.set_image(1.0 + 1e-4 * np.random.default_rng(1).standard_normal((40, 50)), "tiny")
     qtbot.waitExposed(view)
     texts = drawn(view.colorbar.axis)
@@ -107,11 +109,7 @@ def test_log_axes_labels_never_overlap_as_a_scan_adds_points(qtbot, width):
     from ares.gui.plots.sweep_view import SweepView
 
     m = PTCModel()
-    view = PTCView(m)
-    qtbot.addWidget(view)
-    view.resize(width, 500)
-    view.show()
-    qtbot.waitExposed(view)
+    view = _shown(qtbot, PTCView(m), width, 500)
     x = 2.0 * 1.4 ** np.arange(24)
     for n in range(24):  # the PTC as a scan fills it, level by level
         m.add(n, f"ptc[{n}]", x[n], x[n] / 3.57)
@@ -121,11 +119,7 @@ def test_log_axes_labels_never_overlap_as_a_scan_adds_points(qtbot, width):
     assert len(drawn(view.plot.getAxis("bottom"))) >= 3
 
     s = SweepModel()
-    sweep = SweepView(s)
-    qtbot.addWidget(sweep)
-    sweep.resize(width, 500)
-    sweep.show()
-    qtbot.waitExposed(sweep)
+    sweep = _shown(qtbot, SweepView(s), width, 500)
     for i, e in enumerate([0.001, 0.002, 0.005, 0.01, 0.03, 0.1, 0.3, 1.0]):  # exposure over three decades
         s.add(SweepPoint(i, "g", (i,), {"exposure": e}, {"mean signal (DN)": 10 * e}))
     texts = drawn(sweep.curve_plot.getAxis("bottom"))
