@@ -60,6 +60,13 @@ def test_every_plot_fits_1280x800_and_the_ptc_shows_its_whole_curve(window, qtbo
     window.set_job_factory(lambda: RunnerJob(PTC_SMALL, frames=3, output=quick), PTC_SMALL)
     run_to_end(qtbot, window)
     assert window.width() <= 1280 and window.height() <= 800
+    from ares.gui.models.sweep import SweepPoint
+
+    for k in range(20):  # and a 2-D sweep with long axis names (its caption widened the Sweep Map)
+        i, j = divmod(k, 4)
+        window.session.sweep.add(SweepPoint(100 + k, "a_two_axis_bias_map", (i, j),
+                                            {"reg:source_follower_bias": 1.0 + i, "reg:transfer_gate_low": -j / 5},
+                                            {"image lag (%)": 0.01 * k}))
     plots = 0
     for name in RESULT_TABS:
         show_tab(window, name)

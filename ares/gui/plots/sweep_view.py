@@ -18,6 +18,7 @@ class SweepView(QWidget):
         self.quantity = QComboBox()
         self.quantity.setMinimumWidth(260)
         self.caption = QLabel()
+        self.caption.setWordWrap(True)  # a long sweep description never widens the tab past the window
         top = QHBoxLayout()
         top.addWidget(QLabel("Quantity:"))
         top.addWidget(self.quantity)
