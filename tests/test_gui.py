@@ -290,6 +290,13 @@ FIXTURES = os.path.join(os.path.dirname(__file__), os.pardir, "fixtures", "xml")
 PTC_SMALL = os.path.join(FIXTURES, "small", "ptc_small.xml")
 
 
+def ptc_small_with(tmp_path, output: str) -> str:
+    """A copy of ptc_small (4 frames a stage) whose <output> is ``output`` (e.g. only the reports a test needs)."""
+    text = open(PTC_SMALL).read().replace('href="sim_small.xml"', f'href="{os.path.dirname(PTC_SMALL)}/sim_small.xml"')
+    (tmp_path / "ptc_small_copy.xml").write_text(text.replace('<output raw_frames="true"/>', output))
+    return str(tmp_path / "ptc_small_copy.xml")
+
+
 def test_the_results_caption_says_when_the_newest_stage_is_drawn_at_intervals(window):
     """While a scan runs the Results tab shows the newest stage at most every RESULTS_S:
     its caption says so (a stage shown from a while ago is not mistaken for a stuck scan),

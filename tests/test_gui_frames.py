@@ -13,23 +13,15 @@ os.environ.setdefault("QT_QPA_PLATFORM", "offscreen")
 pytest.importorskip("PySide6")
 pytest.importorskip("pyqtgraph")
 
-from test_gui import PTC_SMALL, run_to_end, window  # noqa: E402,F401 (fixture)
+from test_gui import ptc_small_with, run_to_end, window  # noqa: E402,F401 (fixture)
 
 from ares.gui.models import progress as P  # noqa: E402
 
 pytestmark = pytest.mark.gui
 
 
-def _quick_scan(tmp_path) -> str:
-    """ptc_small (4 frames a stage) without the report files: the frame counts are the point."""
-    text = open(PTC_SMALL).read().replace('href="sim_small.xml"', f'href="{os.path.dirname(PTC_SMALL)}/sim_small.xml"')
-    text = text.replace('<output raw_frames="true"/>', '<output raw_frames="false" hdf5="false" csv="false" pdf="false"/>')
-    (tmp_path / "quick.xml").write_text(text)
-    return str(tmp_path / "quick.xml")
-
-
 def test_the_frame_count_control_shortens_the_scan_as_the_cli_frames_option(window, qtbot, tmp_path):  # noqa: F811
-    path = _quick_scan(tmp_path)
+    path = ptc_small_with(tmp_path, '<output raw_frames="false" hdf5="false" csv="false" pdf="false"/>')
     assert window.load_scan(path)
     window.controls.output.directory.setText(str(tmp_path / "runs"))
     spin = window.controls.scan.frames
@@ -46,7 +38,10 @@ def test_the_frame_count_control_shortens_the_scan_as_the_cli_frames_option(wind
     meta = json.loads(open(os.path.join(run_dir, "run.json")).read())
     assert meta["frames_override"] == 2  # as `ares run --frames 2` records it
 
-    spin.setValue(spin.minimum())  # back to the scan's own count
+    spin.setValue(spin.minimum())  # back to the scan's own count: the job the next Start runs
     assert window.controls.scan.frame_count() is None
-    run_to_end(qtbot, window)
-    assert {ev.frames for ev in s.stages.results.values()} == {4}
+    job = window.job_factory()
+    try:
+        assert job.runner.frames_override is None and {st.frames for st in job.runner.stages} == {4}
+    finally:
+        job.discard()

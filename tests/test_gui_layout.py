@@ -15,7 +15,7 @@ os.environ.setdefault("QT_QPA_PLATFORM", "offscreen")
 pytest.importorskip("PySide6")
 pytest.importorskip("pyqtgraph")
 
-from test_gui import PTC_SMALL, idle, run_to_end, show_tab, window  # noqa: E402,F401 (fixture)
+from test_gui import PTC_SMALL, run_to_end, show_tab, window  # noqa: E402,F401 (fixture)
 
 from ares.gui.main_window import RESULT_TABS  # noqa: E402
 from ares.gui.models import progress as P  # noqa: E402

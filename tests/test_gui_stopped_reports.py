@@ -14,7 +14,7 @@ os.environ.setdefault("QT_QPA_PLATFORM", "offscreen")
 pytest.importorskip("PySide6")
 pytest.importorskip("pyqtgraph")
 
-from test_gui import PTC_SMALL, TIMEOUT_MS, idle, run_to_end, window  # noqa: E402,F401 (fixture)
+from test_gui import TIMEOUT_MS, ptc_small_with, run_to_end, window  # noqa: E402,F401 (fixture)
 from test_gui_stopped_truth import _stopping_job  # noqa: E402
 
 from ares.gui.models import progress as P  # noqa: E402
@@ -30,8 +30,9 @@ def _state(run_dir: str) -> str | None:
 
 
 def test_stopped_message_waits_for_the_runs_reports(window, qtbot, tmp_path):  # noqa: F811
+    scan = ptc_small_with(tmp_path, '<output raw_frames="false" hdf5="false" csv="false" pdf="true"/>')  # the PDF only
     window.controls.output.directory.setText(str(tmp_path))
-    window.set_job_factory(lambda: _stopping_job(PTC_SMALL, 4), PTC_SMALL)
+    window.set_job_factory(lambda: _stopping_job(scan, 4), scan)
     seen = []  # (message, report.pdf there?, run.json's reports) at the moment each is shown
 
     def shown(message: str) -> None:
