@@ -4,7 +4,8 @@ columns, the PDF, the JSON notes and the GUI (no imports: every layer may use it
 ``COMPONENTS``: the 13 components of the noise model (DESIGN.md) and the extras, symbol ->
 meaning; ``component_label`` says what a symbol means in a given part of a stage result.
 ``PTC_FIGURES``: the photon-transfer headline figures, result key -> label, in the order
-they are printed. Units travel with the values (``Estimate.unit``), not here.
+they are printed (the terminal's summary and the top of the window's Information tab, then
+``HEADLINE_COMPONENTS``). Units travel with the values (``Estimate.unit``), not here.
 """
 
 from __future__ import annotations
@@ -25,6 +26,9 @@ PTC_FIGURES = (
     ("turnoff_e", "PTC turnoff (charge)"), ("dynamic_range_db", "dynamic range"),
 )
 PTC_LABELS = dict(PTC_FIGURES)
+# The decomposition's headline components (DSNU, PRNU: the engine's order), printed by the
+# terminal and shown at the top of the window's Information tab after the PTC figures.
+HEADLINE_COMPONENTS = ("Ps", "Pg")
 
 
 def component_label(c: str, part: str = "components") -> str:

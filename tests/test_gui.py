@@ -70,7 +70,7 @@ def test_window_builds_with_ares_tabs_and_controls(window):
     b = window.buttons
     assert (b.start.text(), b.stop.text(), b.auto_repeat.text()) == ("Start Scan", "Stop Scan", "Auto Repeat")
     assert b.start.isEnabled() and not b.stop.isEnabled()
-    assert window.progress_line.stage.text() == "0 0"
+    assert window.progress_line.stage.text() == P.IDLE_TEXT
     assert set(window.results.panels) == {"MEAN SIGNAL", "NOISE", "COLUMNS", "ROWS"}
     assert window.session.info.items["ARES version"]
 
@@ -288,6 +288,13 @@ def test_gui_command_without_display_is_one_sentence(monkeypatch):
 # ---- the real runner (ares.scan) on the small simulated fixture scan ------------------------------
 FIXTURES = os.path.join(os.path.dirname(__file__), os.pardir, "fixtures", "xml")
 PTC_SMALL = os.path.join(FIXTURES, "small", "ptc_small.xml")
+
+
+def ptc_small_with(tmp_path, output: str) -> str:
+    """A copy of ptc_small (4 frames a stage) whose <output> is ``output`` (e.g. only the reports a test needs)."""
+    text = open(PTC_SMALL).read().replace('href="sim_small.xml"', f'href="{os.path.dirname(PTC_SMALL)}/sim_small.xml"')
+    (tmp_path / "ptc_small_copy.xml").write_text(text.replace('<output raw_frames="true"/>', output))
+    return str(tmp_path / "ptc_small_copy.xml")
 
 
 def test_the_results_caption_says_when_the_newest_stage_is_drawn_at_intervals(window):

@@ -205,7 +205,7 @@ def test_format_remaining():
     assert P.format_remaining(0) == "0 : 00 : 00"
     assert P.format_remaining(None) == "- : -- : --"
     pm = P.ProgressModel()
-    assert pm.stage_text == "0 0"
+    assert pm.stage_text == P.IDLE_TEXT
     pm.update(stage=2, total=5, stage_name="dark")
     assert pm.stage_text == "2 of 5 (dark)"
 

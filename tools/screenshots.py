@@ -72,6 +72,7 @@ def main() -> int:
     wait(app, lambda: s.progress.stage >= 12)
     shot("1_scan_results", "Results", control=1)
     wait(app, lambda: s.progress.stage >= 18)
+    w.view_bar.choose_view("full")  # the view the engine's gain fit is of: its verdict per level drawn
     shot("2_scan_ptc", "PTC", control=0)
     shot("3_scan_components", "Components")
     wait(app, lambda: not w.running and not w.finishing)

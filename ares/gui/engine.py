@@ -143,12 +143,14 @@ class DemoScan(JobControl):
         emit(Done(None, {"pixels": int(np.prod(self.shape))}))
 
 
-def open_scan(path: str | Path, regions=None, output=None, system: str | None = None) -> Job:
+def open_scan(path: str | Path, regions=None, output=None, system: str | None = None,
+              frames: int | None = None) -> Job:
     """A job for the scan XML at ``path``, run through ``ares.scan`` on the bench its
     system XML declares (the simulated bench by default). ``regions``: the RoA table's
     active rows, which replace the scan's regions in what runs and what the run saves;
     ``output``: an ``ares.protocol.Output`` replacing the scan's ``<output>``; ``system``: a
-    system XML instead of the scan's ``<system href>`` (as ``ares run --system``)."""
+    system XML instead of the scan's ``<system href>`` (as ``ares run --system``); ``frames``:
+    every stage's frame count (as ``ares run --frames``; None: the scan's own)."""
     path = Path(path)
     if not path.is_file():
         raise InputError(f"{path}: no such scan file.")
@@ -156,4 +158,4 @@ def open_scan(path: str | Path, regions=None, output=None, system: str | None = 
         from . import runner_adapter
     except ImportError:
         raise InputError(f"{path}: the scan runner (ares.scan) is not available in this installation.") from None
-    return runner_adapter.RunnerJob(path, regions=regions, output=output, system=system)
+    return runner_adapter.RunnerJob(path, frames=frames, regions=regions, output=output, system=system)

@@ -48,9 +48,13 @@ class StageResult:
     # temporal variance above dark in DN²), None for a dark stage or when not computed
     ptc_point: tuple[float, float] | None = None
     ptc_view: str = ""  # which pixels the engine used for ptc_point ("full", a region ...)
+    # the same point for every view the engine computed (view name -> point): the PTC tab
+    # follows the View selector like every other tab
+    ptc_points: dict = field(default_factory=dict)
     group: str = ""  # the sweep (or single stage) this stage belongs to
     coords: tuple = ()  # grid indices within a sweep; () for a single stage
     quantities: dict = field(default_factory=dict)  # engine numbers for the sweep map: label -> value
+    view_quantities: dict = field(default_factory=dict)  # ... of every view: view -> {label -> value}
     components: dict = field(default_factory=dict)  # view -> {"components": {...}, "dark_components": {...}}
     summary: dict = field(default_factory=dict)
 
@@ -99,8 +103,18 @@ class Stopped:
 
 
 @dataclass(frozen=True)
+class ReportsWritten:
+    """A stopped or aborted run's reports are finished (its ``Stopped`` said they were
+    being written): ``message`` says where and in what state (run.json's ``reports``)."""
+
+    message: str
+    state: str = "complete"
+
+
+@dataclass(frozen=True)
 class Failed:
     message: str  # one sentence, never a traceback
 
 
-GuiEvent = RunInfo | StageStarted | FramePreview | StageResult | Progress | Ending | Done | Stopped | Failed
+GuiEvent = (RunInfo | StageStarted | FramePreview | StageResult | Progress | Ending | Done | Stopped | ReportsWritten
+            | Failed)

@@ -8,7 +8,7 @@ import sys
 from PySide6.QtWidgets import QHeaderView, QTableWidget, QTableWidgetItem, QVBoxLayout, QWidget
 
 from .layout import redraw_when_shown
-from .models.session import InfoModel
+from .models.session import HEADLINE, InfoModel
 
 
 def versions() -> dict[str, str]:
@@ -43,11 +43,21 @@ class InfoPanel(QWidget):
         self.refresh()
 
     def refresh(self) -> None:
-        items = list(self.model.items.items())
+        items = self.model.ordered()  # the headline figures first, as the terminal prints them
         self.table.setRowCount(len(items))
         for r, (k, v) in enumerate(items):
-            self.table.setItem(r, 0, QTableWidgetItem(k))
-            self.table.setItem(r, 1, QTableWidgetItem(v))
+            name, value = QTableWidgetItem(k), QTableWidgetItem(v)
+            value.setToolTip(v)
+            if k in HEADLINE:
+                font = name.font()
+                font.setBold(True)
+                name.setFont(font)
+            self.table.setItem(r, 0, name)
+            self.table.setItem(r, 1, value)
+
+    def rows(self) -> list[tuple[str, str]]:
+        """What the table shows, top to bottom."""
+        return [(self.table.item(r, 0).text(), self.table.item(r, 1).text()) for r in range(self.table.rowCount())]
 
     def value(self, key: str) -> str | None:
         return self.model.items.get(key)

@@ -2,8 +2,8 @@
 
 from __future__ import annotations
 
-from PySide6.QtCore import QEvent, QObject
-from PySide6.QtWidgets import QScrollArea, QWidget
+from PySide6.QtCore import QEvent, QObject, Qt
+from PySide6.QtWidgets import QLabel, QScrollArea, QSizePolicy, QWidget
 
 
 def scrolled(widget: QWidget) -> QScrollArea:
@@ -13,6 +13,47 @@ def scrolled(widget: QWidget) -> QScrollArea:
     area.setWidgetResizable(True)
     area.setFrameShape(QScrollArea.Shape.NoFrame)
     return area
+
+
+class ElidedLabel(QLabel):
+    """A one-line label that never widens its panel: the text is elided ("…") to the width
+    it is given and the full text is its tooltip. ``shown_text()`` is what is drawn."""
+
+    def __init__(self, text: str = "", parent=None) -> None:
+        super().__init__(parent)
+        self._full = ""
+        self.setSizePolicy(QSizePolicy.Policy.Ignored, QSizePolicy.Policy.Preferred)
+        self.setMinimumWidth(40)
+        self.setText(text)
+
+    def setText(self, text: str) -> None:  # noqa: N802 -- Qt's name
+        self._full = str(text)
+        self.setToolTip(self._full)
+        self._elide()
+
+    def text(self) -> str:
+        return self._full
+
+    def shown_text(self) -> str:
+        return super().text()
+
+    def full_width(self) -> int:
+        """Pixels the whole text needs."""
+        return self.fontMetrics().horizontalAdvance(self._full) + 2 * self.margin() + 4
+
+    def sizeHint(self):  # noqa: N802 -- Qt's name
+        hint = super().sizeHint()
+        hint.setWidth(self.full_width())
+        return hint
+
+    def resizeEvent(self, event) -> None:  # noqa: N802 -- Qt's name
+        super().resizeEvent(event)
+        self._elide()
+
+    def _elide(self) -> None:
+        shown = self.fontMetrics().elidedText(self._full, Qt.TextElideMode.ElideRight, max(self.width() - 4, 0))
+        if shown != super().text():
+            super().setText(shown)
 
 
 class _WhenShown(QObject):

@@ -14,7 +14,7 @@ from PySide6.QtWidgets import QFileDialog, QMainWindow, QMessageBox, QSplitter, 
 from ares.errors import AresError
 
 from . import engine
-from .events import Ending, Failed, Stopped
+from .events import Ending, Failed, ReportsWritten, Stopped
 from .info_panel import InfoPanel, versions
 from .layout import scrolled
 from .models import progress as P
@@ -48,7 +48,7 @@ class MainWindow(QMainWindow):
         self._stats_pool = StatsExecutor()
         self.session.executor = self._stats_pool
         self.scan_path: str | None = None
-        self.job_factory: Callable[[], engine.Job] = engine.DemoScan
+        self.job_factory: Callable[[], engine.Job] = self._demo
         self.scan_thread: ScanThread | None = None
         self.last_error: str | None = None
         self.error_box: QMessageBox | None = None
@@ -101,7 +101,7 @@ class MainWindow(QMainWindow):
         split = self.main_split = QSplitter(Qt.Orientation.Horizontal)
         split.addWidget(left)
         split.addWidget(right)
-        split.setSizes([440, 860])  # at 1280 px the Results panels fit without scrolling
+        split.setSizes([470, 830])  # at 1280 px every control tab's name and the Results panels fit
         self.setCentralWidget(split)
         self._menus()
         self.statusBar().showMessage("Ready.")
@@ -120,6 +120,11 @@ class MainWindow(QMainWindow):
         self.controls.instruments.frame.connect(lambda image: self.show_image(image, "test frame from the bench"))
         self.controls.instruments.system_chosen.connect(self._system_chosen)
         self._show_job_info(engine.DemoScan())
+
+    def _demo(self) -> engine.Job:
+        """The built-in demo scan, with the Scan tab's frame count when one is set."""
+        n = self.controls.scan.frame_count()
+        return engine.DemoScan() if n is None else engine.DemoScan(frames=n)
 
     def _tab_shown(self) -> None:
         """Only the result tab on screen is computed as the scan runs (the others catch up
@@ -164,7 +169,8 @@ class MainWindow(QMainWindow):
         # what runs is the scan with the RoA table's regions (edited or drawn after loading)
         self.job_factory = lambda: engine.open_scan(path, regions=self.session.regions.active(),
                                                     output=self.controls.output.output(),
-                                                    system=self.controls.instruments.model.path)
+                                                    system=self.controls.instruments.model.path,
+                                                    frames=self.controls.scan.frame_count())
         regions = getattr(job, "regions", None)
         note = ""
         table = self.session.regions
@@ -270,7 +276,9 @@ class MainWindow(QMainWindow):
         thread.settle = self.session.settle  # ... and the last of them before the run is over
         thread.finished.connect(lambda: self._on_finished(thread))
         self.buttons.set_running(True)
-        self.statusBar().showMessage(f"Running {getattr(job, 'title', 'scan')}…")
+        n = getattr(getattr(job, "runner", None), "frames_override", None)  # the Scan tab's frame count
+        self.statusBar().showMessage(f"Running {getattr(job, 'title', 'scan')}"
+                                     + (f" with {n} frames per stage" if n else "") + "…")
         self.scan_thread.start()
 
     def stop_scan(self) -> None:
@@ -317,7 +325,7 @@ class MainWindow(QMainWindow):
             self.statusBar().showMessage(self.session.progress.message)
         elif isinstance(ev, Failed):
             self.show_error(ev.message)
-        elif isinstance(ev, Stopped):
+        elif isinstance(ev, (Stopped, ReportsWritten)):  # "kept in DIR", then its reports' state
             self.statusBar().showMessage(ev.message)
 
     @property

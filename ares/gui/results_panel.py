@@ -31,6 +31,8 @@ class StatsPanel(QGroupBox):
         self.histogram.setMinimumHeight(120)
         self.mode = QComboBox()
         self.mode.addItems(RANGE_MODES)
+        self.mode.setMinimumContentsLength(11)  # the panels' 2 x 2 grid fits a 1280-pixel screen
+        self.mode.setSizeAdjustPolicy(QComboBox.SizeAdjustPolicy.AdjustToMinimumContentsLengthWithIcon)
         self.frm = self._spin()
         self.to = self._spin()
         self.restore_button = QPushButton("Restore")
@@ -41,10 +43,10 @@ class StatsPanel(QGroupBox):
         # enough for a 2 x 2 grid beside the control column on a 1400-pixel screen.
         right = Qt.AlignmentFlag.AlignRight | Qt.AlignmentFlag.AlignVCenter
         stats = QGridLayout()
-        stats.setHorizontalSpacing(6)
+        stats.setHorizontalSpacing(4)
         stats.setVerticalSpacing(2)
         stats.addWidget(QLabel("Range Mode:"), 0, 0, right)
-        stats.addWidget(self.mode, 0, 1)
+        stats.addWidget(self.mode, 0, 1, 1, 2)  # its text whole: it spans the To: label's column
         stats.addWidget(self.restore_button, 0, 3)
         stats.addWidget(QLabel("From:"), 1, 0, right)
         stats.addWidget(self.frm, 1, 1)
@@ -77,7 +79,7 @@ class StatsPanel(QGroupBox):
         s.setRange(-1e9, 1e9)
         s.setDecimals(2)
         s.setKeyboardTracking(False)
-        s.setMinimumWidth(70)
+        s.setMinimumWidth(60)
         return s
 
     def _mode_chosen(self, mode: str) -> None:

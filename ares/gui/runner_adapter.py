@@ -16,6 +16,7 @@ from ares.analysis.estimate import format_dict
 from ares.errors import AresError
 
 from . import events as G
+from .models.session import headline_key
 
 
 def _value(d):
@@ -46,16 +47,21 @@ def summarize(scan_results: dict, thresholds: tuple = ()) -> dict:
             # the figures as the engine states them: the digits their SE supports
             out["gain_text"] = (f"system gain K = {_fmt(ptc.get('gain_dn_per_e'))}, "
                                 f"1/K = {_fmt(ptc.get('gain_e_per_dn'))}")
-        for key in ("conversion_gain_uv_per_e", "gain_dn_per_e", "read_noise_e", "full_well_e", "turnoff_dn",
-                    "turnoff_e", "dynamic_range_db"):
-            label = labels.PTC_LABELS[key]
+        for key, label in labels.PTC_FIGURES:  # the terminal's figures, its order and wording
             text = _fmt(ptc.get(key))
             if text:
-                out["results"][f"PTC: {label}"] = text
+                out["results"][headline_key(label)] = text
         if isinstance(ptc.get("level_status"), list):
             out["ptc_level_status"] = ptc["level_status"]
         if "note" in ptc and "gain_dn_per_e" not in ptc:
             out["results"]["PTC"] = str(ptc["note"])
+    d = scan_results.get("decomposition")
+    if isinstance(d, dict) and isinstance(d.get("components"), dict):
+        from ares.analysis.estimate import component_text
+
+        for c in labels.HEADLINE_COMPONENTS:  # DSNU, PRNU as the terminal prints them
+            if isinstance(d["components"].get(c), dict):
+                out["results"][headline_key(labels.COMPONENTS[c], c)] = component_text(c, d["components"][c])
     defects = scan_results.get("defects")
     if isinstance(defects, dict):
         counts = defects.get("counts")
@@ -85,6 +91,21 @@ def summarize(scan_results: dict, thresholds: tuple = ()) -> dict:
         if name not in ("ptc", "defects") and isinstance(r, dict) and r.get("status"):
             out["results"][name] = f"{r['status']}" + (f" ({r['note']})" if r.get("note") else "")
     return out
+
+
+def _meta(run_dir) -> dict:
+    """A run directory's run.json ({} when there is none or it cannot be read)."""
+    import json
+
+    try:
+        return json.loads((Path(run_dir) / "run.json").read_text()) if run_dir else {}
+    except (OSError, ValueError):
+        return {}
+
+
+def _reports_state(run_dir) -> str | None:
+    """run.json's ``reports``: "writing", "complete", "failed", "incomplete" or None."""
+    return _meta(run_dir).get("reports")
 
 
 COMPONENT_LABELS = {k: v for k, v in labels.COMPONENTS.items() if k not in ("o", "q", "delta", "signal")}
@@ -206,7 +227,9 @@ class RunnerJob:
         self.runner.add_listener(self._on_event)
         self._emit = None
         self._failed_sent = False
-        self._dark_level: dict | None = None
+        self._stopped: str | None = None  # a stopped run's message while its reports are written
+        self._stopped_dir: str | None = None
+        self._dark_level: dict[str, dict] = {}  # view -> the last dark stage's level
         scan, system = self.scan, self.scan.system
         self.title = f"{scan.name} ({self.path.name})"
         sensor = system.sensor
@@ -307,13 +330,27 @@ class RunnerJob:
     # ---- running ----------------------------------------------------------------------
     def run(self, emit) -> None:
         self._emit = emit
+        self._stopped = None
         try:
-            self.runner.run()
+            self.runner.run()  # (the reports are written before it returns)
         except AresError:
             if not self._failed_sent:  # failed before the runner could say so
                 raise
         finally:
             self.discard()
+            if self._stopped:
+                self._reports_written()
+
+    def _reports_written(self) -> None:
+        """The stopped run's reports are done: say so, from run.json (never before)."""
+        run_dir = self._stopped_dir
+        state = _reports_state(run_dir) or "not recorded"
+        if state == "complete":
+            message = f"{self._stopped}; its reports are complete."
+        else:
+            error = _meta(run_dir).get("report_error")
+            message = f"{self._stopped}; its reports are {state}" + (f": {error}" if error else "") + "."
+        self._emit(G.ReportsWritten(message, state))
 
     def discard(self) -> None:
         """Remove the edited scan's temporary folder (the run directory has its copy)."""
@@ -350,8 +387,11 @@ class RunnerJob:
                 emit(G.Done(e.run_dir, summary, tuple(e.limit_failures), summary["limits_text"]))
             else:
                 kept = f"; {e.stages_completed} completed stage(s) kept" + (f" in {e.run_dir}" if e.run_dir else "")
-                emit(G.Stopped(f"Scan {e.status}{kept}.", aborted=(e.status == "aborted"), run_dir=e.run_dir,
-                               summary=summary))
+                # the reports follow this event: said so, and ReportsWritten once they are there
+                self._stopped = f"Scan {e.status}{kept}" if _reports_state(e.run_dir) == "writing" else None
+                self._stopped_dir = e.run_dir
+                emit(G.Stopped(f"Scan {e.status}{kept}" + ("; writing its reports…" if self._stopped else "."),
+                               aborted=(e.status == "aborted"), run_dir=e.run_dir, summary=summary))
         elif isinstance(e, ev.Failed):
             self._failed_sent = True
             msg = e.message.strip()
@@ -360,18 +400,18 @@ class RunnerJob:
     def _stage_result(self, e) -> G.StageResult:
         r = e.result
         full = r["views"]["full"]
-        level = full["level"]
-        dark = full.get("dark_level")
-        if r["scene"] == "dark":
-            self._dark_level = level
-        elif dark is None:
-            dark = self._dark_level
-        point = None
-        if r["scene"] == "flat" and dark is not None:
-            var = level.get("var_dn2")
-            dvar = dark.get("var_dn2")
-            if var is not None and dvar is not None:
-                point = (level["mean_dn"] - dark["mean_dn"], var - dvar)
+        points = {}  # view -> (signal above dark, temporal variance above dark), as the engine states them
+        for name, v in r["views"].items():
+            level, dark = v.get("level") or {}, v.get("dark_level")
+            if r["scene"] == "dark":
+                self._dark_level[name] = level
+            elif dark is None:
+                dark = self._dark_level.get(name)
+            if r["scene"] == "flat" and dark is not None:
+                var, dvar = level.get("var_dn2"), dark.get("var_dn2")
+                if var is not None and dvar is not None and level.get("mean_dn") is not None:
+                    points[name] = (level["mean_dn"] - dark["mean_dn"], var - dvar)
+        point = points.get("full")
         values = quantities(full)
         from ares.scan.analyses import stage_lag_cycle
 
@@ -380,7 +420,7 @@ class RunnerJob:
             values["image lag (%)"] = cycle[0].value
         return G.StageResult(e.index + 1, r["name"], e.arrays["mean"], e.arrays["variance"], r["frames"],
                              dark=(r["scene"] == "dark"), settings=dict(r["settings"]), ptc_point=point,
-                             ptc_view="full", group=r.get("group", ""), coords=tuple(r.get("coords") or ()),
-                             quantities=values,
+                             ptc_view="full", ptc_points=points, group=r.get("group", ""), coords=tuple(r.get("coords") or ()),
+                             quantities=values, view_quantities={k: quantities(v) for k, v in r["views"].items()},
                              components={v: {k: d[k] for k in ("components", "dark_components") if k in d}
                                          for v, d in r["views"].items()})

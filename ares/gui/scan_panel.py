@@ -5,14 +5,14 @@ from __future__ import annotations
 
 from PySide6.QtCore import Signal
 from PySide6.QtWidgets import (QCheckBox, QFileDialog, QFormLayout, QHBoxLayout, QLabel,
-                               QLineEdit, QPlainTextEdit, QProgressBar, QPushButton,
+                               QLineEdit, QPlainTextEdit, QProgressBar, QPushButton, QSpinBox,
                                QTabWidget, QVBoxLayout, QWidget)
 
 from .models import progress as P
 from .models.progress import ProgressModel
 from .models.session import SessionModel
 from .instrument_panel import InstrumentationTab
-from .layout import scrolled
+from .layout import ElidedLabel, scrolled
 from .regions_table import RegionsTable
 
 CONTROL_TABS = ("Scan", "Regions of Analysis", "Output Options", "Input Images", "Instrumentation")
@@ -61,13 +61,31 @@ class ScanTab(QWidget):
         font.setStyleHint(font.StyleHint.Monospace)
         font.setFamily("monospace")
         self.details.setFont(font)
+        # a shorter (or longer) scan without editing its XML: as ``ares run --frames N``
+        from ares.scan.preflight import MAX_FRAMES
+
+        self.frames = QSpinBox()
+        self.frames.setRange(1, MAX_FRAMES)  # 1 stands for "the scan's own" (a stage needs 2 frames or more)
+        self.frames.setSpecialValueText("as in the scan")
+        self.frames.setValue(1)
+        self.frames.setToolTip("Frames of every stage, dark stacks included, as `ares run --frames N`: "
+                               "fewer for a quick look, more for smaller SEs. The run directory records it.")
         top = QHBoxLayout()
         top.addWidget(self.file, 1)
         top.addWidget(self.open_button)
+        count = QHBoxLayout()
+        count.addWidget(QLabel("Frames per stage:"))
+        count.addWidget(self.frames)
+        count.addStretch(1)
         lay = QVBoxLayout(self)
         lay.addLayout(top)
+        lay.addLayout(count)
         lay.addWidget(self.details)
         self.open_button.clicked.connect(self.open_requested)
+
+    def frame_count(self) -> int | None:
+        """The frames every stage takes (None: each stage's own, as the scan says)."""
+        return self.frames.value() if self.frames.value() >= 2 else None
 
     def show_job(self, path: str | None, title: str, info: dict, stage_lines: list[str] | None = None) -> None:
         self.file.setText(f"Scan file: {path}" if path else f"Built-in: {title}")
@@ -211,7 +229,14 @@ class ControlTabs(QTabWidget):
         self.setUsesScrollButtons(True)
         for w, name in zip((self.scan, self.regions, self.output, self.inputs, self.instruments), CONTROL_TABS):
             self.addTab(scrolled(w), name)
-        self.setStyleSheet("QTabBar::tab { padding: 4px 7px; }")  # all five tabs fit the control column
+        self.setStyleSheet("QTabBar::tab { padding: 4px 6px; }")
+
+    def minimumSizeHint(self):  # noqa: N802 -- Qt's name
+        """Wide enough for every tab's name: none is cut or hidden behind scroll buttons."""
+        hint = super().minimumSizeHint()
+        bar = self.tabBar()
+        hint.setWidth(max(hint.width(), sum(bar.tabSizeHint(i).width() for i in range(self.count())) + 4))
+        return hint
 
 
 class ProgressLine(QWidget):
@@ -220,24 +245,25 @@ class ProgressLine(QWidget):
     def __init__(self, model: ProgressModel, parent=None) -> None:
         super().__init__(parent)
         self.model = model
-        self.stage = QLabel()
+        # the run's state is always whole; the stage text takes what the column leaves and
+        # is elided when longer, whole in its tooltip (never pushed off the window)
+        self.stage = ElidedLabel()
         self.remaining = QLabel()
         self.state = QLabel()
         self.bar = QProgressBar()
         self.bar.setRange(0, 1000)
         self.bar.setTextVisible(False)
-        self.bar.setMaximumWidth(220)
+        self.bar.setMaximumWidth(160)
         lay = QHBoxLayout(self)
-        lay.setContentsMargins(0, 0, 0, 0)
+        lay.setContentsMargins(0, 0, 8, 0)  # the state clear of the window's edge
         lay.addWidget(QLabel("<b>Current Stage:</b>"))
-        lay.addWidget(self.stage)
-        lay.addSpacing(16)
+        lay.addWidget(self.stage, 3)
+        lay.addSpacing(10)
         lay.addWidget(QLabel("<b>Time Remaining:</b>"))
         lay.addWidget(self.remaining)
-        lay.addSpacing(16)
-        lay.addWidget(self.bar)
+        lay.addSpacing(10)
+        lay.addWidget(self.bar, 1)
         lay.addWidget(self.state)
-        lay.addStretch(1)
         model.subscribe(lambda _: self.refresh())
         self.refresh()
 

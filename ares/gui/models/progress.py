@@ -8,6 +8,7 @@ from .observable import Observable
 
 IDLE, RUNNING, PAUSED, STOPPING, FINISHING, DONE, FAILED, STOPPED = (
     "Idle", "Running", "Paused", "Stopping", "Analysing and writing the run", "Done", "Failed", "Stopped")
+IDLE_TEXT = "none (Start Scan runs the loaded scan)"  # "Current Stage:" before any run
 
 
 def format_remaining(seconds: float | None) -> str:
@@ -38,7 +39,7 @@ class ProgressModel(Observable):
     @property
     def stage_text(self) -> str:
         if not self.total:
-            return "0 0"
+            return IDLE_TEXT
         text = f"{self.stage} of {self.total}"
         return f"{text} ({self.stage_name})" if self.stage_name else text
 

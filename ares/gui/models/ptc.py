@@ -1,7 +1,9 @@
 """Photon-transfer-curve plot model: one point per finished stage (no Qt).
 
 Each point is the engine's (mean signal above dark, temporal variance above dark) in
-DN / DN² for one stage. When the engine supplies a fitted gain the model keeps it so the
+DN / DN² for one stage, for every view the engine computed (full frame, each region, each
+Bayer phase or ADC channel); the model shows the view the window's View selector chose.
+The engine's scan-level gain fit, and its verdict per level, are of the full frame. When the engine supplies a fitted gain the model keeps it so the
 view can draw the shot-noise line ``variance = signal / gain_e_per_dn``; the model
 computes nothing itself.
 """
@@ -24,30 +26,49 @@ class PTCPoint:
     variance_dn2: float
 
 
+FULL = "full"  # the engine's view of every pixel: the one its scan-level gain fit uses
+
+
 class PTCModel(Observable):
     def __init__(self) -> None:
         super().__init__()
-        self.points: list[PTCPoint] = []
+        self.by_view: dict[str, list[PTCPoint]] = {}
         self.dark_dn: float | None = None
         self.gain_e_per_dn: float = math.nan
         self.fit_text = ""
         self.fit_note = ""
-        self.view = ""
+        self.view = FULL  # the engine view shown
         self.highlighted: int | None = None  # the stage the stage browser shows
         self.status: dict[str, tuple[str, str]] = {}  # stage name -> (fit | valid | excluded, reason)
 
+    @property
+    def points(self) -> list[PTCPoint]:
+        """The shown view's points."""
+        return self.by_view.get(self.view, [])
+
+    @property
+    def fitted(self) -> bool:
+        """The shown view is the one the engine's gain fit and level verdicts are of."""
+        return self.view == FULL
+
     def clear(self) -> None:
-        self.points, self.dark_dn, self.status = [], None, {}
+        self.by_view, self.dark_dn, self.status = {}, None, {}
         self.gain_e_per_dn, self.fit_note, self.fit_text = math.nan, "", ""
         self._changed()
+
+    def select(self, view: str) -> None:
+        """Show ``view``'s points (an engine view name: "full", a region's name, "cfa_R", "adc1" ...)."""
+        if view != self.view:
+            self.view = view
+            self._changed()
 
     def set_dark(self, dark_dn: float) -> None:
         """The dark level, for the caption (points are already above dark)."""
         self.dark_dn = float(dark_dn)
         self._changed()
 
-    def add(self, stage: int, label: str, signal_dn: float, variance_dn2: float) -> None:
-        self.points.append(PTCPoint(stage, label, float(signal_dn), float(variance_dn2)))
+    def add(self, stage: int, label: str, signal_dn: float, variance_dn2: float, view: str = FULL) -> None:
+        self.by_view.setdefault(view, []).append(PTCPoint(stage, label, float(signal_dn), float(variance_dn2)))
         self._changed()
 
     def set_status(self, level_status: list[dict]) -> None:
@@ -58,11 +79,12 @@ class PTCModel(Observable):
 
     def groups(self) -> dict[str, tuple[np.ndarray, np.ndarray]]:
         """Points by the engine's verdict (``fit``, ``valid``, ``excluded``; ``pending``
-        until the scan-level fit has run), only those drawable on log axes."""
+        until the scan-level fit has run; ``view`` in a view the engine did not fit), only
+        those drawable on log axes."""
         out: dict[str, tuple[list, list]] = {}
         for p in self.points:
             if p.signal_dn > 0 and p.variance_dn2 > 0:
-                key = self.status.get(p.label, ("pending", ""))[0] or "pending"
+                key = (self.status.get(p.label, ("pending", ""))[0] or "pending") if self.fitted else "view"
                 xs, ys = out.setdefault(key, ([], []))
                 xs.append(p.signal_dn)
                 ys.append(p.variance_dn2)

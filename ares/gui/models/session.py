@@ -12,7 +12,9 @@ import time
 
 import numpy as np
 
-from ..events import Done, Ending, Failed, FramePreview, Progress, RunInfo, StageResult, StageStarted, Stopped
+from ...labels import COMPONENTS, HEADLINE_COMPONENTS, PTC_FIGURES
+from ..events import (Done, Ending, Failed, FramePreview, Progress, ReportsWritten, RunInfo, StageResult, StageStarted,
+                      Stopped)
 from . import progress as P
 from .components import ComponentsModel
 from .defects import DefectCountsModel
@@ -44,10 +46,28 @@ REFRESH_S = 1.0
 RESULTS_S = 3.0
 
 
+def headline_key(label: str, component: str | None = None) -> str:
+    """The Information tab's name of a headline figure: ``PTC: <label>`` for a photon-transfer
+    figure of ``labels.PTC_FIGURES``, ``<meaning> (<symbol>)`` for a component."""
+    return f"{label} [{component}]" if component else f"PTC: {label}"
+
+
+# The headline figures, in the terminal's order (ares.commands.run.print_summary): they head
+# the Information tab, above the versions, the scan and the run directory.
+HEADLINE = tuple(headline_key(label) for _, label in PTC_FIGURES) + tuple(
+    headline_key(COMPONENTS[c], c) for c in HEADLINE_COMPONENTS)
+
+
 class InfoModel(Observable):
     def __init__(self) -> None:
         super().__init__()
         self.items: dict[str, str] = {}
+
+    def ordered(self) -> list[tuple[str, str]]:
+        """The items, the headline figures first (in ``HEADLINE``'s order), then the rest as added."""
+        rank = {k: i for i, k in enumerate(HEADLINE)}
+        head = sorted((k for k in self.items if k in rank), key=rank.__getitem__)
+        return [(k, self.items[k]) for k in head] + [(k, v) for k, v in self.items.items() if k not in rank]
 
     def replace(self, mapping: dict) -> None:
         self.items = {str(k): str(v) for k, v in mapping.items()}
@@ -244,6 +264,8 @@ class SessionModel:
                 self.info.update(run_directory=ev.run_dir)
             self.progress.update(state=P.STOPPED, seconds_remaining=None,
                                  message=ev.message)
+        elif isinstance(ev, ReportsWritten):
+            self.progress.update(message=ev.message)
         elif isinstance(ev, Failed):
             self._end_of_run()
             self.progress.update(state=P.FAILED, seconds_remaining=None, message=ev.message)
@@ -279,11 +301,13 @@ class SessionModel:
                 self._show_latest()
             if ev.dark:
                 self.ptc.set_dark(float(np.nanmean(ev.mean)))
-            if ev.ptc_point is not None:
-                self.ptc.view = ev.ptc_view
-                self.ptc.add(ev.stage, ev.name, *ev.ptc_point)
+            self.ptc.select(self.views.engine_view(None))
+            points = ev.ptc_points or ({ev.ptc_view or "full": ev.ptc_point} if ev.ptc_point is not None else {})
+            for view, point in points.items():  # every view's: the PTC tab shows the chosen one
+                self.ptc.add(ev.stage, ev.name, *point, view=view)
         if ev.coords and ev.quantities:
-            self.sweep.add(SweepPoint(ev.stage, ev.group, tuple(ev.coords), dict(ev.settings), dict(ev.quantities)))
+            self.sweep.add(SweepPoint(ev.stage, ev.group, tuple(ev.coords), dict(ev.settings), dict(ev.quantities),
+                                      dict(ev.view_quantities)))
         if ev.summary:
             self._summary(ev.summary)
 
@@ -336,6 +360,9 @@ class SessionModel:
     def _refresh_result(self) -> None:
         self._refresh_panels()
         self._refresh_profiles()
+        view = self.views.engine_view(None)  # the View selector drives the PTC and Sweep Map tabs too
+        self.ptc.select(view)
+        self.sweep.select(view)
         ev = self.last_result
         if ev is not None and ev.mean is not None:
             self.components.select(self.views.engine_view(ev.mean.shape))

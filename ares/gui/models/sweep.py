@@ -10,7 +10,7 @@ components ...). For the latest sweep group the model gives a 1-D curve (one axi
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import numpy as np
 
@@ -23,7 +23,8 @@ class SweepPoint:
     group: str
     coords: tuple[int, ...]
     settings: dict
-    values: dict  # quantity label -> value
+    values: dict  # quantity label -> value, of the full frame
+    by_view: dict = field(default_factory=dict)  # engine view -> {quantity label -> value}
 
 
 def _axis_key(points: list[SweepPoint], k: int) -> str | None:
@@ -52,6 +53,16 @@ class SweepModel(Observable):
         self.units: dict[str, str] = {}  # setting key -> unit, from the system XML
         self.points: list[SweepPoint] = []
         self.quantity: str | None = None
+        self.view = "full"  # the engine view shown (the window's View selector)
+
+    def select(self, view: str) -> None:
+        if view != self.view:
+            self.view = view
+            self._changed()
+
+    def values(self, p: SweepPoint) -> dict:
+        """A point's quantities in the shown view (none when the engine gave none for it)."""
+        return p.values if self.view == "full" else p.by_view.get(self.view, {})
 
     def clear(self) -> None:
         self.points = []
@@ -74,7 +85,7 @@ class SweepModel(Observable):
     def quantities(self) -> list[str]:
         seen: dict[str, None] = {}
         for p in self.group_points():
-            seen.update(dict.fromkeys(p.values))
+            seen.update(dict.fromkeys(self.values(p)))
         return list(seen)
 
     def group_points(self) -> list[SweepPoint]:
@@ -105,10 +116,10 @@ class SweepModel(Observable):
 
     def curve(self) -> tuple[np.ndarray, np.ndarray]:
         """1-D sweep: (axis values, quantity) in stage order."""
-        pts = [p for p in self.group_points() if self.quantity in p.values]
+        pts = [p for p in self.group_points() if self.quantity in self.values(p)]
         (_, values), = self.axes() or [("", np.zeros(0))]
         x = np.array([values[p.coords[0]] for p in pts], dtype=float)
-        y = np.array([p.values[self.quantity] for p in pts], dtype=float)
+        y = np.array([self.values(p)[self.quantity] for p in pts], dtype=float)
         return x, y
 
     def grid(self) -> np.ndarray:
@@ -119,7 +130,7 @@ class SweepModel(Observable):
         shape = tuple(max(p.coords[k] for p in pts) + 1 for k in range(2))
         g = np.full(shape, np.nan)
         for p in pts:
-            v = p.values.get(self.quantity)
+            v = self.values(p).get(self.quantity)
             if v is not None and math.isfinite(v):
                 g[p.coords] = v
         return g

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+from PySide6.QtCore import Qt
 from PySide6.QtWidgets import QHeaderView, QLabel, QTableWidget, QTableWidgetItem, QVBoxLayout, QWidget
 
 from ..layout import redraw_when_shown
@@ -23,8 +24,13 @@ class ComponentsView(QWidget):
         for which, title in (("components", "Stage stack"), ("dark_components", "Matched dark stack")):
             t = QTableWidget(0, len(self.HEADERS))
             t.setHorizontalHeaderLabels(self.HEADERS)
-            t.horizontalHeader().setSectionResizeMode(QHeaderView.ResizeMode.ResizeToContents)
-            t.horizontalHeader().setStretchLastSection(True)
+            head = t.horizontalHeader()
+            head.setSectionResizeMode(QHeaderView.ResizeMode.ResizeToContents)
+            # the estimate takes what is left: a long "n/a (reason)" is elided there, whole in
+            # its tooltip, and never pushes the Unit column off the window
+            head.setSectionResizeMode(self.HEADERS.index("Estimate ± SE"), QHeaderView.ResizeMode.Stretch)
+            t.setTextElideMode(Qt.TextElideMode.ElideRight)
+            t.setWordWrap(False)
             t.setEditTriggers(QTableWidget.EditTrigger.NoEditTriggers)
             self.titles[which] = QLabel(f"<b>{title}</b>")
             lay.addWidget(self.titles[which])
@@ -53,4 +59,6 @@ class ComponentsView(QWidget):
             table.setRowCount(len(rows))
             for r, row in enumerate(rows):
                 for c, text in enumerate((row.symbol, row.description, row.text, row.shown_unit)):
-                    table.setItem(r, c, QTableWidgetItem(text))
+                    item = QTableWidgetItem(text)
+                    item.setToolTip(text)
+                    table.setItem(r, c, item)

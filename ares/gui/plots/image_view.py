@@ -15,7 +15,7 @@ from PySide6.QtCore import QRectF, Qt, QTimer
 from PySide6.QtWidgets import QGraphicsRectItem, QHBoxLayout, QLabel, QPushButton, QVBoxLayout, QWidget
 
 from ..models.image import ImageModel
-from . import region_color
+from . import plain_axes, region_color, set_colorbar_levels
 
 
 class ImagePlot(QWidget):
@@ -33,6 +33,7 @@ class ImagePlot(QWidget):
         self.plot.invertY(True)
         self.plot.setLabel("bottom", "column")
         self.plot.setLabel("left", "row")
+        plain_axes(self.plot)  # no "(x0.001)" on an empty image's axes
         self.image_item = pg.ImageItem()
         self.plot.addItem(self.image_item)
         self.colorbar = None
@@ -84,7 +85,7 @@ class ImagePlot(QWidget):
             self.image_item.setImage(image, autoLevels=False, levels=m.levels)  # frames as they come: no copy
             if self.colorbar is not None and m.levels != self._levels:  # its axis redrawn only on a change
                 self._levels = m.levels
-                self.colorbar.setLevels(m.levels)
+                set_colorbar_levels(self.colorbar, m.levels)
             if m.image.shape != self._shape:
                 self._shape = m.image.shape
                 self.plot.getPlotItem().autoRange()

@@ -32,6 +32,8 @@ class PTCView(QWidget):
                                      symbolBrush=pg.mkBrush(255, 255, 255), symbolPen=pg.mkPen((30, 120, 220), width=1.5)),
             "excluded": pg.PlotDataItem(pen=None, symbol="x", symbolSize=11, name="excluded (clipped, no signal...)",
                                         symbolBrush=pg.mkBrush(200, 0, 0), symbolPen=pg.mkPen((200, 0, 0))),
+            "view": pg.PlotDataItem(pen=None, symbol="o", symbolSize=9, name="this view's levels (the fit is the full frame's)",
+                                    symbolBrush=pg.mkBrush(120, 190, 120), symbolPen=pg.mkPen("k")),
             "pending": pg.PlotDataItem(pen=None, symbol="o", symbolSize=8, name="measured (fit after the scan)",
                                        symbolBrush=pg.mkBrush(150, 150, 150), symbolPen=pg.mkPen("k")),
         }
@@ -43,6 +45,7 @@ class PTCView(QWidget):
             self.plot.addItem(item)
 
         self.caption = QLabel()
+        self.caption.setWordWrap(True)  # a long fit text never widens the tab past the window
         lay = QVBoxLayout(self)
         lay.addWidget(self.plot, 1)
         lay.addWidget(self.caption)
@@ -64,13 +67,19 @@ class PTCView(QWidget):
             self.line.setData([], [])
         else:
             self.line.setData(*fit)
-        parts = [f"{int(ok.sum())} point(s)" + (f" ({m.view} pixels, as computed by the engine)" if m.view else "")]
-        if m.dark_dn is not None:
+        view = "full frame" if m.fitted else f"view '{m.view}'"
+        if not m.points and any(m.by_view.values()):
+            parts = [f"No photon-transfer points for the {view}: the engine computed them for "
+                     + ", ".join(sorted(k for k, v in m.by_view.items() if v)) + "."]
+        else:
+            parts = [f"{int(ok.sum())} point(s) of the {view}, as computed by the engine"]
+        if m.dark_dn is not None and m.fitted:
             parts.append(f"dark level {m.dark_dn:.2f} DN")
         if math.isfinite(m.gain_e_per_dn) and m.fit_text:
-            parts.append(m.fit_text + (f" ({m.fit_note})" if m.fit_note else ""))
+            parts.append(m.fit_text + (f" ({m.fit_note})" if m.fit_note else "")
+                         + ("" if m.fitted else "; the engine fits the full frame, drawn here as the dashed line"))
         excluded = [f"{name}: {reason}" for name, (st, reason) in m.status.items() if st == "excluded" and reason]
-        if excluded:
+        if excluded and m.fitted:
             parts.append(f"{len(excluded)} excluded")
             self.caption.setToolTip("\n".join(excluded))
         self.caption.setText(" · ".join(parts))

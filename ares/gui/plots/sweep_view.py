@@ -8,7 +8,7 @@ from PySide6.QtWidgets import QComboBox, QHBoxLayout, QLabel, QStackedWidget, QV
 
 from ..models.sweep import SweepModel
 from ..layout import redraw_when_shown
-from . import plain_axes
+from . import DecadeAxis, plain_axes, set_colorbar_levels
 
 
 class SweepView(QWidget):
@@ -18,11 +18,12 @@ class SweepView(QWidget):
         self.quantity = QComboBox()
         self.quantity.setMinimumWidth(260)
         self.caption = QLabel()
+        self.caption.setWordWrap(True)  # a long sweep description never widens the tab past the window
         top = QHBoxLayout()
         top.addWidget(QLabel("Quantity:"))
         top.addWidget(self.quantity)
         top.addWidget(self.caption, 1)
-        self.curve_plot = pg.PlotWidget()
+        self.curve_plot = pg.PlotWidget(axisItems={"bottom": DecadeAxis("bottom")})  # log x: decades labelled
         plain_axes(self.curve_plot)
         self.curve_plot.showGrid(x=True, y=True, alpha=0.3)
         self.curve = self.curve_plot.plot([], [], pen=pg.mkPen((30, 120, 220), width=1.5), symbol="o",
@@ -64,7 +65,8 @@ class SweepView(QWidget):
             self.curve.setData([], [])
             return
         axes = m.axes()
-        self.caption.setText(f"sweep '{pts[-1].group}': {len(pts)} stage(s) over "
+        view = "full frame" if m.view == "full" else f"view '{m.view}'"
+        self.caption.setText(f"sweep '{pts[-1].group}', {view}: {len(pts)} stage(s) over "
                              + " × ".join(f"{name} ({len(v)})" for name, v in axes))
         if m.ndim == 1:
             self.stack.setCurrentWidget(self.curve_plot)
@@ -83,7 +85,7 @@ class SweepView(QWidget):
                 levels = (levels[0] - 0.5, levels[1] + 0.5)
             # x = first axis, y = second axis: the image is indexed [axis 2, axis 1]
             self.map_image.setImage(g.T.astype(np.float32), autoLevels=False, levels=levels)
-            self.colorbar.setLevels(levels)
+            set_colorbar_levels(self.colorbar, levels)
             for side, (name, values) in zip(("bottom", "left"), axes):
                 ax = self.map_plot.getAxis(side)
                 ax.setTicks([[(i + 0.5, f"{v:g}") for i, v in enumerate(values)]])
