@@ -55,6 +55,26 @@ def memory_bytes(scan, stages: list[Stage]) -> float:
     return BASE_BYTES + BYTES_PER_PIXEL * px + BYTES_PER_VIEW_PIXEL * extra + kept
 
 
+STAGE_BYTES_PER_PIXEL = 12.0  # stages/NNNN.h5: float32 mean and variance maps, a matched dark's mean
+STAGE_BYTES = 64e3  # each stage's JSON and HDF5 overhead
+REPORT_BYTES = 4e6  # report.pdf, report.h5, the CSV tables and run.json of a small sensor
+REPORT_BYTES_PER_PIXEL = 4.0  # maps in the reports
+
+
+def disk_bytes(scan, stages: list[Stage]) -> float:
+    """Bytes the run directory will hold at its largest: the raw frames it keeps
+    (``<output raw_frames>``, uint16), the first dark stage's frames beyond
+    ``KEEP_FOR_MASK_BYTES`` (a temporary file beside the run while that stage is masked),
+    the stages' HDF5 and JSON and the reports."""
+    s = scan.system.sensor
+    px = float(s.rows) * float(s.cols)
+    frame = 2.0 * px
+    raw = frame * sum(st.frames_to_grab() for st in stages) if scan.output.raw_frames else 0.0
+    kept = max(0.0, frame * next((st.frames for st in stages if st.scene == "dark"), 0) - KEEP_FOR_MASK_BYTES)
+    return raw + kept + len(stages) * (STAGE_BYTES + STAGE_BYTES_PER_PIXEL * px) + REPORT_BYTES + \
+        REPORT_BYTES_PER_PIXEL * px
+
+
 def machine_memory() -> tuple[float | None, float | None]:
     """(total, available) physical memory in bytes, from /proc/meminfo or sysconf."""
     try:
