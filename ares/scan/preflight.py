@@ -16,9 +16,11 @@ maps they use once.)
 from __future__ import annotations
 
 import os
+import shutil
 from dataclasses import dataclass
+from pathlib import Path
 
-from ares.errors import InputError
+from ares.errors import InputError, StorageError
 from ares.scan.stages import Stage, expand
 
 MAX_FRAMES = 100000  # the scan schema's <frames> maximum
@@ -35,6 +37,21 @@ class Plan:
     memory_bytes: float
     memory_total: float | None  # this machine's physical memory, None when unknown
     memory_available: float | None
+    disk_bytes: float = 0.0
+    disk_free: float | None = None  # free bytes in disk_folder, None when unknown
+    disk_folder: Path | None = None
+
+    def disk_fits(self) -> bool:
+        return self.disk_free is None or self.disk_bytes <= self.disk_free
+
+    def disk_note(self) -> str:
+        """One line: the run directory's size against the free space where it goes."""
+        need = f"disk: about {_gb(self.disk_bytes)}"
+        if self.disk_free is None:
+            return need
+        if not self.disk_fits():
+            return f"{need}, more than the {_gb(self.disk_free)} free in {self.disk_folder}"
+        return f"{need} of the {_gb(self.disk_free)} free in {self.disk_folder}"
 
     def memory_note(self) -> str:
         """One line for ``--dry-run`` and ``validate``: the estimate against this machine."""
@@ -75,6 +92,26 @@ def disk_bytes(scan, stages: list[Stage]) -> float:
         REPORT_BYTES_PER_PIXEL * px
 
 
+def _gb(b: float) -> str:
+    return f"{b / 1e9:.1f} GB" if b >= 0.95e8 else f"{b / 1e6:.0f} MB"
+
+
+def out_folder(out_dir) -> Path:
+    """The existing folder a run directory for ``--out out_dir`` is made in (its disk):
+    the nearest existing one of out_dir and its parents (``runs/`` without --out)."""
+    p = Path(out_dir if out_dir is not None else "runs").absolute()
+    while not p.is_dir() and p != p.parent:
+        p = p.parent
+    return p
+
+
+def disk_free(folder: Path) -> float | None:
+    try:
+        return float(shutil.disk_usage(folder).free)
+    except OSError:
+        return None
+
+
 def machine_memory() -> tuple[float | None, float | None]:
     """(total, available) physical memory in bytes, from /proc/meminfo or sysconf."""
     try:
@@ -89,9 +126,11 @@ def machine_memory() -> tuple[float | None, float | None]:
         return None, None
 
 
-def check_run(scan, frames: int | None = None, seed: int | None = None) -> Plan:
+def check_run(scan, frames: int | None = None, seed: int | None = None, out_dir=None, refuse_disk: bool = True) -> Plan:
     """Refuse (``InputError``, one sentence) what the run would fail on later: the frame
-    override, the seed, the simulator's parameters, the memory the scan needs."""
+    override, the seed, the simulator's parameters, the memory the scan needs; and
+    (``StorageError``, exit 5; only noted when not ``refuse_disk``) a run directory larger
+    than the free space of the folder ``--out out_dir`` puts it in."""
     where = scan.source or scan.name
     if frames is not None and not 2 <= frames <= MAX_FRAMES:
         raise InputError(f"--frames must be an integer from 2 to {MAX_FRAMES}, got {frames}")
@@ -114,4 +153,10 @@ def check_run(scan, frames: int | None = None, seed: int | None = None) -> Plan:
                          f"{len(scan.regions)} region(s), {max(st.frames for st in stages) if stages else 0} frames "
                          f"per stage at most) but this machine has {total / 1e9:.1f} GB; use a smaller array or "
                          "fewer or smaller regions")
-    return Plan(stages, need, total, avail)
+    folder = out_folder(out_dir)
+    plan = Plan(stages, need, total, avail, disk_bytes(scan, stages), disk_free(folder), folder)
+    if refuse_disk and not plan.disk_fits():
+        raise StorageError(f"{folder}: the run needs about {_gb(plan.disk_bytes)} of disk "
+                           f"({'raw frames kept, ' if scan.output.raw_frames else ''}stage files and reports) "
+                           f"but only {_gb(plan.disk_free)} is free there")
+    return plan
