@@ -125,7 +125,8 @@ def main() -> int:
     rows = []
     with tempfile.TemporaryDirectory() as td:
         for name, scan in cases(Path(td)):
-            if args.only and not any(name.startswith(o) and (" " in o) == (" " in name) for o in args.only.split(",")):
+            wanted = [o for o in args.only.split(",") if o]
+            if wanted and not any(name.startswith(o) and (" " in o) == (" " in name) for o in wanted):
                 r = old.get(name)
             elif args.reuse:
                 r = old.get(name)
@@ -136,8 +137,9 @@ def main() -> int:
                     r = {"error": f"not run: {str(exc)[:160]}"}
                 else:
                     r = measure(scan, Path(td) / "runs" / name.split()[0], args.timeout)
-                old[name] = r
-                store.write_text(json.dumps(old, indent=1) + "\n")
+                old[name] = r  # (merged with what another run of this script stored meanwhile)
+                store.write_text(json.dumps({**(json.loads(store.read_text()) if store.exists() else {}), name: r},
+                                            indent=1) + "\n")
                 print(name, r, flush=True)
             try:
                 mem, disk = estimates(scan)

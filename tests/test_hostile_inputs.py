@@ -226,3 +226,49 @@ def test_doctype_text_in_a_comment_is_accepted_and_a_10_mb_attribute_names_the_p
         '<?xml version="1.0" encoding="UTF-8"?>\n', ""))
     assert main(["run", str(bad), "--dry-run"]) == 2
     assert "DOCTYPE" in capsys.readouterr().err
+
+
+# ---------------------------------------------------------------- disk estimate against --out
+
+
+def test_a_run_larger_than_the_free_space_of_out_is_refused(tmp_path, capsys, monkeypatch):
+    """The run directory's estimate (stage files, reports, raw frames kept) against the
+    free space of the folder --out puts it in, injected at 1 MB: `ares run` and `--dry-run`
+    refuse with exit 5 and one sentence (needed, free, the folder) before any directory
+    exists; `ares validate` prints it and warns (there was no disk estimate at all)."""
+    import shutil
+    from collections import namedtuple
+
+    from ares.cli import main
+
+    usage = namedtuple("usage", "total used free")
+    seen = []
+
+    def tiny(path):
+        seen.append(Path(path))
+        return usage(10**12, 10**12 - 10**6, 10**6)
+
+    monkeypatch.setattr(shutil, "disk_usage", tiny)
+    out = tmp_path / "lab" / "run1"
+    (tmp_path / "lab").mkdir()
+    for extra in ([], ["--dry-run"]):
+        assert main(["run", str(SMALL), "--out", str(out), "--quiet", *extra]) == 5
+        err = capsys.readouterr().err
+        assert err.count("\n") == 1 and "Traceback" not in err, err
+        assert f"{tmp_path / 'lab'}: the run needs about" in err and "but only 1 MB is free there" in err, err
+        assert not out.exists()
+    assert seen and all(p == tmp_path / "lab" for p in seen)
+    assert main(["validate", str(SMALL)]) == 0
+    o, e = capsys.readouterr()
+    assert "disk: about" in o and "more than the 1 MB free in" in o and "WARNING" in e
+    monkeypatch.setattr(shutil, "disk_usage", lambda path: usage(10**12, 0, 10**12))
+    assert main(["run", str(SMALL), "--out", str(out), "--dry-run"]) == 0
+    assert "of the 1000.0 GB free in" in capsys.readouterr().out
+
+
+def test_readme_says_resumed_wire_stages_are_new_measurements():
+    """Finding 8: README's `ares resume` row says bit-identical only on the direct simulator;
+    on sim_wire.xml (and real hardware) the resumed stages are new measurements."""
+    row = next(ln for ln in (ROOT / "README.md").read_text().splitlines() if ln.startswith("| `ares resume"))
+    assert "bit-identical to an uninterrupted run on the direct simulator" in row
+    assert "sim_wire.xml" in row and "new measurements" in row
