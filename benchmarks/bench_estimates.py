@@ -115,8 +115,8 @@ def cases(td: Path) -> list[tuple[str, Path]]:
 
 def main() -> int:
     ap = argparse.ArgumentParser()
-    ap.add_argument("--only", default="", help="comma-separated starts of row names ('photon' matches the shipped scans "
-                    "photon_*, 'photon_transfer at' the 4096x3072 row)")
+    ap.add_argument("--only", default="", help="comma-separated starts of row names ('photon' matches the shipped "
+                    "scans photon_*, 'photon_transfer at' the 4096x3072 row)")
     ap.add_argument("--timeout", type=float, default=1800.0)
     ap.add_argument("--reuse", action="store_true", help="take the measured figures from estimates.json")
     args = ap.parse_args()

@@ -305,9 +305,9 @@ def scan_from_tree(tree, path, system: System | None = None, system_path=None) -
         except xmlsafe.WrongRoot as exc:  # (a scan named as its own or another scan's system)
             if not from_href:
                 raise
-            raise fail(path, sys_el.sourceline, f"<system href='{href}'> names {xmlsafe.KINDS.get(exc.found, 'a file')} "
-                                                f"(root element <{exc.found}>), not a system file (root element "
-                                                "<system>)") from None
+            what = xmlsafe.KINDS.get(exc.found, "a file")
+            raise fail(path, sys_el.sourceline, f"<system href='{href}'> names {what} (root element <{exc.found}>), "
+                                                "not a system file (root element <system>)") from None
     check = _Checker(path, system)
     settings = _settings(path, root.find("settings")) if root.find("settings") is not None else ()
     for el, s in zip(root.iterfind("settings/set"), settings):
