@@ -90,7 +90,7 @@ def measure(scan: Path, run_dir: Path, timeout: float) -> dict:
     if p.returncode or not p.stdout.strip():
         return {"error": (p.stderr.strip().splitlines() or ["no output"])[-1][:200]}
     r = json.loads(p.stdout.strip().splitlines()[-1])
-    r.update(disk=du(run_dir), seconds=w.el, load=w.cell())
+    r.update(disk=du(run_dir), seconds=w.el, load=w.cell(), when=time.strftime("%Y-%m-%d %H:%M"))
     return r
 
 
@@ -151,20 +151,25 @@ def main() -> int:
              f"Each scan run as `ares run SCAN --out DIR --quiet` in a child process ({platform.machine()}, Python "
              f"{platform.python_version()}); peak = the process's VmHWM (the PDF helper process is not in it), disk = "
              "the run directory's size at the end. Estimates: `ares.scan.preflight.memory_bytes` / `disk_bytes`, as "
-             f"`ares validate` prints them. Target: memory within {WITHIN:.0%} of the peak.", "",
-             "| scan | peak MiB | estimate MiB | estimate / peak | disk MiB | disk estimate MiB | run s | machine |",
-             "|---|---:|---:|---:|---:|---:|---:|---|"]
+             f"`ares validate` prints them. Target: memory within {WITHIN:.0%} of the peak. The model's constants "
+             "(`BASE_BYTES`, `BYTES_PER_PIXEL`, `ANALYSIS_BYTES`...) were read off the rows measured 2026-11-29 "
+             "02:0x-02:3x; rows measured later check them. The disk estimate includes the first dark stage's frames "
+             "beyond 256 MiB, held in a temporary file only while that stage is masked (gone at the end: "
+             "photon_transfer at 4096x3072 holds 512 MiB there).", "",
+             "| scan | peak MiB | estimate MiB | estimate / peak | disk MiB | disk estimate MiB | run s | measured "
+             "| machine |", "|---|---:|---:|---:|---:|---:|---:|---|---|"]
     worst = 0.0
     for name, r, mem, disk in rows:
         if not r or "error" in r:
             why = (r or {}).get("error", "not measured in this run")
             est = f"{mem / 2**20:.0f}" if mem else ""
-            lines.append(f"| {name} | {why} | {est} | | | | | |")
+            lines.append(f"| {name} | {why} | {est} | | | | | | |")
             continue
         ratio = mem / r["hwm"]
         worst = max(worst, abs(ratio - 1))
         lines.append(f"| {name} | {r['hwm'] / 2**20:.0f} | {mem / 2**20:.0f} | {ratio:.2f} | "
-                     f"{r['disk'] / 2**20:.1f} | {disk / 2**20:.1f} | {r['seconds']:.0f} | {r['load']} |")
+                     f"{r['disk'] / 2**20:.1f} | {disk / 2**20:.1f} | {r['seconds']:.0f} | "
+                     f"{r.get('when', '2026-11-29 02:0x-02:3x')} | {r['load']} |")
     lines += ["", f"Largest memory error: {worst:.0%} (target {WITHIN:.0%}). Written {time.strftime('%Y-%m-%d')}; "
                   f"1 GiB = {gib} bytes.", ""]
     return publish("estimates", lines)

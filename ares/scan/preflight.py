@@ -3,14 +3,18 @@
 first (the static checks, with file:line, are in ``ares.protocol.load_scan``; these are
 the ones that depend on the run's arguments and on this machine).
 
-The memory estimate is measured, not derived: the shipped photon-transfer scan on a
-simulated 4096x3072 sensor (``benchmarks/bench_big_memory.py``) peaks at about 105 bytes
-per pixel above the interpreter and its libraries, plus the frames of the first dark stage
-(2 bytes per pixel each, kept to mask that stage too: in memory up to ``KEEP_FOR_MASK_BYTES``,
-the rest in a temporary file, ``ares.scan.kept``); the model adds a third for margin. Regions and
-channel views add their own accumulators. (It was 0.93 kB per pixel before the
-accumulators shared their per-pixel sums, 200 B before the stage analyses stopped caching
-maps they use once.)
+The memory estimate is measured, not derived (``benchmarks/bench_estimates.py``: every
+shipped scan and two 4096x3072 scans, each within 10 % of its measured peak): the
+interpreter with numpy/scipy/h5py/numba and the report's plotting (~310 MB: ``mtf.xml`` on
+128x200 peaks at 315 MB); about 127 bytes per pixel of the full view (the accumulators, the
+simulator's maps, the analyses' float64 maps and the report: photon_transfer at 4096x3072
+less the same scan at 640x480); the first dark stage's frames, kept to mask that stage (2
+bytes per pixel each, in memory up to ``KEEP_FOR_MASK_BYTES``, ``ares.scan.kept``), at a
+time when the rest holds about 90 bytes per pixel; and what each scan-level analysis adds
+(its modules, tables and report pages, measured on the shipped scans, ``ANALYSIS_BYTES``).
+Regions and channel views add their own accumulators (100 bytes per pixel they cover, not
+re-measured here). (It was 0.93 kB per pixel before the accumulators shared their per-pixel
+sums, 200 B before the stage analyses stopped caching maps they use once.)
 """
 
 from __future__ import annotations
@@ -25,8 +29,12 @@ from ares.scan.stages import Stage, expand
 
 MAX_FRAMES = 100000  # the scan schema's <frames> maximum
 MAX_SEED = 2**63 - 1
-BASE_BYTES = 300e6  # the interpreter, numpy/scipy/h5py and the report's plotting
-BYTES_PER_PIXEL = 140.0  # full view: accumulators, simulator maps, the analyses' float64 maps and the report
+BASE_BYTES = 312e6  # the interpreter, numpy/scipy/h5py/numba and the report's plotting
+BYTES_PER_PIXEL = 127.0  # full view: accumulators, simulator maps, the analyses' float64 maps and the report
+FIRST_DARK_BYTES_PER_PIXEL = 90.0  # the same while the first dark stage's frames are kept (they come on top)
+ANALYSIS_BYTES = {"ptc": 15e6, "defects": 35e6, "dark_current": 20e6, "emva4": 62e6, "photon_counting": 46e6,
+                  "adc_linearity": 26e6, "lag": 22e6, "gain_split": 6e6}  # measured, bench_estimates.py
+PRECISION_BYTES = 57e6  # a precision-driven scan: the pilot's results kept beside the run's
 BYTES_PER_VIEW_PIXEL = 100.0  # each further view (region, Bayer phase, ADC channel) per pixel it covers
 KEEP_FOR_MASK_BYTES = 256 * 1024 * 1024  # the first dark stage's frames kept in memory up to this size
 
@@ -69,7 +77,9 @@ def memory_bytes(scan, stages: list[Stage]) -> float:
     extra = sum(float(r.width) * float(r.height) for r in scan.regions)
     extra += px * ((s.cfa != "mono") + (s.adc_channels > 1))
     kept = min(2.0 * px * next((st.frames for st in stages if st.scene == "dark"), 0), KEEP_FOR_MASK_BYTES)
-    return BASE_BYTES + BYTES_PER_PIXEL * px + BYTES_PER_VIEW_PIXEL * extra + kept
+    fixed = BASE_BYTES + sum(ANALYSIS_BYTES.get(a, 0.0) for a in set(scan.analyses))
+    fixed += PRECISION_BYTES if scan.precision is not None else 0.0
+    return fixed + max(BYTES_PER_PIXEL * px, FIRST_DARK_BYTES_PER_PIXEL * px + kept) + BYTES_PER_VIEW_PIXEL * extra
 
 
 STAGE_BYTES_PER_PIXEL = 12.0  # stages/NNNN.h5: float32 mean and variance maps, a matched dark's mean
