@@ -152,8 +152,8 @@ def main() -> int:
              f"{platform.python_version()}); peak = the process's VmHWM (the PDF helper process is not in it), disk = "
              "the run directory's size at the end. Estimates: `ares.scan.preflight.memory_bytes` / `disk_bytes`, as "
              f"`ares validate` prints them. Target: memory within {WITHIN:.0%} of the peak. The model's constants "
-             "(`BASE_BYTES`, `BYTES_PER_PIXEL`, `ANALYSIS_BYTES`...) were read off the rows measured 2026-11-29 "
-             "02:0x-02:3x; rows measured later check them. The disk estimate includes the first dark stage's frames "
+             "(`BASE_BYTES`, `BYTES_PER_PIXEL`, `ANALYSIS_BYTES`...) were read off a first run of every row (measured "
+             "'fit'); rows measured again after the change of the model check them. The disk estimate includes the first dark stage's frames "
              "beyond 256 MiB, held in a temporary file only while that stage is masked (gone at the end: "
              "photon_transfer at 4096x3072 holds 512 MiB there).", "",
              "| scan | peak MiB | estimate MiB | estimate / peak | disk MiB | disk estimate MiB | run s | measured "
@@ -169,7 +169,7 @@ def main() -> int:
         worst = max(worst, abs(ratio - 1))
         lines.append(f"| {name} | {r['hwm'] / 2**20:.0f} | {mem / 2**20:.0f} | {ratio:.2f} | "
                      f"{r['disk'] / 2**20:.1f} | {disk / 2**20:.1f} | {r['seconds']:.0f} | "
-                     f"{r.get('when', '2026-11-29 02:0x-02:3x')} | {r['load']} |")
+                     f"{r.get('when', 'fit')} | {r['load']} |")
     lines += ["", f"Largest memory error: {worst:.0%} (target {WITHIN:.0%}). Written {time.strftime('%Y-%m-%d')}; "
                   f"1 GiB = {gib} bytes.", ""]
     return publish("estimates", lines)
