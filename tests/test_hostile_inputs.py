@@ -272,3 +272,54 @@ def test_readme_says_resumed_wire_stages_are_new_measurements():
     row = next(ln for ln in (ROOT / "README.md").read_text().splitlines() if ln.startswith("| `ares resume"))
     assert "bit-identical to an uninterrupted run on the direct simulator" in row
     assert "sim_wire.xml" in row and "new measurements" in row
+
+
+# ---------------------------------------------------------------- numbers, ranges (the corpus has one case of each)
+
+SIM_SMALL = SMALL.parent / "sim_small.xml"
+
+
+@pytest.mark.parametrize("which, old, new, where", [
+    ("system", 'rows="24"', 'rows="{n}"', "<array rows=...>"),
+    ("system", 'address="0x0030"', 'address="0x{n}"', "<field address=...>"),
+    ("system", 'seed="7"', 'seed="{n}"', "<simulator seed=...>"),
+    ("scan", 'x="8"', 'x="{n}"', "<region x=...>"),
+    ("scan", 'points="8"', 'points="{n}"', "<log points=...>"),
+])
+def test_a_number_of_5000_digits_is_refused_before_conversion(which, old, new, where, tmp_path):
+    """int() of 5000 digits raised a ValueError traceback (Python's 4300-digit limit); every
+    attribute and text is checked first, with its element and line."""
+    from ares.commands.validate import validate_one
+    from ares.errors import InputError
+
+    (tmp_path / "ptc_small.xml").write_text(SMALL.read_text())
+    (tmp_path / "sim_small.xml").write_text(SIM_SMALL.read_text())
+    p = tmp_path / ("ptc_small.xml" if which == "scan" else "sim_small.xml")
+    assert old in p.read_text()
+    p.write_text(p.read_text().replace(old, new.format(n="7" * 5000)))
+    with pytest.raises(InputError) as e:
+        validate_one(str(tmp_path / "ptc_small.xml"))
+    msg = str(e.value)
+    assert msg.startswith(f"{p}:") and f"{where} holds a number of 5000 digits" in msg and "\n" not in msg
+
+
+def test_the_light_bound_follows_the_systems_full_well_and_qe(tmp_path):
+    """1000 full wells per (QE x 1 us): 24000 e- at QE 0.3 gives 8e13 photons/pixel/s, so
+    7e13 is accepted and 9e13 refused, naming the scan's line."""
+    from ares.commands.validate import validate_one
+    from ares.errors import InputError
+
+    sysxml = SIM_SMALL.read_text().replace('<simulator seed="7">', '<simulator seed="7">\n    <param name="full_well_e" '
+                                           'type="float" value="24000"/>\n    <param name="qe" type="float" value="0.3"/>')
+    (tmp_path / "sim_small.xml").write_text(sysxml)
+    scan = SMALL.read_text()
+    for light, ok in ((7e13, True), (9e13, False)):
+        p = tmp_path / "s.xml"
+        p.write_text(scan.replace('<log start="10000" stop="3000000" points="8"/>', f'<values>10000 {light:g}</values>'))
+        if ok:
+            assert validate_one(str(p))[0] == "scan"
+        else:
+            with pytest.raises(InputError, match=r"s.xml:13: light level 9e\+13 photons/pixel/s is outside the "
+                                                 r"simulator's range 0 to 8e\+13 photons/pixel/s \(1000 full wells "
+                                                 r"of 24000 e- per QE 0.3"):
+                validate_one(str(p))
