@@ -323,3 +323,13 @@ def test_the_light_bound_follows_the_systems_full_well_and_qe(tmp_path):
                                                  r"simulator's range 0 to 8e\+13 photons/pixel/s \(1000 full wells "
                                                  r"of 24000 e- per QE 0.3"):
                 validate_one(str(p))
+
+
+def test_a_200000_square_simulated_sensor_is_refused_by_the_parameters_too():
+    """Built in code (the GUI, a benchmark), not from a system file: the same cap, stated."""
+    from ares.errors import InputError
+    from ares.sim import SensorParams
+
+    with pytest.raises(InputError, match=r"200000x200000 simulated sensor .*\(at most 100,000,000 pixels and 65536"):
+        SensorParams(rows=200000, cols=200000)
+    assert SensorParams(rows=3072, cols=4096).cols == 4096
