@@ -29,7 +29,8 @@ import tempfile
 import time
 from pathlib import Path
 
-from machine_load import Window  # (benchmarks/, beside this script)
+from bench_twelve_mp import write_inputs  # (benchmarks/, beside this script)
+from machine_load import Window
 from topic_table import publish
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -47,25 +48,15 @@ print(json.dumps({"rc": rc, "hwm": int(hwm) * 1024}))
 
 
 def big_inputs(d: Path, which: str) -> Path:
-    """``which`` = "photon_transfer" or "emva_4" on a 4096x3072 sim_sensor, shortened as the
-    module docstring says."""
-    (d / "protocols").mkdir(parents=True, exist_ok=True)
-    (d / "scans").mkdir(exist_ok=True)
-    sysxml = (ROOT / "protocols" / "sim_sensor.xml").read_text()
-    for old, new in (('rows="480" cols="640"', f'rows="{ROWS}" cols="{COLS}"'),
-                     ('name="rows" type="int" value="480"', f'name="rows" type="int" value="{ROWS}"'),
-                     ('name="cols" type="int" value="640"', f'name="cols" type="int" value="{COLS}"')):
-        if old not in sysxml:
-            raise SystemExit("protocols/sim_sensor.xml no longer declares a 640x480 array: update this benchmark")
-        sysxml = sysxml.replace(old, new)
-    (d / "protocols" / "sim_sensor.xml").write_text(sysxml)
+    """``which`` = "photon_transfer" or "emva_4" on a 4096x3072 sim_sensor (written as
+    ``bench_twelve_mp.py`` writes it), shortened as the module docstring says."""
+    import re
+
+    write_inputs(d, ROWS, COLS, raw=False)  # protocols/sim_sensor.xml at 4096x3072 and scans/emva_4.xml
     scan = (ROOT / "scans" / f"{which}.xml").read_text()
     if which == "photon_transfer":
-        scan = scan.replace("<frames>16</frames>", "<frames>32</frames>")
-        scan = scan.replace('frames="32"', 'frames="32"').replace('points="25"', 'points="4"')
+        scan = scan.replace("<frames>16</frames>", "<frames>32</frames>").replace('points="25"', 'points="4"')
     else:
-        import re
-
         vals = "0.0002 0.002 0.004 0.006 0.008 0.012 0.0152 0.0164"
         scan = re.sub(r"<values>.*?</values>", f"<values>{vals}</values>", scan, flags=re.S)
         scan = scan.replace('frames="100" dark_frames="100"', 'frames="8" dark_frames="8"')
