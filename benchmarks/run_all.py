@@ -30,7 +30,7 @@ with `make bench` (or `python benchmarks/run_all.py --only TOPIC`).
 """
 
 
-ALL_CORES = {"batch", "eta", "first_run", "gui", "gui_big", "lots", "scan", "peer", "live_pipeline", "twelve_mp"}  # batch, lots: 1 vs 2 workers; eta: the commit thread beside the frames; gui, gui_big: the window thread next to the scan; scan: make run; peer: ares emva vs emva1288; live_pipeline: the grab thread beside the window's; twelve_mp: a 12 MP EMVA 4.0 scan and ares emva vs emva1288
+ALL_CORES = {"batch", "estimates", "eta", "first_run", "gui", "gui_big", "lots", "scan", "peer", "live_pipeline", "twelve_mp"}  # batch, lots: 1 vs 2 workers; eta: the commit thread beside the frames; gui, gui_big: the window thread next to the scan; scan: make run; peer: ares emva vs emva1288; live_pipeline: the grab thread beside the window's; twelve_mp: a 12 MP EMVA 4.0 scan and ares emva vs emva1288; estimates: every shipped scan as ares run runs it
 
 
 def main() -> int:

@@ -226,3 +226,110 @@ def test_doctype_text_in_a_comment_is_accepted_and_a_10_mb_attribute_names_the_p
         '<?xml version="1.0" encoding="UTF-8"?>\n', ""))
     assert main(["run", str(bad), "--dry-run"]) == 2
     assert "DOCTYPE" in capsys.readouterr().err
+
+
+# ---------------------------------------------------------------- disk estimate against --out
+
+
+def test_a_run_larger_than_the_free_space_of_out_is_refused(tmp_path, capsys, monkeypatch):
+    """The run directory's estimate (stage files, reports, raw frames kept) against the
+    free space of the folder --out puts it in, injected at 1 MB: `ares run` and `--dry-run`
+    refuse with exit 5 and one sentence (needed, free, the folder) before any directory
+    exists; `ares validate` prints it and warns (there was no disk estimate at all)."""
+    import shutil
+    from collections import namedtuple
+
+    from ares.cli import main
+
+    usage = namedtuple("usage", "total used free")
+    seen = []
+
+    def tiny(path):
+        seen.append(Path(path))
+        return usage(10**12, 10**12 - 10**6, 10**6)
+
+    monkeypatch.setattr(shutil, "disk_usage", tiny)
+    out = tmp_path / "lab" / "run1"
+    (tmp_path / "lab").mkdir()
+    for extra in ([], ["--dry-run"]):
+        assert main(["run", str(SMALL), "--out", str(out), "--quiet", *extra]) == 5
+        err = capsys.readouterr().err
+        assert err.count("\n") == 1 and "Traceback" not in err, err
+        assert f"{tmp_path / 'lab'}: the run needs about" in err and "but only 1 MB is free there" in err, err
+        assert not out.exists()
+    assert seen and all(p == tmp_path / "lab" for p in seen)
+    assert main(["validate", str(SMALL)]) == 0
+    o, e = capsys.readouterr()
+    assert "disk: about" in o and "more than the 1 MB free in" in o and "WARNING" in e
+    monkeypatch.setattr(shutil, "disk_usage", lambda path: usage(10**12, 0, 10**12))
+    assert main(["run", str(SMALL), "--out", str(out), "--dry-run"]) == 0
+    assert "of the 1000.0 GB free in" in capsys.readouterr().out
+
+
+def test_readme_says_resumed_wire_stages_are_new_measurements():
+    """Finding 8: README's `ares resume` row says bit-identical only on the direct simulator;
+    on sim_wire.xml (and real hardware) the resumed stages are new measurements."""
+    row = next(ln for ln in (ROOT / "README.md").read_text().splitlines() if ln.startswith("| `ares resume"))
+    assert "bit-identical to an uninterrupted run on the direct simulator" in row
+    assert "sim_wire.xml" in row and "new measurements" in row
+
+
+# ---------------------------------------------------------------- numbers, ranges (the corpus has one case of each)
+
+SIM_SMALL = SMALL.parent / "sim_small.xml"
+
+
+@pytest.mark.parametrize("which, old, new, where", [
+    ("system", 'rows="24"', 'rows="{n}"', "<array rows=...>"),
+    ("system", 'address="0x0030"', 'address="0x{n}"', "<field address=...>"),
+    ("system", 'seed="7"', 'seed="{n}"', "<simulator seed=...>"),
+    ("scan", 'x="8"', 'x="{n}"', "<region x=...>"),
+    ("scan", 'points="8"', 'points="{n}"', "<log points=...>"),
+])
+def test_a_number_of_5000_digits_is_refused_before_conversion(which, old, new, where, tmp_path):
+    """int() of 5000 digits raised a ValueError traceback (Python's 4300-digit limit); every
+    attribute and text is checked first, with its element and line."""
+    from ares.commands.validate import validate_one
+    from ares.errors import InputError
+
+    (tmp_path / "ptc_small.xml").write_text(SMALL.read_text())
+    (tmp_path / "sim_small.xml").write_text(SIM_SMALL.read_text())
+    p = tmp_path / ("ptc_small.xml" if which == "scan" else "sim_small.xml")
+    assert old in p.read_text()
+    p.write_text(p.read_text().replace(old, new.format(n="7" * 5000)))
+    with pytest.raises(InputError) as e:
+        validate_one(str(tmp_path / "ptc_small.xml"))
+    msg = str(e.value)
+    assert msg.startswith(f"{p}:") and f"{where} holds a number of 5000 digits" in msg and "\n" not in msg
+
+
+def test_the_light_bound_follows_the_systems_full_well_and_qe(tmp_path):
+    """1000 full wells per (QE x 1 us): 24000 e- at QE 0.3 gives 8e13 photons/pixel/s, so
+    7e13 is accepted and 9e13 refused, naming the scan's line."""
+    from ares.commands.validate import validate_one
+    from ares.errors import InputError
+
+    sysxml = SIM_SMALL.read_text().replace('<simulator seed="7">', '<simulator seed="7">\n    <param name="full_well_e" '
+                                           'type="float" value="24000"/>\n    <param name="qe" type="float" value="0.3"/>')
+    (tmp_path / "sim_small.xml").write_text(sysxml)
+    scan = SMALL.read_text()
+    for light, ok in ((7e13, True), (9e13, False)):
+        p = tmp_path / "s.xml"
+        p.write_text(scan.replace('<log start="10000" stop="3000000" points="8"/>', f'<values>10000 {light:g}</values>'))
+        if ok:
+            assert validate_one(str(p))[0] == "scan"
+        else:
+            with pytest.raises(InputError, match=r"s.xml:13: light level 9e\+13 photons/pixel/s is outside the "
+                                                 r"simulator's range 0 to 8e\+13 photons/pixel/s \(1000 full wells "
+                                                 r"of 24000 e- per QE 0.3"):
+                validate_one(str(p))
+
+
+def test_a_200000_square_simulated_sensor_is_refused_by_the_parameters_too():
+    """Built in code (the GUI, a benchmark), not from a system file: the same cap, stated."""
+    from ares.errors import InputError
+    from ares.sim import SensorParams
+
+    with pytest.raises(InputError, match=r"200000x200000 simulated sensor .*\(at most 100,000,000 pixels and 65536"):
+        SensorParams(rows=200000, cols=200000)
+    assert SensorParams(rows=3072, cols=4096).cols == 4096

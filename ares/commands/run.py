@@ -147,14 +147,14 @@ class ProgressBar:
             self.stream.flush()
 
 
-def dry_run(scan, frames: int | None, seed: int | None = None, out=None) -> None:
+def dry_run(scan, frames: int | None, seed: int | None = None, out=None, out_dir=None) -> None:
     """List the stages and the time and memory the run needs, after the checks ``ares run``
     makes before it starts (``ares.scan.preflight``: what a run would refuse, this refuses)."""
     out = out or sys.stdout
     from ares.scan import estimate_seconds
     from ares.scan.preflight import check_run
 
-    plan = check_run(scan, frames, seed)
+    plan = check_run(scan, frames, seed, out_dir)
     stages = plan.stages
     out.write(f"scan '{scan.name}' on system '{scan.system.name}' "
               f"({scan.system.sensor.cols}x{scan.system.sensor.rows}): {len(stages)} stages\n")
@@ -170,7 +170,7 @@ def dry_run(scan, frames: int | None, seed: int | None = None, out=None) -> None
         total += s.frames_to_grab()
     est = estimate_seconds(scan, stages)
     out.write(f"total: {total} frames, estimated {fmt_s(est)} ({est:.1f} s) of exposure, readout and settling\n")
-    out.write(plan.memory_note() + "\n")
+    out.write(plan.memory_note() + "\n" + plan.disk_note() + "\n")
 
 
 def _num(d) -> str:
@@ -299,7 +299,7 @@ def execute(scan, args, *, seed, frames, faults=None, argv=None, out_dir=None, r
 
     quiet_unraisable_storage_errors()
     if resume_from is None:
-        check_run(scan, frames, seed)  # refused before a run directory exists (Runner checks again)
+        check_run(scan, frames, seed, out_dir)  # refused before a run directory exists (Runner checks again)
         out_dir = claim_out(out_dir, scan.name)
     if scan.precision is not None and frames is None and resume_from is None:
         from ares.scan.precision import PrecisionRunner  # pilot, then the frames the targets need
@@ -480,7 +480,7 @@ def run(args) -> int:
 
     scan = load_scan(args.scan, system_path=args.system)
     if args.dry_run:
-        dry_run(scan, args.frames, args.seed)
+        dry_run(scan, args.frames, args.seed, out_dir=args.out)
         return 0
     faults = _faults(args.sim_fault)
     argv = ["run", *sys.argv[2:]] if sys.argv[1:2] == ["run"] else None

@@ -26,7 +26,10 @@ def validate_one(path) -> tuple[str, str]:
     if kind == "scan":
         from ares.scan.preflight import check_run
 
-        return kind, check_run(load_scan(path)).memory_note()
+        plan = check_run(load_scan(path), refuse_disk=False)
+        if not plan.disk_fits():  # (where `ares run` would put it without --out: runs/)
+            print(f"{path}: WARNING: {plan.disk_note()}", file=sys.stderr)
+        return kind, f"{plan.memory_note()}; {plan.disk_note()}"
     system = load_system(path)
     if system.simulator is not None:
         sim_params(system)

@@ -233,6 +233,16 @@ class _Checker:
 
     def __init__(self, path, system: System):
         self.path, self.system = path, system
+        self._params = None
+
+    def sim_range(self, key: str, value: float) -> str | None:
+        """The simulator's physical range of ``key`` (``ares.sim.ranges``), from its parameters."""
+        from ares.hardware.factory import sim_params
+        from ares.sim.ranges import setting_problem
+
+        if self._params is None:
+            self._params = sim_params(self.system)
+        return setting_problem(key, value, self._params.full_well_e, self._params.qe)
 
     def __call__(self, el, key: str, value: float) -> None:
         sy, line = self.system, el.sourceline
@@ -280,6 +290,10 @@ class _Checker:
 
                 raise fail(self.path, line, f"temperature {value:g} C is outside the chamber's range "
                                             f"{range_text(ch.min, ch.max, 'C')}")
+        if sy.simulator is not None and key in ("light", "temperature"):
+            why = self.sim_range(key, value)
+            if why:
+                raise fail(self.path, line, why)
         if f is not None:
             try:
                 f.to_raw(value)
@@ -292,11 +306,19 @@ def scan_from_tree(tree, path, system: System | None = None, system_path=None) -
     sys_el = root.find("system")
     href = sys_el.get("href")
     if system is None:
-        if system_path is None:
+        from_href = system_path is None
+        if from_href:
             system_path = Path(path).parent / href
         if not Path(system_path).is_file():
             raise fail(path, sys_el.sourceline, f"system file '{href}' not found (looked for {system_path})")
-        system = load_system(system_path)
+        try:
+            system = load_system(system_path)
+        except xmlsafe.WrongRoot as exc:  # (a scan named as its own or another scan's system)
+            if not from_href:
+                raise
+            what = xmlsafe.KINDS.get(exc.found, "a file")
+            raise fail(path, sys_el.sourceline, f"<system href='{href}'> names {what} (root element <{exc.found}>), "
+                                                "not a system file (root element <system>)") from None
     check = _Checker(path, system)
     settings = _settings(path, root.find("settings")) if root.find("settings") is not None else ()
     for el, s in zip(root.iterfind("settings/set"), settings):

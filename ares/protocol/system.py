@@ -223,6 +223,9 @@ def _fields(path, reg_el, address_bits: int, value_bits: int) -> tuple[Field, ..
         line = el.sourceline
         if f.lsb > f.msb:
             raise fail(path, line, f"register field '{f.name}': lsb {f.lsb} is above msb {f.msb}")
+        if f.count * value_bits > 64:
+            raise fail(path, line, f"register field '{f.name}' spans {f.count} registers of {value_bits} bits "
+                                   f"({f.count * value_bits} bits); a field holds at most 64 bits")
         if f.msb >= value_bits * f.count:
             raise fail(path, line, f"register field '{f.name}': bit {f.msb} does not fit in {f.count} "
                                    f"register(s) of {value_bits} bits")
@@ -244,6 +247,12 @@ def system_from_tree(tree, path) -> System:
     s = root.find("sensor")
     arr = s.find("array")
     rows, cols = int(arr.get("rows")), int(arr.get("cols"))
+    if root.find("simulator") is not None:
+        from ares.sim.ranges import array_problem
+
+        why = array_problem(rows, cols)
+        if why:
+            raise fail(path, arr.sourceline, why)
     ob = []
     for el in s.iterfind("optical_black/region"):
         r = _region(el)

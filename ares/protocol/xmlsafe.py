@@ -19,6 +19,8 @@ from ares.errors import InputError
 from ares.protocol.quantities import PRODUCES
 
 MAX_BYTES = 16 * 1024 * 1024
+MAX_DIGITS = 40  # digits of one number in an attribute or a text: more is no measurement (int() stops at 4300)
+_LONG_NUMBER = re.compile(r"(?:0[xX])?[0-9A-Fa-f]*[0-9][0-9A-Fa-f]*")
 
 
 def _parser() -> etree.XMLParser:
@@ -26,6 +28,17 @@ def _parser() -> etree.XMLParser:
         resolve_entities=False, no_network=True, load_dtd=False, dtd_validation=False,
         huge_tree=False, remove_blank_text=False,
     )
+
+
+KINDS = {"scan": "a scan file", "system": "a system file", "lot": "a lot file"}  # root element -> what it is
+
+
+class WrongRoot(InputError):
+    """A file whose root element is not the one expected (a scan given as a system...)."""
+
+    def __init__(self, err: InputError, found: str, expected: str):
+        super().__init__(str(err))
+        self.found, self.expected = found, expected
 
 
 def fail(path, line, sentence: str) -> InputError:
@@ -71,7 +84,20 @@ def parse(data: bytes, path) -> etree._ElementTree:
     for el in tree.iter():
         if isinstance(el, etree._Entity):
             raise fail(path, el.sourceline, f"entity reference &{el.name}; is not allowed")
+        if isinstance(el.tag, str):
+            _check_digits(el, path)
     return tree
+
+
+def _check_digits(el, path) -> None:
+    """Refuse a number of more than MAX_DIGITS digits in an attribute or a text, before
+    anything converts it (``int()`` of 5000 digits is a ValueError, of 4000 a slow parse)."""
+    for where, text in [*((f"<{el.tag} {k}=...>", v) for k, v in el.attrib.items()), (f"<{el.tag}>", el.text)]:
+        if text and len(text) > MAX_DIGITS and re.search(r"[0-9A-Fa-f]{%d}" % (MAX_DIGITS + 1), text):
+            n = max(len(m.group().removeprefix("0x").removeprefix("0X")) for m in _LONG_NUMBER.finditer(text))
+            if n > MAX_DIGITS:
+                raise fail(path, el.sourceline, f"{where} holds a number of {n} digits (ARES reads numbers of at "
+                                                f"most {MAX_DIGITS} digits)")
 
 
 @lru_cache(maxsize=None)
@@ -185,6 +211,8 @@ def load(path: str | Path, root: str, schema_name: str | None = None) -> etree._
     tag = tree.getroot().tag
     if not isinstance(tag, str) or tag != root:
         shown = tag if isinstance(tag, str) else "?"
-        raise fail(path, tree.getroot().sourceline, f"root element must be <{root}>, got <{shown}>")
+        kind = f": {KINDS[shown]} where {KINDS[root]} is expected" if shown in KINDS and root in KINDS else ""
+        raise WrongRoot(fail(path, tree.getroot().sourceline, f"root element must be <{root}>, got <{shown}>{kind}"),
+                        shown, root)
     validate(tree, schema_name or root, path)
     return tree

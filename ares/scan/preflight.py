@@ -3,28 +3,38 @@
 first (the static checks, with file:line, are in ``ares.protocol.load_scan``; these are
 the ones that depend on the run's arguments and on this machine).
 
-The memory estimate is measured, not derived: the shipped photon-transfer scan on a
-simulated 4096x3072 sensor (``benchmarks/bench_big_memory.py``) peaks at about 105 bytes
-per pixel above the interpreter and its libraries, plus the frames of the first dark stage
-(2 bytes per pixel each, kept to mask that stage too: in memory up to ``KEEP_FOR_MASK_BYTES``,
-the rest in a temporary file, ``ares.scan.kept``); the model adds a third for margin. Regions and
-channel views add their own accumulators. (It was 0.93 kB per pixel before the
-accumulators shared their per-pixel sums, 200 B before the stage analyses stopped caching
-maps they use once.)
+The memory estimate is measured, not derived (``benchmarks/bench_estimates.py``: every
+shipped scan and two 4096x3072 scans, each within 10 % of its measured peak): the
+interpreter with numpy/scipy/h5py/numba and the report's plotting (~310 MB: ``mtf.xml`` on
+128x200 peaks at 315 MB); about 127 bytes per pixel of the full view (the accumulators, the
+simulator's maps, the analyses' float64 maps and the report: photon_transfer at 4096x3072
+less the same scan at 640x480); the first dark stage's frames, kept to mask that stage (2
+bytes per pixel each, in memory up to ``KEEP_FOR_MASK_BYTES``, ``ares.scan.kept``), at a
+time when the rest holds about 90 bytes per pixel; and what each scan-level analysis adds
+(its modules, tables and report pages, measured on the shipped scans, ``ANALYSIS_BYTES``).
+Regions and channel views add their own accumulators (100 bytes per pixel they cover, not
+re-measured here). (It was 0.93 kB per pixel before the accumulators shared their per-pixel
+sums, 200 B before the stage analyses stopped caching maps they use once.)
 """
 
 from __future__ import annotations
 
 import os
+import shutil
 from dataclasses import dataclass
+from pathlib import Path
 
-from ares.errors import InputError
+from ares.errors import InputError, StorageError
 from ares.scan.stages import Stage, expand
 
 MAX_FRAMES = 100000  # the scan schema's <frames> maximum
 MAX_SEED = 2**63 - 1
-BASE_BYTES = 300e6  # the interpreter, numpy/scipy/h5py and the report's plotting
-BYTES_PER_PIXEL = 140.0  # full view: accumulators, simulator maps, the analyses' float64 maps and the report
+BASE_BYTES = 312e6  # the interpreter, numpy/scipy/h5py/numba and the report's plotting
+BYTES_PER_PIXEL = 127.0  # full view: accumulators, simulator maps, the analyses' float64 maps and the report
+FIRST_DARK_BYTES_PER_PIXEL = 90.0  # the same while the first dark stage's frames are kept (they come on top)
+ANALYSIS_BYTES = {"ptc": 15e6, "defects": 35e6, "dark_current": 20e6, "emva4": 62e6, "photon_counting": 46e6,
+                  "adc_linearity": 26e6, "lag": 22e6, "gain_split": 6e6}  # measured, bench_estimates.py
+PRECISION_BYTES = 57e6  # a precision-driven scan: the pilot's results kept beside the run's
 BYTES_PER_VIEW_PIXEL = 100.0  # each further view (region, Bayer phase, ADC channel) per pixel it covers
 KEEP_FOR_MASK_BYTES = 256 * 1024 * 1024  # the first dark stage's frames kept in memory up to this size
 
@@ -35,6 +45,21 @@ class Plan:
     memory_bytes: float
     memory_total: float | None  # this machine's physical memory, None when unknown
     memory_available: float | None
+    disk_bytes: float = 0.0
+    disk_free: float | None = None  # free bytes in disk_folder, None when unknown
+    disk_folder: Path | None = None
+
+    def disk_fits(self) -> bool:
+        return self.disk_free is None or self.disk_bytes <= self.disk_free
+
+    def disk_note(self) -> str:
+        """One line: the run directory's size against the free space where it goes."""
+        need = f"disk: about {_gb(self.disk_bytes)}"
+        if self.disk_free is None:
+            return need
+        if not self.disk_fits():
+            return f"{need}, more than the {_gb(self.disk_free)} free in {self.disk_folder}"
+        return f"{need} of the {_gb(self.disk_free)} free in {self.disk_folder}"
 
     def memory_note(self) -> str:
         """One line for ``--dry-run`` and ``validate``: the estimate against this machine."""
@@ -52,7 +77,49 @@ def memory_bytes(scan, stages: list[Stage]) -> float:
     extra = sum(float(r.width) * float(r.height) for r in scan.regions)
     extra += px * ((s.cfa != "mono") + (s.adc_channels > 1))
     kept = min(2.0 * px * next((st.frames for st in stages if st.scene == "dark"), 0), KEEP_FOR_MASK_BYTES)
-    return BASE_BYTES + BYTES_PER_PIXEL * px + BYTES_PER_VIEW_PIXEL * extra + kept
+    fixed = BASE_BYTES + sum(ANALYSIS_BYTES.get(a, 0.0) for a in set(scan.analyses))
+    fixed += PRECISION_BYTES if scan.precision is not None else 0.0
+    return fixed + max(BYTES_PER_PIXEL * px, FIRST_DARK_BYTES_PER_PIXEL * px + kept) + BYTES_PER_VIEW_PIXEL * extra
+
+
+STAGE_BYTES_PER_PIXEL = 12.0  # stages/NNNN.h5: float32 mean and variance maps, a matched dark's mean
+STAGE_BYTES = 64e3  # each stage's JSON and HDF5 overhead
+REPORT_BYTES = 4e6  # report.pdf, report.h5, the CSV tables and run.json of a small sensor
+REPORT_BYTES_PER_PIXEL = 4.0  # maps in the reports
+
+
+def disk_bytes(scan, stages: list[Stage]) -> float:
+    """Bytes the run directory will hold at its largest: the raw frames it keeps
+    (``<output raw_frames>``, uint16), the first dark stage's frames beyond
+    ``KEEP_FOR_MASK_BYTES`` (a temporary file beside the run while that stage is masked),
+    the stages' HDF5 and JSON and the reports."""
+    s = scan.system.sensor
+    px = float(s.rows) * float(s.cols)
+    frame = 2.0 * px
+    raw = frame * sum(st.frames_to_grab() for st in stages) if scan.output.raw_frames else 0.0
+    kept = max(0.0, frame * next((st.frames for st in stages if st.scene == "dark"), 0) - KEEP_FOR_MASK_BYTES)
+    return raw + kept + len(stages) * (STAGE_BYTES + STAGE_BYTES_PER_PIXEL * px) + REPORT_BYTES + \
+        REPORT_BYTES_PER_PIXEL * px
+
+
+def _gb(b: float) -> str:
+    return f"{b / 1e9:.1f} GB" if b >= 0.95e8 else f"{b / 1e6:.0f} MB"
+
+
+def out_folder(out_dir) -> Path:
+    """The existing folder a run directory for ``--out out_dir`` is made in (its disk):
+    the nearest existing one of out_dir and its parents (``runs/`` without --out)."""
+    p = Path(out_dir if out_dir is not None else "runs").absolute()
+    while not p.is_dir() and p != p.parent:
+        p = p.parent
+    return p
+
+
+def disk_free(folder: Path) -> float | None:
+    try:
+        return float(shutil.disk_usage(folder).free)
+    except OSError:
+        return None
 
 
 def machine_memory() -> tuple[float | None, float | None]:
@@ -69,9 +136,11 @@ def machine_memory() -> tuple[float | None, float | None]:
         return None, None
 
 
-def check_run(scan, frames: int | None = None, seed: int | None = None) -> Plan:
+def check_run(scan, frames: int | None = None, seed: int | None = None, out_dir=None, refuse_disk: bool = True) -> Plan:
     """Refuse (``InputError``, one sentence) what the run would fail on later: the frame
-    override, the seed, the simulator's parameters, the memory the scan needs."""
+    override, the seed, the simulator's parameters, the memory the scan needs; and
+    (``StorageError``, exit 5; only noted when not ``refuse_disk``) a run directory larger
+    than the free space of the folder ``--out out_dir`` puts it in."""
     where = scan.source or scan.name
     if frames is not None and not 2 <= frames <= MAX_FRAMES:
         raise InputError(f"--frames must be an integer from 2 to {MAX_FRAMES}, got {frames}")
@@ -94,4 +163,10 @@ def check_run(scan, frames: int | None = None, seed: int | None = None) -> Plan:
                          f"{len(scan.regions)} region(s), {max(st.frames for st in stages) if stages else 0} frames "
                          f"per stage at most) but this machine has {total / 1e9:.1f} GB; use a smaller array or "
                          "fewer or smaller regions")
-    return Plan(stages, need, total, avail)
+    folder = out_folder(out_dir)
+    plan = Plan(stages, need, total, avail, disk_bytes(scan, stages), disk_free(folder), folder)
+    if refuse_disk and not plan.disk_fits():
+        raise StorageError(f"{folder}: the run needs about {_gb(plan.disk_bytes)} of disk "
+                           f"({'raw frames kept, ' if scan.output.raw_frames else ''}stage files and reports) "
+                           f"but only {_gb(plan.disk_free)} is free there")
+    return plan

@@ -85,7 +85,8 @@ class Runner:
         from ares.scan.analyses import check_defect_thresholds
 
         check_defect_thresholds(scan)  # scans built in code, not loaded from XML, too
-        self.stages: list[Stage] = check_run(scan, frames, seed).stages  # what --dry-run/validate refuse
+        # what --dry-run/validate refuse (the disk: `ares run` before it claims the directory)
+        self.stages: list[Stage] = check_run(scan, frames, seed, refuse_disk=False).stages
         if seed is None and self.system.simulator is not None:
             seed = self.system.simulator.seed
         self.seed = seed

@@ -27,6 +27,7 @@ import math
 from dataclasses import dataclass, fields
 
 from ares.errors import InputError
+from ares.sim.ranges import array_problem
 
 #: Bayer patterns accepted for ``cfa``; the letters name phases (0,0), (0,1), (1,0), (1,1)
 #: as (row % 2, column % 2).
@@ -178,6 +179,9 @@ class SensorParams:
                 self._fail(name, "must be an integer")
         if self.rows < 2 or self.cols < 2:
             self._fail("rows" if self.rows < 2 else "cols", "must be at least 2")
+        why = array_problem(self.rows, self.cols)  # (a system file says so at its <array> line first)
+        if why:
+            raise InputError(f"simulator parameters 'rows', 'cols': {why}")
         if not 1 <= self.adc_bits <= 16:
             self._fail("adc_bits", "must be between 1 and 16")
         for name in _NON_NEGATIVE:
