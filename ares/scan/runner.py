@@ -20,12 +20,14 @@ import math
 import threading
 import time
 from dataclasses import dataclass, field
+from functools import partial
 from pathlib import Path
 from typing import Callable
 
 import numpy as np
 
 from ares import malloc
+from ares.hardware import link_stats
 from ares.errors import AresError, DeviceGone, FrameError, FrameLost, HardwareError, InputError, StorageError
 from ares.hardware.waits import Interrupted
 from ares.scan import events as ev
@@ -169,6 +171,7 @@ class Runner:
             if writer is not None:  # provenance: what the bench says about itself (sim params, chip id)
                 writer.meta["bench"] = {k: v for k, v in bench.info.items()
                                         if isinstance(v, (str, int, float, bool, dict, list, type(None)))}
+                writer.meta["devices"], writer.link = link_stats.identities(bench), partial(link_stats.counters, bench)
                 writer._write_meta()
             shape = tuple(bench.frames.shape)
             want = (self.system.sensor.rows, self.system.sensor.cols)
@@ -274,7 +277,7 @@ class Runner:
                 break
             self._emit(ev.StageStarted(st.index, len(stages), st))
             t_start = time.time()
-            before = bench.registers.snapshot()
+            before, link0 = bench.registers.snapshot(), link_stats.counters(bench)
             suspensions, halted, lost = [], False, []
             flat = dark = None  # the last stage's stacks are the committer's now (a 4096x3072 stack: 0.2 GB)
             while True:  # once, or again after a suspension (ares.scan.suspend) or lost frames
@@ -368,6 +371,8 @@ class Runner:
                 extra["suspensions"] = suspensions
             if lost:
                 extra["frames_lost"] = lost
+            if link0:  # what the stage did on each link, retries and recoveries included
+                extra["link"] = link_stats.delta(link0, link_stats.counters(bench))
             self._commit.submit(st, flat, dark, extra, new_mask, before, after, t_start, writer, completed)
             if self._commit.cpu_seconds is not None:  # the latest stage's analysis and write: the run
                 self._eta.end_work(self._commit.cpu_seconds)  # waits for the last stage's after its frames
@@ -413,6 +418,7 @@ class Runner:
             if stack is not None:
                 stack.drop_maps()
         result.update(extra)
+        arrays.update(link_stats.arrays(extra.get("link")))
         if self._mask is not None:
             result["defect_mask"] = self._mask.summary()
             if new_mask or not completed:  # the mask itself, once, with the stage it came from
