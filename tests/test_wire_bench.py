@@ -123,18 +123,18 @@ def _i2c_transactions_at_stage(tmp_path, stage: int) -> int:
     return seen[stage]
 
 
-FAULTS = [  # (faults, what the sentence must say, completed stages)
+FAULTS = [  # (faults, what the sentence must say, completed stages); serial command 0 is *IDN? at open
     (["usb_drop_at=5"], r"grabber.*1 frame\(s\) dropped before frame 5", 2),
     (["usb_corrupt_at=5"], r"grabber.*frame 5 \(device counter 5\) is corrupt \(payload CRC mismatch\)", 2),
     (["usb_short_at=5"], r"grabber.*frame 5 .* arrived short \(230432 of 460832 bytes\)", 2),
     (["usb_timeout_at=5"], r"grabber.*no data on endpoint 0x81 within 2000 ms \(timeout\)", 2),
     (["usb_disconnect_at=5"], r"grabber.*device disconnected", 2),
-    (["light_timeout_at=2"], r"led on aresemu://led: no reply to 'LEVEL 100000.0' within 1 s", 2),
-    (["light_wrong_reply_at=2"], r"led on aresemu://led: reply '\?#%' to 'LEVEL 100000.0' does not match 'OK'", 2),
-    (["light_error_at=2"], r"led on aresemu://led: refused 'LEVEL 100000.0': emulated fault", 2),
-    (["light_disconnect_at=2"], r"led on aresemu://led: port error", 2),
-    (["chamber_timeout_at=0"], r"chamber on aresemu://chamber: no reply to 'TEMP 30.0'", 4),
-    (["chamber_wrong_reply_at=1"], r"chamber on aresemu://chamber: reply '\?#%' to 'TEMP\?' is not a number", 4),
+    (["light_timeout_at=3"], r"led on aresemu://led: no reply to 'LEVEL 100000.0' within 1 s", 2),
+    (["light_wrong_reply_at=3"], r"led on aresemu://led: reply '\?#%' to 'LEVEL 100000.0' does not match 'OK'", 2),
+    (["light_error_at=3"], r"led on aresemu://led: refused 'LEVEL 100000.0': emulated fault", 2),
+    (["light_disconnect_at=3"], r"led on aresemu://led: port error", 2),
+    (["chamber_timeout_at=1"], r"chamber on aresemu://chamber: no reply to 'TEMP 30.0'", 4),
+    (["chamber_wrong_reply_at=2"], r"chamber on aresemu://chamber: reply '\?#%' to 'TEMP\?' is not a number", 4),
     ("i2c_nack", r"I2C device 0x36 on bus 1 \('sensor'\), register 0x[0-9a-f]{4}: no acknowledge on (read|write) "
                  r"after 3 attempt\(s\).*\(field '\w+'\)", 2),
     ("i2c_timeout", r"I2C device 0x36 on bus 1 \('sensor'\), register 0x[0-9a-f]{4}: timeout on (read|write) "

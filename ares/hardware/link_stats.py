@@ -64,7 +64,9 @@ _WORDS = {"zlps": "ZLPs", "nack_retries": "NACK retries", "busy_retries": "bus-b
 
 
 def _counts(c: dict) -> str:
-    return ", ".join(f"{v} {_WORDS.get(k, k.replace('_', ' '))}" for k, v in c.items())
+    """The counts that are not 0, then "(others 0)" when some were."""
+    text = ", ".join(f"{v} {_WORDS.get(k, k.replace('_', ' '))}" for k, v in c.items() if v)
+    return (text or "nothing") + (" (others 0)" if text and 0 in c.values() else "")
 
 
 def device_lines(meta: dict) -> list[tuple[str, str]]:

@@ -277,7 +277,8 @@ class Runner:
                 break
             self._emit(ev.StageStarted(st.index, len(stages), st))
             t_start = time.time()
-            before, link0 = bench.registers.snapshot(), link_stats.counters(bench)
+            link0 = link_stats.counters(bench)  # (the snapshot's register reads are the stage's too)
+            before = bench.registers.snapshot()
             suspensions, halted, lost = [], False, []
             flat = dark = None  # the last stage's stacks are the committer's now (a 4096x3072 stack: 0.2 GB)
             while True:  # once, or again after a suspension (ares.scan.suspend) or lost frames
