@@ -265,6 +265,7 @@ def test_image_row_readback_for_a_sensor_without_i2c_read():
         b.registers.set("exposure", 0.0123)
         assert b.registers.get("exposure") == pytest.approx(0.0123)
         assert b.registers.get("analog_gain") == 1.0
-        assert b.registers.bus.readback.frames_used == 2  # one frame per write, then cached
+        # the chip-ID check at connect, then one frame after each write (the <init> write, exposure), then cached
+        assert b.registers.bus.readback.frames_used == 3
     finally:
         b.close()

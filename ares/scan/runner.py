@@ -278,14 +278,13 @@ class Runner:
             self._emit(ev.StageStarted(st.index, len(stages), st))
             t_start = time.time()
             link0 = link_stats.counters(bench)  # (the snapshot's register reads are the stage's too)
-            before = bench.registers.snapshot()
             suspensions, halted, lost = [], False, []
             flat = dark = None  # the last stage's stacks are the committer's now (a 4096x3072 stack: 0.2 GB)
             while True:  # once, or again after a suspension (ares.scan.suspend) or lost frames
                 fw = writer.frame_writer(st.index, bench.frames.shape, None) if writer else None
                 pos = {}
-                try:
-                    dark = None
+                try:  # (a device gone while the registers are read is recovered like one gone later)
+                    before, dark = bench.registers.snapshot(), None
                     pos["dark"] = _position(bench)
                     if st.dark_source == "grab" and not st.dark_after:  # (dark="after": below)
                         apply_settings(bench, system, st.dark_settings, applied, self._cancelled)
