@@ -76,6 +76,9 @@ def test_without_a_gain_every_surface_says_why_there_is_no_e_per_s(run_dir):
     assert a["temperature"]["rate_at_ref_dn_per_s"]["unit"] == "DN/s"
     assert a["temperature"]["rate_at_ref_e_per_s"]["value"] is None
     assert terminal.count("the scan measures no gain; give --gain") >= len(TEMPS) + 1  # each rate and the fit
+    rows = [r for r in (d / "key_figures.csv").read_text().splitlines() if r.startswith("dark_current.by_temp")
+            and ".rate_e_per_s," in r]
+    assert len(rows) == len(TEMPS) and all("the scan measures no gain; give --gain" in r for r in rows)
 
 
 def test_report_gain_gives_e_per_s_beside_dn_per_s(run_dir, tmp_path):

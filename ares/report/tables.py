@@ -428,8 +428,10 @@ def compute_key_figures(run, groups: list[PtcGroup] | None = None) -> dict:
         if a.get("status") in ("not available", "error"):
             continue
         for key, e in _flat_estimates(a):
-            if e.get("value") is None:
-                continue  # not available (e.g. e-/s without a gain): in scan_results.json with its reason
+            if e.get("value") is None and not (e.get("unit") == "e-/s" and
+                                               str(e.get("note") or "").startswith("the scan measures no gain")):
+                continue  # not available: in scan_results.json with its reason (a dark current's e-/s beside
+                # its DN/s says why it is missing: a gain is needed)
             label = analysis_label(aname, key)
             if aname == "dark_current" and "." not in key and a.get("temperature_c") is not None:
                 label += f" at {a['temperature_c']:g} °C"  # a dark current is only meaningful at its temperature
