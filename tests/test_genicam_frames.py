@@ -98,3 +98,47 @@ def test_fetch_timeout_follows_the_frame_time_and_is_counted():
         list(src.grab(1))
     assert src.link_counters() == {"frames": 1, "dropped_frames": 0, "timeouts": 2}
     assert src.identity() == {"interface": "GenICam", "vendor": "Acme", "model": "GC-1", "serial": "SN1234"}
+
+
+def test_an_unplugged_camera_is_opened_again_by_the_recovery(tmp_path, monkeypatch):
+    """Finding 8 ("no reconnect"): the producer lists no camera while it is away (DeviceGone,
+    so the recovery waits and tries again); once back, the same camera by serial number is
+    selected and its <set> features are written again."""
+    import harvesters.core
+
+    from ares.errors import DeviceGone
+    from ares.hardware.interfaces import Bench
+
+    listed = {"cams": [SimpleNamespace(id_="dev0", serial_number="SN1234")]}
+    opened = []
+
+    class FakeHarvester:
+        def add_file(self, path):
+            pass
+
+        def update(self):
+            self.device_info_list = list(listed["cams"])
+
+        def create(self, i):
+            nodes = SimpleNamespace(PixelFormat=SimpleNamespace(value="Mono8", symbolics=("Mono8", "Mono12Packed")))
+            opened.append(nodes)
+            return SimpleNamespace(remote_device=SimpleNamespace(node_map=nodes), destroy=lambda: None)
+
+        def reset(self):
+            pass
+
+    monkeypatch.setattr(harvesters.core, "Harvester", FakeHarvester)
+    cti = tmp_path / "producer.cti"
+    cti.write_bytes(b"")
+    cfg = SimpleNamespace(name="cam", cti=str(cti), device="SN1234", timeout_ms=3000, features=(),
+                          sets=(("PixelFormat", "Mono12Packed"),))
+    cam = GenICamCamera(cfg)
+    src = GenICamFrameSource(cam, SHAPE, 12)
+    bench = Bench(SimpleNamespace(bus=None), src)
+    listed["cams"] = []  # unplugged
+    with pytest.raises(DeviceGone, match=r"GenICam camera 'cam': the GenTL producer lists no camera"):
+        bench.reconnect("frames")
+    listed["cams"] = [SimpleNamespace(id_="dev1", serial_number="SN9"), SimpleNamespace(id_="dev0",
+                                                                                        serial_number="SN1234")]
+    bench.reconnect("frames")
+    assert len(opened) == 2 and opened[-1].PixelFormat.value == "Mono12Packed" and cam.nodes is opened[-1]

@@ -16,6 +16,7 @@ name the mosaic the system XML's ``<cfa>`` declares; colour formats (RGB8 ..., a
 demosaiced) are refused. Packed bytes a producer hands over unexpanded are unpacked here
 (Mono10p/12p/14p, ``ares.hardware.pixels``). A gap in the buffer's frame id is a dropped
 frame (``FrameLost``); a fetch that times out is a ``HardwareError``; both name the camera.
+A camera that fails (``DeviceGone``) is opened again by ``reconnect`` (a scan's recovery).
 The fetch timeout is the XML's ``timeout_ms`` or the frame time (exposure + readout +
 margin, ``set_frame_time``) when longer.
 """
@@ -63,6 +64,10 @@ class GenICamCamera:
     def __init__(self, cfg):
         self.cfg = cfg
         self.name = f"GenICam camera '{cfg.name}'"
+        self._open()
+
+    def _open(self) -> None:
+        cfg = self.cfg
         path = producer_path(cfg.cti)
         if not os.path.isfile(path):
             raise DeviceGone(f"{self.name}: GenTL producer {path} does not exist")
@@ -116,6 +121,16 @@ class GenICamCamera:
         except Exception as exc:
             raise HardwareError(f"{self.name}: cannot set feature {name} to {value} ({exc})") from None
 
+    def reconnect(self) -> None:
+        """Open the camera again after it was unplugged (``DeviceGone`` while it is away): the
+        producer lists its cameras again, the same one is selected and its ``<set>`` features
+        written again (a replugged camera has lost them)."""
+        try:
+            self.close()
+        except Exception:  # noqa: BLE001 -- a camera that is gone may not close cleanly
+            pass
+        self._open()
+
     def close(self) -> None:
         try:
             self.ia.destroy()
@@ -150,6 +165,9 @@ class FeatureBus:
 
     def write(self, address: int, value: int) -> None:
         self.camera.write(self._node(address), value)
+
+    def reconnect(self) -> None:
+        self.camera.reconnect()
 
     def close(self) -> None:
         self.camera.close()
@@ -195,6 +213,11 @@ class GenICamFrameSource:
             raise FrameError(f"{self.name}: pixel format {fmt} arrived as {raw.size} {raw.dtype} values for "
                              f"{w}x{h} pixels (harvesters could not expand it)")
         return np.array(raw, dtype=np.uint8 if raw.dtype.itemsize == 1 else np.uint16, copy=True).reshape(self.shape)
+
+    def reconnect(self) -> None:
+        """Open the camera again (``GenICamCamera.reconnect``); the frame ids start afresh."""
+        self.camera.reconnect()
+        self.last_id = None
 
     def link_counters(self) -> dict:
         """The link statistics since open (``ares.hardware.link_stats``)."""
