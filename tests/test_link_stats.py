@@ -10,6 +10,7 @@ import json
 from pathlib import Path
 
 import h5py
+import pytest
 
 from ares.cli import main
 
@@ -81,6 +82,14 @@ def test_link_counts_per_stage_follow_the_packet_rules_and_add_up(tmp_path, caps
     from ares.report.pdf import title_page
     from ares.report.source import read_run
 
+    from ares.runcheck import RunDamaged, check_run
+
+    check_run(out, meta, stages)  # issue 37's records cover the link scalars too
+    with h5py.File(out / "stages" / "0001.h5", "r+") as f:
+        f["link_frames_timeouts"][()] = 7
+    with pytest.raises(RunDamaged, match=r"stage 1 \('ptc\[0\]'\): array 'link_frames_timeouts' of stages/0001.h5 "
+                                         "differs from the SHA-256"):
+        check_run(out, meta, stages)
     fig = title_page(read_run(out), {})
     page = " ".join(t.get_text() for t in fig.texts)
     assert "sensor (I2C): bus 1, address 0x36, chip id 0xa2e5" in page and "ARES-EMU-0001" in page

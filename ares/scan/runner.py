@@ -27,8 +27,8 @@ from typing import Callable
 import numpy as np
 
 from ares import malloc
-from ares.hardware import link_stats
 from ares.errors import AresError, DeviceGone, FrameError, FrameLost, HardwareError, InputError, StorageError
+from ares.hardware import link_stats
 from ares.hardware.waits import Interrupted
 from ares.scan import events as ev
 from ares.scan.apply import apply_settings, as_fields
