@@ -94,6 +94,7 @@ def test_an_i2c_sensor_that_stays_away_fails_the_run_truthfully(tmp_path):
 def _in_process(tmp_path, faults: dict, **scan_kw):
     """Run the scan on a wire bench in a thread (joined with the hang bound): the outcome or
     the exception, the bench's emulators, how often each bench part was reopened."""
+    tmp_path.mkdir(parents=True, exist_ok=True)
     scan = load_scan(_scan(tmp_path, **scan_kw))
     bench = build_bench(scan.system, seed=1, faults=faults)
     opened = {"frames": 0, "registers": 0, "light": 0}
@@ -130,6 +131,29 @@ def test_the_device_that_failed_is_reopened_not_the_grabber(tmp_path):
     sus = [s for st in box["outcome"].stages for s in st.get("suspensions", [])]
     assert [(s["device"], s["attempts"]) for s in sus] == [("registers", 3)]
     assert "register 0x0050" in sus[0]["reason"]  # sf_bias, the write that found the sensor gone
+
+
+def test_a_sensor_gone_while_the_registers_are_read_is_recovered(tmp_path):
+    """The register snapshots at a stage's start and end read the sensor too: gone there, it
+    is reconnected and the stage acquired again (both were outside the recovery: the run
+    failed). The transaction is found from a clean run's link statistics."""
+    from ares.cli import main
+
+    clean = tmp_path / "clean"
+    assert main(["run", str(_scan(tmp_path, small=True)), "--out", str(clean), "-q"]) == 0
+    per_stage = [json.loads((clean / "stages" / f"{k:04d}.json").read_text())["link"]["registers"]["transactions"]
+                 for k in range(3)]
+    last_read_of_stage_1 = 2 + per_stage[0] + per_stage[1] - 1  # (2: the chip-ID read and <init> at connect)
+    for at in (last_read_of_stage_1, last_read_of_stage_1 + 1):  # its end snapshot; stage 2's first snapshot read
+        runner, bench, opened, box, t = _in_process(tmp_path / str(at), {"i2c_disconnect_at": at, "i2c_gone_for": 2},
+                                                    small=True)
+        t.start()
+        t.join(HANG_S)
+        bench.close()
+        assert not t.is_alive() and "error" not in box, box
+        assert box["outcome"].status == "done" and opened["registers"] == 2 and opened["frames"] == 0
+        sus = [s for st in box["outcome"].stages for s in st.get("suspensions", [])]
+        assert len(sus) == 1 and "device gone on read" in sus[0]["reason"], sus
 
 
 def test_a_device_that_keeps_failing_ends_at_max_recoveries(tmp_path):

@@ -283,7 +283,7 @@ class Runner:
             while True:  # once, or again after a suspension (ares.scan.suspend) or lost frames
                 fw = writer.frame_writer(st.index, bench.frames.shape, None) if writer else None
                 pos = {}
-                try:  # (a device gone while the registers are read is recovered like one gone later)
+                try:  # (a device gone while the registers are read is recovered like one gone in a grab)
                     before, dark = bench.registers.snapshot(), None
                     pos["dark"] = _position(bench)
                     if st.dark_source == "grab" and not st.dark_after:  # (dark="after": below)
@@ -306,7 +306,7 @@ class Runner:
                         apply_settings(bench, system, st.dark_settings, applied, self._cancelled)
                         applied = st.dark_settings
                         dark = self._grab(bench, st, st.dark_frames, vw, max_code, fw, dark=True)
-                    pos["end"] = _position(bench)
+                    pos["end"], after = _position(bench), bench.registers.snapshot()
                 except FrameLost as exc:  # dropped/corrupt/short frames: acquire the stage again, or fail
                     if fw is not None:
                         fw.close(keep=False)
@@ -356,7 +356,6 @@ class Runner:
                 cache = flat
             elif st.dark_source == "grab":
                 cache = dark
-            after = bench.registers.snapshot()
             new_mask = self._mask is None and st.scene == "dark" and st.settings.get("reg:test_mode", 0) == 0
             if new_mask:  # before the next stage's frames: they are masked as they arrive
                 t_mask = time.monotonic()
