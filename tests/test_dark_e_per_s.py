@@ -69,7 +69,7 @@ def _truth_e_per_s(d: Path, t: float) -> float:
 def test_without_a_gain_every_surface_says_why_there_is_no_e_per_s(run_dir):
     d, terminal = run_dir
     a = _analyses(d)
-    assert a["dark_current"]["gain_from"] == a["temperature"]["gain_from"] == NO_GAIN + " (ares report RUN --gain K)"
+    assert a["dark_current"]["gain_from"] == a["temperature"]["gain_from"] == NO_GAIN + ": ares report RUN --gain K"
     for v in a["dark_current"]["by_temperature"].values():
         assert v["rate_dn_per_s"]["value"] > 0 and v["rate_e_per_s"]["value"] is None
         assert v["rate_e_per_s"]["note"].startswith("the scan measures no gain; give --gain")

@@ -173,7 +173,7 @@ def _run_gain(run, analog_gain: float | None = None):
     return Estimate(g["value"], g["se"] if g.get("se") is not None else math.nan, "DN/e-")
 
 
-NO_GAIN = "the scan measures no gain; give --gain (ares report RUN --gain K)"
+NO_GAIN = "the scan measures no gain; give --gain: ares report RUN --gain K"
 
 
 def dark_gain(run) -> tuple[Estimate | None, str]:
@@ -217,7 +217,7 @@ def dark_current(run) -> dict:
         ds = dsnu_vs_exposure(exp, [math.sqrt(max(x["spatial_var_dn2"] or 0.0, 0.0)) for x in lv], k)
         e_s = (dc.rate_e_per_s, dc.rate_from_variance_e_per_s, ds.dsnu_e_per_s)
         if k is None:  # beside every DN/s figure: why there is no e-/s one
-            e_s = tuple(Estimate.na(NO_GAIN, "e-/s") if x.note == "gain not available" or not x.available else x
+            e_s = tuple(Estimate.na(NO_GAIN, "e-/s") if x.note in ("gain not available", "gain not given") else x
                         for x in e_s)
         per_t["default" if t is None else f"{t:g}C"] = {
             "temperature_c": t, "rate_dn_per_s": _e(dc.rate_dn_per_s), "rate_e_per_s": _e(e_s[0]),
