@@ -25,6 +25,7 @@ from ares.hardware.wire_bench import wire_faults
 from ares.protocol import load_scan
 from ares.scan import Runner
 from ares.scan import events as ev
+from wire_small import small_wire
 
 ROOT = Path(__file__).resolve().parents[1]
 WIRE = ROOT / "protocols" / "sim_wire.xml"
@@ -33,21 +34,10 @@ I2C_AT = 62  # an I2C transaction in the third stage's register writes (sf_bias 
 # first two are the chip-ID read and the <init> write at connect)
 
 
-def _small_wire(tmp_path: Path) -> Path:
-    """protocols/sim_wire.xml at 48x64 pixels (every device, wire and fault as declared; a
-    frame of 9 USB packets instead of 900): the campaign's cases cost their recovery, not
-    their pixels."""
-    p = tmp_path / "sim_wire_48x64.xml"
-    text = WIRE.read_text().replace('rows="480" cols="640"', 'rows="48" cols="64"')
-    text = text.replace('name="rows" type="int" value="480"', 'name="rows" type="int" value="48"')
-    p.write_text(text.replace('name="cols" type="int" value="640"', 'name="cols" type="int" value="64"'))
-    return p
-
-
 def _scan(tmp_path: Path, timeout_s: float = 2, max_recoveries: int = 5, chamber: bool = False,
           small: bool = False) -> Path:
     p = tmp_path / "recover.xml"
-    system = _small_wire(tmp_path) if small else WIRE
+    system = small_wire(tmp_path) if small else WIRE
     warm = '<stage name="warm" scene="dark"><set quantity="temperature" value="30"/></stage>' if chamber else ""
     p.write_text(f"""<?xml version="1.0"?>
 <scan name="recover" version="1">

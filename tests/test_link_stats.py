@@ -1,5 +1,5 @@
 """Link statistics and device identities in the run (issue 36, finding 9) on
-protocols/sim_wire.xml: each stage's USB/I2C/serial counts in its JSON and HDF5 (with unit
+protocols/sim_wire.xml (at 48x64 pixels): each stage's USB/I2C/serial counts in its JSON and HDF5 (with unit
 attributes), the totals and what each device said it is in run.json, both in the terminal
 summary and on the report's first page. Before the change none of it reached the run
 directory. Counts are checked against the USB packet rules and the injected faults."""
@@ -13,10 +13,9 @@ import h5py
 import pytest
 
 from ares.cli import main
+from wire_small import COLS, ROWS, small_wire
 
-ROOT = Path(__file__).resolve().parents[1]
-WIRE = ROOT / "protocols" / "sim_wire.xml"
-FRAME_BYTES = 32 + 640 * 480 * 3 // 2  # ares32 header + Mono12p payload: 900 whole 512-byte packets
+FRAME_BYTES = 32 + COLS * ROWS * 3 // 2  # ares32 header + Mono12p payload: 9 whole 512-byte packets
 FRAMES = 2
 
 
@@ -24,7 +23,7 @@ def _scan(tmp_path: Path) -> Path:
     p = tmp_path / "link.xml"
     p.write_text(f"""<?xml version="1.0"?>
 <scan name="link" version="1">
-  <system href="{WIRE}"/>
+  <system href="{small_wire(tmp_path)}"/>
   <settings><set quantity="exposure" value="0.01"/></settings>
   <frames>{FRAMES}</frames>
   <stages>
