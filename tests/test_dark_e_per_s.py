@@ -7,6 +7,7 @@ Before, those surfaces showed DN/s only."""
 from __future__ import annotations
 
 import json
+import math
 from pathlib import Path
 
 import pytest
@@ -113,3 +114,28 @@ def test_report_gain_gives_e_per_s_beside_dn_per_s(run_dir, tmp_path):
     fig = temperature_page(run, dark_series(run))
     page = " ".join(t.get_text() for t in fig.texts)
     assert "dark current (e-/s)" in page and f"gain for e-/s: given: {k!r}DN/e-" in page
+
+
+def test_a_gain_declared_in_the_system_xml_gives_e_per_s_at_run_time(run_dir, tmp_path):
+    """<sensor><gain dn_per_e se source>: a calibration's gain, its SE carried into the e-/s SEs."""
+    from ares.protocol import load_system, save_system
+
+    k, k_se = 0.21, 0.002
+    text = SMALL.read_text().replace('<adc bits="12" channels="2" interleave="column"/>',
+                                     '<adc bits="12" channels="2" interleave="column"/>\n'
+                                     f'    <gain dn_per_e="{k}" se="{k_se}" source="PTC calibration 2026-03"/>')
+    system = tmp_path / "sim_small_gain.xml"
+    system.write_text(text)
+    sy = load_system(system)
+    assert (sy.sensor.gain_dn_per_e, sy.sensor.gain_se, sy.sensor.gain_source) == (k, k_se, "PTC calibration 2026-03")
+    save_system(sy, tmp_path / "again.xml")
+    assert load_system(tmp_path / "again.xml").sensor == sy.sensor
+    d = tmp_path / "run"
+    scan = run_dir[0] / "xml" / "temperature.xml"
+    assert main(["run", str(scan), "--system", str(system), "--out", str(d), "--seed", "3", "-q"]) == 0
+    a = _analyses(d)
+    assert a["dark_current"]["gain_from"] == "system XML <gain>: 0.21 ± 0.002 DN/e- (PTC calibration 2026-03)"
+    for v in a["dark_current"]["by_temperature"].values():
+        dn, e = v["rate_dn_per_s"], v["rate_e_per_s"]
+        assert e["value"] == pytest.approx(dn["value"] / k, rel=1e-12)
+        assert e["se"] == pytest.approx(math.hypot(dn["se"] / k, e["value"] * k_se / k), rel=1e-12)

@@ -178,8 +178,9 @@ NO_GAIN = "the scan measures no gain; give --gain: ares report RUN --gain K"
 
 def dark_gain(run) -> tuple[Estimate | None, str]:
     """K for dark currents in e-/s and where it came from: this run's PTC, else the gain
-    given to ``ares report --gain`` (run.json ``gain_given``, value and SE in DN/e-), else
-    None and the sentence saying why e-/s is not available."""
+    given to ``ares report --gain`` (run.json ``gain_given``), else the system XML's
+    ``<sensor><gain dn_per_e se source>`` (a calibration), else None and the sentence saying
+    why e-/s is not available."""
     k = _run_gain(run)
     if k is not None:
         return k, "ptc in this run"
@@ -188,6 +189,11 @@ def dark_gain(run) -> tuple[Estimate | None, str]:
         se = g.get("se")
         return (Estimate(float(g["value"]), math.nan if se is None else float(se), "DN/e-"),
                 f"given: {g.get('text', g['value'])} ({g.get('source', 'ares report --gain')})")
+    s = run.scan.system.sensor if getattr(run, "scan", None) is not None else None
+    if s is not None and s.gain_dn_per_e:
+        se = f" ± {s.gain_se:g}" if s.gain_se else " (no SE declared: not in the e-/s SEs)"
+        return (Estimate(s.gain_dn_per_e, s.gain_se if s.gain_se else math.nan, "DN/e-"),
+                f"system XML <gain>: {s.gain_dn_per_e:g}{se} DN/e-" + (f" ({s.gain_source})" if s.gain_source else ""))
     return None, "e-/s not available: " + NO_GAIN
 
 
