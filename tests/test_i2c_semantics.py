@@ -49,3 +49,15 @@ def test_a_gone_adapter_is_not_retried_and_names_the_register_bus():
     with pytest.raises(DeviceGone, match="device gone on read") as e:
         bus.read(0x0000)
     assert e.value.device == "registers" and emu.transactions == 1 and pauses == []
+
+
+def test_a_busy_bus_is_retried_counted_and_named():
+    """EBUSY (another master holds the bus too long): retried with the same back-off, counted
+    apart from NACKs (the run's link statistics), and named as such when it persists."""
+    bus, emu, pauses = _bus(i2c_busy_at=0, i2c_fault_count=2)
+    assert bus.read(0x0000) == 0xA2E5
+    assert bus.link_counters() == {"transactions": 3, "nack_retries": 0, "busy_retries": 2, "timeout_retries": 0}
+    bus, emu, pauses = _bus(i2c_busy_at=0, i2c_fault_count=10)
+    with pytest.raises(DeviceGone, match=r"register 0x0010: bus busy on write after 4 attempt\(s\)"):
+        bus.write(0x0010, 5)
+    assert pauses == [BACKOFF_S, 2 * BACKOFF_S, 4 * BACKOFF_S] and bus.link_counters()["busy_retries"] == 3

@@ -19,7 +19,7 @@ ROOT = Path(__file__).resolve().parents[1]
 
 def test_a_late_reply_does_not_answer_the_next_command():
     cfg = load_system(ROOT / "protocols" / "sim_wire.xml").light_source
-    emu = EmulatedInstrument(SimLightSource(), {"light_late_at": 0})
+    emu = EmulatedInstrument(SimLightSource(), {"light_late_at": 1})  # (command 0: *IDN? at open)
     register("led", emu)
     try:
         led = SerialLightSource.open(cfg)

@@ -95,28 +95,30 @@ def test_an_echoing_instrument_is_understood_when_declared():
 
 
 def test_line_noise_is_retried_within_the_bound():
-    dev = PtyInstrument(script={0: "noise", 2: "noise", 3: "noise"})
+    dev = PtyInstrument(script={1: "noise", 3: "noise", 4: "noise"})  # (command 0: *IDN? at open)
     led = _led(dev, retries=1)
     try:
+        assert led.identity()["idn"] == "ARES,pty-led,1"
         led.set_level(7.0)  # garbled once, answered on the retry
-        assert led.retried == 1 and dev.received[:2] == ["LEVEL 7.0", "LEVEL 7.0"]
+        assert led.retried == 1 and dev.received[:3] == ["*IDN?", "LEVEL 7.0", "LEVEL 7.0"]
         with pytest.raises(HardwareError, match=r"reply .* to 'LEVEL\?' holds bytes that are not printable ASCII "
                                                 r"\(garbled\) after 2 attempts"):
             led.get_level()  # garbled twice: the bound
-        assert len(dev.received) == 4
+        assert len(dev.received) == 5
+        assert led.link_counters() == {"commands": 5, "retries": 2, "garbled": 3, "timeouts": 0}
     finally:
         led.close()
         dev.close()
 
 
 def test_a_silent_instrument_is_a_timeout_not_an_unplugged_port():
-    dev = PtyInstrument(script={0: "silent", 2: "unplug"})
+    dev = PtyInstrument(script={1: "silent", 3: "unplug"})  # (command 0: *IDN? at open)
     led = _led(dev, timeout_s=0.2)
     try:
         with pytest.raises(HardwareError, match=r"no reply to 'LEVEL 1.0' within 0.2 s \(timeout: the instrument "
                                                 r"is silent") as e:
             led.set_level(1.0)
-        assert not isinstance(e.value, DeviceGone)
+        assert not isinstance(e.value, DeviceGone) and led.link_counters()["timeouts"] == 1
         # minutes from here: a loaded machine may answer late, and the unplug must be seen as
         # such (EIO at once), not as another timeout
         led.port.timeout = 120.0

@@ -87,6 +87,7 @@ def test_photon_transfer_scan_through_the_wires_equals_direct(tmp_path):
             j.pop("h5_bytes", None)  # the stage file's size and the timestamps' hashes
             for k in [k for k in j.get("arrays_sha256", {}) if k.endswith("frame_timestamp")]:
                 del j["arrays_sha256"][k]
+        assert ja.pop("link")["frames"]["transfers"] > 0 and "link" not in jb  # only wires have link statistics
         ha, hb = ja.pop("arrays_sha256", {}), jb.pop("arrays_sha256", {})
         assert {k: ha[k] for k in ha if k in hb} == {k: hb[k] for k in hb if k in ha}, n  # same arrays, same bytes
         for j in (ja, jb):
@@ -96,8 +97,8 @@ def test_photon_transfer_scan_through_the_wires_equals_direct(tmp_path):
             keys = []
             fa.visit(keys.append)
             for k in keys:
-                if k.endswith("frame_timestamp"):  # host time at arrival vs the simulator's model clock
-                    continue
+                if k.endswith("frame_timestamp") or k.startswith("link_"):  # host time at arrival vs the
+                    continue  # simulator's model clock; the wires' link statistics
                 if isinstance(fa[k], h5py.Dataset):
                     assert np.array_equal(fa[k][()], fb[k][()]), (n, k)
     assert (tmp_path / "wire" / "key_figures.csv").read_text() == (tmp_path / "direct" / "key_figures.csv").read_text()
@@ -122,18 +123,18 @@ def _i2c_transactions_at_stage(tmp_path, stage: int) -> int:
     return seen[stage]
 
 
-FAULTS = [  # (faults, what the sentence must say, completed stages)
+FAULTS = [  # (faults, what the sentence must say, completed stages); serial command 0 is *IDN? at open
     (["usb_drop_at=5"], r"grabber.*1 frame\(s\) dropped before frame 5", 2),
     (["usb_corrupt_at=5"], r"grabber.*frame 5 \(device counter 5\) is corrupt \(payload CRC mismatch\)", 2),
     (["usb_short_at=5"], r"grabber.*frame 5 .* arrived short \(230432 of 460832 bytes\)", 2),
     (["usb_timeout_at=5"], r"grabber.*no data on endpoint 0x81 within 2000 ms \(timeout\)", 2),
     (["usb_disconnect_at=5"], r"grabber.*device disconnected", 2),
-    (["light_timeout_at=2"], r"led on aresemu://led: no reply to 'LEVEL 100000.0' within 1 s", 2),
-    (["light_wrong_reply_at=2"], r"led on aresemu://led: reply '\?#%' to 'LEVEL 100000.0' does not match 'OK'", 2),
-    (["light_error_at=2"], r"led on aresemu://led: refused 'LEVEL 100000.0': emulated fault", 2),
-    (["light_disconnect_at=2"], r"led on aresemu://led: port error", 2),
-    (["chamber_timeout_at=0"], r"chamber on aresemu://chamber: no reply to 'TEMP 30.0'", 4),
-    (["chamber_wrong_reply_at=1"], r"chamber on aresemu://chamber: reply '\?#%' to 'TEMP\?' is not a number", 4),
+    (["light_timeout_at=3"], r"led on aresemu://led: no reply to 'LEVEL 100000.0' within 1 s", 2),
+    (["light_wrong_reply_at=3"], r"led on aresemu://led: reply '\?#%' to 'LEVEL 100000.0' does not match 'OK'", 2),
+    (["light_error_at=3"], r"led on aresemu://led: refused 'LEVEL 100000.0': emulated fault", 2),
+    (["light_disconnect_at=3"], r"led on aresemu://led: port error", 2),
+    (["chamber_timeout_at=1"], r"chamber on aresemu://chamber: no reply to 'TEMP 30.0'", 4),
+    (["chamber_wrong_reply_at=2"], r"chamber on aresemu://chamber: reply '\?#%' to 'TEMP\?' is not a number", 4),
     ("i2c_nack", r"I2C device 0x36 on bus 1 \('sensor'\), register 0x[0-9a-f]{4}: no acknowledge on (read|write) "
                  r"after 3 attempt\(s\).*\(field '\w+'\)", 2),
     ("i2c_timeout", r"I2C device 0x36 on bus 1 \('sensor'\), register 0x[0-9a-f]{4}: timeout on (read|write) "
@@ -264,6 +265,7 @@ def test_image_row_readback_for_a_sensor_without_i2c_read():
         b.registers.set("exposure", 0.0123)
         assert b.registers.get("exposure") == pytest.approx(0.0123)
         assert b.registers.get("analog_gain") == 1.0
-        assert b.registers.bus.readback.frames_used == 2  # one frame per write, then cached
+        # the chip-ID check at connect, then one frame after each write (the <init> write, exposure), then cached
+        assert b.registers.bus.readback.frames_used == 3
     finally:
         b.close()

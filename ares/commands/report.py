@@ -4,7 +4,10 @@ Writes ``ptc.csv``, ``components.csv``, ``key_figures.csv``, ``report.h5`` and
 ``report.pdf`` into the run directory (``--csv DIR`` / ``--hdf5 FILE`` / ``--pdf FILE``
 elsewhere; given any of them, only those are written). ``--json`` prints the key figures and the files as JSON. A
 partial run is reported as far as it goes (exit 0, with a note); a missing or
-unreadable run directory is one sentence, exit 2.
+unreadable run directory is one sentence, exit 2. ``--gain K`` (with its unit, as
+``ares analyze`` takes it): a run that measured no gain (the temperature scan) gets its
+dark currents in e-/s beside DN/s; the gain is recorded in run.json (``gain_given``) and the
+dark_current/temperature analyses of scan_results.json are computed again with it.
 """
 
 from __future__ import annotations
@@ -22,6 +25,41 @@ def add_arguments(parser) -> None:
     parser.add_argument("--csv", metavar="DIR", help="write the CSV tables here (default: RUN_DIR)")
     parser.add_argument("--hdf5", metavar="FILE", help="write the HDF5 tables here (default: RUN_DIR/report.h5)")
     parser.add_argument("--json", action="store_true", help="print key figures and written files as JSON")
+    from ares.commands.argtypes import gain, positive
+
+    parser.add_argument("--gain", type=gain, default=None, metavar="K",
+                        help="system gain for dark currents in e-/s when the run measured none (0.28DN/e-, "
+                             "3.57e-/DN, 70uV/e- with --adc-lsb-uv); recorded in run.json")
+    parser.add_argument("--adc-lsb-uv", type=positive, default=None, metavar="UV",
+                        help="the ADC step in uV, to turn a --gain in uV/e- into DN/e-")
+
+
+GAIN_ANALYSES = ("dark_current", "temperature")  # the analyses a given gain changes
+
+
+def give_gain(run_dir, k: float, text: str) -> None:
+    """Record a gain given by ``--gain`` in run.json and compute the analyses that use it
+    again (scan_results.json); a run whose PTC measured K keeps its own (``dark_gain``)."""
+    from pathlib import Path
+
+    from ares.scan.results import SCAN_ANALYSES
+    from ares.scan.rundir import dump_json, load_run, storage
+
+    d = Path(run_dir)
+    meta = json.loads((d / "run.json").read_text())
+    meta["gain_given"] = {"value": k, "se": None, "text": text,
+                          "source": "ares report --gain; its own uncertainty is not in the e-/s SEs"}
+    with storage(d / "run.json"):
+        dump_json(d / "run.json", meta)
+    if not (d / "scan_results.json").is_file():
+        return
+    doc = json.loads((d / "scan_results.json").read_text())
+    record = load_run(d)
+    for name in GAIN_ANALYSES:
+        if name in (doc.get("analyses") or {}):
+            doc["analyses"][name] = SCAN_ANALYSES[name](record)
+    with storage(d / "scan_results.json"):
+        dump_json(d / "scan_results.json", doc)
 
 
 def run(args) -> int:
@@ -33,6 +71,9 @@ def run(args) -> int:
     from ares.scan.rundir import clean_report_leftovers, set_reports_state
 
     r = read_run(args.run_dir, verify_arrays=True)  # (incomplete / corrupt: one sentence, exit 2)
+    if args.gain is not None:
+        give_gain(r.dir, args.gain.dn_per_e(args.adc_lsb_uv), args.gain.text)
+        r = read_run(args.run_dir)
     repair = r.status == REPORTS_INCOMPLETE and not (args.pdf or args.csv or args.hdf5)
     if repair:  # the reports a signal cut short, written now: the run reads as done again
         clean_report_leftovers(r.dir)

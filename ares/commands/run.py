@@ -190,6 +190,11 @@ def print_summary(outcome, scan, seconds: float, out=None, resumed: int = 0) -> 
               f"{', seed ' + str(outcome.seed) if outcome.seed is not None else ''}\n")
     if outcome.run_dir:
         out.write(f"run directory: {outcome.run_dir}\n")
+        from ares.hardware.link_stats import device_lines, link_lines
+
+        meta = _read_meta(Path(outcome.run_dir))  # what each device said it is, what each link did
+        for label, text in device_lines(meta) + link_lines(meta):
+            out.write(f"{label}: {text}\n")
     lost = [(st.get("name"), x) for st in outcome.stages for x in st.get("frames_lost", ())]
     if lost:
         kinds = ", ".join(f"{x['kind']} {x['count']}" for _, x in lost)

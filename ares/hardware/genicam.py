@@ -9,9 +9,16 @@ on a camera exactly as on an I2C sensor: through ``FeatureFile`` (a ``RegisterFi
 passes the feature's own typed value: floats and negative values intact, checked against
 the node's type, limits and increment first -- ``ares.hardware.genicam_features``).
 
-Buffers are converted to uint8/uint16 frames: Mono8/10/12/14/16 and the packed
-Mono10p/12p/14p (``ares.hardware.pixels``). A gap in the buffer's frame id is a dropped
+Buffers become uint8/uint16 frames by harvesters' own pixel-format conversion (its PFNC
+table expands every packed layout: Mono10p/12p, the GigE Vision Mono12Packed, BayerRG12p
+...): any monochrome or raw Bayer format (one value per pixel) is taken; a Bayer format must
+name the mosaic the system XML's ``<cfa>`` declares; colour formats (RGB8 ..., already
+demosaiced) are refused. Packed bytes a producer hands over unexpanded are unpacked here
+(Mono10p/12p/14p, ``ares.hardware.pixels``). A gap in the buffer's frame id is a dropped
 frame (``FrameLost``); a fetch that times out is a ``HardwareError``; both name the camera.
+A camera that fails (``DeviceGone``) is opened again by ``reconnect`` (a scan's recovery).
+The fetch timeout is the XML's ``timeout_ms`` or the frame time (exposure + readout +
+margin, ``set_frame_time``) when longer.
 """
 
 from __future__ import annotations
@@ -26,8 +33,10 @@ from ares.hardware.interfaces import Frame
 from ares.hardware.pixels import FORMATS, unpack
 from ares.hardware.registers import Field, RegisterMap
 
-_UNPACKED = {"Mono8": np.uint8, "Mono10": np.uint16, "Mono12": np.uint16, "Mono14": np.uint16, "Mono16": np.uint16}
-_PACKED = {"Mono10p": "mono10p", "Mono12p": "mono12p", "Mono14p": "mono14p"}
+_PACKED = {"Mono10p": "mono10p", "Mono12p": "mono12p", "Mono14p": "mono14p"}  # when harvesters did not expand
+_BAYER = ("RG", "GR", "GB", "BG")  # BayerRG12 -> RGGB (the <cfa pattern>)
+_IDENTITY = (("vendor", "DeviceVendorName"), ("model", "DeviceModelName"), ("serial", "DeviceSerialNumber"),
+             ("firmware", "DeviceFirmwareVersion"))  # SFNC names
 
 
 def feature_map(cfg) -> RegisterMap:
@@ -55,6 +64,10 @@ class GenICamCamera:
     def __init__(self, cfg):
         self.cfg = cfg
         self.name = f"GenICam camera '{cfg.name}'"
+        self._open()
+
+    def _open(self) -> None:
+        cfg = self.cfg
         path = producer_path(cfg.cti)
         if not os.path.isfile(path):
             raise DeviceGone(f"{self.name}: GenTL producer {path} does not exist")
@@ -108,6 +121,16 @@ class GenICamCamera:
         except Exception as exc:
             raise HardwareError(f"{self.name}: cannot set feature {name} to {value} ({exc})") from None
 
+    def reconnect(self) -> None:
+        """Open the camera again after it was unplugged (``DeviceGone`` while it is away): the
+        producer lists its cameras again, the same one is selected and its ``<set>`` features
+        written again (a replugged camera has lost them)."""
+        try:
+            self.close()
+        except Exception:  # noqa: BLE001 -- a camera that is gone may not close cleanly
+            pass
+        self._open()
+
     def close(self) -> None:
         try:
             self.ia.destroy()
@@ -143,18 +166,30 @@ class FeatureBus:
     def write(self, address: int, value: int) -> None:
         self.camera.write(self._node(address), value)
 
+    def reconnect(self) -> None:
+        self.camera.reconnect()
+
     def close(self) -> None:
         self.camera.close()
 
 
 class GenICamFrameSource:
-    def __init__(self, camera: GenICamCamera, shape: tuple[int, int], bit_depth: int):
+    def __init__(self, camera: GenICamCamera, shape: tuple[int, int], bit_depth: int, cfa: str = "mono"):
         self.camera = camera
         self.name = camera.name
-        self.shape, self.bit_depth = tuple(shape), int(bit_depth)
+        self.shape, self.bit_depth, self.cfa = tuple(shape), int(bit_depth), cfa
         self.count = 0
         self.last_id: int | None = None
-        self.dropped = 0
+        self.dropped = self.timeouts = 0
+        self.frame_time_s = 0.0  # exposure + readout + margin of the current settings (ares.scan.apply)
+
+    def set_frame_time(self, seconds: float) -> None:
+        """The current frame time: a 20 s exposure is not a 2 s fetch timeout."""
+        self.frame_time_s = max(0.0, float(seconds))
+
+    @property
+    def timeout_ms(self) -> int:
+        return max(int(self.camera.cfg.timeout_ms), int(round(1000 * self.frame_time_s)))
 
     def _convert(self, comp) -> np.ndarray:
         fmt = str(comp.data_format)
@@ -162,19 +197,47 @@ class GenICamFrameSource:
         if (h, w) != self.shape:
             raise FrameError(f"{self.name}: delivers {w}x{h} but the system XML declares "
                              f"{self.shape[1]}x{self.shape[0]}")
-        if fmt in _UNPACKED:
-            return np.array(comp.data, dtype=_UNPACKED[fmt], copy=True).reshape(self.shape)
-        if fmt in _PACKED:
-            raw = np.asarray(comp.data)
-            if raw.dtype != np.uint8:  # harvesters already unpacked it
-                return np.array(raw, dtype=np.uint16).reshape(self.shape)
+        bayer = fmt[5:7] if fmt.startswith("Bayer") and fmt[5:7] in _BAYER else None
+        if bayer is not None:
+            mosaic = {"RG": "RGGB", "GR": "GRBG", "GB": "GBRG", "BG": "BGGR"}[bayer]
+            if mosaic != self.cfa:
+                raise FrameError(f"{self.name}: pixel format {fmt} is a {mosaic} mosaic but the system XML declares "
+                                 f"<cfa pattern='{self.cfa}'>")
+        elif not fmt.startswith("Mono"):
+            raise FrameError(f"{self.name}: pixel format {fmt} is not raw sensor data (set PixelFormat to a Mono or "
+                             "Bayer format with <set node='PixelFormat'>)")
+        raw = np.asarray(comp.data)
+        if raw.dtype == np.uint8 and raw.size != h * w and fmt in _PACKED:  # packed bytes, not expanded
             return unpack(raw, FORMATS[_PACKED[fmt]], self.shape)
-        raise FrameError(f"{self.name}: pixel format {fmt} is not supported (set PixelFormat to one of "
-                         f"{', '.join(list(_UNPACKED) + list(_PACKED))} with <set node='PixelFormat'>)")
+        if raw.size != h * w or raw.dtype.kind not in "ui" or raw.dtype.itemsize > 2:
+            raise FrameError(f"{self.name}: pixel format {fmt} arrived as {raw.size} {raw.dtype} values for "
+                             f"{w}x{h} pixels (harvesters could not expand it)")
+        return np.array(raw, dtype=np.uint8 if raw.dtype.itemsize == 1 else np.uint16, copy=True).reshape(self.shape)
+
+    def reconnect(self) -> None:
+        """Open the camera again (``GenICamCamera.reconnect``); the frame ids start afresh."""
+        self.camera.reconnect()
+        self.last_id = None
+
+    def link_counters(self) -> dict:
+        """The link statistics since open (``ares.hardware.link_stats``)."""
+        return {"frames": self.count, "dropped_frames": self.dropped, "timeouts": self.timeouts}
+
+    def identity(self) -> dict:
+        """Vendor, model, serial number and firmware as the camera's node map gives them."""
+        out = {"interface": "GenICam"}
+        for key, node in _IDENTITY:
+            try:
+                v = getattr(self.camera.nodes, node).value
+            except Exception:  # noqa: BLE001 -- a camera without the SFNC node: not given
+                continue
+            if v not in (None, ""):
+                out[key] = str(v)
+        return out
 
     def grab(self, n: int):
         ia = self.camera.ia
-        timeout = self.camera.cfg.timeout_ms / 1000.0
+        timeout = self.timeout_ms / 1000.0
         try:
             ia.start()
         except Exception as exc:
@@ -185,7 +248,8 @@ class GenICamFrameSource:
                     buf = ia.fetch(timeout=timeout)
                 except Exception as exc:
                     if "timeout" in type(exc).__name__.lower():
-                        raise HardwareError(f"{self.name}: no frame within {self.camera.cfg.timeout_ms} ms "
+                        self.timeouts += 1
+                        raise HardwareError(f"{self.name}: no frame within {self.timeout_ms} ms "
                                             f"(timeout) at frame {self.count}") from None
                     raise DeviceGone(f"{self.name}: acquisition failed at frame {self.count} ({exc})") from None
                 try:
@@ -230,7 +294,8 @@ def build_genicam_bench(system):
     opened = [cam]
     try:
         regs = FeatureFile(system.registers, FeatureBus(cam))
-        frames = GenICamFrameSource(cam, (system.sensor.rows, system.sensor.cols), system.sensor.adc_bits)
+        frames = GenICamFrameSource(cam, (system.sensor.rows, system.sensor.cols), system.sensor.adc_bits,
+                                    system.sensor.cfa)
         light = SerialLightSource.open(system.light_source) if system.light_source else None
         opened.append(light)
         chamber = SerialChamber.open(system.chamber) if system.chamber else None

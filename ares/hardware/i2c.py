@@ -29,6 +29,8 @@ import time
 from ares.errors import DeviceGone, HardwareError, ValueOutOfRange
 
 _GONE = {errno.ENODEV, errno.ENOENT, errno.EBADF}  # the adapter itself; ENXIO is a NACK (retried)
+_NACK = {errno.ENXIO, errno.EREMOTEIO}  # no acknowledge (Documentation/i2c/fault-codes)
+_BUSY = {errno.EBUSY, errno.EAGAIN}  # the bus busy too long / arbitration lost: another master
 BACKOFF_S = 0.001  # the first pause before a retry, doubled each attempt
 
 
@@ -46,8 +48,12 @@ class I2CRegisterBus:
         self.volatile = frozenset(volatile)  # register addresses not verified by read-back
         self.speed_hz, self.chip_id, self.init, self.sysfs = speed_hz, chip_id, tuple(init), sysfs
         self.adapter_hz: int | None = None  # the adapter's clock, when the kernel shows it
+        self.chip_id_read: int | None = None  # what the chip-ID register answered at connect
         self.readback = None  # ImageRowReadback for sensors without I2C read
         self.retried = 0  # transactions that needed a retry (a flaky bus shows here)
+        # link statistics (ares.hardware.link_stats): transactions attempted, and the retries
+        # after a NACK (ENXIO/EREMOTEIO), a busy bus (EBUSY/EAGAIN) and anything else (timeouts)
+        self.transactions = self.nack_retries = self.busy_retries = self.other_retries = 0
         self._given = smbus  # an emulated adapter (tests) is reopened as itself
         self.smbus = smbus if smbus is not None else self._open()
 
@@ -94,6 +100,7 @@ class I2CRegisterBus:
             if got != want:
                 raise HardwareError(f"{self._where(reg)}: chip ID reads 0x{got:x} but the system XML expects "
                                     f"0x{want:x} (a different sensor, or none, at this address)")
+            self.chip_id_read = got
         for kind, a, v in self.init:
             if kind == "wait":
                 self._sleep(a)
@@ -110,6 +117,7 @@ class I2CRegisterBus:
 
     def _transfer(self, reg: int, what: str, *msgs) -> None:
         for attempt in range(self.retries + 1):
+            self.transactions += 1
             try:
                 self.smbus.i2c_rdwr(*msgs)
                 if attempt:
@@ -121,8 +129,15 @@ class I2CRegisterBus:
                                      "registers") from None
                 last = exc
                 if attempt < self.retries:
+                    if exc.errno in _NACK:
+                        self.nack_retries += 1
+                    elif exc.errno in _BUSY:
+                        self.busy_retries += 1
+                    else:
+                        self.other_retries += 1
                     self._sleep(BACKOFF_S * (1 << attempt))
-        kind = "timeout" if last.errno == errno.ETIMEDOUT else "no acknowledge"
+        kind = {errno.ETIMEDOUT: "timeout", errno.EBUSY: "bus busy", errno.EAGAIN: "bus busy (arbitration lost)"}.get(
+            last.errno, "no acknowledge")
         raise DeviceGone(f"{self._where(reg)}: {kind} on {what} after {self.retries + 1} attempt(s) "
                          f"({last.strerror or last})", "registers")
 
@@ -153,6 +168,20 @@ class I2CRegisterBus:
             if got != value:
                 raise HardwareError(f"{self._where(address)}: wrote 0x{value:x} but read back 0x{got:x} "
                                     "(write-verify)")
+
+    def link_counters(self) -> dict:
+        """The link statistics since open (``ares.hardware.link_stats``)."""
+        return {"transactions": self.transactions, "nack_retries": self.nack_retries,
+                "busy_retries": self.busy_retries, "timeout_retries": self.other_retries}
+
+    def identity(self) -> dict:
+        """Bus, address and the chip ID the sensor answered at connect (when one is declared)."""
+        out = {"interface": "I2C", "bus": self.bus_number, "address": f"0x{self.address:02x}"}
+        if self.chip_id_read is not None:
+            out["chip_id"] = f"0x{self.chip_id_read:x}"
+        if self.adapter_hz:
+            out["adapter_hz"] = self.adapter_hz
+        return out
 
     def close(self) -> None:
         close = getattr(self.smbus, "close", None)

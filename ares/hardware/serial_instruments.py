@@ -56,22 +56,44 @@ class SerialInstrument:
         self.name = cfg.name
         self.protocol = cfg.protocol or self.DEFAULT
         self.retried = 0  # commands that needed a retry (a noisy line shows here)
+        # link statistics (ares.hardware.link_stats): commands sent (each attempt), replies
+        # that were garbled (noise, partial line, bad echo, wrong form) and replies that never came
+        self.commands = self.garbled = self.timeouts = 0
+        self.ident: str | None = None  # the answer to the declared 'identify' command at connect
 
     def _wait(self, seconds: float, cancel=None) -> None:
         wait(seconds, cancel, sleep=self._sleep, clock=self._clock)
 
     @classmethod
-    def open(cls, cfg, **kw):
+    def _port(cls, cfg):
         import serial
 
         if cfg.port.startswith("aresemu://") and "ares.hardware.emulators" not in serial.protocol_handler_packages:
             serial.protocol_handler_packages.append("ares.hardware.emulators")
         try:
-            port = serial.serial_for_url(cfg.port, baudrate=cfg.baud, bytesize=cfg.bytesize, parity=cfg.parity,
+            return serial.serial_for_url(cfg.port, baudrate=cfg.baud, bytesize=cfg.bytesize, parity=cfg.parity,
                                          stopbits=cfg.stopbits, timeout=cfg.timeout_s)
         except (serial.SerialException, OSError, ValueError) as exc:
             raise DeviceGone(f"{cfg.name}: cannot open serial port {cfg.port} ({exc})", cls.ROLE) from None
-        return cls(port, cfg, **kw)
+
+    @classmethod
+    def open(cls, cfg, **kw):
+        """Open the port and ``connect()``."""
+        inst = cls(cls._port(cfg), cfg, **kw)
+        try:
+            inst.connect()
+        except BaseException:
+            inst.close()
+            raise
+        return inst
+
+    def connect(self) -> None:
+        """Ask the instrument who it is when the system XML's ``<protocol>`` declares an
+        ``identify`` command (``*IDN?``): the answer goes into the run record
+        (``identity()``), and an instrument that does not answer is found at open, not in
+        the middle of a scan."""
+        if self.cfg.protocol is not None and self.cfg.protocol.command("identify") is not None:
+            self.ident = self.identify()
 
     def _line(self) -> bytes:
         term = self.protocol.reply_terminator.encode("ascii")
@@ -82,6 +104,7 @@ class SerialInstrument:
         """One attempt: flush, send, (echo,) reply line. None: no whole line in time."""
         p = self.protocol
         term = p.reply_terminator.encode("ascii")
+        self.commands += 1
         try:
             flush = getattr(self.port, "reset_input_buffer", None)
             if flush is not None:  # a late reply to an earlier command must not answer this one
@@ -106,6 +129,7 @@ class SerialInstrument:
             try:
                 reply = self._exchange(command)
                 if reply is None:
+                    self.timeouts += 1
                     why = (f"no reply to '{command}' within {self.cfg.timeout_s:g} s (timeout: the instrument is "
                            "silent, its port open)")
                     continue
@@ -120,8 +144,10 @@ class SerialInstrument:
                 if m is not None:
                     return m
                 why = f"reply '{reply}' to '{command}' does not match '{pattern}' (wrong reply)"
+                self.garbled += 1
             except _Garbled as exc:
                 why = str(exc)
+                self.garbled += 1
             finally:
                 if attempt:
                     self.retried += 1
@@ -158,6 +184,18 @@ class SerialInstrument:
     def identify(self) -> str:
         return self._do("identify")
 
+    def link_counters(self) -> dict:
+        """The link statistics since open (``ares.hardware.link_stats``)."""
+        return {"commands": self.commands, "retries": self.retried, "garbled": self.garbled,
+                "timeouts": self.timeouts}
+
+    def identity(self) -> dict:
+        """The port and what the instrument answered to its identify command at connect."""
+        out = {"interface": "serial", "port": self.cfg.port}
+        if self.ident:
+            out["idn"] = self.ident
+        return out
+
     def close(self) -> None:
         self.port.close()
 
@@ -167,8 +205,8 @@ class SerialInstrument:
             self.port.close()
         except Exception:  # noqa: BLE001 -- a port that is gone may not close cleanly
             pass
-        self.port = type(self).open(self.cfg).port
-        self.identify()
+        self.port = self._port(self.cfg)
+        self.connect()
 
 
 class _Garbled(Exception):

@@ -73,6 +73,9 @@ class UsbFrameSource:
         self._first = True  # the next frame is a grab's first (a device reset shows there)
         self.dropped = self.corrupt = self.short = self.resyncs = self.skipped_bytes = 0
         self.counter_resets = 0  # a continuous counter that went back between grabs (device restarted)
+        # link statistics (the run record: ares.hardware.link_stats): bulk reads, bytes, reads
+        # that ended their transfer with a short packet / a zero-length packet, timeouts, overflows
+        self.transfers = self.bytes = self.short_packets = self.zlps = self.timeouts = self.overflows = 0
         self._lost_sync = False  # searching for a sync word (counted once per search)
 
     # ------------------------------------------------------------ open / control
@@ -156,14 +159,31 @@ class UsbFrameSource:
         left = 2 * self.frame_bytes
         while left > 0:
             try:
-                n = self.dev.read(self.cfg.endpoint, self._chunk, timeout=10)
-            except core.USBTimeoutError:
+                n = self._bulk(self._chunk, 10)
+            except core.USBTimeoutError:  # nothing left: how a flush ends (not counted as a timeout)
                 return
             except core.USBError as exc:
                 raise self._usb_error(exc, "the flush before a stack") from None
             if not n:
                 return
             left -= n
+
+    def _bulk(self, buf, timeout: int) -> int:
+        """One bulk read into ``buf``, counted for the link statistics."""
+        try:
+            n = self.dev.read(self.cfg.endpoint, buf, timeout=timeout)
+        except _usb().USBError as exc:
+            if getattr(exc, "errno", None) == errno.EOVERFLOW:
+                self.overflows += 1
+            raise
+        self.transfers += 1
+        self.bytes += n
+        if n < len(buf):
+            if n:
+                self.short_packets += 1
+            else:
+                self.zlps += 1
+        return n
 
     # ------------------------------------------------------------ bytes
     def _read(self, want: int, deadline: float) -> memoryview:
@@ -178,8 +198,9 @@ class UsbFrameSource:
         if buf is None:  # header, payload, chunk and remainder sizes: a handful, kept
             buf = self._bufs[want] = array.array("B", bytes(want))
         try:
-            n = self.dev.read(self.cfg.endpoint, buf, timeout=self.timeout_ms)
+            n = self._bulk(buf, self.timeout_ms)
         except core.USBTimeoutError:
+            self.timeouts += 1
             raise HardwareError(f"{self.name}: no data on endpoint 0x{self.cfg.endpoint:02x} within "
                                 f"{self.timeout_ms} ms (timeout) at frame {self.count}") from None
         except core.USBError as exc:
@@ -322,6 +343,21 @@ class UsbFrameSource:
             out["counter_resets"] = self.counter_resets
         return out
 
+    def link_counters(self) -> dict:
+        """The link statistics since open (``ares.hardware.link_stats``)."""
+        return {"transfers": self.transfers, "bytes": self.bytes, "short_packets": self.short_packets,
+                "zlps": self.zlps, "timeouts": self.timeouts, "overflows": self.overflows, "resyncs": self.resyncs,
+                "dropped_frames": self.dropped, "corrupt_frames": self.corrupt, "short_frames": self.short}
+
+    def identity(self) -> dict:
+        """What the grabber says it is: VID:PID, serial number, manufacturer and product strings."""
+        out = {"interface": "USB", "vid_pid": f"{self.cfg.vid:04x}:{self.cfg.pid:04x}"}
+        for key, attr in (("serial", "iSerialNumber"), ("manufacturer", "iManufacturer"), ("product", "iProduct")):
+            text = _string(self.dev, attr)
+            if text:
+                out[key] = text
+        return out
+
     def close(self) -> None:
         try:
             import usb.util
@@ -359,10 +395,16 @@ def _max_packet(dev, cfg) -> int:
         return 512
 
 
-def _serial_of(dev) -> str | None:
+def _string(dev, attr: str) -> str | None:
+    """A string descriptor of the device (``iSerialNumber``, ``iProduct`` ...), None when it has none."""
     try:
         import usb.util
 
-        return usb.util.get_string(dev, dev.iSerialNumber) if dev.iSerialNumber else None
-    except Exception:  # a device that cannot answer string requests has no usable serial
+        index = getattr(dev, attr, 0)
+        return usb.util.get_string(dev, index) if index else None
+    except Exception:  # a device that cannot answer string requests has no usable string
         return None
+
+
+def _serial_of(dev) -> str | None:
+    return _string(dev, "iSerialNumber")

@@ -22,7 +22,7 @@ PRODUCES: dict[str, frozenset[str]] = {
         "masked_pixels"}),
     "dark_current": frozenset({"rate_dn_per_s", "rate_e_per_s", "rate_from_variance_e_per_s", "offset_dn",
                                "dsnu_dn_per_s", "dsnu_e_per_s"}),
-    "temperature": frozenset({"doubling_temperature_c", "rate_at_ref_dn_per_s"}),
+    "temperature": frozenset({"doubling_temperature_c", "rate_at_ref_dn_per_s", "rate_at_ref_e_per_s"}),
     "gain_split": frozenset({"pixel_noise_e", "chain_noise_dn", "crossover_gain_dn_per_e", "chi2_red"}),
     "lag": frozenset({"lag_pct", "bright_signal_dn"}),
     "defects": frozenset({"hot", "warm", "dead", "stuck", "low_response", "high_response", "bad_rows",

@@ -49,6 +49,11 @@ class Sensor:
     vendor: str | None = None
     part: str | None = None
     optical_black: tuple[Region, ...] = ()
+    # <gain dn_per_e se source>: a system gain known from a calibration, for scans that measure
+    # none (dark currents in e-/s on the temperature scan); a PTC in the run takes precedence
+    gain_dn_per_e: float | None = None
+    gain_se: float | None = None
+    gain_source: str | None = None
 
 
 @dataclass(frozen=True)
@@ -259,11 +264,14 @@ def system_from_tree(tree, path) -> System:
         _check_region(path, el, r, rows, cols, "optical-black region")
         ob.append(r)
     adc = s.find("adc")
+    g = s.find("gain")
     sensor = Sensor(
         name=s.get("name"), rows=rows, cols=cols, cfa=s.find("cfa").get("pattern"),
         adc_bits=int(adc.get("bits")), adc_channels=int(adc.get("channels", 1)),
         adc_interleave=adc.get("interleave", "none"), pixel_pitch_um=_float(arr.get("pixel_pitch_um")),
         vendor=s.get("vendor"), part=s.get("part"), optical_black=tuple(ob),
+        gain_dn_per_e=_float(g.get("dn_per_e")) if g is not None else None,
+        gain_se=_float(g.get("se")) if g is not None else None, gain_source=g.get("source") if g is not None else None,
     )
     if sensor.adc_channels > 1 and sensor.adc_interleave == "none":
         raise fail(path, adc.sourceline, f"<adc> has {sensor.adc_channels} channels but interleave='none'; "
@@ -400,6 +408,8 @@ def system_to_tree(sy: System) -> etree._ElementTree:
             _set(etree.SubElement(ob, "region"), name=r.name, x=r.x, y=r.y, width=r.width, height=r.height)
     _set(etree.SubElement(se, "cfa"), pattern=s.cfa)
     _set(etree.SubElement(se, "adc"), bits=s.adc_bits, channels=s.adc_channels, interleave=s.adc_interleave)
+    if s.gain_dn_per_e is not None:
+        _set(etree.SubElement(se, "gain"), dn_per_e=s.gain_dn_per_e, se=s.gain_se, source=s.gain_source)
     m = sy.registers
     if sy.genicam is not None:
         from ares.hardware.genicam import feature_map

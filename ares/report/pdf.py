@@ -18,6 +18,7 @@ from pathlib import Path
 import matplotlib
 import numpy as np
 
+from ares.hardware import link_stats
 from ares.report import plots, scan_kinds, tables
 from ares.report.plots import new_page, text_table
 
@@ -44,6 +45,7 @@ def title_page(run, kf: dict) -> "plots.Figure":
         ("software", "ares " + str(v.get("ares")) + ", python " + str(v.get("python")) + ", "
          + ", ".join(f"{k} {v[k]}" for k in ("numpy", "scipy", "h5py", "lxml") if v.get(k))),
         ("platform", str(v.get("platform", ""))),
+        *link_stats.device_lines(m), *link_stats.link_lines(m),  # IDs and link statistics (real benches)
     ]
     y = 0.92
     desc = run.description()

@@ -130,8 +130,15 @@ def temperature_page(run, series: dict):
     ax.set_ylabel("dark current (DN/s)")
     ax.grid(alpha=0.3, which="both")
     ax.legend()
-    y = text_table(fig, (0.08, 0.44, 0.84), ["temperature (C)", "dark current (DN/s)"],
-                   [[f"{t:g}", tables.fmt_value(v, s)] for t, v, s in zip(T, r, rse)], [0.3, 0.7], fontsize=8.5)
+    dc = available(run, "dark_current") or {}
+    by_t = dc.get("by_temperature") or {}
+    e_s = [by_t.get(f"{t:g}C", {}).get("rate_e_per_s") or {} for t in T]  # beside DN/s: e-/s, or why not
+    y = text_table(fig, (0.08, 0.44, 0.84), ["temperature (C)", "dark current (DN/s)", "dark current (e-/s)"],
+                   [[f"{t:g}", tables.fmt_value(v, s), tables.fmt_value(e.get("value"), e.get("se"))]
+                    for t, v, s, e in zip(T, r, rse, e_s)], [0.2, 0.4, 0.4], fontsize=8.5)
+    if dc.get("gain_from"):
+        fig.text(0.08, y - 0.005, f"gain for e-/s: {dc['gain_from']}", fontsize=8, va="top")
+        y -= 0.02
     if stored:
         _table(fig, y - 0.02, analysis_rows(stored), "temperature analysis (scan_results.json)")
     return fig

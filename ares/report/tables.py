@@ -431,8 +431,10 @@ def compute_key_figures(run, groups: list[PtcGroup] | None = None) -> dict:
         if a.get("status") in ("not available", "error"):
             continue
         for key, e in _flat_estimates(a):
-            if e.get("value") is None:
-                continue  # not available (e.g. e-/s without a gain): in scan_results.json with its reason
+            if e.get("value") is None and not (e.get("unit") == "e-/s" and
+                                               str(e.get("note") or "").startswith("the scan measures no gain")):
+                continue  # not available: in scan_results.json with its reason (a dark current's e-/s beside
+                # its DN/s says why it is missing: a gain is needed)
             label = analysis_label(aname, key)
             if aname == "dark_current" and "." not in key and a.get("temperature_c") is not None:
                 label += f" at {a['temperature_c']:g} °C"  # a dark current is only meaningful at its temperature
@@ -480,7 +482,8 @@ ANALYSIS_LABELS = {
     "rate_e_per_s": "dark current", "rate_dn_per_s": "dark current", "offset_dn": "dark offset at t = 0",
     "rate_from_variance_e_per_s": "dark current from dark variance", "dsnu_dn_per_s": "DSNU growth",
     "dsnu_e_per_s": "DSNU growth", "doubling_temperature_c": "dark current doubling temperature",
-    "rate_at_ref_dn_per_s": "dark current at the reference temperature", "pixel_noise_e": "pixel noise (gain split)",
+    "rate_at_ref_dn_per_s": "dark current at the reference temperature",
+    "rate_at_ref_e_per_s": "dark current at the reference temperature", "pixel_noise_e": "pixel noise (gain split)",
     "chain_noise_dn": "chain noise (gain split)", "crossover_gain_dn_per_e": "crossover gain (gain split)",
     "lag_pct": "image lag", "dnl_max_lsb": "DNL max", "dnl_min_lsb": "DNL min", "inl_max_lsb": "INL max",
     "inl_min_lsb": "INL min", "qe": "quantum efficiency", "mu_p": "photons per pixel mu_p",

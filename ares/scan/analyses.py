@@ -177,6 +177,30 @@ def _run_gain(run, analog_gain: float | None = None):
     return Estimate(g["value"], g["se"] if g.get("se") is not None else math.nan, "DN/e-")
 
 
+NO_GAIN = "the scan measures no gain; give --gain: ares report RUN --gain K"
+
+
+def dark_gain(run) -> tuple[Estimate | None, str]:
+    """K for dark currents in e-/s and where it came from: this run's PTC, else the gain
+    given to ``ares report --gain`` (run.json ``gain_given``), else the system XML's
+    ``<sensor><gain dn_per_e se source>`` (a calibration), else None and the sentence saying
+    why e-/s is not available."""
+    k = _run_gain(run)
+    if k is not None:
+        return k, "ptc in this run"
+    g = (run.meta or {}).get("gain_given")
+    if isinstance(g, dict) and g.get("value"):
+        se = g.get("se")
+        return (Estimate(float(g["value"]), math.nan if se is None else float(se), "DN/e-"),
+                f"given: {g.get('text', g['value'])} ({g.get('source', 'ares report --gain')})")
+    s = run.scan.system.sensor if getattr(run, "scan", None) is not None else None
+    if s is not None and s.gain_dn_per_e:
+        se = f" ± {s.gain_se:g}" if s.gain_se else " (no SE declared: not in the e-/s SEs)"
+        return (Estimate(s.gain_dn_per_e, s.gain_se if s.gain_se else math.nan, "DN/e-"),
+                f"system XML <gain>: {s.gain_dn_per_e:g}{se} DN/e-" + (f" ({s.gain_source})" if s.gain_source else ""))
+    return None, "e-/s not available: " + NO_GAIN
+
+
 def _dark_groups(run) -> dict:
     """Dark stages grouped by temperature (None when not set)."""
     groups: dict = {}
@@ -193,18 +217,22 @@ def dark_current(run) -> dict:
     groups = _dark_groups(run)
     if not groups:
         return {"status": "not available", "note": "no dark stages"}
-    k = _run_gain(run)
-    out = {"gain_from": "ptc in this run" if k is not None else "not measured (rates in DN/s only)"}
+    k, source = dark_gain(run)
+    out = {"gain_from": source}
     per_t = {}
     for t, sts in groups.items():
         exp = [s["settings"].get("exposure", math.nan) for s in sts]
         lv = [s["views"]["full"]["level"] for s in sts]
         dc = fit(exp, [x["mean_dn"] for x in lv], k if k is not None else math.nan, [x["var_dn2"] for x in lv])
         ds = dsnu_vs_exposure(exp, [math.sqrt(max(x["spatial_var_dn2"] or 0.0, 0.0)) for x in lv], k)
+        e_s = (dc.rate_e_per_s, dc.rate_from_variance_e_per_s, ds.dsnu_e_per_s)
+        if k is None:  # beside every DN/s figure: why there is no e-/s one
+            e_s = tuple(Estimate.na(NO_GAIN, "e-/s") if x.note in ("gain not available", "gain not given") else x
+                        for x in e_s)
         per_t["default" if t is None else f"{t:g}C"] = {
-            "temperature_c": t, "rate_dn_per_s": _e(dc.rate_dn_per_s), "rate_e_per_s": _e(dc.rate_e_per_s),
-            "rate_from_variance_e_per_s": _e(dc.rate_from_variance_e_per_s), "offset_dn": _e(dc.offset_dn),
-            "dsnu_dn_per_s": _e(ds.dsnu_dn_per_s), "dsnu_e_per_s": _e(ds.dsnu_e_per_s)}
+            "temperature_c": t, "rate_dn_per_s": _e(dc.rate_dn_per_s), "rate_e_per_s": _e(e_s[0]),
+            "rate_from_variance_e_per_s": _e(e_s[1]), "offset_dn": _e(dc.offset_dn),
+            "dsnu_dn_per_s": _e(ds.dsnu_dn_per_s), "dsnu_e_per_s": _e(e_s[2])}
     if len(per_t) == 1:
         out.update(next(iter(per_t.values())))
     else:
@@ -214,7 +242,7 @@ def dark_current(run) -> dict:
 
 @register_scan_analysis("temperature")
 def temperature(run) -> dict:
-    from ares.analysis.dark_current import doubling_temperature
+    from ares.analysis.dark_current import _div, doubling_temperature
 
     dc = dark_current(run)
     by_t = dc.get("by_temperature")
@@ -225,8 +253,14 @@ def temperature(run) -> dict:
     vals = [r["value"] if r["value"] is not None else math.nan for t, r in rows]
     ses = [r["se"] if r["se"] is not None else math.nan for t, r in rows]
     fit = doubling_temperature(T, vals, ses if all(math.isfinite(s) for s in ses) else None)
-    return {"doubling_temperature_c": _e(fit.doubling_c), "rate_at_ref_dn_per_s": _e(fit.value_at_ref),
-            "ref_c": fit.ref_c, "temperatures_c": T}
+    ref = fit.value_at_ref
+    ref_dn = Estimate(ref.value, ref.se, "DN/s", ref.note) if ref.available else Estimate.na(ref.note, "DN/s")
+    k, _ = dark_gain(run)  # the doubling temperature is the same in DN/s and e-/s (K is constant)
+    ref_e = _div(ref_dn, k, "e-/s", f"{ref.note} / K") if k is not None and ref.available else \
+        Estimate.na(NO_GAIN if ref.available else ref.note, "e-/s")
+    return {"doubling_temperature_c": _e(fit.doubling_c), "rate_at_ref_dn_per_s": _e(ref_dn),
+            "rate_at_ref_e_per_s": _e(ref_e), "gain_from": dc.get("gain_from"), "ref_c": fit.ref_c,
+            "temperatures_c": T}
 
 
 @register_scan_analysis("gain_split")

@@ -5,7 +5,10 @@ Layout (all paths relative to the run directory)::
     run.json            provenance: scan/system names, original paths, SHA-256 of the
                         verbatim XML, seed, frame override, argv, software and dependency
                         versions, bench info (simulator parameters with their defaults,
-                        chip id), start/end time, status (running/done/stopped/aborted/
+                        chip id), devices (what each bench part said it is: USB VID:PID and
+                        serial, I2C bus/address/chip ID, *IDN? answers, GenICam model and
+                        serial), link (each link's counts since the bench opened:
+                        ares.hardware.link_stats), start/end time, status (running/done/stopped/aborted/
                         failed), message, stages completed, reports (writing /
                         complete / incomplete / failed: ``ares.runstate``), stage_sha256
                         (SHA-256 of each stages/NNNN.json: ``ares.runcheck``). Rewritten
@@ -260,6 +263,9 @@ class RunWriter:
         self._write_meta()
 
     def _write_meta(self) -> None:
+        link = getattr(self, "link", None)  # the bench's link totals (ares.hardware.link_stats), when it counts
+        if link is not None:
+            self.meta["link"] = link()
         with self._lock, storage(self.dir / "run.json"):
             dump_json(self.dir / "run.json", self.meta)
 

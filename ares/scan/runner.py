@@ -20,6 +20,7 @@ import math
 import threading
 import time
 from dataclasses import dataclass, field
+from functools import partial
 from pathlib import Path
 from typing import Callable
 
@@ -27,6 +28,7 @@ import numpy as np
 
 from ares import malloc
 from ares.errors import AresError, DeviceGone, FrameError, FrameLost, HardwareError, InputError, StorageError
+from ares.hardware import link_stats
 from ares.hardware.waits import Interrupted
 from ares.scan import events as ev
 from ares.scan.apply import apply_settings, as_fields
@@ -171,6 +173,7 @@ class Runner:
             if writer is not None:  # provenance: what the bench says about itself (sim params, chip id)
                 writer.meta["bench"] = {k: v for k, v in bench.info.items()
                                         if isinstance(v, (str, int, float, bool, dict, list, type(None)))}
+                writer.meta["devices"], writer.link = link_stats.identities(bench), partial(link_stats.counters, bench)
                 writer._write_meta()
             shape = tuple(bench.frames.shape)
             want = (self.system.sensor.rows, self.system.sensor.cols)
@@ -277,14 +280,14 @@ class Runner:
                 break
             self._emit(ev.StageStarted(st.index, len(stages), st))
             t_start = time.time()
-            before = bench.registers.snapshot()
+            link0 = link_stats.counters(bench)  # (the snapshot's register reads are the stage's too)
             suspensions, halted, lost, spectral = [], False, [], None
             flat = dark = None  # the last stage's stacks are the committer's now (a 4096x3072 stack: 0.2 GB)
             while True:  # once, or again after a suspension (ares.scan.suspend) or lost frames
                 fw = writer.frame_writer(st.index, bench.frames.shape, None) if writer else None
                 pos = {}
-                try:
-                    dark = None
+                try:  # (a device gone while the registers are read is recovered like one gone in a grab)
+                    before, dark = bench.registers.snapshot(), None
                     pos["dark"] = _position(bench)
                     if st.dark_source == "grab" and not st.dark_after:  # (dark="after": below)
                         apply_settings(bench, system, st.dark_settings, applied, self._cancelled)
@@ -310,7 +313,7 @@ class Runner:
                         applied = st.dark_settings
                         dark = self._grab(bench, st, st.dark_frames, vw, max_code, fw, dark=True)
                         pd_dark = photodiode_readings(bench, system)
-                    pos["end"] = _position(bench)
+                    pos["end"], after = _position(bench), bench.registers.snapshot()
                 except FrameLost as exc:  # dropped/corrupt/short frames: acquire the stage again, or fail
                     if fw is not None:
                         fw.close(keep=False)
@@ -360,7 +363,6 @@ class Runner:
                 cache = flat
             elif st.dark_source == "grab":
                 cache = dark
-            after = bench.registers.snapshot()
             new_mask = self._mask is None and st.scene == "dark" and st.settings.get("reg:test_mode", 0) == 0
             if new_mask:  # before the next stage's frames: they are masked as they arrive
                 t_mask = time.monotonic()
@@ -377,6 +379,8 @@ class Runner:
                 extra["suspensions"] = suspensions
             if lost:
                 extra["frames_lost"] = lost
+            if link0:  # what the stage did on each link, retries and recoveries included
+                extra["link"] = link_stats.delta(link0, link_stats.counters(bench))
             self._commit.submit(st, flat, dark, extra, new_mask, before, after, t_start, writer, completed)
             if self._commit.cpu_seconds is not None:  # the latest stage's analysis and write: the run
                 self._eta.end_work(self._commit.cpu_seconds)  # waits for the last stage's after its frames
@@ -422,6 +426,7 @@ class Runner:
             if stack is not None:
                 stack.drop_maps()
         result.update(extra)
+        arrays.update(link_stats.arrays(extra.get("link")))
         if self._mask is not None:
             result["defect_mask"] = self._mask.summary()
             if new_mask or not completed:  # the mask itself, once, with the stage it came from

@@ -9,7 +9,8 @@ followed by a read message returns values from there. The registers live in a
 write. A device at another address does not acknowledge.
 
 Faults (``--sim-fault`` keys, N = 0-based transaction count): ``i2c_nack_at`` (NACK) and
-``i2c_timeout_at`` (the bus times out), ``i2c_enxio_at`` (a NACK as the kernel's i2c-dev
+``i2c_timeout_at`` (the bus times out), ``i2c_busy_at`` (another master holds the bus:
+EBUSY), ``i2c_enxio_at`` (a NACK as the kernel's i2c-dev
 reports it for an absent address, ENXIO), each for ``i2c_fault_count`` transactions in a row
 (default 1: a retry succeeds); ``i2c_disconnect_at`` (the adapter is gone from then on, or
 with ``i2c_gone_for=K`` for K transactions: a host that reconnects finds it again).
@@ -21,7 +22,8 @@ import ctypes
 import errno
 from contextlib import contextmanager
 
-FAULTS = ("i2c_nack_at", "i2c_enxio_at", "i2c_fault_count", "i2c_timeout_at", "i2c_disconnect_at", "i2c_gone_for")
+FAULTS = ("i2c_nack_at", "i2c_enxio_at", "i2c_busy_at", "i2c_fault_count", "i2c_timeout_at", "i2c_disconnect_at",
+          "i2c_gone_for")
 
 
 class EmulatedSMBus:
@@ -57,6 +59,9 @@ class EmulatedSMBus:
         at = self.faults.get("i2c_enxio_at")
         if at is not None and at <= n < at + k:
             raise OSError(errno.ENXIO, "No such device or address")
+        at = self.faults.get("i2c_busy_at")
+        if at is not None and at <= n < at + k:
+            raise OSError(errno.EBUSY, "Device or resource busy")
 
     def i2c_rdwr(self, *msgs) -> None:
         self._fault()
