@@ -88,13 +88,20 @@ class StackSet:
                                 float("nan") if t is None else float(t)))
 
     def add(self, data: np.ndarray) -> None:
+        m = self.masked
+        if m is not None:  # its line sums from the full view's folds of 8/16-bit frames (one read)
+            small = data.dtype.kind in "ui" and data.dtype.itemsize <= 2
+            if not small:
+                m.unride()
+            elif not m.n_frames and not self.acc["full"].n_frames:
+                m.ride()
         for k, s in self.views.items():
             d = data[s]
             self.acc[k].add(d)  # (its clip counts too)
             if k in self.hist:
                 self.hist[k] += np.bincount(d.ravel(), minlength=self.max_code + 1)[: self.max_code + 1]
-        if self.masked is not None:
-            self.masked.add(data)
+        if m is not None and not m.riding:
+            m.add(data)
         if self.kept is not None:
             self.kept.append(data)
 
