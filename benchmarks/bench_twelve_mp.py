@@ -222,21 +222,22 @@ def main() -> int:
     with tempfile.TemporaryDirectory(dir=args.work) as td:
         td = Path(td)
         if not args.skip_scan:
-            r = run_child(write_inputs(td / "a", args.rows, args.cols, raw=False), td / "a" / "run")
+            with Window() as w:
+                r = run_child(write_inputs(td / "a", args.rows, args.cols, raw=False), td / "a" / "run")
             lines = [f"## EMVA 1288 4.0 on a {args.cols}x{args.rows} sensor (`bench_twelve_mp.py`)", "",
                      f"`scans/emva_4.xml` (86 photon-transfer steps with matched darks, 100-image bright and dark "
                      f"stacks, 8 dark-current exposures: 560 frames) on `protocols/sim_sensor.xml` at {size}, as "
                      f"`ares run` runs it, reports included; status {r['status']}. {platform.machine()}, "
                      f"{os.cpu_count()} cores, Python {platform.python_version()}.", "",
-                     "| figure | value |", "|---|---:|",
-                     f"| wall time | {r['wall'] / 60:.1f} min |",
-                     f"| CPU time (both cores) | {r['cpu'] / 60:.1f} min |",
-                     f"| peak memory (VmHWM; target {TARGET_GB:.0f} GB) | **{r['hwm_mb'] / 1024:.2f} GiB** |"]
+                     "| figure | value | machine load |", "|---|---:|---|",
+                     f"| wall time | {r['wall'] / 60:.1f} min | {w.cell()} |",
+                     f"| CPU time (both cores) | {r['cpu'] / 60:.1f} min | {w.cell()} |",
+                     f"| peak memory (VmHWM; target {TARGET_GB:.0f} GB) | **{r['hwm_mb'] / 1024:.2f} GiB** | {w.cell()} |"]
             for k, v in r["spent"].items():
-                lines.append(f"| {k} | {v / 60:.1f} min ({100 * v / r['wall']:.0f} %) |")
+                lines.append(f"| {k} | {v / 60:.1f} min ({100 * v / r['wall']:.0f} %) | {w.cell()} |")
             if r.get("sim_s") is not None:
                 lines.append(f"| of the acquisition: the simulator rendering frames (a camera's work) | "
-                             f"{r['sim_s'] / 60:.1f} min ({100 * r['sim_s'] / r['wall']:.0f} %) |")
+                             f"{r['sim_s'] / 60:.1f} min ({100 * r['sim_s'] / r['wall']:.0f} %) | {w.cell()} |")
             publish("twelve_mp", lines + _load_line(load0))
         if not args.skip_peer:
             topic = "twelve_mp_peer" if (args.rows, args.cols) == (3072, 4096) else f"twelve_mp_peer_{args.cols}x{args.rows}"
