@@ -93,8 +93,8 @@ class StackSet:
             small = data.dtype.kind in "ui" and data.dtype.itemsize <= 2
             if not small:
                 m.unride()
-            elif not m.n_frames and not self.acc["full"].n_frames:
-                m.ride()
+            elif not m.riding:
+                m.ride()  # (only while both stacks are empty: it says no otherwise)
         for k, s in self.views.items():
             d = data[s]
             self.acc[k].add(d)  # (its clip counts too)
