@@ -169,10 +169,12 @@ class MaskedStackAccumulator:
         one frame at a time as ``add`` folds them (the same float64 sums, bit for bit)."""
         if self._x0 is None:
             self._first(x[0] ^ np.uint16(0x8000) if xored[0] else x[0], True)
-            g = self._x0  # integers, 0 at masked pixels: exact float64 sums
-            bi, bj = np.nonzero(self.mask)
-            self._ride_plan = (g.sum(axis=1, dtype=np.float64).astype(np.int64),
-                               g.sum(axis=0, dtype=np.float64).astype(np.int64), bi, bj)
+            self._ride_plan = masked_fold.line_plan(self._x0, self.good)  # (one pass, numba)
+            if self._ride_plan is None:  # the same integers: x0 is integer-valued, 0 at masked pixels
+                g = self._x0
+                bi, bj = np.nonzero(self.mask)
+                self._ride_plan = (g.sum(axis=1, dtype=np.float64).astype(np.int64),
+                                   g.sum(axis=0, dtype=np.float64).astype(np.int64), bi, bj)
         xr, xc, bi, bj = self._ride_plan
         R, C = self.shape
         for k in range(len(fr)):
