@@ -3,6 +3,7 @@ then ``ares emva`` against the reference package on its recorded images. Writes
 benchmarks/twelve_mp.md (the scan) and benchmarks/twelve_mp_peer.md (the comparison).
 
     python benchmarks/bench_twelve_mp.py [--rows 3072 --cols 4096] [--skip-scan] [--skip-peer] [--peer-mem-gb 16]
+                                         [--peer-python PATH]
 
 1. ``scans/emva_4.xml`` (86 photon-transfer steps with matched darks, 100-image bright and
    dark stacks, 8 dark-current exposures: 560 frames) on ``protocols/sim_sensor.xml`` with
@@ -17,7 +18,10 @@ benchmarks/twelve_mp.md (the scan) and benchmarks/twelve_mp_peer.md (the compari
    reference package ``emva1288`` 1.0.2 (its own venv, as ``bench_peer.py``) on those
    files: wall, CPU, peak memory. The peer runs under an address-space limit
    (``--peer-mem-gb``) so that it cannot take the machine down: where it stops
-   (memory, time) is reported as such.
+   (memory, time) is reported as such. ``--peer-python`` names an interpreter that already
+   has ``emva1288`` (e.g. a venv made by hand under /tmp) instead of ``bench_peer.py``'s.
+   At another size than 4096x3072 the comparison goes to ``twelve_mp_peer_COLSxROWS.md``,
+   so a smaller set measured beside the 12 MP one does not overwrite it.
 
 Ratios are within this run; the load average at the start and end is given, since the
 machine is shared.
@@ -29,6 +33,7 @@ import argparse
 import json
 import os
 import platform
+import resource
 import shutil
 import subprocess
 import sys
@@ -36,6 +41,7 @@ import tempfile
 import time
 from pathlib import Path
 
+from machine_load import Window  # (beside this script)
 from topic_table import publish  # (benchmarks/topic_table.py, beside this script)
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -177,6 +183,7 @@ def peer_run(py: Path, desc: Path, mem_gb: float, timeout_s: float):
     env = {k: v for k, v in os.environ.items() if k != "PYTHONDONTWRITEBYTECODE"}
     argv = [str(py), "-c", bp.WRAP, PEER_LIMITED, str(desc), str(mem_gb)]
     t = time.perf_counter()
+    c0 = resource.getrusage(resource.RUSAGE_CHILDREN)
     p = subprocess.Popen(argv, stdout=subprocess.PIPE, stderr=subprocess.PIPE, cwd=ROOT, env=env)
     try:
         _, err = p.communicate(timeout=timeout_s)
@@ -187,13 +194,15 @@ def peer_run(py: Path, desc: Path, mem_gb: float, timeout_s: float):
     else:
         why = None
     wall = time.perf_counter() - t
+    c1 = resource.getrusage(resource.RUSAGE_CHILDREN)
+    cpu = c1.ru_utime + c1.ru_stime - c0.ru_utime - c0.ru_stime
     text = err.decode(errors="replace")
     hwm = float(text.rsplit("VmHWM_kB", 1)[1].split()[0]) / 1024 if "VmHWM_kB" in text else float("nan")
     if why is None and p.returncode:
         last = [ln for ln in text.splitlines() if ln.strip() and not ln.startswith("VmHWM")][-1:]
         why = ("stopped: out of memory under its " + f"{mem_gb:g} GiB limit ({last[0][:120]})"
                if "MemoryError" in text else f"exit {p.returncode}: {last[0][:160] if last else ''}")
-    return wall, float("nan"), hwm, why
+    return wall, cpu, hwm, why
 
 
 def main() -> int:
@@ -204,6 +213,7 @@ def main() -> int:
     ap.add_argument("--skip-peer", action="store_true")
     ap.add_argument("--peer-mem-gb", type=float, default=16.0)
     ap.add_argument("--peer-timeout-min", type=float, default=90.0)
+    ap.add_argument("--peer-python", default=None, help="a Python that has emva1288 1.0.2 (default: bench_peer's venv)")
     ap.add_argument("--work", default=None, help="folder for the recorded set (needs ~14 GB at 4096x3072)")
     args = ap.parse_args()
     load0 = os.getloadavg()[0]
@@ -212,24 +222,26 @@ def main() -> int:
     with tempfile.TemporaryDirectory(dir=args.work) as td:
         td = Path(td)
         if not args.skip_scan:
-            r = run_child(write_inputs(td / "a", args.rows, args.cols, raw=False), td / "a" / "run")
+            with Window() as w:
+                r = run_child(write_inputs(td / "a", args.rows, args.cols, raw=False), td / "a" / "run")
             lines = [f"## EMVA 1288 4.0 on a {args.cols}x{args.rows} sensor (`bench_twelve_mp.py`)", "",
                      f"`scans/emva_4.xml` (86 photon-transfer steps with matched darks, 100-image bright and dark "
                      f"stacks, 8 dark-current exposures: 560 frames) on `protocols/sim_sensor.xml` at {size}, as "
                      f"`ares run` runs it, reports included; status {r['status']}. {platform.machine()}, "
                      f"{os.cpu_count()} cores, Python {platform.python_version()}.", "",
-                     "| figure | value |", "|---|---:|",
-                     f"| wall time | {r['wall'] / 60:.1f} min |",
-                     f"| CPU time (both cores) | {r['cpu'] / 60:.1f} min |",
-                     f"| peak memory (VmHWM; target {TARGET_GB:.0f} GB) | **{r['hwm_mb'] / 1024:.2f} GiB** |"]
+                     "| figure | value | machine load |", "|---|---:|---|",
+                     f"| wall time | {r['wall'] / 60:.1f} min | {w.cell()} |",
+                     f"| CPU time (both cores) | {r['cpu'] / 60:.1f} min | {w.cell()} |",
+                     f"| peak memory (VmHWM; target {TARGET_GB:.0f} GB) | **{r['hwm_mb'] / 1024:.2f} GiB** | {w.cell()} |"]
             for k, v in r["spent"].items():
-                lines.append(f"| {k} | {v / 60:.1f} min ({100 * v / r['wall']:.0f} %) |")
+                lines.append(f"| {k} | {v / 60:.1f} min ({100 * v / r['wall']:.0f} %) | {w.cell()} |")
             if r.get("sim_s") is not None:
                 lines.append(f"| of the acquisition: the simulator rendering frames (a camera's work) | "
-                             f"{r['sim_s'] / 60:.1f} min ({100 * r['sim_s'] / r['wall']:.0f} %) |")
+                             f"{r['sim_s'] / 60:.1f} min ({100 * r['sim_s'] / r['wall']:.0f} %) | {w.cell()} |")
             publish("twelve_mp", lines + _load_line(load0))
         if not args.skip_peer:
-            publish("twelve_mp_peer", _peer(args, td, size, mp) + _load_line(load0))
+            topic = "twelve_mp_peer" if (args.rows, args.cols) == (3072, 4096) else f"twelve_mp_peer_{args.cols}x{args.rows}"
+            publish(topic, _peer(args, td, size, mp) + _load_line(load0))
     return 0
 
 
@@ -241,32 +253,37 @@ def _load_line(load0: float) -> list[str]:
 def _peer(args, td: Path, size: str, mp: float) -> list[str]:
     import bench_peer as bp
 
+    py = Path(args.peer_python) if args.peer_python else bp.peer_python()
     rec = run_child(write_inputs(td / "b", args.rows, args.cols, raw=True), td / "b" / "run")
     desc, n = write_descriptor(td / "b" / "run", td / "set")
     shutil.rmtree(td / "b" / "run" / "frames")
+    print(f"descriptor set written: {n} images", flush=True)
     ares = [sys.executable, bp.ARES, "emva", str(desc)]
     bp.measured(ares)  # bytecode cached, files in the page cache where they fit
-    aw, ac, am, _ = bp.measured(ares)
-    py = bp.peer_python()
+    with Window() as wa:
+        aw, ac, am, _ = bp.measured(ares)
+    print(f"ares emva: {aw:.1f} s, {am:.0f} MiB", flush=True)
     lines = [f"## `ares emva` against the reference package on a {size} set (`bench_twelve_mp.py`)", "",
              f"The recorded images of `scans/emva_4.xml` at {size} (recording run status {rec['status']}): the "
              f"photon-transfer steps and the two 100-image stacks, {n} uncompressed 16-bit TIFFs "
              f"({n * mp * 2 / 1e3:.1f} GB), as an EMVA 1288 descriptor set (the dark-current exposures left out: "
-             "the reference package wants a bright level at every exposure).", "",
-             "| command | wall s | CPU s | peak RSS MiB | wall vs peer | memory vs peer |",
-             "|---|---:|---:|---:|---:|---:|"]
+             "the reference package wants a bright level at every exposure). The reference package ran under a "
+             f"{args.peer_mem_gb:g} GiB address-space limit.", "",
+             "| command | wall s | CPU s | peak RSS MiB | wall vs peer | memory vs peer | machine load |",
+             "|---|---:|---:|---:|---:|---:|---|"]
+    mine = f"| `ares emva` (every release) | {aw:.1f} | {ac:.1f} | {am:.0f} |"
     if py is None:
-        return lines + [f"| `ares emva` | {aw:.1f} | {ac:.1f} | {am:.0f} | | |", "",
+        return lines + [f"{mine} | | {wa.cell()} |", "",
                         "The reference package's venv could not be made: no comparison."]
-    pw, _, pm, why = peer_run(py, desc, args.peer_mem_gb, args.peer_timeout_min * 60)
+    with Window() as wp:
+        pw, pc, pm, why = peer_run(py, desc, args.peer_mem_gb, args.peer_timeout_min * 60)
     if why is None:
-        return lines + [f"| `emva1288` 1.0.2 (baseline) | {pw:.1f} | | {pm:.0f} | 1.00 | 1.00 |",
-                        f"| `ares emva` (every release) | {aw:.1f} | {ac:.1f} | {am:.0f} | {pw / aw:.1f}x faster | "
-                        f"{am / pm:.2f} |", "",
+        return lines + [f"| `emva1288` 1.0.2 (baseline) | {pw:.1f} | {pc:.1f} | {pm:.0f} | 1.00 | 1.00 | {wp.cell()} |",
+                        f"{mine} {pw / aw:.1f}x faster | {am / pm:.2f} | {wa.cell()} |", "",
                         f"`ares emva` against the reference package on the same files: **{pw / aw:.1f}x** faster "
                         f"(target 4x), **{am / pm:.2f}** of its peak memory (target 0.5)."]
-    return lines + [f"| `emva1288` 1.0.2 | {why}: after {pw:.0f} s | | {pm:.0f} | | |",
-                    f"| `ares emva` (every release) | {aw:.1f} | {ac:.1f} | {am:.0f} | | |", "",
+    return lines + [f"| `emva1288` 1.0.2 | {why}: after {pw:.0f} s | {pc:.1f} | {pm:.0f} | | | {wp.cell()} |",
+                    f"{mine} | | {wa.cell()} |", "",
                     f"The reference package did not finish on this set ({why}); `ares emva` did, in {aw:.0f} s at "
                     f"{am / 1024:.2f} GiB."]
 

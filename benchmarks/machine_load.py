@@ -23,7 +23,8 @@ def _busy_ticks() -> int | None:
 
 
 def _tree_ticks(root: int) -> int:
-    """CPU ticks (user + system) of ``root`` and its living descendants."""
+    """CPU ticks (user + system) of ``root`` and its living descendants, with the children
+    they have reaped."""
     parent, ticks = {}, {}
     for p in Path("/proc").iterdir():
         if not p.name.isdigit():
@@ -33,7 +34,9 @@ def _tree_ticks(root: int) -> int:
         except OSError:
             continue
         rest = s[s.rindex(")") + 2:].split()
-        parent[int(p.name)], ticks[int(p.name)] = int(rest[1]), int(rest[11]) + int(rest[12])
+        # utime + stime, and cutime + cstime: the children it has reaped (a benchmark's finished
+        # child processes are its own work, not others')
+        parent[int(p.name)], ticks[int(p.name)] = int(rest[1]), sum(int(x) for x in rest[11:15])
     mine, todo = set(), [root]
     while todo:
         q = todo.pop()

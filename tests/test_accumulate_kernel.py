@@ -217,3 +217,42 @@ def test_clip_counts_equal_numpy(dtype):
         for view in (d, d[::2, 1::2]):
             want = (int(np.count_nonzero(view >= top)), int(np.count_nonzero(view == 0)))
             assert int_fold.extremes(view, top) == want
+
+
+@pytest.mark.parametrize("dtype", [np.uint8, np.uint16, np.int16])
+def test_clip_counts_in_the_fold_equal_numpy(dtype):
+    """The accumulator's clip counts (counted in the fused kernel's pass, or per block on
+    the numpy path) equal numpy's counts of the frames as added: through the batch store
+    (uint16 held as x ^ 0x8000), frames that are not copied (read-only), ``add_batch``,
+    strided Bayer planes, a partly filled batch, a merge, and a top beyond the type."""
+    rng = np.random.default_rng(5)
+    info = np.iinfo(dtype)
+    x = rng.integers(max(info.min, -3), min(info.max, 4100) + 1, (7, 30, 40)).astype(dtype)
+    x[:, 0, :9] = 0
+    x[2, 1, :5] = min(info.max, 4100)
+    for top in (4095, 100, 70000):
+        for view in ((slice(None), slice(None)), (slice(1, None, 2), slice(0, None, 2))):
+            frames = x[:, view[0], view[1]]
+            want = (int(np.count_nonzero(frames.astype(np.int64) >= top)), int(np.count_nonzero(frames == 0)))
+            shape = frames.shape[1:]
+            for mode in ("add", "readonly", "batch", "merge"):
+                a = StackAccumulator(shape, batch=3)
+                a.count_clips(top)
+                if mode == "add":
+                    for f in frames:
+                        a.add(f)
+                elif mode == "readonly":
+                    for f in frames:  # a read-only view of bytes: kept, not copied
+                        a.add(np.frombuffer(np.ascontiguousarray(f).tobytes(), dtype).reshape(shape))
+                elif mode == "batch":
+                    a.add_batch(np.ascontiguousarray(frames))
+                else:
+                    b = StackAccumulator(shape, batch=3)
+                    b.count_clips(top)
+                    for f in frames[:4]:
+                        a.add(f)
+                    for f in frames[4:]:
+                        b.add(f)
+                    a.merge(b)
+                assert a.clips() == want, (mode, top)
+                _check(a, np.asarray(frames, np.int64))

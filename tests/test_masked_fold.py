@@ -113,3 +113,62 @@ def test_kept_accessor_results_equal_fresh_ones_and_follow_new_frames(monkeypatc
     grown = stack(12)
     np.testing.assert_array_equal(kept.mean_map(), grown.mean_map())
     assert kept.temporal_forms() == grown.temporal_forms()
+
+
+@pytest.mark.parametrize("dtype", [np.uint16, np.int16, np.uint8])
+@pytest.mark.parametrize("int_kernel", ["numba", "numpy"])
+def test_a_stack_riding_on_its_full_frame_folds_equals_one_fed_frames(monkeypatch, dtype, int_kernel):
+    """``ride``: the masked stack's line sums from its full-frame stack's folds (exact int64
+    row/column sums less the masked pixels and the shift) equal those of a masked stack fed
+    every frame, bit for bit: frames copied into the batch store (uint16 held as x ^ 0x8000)
+    and read-only frames kept uncopied, on either integer kernel, a read in the middle of a
+    batch, and frames of another kind after it (``unride``)."""
+    from ares.analysis import int_fold
+    from ares.analysis.accumulate import StackAccumulator
+
+    if int_kernel == "numpy":  # the integer sums and the shift's line sums without numba
+        monkeypatch.setattr(int_fold, "fold", lambda *a, **k: None)
+        monkeypatch.setattr(masked_fold, "_shift_c", None)
+        monkeypatch.setattr(masked_fold, "_shift_loaded", True)
+    rng = np.random.default_rng(13)
+    shape = (23, 31)
+    mask = rng.random(shape) < 0.06
+    mask[4] = True  # a whole bad row
+    info = np.iinfo(dtype)
+    frames = rng.integers(max(info.min, -3000), min(info.max, 60000), size=(11,) + shape).astype(dtype)
+
+    def fed(n, ride, readonly=False):
+        full = StackAccumulator(shape, batch=3)
+        acc = MaskedStackAccumulator(shape, mask, pixels=full)
+        assert acc.ride() == ride if ride else True
+        for f in frames[:n]:
+            if readonly:  # a read-only view of bytes: the full stack keeps it, uncopied
+                f = np.frombuffer(f.tobytes(), dtype).reshape(shape)
+            full.add(f)
+            if not ride:
+                acc.add(f)
+        return full, acc
+
+    def state(acc):
+        return (acc._r2, acc._c2, np.array(acc._t2), np.concatenate(acc._tot), *acc._sums(), acc.mean_map())
+
+    for n in (11, 7):  # 7: two frames still in the full stack's batch when read
+        _, want = fed(n, False)
+        for readonly in (False, True):
+            full, got = fed(n, True, readonly)
+            assert got.n_frames == n and got._derived
+            for a, b in zip(state(got), state(want)):
+                np.testing.assert_array_equal(a, b)
+            assert got.decompose_dark()["Pt"].value == want.decompose_dark()["Pt"].value
+    full, got = fed(7, True)
+    _, want = fed(7, False)
+    more = frames[7:].astype(np.int32)  # another kind of frame: fed directly from here on
+    got.unride()
+    for f in more:
+        full.add(f)
+        got.add(f)
+        want._pixels.add(f)
+        want.add(f)
+    assert not got.riding and got.n_frames == want.n_frames == 11
+    np.testing.assert_array_equal(got.mean_map(), want.mean_map())
+    np.testing.assert_array_equal(got._r2, want._r2)

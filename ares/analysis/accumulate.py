@@ -35,6 +35,8 @@ import numpy as np
 
 from ares.errors import InputError
 
+from . import int_fold
+
 from .small_int_fold import SmallIntFolds
 
 # The largest magnitude a frame value may have: a 40-bit ADC's full scale. Its square and
@@ -132,6 +134,24 @@ class StackAccumulator(SmallIntFolds):
         self._nfloat = 0
         self._foff = 0  # offset of the data summed into the float32 totals
         self._cache: dict = {}
+        self._top = None  # count_clips: the top code counted (None: not counted)
+        self._clips = np.zeros(2, np.int64)  # (values >= _top, values == 0) of the frames folded
+        self._counted = False  # the last small-integer fold counted the clips in its pass
+        # called with each folded 8/16-bit block: (row sums, column sums (int64, exact), the
+        # block, which of its frames hold x ^ 0x8000); a masked view's line sums (see
+        # MaskedStackAccumulator.ride), made without another pass over the frames
+        self._on_fold = None
+
+    def count_clips(self, top: int) -> None:
+        """Count, from now on, the values at or above ``top`` and those equal to 0 of every
+        frame added (``clips``): in the fused kernel's one read of each pixel where it runs,
+        else by ``int_fold.extremes`` on the folded block (the same counts)."""
+        self._top = int(top)
+
+    def clips(self) -> tuple[int, int]:
+        """(values >= the ``count_clips`` top, values == 0) over the frames added since."""
+        self._flush_buffer()
+        return int(self._clips[0]), int(self._clips[1])
 
     # ------------------------------------------------------------------ feeding
     @property
@@ -242,14 +262,33 @@ class StackAccumulator(SmallIntFolds):
             x = np.stack(x)
         if not isinstance(x, list) and x.dtype.kind == "f" and not self._float:
             self._to_float()
+        self._counted = False
         if self._float:
             fr, fc = self._fold_float(x)
         elif isinstance(x, list) or x.dtype.itemsize <= 2:
             fr, fc = self._fold_small_int(x, centred)
+            if self._on_fold is not None:
+                self._on_fold(fr, fc, x, self._xored(x, centred))
         else:
             fr, fc = self._fold_wide_int(x)
+        if self._top is not None and not self._counted:
+            self._count_clips(x, centred)
         self._fold_profiles(fr, fc)
         self._nf += len(x)
+
+    def _count_clips(self, x, centred: bool) -> None:
+        """The clip counts of a block the fused kernel did not count (its values as added:
+        uint16 frames of the batch store hold x ^ 0x8000)."""
+        for f, xored in zip(x, self._xored(x, centred)):
+            hi, lo = int_fold.extremes(f ^ np.uint16(0x8000) if xored else f, self._top)
+            self._clips += (hi, lo)
+
+    def _xored(self, x, centred: bool) -> list[bool]:
+        """Per frame of a block being folded: whether it holds x ^ 0x8000 (a uint16 frame
+        of the batch store) rather than the frame as added."""
+        if isinstance(x, list):
+            return [f.dtype == np.uint16 and f.base is self._store for f in x]
+        return [x.dtype == np.uint16 and centred] * len(x)
 
     def _fold_profiles(self, fr: np.ndarray, fc: np.ndarray) -> None:
         """Update the scalar ANOVA sums with the (b, R) row sums and (b, C) column sums."""
@@ -321,7 +360,7 @@ class StackAccumulator(SmallIntFolds):
         self._flush()
         state = dict(self.__dict__)
         state.update(_buf=None, _store=None, _buf_dtype=None, _nbuf=0, _kp=None, _f1=None, _fk=None, _fl=None,
-                     _nfloat=0, _cache={})
+                     _nfloat=0, _cache={}, _on_fold=None)
         return state
 
     # ------------------------------------------------------------------ merging
@@ -339,6 +378,7 @@ class StackAccumulator(SmallIntFolds):
         self._flush()
         other._flush()
         self._cache.clear()
+        self._clips += other._clips  # (both count the same top, or neither is read)
         if other._nf == 0:
             return self
         if other._float and not self._float:

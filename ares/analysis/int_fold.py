@@ -4,7 +4,8 @@ The numpy kernel (``ares.analysis.small_int_fold``) keeps every partial sum exac
 float32 and rebuilds the squares from two float32 parts: seven passes over the block and
 its scratch, and float32 totals moved to int64 when the stack ends. Here each pixel of
 the block is read once and added in int64 straight into the accumulator's sums: the pixel
-sums, the sums of squares, the per-frame row and column sums. Every value is an integer
+sums, the sums of squares, the per-frame row and column sums, and the clip counts (values
+at the top code and at 0: ``StackSet``'s, without a second pass). Every value is an integer
 below 2**16 and every sum an int64 far from overflow (2**32 per square, 2**31 frames), so
 the order of summation cannot change a bit: the results equal the numpy kernel's exactly
 (tested). On a 4096x3072 stream this is what lets the live pipeline keep up with 30
@@ -21,13 +22,17 @@ _extremes_c = None
 _extremes_loaded = False
 
 
-def _kernel(x, off, s1, s2, fr, fc):
+def _kernel(x, off, s1, s2, fr, fc, top, cnt):
     """Add the frames ``x`` (B, R, C small integers) plus ``off`` into ``s1``/``s2`` (R, C
-    int64); ``fr`` (B, R) and ``fc`` (B, C) int64 get the per-frame row and column sums."""
+    int64); ``fr`` (B, R) and ``fc`` (B, C) int64 get the per-frame row and column sums;
+    ``cnt`` (2,) int64 gets the count of values at or above ``top`` and of values 0 (the
+    clip counts, in the same read of each pixel)."""
     B, R, C = x.shape
     for f in range(B):
         for j in range(C):
             fc[f, j] = 0
+    n_top = np.int64(0)
+    n_zero = np.int64(0)
     for i in range(R):
         for f in range(B):
             rs = np.int64(0)
@@ -38,7 +43,11 @@ def _kernel(x, off, s1, s2, fr, fc):
                 s2[i, j] += np.int64(np.uint32(u * u))
                 rs += v
                 fc[f, j] += v
+                n_top += v >= top
+                n_zero += v == 0
             fr[f, i] = rs
+    cnt[0] += n_top
+    cnt[1] += n_zero
 
 
 def _extremes_kernel(d, top):
@@ -69,11 +78,16 @@ def extremes(d: np.ndarray, top: int) -> tuple[int, int]:
     return int(np.count_nonzero(d >= top)), int(np.count_nonzero(d == 0))
 
 
-def fold(x, off: int, s1: np.ndarray, s2: np.ndarray):
+NO_TOP = 1 << 62  # a ``top`` no value reaches: clip counts not wanted
+
+
+def fold(x, off: int, s1: np.ndarray, s2: np.ndarray, top: int = NO_TOP, cnt: np.ndarray | None = None):
     """Fold the block ``x`` (a (B, R, C) array or a list of (R, C) arrays of one 8/16-bit
     integer type; each value stands for value + ``off``) into the int64 sums ``s1``/``s2``;
     returns the per-frame (row sums (B, R), column sums (B, C)) as int64, or None when the
-    kernel is not available (numba missing or ``ARES_NO_NUMBA``): the caller's numpy path."""
+    kernel is not available (numba missing or ``ARES_NO_NUMBA``): the caller's numpy path.
+    ``cnt`` ((2,) int64): the values (+ ``off``) at or above ``top`` and those equal to 0
+    are added to it, as ``extremes`` counts them (the fold reads each pixel once for both)."""
     global _kernel_c, _loaded
     from ares import jit
 
@@ -87,7 +101,9 @@ def fold(x, off: int, s1: np.ndarray, s2: np.ndarray):
         x = np.stack(x)
     B, R, C = x.shape
     fr, fc = np.empty((B, R), np.int64), np.empty((B, C), np.int64)
-    _kernel_c(np.ascontiguousarray(x), np.int64(off), s1, s2, fr, fc)
+    if cnt is None:
+        cnt = np.zeros(2, np.int64)
+    _kernel_c(np.ascontiguousarray(x), np.int64(off), s1, s2, fr, fc, np.int64(min(top, NO_TOP)), cnt)
     return fr, fc
 
 

@@ -89,7 +89,9 @@ class SmallIntFolds:
         if listed:  # gathered per block, uint16 frames centred on the way
             stored = [f.base is self._store for f in x]
             centred = u16
+        self._counted = False  # (set when the fused kernel counted the clips: see StackAccumulator._fold)
         if not self._nfloat:  # the fused kernel (numba) where it is available: exact, one pass
+            top, cnt = (int_fold.NO_TOP, None) if self._top is None else (self._top, self._clips)
             if listed:
                 blk = np.empty((b, r, c), dtype)
                 for i, frame in enumerate(x):
@@ -97,12 +99,13 @@ class SmallIntFolds:
                         np.bitwise_xor(frame, 0x8000, out=blk[i])  # the store holds x ^ 0x8000
                     else:
                         np.copyto(blk[i], frame)
-                got = int_fold.fold(blk, 0, self._s1, self._s2)
+                got = int_fold.fold(blk, 0, self._s1, self._s2, top, cnt)
             elif u16 and centred:
-                got = int_fold.fold(x.view(np.int16), 1 << 15, self._s1, self._s2)
+                got = int_fold.fold(x.view(np.int16), 1 << 15, self._s1, self._s2, top, cnt)
             else:
-                got = int_fold.fold(x, 0, self._s1, self._s2)
+                got = int_fold.fold(x, 0, self._s1, self._s2, top, cnt)
             if got is not None:
+                self._counted = True
                 return got
         off = 1 << 15 if (u16 and centred) else 0  # the kernel sums y = x - off
         wide = dtype.itemsize == 2

@@ -23,7 +23,7 @@ from typing import Callable
 
 import numpy as np
 
-from ares.analysis import StackAccumulator, anova_table, decompose_dark, int_fold
+from ares.analysis import StackAccumulator, anova_table, decompose_dark
 from ares.analysis.masked import MaskedStackAccumulator
 from ares.errors import InputError
 
@@ -71,10 +71,10 @@ class StackSet:
                      if k == "full" or k.startswith(("adc", "cfa_"))} if histograms else {}
         dummy = np.empty(shape, dtype=np.uint8)
         self.acc = {k: StackAccumulator(dummy[s].shape, batch=batch_for(dummy[s].shape)) for k, s in views_.items()}
+        for acc in self.acc.values():  # clip counts in the accumulators' pass over each pixel
+            acc.count_clips(max_code)
         # its per-pixel sums come from the full view's (integer frames): not kept twice
         self.masked = MaskedStackAccumulator(shape, mask, pixels=self.acc["full"]) if mask is not None else None
-        self.at_max = {k: 0 for k in views_}
-        self.at_min = {k: 0 for k in views_}
         self.frame_meta: list[tuple[int, float, float]] = []  # (counter, timestamp, temperature C or nan) per frame
 
     def note_frame(self, frame) -> None:
@@ -88,16 +88,20 @@ class StackSet:
                                 float("nan") if t is None else float(t)))
 
     def add(self, data: np.ndarray) -> None:
+        m = self.masked
+        if m is not None:  # its line sums from the full view's folds of 8/16-bit frames (one read)
+            small = data.dtype.kind in "ui" and data.dtype.itemsize <= 2
+            if not small:
+                m.unride()
+            elif not m.riding:
+                m.ride()  # (only while both stacks are empty: it says no otherwise)
         for k, s in self.views.items():
             d = data[s]
-            self.acc[k].add(d)
-            hi, lo = int_fold.extremes(d, self.max_code)
-            self.at_max[k] += hi
-            self.at_min[k] += lo
+            self.acc[k].add(d)  # (its clip counts too)
             if k in self.hist:
                 self.hist[k] += np.bincount(d.ravel(), minlength=self.max_code + 1)[: self.max_code + 1]
-        if self.masked is not None:
-            self.masked.add(data)
+        if m is not None and not m.riding:
+            m.add(data)
         if self.kept is not None:
             self.kept.append(data)
 
@@ -126,6 +130,16 @@ class StackSet:
             self.kept.close()
             self.kept = None
         return True
+
+    @property
+    def at_max(self) -> dict[str, int]:
+        """Per view: the values at or above the top code (clipped high) of the frames added."""
+        return {k: a.clips()[0] for k, a in self.acc.items()}
+
+    @property
+    def at_min(self) -> dict[str, int]:
+        """Per view: the values 0 (clipped low) of the frames added."""
+        return {k: a.clips()[1] for k, a in self.acc.items()}
 
     @property
     def n_frames(self) -> int:
