@@ -102,3 +102,21 @@ def hot_limit_text(sigma_dn: float, z: float, gain: float | None, exposure_s: fl
                 f"{sigma_dn:.2g} DN at {exposure_s:g} s" + (f" hides hot pixels between {rate_threshold:g} and "
                                                              f"{lim:.3g} e-/s)" if lim > rate_threshold else ")"))
     return f"finds excess dark signals >= {dn:.3g} DN (99 %)"
+
+
+def rate_available(cls: str, threshold: float, lim: float, exposure_s: float, sigma_dn: float,
+                   slope: bool, factor: float = 2.0) -> tuple[bool, str]:
+    """(available, sentence) for a dark-rate class (hot, warm) whose 99 % detection limit
+    is ``lim`` e-/s: available where a pixel at ``factor`` times the class's threshold is
+    found (as noisy: a 10x pixel), the pixels between threshold and limit named as hidden;
+    else the exposure that would bring the limit down there at this dark noise (the limit
+    scales as 1/exposure while the averaged dark's pixel-to-pixel noise stays ``sigma_dn``)."""
+    how = "the slope of the dark signal over the exposures" if slope else f"the averaged dark at {exposure_s:g} s"
+    if lim <= factor * threshold:
+        return True, (f"finds dark rates >= {max(lim, threshold):.3g} e-/s (99 %, from {how})"
+                      + (f"; {cls} pixels between {threshold:g} and {lim:.3g} e-/s may be missed"
+                         if lim > threshold else ""))
+    need = exposure_s * lim / (factor * threshold)
+    return False, (f"with {how} (pixel-to-pixel noise {sigma_dn:.2g} DN) only dark rates >= {lim:.3g} e-/s are "
+                   f"found (99 %), above {factor:g}x the {cls} threshold {threshold:g} e-/s; needs "
+                   + ("a longest exposure" if slope else "an exposure") + f" >= {need:.3g} s")
