@@ -191,7 +191,8 @@ def test_threshold_monotonic(inj, stats, field, cls, direction, rng_, data):
     lo, hi = min(a, b), max(a, b)
     dark, flat = stats
     base = DefectThresholds(warm_z=4.8, hot_z=40.0, warm_e_per_s=0.5, hot_e_per_s=40.0, dead_fraction=0.05,
-                            low_response_fraction=0.99, high_response_fraction=1.1)
+                            low_response_fraction=0.99, high_response_fraction=1.1,
+                            rate_detect_factor=1000.0)  # availability is tested elsewhere: the sweep keeps warm
 
     def count(v):
         th = DefectThresholds(**dict(base.to_dict(), **{field: v}))

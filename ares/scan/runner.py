@@ -31,7 +31,8 @@ from ares.hardware.waits import Interrupted
 from ares.scan import events as ev
 from ares.scan.apply import apply_settings, as_fields
 from ares.scan.commit import StageCommitter
-from ares.scan.defect_mask import load_declared_mask, mask_from_dark, scan_thresholds
+from ares.scan.defect_mask import (flat_can_classify, load_declared_mask, mask_from_dark, mask_with_flat,
+                                   scan_thresholds)
 from ares.scan.preflight import KEEP_FOR_MASK_BYTES, check_run
 from ares.scan.results import StackSet, analyze_stage, check_limits, limits_verdict, scan_level_results, views
 from ares.runstate import is_storage_error, storage_sentence
@@ -243,6 +244,7 @@ class Runner:
         self._emit(ev.RunStarted(run_dir, len(stages), self._frames_total, self._est))
         cache = None  # last dark StackSet that a matched dark may reuse
         self._mask = load_declared_mask(scan, bench.frames.shape)  # else from the first dark stage
+        self._held = None  # stages waiting for a flat to complete that mask (_hold)
         applied: dict | None = None
         if completed:  # resuming: the bench, mask and cached dark as the interrupted run left them
             from ares.scan.resume import restore
@@ -258,6 +260,10 @@ class Runner:
         try:
             return self._stages(bench, writer, completed, stages, vw, max_code, cache, applied)
         except BaseException:
+            try:  # the stages held for the mask are complete: committed too
+                self._release_held()
+            except Exception as exc:  # noqa: BLE001 -- the first error is the one raised
+                log.warning("committing the stages held for the defect mask: %s", exc)
             self._commit.settle()  # the stages acquired before the error are committed, then it is raised
             raise
 
@@ -287,7 +293,8 @@ class Runner:
                         apply_settings(bench, system, st.dark_settings, applied, self._cancelled)
                         applied = st.dark_settings
                         dark = self._grab(bench, st, st.dark_frames, vw, max_code, fw, dark=True)
-                    elif st.dark_source == "reuse" and cache is not None and cache.masked is None and self._mask is not None:
+                    elif (st.dark_source == "reuse" and cache is not None and cache.masked is None and cache.kept is None
+                          and self._mask is not None):
                         # the dark to reuse predates the defect mask and kept no frames: grab it again
                         apply_settings(bench, system, st.dark_settings, applied, self._cancelled)
                         applied = st.dark_settings
@@ -358,7 +365,10 @@ class Runner:
             if new_mask:  # before the next stage's frames: they are masked as they arrive
                 t_mask = time.monotonic()
                 self._mask = mask_from_dark(flat, st.name, st.settings.get("exposure"), scan_thresholds(scan))
-                flat.apply_mask(self._mask.mask)  # this stage too, from its kept frames
+                if any(s.scene == "flat" for s in stages if s.index > st.index):
+                    self._held = []  # a flat will complete the mask: the stages wait for it (_hold)
+                else:
+                    flat.apply_mask(self._mask.mask)  # this stage too, from its kept frames
                 self._eta.one_off(time.monotonic() - t_mask)
             self._eta.stage_finished(time.monotonic() - self._t0, st.scene)
             extra = {"dark_after": True} if st.dark_after else {}  # its matched dark followed the flat
@@ -368,12 +378,17 @@ class Runner:
                 extra["suspensions"] = suspensions
             if lost:
                 extra["frames_lost"] = lost
-            self._commit.submit(st, flat, dark, extra, new_mask, before, after, t_start, writer, completed)
+            args = (st, flat, dark, extra, new_mask, before, after, t_start, writer, completed)
+            if self._held is not None:
+                self._hold(args)
+            else:
+                self._commit.submit(*args)
             if self._commit.cpu_seconds is not None:  # the latest stage's analysis and write: the run
                 self._eta.end_work(self._commit.cpu_seconds)  # waits for the last stage's after its frames
         else:
             if self._stop.is_set():
                 status = "done"  # stop during the last stage: the scan is complete anyway
+        self._release_held()  # no flat completed the mask: the brightest one held does
         self._commit.wait()
         cache = flat = dark = None  # the stacks' sums are committed: free them before the scan-level analyses
         if self._own_bench:  # no more frames: the devices close now (the light goes off, the simulator's maps go)
@@ -403,6 +418,45 @@ class Runner:
         self._emit(ev.Done(status, run_dir, len(completed), scan_results, tuple(fails)))
         return RunOutcome(status, writer.dir if writer else None, completed, scan_results, fails, message=message,
                           seed=self.seed)
+
+    def _hold(self, args: tuple) -> None:
+        """A stage finished while the defect mask waits for a flat (ares.scan.defect_mask):
+        kept with its frames; the first flat that shows the flat classes completes the mask,
+        then every held stage is masked with it and committed in order."""
+        self._held.append(args)
+        st, flat, dark = args[:3]
+        if st.scene == "flat" and dark is not None and flat_can_classify(flat, dark, scan_thresholds(self.scan)):
+            self._release_held(args)
+
+    def _release_held(self, by: tuple | None = None) -> None:
+        """Complete the mask with the flat stage ``by`` (else the brightest unclipped flat
+        held), mask the held stages' kept frames with it and commit them in order."""
+        held, self._held = self._held, None
+        if not held:
+            return
+        if by is None:
+            flats = [a for a in held if a[0].scene == "flat" and a[2] is not None]
+            ok = [a for a in flats if a[1].at_max["full"] < 0.002 * max(a[1].acc["full"].n_frames, 1)
+                  * a[1].acc["full"].shape[0] * a[1].acc["full"].shape[1]]
+            by = max(ok, key=lambda a: a[1].acc["full"].mean() - a[2].acc["full"].mean(), default=None)
+        t_mask = time.monotonic()
+        if by is not None:
+            st, flat, dark = by[:3]
+            self._mask = mask_with_flat(self._mask, dark, st.dark_settings.get("exposure"), flat, st.name,
+                                        scan_thresholds(self.scan))
+        for args in held:
+            for ss in args[1:3]:
+                if ss is not None and ss.kept is not None:
+                    ss.apply_mask(self._mask.mask)
+        self._eta.one_off(time.monotonic() - t_mask)
+        for args in held:
+            self._commit.submit(*args)
+
+    def _kept_budget(self) -> int:
+        """What is left of the kept-frames memory budget beside the stages held (the rest of
+        their frames goes to the run's disk, ares.scan.kept)."""
+        used = sum(ss.kept.in_memory for a in (self._held or ()) for ss in a[1:3] if ss is not None and ss.kept)
+        return max(KEEP_FOR_MASK_BYTES - used, 0)
 
     def _commit_stage(self, st: Stage, flat, dark, extra: dict, new_mask: bool, before: dict, after: dict,
                       t_start: float, writer, completed: list) -> None:
@@ -471,11 +525,12 @@ class Runner:
         src = bench.frames
         shape = tuple(src.shape)
         mask = getattr(self, "_mask", None)
+        held = self._held is not None  # the mask waits for a flat: keep the frames, mask them then
         ss = StackSet(shape, vw, max_code, histograms=bool({"adc_linearity", "photon_counting"} & set(self.scan.analyses)),
-                      mask=mask.mask if mask is not None else None)
-        if mask is None and not dark and st.scene == "dark":
+                      mask=mask.mask if mask is not None and not held else None)
+        if held or (mask is None and not dark and st.scene == "dark"):
             # the stage a defect mask will be built from: keep its frames to mask it too
-            ss.kept = KeptFrames(KEEP_FOR_MASK_BYTES, self._scratch_dir)
+            ss.kept = KeptFrames(self._kept_budget(), self._scratch_dir)
         self._eta.stage_started(time.monotonic() - self._t0,  # waiting for a first frame is stage work
                                 "dark" if dark or st.scene == "dark" else "flat", st.scene)
         it = iter(src.grab(n))
