@@ -29,6 +29,9 @@ class DefectMask:
     mask: np.ndarray  # bool (rows, cols), True = excluded from the masked figures
     source: str  # "dark stage NAME" or the file
     classes: dict  # class -> pixels masked (from a classification)
+    # the dark stage's RTS candidates (rows, cols): their time series is kept from its frames
+    # for the defects analysis (RTS by levels: a trap is not a noisy or a hot pixel)
+    rts_candidates: tuple | None = None
 
     @property
     def count(self) -> int:
@@ -53,7 +56,7 @@ def mask_from_dark(stackset, stage_name: str, exposure_s: float | None, threshol
         k = int(np.count_nonzero(prim == i))
         if k:
             classes[_mask_label(c)] = classes.get(_mask_label(c), 0) + k
-    return DefectMask(mask, f"dark stage {stage_name}", classes)
+    return DefectMask(mask, f"dark stage {stage_name}", classes, res.rts_candidates)
 
 
 def _mask_label(cls: str) -> str:
@@ -101,7 +104,7 @@ def mask_with_flat(base: DefectMask, dark, dark_exposure_s, flat, flat_name: str
         k = int(np.count_nonzero(added & (prim == i)))
         if k:
             classes[_mask_label(c)] = classes.get(_mask_label(c), 0) + k
-    return DefectMask(base.mask | found, f"{base.source} and flat stage {flat_name}", classes)
+    return DefectMask(base.mask | found, f"{base.source} and flat stage {flat_name}", classes, base.rts_candidates)
 
 
 def load_mask_file(path: Path, shape: tuple[int, int]) -> DefectMask:

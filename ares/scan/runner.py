@@ -365,6 +365,7 @@ class Runner:
             if new_mask:  # before the next stage's frames: they are masked as they arrive
                 t_mask = time.monotonic()
                 self._mask = mask_from_dark(flat, st.name, st.settings.get("exposure"), scan_thresholds(scan))
+                flat.series_pixels = self._mask.rts_candidates  # kept with the mask from its frames
                 if any(s.scene == "flat" for s in stages if s.index > st.index):
                     self._held = []  # a flat will complete the mask: the stages wait for it (_hold)
                 else:

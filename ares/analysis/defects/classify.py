@@ -302,7 +302,11 @@ def classify_defects(
             dead = dn >= needf
             low = (ln >= needf) & ~dead
             high = hn >= needf
-            stuck |= sn >= needf
+            nfs = sum(fl.stuck_ok for fl in F)
+            if nfs:  # stuck from flats and darks together: one code in the light too (a quiet
+                # pixel repeating its dark code that follows the light is not stuck)
+                flat_stuck = sn >= _need(nfs, th.confirm_fraction)
+                stuck = flat_stuck & stuck if any(d.stuck_ok for d in D) else flat_stuck
             acc /= nf
             ratio_stat = acc
         flags.update(dead=dead, low_response=low, high_response=high, stuck=stuck)

@@ -26,7 +26,9 @@ channel; "z" is a robust z-score, sigma = 1.4826 * MAD):
 * stuck -- no temporal variation: per-pixel temporal variance below ``stuck_var_dn2``
   (1/12 DN^2, the quantization floor) and below the chi-square lower limit of the
   population in the darks, or below ``stuck_var_dn2`` in a flat while responding less
-  than ``stuck_response_dn`` to the light (identical codes at every level). A pixel with
+  than ``stuck_response_dn`` to the light (identical codes at every level); with a flat
+  whose shot noise makes equal codes improbable, stuck needs the flat's evidence too (a
+  quiet pixel repeating its dark code that follows the light is not stuck). A pixel with
   no response but ordinary temporal noise is dead, not stuck.
 * noisy -- per-pixel temporal variance s2 fails a chi-square test with F-1 degrees of
   freedom against the robust population variance (median / chi2 median) at false-alarm
