@@ -119,4 +119,5 @@ def rate_available(cls: str, threshold: float, lim: float, exposure_s: float, si
     need = exposure_s * lim / (factor * threshold)
     return False, (f"with {how} (pixel-to-pixel noise {sigma_dn:.2g} DN) only dark rates >= {lim:.3g} e-/s are "
                    f"found (99 %), above {factor:g}x the {cls} threshold {threshold:g} e-/s; needs "
-                   + ("a longest exposure" if slope else "an exposure") + f" >= {need:.3g} s")
+                   + ("a longest exposure" if slope else "an exposure") + f" >= {need:.3g} s (at this pixel-to-pixel "
+                   "noise; longer where the dark's non-uniformity grows with exposure)")
