@@ -137,7 +137,8 @@ class DefectThresholds:
         """The rule that puts a pixel in each class, with these thresholds (the criterion a
         defect table shows next to each count)."""
         return {
-            "hot": f"dark rate > {self.hot_e_per_s:g} e-/s and > {self.hot_z:g} sigma above the local background",
+            "hot": f"dark rate (the slope over the exposures when there are several) > {self.hot_e_per_s:g} e-/s, "
+                   f"> {self.warm_z:g} sigma above the local background (without K: > {self.hot_z:g} sigma)",
             "warm": f"dark rate > {self.warm_e_per_s:g} e-/s and > {self.warm_z:g} sigma (not hot)",
             "dead": f"flat response < {self.dead_fraction:g} x the local median",
             "low_response": f"flat response < {self.low_response_fraction:g} x the local median (not dead)",
