@@ -429,7 +429,7 @@ def classify_defects(
     rts_stat = np.broadcast_to(0.0, shape)  # filled at the candidates, if tested
     rts_available, rts_note = False, ""
     if rts_series is None:
-        rts_note = "RTS not available: no time series of the candidate pixels was given"
+        rts_note = "needs the time series of the candidate pixels (none was given)"
     else:
         if isinstance(rts_series, SeriesCollector):
             keyed = {(int(r), int(c)): i for i, (r, c) in enumerate(zip(rts_series.rows, rts_series.cols))}
@@ -446,9 +446,9 @@ def classify_defects(
         if series.ndim != 2 or series.shape[1] != crow.size:
             raise ValueError(f"rts_series returned shape {series.shape}, expected (frames, {crow.size})")
         if nfr < th.rts_min_frames:
-            rts_note = (f"RTS not available: {nfr} frames in the time series, needs >= {th.rts_min_frames} "
-                        f"frames (rts_min_frames={th.rts_min_frames}: over fewer a single-level series splits "
-                        "into two apparent levels too often)")
+            rts_note = (f"needs >= {th.rts_min_frames} frames: {nfr} in the time series (rts_min_frames="
+                        f"{th.rts_min_frames}: over fewer a single-level series splits into two apparent levels "
+                        "too often)")
         else:
             thr = rts_threshold(nfr, th.rts_min_separation, th.rts_min_occupancy, th.rts_p_fa)
             is_rts, sep = detect_rts(series, thr, th.rts_min_occupancy)

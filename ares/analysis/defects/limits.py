@@ -78,9 +78,9 @@ def stuck_in_darks(pop_sigma_dn: float, frames: int, p_max: float) -> tuple[bool
     if p <= p_max:
         return True, ""
     need = min_frames_stuck(pop_sigma_dn, p_max)
-    return False, (f"with {frames} frames a normal pixel (temporal sigma {pop_sigma_dn:.2g} DN) repeats one code "
-                   f"in every frame with probability {p:.2g} (limit {p_max:g})"
-                   + (f"; needs >= {need} frames" if need else ""))
+    return False, ((f"needs >= {need} frames: " if need else "")
+                   + f"with {frames} frames a normal pixel (temporal sigma {pop_sigma_dn:.2g} DN) repeats one code "
+                   f"in every frame with probability {p:.2g} (limit {p_max:g})")
 
 
 def noisy_available(frames: int, p_fa: float, ratio: float) -> tuple[bool, str]:
@@ -88,8 +88,8 @@ def noisy_available(frames: int, p_fa: float, ratio: float) -> tuple[bool, str]:
     if r99 <= ratio:
         return True, f"finds pixels with >= {r99:.3g}x the population variance (99 %)"
     need = min_frames_noisy(ratio, p_fa)
-    return False, (f"with {frames} frames the chi-square test finds only pixels with >= {r99:.3g}x the population "
-                   f"variance (99 %); a {ratio:g}x noisy pixel needs >= {need} frames")
+    return False, (f"needs >= {need} frames: with {frames} the chi-square test finds only pixels with >= {r99:.3g}x "
+                   f"the population variance (99 %), a {ratio:g}x noisy pixel not")
 
 
 def hot_limit_text(sigma_dn: float, z: float, gain: float | None, exposure_s: float | None,
@@ -117,7 +117,7 @@ def rate_available(cls: str, threshold: float, lim: float, exposure_s: float, si
                       + (f"; {cls} pixels between {threshold:g} and {lim:.3g} e-/s may be missed"
                          if lim > threshold else ""))
     need = exposure_s * lim / (factor * threshold)
-    return False, (f"with {how} (pixel-to-pixel noise {sigma_dn:.2g} DN) only dark rates >= {lim:.3g} e-/s are "
-                   f"found (99 %), above {factor:g}x the {cls} threshold {threshold:g} e-/s; needs "
-                   + ("a longest exposure" if slope else "an exposure") + f" >= {need:.3g} s (at this pixel-to-pixel "
-                   "noise; longer where the dark's non-uniformity grows with exposure)")
+    return False, (("needs a longest exposure" if slope else "needs an exposure") + f" >= {need:.3g} s: with {how} "
+                   f"(pixel-to-pixel noise {sigma_dn:.2g} DN) only dark rates >= {lim:.3g} e-/s are found (99 %), "
+                   f"above {factor:g}x the {cls} threshold {threshold:g} e-/s (a lower bound: longer where the dark's "
+                   "non-uniformity grows with exposure)")
