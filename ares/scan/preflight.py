@@ -15,6 +15,7 @@ maps they use once.)
 
 from __future__ import annotations
 
+import math
 import os
 from dataclasses import dataclass
 
@@ -27,6 +28,16 @@ BASE_BYTES = 300e6  # the interpreter, numpy/scipy/h5py and the report's plottin
 BYTES_PER_PIXEL = 140.0  # full view: accumulators, simulator maps, the analyses' float64 maps and the report
 BYTES_PER_VIEW_PIXEL = 100.0  # each further view (region, Bayer phase, ADC channel) per pixel it covers
 KEEP_FOR_MASK_BYTES = 256 * 1024 * 1024  # the first dark stage's frames kept in memory up to this size
+# the stages held until a flat completes the defect mask (ares.scan.runner._hold): their
+# sums (~16 B a pixel a stage, measured on VGA) up to this, then the mask is completed
+HOLD_MAX_BYTES = 256 * 1024 * 1024
+HELD_BYTES_PER_PIXEL = 16.0
+
+
+def held_bytes(stacks) -> int:
+    """Bytes of the accumulators of the ``StackSet``s held (each counted once)."""
+    seen = {id(ss): ss for ss in stacks}
+    return sum(acc.nbytes() for ss in seen.values() for acc in ss.acc.values())
 
 
 @dataclass(frozen=True)
@@ -52,7 +63,11 @@ def memory_bytes(scan, stages: list[Stage]) -> float:
     extra = sum(float(r.width) * float(r.height) for r in scan.regions)
     extra += px * ((s.cfa != "mono") + (s.adc_channels > 1))
     kept = min(2.0 * px * next((st.frames for st in stages if st.scene == "dark"), 0), KEEP_FOR_MASK_BYTES)
-    return BASE_BYTES + BYTES_PER_PIXEL * px + BYTES_PER_VIEW_PIXEL * extra + kept
+    first_dark = next((k for k, st in enumerate(stages) if st.scene == "dark"), None)
+    n_flat = 0 if first_dark is None else sum(st.scene == "flat" for st in stages[first_dark:])
+    # held for the mask: about the first third of a flat sweep (its dim end) until a flat shows dead pixels
+    held = min(HELD_BYTES_PER_PIXEL * (px + extra) * math.ceil(n_flat / 3), HOLD_MAX_BYTES) if n_flat else 0.0
+    return BASE_BYTES + BYTES_PER_PIXEL * px + BYTES_PER_VIEW_PIXEL * extra + kept + held
 
 
 def machine_memory() -> tuple[float | None, float | None]:

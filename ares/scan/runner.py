@@ -33,7 +33,7 @@ from ares.scan.apply import apply_settings, as_fields
 from ares.scan.commit import StageCommitter
 from ares.scan.defect_mask import (flat_can_classify, load_declared_mask, mask_from_dark, mask_with_flat,
                                    scan_thresholds)
-from ares.scan.preflight import KEEP_FOR_MASK_BYTES, check_run
+from ares.scan.preflight import HOLD_MAX_BYTES, KEEP_FOR_MASK_BYTES, check_run, held_bytes
 from ares.scan.results import StackSet, analyze_stage, check_limits, limits_verdict, scan_level_results, views
 from ares.runstate import is_storage_error, storage_sentence
 from ares.scan.rundir import RunRecord, RunWriter
@@ -428,6 +428,8 @@ class Runner:
         st, flat, dark = args[:3]
         if st.scene == "flat" and dark is not None and flat_can_classify(flat, dark, scan_thresholds(self.scan)):
             self._release_held(args)
+        elif held_bytes([ss for a in self._held for ss in a[1:3] if ss is not None]) > HOLD_MAX_BYTES:
+            self._release_held()  # memory: the brightest flat so far completes the mask (one mask still)
 
     def _release_held(self, by: tuple | None = None) -> None:
         """Complete the mask with the flat stage ``by`` (else the brightest unclipped flat
