@@ -260,10 +260,7 @@ class Runner:
         try:
             return self._stages(bench, writer, completed, stages, vw, max_code, cache, applied)
         except BaseException:
-            try:  # the stages held for the mask are complete: committed too
-                self._release_held()
-            except Exception as exc:  # noqa: BLE001 -- the first error is the one raised
-                log.warning("committing the stages held for the defect mask: %s", exc)
+            self._drop_held()
             self._commit.settle()  # the stages acquired before the error are committed, then it is raised
             raise
 
@@ -454,6 +451,18 @@ class Runner:
         self._eta.one_off(time.monotonic() - t_mask)
         for args in held:
             self._commit.submit(*args)
+
+    def _drop_held(self) -> None:
+        """A run that fails while stages wait for the mask does not commit them: with a mask
+        the rest of the scan never completed they would differ from an uninterrupted run's,
+        and ``ares resume`` acquires them again (bit-identical on the simulator). A stop
+        commits them (everything acquired is kept), with the mask the flats so far give."""
+        held, self._held = self._held, None
+        for args in held or ():
+            for ss in args[1:3]:
+                if ss is not None and ss.kept is not None:
+                    ss.kept.close()
+                    ss.kept = None
 
     def _kept_budget(self) -> int:
         """What is left of the kept-frames memory budget beside the stages held (the rest of
