@@ -31,9 +31,9 @@ from ares.hardware.waits import Interrupted
 from ares.scan import events as ev
 from ares.scan.apply import apply_settings, as_fields
 from ares.scan.commit import StageCommitter
-from ares.scan.defect_mask import (flat_can_classify, load_declared_mask, mask_from_dark, mask_with_flat,
-                                   scan_thresholds)
-from ares.scan.preflight import HOLD_MAX_BYTES, KEEP_FOR_MASK_BYTES, check_run, held_bytes
+from ares.scan.defect_mask import load_declared_mask, mask_from_dark, scan_thresholds
+from ares.scan.mask_hold import MaskHold
+from ares.scan.preflight import KEEP_FOR_MASK_BYTES, check_run
 from ares.scan.results import StackSet, analyze_stage, check_limits, limits_verdict, scan_level_results, views
 from ares.runstate import is_storage_error, storage_sentence
 from ares.scan.rundir import RunRecord, RunWriter
@@ -63,7 +63,7 @@ class _Aborted(Exception):
     pass
 
 
-class Runner:
+class Runner(MaskHold):
     def __init__(self, scan, *, bench=None, out_dir: str | Path | None = None, seed: int | None = None,
                  frames: int | None = None, faults: dict | None = None, argv: list[str] | None = None,
                  listeners: tuple[Callable, ...] = (), resume_from: list[dict] | None = None,
@@ -290,8 +290,8 @@ class Runner:
                         apply_settings(bench, system, st.dark_settings, applied, self._cancelled)
                         applied = st.dark_settings
                         dark = self._grab(bench, st, st.dark_frames, vw, max_code, fw, dark=True)
-                    elif (st.dark_source == "reuse" and cache is not None and cache.masked is None and cache.kept is None
-                          and self._mask is not None):
+                    elif (st.dark_source == "reuse" and cache is not None and cache.masked is None
+                          and cache.kept is None and self._mask is not None):
                         # the dark to reuse predates the defect mask and kept no frames: grab it again
                         apply_settings(bench, system, st.dark_settings, applied, self._cancelled)
                         applied = st.dark_settings
@@ -417,59 +417,6 @@ class Runner:
         return RunOutcome(status, writer.dir if writer else None, completed, scan_results, fails, message=message,
                           seed=self.seed)
 
-    def _hold(self, args: tuple) -> None:
-        """A stage finished while the defect mask waits for a flat (ares.scan.defect_mask):
-        kept with its frames; the first flat that shows the flat classes completes the mask,
-        then every held stage is masked with it and committed in order."""
-        self._held.append(args)
-        st, flat, dark = args[:3]
-        if st.scene == "flat" and dark is not None and flat_can_classify(flat, dark, scan_thresholds(self.scan)):
-            self._release_held(args)
-        elif held_bytes([ss for a in self._held for ss in a[1:3] if ss is not None]) > HOLD_MAX_BYTES:
-            self._release_held()  # memory: the brightest flat so far completes the mask (one mask still)
-
-    def _release_held(self, by: tuple | None = None) -> None:
-        """Complete the mask with the flat stage ``by`` (else the brightest unclipped flat
-        held), mask the held stages' kept frames with it and commit them in order."""
-        held, self._held = self._held, None
-        if not held:
-            return
-        if by is None:
-            flats = [a for a in held if a[0].scene == "flat" and a[2] is not None]
-            ok = [a for a in flats if a[1].at_max["full"] < 0.002 * max(a[1].acc["full"].n_frames, 1)
-                  * a[1].acc["full"].shape[0] * a[1].acc["full"].shape[1]]
-            by = max(ok, key=lambda a: a[1].acc["full"].mean() - a[2].acc["full"].mean(), default=None)
-        t_mask = time.monotonic()
-        if by is not None:
-            st, flat, dark = by[:3]
-            self._mask = mask_with_flat(self._mask, dark, st.dark_settings.get("exposure"), flat, st.name,
-                                        scan_thresholds(self.scan))
-        for args in held:
-            for ss in args[1:3]:
-                if ss is not None and ss.kept is not None:
-                    ss.apply_mask(self._mask.mask)
-        self._eta.one_off(time.monotonic() - t_mask)
-        for args in held:
-            self._commit.submit(*args)
-
-    def _drop_held(self) -> None:
-        """A run that fails while stages wait for the mask does not commit them: with a mask
-        the rest of the scan never completed they would differ from an uninterrupted run's,
-        and ``ares resume`` acquires them again (bit-identical on the simulator). A stop
-        commits them (everything acquired is kept), with the mask the flats so far give."""
-        held, self._held = self._held, None
-        for args in held or ():
-            for ss in args[1:3]:
-                if ss is not None and ss.kept is not None:
-                    ss.kept.close()
-                    ss.kept = None
-
-    def _kept_budget(self) -> int:
-        """What is left of the kept-frames memory budget beside the stages held (the rest of
-        their frames goes to the run's disk, ares.scan.kept)."""
-        used = sum(ss.kept.in_memory for a in (self._held or ()) for ss in a[1:3] if ss is not None and ss.kept)
-        return max(KEEP_FOR_MASK_BYTES - used, 0)
-
     def _commit_stage(self, st: Stage, flat, dark, extra: dict, new_mask: bool, before: dict, after: dict,
                       t_start: float, writer, completed: list) -> None:
         """Analyse a stage whose frames are all in, write it to the run directory, tell the
@@ -542,7 +489,7 @@ class Runner:
                       mask=mask.mask if mask is not None and not held else None)
         if held or (mask is None and not dark and st.scene == "dark"):
             # the stage a defect mask will be built from: keep its frames to mask it too
-            ss.kept = KeptFrames(self._kept_budget(), self._scratch_dir)
+            ss.kept = KeptFrames(max(KEEP_FOR_MASK_BYTES - self._held_in_memory(), 0), self._scratch_dir)
         self._eta.stage_started(time.monotonic() - self._t0,  # waiting for a first frame is stage work
                                 "dark" if dark or st.scene == "dark" else "flat", st.scene)
         it = iter(src.grab(n))

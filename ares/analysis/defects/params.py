@@ -55,7 +55,8 @@ channel; "z" is a robust z-score, sigma = 1.4826 * MAD):
 * detection limits -- ``max_false_alarm`` (1e-5 per pixel), ``noisy_detect_ratio`` (10x
   the population variance), ``rate_detect_factor`` (hot/warm: a pixel at 2x the class's
   rate threshold is found with 99 %, else the class is not available and the exposure it
-  needs is named; with several dark exposures the rate is the slope over them) and ``max_plausible_fraction`` (1 %): see ``limits.py``; a
+  needs is named; with several dark exposures the rate is the slope over them) and
+  ``max_plausible_fraction`` (1 %): see ``limits.py``; a
   class that cannot meet them at the data's frame count is not available, with the reason.
 * clusters -- 8-connected groups of >= ``cluster_min_size`` defective pixels.
 * pass/fail -- ``max_<class>`` (and ``max_bad_columns``, ``max_clusters``,
