@@ -5,8 +5,10 @@ stages keep their frames (``ares.scan.kept``) instead of being masked as they st
 first flat that shows the flat classes (``defect_mask.flat_can_classify``) completes the
 mask, every held stage is masked with it from its kept frames and committed in order, and
 the stages after stream with that same mask. Bounded by ``preflight.HOLD_MAX_BYTES`` of
-sums (then the brightest flat so far completes it). A failed run drops what it held
-(``ares resume`` acquires it again); a stop, and the end of the scan, commit it."""
+sums (then the brightest flat so far completes it). A stop, a failure and the end of the
+scan commit what is held with the mask the flats so far give (a crash loses at most the
+stage in flight); a run resumed from there keeps that mask -- one mask for the run, but
+not the one an uninterrupted run would have completed at a brighter flat."""
 
 from __future__ import annotations
 
@@ -54,18 +56,6 @@ class MaskHold:
         self._eta.one_off(time.monotonic() - t_mask)
         for args in held:
             self._commit.submit(*args)
-
-    def _drop_held(self) -> None:
-        """A run that fails while stages wait for the mask does not commit them: with a mask
-        the rest of the scan never completed they would differ from an uninterrupted run's,
-        and ``ares resume`` acquires them again (bit-identical on the simulator). A stop
-        commits them (everything acquired is kept), with the mask the flats so far give."""
-        held, self._held = self._held, None
-        for args in held or ():
-            for ss in args[1:3]:
-                if ss is not None and ss.kept is not None:
-                    ss.kept.close()
-                    ss.kept = None
 
     def _held_in_memory(self) -> int:
         """Bytes of kept frames the held stages have in memory (the kept-frames budget is

@@ -260,7 +260,10 @@ class Runner(MaskHold):
         try:
             return self._stages(bench, writer, completed, stages, vw, max_code, cache, applied)
         except BaseException:
-            self._drop_held()
+            try:  # the stages held for the mask are complete: kept like any other (a crash loses
+                self._release_held()  # at most the stage in flight)
+            except Exception as exc:  # noqa: BLE001 -- the first error is the one raised
+                log.warning("committing the stages held for the defect mask: %s", exc)
             self._commit.settle()  # the stages acquired before the error are committed, then it is raised
             raise
 
