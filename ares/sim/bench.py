@@ -28,6 +28,7 @@ from ares.hardware.interfaces import Bench, Frame
 from ares.hardware.registers import RegisterFile
 from ares.sim import cost
 from ares.sim.params import SensorParams
+from ares.sim.ranges import TEMPERATURE_C
 from ares.sim.regmap import SIM_REGISTER_MAP
 from ares.sim.sensor import SimSensor
 
@@ -109,7 +110,7 @@ class SimLightSource:
 class SimChamber:
     """Thermal chamber with instant settling, -40 .. 125 C."""
 
-    MIN_C, MAX_C = -40.0, 125.0
+    MIN_C, MAX_C = TEMPERATURE_C  # the simulator's physical range (ares.sim.ranges)
 
     def __init__(self, name: str = "sim-chamber", temperature_c: float = 25.0):
         self.name = name
