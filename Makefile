@@ -20,7 +20,7 @@ run: $(BIN)/.installed
 
 # All tests (offscreen Qt; two workers for the two cores).
 test: $(BIN)/.installed
-	QT_QPA_PLATFORM=offscreen $(BIN)/python -m pytest -n 2 -q
+	QT_QPA_PLATFORM=offscreen $(BIN)/python -m pytest -n 2 -q --durations=30
 
 bench: $(BIN)/.installed
 	$(BIN)/python benchmarks/run_all.py
