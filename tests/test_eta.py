@@ -168,7 +168,7 @@ def test_an_exposure_sweep_is_charged_by_each_stage_s_exposure():
 
 def test_stacks_cost_exposure_plus_readout_only_on_a_paced_bench():
     from ares.protocol import load_scan
-    from ares.scan.runner import _stacks
+    from ares.scan.eta import eta_stacks as _stacks
     from ares.scan.stages import expand, frame_seconds
 
     scan = load_scan("scans/dark_current.xml")
@@ -295,7 +295,7 @@ def test_the_simulator_weighs_make_run_s_stages_by_their_path():
     stage least; the weights come from the path ``render`` takes at each stage's settings."""
     from ares.hardware.factory import build_bench
     from ares.protocol import load_scan
-    from ares.scan.runner import _stacks
+    from ares.scan.eta import eta_stacks as _stacks
     from ares.scan.stages import expand
     from ares.sim import cost
 
@@ -343,7 +343,7 @@ def test_a_frame_source_that_fails_to_cost_its_frames_does_not_stop_the_scan(cap
     """``frame_cost`` only weighs the time remaining: a source whose costing raises (a bug,
     a device that cannot tell) gets unweighted stacks and a log line, and the scan runs."""
     from ares.protocol import load_scan
-    from ares.scan.runner import _stacks
+    from ares.scan.eta import eta_stacks as _stacks
     from ares.scan.stages import expand
 
     def broken(fields):

@@ -33,8 +33,16 @@ it made-up times)."""
 
 from __future__ import annotations
 
+import logging
+import math
 import statistics
 from collections import deque
+
+from ares.errors import AresError
+from ares.scan.apply import as_fields
+from ares.scan.stages import frame_seconds
+
+log = logging.getLogger(__name__)
 
 
 KEEP = 6  # stacks a rate is the median of
@@ -252,3 +260,40 @@ class Eta:
         stages = sum(n * self.per_stage(sc, spent) for sc, n in self.stages_left.items() if n)
         end = statistics.median(self.commits[-3:]) if self.commits else 0.0
         return left + max(stages - (spent or 0.0), 0.0) + end
+
+
+def eta_stacks(scan, stages, frames) -> list[tuple[str, int, float, float]]:
+    """The stacks the stages grab, in order, as (kind, frames, model seconds of a frame,
+    relative cost of a frame) for the time remaining: a dark stack and a lit one are timed
+    apart; on a bench whose frames follow the exposure (``FrameSource.exposure_paced``,
+    real sensors) a frame's model is exposure + readout, else none (0: the simulator
+    computes its frames); a source that can tell what a frame at given settings costs it
+    (``FrameSource.frame_cost``: the simulator, by its path) weighs the stacks by it, unless
+    paced (its work then hides behind the exposure: a paced simulator)."""
+    paced = getattr(frames, "exposure_paced", True)
+    weigh = None if paced else getattr(frames, "frame_cost", None)
+
+    def weight(settings: dict) -> float:
+        nonlocal weigh
+        if weigh is None:
+            return 1.0
+        try:
+            w = float(weigh(as_fields(scan.system, settings)))
+        except AresError:  # a bad setting is reported when the stage applies it
+            return 1.0
+        except Exception as exc:  # noqa: BLE001 -- a time estimate never stops a scan
+            log.warning("frame source %s could not cost a stage's frames (%s); time remaining unweighted",
+                        getattr(frames, "name", "?"), exc)
+            weigh = None  # (once)
+            return 1.0
+        return w if math.isfinite(w) and w > 0 else 1.0
+
+    out = []
+    for st in stages:
+        model = frame_seconds(scan, st) if paced else 0.0
+        dark_part = st.dark_frames if st.dark_source == "grab" else 0
+        out.append(("dark" if st.scene == "dark" else "flat", st.frames_to_grab() - dark_part, model,
+                    weight(st.settings)))
+        if dark_part:
+            out.append(("dark", dark_part, model, weight(st.dark_settings)))
+    return out

@@ -16,7 +16,6 @@ timeout, disconnect, short frame) ends the run: the run directory is closed with
 from __future__ import annotations
 
 import logging
-import math
 import threading
 import time
 from dataclasses import dataclass, field
@@ -31,7 +30,7 @@ from ares.errors import AresError, DeviceGone, FrameError, FrameLost, HardwareEr
 from ares.hardware import link_stats
 from ares.hardware.waits import Interrupted
 from ares.scan import events as ev
-from ares.scan.apply import apply_settings, as_fields
+from ares.scan.apply import apply_settings
 from ares.scan.commit import StageCommitter
 from ares.scan.defect_mask import load_declared_mask, mask_from_dark, scan_thresholds
 from ares.scan.preflight import KEEP_FOR_MASK_BYTES, check_run
@@ -39,8 +38,8 @@ from ares.scan.spectral_readings import photodiode_readings, spectral_readings
 from ares.scan.results import StackSet, analyze_stage, check_limits, limits_verdict, scan_level_results, views
 from ares.runstate import is_storage_error, storage_sentence
 from ares.scan.rundir import RunRecord, RunWriter
-from ares.scan.stages import Stage, estimate_seconds, frame_seconds
-from ares.scan.eta import Eta
+from ares.scan.stages import Stage, estimate_seconds
+from ares.scan.eta import Eta, eta_stacks
 from ares.scan.kept import KeptFrames
 from ares.scan.suspend import Suspended, Suspenders
 
@@ -241,7 +240,7 @@ class Runner:
         self._est = self.estimate_seconds()
         todo = stages[len(completed):]  # (resuming: the stages still to run)
         self._eta = Eta(self._frames_total, len(todo), self._est,
-                        stacks=_stacks(scan, todo, bench.frames),
+                        stacks=eta_stacks(scan, todo, bench.frames),
                         stages_by_scene={sc: sum(s.scene == sc for s in todo) for sc in ("dark", "flat")})
         run_dir = str(writer.dir) if writer else None
         self._scratch_dir = run_dir  # kept dark frames beyond memory (ares.scan.kept): on the run's disk
@@ -543,43 +542,6 @@ def _position(bench) -> dict | None:
     """The frame source's stream position where it can tell one (the simulator), else None."""
     fn = getattr(bench.frames, "position", None)
     return fn() if callable(fn) else None
-
-
-def _stacks(scan, stages, frames) -> list[tuple[str, int, float, float]]:
-    """The stacks the stages grab, in order, as (kind, frames, model seconds of a frame,
-    relative cost of a frame) for the time remaining: a dark stack and a lit one are timed
-    apart; on a bench whose frames follow the exposure (``FrameSource.exposure_paced``,
-    real sensors) a frame's model is exposure + readout, else none (0: the simulator
-    computes its frames); a source that can tell what a frame at given settings costs it
-    (``FrameSource.frame_cost``: the simulator, by its path) weighs the stacks by it, unless
-    paced (its work then hides behind the exposure: a paced simulator)."""
-    paced = getattr(frames, "exposure_paced", True)
-    weigh = None if paced else getattr(frames, "frame_cost", None)
-
-    def weight(settings: dict) -> float:
-        nonlocal weigh
-        if weigh is None:
-            return 1.0
-        try:
-            w = float(weigh(as_fields(scan.system, settings)))
-        except AresError:  # a bad setting is reported when the stage applies it
-            return 1.0
-        except Exception as exc:  # noqa: BLE001 -- a time estimate never stops a scan
-            log.warning("frame source %s could not cost a stage's frames (%s); time remaining unweighted",
-                        getattr(frames, "name", "?"), exc)
-            weigh = None  # (once)
-            return 1.0
-        return w if math.isfinite(w) and w > 0 else 1.0
-
-    out = []
-    for st in stages:
-        model = frame_seconds(scan, st) if paced else 0.0
-        dark_part = st.dark_frames if st.dark_source == "grab" else 0
-        out.append(("dark" if st.scene == "dark" else "flat", st.frames_to_grab() - dark_part, model,
-                    weight(st.settings)))
-        if dark_part:
-            out.append(("dark", dark_part, model, weight(st.dark_settings)))
-    return out
 
 
 def _finish_quietly(writer, status: str, message: str) -> None:
