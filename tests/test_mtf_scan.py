@@ -24,11 +24,15 @@ def test_mtf_scan_against_truth(tmp_path):
     e50 = d["mtf50_cy_per_px"]
     assert e50["verdict"] == "ok" and abs(e50["value"] / t50 - 1) < 0.02
     assert abs(e50["value"] - t50) < 4 * e50["se"]
+    o50 = d["option"]["mtf50_cy_per_px"]  # scans/mtf.xml: esf_half_width="16", beside the standard
+    assert d["option"]["esf_half_width"] == 16 and o50["verdict"] == "ok"
+    assert abs(o50["value"] / t50 - 1) < 0.02 and abs(o50["value"] - t50) < 4 * o50["se"]
     en = d["mtf_at_nyquist"]
     assert abs(en["value"] - float(true_mtf(0.5, ang, sig, xt))) < 4 * en["se"]
     assert d["angle_deg"]["value"] == pytest.approx(ang, abs=0.1)
     out = tmp_path / "run"
-    assert (out / "mtf.csv").read_text().startswith("stage,channel,freq_cy_per_px,mtf")
+    csv = (out / "mtf.csv").read_text()
+    assert csv.startswith("stage,channel,freq_cy_per_px,mtf") and ",16" in csv
     assert "Slanted-edge MTF" in pdf_text(out / "report.pdf")
 
 
@@ -38,3 +42,25 @@ def test_mtf_limit_names_validate():
     assert unknown_limit("mtf.mtf50_cy_per_px", ["mtf"]) is None
     assert unknown_limit("photon_counting.read_noise_e", ["photon_counting"]) is None
     assert unknown_limit("mtf50_cy_per_px", ["ptc"]) is not None
+
+
+def test_mtf_option_in_the_scan_xml(tmp_path):
+    """<analysis name="mtf" esf_half_width="16"/> is read, written back, and a bad value or an
+    unknown option is one sentence naming the file."""
+    from ares.errors import InputError
+    from lxml import etree
+
+    from ares.protocol.scan import scan_to_tree
+
+    sc = load_scan(ROOT / "scans" / "mtf.xml")
+    assert sc.option("mtf", "esf_half_width") == 16.0 and sc.option("ptc", "esf_half_width") is None
+    assert 'esf_half_width="16' in etree.tostring(scan_to_tree(sc)).decode()
+    text = (ROOT / "scans" / "mtf.xml").read_text()
+    for bad, says in (('esf_half_width="1"', "give a number of at least 4"),
+                      ('esf_half_width="x"', "esf_half_width")):
+        p = tmp_path / "bad.xml"
+        p.write_text(text.replace('esf_half_width="16"', bad).replace('href="../protocols/',
+                                                                        f'href="{ROOT}/protocols/'))
+        with pytest.raises(InputError) as e:
+            load_scan(p)
+        assert "bad.xml" in str(e.value) and says in str(e.value)

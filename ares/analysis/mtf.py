@@ -279,6 +279,20 @@ def sfr(image, *, max_code: float | None = None, pixel_scale: int = 1, bootstrap
                      Estimate(mn, float(se[2]), "", how), snr)
 
 
+def channels_dict(std: dict[str, SfrResult], opt: dict[str, SfrResult] | None = None,
+                  esf_half_width: float | None = None, curve: bool = True) -> dict[str, dict]:
+    """The JSON form of ``sfr_channels``' results: each channel's standard result, and when the
+    option ``esf_half_width`` was run too, its result beside it under ``"option"`` (labelled with
+    the option's value; never in place of the standard's figures)."""
+    out = {}
+    for name, r in std.items():
+        d = r.to_dict(curve=curve)
+        if opt is not None and name in opt:
+            d["option"] = {"esf_half_width": esf_half_width, **opt[name].to_dict(curve=curve)}
+        out[name] = d
+    return out
+
+
 def sfr_channels(image, pattern: str | None = None, **kw) -> dict[str, SfrResult]:
     """The e-SFR of a monochrome image (``{"mono": ...}``) or of each channel of a Bayer
     mosaic (``pattern`` one of RGGB, GRBG, GBRG, BGGR), each channel's own pixels."""

@@ -27,6 +27,9 @@ from ares.protocol.xmlsafe import fail
 QUANTITIES = ("exposure", "light", "temperature", "analog_gain", "wavelength")
 MAX_STAGES = 10000
 MAX_REGIONS = 256
+# named options an <analysis> element may carry (attribute -> smallest value); each is an
+# option beside the analysis's standard result, never a replacement (ares/protocol/FORMAT.md)
+ANALYSIS_OPTIONS = {"mtf": {"esf_half_width": 4.0}}
 
 
 @dataclass(frozen=True)
@@ -181,6 +184,7 @@ class Scan:
     max_regrabs: int = 2
     precision: Precision | None = None
     analyses: tuple[str, ...] = ()
+    analysis_options: tuple[tuple[str, str, float], ...] = ()  # (analysis, option, value), ANALYSIS_OPTIONS
     defects: tuple[tuple[str, float], ...] = ()
     limits: tuple[Limit, ...] = ()
     defect_mask: str | None = None  # <defects mask=...>: a file relative to the scan
@@ -188,6 +192,10 @@ class Scan:
     suspend: Suspend | None = None
     source: Path | None = field(default=None, compare=False)
     system_path: Path | None = field(default=None, compare=False)
+
+    def option(self, analysis: str, name: str, default=None):
+        """The value of ``<analysis name=analysis name=value>``, or ``default``."""
+        return next((v for a, k, v in self.analysis_options if a == analysis and k == name), default)
 
 
 # ---------------------------------------------------------------- loading
@@ -360,6 +368,7 @@ def scan_from_tree(tree, path, system: System | None = None, system_path=None) -
         raise fail(path, root.find("regions").sourceline, f"{len(regions)} regions of analysis (at most {MAX_REGIONS}; "
                                                           "each is accumulated on every frame)")
     analyses = tuple(el.get("name") for el in root.iterfind("analyses/analysis"))
+    analysis_options = _analysis_options(path, root)
     limits = []
     for el in root.iterfind("limits/limit"):
         lim = parse_limit(el, path)
@@ -410,11 +419,33 @@ def scan_from_tree(tree, path, system: System | None = None, system_path=None) -
         description=(desc.text or "").strip() if desc is not None else "",
         frames=int(root.findtext("frames")), on_loss=root.find("frames").get("on_loss", "fail"),
         max_regrabs=int(root.find("frames").get("max_regrabs", 2)), precision=precision, settings=settings, stages=tuple(stages), regions=tuple(regions),
-        analyses=analyses, defects=tuple((el.get("name"), float(el.get("value"))) for el in root.iterfind("defects/threshold")),
+        analyses=analyses, analysis_options=analysis_options, defects=tuple((el.get("name"), float(el.get("value"))) for el in root.iterfind("defects/threshold")),
         limits=tuple(limits), output=output, suspend=suspend, system=system, source=Path(path),
         defect_mask=root.find("defects").get("mask") if root.find("defects") is not None else None,
         system_path=Path(system_path) if system_path else system.source,
     )
+
+
+def _analysis_options(path, root) -> tuple[tuple[str, str, float], ...]:
+    """The named options of the ``<analysis>`` elements (ANALYSIS_OPTIONS), each checked."""
+    out = []
+    for el in root.iterfind("analyses/analysis"):
+        name, known = el.get("name"), ANALYSIS_OPTIONS.get(el.get("name"), {})
+        for k, v in el.attrib.items():
+            if k == "name":
+                continue
+            if k not in known:
+                raise fail(path, el.sourceline, f"<analysis name=\"{name}\"> has no option {k}= "
+                                                f"({', '.join(known) or 'it takes none'})")
+            try:
+                x = float(v)
+            except ValueError:
+                x = math.nan
+            if not (math.isfinite(x) and x >= known[k]):
+                raise fail(path, el.sourceline, f"<analysis name=\"{name}\"> {k}={v!r}: give a number of at least "
+                                                f"{known[k]:g}")
+            out.append((name, k, x))
+    return tuple(out)
 
 
 def load_scan(path: str | Path, system: System | None = None, system_path: str | Path | None = None) -> Scan:
@@ -472,7 +503,8 @@ def scan_to_tree(sc: Scan) -> etree._ElementTree:
     if sc.analyses:
         an = etree.SubElement(root, "analyses")
         for a in sc.analyses:
-            _set(etree.SubElement(an, "analysis"), name=a)
+            _set(etree.SubElement(an, "analysis"), name=a,
+                 **{k: float(v) for a2, k, v in sc.analysis_options if a2 == a})
     if sc.defects or sc.defect_mask:
         de = etree.SubElement(root, "defects")
         _set(de, mask=sc.defect_mask)

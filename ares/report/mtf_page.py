@@ -28,6 +28,10 @@ def mtf_page(channels: dict[str, dict], title: str, subtitle: str = ""):
         if en.available:
             ax.plot([d["nyquist_cy_per_px"]], [en.value], "s", color=line.get_color(), ms=4)
         nyqs.add(d["nyquist_cy_per_px"])
+        o = d.get("option") or {}
+        if o.get("freq_cy_per_px"):
+            ax.plot(o["freq_cy_per_px"], o["mtf"], ":", lw=1.0, color=line.get_color(),
+                    label=f"{name}, {_option_label(o)}")
     for n in sorted(nyqs):
         ax.axvline(n, color="0.4", ls="--", lw=0.8)
         ax.text(n, 1.02, f" Nyquist {n:g}", fontsize=7, color="0.3", va="bottom")
@@ -41,31 +45,45 @@ def mtf_page(channels: dict[str, dict], title: str, subtitle: str = ""):
         ax.legend(loc="upper right")
     rows = []
     for name, d in channels.items():
-        ests = [Estimate.from_dict(d[k]) for k in ("mtf50_cy_per_px", "mtf_at_nyquist", "angle_deg")]
-        why = next((e.note for e in ests if not e.available), "ok")
-        rows.append([name] + [e.text(with_unit=False) for e in ests] + [why])
+        for label, e in [(name, d)] + ([(f"{name}, {_option_label(d['option'])}", d["option"])] if d.get("option") else []):
+            ests = [Estimate.from_dict(e[k]) for k in ("mtf50_cy_per_px", "mtf_at_nyquist", "angle_deg")]
+            why = next((x.note for x in ests if not x.available), "ok")
+            rows.append([label] + [x.text(with_unit=False) for x in ests] + [why])
     text_table(fig, (0.08, 0.43, 0.86), ["channel", "MTF50 (cy/px)", "MTF at Nyquist", "edge angle (deg)", "verdict"],
-               rows, [8, 18, 16, 16, 42], fontsize=8, title="MTF figures (± SE)", max_chars=[8, 22, 20, 20, 70])
+               rows, [22, 16, 15, 15, 32], fontsize=8, title="MTF figures (± SE)", max_chars=[34, 22, 20, 20, 60])
+    if any(d.get("option") for d in channels.values()):
+        fig.text(0.08, 0.06, "First row of a channel: ISO 12233 e-SFR as the standard bins it (the whole region). "
+                 "\"option esf_half_width\": the ESF within that many pixels of the edge only,\nnot the standard (less "
+                 "noise in the LSF window; benchmarks/beyond_linear.md says which meets MTF50 within 2 % of the truth).",
+                 fontsize=7, color="0.3")
     return fig
 
 
+def _option_label(o: dict) -> str:
+    return f"option esf_half_width={o.get('esf_half_width'):g} px"
+
+
 MTF_COLUMNS = ("stage", "channel", "freq_cy_per_px", "mtf", "mtf50_cy_per_px", "mtf50_se", "mtf_at_nyquist",
-               "mtf_at_nyquist_se", "verdict")
+               "mtf_at_nyquist_se", "verdict", "esf_half_width_px")
 
 
 def mtf_csv_rows(a: dict) -> list[dict]:
     """``mtf.csv``: each stage's and channel's curve; the first row of each carries MTF50 and
-    MTF at Nyquist with their SEs and verdict (the reason when not available)."""
+    MTF at Nyquist with their SEs and verdict (the reason when not available); the option
+    ``esf_half_width``'s rows follow the standard's, that column holding its value (empty: the
+    standard)."""
     rows = []
     for stage, s in (a.get("stages") or {}).items():
-        for ch, d in s["channels"].items():
-            e50, en = d["mtf50_cy_per_px"], d["mtf_at_nyquist"]
-            head = {"stage": stage, "channel": ch, "mtf50_cy_per_px": e50.get("value"), "mtf50_se": e50.get("se"),
-                    "mtf_at_nyquist": en.get("value"), "mtf_at_nyquist_se": en.get("se"),
-                    "verdict": e50.get("note", "") if e50.get("value") is None else e50.get("verdict", "")}
-            curve = list(zip(d.get("freq_cy_per_px") or [], d.get("mtf") or []))
-            if not curve:
-                rows.append(head)
-            for i, (f, m) in enumerate(curve):
-                rows.append({**(head if i == 0 else {"stage": stage, "channel": ch}), "freq_cy_per_px": f, "mtf": m})
+        for ch, dd in s["channels"].items():
+            for d in [dd] + ([dd["option"]] if dd.get("option") else []):
+                e50, en = d["mtf50_cy_per_px"], d["mtf_at_nyquist"]
+                key = {"stage": stage, "channel": ch, "esf_half_width_px": d.get("esf_half_width")}
+                head = {**key, "mtf50_cy_per_px": e50.get("value"), "mtf50_se": e50.get("se"),
+                        "mtf_at_nyquist": en.get("value"), "mtf_at_nyquist_se": en.get("se"),
+                        "verdict": e50.get("note", "") if e50.get("value") is None else e50.get("verdict", "")}
+                curve = list(zip(d.get("freq_cy_per_px") or [], d.get("mtf") or []))
+                if not curve:
+                    rows.append(head)
+                for i, (f, m) in enumerate(curve):
+                    rows.append({**(head if i == 0 else key), "freq_cy_per_px": f, "mtf": m})
     return rows

@@ -1,12 +1,13 @@
 """The scan-level ``mtf`` analysis: the slanted-edge MTF (ISO 12233 e-SFR,
 ``ares.analysis.mtf``) of each flat stage's dark-subtracted mean image, per Bayer channel
-when the system's sensor declares a CFA. Registered by importing this module (ares.scan.analyses)."""
+when the system's sensor declares a CFA; with ``<analysis name="mtf" esf_half_width="16"/>``
+the option's result beside the standard's (``option`` in each channel). Registered by importing this module (ares.scan.analyses)."""
 
 from __future__ import annotations
 
 import numpy as np
 
-from ares.analysis.mtf import CHANNEL_NAMES, sfr_channels
+from ares.analysis.mtf import CHANNEL_NAMES, channels_dict, sfr_channels
 from ares.scan.results import register_scan_analysis
 
 
@@ -28,7 +29,9 @@ def mtf(run) -> dict:
         clipped = int(np.sum(mean >= full - 0.5))
         img = mean - np.asarray(arr["dark_mean"], np.float64) if "dark_mean" in arr else mean
         res = sfr_channels(img, cfa)
-        chans = {k: r.to_dict() for k, r in res.items()}
+        hw = run.scan.option("mtf", "esf_half_width") if getattr(run, "scan", None) is not None else None
+        opt = sfr_channels(img, cfa, esf_half_width=hw) if hw is not None and not clipped else None
+        chans = channels_dict(res, opt, hw)
         if clipped:
             why = (f"clipping: {clipped} pixels are at the full-scale code {full:g} in every frame; "
                    "lower the exposure or the light")
