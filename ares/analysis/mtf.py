@@ -272,7 +272,8 @@ def sfr(image, *, max_code: float | None = None, pixel_scale: int = 1, bootstrap
         boot.append((math.degrees(math.atan(abs(bb))), mtf50_of(rb[0], rb[1]) / pixel_scale,
                      float(np.interp(nyq, rb[0] / pixel_scale, rb[1]))))
     se = np.nanstd(np.array(boot), axis=0, ddof=1) if len(boot) > 1 else np.full(3, np.nan)
-    how = f"ISO 12233 e-SFR; SE from {len(boot)} re-noised copies of the image"
+    how = (f"ISO 12233 e-SFR{'' if esf_half_width is None else f' with the option esf_half_width={esf_half_width:g} px (not the standard)'}; "
+           f"SE from {len(boot)} re-noised copies of the image")
     e50 = (Estimate(f50, float(se[1]), "cy/px", how) if math.isfinite(f50)
            else Estimate.na("the SFR does not fall to 0.5 within the measured frequencies", "cy/px"))
     return SfrResult(fs, mtf, nyq, Estimate(angle, float(se[0]), "deg", "edge line fit"), e50,

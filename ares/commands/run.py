@@ -274,13 +274,15 @@ def _read_meta(run_dir: Path) -> dict:
 
 
 def _print_estimates(d: dict, out, indent: str, depth: int = 0) -> None:
-    """Estimates (``{"value", "se", "unit"}``) of an analysis result, nested up to four levels
-    (the MTF's stages -> stage -> channels -> channel)."""
+    """Estimates (``{"value", "se", "unit"}``) of an analysis result, nested up to five levels
+    (the MTF's stages -> stage -> channels -> channel -> its option beside the standard)."""
     for k, v in d.items():
         if isinstance(v, dict) and "value" in v and "unit" in v:
             out.write(f"{indent}{k:<26} {_num(v)}\n")
-        elif isinstance(v, dict) and depth < 4 and any(isinstance(x, dict) for x in v.values()):
-            out.write(f"{indent}{k}:\n")
+        elif isinstance(v, dict) and depth < 5 and any(isinstance(x, dict) for x in v.values()):
+            label = (f"option esf_half_width={v['esf_half_width']:g} px (not the standard)"
+                     if k == "option" and "esf_half_width" in v else k)
+            out.write(f"{indent}{label}:\n")
             _print_estimates(v, out, indent + "  ", depth + 1)
         elif isinstance(v, (int, str)) and not isinstance(v, bool) and k in ("counts", "dark_stage"):
             out.write(f"{indent}{k:<26} {v}\n")

@@ -5,6 +5,8 @@ and ``ares mtf --pdf`` draw the same page."""
 
 from __future__ import annotations
 
+import textwrap
+
 from ares.analysis.estimate import Estimate
 from ares.report.plots import new_page, text_table
 
@@ -31,7 +33,7 @@ def mtf_page(channels: dict[str, dict], title: str, subtitle: str = ""):
         o = d.get("option") or {}
         if o.get("freq_cy_per_px"):
             ax.plot(o["freq_cy_per_px"], o["mtf"], ":", lw=1.0, color=line.get_color(),
-                    label=f"{name}, {_option_label(o)}")
+                    label=f"{name}, {_option_label(o)} (esf_half_width, not the standard)")
     for n in sorted(nyqs):
         ax.axvline(n, color="0.4", ls="--", lw=0.8)
         ax.text(n, 1.02, f" Nyquist {n:g}", fontsize=7, color="0.3", va="bottom")
@@ -42,25 +44,29 @@ def mtf_page(channels: dict[str, dict], title: str, subtitle: str = ""):
     ax.set_ylabel("MTF (SFR)")
     ax.grid(alpha=0.3)
     if any(d.get("freq_cy_per_px") for d in channels.values()):
-        ax.legend(loc="upper right")
+        ax.legend(loc="center right")
     rows = []
     for name, d in channels.items():
         for label, e in [(name, d)] + ([(f"{name}, {_option_label(d['option'])}", d["option"])] if d.get("option") else []):
             ests = [Estimate.from_dict(e[k]) for k in ("mtf50_cy_per_px", "mtf_at_nyquist", "angle_deg")]
             why = next((x.note for x in ests if not x.available), "ok")
             rows.append([label] + [x.text(with_unit=False) for x in ests] + [why])
-    text_table(fig, (0.08, 0.43, 0.86), ["channel", "MTF50 (cy/px)", "MTF at Nyquist", "edge angle (deg)", "verdict"],
-               rows, [22, 16, 15, 15, 32], fontsize=8, title="MTF figures (± SE)", max_chars=[34, 22, 20, 20, 60])
-    if any(d.get("option") for d in channels.values()):
-        fig.text(0.08, 0.06, "First row of a channel: ISO 12233 e-SFR as the standard bins it (the whole region). "
-                 "\"option esf_half_width\": the ESF within that many pixels of the edge only,\nnot the standard (less "
-                 "noise in the LSF window; benchmarks/beyond_linear.md says which meets MTF50 within 2 % of the truth).",
-                 fontsize=7, color="0.3")
+    y = text_table(fig, (0.08, 0.43, 0.86), ["channel", "MTF50 (cy/px)", "MTF at Nyquist", "edge angle (deg)",
+                                             "verdict"], rows, [19, 17, 15, 16, 33], fontsize=8,
+                   title="MTF figures (± SE)", max_chars=[24, 22, 20, 20, 60])
+    opts = [d["option"] for d in channels.values() if d.get("option")]
+    if opts:
+        hw = f"{opts[0].get('esf_half_width'):g}"
+        note = (f"A channel's first row is ISO 12233 e-SFR as the standard bins it (the whole region); the row "
+                f"\"option {hw} px\" (esf_half_width={hw}) keeps only the ESF within {hw} pixels of the edge: not the "
+                "standard, less noise in the LSF window (benchmarks/beyond_linear.md measures both against the "
+                "simulator's truth and says which meets MTF50 within 2 %).")
+        fig.text(0.08, y - 0.015, textwrap.fill(note, 125), fontsize=7, color="0.3", va="top")
     return fig
 
 
 def _option_label(o: dict) -> str:
-    return f"option esf_half_width={o.get('esf_half_width'):g} px"
+    return f"option {o.get('esf_half_width'):g} px"
 
 
 MTF_COLUMNS = ("stage", "channel", "freq_cy_per_px", "mtf", "mtf50_cy_per_px", "mtf50_se", "mtf_at_nyquist",

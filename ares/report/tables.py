@@ -453,6 +453,11 @@ def nonuniformity_figures(run, gain: Estimate | None) -> dict:
     st = mid_stage(run)
     if st is None:
         return {}
+    mtf = (getattr(run, "analyses", None) or {}).get("mtf")
+    if isinstance(mtf, dict) and st["name"] in (mtf.get("stages") or {}):  # an edge target, not a uniform flat
+        why = f"stage {st['name']} images a slanted edge (the mtf analysis), not a uniform flat"
+        return {"dsnu_e": _entry("DSNU (pixel offset FPN)", Estimate.na(why, "e-"), f"stage {st['name']}"),
+                "prnu_pct": _entry("PRNU (pixel gain spread)", Estimate.na(why, "%"), f"stage {st['name']}")}
     full = st["views"]["full"]
     comp = full.get("components_masked") or full.get("components") or {}
     which = "defect pixels excluded" if full.get("components_masked") else "all pixels"
@@ -488,8 +493,9 @@ ANALYSIS_LABELS = {
     "lag_pct": "image lag", "dnl_max_lsb": "DNL max", "dnl_min_lsb": "DNL min", "inl_max_lsb": "INL max",
     "inl_min_lsb": "INL min", "qe": "quantum efficiency", "mu_p": "photons per pixel mu_p",
     "net_signal_dn": "net signal mu_y - mu_y.dark", "gain_dn_per_e": "system gain K (photon transfer)",
+    "mtf50_cy_per_px": "MTF50", "mtf_at_nyquist": "MTF at Nyquist", "angle_deg": "edge angle",
 }
-_PATH_NOISE = ("by_temperature", "cycles", "channels", "values", "points")
+_PATH_NOISE = ("by_temperature", "cycles", "channels", "values", "points", "stages")
 
 
 def analysis_label(aname: str, key: str) -> str:
