@@ -48,7 +48,7 @@ MTF_CONFIGS = (  # (label, esf_half_width, rows, cols, frames averaged)
      LOW_NOISE_HALF_WIDTH, 200, 128, 8),
 )
 PC_FEW = 5  # the check
-PC_MANY = {0.15: 100, 0.25: 100, 0.35: 100, 0.45: 400}  # spread/SE known to ~7 % (100) and ~3.5 % (400)
+PC_MANY = {0.15: 60, 0.25: 60, 0.35: 60, 0.45: 300}  # spread/SE known to ~9 % (60) and ~4 % (300)
 
 
 def main() -> int:

@@ -40,10 +40,9 @@ def test_gain_and_read_noise_against_truth_over_5_seeds(rn):
 def test_spread_over_se_at_045_e_fixed_seeds():
     """The SEs say how far the estimates scatter: at 0.45 e- (the peaks overlapping most) the
     spread of K and read noise over 10 fixed seeds (64x64x20 values each) over the mean SE.
-    A ratio from 10 seeds is itself uncertain by ~24 %, and on these small stacks the
-    simulator's estimates scatter more than the Fisher SE says (these seeds: K 1.42, read
-    noise 1.50; model-drawn histograms of the same size give 0.93); the band 0.5-1.8 fails an
-    SE off by a factor 2 either way. The 0.7-1.3 target is the benchmark's (40-120 seeds of
+    A ratio from 10 seeds is itself uncertain by ~24 % (these seeds happen to give K 1.42, read
+    noise 1.50; 200 seeds of the same size give 1.00 and 0.99); the band 0.5-1.8 fails an SE off
+    by a factor 2 either way. The 0.7-1.3 target is the benchmark's (60-300 seeds of
     128x128x40 values, benchmarks/beyond_linear.md)."""
     k, s = [], []
     for seed in range(10):

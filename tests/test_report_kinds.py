@@ -1,7 +1,8 @@
 """Every shipped scan, run with few frames on the simulator, leaves a report whose pages
 match what it measured, and states every figure the same on every surface (terminal,
 JSON, CSV, HDF5, PDF, the window's models: ``one_truth.check_surfaces``) (issue: reports for every scan kind): a dark-current scan has its
-dark-current pages, a 2-D sweep its maps with axis units, an ADC scan its INL/DNL page, and
+dark-current pages, a 2-D sweep its maps with axis units, an ADC scan its INL/DNL page, the
+MTF, photon-counting and spectral-QE scans their pages, and
 no scan gets photon-transfer pages it did not measure; no page is blank. (emva_4.xml is
 checked in test_emva4_scan.py; emva_reference.xml needs ../shared/data.)"""
 
@@ -33,6 +34,10 @@ EXPECT = {
     "lag": (["Frame means per stage and image lag", "Image lag", "lag vs frame", "lag vs tx_low",
              "tx_low (V)"], ["Photon transfer", "SNR and linearity"]),
     "emva_reference": (["Scan-level analysis: emva1288", "EMVA 1288 reference data set"], []),
+    "mtf": (["Slanted-edge MTF: stage edge", "MTF figures", "option 16 px", "images a slanted edge"],
+            ["Photon transfer (analog gain", "SNR and linearity"]),
+    "photon_counting": (["Photon-counting histogram: stage low_light", "Photon counting beside photon transfer",
+                         "SE ratio"], ["Photon transfer (analog gain", "SNR and linearity"]),
     "spectral_qe": (["Spectral quantum efficiency", "QE per wavelength", "outside the photodiode's calibration table",
                      "Photon transfer (analog gain x1)"], ["Scan-level analysis: spectral_qe"]),
 }
