@@ -171,14 +171,44 @@ def test_bayer_channels_each_see_the_optics():
     img = SimSensor(p, seed=2).render(4, exposure_s=0.01, photon_flux=FLUX).astype(float).mean(axis=0)
     res = sfr_channels(img, "RGGB", bootstrap=0)
     assert sorted(res) == ["B", "Gb", "Gr", "R"]
-    # one channel samples the blurred edge at a 2-pixel pitch with a 1-pixel aperture
-    th = math.radians(5.0)
-    from scipy.optimize import brentq
-    truth = brentq(lambda f: math.exp(-2 * math.pi ** 2 * 1.2 ** 2 * f * f)
-                   * abs(np.sinc(f * math.cos(th)) * np.sinc(f * math.sin(th))) - 0.5, 1e-4, 0.5)
+    truth = _channel_mtf50(5.0, 1.2)
     for name, r in res.items():
         assert r.nyquist == 0.25
         assert r.mtf50.value == pytest.approx(truth, rel=0.03), name
+
+
+def _channel_mtf50(angle, sigma):
+    """One channel of a mosaic samples the blurred edge at a 2-pixel pitch with a 1-pixel
+    aperture: the optics' and the pixel's MTF50, per sensor pixel."""
+    from scipy.optimize import brentq
+
+    th = math.radians(angle)
+    return brentq(lambda f: math.exp(-2 * math.pi ** 2 * sigma ** 2 * f * f)
+                  * abs(np.sinc(f * math.cos(th)) * np.sinc(f * math.sin(th))) - 0.5, 1e-4, 0.5)
+
+
+def test_mtf_command_on_raw_bayer_png_and_tiff(tmp_path, capsys):
+    """A user's raw RGGB frames as 16-bit PNG and TIFF files: ``ares mtf --bayer RGGB``
+    averages them and gives each channel's MTF50 within 3 % of the truth."""
+    import json
+
+    from PIL import Image
+
+    from ares.cli import main
+
+    p = SensorParams(rows=240, cols=96, illumination="slanted_edge", edge_angle_deg=5.0, edge_psf_sigma_px=1.2,
+                     cfa="RGGB", cfa_response=(0.6, 1.0, 1.0, 0.8), crosstalk_pct=0.0).without_defects()
+    frames = SimSensor(p, seed=4).render(4, exposure_s=0.01, photon_flux=FLUX)
+    files = []
+    for i, f in enumerate(frames):
+        files.append(tmp_path / f"edge{i}.{'png' if i % 2 else 'tif'}")
+        Image.fromarray(f.astype(np.uint16)).save(files[-1])
+    assert main(["mtf", *map(str, files), "--bayer", "RGGB", "--bits", "12", "--json"]) == 0
+    out = json.loads(capsys.readouterr().out)
+    assert out["frames"] == 4 and sorted(out["channels"]) == ["B", "Gb", "Gr", "R"]
+    for name, d in out["channels"].items():
+        assert d["nyquist_cy_per_px"] == 0.25
+        assert d["mtf50_cy_per_px"]["value"] == pytest.approx(_channel_mtf50(5.0, 1.2), rel=0.03), name
 
 
 def test_mtf_command(tmp_path, capsys):
