@@ -71,3 +71,20 @@ class FrameLost(FrameError):
     def __init__(self, message: str, kind: str = "dropped", count: int = 1):
         super().__init__(message)
         self.kind, self.count = kind, count
+
+
+def interruption(exc: BaseException | None) -> BaseException | None:
+    """The interruption behind ``exc``: ``exc`` itself when it is one (a signal's exception:
+    ``KeyboardInterrupt``, the CLI's ``ReportsAbandoned`` -- a ``BaseException`` that is no
+    ``Exception``), else the one it replaced on its way out. A signal cuts a library's work
+    short; its cleanup on the way out (a ``with`` block's ``__exit__``, a ``finally``) may
+    then fail with an error of its own that carries the signal's only as ``__context__``
+    (matplotlib's PdfPages flushing a zlib stream the signal had finished: ``zlib.error``).
+    None when no interruption is in the chain."""
+    seen: set[int] = set()
+    while exc is not None and id(exc) not in seen:
+        if not isinstance(exc, (Exception, GeneratorExit)):
+            return exc
+        seen.add(id(exc))
+        exc = exc.__context__
+    return None

@@ -333,3 +333,40 @@ def test_a_200000_square_simulated_sensor_is_refused_by_the_parameters_too():
     with pytest.raises(InputError, match=r"200000x200000 simulated sensor .*\(at most 100,000,000 pixels and 65536"):
         SensorParams(rows=200000, cols=200000)
     assert SensorParams(rows=3072, cols=4096).cols == 4096
+
+
+# ---------------------------------------------------------------- memory estimate against a run
+
+PEAK = r"""
+import sys
+from ares.cli import main
+rc = main(sys.argv[1:-1])
+hwm = next(ln for ln in open("/proc/self/status") if ln.startswith("VmHWM")).split()[1]
+open(sys.argv[-1], "w").write(str(int(hwm) * 1024))
+sys.exit(rc)
+"""
+
+
+@pytest.mark.xfail(strict=True, reason="open (issue 41, finding 7): the model was fit on runs that compiled the "
+                   "numba kernels in-process; with the kernels cached (make's install step), bias_sweep_2d peaks at "
+                   "302 MiB against an estimate of 356 MiB (+18 %); with an empty NUMBA_CACHE_DIR 339 MiB (+5 %)")
+def test_the_memory_estimate_is_within_10_percent_of_a_shipped_scans_peak(tmp_path):
+    """Finding 7: the memory `ares validate` / `--dry-run` print (``ares.scan.preflight``)
+    against the high-water mark (VmHWM) of `ares run` of a shipped scan, in a child (the PDF
+    helper's memory is its own). benchmarks/estimates.md measures every shipped scan and two
+    at 4096x3072 against the same target; this is its quickest row, kept in the suite.
+    (A toy 32x24 scan is not in the claim: it imports less than the model's base.)"""
+    from ares.protocol import load_scan
+    from ares.scan.preflight import check_run
+
+    scan = ROOT / "scans" / "bias_sweep_2d.xml"
+    env = {**os.environ, "PYTHONPATH": str(ROOT)}
+    # the kernels cached, as make's install step leaves them (a no-op when they are)
+    assert subprocess.run([sys.executable, "-m", "ares.jit"], env=env, capture_output=True).returncode == 0
+    p = subprocess.run([sys.executable, "-c", PEAK, "run", str(scan), "--out", str(tmp_path / "run"), "--quiet",
+                        str(tmp_path / "peak")], env=env, cwd=tmp_path,
+                       capture_output=True, text=True)
+    assert p.returncode == 0, p.stderr
+    peak = int((tmp_path / "peak").read_text())
+    estimate = check_run(load_scan(scan), refuse_disk=False).memory_bytes
+    assert abs(estimate / peak - 1) <= 0.10, (estimate / 2**20, peak / 2**20)

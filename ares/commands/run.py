@@ -353,6 +353,8 @@ def execute(scan, args, *, seed, frames, faults=None, argv=None, out_dir=None, r
                 print(f"report: {Path(outcome.run_dir) / 'report.pdf'}")
         if helper is not None:
             helper.close()  # (when no report was written: --json, nothing pending)
+        if sigs.received:  # a signal whose exception Python lost on the way: the reports are written
+            return finished_anyway(sigs, outcome.run_dir, getattr(args, "command", None) or "run")
     except ReportsAbandoned as exc:
         return abandon_reports(exc, outcome.run_dir, helper, getattr(args, "command", None) or "run",
                                len(outcome.stages))
@@ -385,29 +387,48 @@ class Signals:
     """The run's SIGINT/SIGTERM/SIGHUP handler. During the scan (``phase`` "scan") the first
     signal stops after the current stage and a second aborts; during the reports (``phase``
     "reports") the first abandons them (``ReportsAbandoned`` is raised where the main thread
-    is) and any later one is ignored while that is recorded."""
+    is) and any later one is ignored while that is recorded.
+
+    Python runs a handler wherever the main thread is, also inside a weakref callback or a
+    ``__del__`` that the garbage collector started: an exception raised there is printed
+    ("Exception ignored in ...", a traceback) and dropped. Such a lost ``ReportsAbandoned``
+    is not printed; the handler is armed again (a second signal abandons the reports), and
+    ``received`` tells the caller that a signal came though the reports were finished."""
 
     SIGS = (signal.SIGINT, signal.SIGTERM, signal.SIGHUP)
 
     def __init__(self, runner=None):
         self.runner, self.hits, self.old = runner, 0, {}
         self.phase = "scan" if runner is not None else "reports"
+        self.received = ""  # the signal that abandoned the reports (its name), once one did
+        self._unraisable = None
 
     def install(self) -> "Signals":
         if _main_thread():
             self.old = {s: signal.signal(s, self) for s in self.SIGS}
+            self._unraisable, sys.unraisablehook = sys.unraisablehook, self._lost
         return self
 
     def restore(self) -> None:
         for s, h in self.old.items():
             signal.signal(s, h)
         self.old = {}
+        if self._unraisable is not None:
+            sys.unraisablehook, self._unraisable = self._unraisable, None
+
+    def _lost(self, u) -> None:
+        """``sys.unraisablehook`` while installed: a ``ReportsAbandoned`` raised inside a
+        weakref callback or ``__del__`` was dropped there -- armed again, not printed."""
+        if isinstance(u.exc_value, ReportsAbandoned) and self.phase == "abandoning":
+            self.phase = "reports"
+            return
+        self._unraisable(u)
 
     def __call__(self, signum, frame) -> None:
         self.hits += 1
         name = SIGNAL_NAMES.get(signum, "signal")
         if self.phase == "reports":
-            self.phase = "abandoning"
+            self.phase, self.received = "abandoning", name
             raise ReportsAbandoned(name)
         if self.phase == "abandoning":
             return
@@ -433,6 +454,14 @@ def abandon_reports(exc: ReportsAbandoned, run_dir, helper, command: str, stages
     return 130
 
 
+def finished_anyway(sigs: Signals, run_dir, command: str) -> int:
+    """A signal came while the reports were written but its ``ReportsAbandoned`` was lost
+    (``Signals``): the reports were finished, run.json says so; one line, exit 130."""
+    sys.stderr.write(f"ares {command}: {sigs.received} while writing the reports, which were finished first: "
+                     f"the run is complete in {run_dir}\n")
+    return 130
+
+
 def finish_reports(run_, args) -> int:
     """``ares resume`` of a run whose stages are complete but whose reports are not: write
     the reports its scan promises, under the same signal handling as ``ares run``."""
@@ -454,6 +483,8 @@ def finish_reports(run_, args) -> int:
     finally:
         sigs.restore()
     set_reports_state(run_.dir, "complete")
+    if sigs.received:
+        return finished_anyway(sigs, run_.dir, getattr(args, "command", None) or "resume")
     if not args.quiet:
         print(f"{run_.dir}: the reports of the complete run are written ({', '.join(formats)})")
     return 4 if _limit_failures(run_.dir) else 0

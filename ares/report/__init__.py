@@ -35,7 +35,7 @@ def write_reports(run_dir, formats=DEFAULT_FORMATS, out_dir=None, *, pdf_path=No
     ``pdf_path``/``csv_dir``/``h5_path`` override where each goes (default: ``out_dir``
     or the run directory). ``helper``: a ``pdf_parts`` helper started earlier for this run
     directory (one is started here otherwise); it is ended here either way."""
-    from ares.errors import InputError
+    from ares.errors import InputError, interruption
 
     bad = [f for f in formats if f not in FORMATS]
     if bad:
@@ -50,9 +50,12 @@ def write_reports(run_dir, formats=DEFAULT_FORMATS, out_dir=None, *, pdf_path=No
             helper.go(p.with_name(p.name + ".parts"))
     try:
         return _write(run, formats, out_dir, pdf_path, csv_dir, h5_path, helper)
-    except BaseException:  # a signal abandoned the reports, or an error: the helper ends now
+    except BaseException as exc:  # a signal abandoned the reports, or an error: the helper ends now
         if helper is not None:
             helper.kill()
+        sig = interruption(exc)
+        if sig is not None and sig is not exc:  # a cleanup the signal broke raised over it: the
+            raise sig from None  # signal is what happened (else the run reads done, reports "failed")
         raise
     finally:
         if helper is not None:
