@@ -362,7 +362,6 @@ class Runner:
             if fw is not None:
                 fw.close(keep=True)
             if not self._commit.threaded:  # large frames: the stage is analysed now, the source's caches wait
-                recycle.clear()  # (nor does the pool hold arrays through the analysis: the peak stays the same)
                 release = getattr(bench.frames, "release", None)
                 if release is not None:
                     release()
@@ -370,6 +369,8 @@ class Runner:
                 cache = flat
             elif st.dark_source == "grab":
                 cache = dark
+            if not self._commit.threaded:  # the pool holds no arrays through the mask and the analysis (the
+                recycle.clear()  # previous dark, just dropped, among them): the run's peak stays the same
             new_mask = self._mask is None and st.scene == "dark" and st.settings.get("reg:test_mode", 0) == 0
             if new_mask:  # before the next stage's frames: they are masked as they arrive
                 t_mask = time.monotonic()
