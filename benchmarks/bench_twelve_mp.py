@@ -280,6 +280,63 @@ print(json.dumps({k: [sorted(x[i] for x in v)[1] for i in (0, 1)] for k, v in go
 """
 
 
+SHARES = r"""
+import collections, json, sys, time
+import concurrent.futures as cf
+from ares import jit, malloc
+malloc.tune()
+class Serial:  # the analysis on one thread, so that each part's process CPU time is its own
+    def __init__(self, *a, **k): pass
+    def __enter__(self): return self
+    def __exit__(self, *a): return False
+    def submit(self, fn, *a, **k):
+        f = cf.Future(); f.set_result(fn(*a, **k)); return f
+    def map(self, fn, it): return [fn(x) for x in it]
+cf.ThreadPoolExecutor = Serial
+from ares.commands import emva
+from ares.analysis import emva_spatial, levels
+from ares.hardware import emva_descriptor
+import ares.analysis.emva1288, ares.analysis.emva4_sheet, ares.analysis.emva_general_table, ares.analysis.ptc
+spent = collections.Counter()
+def wrap(mod, name, label):
+    real = getattr(mod, name)
+    def f(*a, **k):
+        c = time.process_time()
+        try:
+            return real(*a, **k)
+        finally:
+            spent[label] += time.process_time() - c
+    setattr(mod, name, f)
+wrap(emva_descriptor, "read_checked", "reading and checking the images (decode)")
+wrap(emva_spatial, "split", "spatial variances of every step and stack (the 4.0 high-pass, Sections 4.2, 8.1)")
+wrap(levels, "pair_moments", "pair moments (sums, squares, the pair's sum image)")
+c0 = time.process_time()
+with jit.avoided():  # as ares emva
+    emva.analyse_descriptor(sys.argv[1])
+spent["total"] = time.process_time() - c0
+print(json.dumps(spent))
+"""
+
+
+def emva_shares(desc: Path) -> list[str]:
+    """Where ``ares emva``'s analysis spends its CPU time (one thread, process CPU per part)."""
+    env = dict(os.environ, PYTHONPATH=str(ROOT))
+    with Window() as w:
+        p = subprocess.run([sys.executable, "-c", SHARES, str(desc)], capture_output=True, text=True, cwd=ROOT,
+                           env=env, timeout=3600)
+    if p.returncode:
+        raise SystemExit(p.stderr[-2000:])
+    spent = json.loads(p.stdout.strip().splitlines()[-1])
+    tot = spent.pop("total")
+    out = ["", f"Where `ares emva`'s analysis spends its CPU time (run on one thread so that each part's process "
+               f"CPU time is its own; {tot:.1f} s in all; {w.cell()}):", "", "| part | CPU s | share |", "|---|---:|---:|"]
+    for k, v in sorted(spent.items(), key=lambda kv: -kv[1]):
+        out.append(f"| {k} | {v:.1f} | {100 * v / tot:.0f} % |")
+    rest = tot - sum(spent.values())
+    out.append(f"| the rest (fits, graphs, tables, the stacks' other sums) | {rest:.1f} | {100 * rest / tot:.0f} % |")
+    return out
+
+
 def decode_floor(desc: Path) -> dict:
     """(wall s, CPU s) of reading every image of the set: bytes only, ARES's reader, Pillow."""
     env = dict(os.environ, PYTHONPATH=str(ROOT))
@@ -338,7 +395,7 @@ def _peer(args, td: Path, size: str, mp: float) -> list[str]:
                   "| reader | wall s | CPU s | of `ares emva`'s wall | of the peer's wall |", "|---|---:|---:|---:|---:|"]
         for name, (w, c) in floor.items():
             lines.append(f"| {name} | {w:.2f} | {c:.2f} | {100 * w / aw:.0f} % | {100 * w / pw:.0f} % |")
-        return lines
+        return lines + emva_shares(desc)
 
     return lines + [f"| `emva1288` 1.0.2 | {why}: after {pw:.0f} s | {pc:.1f} | {pm:.0f} | | | {wp.cell()} |",
                     f"{mine} | | {wa.cell()} |", "",
