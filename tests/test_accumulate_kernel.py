@@ -256,3 +256,31 @@ def test_clip_counts_in_the_fold_equal_numpy(dtype):
                     a.merge(b)
                 assert a.clips() == want, (mode, top)
                 _check(a, np.asarray(frames, np.int64))
+
+
+@pytest.mark.parametrize("dtype", [np.uint8, np.uint16, np.int16])
+def test_fold_split_over_threads_equals_exact_sums(dtype, kernel, monkeypatch):
+    """The fused kernel split into bands of rows folded on several threads (as a 4096x3072
+    block is): the sums, row and column sums and clip counts equal exact integer arithmetic,
+    for any number of bands (one band a row, more bands than rows), and the accumulator's
+    default split (forced on for these small frames) gives the same sums."""
+    if kernel != "numba":
+        pytest.skip("the split is the numba kernel's")
+    rng = np.random.default_rng(11)
+    info = np.iinfo(dtype)
+    x = rng.integers(info.min, int(info.max) + 1, (3, 13, 29)).astype(dtype)
+    x[1, 4, :6] = 0
+    off = 1 << 15 if dtype == np.int16 else 0
+    y = x.astype(np.int64) + off
+    top = int(np.percentile(y, 90))
+    for parts in (1, 2, 3, 13, 40):
+        s1, s2, cnt = np.full((13, 29), 7, np.int64), np.zeros((13, 29), np.int64), np.array([5, 1], np.int64)
+        fr, fc = int_fold.fold(x, off, s1, s2, top, cnt, parts=parts)
+        assert np.array_equal(s1, y.sum(0) + 7) and np.array_equal(s2, (y * y).sum(0)), parts
+        assert np.array_equal(fr, y.sum(2)) and np.array_equal(fc, y.sum(1)), parts
+        assert cnt.tolist() == [5 + int((y >= top).sum()), 1 + int((y == 0).sum())], parts
+    monkeypatch.setattr(int_fold, "SPLIT_VALUES", 1)
+    monkeypatch.setenv("ARES_FOLD_THREADS", "3")
+    frames = rng.integers(info.min, int(info.max) + 1, (20, 13, 29)).astype(dtype)
+    for mode in ("add", "batch"):
+        _check(_feed((13, 29), frames, mode), frames)

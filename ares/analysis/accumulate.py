@@ -35,8 +35,7 @@ import numpy as np
 
 from ares.errors import InputError
 
-from . import int_fold
-
+from . import int_fold, recycle
 from .small_int_fold import SmallIntFolds
 
 # The largest magnitude a frame value may have: a 40-bit ADC's full scale. Its square and
@@ -114,8 +113,8 @@ class StackAccumulator(SmallIntFolds):
         self.keep_profiles = bool(keep_profiles)
         self._float = False  # False: exact integer sums; True: float64 sums of x - x0
         self._x0 = None  # float mode: per-pixel shift (the first float frame)
-        self._s1 = np.zeros(shape, np.int64)
-        self._s2 = np.zeros(shape, np.int64)
+        self._s1 = recycle.zeros(shape, np.int64)  # (a collected stack's, where one is pooled)
+        self._s2 = recycle.zeros(shape, np.int64)
         self._nf = 0  # frames folded into the sums
         # scalar ANOVA sums relative to the first frame's row/col sums (a, b)
         self._a = self._b = None
@@ -199,7 +198,7 @@ class StackAccumulator(SmallIntFolds):
             if self._buf is None or self._buf_dtype != a.dtype:
                 self._flush_buffer()
                 self._buf = [None] * self.batch
-                self._store = np.empty((self.batch,) + self.shape, a.dtype)
+                self._store = recycle.empty((self.batch,) + self.shape, a.dtype)
                 self._buf_dtype = a.dtype
             if copy and not _immutable(a):
                 if a.dtype == np.uint16:  # stored centred: x - 2**15 as int16 bits (see _fold_small_int)
@@ -350,8 +349,12 @@ class StackAccumulator(SmallIntFolds):
         scratch: up to ~8x a frame); a finished stack keeps only its sums. They are made
         again if frames are added later."""
         self._flush()
-        self._buf = self._store = self._buf_dtype = self._kp = self._f1 = self._fk = self._fl = None
-        self._nbuf = self._nfloat = 0
+        self._buf = self._buf_dtype = self._kp = self._f1 = self._fk = self._fl = None
+        recycle.give(self.__dict__, "_store")  # (to the next stack, where the pool is on)
+        self._store, self._nbuf, self._nfloat = None, 0, 0
+
+    def __del__(self) -> None:  # its large arrays to the next stack (ares.analysis.recycle)
+        recycle.give(self.__dict__, "_s1", "_s2", "_store")
 
     def __getstate__(self) -> dict:
         """Pickled (e.g. sent back by a Dask worker) as its sums only: buffered frames are

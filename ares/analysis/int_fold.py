@@ -10,9 +10,16 @@ below 2**16 and every sum an int64 far from overflow (2**32 per square, 2**31 fr
 the order of summation cannot change a bit: the results equal the numpy kernel's exactly
 (tested). On a 4096x3072 stream this is what lets the live pipeline keep up with 30
 frames/s (``benchmarks/live_pipeline.md``).
+
+A large block is split into bands of rows folded at once on ``threads()`` cores (the kernel
+releases the GIL): each band writes its own rows of the sums and row sums, and its own
+column sums and clip counts, added up after (integers: the same bits as one pass).
 """
 
 from __future__ import annotations
+
+import os
+import threading
 
 import numpy as np
 
@@ -22,18 +29,19 @@ _extremes_c = None
 _extremes_loaded = False
 
 
-def _kernel(x, off, s1, s2, fr, fc, top, cnt):
-    """Add the frames ``x`` (B, R, C small integers) plus ``off`` into ``s1``/``s2`` (R, C
-    int64); ``fr`` (B, R) and ``fc`` (B, C) int64 get the per-frame row and column sums;
-    ``cnt`` (2,) int64 gets the count of values at or above ``top`` and of values 0 (the
-    clip counts, in the same read of each pixel)."""
+def _kernel(x, off, s1, s2, fr, fc, top, cnt, r0, r1):
+    """Add the rows ``r0:r1`` of the frames ``x`` (B, R, C small integers) plus ``off`` into
+    ``s1``/``s2`` (R, C int64); ``fr`` (B, R) and ``fc`` (B, C) int64 get the per-frame row
+    sums (of those rows) and column sums (over those rows); ``cnt`` (2,) int64 gets the count
+    of values at or above ``top`` and of values 0 (the clip counts, in the same read of each
+    pixel)."""
     B, R, C = x.shape
     for f in range(B):
         for j in range(C):
             fc[f, j] = 0
     n_top = np.int64(0)
     n_zero = np.int64(0)
-    for i in range(R):
+    for i in range(r0, r1):
         for f in range(B):
             rs = np.int64(0)
             for j in range(C):
@@ -79,15 +87,59 @@ def extremes(d: np.ndarray, top: int) -> tuple[int, int]:
 
 
 NO_TOP = 1 << 62  # a ``top`` no value reaches: clip counts not wanted
+SPLIT_VALUES = 1 << 22  # blocks of at least this many values are split over threads() cores
+_pool = None
+_pool_lock = threading.Lock()
 
 
-def fold(x, off: int, s1: np.ndarray, s2: np.ndarray, top: int = NO_TOP, cnt: np.ndarray | None = None):
+def threads() -> int:
+    """Cores a large block is folded on: ``ARES_FOLD_THREADS`` if set, else the cores this
+    process may run on, at most 2 (the fold is bound by the memory bus beyond)."""
+    env = os.environ.get("ARES_FOLD_THREADS", "")
+    if env.strip().isdigit() and int(env) >= 1:
+        return int(env)
+    try:
+        n = len(os.sched_getaffinity(0))
+    except (AttributeError, OSError):
+        n = os.cpu_count() or 1
+    return max(1, min(2, n))
+
+
+def _executor(workers: int):
+    global _pool
+    with _pool_lock:
+        if _pool is None or _pool._max_workers < workers:
+            from concurrent.futures import ThreadPoolExecutor
+
+            _pool = ThreadPoolExecutor(max_workers=workers, thread_name_prefix="ares-fold")
+        return _pool
+
+
+def _split(x, off, s1, s2, fr, fc, top, cnt, parts: int) -> None:
+    """The kernel over ``parts`` bands of rows at once (this thread folds the last)."""
+    B, R, C = x.shape
+    edges = [R * k // parts for k in range(parts + 1)]
+    fcs, cnts = np.empty((parts, B, C), np.int64), np.zeros((parts, 2), np.int64)
+    pool = _executor(parts - 1)
+    jobs = [pool.submit(_kernel_c, x, off, s1, s2, fr, fcs[k], top, cnts[k], edges[k], edges[k + 1])
+            for k in range(parts - 1)]
+    _kernel_c(x, off, s1, s2, fr, fcs[-1], top, cnts[-1], edges[-2], edges[-1])
+    for j in jobs:
+        j.result()
+    np.sum(fcs, axis=0, out=fc)
+    cnt += cnts.sum(axis=0)
+
+
+def fold(x, off: int, s1: np.ndarray, s2: np.ndarray, top: int = NO_TOP, cnt: np.ndarray | None = None,
+         parts: int | None = None):
     """Fold the block ``x`` (a (B, R, C) array or a list of (R, C) arrays of one 8/16-bit
     integer type; each value stands for value + ``off``) into the int64 sums ``s1``/``s2``;
     returns the per-frame (row sums (B, R), column sums (B, C)) as int64, or None when the
     kernel is not available (numba missing or ``ARES_NO_NUMBA``): the caller's numpy path.
     ``cnt`` ((2,) int64): the values (+ ``off``) at or above ``top`` and those equal to 0
-    are added to it, as ``extremes`` counts them (the fold reads each pixel once for both)."""
+    are added to it, as ``extremes`` counts them (the fold reads each pixel once for both).
+    ``parts``: bands of rows folded at once (default: ``threads()`` for a block of at least
+    SPLIT_VALUES values, else 1; the same sums either way)."""
     global _kernel_c, _loaded
     from ares import jit
 
@@ -103,7 +155,14 @@ def fold(x, off: int, s1: np.ndarray, s2: np.ndarray, top: int = NO_TOP, cnt: np
     fr, fc = np.empty((B, R), np.int64), np.empty((B, C), np.int64)
     if cnt is None:
         cnt = np.zeros(2, np.int64)
-    _kernel_c(np.ascontiguousarray(x), np.int64(off), s1, s2, fr, fc, np.int64(min(top, NO_TOP)), cnt)
+    if parts is None:
+        parts = threads() if x.size >= SPLIT_VALUES else 1
+    parts = max(1, min(int(parts), R))
+    args = (np.ascontiguousarray(x), np.int64(off), s1, s2, fr, fc, np.int64(min(top, NO_TOP)), cnt)
+    if parts == 1:
+        _kernel_c(*args, 0, R)
+    else:
+        _split(*args, parts)
     return fr, fc
 
 

@@ -60,7 +60,7 @@ import numpy as np
 from ares.errors import InputError
 
 from . import flat as _flat
-from . import masked_fold
+from . import masked_fold, recycle
 from .anova import DARK_NAMES
 from .estimate import Estimate
 from .emva_spatial import smooth
@@ -149,7 +149,7 @@ class MaskedStackAccumulator:
         p = self._pixels
         if p is None or self._nf or p.n_frames or p._on_fold is not None:
             return False
-        p._on_fold = self._from_pixels
+        p._on_fold = masked_fold.Ride(self)  # (weakly: see masked_fold)
         self._riding = True
         return True
 
@@ -168,7 +168,7 @@ class MaskedStackAccumulator:
         """A block folded by ``pixels``: its frames' line sums over the good pixels, shifted,
         one frame at a time as ``add`` folds them (the same float64 sums, bit for bit)."""
         if self._x0 is None:
-            self._first(x[0] ^ np.uint16(0x8000) if xored[0] else x[0], True)
+            self._first(x[0].view(np.int16), True, 1 << 15) if xored[0] else self._first(x[0], True)
             self._ride_plan = masked_fold.line_plan(self._x0, self.good)  # (one pass, numba)
             if self._ride_plan is None:  # the same integers: x0 is integer-valued, 0 at masked pixels
                 g = self._x0
@@ -183,6 +183,9 @@ class MaskedStackAccumulator:
             r = fr[k] - xr - np.bincount(bi, weights=v, minlength=R).astype(np.int64)
             c = fc[k] - xc - np.bincount(bj, weights=v, minlength=C).astype(np.int64)
             self._fold_lines(r[None].astype(np.float64), c[None].astype(np.float64), 1)
+
+    def __del__(self) -> None:  # its shift to the next stack (ares.analysis.recycle)
+        recycle.give(self.__dict__, "_x0")
 
     @property
     def n_good(self) -> int:
@@ -241,11 +244,11 @@ class MaskedStackAccumulator:
             self._s2 += np.einsum("fij,fij->ij", d, d)
         self._fold_lines(d.sum(axis=2), d.sum(axis=1), len(x))
 
-    def _first(self, frame: np.ndarray, small: bool) -> None:
-        """The stack's shift from its first frame (0 at masked pixels) and where its per-pixel
-        sums come from. The shift of 8/16-bit integer frames is exact in float32: half the
-        memory; their sums can come from the full-frame stack (``pixels``)."""
-        self._x0 = np.where(self.good, frame, frame.dtype.type(0)).astype(np.float32 if small else np.float64)
+    def _first(self, frame: np.ndarray, small: bool, off: int = 0) -> None:
+        """The stack's shift from its first frame (+ ``off``; 0 at masked pixels) and where its
+        per-pixel sums come from. The shift of 8/16-bit integer frames is exact in float32: half
+        the memory; their sums can come from the full-frame stack (``pixels``)."""
+        self._x0 = masked_fold.shift(frame, self.mask, small, off)
         p = self._pixels
         self._derived = bool(small and p is not None and tuple(p.shape) == self.shape and not p._float)
         if not self._derived:

@@ -11,11 +11,20 @@ A masked stack whose per-pixel sums come from its full-frame stack (``pixels``) 
 the row and column sums: ``lines`` forms them from every pixel's value, the few masked
 pixels' and the shift's sums subtracted, in int64 (no test per pixel; a third of the
 pass's time on a 4096x3072 frame).
+
+Per stack, not per frame: ``shift`` writes the stack's shift into a pooled array where
+``ares.analysis.recycle`` holds one, ``line_plan`` keeps the last mask's coordinates (a
+run's stacks share one mask), and ``Ride`` lets the full-frame stack call its masked view
+without keeping it alive (no reference cycle: both are freed with their StackSet).
 """
 
 from __future__ import annotations
 
+import weakref
+
 import numpy as np
+
+from . import recycle
 
 _kernel_c = None
 _loaded = False
@@ -24,6 +33,46 @@ _lines_loaded = False
 _shift_c = None
 _shift_loaded = False
 _NO_SUMS = np.zeros((1, 1))  # stands for s1/s2 when only the line sums are wanted
+_coords: list = []  # [(good, rows, columns)] of the last mask line_plan met
+
+
+class Ride:
+    """``StackAccumulator._on_fold`` for a masked stack riding on it (``MaskedStackAccumulator
+    .ride``): its ``_from_pixels``, reached through a weak reference."""
+
+    __slots__ = ("ref",)
+
+    def __init__(self, masked) -> None:
+        self.ref = weakref.ref(masked)
+
+    def __call__(self, *args) -> None:
+        m = self.ref()
+        if m is not None:
+            m._from_pixels(*args)
+
+
+def shift(frame: np.ndarray, mask: np.ndarray, small: bool, off: int = 0) -> np.ndarray:
+    """A masked stack's shift: ``frame`` + ``off`` at the good pixels, 0 at the masked ones
+    (``mask`` True), float32 for 8/16-bit frames (exact: |values| < 2**17), else float64; no
+    temporaries (a uint16 frame of a batch store, x ^ 0x8000, is read as int16 + 2**15)."""
+    x0 = recycle.empty(frame.shape, np.float32 if small else np.float64)
+    np.copyto(x0, frame)
+    if off:
+        x0 += off
+    np.copyto(x0, 0, where=mask)
+    return x0
+
+
+def masked_coords(good: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """(rows, columns) of the pixels ``good`` excludes, int64, read-only; the last mask's are
+    kept (np.nonzero of a 4096x3072 mask: ~50 ms a stack, the comparison a tenth of it)."""
+    hit = _coords[0] if _coords else None
+    if hit is not None and hit[0].shape == good.shape and np.array_equal(hit[0], good):
+        return hit[1], hit[2]
+    bi, bj = (a.astype(np.int64) for a in np.nonzero(~good))
+    bi.flags.writeable = bj.flags.writeable = False
+    _coords[:] = [(good.copy(), bi, bj)]
+    return bi, bj
 
 
 def _kernel(x, x0, good, s1, s2, fr, fc, sums):
@@ -95,8 +144,7 @@ def line_plan(x0: np.ndarray, good: np.ndarray):
     R, C = x0.shape
     xr, xc = np.zeros(R, np.int64), np.zeros(C, np.int64)
     _shift_c(x0, good, xr, xc)
-    bi, bj = np.nonzero(~good)
-    return xr, xc, bi.astype(np.int64), bj.astype(np.int64)
+    return (xr, xc) + masked_coords(good)
 
 
 def lines(x: np.ndarray, plan):

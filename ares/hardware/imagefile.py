@@ -23,13 +23,17 @@ def read_image(path: str | Path) -> np.ndarray:
         from ares.safefile import not_a_file
 
         raise not_a_file(path, "image file")
-    from ares.hardware import png
+    from ares.hardware import png, tiff
 
     try:
         with open(path, "rb") as f:
             data = f.read(len(png.SIGNATURE))
             if data == png.SIGNATURE and os.fstat(f.fileno()).st_size <= 3 * MAX_PIXELS:
                 data += f.read()
+            elif data[:4] in tiff.SIGNATURES:  # an uncompressed grayscale TIFF: its strips are the pixels
+                arr = tiff.read(f, MAX_PIXELS)
+                if arr is not None:
+                    return arr
     except OSError as exc:
         raise InputError(f"{path}: cannot read the image ({exc.strerror or type(exc).__name__})") from None
     arr = png.decode(data, MAX_PIXELS)  # unfiltered grayscale PNG: inflating is decoding

@@ -26,6 +26,7 @@ from typing import Callable
 import numpy as np
 
 from ares import malloc
+from ares.analysis import recycle
 from ares.errors import AresError, DeviceGone, FrameError, FrameLost, HardwareError, InputError, StorageError
 from ares.hardware import link_stats
 from ares.hardware.waits import Interrupted
@@ -46,6 +47,7 @@ from ares.scan.suspend import Suspended, Suspenders
 log = logging.getLogger(__name__)
 
 
+RECYCLE_BYTES_PER_PIXEL = 24  # a stack's large arrays: int64 sums 16, a 2-frame batch store 4, a masked shift 4
 PIPELINE_MAX_PIXELS = malloc.LARGE_FRAME_PIXELS  # larger frames: a stage is analysed before the next is acquired (memory)
 
 
@@ -259,11 +261,16 @@ class Runner:
         pixels = bench.frames.shape[0] * bench.frames.shape[1]  # (a 4096x3072 stage in flight: +0.3 GB)
         malloc.for_frames(pixels)
         self._commit = StageCommitter(self._commit_stage, threaded=self.pipeline and pixels <= PIPELINE_MAX_PIXELS)
+        # large frames: a finished stage's stack arrays go to the next stage's stacks (two stacks' worth:
+        # int64 sums, batch store, masked shift), not new memory (ares.analysis.recycle)
+        recycle.keep(0 if self._commit.threaded or pixels <= PIPELINE_MAX_PIXELS else 2 * RECYCLE_BYTES_PER_PIXEL * pixels)
         try:
             return self._stages(bench, writer, completed, stages, vw, max_code, cache, applied)
         except BaseException:
             self._commit.settle()  # the stages acquired before the error are committed, then it is raised
             raise
+        finally:
+            recycle.keep(0)
 
     def _stages(self, bench, writer, completed, stages, vw, max_code, cache, applied) -> RunOutcome:
         scan, system = self.scan, self.system
@@ -362,6 +369,8 @@ class Runner:
                 cache = flat
             elif st.dark_source == "grab":
                 cache = dark
+            if not self._commit.threaded:  # the pool holds no arrays through the mask and the analysis (the
+                recycle.clear()  # previous dark, just dropped, among them): the run's peak stays the same
             new_mask = self._mask is None and st.scene == "dark" and st.settings.get("reg:test_mode", 0) == 0
             if new_mask:  # before the next stage's frames: they are masked as they arrive
                 t_mask = time.monotonic()
