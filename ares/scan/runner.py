@@ -33,6 +33,7 @@ from ares.scan import events as ev
 from ares.scan.apply import apply_settings
 from ares.scan.commit import StageCommitter
 from ares.scan.defect_mask import load_declared_mask, mask_from_dark, scan_thresholds
+from ares.scan.mask_hold import MaskHold
 from ares.scan.preflight import KEEP_FOR_MASK_BYTES, check_run
 from ares.scan.spectral_readings import photodiode_readings, spectral_readings
 from ares.scan.results import StackSet, analyze_stage, check_limits, limits_verdict, scan_level_results, views
@@ -64,7 +65,7 @@ class _Aborted(Exception):
     pass
 
 
-class Runner:
+class Runner(MaskHold):
     def __init__(self, scan, *, bench=None, out_dir: str | Path | None = None, seed: int | None = None,
                  frames: int | None = None, faults: dict | None = None, argv: list[str] | None = None,
                  listeners: tuple[Callable, ...] = (), resume_from: list[dict] | None = None,
@@ -247,6 +248,7 @@ class Runner:
         self._emit(ev.RunStarted(run_dir, len(stages), self._frames_total, self._est))
         cache = None  # last dark StackSet that a matched dark may reuse
         self._mask = load_declared_mask(scan, bench.frames.shape)  # else from the first dark stage
+        self._held = None  # stages waiting for a flat to complete that mask (_hold)
         applied: dict | None = None
         if completed:  # resuming: the bench, mask and cached dark as the interrupted run left them
             from ares.scan.resume import restore
@@ -262,6 +264,10 @@ class Runner:
         try:
             return self._stages(bench, writer, completed, stages, vw, max_code, cache, applied)
         except BaseException:
+            try:  # the stages held for the mask are complete: kept like any other (a crash loses
+                self._release_held()  # at most the stage in flight)
+            except Exception as exc:  # noqa: BLE001 -- the first error is the one raised
+                log.warning("committing the stages held for the defect mask: %s", exc)
             self._commit.settle()  # the stages acquired before the error are committed, then it is raised
             raise
 
@@ -293,7 +299,8 @@ class Runner:
                         applied = st.dark_settings
                         dark = self._grab(bench, st, st.dark_frames, vw, max_code, fw, dark=True)
                         pd_dark = photodiode_readings(bench, system)
-                    elif st.dark_source == "reuse" and cache is not None and cache.masked is None and self._mask is not None:
+                    elif (st.dark_source == "reuse" and cache is not None and cache.masked is None
+                          and cache.kept is None and self._mask is not None):
                         # the dark to reuse predates the defect mask and kept no frames: grab it again
                         apply_settings(bench, system, st.dark_settings, applied, self._cancelled)
                         applied = st.dark_settings
@@ -366,7 +373,11 @@ class Runner:
             if new_mask:  # before the next stage's frames: they are masked as they arrive
                 t_mask = time.monotonic()
                 self._mask = mask_from_dark(flat, st.name, st.settings.get("exposure"), scan_thresholds(scan))
-                flat.apply_mask(self._mask.mask)  # this stage too, from its kept frames
+                flat.series_pixels = self._mask.rts_candidates  # kept with the mask from its frames
+                if any(s.scene == "flat" for s in stages if s.index > st.index):
+                    self._held = []  # a flat will complete the mask: the stages wait for it (_hold)
+                else:
+                    flat.apply_mask(self._mask.mask)  # this stage too, from its kept frames
                 self._eta.one_off(time.monotonic() - t_mask)
             self._eta.stage_finished(time.monotonic() - self._t0, st.scene)
             extra = {"dark_after": True} if st.dark_after else {}  # its matched dark followed the flat
@@ -380,12 +391,17 @@ class Runner:
                 extra["frames_lost"] = lost
             if link0:  # what the stage did on each link, retries and recoveries included
                 extra["link"] = link_stats.delta(link0, link_stats.counters(bench))
-            self._commit.submit(st, flat, dark, extra, new_mask, before, after, t_start, writer, completed)
+            args = (st, flat, dark, extra, new_mask, before, after, t_start, writer, completed)
+            if self._held is not None:
+                self._hold(args)
+            else:
+                self._commit.submit(*args)
             if self._commit.cpu_seconds is not None:  # the latest stage's analysis and write: the run
                 self._eta.end_work(self._commit.cpu_seconds)  # waits for the last stage's after its frames
         else:
             if self._stop.is_set():
                 status = "done"  # stop during the last stage: the scan is complete anyway
+        self._release_held()  # no flat completed the mask: the brightest one held does
         self._commit.wait()
         cache = flat = dark = None  # the stacks' sums are committed: free them before the scan-level analyses
         if self._own_bench:  # no more frames: the devices close now (the light goes off, the simulator's maps go)
@@ -484,11 +500,12 @@ class Runner:
         src = bench.frames
         shape = tuple(src.shape)
         mask = getattr(self, "_mask", None)
+        held = self._held is not None  # the mask waits for a flat: keep the frames, mask them then
         ss = StackSet(shape, vw, max_code, histograms=bool({"adc_linearity", "photon_counting"} & set(self.scan.analyses)),
-                      mask=mask.mask if mask is not None else None)
-        if mask is None and not dark and st.scene == "dark":
+                      mask=mask.mask if mask is not None and not held else None)
+        if held or (mask is None and not dark and st.scene == "dark"):
             # the stage a defect mask will be built from: keep its frames to mask it too
-            ss.kept = KeptFrames(KEEP_FOR_MASK_BYTES, self._scratch_dir)
+            ss.kept = KeptFrames(max(KEEP_FOR_MASK_BYTES - self._held_in_memory(), 0), self._scratch_dir)
         self._eta.stage_started(time.monotonic() - self._t0,  # waiting for a first frame is stage work
                                 "dark" if dark or st.scene == "dark" else "flat", st.scene)
         it = iter(src.grab(n))
