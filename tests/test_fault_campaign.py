@@ -61,25 +61,15 @@ def assert_resumes_to_reference(d: Path, ref: Path, capsys) -> None:
     assert json.loads((d / "scan_results.json").read_text()) == json.loads((ref / "scan_results.json").read_text())
 
 
-# frame 13 falls in ptc[1], while the stages wait for a flat to complete the defect mask
-# (issue 34): the failed run commits them with the mask its flats so far give, and the
-# resumed run keeps it -- one mask for every stage, not the uninterrupted run's (completed
-# at a brighter flat), so its figures are not compared with the reference's; frame 22 after
-@pytest.mark.parametrize("fault, held", [("disconnect_after_frames=13", True), ("short_frame_at=22", False)])
-def test_hardware_fault_then_resume(fault, held, tmp_path, reference, capsys):
+@pytest.mark.parametrize("fault", ["disconnect_after_frames=13", "short_frame_at=22"])
+def test_hardware_fault_then_resume(fault, tmp_path, reference, capsys):
     d = tmp_path / "run"
     rc = main(["run", str(SCAN), "--out", str(d), "--quiet", "--sim-fault", fault])
     err = capsys.readouterr().err
     assert rc == 3 and err.count("\n") == 1 and "sim grabber" in err and "Traceback" not in err
     assert json.loads((d / "run.json").read_text())["status"] == "failed"
     assert 0 < assert_committed_readable(d) < len(stages_of(reference))
-    if not held:
-        assert_resumes_to_reference(d, reference, capsys)
-        return
-    assert main(["resume", str(d), "--quiet"]) == 0
-    got = stages_of(d)
-    assert list(got) == list(stages_of(reference))
-    assert len({json.dumps(s.get("defect_mask"), sort_keys=True) for s in got.values()}) == 1
+    assert_resumes_to_reference(d, reference, capsys)
 
 
 def _spawn(d: Path) -> subprocess.Popen:

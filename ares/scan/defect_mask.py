@@ -32,13 +32,18 @@ class DefectMask:
     # the dark stage's RTS candidates (rows, cols): their time series is kept from its frames
     # for the defects analysis (RTS by levels: a trap is not a noisy or a hot pixel)
     rts_candidates: tuple | None = None
+    # why the mask is not final yet (ares.scan.mask_complete: a flat will complete it), or None
+    provisional: str | None = None
 
     @property
     def count(self) -> int:
         return int(self.mask.sum())
 
     def summary(self) -> dict:
-        return {"masked_pixels": self.count, "mask_source": self.source, "mask_classes": dict(self.classes)}
+        out = {"masked_pixels": self.count, "mask_source": self.source, "mask_classes": dict(self.classes)}
+        if self.provisional:
+            out["provisional"] = self.provisional
+        return out
 
 
 def mask_from_dark(stackset, stage_name: str, exposure_s: float | None, thresholds) -> DefectMask:

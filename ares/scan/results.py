@@ -119,9 +119,10 @@ class StackSet:
         for acc in self.acc.values():
             acc._cache.clear()
 
-    def apply_mask(self, mask) -> bool:
+    def apply_mask(self, mask, close: bool = True) -> bool:
         """Accumulate the kept frames over the good pixels of ``mask`` (after the fact, for
-        the stage the mask was built from); False when no frames were kept."""
+        the stage the mask was built from, or again when a flat completes a provisional
+        mask: ``close=False`` keeps the frames for that); False when no frames were kept."""
         if self.kept is None:
             return False
         self.masked = MaskedStackAccumulator(self.acc["full"].shape, mask, pixels=self.acc["full"])
@@ -135,8 +136,9 @@ class StackSet:
                 if self.series is not None:
                     self.series.add(f)
         finally:
-            self.kept.close()
-            self.kept = None
+            if close:
+                self.kept.close()
+                self.kept = None
         return True
 
     @property

@@ -33,7 +33,7 @@ from ares.scan import events as ev
 from ares.scan.apply import apply_settings
 from ares.scan.commit import StageCommitter
 from ares.scan.defect_mask import load_declared_mask, mask_from_dark, scan_thresholds
-from ares.scan.mask_hold import MaskHold
+from ares.scan.mask_complete import MaskCompletion
 from ares.scan.preflight import KEEP_FOR_MASK_BYTES, check_run
 from ares.scan.spectral_readings import photodiode_readings, spectral_readings
 from ares.scan.results import StackSet, analyze_stage, check_limits, limits_verdict, scan_level_results, views
@@ -65,7 +65,7 @@ class _Aborted(Exception):
     pass
 
 
-class Runner(MaskHold):
+class Runner(MaskCompletion):
     def __init__(self, scan, *, bench=None, out_dir: str | Path | None = None, seed: int | None = None,
                  frames: int | None = None, faults: dict | None = None, argv: list[str] | None = None,
                  listeners: tuple[Callable, ...] = (), resume_from: list[dict] | None = None,
@@ -248,7 +248,7 @@ class Runner(MaskHold):
         self._emit(ev.RunStarted(run_dir, len(stages), self._frames_total, self._est))
         cache = None  # last dark StackSet that a matched dark may reuse
         self._mask = load_declared_mask(scan, bench.frames.shape)  # else from the first dark stage
-        self._held = None  # stages waiting for a flat to complete that mask (_hold)
+        self._pending = None  # stages committed with a provisional mask a flat will complete (mask_complete)
         applied: dict | None = None
         if completed:  # resuming: the bench, mask and cached dark as the interrupted run left them
             from ares.scan.resume import restore
@@ -264,10 +264,6 @@ class Runner(MaskHold):
         try:
             return self._stages(bench, writer, completed, stages, vw, max_code, cache, applied)
         except BaseException:
-            try:  # the stages held for the mask are complete: kept like any other (a crash loses
-                self._release_held()  # at most the stage in flight)
-            except Exception as exc:  # noqa: BLE001 -- the first error is the one raised
-                log.warning("committing the stages held for the defect mask: %s", exc)
             self._commit.settle()  # the stages acquired before the error are committed, then it is raised
             raise
 
@@ -374,10 +370,10 @@ class Runner(MaskHold):
                 t_mask = time.monotonic()
                 self._mask = mask_from_dark(flat, st.name, st.settings.get("exposure"), scan_thresholds(scan))
                 flat.series_pixels = self._mask.rts_candidates  # kept with the mask from its frames
-                if any(s.scene == "flat" for s in stages if s.index > st.index):
-                    self._held = []  # a flat will complete the mask: the stages wait for it (_hold)
-                else:
-                    flat.apply_mask(self._mask.mask)  # this stage too, from its kept frames
+                later_flat = any(s.scene == "flat" for s in stages if s.index > st.index)
+                if later_flat:  # a flat will complete the mask: this stage's frames are kept till then
+                    self._start_pending()
+                flat.apply_mask(self._mask.mask, close=not later_flat)  # this stage too, from its kept frames
                 self._eta.one_off(time.monotonic() - t_mask)
             self._eta.stage_finished(time.monotonic() - self._t0, st.scene)
             extra = {"dark_after": True} if st.dark_after else {}  # its matched dark followed the flat
@@ -391,17 +387,13 @@ class Runner(MaskHold):
                 extra["frames_lost"] = lost
             if link0:  # what the stage did on each link, retries and recoveries included
                 extra["link"] = link_stats.delta(link0, link_stats.counters(bench))
-            args = (st, flat, dark, extra, new_mask, before, after, t_start, writer, completed)
-            if self._held is not None:
-                self._hold(args)
-            else:
-                self._commit.submit(*args)
+            self._stage_ended((st, flat, dark, extra, new_mask, before, after, t_start, writer, completed))
             if self._commit.cpu_seconds is not None:  # the latest stage's analysis and write: the run
                 self._eta.end_work(self._commit.cpu_seconds)  # waits for the last stage's after its frames
         else:
             if self._stop.is_set():
                 status = "done"  # stop during the last stage: the scan is complete anyway
-        self._release_held()  # no flat completed the mask: the brightest one held does
+            self._complete_mask()  # no flat completed the mask: the brightest one it has does
         self._commit.wait()
         cache = flat = dark = None  # the stacks' sums are committed: free them before the scan-level analyses
         if self._own_bench:  # no more frames: the devices close now (the light goes off, the simulator's maps go)
@@ -436,6 +428,26 @@ class Runner(MaskHold):
                       t_start: float, writer, completed: list) -> None:
         """Analyse a stage whose frames are all in, write it to the run directory, tell the
         listeners (``ares.scan.commit``: beside the next stage's acquisition)."""
+        result, arrays = self._analyze(st, flat, dark, extra, new_mask, completed)
+        timing = {"started": t_start, "finished": time.time(), "seconds": time.time() - t_start}
+        if writer:
+            writer.add_stage(result, arrays, before, after, timing)
+        completed.append(dict(result, registers_before=before, registers_after=after, timing=timing))
+        self._emit(ev.StageFinished(st.index, len(self.stages), st, result, arrays))
+
+    def _recommit_stage(self, st: Stage, flat, dark, extra: dict, new_mask: bool, before: dict, after: dict,
+                        t_start: float, writer, completed: list) -> None:
+        """A committed stage analysed again with the mask a flat completed since, rewritten
+        in place (its timing is its acquisition's), with ``StageUpdated`` (mask_complete)."""
+        k = next(i for i, c in enumerate(completed) if c["index"] == st.index)
+        result, arrays = self._analyze(st, flat, dark, extra, new_mask, completed[:k])
+        timing = completed[k]["timing"]
+        if writer:
+            writer.replace_stage(result, arrays, before, after, timing)
+        completed[k] = dict(result, registers_before=before, registers_after=after, timing=timing)
+        self._emit(ev.StageUpdated(st.index, len(self.stages), st, result, arrays))
+
+    def _analyze(self, st: Stage, flat, dark, extra: dict, new_mask: bool, completed: list) -> tuple[dict, dict]:
         result, arrays = analyze_stage(st, flat, dark)
         for stack in (flat, dark):
             if stack is not None:
@@ -446,11 +458,7 @@ class Runner(MaskHold):
             result["defect_mask"] = self._mask.summary()
             if new_mask or not completed:  # the mask itself, once, with the stage it came from
                 arrays["defect_mask"] = self._mask.mask.astype(np.uint8)
-        timing = {"started": t_start, "finished": time.time(), "seconds": time.time() - t_start}
-        if writer:
-            writer.add_stage(result, arrays, before, after, timing)
-        completed.append(dict(result, registers_before=before, registers_after=after, timing=timing))
-        self._emit(ev.StageFinished(st.index, len(self.stages), st, result, arrays))
+        return result, arrays
 
     def write_reports(self, helper=None) -> str:
         """Write the reports a ``defer_reports`` run left pending; returns the report error
@@ -500,12 +508,13 @@ class Runner(MaskHold):
         src = bench.frames
         shape = tuple(src.shape)
         mask = getattr(self, "_mask", None)
-        held = self._held is not None  # the mask waits for a flat: keep the frames, mask them then
+        pending = getattr(self, "_pending", None) is not None  # a provisional mask: keep the frames too
         ss = StackSet(shape, vw, max_code, histograms=bool({"adc_linearity", "photon_counting"} & set(self.scan.analyses)),
-                      mask=mask.mask if mask is not None and not held else None)
-        if held or (mask is None and not dark and st.scene == "dark"):
-            # the stage a defect mask will be built from: keep its frames to mask it too
-            ss.kept = KeptFrames(max(KEEP_FOR_MASK_BYTES - self._held_in_memory(), 0), self._scratch_dir)
+                      mask=mask.mask if mask is not None else None)
+        if pending or (mask is None and not dark and st.scene == "dark"):
+            # the stage a defect mask will be built from, or a stage to mask again when a flat
+            # completes it (ares.scan.mask_complete): keep its frames
+            ss.kept = KeptFrames(max(KEEP_FOR_MASK_BYTES - self._pending_in_memory(), 0), self._scratch_dir)
         self._eta.stage_started(time.monotonic() - self._t0,  # waiting for a first frame is stage work
                                 "dark" if dark or st.scene == "dark" else "flat", st.scene)
         it = iter(src.grab(n))
