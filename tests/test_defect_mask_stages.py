@@ -36,16 +36,18 @@ def run(tmp_path_factory):
                                  simulator=sim_)
     scan = dataclasses.replace(scan, system=system, output=dataclasses.replace(scan.output, pdf=False, csv=False))
     bench = make_sim_bench(params, 3)
-    out = Runner(scan, bench=bench, out_dir=tmp_path_factory.mktemp("mask") / "run", seed=3, frames=8).run()
+    events = []
+    out = Runner(scan, bench=bench, out_dir=tmp_path_factory.mktemp("mask") / "run", seed=3, frames=8,
+                 listeners=(events.append,)).run()
     assert out.status == "done", out.message
     rd = Path(out.run_dir)
     res = json.loads((rd / "scan_results.json").read_text())["analyses"]
     stages = [json.loads(p.read_text()) for p in sorted((rd / "stages").glob("*.json"))]
-    return scan, bench, rd, res, stages
+    return scan, bench, rd, res, stages, events
 
 
 def test_every_stage_uses_the_one_mask_with_the_dead_pixels(run):
-    scan, bench, rd, res, stages = run
+    scan, bench, rd, res, stages, events = run
     summaries = {json.dumps(s["defect_mask"], sort_keys=True) for s in stages}
     assert len(summaries) == 1, summaries
     mask = stages[0]["defect_mask"]
@@ -62,7 +64,7 @@ def test_every_stage_uses_the_one_mask_with_the_dead_pixels(run):
 
 
 def test_prnu_masked_within_3_se_of_the_truth(run):
-    scan, bench, rd, res, stages = run
+    scan, bench, rd, res, stages, events = run
     dec = res["decomposition"]
     st = next(s for s in stages if s["name"] == dec["stage"])
     apply_settings(bench, scan.system, st["settings"])
@@ -75,3 +77,34 @@ def test_prnu_masked_within_3_se_of_the_truth(run):
     # the dead pixels matter: with them the same figure is far off (the test can fail)
     assert abs(raw["value"] - want) > 10 * raw["se"], (raw, want)
     assert math.isfinite(pg["se"]) and pg["se"] > 0
+
+
+def test_stages_are_committed_as_they_end_and_rewritten_when_the_mask_completes(run):
+    """No stage waits for the flat (a crash loses at most the stage in flight): each
+    StageFinished comes before the stage after next starts (one stage in the committer),
+    with the dark stage's provisional mask until the completing flat; those stages are then
+    rewritten (StageUpdated) with the mask every stage ends with."""
+    from ares.scan import events as ev
+
+    scan, bench, rd, res, stages, events = run
+    order = [(type(e).__name__, e.index) for e in events if isinstance(e, (ev.StageStarted, ev.StageFinished))]
+    for name, i in order:
+        if name == "StageStarted" and i >= 2:
+            assert ("StageFinished", i - 2) in order[:order.index((name, i))], (i, order)
+    finished = {e.index: e.result for e in events if isinstance(e, ev.StageFinished)}
+    updated = {e.index: e.result for e in events if isinstance(e, ev.StageUpdated)}
+    provisional = sorted(i for i, r in finished.items() if "provisional" in r["defect_mask"])
+    completing = stages[0]["defect_mask"]["mask_source"].split("flat stage ")[1]
+    k = next(s["index"] for s in stages if s["name"] == completing)
+    assert provisional == list(range(k)) and k >= 2, (provisional, k)
+    assert sorted(updated) == provisional
+    flats = [i for i in provisional if finished[i]["scene"] == "flat"]
+    assert flats and all(updated[i]["defect_mask"]["masked_pixels"] > finished[i]["defect_mask"]["masked_pixels"]
+                         for i in flats)
+    pg = [(finished[i]["views"]["full"]["components_masked"]["Pg"]["value"],
+           updated[i]["views"]["full"]["components_masked"]["Pg"]["value"]) for i in flats]
+    assert all(b < a for a, b in pg), pg  # the dead pixels (response 0.3) leave the PRNU
+    for st in stages:  # on disk: the updated result (what the reports read)
+        want = updated.get(st["index"], finished[st["index"]])
+        assert st["defect_mask"] == want["defect_mask"] and "provisional" not in st["defect_mask"]
+        assert st["views"]["full"]["components_masked"] == json.loads(json.dumps(want["views"]["full"]["components_masked"]))

@@ -514,6 +514,9 @@ def test_photon_transfer_scan_fills_defect_counts_and_information(window, qtbot,
     window.defects.overlay.setChecked(False)
     assert window.preview.overlay_items == []
     assert "PTC: conversion gain" in s.info.items and "defect thresholds" in s.info.items
+    # the stages rewritten once a flat completed the defect mask replaced their points
+    pts = s.ptc.by_view["full"]
+    assert len({p.stage for p in pts}) == len(pts) == sum(not r.dark for r in s.stages.results.values())
     show_tab(window, "PTC")
     caption = window.ptc.caption.text()  # the fitted gain with its SE, as the engine states it
     assert "system gain K = " in caption and "±" in caption and "DN/e-" in caption
