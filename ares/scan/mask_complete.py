@@ -44,21 +44,22 @@ class MaskCompletion:
         """Commit a finished stage; while the mask is provisional keep its stacks (and
         their frames) to mask it again when a flat completes the mask."""
         if self._pending is None:
-            self._commit.submit(*args)
+            self._commit.submit(self._mask, *args)  # (the mask now: the committer runs later)
             return
         st, flat, dark = args[:3]
         if st.scene == "flat" and dark is not None and flat_can_classify(flat, dark, scan_thresholds(self.scan)):
             self._complete_mask(args)  # this stage is committed with the complete mask
             return
-        self._commit.submit(*args)
+        self._commit.submit(self._mask, *args)
         self._pending.append(args)
         if held_bytes([ss for a in self._pending for ss in a[1:3] if ss is not None]) > HOLD_MAX_BYTES:
             self._complete_mask()  # memory: the brightest flat so far completes the mask (one mask still)
 
     def _complete_mask(self, by: tuple | None = None) -> None:
         """Complete the mask with the flat stage ``by`` (else the brightest unclipped flat
-        committed with the provisional mask), mask every provisional stage again from its
-        kept frames, commit ``by`` and rewrite the others in the committer's thread."""
+        committed with the provisional mask); then, in the committer's thread, mask every
+        provisional stage (and ``by``) again from its kept frames, commit ``by`` and rewrite
+        the others."""
         pending, self._pending = self._pending, None
         if pending is None:
             return
@@ -75,23 +76,25 @@ class MaskCompletion:
                                         scan_thresholds(self.scan))
         else:  # no flat to complete it with: the dark stage's mask is the run's
             self._mask = dataclasses.replace(self._mask, provisional=None)
+        self._eta.one_off(time.monotonic() - t_mask)
+        # in the committer's thread, after the stage it is committing (which reads the stacks
+        # masked again here): the next stage's frames stream meanwhile, with the complete mask
+        self._commit.submit_fn(self._remask_and_commit, self._mask, new, pending)
+
+    def _remask_and_commit(self, final, new: tuple | None, pending: list) -> None:
         stacks = {id(ss): ss for a in pending + ([new] if new else []) for ss in a[1:3]
                   if ss is not None and ss.kept is not None}
         try:
             for ss in stacks.values():
-                ss.apply_mask(self._mask.mask, close=False)
+                ss.apply_mask(final.mask, close=False)
         finally:
             for ss in stacks.values():
                 ss.kept.close()
                 ss.kept = None
-        self._eta.one_off(time.monotonic() - t_mask)
         if new is not None:
-            self._commit.submit(*new)
-        self._commit.submit_fn(self._recommit_stages, pending)
-
-    def _recommit_stages(self, pending: list) -> None:
+            self._commit_stage(final, *new)
         for args in pending:
-            self._recommit_stage(*args)
+            self._recommit_stage(final, *args)
 
     def _pending_in_memory(self) -> int:
         """Bytes of kept frames the provisional stages have in memory (the kept-frames

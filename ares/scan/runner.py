@@ -424,40 +424,41 @@ class Runner(MaskCompletion):
         return RunOutcome(status, writer.dir if writer else None, completed, scan_results, fails, message=message,
                           seed=self.seed)
 
-    def _commit_stage(self, st: Stage, flat, dark, extra: dict, new_mask: bool, before: dict, after: dict,
+    def _commit_stage(self, mask, st: Stage, flat, dark, extra: dict, new_mask: bool, before: dict, after: dict,
                       t_start: float, writer, completed: list) -> None:
         """Analyse a stage whose frames are all in, write it to the run directory, tell the
-        listeners (``ares.scan.commit``: beside the next stage's acquisition)."""
-        result, arrays = self._analyze(st, flat, dark, extra, new_mask, completed)
+        listeners (``ares.scan.commit``: beside the next stage's acquisition). ``mask``: the
+        defect mask its stacks were masked with (the runner's may have moved on since)."""
+        result, arrays = self._analyze(mask, st, flat, dark, extra, new_mask, completed)
         timing = {"started": t_start, "finished": time.time(), "seconds": time.time() - t_start}
         if writer:
             writer.add_stage(result, arrays, before, after, timing)
         completed.append(dict(result, registers_before=before, registers_after=after, timing=timing))
         self._emit(ev.StageFinished(st.index, len(self.stages), st, result, arrays))
 
-    def _recommit_stage(self, st: Stage, flat, dark, extra: dict, new_mask: bool, before: dict, after: dict,
+    def _recommit_stage(self, mask, st: Stage, flat, dark, extra: dict, new_mask: bool, before: dict, after: dict,
                         t_start: float, writer, completed: list) -> None:
         """A committed stage analysed again with the mask a flat completed since, rewritten
         in place (its timing is its acquisition's), with ``StageUpdated`` (mask_complete)."""
         k = next(i for i, c in enumerate(completed) if c["index"] == st.index)
-        result, arrays = self._analyze(st, flat, dark, extra, new_mask, completed[:k])
+        result, arrays = self._analyze(mask, st, flat, dark, extra, new_mask, completed[:k])
         timing = completed[k]["timing"]
         if writer:
             writer.replace_stage(result, arrays, before, after, timing)
         completed[k] = dict(result, registers_before=before, registers_after=after, timing=timing)
         self._emit(ev.StageUpdated(st.index, len(self.stages), st, result, arrays))
 
-    def _analyze(self, st: Stage, flat, dark, extra: dict, new_mask: bool, completed: list) -> tuple[dict, dict]:
+    def _analyze(self, mask, st: Stage, flat, dark, extra: dict, new_mask: bool, completed: list) -> tuple[dict, dict]:
         result, arrays = analyze_stage(st, flat, dark)
         for stack in (flat, dark):
             if stack is not None:
                 stack.drop_maps()
         result.update(extra)
         arrays.update(link_stats.arrays(extra.get("link")))
-        if self._mask is not None:
-            result["defect_mask"] = self._mask.summary()
+        if mask is not None:
+            result["defect_mask"] = mask.summary()
             if new_mask or not completed:  # the mask itself, once, with the stage it came from
-                arrays["defect_mask"] = self._mask.mask.astype(np.uint8)
+                arrays["defect_mask"] = mask.mask.astype(np.uint8)
         return result, arrays
 
     def write_reports(self, helper=None) -> str:
