@@ -63,7 +63,7 @@ def test_a_dark_stage_over_the_memory_budget_is_masked_the_same(tmp_path, monkey
     monkeypatch.setattr(KeptFrames, "append", lambda self, f: (real(self, f), spilled.append((id(self), self.spilled))))
     b = Runner(sc, out_dir=tmp_path / "file", seed=3).run()
     assert a.status == b.status == "done"
-    # every frame of every stack kept (the dark's, and the stages held until a flat completes
+    # every frame of every stack kept (the dark's, and the provisional stages' until a flat completes
     # the mask) went to the file
     per = {}
     for k, n in spilled:

@@ -38,7 +38,7 @@ ANALYSIS_BYTES = {"ptc": 15e6, "defects": 35e6, "dark_current": 20e6, "emva4": 6
 PRECISION_BYTES = 57e6  # a precision-driven scan: the pilot's results kept beside the run's
 BYTES_PER_VIEW_PIXEL = 100.0  # each further view (region, Bayer phase, ADC channel) per pixel it covers
 KEEP_FOR_MASK_BYTES = 256 * 1024 * 1024  # the first dark stage's frames kept in memory up to this size
-# the stages held until a flat completes the defect mask (ares.scan.runner._hold): their
+# the stages kept until a flat completes the defect mask (ares.scan.mask_complete): their
 # sums (~16 B a pixel a stage, measured on VGA) up to this, then the mask is completed
 HOLD_MAX_BYTES = 256 * 1024 * 1024
 HELD_BYTES_PER_PIXEL = 16.0
