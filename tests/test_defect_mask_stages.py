@@ -108,3 +108,42 @@ def test_stages_are_committed_as_they_end_and_rewritten_when_the_mask_completes(
         want = updated.get(st["index"], finished[st["index"]])
         assert st["defect_mask"] == want["defect_mask"] and "provisional" not in st["defect_mask"]
         assert st["views"]["full"]["components_masked"] == json.loads(json.dumps(want["views"]["full"]["components_masked"]))
+
+
+def test_a_run_stopped_before_the_flat_keeps_its_stages_provisional_and_resumes_to_the_same_files(tmp_path, capsys):
+    """Stopped while the mask waits for its flat: every ended stage is on disk with the dark
+    stage's mask, marked provisional, and the terminal says so; `ares resume` acquires those
+    stages again from the mask's dark stage (run.json names them) and ends with the files of
+    an uninterrupted run."""
+    import io
+
+    from ares.cli import main
+    from ares.commands.run import print_summary
+    from ares.scan import events as ev
+
+    xml = ROOT / "fixtures" / "xml" / "small" / "ptc_small.xml"
+    ref = tmp_path / "ref"
+    assert main(["run", str(xml), "--out", str(ref), "--quiet"]) == 0
+    scan = load_scan(xml)
+    r = Runner(scan, out_dir=tmp_path / "run", seed=scan.system.simulator.seed)
+    r.add_listener(lambda e: r.stop() if isinstance(e, ev.StageStarted) and e.index == 2 else None)
+    out = r.run()
+    assert out.status == "stopped"
+    d = tmp_path / "run"
+    got = [json.loads(p.read_text()) for p in sorted((d / "stages").glob("*.json"))]
+    assert [s["index"] for s in got] == [0, 1, 2]
+    assert all("provisional" in s["defect_mask"] for s in got)
+    text = io.StringIO()
+    print_summary(out, scan, 1.0, out=text)
+    assert "provisional: the first dark stage's classes only" in text.getvalue()
+    capsys.readouterr()
+    assert main(["resume", str(d), "--quiet"]) == 0
+    meta = json.loads((d / "run.json").read_text())
+    assert meta["status"] == "done" and meta["resumed"][-1]["acquired_again"] == [0, 1, 2]
+    want = {p.name: json.loads(p.read_text()) for p in sorted((ref / "stages").glob("*.json"))}
+    have = {p.name: json.loads(p.read_text()) for p in sorted((d / "stages").glob("*.json"))}
+    assert list(have) == list(want)
+    for name in want:
+        for key in ("views", "settings", "bench_position", "defect_mask"):
+            assert have[name][key] == want[name][key], (name, key)
+    assert json.loads((d / "scan_results.json").read_text()) == json.loads((ref / "scan_results.json").read_text())

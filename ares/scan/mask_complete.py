@@ -27,8 +27,8 @@ import time
 from ares.scan.defect_mask import flat_can_classify, mask_with_flat, scan_thresholds
 from ares.scan.preflight import HOLD_MAX_BYTES, held_bytes
 
-PROVISIONAL = ("the first dark stage's classes only: completed by the first flat stage that shows dead and "
-               "low/high-response pixels, then this stage is masked again")
+PROVISIONAL = ("the first dark stage's classes only: no flat stage had completed the mask with dead and "
+               "low/high-response pixels when this stage was committed")
 
 
 class MaskCompletion:
