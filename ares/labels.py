@@ -94,7 +94,10 @@ ARRAY_UNITS = {"mean": "DN", "variance": "DN^2", "frame_means": "DN", "dark_mean
                "dark": "DN", "defect_mask": "1 (0: good, else a defect class code)",
                "frame_counter": "1 (the device's frame counter, else the frame source's count)",
                "frame_timestamp": "s (host time at arrival; the simulator's model clock)",
-               "frame_temperature": "C (the device's, as it reports it)"}
+               "frame_temperature": "C (the device's, as it reports it)",
+               # the dark stage's RTS candidates and their time series (ares.scan.defect_mask)
+               "rts_rows": "1 (pixel row index)", "rts_cols": "1 (pixel column index)",
+               "rts_series": "DN (one row per frame, one column per candidate pixel)"}
 ARRAY_UNITS.update({f"dark_{k}": ARRAY_UNITS[k] for k in ("frame_counter", "frame_timestamp", "frame_temperature")})
 
 

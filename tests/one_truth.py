@@ -192,6 +192,32 @@ def check_surfaces(name: str, run: Path, terminal: str) -> None:
                     (name, c, shown[c], text)
 
 
+def check_defect_classes(name: str, run: Path, terminal: str) -> None:
+    """A defect class the run cannot test (issue 34) is "not available" with the same
+    reason -- what it needs (frames, an exposure) first -- on every surface, never a count:
+    scan_results.json, report.h5, the terminal, the PDF's detection-limits table and the
+    window's defect table."""
+    res = json.loads((run / "scan_results.json").read_text())["analyses"]
+    d = res.get("defects")
+    if not isinstance(d, dict) or not d.get("counts"):
+        return
+    with h5py.File(run / "report.h5") as f:
+        h5 = json.loads(f.attrs["scan_results"])["analyses"]["defects"]
+    pdf = _squash(" ".join(page_texts(run / "report.pdf")))
+    from ares.gui.runner_adapter import summarize
+
+    gui = summarize(res)
+    for cls, why in (d.get("unavailable") or {}).items():
+        assert why.startswith("needs"), (name, cls, why)
+        if cls in d["counts"]:
+            assert d["counts"][cls] is None and h5["counts"][cls] is None, (name, cls)
+            assert gui["defects"][cls] is None, (name, cls)
+            assert gui["defect_criteria"][cls] == "not available: " + why, (name, cls)
+        assert h5["unavailable"][cls] == why, (name, cls)
+        assert f"{cls + ': n/a':<26} {why}" in terminal, (name, cls, why)
+        assert _squash(("not available: " + why)[:100]) in pdf, f"{name}: {cls} not available not in the PDF"
+
+
 def check_masked_names(run: Path) -> None:
     """The PDF's noise page showed the all-pixel Ps (86.6 DN^2) under "DSNU" while the
     terminal showed the defect-free 0.0785 DN^2: both are now shown under their own

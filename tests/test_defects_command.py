@@ -49,7 +49,7 @@ def test_text_and_limit_failure(files, capsys):
     captured = capsys.readouterr()
     assert rc == 4
     # 50 frames are enough for the RTS test since issue 34 (it needs >= 12)
-    assert "hot" in captured.out and "RTS not available" not in captured.out
+    assert "hot" in captured.out and "rts: not available" not in captured.out
     assert captured.err.strip() == "ares defects: defect limits failed: hot"
 
 

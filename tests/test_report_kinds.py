@@ -13,7 +13,7 @@ from pathlib import Path
 import pytest
 
 from ares.cli import main
-from one_truth import check_masked_names, check_surfaces
+from one_truth import check_defect_classes, check_masked_names, check_surfaces
 from pdfrender import ink, render
 from pdftext import page_texts
 
@@ -69,6 +69,7 @@ def test_report_pages_match_what_the_scan_measured(name, tmp_path, capsys):
     for csv in ("summary.csv", "key_figures.csv", "levels.csv"):
         assert (out / csv).is_file(), csv
     check_surfaces(name, out, terminal)
+    check_defect_classes(name, out, terminal)
     if name == "photon_transfer":
         check_masked_names(out)
     if name == "emva_reference":

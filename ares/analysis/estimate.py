@@ -134,6 +134,12 @@ def format_dict(d, with_unit: bool = True, with_reason: bool = False) -> str:
 GAIN_SPREADS = ("Cg", "Rg", "Pg")
 
 
+def pct_rms(relative_variance: float) -> float:
+    """A gain spread's relative variance as % rms (NaN below 0: no rms to show)."""
+    v = float(relative_variance)
+    return 100 * math.sqrt(v) if v >= 0 else math.nan
+
+
 def component_display(c: str, d: dict) -> tuple[str, str]:
     """(value ± SE, unit) of a component's JSON form as every surface shows it: gain
     spreads (relative variances) as % rms with the SE propagated; a variance estimated
@@ -147,7 +153,7 @@ def component_display(c: str, d: dict) -> tuple[str, str]:
         if v <= 0:
             ub = 100 * math.sqrt(max(v, 0.0) + 2 * se) if finite_se else math.nan
             return (f"< {ub:.2g} (variance ≤ 0)" if math.isfinite(ub) else "n/a (negative variance)"), "% rms"
-        r = 100 * math.sqrt(v)
+        r = pct_rms(v)
         return format_value(r, 100 * se / (2 * math.sqrt(v)) if finite_se else None), "% rms"
     unit = d.get("unit", "")
     if v < 0 and unit.endswith("^2"):  # a variance estimated below 0: a bound or a misfit

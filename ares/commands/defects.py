@@ -143,7 +143,9 @@ def _text(res: DefectResult) -> str:
     out.append(f"  {'bad rows':<14} {res.counts['bad_rows']:>8}  " + " ".join(str(r["y"]) for r in res.bad_rows[:20]))
     hist = ", ".join(f"{k}px: {v}" for k, v in sorted(res.clusters["size_histogram"].items()))
     out.append(f"  {'clusters':<14} {res.counts['clusters']:>8}  (group sizes {hist or 'none'})")
-    out.append(f"  {res.rts_note}")
+    if res.rts_available:
+        out.append(f"  {res.rts_note}")
+    out.extend(f"  {c}: not available: {why}" for c, why in res.unavailable.items())
     out.extend(f"  note: {n}" for n in res.notes)
     for lim in res.limits:
         out.append(f"  limit {lim['name']}: {lim['count']} (max {lim['max']})  {'PASS' if lim['passed'] else 'FAIL'}")

@@ -223,7 +223,8 @@ def print_summary(outcome, scan, seconds: float, out=None, resumed: int = 0) -> 
         out.write(f"noise components at stage {d['stage']} ({sets}):\n")
         if "masked_pixels" in d:
             u = {k: v.get("value") for k, v in (d.get("components_unmasked") or {}).items()}
-            out.write(f"  {d['masked_pixels']} defect pixels excluded (mask from {d.get('mask_source')}); "
+            src = d.get("mask_source") + (f", provisional: {d['provisional']}" if d.get("provisional") else "")
+            out.write(f"  {d['masked_pixels']} defect pixels excluded (mask from {src}); "
                       f"with them: Ps {u.get('Ps', float('nan')):.4g} DN^2, Pt {u.get('Pt', float('nan')):.4g} DN^2\n")
         elif d.get("mask_note"):
             out.write(f"  {d['mask_note']}\n")

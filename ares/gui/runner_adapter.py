@@ -12,7 +12,7 @@ import time
 from pathlib import Path
 
 from ares import labels
-from ares.analysis.estimate import format_dict
+from ares.analysis.estimate import GAIN_SPREADS, format_dict, pct_rms
 from ares.errors import AresError
 
 from . import events as G
@@ -122,7 +122,9 @@ def quantities(view: dict) -> dict[str, float]:
             out[label] = math.sqrt(v) if root and v >= 0 else (v if not root else math.nan)
     for name, d in (view.get("components") or {}).items():
         v = _value(d)
-        if v is not None and name in COMPONENT_LABELS:
+        if v is not None and name in GAIN_SPREADS:  # relative variances: % rms, as the CLI and the PDF
+            out[f"{name}: {COMPONENT_LABELS[name]}, % rms"] = pct_rms(v)
+        elif v is not None and name in COMPONENT_LABELS:
             out[f"{name}: {COMPONENT_LABELS[name]}, {d.get('unit', '')}"] = v  # as the report's sweep maps
     return out
 
@@ -373,7 +375,7 @@ class RunnerJob:
             emit(G.FramePreview(e.index + 1, e.frame + 1, e.frames, e.data, e.dark))
         elif isinstance(e, ev.Progress):
             emit(G.Progress(e.index + 1, e.total, e.fraction, e.remaining_s))
-        elif isinstance(e, ev.StageFinished):
+        elif isinstance(e, (ev.StageFinished, ev.StageUpdated)):  # updated: masked again, replaces it
             emit(self._stage_result(e))
         elif isinstance(e, ev.Ending):
             emit(G.Ending(e.status, e.stages_completed))

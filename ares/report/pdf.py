@@ -144,7 +144,10 @@ def _component_table(fig, y: float, stage: dict, part: str, title: str) -> float
             row.append(tables.component_text(c, (full.get("components") or {}).get(c) or {}))
         rows.append(row + [tables.component_label(c, part), e.get("note", "")])
     if masked:
-        title += f": {full.get('masked_pixels', 0)} defect pixels excluded"
+        dm = stage.get("defect_mask") or {}  # (its source: ares.scan.mask_complete)
+        kind = ("dark classes only, provisional" if dm.get("provisional")
+                else "dark and flat classes" if "flat stage" in str(dm.get("mask_source", "")) else "")
+        title += f": {full.get('masked_pixels', 0)} defect pixels excluded" + (f" (mask: {kind})" if kind else "")
         return text_table(fig, (0.06, y, 0.9), ["component", "defects excluded", "all pixels", "meaning", "note"],
                           rows, [0.12, 0.23, 0.23, 0.22, 0.2], fontsize=8, title=title,
                           max_chars=[12, 26, 26, 26, 24])

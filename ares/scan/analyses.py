@@ -373,13 +373,26 @@ def defects(run, overrides: dict | None = None) -> dict:
     flat = mid_level_stage(run)
     flats = [stats(flat)] if flat is not None and flat["scene"] == "flat" else None
     k = _run_gain(run)
-    res = classify_defects([stats(s) for s in darks], flats, gain_dn_per_e=k.value if k else None, thresholds=th)
+    res = classify_defects([stats(s) for s in darks], flats, gain_dn_per_e=k.value if k else None, thresholds=th,
+                           rts_series=_rts_series(run, darks))
     return {"counts": {k_: (None if v is None else int(v)) for k_, v in res.counts.items()},
             "unavailable": dict(res.unavailable), "detection": dict(res.detection),
             "warnings": list(res.warnings), "notes": list(res.notes),
             "passed": bool(getattr(res, "passed", True)),
             "limits": res.limits, "dark_stages": [s["name"] for s in darks],
             "flat_stage": flat["name"] if flats else None, "criteria": _criteria(th, res), **_locations(res)}
+
+
+def _rts_series(run, darks):
+    """The RTS candidates' time series the runner kept from the dark stage the mask came
+    from (``rts_series``/``rts_rows``/``rts_cols``), as a SeriesCollector; None without."""
+    from ares.analysis.defects import SeriesCollector
+
+    for s in darks:
+        a = run.arrays(s["index"])
+        if "rts_series" in a:
+            return SeriesCollector.from_series(a["rts_rows"], a["rts_cols"], a["rts_series"])
+    return None
 
 
 def _criteria(th, res) -> dict[str, str]:

@@ -38,21 +38,26 @@ class StageCommitter:
 
     def submit(self, *args) -> None:
         """Analyse and commit a stage: in the worker thread, after the previous one."""
+        self.submit_fn(self._fn, *args)
+
+    def submit_fn(self, fn: Callable[..., None], *args) -> None:
+        """Run ``fn(*args)`` in the worker thread after the previous work (e.g. rewriting
+        the stages a completed defect mask changes, ares.scan.mask_complete)."""
         self.wait()
         if not self.threaded:
-            self._timed(*args)
+            self._timed(fn, *args)
             return
-        self._thread = threading.Thread(target=self._work, args=args, name="ares-stage-commit", daemon=True)
+        self._thread = threading.Thread(target=self._work, args=(fn, *args), name="ares-stage-commit", daemon=True)
         self._thread.start()
 
-    def _timed(self, *args) -> None:
+    def _timed(self, fn, *args) -> None:
         c0 = time.thread_time()
-        self._fn(*args)
+        fn(*args)
         self.cpu_seconds = time.thread_time() - c0
 
-    def _work(self, *args) -> None:
+    def _work(self, fn, *args) -> None:
         try:
-            self._timed(*args)
+            self._timed(fn, *args)
         except BaseException as exc:  # noqa: BLE001 -- handed to the acquiring thread
             self._error = exc
 

@@ -29,13 +29,21 @@ class DefectMask:
     mask: np.ndarray  # bool (rows, cols), True = excluded from the masked figures
     source: str  # "dark stage NAME" or the file
     classes: dict  # class -> pixels masked (from a classification)
+    # the dark stage's RTS candidates (rows, cols): their time series is kept from its frames
+    # for the defects analysis (RTS by levels: a trap is not a noisy or a hot pixel)
+    rts_candidates: tuple | None = None
+    # why the mask is not final yet (ares.scan.mask_complete: a flat will complete it), or None
+    provisional: str | None = None
 
     @property
     def count(self) -> int:
         return int(self.mask.sum())
 
     def summary(self) -> dict:
-        return {"masked_pixels": self.count, "mask_source": self.source, "mask_classes": dict(self.classes)}
+        out = {"masked_pixels": self.count, "mask_source": self.source, "mask_classes": dict(self.classes)}
+        if self.provisional:
+            out["provisional"] = self.provisional
+        return out
 
 
 def mask_from_dark(stackset, stage_name: str, exposure_s: float | None, thresholds) -> DefectMask:
@@ -48,8 +56,60 @@ def mask_from_dark(stackset, stage_name: str, exposure_s: float | None, threshol
     res = classify_defects([st], None, thresholds=thresholds)
     mask = (res.mask & PIXEL_BITS) != 0
     prim = primary_class(res.mask)
-    classes = {c: int(np.count_nonzero(prim == i)) for i, c in enumerate(PIXEL_CLASSES) if np.any(prim == i)}
-    return DefectMask(mask, f"dark stage {stage_name}", classes)
+    classes: dict = {}
+    for i, c in enumerate(PIXEL_CLASSES):
+        k = int(np.count_nonzero(prim == i))
+        if k:
+            classes[_mask_label(c)] = classes.get(_mask_label(c), 0) + k
+    return DefectMask(mask, f"dark stage {stage_name}", classes, res.rts_candidates)
+
+
+def _mask_label(cls: str) -> str:
+    """The mask's name for a class found without K: hot/warm there only say the averaged
+    dark is far above its neighbours at one exposure -- a hot pixel or a trap held high
+    for the whole stack, not told apart (the defects analysis, with K and the exposures,
+    is where a pixel is called hot)."""
+    return "dark_outlier" if cls in ("hot", "warm") else cls
+
+
+def flat_can_classify(flat, dark, thresholds) -> bool:
+    """Whether a finished flat stage (with its matched dark, both ``StackSet``) shows the
+    flat classes: a pixel responding ``low_response_fraction`` (or ``high_response_fraction``)
+    of its neighbours is found with 99 % probability (the classifier's significance test,
+    ``ares.analysis.defects.classify``), and the level is not clipped. Cheap: sampled medians."""
+    from ares.analysis.defects.limits import Z99
+    from ares.analysis.defects.robust import sampled_median
+
+    fa, da = flat.acc["full"], dark.acc["full"]
+    n = fa.n_frames * fa.shape[0] * fa.shape[1]
+    if not n or flat.at_max["full"] / n >= 0.002:
+        return False
+    resp = sampled_median(fa.mean_map() - da.mean_map())
+    noise = np.sqrt(max(sampled_median(fa.temporal_var_map()), 0.0) / fa.n_frames
+                    + max(sampled_median(da.temporal_var_map()), 0.0) / max(da.n_frames, 1))
+    step = min(1.0 - thresholds.low_response_fraction, thresholds.high_response_fraction - 1.0)
+    return bool(resp > 0 and step * resp >= (thresholds.warm_z + Z99) * noise)
+
+
+def mask_with_flat(base: DefectMask, dark, dark_exposure_s, flat, flat_name: str, thresholds) -> DefectMask:
+    """``base`` (the first dark stage's classes) joined by the classes a flat stage shows
+    (dead, low/high response, stuck in the light) against its matched dark: the one mask
+    every stage's masked figures use (issue 34: PRNU was 27 SE high while the dead pixels,
+    visible only in a flat, stayed in it)."""
+    from ares.analysis.defects import PixelStats, classify_defects
+    from ares.analysis.defects.result import PIXEL_BITS, PIXEL_CLASSES, primary_class
+
+    res = classify_defects([PixelStats.from_accumulator(dark.acc["full"], dark_exposure_s)],
+                           [PixelStats.from_accumulator(flat.acc["full"], None)], thresholds=thresholds)
+    found = (res.mask & PIXEL_BITS) != 0
+    added = found & ~base.mask
+    prim = primary_class(res.mask)
+    classes = dict(base.classes)
+    for i, c in enumerate(PIXEL_CLASSES):
+        k = int(np.count_nonzero(added & (prim == i)))
+        if k:
+            classes[_mask_label(c)] = classes.get(_mask_label(c), 0) + k
+    return DefectMask(base.mask | found, f"{base.source} and flat stage {flat_name}", classes, base.rts_candidates)
 
 
 def load_mask_file(path: Path, shape: tuple[int, int]) -> DefectMask:

@@ -3,7 +3,9 @@
 Order for a run: ``RunStarted``, then per stage ``StageStarted``, ``FramePreview`` and
 ``Progress`` per frame (also for a matched dark, ``dark=True``), ``StageFinished``; at
 the end exactly one of ``Done`` (status done/stopped/aborted) or ``Failed``.
-``Paused``/``Resumed`` bracket a pause. Stage indices are 0-based.
+``Paused``/``Resumed`` bracket a pause. Stage indices are 0-based. ``StageUpdated``: a
+stage already finished was analysed again and rewritten with the defect mask a later flat
+completed (``ares.scan.mask_complete``); its result replaces the one StageFinished gave.
 """
 
 from __future__ import annotations
@@ -58,6 +60,15 @@ class StageFinished:
     stage: object
     result: dict  # JSON-able stage result (see ares.scan.results)
     arrays: dict = field(default_factory=dict, repr=False)  # mean/variance maps etc.
+
+
+@dataclass(frozen=True)
+class StageUpdated:
+    index: int
+    total: int
+    stage: object
+    result: dict  # replaces the StageFinished result of this stage
+    arrays: dict = field(default_factory=dict, repr=False)
 
 
 @dataclass(frozen=True)

@@ -26,6 +26,11 @@ class KeptFrames:
         return len(self._mem) + len(self._spilled)
 
     @property
+    def in_memory(self) -> int:
+        """Bytes of frames held in memory (the rest is in the file)."""
+        return self._bytes
+
+    @property
     def spilled(self) -> int:
         return len(self._spilled)
 

@@ -19,6 +19,7 @@ sums, 200 B before the stage analyses stopped caching maps they use once.)
 
 from __future__ import annotations
 
+import math
 import os
 import shutil
 from dataclasses import dataclass
@@ -37,6 +38,16 @@ ANALYSIS_BYTES = {"ptc": 15e6, "defects": 35e6, "dark_current": 20e6, "emva4": 6
 PRECISION_BYTES = 57e6  # a precision-driven scan: the pilot's results kept beside the run's
 BYTES_PER_VIEW_PIXEL = 100.0  # each further view (region, Bayer phase, ADC channel) per pixel it covers
 KEEP_FOR_MASK_BYTES = 256 * 1024 * 1024  # the first dark stage's frames kept in memory up to this size
+# the stages kept until a flat completes the defect mask (ares.scan.mask_complete): their
+# sums (~16 B a pixel a stage, measured on VGA) up to this, then the mask is completed
+HOLD_MAX_BYTES = 256 * 1024 * 1024
+HELD_BYTES_PER_PIXEL = 16.0
+
+
+def held_bytes(stacks) -> int:
+    """Bytes of the accumulators of the ``StackSet``s held (each counted once)."""
+    seen = {id(ss): ss for ss in stacks}
+    return sum(acc.nbytes() for ss in seen.values() for acc in ss.acc.values())
 
 
 @dataclass(frozen=True)
@@ -79,7 +90,12 @@ def memory_bytes(scan, stages: list[Stage]) -> float:
     kept = min(2.0 * px * next((st.frames for st in stages if st.scene == "dark"), 0), KEEP_FOR_MASK_BYTES)
     fixed = BASE_BYTES + sum(ANALYSIS_BYTES.get(a, 0.0) for a in set(scan.analyses))
     fixed += PRECISION_BYTES if scan.precision is not None else 0.0
-    return fixed + max(BYTES_PER_PIXEL * px, FIRST_DARK_BYTES_PER_PIXEL * px + kept) + BYTES_PER_VIEW_PIXEL * extra
+    first_dark = next((k for k, st in enumerate(stages) if st.scene == "dark"), None)
+    n_flat = 0 if first_dark is None else sum(st.scene == "flat" for st in stages[first_dark:])
+    # held for the mask: about the first third of a flat sweep (its dim end) until a flat shows dead pixels
+    held = min(HELD_BYTES_PER_PIXEL * (px + extra) * math.ceil(n_flat / 3), HOLD_MAX_BYTES) if n_flat else 0.0
+    return (fixed + max(BYTES_PER_PIXEL * px, FIRST_DARK_BYTES_PER_PIXEL * px + kept) + BYTES_PER_VIEW_PIXEL * extra
+            + held)
 
 
 STAGE_BYTES_PER_PIXEL = 12.0  # stages/NNNN.h5: float32 mean and variance maps, a matched dark's mean

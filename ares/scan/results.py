@@ -66,6 +66,8 @@ class StackSet:
         self.views = views_
         # the full view over the good pixels of a defect mask too (ares.scan.defect_mask)
         self.kept = None  # a KeptFrames (ares.scan.kept): the frames of the stage a mask is built from
+        self.series_pixels = None  # (rows, cols) whose time series apply_mask keeps (RTS candidates)
+        self.series = None  # their SeriesCollector, once the kept frames were read
         self.max_code = max_code
         self.hist = {k: np.zeros(max_code + 1, np.int64) for k in views_
                      if k == "full" or k.startswith(("adc", "cfa_"))} if histograms else {}
@@ -117,18 +119,26 @@ class StackSet:
         for acc in self.acc.values():
             acc._cache.clear()
 
-    def apply_mask(self, mask) -> bool:
+    def apply_mask(self, mask, close: bool = True) -> bool:
         """Accumulate the kept frames over the good pixels of ``mask`` (after the fact, for
-        the stage the mask was built from); False when no frames were kept."""
+        the stage the mask was built from, or again when a flat completes a provisional
+        mask: ``close=False`` keeps the frames for that); False when no frames were kept."""
         if self.kept is None:
             return False
         self.masked = MaskedStackAccumulator(self.acc["full"].shape, mask, pixels=self.acc["full"])
+        if self.series_pixels is not None:
+            from ares.analysis.defects import SeriesCollector
+
+            self.series = SeriesCollector(*self.series_pixels)
         try:
             for f in self.kept:
                 self.masked.add(f)
+                if self.series is not None:
+                    self.series.add(f)
         finally:
-            self.kept.close()
-            self.kept = None
+            if close:
+                self.kept.close()
+                self.kept = None
         return True
 
     @property
@@ -241,6 +251,9 @@ def analyze_stage(stage, flat: StackSet, dark: StackSet | None) -> tuple[dict, d
               "frame_means": np.asarray(full.frame_means(), dtype=np.float64)}
     if dark is not None:
         arrays["dark_mean"] = dark.acc["full"].mean_map().astype(np.float32)
+    if flat.series is not None:  # the RTS candidates' time series (the defects analysis reads it)
+        arrays.update(rts_rows=flat.series.rows.astype(np.int32), rts_cols=flat.series.cols.astype(np.int32),
+                      rts_series=flat.series.series.astype(np.float32))
     for k, h in flat.hist.items():
         arrays[f"hist_{k}"] = h  # code histogram (only when the scan asks for adc_linearity)
     for prefix, stack in (("", flat), ("dark_", dark)):

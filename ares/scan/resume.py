@@ -6,7 +6,9 @@ alone: the verbatim scan and system XML and the seed (``run.json``), the defect 
 committed stage (checked against its register snapshot), the frame stream's position
 (``bench_position`` in each stage JSON: the simulator's frame counter and RTS trap states)
 and the dark a later stage reuses (grabbed again at its recorded position: on the
-simulator the same frames, bit for bit). The resumed stages are then identical to those
+simulator the same frames, bit for bit). Stages committed with a provisional defect mask
+(no flat had completed it yet, ``ares.scan.mask_complete``) are acquired again from the
+mask's dark stage, recorded in run.json (``resumed[].acquired_again``). The resumed stages are then identical to those
 of an uninterrupted run with the same seed. A real sensor cannot replay frames: its
 resumed stages are new measurements at the same settings, and the run records that.
 """
@@ -34,7 +36,11 @@ def resumable(run) -> list[dict]:
                              "directory was edited and cannot be resumed")
     if status == "done":
         raise InputError(f"{run.dir}: the run is complete ({len(run.stages)} stage(s)); nothing to resume")
-    return stages
+    # stages committed with a provisional defect mask (ares.scan.mask_complete: the run ended
+    # before a flat completed it) are acquired again from the mask's dark stage: their kept
+    # frames are gone, and an uninterrupted run masks them with the completed mask
+    first = next((k for k, st in enumerate(stages) if (st.get("defect_mask") or {}).get("provisional")), None)
+    return stages if first is None else stages[:first]
 
 
 def _mask_of(runner, completed: list[dict]):

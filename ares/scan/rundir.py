@@ -250,6 +250,9 @@ class RunWriter:
         for leftover in (self.dir / "stages").glob("*.tmp"):  # a stage write the kill cut short
             leftover.unlink()
         recorded = self.meta["stage_sha256"] = dict(self.meta.get("stage_sha256") or {})
+        dropped = self._drop_stages_from(len(stages), recorded)
+        if dropped:  # committed with a provisional defect mask (ares.scan.resume): acquired again
+            resumed[-1]["acquired_again"] = dropped
         for st in stages:  # a stage committed (its JSON written) just before the kill reached run.json
             key = f"{st['index']:04d}"
             if key not in recorded:
@@ -257,6 +260,28 @@ class RunWriter:
         self._write_meta()
         self._heartbeat = Heartbeat(self.beat).start()
         return self
+
+    def _drop_stages_from(self, n: int, recorded: dict) -> list[int]:
+        """Remove the committed stages from index ``n`` on (JSON -- the commit -- first, the
+        highest index first, then their arrays and raw frames), the index and summary.csv
+        rewritten: a resume that acquires them again (ares.scan.resume). Their indices."""
+        gone = sorted((int(p.stem) for p in (self.dir / "stages").glob("[0-9][0-9][0-9][0-9].json")
+                       if int(p.stem) >= n), reverse=True)
+        with storage(self.dir / "stages"):
+            for i in gone:
+                (self.dir / "stages" / f"{i:04d}.json").unlink()
+                recorded.pop(f"{i:04d}", None)
+            for i in gone:
+                for p in (self.dir / "stages" / f"{i:04d}.h5", self.dir / "frames" / f"{i:04d}.h5"):
+                    p.unlink(missing_ok=True)
+            if gone:
+                self.h5_stages = [k for k in self.h5_stages if int(k) < n]
+                if self.scan.output.hdf5:
+                    self._write_index()
+                if self.scan.output.csv:
+                    write_atomic(self.dir / "summary.csv", summary_csv(self.rows))
+        self.meta["stages_completed"] = len(self.rows)
+        return sorted(gone)
 
     def beat(self) -> None:
         self.meta["heartbeat"] = time.time()
@@ -286,6 +311,18 @@ class RunWriter:
         """Commit one stage: its HDF5 first, its JSON last -- the JSON is the commit, so a
         kill between the two leaves an orphan .h5 that no reader counts (and resume
         rewrites), never a stage without its arrays."""
+        self._write_stage(result, arrays, registers_before, registers_after, timing, replace=False)
+
+    def replace_stage(self, result: dict, arrays: dict, registers_before: dict, registers_after: dict,
+                      timing: dict) -> None:
+        """Rewrite a committed stage in place (analysed again with the defect mask a later
+        flat completed, ares.scan.mask_complete): its HDF5, then its JSON, each atomically
+        (tmp -> fsync -> rename), its summary.csv row and run.json's hash of it. A kill
+        between the two leaves the JSON with the provisional mask, which ``ares resume``
+        acquires again."""
+        self._write_stage(result, arrays, registers_before, registers_after, timing, replace=True)
+
+    def _write_stage(self, result, arrays, registers_before, registers_after, timing, replace: bool) -> None:
         i = result["index"]
         record = dict(result, registers_before=registers_before, registers_after=registers_after, timing=timing)
         with storage(self.dir / "stages"):
@@ -294,9 +331,13 @@ class RunWriter:
             digest = dump_json(self.dir / "stages" / f"{i:04d}.json", record)
             with self._lock:  # (a new dict: the heartbeat thread may be serialising the old one)
                 self.meta["stage_sha256"] = {**self.meta.get("stage_sha256", {}), f"{i:04d}": digest}
-            if self.scan.output.hdf5:
+            if self.scan.output.hdf5 and not replace:
                 self._write_index(f"{i:04d}")
-            self.rows.append(_summary_row(result, self.scan))
+            row = _summary_row(result, self.scan)
+            if replace:
+                self.rows[next(k for k, r in enumerate(self.rows) if int(r["index"]) == i)] = row
+            else:
+                self.rows.append(row)
             if self.scan.output.csv:
                 write_atomic(self.dir / "summary.csv", summary_csv(self.rows))
         self.meta["stages_completed"] = len(self.rows)
@@ -337,11 +378,11 @@ class RunWriter:
         os.replace(tmp, path)
         return hashes, size
 
-    def _write_index(self, name: str) -> None:
+    def _write_index(self, name: str | None = None) -> None:
         """Rewrite the small results.h5 index of external links (tmp -> fsync -> rename)."""
         import h5py
 
-        if name not in self.h5_stages:
+        if name is not None and name not in self.h5_stages:
             self.h5_stages.append(name)
         index = self.dir / "results.h5"
         tmp = index.with_name("results.h5.tmp")

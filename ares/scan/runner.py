@@ -34,6 +34,7 @@ from ares.scan import events as ev
 from ares.scan.apply import apply_settings
 from ares.scan.commit import StageCommitter
 from ares.scan.defect_mask import load_declared_mask, mask_from_dark, scan_thresholds
+from ares.scan.mask_complete import MaskCompletion
 from ares.scan.preflight import KEEP_FOR_MASK_BYTES, check_run
 from ares.scan.spectral_readings import photodiode_readings, spectral_readings
 from ares.scan.results import StackSet, analyze_stage, check_limits, limits_verdict, scan_level_results, views
@@ -66,7 +67,7 @@ class _Aborted(Exception):
     pass
 
 
-class Runner:
+class Runner(MaskCompletion):
     def __init__(self, scan, *, bench=None, out_dir: str | Path | None = None, seed: int | None = None,
                  frames: int | None = None, faults: dict | None = None, argv: list[str] | None = None,
                  listeners: tuple[Callable, ...] = (), resume_from: list[dict] | None = None,
@@ -249,6 +250,7 @@ class Runner:
         self._emit(ev.RunStarted(run_dir, len(stages), self._frames_total, self._est))
         cache = None  # last dark StackSet that a matched dark may reuse
         self._mask = load_declared_mask(scan, bench.frames.shape)  # else from the first dark stage
+        self._pending = None  # stages committed with a provisional mask a flat will complete (mask_complete)
         applied: dict | None = None
         if completed:  # resuming: the bench, mask and cached dark as the interrupted run left them
             from ares.scan.resume import restore
@@ -300,7 +302,8 @@ class Runner:
                         applied = st.dark_settings
                         dark = self._grab(bench, st, st.dark_frames, vw, max_code, fw, dark=True)
                         pd_dark = photodiode_readings(bench, system)
-                    elif st.dark_source == "reuse" and cache is not None and cache.masked is None and self._mask is not None:
+                    elif (st.dark_source == "reuse" and cache is not None and cache.masked is None
+                          and cache.kept is None and self._mask is not None):
                         # the dark to reuse predates the defect mask and kept no frames: grab it again
                         apply_settings(bench, system, st.dark_settings, applied, self._cancelled)
                         applied = st.dark_settings
@@ -375,7 +378,11 @@ class Runner:
             if new_mask:  # before the next stage's frames: they are masked as they arrive
                 t_mask = time.monotonic()
                 self._mask = mask_from_dark(flat, st.name, st.settings.get("exposure"), scan_thresholds(scan))
-                flat.apply_mask(self._mask.mask)  # this stage too, from its kept frames
+                flat.series_pixels = self._mask.rts_candidates  # kept with the mask from its frames
+                later_flat = any(s.scene == "flat" for s in stages if s.index > st.index)
+                if later_flat:  # a flat will complete the mask: this stage's frames are kept till then
+                    self._start_pending()
+                flat.apply_mask(self._mask.mask, close=not later_flat)  # this stage too, from its kept frames
                 self._eta.one_off(time.monotonic() - t_mask)
             self._eta.stage_finished(time.monotonic() - self._t0, st.scene)
             extra = {"dark_after": True} if st.dark_after else {}  # its matched dark followed the flat
@@ -389,12 +396,13 @@ class Runner:
                 extra["frames_lost"] = lost
             if link0:  # what the stage did on each link, retries and recoveries included
                 extra["link"] = link_stats.delta(link0, link_stats.counters(bench))
-            self._commit.submit(st, flat, dark, extra, new_mask, before, after, t_start, writer, completed)
+            self._stage_ended((st, flat, dark, extra, new_mask, before, after, t_start, writer, completed))
             if self._commit.cpu_seconds is not None:  # the latest stage's analysis and write: the run
                 self._eta.end_work(self._commit.cpu_seconds)  # waits for the last stage's after its frames
         else:
             if self._stop.is_set():
                 status = "done"  # stop during the last stage: the scan is complete anyway
+            self._complete_mask()  # no flat completed the mask: the brightest one it has does
         self._commit.wait()
         cache = flat = dark = None  # the stacks' sums are committed: free them before the scan-level analyses
         if self._own_bench:  # no more frames: the devices close now (the light goes off, the simulator's maps go)
@@ -425,25 +433,42 @@ class Runner:
         return RunOutcome(status, writer.dir if writer else None, completed, scan_results, fails, message=message,
                           seed=self.seed)
 
-    def _commit_stage(self, st: Stage, flat, dark, extra: dict, new_mask: bool, before: dict, after: dict,
+    def _commit_stage(self, mask, st: Stage, flat, dark, extra: dict, new_mask: bool, before: dict, after: dict,
                       t_start: float, writer, completed: list) -> None:
         """Analyse a stage whose frames are all in, write it to the run directory, tell the
-        listeners (``ares.scan.commit``: beside the next stage's acquisition)."""
+        listeners (``ares.scan.commit``: beside the next stage's acquisition). ``mask``: the
+        defect mask its stacks were masked with (the runner's may have moved on since)."""
+        result, arrays = self._analyze(mask, st, flat, dark, extra, new_mask, completed)
+        timing = {"started": t_start, "finished": time.time(), "seconds": time.time() - t_start}
+        if writer:
+            writer.add_stage(result, arrays, before, after, timing)
+        completed.append(dict(result, registers_before=before, registers_after=after, timing=timing))
+        self._emit(ev.StageFinished(st.index, len(self.stages), st, result, arrays))
+
+    def _recommit_stage(self, mask, st: Stage, flat, dark, extra: dict, new_mask: bool, before: dict, after: dict,
+                        t_start: float, writer, completed: list) -> None:
+        """A committed stage analysed again with the mask a flat completed since, rewritten
+        in place (its timing is its acquisition's), with ``StageUpdated`` (mask_complete)."""
+        k = next(i for i, c in enumerate(completed) if c["index"] == st.index)
+        result, arrays = self._analyze(mask, st, flat, dark, extra, new_mask, completed[:k])
+        timing = completed[k]["timing"]
+        if writer:
+            writer.replace_stage(result, arrays, before, after, timing)
+        completed[k] = dict(result, registers_before=before, registers_after=after, timing=timing)
+        self._emit(ev.StageUpdated(st.index, len(self.stages), st, result, arrays))
+
+    def _analyze(self, mask, st: Stage, flat, dark, extra: dict, new_mask: bool, completed: list) -> tuple[dict, dict]:
         result, arrays = analyze_stage(st, flat, dark)
         for stack in (flat, dark):
             if stack is not None:
                 stack.drop_maps()
         result.update(extra)
         arrays.update(link_stats.arrays(extra.get("link")))
-        if self._mask is not None:
-            result["defect_mask"] = self._mask.summary()
+        if mask is not None:
+            result["defect_mask"] = mask.summary()
             if new_mask or not completed:  # the mask itself, once, with the stage it came from
-                arrays["defect_mask"] = self._mask.mask.astype(np.uint8)
-        timing = {"started": t_start, "finished": time.time(), "seconds": time.time() - t_start}
-        if writer:
-            writer.add_stage(result, arrays, before, after, timing)
-        completed.append(dict(result, registers_before=before, registers_after=after, timing=timing))
-        self._emit(ev.StageFinished(st.index, len(self.stages), st, result, arrays))
+                arrays["defect_mask"] = mask.mask.astype(np.uint8)
+        return result, arrays
 
     def write_reports(self, helper=None) -> str:
         """Write the reports a ``defer_reports`` run left pending; returns the report error
@@ -493,11 +518,13 @@ class Runner:
         src = bench.frames
         shape = tuple(src.shape)
         mask = getattr(self, "_mask", None)
+        pending = getattr(self, "_pending", None) is not None  # a provisional mask: keep the frames too
         ss = StackSet(shape, vw, max_code, histograms=bool({"adc_linearity", "photon_counting"} & set(self.scan.analyses)),
                       mask=mask.mask if mask is not None else None)
-        if mask is None and not dark and st.scene == "dark":
-            # the stage a defect mask will be built from: keep its frames to mask it too
-            ss.kept = KeptFrames(KEEP_FOR_MASK_BYTES, self._scratch_dir)
+        if pending or (mask is None and not dark and st.scene == "dark"):
+            # the stage a defect mask will be built from, or a stage to mask again when a flat
+            # completes it (ares.scan.mask_complete): keep its frames
+            ss.kept = KeptFrames(max(KEEP_FOR_MASK_BYTES - self._pending_in_memory(), 0), self._scratch_dir)
         self._eta.stage_started(time.monotonic() - self._t0,  # waiting for a first frame is stage work
                                 "dark" if dark or st.scene == "dark" else "flat", st.scene)
         it = iter(src.grab(n))

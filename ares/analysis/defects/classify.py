@@ -22,7 +22,7 @@ from .histograms import deviation_histograms
 from .lines import LineFlags, line_z
 from .params import DefectThresholds
 from .result import BITS, DEFECT_DTYPE, PIXEL_CLASSES, DefectResult, primary_class
-from .limits import hot_limit_text, noisy_available, p_constant_codes, stuck_in_darks
+from .limits import Z99, hot_limit_text, noisy_available, p_constant_codes, rate_available, stuck_in_darks
 from .robust import block_median_background, local_background, remove_lines, robust_sigma, sampled_median, structure_ratio
 from .rts import detect_rts, rts_threshold
 from .stats import PixelStats, SeriesCollector
@@ -74,6 +74,61 @@ class _Dark:
         self.col_var = cv / max(float(np.median(cv)), 1e-12)
         self.row_var = rv / max(float(np.median(rv)), 1e-12)
         self.stuck_ok, self.stuck_why = stuck_in_darks(math.sqrt(self.pop_var), st.n_frames, th.max_false_alarm)
+
+
+def _level_flags(d: "_Dark", var: np.ndarray, th: DefectThresholds, rate_mode: bool, hot_n, warm_n, hot_stat) -> None:
+    """One dark level's hot/warm votes: its excess over the noise of its averaged excess
+    (``var``, consumed), above the rate thresholds (with K and t) or the z ones."""
+    np.sqrt(var, out=var)
+    z = np.divide(d.res, var, out=var)
+    sig = z > th.warm_z
+    if rate_mode:
+        rate = d.res / d.rate_scale
+        hot = sig & (rate > th.hot_e_per_s)
+        warm = sig & (rate > th.warm_e_per_s) & ~hot
+        np.maximum(hot_stat, rate, out=hot_stat)
+    else:
+        hot = z > th.hot_z
+        warm = sig & ~hot
+        np.maximum(hot_stat, z, out=hot_stat)
+    hot_n += hot
+    warm_n += warm
+
+
+class _Slope:
+    """Per-pixel weighted least-squares slope of the dark excess over the exposure times
+    (weights 1 / the variance of each level's averaged excess): the dark rate in DN/s."""
+
+    def __init__(self, shape) -> None:
+        self.s = [np.zeros(shape) for _ in range(5)]  # sum w, w t, w t^2, w r, w t r
+
+    def add(self, d: "_Dark", var: np.ndarray) -> None:
+        t = float(d.st.exposure_s)
+        w = np.divide(1.0, var, out=var)
+        sw, swt, swtt, swr, swtr = self.s
+        sw += w
+        swt += w * t
+        swtt += w * (t * t)
+        w *= d.res
+        swr += w
+        swtr += w * t
+
+    def flags(self, th: DefectThresholds, gain: float):
+        sw, swt, swtt, swr, swtr = self.s
+        det = sw * swtt - swt * swt
+        slope = (sw * swtr - swt * swr) / det
+        z = slope / np.sqrt(sw / det)
+        rate = slope / gain
+        sig = z > th.warm_z
+        hot = sig & (rate > th.hot_e_per_s)
+        return hot, sig & (rate > th.warm_e_per_s) & ~hot, rate
+
+    @staticmethod
+    def se0(D) -> float:
+        """The slope's SE (DN/s) for a pixel with the population's noise at every level."""
+        w = np.array([1.0 / d.sigma**2 for d in D])
+        t = np.array([float(d.st.exposure_s) for d in D])
+        return float(np.sqrt(w.sum() / (w.sum() * (w * t * t).sum() - (w * t).sum() ** 2)))
 
 
 class _Flat:
@@ -155,6 +210,9 @@ def classify_defects(
     nrow, ncol = shape
     D = [_Dark(s, gain_dn_per_e, th) for s in darks]
     rate_mode = all(d.rate_scale is not None for d in D)
+    # several exposures: hot/warm by the slope of the dark signal over exposure (the rate),
+    # which a trap held high for a whole stack (an offset that does not grow) does not have
+    slope_mode = rate_mode and len({d.st.exposure_s for d in D}) >= 2
     if not rate_mode:
         why = "no gain" if not gain_dn_per_e else "no exposure time on every dark level"
         notes.append(f"hot/warm classified by robust z of the averaged dark ({why}): "
@@ -181,6 +239,7 @@ def classify_defects(
         ones = bool(np.all(col_var == 1.0) and np.all(row_var == 1.0) and np.all(col_resp == 1.0)
                     and np.all(row_resp == 1.0))
         line_var = None if ones else col_var[None, :] * row_var[:, None]
+        slope = _Slope(shape) if slope_mode else None
         for d in D:
             # robust z and rate made here, not kept: a frame of float64 each. The mean of a
             # pixel with its own excess temporal noise (a noisy or RTS pixel) scatters by
@@ -192,22 +251,11 @@ def classify_defects(
                 z = np.where(d.var_ratio > chi2_isf(th.rts_p_fa, dof) / dof, d.st.var * (1.0 - 1.0 / d.var_ratio), 0.0)
             z /= d.st.n_frames
             z += d.sigma * d.sigma
-            np.sqrt(z, out=z)
-            np.divide(d.res, z, out=z)
-            sig = z > th.warm_z
-            if rate_mode:
-                rate = d.res / d.rate_scale
-                hot = sig & (rate > th.hot_e_per_s)
-                warm = sig & (rate > th.warm_e_per_s) & ~hot
-                np.maximum(hot_stat, rate, out=hot_stat)
-                del rate
+            if slope is not None:  # several exposures: the rate is the slope over them (below)
+                slope.add(d, z)
             else:
-                hot = z > th.hot_z
-                warm = sig & ~hot
-                np.maximum(hot_stat, z, out=hot_stat)
+                _level_flags(d, z, th, rate_mode, hot_n, warm_n, hot_stat)
             del z
-            hot_n += hot
-            warm_n += warm
             dof = d.st.n_frames - 1
             vr = d.var_ratio if ones else d.var_ratio / line_var
             noisy_n += vr > chi2_isf(th.noisy_p_fa, dof) / dof
@@ -217,6 +265,11 @@ def classify_defects(
         need = _need(max(sum(d.stuck_ok for d in D), 1), th.confirm_fraction)
         stuck = stuck_n >= need if any(d.stuck_ok for d in D) else np.zeros(shape, bool)
         need = _need(nd, th.confirm_fraction)
+        if slope is not None:
+            hot, warm, rate = slope.flags(th, gain_dn_per_e)
+            hot_n = hot.astype(np.int16) * need
+            warm_n = warm.astype(np.int16) * need
+            hot_stat = rate
         flags = {"hot": hot_n >= need}
         flags["warm"] = ((hot_n + warm_n) >= need) & ~flags["hot"]
         flags["noisy"] = (noisy_n >= need) if noisy_ok else np.zeros(shape, bool)
@@ -249,7 +302,11 @@ def classify_defects(
             dead = dn >= needf
             low = (ln >= needf) & ~dead
             high = hn >= needf
-            stuck |= sn >= needf
+            nfs = sum(fl.stuck_ok for fl in F)
+            if nfs:  # stuck from flats and darks together: one code in the light too (a quiet
+                # pixel repeating its dark code that follows the light is not stuck)
+                flat_stuck = sn >= _need(nfs, th.confirm_fraction)
+                stuck = flat_stuck & stuck if any(d.stuck_ok for d in D) else flat_stuck
             acc /= nf
             ratio_stat = acc
         flags.update(dead=dead, low_response=low, high_response=high, stuck=stuck)
@@ -270,7 +327,17 @@ def classify_defects(
     elif not all(d.stuck_ok for d in D):
         detection["stuck"] = "from the flat levels only (too few dark frames for the zero-variance test)"
     dref0 = max(D, key=lambda d: d.st.exposure_s or 0.0)
-    detection["hot"] = hot_limit_text(dref0.sigma, th.warm_z, gain_dn_per_e, dref0.st.exposure_s, th.hot_e_per_s)
+    if rate_mode:
+        # the smallest dark rate found with 99 % probability: a class whose threshold is below
+        # it would miss some of its pixels and is not available, with the exposure it needs
+        lim = (th.warm_z + Z99) * (_Slope.se0(D) if slope_mode else dref0.sigma / dref0.rate_scale) / (
+            gain_dn_per_e if slope_mode else 1.0)
+        for c, thr in (("hot", th.hot_e_per_s), ("warm", th.warm_e_per_s)):
+            ok, why = rate_available(c, thr, lim, float(dref0.st.exposure_s), dref0.sigma, slope_mode,
+                                     th.rate_detect_factor)
+            (detection if ok else unavailable)[c] = why
+    else:
+        detection["hot"] = hot_limit_text(dref0.sigma, th.warm_z, gain_dn_per_e, dref0.st.exposure_s, th.hot_e_per_s)
     if max(d.st.n_frames for d in D) < th.line_noise_min_frames:
         notes.append(f"noisy rows/columns not tested: needs >= {th.line_noise_min_frames} dark frames (a line's "
                      "temporal variance over fewer frames swings with its own row/column noise)")
@@ -355,11 +422,14 @@ def classify_defects(
     cand = (flags["noisy"] | flags["hot"] | flags["warm"]
             | (D[0].var_ratio > chi2_isf(th.rts_p_fa, dof0) / dof0)) & ~flags["stuck"] & ~const
     crow, ccol = np.nonzero(cand)
+    for c in ("hot", "warm"):  # candidates above; a class it cannot test takes no pixel
+        if c in unavailable:
+            flags[c] = np.zeros(shape, bool)
     rts = np.zeros(shape, bool)
     rts_stat = np.broadcast_to(0.0, shape)  # filled at the candidates, if tested
     rts_available, rts_note = False, ""
     if rts_series is None:
-        rts_note = "RTS not available: no time series of the candidate pixels was given"
+        rts_note = "needs the time series of the candidate pixels (none was given)"
     else:
         if isinstance(rts_series, SeriesCollector):
             keyed = {(int(r), int(c)): i for i, (r, c) in enumerate(zip(rts_series.rows, rts_series.cols))}
@@ -376,9 +446,9 @@ def classify_defects(
         if series.ndim != 2 or series.shape[1] != crow.size:
             raise ValueError(f"rts_series returned shape {series.shape}, expected (frames, {crow.size})")
         if nfr < th.rts_min_frames:
-            rts_note = (f"RTS not available: {nfr} frames in the time series, needs >= {th.rts_min_frames} "
-                        f"frames (rts_min_frames={th.rts_min_frames}: over fewer a single-level series splits "
-                        "into two apparent levels too often)")
+            rts_note = (f"needs >= {th.rts_min_frames} frames: {nfr} in the time series (rts_min_frames="
+                        f"{th.rts_min_frames}: over fewer a single-level series splits into two apparent levels "
+                        "too often)")
         else:
             thr = rts_threshold(nfr, th.rts_min_separation, th.rts_min_occupancy, th.rts_p_fa)
             is_rts, sep = detect_rts(series, thr, th.rts_min_occupancy)

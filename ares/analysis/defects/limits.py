@@ -78,9 +78,9 @@ def stuck_in_darks(pop_sigma_dn: float, frames: int, p_max: float) -> tuple[bool
     if p <= p_max:
         return True, ""
     need = min_frames_stuck(pop_sigma_dn, p_max)
-    return False, (f"with {frames} frames a normal pixel (temporal sigma {pop_sigma_dn:.2g} DN) repeats one code "
-                   f"in every frame with probability {p:.2g} (limit {p_max:g})"
-                   + (f"; needs >= {need} frames" if need else ""))
+    return False, ((f"needs >= {need} frames: " if need else "")
+                   + f"with {frames} frames a normal pixel (temporal sigma {pop_sigma_dn:.2g} DN) repeats one code "
+                   f"in every frame with probability {p:.2g} (limit {p_max:g})")
 
 
 def noisy_available(frames: int, p_fa: float, ratio: float) -> tuple[bool, str]:
@@ -88,8 +88,8 @@ def noisy_available(frames: int, p_fa: float, ratio: float) -> tuple[bool, str]:
     if r99 <= ratio:
         return True, f"finds pixels with >= {r99:.3g}x the population variance (99 %)"
     need = min_frames_noisy(ratio, p_fa)
-    return False, (f"with {frames} frames the chi-square test finds only pixels with >= {r99:.3g}x the population "
-                   f"variance (99 %); a {ratio:g}x noisy pixel needs >= {need} frames")
+    return False, (f"needs >= {need} frames: with {frames} the chi-square test finds only pixels with >= {r99:.3g}x "
+                   f"the population variance (99 %), a {ratio:g}x noisy pixel not")
 
 
 def hot_limit_text(sigma_dn: float, z: float, gain: float | None, exposure_s: float | None,
@@ -102,3 +102,22 @@ def hot_limit_text(sigma_dn: float, z: float, gain: float | None, exposure_s: fl
                 f"{sigma_dn:.2g} DN at {exposure_s:g} s" + (f" hides hot pixels between {rate_threshold:g} and "
                                                              f"{lim:.3g} e-/s)" if lim > rate_threshold else ")"))
     return f"finds excess dark signals >= {dn:.3g} DN (99 %)"
+
+
+def rate_available(cls: str, threshold: float, lim: float, exposure_s: float, sigma_dn: float,
+                   slope: bool, factor: float = 2.0) -> tuple[bool, str]:
+    """(available, sentence) for a dark-rate class (hot, warm) whose 99 % detection limit
+    is ``lim`` e-/s: available where a pixel at ``factor`` times the class's threshold is
+    found (as noisy: a 10x pixel), the pixels between threshold and limit named as hidden;
+    else the exposure that would bring the limit down there at this dark noise (the limit
+    scales as 1/exposure while the averaged dark's pixel-to-pixel noise stays ``sigma_dn``)."""
+    how = "the slope of the dark signal over the exposures" if slope else f"the averaged dark at {exposure_s:g} s"
+    if lim <= factor * threshold:
+        return True, (f"finds dark rates >= {max(lim, threshold):.3g} e-/s (99 %, from {how})"
+                      + (f"; {cls} pixels between {threshold:g} and {lim:.3g} e-/s may be missed"
+                         if lim > threshold else ""))
+    need = exposure_s * lim / (factor * threshold)
+    return False, (("needs a longest exposure" if slope else "needs an exposure") + f" >= {need:.3g} s: with {how} "
+                   f"(pixel-to-pixel noise {sigma_dn:.2g} DN) only dark rates >= {lim:.3g} e-/s are found (99 %), "
+                   f"above {factor:g}x the {cls} threshold {threshold:g} e-/s (a lower bound: longer where the dark's "
+                   "non-uniformity grows with exposure)")

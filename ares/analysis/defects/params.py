@@ -26,7 +26,9 @@ channel; "z" is a robust z-score, sigma = 1.4826 * MAD):
 * stuck -- no temporal variation: per-pixel temporal variance below ``stuck_var_dn2``
   (1/12 DN^2, the quantization floor) and below the chi-square lower limit of the
   population in the darks, or below ``stuck_var_dn2`` in a flat while responding less
-  than ``stuck_response_dn`` to the light (identical codes at every level). A pixel with
+  than ``stuck_response_dn`` to the light (identical codes at every level); with a flat
+  whose shot noise makes equal codes improbable, stuck needs the flat's evidence too (a
+  quiet pixel repeating its dark code that follows the light is not stuck). A pixel with
   no response but ordinary temporal noise is dead, not stuck.
 * noisy -- per-pixel temporal variance s2 fails a chi-square test with F-1 degrees of
   freedom against the robust population variance (median / chi2 median) at false-alarm
@@ -51,7 +53,10 @@ channel; "z" is a robust z-score, sigma = 1.4826 * MAD):
   dark frames: over fewer a line's own row/column temporal noise swings its variance). Pixel classes inside a bad line are judged against
   the line's own level, so a bad column is one bad column, not 480 bad pixels.
 * detection limits -- ``max_false_alarm`` (1e-5 per pixel), ``noisy_detect_ratio`` (10x
-  the population variance) and ``max_plausible_fraction`` (1 %): see ``limits.py``; a
+  the population variance), ``rate_detect_factor`` (hot/warm: a pixel at 2x the class's
+  rate threshold is found with 99 %, else the class is not available and the exposure it
+  needs is named; with several dark exposures the rate is the slope over them) and
+  ``max_plausible_fraction`` (1 %): see ``limits.py``; a
   class that cannot meet them at the data's frame count is not available, with the reason.
 * clusters -- 8-connected groups of >= ``cluster_min_size`` defective pixels.
 * pass/fail -- ``max_<class>`` (and ``max_bad_columns``, ``max_clusters``,
@@ -99,6 +104,7 @@ class DefectThresholds:
     # pixel is missed; a class holding > max_plausible_fraction of the array is warned of
     max_false_alarm: float = 1e-5
     noisy_detect_ratio: float = 10.0
+    rate_detect_factor: float = 2.0
     max_plausible_fraction: float = 0.01
     # random telegraph signal
     rts_min_frames: int = 12
@@ -132,7 +138,8 @@ class DefectThresholds:
         """The rule that puts a pixel in each class, with these thresholds (the criterion a
         defect table shows next to each count)."""
         return {
-            "hot": f"dark rate > {self.hot_e_per_s:g} e-/s and > {self.hot_z:g} sigma above the local background",
+            "hot": f"dark rate (the slope over the exposures when there are several) > {self.hot_e_per_s:g} e-/s, "
+                   f"> {self.warm_z:g} sigma above the local background (without K: > {self.hot_z:g} sigma)",
             "warm": f"dark rate > {self.warm_e_per_s:g} e-/s and > {self.warm_z:g} sigma (not hot)",
             "dead": f"flat response < {self.dead_fraction:g} x the local median",
             "low_response": f"flat response < {self.low_response_fraction:g} x the local median (not dead)",
@@ -165,6 +172,8 @@ class DefectThresholds:
                 if not float(v).is_integer():
                     raise bad(f.name, "must be a whole number")
                 object.__setattr__(self, f.name, int(v))  # 20.0 from an XML float -> 20
+        if self.rate_detect_factor < 1:
+            raise bad("rate_detect_factor", "must be at least 1")
         if self.noisy_detect_ratio < 1:
             raise bad("noisy_detect_ratio", "must be at least 1")
         for name in ("confirm_fraction", "noisy_p_fa", "rts_p_fa", "rts_min_occupancy", "max_false_alarm",

@@ -102,6 +102,13 @@ class SeriesCollector:
         self.cols = np.asarray(cols, dtype=np.intp)
         self._chunks: list[np.ndarray] = []
 
+    @classmethod
+    def from_series(cls, rows, cols, series) -> "SeriesCollector":
+        """A collector holding an (F, n) series already collected (e.g. read back from a run)."""
+        col = cls(rows, cols)
+        col._chunks = list(np.asarray(series, dtype=np.float64))
+        return col
+
     def add(self, frame: np.ndarray) -> None:
         self._chunks.append(np.asarray(frame)[self.rows, self.cols].copy())
 

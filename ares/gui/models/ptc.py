@@ -68,7 +68,11 @@ class PTCModel(Observable):
         self._changed()
 
     def add(self, stage: int, label: str, signal_dn: float, variance_dn2: float, view: str = FULL) -> None:
-        self.by_view.setdefault(view, []).append(PTCPoint(stage, label, float(signal_dn), float(variance_dn2)))
+        """One point per stage and view: a stage given again (its result rewritten once a flat
+        completed the defect mask, ares.scan.mask_complete) replaces its point."""
+        pts = [p for p in self.by_view.get(view, []) if p.stage != stage]
+        pts.append(PTCPoint(stage, label, float(signal_dn), float(variance_dn2)))
+        self.by_view[view] = sorted(pts, key=lambda p: p.stage)
         self._changed()
 
     def set_status(self, level_status: list[dict]) -> None:

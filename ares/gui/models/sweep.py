@@ -69,8 +69,8 @@ class SweepModel(Observable):
         self._changed()
 
     def add(self, point: SweepPoint) -> None:
-        if point.coords:
-            self.points.append(point)
+        if point.coords:  # a stage given again (rewritten with the completed defect mask) replaces its point
+            self.points = [p for p in self.points if p.stage != point.stage] + [point]
             if self.quantity is None or self.quantity not in point.values:
                 # noise is what ARES tunes biases for: show it first when the engine gives it
                 noise = [q for q in point.values if q.startswith("temporal noise")]
