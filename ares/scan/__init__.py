@@ -18,7 +18,8 @@ from ares.scan import emva_analysis as _emva_analysis  # noqa: F401  (registers 
 from ares.scan import events
 from ares.scan.results import check_limits, register_scan_analysis, scan_level_results
 from ares.scan.rundir import RunRecord, RunWriter, load_run
-from ares.scan.runner import RunOutcome, Runner, auto_repeat
+from ares.scan.repeat import auto_repeat
+from ares.scan.runner import RunOutcome, Runner
 from ares.scan.stages import Stage, estimate_seconds, expand
 
 __all__ = ["events", "check_limits", "register_scan_analysis", "scan_level_results", "RunRecord", "RunWriter",
