@@ -70,8 +70,17 @@ def du(path: Path) -> int:
     return sum(f.stat().st_size for f in path.rglob("*") if f.is_file())
 
 
-def measure(scan: Path, run_dir: Path, timeout: float) -> dict:
+def warm_kernels() -> None:
+    """The numba kernels cached, as ``make`` installs them (``python -m ares.jit``; a no-op
+    when they are): the estimate's case, so no row's peak includes numba compiling in-process."""
     env = dict(os.environ, PYTHONPATH=str(ROOT))
+    subprocess.run([sys.executable, "-m", "ares.jit"], cwd=ROOT, env=env, check=True, capture_output=True)
+
+
+def measure(scan: Path, run_dir: Path, timeout: float, cold: bool = False) -> dict:
+    env = dict(os.environ, PYTHONPATH=str(ROOT))
+    if cold:  # a first run on a machine: an empty numba cache, every kernel compiled in the run
+        env["NUMBA_CACHE_DIR"] = tempfile.mkdtemp(prefix="ares_cold_numba_")
     with Window() as w:
         try:
             p = subprocess.run([sys.executable, "-c", CHILD, str(scan), str(run_dir)], capture_output=True,
@@ -81,18 +90,21 @@ def measure(scan: Path, run_dir: Path, timeout: float) -> dict:
     if p.returncode or not p.stdout.strip():
         return {"error": (p.stderr.strip().splitlines() or ["no output"])[-1][:200]}
     r = json.loads(p.stdout.strip().splitlines()[-1])
-    r.update(disk=du(run_dir), seconds=w.el, load=w.cell(), when=time.strftime("%Y-%m-%d %H:%M"))
+    if r["rc"]:  # a run that ended with an error (4: limits failed) is shown so, with its last line
+        r["said"] = (p.stderr.strip().splitlines() or [""])[-1][:120]
+    r.update(disk=du(run_dir), seconds=w.el, load=w.cell(), when=time.strftime("%Y-%m-%d %H:%M"),
+             kernels="compiled in the run" if cold else "cached")
     return r
 
 
-def estimates(scan: Path) -> tuple[float, float]:
+def estimates(scan: Path, cold: bool = False) -> tuple[float, float]:
     from ares.protocol import load_scan
     from ares.scan.preflight import disk_bytes, memory_bytes
     from ares.scan.stages import expand
 
     sc = load_scan(scan)
     st = expand(sc, None)
-    return memory_bytes(sc, st), disk_bytes(sc, st)
+    return memory_bytes(sc, st, kernels_cached=not cold), disk_bytes(sc, st)
 
 
 def cases(td: Path) -> list[tuple[str, Path]]:
@@ -104,39 +116,52 @@ def cases(td: Path) -> list[tuple[str, Path]]:
     return out
 
 
+def _exit(r: dict) -> str:
+    if not r.get("rc"):
+        return ""
+    return f"; the run exited {r['rc']}" + (f" ({r['said']})" if r.get("said") else "")
+
+
 def main() -> int:
     ap = argparse.ArgumentParser()
     ap.add_argument("--only", default="", help="comma-separated starts of row names ('photon' matches the shipped "
                     "scans photon_*, 'photon_transfer at' the 4096x3072 row)")
     ap.add_argument("--timeout", type=float, default=1800.0)
     ap.add_argument("--reuse", action="store_true", help="take the measured figures from estimates.json")
+    ap.add_argument("--cold", action="store_true", help="measure with an empty numba cache (a first run), "
+                    "stored and shown as separate rows ('NAME, first run')")
     args = ap.parse_args()
+    if not args.reuse:
+        warm_kernels()
     store = HERE / "estimates.json"
     old = json.loads(store.read_text()) if store.exists() else {}
     rows = []
     with tempfile.TemporaryDirectory() as td:
-        for name, scan in cases(Path(td)):
-            wanted = [o for o in args.only.split(",") if o]
-            if wanted and not any(name.startswith(o) and (" " in o) == (" " in name) for o in wanted):
-                r = old.get(name)
-            elif args.reuse:
-                r = old.get(name)
-            else:
-                try:
-                    estimates(scan)  # a scan this machine cannot run (data, package) is said so
-                except Exception as exc:  # noqa: BLE001 - the benchmark reports it and goes on
-                    r = {"error": f"not run: {str(exc)[:160]}"}
+        for base, scan in cases(Path(td)):
+            for cold in (False, True):
+                name = f"{base}, first run" if cold else base
+                wanted = [o for o in args.only.split(",") if o]
+                picked = not wanted or any(base.startswith(o) and (" " in o) == (" " in base) for o in wanted)
+                if args.reuse or not picked or cold != args.cold:
+                    r = old.get(name)
+                    if r is None and cold:
+                        continue  # first-run rows are shown only where measured
                 else:
-                    r = measure(scan, Path(td) / "runs" / name.split()[0], args.timeout)
-                old[name] = r  # (merged with what another run of this script stored meanwhile)
-                store.write_text(json.dumps({**(json.loads(store.read_text()) if store.exists() else {}), name: r},
-                                            indent=1) + "\n")
-                print(name, r, flush=True)
-            try:
-                mem, disk = estimates(scan)
-            except Exception:  # noqa: BLE001
-                mem = disk = None
-            rows.append((name, r, mem, disk))
+                    try:
+                        estimates(scan)  # a scan this machine cannot run (data, package) is said so
+                    except Exception as exc:  # noqa: BLE001 - the benchmark reports it and goes on
+                        r = {"error": f"not run: {str(exc)[:160]}"}
+                    else:
+                        r = measure(scan, Path(td) / "runs" / name.split()[0].strip(","), args.timeout, cold)
+                    old[name] = r  # (merged with what another run of this script stored meanwhile)
+                    store.write_text(json.dumps({**(json.loads(store.read_text()) if store.exists() else {}),
+                                                 name: r}, indent=1) + "\n")
+                    print(name, r, flush=True)
+                try:
+                    mem, disk = estimates(scan, cold)
+                except Exception:  # noqa: BLE001
+                    mem = disk = None
+                rows.append((name, r, mem, disk))
     gib = 2 ** 30
     lines = ["## Memory and disk estimates against a run (`bench_estimates.py`)", "",
              f"Each scan run as `ares run SCAN --out DIR --quiet` in a child process ({platform.machine()}, Python "
@@ -160,7 +185,7 @@ def main() -> int:
         worst = max(worst, abs(ratio - 1))
         lines.append(f"| {name} | {r['hwm'] / 2**20:.0f} | {mem / 2**20:.0f} | {ratio:.2f} | "
                      f"{r['disk'] / 2**20:.1f} | {disk / 2**20:.1f} | {r['seconds']:.0f} | "
-                     f"{r.get('when', 'fit')} | {r['load']} |")
+                     f"{r.get('when', 'fit')}{_exit(r)} | {r['load']} |")
     lines += ["", f"Largest memory error: {worst:.0%} (target {WITHIN:.0%}). Written {time.strftime('%Y-%m-%d')}; "
                   f"1 GiB = {gib} bytes.", ""]
     return publish("estimates", lines)
