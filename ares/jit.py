@@ -78,7 +78,7 @@ KERNEL_MODULES = ("sim/fused.py", "analysis/lowpass.py", "analysis/int_fold.py",
 
 def kernels_cached() -> bool:
     """Whether a run will load every kernel from numba's cache rather than compile it in
-    the run (a first run: ~40 MB more at its peak, ``ares.scan.preflight``), told without
+    the run (a first run: 20-53 MiB more at its peak, ``ares.scan.preflight``), told without
     importing numba (``ares validate`` stays light): each kernel module has an index file
     (``*.nbi``) for this Python, newer than the module, where numba keeps it -- under
     ``NUMBA_CACHE_DIR`` when that is set, else in ``__pycache__`` beside the module (an

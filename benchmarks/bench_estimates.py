@@ -3,7 +3,11 @@ run really takes; writes benchmarks/estimates.md (and the measured figures to
 benchmarks/estimates.json, so that ``--reuse`` can recompute the estimate column after a
 change of the model without running the scans again).
 
-    python benchmarks/bench_estimates.py [--only NAME,...] [--timeout 1800] [--reuse]
+    python benchmarks/bench_estimates.py [--only NAME,...] [--timeout 1800] [--reuse] [--cold]
+
+The kernels are cached first (``python -m ares.jit``), the case the estimate assumes;
+``--cold`` measures the chosen scans as a first run instead (an empty NUMBA_CACHE_DIR for
+each child), stored and shown as separate ', first run' rows.
 
 Every shipped scan (``scans/*.xml``) whose system can run here, as shipped, then two scans
 on ``protocols/sim_sensor.xml`` with a 4096x3072 array: ``scans/photon_transfer.xml`` with
@@ -167,9 +171,13 @@ def main() -> int:
              f"Each scan run as `ares run SCAN --out DIR --quiet` in a child process ({platform.machine()}, Python "
              f"{platform.python_version()}); peak = the process's VmHWM (the PDF helper process is not in it), disk = "
              "the run directory's size at the end. Estimates: `ares.scan.preflight.memory_bytes` / `disk_bytes`, as "
-             f"`ares validate` prints them. Target: memory within {WITHIN:.0%} of the peak. The model's constants "
-             "(`BASE_BYTES`, `BYTES_PER_PIXEL`, `ANALYSIS_BYTES`...) were read off a first run of every row (measured "
-             "'fit'); rows measured again after the change of the model check them. The disk estimate includes the first dark stage's frames "
+             f"`ares validate` prints them. Target: memory within {WITHIN:.0%} of the peak. Rows without ', first run' "
+             "ran with numba's kernels cached (`python -m ares.jit` first, as `make` installs them: the case the "
+             "estimate assumes and names); ', first run' rows with an empty NUMBA_CACHE_DIR, the kernels compiled in "
+             "the run (`--cold`; the estimate adds `COMPILE_BYTES`). The model's constants (`BASE_BYTES`, "
+             "`BYTES_PER_PIXEL`, `ANALYSIS_BYTES`, `MASKED_HEAP_BYTES`...) were refitted to the cached rows measured "
+             "2026-11-29 09:56-10:12; rows marked 'fit' are older measurements (kernels compiled in the run) kept "
+             "where not re-measured. The disk estimate includes the first dark stage's frames "
              "beyond 256 MiB, held in a temporary file only while that stage is masked (gone at the end: "
              "photon_transfer at 4096x3072 holds 512 MiB there).", "",
              "| scan | peak MiB | estimate MiB | estimate / peak | disk MiB | disk estimate MiB | run s | measured "

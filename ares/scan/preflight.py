@@ -6,25 +6,26 @@ the ones that depend on the run's arguments and on this machine).
 The memory estimate is measured, not derived (``benchmarks/bench_estimates.py``: every
 shipped scan and two 4096x3072 scans, each within 10 % of its measured peak), for numba's
 kernels cached as ``make`` installs them (``python -m ares.jit``) -- the usual case, and
-the one the note names; a first run, which compiles them in the run, peaks ~37 MiB higher
-(``COMPILE_BYTES``, measured with an empty cache: ``--cold``), and ``ares.jit.kernels_cached``
-tells which case this machine is in without importing numba. The parts: the interpreter
-with numpy/scipy/h5py/numba and the report's plotting (~250 MiB: ``mtf.xml`` on 128x200
-peaks at 253 MiB); about 127 bytes per pixel of the full view (the accumulators, the
-simulator's maps, the analyses' float64 maps and the report: photon_transfer at 4096x3072
-less the same scan at 640x480); the first dark stage's frames, kept to mask that stage (2
+the one the note names; a first run, which compiles them in the run, peaks 20-53 MiB higher
+(``COMPILE_BYTES``: 34 MiB, the mean of four scans measured with an empty cache,
+``--cold``), and ``ares.jit.kernels_cached`` tells which case this machine is in without
+importing numba. The parts: the interpreter with numpy/scipy/h5py/numba and the report's
+plotting (~250 MiB: ``mtf.xml`` on 128x200 peaks at 253 MiB); about 127 bytes per pixel
+of the full view (the accumulators, the simulator's maps, the analyses' float64 maps and
+the report: photon_transfer at 4096x3072 less the same scan at 640x480, before the
+masked-stage term below); the first dark stage's frames, kept to mask that stage (2
 bytes per pixel each, in memory up to ``KEEP_FOR_MASK_BYTES``, ``ares.scan.kept``), at a
 time when the rest holds about 90 bytes per pixel; what each scan-level analysis adds
 (its modules, tables and report pages, measured on the shipped scans, ``ANALYSIS_BYTES``);
-and, on small frames, the freed heap ``ares.malloc`` keeps once many frames have been
-folded against the defect mask (the stages after the first dark one): 144-213 MiB more at
-640x480 in the four shipped scans with 184-400 such frames, none with 14-50 (the same
+and what folding many frames against the defect mask adds (the stages after the first
+dark one, ``masked_heap_bytes``): at 640x480 the freed heap ``ares.malloc`` keeps,
+144-213 MiB in the four shipped scans with 184-400 such frames, none with 14-50 (the same
 without the defects analysis and at 25 C; which temporaries fragment the heap is not
-isolated -- ``masked_heap_bytes``). Regions and channel views add their own accumulators
-(100 bytes per pixel they cover, not re-measured here). (It was 0.93 kB per pixel before
-the accumulators shared their per-pixel sums, 200 B before the stage analyses stopped
-caching maps they use once; the constants were read off first runs, compiling, until
-issue 41's refit.)
+isolated), at 4096x3072 55 bytes per pixel. Regions and channel views add their own
+accumulators (100 bytes per pixel they cover, not re-measured here). (It was 0.93 kB per
+pixel before the accumulators shared their per-pixel sums, 200 B before the stage
+analyses stopped caching maps they use once; the constants were read off first runs,
+compiling, until issue 41's refit.)
 """
 
 from __future__ import annotations
@@ -44,9 +45,10 @@ BYTES_PER_PIXEL = 127.0  # full view: accumulators, simulator maps, the analyses
 FIRST_DARK_BYTES_PER_PIXEL = 90.0  # the same while the first dark stage's frames are kept (they come on top)
 ANALYSIS_BYTES = {"ptc": 15e6, "defects": 35e6, "dark_current": 20e6, "emva4": 62e6, "photon_counting": 46e6,
                   "adc_linearity": 26e6, "lag": 22e6, "gain_split": 6e6}  # measured, bench_estimates.py
-COMPILE_BYTES = 39e6  # a first run: numba compiling the kernels in the run (empty cache, bench_estimates.py --cold)
+COMPILE_BYTES = 36e6  # a first run: numba compiling its kernels in the run (20-53 MiB over 4 scans, --cold)
 PRECISION_BYTES = 97e6  # a precision-driven scan: the pilot's results kept beside the run's
 MASKED_HEAP_BYTES = 173e6  # freed heap kept while >= MASKED_FRAMES masked frames are folded, 640x480 (see above)
+MASKED_BYTES_PER_PIXEL = 55.0  # the same on large frames, their heap trimmed at 32 MB (one row: 4096x3072)
 MASKED_FRAMES = 100  # measured: 14, 32 and 50 masked frames add nothing, 184, 256 and 400 all of it
 BYTES_PER_VIEW_PIXEL = 100.0  # each further view (region, Bayer phase, ADC channel) per pixel it covers
 KEEP_FOR_MASK_BYTES = 256 * 1024 * 1024  # the first dark stage's frames kept in memory up to this size
@@ -107,17 +109,21 @@ def memory_bytes(scan, stages: list[Stage], kernels_cached: bool | None = None) 
 
 
 def masked_heap_bytes(px: float, stages: list[Stage]) -> float:
-    """The freed heap a small-frame run keeps (``ares.malloc``: up to its 256 MB trim
-    threshold) once many frames are folded against the defect mask, i.e. after the first
-    dark stage: ``MASKED_HEAP_BYTES`` at 640x480, in proportion to the frame below that and
-    at most the trim threshold above it (only 640x480 measured); none for large frames."""
+    """What folding many frames against the defect mask (the stages after the first dark
+    one) adds. Small frames: the freed heap ``ares.malloc`` keeps (up to its 256 MB trim
+    threshold), ``MASKED_HEAP_BYTES`` at 640x480, in proportion to the frame below that
+    and at most the trim threshold above it (only 640x480 measured). Large frames (their
+    heap is trimmed at 32 MB): ``MASKED_BYTES_PER_PIXEL``, from photon_transfer at
+    4096x3072 (128 masked frames: 2.42 GiB, 1.82 GiB estimated without it)."""
     from ares.malloc import LARGE_FRAME_PIXELS
 
     first = next((k for k, st in enumerate(stages) if st.scene == "dark"
                   and st.settings.get("reg:test_mode", 0) == 0), None)
     masked = sum(st.frames_to_grab() for st in stages[first + 1:]) if first is not None else 0
-    if masked < MASKED_FRAMES or px > LARGE_FRAME_PIXELS:
+    if masked < MASKED_FRAMES:
         return 0.0
+    if px > LARGE_FRAME_PIXELS:
+        return MASKED_BYTES_PER_PIXEL * px
     return min(MASKED_HEAP_BYTES * px / (640 * 480), 256 * 2**20)
 
 
