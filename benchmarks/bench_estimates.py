@@ -95,7 +95,9 @@ def measure(scan: Path, run_dir: Path, timeout: float, cold: bool = False) -> di
         return {"error": (p.stderr.strip().splitlines() or ["no output"])[-1][:200]}
     r = json.loads(p.stdout.strip().splitlines()[-1])
     if r["rc"]:  # a run that ended with an error (4: limits failed) is shown so, with its last line
-        r["said"] = (p.stderr.strip().splitlines() or [""])[-1][:120]
+        said = [ln for ln in p.stderr.strip().splitlines() if ln.strip() and "Warning" not in ln
+                and "tracemalloc" not in ln]
+        r["said"] = (said or [""])[-1][:120]
     r.update(disk=du(run_dir), seconds=w.el, load=w.cell(), when=time.strftime("%Y-%m-%d %H:%M"),
              kernels="compiled in the run" if cold else "cached")
     return r
@@ -123,7 +125,8 @@ def cases(td: Path) -> list[tuple[str, Path]]:
 def _exit(r: dict) -> str:
     if not r.get("rc"):
         return ""
-    return f"; the run exited {r['rc']}" + (f" ({r['said']})" if r.get("said") else "")
+    said = r.get("said", "")
+    return f"; the run exited {r['rc']}" + (f" ({said})" if said and "Warning" not in said else "")
 
 
 def main() -> int:
@@ -177,7 +180,9 @@ def main() -> int:
              "the run (`--cold`; the estimate adds `COMPILE_BYTES`). The model's constants (`BASE_BYTES`, "
              "`BYTES_PER_PIXEL`, `ANALYSIS_BYTES`, `MASKED_HEAP_BYTES`...) were refitted to the cached rows measured "
              "2026-11-29 09:56-10:12; rows marked 'fit' are older measurements (kernels compiled in the run) kept "
-             "where not re-measured. The disk estimate includes the first dark stage's frames "
+             "where not re-measured. `MASKED_BYTES_PER_PIXEL` (frames folded against the defect mask, large "
+             "frames) was read off the photon_transfer at 4096x3072 row, so that row's 1.00 is a fit, not a check. "
+             "The disk estimate includes the first dark stage's frames "
              "beyond 256 MiB, held in a temporary file only while that stage is masked (gone at the end: "
              "photon_transfer at 4096x3072 holds 512 MiB there).", "",
              "| scan | peak MiB | estimate MiB | estimate / peak | disk MiB | disk estimate MiB | run s | measured "
