@@ -7,7 +7,7 @@ The memory estimate is measured, not derived (``benchmarks/bench_estimates.py``:
 shipped scan and two 4096x3072 scans, each within 10 % of its measured peak), for numba's
 kernels cached as ``make`` installs them (``python -m ares.jit``) -- the usual case, and
 the one the note names; a first run, which compiles them in the run, peaks 20-53 MiB higher
-(``COMPILE_BYTES``: 34 MiB, the mean of four scans measured with an empty cache,
+(``COMPILE_BYTES``: 34 MiB; 20-53, mean 36, over six scans measured with an empty cache,
 ``--cold``), and ``ares.jit.kernels_cached`` tells which case this machine is in without
 importing numba. The parts: the interpreter with numpy/scipy/h5py/numba and the report's
 plotting (~250 MiB: ``mtf.xml`` on 128x200 peaks at 253 MiB); about 127 bytes per pixel
@@ -45,7 +45,7 @@ BYTES_PER_PIXEL = 127.0  # full view: accumulators, simulator maps, the analyses
 FIRST_DARK_BYTES_PER_PIXEL = 90.0  # the same while the first dark stage's frames are kept (they come on top)
 ANALYSIS_BYTES = {"ptc": 15e6, "defects": 35e6, "dark_current": 20e6, "emva4": 62e6, "photon_counting": 46e6,
                   "adc_linearity": 26e6, "lag": 22e6, "gain_split": 6e6}  # measured, bench_estimates.py
-COMPILE_BYTES = 36e6  # a first run: numba compiling its kernels in the run (20-53 MiB over 4 scans, --cold)
+COMPILE_BYTES = 36e6  # a first run: numba compiling its kernels in the run (20-53 MiB over 6 scans, --cold)
 PRECISION_BYTES = 97e6  # a precision-driven scan: the pilot's results kept beside the run's
 MASKED_HEAP_BYTES = 173e6  # freed heap kept while >= MASKED_FRAMES masked frames are folded, 640x480 (see above)
 MASKED_BYTES_PER_PIXEL = 55.0  # the same on large frames, their heap trimmed at 32 MB (one row: 4096x3072)
