@@ -24,6 +24,7 @@ from __future__ import annotations
 import contextlib
 import os
 import sys
+from pathlib import Path
 
 _avoiding = 0
 _announced = False
@@ -67,6 +68,49 @@ def cached(dispatcher) -> bool:
         return os.path.exists(dispatcher._cache._cache_file._index_path)
     except (AttributeError, TypeError):
         return True
+
+
+# the modules whose kernels ``jit.compiled`` caches (``warm_all`` loads every one), under ares/
+_ROOT = Path(os.path.abspath(__file__)).parent  # (as numba names folders: not resolved)
+KERNEL_MODULES = ("sim/fused.py", "analysis/lowpass.py", "analysis/int_fold.py", "analysis/masked_fold.py",
+                  "analysis/pair_kernel.py")
+
+
+def kernels_cached() -> bool:
+    """Whether a run will load every kernel from numba's cache rather than compile it in
+    the run (a first run: 20-53 MiB more at its peak, ``ares.scan.preflight``), told without
+    importing numba (``ares validate`` stays light): each kernel module has an index file
+    (``*.nbi``) for this Python, newer than the module, where numba keeps it -- under
+    ``NUMBA_CACHE_DIR`` when that is set, else in ``__pycache__`` beside the module (an
+    install that cannot write there caches elsewhere: then this says False, and the
+    estimate errs high). True when no kernel would be compiled (numba missing or
+    ``ARES_NO_NUMBA``)."""
+    import importlib.util
+
+    if os.environ.get("ARES_NO_NUMBA") or importlib.util.find_spec("numba") is None:
+        return True
+    tag = f"py{sys.version_info[0]}{sys.version_info[1]}"
+    for rel in KERNEL_MODULES:
+        src = _ROOT / rel
+        try:
+            newest = max(p.stat().st_mtime for p in cache_folder(src).glob(f"{src.stem}.*.{tag}.nbi"))
+            if newest < src.stat().st_mtime:
+                return False
+        except (ValueError, OSError):  # none there, or unreadable
+            return False
+    return True
+
+
+def cache_folder(src: Path) -> Path:
+    """Where numba caches the kernels of module file ``src`` (its locators, without
+    importing numba): ``NUMBA_CACHE_DIR``/<folder name>_<sha1 of the folder> when that is
+    set, else ``__pycache__`` beside the module."""
+    import hashlib
+
+    custom = os.environ.get("NUMBA_CACHE_DIR")
+    if custom:
+        return Path(custom) / f"{src.parent.name}_{hashlib.sha1(str(src.parent).encode()).hexdigest()}"
+    return src.parent / "__pycache__"
 
 
 def _announce(name: str) -> None:

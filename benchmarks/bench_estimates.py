@@ -3,7 +3,11 @@ run really takes; writes benchmarks/estimates.md (and the measured figures to
 benchmarks/estimates.json, so that ``--reuse`` can recompute the estimate column after a
 change of the model without running the scans again).
 
-    python benchmarks/bench_estimates.py [--only NAME,...] [--timeout 1800] [--reuse]
+    python benchmarks/bench_estimates.py [--only NAME,...] [--timeout 1800] [--reuse] [--cold]
+
+The kernels are cached first (``python -m ares.jit``), the case the estimate assumes;
+``--cold`` measures the chosen scans as a first run instead (an empty NUMBA_CACHE_DIR for
+each child), stored and shown as separate ', first run' rows.
 
 Every shipped scan (``scans/*.xml``) whose system can run here, as shipped, then two scans
 on ``protocols/sim_sensor.xml`` with a 4096x3072 array: ``scans/photon_transfer.xml`` with
@@ -70,8 +74,17 @@ def du(path: Path) -> int:
     return sum(f.stat().st_size for f in path.rglob("*") if f.is_file())
 
 
-def measure(scan: Path, run_dir: Path, timeout: float) -> dict:
+def warm_kernels() -> None:
+    """The numba kernels cached, as ``make`` installs them (``python -m ares.jit``; a no-op
+    when they are): the estimate's case, so no row's peak includes numba compiling in-process."""
     env = dict(os.environ, PYTHONPATH=str(ROOT))
+    subprocess.run([sys.executable, "-m", "ares.jit"], cwd=ROOT, env=env, check=True, capture_output=True)
+
+
+def measure(scan: Path, run_dir: Path, timeout: float, cold: bool = False) -> dict:
+    env = dict(os.environ, PYTHONPATH=str(ROOT))
+    if cold:  # a first run on a machine: an empty numba cache, every kernel compiled in the run
+        env["NUMBA_CACHE_DIR"] = tempfile.mkdtemp(prefix="ares_cold_numba_")
     with Window() as w:
         try:
             p = subprocess.run([sys.executable, "-c", CHILD, str(scan), str(run_dir)], capture_output=True,
@@ -81,18 +94,23 @@ def measure(scan: Path, run_dir: Path, timeout: float) -> dict:
     if p.returncode or not p.stdout.strip():
         return {"error": (p.stderr.strip().splitlines() or ["no output"])[-1][:200]}
     r = json.loads(p.stdout.strip().splitlines()[-1])
-    r.update(disk=du(run_dir), seconds=w.el, load=w.cell(), when=time.strftime("%Y-%m-%d %H:%M"))
+    if r["rc"]:  # a run that ended with an error (4: limits failed) is shown so, with its last line
+        said = [ln for ln in p.stderr.strip().splitlines() if ln.strip() and "Warning" not in ln
+                and "tracemalloc" not in ln]
+        r["said"] = (said or [""])[-1][:120]
+    r.update(disk=du(run_dir), seconds=w.el, load=w.cell(), when=time.strftime("%Y-%m-%d %H:%M"),
+             kernels="compiled in the run" if cold else "cached")
     return r
 
 
-def estimates(scan: Path) -> tuple[float, float]:
+def estimates(scan: Path, cold: bool = False) -> tuple[float, float]:
     from ares.protocol import load_scan
     from ares.scan.preflight import disk_bytes, memory_bytes
     from ares.scan.stages import expand
 
     sc = load_scan(scan)
     st = expand(sc, None)
-    return memory_bytes(sc, st), disk_bytes(sc, st)
+    return memory_bytes(sc, st, kernels_cached=not cold), disk_bytes(sc, st)
 
 
 def cases(td: Path) -> list[tuple[str, Path]]:
@@ -104,47 +122,67 @@ def cases(td: Path) -> list[tuple[str, Path]]:
     return out
 
 
+def _exit(r: dict) -> str:
+    if not r.get("rc"):
+        return ""
+    said = r.get("said", "")
+    return f"; the run exited {r['rc']}" + (f" ({said})" if said and "Warning" not in said else "")
+
+
 def main() -> int:
     ap = argparse.ArgumentParser()
     ap.add_argument("--only", default="", help="comma-separated starts of row names ('photon' matches the shipped "
                     "scans photon_*, 'photon_transfer at' the 4096x3072 row)")
     ap.add_argument("--timeout", type=float, default=1800.0)
     ap.add_argument("--reuse", action="store_true", help="take the measured figures from estimates.json")
+    ap.add_argument("--cold", action="store_true", help="measure with an empty numba cache (a first run), "
+                    "stored and shown as separate rows ('NAME, first run')")
     args = ap.parse_args()
+    if not args.reuse:
+        warm_kernels()
     store = HERE / "estimates.json"
     old = json.loads(store.read_text()) if store.exists() else {}
     rows = []
     with tempfile.TemporaryDirectory() as td:
-        for name, scan in cases(Path(td)):
-            wanted = [o for o in args.only.split(",") if o]
-            if wanted and not any(name.startswith(o) and (" " in o) == (" " in name) for o in wanted):
-                r = old.get(name)
-            elif args.reuse:
-                r = old.get(name)
-            else:
-                try:
-                    estimates(scan)  # a scan this machine cannot run (data, package) is said so
-                except Exception as exc:  # noqa: BLE001 - the benchmark reports it and goes on
-                    r = {"error": f"not run: {str(exc)[:160]}"}
+        for base, scan in cases(Path(td)):
+            for cold in (False, True):
+                name = f"{base}, first run" if cold else base
+                wanted = [o for o in args.only.split(",") if o]
+                picked = not wanted or any(base.startswith(o) and (" " in o) == (" " in base) for o in wanted)
+                if args.reuse or not picked or cold != args.cold:
+                    r = old.get(name)
+                    if r is None and cold:
+                        continue  # first-run rows are shown only where measured
                 else:
-                    r = measure(scan, Path(td) / "runs" / name.split()[0], args.timeout)
-                old[name] = r  # (merged with what another run of this script stored meanwhile)
-                store.write_text(json.dumps({**(json.loads(store.read_text()) if store.exists() else {}), name: r},
-                                            indent=1) + "\n")
-                print(name, r, flush=True)
-            try:
-                mem, disk = estimates(scan)
-            except Exception:  # noqa: BLE001
-                mem = disk = None
-            rows.append((name, r, mem, disk))
+                    try:
+                        estimates(scan)  # a scan this machine cannot run (data, package) is said so
+                    except Exception as exc:  # noqa: BLE001 - the benchmark reports it and goes on
+                        r = {"error": f"not run: {str(exc)[:160]}"}
+                    else:
+                        r = measure(scan, Path(td) / "runs" / name.split()[0].strip(","), args.timeout, cold)
+                    old[name] = r  # (merged with what another run of this script stored meanwhile)
+                    store.write_text(json.dumps({**(json.loads(store.read_text()) if store.exists() else {}),
+                                                 name: r}, indent=1) + "\n")
+                    print(name, r, flush=True)
+                try:
+                    mem, disk = estimates(scan, cold)
+                except Exception:  # noqa: BLE001
+                    mem = disk = None
+                rows.append((name, r, mem, disk))
     gib = 2 ** 30
     lines = ["## Memory and disk estimates against a run (`bench_estimates.py`)", "",
              f"Each scan run as `ares run SCAN --out DIR --quiet` in a child process ({platform.machine()}, Python "
              f"{platform.python_version()}); peak = the process's VmHWM (the PDF helper process is not in it), disk = "
              "the run directory's size at the end. Estimates: `ares.scan.preflight.memory_bytes` / `disk_bytes`, as "
-             f"`ares validate` prints them. Target: memory within {WITHIN:.0%} of the peak. The model's constants "
-             "(`BASE_BYTES`, `BYTES_PER_PIXEL`, `ANALYSIS_BYTES`...) were read off a first run of every row (measured "
-             "'fit'); rows measured again after the change of the model check them. The disk estimate includes the first dark stage's frames "
+             f"`ares validate` prints them. Target: memory within {WITHIN:.0%} of the peak. Rows without ', first run' "
+             "ran with numba's kernels cached (`python -m ares.jit` first, as `make` installs them: the case the "
+             "estimate assumes and names); ', first run' rows with an empty NUMBA_CACHE_DIR, the kernels compiled in "
+             "the run (`--cold`; the estimate adds `COMPILE_BYTES`). The model's constants (`BASE_BYTES`, "
+             "`BYTES_PER_PIXEL`, `ANALYSIS_BYTES`, `MASKED_HEAP_BYTES`...) were refitted to the cached rows measured "
+             "2026-11-29 09:56-10:12; rows marked 'fit' are older measurements (kernels compiled in the run) kept "
+             "where not re-measured. `MASKED_BYTES_PER_PIXEL` (frames folded against the defect mask, large "
+             "frames) was read off the photon_transfer at 4096x3072 row, so that row's 1.00 is a fit, not a check. "
+             "The disk estimate includes the first dark stage's frames "
              "beyond 256 MiB, held in a temporary file only while that stage is masked (gone at the end: "
              "photon_transfer at 4096x3072 holds 512 MiB there).", "",
              "| scan | peak MiB | estimate MiB | estimate / peak | disk MiB | disk estimate MiB | run s | measured "
@@ -160,7 +198,7 @@ def main() -> int:
         worst = max(worst, abs(ratio - 1))
         lines.append(f"| {name} | {r['hwm'] / 2**20:.0f} | {mem / 2**20:.0f} | {ratio:.2f} | "
                      f"{r['disk'] / 2**20:.1f} | {disk / 2**20:.1f} | {r['seconds']:.0f} | "
-                     f"{r.get('when', 'fit')} | {r['load']} |")
+                     f"{r.get('when', 'fit')}{_exit(r)} | {r['load']} |")
     lines += ["", f"Largest memory error: {worst:.0%} (target {WITHIN:.0%}). Written {time.strftime('%Y-%m-%d')}; "
                   f"1 GiB = {gib} bytes.", ""]
     return publish("estimates", lines)

@@ -4,17 +4,28 @@ first (the static checks, with file:line, are in ``ares.protocol.load_scan``; th
 the ones that depend on the run's arguments and on this machine).
 
 The memory estimate is measured, not derived (``benchmarks/bench_estimates.py``: every
-shipped scan and two 4096x3072 scans, each within 10 % of its measured peak): the
-interpreter with numpy/scipy/h5py/numba and the report's plotting (~310 MB: ``mtf.xml`` on
-128x200 peaks at 315 MB); about 127 bytes per pixel of the full view (the accumulators, the
-simulator's maps, the analyses' float64 maps and the report: photon_transfer at 4096x3072
-less the same scan at 640x480); the first dark stage's frames, kept to mask that stage (2
+shipped scan and two 4096x3072 scans, each within 10 % of its measured peak), for numba's
+kernels cached as ``make`` installs them (``python -m ares.jit``) -- the usual case, and
+the one the note names; a first run, which compiles them in the run, peaks 20-53 MiB higher
+(``COMPILE_BYTES``: 34 MiB; 20-53, mean 36, over six scans measured with an empty cache,
+``--cold``), and ``ares.jit.kernels_cached`` tells which case this machine is in without
+importing numba. The parts: the interpreter with numpy/scipy/h5py/numba and the report's
+plotting (~250 MiB: ``mtf.xml`` on 128x200 peaks at 253 MiB); about 127 bytes per pixel
+of the full view (the accumulators, the simulator's maps, the analyses' float64 maps and
+the report: photon_transfer at 4096x3072 less the same scan at 640x480, before the
+masked-stage term below); the first dark stage's frames, kept to mask that stage (2
 bytes per pixel each, in memory up to ``KEEP_FOR_MASK_BYTES``, ``ares.scan.kept``), at a
-time when the rest holds about 90 bytes per pixel; and what each scan-level analysis adds
-(its modules, tables and report pages, measured on the shipped scans, ``ANALYSIS_BYTES``).
-Regions and channel views add their own accumulators (100 bytes per pixel they cover, not
-re-measured here). (It was 0.93 kB per pixel before the accumulators shared their per-pixel
-sums, 200 B before the stage analyses stopped caching maps they use once.)
+time when the rest holds about 90 bytes per pixel; what each scan-level analysis adds
+(its modules, tables and report pages, measured on the shipped scans, ``ANALYSIS_BYTES``);
+and what folding many frames against the defect mask adds (the stages after the first
+dark one, ``masked_heap_bytes``): at 640x480 the freed heap ``ares.malloc`` keeps,
+144-213 MiB in the four shipped scans with 184-400 such frames, none with 14-50 (the same
+without the defects analysis and at 25 C; which temporaries fragment the heap is not
+isolated), at 4096x3072 55 bytes per pixel. Regions and channel views add their own
+accumulators (100 bytes per pixel they cover, not re-measured here). (It was 0.93 kB per
+pixel before the accumulators shared their per-pixel sums, 200 B before the stage
+analyses stopped caching maps they use once; the constants were read off first runs,
+compiling, until issue 41's refit.)
 """
 
 from __future__ import annotations
@@ -30,12 +41,16 @@ from ares.scan.stages import Stage, expand
 
 MAX_FRAMES = 100000  # the scan schema's <frames> maximum
 MAX_SEED = 2**63 - 1
-BASE_BYTES = 312e6  # the interpreter, numpy/scipy/h5py/numba and the report's plotting
+BASE_BYTES = 260e6  # the interpreter, numpy/scipy/h5py/numba (kernels cached) and the report's plotting
 BYTES_PER_PIXEL = 127.0  # full view: accumulators, simulator maps, the analyses' float64 maps and the report
 FIRST_DARK_BYTES_PER_PIXEL = 90.0  # the same while the first dark stage's frames are kept (they come on top)
 ANALYSIS_BYTES = {"ptc": 15e6, "defects": 35e6, "dark_current": 20e6, "emva4": 62e6, "photon_counting": 46e6,
                   "adc_linearity": 26e6, "lag": 22e6, "gain_split": 6e6}  # measured, bench_estimates.py
-PRECISION_BYTES = 57e6  # a precision-driven scan: the pilot's results kept beside the run's
+COMPILE_BYTES = 36e6  # a first run: numba compiling its kernels in the run (20-53 MiB over 6 scans, --cold)
+PRECISION_BYTES = 97e6  # a precision-driven scan: the pilot's results kept beside the run's
+MASKED_HEAP_BYTES = 173e6  # freed heap kept while >= MASKED_FRAMES masked frames are folded, 640x480 (see above)
+MASKED_BYTES_PER_PIXEL = 55.0  # the same on large frames, their heap trimmed at 32 MB (one row: 4096x3072)
+MASKED_FRAMES = 100  # measured: 14, 32 and 50 masked frames add nothing, 184, 256 and 400 all of it
 BYTES_PER_VIEW_PIXEL = 100.0  # each further view (region, Bayer phase, ADC channel) per pixel it covers
 KEEP_FOR_MASK_BYTES = 256 * 1024 * 1024  # the first dark stage's frames kept in memory up to this size
 # the stages kept until a flat completes the defect mask (ares.scan.mask_complete): their
@@ -59,6 +74,7 @@ class Plan:
     disk_bytes: float = 0.0
     disk_free: float | None = None  # free bytes in disk_folder, None when unknown
     disk_folder: Path | None = None
+    kernels_cached: bool = True  # the case the memory estimate assumes (``ares.jit.kernels_cached``)
 
     def disk_fits(self) -> bool:
         return self.disk_free is None or self.disk_bytes <= self.disk_free
@@ -75,14 +91,22 @@ class Plan:
     def memory_note(self) -> str:
         """One line for ``--dry-run`` and ``validate``: the estimate against this machine."""
         gb = self.memory_bytes / 1e9
+        case = ("numba kernels cached" if self.kernels_cached else
+                "a first run: numba compiles its kernels in it, `python -m ares.jit` caches them first")
         if self.memory_available is not None and self.memory_bytes > self.memory_available:
-            return (f"memory: about {gb:.1f} GB, more than the {self.memory_available / 1e9:.1f} GB available now "
-                    "(the run may swap)")
-        return f"memory: about {gb:.1f} GB"
+            return (f"memory: about {gb:.1f} GB, {case}, more than the {self.memory_available / 1e9:.1f} GB "
+                    "available now (the run may swap)")
+        return f"memory: about {gb:.1f} GB, {case}"
 
 
-def memory_bytes(scan, stages: list[Stage]) -> float:
-    """Peak resident memory of ``ares run`` for ``scan`` (the measured model above)."""
+def memory_bytes(scan, stages: list[Stage], kernels_cached: bool | None = None) -> float:
+    """Peak resident memory of ``ares run`` for ``scan`` (the measured model above), with
+    numba's kernels loaded from its cache or, ``kernels_cached=False``, compiled in the run
+    (None: as ``ares.jit.kernels_cached`` finds this machine)."""
+    if kernels_cached is None:
+        from ares.jit import kernels_cached as cached_here
+
+        kernels_cached = cached_here()
     s = scan.system.sensor
     px = float(s.rows) * float(s.cols)
     extra = sum(float(r.width) * float(r.height) for r in scan.regions)
@@ -90,12 +114,33 @@ def memory_bytes(scan, stages: list[Stage]) -> float:
     kept = min(2.0 * px * next((st.frames for st in stages if st.scene == "dark"), 0), KEEP_FOR_MASK_BYTES)
     fixed = BASE_BYTES + sum(ANALYSIS_BYTES.get(a, 0.0) for a in set(scan.analyses))
     fixed += PRECISION_BYTES if scan.precision is not None else 0.0
+    fixed += 0.0 if kernels_cached else COMPILE_BYTES
+    fixed += masked_heap_bytes(px, stages)
     first_dark = next((k for k, st in enumerate(stages) if st.scene == "dark"), None)
     n_flat = 0 if first_dark is None else sum(st.scene == "flat" for st in stages[first_dark:])
     # held for the mask: about the first third of a flat sweep (its dim end) until a flat shows dead pixels
     held = min(HELD_BYTES_PER_PIXEL * (px + extra) * math.ceil(n_flat / 3), HOLD_MAX_BYTES) if n_flat else 0.0
     return (fixed + max(BYTES_PER_PIXEL * px, FIRST_DARK_BYTES_PER_PIXEL * px + kept) + BYTES_PER_VIEW_PIXEL * extra
             + held)
+
+
+def masked_heap_bytes(px: float, stages: list[Stage]) -> float:
+    """What folding many frames against the defect mask (the stages after the first dark
+    one) adds. Small frames: the freed heap ``ares.malloc`` keeps (up to its 256 MB trim
+    threshold), ``MASKED_HEAP_BYTES`` at 640x480, in proportion to the frame below that
+    and at most the trim threshold above it (only 640x480 measured). Large frames (their
+    heap is trimmed at 32 MB): ``MASKED_BYTES_PER_PIXEL``, from photon_transfer at
+    4096x3072 (128 masked frames: 2.42 GiB, 1.82 GiB estimated without it)."""
+    from ares.malloc import LARGE_FRAME_PIXELS
+
+    first = next((k for k, st in enumerate(stages) if st.scene == "dark"
+                  and st.settings.get("reg:test_mode", 0) == 0), None)
+    masked = sum(st.frames_to_grab() for st in stages[first + 1:]) if first is not None else 0
+    if masked < MASKED_FRAMES:
+        return 0.0
+    if px > LARGE_FRAME_PIXELS:
+        return MASKED_BYTES_PER_PIXEL * px
+    return min(MASKED_HEAP_BYTES * px / (640 * 480), 256 * 2**20)
 
 
 STAGE_BYTES_PER_PIXEL = 12.0  # stages/NNNN.h5: float32 mean and variance maps, a matched dark's mean
@@ -171,7 +216,10 @@ def check_run(scan, frames: int | None = None, seed: int | None = None, out_dir=
         from ares.hardware.replay import replay_descriptor
 
         replay_descriptor(scan.system)
-    need = memory_bytes(scan, stages)
+    from ares.jit import kernels_cached
+
+    cached = kernels_cached()
+    need = memory_bytes(scan, stages, cached)
     total, avail = machine_memory()
     if total is not None and need > total:
         s = scan.system.sensor
@@ -180,7 +228,7 @@ def check_run(scan, frames: int | None = None, seed: int | None = None, out_dir=
                          f"per stage at most) but this machine has {total / 1e9:.1f} GB; use a smaller array or "
                          "fewer or smaller regions")
     folder = out_folder(out_dir)
-    plan = Plan(stages, need, total, avail, disk_bytes(scan, stages), disk_free(folder), folder)
+    plan = Plan(stages, need, total, avail, disk_bytes(scan, stages), disk_free(folder), folder, cached)
     if refuse_disk and not plan.disk_fits():
         raise StorageError(f"{folder}: the run needs about {_gb(plan.disk_bytes)} of disk "
                            f"({'raw frames kept, ' if scan.output.raw_frames else ''}stage files and reports) "
