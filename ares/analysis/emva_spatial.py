@@ -142,7 +142,7 @@ def _kernel_sums(x: np.ndarray, release: str, zscale: float | None = None):
     from .highpass_kernel import run
 
     (w1, w2), binom = LOWPASS[release]
-    return run(x, c, t, _weight(release), (w1, w2), binom, zscale)
+    return run(x, c, t, _weight(release), (w1, w2), binom, zscale, span)
 
 
 def _check_size(x: np.ndarray, release: str) -> None:

@@ -27,7 +27,9 @@ _loaded = False
 
 
 def _row_box(src, n, w, dst):
-    """dst[j] = src[j] + ... + src[j + w - 1] for j < n - w + 1 (a running sum)."""
+    """dst[j] = src[j] + ... + src[j + w - 1] for j < n - w + 1 (a running sum: two
+    additions a sample whatever w; binary doubling, as ``emva_spatial._box_sums``, was 2x
+    slower here: numba does not vectorize its loops over a variable buffer)."""
     s = src[0] - src[0]
     for k in range(w):
         s += src[k]
@@ -43,7 +45,8 @@ def _kernel(x, c, W, w1, w2, binom, a, t1, t2, H, V1, V2, acc1, acc2, zr, rowsum
     buffers (the centred row and the row after each box), ``H`` (w1 + 1 rows), ``V1`` (w2
     + 1 rows), ``V2`` (3 rows): rings of rows after the horizontal pass and each vertical
     box; ``acc1``, ``acc2``: the running column sums -- all of the work type; ``zr``: a
-    filtered row (int64). Out:
+    filtered row (int32 when 2 W times the largest distance from ``c`` fits it, else
+    int64: every z and z - cz is then exact in float64, below 2**53). Out:
     ``rowsum``, ``colsum`` (int64) of z = W (x - c) - S; ``res`` = [sum (z - cz)^2, cz];
     ``zout`` (unless it has no rows): z * f."""
     M0, N0 = x.shape
@@ -57,6 +60,8 @@ def _kernel(x, c, W, w1, w2, binom, a, t1, t2, H, V1, V2, acc1, acc2, zr, rowsum
         colsum[j] = 0
     sq = 0.0
     cz = 0
+    fcz = 0.0
+    Wt = acc1[0] - acc1[0] + W  # W in the work type (W (x - c) fits it)
     for r in range(M0):
         # along the row: box w1, box w2, binomial -> H[r % (w1 + 1)]
         for j in range(N0):
@@ -128,10 +133,10 @@ def _kernel(x, c, W, w1, w2, binom, a, t1, t2, H, V1, V2, acc1, acc2, zr, rowsum
         i = o + b
         if binom:
             for j in range(N):
-                zr[j] = W * (np.int64(x[i, j + b]) - c) - (np.int64(r0[j]) + 2 * np.int64(r1[j]) + cur[j])
+                zr[j] = Wt * (x[i, j + b] - c) - (r0[j] + 2 * r1[j] + cur[j])
         else:
             for j in range(N):
-                zr[j] = W * (np.int64(x[i, j + b]) - c) - np.int64(r0[j])
+                zr[j] = Wt * (x[i, j + b] - c) - r0[j]
         rs = 0
         for j in range(N):
             rs += zr[j]
@@ -139,22 +144,23 @@ def _kernel(x, c, W, w1, w2, binom, a, t1, t2, H, V1, V2, acc1, acc2, zr, rowsum
         rowsum[o] = rs
         if o == 0:  # the centre of the squares: the first row's mean, rounded
             cz = (2 * rs + N) // (2 * N)
+            fcz = float(cz)
         s0 = 0.0
         s1 = 0.0
         s2 = 0.0
         s3 = 0.0
         n4 = N - N % 4
         for j in range(0, n4, 4):
-            d0 = float(zr[j] - cz)
-            d1 = float(zr[j + 1] - cz)
-            d2 = float(zr[j + 2] - cz)
-            d3 = float(zr[j + 3] - cz)
+            d0 = float(zr[j]) - fcz
+            d1 = float(zr[j + 1]) - fcz
+            d2 = float(zr[j + 2]) - fcz
+            d3 = float(zr[j + 3]) - fcz
             s0 += d0 * d0
             s1 += d1 * d1
             s2 += d2 * d2
             s3 += d3 * d3
         for j in range(n4, N):
-            d0 = float(zr[j] - cz)
+            d0 = float(zr[j]) - fcz
             s0 += d0 * d0
         sq += (s0 + s1) + (s2 + s3)
         if write:
@@ -178,10 +184,12 @@ def _get():
     return _kernel_c
 
 
-def run(x: np.ndarray, c: int, t, W: int, widths: tuple[int, int], binom: bool, zscale: float | None = None):
+def run(x: np.ndarray, c: int, t, W: int, widths: tuple[int, int], binom: bool, zscale: float | None = None,
+        span: int | None = None):
     """(row sums, column sums (int64), sum of (z - cz)^2, cz, z * zscale or None) of the
     valid high-pass z = W (x - c) - S of the 2-D integer image ``x``, summed in type ``t``
-    (``emva_spatial._integer_work_type``); None when the kernel does not apply (numba
+    (``emva_spatial._integer_work_type``, with ``span``, the largest |x - c|: z in int32
+    when 2 W span fits it); None when the kernel does not apply (numba
     missing or avoided)."""
     k = _get()
     if k is None:
@@ -197,7 +205,8 @@ def run(x: np.ndarray, c: int, t, W: int, widths: tuple[int, int], binom: bool, 
     acc1, acc2 = np.empty(N, t), np.empty(N, t)
     rowsum, colsum, res = np.empty(M, np.int64), np.empty(N, np.int64), np.empty(2)
     zout = np.empty((M, N) if zscale is not None else (0, 0))
-    k(x, t(c), np.int64(W), w1, w2, binom, a, t1, t2, H, V1, V2, acc1, acc2, np.empty(N, np.int64), rowsum, colsum, zout,
+    zr = np.empty(N, np.int32 if span is not None and 2 * span * W < 2**31 else np.int64)
+    k(x, t(c), np.int64(W), w1, w2, binom, a, t1, t2, H, V1, V2, acc1, acc2, zr, rowsum, colsum, zout,
       float(zscale if zscale is not None else 1.0), res)
     return rowsum, colsum, float(res[0]), int(res[1]), (zout if zscale is not None else None)
 
