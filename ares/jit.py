@@ -5,8 +5,9 @@
 installed or ``ARES_NO_NUMBA=1``; callers keep a numpy path for None. numba is imported
 here only when a kernel is first needed, so importing ARES stays light.
 
-``avoided()``: a short command (``ares emva``) whose kernels would save less than numba's
-import and first load cost (~0.5 s, ~100 MB resident) runs the numpy paths inside this
+``avoided()``: a short command (``ares emva`` on a small set: ``emva.uses_kernels``) whose
+kernels would save less than numba's import and first load cost (~0.5 - 1 s, ~60 - 100 MB
+resident) runs the numpy paths inside this
 block, and numba is not loaded for them (honoured by the kernels that command uses:
 ``analysis/lowpass.py``, ``analysis/pair_kernel.py``, ``analysis/int_fold.py``,
 ``analysis/highpass_kernel.py``); each agrees with its numpy path

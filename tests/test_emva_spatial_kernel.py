@@ -56,3 +56,11 @@ def test_integer_sums_beyond_int64_take_the_numpy_path():
     assert want.total > 1e20
     for f in FIELDS:
         assert math.isclose(getattr(got, f), getattr(want, f), rel_tol=1e-9, abs_tol=1e-9 * want.total), f
+
+
+def test_avoided_and_uint64_take_the_numpy_path():
+    x = np.random.default_rng(3).integers(0, 4096, (25, 27))
+    with jit.avoided():
+        assert es._kernel_sums(x.astype(np.int32), "4.0") is None
+    assert es._kernel_sums(x.astype(np.uint64), "4.0") is None
+    assert es._kernel_sums(x.astype(np.uint16), "4.0") is not None

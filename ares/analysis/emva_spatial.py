@@ -135,11 +135,15 @@ def _kernel_sums(x: np.ndarray, release: str, zscale: float | None = None):
     """``highpass_kernel.run`` for the integer image ``x`` (its row and column sums of the
     exact z = W x - S, the sum of (z - cz)^2, cz, and z * zscale when asked), or None
     where the numpy path is taken: numba missing or avoided, or sums of z that might not
-    fit int64 (the kernel's totals are int64; 2 W span bounds |z|)."""
+    fit int64 (the kernel's totals are int64; 2 W span bounds |z|), or uint64 images
+    (numba takes uint64 - int64 to float64)."""
+    from .highpass_kernel import available, run
+
+    if x.dtype == np.uint64 or not available():
+        return None
     t, c, span = _integer_work_type(x, _weight(release))
     if 2 * span * _weight(release) * x.size >= 2**63:
         return None
-    from .highpass_kernel import run
 
     (w1, w2), binom = LOWPASS[release]
     return run(x, c, t, _weight(release), (w1, w2), binom, zscale, span)

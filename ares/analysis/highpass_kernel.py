@@ -184,6 +184,11 @@ def _get():
     return _kernel_c
 
 
+def available() -> bool:
+    """Whether the kernel runs here (numba installed, not ``ares.jit.avoided``)."""
+    return _get() is not None
+
+
 def run(x: np.ndarray, c: int, t, W: int, widths: tuple[int, int], binom: bool, zscale: float | None = None,
         span: int | None = None):
     """(row sums, column sums (int64), sum of (z - cz)^2, cz, z * zscale or None) of the
