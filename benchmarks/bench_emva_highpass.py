@@ -129,7 +129,12 @@ def main() -> int:
                          f"{n['cpu'] / k['cpu']:.2f}x | {k['rss'] - n['rss']:+.0f} | |")
             print(lines[-3:], flush=True)
     return publish("emva_highpass", lines + ["", "`ares emva` loads the kernels for a set of more than "
-                                             "`emva.NUMBA_PAYS_PIXELS` image pixels, else takes the numpy paths."])
+                                             "`emva.NUMBA_PAYS_PIXELS` image pixels, else takes the numpy paths. "
+                                             "Both harnesses run with one BLAS thread, as `ares emva` does: with "
+                                             "OpenBLAS's default threads the numpy path's `np.dot` spins them and "
+                                             "the one-thread split had measured 11.6 s of CPU for the tiled set's "
+                                             "analysis instead of 3.9 s (the 59 % share of "
+                                             "`twelve_mp_peer_2048x1536.md` was measured so)."])
 
 
 if __name__ == "__main__":

@@ -392,10 +392,11 @@ def _meta(args, an: EmvaAnalysis) -> None:
         m["exposure_time"] = f"{1e3 * ts[0]:.4g} - {1e3 * ts[-1]:.4g} ms" if len(ts) > 1 else f"{1e3 * ts[0]:.4g} ms"
 
 
-# numba's kernels pay for their import and first load (~1 s of CPU on this project's busy
-# 2-core VM, ~60 MB resident) in a set of more image pixels than this: the high-pass kernel
-# and the pair pass save ~60 ns a pixel of every two-image step (benchmarks/emva_highpass.md)
-NUMBA_PAYS_PIXELS = 150e6
+# numba's kernels pay for their import and first load (~0.7 - 1 s of CPU on this project's
+# busy 2-core VM, ~120 MB more peak RSS) in a set of more image pixels than this: the
+# reference CCD set (92 Mpx) took 0.6 s more CPU with them, tiled 2x2 (368 Mpx) 0.6 s less
+# (benchmarks/emva_highpass.md); the line through the two crosses zero near 240 Mpx
+NUMBA_PAYS_PIXELS = 250e6
 
 
 def uses_kernels(desc) -> bool:
