@@ -64,3 +64,15 @@ def test_avoided_and_uint64_take_the_numpy_path():
         assert es._kernel_sums(x.astype(np.int32), "4.0") is None
     assert es._kernel_sums(x.astype(np.uint64), "4.0") is None
     assert es._kernel_sums(x.astype(np.uint16), "4.0") is not None
+
+
+def test_ares_emva_loads_the_kernels_only_for_a_large_set():
+    from types import SimpleNamespace
+
+    from ares.commands import emva
+
+    lv = SimpleNamespace(images=(None,) * 300)
+    small = SimpleNamespace(levels=(lv,), width=640, height=480)  # the reference CCD set: 92 Mpx
+    large = SimpleNamespace(levels=(lv,), width=2048, height=1536)  # 944 Mpx
+    assert not emva.uses_kernels(small)
+    assert emva.uses_kernels(large)
