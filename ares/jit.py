@@ -5,10 +5,12 @@
 installed or ``ARES_NO_NUMBA=1``; callers keep a numpy path for None. numba is imported
 here only when a kernel is first needed, so importing ARES stays light.
 
-``avoided()``: a short command (``ares emva``) whose kernels would save less than numba's
-import and first load cost (~0.5 s, ~100 MB resident) runs the numpy paths inside this
+``avoided()``: a short command (``ares emva`` on a small set: ``emva.uses_kernels``) whose
+kernels would save less than numba's import and first load cost (~0.5 - 1 s, ~60 - 100 MB
+resident) runs the numpy paths inside this
 block, and numba is not loaded for them (honoured by the kernels that command uses:
-``analysis/lowpass.py``, ``analysis/pair_kernel.py``, ``analysis/int_fold.py``); each agrees with its numpy path
+``analysis/lowpass.py``, ``analysis/pair_kernel.py``, ``analysis/int_fold.py``,
+``analysis/highpass_kernel.py``); each agrees with its numpy path
 exactly or within float64 rounding (tested). Outside the block nothing changes, so a
 process that calls the command in-line (tests, a batch worker) keeps its kernels.
 
@@ -132,11 +134,12 @@ def warm_all() -> float:
     import numpy as np
 
     t0 = time.perf_counter()
-    from ares.analysis import int_fold, lowpass, masked_fold, pair_kernel
+    from ares.analysis import highpass_kernel, int_fold, lowpass, masked_fold, pair_kernel
     from ares.sim import fused
 
     fused.warm()
     lowpass.warm()
+    highpass_kernel.warm()
     int_fold.warm()
     for dtype in (np.uint8, np.uint16):
         masked_fold.warm(dtype)

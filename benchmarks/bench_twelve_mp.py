@@ -281,6 +281,8 @@ print(json.dumps({k: [sorted(x[i] for x in v)[1] for i in (0, 1)] for k, v in go
 
 
 SHARES = r"""
+from ares.cli import set_blas_threads
+set_blas_threads()  # one BLAS thread, as ares emva (cli.main): the default threads spin in np.dot and overstate its CPU
 import collections, json, sys, time
 import concurrent.futures as cf
 from ares import jit, malloc

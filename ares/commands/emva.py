@@ -392,14 +392,31 @@ def _meta(args, an: EmvaAnalysis) -> None:
         m["exposure_time"] = f"{1e3 * ts[0]:.4g} - {1e3 * ts[-1]:.4g} ms" if len(ts) > 1 else f"{1e3 * ts[0]:.4g} ms"
 
 
+# numba's kernels pay for their import and first load (~0.7 - 1 s of CPU on this project's
+# busy 2-core VM, ~120 MB more peak RSS) in a set of more image pixels than this: the
+# reference CCD set (92 Mpx) took 0.6 s more CPU with them, tiled 2x2 (368 Mpx) 0.6 s less
+# (benchmarks/emva_highpass.md); the line through the two crosses zero near 240 Mpx
+NUMBA_PAYS_PIXELS = 250e6
+
+
+def uses_kernels(desc) -> bool:
+    """Whether ``ares emva`` loads numba's kernels for ``desc``: a large set (every image's
+    pixels above ``NUMBA_PAYS_PIXELS``); a small one takes the numpy paths, which give the
+    same figures (exactly, or to float64 rounding: tested)."""
+    n = sum(len(lv.images) for lv in desc.levels)
+    return n * desc.width * desc.height > NUMBA_PAYS_PIXELS
+
+
 def run(args) -> int:
+    import contextlib
+
     from ares import jit
+    from ares.hardware.emva_descriptor import read_descriptor
 
     pitch = getattr(args, "pixel_size_um", None)
-    # one data set: numba's import and first load (~0.5 s, ~100 MB) cost what its kernels
-    # save here (benchmarks/peer.md), and the numpy paths give the same figures
-    with jit.avoided():
-        an = analyse_descriptor(args.descriptor, pitch * pitch if pitch else None)  # the .area figures need it
+    desc = read_descriptor(args.descriptor)
+    with contextlib.nullcontext() if uses_kernels(desc) else jit.avoided():
+        an = analyse_descriptor(desc, pitch * pitch if pitch else None)  # the .area figures need it
     _meta(args, an)
     apply_extensions(an, getattr(args, "extension", None) or [])
     att = an.descriptor.attribution
