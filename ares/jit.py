@@ -75,7 +75,7 @@ def cached(dispatcher) -> bool:
 # the modules whose kernels ``jit.compiled`` caches (``warm_all`` loads every one), under ares/
 _ROOT = Path(os.path.abspath(__file__)).parent  # (as numba names folders: not resolved)
 KERNEL_MODULES = ("sim/fused.py", "analysis/lowpass.py", "analysis/int_fold.py", "analysis/masked_fold.py",
-                  "analysis/pair_kernel.py")
+                  "analysis/pair_kernel.py", "analysis/highpass_kernel.py")
 
 
 def kernels_cached() -> bool:

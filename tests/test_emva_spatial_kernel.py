@@ -12,6 +12,12 @@ pytest.importorskip("numba")
 from ares import jit  # noqa: E402
 from ares.analysis import emva_spatial as es  # noqa: E402
 
+@pytest.fixture(autouse=True)
+def any_size(monkeypatch):
+    """The kernel on these small images (in use it takes images of >= KERNEL_MIN_PIXELS)."""
+    monkeypatch.setattr(es, "KERNEL_MIN_PIXELS", 0)
+
+
 FIELDS = ("total", "col", "row", "pix", "se_total", "se_col", "se_row", "se_pix", "mean")
 
 
@@ -76,3 +82,10 @@ def test_ares_emva_loads_the_kernels_only_for_a_large_set():
     large = SimpleNamespace(levels=(lv,), width=2048, height=1536)  # 944 Mpx
     assert not emva.uses_kernels(small)
     assert emva.uses_kernels(large)
+
+
+def test_small_images_take_the_numpy_path(monkeypatch):
+    monkeypatch.setattr(es, "KERNEL_MIN_PIXELS", 1_000_000)
+    x = np.random.default_rng(5).integers(0, 4096, (480, 640)).astype(np.int32)
+    assert es._kernel_sums(x, "4.0") is None
+    assert es._kernel_sums(np.zeros((1000, 1000), np.int32), "4.0") is not None

@@ -131,15 +131,21 @@ def _integer_work_type(x: np.ndarray, W: int):
     return (np.int32 if span * W < 2**31 else np.int64), c, span
 
 
+# images below this take the numpy path even where numba is loaded: at VGA the kernel saves
+# ~1 ms a stage, while loading its compiled code adds ~35 MiB to every run's peak (the
+# Runner has numba loaded; ares.scan.preflight's memory model was measured without it)
+KERNEL_MIN_PIXELS = 1_000_000
+
+
 def _kernel_sums(x: np.ndarray, release: str, zscale: float | None = None):
     """``highpass_kernel.run`` for the integer image ``x`` (its row and column sums of the
     exact z = W x - S, the sum of (z - cz)^2, cz, and z * zscale when asked), or None
-    where the numpy path is taken: numba missing or avoided, or sums of z that might not
+    where the numpy path is taken: an image below ``KERNEL_MIN_PIXELS``, numba missing or avoided, or sums of z that might not
     fit int64 (the kernel's totals are int64; 2 W span bounds |z|), or uint64 images
     (numba takes uint64 - int64 to float64)."""
     from .highpass_kernel import available, run
 
-    if x.dtype == np.uint64 or not available():
+    if x.size < KERNEL_MIN_PIXELS or x.dtype == np.uint64 or not available():
         return None
     t, c, span = _integer_work_type(x, _weight(release))
     if 2 * span * _weight(release) * x.size >= 2**63:
