@@ -152,3 +152,8 @@ if __name__ == "__main__":  # python -m ares.jit: the install step of the Makefi
         print("ARES_NO_NUMBA is set: nothing to compile")
     else:
         print(f"numba kernels compiled or loaded in {warm_all():.1f} s")
+    from ares.memory_base import record  # the libraries' memory, for the estimate of ares validate
+
+    base = record()
+    print("libraries' memory not measured here" if base is None else
+          f"libraries' memory measured: {base / 2**20:.0f} MiB (the base of the memory estimate)")
