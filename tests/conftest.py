@@ -13,3 +13,36 @@ def report(request):
     with capman.global_and_fixture_disabled():
         for line in lines:
             print(line)
+
+
+@pytest.fixture(scope="session")
+def shared_run(tmp_path_factory):
+    """``shared_run(key, argv)``: ``ares <argv> --out DIR`` run once for the whole test
+    session, across the xdist workers (the first to ask runs it under a file lock, the others
+    wait and read it); returns (DIR, its exit code, what it printed). For the long scans more
+    than one module checks (scans/emva_reference.xml: ~60 s a run). The run directory is
+    read-only to the tests."""
+    import contextlib
+    import fcntl
+    import io
+    import json
+
+    base = tmp_path_factory.getbasetemp()
+    root = (base.parent if base.name.startswith("popen-gw") else base) / "shared_runs"
+    root.mkdir(exist_ok=True)
+
+    def get(key: str, argv: list[str]):
+        from ares.cli import main
+
+        out, said = root / key, root / f"{key}.json"
+        with open(root / f"{key}.lock", "w") as lock:
+            fcntl.flock(lock, fcntl.LOCK_EX)  # released when the file closes
+            if not said.is_file():
+                buf = io.StringIO()
+                with contextlib.redirect_stdout(buf):
+                    rc = main([*argv, "--out", str(out)])
+                said.write_text(json.dumps({"rc": rc, "terminal": buf.getvalue()}))
+        d = json.loads(said.read_text())
+        return out, d["rc"], d["terminal"]
+
+    return get

@@ -27,9 +27,11 @@ Which definitions give which number (also in ``ares/protocol/FORMAT.md``):
 
 from __future__ import annotations
 
+import json
 import math
 import os
 from pathlib import Path
+from types import SimpleNamespace
 
 import numpy as np
 import pytest
@@ -56,11 +58,15 @@ PUBLISHED = {"K": 0.280769, "sigma_y_dark": 3.07342, "DSNU1288": 0.5518, "PRNU12
 
 
 @pytest.fixture(scope="module")
-def reference_run(tmp_path_factory):
-    scan = load_scan(SCAN)
-    outcome = Runner(scan, out_dir=tmp_path_factory.mktemp("emva_ref") / "run").run()
-    assert outcome.status == "done"
-    return outcome
+def reference_run(shared_run):
+    """`ares run scans/emva_reference.xml` (made once a session: test_report_kinds.py checks
+    its report), read back from its run directory: the scan-level results and the stages."""
+    out, rc, _ = shared_run("emva_reference", ["run", str(SCAN), "--seed", "2", "--quiet"])
+    assert rc == 0
+    assert json.loads((out / "run.json").read_text())["status"] == "done"
+    stages = [json.loads(p.read_text()) for p in sorted((out / "stages").glob("*.json"))]
+    return SimpleNamespace(scan_results=json.loads((out / "scan_results.json").read_text())["analyses"],
+                           stages=stages)
 
 
 @need_data
