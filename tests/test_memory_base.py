@@ -41,3 +41,18 @@ def test_a_corrupt_record_is_no_record(tmp_path, monkeypatch):
     for text in ("", "{", "[1, 2]", json.dumps({"bytes": "many", "versions": memory_base.versions()})):
         memory_base.record_path().write_text(text)
         assert memory_base.recorded() is None, text
+
+
+def test_the_held_stages_are_those_the_runner_holds():
+    """``preflight.held_stages`` against what the runner does (``ares.scan.mask_complete``):
+    photon_transfer.xml completes the mask with its 9th flat of 25 (a run's StageUpdated events:
+    the dark and ptc[0]-ptc[7] rewritten, ptc[8] committed with the complete mask), lag.xml's flats have no matched dark so all its stages after
+    the first dark are held to the end, temperature.xml has no flat and holds nothing."""
+    from ares.scan.stages import expand
+
+    def held(name):
+        return [st.name for st in preflight.held_stages(expand(load_scan(ROOT / "scans" / f"{name}.xml")))]
+
+    assert held("photon_transfer") == [f"ptc[{k}]" for k in range(9)]
+    assert held("lag") == ["bright_b", "after_b", "bright_c", "after_c"]
+    assert held("temperature") == []

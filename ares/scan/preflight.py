@@ -41,14 +41,17 @@ from ares.scan.stages import Stage, expand
 
 MAX_FRAMES = 100000  # the scan schema's <frames> maximum
 MAX_SEED = 2**63 - 1
-BASE_BYTES = 260e6  # the interpreter, numpy/scipy/h5py/numba (kernels cached) and the report's plotting
+# the interpreter with the libraries a run imports: measured at install (ares.memory_base), else
+# this (measured 2026-11-29 with numpy 2.4, numba 0.68, matplotlib 3.11: 242 MiB)
+IMPORT_BYTES = 254e6
+RUN_BYTES = 54e6  # on top of the imports: numba's kernels loaded from the cache, the report's plotting
 BYTES_PER_PIXEL = 127.0  # full view: accumulators, simulator maps, the analyses' float64 maps and the report
 FIRST_DARK_BYTES_PER_PIXEL = 90.0  # the same while the first dark stage's frames are kept (they come on top)
 ANALYSIS_BYTES = {"ptc": 15e6, "defects": 35e6, "dark_current": 20e6, "emva4": 62e6, "photon_counting": 46e6,
                   "adc_linearity": 26e6, "lag": 22e6, "gain_split": 6e6}  # measured, bench_estimates.py
 COMPILE_BYTES = 36e6  # a first run: numba compiling its kernels in the run (20-53 MiB over 6 scans, --cold)
-PRECISION_BYTES = 97e6  # a precision-driven scan: the pilot's results kept beside the run's
-MASKED_HEAP_BYTES = 173e6  # freed heap kept while >= MASKED_FRAMES masked frames are folded, 640x480 (see above)
+PRECISION_BYTES = 40e6  # a precision-driven scan: the pilot's results kept beside the run's
+MASKED_HEAP_BYTES = 86e6  # freed heap kept while >= MASKED_FRAMES masked frames are folded, 640x480, beside the held stages
 MASKED_BYTES_PER_PIXEL = 55.0  # the same on large frames, their heap trimmed at 32 MB (one row: 4096x3072)
 MASKED_FRAMES = 100  # measured: 14, 32 and 50 masked frames add nothing, 184, 256 and 400 all of it
 BYTES_PER_VIEW_PIXEL = 100.0  # each further view (region, Bayer phase, ADC channel) per pixel it covers
@@ -75,6 +78,7 @@ class Plan:
     disk_free: float | None = None  # free bytes in disk_folder, None when unknown
     disk_folder: Path | None = None
     kernels_cached: bool = True  # the case the memory estimate assumes (``ares.jit.kernels_cached``)
+    base_measured: bool = True  # the libraries' memory measured on this machine (``ares.memory_base``)
 
     def disk_fits(self) -> bool:
         return self.disk_free is None or self.disk_bytes <= self.disk_free
@@ -93,6 +97,9 @@ class Plan:
         gb = self.memory_bytes / 1e9
         case = ("numba kernels cached" if self.kernels_cached else
                 "a first run: numba compiles its kernels in it, `python -m ares.jit` caches them first")
+        if not self.base_measured:
+            case += (" (the libraries' share assumed, not measured on this machine: `python -m ares.jit` "
+                     "measures it)" if self.kernels_cached else " and measures the libraries' share")
         if self.memory_available is not None and self.memory_bytes > self.memory_available:
             return (f"memory: about {gb:.1f} GB, {case}, more than the {self.memory_available / 1e9:.1f} GB "
                     "available now (the run may swap)")
@@ -112,16 +119,40 @@ def memory_bytes(scan, stages: list[Stage], kernels_cached: bool | None = None) 
     extra = sum(float(r.width) * float(r.height) for r in scan.regions)
     extra += px * ((s.cfa != "mono") + (s.adc_channels > 1))
     kept = min(2.0 * px * next((st.frames for st in stages if st.scene == "dark"), 0), KEEP_FOR_MASK_BYTES)
-    fixed = BASE_BYTES + sum(ANALYSIS_BYTES.get(a, 0.0) for a in set(scan.analyses))
+    fixed = base_bytes() + sum(ANALYSIS_BYTES.get(a, 0.0) for a in set(scan.analyses))
     fixed += PRECISION_BYTES if scan.precision is not None else 0.0
     fixed += 0.0 if kernels_cached else COMPILE_BYTES
     fixed += masked_heap_bytes(px, stages)
-    first_dark = next((k for k, st in enumerate(stages) if st.scene == "dark"), None)
-    n_flat = 0 if first_dark is None else sum(st.scene == "flat" for st in stages[first_dark:])
-    # held for the mask: about the first third of a flat sweep (its dim end) until a flat shows dead pixels
-    held = min(HELD_BYTES_PER_PIXEL * (px + extra) * math.ceil(n_flat / 3), HOLD_MAX_BYTES) if n_flat else 0.0
+    held = min(sum(HELD_BYTES_PER_PIXEL * (px + extra) + 2.0 * px * st.frames_to_grab()
+                   for st in held_stages(stages)), HOLD_MAX_BYTES + KEEP_FOR_MASK_BYTES)
     return (fixed + max(BYTES_PER_PIXEL * px, FIRST_DARK_BYTES_PER_PIXEL * px + kept) + BYTES_PER_VIEW_PIXEL * extra
             + held)
+
+
+def held_stages(stages: list[Stage]) -> list[Stage]:
+    """The stages a run holds (their sums and kept frames, ``ares.scan.mask_complete``)
+    until a flat completes the defect mask: those after the first dark stage up to the flat
+    that does it -- a flat with a matched dark, assumed the first third of such flats in (a
+    rising sweep's dim end does not show the flat classes: photon_transfer.xml completes at
+    its 9th of 25) -- or all of them when no flat has a matched dark (lag.xml)."""
+    first = next((k for k, st in enumerate(stages) if st.scene == "dark"
+                  and st.settings.get("reg:test_mode", 0) == 0), None)
+    if first is None or not any(st.scene == "flat" for st in stages[first + 1:]):
+        return []  # no later flat: the first dark's mask is the run's at once
+    after = stages[first + 1:]
+    can = [k for k, st in enumerate(after) if st.scene == "flat" and st.dark_source != "none"]
+    if not can:
+        return after
+    return after[:can[math.ceil(len(can) / 3) - 1] + 1]
+
+
+def base_bytes() -> float:
+    """What any run takes before its pixels: the libraries' import (measured on this machine
+    at install where it could be, ``ares.memory_base``) and ``RUN_BYTES``."""
+    from ares.memory_base import recorded
+
+    measured = recorded()
+    return (IMPORT_BYTES if measured is None else float(measured)) + RUN_BYTES
 
 
 def masked_heap_bytes(px: float, stages: list[Stage]) -> float:
@@ -140,6 +171,8 @@ def masked_heap_bytes(px: float, stages: list[Stage]) -> float:
         return 0.0
     if px > LARGE_FRAME_PIXELS:
         return MASKED_BYTES_PER_PIXEL * px
+    if not held_stages(stages):  # measured: temperature.xml (184 masked frames, no flat) keeps none
+        return 0.0
     return min(MASKED_HEAP_BYTES * px / (640 * 480), 256 * 2**20)
 
 
@@ -228,7 +261,10 @@ def check_run(scan, frames: int | None = None, seed: int | None = None, out_dir=
                          f"per stage at most) but this machine has {total / 1e9:.1f} GB; use a smaller array or "
                          "fewer or smaller regions")
     folder = out_folder(out_dir)
-    plan = Plan(stages, need, total, avail, disk_bytes(scan, stages), disk_free(folder), folder, cached)
+    from ares.memory_base import recorded
+
+    plan = Plan(stages, need, total, avail, disk_bytes(scan, stages), disk_free(folder), folder, cached,
+                recorded() is not None)
     if refuse_disk and not plan.disk_fits():
         raise StorageError(f"{folder}: the run needs about {_gb(plan.disk_bytes)} of disk "
                            f"({'raw frames kept, ' if scan.output.raw_frames else ''}stage files and reports) "
