@@ -234,7 +234,8 @@ def main() -> int:
                      "| figure | value | machine load |", "|---|---:|---|",
                      f"| wall time | {r['wall'] / 60:.1f} min | {w.cell()} |",
                      f"| CPU time (both cores) | {r['cpu'] / 60:.1f} min | {w.cell()} |",
-                     f"| peak memory (VmHWM; target {TARGET_GB:.0f} GB) | **{r['hwm_mb'] / 1024:.2f} GiB** | {w.cell()} |"]
+                     f"| peak memory (VmHWM; target {TARGET_GB:.0f} GB) | **{r['hwm_mb'] / 1024:.2f} GiB** "
+                     f"({r['hwm_mb'] * 2**20 / 1e9:.2f} GB) | {w.cell()} |"]
             for k, v in r["spent"].items():
                 lines.append(f"| {k} | {v / 60:.1f} min ({100 * v / r['wall']:.0f} %) | {w.cell()} |")
             if r.get("sim_s") is not None:
