@@ -123,6 +123,7 @@ class SimSensor:
         if key is not None and key == self._cache_key:
             sc, plan = self._cache
         else:
+            self._cache_key = self._cache = None  # the previous point's maps go before this one's are made
             sc = self.scene(photon_flux=photon_flux, **kw)
             plan = self._plan(sc)
             self._cache_key, self._cache = key, (sc, plan)
@@ -206,19 +207,25 @@ class SimSensor:
         G = sc.G
         adc = fp.adc
         # Offsets in DN before the ADC channels: Cs + bad columns + Rs + G * Ps1.
+        # (the full maps are made in place, in the order the expressions had: the same float32
+        # values, with one 12 Mpx temporary at a time instead of three)
         offs = (fp.col_fpn_dn + fp.bad_column_offset_dn)[None, :] + fp.row_fpn_dn[:, None]
         if p.pixel_fpn_e > 0:
-            offs = offs + _F32(G) * fp.pixel_offset_e
-        offs = np.broadcast_to(offs, self.shape).astype(_F32)
+            offs += _F32(G) * fp.pixel_offset_e
+        if offs.shape != self.shape or offs.dtype != _F32:
+            offs = np.broadcast_to(offs, self.shape).astype(_F32)
         half = adc.unit_gain and adc.thresholds is None
         if adc.unit_gain:  # fold channel offsets, black level (and the rounding half LSB) into the map
             offs += adc.offset_col + _F32(sc.black_level_dn + (0.5 if half else 0.0))
-        gmap = _F32(G) * fp.col_gain[None, :] * fp.row_gain[:, None] * fp.pixel_gain * fp.response
-        rn = _F32(G * sc.read_noise_e) * fp.read_noise_factor
-        var_rc = rn * rn + _F32(p.chain_noise_dn**2)  # read + chain noise, DN^2 (map)
+        var_rc = _F32(G * sc.read_noise_e) * fp.read_noise_factor
+        var_rc *= var_rc
+        var_rc += _F32(p.chain_noise_dn**2)  # read + chain noise, DN^2 (map)
         has_q, mask_q, mask_d, fast = self._route(sc)
         plan = dict(fast=fast, gauss_fast=sc.shot_noise != "exact", offs=offs, half=half)
         if fast:
+            gmap = _F32(G) * fp.col_gain[None, :] * fp.row_gain[:, None]
+            gmap *= fp.pixel_gain
+            gmap *= fp.response
             base = offs
             var = var_rc
             if sc.dark_e is not None:
