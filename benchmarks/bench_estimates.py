@@ -85,6 +85,12 @@ def measure(scan: Path, run_dir: Path, timeout: float, cold: bool = False) -> di
     env = dict(os.environ, PYTHONPATH=str(ROOT))
     if cold:  # a first run on a machine: an empty numba cache, every kernel compiled in the run
         env["NUMBA_CACHE_DIR"] = tempfile.mkdtemp(prefix="ares_cold_numba_")
+    # the libraries' share measured just before the run, as `python -m ares.jit` measures it:
+    # their resident pages differ by up to ~70 MiB with the machine's state (page cache), so a
+    # row's estimate takes the share measured in the same state as its peak
+    from ares.memory_base import measure as measure_base
+
+    base = measure_base()
     with Window() as w:
         try:
             p = subprocess.run([sys.executable, "-c", CHILD, str(scan), str(run_dir)], capture_output=True,
@@ -98,19 +104,19 @@ def measure(scan: Path, run_dir: Path, timeout: float, cold: bool = False) -> di
         said = [ln for ln in p.stderr.strip().splitlines() if ln.strip() and "Warning" not in ln
                 and "tracemalloc" not in ln]
         r["said"] = (said or [""])[-1][:120]
-    r.update(disk=du(run_dir), seconds=w.el, load=w.cell(), when=time.strftime("%Y-%m-%d %H:%M"),
+    r.update(disk=du(run_dir), seconds=w.el, base=base, load=w.cell(), when=time.strftime("%Y-%m-%d %H:%M"),
              kernels="compiled in the run" if cold else "cached")
     return r
 
 
-def estimates(scan: Path, cold: bool = False) -> tuple[float, float]:
+def estimates(scan: Path, cold: bool = False, base: float | None = None) -> tuple[float, float]:
     from ares.protocol import load_scan
     from ares.scan.preflight import disk_bytes, memory_bytes
     from ares.scan.stages import expand
 
     sc = load_scan(scan)
     st = expand(sc, None)
-    return memory_bytes(sc, st, kernels_cached=not cold), disk_bytes(sc, st)
+    return memory_bytes(sc, st, kernels_cached=not cold, import_bytes=base), disk_bytes(sc, st)
 
 
 def cases(td: Path) -> list[tuple[str, Path]]:
@@ -159,13 +165,13 @@ def main() -> int:
                     except Exception as exc:  # noqa: BLE001 - the benchmark reports it and goes on
                         r = {"error": f"not run: {str(exc)[:160]}"}
                     else:
-                        r = measure(scan, Path(td) / "runs" / name.split()[0].strip(","), args.timeout, cold)
+                        r = measure(scan, Path(td) / "runs" / "".join(c if c.isalnum() else "_" for c in name), args.timeout, cold)
                     old[name] = r  # (merged with what another run of this script stored meanwhile)
                     store.write_text(json.dumps({**(json.loads(store.read_text()) if store.exists() else {}),
                                                  name: r}, indent=1) + "\n")
                     print(name, r, flush=True)
                 try:
-                    mem, disk = estimates(scan, cold)
+                    mem, disk = estimates(scan, cold, (r or {}).get("base"))
                 except Exception:  # noqa: BLE001
                     mem = disk = None
                 rows.append((name, r, mem, disk))
@@ -179,10 +185,13 @@ def main() -> int:
              "estimate assumes and names); ', first run' rows with an empty NUMBA_CACHE_DIR, the kernels compiled in "
              "the run (`--cold`; the estimate adds `COMPILE_BYTES`). The libraries' share of the base is measured on "
              "the machine at install (`python -m ares.jit` records what importing them takes, `ares.memory_base`; "
-             "two installs of the same day, with newer numba and numpy in the second, differ by 36 MiB), the rest of the model is "
+             "two installs of the same day, with newer numba and numpy in the second, differ by 36 MiB; each row's "
+             "estimate takes the share measured just before its run, since the libraries' resident pages vary "
+             "with the machine's page cache: 170 to 242 MiB on one machine in one day), the rest of the model is "
              "fitted: `RUN_BYTES`, `MASKED_HEAP_BYTES`, `PRECISION_BYTES` and the held stages' term (each stage "
              "held until a flat completes the defect mask keeps its sums and frames, `preflight.held_stages`) to "
-             "the cached rows measured 2026-11-29 11:52-11:54, `MASKED_BYTES_PER_PIXEL` (frames folded against "
+             "the cached rows measured 2026-11-29 11:52-11:54 (the libraries' share 242 MiB then) and those "
+             "below (170 MiB): within 8 % in both states, `MASKED_BYTES_PER_PIXEL` (frames folded against "
              "the defect mask, large frames) to the photon_transfer at 4096x3072 row, so that row's ratio is a "
              "fit, not a check. "
              "The disk estimate includes the first dark stage's frames "

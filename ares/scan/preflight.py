@@ -44,11 +44,11 @@ MAX_SEED = 2**63 - 1
 # the interpreter with the libraries a run imports: measured at install (ares.memory_base), else
 # this (measured 2026-11-29 with numpy 2.4, numba 0.68, matplotlib 3.11: 242 MiB)
 IMPORT_BYTES = 254e6
-RUN_BYTES = 54e6  # on top of the imports: numba's kernels loaded from the cache, the report's plotting
+RUN_BYTES = 60e6  # on top of the imports: numba's kernels loaded from the cache, the report's plotting
 BYTES_PER_PIXEL = 127.0  # full view: accumulators, simulator maps, the analyses' float64 maps and the report
 FIRST_DARK_BYTES_PER_PIXEL = 90.0  # the same while the first dark stage's frames are kept (they come on top)
 ANALYSIS_BYTES = {"ptc": 15e6, "defects": 35e6, "dark_current": 20e6, "emva4": 62e6, "photon_counting": 46e6,
-                  "adc_linearity": 26e6, "lag": 22e6, "gain_split": 6e6}  # measured, bench_estimates.py
+                  "adc_linearity": 26e6, "lag": 40e6, "gain_split": 6e6}  # measured, bench_estimates.py
 COMPILE_BYTES = 36e6  # a first run: numba compiling its kernels in the run (20-53 MiB over 6 scans, --cold)
 PRECISION_BYTES = 40e6  # a precision-driven scan: the pilot's results kept beside the run's
 MASKED_HEAP_BYTES = 86e6  # freed heap kept while >= MASKED_FRAMES masked frames are folded, 640x480, beside the held stages
@@ -106,10 +106,12 @@ class Plan:
         return f"memory: about {gb:.1f} GB, {case}"
 
 
-def memory_bytes(scan, stages: list[Stage], kernels_cached: bool | None = None) -> float:
+def memory_bytes(scan, stages: list[Stage], kernels_cached: bool | None = None,
+                 import_bytes: float | None = None) -> float:
     """Peak resident memory of ``ares run`` for ``scan`` (the measured model above), with
     numba's kernels loaded from its cache or, ``kernels_cached=False``, compiled in the run
-    (None: as ``ares.jit.kernels_cached`` finds this machine)."""
+    (None: as ``ares.jit.kernels_cached`` finds this machine); ``import_bytes``: the
+    libraries' share measured now (None: as recorded at install, ``base_bytes``)."""
     if kernels_cached is None:
         from ares.jit import kernels_cached as cached_here
 
@@ -119,7 +121,7 @@ def memory_bytes(scan, stages: list[Stage], kernels_cached: bool | None = None) 
     extra = sum(float(r.width) * float(r.height) for r in scan.regions)
     extra += px * ((s.cfa != "mono") + (s.adc_channels > 1))
     kept = min(2.0 * px * next((st.frames for st in stages if st.scene == "dark"), 0), KEEP_FOR_MASK_BYTES)
-    fixed = base_bytes() + sum(ANALYSIS_BYTES.get(a, 0.0) for a in set(scan.analyses))
+    fixed = base_bytes(import_bytes) + sum(ANALYSIS_BYTES.get(a, 0.0) for a in set(scan.analyses))
     fixed += PRECISION_BYTES if scan.precision is not None else 0.0
     fixed += 0.0 if kernels_cached else COMPILE_BYTES
     fixed += masked_heap_bytes(px, stages)
@@ -146,12 +148,14 @@ def held_stages(stages: list[Stage]) -> list[Stage]:
     return after[:can[math.ceil(len(can) / 3) - 1] + 1]
 
 
-def base_bytes() -> float:
-    """What any run takes before its pixels: the libraries' import (measured on this machine
-    at install where it could be, ``ares.memory_base``) and ``RUN_BYTES``."""
+def base_bytes(measured: float | None = None) -> float:
+    """What any run takes before its pixels: the libraries' import (``measured``, else as
+    measured on this machine at install where it could be, ``ares.memory_base``) and
+    ``RUN_BYTES``. (Their resident pages vary with the machine's state, the page cache: 170
+    to 242 MiB on one machine in one day; the install's figure is what the estimate has.)"""
     from ares.memory_base import recorded
 
-    measured = recorded()
+    measured = recorded() if measured is None else measured
     return (IMPORT_BYTES if measured is None else float(measured)) + RUN_BYTES
 
 
