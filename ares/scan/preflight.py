@@ -42,7 +42,8 @@ from ares.scan.stages import Stage, expand
 MAX_FRAMES = 100000  # the scan schema's <frames> maximum
 MAX_SEED = 2**63 - 1
 # the interpreter with the libraries a run imports: measured at install (ares.memory_base), else
-# this (measured 2026-11-29 with numpy 2.4, numba 0.68, matplotlib 3.11: 242 MiB)
+# this (measured 2026-11-29 with numpy 2.4, numba 0.68, matplotlib 3.11: 242 MiB with the page
+# cache warm, 170 MiB after it was emptied: the larger, so that the estimate errs high)
 IMPORT_BYTES = 254e6
 RUN_BYTES = 60e6  # on top of the imports: numba's kernels loaded from the cache, the report's plotting
 BYTES_PER_PIXEL = 127.0  # full view: accumulators, simulator maps, the analyses' float64 maps and the report
