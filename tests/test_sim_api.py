@@ -105,7 +105,8 @@ def test_bad_start_frame_and_ramp_count():
 def test_a_new_operating_point_is_planned_after_the_previous_ones_maps_are_dropped(monkeypatch):
     """The simulator's per-point maps (offsets, sigmas, gain maps: ~200-300 MiB at 4096x3072)
     are released before the next point's are made, not after: the peak of emva_4.xml at
-    4096x3072 was two points' maps at once (1960 MiB, 1744 after, benchmarks/twelve_mp.md).
+    4096x3072 was two points' maps at once (the short scan of benchmarks/estimates.md: 1960 MiB,
+    1714-1744 after; the full one 1.82 GiB, benchmarks/twelve_mp.md).
     The frames are the same either way (the cache only saves the work)."""
     s = SimSensor(SensorParams(rows=24, cols=32), 3)
     seen = []
