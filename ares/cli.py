@@ -1,4 +1,4 @@
-"""``ares`` command line: a thin dispatcher over ``ares.commands.*``.
+"""``ares`` command line: a thin dispatcher over ``ares.commands.*`` (and ``ares.gui.command``).
 
 Each command module defines ``NAME``, ``HELP``, ``add_arguments(parser)`` and
 ``run(args) -> int``. User errors (``AresError``) print one sentence and exit with the
@@ -19,9 +19,14 @@ COMMANDS = ["run", "resume", "validate", "rerun", "analyze", "emva", "ptc", "mtf
             "bench", "gui"]
 
 
+# where a command lives when not in ``ares.commands`` (the window's command belongs to ``ares.gui``:
+# nothing below the window imports it)
+HOMES = {"gui": "ares.gui.command"}
+
+
 def _modules():
     for name in COMMANDS:
-        modname = f"ares.commands.{name}"
+        modname = HOMES.get(name, f"ares.commands.{name}")
         if importlib.util.find_spec(modname) is not None:
             yield importlib.import_module(modname)
 

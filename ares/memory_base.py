@@ -57,7 +57,7 @@ def versions() -> dict[str, str]:
 
 def record_path() -> Path:
     """Beside numba's cache of ``ares/jit.py``'s folder (``__pycache__`` or ``NUMBA_CACHE_DIR``)."""
-    from ares.jit import cache_folder
+    from ares.analysis.kernels.jit import cache_folder
 
     return cache_folder(Path(os.path.abspath(__file__))) / "memory_base.json"
 

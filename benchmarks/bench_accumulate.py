@@ -25,8 +25,8 @@ import numpy as np
 HERE = Path(__file__).resolve().parent
 sys.path.insert(0, str(HERE.parent))
 
-from ares.analysis.accumulate import StackAccumulator  # noqa: E402
-from ares.analysis.anova import decompose_dark  # noqa: E402
+from ares.analysis.noise.accumulate import StackAccumulator  # noqa: E402
+from ares.analysis.noise.anova import decompose_dark  # noqa: E402
 from topic_table import publish  # (benchmarks/topic_table.py, beside this script)
 
 R, C = 1080, 1920
@@ -109,7 +109,7 @@ def main() -> int:
             del a
 
     lines = [
-        "## Frame accumulation (analysis/accumulate.py)",
+        "## Frame accumulation (analysis/noise/accumulate.py)",
         "",
         f"1920x1080 uint16 frames, one core, process CPU time, steady state, median of {ROUNDS} rounds x {N} frames (methods "
         "interleaved); speed = baseline time / time (> 1 is faster than the baseline measured in the same run). "

@@ -43,7 +43,7 @@ def main() -> None:
     ap.add_argument("--frames", type=int, default=160)
     ap.add_argument("--out", default=str(Path(__file__).with_name("batch.md")))
     a = ap.parse_args()
-    from ares.analysis.accumulate import StackAccumulator
+    from ares.analysis.noise.accumulate import StackAccumulator
     from ares.batch.cluster import make_client, run_items, split_accumulate
     from ares.batch.items import process
 

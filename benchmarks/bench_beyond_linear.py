@@ -1,6 +1,6 @@
 """Accuracy of the measurements beyond EMVA 1288 Linear against the simulator's exact truth.
 
-Slanted-edge MTF (ares.analysis.mtf, ISO 12233 e-SFR): the simulated edge scene (ares.sim.edge,
+Slanted-edge MTF (ares.analysis.optics.mtf, ISO 12233 e-SFR): the simulated edge scene (ares.sim.edge,
 Gaussian PSF sigma 0.6 px, pixel aperture, 1 % crosstalk: MTF known in closed form; the
 simulator's default 1 % PRNU and read noise on top), edge angles 2-10 deg, 20 seeds each, at
 the issue's SNR 50: the edge step over the bright side's shot noise in ONE frame is 48. Four
@@ -11,7 +11,7 @@ closed-form MTF50, the mean reported SE (spread/SE near 1: the SE is honest), th
 ``edge_step_snr`` the analysis reports for the analysed image, and for the standard the
 difference to the independent ISO 12233 implementation of tests/test_mtf.py on the same images.
 
-Photon-counting histogram (ares.analysis.photon_counting): gain and read noise against the
+Photon-counting histogram (ares.analysis.optics.photon_counting): gain and read noise against the
 simulator's truth at 0.15-0.45 e- read noise, 5 seeds (the issue's check) and many seeds (the
 SE's honesty), photon transfer on the same stacks beside it, and at 0.45 e- the same fit on
 stacks drawn with numpy alone (Poisson electrons + Gaussian read noise, rounded) as the
@@ -34,7 +34,7 @@ from machine_load import Window  # noqa: E402
 from test_mtf import FLUX, SIGMA, independent_sfr  # noqa: E402
 from topic_table import publish  # noqa: E402  (benchmarks/topic_table.py, beside this script)
 
-from ares.analysis.mtf import LOW_NOISE_HALF_WIDTH, sfr  # noqa: E402
+from ares.analysis.optics.mtf import LOW_NOISE_HALF_WIDTH, sfr  # noqa: E402
 from ares.sim.edge import true_mtf, true_mtf50  # noqa: E402
 from ares.sim.params import SensorParams  # noqa: E402
 from ares.sim.sensor import SimSensor  # noqa: E402
@@ -65,7 +65,7 @@ def _stats(e):
 
 
 def _mtf() -> list[str]:
-    lines = ["## Slanted-edge MTF (ISO 12233 e-SFR, `ares.analysis.mtf`)", "",
+    lines = ["## Slanted-edge MTF (ISO 12233 e-SFR, `ares.analysis.optics.mtf`)", "",
              f"Edge scene: Gaussian PSF sigma {SIGMA} px + pixel aperture + 1 % crosstalk (closed-form MTF), the "
              "simulator's 1 % PRNU and read noise on top; bright side ~4000 e-, dark side ~1000 e-. **SNR definition**: "
              "the issue's SNR 50 is the edge step (~3000 e-) over the bright side's shot noise (~63 e-) in ONE frame, "
@@ -120,7 +120,7 @@ def _pc_rows(rn: float, seeds, source: str = "sim") -> np.ndarray:
     of photon transfer, in %. ``source`` "numpy": the stacks drawn with numpy alone."""
     from test_photon_counting import H_E, _stacks
 
-    from ares.analysis.photon_counting import fit_histogram, photon_transfer
+    from ares.analysis.optics.photon_counting import fit_histogram, photon_transfer
 
     rows = []
     for seed in seeds:
@@ -148,9 +148,9 @@ def _ratio(err, se) -> tuple[float, float]:
 
 
 def _photon_counting() -> list[str]:
-    from ares.analysis.photon_counting import READ_NOISE_LIMIT_E
+    from ares.analysis.optics.photon_counting import READ_NOISE_LIMIT_E
 
-    out = ["", "## Photon-counting histogram (Starkey & Fossum 2016, `ares.analysis.photon_counting`)", "",
+    out = ["", "## Photon-counting histogram (Starkey & Fossum 2016, `ares.analysis.optics.photon_counting`)", "",
            "128x128 pixels x 40 frames at ~1.5 e- per pixel, K = 10 DN/e-, no fixed-pattern noise, exact Poisson. "
            "Target: K within 0.5 %, read noise within 3 % at 0.15-0.45 e- across 5 seeds, spread/SE 0.7-1.3. "
            "Photon transfer (the light and dark temporal variances of the same stacks) beside it: its SE over the "
@@ -164,7 +164,7 @@ def _photon_counting() -> list[str]:
         if rn > READ_NOISE_LIMIT_E:  # the verdict, and photon transfer alone
             from test_photon_counting import _stacks
 
-            from ares.analysis.photon_counting import fit_histogram, photon_transfer
+            from ares.analysis.optics.photon_counting import fit_histogram, photon_transfer
 
             note, pts = "", []
             for seed in range(PC_FEW):

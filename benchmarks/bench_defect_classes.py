@@ -97,7 +97,7 @@ def score_main_job(frames: int = 16, seed: int = 1) -> dict:
     import json
     import tempfile
 
-    from ares.hardware.factory import build_bench
+    from ares.rig.factory import build_bench
     from ares.protocol import load_scan
     from ares.scan import Runner
 

@@ -20,9 +20,9 @@ from pathlib import Path
 
 import numpy as np
 
-from ares.analysis.emva1288 import ATTRIBUTION
-from ares.analysis.levels import stack_stats
-from ares.analysis.ptc import analyze_ptc
+from ares.analysis.emva.release3 import ATTRIBUTION
+from ares.analysis.ptc.levels import stack_stats
+from ares.analysis.ptc.photon_transfer import analyze_ptc
 from topic_table import publish  # (benchmarks/topic_table.py, beside this script)
 
 DESC = Path(__file__).resolve().parents[2] / "shared" / "data" / "EMVA1288_ReferenceSet_001_CCD_12Bit" / \
@@ -43,7 +43,7 @@ def median_s(fn, repeat):
 def reference_section(repeat: int) -> list[str]:
     if not DESC.is_file():
         return ["## EMVA 1288 reference CCD", "", f"Skipped: {DESC} not found.", ""]
-    from ares.commands.emva import analyse_descriptor
+    from ares.results.descriptor import analyse_descriptor
     from ares.hardware.emva_descriptor import read_descriptor
     from ares.hardware.imagefile import read_image
 
@@ -52,9 +52,9 @@ def reference_section(repeat: int) -> list[str]:
     t_load = median_s(lambda: [read_image(p) for p in paths], repeat)
     an = None
 
-    def run():  # as the command runs it: the numpy paths, numba not loaded (ares.jit.avoided)
+    def run():  # as the command runs it: the numpy paths, numba not loaded (ares.analysis.kernels.jit.avoided)
         nonlocal an
-        from ares import jit
+        from ares.analysis.kernels import jit
 
         with jit.avoided():
             an = analyse_descriptor(desc)

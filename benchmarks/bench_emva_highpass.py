@@ -1,5 +1,5 @@
 """``ares emva``'s per-step EMVA 4.0 spatial variances: numpy's exact box sums against the
-numba streaming kernel (``ares.analysis.highpass_kernel``, issue 40), in one run; writes
+numba streaming kernel (``ares.analysis.kernels.highpass``, issue 40), in one run; writes
 benchmarks/emva_highpass.md.
 
     python benchmarks/bench_emva_highpass.py [--tile 2] [--rounds 3]

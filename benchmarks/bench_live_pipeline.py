@@ -46,7 +46,7 @@ NOTE = ("Issue 40, what changed (profiled with the threads' CPU clocks and getru
         "`ARES_FOLD_THREADS=1` keeps one), so the grab thread carries half of it; each new stack's int64 sums, "
         "batch store and masked shift were new memory, 0.2-0.6 s of system time a 4096x3072 stack on this VM "
         "(12-35 ms a frame of a 16-frame stack), and are now handed from a collected stack to the next "
-        "(`ares.analysis.recycle`, frames above 4 Mpx; emptied before each stage's analysis, so the peak is "
+        "(`ares.analysis.kernels.recycle`, frames above 4 Mpx; emptied before each stage's analysis, so the peak is "
         "unchanged); the masked view no longer forms a reference cycle with its full-frame stack (each stack's "
         "250 MB waited for a full garbage collection), its shift is made without temporaries and the mask's "
         "coordinates are kept across stacks. Left above the floor, per stack: the stack the run keeps for a "
@@ -111,8 +111,8 @@ def child(mode: str, frames: int, points: int) -> dict:
         out = {"per_frame_s": (time.perf_counter() - t) / (frames * 4), "cpu_per_frame_s": c, "proc_per_frame_s": p}
         # the floor of this design: the fused sums kernel alone (one read of each pixel for its
         # sums, squares, row/column sums and clip counts), on the runner's 2-frame block
-        from ares.analysis import int_fold
-        from ares.scan.results import batch_for
+        from ares.analysis.kernels import int_fold
+        from ares.results.registry import batch_for
 
         b = batch_for(src.shape)
         blk = np.stack([src ^ np.uint16(0x8000)] * b).view(np.int16)

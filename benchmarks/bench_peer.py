@@ -138,11 +138,12 @@ INPROC = """
 import sys, time
 from ares.cli import set_blas_threads
 set_blas_threads()
-from ares import jit, malloc
+from ares import malloc
+from ares.analysis.kernels import jit
 malloc.tune()
 import numpy, isal.isal_zlib
 from ares.commands import emva
-import ares.analysis.emva1288, ares.analysis.emva4_sheet, ares.analysis.emva_general, ares.analysis.ptc
+import ares.analysis.emva.release3, ares.analysis.emva.sheet, ares.analysis.emva.general, ares.analysis.ptc.photon_transfer
 t = time.perf_counter()
 with jit.avoided():
     emva.format_table(emva.analyse_descriptor(sys.argv[1]))

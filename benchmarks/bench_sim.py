@@ -94,7 +94,7 @@ def timing_rows(shape, repeat):
                             repeat)))
     # the shipped protocols/sim_sensor.xml settings (lag 1e-4, INL/DNL, dark current, defects)
     # against the fast path, both per frame of an 8-frame stack at 50 % full well
-    from ares.hardware.factory import sim_params
+    from ares.sim.from_system import sim_params
     from ares.protocol import load_system
 
     sp = sim_params(load_system(Path(__file__).resolve().parent.parent / "protocols" / "sim_sensor.xml"))

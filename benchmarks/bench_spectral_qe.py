@@ -1,4 +1,4 @@
-"""Spectral QE (EMVA 1288 4.0 Linear, Section 9; ares.analysis.spectral_qe) against the
+"""Spectral QE (EMVA 1288 4.0 Linear, Section 9; ares.analysis.optics.spectral_qe) against the
 simulator's QE(lambda) curve: ``scans/spectral_qe.xml`` on ``protocols/sim_spectral.xml``
 (64x64 pixels, 8 frames per stack, K from an 8-level photon-transfer sweep at 550 nm,
 400-1050 nm in 50 nm steps), over several seeds; per wavelength the error against the

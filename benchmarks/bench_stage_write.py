@@ -2,7 +2,7 @@
 variance and dark mean, float32 with noise) with the first filter (gzip level 4) as the
 baseline, the second (byte shuffle + gzip level 1) and the current one: float maps
 uncompressed (integer maps such as the defect mask keep shuffle + gzip-1). Then the
-integrity record the writer adds to every stage (``ares.runcheck.array_sha256`` of each map,
+integrity record the writer adds to every stage (``ares.rundir.check.array_sha256`` of each map,
 hashed in memory as it is written) against that write and against a stage of ``make run``
 (benchmarks/scan.md). Writes benchmarks/stage_write.md.
 """
@@ -50,7 +50,7 @@ def main() -> int:
                             ("no compression (now, float maps)", {})):
             t = statistics.median(write(p, arrays, **filt) for _ in range(REPEATS))
             rows.append((label, t, os.path.getsize(p)))
-    from ares.runcheck import array_sha256
+    from ares.rundir.check import array_sha256
 
     def hash_all() -> float:
         t0 = time.perf_counter()
@@ -66,7 +66,7 @@ def main() -> int:
              "| filter | ms per stage | ratio | kB | size ratio |", "|---|---:|---:|---:|---:|"]
     lines += [f"| {label} | {1e3 * t:.1f} | {t / base_t:.2f} | {b // 1024} | {b / base_b:.2f} |"
               for label, t, b in rows]
-    lines += ["", f"Integrity record (SHA-256 of the three maps, `ares.runcheck`): {1e3 * t_hash:.1f} ms a stage, "
+    lines += ["", f"Integrity record (SHA-256 of the three maps, `ares.rundir.check`): {1e3 * t_hash:.1f} ms a stage, "
               f"{t_hash / rows[-1][1]:.2f}x the uncompressed write"
               + (_of_a_scan_stage(t_hash) if load.quiet else "; its share of a `make run` stage is not given: "
                  "scan.md was measured on a quiet machine and this was not") + f". Machine: {load.cell()}."]

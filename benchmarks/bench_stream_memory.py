@@ -68,7 +68,7 @@ def main() -> int:
         small, big = Path(td) / "dark_f.npy", Path(td) / "dark_10f.npy"
         write_stack(small, F)
         write_stack(big, 10 * F)
-        base = peak_rss_mb(["-c", "import numpy, scipy, ares.analysis.decompose"])
+        base = peak_rss_mb(["-c", "import numpy, scipy, ares.analysis.noise.decompose"])
         for name, args in (("analyze", ["analyze"]), ("defects", ["defects", "--dark"])):
             a = peak_rss_mb(ares + args + [str(small)])
             b = peak_rss_mb(ares + args + [str(big)])

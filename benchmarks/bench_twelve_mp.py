@@ -55,7 +55,7 @@ tune_malloc()  # as ``ares run`` does
 from ares.protocol.scan import load_scan
 from ares.scan import Runner, events as ev
 import ares.scan.runner as R
-import ares.hardware.factory as F
+import ares.rig.factory as F
 benches = []
 _build = F.build_bench
 def build(*a, **k):
@@ -286,7 +286,8 @@ from ares.cli import set_blas_threads
 set_blas_threads()  # one BLAS thread, as ares emva (cli.main): the default threads spin in np.dot and overstate its CPU
 import collections, json, sys, time
 import concurrent.futures as cf
-from ares import jit, malloc
+from ares import malloc
+from ares.analysis.kernels import jit
 malloc.tune()
 class Serial:  # the analysis on one thread, so that each part's process CPU time is its own
     def __init__(self, *a, **k): pass
@@ -299,7 +300,7 @@ cf.ThreadPoolExecutor = Serial
 from ares.commands import emva
 from ares.analysis import emva_spatial, levels
 from ares.hardware import emva_descriptor
-import ares.analysis.emva1288, ares.analysis.emva4_sheet, ares.analysis.emva_general_table, ares.analysis.ptc
+import ares.analysis.emva.release3, ares.analysis.emva.sheet, ares.analysis.emva.general_table, ares.analysis.ptc.photon_transfer
 spent = collections.Counter()
 def wrap(mod, name, label):
     real = getattr(mod, name)

@@ -67,7 +67,7 @@ def unpack_table() -> list[str]:
 
 def grabber_table() -> list[str]:
     from ares.hardware.emulators.usb_device import EmulatedGrabber
-    from ares.hardware.factory import build_bench
+    from ares.rig.factory import build_bench
     from ares.protocol import load_system
 
     n = 64

@@ -6,9 +6,9 @@ from __future__ import annotations
 
 import numpy as np
 
-from ares.analysis.emva4_sheet import EmvaInput, StackImage
-from ares.analysis.levels import pair_step
-from ares.analysis.levels import stack_moments
+from ares.analysis.emva.sheet import EmvaInput, StackImage
+from ares.analysis.ptc.levels import pair_step
+from ares.analysis.ptc.levels import stack_moments
 from ares.sim import SensorParams, SimSensor
 
 CLEAN = dict(rows=120, cols=160, hot_rate_ppm=0.0, warm_rate_ppm=0.0, rts_rate_ppm=0.0, dead_rate_ppm=0.0,

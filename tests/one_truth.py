@@ -21,7 +21,7 @@ from pathlib import Path
 import h5py
 
 from ares import labels
-from ares.analysis.estimate import Estimate, component_text, format_dict
+from ares.analysis.stats.estimate import Estimate, component_text, format_dict
 from pdftext import page_texts
 
 

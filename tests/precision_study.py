@@ -15,12 +15,12 @@ from pathlib import Path
 
 import numpy as np
 
-from ares.hardware.factory import sim_params
+from ares.sim.from_system import sim_params
 from ares.protocol import load_scan
 from ares.protocol.scan import Precision, Target
 from ares.scan import Runner
 from ares.scan.precision import PrecisionRunner
-from ares.scan.results import find_estimate
+from ares.results.registry import find_estimate
 from ares.sim import make_sim_bench
 
 ROOT = Path(__file__).resolve().parents[1]

@@ -13,7 +13,7 @@ from dataclasses import dataclass
 import numpy as np
 from scipy import stats
 
-from ares.analysis.levels import LevelStats
+from ares.analysis.ptc.levels import LevelStats
 
 _Z, _W = np.polynomial.hermite_e.hermegauss(60)
 _W = _W / _W.sum()

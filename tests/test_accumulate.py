@@ -7,8 +7,8 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from ares.analysis.accumulate import StackAccumulator
-from ares.analysis.anova import anova_table, decompose_dark
+from ares.analysis.noise.accumulate import StackAccumulator
+from ares.analysis.noise.anova import anova_table, decompose_dark
 from ares.errors import InputError
 
 
@@ -286,7 +286,7 @@ def test_profiles_are_opt_in():
 
 
 def test_immutable_frames_are_not_copied_but_mutable_are():
-    from ares.analysis.accumulate import _immutable
+    from ares.analysis.noise.accumulate import _immutable
 
     raw = np.arange(12, dtype=np.uint16)
     ro = np.frombuffer(raw.tobytes(), np.uint16).reshape(3, 4)

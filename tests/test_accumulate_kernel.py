@@ -6,7 +6,7 @@ arithmetic). These tests hit the worst cases of that argument: full-scale codes 
 squares and float32 rounding), 256-frame boundaries of the float32 totals, widths with
 and without a column-run divisor, signed data, mixed dtypes, merges and 10,000 frames.
 Every comparison is against exact integer arithmetic (int64 / Python int), for both
-kernels: the fused numba one (``ares.analysis.int_fold``) and the numpy one it replaces
+kernels: the fused numba one (``ares.analysis.kernels.int_fold``) and the numpy one it replaces
 where numba is available.
 """
 
@@ -15,8 +15,8 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from ares.analysis import int_fold
-from ares.analysis.accumulate import StackAccumulator
+from ares.analysis.kernels import int_fold
+from ares.analysis.noise.accumulate import StackAccumulator
 
 
 @pytest.fixture(autouse=True, params=["numba", "numpy"])

@@ -5,7 +5,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from ares.analysis.adc import code_density, per_channel, ramp_transitions
+from ares.analysis.ptc.adc import code_density, per_channel, ramp_transitions
 
 
 def make_adc(rng, m=1023, dnl=0.2, inl=1.5):

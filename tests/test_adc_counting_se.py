@@ -12,7 +12,7 @@ import h5py
 import numpy as np
 import pytest
 
-from ares.analysis.adc import code_density
+from ares.analysis.ptc.adc import code_density
 from ares.cli import main
 
 ROOT = Path(__file__).resolve().parents[1]

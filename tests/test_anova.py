@@ -13,8 +13,8 @@ import math
 import numpy as np
 import pytest
 
-from ares.analysis.accumulate import StackAccumulator
-from ares.analysis.anova import DARK_NAMES, anova_table, decompose_dark, in_electrons, sigma_view
+from ares.analysis.noise.accumulate import StackAccumulator
+from ares.analysis.noise.anova import DARK_NAMES, anova_table, decompose_dark, in_electrons, sigma_view
 
 F, R, C = 8, 32, 40
 NREP = 220
@@ -155,7 +155,7 @@ def test_the_table_is_kept_by_the_accumulator_until_frames_arrive():
     """A stage's analysis (and a matched dark reused at every stage) asks for the same
     table several times: the accumulator keeps it, equal to a fresh one, and computes it
     anew once more frames are added."""
-    from ares.analysis import anova
+    from ares.analysis.noise import anova
 
     rng = np.random.default_rng(5)
     frames = rng.integers(100, 200, size=(10, 12, 14)).astype(np.uint16)

@@ -15,7 +15,7 @@ import pytest
 sim = pytest.importorskip("ares.sim")
 
 from ares.analysis import StackAccumulator, decompose_dark  # noqa: E402
-from ares.analysis.decompose import StackAnalysis  # noqa: E402
+from ares.analysis.noise.decompose import StackAnalysis  # noqa: E402
 
 ROWS, COLS, F, NREP = 96, 128, 10, 8
 CLEAN = dict(hot_rate_ppm=0, warm_rate_ppm=0, rts_rate_ppm=0, dead_rate_ppm=0, stuck_rate_ppm=0,

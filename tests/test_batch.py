@@ -154,8 +154,8 @@ def test_lot_file_errors_name_the_line(tmp_path):
 
 
 def test_split_1080p_stack_is_bit_identical(client, tmp_path):
-    from ares.analysis.accumulate import StackAccumulator
-    from ares.analysis.anova import decompose_dark
+    from ares.analysis.noise.accumulate import StackAccumulator
+    from ares.analysis.noise.anova import decompose_dark
     from ares.batch.cluster import split_accumulate
 
     rng = np.random.default_rng(5)
@@ -174,8 +174,8 @@ def test_split_1080p_stack_is_bit_identical(client, tmp_path):
 def test_stack_and_descriptor_items(client, tmp_path):
     """A frame stack gives what ``ares analyze`` gives; an EMVA descriptor what ``ares emva``
     (Release 4.0 Linear) gives."""
-    from ares.analysis.accumulate import StackAccumulator
-    from ares.analysis.decompose import StackAnalysis
+    from ares.analysis.noise.accumulate import StackAccumulator
+    from ares.analysis.noise.decompose import StackAnalysis
     from ares.batch.cluster import run_items
 
     rng = np.random.default_rng(9)
@@ -195,7 +195,7 @@ def test_stack_and_descriptor_items(client, tmp_path):
     for k, e in want.items():
         assert res[0]["figures"][k]["value"] == (e.value if e.available else None), k
     if len(items) > 1:
-        from ares.commands.emva import analyse_descriptor
+        from ares.results.descriptor import analyse_descriptor
 
         assert res[1]["kind"] == "emva"
         # EMVA 1288 4.0's K is the lot vocabulary's gain_dn_per_e (one name for every item kind)

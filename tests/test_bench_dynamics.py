@@ -12,7 +12,7 @@ from pathlib import Path
 
 import numpy as np
 
-from ares.hardware.factory import build_bench
+from ares.rig.factory import build_bench
 from ares.protocol import load_system, save_system
 from ares.scan import apply as apply_mod
 from ares.scan.apply import apply_settings

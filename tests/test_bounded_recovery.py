@@ -20,8 +20,8 @@ from pathlib import Path
 import pytest
 
 from ares.errors import HardwareError
-from ares.hardware.factory import build_bench
-from ares.hardware.wire_bench import wire_faults
+from ares.rig.factory import build_bench
+from ares.rig.wire import wire_faults
 from ares.protocol import load_scan
 from ares.scan import Runner
 from ares.scan import events as ev

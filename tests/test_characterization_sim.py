@@ -14,12 +14,12 @@ import pytest
 sim = pytest.importorskip("ares.sim", reason="the simulator (ares.sim) is not available")
 from ares.sim import SensorParams, SimSensor  # noqa: E402
 
-from ares.analysis.adc import per_channel  # noqa: E402
-from ares.analysis.dark_current import dark_current, doubling_temperature, dsnu_vs_exposure  # noqa: E402
-from ares.analysis.gain_split import split_noise  # noqa: E402
-from ares.analysis.lag import lag_from_sequence  # noqa: E402
-from ares.analysis.levels import pair_stats, stack_stats  # noqa: E402
-from ares.analysis.ptc import analyze_ptc  # noqa: E402
+from ares.analysis.ptc.adc import per_channel  # noqa: E402
+from ares.analysis.ptc.dark_current import dark_current, doubling_temperature, dsnu_vs_exposure  # noqa: E402
+from ares.analysis.ptc.gain_split import split_noise  # noqa: E402
+from ares.analysis.ptc.lag import lag_from_sequence  # noqa: E402
+from ares.analysis.ptc.levels import pair_stats, stack_stats  # noqa: E402
+from ares.analysis.ptc.photon_transfer import analyze_ptc  # noqa: E402
 
 NO_DEFECTS = dict(hot_rate_ppm=0, warm_rate_ppm=0, rts_rate_ppm=0, dead_rate_ppm=0, stuck_rate_ppm=0,
                   noisy_rate_ppm=0)
@@ -149,7 +149,7 @@ def test_emva_dark_current_from_variance_against_truth():
     """EMVA 1288 4.0 Section 7.1: the dark-variance slope (DN^2/s) divided by K^2 -- the
     dark shot noise of a dark current I e-/s adds I*t e-^2. It once used sqrt(slope)/K
     (10x low here)."""
-    from ares.analysis.emva1288 import emva1288_results, temporal_from_pairs
+    from ares.analysis.emva.release3 import emva1288_results, temporal_from_pairs
 
     p = SensorParams(rows=128, cols=128, **NO_DEFECTS, dark_tail_e_per_s=0.0, dark_current_e_per_s=200.0)
     s = SimSensor(p, 21)

@@ -15,7 +15,7 @@ import re
 import numpy as np
 import pytest
 
-from ares.analysis.estimate import Estimate, component_text, format_dict
+from ares.analysis.stats.estimate import Estimate, component_text, format_dict
 from ares.cli import main
 from pdftext import page_texts
 

@@ -5,8 +5,8 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from ares.analysis.dark_current import dark_current, doubling_temperature, dsnu_vs_exposure
-from ares.analysis.levels import pair_stats
+from ares.analysis.ptc.dark_current import dark_current, doubling_temperature, dsnu_vs_exposure
+from ares.analysis.ptc.levels import pair_stats
 
 
 def darks(rng, t, rate_map, K=0.3, read_e=3.0, offset=100.0, shape=(96, 96)):

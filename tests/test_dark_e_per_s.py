@@ -54,7 +54,7 @@ def _analyses(d: Path) -> dict:
 
 def _truth_e_per_s(d: Path, t: float) -> float:
     """The simulated sensor's mean dark current (e-/s) at temperature ``t``."""
-    from ares.hardware.factory import build_bench
+    from ares.rig.factory import build_bench
     from ares.protocol import load_system
     from ares.scan.apply import apply_settings
 
@@ -83,7 +83,7 @@ def test_without_a_gain_every_surface_says_why_there_is_no_e_per_s(run_dir):
 
 
 def test_report_gain_gives_e_per_s_beside_dn_per_s(run_dir, tmp_path):
-    from ares.hardware.factory import sim_params
+    from ares.sim.from_system import sim_params
     from ares.protocol import load_system
 
     d, _ = run_dir

@@ -17,10 +17,10 @@ import re
 import numpy as np
 import pytest
 
-from ares.analysis import emva_graphs as graphs
-from ares.analysis.emva4_sheet import EmvaInput, evaluate_linear, exposure_control
-from ares.analysis.emva_general import emva_general
-from ares.analysis.levels import LevelStats
+from ares.analysis.emva import graphs
+from ares.analysis.emva.sheet import EmvaInput, evaluate_linear, exposure_control
+from ares.analysis.emva.general import emva_general
+from ares.analysis.ptc.levels import LevelStats
 from ares.report import datasheet
 from ares.report.datasheet_pages import peak_rows
 from pdftext import page_texts
@@ -125,7 +125,7 @@ def test_general_datasheet_has_its_own_summary_and_footer(general_pdf):
 
 
 def test_cannot_be_measured_rows_are_shown_as_such():
-    from ares.analysis.estimate import Estimate
+    from ares.analysis.stats.estimate import Estimate
 
     e = Estimate.na("cannot be measured with the general model (General Section 6.7)", "DN/e-")
     assert datasheet.cell(e) == "cannot be measured"

@@ -17,7 +17,7 @@ import h5py
 import numpy as np
 import pytest
 
-from ares.hardware.factory import sim_params
+from ares.sim.from_system import sim_params
 from ares.protocol import load_scan
 from ares.scan import Runner
 from ares.scan.apply import apply_settings

@@ -2,7 +2,7 @@
 
 On the simulator with 1 % defective pixels (hot, warm, dead, stuck, noisy, RTS), the
 13-component decomposition of the *masked* stacks (``MaskedStackAccumulator``: the
-unbalanced Henderson-I ANOVA of ``ares.analysis.masked``) stays within 3 standard errors
+unbalanced Henderson-I ANOVA of ``ares.analysis.noise.masked``) stays within 3 standard errors
 of the defect-free truth -- with the simulator's truth mask and with the mask the defects
 module classifies -- while the plain (unmasked) decomposition is visibly biased.
 
@@ -25,7 +25,7 @@ import pytest
 sim = pytest.importorskip("ares.sim")
 
 from ares.analysis import MaskedStackAccumulator, StackAccumulator, decompose_dark, decompose_flat  # noqa: E402
-from ares.analysis.decompose import StackAnalysis  # noqa: E402
+from ares.analysis.noise.decompose import StackAnalysis  # noqa: E402
 from ares.analysis.defects import classify_stack  # noqa: E402
 
 OP = dict(exposure_s=20.0, temperature_c=5.0)

@@ -8,7 +8,7 @@ from ares.analysis.defects import (PixelStats, SeriesCollector, classify_defects
 
 from defect_injection import inject
 
-acc_mod = pytest.importorskip("ares.analysis.accumulate")
+acc_mod = pytest.importorskip("ares.analysis.noise.accumulate")
 
 
 @pytest.fixture(scope="module")

@@ -205,7 +205,7 @@ def test_genicam_scan_on_the_simulated_producer(tmp_path):
 
 @pytest.mark.skipif(_genicam_missing() is not None, reason=str(_genicam_missing()))
 def test_genicam_frames_features_and_errors():
-    from ares.hardware.factory import build_bench
+    from ares.rig.factory import build_bench
 
     sy = load_system(ROOT / "protocols" / "genicam_sim.xml")
     b = build_bench(sy)

@@ -1,4 +1,4 @@
-"""EMVA 1288 Release 4.0 Linear (ares.analysis.emva4) against known answers: synthetic
+"""EMVA 1288 Release 4.0 Linear (ares.analysis.emva.linear) against known answers: synthetic
 photon-transfer levels with a known gain, QE, read noise and clipping (tests/ptc_synth.py),
 closed-form cases for the linearity error and the quantization limit, unsorted levels,
 saturation not reached, and the EMVA reference CCD (Release 3.0 published values nearby)."""
@@ -12,7 +12,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from ares.analysis.emva4 import emva4_linear, linearity_error, saturation_index
+from ares.analysis.emva.linear import emva4_linear, linearity_error, saturation_index
 
 sys.path.insert(0, str(Path(__file__).parent))
 from ptc_synth import _sat_e, make_levels  # noqa: E402

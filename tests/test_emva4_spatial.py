@@ -8,13 +8,13 @@ import math
 import numpy as np
 import pytest
 
-from ares.analysis import emva_graphs as graphs
-from ares.analysis.emva4_sheet import dark_current_4
-from ares.analysis.levels import pair_step
-from ares.analysis.emva_general import beta3, beta3_prime, bspline_fit
-from ares.analysis.emva_spatial import dsnu, highpass, prnu, smooth, split, white_gains
-from ares.analysis.estimate import Estimate
-from ares.analysis.levels import stack_moments
+from ares.analysis.emva import graphs
+from ares.analysis.emva.sheet import dark_current_4
+from ares.analysis.ptc.levels import pair_step
+from ares.analysis.stats.splines import beta3, beta3_prime, bspline_fit
+from ares.analysis.spatial.nonuniformity import dsnu, highpass, prnu, smooth, split, white_gains
+from ares.analysis.stats.estimate import Estimate
+from ares.analysis.ptc.levels import stack_moments
 
 M, N = 96, 128
 
@@ -65,11 +65,11 @@ def _scipy_passes(img, release, border):
                                           ("reflect", (7, 9))])
 @pytest.mark.parametrize("path", ["numba", "numpy float", "numpy integer"])
 def test_every_lowpass_path_equals_the_scipy_passes(monkeypatch, release, border, shape, path):
-    """The numba kernel (``ares.analysis.lowpass``, float64), the numpy path (binary-doubling
+    """The numba kernel (``ares.analysis.kernels.lowpass``, float64), the numpy path (binary-doubling
     box sums, float64 on the centred image) and the exact integer path all equal the
     scipy.ndimage passes within float64 rounding, borders included (images smaller than
     the filters: repeated reflection)."""
-    import ares.analysis.lowpass as lp
+    import ares.analysis.kernels.lowpass as lp
 
     rng = np.random.default_rng(7)
     img = rng.normal(1000, 10, shape) + np.linspace(0, 80, shape[1])[None, :] + (rng.random(shape) < 0.01) * 500
@@ -302,7 +302,7 @@ def test_a_stack_high_passed_from_its_integer_sum_equals_the_float_average():
     """``StackImage`` with the stack's exact integer sum (what ``ares emva`` keeps) gives the
     split, the 3.1 variance and the high-passed image of the float64 average within float64
     rounding; ``prepare`` computes them once (a second call reads them back)."""
-    from ares.analysis.emva4_sheet import StackImage
+    from ares.analysis.emva.sheet import StackImage
 
     rng = np.random.default_rng(12)
     frames = [rng.integers(200, 3000, (M, N)).astype(np.uint16) for _ in range(9)]
@@ -324,7 +324,7 @@ def test_a_stack_high_passed_from_its_integer_sum_equals_the_float_average():
 def test_split_in_row_blocks_equals_the_whole_image(monkeypatch, release, kind):
     """``split`` high-passes a large image a block of rows at a time: blocks of a few rows
     give the variances of the whole image within float64 rounding."""
-    import ares.analysis.emva_spatial as es
+    import ares.analysis.spatial.nonuniformity as es
 
     rng = np.random.default_rng(21)
     img = rng.integers(500, 3500, (M, N)) + (np.arange(N) % 7)[None, :] * 3 + (np.arange(M) % 5)[:, None] * 4
@@ -344,7 +344,7 @@ def test_highpass_in_row_blocks_is_the_whole_images(monkeypatch, release, dtype)
     sums are those of the whole image, so is every value (a stack's sum: uint32, or int64
     when its range times the filter's weight leaves int32 -- then per block, some blocks
     may fit int32, the same values)."""
-    import ares.analysis.emva_spatial as es
+    import ares.analysis.spatial.nonuniformity as es
 
     rng = np.random.default_rng(22)
     img = rng.integers(0, 4096 * 500, (M, N)).astype(dtype)

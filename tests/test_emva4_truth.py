@@ -13,9 +13,9 @@ import numpy as np
 import pytest
 from scipy.stats import norm
 
-from ares.analysis.emva4_sheet import evaluate_linear
-from ares.analysis.emva_general import emva_general
-from ares.analysis.emva_spatial import nonuniformity_rowcol_corrected
+from ares.analysis.emva.sheet import evaluate_linear
+from ares.analysis.emva.general import emva_general
+from ares.analysis.spatial.nonuniformity import nonuniformity_rowcol_corrected
 from emva_sim import simulate
 
 SEEDS = range(20)

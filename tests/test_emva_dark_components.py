@@ -19,7 +19,7 @@ import numpy as np
 import pytest
 
 from ares.analysis import StackAccumulator, decompose_dark
-from ares.analysis.flat import decompose_flat
+from ares.analysis.noise.flat import decompose_flat
 from ares.hardware.imagefile import read_image
 
 DATA = Path(__file__).resolve().parents[2] / "shared" / "data" / "EMVA1288_ReferenceSet_001_CCD_12Bit"

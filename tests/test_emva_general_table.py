@@ -16,7 +16,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from ares.analysis.emva_general_table import GENERAL_TABLE2
+from ares.analysis.emva.general_table import GENERAL_TABLE2
 
 sys.path.insert(0, str(Path(__file__).parent))
 from emva_sim import simulate  # noqa: E402
@@ -143,7 +143,7 @@ def test_threshold_where_the_steps_reach_snr_1():
     """With steps through SNR_p = 1 the regression of Section 6.8 gives mu_p.min, a value
     with its SE; for this linear sensor it is the Linear Eq. 26 threshold,
     (sqrt(sigma_y.dark^2/K^2 + 1/4) + 1/2) / eta, within a few percent (the spline's bias)."""
-    from ares.analysis.emva_general import emva_general
+    from ares.analysis.emva.general import emva_general
 
     b, d, up = _levels_down_to_snr_1()
     g = emva_general(b, d, up)
@@ -157,8 +157,8 @@ def test_threshold_where_the_steps_reach_snr_1():
 
 @pytest.fixture(scope="module")
 def nonlinear():
-    from ares.analysis.emva4_sheet import evaluate_linear
-    from ares.analysis.emva_general_table import general_from_input
+    from ares.analysis.emva.sheet import evaluate_linear
+    from ares.analysis.emva.general import general_from_input
 
     inp, tr, s = simulate(3, adc_inl_lsb=150.0)
     sh = evaluate_linear(inp)
@@ -208,6 +208,6 @@ def test_total_snr_eq_60(nonlinear):
     assert g.snr_p_total[j] == pytest.approx(by_hand, rel=1e-9)
     ok = np.isfinite(g.snr_p_total) & np.isfinite(g.snr_p)
     assert np.all(g.snr_p_total[ok] <= g.snr_p[ok] * (1 + 1e-12))
-    from ares.analysis.emva_general_table import total_snr
+    from ares.analysis.emva.general_table import total_snr
 
     assert np.allclose(total_snr(g, np.zeros_like(s2))[ok], g.snr_p[ok], rtol=1e-9)

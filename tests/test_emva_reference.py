@@ -11,7 +11,7 @@ from pathlib import Path
 
 import pytest
 
-from ares.analysis.emva1288 import ATTRIBUTION
+from ares.analysis.emva.release3 import ATTRIBUTION
 
 DATA = Path(__file__).resolve().parents[2] / "shared" / "data" / "EMVA1288_ReferenceSet_001_CCD_12Bit"
 DESC = DATA / "EMVA1288_Data.txt"
@@ -34,7 +34,7 @@ PUBLISHED = {  # value, relative tolerance
 
 @pytest.fixture(scope="module")
 def analysis():
-    from ares.commands.emva import analyse_descriptor
+    from ares.results.descriptor import analyse_descriptor
 
     return analyse_descriptor(DESC)  # loads the 300 PNGs once
 
@@ -147,9 +147,9 @@ def test_the_command_runs_without_numba_and_gives_the_kernels_figures(analysis):
     import subprocess
     import sys
 
-    import ares.analysis.pair_kernel as pk
-    from ares import jit
-    from ares.commands.emva import analyse_descriptor
+    import ares.analysis.kernels.pair as pk
+    from ares.analysis.kernels import jit
+    from ares.results.descriptor import analyse_descriptor
 
     assert pk._kernel_c is not None  # the fixture's analysis ran the kernels (the pairs' pass; the
     # high-pass of the exact integer sums never needs the float low-pass kernel)

@@ -9,8 +9,8 @@ import pytest
 
 pytest.importorskip("numba")
 
-from ares import jit  # noqa: E402
-from ares.analysis import emva_spatial as es  # noqa: E402
+from ares.analysis.kernels import jit  # noqa: E402
+from ares.analysis.spatial import nonuniformity as es  # noqa: E402
 
 @pytest.fixture(autouse=True)
 def any_size(monkeypatch):

@@ -293,7 +293,7 @@ def test_the_simulator_weighs_make_run_s_stages_by_their_path():
     """The runner's stacks for make run's scan on the simulator: the low-light stages
     (exact Poisson by the alias method) cost more a frame than the brighter ones, the dark
     stage least; the weights come from the path ``render`` takes at each stage's settings."""
-    from ares.hardware.factory import build_bench
+    from ares.rig.factory import build_bench
     from ares.protocol import load_scan
     from ares.scan.eta import eta_stacks as _stacks
     from ares.scan.stages import expand

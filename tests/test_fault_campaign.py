@@ -20,7 +20,7 @@ import h5py
 import pytest
 
 from ares.cli import main
-from ares.runstate import effective_status
+from ares.rundir.state import effective_status
 
 ROOT = Path(__file__).resolve().parents[1]
 SCAN = ROOT / "fixtures" / "xml" / "small" / "ptc_small.xml"
@@ -126,7 +126,7 @@ def test_sigterm_stops_like_ctrl_c_then_resume(tmp_path, reference, capsys):
 def test_disk_full_is_one_sentence_and_resumable(tmp_path, reference, capsys, monkeypatch):
     """ENOSPC while committing stage 4: exit 5, one sentence naming the path, run.json
     'failed', stages 0-3 intact; once there is room again, resume completes the run."""
-    import ares.scan.rundir as rd
+    import ares.rundir.writer as rd
 
     real = rd.dump_json
 
@@ -162,7 +162,7 @@ def test_read_only_output_is_one_sentence(tmp_path, capsys, monkeypatch):
 
 
 def test_a_failed_analysis_fails_the_run(tmp_path, capsys, monkeypatch):
-    from ares.scan import results
+    from ares.results import registry as results
 
     def broken(run):
         raise ZeroDivisionError("division by zero")
@@ -240,7 +240,7 @@ def test_stop_while_a_chamber_never_settles(tmp_path):
     import dataclasses
     import threading
 
-    from ares.hardware.factory import sim_params
+    from ares.sim.from_system import sim_params
     from ares.hardware.serial_instruments import SerialChamber
     from ares.protocol import load_scan, load_system
     from ares.scan import Runner

@@ -7,9 +7,9 @@ import math
 import numpy as np
 import pytest
 
-from ares.analysis.accumulate import StackAccumulator
-from ares.analysis.decompose import COMPONENT_NAMES, StackAnalysis
-from ares.analysis.flat import decompose_flat, highpass_emva
+from ares.analysis.noise.accumulate import StackAccumulator
+from ares.analysis.noise.decompose import COMPONENT_NAMES, StackAnalysis
+from ares.analysis.noise.flat import decompose_flat, highpass_emva
 
 F, R, C = 8, 40, 48
 NREP = 200
@@ -225,7 +225,7 @@ def test_highpass_autocorrelation_equals_scipy_correlate2d():
     import numpy as np
     from scipy.signal import correlate2d
 
-    from ares.analysis import flat
+    from ares.analysis.noise import flat
 
     h2 = -np.outer(flat._L1, flat._L1)
     h2[flat._RAD, flat._RAD] += 1.0

@@ -10,7 +10,7 @@ from pathlib import Path
 import pytest
 
 from ares.errors import FrameLost
-from ares.hardware.factory import build_bench
+from ares.rig.factory import build_bench
 from ares.protocol import load_system
 
 ROOT = Path(__file__).resolve().parents[1]

@@ -54,8 +54,8 @@ def test_headline_named_on_a_clean_line(tmp_path, capsys):
 def test_k_statement_closed_form():
     """The sentence naming the headline K beside EMVA 1288 4.0 Eq. 50: the difference, its
     combined SE, and the cause only when they differ beyond 2 SE."""
-    from ares.analysis.estimate import Estimate
-    from ares.analysis.gain_compare import k_statement
+    from ares.analysis.stats.estimate import Estimate
+    from ares.analysis.ptc.gain_compare import k_statement
 
     d = k_statement(Estimate(0.2828, 0.0010, "DN/e-"), "line", "weighted line: the Astier fit fails its own "
                     "residual check", Estimate(0.2767, 0.0011, "DN/e-"), 37.8)

@@ -5,8 +5,8 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from ares.analysis.gain_split import input_referred_noise_e, pixel_noise_uv, split_noise
-from ares.analysis.levels import pair_stats
+from ares.analysis.ptc.gain_split import input_referred_noise_e, pixel_noise_uv, split_noise
+from ares.analysis.ptc.levels import pair_stats
 
 
 def test_split_recovers_pixel_and_chain_noise():

@@ -271,7 +271,7 @@ def test_display_image_file_fills_preview_and_distributions(window, tmp_path):
 
 
 def test_gui_command_without_display_is_one_sentence(monkeypatch):
-    from ares.commands import gui as cmd
+    from ares.gui import command as cmd
     from ares.gui.app import check_display
 
     monkeypatch.setenv("QT_QPA_PLATFORM", "xcb")

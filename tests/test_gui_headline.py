@@ -20,7 +20,7 @@ pytestmark = pytest.mark.gui
 
 
 def _results() -> dict:
-    from ares.analysis.estimate import Estimate
+    from ares.analysis.stats.estimate import Estimate
     from ares.labels import PTC_FIGURES
 
     units = {"conversion_gain_uv_per_e": "uV/e-", "gain_dn_per_e": "DN/e-", "gain_e_per_dn": "e-/DN",

@@ -28,7 +28,7 @@ def _view(pg_relvar: float) -> dict:
 
 
 def test_sweep_map_draws_prnu_in_percent_rms(qtbot):
-    from ares.analysis.estimate import component_text
+    from ares.analysis.stats.estimate import component_text
     from ares.gui.models.sweep import SweepModel, SweepPoint
     from ares.gui.plots.sweep_view import SweepView
     from ares.gui.runner_adapter import quantities

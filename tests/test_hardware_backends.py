@@ -262,7 +262,7 @@ def test_serial_port_missing():
 
 
 def test_factory_real_bench_reports_missing_hardware():
-    from ares.hardware.factory import build_bench
+    from ares.rig.factory import build_bench
 
     with pytest.raises(DeviceGone):  # no /dev/i2c-1 (or no device) on the test machine
         build_bench(BW)
@@ -272,7 +272,7 @@ def test_simulated_system_must_use_the_sim_register_map():
     import dataclasses
 
     from ares.errors import InputError
-    from ares.hardware.factory import build_bench
+    from ares.rig.factory import build_bench
     from ares.protocol import Simulator
 
     odd = dataclasses.replace(BW, simulator=Simulator(1, {}))

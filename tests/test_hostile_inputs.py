@@ -71,7 +71,7 @@ def test_every_storage_errno_is_one_sentence_exit_5(name, how, tmp_path, capsys,
     import errno
     import json
 
-    import ares.scan.rundir as rd
+    import ares.rundir.writer as rd
     from ares.cli import main
 
     code = getattr(errno, name)
@@ -99,7 +99,7 @@ def test_file_size_limit_is_exit_5_and_resume_writes_the_reports(tmp_path):
     import json
     import resource
 
-    from ares.runstate import effective_status
+    from ares.rundir.state import effective_status
 
     d = tmp_path / "run"
     env = {**os.environ, "PYTHONPATH": str(ROOT), "ARES_PDF_HELPER": "0"}
@@ -351,11 +351,11 @@ def test_the_memory_estimate_is_within_10_percent_of_a_shipped_scans_peak(tmp_pa
     """Finding 7: the memory `ares validate` / `--dry-run` print (``ares.scan.preflight``)
     against the high-water mark (VmHWM) of `ares run` of a shipped scan, in a child (the PDF
     helper's memory is its own), with numba's kernels cached as make installs them -- the
-    case the estimate says it assumes (``ares.jit.kernels_cached``). benchmarks/estimates.md
+    case the estimate says it assumes (``ares.analysis.kernels.jit.kernels_cached``). benchmarks/estimates.md
     measures every shipped scan, the first-run case and two at 4096x3072 against the same
     target; this is its quickest row (mtf, one stage), kept in the suite. (A toy 32x24 scan
     is not in the claim: it imports less than the model's base.)"""
-    from ares import jit
+    from ares.analysis.kernels import jit
     from ares.protocol import load_scan
     from ares.scan.preflight import check_run
 
@@ -388,7 +388,7 @@ def test_a_first_run_is_estimated_with_numba_compiling_and_says_so(tmp_path, mon
     first = check_run(scan, refuse_disk=False)
     assert not first.kernels_cached and "a first run" in first.memory_note()
     assert "python -m ares.jit" in first.memory_note()
-    monkeypatch.setattr("ares.jit.kernels_cached", lambda: True)
+    monkeypatch.setattr("ares.analysis.kernels.jit.kernels_cached", lambda: True)
     cached = check_run(scan, refuse_disk=False)
     assert cached.kernels_cached and "numba kernels cached" in cached.memory_note()
     assert first.memory_bytes - cached.memory_bytes == COMPILE_BYTES

@@ -14,7 +14,7 @@ pytest.importorskip("numba")
 CODE = """
 import sys
 sys.path.insert(0, sys.argv[1])
-from ares import jit
+from ares.analysis.kernels import jit
 import kmod
 d = jit.compiled(kmod.add_one)
 assert d(1) == 2
@@ -47,7 +47,7 @@ def test_no_notice_when_stderr_is_not_a_terminal(tmp_path):
 
 WHERE = """
 from pathlib import Path
-from ares import jit
+from ares.analysis.kernels import jit
 from ares.analysis import int_fold, pair_kernel
 from ares.sim import fused
 for mod, fn in ((pair_kernel, pair_kernel._kernel), (int_fold, int_fold._extremes_kernel), (fused, fused._kernel)):
@@ -80,7 +80,7 @@ def test_every_module_with_a_cached_kernel_is_looked_at():
     from ``KERNEL_MODULES`` would go unseen by ``kernels_cached``."""
     from pathlib import Path
 
-    from ares import jit
+    from ares.analysis.kernels import jit
 
     root = Path(jit.__file__).parent
     using = {str(p.relative_to(root)) for p in root.rglob("*.py") if p.name != "jit.py"

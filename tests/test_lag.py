@@ -5,7 +5,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from ares.analysis.lag import image_lag, lag_from_sequence
+from ares.analysis.ptc.lag import image_lag, lag_from_sequence
 
 
 def sequence(rng, lag=0.02, cycles=5, n_bright=4, n_dark=4, q=8000.0, K=0.3, shape=(64, 64)):

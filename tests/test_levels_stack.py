@@ -6,7 +6,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from ares.analysis.levels import stack_moments
+from ares.analysis.ptc.levels import stack_moments
 
 
 def reference(frames):

@@ -9,7 +9,7 @@ from pathlib import Path
 import pytest
 
 from ares.protocol.quantities import PRODUCES, unknown_limit
-from ares.scan.results import flatten, names_quantity
+from ares.results.registry import flatten, names_quantity
 
 ROOT = Path(__file__).resolve().parents[1]
 NOT_QUANTITIES = {"analog_gain", "exposure", "light", "temperature_c", "levels", "samples", "ref_c", "signal",

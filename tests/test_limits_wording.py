@@ -12,7 +12,7 @@ from ares.cli import main
 from ares.protocol import load_scan
 from ares.report.source import read_run
 from ares.scan import Runner, events as ev
-from ares.scan.results import limits_verdict
+from ares.results.registry import limits_verdict
 
 ROOT = Path(__file__).resolve().parents[1]
 PTC = ROOT / "fixtures" / "xml" / "small" / "ptc_small.xml"  # sets one limit (read_noise_e max 50)

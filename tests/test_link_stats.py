@@ -81,7 +81,7 @@ def test_link_counts_per_stage_follow_the_packet_rules_and_add_up(tmp_path, caps
     from ares.report.pdf import title_page
     from ares.report.source import read_run
 
-    from ares.runcheck import RunDamaged, check_run
+    from ares.rundir.check import RunDamaged, check_run
 
     check_run(out, meta, stages)  # issue 37's records cover the link scalars too
     with h5py.File(out / "stages" / "0001.h5", "r+") as f:

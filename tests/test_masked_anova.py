@@ -1,4 +1,4 @@
-"""The masked (unbalanced, Henderson method I) ANOVA of ares.analysis.masked.
+"""The masked (unbalanced, Henderson method I) ANOVA of ares.analysis.noise.masked.
 
 * an empty mask reproduces the balanced decomposition exactly (dark and flat);
 * merging partial stacks equals one pass; values at masked pixels never matter;
@@ -13,8 +13,8 @@ import numpy as np
 import pytest
 
 from ares.analysis import MaskedStackAccumulator, StackAccumulator, decompose_dark, decompose_flat
-from ares.analysis.anova import anova_table
-from ares.analysis.masked import MaskedTable, masked_components
+from ares.analysis.noise.anova import anova_table
+from ares.analysis.noise.masked import MaskedTable, masked_components
 from ares.errors import InputError
 
 TRUTH = dict(Cs=4.0, Ct=2.25, Rs=1.0, Rt=1.0, Ps=4.0, Pt=9.0, frame_global=4.0)

@@ -3,8 +3,8 @@
 import numpy as np
 import pytest
 
-from ares.analysis import masked_fold
-from ares.analysis.masked import MaskedStackAccumulator
+from ares.analysis.kernels import masked_fold
+from ares.analysis.noise.masked import MaskedStackAccumulator
 
 pytest.importorskip("numba")
 
@@ -39,7 +39,7 @@ def test_numba_fold_equals_numpy(monkeypatch, dtype, batch):
 def test_line_sums_of_a_derived_stack_equal_numpy(monkeypatch, dtype):
     """A masked stack fed beside its full-frame stack keeps only line sums: the lines kernel
     (every pixel, less the masked ones and the shift) equals the numpy fold bit for bit."""
-    from ares.analysis.accumulate import StackAccumulator
+    from ares.analysis.noise.accumulate import StackAccumulator
 
     rng = np.random.default_rng(11)
     shape = (29, 41)
@@ -79,8 +79,8 @@ def test_kept_accessor_results_equal_fresh_ones_and_follow_new_frames(monkeypatc
     """The masked stack keeps its sums, mean map, pixel SS and forms between calls (a
     stage's analysis asks for each several times): the same numbers as computed afresh,
     read-only, and recomputed once more frames arrive."""
-    import ares.analysis.masked as M
-    from ares.analysis.accumulate import StackAccumulator
+    import ares.analysis.noise.masked as M
+    from ares.analysis.noise.accumulate import StackAccumulator
 
     rng = np.random.default_rng(3)
     shape = (24, 32)
@@ -123,8 +123,8 @@ def test_a_stack_riding_on_its_full_frame_folds_equals_one_fed_frames(monkeypatc
     every frame, bit for bit: frames copied into the batch store (uint16 held as x ^ 0x8000)
     and read-only frames kept uncopied, on either integer kernel, a read in the middle of a
     batch, and frames of another kind after it (``unride``)."""
-    from ares.analysis import int_fold
-    from ares.analysis.accumulate import StackAccumulator
+    from ares.analysis.kernels import int_fold
+    from ares.analysis.noise.accumulate import StackAccumulator
 
     if int_kernel == "numpy":  # the integer sums and the shift's line sums without numba
         monkeypatch.setattr(int_fold, "fold", lambda *a, **k: None)

@@ -6,7 +6,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from ares.analysis.median import fast_median, n_distinct, sorted_quantiles
+from ares.analysis.stats.median import fast_median, n_distinct, sorted_quantiles
 
 
 @pytest.mark.parametrize("shape", [(1,), (2,), (7,), (8,), (5, 6), (6, 5), (3, 4, 5)])

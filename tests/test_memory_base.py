@@ -30,7 +30,7 @@ def test_the_base_is_measured_recorded_and_dropped_when_a_package_changes(tmp_pa
     memory_base.record_path().write_text(json.dumps(data))
     assert memory_base.recorded() is None
     assert preflight.base_bytes() == preflight.IMPORT_BYTES + preflight.RUN_BYTES
-    monkeypatch.setattr("ares.jit.kernels_cached", lambda: True)  # (this cache folder holds no kernels)
+    monkeypatch.setattr("ares.analysis.kernels.jit.kernels_cached", lambda: True)  # (this cache folder holds no kernels)
     note = preflight.check_run(scan, refuse_disk=False).memory_note()
     assert "the libraries' share assumed, not measured on this machine: `python -m ares.jit` measures it" in note
 

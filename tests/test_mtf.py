@@ -1,4 +1,4 @@
-"""Slanted-edge MTF (ISO 12233 e-SFR, ares.analysis.mtf) against the simulator's closed-form
+"""Slanted-edge MTF (ISO 12233 e-SFR, ares.analysis.optics.mtf) against the simulator's closed-form
 truth (ares.sim.edge), against an independent implementation of the standard's steps written
 here, and its verdicts."""
 
@@ -7,7 +7,7 @@ import math
 import numpy as np
 import pytest
 
-from ares.analysis.mtf import sfr, sfr_channels
+from ares.analysis.optics.mtf import sfr, sfr_channels
 from ares.sim.edge import edge_map, true_mtf, true_mtf50
 from ares.sim.params import SensorParams
 from ares.sim.sensor import SimSensor
@@ -29,7 +29,7 @@ def _stack_mean(s, n=4):
 
 def independent_sfr(img):
     """MTF50 (cycles/pixel along the edge normal) by ISO 12233:2017 e-SFR written here from the
-    standard's step list, row by row, without ares.analysis.mtf's code:
+    standard's step list, row by row, without ares.analysis.optics.mtf's code:
     1. per row, the [-1/2, +1/2] derivative's centroid under a Hamming window centred on the
        row's middle; a least-squares line through them; again with each row's window centred
        on that line;
@@ -108,7 +108,7 @@ def test_mtf50_within_2pct_of_closed_form_at_snr50(angle):
     option esf_half_width=16 (worst 1.3 % over 20 seeds per angle there); the standard's
     whole-region result (worst 2.5 % there) within 4 of its SEs plus its noise-free binning
     bias (-0.5 %)."""
-    from ares.analysis.mtf import LOW_NOISE_HALF_WIDTH
+    from ares.analysis.optics.mtf import LOW_NOISE_HALF_WIDTH
 
     s = _edge_sensor(angle, cols=128)
     img = _stack_mean(s, 8)
@@ -134,7 +134,7 @@ def test_mtf50_within_1pct_of_an_independent_implementation(angle):
 def test_low_noise_option_beside_the_standard():
     """esf_half_width keeps 16 px of the ESF either side: less noise, the same MTF50 within
     its SE, and a smaller SE than the standard's whole-region ESF on the same image."""
-    from ares.analysis.mtf import LOW_NOISE_HALF_WIDTH
+    from ares.analysis.optics.mtf import LOW_NOISE_HALF_WIDTH
 
     s = _edge_sensor(6.0, seed=7)
     img = _stack_mean(s, 1)

@@ -1,4 +1,4 @@
-"""The one-pass pair kernel (``ares.analysis.pair_kernel``) gives exactly the numbers of the
+"""The one-pass pair kernel (``ares.analysis.kernels.pair``) gives exactly the numbers of the
 numpy path it replaces in ``levels.pair_moments``."""
 
 from __future__ import annotations
@@ -6,8 +6,8 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-import ares.analysis.pair_kernel as pk
-from ares.analysis.levels import pair_moments
+import ares.analysis.kernels.pair as pk
+from ares.analysis.ptc.levels import pair_moments
 
 
 def _numpy_path(monkeypatch, a, b, max_code):

@@ -5,8 +5,8 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from ares.analysis.accumulate import StackAccumulator
-from ares.analysis.panels import pixel_gain_map, result_panels, robust_gauss_fit, summarize, value_range
+from ares.analysis.noise.accumulate import StackAccumulator
+from ares.analysis.noise.panels import pixel_gain_map, result_panels, robust_gauss_fit, summarize, value_range
 from ares.errors import InputError
 
 

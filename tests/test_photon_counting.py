@@ -1,4 +1,4 @@
-"""Photon-counting histogram (ares.analysis.photon_counting, Starkey & Fossum 2016) against
+"""Photon-counting histogram (ares.analysis.optics.photon_counting, Starkey & Fossum 2016) against
 the simulator's truth: a deep sub-electron sensor (K = 10 DN/e-, no fixed-pattern noise,
 exact Poisson photo-charge) at 0.15-0.45 e- read noise, 5 seeds each (slow), and one cheap
 fixed-seed check of the SEs' spread/SE ratio at 0.45 e-. The gain's SE grows
@@ -8,7 +8,7 @@ with the read noise (0.5 % at 0.45 e- for 64x64x20 values): the 0.5 % target nee
 import numpy as np
 import pytest
 
-from ares.analysis.photon_counting import fit_histogram, photon_transfer
+from ares.analysis.optics.photon_counting import fit_histogram, photon_transfer
 from ares.sim.params import SensorParams
 from ares.sim.sensor import SimSensor
 

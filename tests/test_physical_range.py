@@ -11,9 +11,9 @@ import re
 import numpy as np
 import pytest
 
-from ares.analysis.dark_current import dark_current
-from ares.analysis.estimate import Estimate
-from ares.analysis.physical import in_range
+from ares.analysis.ptc.dark_current import dark_current
+from ares.analysis.stats.estimate import Estimate
+from ares.analysis.stats.physical import in_range
 from ares.cli import main
 
 
@@ -192,8 +192,8 @@ def test_key_figure_snr_is_judged_against_sqrt_of_the_full_well():
     measured too low) it is not available, saying why."""
     from types import SimpleNamespace
 
-    from ares.analysis.levels import LevelStats
-    from ares.analysis.ptc import analyze_ptc
+    from ares.analysis.ptc.levels import LevelStats
+    from ares.analysis.ptc.photon_transfer import analyze_ptc
     from ares.report.tables import PtcGroup, _snr_max, compute_key_figures
 
     K, n = 0.25, 20

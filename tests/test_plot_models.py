@@ -80,7 +80,7 @@ def test_histogram_counts_each_value_in_the_bin_its_edges_say():
 
 
 def test_fitted_numbers_come_from_the_engine_and_ignore_a_defect_tail():
-    from ares.analysis.panels import robust_gauss_fit
+    from ares.analysis.noise.panels import robust_gauss_fit
 
     rng = np.random.default_rng(1)
     v = np.concatenate([rng.normal(100.0, 2.0, 5000), np.full(50, 400.0)])  # 1 % hot pixels

@@ -17,7 +17,7 @@ from ares.protocol import load_scan
 from ares.protocol.scan import Precision, Target
 from ares.scan import Runner
 from ares.scan.precision import PrecisionRunner, plan
-from ares.scan.results import find_estimate
+from ares.results.registry import find_estimate
 
 from precision_study import TARGETS, run_study, study_scan
 

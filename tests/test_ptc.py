@@ -8,9 +8,9 @@ import warnings
 import numpy as np
 import pytest
 
-from ares.analysis.levels import pair_stats, stack_stats
-from ares.analysis.ptc import analyze_ptc, loglog_slopes
-from ares.analysis.ptc_fit import astier_fit, astier_model, origin_fit, wls_line
+from ares.analysis.ptc.levels import pair_stats, stack_stats
+from ares.analysis.ptc.photon_transfer import analyze_ptc, loglog_slopes
+from ares.analysis.ptc.fit import astier_fit, astier_model, origin_fit, wls_line
 
 
 def synth_pair(rng, n_e, shape, K=0.25, read_e=3.0, fw=16000.0, prnu=0.01, offset=100.0, bits=12,
@@ -154,7 +154,7 @@ def test_astier_fit_equals_scipy_curve_fit(seed, a00):
     the same standard errors."""
     from scipy.optimize import curve_fit
 
-    from ares.analysis.ptc_fit import astier_fit
+    from ares.analysis.ptc.fit import astier_fit
 
     rng = np.random.default_rng(seed)
     s = np.geomspace(30, 3500, 24)
@@ -182,7 +182,7 @@ def test_bspline_design_equals_scipy():
     against scipy.interpolate.BSpline on clamped knots at signal quantiles, both ends included."""
     from scipy.interpolate import BSpline
 
-    from ares.analysis.ptc_fit import bspline_design
+    from ares.analysis.ptc.fit import bspline_design
 
     rng = np.random.default_rng(5)
     for inner in ([], [700.0], [400.0, 1200.0, 2500.0]):
@@ -200,7 +200,7 @@ def test_astier_fit_on_two_distinct_levels_is_not_available_rather_than_a_value_
     gain without its SE), the model choice says why, and nothing warns."""
     import warnings
 
-    from ares.analysis.ptc_fit import astier_fit, choose_gain_model
+    from ares.analysis.ptc.fit import astier_fit, choose_gain_model
 
     s = np.array([100.0, 100, 200, 200, 200])
     v = np.array([30.0, 30.5, 58, 58.4, 58.2])

@@ -13,8 +13,8 @@ import pytest
 
 from ptc_synth import make_levels, rel_se
 
-from ares.analysis.estimate import Estimate, format_value
-from ares.analysis.ptc import analyze_ptc
+from ares.analysis.stats.estimate import Estimate, format_value
+from ares.analysis.ptc.photon_transfer import analyze_ptc
 
 # dense near saturation so the clipping bias grows over several levels
 MU = np.concatenate([np.geomspace(40, 15000, 22), np.linspace(15500, 26000, 22)])
@@ -158,8 +158,8 @@ def test_digits_follow_the_standard_error():
 def test_saturated_stage_has_no_gain_or_charge():
     """A fully clipped flat stage (every pixel at its full well, the temporal variance not
     above the dark's) once showed G = -2.4e-7 DN/e- and q = -1.4e10 e- as plain values."""
-    from ares.analysis.accumulate import StackAccumulator
-    from ares.analysis.flat import decompose_flat
+    from ares.analysis.noise.accumulate import StackAccumulator
+    from ares.analysis.noise.flat import decompose_flat
 
     rng = np.random.default_rng(4)
     shape = (48, 64)

@@ -11,8 +11,8 @@ import math
 import numpy as np
 import pytest
 
-from ares.analysis.levels import stack_stats
-from ares.analysis.ptc import analyze_ptc
+from ares.analysis.ptc.levels import stack_stats
+from ares.analysis.ptc.photon_transfer import analyze_ptc
 from ares.sim import SensorParams, SimSensor
 
 T_EXP = 0.01

@@ -1,4 +1,4 @@
-"""Large stack arrays handed from a collected stack to the next (``ares.analysis.recycle``):
+"""Large stack arrays handed from a collected stack to the next (``ares.analysis.kernels.recycle``):
 the next stack's sums are the exact sums of its own frames (a pooled array is zeroed or
 overwritten), an array something else still references is never pooled, a StackSet with a
 masked view is freed (and its arrays pooled) without waiting for the cycle collector, and
@@ -11,8 +11,9 @@ import gc
 import numpy as np
 import pytest
 
-from ares.analysis import StackAccumulator, decompose_dark, recycle
-from ares.scan.results import StackSet
+from ares.analysis import StackAccumulator, decompose_dark
+from ares.analysis.kernels import recycle
+from ares.results.registry import StackSet
 
 SHAPE = (24, 40)
 VIEWS = {"full": (slice(None), slice(None)), "corner": (slice(0, 8), slice(0, 8))}

@@ -5,7 +5,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from ares.analysis.regions import (
+from ares.analysis.noise.regions import (
     Region,
     SelectionSet,
     adc_channels,

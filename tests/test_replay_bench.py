@@ -37,7 +37,7 @@ import numpy as np
 import pytest
 
 from ares.errors import InputError
-from ares.hardware.factory import build_bench
+from ares.rig.factory import build_bench
 from ares.protocol import load_scan, load_system
 from ares.scan.runner import Runner
 
@@ -94,7 +94,7 @@ def test_emva_reference_scan_gives_the_descriptor_datasheet(reference_run):
     light x exposure here, the descriptor's counts there), spatial figures within their SE
     (the scan takes the row/column temporal noise from the stages' ANOVA components, the
     descriptor from the frames' row and column means)."""
-    from ares.commands.emva import analyse_descriptor
+    from ares.results.descriptor import analyse_descriptor
 
     scan = reference_run.scan_results["emva4"]["values"]
     desc = analyse_descriptor(DESCRIPTOR).sheet.values

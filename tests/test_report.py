@@ -19,6 +19,7 @@ from ares.cli import main
 from ares.errors import InputError
 from ares.report import key_figures, read_run, write_reports
 from ares.report import pdf as report_pdf
+from ares.report import pdf_parts
 from ares.report import tables
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -91,7 +92,7 @@ def runs(tmp_path_factory):
 def ptc_pdf(runs, tmp_path_factory):
     """The PTC run's PDF, rendered once: (path, page titles)."""
     path = tmp_path_factory.mktemp("pdf") / "r.pdf"
-    return path, report_pdf.write_pdf(read_run(runs / "ptc"), path)
+    return path, pdf_parts.write_pdf(read_run(runs / "ptc"), path)
 
 
 def _csv(path: Path) -> list[dict]:
@@ -244,7 +245,7 @@ def test_pdf_pages_and_key_figures_as_text(runs, ptc_pdf):
 
 
 def test_dark_temperature_run_pages(runs, tmp_path):
-    titles = report_pdf.write_pdf(read_run(runs / "dark"), tmp_path / "d.pdf")
+    titles = pdf_parts.write_pdf(read_run(runs / "dark"), tmp_path / "d.pdf")
     assert {"dark", "temperature", "sweep 2d"} <= set(titles) and not any(t.startswith("ptc") for t in titles)
     assert _pages(tmp_path / "d.pdf") == len(titles)
     sr = json.loads((runs / "dark" / "scan_results.json").read_text())["analyses"]
@@ -273,7 +274,7 @@ def test_report_computes_dark_current_without_the_analysis(runs, tmp_path):
 
 
 def test_lag_and_defect_pages(runs, tmp_path, ptc_pdf):
-    titles = report_pdf.write_pdf(read_run(runs / "lag"), tmp_path / "l.pdf")
+    titles = pdf_parts.write_pdf(read_run(runs / "lag"), tmp_path / "l.pdf")
     assert "frame means" in titles
     sr = json.loads((runs / "lag" / "scan_results.json").read_text())["analyses"]["lag"]
     text = _pdf_text(tmp_path / "l.pdf")
@@ -409,7 +410,7 @@ def test_two_axis_sweep_maps_have_axis_units(tmp_path):
     labelled with the field's unit from the system XML kept in the run."""
     assert main(["run", str(ROOT / "fixtures" / "xml" / "small" / "bias_small.xml"), "--out", str(tmp_path / "b"),
                  "-q"]) == 4  # the fixture's limit fails on purpose
-    titles = report_pdf.write_pdf(read_run(tmp_path / "b"), tmp_path / "b.pdf")
+    titles = pdf_parts.write_pdf(read_run(tmp_path / "b"), tmp_path / "b.pdf")
     assert "sweep 2d" in titles and "ptc x1" not in titles  # a bias sweep is not a photon-transfer curve
     text = _pdf_text(tmp_path / "b.pdf")
     assert "2-D sweep 'bias': sf_bias x tx_low" in text

@@ -1,4 +1,4 @@
-"""Integrity of a run directory (``ares.runcheck``): a corrupt array, a deleted stage and a
+"""Integrity of a run directory (``ares.rundir.check``): a corrupt array, a deleted stage and a
 truncated HDF5 are each reported as such -- one sentence naming the stage and the file, a
 non-zero exit, no figures -- by ``ares report``, ``ares batch`` and ``ares batch --rerun``;
 before the content hashes, the first two came out as a full report (exit 0) and ``--rerun``
@@ -182,7 +182,7 @@ def test_batch_rerun_names_a_truncated_hdf5(damaged, tmp_path, scheduler, capsys
 def test_rerun_comparison_names_the_stage_and_array_that_differ(damaged):
     """A rerun whose recorded hash of stage 2's 'variance' differs from the original's: the
     comparison names that stage and array (and counts the stage as not reproduced)."""
-    from ares.commands.rerun import compare
+    from ares.rundir.compare import compare
     from ares.scan import load_run
 
     a = load_run(damaged["good"])
@@ -195,7 +195,7 @@ def test_rerun_comparison_names_the_stage_and_array_that_differ(damaged):
 def test_hashes_are_of_the_array_values_not_the_file_layout():
     """The recorded hash is of dtype, shape and values: the same values hash alike whatever
     their memory layout, and one changed value or a different dtype changes it."""
-    from ares.runcheck import array_sha256
+    from ares.rundir.check import array_sha256
 
     a = np.arange(12, dtype=np.float32).reshape(3, 4)
     assert array_sha256(a) == array_sha256(np.asfortranarray(a)) == array_sha256(a.copy())

@@ -16,7 +16,7 @@ import pytest
 from ares.errors import InputError
 from ares.protocol import load_scan
 from ares.scan import Runner, load_run, scan_level_results
-from ares.scan.rundir import sha256
+from ares.rundir.files import sha256
 
 ROOT = Path(__file__).resolve().parents[1]
 SMALL = ROOT / "fixtures" / "xml" / "small"

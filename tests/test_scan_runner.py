@@ -196,7 +196,7 @@ def test_auto_repeat(ptc_small, tmp_path):
 
 
 def test_runner_refuses_mismatched_frame_source(ptc_small):
-    from ares.hardware.factory import build_bench
+    from ares.rig.factory import build_bench
     from ares.protocol import load_system
 
     bench = build_bench(load_system(ROOT / "protocols" / "sim_sensor.xml"))
@@ -206,7 +206,7 @@ def test_runner_refuses_mismatched_frame_source(ptc_small):
 
 def test_photon_transfer_recovers_the_simulators_truth(tmp_path):
     """The main job, end to end on the shipped files: K, conversion gain and the gain part."""
-    from ares.hardware.factory import sim_params
+    from ares.sim.from_system import sim_params
 
     sc = load_scan(ROOT / "scans" / "photon_transfer.xml")
     out = Runner(sc, out_dir=tmp_path / "pt").run()
@@ -242,7 +242,7 @@ def test_dark_current_temperature_and_lag_analyses():
 
 
 def test_adc_linearity_from_the_ramp_stage(tmp_path):
-    from ares.hardware.factory import sim_params
+    from ares.sim.from_system import sim_params
 
     sc = load_scan(ROOT / "scans" / "adc_linearity.xml")
     res = Runner(sc, out_dir=tmp_path / "adc", frames=4).run().scan_results["adc_linearity"]
@@ -295,7 +295,7 @@ def test_listener_bug_is_recorded_and_reraised(ptc_small, tmp_path):
 
 def test_frame_timeout_from_any_backend(ptc_small, tmp_path):
     """A FrameSource that times out (as the USB grabber does) ends the run like the sim faults."""
-    from ares.hardware.factory import build_bench
+    from ares.rig.factory import build_bench
 
     bench = build_bench(ptc_small.system)
     real = bench.frames

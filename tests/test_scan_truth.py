@@ -24,7 +24,8 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from ares.hardware.factory import build_bench, sim_params
+from ares.rig.factory import build_bench
+from ares.sim.from_system import sim_params
 from ares.protocol import load_scan
 from ares.scan import Runner
 from ares.scan.apply import apply_settings

@@ -21,7 +21,7 @@ from pathlib import Path
 
 import pytest
 
-from ares.runstate import effective_status
+from ares.rundir.state import effective_status
 
 ROOT = Path(__file__).resolve().parents[1]
 SMALL = ROOT / "fixtures" / "xml" / "small"

@@ -16,7 +16,7 @@ from ares.sim.params import SensorParams  # noqa: E402
 
 
 def shipped() -> SensorParams:
-    from ares.hardware.factory import sim_params
+    from ares.sim.from_system import sim_params
     from ares.protocol import load_system
 
     return sim_params(load_system("protocols/sim_sensor.xml"))
@@ -100,10 +100,10 @@ def test_exact_mask_shortcut_matches_the_per_pixel_rule():
 
 @pytest.mark.parametrize("bitgen", [np.random.SFC64, np.random.PCG64, np.random.MT19937, np.random.Philox])
 def test_16_bit_words_from_wider_draws_are_numpys_words(bitgen):
-    """``noise.words16`` (64- or 32-bit draws viewed as uint16) gives exactly the values of
+    """``fused.words16`` (64- or 32-bit draws viewed as uint16) gives exactly the values of
     ``integers(0, 2**16, dtype=uint16)`` and leaves the generator where it leaves it:
     whatever is pending from earlier draws, for even and odd sizes and 2-D shapes."""
-    from ares.sim.noise import words16
+    from ares.sim.fused import words16
 
     for pending in (0, 1, 3):
         for shape in ((480, 640), (6,), (10,), (7,), (2, 3), (1,)):

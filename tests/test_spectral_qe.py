@@ -69,7 +69,7 @@ def test_qe_against_the_simulator_truth(tmp_path):
     # the calibration's share: u(R) / R, both linear between the table's 400 and 450 nm rows
     assert pts["425nm"]["budget"]["u_calibration"] == pytest.approx((0.0027 + 0.0024) / (0.18 + 0.24), rel=1e-9)
     from ares.protocol.quantities import PRODUCES
-    from ares.scan.results import flatten
+    from ares.results.registry import flatten
 
     assert {k.split(".")[-1] for k in flatten(res)} <= PRODUCES["spectral_qe"]  # what a limit may name
     assert pts["1050nm"]["qe"]["verdict"] == "not available"
@@ -137,7 +137,7 @@ def test_wavelength_outside_the_monochromator_is_refused(tmp_path):
 
 
 def test_emulated_instruments_speak_their_dialects():
-    from ares.hardware.factory import build_bench
+    from ares.rig.factory import build_bench
 
     bench = build_bench(load_system(ROOT / "protocols" / "sim_spectral.xml"))
     try:
@@ -159,8 +159,8 @@ def test_emulated_instruments_speak_their_dialects():
 
 def test_qe_point_is_eq_82_with_eq_3_and_its_budget():
     """Closed form: 1 uW on a 1 cm^2 diode at 500 nm, 3.3 um pixels, 10 ms -> mu_p by Eq. (3)."""
-    from ares.analysis.estimate import Estimate
-    from ares.analysis.spectral_qe import C_LIGHT, H_PLANCK, SpectralPoint, qe_point
+    from ares.analysis.stats.estimate import Estimate
+    from ares.analysis.optics.spectral_qe import C_LIGHT, H_PLANCK, SpectralPoint, qe_point
 
     table = ((400.0, 600.0), (0.2, 0.4), (0.002, 0.004))  # R(500) = 0.3 A/W, u = 0.003
     mu_p = (3.3e-6) ** 2 * (1e-6 / 1e-4) * 0.01 * 500e-9 / (H_PLANCK * C_LIGHT)
@@ -182,7 +182,7 @@ def test_qe_point_is_eq_82_with_eq_3_and_its_budget():
 
 def test_a_silent_photodiode_meter_is_one_sentence(tmp_path):
     from ares.errors import HardwareError
-    from ares.hardware.factory import build_bench
+    from ares.rig.factory import build_bench
 
     bench = build_bench(load_system(ROOT / "protocols" / "sim_spectral.xml"))
     try:
@@ -196,7 +196,7 @@ def test_a_silent_photodiode_meter_is_one_sentence(tmp_path):
 
 
 def test_power_meter_reading(tmp_path):
-    from ares.hardware.factory import build_bench
+    from ares.rig.factory import build_bench
 
     d = _bench_dir(tmp_path)
     x = (d / "sim_spectral.xml").read_text()

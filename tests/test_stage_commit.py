@@ -15,7 +15,7 @@ from ares.errors import StorageError
 from ares.protocol import load_scan
 from ares.scan import Runner, events as ev
 from ares.scan.commit import StageCommitter
-from ares.scan.rundir import RunWriter
+from ares.rundir.writer import RunWriter
 from run_files import stage_results
 
 ROOT = Path(__file__).resolve().parents[1]

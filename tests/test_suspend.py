@@ -10,7 +10,7 @@ from pathlib import Path
 
 import pytest
 
-from ares.hardware.factory import sim_params
+from ares.sim.from_system import sim_params
 from ares.protocol import load_scan, save_scan
 from ares.scan import Runner
 from ares.sim.bench import SimChamber, make_sim_bench

@@ -1,4 +1,4 @@
-"""Chi-square and F upper tails (``ares.analysis.tails``) against scipy.special."""
+"""Chi-square and F upper tails (``ares.analysis.stats.tails``) against scipy.special."""
 
 from __future__ import annotations
 
@@ -8,7 +8,7 @@ import numpy as np
 import pytest
 from scipy import special
 
-from ares.analysis.tails import chi2_sf, f_sf
+from ares.analysis.stats.tails import chi2_sf, f_sf
 
 
 @pytest.mark.parametrize("df", [1, 2, 3, 5, 10, 22, 47, 100, 500, 2000])

@@ -15,7 +15,7 @@ import pytest
 
 from ares.cli import main
 from ares.errors import DeviceGone, HardwareError
-from ares.hardware.factory import build_bench
+from ares.rig.factory import build_bench
 from ares.protocol import load_system
 
 ROOT = Path(__file__).resolve().parents[1]

@@ -1,4 +1,16 @@
-"""ARES analysis engine: pure numpy/scipy, no Qt, no file I/O.
+"""ARES analysis engine: pure numpy/scipy, no Qt, no file I/O; imports nothing of ARES but
+``ares.errors`` and its own rooms.
+
+Rooms by concern, each a package; a room imports only the rooms before it in this list:
+
+* ``kernels/`` numba kernels and their compile helpers (``jit``);
+* ``stats/``   a value with its SE and verdict, physical ranges, small fits, splines, medians, tails;
+* ``spatial/`` the EMVA 1288 high-/low-pass and the row/column/pixel split of spatial variances;
+* ``noise/``   accumulators, the 13-component decomposition, regions, panels;
+* ``ptc/``     photon transfer, gain fits, saturation/turnoff, read noise, dark current, lag, ADC;
+* ``emva/``    each EMVA 1288 release, its sheet and graphs;
+* ``optics/``  MTF, photon counting, spectral QE;
+* ``defects/`` defect identification and classes.
 
 Noise decomposition API:
 
@@ -19,16 +31,16 @@ Noise decomposition API:
   ``robust_gauss_fit``, ``pixel_gain_map``).
 """
 
-# Names are imported on first use (PEP 562): ``import ares.analysis.estimate`` -- as the CLI
+# Names are imported on first use (PEP 562): ``import ares.analysis.stats.estimate`` -- as the CLI
 # does for ``ares --help`` -- must not pull in scipy.signal through the decomposition.
 _HOME = {
-    "StackAccumulator": "accumulate", "MaskedStackAccumulator": "masked", "masked_components": "masked",
-    "DARK_NAMES": "anova", "AnovaTable": "anova", "anova_table": "anova", "decompose_dark": "anova",
-    "in_electrons": "anova", "sigma_view": "anova", "COMPONENT_NAMES": "decompose", "UNITS_NOTE": "decompose",
-    "StackAnalysis": "decompose", "Estimate": "estimate", "GAIN_NAMES": "flat", "decompose_flat": "flat",
-    "highpass_emva": "flat", "Panel": "panels", "pixel_gain_map": "panels", "result_panels": "panels",
-    "robust_gauss_fit": "panels", "summarize": "panels", "value_range": "panels",
-    **{n: "regions" for n in ("Region", "Selection", "SelectionSet", "adc_channels", "bayer_channels", "full_frame",
+    "StackAccumulator": "noise.accumulate", "MaskedStackAccumulator": "noise.masked", "masked_components": "noise.masked",
+    "DARK_NAMES": "noise.anova", "AnovaTable": "noise.anova", "anova_table": "noise.anova", "decompose_dark": "noise.anova",
+    "in_electrons": "noise.anova", "sigma_view": "noise.anova", "COMPONENT_NAMES": "noise.decompose", "UNITS_NOTE": "noise.decompose",
+    "StackAnalysis": "noise.decompose", "Estimate": "stats.estimate", "GAIN_NAMES": "noise.flat", "decompose_flat": "noise.flat",
+    "highpass_emva": "noise.flat", "Panel": "noise.panels", "pixel_gain_map": "noise.panels", "result_panels": "noise.panels",
+    "robust_gauss_fit": "noise.panels", "summarize": "noise.panels", "value_range": "noise.panels",
+    **{n: "noise.regions" for n in ("Region", "Selection", "SelectionSet", "adc_channels", "bayer_channels", "full_frame",
                               "ob_columns", "parse_roi", "region_selection")},
 }
 

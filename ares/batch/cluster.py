@@ -131,7 +131,7 @@ def accumulate_range(spec: str, start: int, stop: int):
     ``StackAccumulator`` (exact integer sums)."""
     import numpy as np
 
-    from ares.analysis.accumulate import StackAccumulator
+    from ares.analysis.noise.accumulate import StackAccumulator
     from ares.hardware.stackfiles import split_spec
 
     p, inner = split_spec(spec)

@@ -85,15 +85,15 @@ def content_hash(path: str | Path, kind: str, full: bool = True) -> str:
 def _figures_of_run(path: Path) -> tuple[dict, str]:
     from ares.report import read_run, tables
 
-    run = read_run(path, verify_arrays=True)  # incomplete / corrupt: the item's one line (ares.runcheck)
+    run = read_run(path, verify_arrays=True)  # incomplete / corrupt: the item's one line (ares.rundir.check)
     kf = tables.compute_key_figures(run)
     return ({k: {"label": v["label"], "value": v["value"], "se": v["se"], "unit": v["unit"],
                  "verdict": v.get("verdict", ""), "note": v["note"]} for k, v in kf.items()}, run.status)
 
 
 def _figures_of_descriptor(path: Path) -> tuple[dict, str]:
-    from ares.analysis.emva4_sheet import SYMBOLS
-    from ares.commands.emva import analyse_descriptor
+    from ares.analysis.emva.sheet import SYMBOLS
+    from ares.results.descriptor import analyse_descriptor
 
     sheet = analyse_descriptor(path).sheet
     return ({k: {"label": f"EMVA 1288 4.0 {SYMBOLS.get(k, k)}", **e.to_dict()} for k, e in sheet.values.items()},
@@ -101,8 +101,8 @@ def _figures_of_descriptor(path: Path) -> tuple[dict, str]:
 
 
 def _figures_of_stack(spec: str) -> tuple[dict, str]:
-    from ares.analysis.accumulate import StackAccumulator
-    from ares.analysis.decompose import StackAnalysis
+    from ares.analysis.noise.accumulate import StackAccumulator
+    from ares.analysis.noise.decompose import StackAnalysis
     from ares.hardware.stackfiles import iter_frames
     from ares.labels import COMPONENTS
 
@@ -189,7 +189,7 @@ def rerun(path: str, out_root: str, cache_dir: str | None = None, verify: bool =
     ``ares rerun``: verbatim XML, seed, frame override) into ``out_root``, then analyse the new
     run; the result says how many stage results reproduce the original's. A run on hardware
     needs that hardware at the worker that gets it."""
-    from ares.commands.rerun import compare, original_damage
+    from ares.rundir.compare import compare, original_damage
     from ares.scan import Runner, load_run
 
     try:

@@ -28,7 +28,7 @@ def bin_of(r: dict, limit_texts: list[str]) -> str:
 
 
 def _cell(r: dict, q: str) -> str:
-    from ares.analysis.estimate import format_value
+    from ares.analysis.stats.estimate import format_value
     from ares.batch.lot_report import find
 
     f = find(r.get("figures") or {}, q) or {}

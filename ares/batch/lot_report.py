@@ -32,7 +32,7 @@ def find(figures: dict, quantity: str) -> dict | None:
     """The figure a limit names, by its canonical name (``K`` and ``gain_dn_per_e`` are one
     quantity): its key, or a dotted path ending in it (as scan limits)."""
     from ares.batch.vocabulary import canonical
-    from ares.scan.results import names_quantity
+    from ares.results.registry import names_quantity
 
     quantity = canonical(quantity)
     if quantity in figures:
@@ -138,9 +138,3 @@ def write_h5(j: Judged, path: Path, lot_name: str) -> None:
                 g.create_dataset(c, data=np.array(["" if v is None else str(v) for v in vals], dtype=object),
                                  dtype=h5py.string_dtype())
     tmp.replace(path)
-
-
-def write_pdf(j: Judged, path: Path, lot_name: str) -> None:
-    from ares.batch.lot_pdf import write_pdf as write
-
-    write(j, path, lot_name)

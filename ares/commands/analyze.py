@@ -47,8 +47,8 @@ def add_arguments(p) -> None:
 def accumulate_files(specs, roi_text, what, on_frame=None):
     """The stack's accumulator (``on_frame(k, frame)`` sees each frame: the GUI's Input
     Images preview, which analyses files exactly as this command does)."""
-    from ares.analysis.accumulate import StackAccumulator
-    from ares.analysis.regions import parse_roi, region_selection
+    from ares.analysis.noise.accumulate import StackAccumulator
+    from ares.analysis.noise.regions import parse_roi, region_selection
     from ares.hardware.stackfiles import iter_frames
 
     acc = sel = None
@@ -80,8 +80,8 @@ def input_files(args) -> list:
 
 
 def run(args) -> int:
-    from ares.analysis.decompose import COMPONENT_NAMES, UNITS_NOTE, StackAnalysis
-    from ares.analysis.physical import variances_in_range
+    from ares.analysis.noise.decompose import COMPONENT_NAMES, UNITS_NOTE, StackAnalysis
+    from ares.analysis.stats.physical import variances_in_range
 
     files = input_files(args)
     k = args.gain.dn_per_e(args.adc_lsb_uv) if args.gain is not None else None

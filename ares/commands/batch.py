@@ -44,7 +44,7 @@ def add_arguments(p) -> None:
 
 
 def _stack(args, client) -> int:
-    from ares.analysis.anova import decompose_dark
+    from ares.analysis.noise.anova import decompose_dark
     from ares.batch.cluster import split_accumulate
     from ares.labels import COMPONENTS
 
@@ -78,7 +78,7 @@ def _absolute(spec: str) -> str:
 
 
 def run(args) -> int:
-    from ares.batch import lot_report
+    from ares.batch import lot_pdf, lot_report
     from ares.batch.cluster import make_client, progress_line, run_items
     from ares.errors import InputError
     from ares.protocol.lot import load_lot
@@ -124,11 +124,11 @@ def run(args) -> int:
     meta = {_absolute(str(it.path)): {"sensor": it.sensor, "x": it.x, "y": it.y} for it in (lot.items if lot else ())}
     judged = lot_report.judge(results, lot.limits if lot else (), meta)
     name = lot.name if lot else out.resolve().name
-    from ares.scan.rundir import write_atomic
+    from ares.rundir.files import write_atomic
 
     write_atomic(out / "lot.csv", lot_report.to_csv(judged, name).encode())
     lot_report.write_h5(judged, out / "lot.h5", name)
-    lot_report.write_pdf(judged, out / "lot.pdf", name)
+    lot_pdf.write_pdf(judged, out / "lot.pdf", name)
     (out / "lot.partial.csv").unlink(missing_ok=True)
     if not args.no_db:
         from ares.batch import db

@@ -127,7 +127,7 @@ def run(args) -> int:
         bar = _Bar(1, args.quiet)
         bench = None
         if scan.system.simulator is None:
-            from ares.hardware.factory import build_bench
+            from ares.rig.factory import build_bench
 
             bench = build_bench(scan.system)
         try:

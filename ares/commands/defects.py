@@ -54,7 +54,7 @@ def add_arguments(p) -> None:
 def level_stats(paths: list[str], exposure_s: float | None, what: str) -> PixelStats:
     """Per-pixel mean and temporal variance of one level, streamed frame by frame from its
     files (memory independent of the number of frames)."""
-    from ares.analysis.accumulate import StackAccumulator
+    from ares.analysis.noise.accumulate import StackAccumulator
     from ares.analysis.defects import PixelStats
     from ares.hardware.stackfiles import iter_frames
 

@@ -3,7 +3,7 @@
     ares mtf IMAGES... [--roi X,Y,W,H] [--bayer PATTERN] [--bits N] [--esf-half-width PX] [--json] [--pdf FILE]
 
 The images (PNG/TIFF, .npy/.npz, .h5:/dataset; several are averaged as one stack) are read
-by ``ares.hardware.stackfiles``; the analysis is ``ares.analysis.mtf`` (per Bayer channel
+by ``ares.hardware.stackfiles``; the analysis is ``ares.analysis.optics.mtf`` (per Bayer channel
 with ``--bayer``, each channel's own pixels). Every figure with its SE, or "not available"
 and why (edge angle outside 2-22 deg, too little contrast, clipping). ``--esf-half-width``
 adds the option (the ESF within that many pixels of the edge, not the standard) beside the
@@ -57,7 +57,7 @@ def _write_pdf(channels: dict, path: Path, title: str) -> None:
 
 
 def run(args) -> int:
-    from ares.analysis.mtf import CHANNEL_NAMES, channels_dict, sfr_channels
+    from ares.analysis.optics.mtf import CHANNEL_NAMES, channels_dict, sfr_channels
     from ares.protocol.scan import ANALYSIS_OPTIONS
     from ares.hardware.stackfiles import iter_frames
 

@@ -2,7 +2,7 @@
 
     ares ptc TABLE [--columns mean,var,...] [--pixels N] [--frames N] [--json] [--pdf FILE]
 
-The same analysis as a scan's ``ptc`` (``ares.analysis.ptc.analyze_ptc``): levels in
+The same analysis as a scan's ``ptc`` (``ares.analysis.ptc.photon_transfer.analyze_ptc``): levels in
 signal order whatever the row order, near-zero and non-finite rows dropped with a note,
 the saturation bracket, the data-chosen gain model with its residual tests, the EMVA 1288
 4.0 Eq. 51 local-slope check, every figure with its SE or "not available" and why. The
@@ -15,7 +15,7 @@ import json
 import math
 from pathlib import Path
 
-from ares.analysis.estimate import format_dict
+from ares.analysis.stats.estimate import format_dict
 from ares.commands.argtypes import positive
 from ares.errors import InputError
 
@@ -39,7 +39,7 @@ def add_arguments(p) -> None:
 
 
 def _levels(table, pixels: int | None, frames: int | None):
-    from ares.analysis.levels import LevelStats
+    from ares.analysis.ptc.levels import LevelStats
 
     n = len(table)
     col = table.get
@@ -89,7 +89,7 @@ def _axis(table, name: str, notes: list[str]):
 def analyse_table(path: str | Path, columns: list[str] | None = None, pixels: int | None = None,
                   frames: int | None = None, adc_lsb_uv: float | None = None):
     """(PtcResult, JSON dict, level names) for a table file."""
-    from ares.analysis.ptc import analyze_ptc
+    from ares.analysis.ptc.photon_transfer import analyze_ptc
     from ares.hardware.ptc_table import read_ptc_table
 
     table = read_ptc_table(path, columns)
@@ -107,7 +107,7 @@ def analyse_table(path: str | Path, columns: list[str] | None = None, pixels: in
     d = {"table": str(table.path), "levels": len(table)}
     d.update(r.to_dict(names))
     if no_dark:
-        from ares.analysis.estimate import Estimate
+        from ares.analysis.stats.estimate import Estimate
 
         why = Estimate.na("the table has no dark columns", "e-")
         d["read_noise_e"], d["read_noise_dn"] = why.to_dict(), Estimate.na(why.note, "DN").to_dict()

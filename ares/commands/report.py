@@ -42,8 +42,9 @@ def give_gain(run_dir, k: float, text: str) -> None:
     again (scan_results.json); a run whose PTC measured K keeps its own (``dark_gain``)."""
     from pathlib import Path
 
-    from ares.scan.results import SCAN_ANALYSES
-    from ares.scan.rundir import dump_json, load_run, storage
+    from ares.results.registry import SCAN_ANALYSES
+    from ares.rundir.files import dump_json, storage
+    from ares.rundir.record import load_run
 
     d = Path(run_dir)
     meta = json.loads((d / "run.json").read_text())
@@ -67,8 +68,8 @@ def run(args) -> int:
 
     formats = [f for f, opt in (("csv", args.csv), ("hdf5", args.hdf5), ("pdf", args.pdf)) if opt] \
         or ["csv", "hdf5", "pdf"]
-    from ares.runstate import REPORTS_INCOMPLETE, owner
-    from ares.scan.rundir import clean_report_leftovers, set_reports_state
+    from ares.rundir.state import REPORTS_INCOMPLETE, owner
+    from ares.rundir.record import clean_report_leftovers, set_reports_state
 
     r = read_run(args.run_dir, verify_arrays=True)  # (incomplete / corrupt: one sentence, exit 2)
     if args.gain is not None:

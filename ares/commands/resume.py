@@ -24,10 +24,10 @@ def run(args) -> int:
     from pathlib import Path
 
     from ares.commands.run import execute
-    from ares.scan.rundir import load_run
+    from ares.rundir.record import load_run
     from ares.scan.resume import resumable
 
-    from ares.runstate import REPORTS_INCOMPLETE, effective_status
+    from ares.rundir.state import REPORTS_INCOMPLETE, effective_status
 
     run_ = load_run(args.run_dir)
     if effective_status(run_.meta)[0] == REPORTS_INCOMPLETE:  # stages complete, reports not: write them

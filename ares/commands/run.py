@@ -13,10 +13,10 @@ import sys
 import time
 from pathlib import Path
 
-from ares.analysis.estimate import format_dict
+from ares.analysis.stats.estimate import format_dict
 from ares.errors import InputError
 
-CLAIM = ".ares-claim"  # ares.scan.rundir.CLAIM (not imported here: `ares --help` stays light)
+CLAIM = ".ares-claim"  # ares.rundir.files.CLAIM (not imported here: `ares --help` stays light)
 
 NAME = "run"
 HELP = "run a scan XML on its system (the simulator by default) and write a run directory"
@@ -90,7 +90,7 @@ def claim_out(out, scan_name: str, tries: int = 10000) -> Path:
     concurrent run that took the name first moves this one to the next free name (never
     into the other run's folder). Each refusal means that name now exists, so the next
     one is new: any number of concurrent runs into the same --out get one each."""
-    from ares.scan.rundir import claim_run_dir
+    from ares.rundir.files import claim_run_dir
 
     if out is not None and not str(out).strip():
         raise InputError("--out: the run directory must not be an empty path")
@@ -246,7 +246,7 @@ def print_summary(outcome, scan, seconds: float, out=None, resumed: int = 0) -> 
         meta = _read_meta(Path(outcome.run_dir))
         if meta.get("report_error"):
             out.write(f"report: not written ({meta['report_error']})\n")
-    from ares.scan.results import limits_verdict
+    from ares.results.registry import limits_verdict
 
     out.write(limits_verdict(outcome.status, len(scan.limits), outcome.limit_failures)["text"] + "\n")
 
@@ -303,7 +303,7 @@ def execute(scan, args, *, seed, frames, faults=None, argv=None, out_dir=None, r
     from ares.scan import Runner
     from ares.scan.preflight import check_run
 
-    from ares.runstate import quiet_unraisable_storage_errors
+    from ares.rundir.state import quiet_unraisable_storage_errors
 
     quiet_unraisable_storage_errors()
     if resume_from is None:
@@ -443,7 +443,7 @@ class Signals:
 def abandon_reports(exc: ReportsAbandoned, run_dir, helper, command: str, stages: int) -> int:
     """After a signal during the reports: the helper ended, the temporary files removed,
     run.json saying ``reports incomplete``; one line, exit 130."""
-    from ares.scan.rundir import clean_report_leftovers, set_reports_state
+    from ares.rundir.record import clean_report_leftovers, set_reports_state
 
     if helper is not None:
         helper.kill()
@@ -467,8 +467,8 @@ def finish_reports(run_, args) -> int:
     """``ares resume`` of a run whose stages are complete but whose reports are not: write
     the reports its scan promises, under the same signal handling as ``ares run``."""
     from ares.report import pdf_parts, write_reports
-    from ares.runstate import owner
-    from ares.scan.rundir import clean_report_leftovers, set_reports_state
+    from ares.rundir.state import owner
+    from ares.rundir.record import clean_report_leftovers, set_reports_state
 
     out = run_.scan.output
     formats = [f for f, on in (("csv", out.csv), ("hdf5", out.hdf5), ("pdf", out.pdf)) if on]
@@ -505,8 +505,8 @@ def _main_thread() -> bool:
 
 
 def _json_summary(outcome, scan, seconds) -> dict:
-    from ares.scan.results import limits_verdict
-    from ares.scan.rundir import _clean
+    from ares.results.registry import limits_verdict
+    from ares.rundir.files import _clean
 
     return _clean({"scan": scan.name, "status": outcome.status, "run_dir": str(outcome.run_dir),
                    "seed": outcome.seed, "stages": len(outcome.stages), "seconds": seconds,

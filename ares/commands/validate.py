@@ -19,7 +19,7 @@ def validate_one(path) -> tuple[str, str]:
     """Schema + semantic checks of one file (and, for a scan, its system), the simulator's
     parameter checks and, for a scan, everything ``ares run`` checks before it starts
     (``ares.scan.preflight``); returns ("scan" | "system", a note), raises ``InputError``."""
-    from ares.hardware.factory import sim_params
+    from ares.sim.from_system import sim_params
     from ares.protocol import load_scan, load_system, validate_file
 
     kind = validate_file(path)

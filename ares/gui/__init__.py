@@ -19,4 +19,5 @@ Layout (models hold state and are tested without Qt; views only draw them):
 - ``app``           display check (one sentence when Qt cannot start) and startup
 
 Start it with ``ares gui [SCAN]``.
-"""
+
+May import every package of ARES; nothing imports it but ``ares.cli``."""

@@ -52,7 +52,7 @@ def make_app(argv: list[str] | None = None):
 
 
 def open_main_window(scan: str | None = None):
-    from .main_window import MainWindow
+    from ares.gui.main_window import MainWindow
 
     window = MainWindow()
     if scan:

@@ -22,7 +22,7 @@ import numpy as np
 
 from ares.errors import InputError, Interrupted
 
-from .events import Done, FramePreview, Progress, RunInfo, StageResult, StageStarted, Stopped
+from ares.gui.events import Done, FramePreview, Progress, RunInfo, StageResult, StageStarted, Stopped
 
 Emit = Callable[[object], None]
 
@@ -155,7 +155,7 @@ def open_scan(path: str | Path, regions=None, output=None, system: str | None = 
     if not path.is_file():
         raise InputError(f"{path}: no such scan file.")
     try:
-        from . import runner_adapter
+        from ares.gui import runner_adapter
     except ImportError:
         raise InputError(f"{path}: the scan runner (ares.scan) is not available in this installation.") from None
     return runner_adapter.RunnerJob(path, frames=frames, regions=regions, output=output, system=system)

@@ -91,7 +91,7 @@ class Done:
     run_dir: str | None = None
     summary: dict = field(default_factory=dict)  # e.g. gain_e_per_dn, defects, results
     limit_failures: tuple = ()
-    limits: str = ""  # ares.scan.results.limits_verdict's line ("limits: none set", ...)
+    limits: str = ""  # ares.results.registry.limits_verdict's line ("limits: none set", ...)
 
 
 @dataclass(frozen=True)

@@ -11,8 +11,8 @@ from pathlib import Path
 
 from ares.errors import InputError
 
-from .engine import JobControl
-from .events import Done, FramePreview, Progress, RunInfo, StageResult, StageStarted
+from ares.gui.engine import JobControl
+from ares.gui.events import Done, FramePreview, Progress, RunInfo, StageResult, StageStarted
 
 
 def _name(specs) -> str:
@@ -31,7 +31,7 @@ class ImageStackJob(JobControl):
                      "input": ", ".join(self.files), "dark": ", ".join(self.dark) or "none"}
 
     def run(self, emit) -> None:
-        from ares.analysis.decompose import StackAnalysis
+        from ares.analysis.noise.decompose import StackAnalysis
         from ares.commands.analyze import accumulate_files
 
         stacks = ([("dark", self.dark)] if self.dark else []) + [("flat" if self.dark else "input", self.files)]

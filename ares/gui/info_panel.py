@@ -7,8 +7,8 @@ import sys
 
 from PySide6.QtWidgets import QHeaderView, QTableWidget, QTableWidgetItem, QVBoxLayout, QWidget
 
-from .layout import redraw_when_shown
-from .models.session import HEADLINE, InfoModel
+from ares.gui.layout import redraw_when_shown
+from ares.gui.models.session import HEADLINE, InfoModel
 
 
 def versions() -> dict[str, str]:

@@ -10,7 +10,7 @@ from PySide6.QtWidgets import (QDoubleSpinBox, QFileDialog, QGridLayout, QHeader
 
 from ares.errors import AresError
 
-from .models.instruments import InstrumentSession
+from ares.gui.models.instruments import InstrumentSession
 
 FIELD_HEADERS = ("Field", "Value", "Unit", "Limits", "Access")
 VALUE_COL = 1

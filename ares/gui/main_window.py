@@ -13,24 +13,24 @@ from PySide6.QtWidgets import QFileDialog, QMainWindow, QMessageBox, QSplitter, 
 
 from ares.errors import AresError
 
-from . import engine
-from .events import Ending, Failed, ReportsWritten, Stopped
-from .info_panel import InfoPanel, versions
-from .layout import scrolled
-from .models import progress as P
-from .models.regions import Region
-from .models.session import SessionModel
-from .plots.components_view import ComponentsView
-from .plots.defects_view import DefectCountsView
-from .plots.distributions_view import DistributionsView
-from .plots.image_view import ImagePlot
-from .plots.profile_view import ProfilesView
-from .plots.ptc_view import PTCView
-from .plots.sweep_view import SweepView
-from .results_panel import ResultsTab
-from .view_bar import ViewBar
-from .scan_panel import ControlTabs, ProgressLine, ScanButtons
-from .worker import ScanThread, StatsExecutor, one_sentence
+from ares.gui import engine
+from ares.gui.events import Ending, Failed, ReportsWritten, Stopped
+from ares.gui.info_panel import InfoPanel, versions
+from ares.gui.layout import scrolled
+from ares.gui.models import progress as P
+from ares.gui.models.regions import Region
+from ares.gui.models.session import SessionModel
+from ares.gui.plots.components_view import ComponentsView
+from ares.gui.plots.defects_view import DefectCountsView
+from ares.gui.plots.distributions_view import DistributionsView
+from ares.gui.plots.image_view import ImagePlot
+from ares.gui.plots.profile_view import ProfilesView
+from ares.gui.plots.ptc_view import PTCView
+from ares.gui.plots.sweep_view import SweepView
+from ares.gui.results_panel import ResultsTab
+from ares.gui.view_bar import ViewBar
+from ares.gui.scan_panel import ControlTabs, ProgressLine, ScanButtons
+from ares.gui.worker import ScanThread, StatsExecutor, one_sentence
 
 RESULT_TABS = ("Results", "Pixel Distributions", "Profiles", "Signal Map", "Noise Map", "PTC",
                "Sweep Map", "Components", "Defect Counts", "Information")
@@ -390,7 +390,7 @@ class MainWindow(QMainWindow):
         """Recorded frames through ``ares analyze``'s decomposition, on the result tabs."""
         from ares.errors import InputError
 
-        from .image_job import ImageStackJob
+        from ares.gui.image_job import ImageStackJob
 
         if self.running:
             self.show_error("A scan is running: analyse images when it has ended.")
@@ -415,7 +415,7 @@ class MainWindow(QMainWindow):
         self.show_image(image, Path(path).name)
 
     def show_image(self, image, caption: str) -> None:
-        from .events import FramePreview
+        from ares.gui.events import FramePreview
 
         self.session.handle(FramePreview(0, 1, 1, image))
         self.session.preview.set_image(image, caption)

@@ -9,7 +9,7 @@ from PySide6.QtWidgets import (QFileDialog, QHBoxLayout, QHeaderView, QPushButto
 
 from ares.errors import AresError
 
-from .models.regions import Region, RegionSet
+from ares.gui.models.regions import Region, RegionSet
 
 COLUMNS = ("On/Off", "Draw", "X", "Y", "Width", "Height")
 RoA_FILTER = "RoA files (*.xml *.csv);;All files (*)"

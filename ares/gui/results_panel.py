@@ -8,9 +8,9 @@ from PySide6.QtCore import Qt
 from PySide6.QtWidgets import (QComboBox, QDoubleSpinBox, QGridLayout, QGroupBox, QLabel,
                                QPushButton, QVBoxLayout, QWidget)
 
-from .models.session import PANELS, RESULTS_S, SessionModel
-from .models.stats import RANGE_MODES, StatsPanelModel
-from .plots.histogram_view import HistogramPlot
+from ares.gui.models.session import PANELS, RESULTS_S, SessionModel
+from ares.gui.models.stats import RANGE_MODES, StatsPanelModel
+from ares.gui.plots.histogram_view import HistogramPlot
 
 STAT_FIELDS = (("Mean", "mean"), ("Sigma", "sigma"), ("Fitted Mean", "fitted_mean"),
                ("Fitted Sigma", "fitted_sigma"), ("Lowest", "lowest"), ("Highest", "highest"))

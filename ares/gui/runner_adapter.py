@@ -12,11 +12,11 @@ import time
 from pathlib import Path
 
 from ares import labels
-from ares.analysis.estimate import GAIN_SPREADS, format_dict, pct_rms
+from ares.analysis.stats.estimate import GAIN_SPREADS, format_dict, pct_rms
 from ares.errors import AresError
 
-from . import events as G
-from .models.session import headline_key
+from ares.gui import events as G
+from ares.gui.models.session import headline_key
 
 
 def _value(d):
@@ -57,7 +57,7 @@ def summarize(scan_results: dict, thresholds: tuple = ()) -> dict:
             out["results"]["PTC"] = str(ptc["note"])
     d = scan_results.get("decomposition")
     if isinstance(d, dict) and isinstance(d.get("components"), dict):
-        from ares.analysis.estimate import component_text
+        from ares.analysis.stats.estimate import component_text
 
         for c in labels.HEADLINE_COMPONENTS:  # DSNU, PRNU as the terminal prints them
             if isinstance(d["components"].get(c), dict):
@@ -136,11 +136,11 @@ def quantities(view: dict) -> dict[str, float]:
 # starts leaves the worker nothing big to import.
 WARM_IMPORTS = (
     "scipy.special", "scipy.ndimage", "h5py", "matplotlib", "matplotlib.figure",
-    "matplotlib.backends.backend_pdf", "ares.sim", "ares.sim.truth", "ares.hardware.factory",
-    "ares.analysis", "ares.analysis.ptc", "ares.analysis.ptc_fit", "ares.analysis.levels",
-    "ares.analysis.defects", "ares.analysis.dark_current", "ares.analysis.gain_split", "ares.analysis.lag",
-    "ares.analysis.adc", "ares.analysis.emva1288", "ares.analysis.emva4_sheet", "ares.analysis.emva_general",
-    "ares.report.datasheet", "ares.scan.analyses", "ares.report",
+    "matplotlib.backends.backend_pdf", "ares.sim", "ares.sim.truth", "ares.rig.factory",
+    "ares.analysis", "ares.analysis.ptc.photon_transfer", "ares.analysis.ptc.fit", "ares.analysis.ptc.levels",
+    "ares.analysis.defects", "ares.analysis.ptc.dark_current", "ares.analysis.ptc.gain_split", "ares.analysis.ptc.lag",
+    "ares.analysis.ptc.adc", "ares.analysis.emva.release3", "ares.analysis.emva.sheet", "ares.analysis.emva.general",
+    "ares.report.datasheet", "ares.results.analyses", "ares.report",
     "ares.report.pdf", "ares.report.plots", "ares.report.csv_export", "ares.report.h5_export",
 )
 
@@ -279,7 +279,7 @@ class RunnerJob:
 
     def regions(self) -> list:
         """The scan's regions as RoA rows (on and drawn)."""
-        from .models.regions import Region
+        from ares.gui.models.regions import Region
 
         return [Region(True, True, r.x, r.y, r.width, r.height) for r in self.scan.regions]
 
@@ -289,9 +289,9 @@ class RunnerJob:
 
     def channel_views(self) -> tuple[dict, dict]:
         """The engine's Bayer-phase and ADC-channel views of the sensor (slices) and their labels."""
-        from ares.scan.results import views
+        from ares.results.registry import views
 
-        from .models.views import channel_label
+        from ares.gui.models.views import channel_label
 
         v = {k: s for k, s in views(self.scan).items() if k.startswith(("cfa_", "adc"))}
         return v, {k: channel_label(k, self.scan.system.sensor.adc_interleave) for k in v}
@@ -380,7 +380,7 @@ class RunnerJob:
         elif isinstance(e, ev.Ending):
             emit(G.Ending(e.status, e.stages_completed))
         elif isinstance(e, ev.Done):
-            from ares.scan.results import limits_verdict
+            from ares.results.registry import limits_verdict
 
             summary = summarize(e.scan_results or {}, self.scan.defects)
             # the run's limits line, as the terminal and run.json state it
@@ -415,7 +415,7 @@ class RunnerJob:
                     points[name] = (level["mean_dn"] - dark["mean_dn"], var - dvar)
         point = points.get("full")
         values = quantities(full)
-        from ares.scan.analyses import stage_lag_cycle
+        from ares.results.analyses import stage_lag_cycle
 
         cycle = stage_lag_cycle(r)  # dark="after": this stage is a bright->dark cycle
         if cycle is not None and cycle[0].available:

@@ -8,12 +8,12 @@ from PySide6.QtWidgets import (QCheckBox, QFileDialog, QFormLayout, QHBoxLayout,
                                QLineEdit, QPlainTextEdit, QProgressBar, QPushButton, QSpinBox,
                                QTabWidget, QVBoxLayout, QWidget)
 
-from .models import progress as P
-from .models.progress import ProgressModel
-from .models.session import SessionModel
-from .instrument_panel import InstrumentationTab
-from .layout import ElidedLabel, scrolled
-from .regions_table import RegionsTable
+from ares.gui.models import progress as P
+from ares.gui.models.progress import ProgressModel
+from ares.gui.models.session import SessionModel
+from ares.gui.instrument_panel import InstrumentationTab
+from ares.gui.layout import ElidedLabel, scrolled
+from ares.gui.regions_table import RegionsTable
 
 CONTROL_TABS = ("Scan", "Regions of Analysis", "Output Options", "Input Images", "Instrumentation")
 

@@ -6,7 +6,7 @@ from __future__ import annotations
 
 from PySide6.QtWidgets import QComboBox, QHBoxLayout, QLabel, QWidget
 
-from .models.session import SessionModel
+from ares.gui.models.session import SessionModel
 
 LATEST = "Latest stage (follows the scan)"
 

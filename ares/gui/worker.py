@@ -29,7 +29,7 @@ from PySide6.QtCore import QObject, QTimer, Signal, Slot
 
 from ares.errors import AresError, Interrupted
 
-from .events import Failed, FramePreview, Progress, Stopped
+from ares.gui.events import Failed, FramePreview, Progress, Stopped
 
 log = logging.getLogger(__name__)
 

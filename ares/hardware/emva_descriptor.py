@@ -192,7 +192,7 @@ def _attribution(text: str, path: Path) -> str:
     """The Basler notice for the EMVA 1288 reference set (its descriptor's header names
     Basler), else the descriptor's path."""
     if "Basler" in text[:2000]:
-        from ares.analysis.emva1288 import ATTRIBUTION
+        from ares.analysis.emva.release3 import ATTRIBUTION
 
         return ATTRIBUTION
     return f"recorded data: {path}"

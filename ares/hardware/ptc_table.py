@@ -35,7 +35,7 @@ import math
 from dataclasses import dataclass, field
 from pathlib import Path
 
-from ares.analysis.accumulate import MAX_DN
+from ares.analysis.noise.accumulate import MAX_DN
 from ares.errors import InputError
 from ares.safefile import read_regular
 

@@ -1,7 +1,7 @@
 """Replay bench: recorded images run through the scan path as if from live hardware.
 
 A system XML with ``<replay descriptor="...EMVA1288_Data.txt"/>`` builds this bench
-instead of the simulator or real devices (``ares.hardware.factory.build_bench``):
+instead of the simulator or real devices (``ares.rig.factory.build_bench``):
 
 - **registers** -- an in-memory register file over the system's own register map (a
   shim: writes are kept, reads return them); the field named by

@@ -2,7 +2,9 @@
 
 Parsing is safe (no DTD, no entities, no network, nothing evaluated); every error a
 user can cause is one sentence ``file:line: ...`` raised as ``InputError``.
-"""
+
+May import ``sim`` (its physical ranges), ``hardware`` (register maps, pixel formats, line
+protocols), ``analysis`` (defect thresholds) and the base modules."""
 
 from ares.protocol.scan import (Axis, Limit, Output, Scan, Setting, StageSpec, load_scan, save_scan)
 from ares.protocol.system import (Controls, I2CBus, Region, SerialInstrument, Sensor, Simulator, System,

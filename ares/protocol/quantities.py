@@ -30,7 +30,7 @@ PRODUCES: dict[str, frozenset[str]] = {
     "adc_linearity": frozenset({"dnl_max_lsb", "dnl_min_lsb", "inl_max_lsb", "inl_min_lsb", "missing_codes"}),
     "emva1288": frozenset({"K", "QE", "sigma_y_dark", "u_I_mean", "u_I_var", "u_e_sat", "DR", "SNR_max",
                            "DSNU1288", "PRNU1288", "LE_min", "LE_max"}),
-    # EMVA 1288 Release 4.0 Linear (Table 2 and ares.analysis.emva4_sheet.EXTRA) and General
+    # EMVA 1288 Release 4.0 Linear (Table 2 and ares.analysis.emva.sheet.EXTRA) and General
     "emva4": frozenset({"QE", "K", "K_inv", "sigma_y_dark", "sigma_d", "SNR_max", "SNR_max_db", "SNR_max_inv",
                         "mu_e_min", "mu_e_min_area", "mu_e_sat", "mu_e_sat_area", "DR", "DR_db", "DSNU1288",
                         "DSNU1288_col", "DSNU1288_row", "DSNU1288_pix", "PRNU1288", "PRNU1288_col", "PRNU1288_row",

@@ -245,7 +245,7 @@ class _Checker:
 
     def sim_range(self, key: str, value: float) -> str | None:
         """The simulator's physical range of ``key`` (``ares.sim.ranges``), from its parameters."""
-        from ares.hardware.factory import sim_params
+        from ares.sim.from_system import sim_params
         from ares.sim.ranges import setting_problem
 
         if self._params is None:

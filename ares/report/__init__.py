@@ -11,7 +11,9 @@
 
 A partial run (stopped, failed, killed) is reported as far as it goes and says so; a
 missing or unreadable run directory raises ``ares.errors.InputError`` naming the path.
-"""
+
+May import ``results``, ``rundir``, ``protocol``, ``sim``, ``hardware``, ``analysis`` and the base
+modules; never ``scan``."""
 
 from __future__ import annotations
 
@@ -71,7 +73,7 @@ def _pdf_path(run, out_dir, pdf_path) -> Path:
 
 
 def _write(run, formats, out_dir, pdf_path, csv_dir, h5_path, helper) -> list[Path]:
-    from ares.report import csv_export, h5_export, pdf, tables
+    from ares.report import csv_export, h5_export, pdf, pdf_parts, tables
 
     base = Path(out_dir) if out_dir is not None else run.dir
     groups = tables.ptc_groups(run)
@@ -84,7 +86,7 @@ def _write(run, formats, out_dir, pdf_path, csv_dir, h5_path, helper) -> list[Pa
     if "pdf" in formats:
         p = _pdf_path(run, out_dir, pdf_path)
         emva = pdf.emva_sheet(run)
-        pdf.write_pdf(run, p, groups, kf, emva, helper=helper)
+        pdf_parts.write_pdf(run, p, groups, kf, emva, helper=helper)
         out.append(p)
         if emva is not None:  # the EMVA 1288 Release 4.0 datasheet on its own, next to the report
             from ares.report import datasheet

@@ -25,7 +25,7 @@ from pathlib import Path
 import matplotlib
 from matplotlib.figure import Figure
 
-from ares.analysis.emva4_sheet import SYMBOLS
+from ares.analysis.emva.sheet import SYMBOLS
 from ares.report import datasheet_pages as dp
 from ares.report.datasheet_pages import GENERAL, LINEAR, given, value_text
 from ares.report.plots import A4, RC

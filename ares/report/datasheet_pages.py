@@ -12,8 +12,8 @@ import math
 import numpy as np
 from matplotlib.figure import Figure
 
-from ares.analysis.emva4_sheet import SYMBOLS
-from ares.analysis.emva_graphs import spectrum_peaks
+from ares.analysis.emva.sheet import SYMBOLS
+from ares.analysis.emva.graphs import spectrum_peaks
 from ares.report.plots import A4, text_table
 
 LINEAR = "EMVA 1288 Release 4.0 Linear"
@@ -315,7 +315,7 @@ def profiles_page(sheet, rel: str = LINEAR) -> Figure | None:
     c = sheet.curves
     if "profile_dsnu_h" not in c:
         return None
-    from ares.analysis.emva_graphs import profile_range
+    from ares.analysis.emva.graphs import profile_range
 
     fig = Figure(figsize=A4)
     _header(fig, sheet, "Horizontal and vertical profiles, not high-pass filtered (Section 8.7)", "profiles", rel)

@@ -7,7 +7,7 @@ from __future__ import annotations
 
 import textwrap
 
-from ares.analysis.estimate import Estimate
+from ares.analysis.stats.estimate import Estimate
 from ares.report.plots import new_page, text_table
 
 

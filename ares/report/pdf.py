@@ -5,7 +5,7 @@ Pages, each only when the run has the data: title + key figures; photon transfer
 components of the mid-level stage and of the dark stage; signal/noise maps with
 histograms; dark signal vs exposure (and temperature); gain vs analog gain; 2-D sweep
 maps; frame means per stage (lag, drift); every other scan-level analysis; the stage
-list. ``write_pdf`` returns the page titles in order.
+list. ``pdf_parts.write_pdf`` writes them and returns the page titles in order.
 """
 
 from __future__ import annotations
@@ -285,8 +285,8 @@ def emva_sheet(run):
     None otherwise or when that fails (said in the report's notes)."""
     if not scan_kinds.available(run, "emva4"):
         return None
-    from ares.scan.emva4_analysis import evaluate
-    from ares.scan.rundir import load_run
+    from ares.results.emva4 import evaluate
+    from ares.rundir.record import load_run
 
     try:
         sheet, general, why = evaluate(load_run(run.dir))
@@ -374,21 +374,3 @@ def render(run, pages, indices, path: Path) -> None:
         for i in indices:
             fig = draw_page(run, pages, i)
             pdf.savefig(fig)
-
-
-def write_pdf(run, path: str | Path, groups=None, kf=None, emva=None, helper=None) -> list[str]:
-    """Write the report to ``path``; returns the page titles. ``helper``: a
-    ``pdf_parts.Helper`` process drawing part of the pages beside this one."""
-    path = Path(path)
-    path.parent.mkdir(parents=True, exist_ok=True)
-    tmp = path.with_name(path.name + ".tmp")
-    with matplotlib.rc_context(plots.RC):
-        pages = page_plan(run, groups, kf, emva)
-    if helper is not None:
-        from ares.report import pdf_parts
-
-        pdf_parts.write_split(run, pages, tmp, helper)
-    else:
-        render(run, pages, range(len(pages)), tmp)
-    tmp.replace(path)
-    return [t for t, _ in pages]

@@ -279,3 +279,24 @@ if __name__ == "__main__":
     sys.stdout.flush()
     sys.stderr.flush()
     os._exit(code)
+
+
+def write_pdf(run, path: str | Path, groups=None, kf=None, emva=None, helper=None) -> list[str]:
+    """Write the report to ``path``; returns the page titles. ``helper``: a
+    ``Helper`` process drawing part of the pages beside this one."""
+    path = Path(path)
+    path.parent.mkdir(parents=True, exist_ok=True)
+    tmp = path.with_name(path.name + ".tmp")
+    import matplotlib
+
+    from ares.report import plots
+    from ares.report.pdf import page_plan, render
+
+    with matplotlib.rc_context(plots.RC):
+        pages = page_plan(run, groups, kf, emva)
+    if helper is not None:
+        write_split(run, pages, tmp, helper)
+    else:
+        render(run, pages, range(len(pages)), tmp)
+    tmp.replace(path)
+    return [t for t, _ in pages]

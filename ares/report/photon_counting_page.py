@@ -9,8 +9,8 @@ import numpy as np
 from scipy.special import ndtr
 from scipy.stats import poisson
 
-from ares.analysis.estimate import Estimate
-from ares.analysis.photon_counting import READ_NOISE_LIMIT_E
+from ares.analysis.stats.estimate import Estimate
+from ares.analysis.optics.photon_counting import READ_NOISE_LIMIT_E
 from ares.report.plots import new_page, text_table
 
 

@@ -60,7 +60,7 @@ def _table(fig, y: float, rows, title: str = "", n: int = 30) -> float:
 # ------------------------------------------------------------------ dark / temperature
 
 def dark_page(run, series: dict):
-    from ares.analysis.ptc_fit import line_fit
+    from ares.analysis.ptc.fit import line_fit
 
     fig = new_page("Dark signal vs exposure", "dark stages; dark current = slope of the dark mean vs exposure")
     dc = available(run, "dark_current")
@@ -103,8 +103,8 @@ def dark_page(run, series: dict):
 
 def temperature_page(run, series: dict):
     """Dark current vs temperature with the doubling-temperature fit (>= 3 temperatures)."""
-    from ares.analysis.dark_current import doubling_temperature
-    from ares.analysis.ptc_fit import line_fit
+    from ares.analysis.ptc.dark_current import doubling_temperature
+    from ares.analysis.ptc.fit import line_fit
 
     T, r, rse = [], [], []
     for t, s in sorted((kv for kv in series.items() if kv[0] is not None), key=lambda kv: kv[0]):

@@ -1,5 +1,5 @@
 """Read a run directory for reporting: run.json, stages/*.json, scan_results.json,
-results.h5 -- the files ``ares.scan.rundir`` writes (see its module docstring).
+results.h5 -- the files ``ares.rundir.writer`` writes (see its module docstring).
 
 Read-only and independent of the scan package (the runner calls the report at the end
 of a run, so the report must not import the runner). A partial run (stopped, failed,
@@ -18,7 +18,7 @@ from pathlib import Path
 import numpy as np
 
 from ares.errors import InputError
-from ares.runstate import effective_status
+from ares.rundir.state import effective_status
 
 ATTRIBUTION = "EMVA 1288 reference data set, (C) 2011 Basler AG, CC BY-SA 3.0"
 _EMVA_MARKERS = ("emva1288_referenceset", "basler")
@@ -37,7 +37,7 @@ class Run:
     @property
     def status(self) -> str:
         """The recorded status, except that a ``running`` run whose process is gone reads
-        as ``interrupted`` (ares.runstate)."""
+        as ``interrupted`` (ares.rundir.state)."""
         return effective_status(self.meta)[0]
 
     @property
@@ -54,7 +54,7 @@ class Run:
 
     @property
     def limits(self) -> dict:
-        """The run's limits verdict (``ares.scan.results.limits_verdict``); a run recorded
+        """The run's limits verdict (``ares.results.registry.limits_verdict``); a run recorded
         before it was written says what it can: failures, not checked, or passed/none set."""
         rec = (self.scan_results or {}).get("limits")
         if isinstance(rec, dict) and rec.get("text"):
@@ -161,10 +161,10 @@ def _attribution(d: Path, meta: dict) -> str:
 
 def read_run(run_dir: str | Path, verify_arrays: bool = False) -> Run:
     """The run directory, checked against the hashes recorded as it was written
-    (``ares.runcheck``: a missing or modified stage file, a truncated HDF5 raise
+    (``ares.rundir.check``: a missing or modified stage file, a truncated HDF5 raise
     ``RunDamaged``); ``verify_arrays`` also hashes every stored array (``ares report``,
     ``ares batch``: once per run, not on every read)."""
-    from ares.runcheck import check_run
+    from ares.rundir.check import check_run
 
     d = Path(run_dir)
     if not d.exists():

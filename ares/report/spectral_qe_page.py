@@ -7,7 +7,7 @@ JSON form (``scan_results.json: spectral_qe``); the simulator's truth is never d
 
 from __future__ import annotations
 
-from ares.analysis.estimate import Estimate
+from ares.analysis.stats.estimate import Estimate
 from ares.report.plots import new_page, text_table
 
 

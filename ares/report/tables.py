@@ -3,7 +3,7 @@
 Numbers come from the run directory: scan-level results from ``scan_results.json``
 when the run finished; the photon-transfer curve itself (per-level signal, variance,
 SNR, noise model, which the scan results summarise) is recomputed here from the
-per-stage level statistics with ``ares.analysis.ptc.analyze_ptc`` -- the same inputs
+per-stage level statistics with ``ares.analysis.ptc.photon_transfer.analyze_ptc`` -- the same inputs
 the runner's PTC analysis uses. A partial run has no ``scan_results.json``: then every
 key figure comes from that recomputation and says so in its note.
 """
@@ -15,12 +15,13 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ares.analysis.estimate import (GAIN_SPREADS, Estimate, component_display, component_text,  # noqa: F401
+from ares.analysis.stats.estimate import (GAIN_SPREADS, Estimate, component_display, component_text,  # noqa: F401
                                     format_value)  # (component_* re-exported for the report pages)
-from ares.analysis.levels import LevelStats
+from ares.analysis.ptc.levels import LevelStats
 from ares import labels
-from ares.analysis.physical import snr_db, snr_in_range
-from ares.analysis.ptc import PtcResult, analyze_ptc
+from ares.analysis.stats.physical import snr_db, snr_in_range
+from ares.analysis.ptc.photon_transfer import PtcResult, analyze_ptc
+from ares.results.registry import ptc_level_keys
 
 # the 13 components (DESIGN.md / seed 001) in model order, then the extras ARES reports
 COMPONENTS = ("o", "Cs", "Ct", "Rs", "Rt", "Ps", "Pt", "G", "Cg", "Rg", "Pg", "q", "delta")
@@ -156,16 +157,9 @@ def _stored_ptc(run, gain: float) -> dict:
     return ptc if ptc.get("analog_gain", gain) == gain and "gain_dn_per_e" in ptc else {}
 
 
-def ptc_level_keys(stages: list[dict]) -> tuple[str, str]:
-    """The stage-level statistics a PTC uses: over the good pixels of the run's defect mask
-    when every level has them (``level_masked``/``dark_level_masked``), else all pixels."""
-    ok = all("level_masked" in s["views"]["full"] and "dark_level_masked" in s["views"]["full"] for s in stages)
-    return ("level_masked", "dark_level_masked") if ok and stages else ("level", "dark_level")
-
-
 def ptc_groups(run) -> list[PtcGroup]:
     """Flat stages with a matched dark, one group per analog gain (as the runner groups)."""
-    from ares.analysis.spectral_qe import spectral_groups
+    from ares.analysis.optics.spectral_qe import spectral_groups
 
     groups: dict[float, list[dict]] = {}
     spectral = spectral_groups(run.stages)  # a wavelength sweep's stages are not photon-transfer levels
@@ -287,7 +281,7 @@ def level_rows(stage: dict) -> list[dict]:
 
 def mid_stage(run) -> dict | None:
     """The decomposition stage the runner chose, else the flat stage nearest half the
-    highest unclipped signal (as ``ares.scan.analyses.mid_level_stage``)."""
+    highest unclipped signal (as ``ares.results.analyses.mid_level_stage``)."""
     name = (run.analyses.get("decomposition") or {}).get("stage")
     for st in run.stages:
         if st["name"] == name:
@@ -324,7 +318,7 @@ def _entry(label: str, e: Estimate, source: str) -> dict:
 
 def _snr_max(res: PtcResult, well_e: float, well_se: float = 0.0) -> Estimate:
     """The largest measured SNR, judged against sqrt of the full well (``well_e``, e-):
-    above it the noise was mis-measured (``ares.analysis.physical.snr_in_range``)."""
+    above it the noise was mis-measured (``ares.analysis.stats.physical.snr_in_range``)."""
     snr = res.snr.get("snr")
     if snr is None or not len(snr):
         return Estimate.na("no valid PTC level")
@@ -365,7 +359,7 @@ def compute_key_figures(run, groups: list[PtcGroup] | None = None) -> dict:
         kf["gain_dn_per_e"] = _entry(f"system gain K (analog gain x{ag:g})",
                                      pick("gain_dn_per_e", res and res.gain_dn_per_e), src)
         stmt = (stored.get("gain_headline") or {}).get("statement")
-        if stmt and kf["gain_dn_per_e"]["value"] is not None:  # beside 4.0 Eq. 50 (ares.analysis.gain_compare)
+        if stmt and kf["gain_dn_per_e"]["value"] is not None:  # beside 4.0 Eq. 50 (ares.analysis.ptc.gain_compare)
             kf["gain_dn_per_e"]["note"] = stmt
         kf["gain_e_per_dn"] = _entry("inverse gain 1/K", pick("gain_e_per_dn", res and res.gain_e_per_dn), src)
         kf["conversion_gain_uv_per_e"] = _entry(
@@ -504,7 +498,7 @@ def analysis_label(aname: str, key: str) -> str:
     parts = key.split(".")
     where = [p for p in parts[:-1] if p not in _PATH_NOISE]
     if aname == "emva4":
-        from ares.analysis.emva4_sheet import SYMBOLS
+        from ares.analysis.emva.sheet import SYMBOLS
 
         return f"EMVA 1288 4.0 {'General ' if where[:1] == ['general'] else ''}{SYMBOLS.get(parts[-1], parts[-1])}"
     base = ANALYSIS_LABELS.get(parts[-1], f"{aname}: {parts[-1]}")
@@ -512,7 +506,7 @@ def analysis_label(aname: str, key: str) -> str:
 
 
 def fmt_value(v, se=None, unit: str = "", verdict: str = "") -> str:
-    """``value ± se unit`` with the digits the SE supports (``ares.analysis.estimate``); a
+    """``value ± se unit`` with the digits the SE supports (``ares.analysis.stats.estimate``); a
     limit (``verdict`` "upper limit"/"lower limit") as ``< x``/``> x``, as every other surface."""
     if v is None or (isinstance(v, float) and not math.isfinite(v)):
         return "n/a"
@@ -543,10 +537,10 @@ def dark_series(run) -> dict[float | None, dict[str, np.ndarray]]:
 
 
 def dark_current_figures(run, gain: Estimate | None) -> dict:
-    """Dark current per temperature from the dark stages with ``ares.analysis.dark_current``
+    """Dark current per temperature from the dark stages with ``ares.analysis.ptc.dark_current``
     (the runner's definition: slope of the dark mean vs exposure, >= 6 exposures), in DN/s
     and -- with a gain -- e-/s. Used when the run has no dark_current analysis result."""
-    from ares.analysis.dark_current import MIN_EXPOSURES, dark_current
+    from ares.analysis.ptc.dark_current import MIN_EXPOSURES, dark_current
 
     kf = {}
     for t, s in dark_series(run).items():
@@ -570,7 +564,7 @@ ADC_COLUMNS = ("channel", "code", "dnl_lsb", "dnl_se_lsb", "transition", "inl_ls
 def adc_curves(run, d: dict) -> dict:
     """Channel -> ``InlDnl`` of the ``adc_linearity`` analysis ``d``: the code-density test
     on its ramp stages' code histograms in results.h5, as the runner computed its extremes."""
-    from ares.analysis.adc import code_density
+    from ares.analysis.ptc.adc import code_density
 
     hists: dict = {}
     for st in run.stages:

@@ -9,15 +9,15 @@ Public API::
     RunWriter, load_run(dir) -> RunRecord, scan_level_results(run), register_scan_analysis(name)
     auto_repeat(make_runner, count)
 
-The run directory layout is documented in ``ares.scan.rundir``.
-"""
+The run directory layout is documented in ``ares.rundir.writer``.
 
-from ares.scan import analyses as _builtin_analyses  # noqa: F401  (registers ptc, decomposition)
-from ares.scan import emva4_analysis as _emva4_analysis  # noqa: F401  (registers emva4)
-from ares.scan import emva_analysis as _emva_analysis  # noqa: F401  (registers emva1288)
+May import ``report``, ``results``, ``rundir``, ``rig``, ``protocol``, ``sim``, ``hardware``,
+``analysis`` and the base modules."""
+
 from ares.scan import events
-from ares.scan.results import check_limits, register_scan_analysis, scan_level_results
-from ares.scan.rundir import RunRecord, RunWriter, load_run
+from ares.results.registry import check_limits, register_scan_analysis, scan_level_results
+from ares.rundir.writer import RunWriter
+from ares.rundir.record import RunRecord, load_run
 from ares.scan.repeat import auto_repeat
 from ares.scan.runner import RunOutcome, Runner
 from ares.scan.stages import Stage, estimate_seconds, expand

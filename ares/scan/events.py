@@ -58,7 +58,7 @@ class StageFinished:
     index: int
     total: int
     stage: object
-    result: dict  # JSON-able stage result (see ares.scan.results)
+    result: dict  # JSON-able stage result (see ares.results.registry)
     arrays: dict = field(default_factory=dict, repr=False)  # mean/variance maps etc.
 
 

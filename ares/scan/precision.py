@@ -30,7 +30,7 @@ from dataclasses import dataclass
 from statistics import NormalDist
 
 from ares.hardware.interfaces import Bench
-from ares.scan.results import find_estimate
+from ares.results.registry import find_estimate
 
 
 @dataclass
@@ -148,7 +148,7 @@ class PrecisionRunner:
         return runner.run()
 
     def run(self):
-        from ares.hardware.factory import build_bench
+        from ares.rig.factory import build_bench
         from ares.scan.runner import Runner
 
         p = self.scan.precision

@@ -8,7 +8,7 @@ shipped scan and two 4096x3072 scans, each within 10 % of its measured peak), fo
 kernels cached as ``make`` installs them (``python -m ares.jit``) -- the usual case, and
 the one the note names; a first run, which compiles them in the run, peaks 20-53 MiB higher
 (``COMPILE_BYTES``: 34 MiB; 20-53, mean 36, over six scans measured with an empty cache,
-``--cold``), and ``ares.jit.kernels_cached`` tells which case this machine is in without
+``--cold``), and ``ares.analysis.kernels.jit.kernels_cached`` tells which case this machine is in without
 importing numba. The parts: the interpreter with numpy/scipy/h5py/numba and the report's
 plotting (~250 MiB: ``mtf.xml`` on 128x200 peaks at 253 MiB); about 127 bytes per pixel
 of the full view (the accumulators, the simulator's maps, the analyses' float64 maps and
@@ -78,7 +78,7 @@ class Plan:
     disk_bytes: float = 0.0
     disk_free: float | None = None  # free bytes in disk_folder, None when unknown
     disk_folder: Path | None = None
-    kernels_cached: bool = True  # the case the memory estimate assumes (``ares.jit.kernels_cached``)
+    kernels_cached: bool = True  # the case the memory estimate assumes (``ares.analysis.kernels.jit.kernels_cached``)
     base_measured: bool = True  # the libraries' memory measured on this machine (``ares.memory_base``)
 
     def disk_fits(self) -> bool:
@@ -111,10 +111,10 @@ def memory_bytes(scan, stages: list[Stage], kernels_cached: bool | None = None,
                  import_bytes: float | None = None) -> float:
     """Peak resident memory of ``ares run`` for ``scan`` (the measured model above), with
     numba's kernels loaded from its cache or, ``kernels_cached=False``, compiled in the run
-    (None: as ``ares.jit.kernels_cached`` finds this machine); ``import_bytes``: the
+    (None: as ``ares.analysis.kernels.jit.kernels_cached`` finds this machine); ``import_bytes``: the
     libraries' share measured now (None: as recorded at install, ``base_bytes``)."""
     if kernels_cached is None:
-        from ares.jit import kernels_cached as cached_here
+        from ares.analysis.kernels.jit import kernels_cached as cached_here
 
         kernels_cached = cached_here()
     s = scan.system.sensor
@@ -247,14 +247,14 @@ def check_run(scan, frames: int | None = None, seed: int | None = None, out_dir=
         raise InputError(f"--seed must be an integer from 0 to 2**63-1, got {seed}")
     stages = expand(scan, frames)
     if scan.system.simulator is not None:
-        from ares.hardware.factory import sim_params
+        from ares.sim.from_system import sim_params
 
         sim_params(scan.system)
     if scan.system.replay is not None:  # recorded data: there, readable, of the declared sensor
         from ares.hardware.replay import replay_descriptor
 
         replay_descriptor(scan.system)
-    from ares.jit import kernels_cached
+    from ares.analysis.kernels.jit import kernels_cached
 
     cached = kernels_cached()
     need = memory_bytes(scan, stages, cached)

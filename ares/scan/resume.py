@@ -23,7 +23,7 @@ from ares.scan.apply import apply_settings
 
 def resumable(run) -> list[dict]:
     """The committed stages to resume after, or one sentence why the run cannot be resumed."""
-    from ares.runstate import effective_status
+    from ares.rundir.state import effective_status
 
     status, _ = effective_status(run.meta)
     if status == "running":

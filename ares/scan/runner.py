@@ -26,7 +26,7 @@ from typing import Callable
 import numpy as np
 
 from ares import malloc
-from ares.analysis import recycle
+from ares.analysis.kernels import recycle
 from ares.errors import AresError, DeviceGone, FrameError, FrameLost, HardwareError, InputError, StorageError
 from ares.hardware import link_stats
 from ares.hardware.waits import Interrupted
@@ -36,10 +36,11 @@ from ares.scan.commit import StageCommitter
 from ares.scan.defect_mask import load_declared_mask, mask_from_dark, scan_thresholds
 from ares.scan.mask_complete import MaskCompletion
 from ares.scan.preflight import KEEP_FOR_MASK_BYTES, check_run
-from ares.scan.spectral_readings import photodiode_readings, spectral_readings
-from ares.scan.results import StackSet, analyze_stage, check_limits, limits_verdict, scan_level_results, views
-from ares.runstate import is_storage_error, storage_sentence
-from ares.scan.rundir import RunRecord, RunWriter
+from ares.results.spectral_readings import photodiode_readings, spectral_readings
+from ares.results.registry import StackSet, analyze_stage, check_limits, limits_verdict, scan_level_results, views
+from ares.rundir.state import is_storage_error, storage_sentence
+from ares.rundir.writer import RunWriter
+from ares.rundir.record import RunRecord
 from ares.scan.stages import Stage, estimate_seconds
 from ares.scan.eta import Eta, eta_stacks
 from ares.scan.kept import KeptFrames
@@ -86,7 +87,7 @@ class Runner(MaskCompletion):
         self.resume_from = resume_from
         self.system = scan.system
         self.frames_override = frames
-        from ares.scan.analyses import check_defect_thresholds
+        from ares.results.analyses import check_defect_thresholds
 
         check_defect_thresholds(scan)  # scans built in code, not loaded from XML, too
         # what --dry-run/validate refuse (the disk: `ares run` before it claims the directory)
@@ -158,14 +159,17 @@ class Runner(MaskCompletion):
                                    argv=self.argv, save_frames=self.scan.output.raw_frames)
                 writer.set_total(len(self.stages))
             if own:
-                from ares.hardware.factory import build_bench
+                from ares.rig.factory import build_bench
 
                 bench = build_bench(self.system, seed=self.seed, faults=self.faults)
             if self.system.simulator is not None:  # its fused kernels loaded now, not in a stage's time
                 from ares.sim import fused
 
                 fused.warm()
-            from ares.analysis import flat, int_fold, lowpass, masked_fold
+            from ares.analysis.noise import flat
+            from ares.analysis.kernels import int_fold
+            from ares.analysis.kernels import lowpass
+            from ares.analysis.kernels import masked_fold
 
             int_fold.warm()  # every stack's sums
             masked_fold.warm()  # (the masked stacks after the first dark stage)
@@ -264,7 +268,7 @@ class Runner(MaskCompletion):
         malloc.for_frames(pixels)
         self._commit = StageCommitter(self._commit_stage, threaded=self.pipeline and pixels <= PIPELINE_MAX_PIXELS)
         # large frames: a finished stage's stack arrays go to the next stage's stacks (two stacks' worth:
-        # int64 sums, batch store, masked shift), not new memory (ares.analysis.recycle)
+        # int64 sums, batch store, masked shift), not new memory (ares.analysis.kernels.recycle)
         recycle.keep(0 if self._commit.threaded or pixels <= PIPELINE_MAX_PIXELS else 2 * RECYCLE_BYTES_PER_PIXEL * pixels)
         try:
             return self._stages(bench, writer, completed, stages, vw, max_code, cache, applied)
@@ -497,7 +501,7 @@ class Runner(MaskCompletion):
             write_reports(writer.dir, formats, helper=helper)
         except Exception as exc:  # the run's data are complete; a report problem is only noted
             if is_storage_error(exc):  # (the disk: the reports can be written later)
-                from ares.scan.rundir import clean_report_leftovers
+                from ares.rundir.record import clean_report_leftovers
 
                 clean_report_leftovers(writer.dir)
                 try:

@@ -9,7 +9,8 @@ Public API::
                                   .render_ramp(n); .truth(...) -> dict (see ares.sim.truth)
     make_sim_bench(params, seed, faults) -> ares.hardware.interfaces.Bench
     SimRegisterBus, SimFrameSource, SimLightSource, SimChamber
-"""
+
+May import ``hardware`` (the interfaces it implements), ``analysis`` (kernels) and the base modules."""
 
 from ares.sim.bench import SimChamber, SimFrameSource, SimLightSource, SimRegisterBus, make_sim_bench
 from ares.sim.params import SensorParams

@@ -19,6 +19,7 @@ use or by ``warm()`` -- the runner calls it before a simulated scan's first fram
 from __future__ import annotations
 
 import contextlib
+import sys
 
 import numpy as np
 
@@ -32,7 +33,7 @@ def _load() -> None:
     if _loaded:
         return
     _loaded = True
-    from ares import jit
+    from ares.analysis.kernels import jit
 
     # helpers inlined into the kernels that call them: _kernel's loop per mode pair
     _pixels, _sfc64_step = jit.compiled(_pixels, inline=True), jit.compiled(_sfc64_step, inline=True)
@@ -65,7 +66,7 @@ def warm() -> None:
     """Build the normal table every frame reads (its scipy import: 0.1 s) and load (or
     compile) the kernels, with the argument types a frame uses: before a scan's stages, so
     that none of them is charged this one-off work (an ADC-ramp first stage needs neither)."""
-    from ares.sim.noise import table
+    from ares.sim.tables import table
 
     table()
     if not available():
@@ -218,7 +219,7 @@ def charge_frame(rng, sc, plan, shape, left, table):
     """(x in DN before the line terms and the ADC, the photo-charge carried to the next
     frame or None): what ``_frame`` + ``_add_charge`` compute on this path, with the
     generator called exactly as they call it (read noise, photo shot, dark shot)."""
-    from ares.sim.noise import _alias_table, words16
+    from ares.sim.tables import alias_table as _alias_table
 
     i1 = words16(rng, shape)
     size = shape[0] * shape[1]
@@ -404,3 +405,24 @@ def sfc64_raw(bit_generator, n: int, state: dict | None = None) -> np.ndarray | 
     st["state"]["state"] = s
     bit_generator.state = st
     return out
+
+
+_LITTLE = sys.byteorder == "little"
+
+
+def words16(rng: np.random.Generator, shape) -> np.ndarray:
+    """Uniform 16-bit words: exactly ``rng.integers(0, 1 << 16, size=shape, dtype=np.uint16)``
+    -- the same values, and the generator left in the same state -- made from wider draws
+    when they line up. numpy hands out a 64-bit draw as two 32-bit halves (low first) and a
+    32-bit one as two 16-bit halves (low first), so on a little-endian machine the draws
+    viewed as uint16 are that array: whole 64-bit draws when ``n`` is a multiple of 4 and
+    no half is pending (3x faster), else 32-bit ones when ``n`` is even (1.5x; tested)."""
+    n = int(np.prod(shape))
+    if _LITTLE and n % 2 == 0 and n:
+        bg = rng.bit_generator
+        state = bg.state
+        if n % 4 == 0 and not state.get("has_uint32", 1):
+            raw = sfc64_raw(bg, n // 4, state)
+            return (bg.random_raw(n // 4) if raw is None else raw).view(np.uint16).reshape(shape)
+        return rng.integers(0, 1 << 32, size=n // 2, dtype=np.uint32).view(np.uint16).reshape(shape)
+    return rng.integers(0, 1 << 16, size=shape, dtype=np.uint16)

@@ -29,52 +29,20 @@ e- -- and ``Generator.poisson`` for the rest.
 
 from __future__ import annotations
 
-import sys
-from functools import lru_cache
-
 import numpy as np
+
+from ares.sim.fused import words16
+from ares.sim.tables import alias_table, table
 
 AUTO_SKEW_TOLERANCE = 0.05
 SHOT_MODES = ("auto", "exact", "gaussian")
 INVERSION_MAX_MEAN = 2.0
 
 
-@lru_cache(maxsize=1)
-def table() -> np.ndarray:
-    """The 2^16-entry inverse-CDF N(0,1) table of the fast path (built on first use, so that
-    importing the simulator -- ``ares validate`` checks its parameters -- loads no scipy)."""
-    from scipy.special import ndtri
-
-    t = ndtri((np.arange(1 << 16) + 0.5) / (1 << 16))
-    return (t / np.sqrt(np.mean(t**2))).astype(np.float32)
-
-
 def frame_rng(seed: int, frame: int) -> np.random.Generator:
     """The random stream of one frame."""
     return np.random.Generator(np.random.SFC64(np.random.SeedSequence(seed, spawn_key=(1, int(frame)))))
 
-
-_LITTLE = sys.byteorder == "little"
-
-
-def words16(rng: np.random.Generator, shape) -> np.ndarray:
-    """Uniform 16-bit words: exactly ``rng.integers(0, 1 << 16, size=shape, dtype=np.uint16)``
-    -- the same values, and the generator left in the same state -- made from wider draws
-    when they line up. numpy hands out a 64-bit draw as two 32-bit halves (low first) and a
-    32-bit one as two 16-bit halves (low first), so on a little-endian machine the draws
-    viewed as uint16 are that array: whole 64-bit draws when ``n`` is a multiple of 4 and
-    no half is pending (3x faster), else 32-bit ones when ``n`` is even (1.5x; tested)."""
-    n = int(np.prod(shape))
-    if _LITTLE and n % 2 == 0 and n:
-        bg = rng.bit_generator
-        state = bg.state
-        if n % 4 == 0 and not state.get("has_uint32", 1):
-            from ares.sim.fused import sfc64_raw  # (the frame's SFC64 stream, in numba)
-
-            raw = sfc64_raw(bg, n // 4, state)
-            return (bg.random_raw(n // 4) if raw is None else raw).view(np.uint16).reshape(shape)
-        return rng.integers(0, 1 << 32, size=n // 2, dtype=np.uint32).view(np.uint16).reshape(shape)
-    return rng.integers(0, 1 << 16, size=shape, dtype=np.uint16)
 
 
 def normal(rng: np.random.Generator, shape, fast: bool) -> np.ndarray:
@@ -117,38 +85,13 @@ def exact_mask(mean_e, gauss_var_e2, mode: str):
     return mask
 
 
-@lru_cache(maxsize=16)
-def _alias_table(lam: float):
-    """(lo, prob, alias) of Walker's alias method for Poisson(lam) on [lo, lo + K)."""
-    sd = np.sqrt(lam)
-    lo = int(max(0.0, np.floor(lam - 12 * sd - 10)))
-    hi = int(np.ceil(lam + 12 * sd + 20))
-    from scipy import special  # (scipy.stats.poisson.pmf's own expression; scipy.stats costs 0.9 s to import)
-
-    k_ = np.arange(lo, hi + 1).astype(float)
-    p = np.exp(special.xlogy(k_, lam) - special.gammaln(k_ + 1) - lam)
-    p = p / p.sum()
-    k = len(p)
-    scaled = p * k
-    prob = np.ones(k)
-    alias = np.arange(k)
-    small = [i for i in range(k) if scaled[i] < 1.0]
-    large = [i for i in range(k) if scaled[i] >= 1.0]
-    while small and large:
-        s_, l_ = small.pop(), large.pop()
-        prob[s_], alias[s_] = scaled[s_], l_
-        scaled[l_] += scaled[s_] - 1.0
-        (small if scaled[l_] < 1.0 else large).append(l_)
-    return lo, prob, alias.astype(np.int32)
-
-
 def poisson_scalar(rng: np.random.Generator, lam: float, shape) -> np.ndarray:
     """Exact Poisson(lam) deviates (float32) for one mean, by the alias method."""
     if lam <= 0:
         return np.zeros(shape, np.float32)
     if lam > 1e6:
         return rng.poisson(lam, size=shape).astype(np.float32)
-    lo, prob, alias = _alias_table(float(lam))
+    lo, prob, alias = alias_table(float(lam))
     idx = rng.integers(0, len(prob), size=shape, dtype=np.int32)
     u = rng.random(size=shape)
     k = np.where(u < prob[idx], idx, alias[idx]).astype(np.float32)

@@ -60,7 +60,7 @@ class SimPhotodiode:
 
     def __init__(self, light, mono: SimMonochromator, params, pixel_pitch_um: float, area_mm2: float,
                  responsivity, reading: str = "current", seed: int = 0, name: str = "sim-photodiode"):
-        """``responsivity(nm) -> A/W``: the calibration table's (``ares.analysis.spectral_qe``)."""
+        """``responsivity(nm) -> A/W``: the calibration table's (``ares.analysis.optics.spectral_qe``)."""
         self.name, self.light, self.mono, self.reading = name, light, mono, reading
         self.pixel_area_m2 = (pixel_pitch_um * 1e-6) ** 2
         self.area_m2 = area_mm2 * 1e-6

@@ -70,9 +70,9 @@ def truths(bench) -> dict:
 def run_once(scan, seed: int, frames: int | None = None, bench=None) -> dict:
     """Run ``scan`` once (no run directory). Returns timing, and per figure the estimate,
     its SE (None when the analysis gave none) and, on the simulator, the truth."""
-    from ares.hardware.factory import sim_params
+    from ares.sim.from_system import sim_params
     from ares.scan import Runner
-    from ares.scan.results import find_estimate
+    from ares.results.registry import find_estimate
     from ares.sim import make_sim_bench
 
     own = bench is None

@@ -22,9 +22,9 @@ import numpy as np
 
 from ares.errors import InputError
 
-from .params import DefectThresholds
-from .result import BITS, PIXEL_CLASSES, DefectResult
-from .stats import PixelStats, SeriesCollector, candidate_series, masked_population_stats, pixel_stats
+from ares.analysis.defects.params import DefectThresholds
+from ares.analysis.defects.result import BITS, PIXEL_CLASSES, DefectResult
+from ares.analysis.defects.stats import PixelStats, SeriesCollector, candidate_series, masked_population_stats, pixel_stats
 
 __all__ = [
     "BITS", "PIXEL_CLASSES", "DefectResult", "DefectThresholds", "PixelStats", "SeriesCollector",
@@ -38,7 +38,7 @@ Region = tuple[slice, slice]
 def classify_defects(*args, **kwargs) -> DefectResult:
     """``ares.analysis.defects.classify.classify_defects``, imported on first use: it needs
     scipy, and parsing thresholds (``ares validate``) must not load it."""
-    from .classify import classify_defects as classify
+    from ares.analysis.defects.classify import classify_defects as classify
 
     return classify(*args, **kwargs)
 

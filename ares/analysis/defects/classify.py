@@ -14,18 +14,18 @@ from typing import Callable, Sequence
 
 import numpy as np
 
-from ares.analysis.median import fast_median
+from ares.analysis.stats.median import fast_median
 
-from .clusters import find_clusters
-from .dist import chi2_isf, chi2_ppf, trim_mean
-from .histograms import deviation_histograms
-from .lines import LineFlags, line_z
-from .params import DefectThresholds
-from .result import BITS, DEFECT_DTYPE, PIXEL_CLASSES, DefectResult, primary_class
-from .limits import Z99, hot_limit_text, noisy_available, p_constant_codes, rate_available, stuck_in_darks
-from .robust import block_median_background, local_background, remove_lines, robust_sigma, sampled_median, structure_ratio
-from .rts import detect_rts, rts_threshold
-from .stats import PixelStats, SeriesCollector
+from ares.analysis.defects.clusters import find_clusters
+from ares.analysis.defects.dist import chi2_isf, chi2_ppf, trim_mean
+from ares.analysis.defects.histograms import deviation_histograms
+from ares.analysis.defects.lines import LineFlags, line_z
+from ares.analysis.defects.params import DefectThresholds
+from ares.analysis.defects.result import BITS, DEFECT_DTYPE, PIXEL_CLASSES, DefectResult, primary_class
+from ares.analysis.defects.limits import Z99, hot_limit_text, noisy_available, p_constant_codes, rate_available, stuck_in_darks
+from ares.analysis.defects.robust import block_median_background, local_background, remove_lines, robust_sigma, sampled_median, structure_ratio
+from ares.analysis.defects.rts import detect_rts, rts_threshold
+from ares.analysis.defects.stats import PixelStats, SeriesCollector
 
 _ROWS = 256  # rows per block of elementwise work on a frame
 

@@ -26,7 +26,7 @@ import math
 
 import numpy as np
 
-from .dist import chi2_isf, chi2_ppf, norm_cdf
+from ares.analysis.defects.dist import chi2_isf, chi2_ppf, norm_cdf
 
 Z99 = 2.326  # one-sided 99 % quantile of the normal
 

@@ -16,7 +16,7 @@ from __future__ import annotations
 import numpy as np
 from scipy.ndimage import median_filter
 
-from .robust import robust_sigma
+from ares.analysis.defects.robust import robust_sigma
 
 
 def line_z(values: np.ndarray, pixel_sigma: float, n_per_line: int, detrend: int = 9) -> np.ndarray:

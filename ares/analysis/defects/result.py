@@ -6,7 +6,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from .params import DefectThresholds
+from ares.analysis.defects.params import DefectThresholds
 
 #: bit of each class in the integer class mask (uint16, one per pixel)
 BITS: dict[str, int] = {

@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from ares.analysis.median import fast_median
+from ares.analysis.stats.median import fast_median
 
 MAD_TO_SIGMA = 1.4826  # sigma = 1.4826 * MAD for a Gaussian
 

@@ -11,9 +11,9 @@ import math
 from dataclasses import dataclass
 
 from ares import labels
-from ares.analysis.estimate import component_display
+from ares.analysis.stats.estimate import component_display
 
-from .observable import Observable
+from ares.gui.models.observable import Observable
 
 # (symbol, meaning) in the order of DESIGN.md's model; others follow as reported
 DESCRIPTIONS = labels.COMPONENTS

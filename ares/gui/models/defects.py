@@ -7,7 +7,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .observable import Observable
+from ares.gui.models.observable import Observable
 
 
 # one colour per class, shared by the table and the overlay on the images
@@ -83,8 +83,8 @@ def reclassify(run_dir: str, overrides: dict[str, str]) -> tuple[dict[str, int],
     """Re-run the defect classification of a finished run from its directory alone with
     ``overrides`` replacing the scan's thresholds: (counts, pixels, caption)."""
     from ares.errors import InputError
-    from ares.scan.analyses import defects
-    from ares.scan.rundir import load_run
+    from ares.results.analyses import defects
+    from ares.rundir.record import load_run
 
     if not run_dir:
         raise InputError("no run directory yet: run a scan that classifies defects first")

@@ -8,8 +8,8 @@ from __future__ import annotations
 
 import numpy as np
 
-from .observable import Observable
-from .regions import Region
+from ares.gui.models.observable import Observable
+from ares.gui.models.regions import Region
 
 
 LEVEL_SAMPLES = 1 << 16

@@ -16,7 +16,7 @@ from pathlib import Path
 
 from ares.errors import InputError
 
-from .observable import Observable
+from ares.gui.models.observable import Observable
 
 
 @dataclass(frozen=True)
@@ -62,7 +62,7 @@ class InstrumentSession(Observable):
 
     def open(self) -> None:
         """Open the bench the chosen system declares and read every readable field."""
-        from ares.hardware.factory import build_bench
+        from ares.rig.factory import build_bench
 
         if self.system is None:
             raise InputError("choose a system XML first")

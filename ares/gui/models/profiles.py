@@ -10,8 +10,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .observable import Observable
-from .regions import Region
+from ares.gui.models.observable import Observable
+from ares.gui.models.regions import Region
 
 
 @dataclass(frozen=True)

@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import math
 
-from .observable import Observable
+from ares.gui.models.observable import Observable
 
 IDLE, RUNNING, PAUSED, STOPPING, FINISHING, DONE, FAILED, STOPPED = (
     "Idle", "Running", "Paused", "Stopping", "Analysing and writing the run", "Done", "Failed", "Stopped")

@@ -15,7 +15,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .observable import Observable
+from ares.gui.models.observable import Observable
 
 
 @dataclass(frozen=True)

@@ -25,7 +25,7 @@ import numpy as np
 
 from ares.errors import InputError
 
-from .observable import Observable
+from ares.gui.models.observable import Observable
 
 FIELDS = ("on", "draw", "x", "y", "width", "height")
 DEFAULT_ROWS = 16

@@ -12,20 +12,20 @@ import time
 
 import numpy as np
 
-from ...labels import COMPONENTS, HEADLINE_COMPONENTS, PTC_FIGURES
-from ..events import (Done, Ending, Failed, FramePreview, Progress, ReportsWritten, RunInfo, StageResult, StageStarted,
+from ares.labels import COMPONENTS, HEADLINE_COMPONENTS, PTC_FIGURES
+from ares.gui.events import (Done, Ending, Failed, FramePreview, Progress, ReportsWritten, RunInfo, StageResult, StageStarted,
                       Stopped)
-from . import progress as P
-from .components import ComponentsModel
-from .defects import DefectCountsModel
-from .image import ImageModel
-from .observable import Observable
-from .profiles import ProfilesModel
-from .ptc import PTCModel
-from .regions import Region, RegionSet, full_frame
-from .stats import StatsPanelModel
-from .sweep import SweepModel, SweepPoint
-from .views import StageStore, ViewModel
+from ares.gui.models import progress as P
+from ares.gui.models.components import ComponentsModel
+from ares.gui.models.defects import DefectCountsModel
+from ares.gui.models.image import ImageModel
+from ares.gui.models.observable import Observable
+from ares.gui.models.profiles import ProfilesModel
+from ares.gui.models.ptc import PTCModel
+from ares.gui.models.regions import Region, RegionSet, full_frame
+from ares.gui.models.stats import StatsPanelModel
+from ares.gui.models.sweep import SweepModel, SweepPoint
+from ares.gui.models.views import StageStore, ViewModel
 
 log = logging.getLogger(__name__)
 

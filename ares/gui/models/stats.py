@@ -4,7 +4,7 @@ Given the values a panel shows (per-pixel means, per-pixel temporal sigmas, colu
 row means of a region), it keeps the display range (From/To, set by a range mode or by
 hand) and the histogram drawn over it. The numbers ARES prints under it -- Mean, Sigma,
 Fitted Mean, Fitted Sigma, Lowest, Highest -- come from the analysis engine
-(``ares.analysis.panels.summarize``: the fit is its robust Gaussian fit to the
+(``ares.analysis.noise.panels.summarize``: the fit is its robust Gaussian fit to the
 histogram core) applied to the values inside From..To.
 
 Range modes:
@@ -25,7 +25,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .observable import Observable
+from ares.gui.models.observable import Observable
 
 PEAK_TO_PEAK = "Peak to Peak"
 MEAN_3_SIGMA = "Mean ± 3 Sigma"
@@ -55,7 +55,7 @@ def auto_range(values: np.ndarray, mode: str) -> tuple[float, float]:
         return (0.0, 1.0)
     lo, hi = float(v.min()), float(v.max())
     if mode == PERCENTILE:
-        from ares.analysis.panels import value_range
+        from ares.analysis.noise.panels import value_range
 
         frm, to = value_range(v, "percentile", (0.1, 99.9))
     elif mode in (MEAN_3_SIGMA, MEAN_5_SIGMA):
@@ -117,7 +117,7 @@ def panel_state(v: np.ndarray, range_mode: str, manual: tuple[float, float], tit
     inside = v[(v >= frm) & (v <= to)].astype(np.float64) if v.size else np.zeros(0)
     stats = PanelStats()
     if inside.size:
-        from ares.analysis.panels import summarize
+        from ares.analysis.noise.panels import summarize
 
         p = summarize(title, inside, unit, range_mode="peak-to-peak", bins=8)
         stats = PanelStats(n=int(inside.size), mean=p.mean, sigma=p.sigma if inside.size > 1 else math.nan,

@@ -14,7 +14,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from .observable import Observable
+from ares.gui.models.observable import Observable
 
 
 @dataclass(frozen=True)

@@ -5,8 +5,8 @@ from __future__ import annotations
 from PySide6.QtCore import Qt
 from PySide6.QtWidgets import QHeaderView, QLabel, QTableWidget, QTableWidgetItem, QVBoxLayout, QWidget
 
-from ..layout import redraw_when_shown
-from ..models.components import ComponentsModel
+from ares.gui.layout import redraw_when_shown
+from ares.gui.models.components import ComponentsModel
 
 
 class ComponentsView(QWidget):

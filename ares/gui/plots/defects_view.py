@@ -8,8 +8,8 @@ from PySide6.QtGui import QColor
 from PySide6.QtWidgets import (QCheckBox, QHeaderView, QLabel, QPushButton, QTableWidget, QTableWidgetItem, QVBoxLayout,
                                QWidget)
 
-from ..layout import redraw_when_shown
-from ..models.defects import DEFECT_COLORS, DefectCountsModel, reclassify, threshold_defaults
+from ares.gui.layout import redraw_when_shown
+from ares.gui.models.defects import DEFECT_COLORS, DefectCountsModel, reclassify, threshold_defaults
 
 
 class DefectCountsView(QWidget):
@@ -79,7 +79,7 @@ class DefectCountsView(QWidget):
         try:
             counts, pixels, caption, res = reclassify(self.run_dir(), self.overrides())
         except Exception as exc:  # noqa: BLE001 -- one sentence, never a traceback
-            from ..worker import one_sentence
+            from ares.gui.worker import one_sentence
 
             self.on_error(one_sentence(exc))
             return

@@ -4,9 +4,9 @@ from __future__ import annotations
 
 from PySide6.QtWidgets import QGridLayout, QGroupBox, QLabel, QVBoxLayout, QWidget
 
-from ..models.session import SessionModel
-from . import region_color
-from .histogram_view import HistogramPlot
+from ares.gui.models.session import SessionModel
+from ares.gui.plots import region_color
+from ares.gui.plots.histogram_view import HistogramPlot
 
 
 class DistributionsView(QWidget):

@@ -7,8 +7,8 @@ import math
 import numpy as np
 import pyqtgraph as pg
 
-from ..models.stats import StatsPanelModel
-from . import plain_axes
+from ares.gui.models.stats import StatsPanelModel
+from ares.gui.plots import plain_axes
 
 
 def gaussian_curve(model: StatsPanelModel, points: int = 200):

@@ -14,8 +14,8 @@ import pyqtgraph as pg
 from PySide6.QtCore import QRectF, Qt, QTimer
 from PySide6.QtWidgets import QGraphicsRectItem, QHBoxLayout, QLabel, QPushButton, QVBoxLayout, QWidget
 
-from ..models.image import ImageModel
-from . import plain_axes, region_color, set_colorbar_levels
+from ares.gui.models.image import ImageModel
+from ares.gui.plots import plain_axes, region_color, set_colorbar_levels
 
 
 class ImagePlot(QWidget):
@@ -129,7 +129,7 @@ class ImagePlot(QWidget):
         QTimer.singleShot(0, lambda: self.on_edit(row, x, y, w, h))
 
     def _draw_overlay(self) -> None:
-        from ..models.defects import DEFECT_COLORS
+        from ares.gui.models.defects import DEFECT_COLORS
 
         for item in self.overlay_items:
             self.plot.removeItem(item)

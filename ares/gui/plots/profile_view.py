@@ -5,8 +5,8 @@ from __future__ import annotations
 import pyqtgraph as pg
 from PySide6.QtWidgets import QVBoxLayout, QWidget
 
-from ..models.profiles import ProfilesModel
-from . import plain_axes, region_color
+from ares.gui.models.profiles import ProfilesModel
+from ares.gui.plots import plain_axes, region_color
 
 
 class ProfilesView(QWidget):

@@ -8,9 +8,9 @@ import pyqtgraph as pg
 from PySide6.QtCore import Qt
 from PySide6.QtWidgets import QLabel, QVBoxLayout, QWidget
 
-from ..layout import redraw_when_shown
-from ..models.ptc import PTCModel
-from . import DecadeAxis, plain_axes
+from ares.gui.layout import redraw_when_shown
+from ares.gui.models.ptc import PTCModel
+from ares.gui.plots import DecadeAxis, plain_axes
 
 
 class PTCView(QWidget):

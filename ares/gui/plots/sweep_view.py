@@ -6,9 +6,9 @@ import numpy as np
 import pyqtgraph as pg
 from PySide6.QtWidgets import QComboBox, QHBoxLayout, QLabel, QStackedWidget, QVBoxLayout, QWidget
 
-from ..models.sweep import SweepModel
-from ..layout import redraw_when_shown
-from . import DecadeAxis, plain_axes, set_colorbar_levels
+from ares.gui.models.sweep import SweepModel
+from ares.gui.layout import redraw_when_shown
+from ares.gui.plots import DecadeAxis, plain_axes, set_colorbar_levels
 
 
 class SweepView(QWidget):

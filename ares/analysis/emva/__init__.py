@@ -1,0 +1,3 @@
+"""EMVA 1288 as each release writes it: 3.0/3.1 (``release3``), 4.0 Linear (``linear``,
+``sheet``, ``graphs``), 4.0 General (``general``, ``general_table``). Imports every room below
+it (``kernels``, ``stats``, ``spatial``, ``noise``, ``ptc``)."""

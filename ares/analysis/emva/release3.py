@@ -1,0 +1,252 @@
+"""The EMVA 1288 parameter set with the standard's own definitions (Release 3.0, as
+used for the published results of the EMVA reference data sets).
+
+Kept apart from ARES's own (unbiased, weighted) estimators in ``ptc.py``: these are
+the numbers a data sheet quotes. Definitions (Release 3.0 and the EMVA reference
+implementation; each verified on the reference CCD, see tests/test_emva_reference.py):
+
+- temporal variance of a pair: ``mean((A-B)^2)/2`` -- no mean-difference term in 3.0
+  (``offset_correction=True`` gives the Release 4.0 form);
+- saturation: the level of maximum temporal variance, searched from the top;
+- ``K``: unweighted origin fit of ``s2_y - s2_y.dark`` vs ``mu_y - mu_y.dark`` over the
+  levels from the first up to the last with signal <= 70 % of the saturation signal;
+- ``R`` (responsivity): the same origin fit of ``mu_y - mu_y.dark`` vs ``mu_p``;
+  ``QE = R/K``;
+- ``sigma_y.dark``: intercept at t = 0 of a line of ``s2_y.dark`` vs exposure (one
+  exposure: its value); at least sqrt(0.24) DN;
+- ``mu_e.sat = QE * mu_p.sat`` (photons at saturation times QE -- *not* the dark-
+  subtracted signal over K, which is ~0.8 % lower on the reference CCD);
+- ``SNR_max = sqrt(mu_e.sat)``; ``mu_p.min = (sigma_y.dark/K + 1/2)/QE``;
+  ``DR = mu_p.sat/mu_p.min``;
+- ``u_I_mean``: slope of ``mu_y.dark`` vs exposure / K (e-/s);
+  ``u_I_var``: slope of ``s2_y.dark`` vs exposure / K^2 (Section 7.1);
+- ``DSNU1288 = sqrt(s2_y.dark)/K`` with ``s2 = var(avg image, ddof=1) - mean(pixel
+  temporal var)/L``; ``PRNU1288 = sqrt(s2_y - s2_y.dark)/(mu_y - mu_y.dark)`` in %, from
+  the L-image stacks with no high-pass (Release 3.0);
+- linearity: weighted fit between 5 % and 95 % of saturation minimising relative
+  deviations; ``LE_min``/``LE_max`` the extreme relative deviations in %.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from typing import Sequence
+
+import numpy as np
+
+from ares.analysis.stats.estimate import Estimate
+from ares.analysis.ptc.levels import SpatialStats, pair_stats, spatial_stats
+from ares.analysis.stats.median import n_distinct
+from ares.analysis.stats.physical import snr_db, snr_in_range
+from ares.analysis.ptc.fit import line_fit, origin_fit
+from ares.analysis.ptc.saturation import index_max_variance
+
+S2Q = 1.0 / 12.0
+ATTRIBUTION = "EMVA 1288 reference data set, (C) 2011 Basler AG, CC BY-SA 3.0"
+REFERENCE_NAMES = ("K", "sigma_y_dark", "u_e_sat", "QE", "SNR_max", "DR", "u_I_mean",
+                   "DSNU1288", "PRNU1288", "LE_min", "LE_max")
+
+
+@dataclass(frozen=True)
+class TemporalData:
+    """Per bright level (sorted by exposure): exposure (s), photons, mean and variance of
+    the bright pair and of the dark pair at the same exposure."""
+
+    texp_s: np.ndarray
+    u_p: np.ndarray
+    u_y: np.ndarray
+    s2_y: np.ndarray
+    u_ydark: np.ndarray
+    s2_ydark: np.ndarray
+    n_pixels: int = 0
+
+
+def temporal_from_pairs(bright_pairs: Sequence[np.ndarray], dark_pairs: Sequence[np.ndarray],
+                        texp_s: Sequence[float], photons: Sequence[float],
+                        offset_correction: bool = False) -> TemporalData:
+    """Build the temporal data from (2, rows, cols) pairs; Release 3.0 variance by default."""
+    b = [pair_stats(p[0], p[1], offset_correction=offset_correction) for p in bright_pairs]
+    d = [pair_stats(p[0], p[1], offset_correction=offset_correction) for p in dark_pairs]
+    t = np.asarray(texp_s, float)
+    order = np.argsort(t, kind="stable")
+
+    def arr(xs):
+        return np.asarray(xs, float)[order]
+
+    return TemporalData(t[order], arr(photons), arr([x.mean for x in b]), arr([x.var for x in b]),
+                        arr([x.mean for x in d]), arr([x.var for x in d]), b[0].n_pixels if b else 0)
+
+
+@dataclass
+class Emva1288Result:
+    values: dict[str, Estimate]
+    index_u_ysat: int
+    index_sensitivity_max: int
+    linearity_deviation_pct: np.ndarray
+    temporal: TemporalData
+    extra: dict[str, Estimate]
+
+    def to_json(self) -> dict:
+        return {k: self.values[k].to_dict() for k in REFERENCE_NAMES if k in self.values}
+
+
+def _line_b0(x, y):
+    lf = origin_fit(x, y)
+    return lf.slope, lf.slope_se
+
+
+def emva1288_results(temporal: TemporalData, spatial_bright: SpatialStats | None = None,
+                     spatial_dark: SpatialStats | None = None,
+                     index_u_ysat: int | None = None) -> Emva1288Result:
+    """The Release 3.0 set as the reference implementation computes it. Each figure whose
+    preconditions fail (no two levels with signal up to 70 % of saturation, a gain or a
+    responsivity that does not rise, photon counts all zero, no level in the linearity
+    window) is "not available" with the reason, never a number from a failed fit."""
+    td = temporal
+    Y = td.u_y - td.u_ydark
+    V = td.s2_y - td.s2_ydark
+    isat = index_u_ysat if index_u_ysat is not None else index_max_variance(td.s2_y)
+    below = np.nonzero(Y <= 0.7 * Y[isat])[0]
+    imax = int(below.max()) if below.size else -1
+    vals: dict[str, Estimate] = {}
+    extra: dict[str, Estimate] = {}
+    na = Estimate.na
+    K = R = math.nan
+    if not (Y[isat] > 0 and imax >= 1):
+        why_k = why_r = (f"no two levels with signal above dark up to 70 % of saturation (signal at saturation "
+                         f"{Y[isat]:.3g} DN)")
+    else:
+        sl = slice(0, imax + 1)
+        K, K_se = _line_b0(Y[sl], V[sl])
+        R, R_se = _line_b0(td.u_p[sl], Y[sl])
+        why_k = "" if K > 0 and math.isfinite(K_se) else f"the variance does not rise with the signal (K = {K:.3g})"
+        why_r = ("" if R > 0 and math.isfinite(R_se) else
+                 "the data set gives no photon counts (all 0)" if not np.any(td.u_p[sl] > 0) else
+                 f"the signal does not rise with the photon counts (responsivity {R:.3g} DN/photon)")
+    why_qe = why_k or why_r
+    if not why_k:
+        vals["K"] = Estimate(K, K_se, "DN/e-", "origin fit of s2_y-s2_y.dark vs mu_y-mu_y.dark up to 70 % sat")
+    else:
+        vals["K"] = na(why_k, "DN/e-")
+    extra["R"] = Estimate(R, R_se, "DN/p", "responsivity, origin fit") if not why_r else na(why_r, "DN/p")
+    if not why_qe:
+        QE = R / K
+        QE_se = QE * math.hypot(R_se / R, K_se / K)
+        vals["QE"] = Estimate(100 * QE, 100 * QE_se, "%", "R/K")
+    else:
+        vals["QE"] = na(why_qe, "%")
+
+    nexp = n_distinct(td.texp_s)
+    if nexp <= 2:
+        s2d, s2d_se = float(td.s2_ydark[0]), math.nan
+    else:
+        lf = line_fit(td.texp_s, td.s2_ydark)
+        s2d, s2d_se = lf.intercept, lf.intercept_se
+    note = "intercept of s2_y.dark vs exposure"
+    if not s2d >= 0.24:
+        s2d, note = 0.24, "lower limit 0.24 DN^2 (quantization-dominated)"
+    syd = math.sqrt(s2d)
+    vals["sigma_y_dark"] = Estimate(syd, s2d_se / (2 * syd), "DN", note)
+    if not why_k:
+        sigma_d = math.sqrt(s2d - S2Q) / K
+        extra["sigma_d"] = Estimate(sigma_d, sigma_d * K_se / K, "e-", "sqrt(sigma_y.dark^2 - 1/12)/K")
+    else:
+        extra["sigma_d"] = na(why_k, "e-")
+
+    u_p_sat = float(td.u_p[isat])
+    extra["u_p_sat"] = Estimate(u_p_sat, math.nan, "p", "photons at the maximum-variance level")
+    if not why_k and Y[isat] > 0:
+        extra["u_e_sat_signal"] = Estimate(Y[isat] / K, Y[isat] / K * K_se / K, "e-",
+                                           "(mu_y.sat - mu_y.dark)/K (alternative definition)")
+    else:
+        extra["u_e_sat_signal"] = na(why_k or "no signal at saturation", "e-")
+    why_sat = why_qe or ("" if u_p_sat > 0 else "no photons at the saturation level")
+    if not why_sat:
+        u_e_sat = QE * u_p_sat
+        vals["u_e_sat"] = Estimate(u_e_sat, u_e_sat * QE_se / QE, "e-", "QE * mu_p.sat (EMVA 1288 3.0)")
+        # no sensor beats the photon shot noise: SNR_max <= sqrt(mu_p.sat) (a QE above 1 breaks it)
+        vals["SNR_max"] = snr_in_range(Estimate(math.sqrt(u_e_sat), 0.5 * math.sqrt(u_e_sat) * QE_se / QE, "",
+                                                "sqrt(mu_e.sat)"), u_p_sat, "SNR_max", "the photons at saturation")
+        extra["SNR_max_dB"] = snr_db(vals["SNR_max"], "20 log10 SNR_max")
+        u_p_min = (syd / K + 0.5) / QE
+        extra["u_p_min"] = Estimate(u_p_min, math.nan, "p", "(sigma_y.dark/K + 1/2)/QE")
+        extra["u_e_min"] = Estimate(QE * u_p_min, math.nan, "e-", "QE * mu_p.min")
+        DR = u_p_sat / u_p_min
+        vals["DR"] = Estimate(DR, math.nan, "", "mu_p.sat / mu_p.min")
+        extra["DR_dB"] = Estimate(20 * math.log10(DR), math.nan, "dB", "")
+    else:
+        for key, unit, into in (("u_e_sat", "e-", vals), ("SNR_max", "", vals), ("SNR_max_dB", "dB", extra),
+                                ("u_p_min", "p", extra), ("u_e_min", "e-", extra), ("DR", "", vals),
+                                ("DR_dB", "dB", extra)):
+            into[key] = na(why_sat, unit)
+
+    if nexp <= 2:
+        vals["u_I_mean"] = na("needs more than two exposure times", "e-/s")
+    elif why_k:
+        vals["u_I_mean"] = na(why_k, "e-/s")
+        extra["u_I_var"] = na(why_k, "e-/s")
+    else:
+        lf = line_fit(td.texp_s, td.u_ydark)
+        vals["u_I_mean"] = Estimate(lf.slope / K, math.hypot(lf.slope_se / K, lf.slope * K_se / K**2), "e-/s",
+                                    "slope of mu_y.dark vs exposure / K")
+        lv = line_fit(td.texp_s, td.s2_ydark)
+        # EMVA 1288 4.0 Linear Section 7.1: the variance slope (DN^2/s) divided by K^2
+        extra["u_I_var"] = (Estimate(lv.slope / K**2, math.hypot(lv.slope_se / K**2, 2 * lv.slope * K_se / K**3),
+                                     "e-/s", "slope of s2_y.dark vs exposure / K^2 (EMVA 1288 4.0 Section 7.1)")
+                            if lv.slope > 0 else na("dark variance does not grow with exposure", "e-/s"))
+
+    if spatial_dark is not None:
+        s2yd = spatial_dark.s2_spatial
+        vals["DSNU1288"] = (na(why_k, "e-") if why_k else
+                            Estimate(math.sqrt(s2yd) / K, math.sqrt(s2yd) / K * K_se / K, "e-",
+                                     "sqrt(s2_y.dark spatial)/K, stack average, temporal/L removed")
+                            if s2yd >= 0 else na("negative dark spatial variance", "e-"))
+        extra["DSNU1288_DN"] = Estimate(math.sqrt(max(s2yd, 0)), math.nan, "DN", "")
+    else:
+        vals["DSNU1288"] = na("no dark stack", "e-")
+    if spatial_bright is not None and spatial_dark is not None:
+        d2 = spatial_bright.s2_spatial - spatial_dark.s2_spatial
+        sig = spatial_bright.mean - spatial_dark.mean
+        vals["PRNU1288"] = (Estimate(100 * math.sqrt(d2) / sig, math.nan, "%",
+                                     "sqrt(s2_y - s2_y.dark)/(mu_y - mu_y.dark), no high-pass (3.0)")
+                            if d2 > 0 and sig > 0 else na("no spatial signal variance above dark", "%"))
+    else:
+        vals["PRNU1288"] = na("no bright and dark stacks", "%")
+
+    dev, window, why_le = _linearity(td.u_p, Y, isat)
+    for key, pick in (("LE_min", np.min), ("LE_max", np.max)):
+        vals[key] = na(why_le, "%") if why_le else Estimate(float(pick(dev[window])), math.nan, "%",
+                                                             "5-95 % of saturation")
+    return Emva1288Result(vals, isat, imax, dev, td, extra)
+
+
+def _linearity(u_p: np.ndarray, Y: np.ndarray, isat: int) -> tuple[np.ndarray, slice, str]:
+    """(deviation in % of every level from the line, the 5-95 % window, "" or why not
+    available): the line fitted minimising relative deviations (reference implementation)."""
+    nan = np.full(Y.shape, math.nan)
+    if not Y[isat] > 0:
+        return nan, slice(0, 0), "no signal at saturation"
+    above, below = Y >= 0.05 * Y[isat], Y <= 0.95 * Y[isat]
+    if np.count_nonzero(above & below) < 2:
+        return nan, slice(0, 0), "fewer than two levels between 5 and 95 % of saturation"
+    # the reference implementation's window: from the first level above 5 % to the last below 95 %
+    lo, hi = int(np.argmax(above)), int(np.nonzero(below)[0][-1])
+    X_, Y_ = u_p[lo:hi + 1], Y[lo:hi + 1]
+    with np.errstate(divide="ignore", invalid="ignore"):
+        xy = np.sum(X_ / Y_)
+        xy2 = np.sum(X_ / Y_**2)
+        x2y2 = np.sum((X_ / Y_) ** 2)
+        _y = np.sum(1 / Y_)
+        _y2 = np.sum(1 / Y_**2)
+        b = (xy * xy2 - x2y2 * _y) / (xy2**2 - x2y2 * _y2)
+        a = (xy - b * xy2) / x2y2
+        line = a * u_p + b
+        dev = 100 * (Y - line) / line
+    if not (np.all(Y_ > 0) and np.all(np.isfinite(dev[lo:hi + 1]))):
+        return nan, slice(0, 0), "no line through the photon counts fits the levels (photon counts zero or all equal)"
+    return dev, slice(lo, hi + 1), ""
+
+
+def spatial_from_stacks(bright: np.ndarray, dark: np.ndarray) -> tuple[SpatialStats, SpatialStats]:
+    return spatial_stats(bright), spatial_stats(dark)

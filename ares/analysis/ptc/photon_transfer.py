@@ -1,0 +1,571 @@
+"""Photon transfer: conversion gain, read noise, saturation, full well, DR, SNR, linearity.
+
+Input: one ``LevelStats`` per bright level and the dark ``LevelStats`` at the same
+exposure (``ares.analysis.ptc.levels``), in any order. Signal ``S = mu_y - mu_dark`` and
+temporal variance ``V = s2_y - s2_dark`` (SCIENCE.md "Photon transfer"). Levels are taken
+in signal order whatever the input order; every level gets a status:
+
+- ``"fit"``: used by the gain fits (at most ``fit_fraction`` of saturation);
+- ``"valid"``: on the curve above the fit range (used for SNR and the noise model);
+- ``"excluded"``: non-finite, no significant signal, clipped (EMVA 1288 4.0 Section 6.6
+  histogram criterion), collapsed, non-monotonic or beyond the PTC turnoff -- with the
+  reason stated; excluded levels are never fitted.
+
+Saturation is *bracketed* (``ares.analysis.ptc.saturation``): it lies between the last level
+on the curve and the first clipped one. Every full-well definition is checked against the
+bracket, and a run that never saturates gets no full well and no dynamic range.
+
+The gain model (line or Astier 2019) is chosen by the data (``choose_gain_model``), and
+the EMVA 1288 4.0 Linear Eq. 51 local-slope check says whether the linear model holds.
+Definitions (all labelled in the result): ``K`` in DN/e- (EMVA), its inverse in e-/DN,
+conversion gain in uV/e- = K * LSB_uV / analog gain; read noise EMVA 4.0 Eqs. 53-54.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+from typing import Sequence
+
+import numpy as np
+
+from ares.analysis.stats.estimate import Estimate
+from ares.analysis.ptc.levels import LevelStats
+from ares.analysis.stats.median import fast_median
+from ares.analysis.ptc.fit import (AstierFit, GainModel, LineFit, LocalSlopeCheck, choose_gain_model, line_fit,
+                                   local_slope_check, local_slope_check_text, origin_fit)
+from ares.analysis.ptc.noise_figures import loglog_slopes, noise_model, read_noise, sensitivity_threshold
+from ares.analysis.ptc.saturation import (SaturationBracket, index_linearity_turnoff, index_max_code, index_variance_drop,
+                                      ptc_turnoff, saturation_bracket)
+
+__all__ = ["PtcLevel", "PtcResult", "analyze_ptc", "classify_levels", "loglog_slopes"]
+
+
+@dataclass(frozen=True)
+class PtcLevel:
+    index: int  # position in the input
+    signal: float  # DN, dark subtracted
+    variance: float  # DN^2, dark subtracted
+    variance_se: float
+    dof: float
+    total_var: float  # DN^2, bright temporal variance (dark not subtracted), for SNR
+    spatial_var: float  # DN^2, spatial variance of the level (temporal part removed)
+    frac_at_max: float
+    exposure_s: float = math.nan
+    photons: float = math.nan
+    status: str = "fit"  # "fit" | "valid" | "excluded"
+    reason: str = ""
+    clipped: bool = False  # evidence of saturation (clipped, collapsed or rolled off)
+
+
+@dataclass
+class PtcResult:
+    levels: list[PtcLevel]
+    gain_dn_per_e: Estimate  # the model the data chose (gain_model)
+    gain_e_per_dn: Estimate
+    conversion_gain_uv_per_e: Estimate
+    gain_origin_dn_per_e: Estimate  # EMVA 1288 origin fit
+    gain_astier_dn_per_e: Estimate
+    astier: AstierFit | None
+    gain_vs_range: dict[str, Estimate]
+    read_noise_dn: Estimate
+    read_noise_e: Estimate
+    read_noise_is_upper_limit: bool
+    saturation_index: int  # EMVA 3.0: max temporal variance (input index, -1: none)
+    full_well_e: dict[str, Estimate]  # every definition, each checked against the bracket
+    dynamic_range: Estimate
+    dynamic_range_db: Estimate
+    sensitivity_threshold_e: Estimate
+    qe: Estimate
+    linearity_error_pct: Estimate
+    snr: dict[str, np.ndarray]
+    noise_model: dict[str, Estimate] = field(default_factory=dict)
+    zones: dict[str, Estimate] = field(default_factory=dict)
+    saturation: SaturationBracket | None = None
+    full_well: Estimate = field(default_factory=lambda: Estimate.na("not computed", "e-"))  # headline
+    gain_model: GainModel | None = None
+    linearity_check: LocalSlopeCheck | None = None
+    gain_wls_dn_per_e: Estimate = field(default_factory=lambda: Estimate.na("not computed", "DN/e-"))
+    turnoff_dn: Estimate = field(default_factory=lambda: Estimate.na("not computed", "DN"))  # headline turnoff
+    turnoff_e: Estimate = field(default_factory=lambda: Estimate.na("not computed", "e-"))
+    turnoff_definitions_dn: dict[str, Estimate] = field(default_factory=dict)  # published definitions by name
+    # Eq. 51 as written (EMVA 1288 4.0 Linear Section 6.6), shown beside ``linearity_check``
+    # (ARES's variant, option eq51_noise_floor), never replaced by it
+    linearity_check_text: LocalSlopeCheck | None = None
+
+    def gain_headline(self) -> dict:
+        """Which estimator gives the headline K and why (one sentence)."""
+        k = self.gain_dn_per_e
+        if not k.available:
+            return {"estimator": None, "reason": k.note}
+        reason = k.note.split("; ")[0]
+        if reason.startswith("unweighted line"):
+            return {"estimator": "ols", "reason": reason}
+        is_ast = (self.gain_astier_dn_per_e.available and k.value == self.gain_astier_dn_per_e.value)
+        return {"estimator": "astier" if is_ast else "line", "reason": reason}
+
+    def used(self, status: str = "fit") -> list[PtcLevel]:
+        return [lv for lv in self.levels if lv.status == status]
+
+    def to_dict(self, names: Sequence[str]) -> dict:
+        """The JSON form shown everywhere (scan results, ``ares ptc --json``); ``names[i]``
+        names input level i (a stage, a table line)."""
+        br, k, lin = self.saturation, self.gain_dn_per_e, self.linearity_check
+
+        def e_of(dn: float) -> float | None:
+            return dn / k.value if br is not None and br.reached and k.available and math.isfinite(dn) else None
+
+        def name(i: int) -> str | None:
+            return names[i] if i >= 0 else None
+
+        return {
+            "gain_dn_per_e": self.gain_dn_per_e.to_dict(), "gain_e_per_dn": self.gain_e_per_dn.to_dict(),
+            "gain_line_dn_per_e": self.gain_wls_dn_per_e.to_dict(),
+            # the other estimators the PTC plot draws, so no surface shows a K the JSON lacks
+            "gain_origin_dn_per_e": self.gain_origin_dn_per_e.to_dict(),
+            "gain_astier_dn_per_e": self.gain_astier_dn_per_e.to_dict(),
+            "gain_model": self.gain_model.to_dict() if self.gain_model else None,
+            "gain_headline": self.gain_headline(),
+            "linearity_check": {"mean_rel_dev": lin.mean_rel_dev if math.isfinite(lin.mean_rel_dev) else None,
+                                "holds": lin.holds, "note": lin.note} if lin else None,
+            "linearity_check_text": ({"mean_rel_dev": self.linearity_check_text.mean_rel_dev
+                                      if math.isfinite(self.linearity_check_text.mean_rel_dev) else None,
+                                      "holds": self.linearity_check_text.holds,
+                                      "note": self.linearity_check_text.note} if self.linearity_check_text else None),
+            "conversion_gain_uv_per_e": self.conversion_gain_uv_per_e.to_dict(),
+            "read_noise_dn": self.read_noise_dn.to_dict(), "read_noise_e": self.read_noise_e.to_dict(),
+            "read_noise_is_upper_limit": self.read_noise_is_upper_limit,
+            # the charge capacity (saturated plateau / K, else the saturation bracket); every
+            # other definition, each checked against the bracket, under full_well_definitions
+            "full_well_e": self.full_well.to_dict(),
+            "saturation_capacity_e": self.full_well_e["saturation_capacity"].to_dict(),
+            "full_well_definitions": {k_: v.to_dict() for k_, v in self.full_well_e.items()},
+            "saturation": None if br is None else {
+                "reached": br.reached, "reason": br.reason, "last_unclipped_stage": name(br.last_ok),
+                "first_clipped_stage": name(br.first_clipped), "low_e": e_of(br.low_dn), "high_e": e_of(br.high_dn)},
+            "sensitivity_threshold_e": self.sensitivity_threshold_e.to_dict(),
+            "dynamic_range_db": self.dynamic_range_db.to_dict(), "qe": self.qe.to_dict(),
+            "linearity_error_pct": self.linearity_error_pct.to_dict(),
+            "saturation_stage": name(self.saturation_index),
+            "turnoff_dn": self.turnoff_dn.to_dict(), "turnoff_e": self.turnoff_e.to_dict(),
+            "turnoff_definitions_dn": {k_: v.to_dict() for k_, v in self.turnoff_definitions_dn.items()},
+            "level_status": [{"stage": names[lv.index], "status": lv.status, "reason": lv.reason}
+                             for lv in self.levels],
+        }
+
+    def excluded(self) -> list[tuple[int, str]]:
+        return [(lv.index, lv.reason) for lv in self.levels if lv.status == "excluded"]
+
+
+def _inv(e: Estimate, unit: str, note: str = "") -> Estimate:
+    if not e.available or e.value == 0:
+        return Estimate.na("gain not available", unit)
+    return Estimate(1.0 / e.value, e.se / e.value / e.value, unit, note)
+
+
+def _nominal(n: int, exposure_s, photons):
+    """The illumination axis (photons, else exposure) when every level has one."""
+    for x in (photons, exposure_s):
+        if x is not None:
+            a = np.asarray(x, float)
+            if a.size == n and np.all(np.isfinite(a)):
+                return a
+    return None
+
+
+def classify_levels(bright: Sequence[LevelStats], dark: Sequence[LevelStats],
+                    exposure_s=None, photons=None, clip_limit: float = 0.002,
+                    fit_fraction: float = 0.7, nsigma: float = 4.0) -> tuple[list[PtcLevel], SaturationBracket]:
+    n = len(bright)
+    S = np.array([b.mean - d.mean for b, d in zip(bright, dark)], float)
+    V = np.array([b.var - d.var for b, d in zip(bright, dark)], float)
+    dof = np.array([min(b.dof, d.dof) for b, d in zip(bright, dark)], float)
+    Vse = np.sqrt(np.array([b.var_se**2 + d.var_se**2 for b, d in zip(bright, dark)], float))
+    t = np.full(n, math.nan) if exposure_s is None else np.asarray(exposure_s, float)
+    p = np.full(n, math.nan) if photons is None else np.asarray(photons, float)
+    nominal = _nominal(n, exposure_s, photons)
+    status = ["fit"] * n
+    reason = [""] * n
+    clipped = np.zeros(n, bool)
+    signif = np.isfinite(S) & np.isfinite(V) & (S > 0) & (V > 3 * Vse)
+    s_min_signif = float(S[signif].min()) if signif.any() else math.inf
+    for i in range(n):
+        b = bright[i]
+        if not (math.isfinite(S[i]) and math.isfinite(V[i])):
+            status[i], reason[i] = "excluded", "non-finite mean or variance"
+        elif not math.isfinite(Vse[i]):
+            status[i], reason[i] = "excluded", f"variance {V[i]:.3g} DN^2 beyond float64 arithmetic (its square overflows)"
+        elif b.frac_at_max - dark[i].frac_at_max > clip_limit:
+            # pixels already at the maximum code in the dark (hot, stuck high) are defects,
+            # not saturation: only the excess over the dark's fraction counts
+            status[i], clipped[i] = "excluded", True
+            reason[i] = (f"clipped: {100 * (b.frac_at_max - dark[i].frac_at_max):.3g} % of samples at the maximum "
+                         f"code above the dark's (limit {100 * clip_limit:g} %, EMVA 1288 4.0 Section 6.6)")
+        elif b.frac_at_min > clip_limit:
+            status[i], reason[i] = "excluded", f"clipped: {100 * b.frac_at_min:.3g} % of samples at code 0"
+        elif not S[i] > 0:
+            status[i], reason[i] = "excluded", f"no signal above dark (S = {S[i]:.3g} DN)"
+        elif not signif[i]:
+            if S[i] > s_min_signif:  # brighter than a level with shot noise: the variance collapsed
+                status[i], clipped[i] = "excluded", True
+                reason[i] = (f"collapsed: temporal variance {V[i]:.3g} DN^2 not above dark at S = {S[i]:.5g} DN "
+                             "(fully saturated)")
+            else:
+                status[i], reason[i] = "excluded", (
+                    f"no significant signal: V = {V[i]:.3g} ± {Vse[i]:.2g} DN^2 above dark at S = {S[i]:.3g} DN")
+    if nominal is not None:  # the signal must rise with the illumination
+        best, best_i = -math.inf, -1
+        for i in np.argsort(nominal, kind="stable"):
+            if status[i] == "excluded":
+                continue
+            if S[i] <= best and nominal[i] > nominal[best_i]:
+                status[i], reason[i] = "excluded", (
+                    f"non-monotonic: signal {S[i]:.5g} DN not above {best:.5g} DN of level {best_i} "
+                    "at lower illumination")
+                continue
+            if S[i] > best:
+                best, best_i = S[i], i
+    # a level brighter (by illumination) than a clipped one is beyond saturation too
+    if nominal is not None and clipped.any():
+        x_clip = nominal[clipped].min()
+        for i in range(n):
+            if status[i] != "excluded" and nominal[i] > x_clip:
+                status[i], clipped[i] = "excluded", True
+                reason[i] = "beyond saturation: brighter than a clipped level"
+    cand = sorted((i for i in range(n) if status[i] != "excluded"), key=lambda i: S[i])
+    n_on = ptc_turnoff(S[cand], V[cand], Vse[cand], nsigma=nsigma) if cand else 0
+    for i in cand[n_on:]:
+        status[i], clipped[i] = "excluded", True
+        reason[i] = (f"beyond the PTC turnoff: the curve followed from below first departs (variance below "
+                     f"the curve of the levels under it, or below their maximum, by > {nsigma:g} SE) at "
+                     f"S = {S[cand[n_on]]:.5g} DN")
+    on_curve = np.array([st != "excluded" for st in status])
+    br = saturation_bracket(S, clipped, on_curve, nominal)
+    if br.reached:
+        for i in cand[:n_on]:
+            if S[i] > fit_fraction * br.low_dn:
+                status[i], reason[i] = "valid", f"above {100 * fit_fraction:g} % of saturation: not fitted"
+    levels = [PtcLevel(i, float(S[i]), float(V[i]), float(Vse[i]), float(dof[i]), float(bright[i].var),
+                       float(bright[i].spatial_var), float(bright[i].frac_at_max), float(t[i]), float(p[i]),
+                       status[i], reason[i], bool(clipped[i])) for i in range(n)]
+    return levels, br
+
+
+HEADLINE_P_MIN = 1e-3  # the chi-square probability below which a fit fails its own residual check
+
+
+def _gain_estimates(fit: list[PtcLevel], signal_se, fit_note: str):
+    """(chosen K, WLS line K, EMVA origin K, Astier K, GainModel). The weights are
+    ``1/se(V)^2``, or with ``signal_se`` the effective variance ``se(V)^2 + (K se(S))^2``
+    (a level's signal error matters at low signal, where ``V/S`` is most sensitive)."""
+    S = np.array([lv.signal for lv in fit])
+    V = np.array([lv.variance for lv in fit])
+    N = np.array([lv.dof for lv in fit])
+    Vse = np.array([lv.variance_se for lv in fit])
+    gm = choose_gain_model(S, V, N, v_se=Vse)
+    how = "w = 1/se(V)^2"
+    if signal_se is not None and math.isfinite(gm.line.slope):
+        sse = np.array([signal_se[lv.index] for lv in fit], float)
+        sse = np.where(np.isfinite(sse), sse, 0.0)
+        for _ in range(2):  # effective variance: K from the previous pass
+            gm = choose_gain_model(S, V, N, v_se=np.hypot(Vse, gm.line.slope * sse))
+        how = "w = 1/(se(V)^2 + K^2 se(S)^2)"
+
+    def est(lf: LineFit, note: str) -> Estimate:
+        if not math.isfinite(lf.slope):
+            return Estimate.na(f"too few usable levels to fit ({lf.n}; see the excluded levels for why each "
+                               "was dropped)", "DN/e-")
+        if not lf.slope > 3 * lf.slope_se:
+            return Estimate.na(f"the variance does not rise with the signal (slope {lf.slope:.3g} ± "
+                               f"{lf.slope_se:.2g} DN/e- over {lf.n} levels)", "DN/e-")
+        return Estimate(lf.slope, lf.slope_se, "DN/e-", note)
+
+    k_wls = est(gm.line, f"WLS line of V vs S, {how}, {fit_note}")
+    k_org = est(origin_fit(S, V, Vse), f"EMVA 1288 origin fit, {fit_note}")
+    ast = gm.astier
+    if ast is not None and math.isfinite(ast.gain_e_per_dn) and ast.gain_e_per_dn > 0:
+        k_ast = Estimate(1 / ast.gain_e_per_dn, ast.gain_se / ast.gain_e_per_dn**2, "DN/e-",
+                         f"Astier 2019 exponential, a00 = {ast.a00:.3g} 1/e-, {fit_note}")
+    else:
+        k_ast = Estimate.na("Astier fit needs >= 5 levels", "DN/e-")
+    chosen = k_ast if gm.chosen == "astier" else k_wls
+    reason = gm.reason
+    # a fit failing its own residual check is never the headline (issue 34): where neither
+    # weighted model passes, the variance errors do not describe the scatter and weights
+    # only move the slope, so the headline is the unweighted line with offset -- the form of
+    # EMVA 1288 4.0 Linear Section 6.6 Eq. 50 -- with its SE from the scatter itself
+    line_fails = gm.line_p < HEADLINE_P_MIN
+    astier_fails = gm.chosen == "astier" and not gm.astier_p >= HEADLINE_P_MIN
+    if line_fails and (gm.chosen != "astier" or astier_fails):
+        lf = line_fit(S, V)
+        k_ols = (Estimate(lf.slope, lf.slope_se, "DN/e-", f"unweighted line of V vs S (SE from the residual "
+                                                           f"scatter), {fit_note}")
+                 if math.isfinite(lf.slope) and lf.slope > 3 * lf.slope_se else k_wls)
+        tried = (f"the Astier fit, preferred to the line, fails its own residual check (chi2/dof "
+                 f"{ast.chi2_red:.3g}, p {gm.astier_p:.2g})" if astier_fails else
+                 "the Astier curvature term does not explain the residuals")
+        chosen = k_ols
+        reason = (f"unweighted line: the weighted line fails its own residual check (chi2/dof "
+                  f"{gm.line.chi2_red:.3g}, p {gm.line_p:.2g}) and {tried}: the levels' variance errors do not "
+                  "describe their scatter, so the slope is not weighted by them (the form of EMVA 1288 4.0 Eq. 50)")
+    if chosen.available:
+        chosen = Estimate(chosen.value, chosen.se, chosen.unit, f"{reason}; {chosen.note}")
+    return chosen, k_wls, k_org, k_ast, gm
+
+
+def _full_well(levels: list[PtcLevel], br: SaturationBracket, gain: Estimate, clip_limit: float,
+               xlin, photons) -> tuple[dict[str, Estimate], Estimate, int]:
+    """Every full-well definition, each consistent with the saturation bracket or not
+    available saying why; the headline full well; the EMVA 3.0 saturation index."""
+    fw: dict[str, Estimate] = {}
+    na_sat = br.reason if not br.reached else ""
+    k = gain
+
+    def charge(s_dn: float, note: str, extra_se_dn: float = 0.0) -> Estimate:
+        if not k.available:
+            return Estimate.na("gain not available", "e-")
+        v = s_dn / k.value
+        return Estimate(v, math.hypot(v * k.se / k.value, extra_se_dn / k.value), "e-", note)
+
+    def checked(i: int, note: str) -> Estimate:
+        if i < 0:
+            return Estimate.na("not found in the data", "e-")
+        s = levels[i].signal
+        if not br.reached:
+            return Estimate.na(na_sat, "e-")
+        if not br.contains(s):
+            return Estimate.na(f"level {i} ({s:.5g} DN) is outside the saturation bracket: {br.reason}", "e-")
+        return charge(s, note)
+
+    good = [lv for lv in levels if math.isfinite(lv.signal) and math.isfinite(lv.variance) and lv.signal > 0
+            and not lv.reason.startswith(("non-monotonic", "no significant", "non-finite"))]
+    good.sort(key=lambda lv: lv.signal)
+    # EMVA 3.0: the level of maximum temporal variance (global maximum over the levels in
+    # signal order: a collapsed plateau's variance is noise around 0, not a series to walk)
+    sat_i = good[int(np.argmax([lv.variance for lv in good]))].index if good else -1
+    fw["saturation_capacity"] = checked(br.last_ok, "EMVA 1288 4.0: the last level on the curve with <= "
+                                                    f"{100 * clip_limit:g} % of samples clipped; {br.reason}")
+    fw["max_variance"] = checked(sat_i, "EMVA 1288 3.0: signal at the level of maximum temporal variance")
+    if not any(lv.frac_at_max > 0 for lv in good):
+        fw["max_code"] = Estimate.na("no level reaches the ADC maximum code (see 'plateau')", "e-")
+    else:
+        im = index_max_code([lv.frac_at_max for lv in good], clip_limit)
+        fw["max_code"] = checked(good[im].index if im >= 0 else -1,
+                                 f"EMVA 1288 4.0: highest level with <= {100 * clip_limit:g} % of pixels at max code")
+    fw["plateau"] = _plateau(levels, br, k)
+    # (the PTC turnoff is not a full-well definition here: it is one figure, turnoff_dn /
+    # turnoff_e, whose SE says it is located only to within the level spacing -- issue 34)
+    if xlin is not None:
+        on = [lv for lv in levels if lv.status != "excluded" or lv.clipped]
+        xs = np.asarray(xlin, float)
+        il = index_linearity_turnoff(xs[[lv.index for lv in on]], [lv.signal for lv in on])
+        if il >= 0 and on[il].index == br.last_ok and not br.reached:
+            fw["linearity_1pct"] = Estimate.na("no level deviates more than 1 % from the line: " + na_sat, "e-")
+        else:
+            fw["linearity_1pct"] = checked(on[il].index if il >= 0 else -1,
+                                           "last level within 1 % of a line of signal vs "
+                                           + ("photons" if photons is not None else "exposure"))
+    else:
+        fw["linearity_1pct"] = Estimate.na("needs exposure or photon count per level", "e-")
+    if br.reached and math.isfinite(br.high_dn):
+        mid, half = (br.low_dn + br.high_dn) / 2, (br.high_dn - br.low_dn) / 2
+        fw["bracket"] = charge(mid, f"centre of the saturation bracket, SE from its width/sqrt(3); {br.reason}",
+                               half / math.sqrt(3))
+    else:
+        fw["bracket"] = Estimate.na(br.reason if not br.reached else "no illumination axis for the upper end", "e-")
+    if fw["plateau"].available:
+        head = fw["plateau"]
+    elif fw["bracket"].available:
+        head = fw["bracket"]
+    elif br.reached and k.available:
+        head = Estimate.limit(br.low_dn / k.value, "lower", "e-", br.reason)
+    else:
+        head = Estimate.na(na_sat or "gain not available", "e-")
+    return fw, head, sat_i
+
+
+def analyze_ptc(bright: Sequence[LevelStats], dark: Sequence[LevelStats], *, exposure_s=None,
+                photons=None, clip_limit: float = 0.002, fit_fraction: float = 0.7,
+                adc_lsb_uv: float | None = None, analog_gain: float = 1.0,
+                dark_exposure_s=None, read_dark: Sequence[LevelStats] | None = None,
+                signal_se=None) -> PtcResult:
+    """Full photon-transfer analysis. ``dark[i]`` is the dark level at ``bright[i]``'s
+    exposure. ``read_dark``/``dark_exposure_s`` (default: ``dark``/``exposure_s``) give
+    the dark levels for sigma_y.dark.
+
+    ``signal_se[i]`` (DN, optional): standard error of level i's signal not shared by all
+    levels -- e.g. from the scatter of the bright stack's frame means (a frame-global
+    offset moves the mean but is removed from the variance)."""
+    if len(bright) != len(dark):
+        raise ValueError("one dark level per bright level is required")
+    levels, br = classify_levels(bright, dark, exposure_s, photons, clip_limit, fit_fraction)
+    fit = [lv for lv in levels if lv.status == "fit"]
+    good = sorted((lv for lv in levels if lv.status in ("fit", "valid")), key=lambda lv: lv.signal)
+    fit_note = (f"up to {100 * fit_fraction:g} % of saturation" if br.reached else
+                "all levels (saturation not reached)")
+    gain, k_wls, k_org, k_ast, gm = _gain_estimates(fit, signal_se, fit_note)
+    lin = local_slope_check([lv.signal for lv in fit], [lv.variance for lv in fit],
+                            [lv.variance_se for lv in fit], k_wls.value)
+    e_per_dn = _inv(gain, "e-/DN", "1/K")
+    if adc_lsb_uv is not None and gain.available:
+        cg = Estimate(gain.value * adc_lsb_uv / analog_gain, gain.se * adc_lsb_uv / analog_gain, "uV/e-",
+                      f"K * {adc_lsb_uv:g} uV/DN / analog gain {analog_gain:g}")
+    else:
+        cg = Estimate.na("ADC LSB (uV) not given", "uV/e-")
+
+    gvr: dict[str, Estimate] = {}  # gain against fit range (diagnostic)
+    if br.reached:
+        for f in (0.3, 0.5, 0.7):
+            sel = [lv for lv in good if lv.signal <= f * br.low_dn]
+            lf = origin_fit([lv.signal for lv in sel], [lv.variance for lv in sel], [lv.variance_se for lv in sel])
+            gvr[f"0-{int(f * 100)}%"] = (Estimate(lf.slope, lf.slope_se, "DN/e-", f"origin fit 0-{int(f * 100)} % "
+                                                  "of saturation") if math.isfinite(lf.slope) else
+                                         Estimate.na(f"too few levels ({lf.n})", "DN/e-"))
+
+    rd = list(read_dark) if read_dark is not None else list(dark)
+    rt = dark_exposure_s if read_dark is not None else exposure_s
+    rn_dn, rn_e, upper = read_noise(rd, rt, gain)
+
+    xlin = photons if photons is not None else exposure_s
+    fw, head, sat_i = _full_well(levels, br, gain, clip_limit, xlin, photons)
+
+    # QE (responsivity R = slope of S vs photons, origin fit over the fit range) / K (Eq. 52)
+    if photons is not None and gain.available and fit:
+        R = origin_fit([lv.photons for lv in fit], [lv.signal for lv in fit])
+        if R.slope > 0 and math.isfinite(R.slope):
+            qv = 100 * R.slope / gain.value  # in %, as every surface states it
+            qe = Estimate(qv, qv * math.hypot(R.slope_se / R.slope, gain.se / gain.value), "%", "R/K (EMVA 1288 Eq. 52)")
+        else:
+            qe = Estimate.na(f"the signal does not rise with the photon counts (responsivity {R.slope:.3g} DN/photon)", "%")
+    else:
+        qe = Estimate.na("photon counts not given", "%")
+
+    sens = sensitivity_threshold(rn_dn, gain)
+    sat = fw["saturation_capacity"]
+    if sat.available and sens.available and not sens.bound:
+        dr = sat.value / sens.value
+        dr_se = dr * math.hypot(sat.se / sat.value, (sens.se if math.isfinite(sens.se) else 0) / sens.value)
+        drn = Estimate(dr, dr_se, "", "saturation capacity / absolute sensitivity threshold (EMVA 1288 4.0 Eq. 28)")
+        drdb = Estimate(20 * math.log10(dr), 20 / math.log(10) * dr_se / dr, "dB", drn.note)
+    elif sat.available and sens.available:
+        dr = sat.value / sens.value
+        drn = Estimate.limit(dr, "lower", "", "saturation capacity / sensitivity threshold (an upper limit)")
+        drdb = Estimate.limit(20 * math.log10(dr), "lower", "dB", drn.note)
+    else:
+        why = sat.note if not sat.available else sens.note
+        drn, drdb = Estimate.na(why), Estimate.na(why, "dB")
+
+    # linearity error (5-95 % of saturation, line of S vs photons or exposure)
+    le = Estimate.na("needs exposure or photon count per level", "%")
+    if xlin is not None and not br.reached:
+        le = Estimate.na(br.reason, "%")
+    elif xlin is not None:
+        xs = np.asarray(xlin, float)
+        sel = [lv for lv in good if 0.05 * br.low_dn <= lv.signal <= 0.95 * br.low_dn]
+        if len(sel) >= 3:
+            x = xs[[lv.index for lv in sel]]
+            y = np.array([lv.signal for lv in sel])
+            a, b = np.polyfit(x, y, 1, w=1.0 / y)  # minimises relative deviations (as EMVA 1288)
+            dev = 100 * (y - (a * x + b)) / (a * x + b)
+            le = Estimate(float(np.max(np.abs(dev))), math.nan, "%",
+                          f"max |relative deviation| from a line fitted on 5-95 % of saturation "
+                          f"(min {dev.min():.3g}, max {dev.max():.3g})")
+        else:
+            le = Estimate.na(f"{len(sel)} levels within 5-95 % of saturation (needs 3)", "%")
+
+    snr = {
+        "signal_dn": np.array([lv.signal for lv in good]),
+        "snr": np.array([lv.signal / math.sqrt(lv.total_var) for lv in good]),
+        # SE of signal / sqrt(variance) from the variance's chi-square scatter: SNR sqrt(1 / (2 dof))
+        "snr_se": np.array([lv.signal / math.sqrt(lv.total_var) * math.sqrt(0.5 / lv.dof) if lv.dof > 0
+                            else math.nan for lv in good]),
+        "signal_e": np.array([lv.signal / gain.value for lv in good]) if gain.available else np.array([]),
+    }
+    nm, zones = noise_model(good, dark, gain)
+    to_dn, to_e, to_defs = _turnoffs(levels, br, gain, clip_limit)
+    s_sat = max((lv.signal for lv in good), default=math.nan)  # the last level on the curve
+    lin_text = local_slope_check_text([lv.signal for lv in good], [lv.variance for lv in good], k_wls.value, s_sat)
+    return PtcResult(levels, gain, e_per_dn, cg, k_org, k_ast, gm.astier, gvr, rn_dn, rn_e, upper, sat_i, fw, drn,
+                     drdb, sens, qe, le, snr, nm, zones, br, head, gm, lin, k_wls, to_dn, to_e, to_defs, lin_text)
+
+
+TURNOFF_NOTE = ("PTC turnoff: the last level of the curve followed from below before its first significant "
+                "departure (variance/mean ratio or variance dropping by > 4 SE); located only to within the "
+                "level spacing: SE = spacing to the next level / sqrt(3)")
+
+
+def _turnoffs(levels: Sequence[PtcLevel], br: SaturationBracket, gain: Estimate,
+              clip_limit: float) -> tuple[Estimate, Estimate, dict[str, Estimate]]:
+    """The headline turnoff in DN and e- (``ptc_turnoff``), and the published definitions
+    by name in DN, each the signal of one level with the level spacing there as its SE."""
+    meas = sorted((lv for lv in levels if math.isfinite(lv.signal) and math.isfinite(lv.variance) and lv.signal > 0
+                   and not lv.reason.startswith(("non-monotonic", "no significant", "non-finite"))),
+                  key=lambda lv: lv.signal)
+    pos = {lv.index: j for j, lv in enumerate(meas)}
+
+    def at(i: int, note: str, bound: str = "") -> Estimate:
+        if i < 0 or i not in pos:
+            return Estimate.na("not found in the data", "DN")
+        j = pos[i]
+        s = meas[j].signal
+        if bound:
+            return Estimate.limit(s, bound, "DN", note)
+        nxt = [lv.signal for lv in meas[j + 1:] if lv.signal > s]
+        # the level found is the last one before the departure: the turnoff itself lies
+        # anywhere between it and the next level, so its error is the rms distance from this
+        # level to a point uniform in that interval, spacing/sqrt(3) (not the signal's own SE,
+        # which is ~1000x smaller and says nothing about where the curve turns)
+        return Estimate(s, (nxt[0] - s) / math.sqrt(3) if nxt else math.nan, "DN", note)
+
+    if br.last_ok < 0:
+        head = Estimate.na(br.reason, "DN")
+    elif br.reached:
+        head = at(br.last_ok, TURNOFF_NOTE)
+    else:
+        head = at(br.last_ok, f"a lower limit: {br.reason}", "lower")
+    if head.available and gain.available:
+        v = head.value / gain.value
+        se = (v * math.hypot(head.se / head.value if math.isfinite(head.se) else 0.0, gain.se / gain.value)
+              if not head.bound else math.nan)
+        head_e = Estimate(v, se, "e-", head.note, head.bound)
+    else:
+        head_e = Estimate.na(head.note if not head.available else "gain not available", "e-")
+    var = [lv.variance for lv in meas]
+    idx = [lv.index for lv in meas]
+    im = index_max_code([lv.frac_at_max for lv in meas], clip_limit)
+    defs = {
+        "ptc_turnoff": head,
+        "emva4_saturation": at(idx[im] if im >= 0 and meas else -1, "EMVA 1288 4.0 Section 6.6: the highest level "
+                               f"before the first with > {100 * clip_limit:g} % of samples at the maximum code"),
+        "max_variance": at(idx[int(np.argmax(var))] if meas else -1,
+                           "EMVA 1288 3.0: the level of maximum temporal variance"),
+        "lsst_turnoff": at(idx[index_variance_drop(var)] if meas else -1,
+                           "LSST-style: the level before the first level-to-level drop of the variance"),
+    }
+    return head, head_e, defs
+
+
+def _plateau(levels: Sequence[PtcLevel], br: SaturationBracket, gain: Estimate) -> Estimate:
+    """Full well from the saturated plateau: the dark-subtracted signal of the levels
+    beyond saturation whose temporal variance has collapsed (every pixel clipped at its
+    full-well charge) -- the charge capacity itself, not the last level below it."""
+    if not br.reached:
+        return Estimate.na(br.reason, "e-")
+    if not gain.available:
+        return Estimate.na("gain not available", "e-")
+    vpk = max(lv.variance for lv in levels if lv.status != "excluded" or lv.clipped)
+    top = [lv for lv in levels if lv.clipped and lv.signal > br.low_dn and lv.variance < 0.1 * vpk]
+    if not top:
+        return Estimate.na("no level beyond saturation with collapsed variance (all pixels clipped)", "e-")
+    smax = max(lv.signal for lv in top)
+    top = [lv for lv in top if lv.signal >= 0.995 * smax]
+    if fast_median(np.array([lv.frac_at_max for lv in top])) > 0.5:
+        return Estimate.na("the plateau is at the ADC maximum code: ADC-limited, not the pixel full well", "e-")
+    sv = np.array([lv.signal for lv in top])
+    med = float(fast_median(sv))
+    if not br.contains(med):
+        return Estimate.na(f"the plateau ({med:.5g} DN) is outside the saturation bracket: {br.reason}", "e-")
+    v = med / gain.value
+    spread = float(np.std(sv, ddof=1) / math.sqrt(sv.size)) / gain.value if sv.size > 1 else 0.0
+    return Estimate(v, math.hypot(spread, v * gain.se / gain.value), "e-",
+                    f"saturated plateau: median signal of {sv.size} fully clipped level(s) / K")

@@ -1,0 +1,94 @@
+"""The physical-range guard: a figure outside its physical range is never verdict "ok".
+
+Every estimator that makes a figure with a physical bound (a variance or a dark current is
+>= 0; an SNR is <= sqrt of the full well in e-) passes it through ``in_range`` where the
+Estimate is made, so every surface (CLI, JSON, CSV, PDF, GUI) shows the same verdict:
+
+- inside the range: unchanged;
+- outside it but within ``NSIGMA`` standard errors of the bound: only a limit is known --
+  an upper limit ``value + NSIGMA * se`` (for a minimum) or a lower limit (for a maximum),
+  with the reason;
+- further outside (or outside without an SE): not available, with the reason (the model or
+  the data do not hold: e.g. correlated noise, drift, the quantization floor).
+"""
+
+from __future__ import annotations
+
+import math
+
+from ares.analysis.stats.estimate import Estimate
+
+NSIGMA = 3.0
+
+
+def in_range(e: Estimate, minimum: float | None = None, maximum: float | None = None, what: str = "",
+             bound_se: float = 0.0) -> Estimate:
+    """``e`` judged against ``[minimum, maximum]`` (see the module docstring); ``bound_se``:
+    the SE of a bound that is itself measured (combined with ``e.se``)."""
+    if not e.available:
+        return e
+    if e.bound:  # a limit on the wrong side of its physical bound is impossible too
+        if e.bound == "lower" and maximum is not None and e.value > maximum:
+            return Estimate.na(f"{what or 'the value'}: its lower limit {f'{e.value:.3g} {e.unit}'.strip()} is above "
+                               f"its physical maximum {maximum:.4g}: the model does not hold for these data", e.unit)
+        if e.bound == "upper" and minimum is not None and e.value < minimum:
+            return Estimate.na(f"{what or 'the value'}: its upper limit {f'{e.value:.3g} {e.unit}'.strip()} is below "
+                               f"its physical minimum {minimum:g}: the model does not hold for these data", e.unit)
+        return e
+    name = what or "the value"
+    se = e.se if math.isfinite(e.se) and e.se > 0 else 0.0
+    if math.isfinite(bound_se) and bound_se > 0:
+        se = math.hypot(se, bound_se)
+    if minimum is not None and e.value < minimum:
+        z = (minimum - e.value) / se if se else math.inf
+        if z <= NSIGMA:
+            return Estimate.limit(e.value + NSIGMA * se, "upper", e.unit,
+                                  f"{name} {e.value:.3g} is below its physical minimum {minimum:g} by {z:.2g} SE: "
+                                  f"only an upper limit (value + {NSIGMA:g} SE)")
+        return Estimate.na(f"{name} {e.value:.3g} {e.unit} is {'far' if not se else f'{z:.3g} SE'} below its "
+                           f"physical minimum {minimum:g}: the model does not hold for these data", e.unit)
+    if maximum is not None and e.value > maximum:
+        z = (e.value - maximum) / se if se else math.inf
+        if z <= NSIGMA:
+            return Estimate.limit(e.value - NSIGMA * se, "lower", e.unit,
+                                  f"{name} {e.value:.3g} is above its physical maximum {maximum:.4g} by {z:.2g} SE: "
+                                  f"only a lower limit (value - {NSIGMA:g} SE)")
+        return Estimate.na(f"{name} {e.value:.3g} {e.unit} is {'far' if not se else f'{z:.3g} SE'} above its "
+                           f"physical maximum {maximum:.4g}: the model does not hold for these data", e.unit)
+    return e
+
+
+VARIANCE_COMPONENTS = ("Cs", "Ct", "Rs", "Rt", "Ps", "Pt", "frame_global")
+
+
+def variances_in_range(components: dict[str, Estimate]) -> dict[str, Estimate]:
+    """The variance components of a decomposition (DN^2) judged against >= 0."""
+    return {k: in_range(e, minimum=0.0, what=f"variance {k}") if k in VARIANCE_COMPONENTS else e
+            for k, e in components.items()}
+
+
+def snr_in_range(snr: Estimate, charge: float, what: str = "SNR", of: str = "the full well",
+                 charge_se: float = 0.0) -> Estimate:
+    """An SNR judged against its physical maximum sqrt(``charge``): shot noise alone gives
+    SNR = sqrt(N) for N collected charges (or N photons for an ideal detector, QE = 1), and
+    every other noise lowers it, so an SNR above sqrt of the well (of the photons) means the
+    noise or the charge was mis-measured (e.g. a collapsed variance beyond saturation, a QE
+    above 1). No bound is applied when ``charge`` is not a positive finite number."""
+    if not (isinstance(charge, (int, float)) and math.isfinite(charge) and charge > 0):
+        return snr
+    bse = 0.5 * charge_se / math.sqrt(charge) if math.isfinite(charge_se) else 0.0
+    return in_range(snr, maximum=math.sqrt(charge), what=f"{what} (at most sqrt of {of}, {charge:.4g})",
+                    bound_se=bse)
+
+
+def snr_db(snr: Estimate, note: str = "20 log10 SNR") -> Estimate:
+    """``snr`` in dB with the same verdict (a limit stays a limit, not available stays so)."""
+    if not snr.available:
+        return Estimate.na(snr.note, "dB")
+    if snr.value <= 0:
+        return Estimate.na(f"SNR {snr.value:.3g} is not positive", "dB")
+    db = 20 * math.log10(snr.value)
+    if snr.bound:
+        return Estimate.limit(db, snr.bound, "dB", f"{note}; {snr.note}")
+    se = 20 / math.log(10) * snr.se / snr.value if math.isfinite(snr.se) else math.nan
+    return Estimate(db, se, "dB", note)

@@ -1,0 +1,84 @@
+"""Build the ``Bench`` a system XML declares: the simulator, recorded data (``<replay>``), or real
+I2C/USB/serial devices."""
+
+from __future__ import annotations
+
+from ares.errors import InputError
+from ares.hardware.interfaces import Bench
+from ares.hardware.registers import RegisterFile
+from ares.sim.from_system import sim_params
+
+
+def build_bench(system, *, seed: int | None = None, faults: dict | None = None) -> Bench:
+    """The simulated bench when the system has ``<simulator>``, else the real devices."""
+    if system.simulator is not None and system.simulator.wire:
+        from ares.rig.wire import build_wire_bench
+
+        return build_wire_bench(system, system.simulator.seed if seed is None else seed, faults)
+    if system.simulator is not None:
+        from ares.sim import make_sim_bench
+
+        bench = make_sim_bench(sim_params(system), system.simulator.seed if seed is None else seed, faults,
+                               readout_s=system.timing.readout_s if system.simulator.paced else None)
+        bench.info.setdefault("system", system.name)
+        from ares.rig.spectral import attach_simulated
+
+        try:
+            attach_simulated(bench, system, bench, seed=system.simulator.seed if seed is None else seed)
+        except BaseException:
+            bench.close()
+            raise
+        return bench
+    if faults:
+        raise InputError("fault injection is only available on the simulated bench")
+    if system.genicam is not None:
+        from ares.hardware.genicam import build_genicam_bench
+
+        return build_genicam_bench(system)
+    if getattr(system, "replay", None) is not None:
+        from ares.hardware.replay import build_replay_bench
+
+        return build_replay_bench(system)
+    return build_real_bench(system)
+
+
+def build_real_bench(system) -> Bench:
+    from ares.hardware.i2c import open_i2c_bus
+    from ares.hardware.serial_instruments import SerialChamber, SerialLightSource
+    from ares.hardware.usb import UsbFrameSource
+
+    if not system.buses:
+        raise InputError(f"system '{system.name}' declares no <buses><i2c> for the sensor registers")
+    if system.usb_grabber is None:
+        raise InputError(f"system '{system.name}' declares no <usb_grabber> frame source")
+    b, s = system.buses[0], system.sensor
+    bus = open_i2c_bus(b, system.registers)
+    opened = [bus]
+    try:
+        if b.readback != "image_row":  # an image-row sensor is connected once its frames flow
+            bus.connect()
+        regs = RegisterFile(system.registers, bus)
+        g = system.usb_grabber
+        frames = UsbFrameSource.open(g, (s.rows, s.cols), s.adc_bits, channels=s.adc_channels,
+                                     interleave=s.adc_interleave)
+        opened.append(frames)
+        if b.readback == "image_row":
+            from ares.hardware.i2c import ImageRowReadback
+
+            enable = (lambda on: regs.set(b.readback_field, 1 if on else 0)) if b.readback_field else None
+            bus.readback = ImageRowReadback(bus, frames, b.readback_row, b.readback_start, enable)
+            bus.connect()
+        light = SerialLightSource.open(system.light_source) if system.light_source else None
+        opened.append(light)
+        chamber = SerialChamber.open(system.chamber) if system.chamber else None
+        opened.append(chamber)
+        bench = Bench(regs, frames, light, chamber, {"system": system.name})
+        from ares.rig.spectral import open_spectral
+
+        open_spectral(bench, system, opened)
+    except BaseException:
+        for dev in opened:
+            if dev is not None and hasattr(dev, "close"):
+                dev.close()
+        raise
+    return bench

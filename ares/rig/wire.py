@@ -1,0 +1,107 @@
+"""The simulated sensor behind emulated wires (``<simulator wire="true">``).
+
+The simulated bench (``ares.sim.make_sim_bench``) is the device side. The host side is
+the real hardware classes -- ``I2CRegisterBus`` over smbus2 messages, ``UsbFrameSource``
+over pyusb, ``SerialLightSource``/``SerialChamber`` over pyserial -- talking to emulators
+(``ares.hardware.emulators``) that speak the bytes the system XML declares. With the same
+seed the frames are bit-identical to the direct simulated bench (a test shows it), so
+every byte path is exercised by any scan, and faults can be injected on each wire.
+"""
+
+from __future__ import annotations
+
+from ares.errors import InputError
+from ares.hardware.interfaces import Bench
+from ares.hardware.registers import RegisterFile
+
+
+def wire_faults() -> tuple[str, ...]:
+    from ares.hardware.emulators import i2c_device, serial_device, usb_device
+
+    return usb_device.FAULTS + i2c_device.FAULTS + serial_device.FAULTS
+
+
+def _split_faults(faults: dict | None) -> tuple[dict, dict]:
+    from ares.sim.bench import _FAULTS as SIM
+
+    faults = dict(faults or {})
+    wire = wire_faults()
+    unknown = sorted(k for k in faults if k not in wire and k not in SIM)
+    if unknown:
+        raise InputError(f"unknown fault(s) {unknown} (known: {', '.join(SIM + wire)})")
+    return {k: v for k, v in faults.items() if k in SIM}, {k: v for k, v in faults.items() if k in wire}
+
+
+def _aresemu_name(port: str) -> str | None:
+    return port.split("://", 1)[1].strip("/") if port.startswith("aresemu://") else None
+
+
+def build_wire_bench(system, seed: int, faults: dict | None = None) -> Bench:
+    from ares.hardware.emulators.i2c_device import EmulatedSMBus
+    from ares.hardware.emulators.serial_device import EmulatedChamber, EmulatedInstrument, register, unregister
+    from ares.hardware.emulators.usb_device import EmulatedGrabber, EmulatedUsbBackend
+    from ares.sim.from_system import sim_params
+    from ares.hardware.i2c import ImageRowReadback, open_i2c_bus
+    from ares.hardware.serial_instruments import SerialChamber, SerialLightSource
+    from ares.hardware.usb import UsbFrameSource
+    from ares.sim import make_sim_bench
+
+    src = system.source or system.name
+    if not system.buses or system.usb_grabber is None:
+        raise InputError(f"{src}: <simulator wire='true'> needs <buses><i2c> and <devices><usb_grabber> to emulate")
+    sim_f, wire_f = _split_faults(faults)
+    dev = make_sim_bench(sim_params(system), seed, sim_f)
+    s, m, b, g = system.sensor, system.registers, system.buses[0], system.usb_grabber
+    readback = b.readback == "image_row"
+    smbus = EmulatedSMBus(b.address, dev.registers.bus, address_bits=m.address_bits, value_bits=m.value_bits,
+                          value_endian=b.value_endian, faults=wire_f, readable=not readback)
+    bus = open_i2c_bus(b, m, smbus)
+    grabber = EmulatedGrabber(dev.frames, g, channels=s.adc_channels, interleave=s.adc_interleave, faults=wire_f,
+                              serial=g.serial or "ARES-EMU-0001",
+                              embed=(b.readback_row, b.readback_start, dev.registers.bus, m.value_bits)
+                              if readback else None,
+                              latency=lambda: dev.registers.get("exposure") + system.timing.readout_s)
+    emulated, opened = [], [bus]
+    try:
+        frames = UsbFrameSource.open(g, (s.rows, s.cols), s.adc_bits, backend=EmulatedUsbBackend([grabber]),
+                                     channels=s.adc_channels, interleave=s.adc_interleave)
+        frames.exposure_paced = False  # the simulator behind the emulated wire computes its frames
+        opened.append(frames)
+        regs = RegisterFile(m, bus)
+        if readback:
+            bus.readback = ImageRowReadback(bus, frames, b.readback_row, b.readback_start)
+        bus.connect()
+        inst = {}
+        for role, cfg, emu, host, device in (("light", system.light_source, EmulatedInstrument, SerialLightSource,
+                                              dev.light),
+                                             ("chamber", system.chamber, EmulatedChamber, SerialChamber, dev.chamber)):
+            if cfg is None:
+                continue
+            name = _aresemu_name(cfg.port)
+            if name is None:
+                raise InputError(f"{src}: <{'light_source' if role == 'light' else 'chamber'} port='{cfg.port}'> "
+                                 "must be aresemu://NAME in a wire-emulated system")
+            e = emu(device, wire_f)
+            register(name, e)
+            emulated.append((name, e))
+            inst[role] = host.open(cfg)
+            opened.append(inst[role])
+    except BaseException:
+        for d in opened:
+            d.close()
+        for name, e in emulated:
+            unregister(name, e)
+        raise
+    info = {k: v for k, v in dev.info.items()}
+    info.update(system=system.name, wire=True, grabber_serial=grabber.serial)
+    bench = Bench(regs, frames, inst.get("light"), inst.get("chamber"), info)
+    bench.closers.extend(lambda n=n, e=e: unregister(n, e) for n, e in emulated)
+    bench.emulators = {"usb": grabber, "i2c": smbus, **{n: e for n, e in emulated}, "device": dev}
+    from ares.rig.spectral import attach_simulated
+
+    try:
+        attach_simulated(bench, system, dev, wire_f, seed)
+    except BaseException:
+        bench.close()
+        raise
+    return bench
