@@ -112,7 +112,7 @@ def child(mode: str, frames: int, points: int) -> dict:
         # the floor of this design: the fused sums kernel alone (one read of each pixel for its
         # sums, squares, row/column sums and clip counts), on the runner's 2-frame block
         from ares.analysis.kernels import int_fold
-        from ares.results.registry import batch_for
+        from ares.scan.stage_analysis import batch_for
 
         b = batch_for(src.shape)
         blk = np.stack([src ^ np.uint16(0x8000)] * b).view(np.int16)

@@ -6,7 +6,7 @@ from __future__ import annotations
 import numpy as np
 
 from ares.analysis.noise.accumulate import StackAccumulator
-from ares.results.registry import batch_for
+from ares.scan.stage_analysis import batch_for
 
 
 def _frames(n=21, shape=(37, 53), seed=3):

@@ -108,7 +108,7 @@ def test_report_gain_gives_e_per_s_beside_dn_per_s(run_dir, tmp_path):
 
     from ares.report.scan_kinds import temperature_page
     from ares.report.source import read_run
-    from ares.report.tables import dark_series
+    from ares.report.series_tables import dark_series
 
     run = read_run(d)
     fig = temperature_page(run, dark_series(run))

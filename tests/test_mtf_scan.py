@@ -51,7 +51,7 @@ def test_mtf_option_in_the_scan_xml(tmp_path):
     from ares.errors import InputError
     from lxml import etree
 
-    from ares.protocol.scan import scan_to_tree
+    from ares.protocol.scan_write import scan_to_tree
 
     sc = load_scan(ROOT / "scans" / "mtf.xml")
     assert sc.option("mtf", "esf_half_width") == 16.0 and sc.option("ptc", "esf_half_width") is None

@@ -13,7 +13,7 @@ import pytest
 
 from ares.analysis import StackAccumulator, decompose_dark
 from ares.analysis.kernels import recycle
-from ares.results.registry import StackSet
+from ares.scan.stage_analysis import StackSet
 
 SHAPE = (24, 40)
 VIEWS = {"full": (slice(None), slice(None)), "corner": (slice(0, 8), slice(0, 8))}

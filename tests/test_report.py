@@ -19,7 +19,7 @@ from ares.cli import main
 from ares.errors import InputError
 from ares.report import key_figures, read_run, write_reports
 from ares.report import pdf as report_pdf
-from ares.report import pdf_parts
+from ares.report import page_tables, pdf_parts
 from ares.report import tables
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -237,7 +237,7 @@ def test_pdf_pages_and_key_figures_as_text(runs, ptc_pdf):
     text = _pdf_text(path)
     kf = key_figures(runs / "ptc")
     for key in ("gain_dn_per_e", "read_noise_e", "conversion_gain_uv_per_e", "full_well_e.max_variance"):
-        assert tables.fmt_value(kf[key]["value"], kf[key]["se"], kf[key]["unit"]) in text, key
+        assert page_tables.fmt_value(kf[key]["value"], kf[key]["se"], kf[key]["unit"]) in text, key
     for words in ("Photon transfer", "SNR and linearity", "Noise components", "limits: all 1 passed",
                   run.meta["scan_sha256"], "read zone", "shot zone", "13 delta", "9 Cg"):
         assert words in text, words
@@ -258,7 +258,7 @@ def test_dark_temperature_run_pages(runs, tmp_path):
     assert td["value"] == sr["temperature"]["doubling_temperature_c"]["value"] and td["unit"] == "C"
     text = _pdf_text(tmp_path / "d.pdf")
     assert "Dark current vs temperature" in text and "doubling temperature" in text
-    assert tables.fmt_value(td["value"], td["se"], "C") in text
+    assert page_tables.fmt_value(td["value"], td["se"], "C") in text
 
 
 def test_report_computes_dark_current_without_the_analysis(runs, tmp_path):
@@ -280,7 +280,7 @@ def test_lag_and_defect_pages(runs, tmp_path, ptc_pdf):
     text = _pdf_text(tmp_path / "l.pdf")
     for bright, c in sr["cycles"].items():
         e = c["lag_pct"]
-        assert tables.fmt_value(e["value"], e["se"], "%") in text
+        assert page_tables.fmt_value(e["value"], e["se"], "%") in text
         assert key_figures(runs / "lag")[f"lag.cycles.{bright}.lag_pct"]["label"] == f"image lag ({bright})"
     sr = json.loads((runs / "ptc" / "scan_results.json").read_text())["analyses"]
     path, titles = ptc_pdf

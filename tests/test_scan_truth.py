@@ -293,7 +293,7 @@ def test_declared_defect_mask_file(tmp_path_factory):
     """A scan may name its mask (<defects mask="...">): used from the first stage on."""
     from lxml import etree
 
-    from ares.protocol.scan import scan_to_tree
+    from ares.protocol.scan_write import scan_to_tree
 
     base = tmp_path_factory.mktemp("declared")
     scan = load_scan(ROOT / "fixtures" / "xml" / "small" / "ptc_small.xml")

@@ -227,7 +227,7 @@ def test_a_signal_lost_in_a_weakref_callback_is_armed_again_and_told(monkeypatch
     armed again, and ``received`` keeps the signal for the caller."""
     from types import SimpleNamespace
 
-    from ares.commands.run import ReportsAbandoned, Signals
+    from ares.commands.run_signals import ReportsAbandoned, Signals
 
     s = Signals()  # (not installed: called as the signal module would call it)
     with pytest.raises(ReportsAbandoned):

@@ -12,12 +12,10 @@ from __future__ import annotations
 import json
 import math
 import dataclasses
-from dataclasses import dataclass
 from pathlib import Path
 
 from ares.commands.argtypes import positive
-from ares.errors import InputError
-from ares.results.descriptor import EmvaAnalysis, analyse_descriptor, release31
+from ares.results.descriptor import EmvaAnalysis, analyse_descriptor
 
 # numpy, scipy and the analysis are imported when the command runs (`ares --help` stays light)
 

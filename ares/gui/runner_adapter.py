@@ -289,7 +289,7 @@ class RunnerJob:
 
     def channel_views(self) -> tuple[dict, dict]:
         """The engine's Bayer-phase and ADC-channel views of the sensor (slices) and their labels."""
-        from ares.results.registry import views
+        from ares.scan.stage_analysis import views
 
         from ares.gui.models.views import channel_label
 

@@ -6,7 +6,8 @@ user can cause is one sentence ``file:line: ...`` raised as ``InputError``.
 May import ``sim`` (its physical ranges), ``hardware`` (register maps, pixel formats, line
 protocols), ``analysis`` (defect thresholds) and the base modules."""
 
-from ares.protocol.scan import (Axis, Limit, Output, Scan, Setting, StageSpec, load_scan, save_scan)
+from ares.protocol.scan import Axis, Limit, Output, Scan, Setting, StageSpec, load_scan
+from ares.protocol.scan_write import save_scan
 from ares.protocol.system import (Controls, I2CBus, Region, SerialInstrument, Sensor, Simulator, System,
                                   Timing, UsbGrabber, load_system, save_system)
 from ares.protocol.xmlsafe import load as load_xml

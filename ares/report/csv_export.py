@@ -17,6 +17,7 @@ from pathlib import Path
 
 from ares.report import tables
 from ares.rundir.summary import summary_rows
+from ares.report import series_tables
 
 KEY_FIGURE_COLUMNS = ("name", "label", "value", "se", "unit", "verdict", "note", "source")
 
@@ -76,8 +77,8 @@ def write_csv(run, out_dir: str | Path, groups=None, kf=None) -> list[Path]:
 def _adc_csv(run, out: Path) -> list[Path]:
     """``adc_inl_dnl.csv``: every code's DNL and every transition's INL with their counting
     SEs, per channel, when the scan ran the ``adc_linearity`` analysis."""
-    rows = tables.adc_rows(run)
-    return [_write(out / "adc_inl_dnl.csv", to_csv(rows, tables.ADC_COLUMNS))] if rows else []
+    rows = series_tables.adc_rows(run)
+    return [_write(out / "adc_inl_dnl.csv", to_csv(rows, series_tables.ADC_COLUMNS))] if rows else []
 
 
 def _mtf_csv(run, out: Path) -> list[Path]:

@@ -19,6 +19,7 @@ import numpy as np
 
 from ares.report import tables
 from ares.report.csv_export import KEY_FIGURE_COLUMNS, key_figure_rows
+from ares.report import series_tables
 
 
 def _column(values: list):
@@ -67,9 +68,9 @@ def write_h5(run, path: str | Path, groups=None, kf=None) -> Path:
                tables.COMPONENT_COLUMNS)
         _table(f.create_group("levels"), [r for st in run.stages for r in tables.level_rows(st)],
                tables.LEVEL_COLUMNS)
-        adc = tables.adc_rows(run)
+        adc = series_tables.adc_rows(run)
         if adc:
-            _table(f.create_group("adc_inl_dnl"), adc, tables.ADC_COLUMNS)
+            _table(f.create_group("adc_inl_dnl"), adc, series_tables.ADC_COLUMNS)
         sq = run.analyses.get("spectral_qe")
         if isinstance(sq, dict) and "points" in sq:  # QE(lambda): the same rows as spectral_qe.csv
             from ares.report.spectral_qe_page import SPECTRAL_COLUMNS, spectral_csv_rows

@@ -19,12 +19,12 @@ import matplotlib
 import numpy as np
 
 from ares.hardware import link_stats
-from ares.report import plots, scan_kinds, tables
+from ares.report import page_tables, plots, scan_kinds, tables
 from ares.report.plots import new_page, text_table
 
 
 def _kf_rows(kf: dict) -> list[list[str]]:
-    return [[v["label"], tables.fmt_value(v["value"], v["se"], v["unit"], v.get("verdict", "")),
+    return [[v["label"], page_tables.fmt_value(v["value"], v["se"], v["unit"], v.get("verdict", "")),
              v.get("note") or ""]
             for v in kf.values()]
 
@@ -260,7 +260,7 @@ def stages_pages(run) -> list:
         dm = full.get("dark_level", {}).get("mean_dn")
         rows.append([str(st["index"]), st["name"], st["scene"], f"{st['frames']}/{st.get('dark_frames', 0)}",
                      f"{full['level']['mean_dn']:.5g}", "" if dm is None else f"{dm:.5g}",
-                     tables.fmt_value(full["level"].get("var_dn2")),
+                     page_tables.fmt_value(full["level"].get("var_dn2")),
                      ", ".join(fmt(k, st["settings"][k]) for k in vary if k in st["settings"])])
     same = ", ".join(fmt(k, run.stages[0]["settings"][k]) for k in const if k in run.stages[0]["settings"]) \
         if run.stages else ""

@@ -10,51 +10,14 @@ from functools import partial
 
 import numpy as np
 
-from ares.report import plots, tables
+from ares.report import page_tables, plots, tables
 from ares.report.plots import new_page, text_table
+from ares.report.defect_pages import adc_page, defect_map_page, defects_page
+from ares.report.page_tables import _table, analysis_rows, available
+from ares.report import series_tables
 
 HANDLED = ("mtf", "photon_counting", "spectral_qe", "ptc", "decomposition", "dark_current", "temperature", "gain_split", "lag", "defects", "adc_linearity",
            "emva4")
-
-
-def available(run, name: str) -> dict | None:
-    a = run.analyses.get(name)
-    if not isinstance(a, dict) or a.get("status") in ("not available", "error"):
-        return None
-    return a
-
-
-def analysis_rows(a: dict, prefix: str = "", skip_na: bool = False) -> list[list[str]]:
-    """Every estimate and scalar of an analysis result as [quantity, value ± SE, note]."""
-    rows = []
-    for k, v in a.items():
-        key = f"{prefix}{k}"
-        if k in ("by_temperature", "cycles", "channels") and isinstance(v, dict):
-            rows += analysis_rows(v, prefix, skip_na)
-        elif isinstance(v, dict) and "value" in v and "unit" in v:
-            if skip_na and v.get("value") is None:
-                continue
-            rows.append([key, tables.fmt_value(v.get("value"), v.get("se"), v.get("unit", ""), v.get("verdict", "")),
-                         v.get("note", "")])
-        elif isinstance(v, dict) and k == "settings":
-            rows.append([key, ", ".join(f"{a_.removeprefix('reg:')}={b}" for a_, b in v.items()), ""])
-        elif isinstance(v, dict):
-            rows += analysis_rows(v, key + " / ", skip_na)
-        elif isinstance(v, bool) or isinstance(v, str) or v is None:
-            if k not in ("status", "note"):
-                rows.append([key, "n/a" if v is None else str(v), ""])
-        elif isinstance(v, (int, float)):  # counts and fit statistics (chi2/dof), not measured figures
-            rows.append([key, f"{v:.4g}", ""])
-        elif isinstance(v, list) and len(v) <= 12:
-            rows.append([key, ", ".join(f"{x:.4g}" if isinstance(x, float) else str(x) for x in v), ""])
-    return rows
-
-
-def _table(fig, y: float, rows, title: str = "", n: int = 30) -> float:
-    if not rows:
-        return y
-    return text_table(fig, (0.06, y, 0.9), ["quantity", "value ± SE", "note"], rows[:n], [0.36, 0.3, 0.34],
-                      fontsize=7.5, title=title, max_chars=[46, 38, 46]) - 0.02
 
 
 # ------------------------------------------------------------------ dark / temperature
@@ -79,10 +42,10 @@ def dark_page(run, series: dict):
             lf = line_fit(s["exposure_s"], s["mean_dn"])
             xs = np.linspace(0, s["exposure_s"].max(), 20)
             ax1.plot(xs, lf.intercept + lf.slope * xs, "-", color=f"C{k}", lw=0.8,
-                     label=f"{lab} fit: {tables.fmt_value(lf.slope, lf.slope_se, 'DN/s')}".strip())
+                     label=f"{lab} fit: {page_tables.fmt_value(lf.slope, lf.slope_se, 'DN/s')}".strip())
             lv = line_fit(s["exposure_s"], s["var_dn2"])
             ax2.plot(xs, lv.intercept + lv.slope * xs, "-", color=f"C{k}", lw=0.8,
-                     label=f"{lab} slope {tables.fmt_value(lv.slope, lv.slope_se, 'DN^2/s')}".strip())
+                     label=f"{lab} slope {page_tables.fmt_value(lv.slope, lv.slope_se, 'DN^2/s')}".strip())
     ax1.set_xlabel("exposure (s)")
     ax1.set_ylabel("dark mean (DN)")
     ax1.set_title("dark mean vs exposure")
@@ -134,7 +97,7 @@ def temperature_page(run, series: dict):
     by_t = dc.get("by_temperature") or {}
     e_s = [by_t.get(f"{t:g}C", {}).get("rate_e_per_s") or {} for t in T]  # beside DN/s: e-/s, or why not
     y = text_table(fig, (0.08, 0.44, 0.84), ["temperature (C)", "dark current (DN/s)", "dark current (e-/s)"],
-                   [[f"{t:g}", tables.fmt_value(v, s), tables.fmt_value(e.get("value"), e.get("se"))]
+                   [[f"{t:g}", page_tables.fmt_value(v, s), page_tables.fmt_value(e.get("value"), e.get("se"))]
                     for t, v, s, e in zip(T, r, rse, e_s)], [0.2, 0.4, 0.4], fontsize=8.5)
     if dc.get("gain_from"):
         fig.text(0.08, y - 0.005, f"gain for e-/s: {dc['gain_from']}", fontsize=8, va="top")
@@ -300,7 +263,7 @@ def frame_means_page(run, stages: list[dict], arrays: dict):
             e = c.get("lag_pct") or {}
             s = ", ".join(f"{k.removeprefix('reg:')}={v:g}" for k, v in (c.get("settings") or {}).items()
                           if isinstance(v, (int, float)) and k in vary)
-            crow.append([bright, str(c.get("dark_stage", "")), tables.fmt_value(e.get("value"), e.get("se"), "%"),
+            crow.append([bright, str(c.get("dark_stage", "")), page_tables.fmt_value(e.get("value"), e.get("se"), "%"),
                          f"{c.get('bright_signal_dn', float('nan')):.5g}", s])
         text_table(fig, (0.08, y - 0.03, 0.84), ["bright stage", "dark stage", "lag (%)", "bright signal (DN)",
                                                   "settings that vary"], crow[:20], [0.16, 0.14, 0.2, 0.18, 0.32],
@@ -355,107 +318,8 @@ def lag_page(run, stages: list[dict], arrays: dict, lag: dict):
 
 # ------------------------------------------------------------------ defects
 
-def defects_page(run, d: dict):
-    counts = {k: v for k, v in (d.get("counts") or {}).items()}
-    fig = new_page("Defects", plots.clip(f"dark stages: {', '.join(d.get('dark_stages') or [])}; flat stage: "
-                                         f"{d.get('flat_stage') or '-'}", 130))
-    n_pix = None
-    if run.stages:
-        n_pix = run.stages[0]["views"]["full"]["level"].get("n_pixels")
-    rows = [[k.replace("_", " "), "n/a (not measured)" if v is None else str(v),
-             "" if v is None or not n_pix or k in ("bad_columns", "bad_rows", "clusters") else f"{1e6 * v / n_pix:.1f}"]
-            for k, v in counts.items()]
-    y = text_table(fig, (0.08, 0.92, 0.84), ["class", "count", "ppm of pixels"], rows, [0.4, 0.3, 0.3],
-                   fontsize=9, title="defect counts")
-    lim = d.get("limits") or []
-    fig.text(0.08, y - 0.01, "limits: " + ("; ".join(map(str, lim)) if lim else "none set")
-             + f"  --  {'passed' if d.get('passed', True) else 'FAILED'}", fontsize=9, va="top",
-             color="C2" if d.get("passed", True) else "C3")
-    ks = [k for k, v in counts.items() if v is not None and k != "total"]
-    if ks and y > 0.45:
-        h = min(0.3, y - 0.15)
-        ax = fig.add_axes([0.2, y - 0.07 - h, 0.74, h])
-        ax.barh(ks, [counts[k] for k in ks], color="C0")
-        ax.set_xlabel("count")
-        ax.grid(alpha=0.3, axis="x")
-        ax.invert_yaxis()
-    return fig
-
-
-def defect_map_page(run, d: dict):
-    """Where the defects are, one marker per class, bad columns/rows as lines; below, what
-    each class can detect with this run's frames (its criterion) or why it is not available."""
-    rows, cols = d["shape"]
-    fig = new_page("Defect map", f"{cols} x {rows} pixels; classes from the dark stage(s) "
-                   f"{', '.join(d.get('dark_stages') or [])}")
-    ax = fig.add_axes([0.08, 0.42, 0.68, 0.46])
-    ax.set_xlim(-0.5, cols - 0.5)
-    ax.set_ylim(rows - 0.5, -0.5)
-    ax.set_aspect("equal")
-    ax.set_facecolor("0.97")
-    marks = {"hot": ("o", "C3"), "warm": ("o", "C1"), "dead": ("s", "k"), "stuck": ("x", "C4"), "noisy": ("^", "C0"),
-             "rts": ("v", "C9"), "low_response": ("s", "C5"), "high_response": ("D", "C2")}
-    for cls, pts in (d.get("locations") or {}).items():
-        if pts:
-            a = np.asarray(pts)
-            m, c = marks.get(cls, (".", "0.3"))
-            shown = len(pts)
-            total = (d.get("counts") or {}).get(cls) or shown
-            ax.scatter(a[:, 0], a[:, 1], s=14, marker=m, color=c, lw=0.8,
-                       label=f"{cls.replace('_', ' ')} ({total}" + (f", {shown} shown)" if shown < total else ")"))
-    for x in d.get("bad_column_x") or []:
-        ax.axvline(x, color="C3", lw=0.8, alpha=0.7)
-    for y in d.get("bad_row_y") or []:
-        ax.axhline(y, color="C3", lw=0.8, alpha=0.7)
-    if d.get("bad_column_x") or d.get("bad_row_y"):
-        ax.plot([], [], color="C3", lw=0.8, label="bad column / row")
-    ax.set_xlabel("column")
-    ax.set_ylabel("row")
-    if ax.get_legend_handles_labels()[0]:
-        ax.legend(fontsize=7, loc="upper left", bbox_to_anchor=(1.02, 1.0), frameon=False, borderaxespad=0)
-    else:
-        ax.text(0.5, 0.5, "no defective pixels found", ha="center", transform=ax.transAxes)
-    crit = [[k.replace("_", " "), plots.clip(v, 125)] for k, v in (d.get("detection") or {}).items()]
-    crit += [[k.replace("_", " "), plots.clip("not available: " + v, 125)] for k, v in (d.get("unavailable") or {}).items()]
-    if crit:
-        text_table(fig, (0.06, 0.34, 0.9), ["class", "criterion with this run's frames"], crit, [0.12, 0.88],
-                   fontsize=6.5, title="detection limits")
-    return fig
-
 
 # ------------------------------------------------------------------ ADC INL/DNL
-
-def adc_page(run, d: dict):
-    """INL/DNL per channel: the runner's extremes and -- from the ramp stages' code
-    histograms in results.h5 -- the curves (code-density test, as the runner)."""
-    fig = new_page("ADC linearity: INL and DNL", "code-density test on the ramp stage(s): "
-                   + ", ".join(d.get("stages") or []))
-    curves = tables.adc_curves(run, d)
-    y = 0.92
-    if curves:
-        ax1 = fig.add_axes([0.11, 0.66, 0.83, 0.25])
-        ax2 = fig.add_axes([0.11, 0.35, 0.83, 0.25], sharex=ax1)
-        for k, (ch, r) in enumerate(curves.items()):
-            ax1.plot(r.codes, r.dnl, lw=0.6, label=ch, color=f"C{k}")
-            t = np.arange(1, r.inl.size + 1)
-            ax2.plot(t, r.inl, lw=0.8, label=ch, color=f"C{k}")
-            se = r.inl_se()  # the counting statistics' 1-SE band (adc_inl_dnl.csv has every code's SE)
-            ax2.fill_between(t, r.inl - se, r.inl + se, color=f"C{k}", alpha=0.15, lw=0)
-        ax1.set_ylabel("DNL (LSB)")
-        ax1.set_title("differential non-linearity")
-        ax2.set_ylabel("INL (LSB)")
-        ax2.set_xlabel("code")
-        ax2.set_title("integral non-linearity (endpoint fit; band: 1 SE of the counts)")
-        for a in (ax1, ax2):
-            a.grid(alpha=0.3)
-            a.legend()
-        y = 0.27
-    else:
-        fig.text(0.08, y, "no code histograms in results.h5: curves not available", fontsize=9, va="top")
-        y -= 0.03
-    rows = analysis_rows(d.get("channels") or {})
-    _table(fig, y, rows, "per channel (scan_results.json)", n=16)
-    return fig
 
 
 # ------------------------------------------------------------------ anything else
@@ -483,7 +347,7 @@ def pages(run, groups: list) -> list[tuple[str, object]]:
     ptc_ok = [g for g in groups if g.result is not None and g.is_curve]
     if len(ptc_ok) >= 2:
         out.append(("gain split", partial(gain_page, run, ptc_ok)))
-    series = tables.dark_series(run)
+    series = series_tables.dark_series(run)
     if any(np.unique(s["exposure_s"]).size >= 2 for s in series.values()):
         out.append(("dark", partial(dark_page, run, series)))
         temps = [t for t, s in series.items() if t is not None and np.unique(s["exposure_s"]).size >= 2]

@@ -22,6 +22,9 @@ from ares import labels
 from ares.analysis.stats.physical import snr_db, snr_in_range
 from ares.analysis.ptc.photon_transfer import PtcResult, analyze_ptc
 from ares.results.registry import ptc_level_keys
+from ares.report.series_tables import dark_current_figures
+from ares.report.series_tables import _entry, _nan
+from ares.report.page_tables import analysis_label
 
 # the 13 components (DESIGN.md / seed 001) in model order, then the extras ARES reports
 COMPONENTS = ("o", "Cs", "Ct", "Rs", "Rt", "Ps", "Pt", "G", "Cg", "Rg", "Pg", "q", "delta")
@@ -44,10 +47,6 @@ FULL_WELL_LABELS = {
     "plateau": "full well, saturated plateau",
     "linearity_1pct": "full well, 1 % linearity limit",
 }
-
-
-def _nan(x) -> float:
-    return math.nan if x is None else float(x)
 
 
 def levelstats(level: dict) -> LevelStats:
@@ -310,11 +309,6 @@ def dark_stage(run) -> dict | None:
 
 # ------------------------------------------------------------------ key figures
 
-def _entry(label: str, e: Estimate, source: str) -> dict:
-    return {"label": label, "value": e.value if e.available else None,
-            "se": e.se if math.isfinite(e.se) else None, "unit": e.unit, "note": e.note, "source": source,
-            "verdict": e.verdict}
-
 
 def _snr_max(res: PtcResult, well_e: float, well_se: float = 0.0) -> Estimate:
     """The largest measured SNR, judged against sqrt of the full well (``well_e``, e-):
@@ -477,123 +471,7 @@ def nonuniformity_figures(run, gain: Estimate | None) -> dict:
     return out
 
 
-ANALYSIS_LABELS = {
-    "rate_e_per_s": "dark current", "rate_dn_per_s": "dark current", "offset_dn": "dark offset at t = 0",
-    "rate_from_variance_e_per_s": "dark current from dark variance", "dsnu_dn_per_s": "DSNU growth",
-    "dsnu_e_per_s": "DSNU growth", "doubling_temperature_c": "dark current doubling temperature",
-    "rate_at_ref_dn_per_s": "dark current at the reference temperature",
-    "rate_at_ref_e_per_s": "dark current at the reference temperature", "pixel_noise_e": "pixel noise (gain split)",
-    "chain_noise_dn": "chain noise (gain split)", "crossover_gain_dn_per_e": "crossover gain (gain split)",
-    "lag_pct": "image lag", "dnl_max_lsb": "DNL max", "dnl_min_lsb": "DNL min", "inl_max_lsb": "INL max",
-    "inl_min_lsb": "INL min", "qe": "quantum efficiency", "mu_p": "photons per pixel mu_p",
-    "net_signal_dn": "net signal mu_y - mu_y.dark", "gain_dn_per_e": "system gain K (photon transfer)",
-    "mtf50_cy_per_px": "MTF50", "mtf_at_nyquist": "MTF at Nyquist", "angle_deg": "edge angle",
-}
-_PATH_NOISE = ("by_temperature", "cycles", "channels", "values", "points", "stages")
-
-
-def analysis_label(aname: str, key: str) -> str:
-    """``dark_current`` + ``by_temperature.40C.rate_e_per_s`` -> ``dark current (40C)``;
-    ``emva4`` + ``values.sigma_d`` -> ``EMVA 1288 4.0 σd`` (the standard's symbols)."""
-    parts = key.split(".")
-    where = [p for p in parts[:-1] if p not in _PATH_NOISE]
-    if aname == "emva4":
-        from ares.analysis.emva.sheet import SYMBOLS
-
-        return f"EMVA 1288 4.0 {'General ' if where[:1] == ['general'] else ''}{SYMBOLS.get(parts[-1], parts[-1])}"
-    base = ANALYSIS_LABELS.get(parts[-1], f"{aname}: {parts[-1]}")
-    return base + (f" ({' '.join(where)})" if where else "")
-
-
-def fmt_value(v, se=None, unit: str = "", verdict: str = "") -> str:
-    """``value ± se unit`` with the digits the SE supports (``ares.analysis.stats.estimate``); a
-    limit (``verdict`` "upper limit"/"lower limit") as ``< x``/``> x``, as every other surface."""
-    if v is None or (isinstance(v, float) and not math.isfinite(v)):
-        return "n/a"
-    bound = {"upper limit": "upper", "lower limit": "lower"}.get(verdict, "")
-    if bound:
-        return Estimate(float(v), math.nan, unit, "", bound).text()
-    return format_value(v, se) + (f" {unit}" if unit else "")
-
-
 # ------------------------------------------------------------------ dark series
-
-def dark_series(run) -> dict[float | None, dict[str, np.ndarray]]:
-    """Dark stages grouped by temperature (None when not set): exposure, mean, temporal
-    and spatial variance, sorted by exposure."""
-    out: dict = {}
-    for st in run.stages:
-        if st.get("scene") != "dark" or "exposure" not in st["settings"]:
-            continue
-        lv = st["views"]["full"]["level"]
-        t = st["settings"].get("temperature")
-        out.setdefault(t, []).append((float(st["settings"]["exposure"]), lv["mean_dn"], _nan(lv.get("var_dn2")),
-                                      _nan(lv.get("spatial_var_dn2"))))
-    res = {}
-    for t, rows in out.items():
-        a = np.array(sorted(rows), float)
-        res[t] = {"exposure_s": a[:, 0], "mean_dn": a[:, 1], "var_dn2": a[:, 2], "spatial_var_dn2": a[:, 3]}
-    return res
-
-
-def dark_current_figures(run, gain: Estimate | None) -> dict:
-    """Dark current per temperature from the dark stages with ``ares.analysis.ptc.dark_current``
-    (the runner's definition: slope of the dark mean vs exposure, >= 6 exposures), in DN/s
-    and -- with a gain -- e-/s. Used when the run has no dark_current analysis result."""
-    from ares.analysis.ptc.dark_current import MIN_EXPOSURES, dark_current
-
-    kf = {}
-    for t, s in dark_series(run).items():
-        if np.unique(s["exposure_s"]).size < MIN_EXPOSURES:
-            continue
-        dc = dark_current(s["exposure_s"], s["mean_dn"], gain if gain is not None else math.nan, s["var_dn2"])
-        at = "" if t is None else f" at {t:g} C"
-        key = "dark_current" + ("" if t is None else f"@{t:g}C")
-        kf[key + "_dn_per_s"] = _entry("dark current" + at, dc.rate_dn_per_s, "computed by the report from dark stages")
-        if dc.rate_e_per_s.available:
-            kf[key + "_e_per_s"] = _entry("dark current" + at, dc.rate_e_per_s,
-                                          "computed by the report from dark stages")
-    return kf
 
 
 # ------------------------------------------------------------------ ADC curves
-
-ADC_COLUMNS = ("channel", "code", "dnl_lsb", "dnl_se_lsb", "transition", "inl_lsb", "inl_se_lsb")
-
-
-def adc_curves(run, d: dict) -> dict:
-    """Channel -> ``InlDnl`` of the ``adc_linearity`` analysis ``d``: the code-density test
-    on its ramp stages' code histograms in results.h5, as the runner computed its extremes."""
-    from ares.analysis.ptc.adc import code_density
-
-    hists: dict = {}
-    for st in run.stages:
-        if st["name"] in (d.get("stages") or []):
-            for k, a in run.arrays(st["index"]).items():
-                if k.startswith("hist_"):
-                    hists[k[5:]] = hists.get(k[5:], 0) + np.asarray(a)
-    out = {}
-    for ch in (d.get("channels") or {}):
-        h = hists.get(ch)
-        if h is None:
-            continue
-        try:
-            out[ch] = code_density(np.repeat(np.arange(h.size), h.astype(np.int64)), h.size - 1)
-        except ValueError:
-            pass
-    return out
-
-
-def adc_rows(run) -> list[dict]:
-    """The INL/DNL curves per channel with their counting SEs (adc_inl_dnl.csv)."""
-    d = run.analyses.get("adc_linearity")
-    if not isinstance(d, dict) or not d.get("channels"):
-        return []
-    rows = []
-    for ch, r in adc_curves(run, d).items():
-        dse, ise = r.dnl_se(), r.inl_se()
-        for k in range(r.first, r.last):
-            j = k + 1  # transition k+1 lies between codes k and k+1
-            rows.append({"channel": ch, "code": k, "dnl_lsb": float(r.dnl[k]), "dnl_se_lsb": float(dse[k]),
-                         "transition": j, "inl_lsb": float(r.inl[j - 1]), "inl_se_lsb": float(ise[j - 1])})
-    return rows

@@ -61,8 +61,8 @@ def analyse_descriptor(path: str | Path | EmvaDescriptor, pixel_area_um2: float 
 
     import numpy as np
 
-    from ares.analysis.spatial import nonuniformity as emva_spatial
-    from ares.analysis.ptc.photon_transfer import levels
+    from ares.analysis.spatial import nonuniformity as emva_spatial  # noqa: F401 -- loaded before the threads need them
+    from ares.analysis.ptc import levels  # noqa: F401 -- loaded before the threads need them
     from ares.hardware.emva_descriptor import EmvaDescriptor, read_descriptor
 
     desc = path if isinstance(path, EmvaDescriptor) else read_descriptor(path)

@@ -2,7 +2,6 @@
 
 from __future__ import annotations
 
-import csv
 
 
 def summary_row(result: dict, units: dict[str, str]) -> dict:

@@ -55,24 +55,17 @@ Disk full, read-only and quota errors end the run with one sentence (``StorageEr
 from __future__ import annotations
 
 import csv
-import hashlib
 import io
 import json
-import math
 import os
-import platform
-import sys
 import threading
 import time
-from contextlib import contextmanager
-from dataclasses import dataclass, field
 from pathlib import Path
 
 import numpy as np
 
-from ares.errors import InputError, StorageError
 from ares.labels import array_unit
-from ares.rundir.state import Heartbeat, effective_status, is_storage_error, owner, storage_sentence
+from ares.rundir.state import Heartbeat, owner
 from ares.rundir.files import _clean, _fsync, _json_default, claim_run_dir, dump_json, sha256, storage, versions, write_atomic
 
 SUMMARY_COMPONENTS = ("o", "Pt", "Ps", "Rt", "Rs", "Ct", "Cs", "frame_global")

@@ -19,7 +19,8 @@ from ares.results.registry import check_limits, register_scan_analysis, scan_lev
 from ares.rundir.writer import RunWriter
 from ares.rundir.record import RunRecord, load_run
 from ares.scan.repeat import auto_repeat
-from ares.scan.runner import RunOutcome, Runner
+from ares.scan.runner import Runner
+from ares.scan.stage_loop import RunOutcome
 from ares.scan.stages import Stage, estimate_seconds, expand
 
 __all__ = ["events", "check_limits", "register_scan_analysis", "scan_level_results", "RunRecord", "RunWriter",

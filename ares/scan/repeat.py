@@ -4,7 +4,8 @@ from __future__ import annotations
 
 from typing import Callable
 
-from ares.scan.runner import RunOutcome, Runner
+from ares.scan.runner import Runner
+from ares.scan.stage_loop import RunOutcome
 
 
 def auto_repeat(make_runner: Callable[[int], Runner], count: int = 0,

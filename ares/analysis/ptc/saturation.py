@@ -22,6 +22,9 @@ import math
 from dataclasses import dataclass
 
 import numpy as np
+from typing import Sequence
+from ares.analysis.stats.estimate import Estimate
+from ares.analysis.stats.median import fast_median
 
 
 def index_max_variance(var) -> int:
@@ -221,3 +224,173 @@ def index_linearity_turnoff(x, signal, tol: float = 0.01, fit_lo: float = 0.05,
             break
         last = int(i)
     return last
+
+
+def _full_well(levels: list[PtcLevel], br: SaturationBracket, gain: Estimate, clip_limit: float,
+               xlin, photons) -> tuple[dict[str, Estimate], Estimate, int]:
+    """Every full-well definition, each consistent with the saturation bracket or not
+    available saying why; the headline full well; the EMVA 3.0 saturation index."""
+    fw: dict[str, Estimate] = {}
+    na_sat = br.reason if not br.reached else ""
+    k = gain
+
+    def charge(s_dn: float, note: str, extra_se_dn: float = 0.0) -> Estimate:
+        if not k.available:
+            return Estimate.na("gain not available", "e-")
+        v = s_dn / k.value
+        return Estimate(v, math.hypot(v * k.se / k.value, extra_se_dn / k.value), "e-", note)
+
+    def checked(i: int, note: str) -> Estimate:
+        if i < 0:
+            return Estimate.na("not found in the data", "e-")
+        s = levels[i].signal
+        if not br.reached:
+            return Estimate.na(na_sat, "e-")
+        if not br.contains(s):
+            return Estimate.na(f"level {i} ({s:.5g} DN) is outside the saturation bracket: {br.reason}", "e-")
+        return charge(s, note)
+
+    good = [lv for lv in levels if math.isfinite(lv.signal) and math.isfinite(lv.variance) and lv.signal > 0
+            and not lv.reason.startswith(("non-monotonic", "no significant", "non-finite"))]
+    good.sort(key=lambda lv: lv.signal)
+    # EMVA 3.0: the level of maximum temporal variance (global maximum over the levels in
+    # signal order: a collapsed plateau's variance is noise around 0, not a series to walk)
+    sat_i = good[int(np.argmax([lv.variance for lv in good]))].index if good else -1
+    fw["saturation_capacity"] = checked(br.last_ok, "EMVA 1288 4.0: the last level on the curve with <= "
+                                                    f"{100 * clip_limit:g} % of samples clipped; {br.reason}")
+    fw["max_variance"] = checked(sat_i, "EMVA 1288 3.0: signal at the level of maximum temporal variance")
+    if not any(lv.frac_at_max > 0 for lv in good):
+        fw["max_code"] = Estimate.na("no level reaches the ADC maximum code (see 'plateau')", "e-")
+    else:
+        im = index_max_code([lv.frac_at_max for lv in good], clip_limit)
+        fw["max_code"] = checked(good[im].index if im >= 0 else -1,
+                                 f"EMVA 1288 4.0: highest level with <= {100 * clip_limit:g} % of pixels at max code")
+    fw["plateau"] = _plateau(levels, br, k)
+    # (the PTC turnoff is not a full-well definition here: it is one figure, turnoff_dn /
+    # turnoff_e, whose SE says it is located only to within the level spacing -- issue 34)
+    if xlin is not None:
+        on = [lv for lv in levels if lv.status != "excluded" or lv.clipped]
+        xs = np.asarray(xlin, float)
+        il = index_linearity_turnoff(xs[[lv.index for lv in on]], [lv.signal for lv in on])
+        if il >= 0 and on[il].index == br.last_ok and not br.reached:
+            fw["linearity_1pct"] = Estimate.na("no level deviates more than 1 % from the line: " + na_sat, "e-")
+        else:
+            fw["linearity_1pct"] = checked(on[il].index if il >= 0 else -1,
+                                           "last level within 1 % of a line of signal vs "
+                                           + ("photons" if photons is not None else "exposure"))
+    else:
+        fw["linearity_1pct"] = Estimate.na("needs exposure or photon count per level", "e-")
+    if br.reached and math.isfinite(br.high_dn):
+        mid, half = (br.low_dn + br.high_dn) / 2, (br.high_dn - br.low_dn) / 2
+        fw["bracket"] = charge(mid, f"centre of the saturation bracket, SE from its width/sqrt(3); {br.reason}",
+                               half / math.sqrt(3))
+    else:
+        fw["bracket"] = Estimate.na(br.reason if not br.reached else "no illumination axis for the upper end", "e-")
+    if fw["plateau"].available:
+        head = fw["plateau"]
+    elif fw["bracket"].available:
+        head = fw["bracket"]
+    elif br.reached and k.available:
+        head = Estimate.limit(br.low_dn / k.value, "lower", "e-", br.reason)
+    else:
+        head = Estimate.na(na_sat or "gain not available", "e-")
+    return fw, head, sat_i
+
+
+TURNOFF_NOTE = ("PTC turnoff: the last level of the curve followed from below before its first significant "
+                "departure (variance/mean ratio or variance dropping by > 4 SE); located only to within the "
+                "level spacing: SE = spacing to the next level / sqrt(3)")
+
+
+def _turnoffs(levels: Sequence[PtcLevel], br: SaturationBracket, gain: Estimate,
+              clip_limit: float) -> tuple[Estimate, Estimate, dict[str, Estimate]]:
+    """The headline turnoff in DN and e- (``ptc_turnoff``), and the published definitions
+    by name in DN, each the signal of one level with the level spacing there as its SE."""
+    meas = sorted((lv for lv in levels if math.isfinite(lv.signal) and math.isfinite(lv.variance) and lv.signal > 0
+                   and not lv.reason.startswith(("non-monotonic", "no significant", "non-finite"))),
+                  key=lambda lv: lv.signal)
+    pos = {lv.index: j for j, lv in enumerate(meas)}
+
+    def at(i: int, note: str, bound: str = "") -> Estimate:
+        if i < 0 or i not in pos:
+            return Estimate.na("not found in the data", "DN")
+        j = pos[i]
+        s = meas[j].signal
+        if bound:
+            return Estimate.limit(s, bound, "DN", note)
+        nxt = [lv.signal for lv in meas[j + 1:] if lv.signal > s]
+        # the level found is the last one before the departure: the turnoff itself lies
+        # anywhere between it and the next level, so its error is the rms distance from this
+        # level to a point uniform in that interval, spacing/sqrt(3) (not the signal's own SE,
+        # which is ~1000x smaller and says nothing about where the curve turns)
+        return Estimate(s, (nxt[0] - s) / math.sqrt(3) if nxt else math.nan, "DN", note)
+
+    if br.last_ok < 0:
+        head = Estimate.na(br.reason, "DN")
+    elif br.reached:
+        head = at(br.last_ok, TURNOFF_NOTE)
+    else:
+        head = at(br.last_ok, f"a lower limit: {br.reason}", "lower")
+    if head.available and gain.available:
+        v = head.value / gain.value
+        se = (v * math.hypot(head.se / head.value if math.isfinite(head.se) else 0.0, gain.se / gain.value)
+              if not head.bound else math.nan)
+        head_e = Estimate(v, se, "e-", head.note, head.bound)
+    else:
+        head_e = Estimate.na(head.note if not head.available else "gain not available", "e-")
+    var = [lv.variance for lv in meas]
+    idx = [lv.index for lv in meas]
+    im = index_max_code([lv.frac_at_max for lv in meas], clip_limit)
+    defs = {
+        "ptc_turnoff": head,
+        "emva4_saturation": at(idx[im] if im >= 0 and meas else -1, "EMVA 1288 4.0 Section 6.6: the highest level "
+                               f"before the first with > {100 * clip_limit:g} % of samples at the maximum code"),
+        "max_variance": at(idx[int(np.argmax(var))] if meas else -1,
+                           "EMVA 1288 3.0: the level of maximum temporal variance"),
+        "lsst_turnoff": at(idx[index_variance_drop(var)] if meas else -1,
+                           "LSST-style: the level before the first level-to-level drop of the variance"),
+    }
+    return head, head_e, defs
+
+
+def _plateau(levels: Sequence[PtcLevel], br: SaturationBracket, gain: Estimate) -> Estimate:
+    """Full well from the saturated plateau: the dark-subtracted signal of the levels
+    beyond saturation whose temporal variance has collapsed (every pixel clipped at its
+    full-well charge) -- the charge capacity itself, not the last level below it."""
+    if not br.reached:
+        return Estimate.na(br.reason, "e-")
+    if not gain.available:
+        return Estimate.na("gain not available", "e-")
+    vpk = max(lv.variance for lv in levels if lv.status != "excluded" or lv.clipped)
+    top = [lv for lv in levels if lv.clipped and lv.signal > br.low_dn and lv.variance < 0.1 * vpk]
+    if not top:
+        return Estimate.na("no level beyond saturation with collapsed variance (all pixels clipped)", "e-")
+    smax = max(lv.signal for lv in top)
+    top = [lv for lv in top if lv.signal >= 0.995 * smax]
+    if fast_median(np.array([lv.frac_at_max for lv in top])) > 0.5:
+        return Estimate.na("the plateau is at the ADC maximum code: ADC-limited, not the pixel full well", "e-")
+    sv = np.array([lv.signal for lv in top])
+    med = float(fast_median(sv))
+    if not br.contains(med):
+        return Estimate.na(f"the plateau ({med:.5g} DN) is outside the saturation bracket: {br.reason}", "e-")
+    v = med / gain.value
+    spread = float(np.std(sv, ddof=1) / math.sqrt(sv.size)) / gain.value if sv.size > 1 else 0.0
+    return Estimate(v, math.hypot(spread, v * gain.se / gain.value), "e-",
+                    f"saturated plateau: median signal of {sv.size} fully clipped level(s) / K")
+
+
+@dataclass(frozen=True)
+class PtcLevel:
+    index: int  # position in the input
+    signal: float  # DN, dark subtracted
+    variance: float  # DN^2, dark subtracted
+    variance_se: float
+    dof: float
+    total_var: float  # DN^2, bright temporal variance (dark not subtracted), for SNR
+    spatial_var: float  # DN^2, spatial variance of the level (temporal part removed)
+    frac_at_max: float
+    exposure_s: float = math.nan
+    photons: float = math.nan
+    status: str = "fit"  # "fit" | "valid" | "excluded"
+    reason: str = ""
+    clipped: bool = False  # evidence of saturation (clipped, collapsed or rolled off)

@@ -3,7 +3,7 @@
 ``ViewModel``: one choice for all result tabs -- automatic (the first active region,
 else the full frame), the full frame, a region of the RoA table, a Bayer phase or an
 ADC channel. The Bayer phases and ADC channels are the engine's own views
-(``ares.results.registry.views``: ``cfa_R`` ..., ``adc0`` ...), so a tab showing "ADC
+(``ares.scan.stage_analysis.views``: ``cfa_R`` ..., ``adc0`` ...), so a tab showing "ADC
 channel 1" looks at exactly the pixels the engine decomposed under that name.
 
 ``StageStore``: the finished stages of the run (their per-pixel mean and variance as

@@ -1,0 +1,96 @@
+"""Report tables of dark series (dark current against exposure and temperature) and of the ADC (INL/DNL per channel)."""
+
+from __future__ import annotations
+
+import math
+import numpy as np
+from ares.analysis.stats.estimate import Estimate
+
+
+def dark_series(run) -> dict[float | None, dict[str, np.ndarray]]:
+    """Dark stages grouped by temperature (None when not set): exposure, mean, temporal
+    and spatial variance, sorted by exposure."""
+    out: dict = {}
+    for st in run.stages:
+        if st.get("scene") != "dark" or "exposure" not in st["settings"]:
+            continue
+        lv = st["views"]["full"]["level"]
+        t = st["settings"].get("temperature")
+        out.setdefault(t, []).append((float(st["settings"]["exposure"]), lv["mean_dn"], _nan(lv.get("var_dn2")),
+                                      _nan(lv.get("spatial_var_dn2"))))
+    res = {}
+    for t, rows in out.items():
+        a = np.array(sorted(rows), float)
+        res[t] = {"exposure_s": a[:, 0], "mean_dn": a[:, 1], "var_dn2": a[:, 2], "spatial_var_dn2": a[:, 3]}
+    return res
+
+
+def dark_current_figures(run, gain: Estimate | None) -> dict:
+    """Dark current per temperature from the dark stages with ``ares.analysis.ptc.dark_current``
+    (the runner's definition: slope of the dark mean vs exposure, >= 6 exposures), in DN/s
+    and -- with a gain -- e-/s. Used when the run has no dark_current analysis result."""
+    from ares.analysis.ptc.dark_current import MIN_EXPOSURES, dark_current
+
+    kf = {}
+    for t, s in dark_series(run).items():
+        if np.unique(s["exposure_s"]).size < MIN_EXPOSURES:
+            continue
+        dc = dark_current(s["exposure_s"], s["mean_dn"], gain if gain is not None else math.nan, s["var_dn2"])
+        at = "" if t is None else f" at {t:g} C"
+        key = "dark_current" + ("" if t is None else f"@{t:g}C")
+        kf[key + "_dn_per_s"] = _entry("dark current" + at, dc.rate_dn_per_s, "computed by the report from dark stages")
+        if dc.rate_e_per_s.available:
+            kf[key + "_e_per_s"] = _entry("dark current" + at, dc.rate_e_per_s,
+                                          "computed by the report from dark stages")
+    return kf
+
+
+ADC_COLUMNS = ("channel", "code", "dnl_lsb", "dnl_se_lsb", "transition", "inl_lsb", "inl_se_lsb")
+
+
+def adc_curves(run, d: dict) -> dict:
+    """Channel -> ``InlDnl`` of the ``adc_linearity`` analysis ``d``: the code-density test
+    on its ramp stages' code histograms in results.h5, as the runner computed its extremes."""
+    from ares.analysis.ptc.adc import code_density
+
+    hists: dict = {}
+    for st in run.stages:
+        if st["name"] in (d.get("stages") or []):
+            for k, a in run.arrays(st["index"]).items():
+                if k.startswith("hist_"):
+                    hists[k[5:]] = hists.get(k[5:], 0) + np.asarray(a)
+    out = {}
+    for ch in (d.get("channels") or {}):
+        h = hists.get(ch)
+        if h is None:
+            continue
+        try:
+            out[ch] = code_density(np.repeat(np.arange(h.size), h.astype(np.int64)), h.size - 1)
+        except ValueError:
+            pass
+    return out
+
+
+def adc_rows(run) -> list[dict]:
+    """The INL/DNL curves per channel with their counting SEs (adc_inl_dnl.csv)."""
+    d = run.analyses.get("adc_linearity")
+    if not isinstance(d, dict) or not d.get("channels"):
+        return []
+    rows = []
+    for ch, r in adc_curves(run, d).items():
+        dse, ise = r.dnl_se(), r.inl_se()
+        for k in range(r.first, r.last):
+            j = k + 1  # transition k+1 lies between codes k and k+1
+            rows.append({"channel": ch, "code": k, "dnl_lsb": float(r.dnl[k]), "dnl_se_lsb": float(dse[k]),
+                         "transition": j, "inl_lsb": float(r.inl[j - 1]), "inl_se_lsb": float(ise[j - 1])})
+    return rows
+
+
+def _nan(x) -> float:
+    return math.nan if x is None else float(x)
+
+
+def _entry(label: str, e: Estimate, source: str) -> dict:
+    return {"label": label, "value": e.value if e.available else None,
+            "se": e.se if math.isfinite(e.se) else None, "unit": e.unit, "note": e.note, "source": source,
+            "verdict": e.verdict}
