@@ -298,7 +298,8 @@ class Serial:  # the analysis on one thread, so that each part's process CPU tim
     def map(self, fn, it): return [fn(x) for x in it]
 cf.ThreadPoolExecutor = Serial
 from ares.commands import emva
-from ares.analysis import emva_spatial, levels
+from ares.analysis.spatial import nonuniformity as emva_spatial
+from ares.analysis.ptc import levels
 from ares.hardware import emva_descriptor
 import ares.analysis.emva.release3, ares.analysis.emva.sheet, ares.analysis.emva.general_table, ares.analysis.ptc.photon_transfer
 spent = collections.Counter()

@@ -12,7 +12,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-import ares.scan.runner as runner_mod
+import ares.scan.stage_loop as stage_loop_mod
 from ares.errors import StorageError
 from ares.protocol import load_scan
 from ares.scan import Runner
@@ -59,7 +59,7 @@ def test_a_dark_stage_over_the_memory_budget_is_masked_the_same(tmp_path, monkey
     a = Runner(sc, out_dir=tmp_path / "memory", seed=3).run()
     spilled = []
     real = KeptFrames.append
-    monkeypatch.setattr(runner_mod, "KEEP_FOR_MASK_BYTES", 0)  # every frame to the file
+    monkeypatch.setattr(stage_loop_mod, "KEEP_FOR_MASK_BYTES", 0)  # every frame to the file
     monkeypatch.setattr(KeptFrames, "append", lambda self, f: (real(self, f), spilled.append((id(self), self.spilled))))
     b = Runner(sc, out_dir=tmp_path / "file", seed=3).run()
     assert a.status == b.status == "done"
