@@ -4,7 +4,7 @@ PY ?= python3
 VENV := .venv
 BIN := $(VENV)/bin
 
-.PHONY: run test bench gui screenshots clean
+.PHONY: run test bench bench-quick gui screenshots clean
 
 $(BIN)/.installed: pyproject.toml
 	$(PY) -m venv $(VENV)
@@ -18,9 +18,13 @@ $(BIN)/.installed: pyproject.toml
 run: $(BIN)/.installed
 	$(BIN)/ares run scans/photon_transfer.xml
 
-# All tests (offscreen Qt; two workers for the two cores).
+# All tests but the many-seed studies (offscreen Qt; two workers for the two cores).
 test: $(BIN)/.installed
-	QT_QPA_PLATFORM=offscreen $(BIN)/python -m pytest -n 2 -q --durations=30
+	QT_QPA_PLATFORM=offscreen $(BIN)/python -m pytest -n 2 -q --durations=30 -m "not study"
+
+# The studies over many seeds or cases (tests marked `study`): coverage, bias and sweeps.
+bench-quick: $(BIN)/.installed
+	QT_QPA_PLATFORM=offscreen $(BIN)/python -m pytest -n 2 -q --durations=30 -m study
 
 bench: $(BIN)/.installed
 	$(BIN)/python benchmarks/run_all.py

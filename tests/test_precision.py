@@ -103,11 +103,13 @@ def study():
     return run_study(seeds=100)
 
 
+@pytest.mark.study
 def test_targets_met_in_95_percent_of_100_seeds(study):
     assert study["coverage"] >= 0.95, study
     assert study["fixed_coverage"] >= 0.95, study  # the hindsight count really has that coverage
 
 
+@pytest.mark.study
 def test_no_bias_from_the_stopping_rule(study):
     # same seeds, fixed hindsight count vs precision-driven: the rule adds nothing
     assert abs(study["z_paired"]) <= 1.0, study
@@ -115,5 +117,6 @@ def test_no_bias_from_the_stopping_rule(study):
     assert abs(study["z_truth"]) <= 2.5 and abs(study["z_truth"] - study["z_fixed_truth"]) <= 1.0, study
 
 
+@pytest.mark.study
 def test_frames_within_1_3_of_hindsight(study):
     assert study["frame_ratio"] <= 1.3, study
