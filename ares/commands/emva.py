@@ -15,7 +15,7 @@ import dataclasses
 from pathlib import Path
 
 from ares.commands.argtypes import positive
-from ares.results.descriptor import EmvaAnalysis, analyse_descriptor
+from ares.results.descriptor import EmvaAnalysis, analyse_descriptor, with_pair_variance
 
 # numpy, scipy and the analysis are imported when the command runs (`ares --help` stays light)
 
@@ -209,9 +209,16 @@ def add_arguments(parser) -> None:
     parser.add_argument("--release", choices=RELEASES, default="4.0-linear",
                         help="definitions to evaluate by (default 4.0-linear; 3.0 reproduces the reference "
                              "data set's published values)")
+    parser.add_argument("--pair-variance", choices=("3.x", "4.0"), default="3.x",
+                        help="temporal variance of a pair for --release 3.0/3.1: 3.x (default, as those releases "
+                             "define it) or 4.0 (Linear Eq. 18, the mean difference removed: what the reference "
+                             "implementation emva1288 1.0.2 computes; docs/emva1288_releases.md)")
     parser.add_argument("--json", action="store_true", help="print the parameter set as JSON")
     parser.add_argument("--csv", metavar="FILE", help="write the parameter set as CSV (quantity, symbol, value, "
                                                       "SE, unit, verdict, definition)")
+    parser.add_argument("--xml", metavar="FILE", help="write the results in the EMVA 1288 certification XML "
+                                                      "(the reference implementation's names for 3.x, the Table 2 "
+                                                      "names for 4.0; docs/emva_xml.md), for ares emva-compare")
     parser.add_argument("--pdf", metavar="FILE", help="write the PDF: the EMVA 1288 datasheet (Release 4.0: summary "
                                                       "sheet and every mandatory graph) or the Release 3.x page")
     for opt, what in (("--vendor", "camera vendor"), ("--model", "camera model"), ("--serial", "serial number"),
@@ -258,6 +265,18 @@ def uses_kernels(desc) -> bool:
     return n * desc.width * desc.height > NUMBA_PAYS_PIXELS
 
 
+def write_results_xml(an: EmvaAnalysis, release: str, out: Path, pixel_area_um2: float | None) -> None:
+    """``--xml``: the certification tree of ``release`` (``ares.results.emva_names``) as XML."""
+    from ares.report.emva_xml import write_xml
+    from ares.results.emva_names import release31, release40
+
+    if release.startswith("4.0"):
+        tree = release40(an, release.split("-")[1])
+    else:
+        tree = release31(an, pixel_area_um2, release)
+    write_xml(tree, release, out)
+
+
 def run(args) -> int:
     import contextlib
 
@@ -269,6 +288,7 @@ def run(args) -> int:
     with contextlib.nullcontext() if uses_kernels(desc) else jit.avoided():
         an = analyse_descriptor(desc, pitch * pitch if pitch else None)  # the .area figures need it
     _meta(args, an)
+    an = with_pair_variance(an, getattr(args, "pair_variance", None) or "3.x")
     apply_extensions(an, getattr(args, "extension", None) or [])
     att = an.descriptor.attribution
     if args.release == "4.0-linear":
@@ -296,6 +316,8 @@ def run(args) -> int:
         print(json.dumps(d, indent=2, default=lambda x: None if isinstance(x, float) and math.isnan(x) else x))
     else:
         print(text(an))
+    if getattr(args, "xml", None):
+        write_results_xml(an, args.release, Path(args.xml), pitch * pitch if pitch else None)
     if args.csv or args.pdf:
         from ares.report import datasheet  # matplotlib: only for the files that need it
     if args.csv:

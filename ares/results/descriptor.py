@@ -22,6 +22,7 @@ class EmvaAnalysis:
     release31: "dict | None" = None  # Release 3.1: the 3.0 set with the 5x5 high-pass DSNU/PRNU
     inp: "EmvaInput | None" = None  # what the 4.0 evaluations read (the stacks: the extensions' splits)
     max_code: "int | None" = None  # the maximum value found in the data (Linear Section 6.6)
+    spatial: "tuple | None" = None  # (bright, dark) SpatialStats of the stacks (Release 3.x DSNU1288/PRNU1288)
 
 
 def _pair(desc, lv, max_code):
@@ -127,7 +128,35 @@ def analyse_descriptor(path: str | Path | EmvaDescriptor, pixel_area_um2: float 
     r31 = None
     if stack_b is not None:
         r31 = release31(res, stack_b, stack_d)
-    return EmvaAnalysis(desc, res, ptc, b4, d4, sheet.photon_transfer, sheet, general, r31, inp, found)
+    return EmvaAnalysis(desc, res, ptc, b4, d4, sheet.photon_transfer, sheet, general, r31, inp, found,
+                        (sb, sd) if stacks else None)
+
+
+PAIR_VARIANCES = ("3.x", "4.0")
+
+
+def with_pair_variance(an: EmvaAnalysis, pair_variance: str) -> EmvaAnalysis:
+    """``an`` with its Release 3.0 and 3.1 sets evaluated from the pair variance
+    ``pair_variance``: "3.x" (as they are: the variance of a pair without the mean-difference
+    term, which Release 4.0 added -- 4.0 Linear Appendix E.1 item 4) or "4.0" (4.0 Linear
+    Eq. 18, the two images' mean difference removed: what the reference implementation
+    ``emva1288`` 1.0.2 computes for every release)."""
+    if pair_variance == "3.x":
+        return an
+    if pair_variance != "4.0":
+        raise ValueError(f"pair variance {pair_variance!r} is not one of {PAIR_VARIANCES}")
+    import numpy as np
+
+    from ares.analysis.emva.release3 import emva1288_results
+
+    td = dataclasses.replace(an.emva.temporal, s2_y=np.array([b.var for b in an.bright]),
+                             s2_ydark=np.array([d.var for d in an.dark]))
+    sb, sd = an.spatial or (None, None)
+    res = emva1288_results(td, sb, sd)
+    r31 = None
+    if an.inp is not None and an.inp.stack_bright is not None and an.inp.stack_dark is not None:
+        r31 = release31(res, an.inp.stack_bright, an.inp.stack_dark)
+    return dataclasses.replace(an, emva=res, release31=r31)
 
 
 def release31(res, stack_b, stack_d) -> dict:
