@@ -214,6 +214,9 @@ def add_arguments(parser) -> None:
                              "define it) or 4.0 (Linear Eq. 18, the mean difference removed: what the reference "
                              "implementation emva1288 1.0.2 computes; docs/emva1288_releases.md)")
     parser.add_argument("--json", action="store_true", help="print the parameter set as JSON")
+    parser.add_argument("--missing", action="store_true",
+                        help="only report, from the descriptor alone, which figures of each release the data set "
+                             "supports and which steps a full datasheet still needs")
     parser.add_argument("--csv", metavar="FILE", help="write the parameter set as CSV (quantity, symbol, value, "
                                                       "SE, unit, verdict, definition)")
     parser.add_argument("--xml", metavar="FILE", help="write the results in the EMVA 1288 certification XML "
@@ -225,7 +228,10 @@ def add_arguments(parser) -> None:
                       ("--date", "measurement date (the datasheet must state it)")):
         parser.add_argument(opt, help=f"{what}, for the datasheet header")
     parser.add_argument("--wavelength-nm", type=positive, help="light source centroid wavelength (nm)")
-    parser.add_argument("--pixel-size-um", type=positive, help="pixel pitch (um): gives mu_e.min.area and mu_e.sat.area")
+    parser.add_argument("--pixel-size-um", type=positive, help="pixel pitch (um): gives mu_e.min.area and mu_e.sat.area, "
+                                                              "and the pixel area of E=/P= levels")
+    parser.add_argument("--detector-area-mm2", type=positive,
+                        help="power-meter detector area (mm^2) for the descriptor's P= levels (power readings, W)")
     parser.add_argument("--extension", action="append", choices=sorted(EXTENSIONS), default=[],
                         help="also give the value of one of ARES's methods beyond the text (repeatable), beside the "
                              "text's value and labelled: " + "; ".join(f"{k}: {v}" for k, v in EXTENSIONS.items()))
@@ -284,7 +290,21 @@ def run(args) -> int:
     from ares.hardware.emva_descriptor import read_descriptor
 
     pitch = getattr(args, "pixel_size_um", None)
-    desc = read_descriptor(args.descriptor)
+    if getattr(args, "missing", False):
+        from ares.results.emva_missing import coverage, format_coverage
+
+        desc = read_descriptor(args.descriptor, check_files=False, wavelength_nm=getattr(args, "wavelength_nm", None),
+                               pixel_area_um2=pitch * pitch if pitch else None,
+                               detector_area_mm2=getattr(args, "detector_area_mm2", None))
+        covs = coverage(desc, pitch * pitch if pitch else None)
+        if args.json:
+            print(json.dumps([dataclasses.asdict(c) for c in covs], indent=2))
+        else:
+            print(format_coverage(desc, covs))
+        return 0
+    desc = read_descriptor(args.descriptor, wavelength_nm=getattr(args, "wavelength_nm", None),
+                           pixel_area_um2=pitch * pitch if pitch else None,
+                           detector_area_mm2=getattr(args, "detector_area_mm2", None))
     with contextlib.nullcontext() if uses_kernels(desc) else jit.avoided():
         an = analyse_descriptor(desc, pitch * pitch if pitch else None)  # the .area figures need it
     _meta(args, an)

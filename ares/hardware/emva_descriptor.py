@@ -9,6 +9,19 @@ Descriptor format (EMVA 1288 Release 3.0 reference data sets), one record a line
 - ``i PATH`` image of the level opened by the previous ``b``/``d`` record; paths may use
   backslashes and are relative to the descriptor's folder.
 
+What a lab measures instead of photon counts (ARES's extension; ``ares emva --wavelength-nm
+--pixel-size-um --detector-area-mm2`` give the same constants on the command line):
+
+- ``b EXPOSURE_NS E=IRRADIANCE`` -- the irradiance at the sensor plane in W/m^2, or
+  ``b EXPOSURE_NS P=POWER`` -- a power-meter reading in W over its detector area;
+- ``w WAVELENGTH_NM`` (the light's centroid wavelength, Linear Section 6.2), ``a PIXEL_AREA_UM2``
+  and, for ``P=``, ``m DETECTOR_AREA_MM2`` (once each, anywhere in the file).
+
+The photons per pixel follow from EMVA 1288 4.0 Linear Eq. (3), mu_p = A E t_exp lambda / (h c)
+(Eq. (4) is the same in lab units), E = P / A_detector for a power meter (Section 6.4); the
+descriptor keeps the inputs (``EmvaDescriptor.radiometry``) so that a result implying a quantum
+efficiency outside 0 - 100 % can be refused with the numbers (``ares.results.descriptor``).
+
 A level with two images belongs to the photon-transfer (temporal) series; one with more
 belongs to the spatial non-uniformity stacks -- the convention of the EMVA reference
 implementation. Every malformed record raises ``InputError`` naming ``file:line``.
@@ -58,6 +71,7 @@ class EmvaDescriptor:
     height: int
     levels: tuple[EmvaLevel, ...] = field(default_factory=tuple)
     attribution: str = ""  # the line shown with results derived from the data
+    radiometry: "Radiometry | None" = None  # the lab's inputs when the photon counts were converted
 
     def select(self, kind: str, dark: bool) -> list[EmvaLevel]:
         return [lv for lv in self.levels if lv.kind == kind and lv.dark == dark]
@@ -89,6 +103,36 @@ class EmvaDescriptor:
         )
 
 
+@dataclass(frozen=True)
+class Radiometry:
+    """What the photon counts were converted from: per bright level (its ``line``) the kind
+    (``"E"`` irradiance W/m^2 or ``"P"`` power W) and the reading, and the constants."""
+
+    wavelength_nm: float
+    pixel_area_um2: float
+    detector_area_mm2: float | None
+    readings: dict  # line -> (kind, value)
+
+    def describe(self, line: int, exposure_s: float, photons: float) -> str:
+        kind, value = self.readings[line]
+        what = (f"irradiance E = {value:.4g} W/m^2" if kind == "E" else
+                f"power-meter reading P = {value:.4g} W over {self.detector_area_mm2:g} mm^2 "
+                f"(E = {value / (self.detector_area_mm2 * 1e-6):.4g} W/m^2)")
+        return (f"{what}, pixel area A = {self.pixel_area_um2:g} um^2, wavelength {self.wavelength_nm:g} nm, "
+                f"t_exp = {exposure_s * 1e3:.4g} ms -> mu_p = {photons:.4g} photons (EMVA 1288 4.0 Linear Eq. 3)")
+
+
+def photons_from_reading(kind: str, value: float, exposure_s: float, wavelength_nm: float, pixel_area_um2: float,
+                         detector_area_mm2: float | None = None) -> float:
+    """Photons per pixel from an irradiance (``kind="E"``, W/m^2) or a power-meter reading
+    (``"P"``, W over ``detector_area_mm2``): EMVA 1288 4.0 Linear Eq. (3), E = P / A_detector."""
+    from ares.analysis.optics.spectral_qe import photons_per_pixel
+
+    if kind == "E":
+        return photons_per_pixel(value, 1.0, pixel_area_um2 * 1e-12, exposure_s, wavelength_nm)
+    return photons_per_pixel(value, detector_area_mm2 * 1e-6, pixel_area_um2 * 1e-12, exposure_s, wavelength_nm)
+
+
 MAX_DESCRIPTOR_BYTES = 16 << 20  # a descriptor is text: a few kB per hundred images
 
 
@@ -102,8 +146,11 @@ def _num(tok: str, where: str, what: str) -> float:
     return v
 
 
-def read_descriptor(path: str | Path, check_files: bool = True) -> EmvaDescriptor:
-    """Parse an EMVA 1288 descriptor file; image paths are resolved, optionally checked."""
+def read_descriptor(path: str | Path, check_files: bool = True, wavelength_nm: float | None = None,
+                    pixel_area_um2: float | None = None, detector_area_mm2: float | None = None) -> EmvaDescriptor:
+    """Parse an EMVA 1288 descriptor file; image paths are resolved, optionally checked.
+    ``wavelength_nm``, ``pixel_area_um2``, ``detector_area_mm2``: the constants of ``E=``/``P=``
+    levels when the file has no ``w``/``a``/``m`` record (the file's own win)."""
     path = Path(path)
     text = read_regular(path, MAX_DESCRIPTOR_BYTES, "descriptor file").decode("utf-8", errors="replace")
     base = path.parent  # every image it references must lie below it (safefile.Confinement)
@@ -112,6 +159,8 @@ def read_descriptor(path: str | Path, check_files: bool = True) -> EmvaDescripto
     fmt: tuple[int, int, int] | None = None
     levels: list[EmvaLevel] = []
     cur: dict | None = None
+    consts: dict[str, tuple[float, int]] = {}  # w, a, m -> (value, line)
+    readings: dict[int, tuple[str, float]] = {}
 
     def close(where_line: int) -> None:
         nonlocal cur
@@ -161,11 +210,28 @@ def read_descriptor(path: str | Path, check_files: bool = True) -> EmvaDescripto
             if not (1 <= bits <= 16) or w <= 0 or h <= 0:
                 raise InputError(f"{where}: bits must be 1..16 and width/height positive")
             fmt = (bits, w, h)
+        elif rec in ("w", "a", "m"):
+            what = {"w": "wavelength (nm)", "a": "pixel area (um^2)", "m": "power-meter detector area (mm^2)"}[rec]
+            if len(tok) != 2:
+                raise InputError(f"{where}: expected '{rec} VALUE', the {what}")
+            if rec in consts:
+                raise InputError(f"{where}: only one '{rec}' record is allowed (the first is on line {consts[rec][1]})")
+            v = _num(tok[1], where, what)
+            if v <= 0:
+                raise InputError(f"{where}: the {what} must be positive")
+            consts[rec] = (v, lineno)
         elif rec == "b":
             if len(tok) != 3:
-                raise InputError(f"{where}: expected 'b EXPOSURE_NS PHOTONS'")
+                raise InputError(f"{where}: expected 'b EXPOSURE_NS PHOTONS' (or E=W/m^2, P=W)")
+            kind, _, val = tok[2].upper().partition("=") if "=" in tok[2] else ("", "", tok[2])
+            if kind and kind not in ("E", "P"):
+                raise InputError(f"{where}: '{tok[2][:20]}': a level's light is PHOTONS, E=IRRADIANCE (W/m^2) or "
+                                 "P=POWER (W)")
+            photons = _num(val, where, {"": "photon count", "E": "irradiance", "P": "power"}[kind])
+            if kind:
+                readings[lineno] = (kind, photons)
             cur = {"dark": False, "exp": _num(tok[1], where, "exposure"),
-                   "photons": _num(tok[2], where, "photon count"), "images": [], "line": lineno}
+                   "photons": photons, "images": [], "line": lineno}
         elif rec == "d":
             if len(tok) != 2:
                 raise InputError(f"{where}: expected 'd EXPOSURE_NS'")
@@ -179,13 +245,43 @@ def read_descriptor(path: str | Path, check_files: bool = True) -> EmvaDescripto
         raise InputError(f"{path}: missing 'n BITS WIDTH HEIGHT' record")
     if not levels:
         raise InputError(f"{path}: no 'b' or 'd' levels")
+    radiometry = None
+    if readings:
+        levels, radiometry = _convert(path, levels, readings, consts, wavelength_nm, pixel_area_um2,
+                                      detector_area_mm2)
     seen: set[tuple] = set()
     for lv in levels:
         key = (lv.kind, lv.dark, lv.exposure_ns, lv.photons)
         if key in seen:
             raise InputError(f"{path}:{lv.line}: duplicate {lv.kind} level at exposure {lv.exposure_ns:g} ns")
         seen.add(key)
-    return EmvaDescriptor(path, version, fmt[0], fmt[1], fmt[2], tuple(levels), _attribution(text, path))
+    return EmvaDescriptor(path, version, fmt[0], fmt[1], fmt[2], tuple(levels), _attribution(text, path), radiometry)
+
+
+def _convert(path, levels, readings, consts, wavelength_nm, pixel_area_um2, detector_area_mm2):
+    """The ``E=``/``P=`` levels with their photons per pixel (Eq. 3), and the ``Radiometry``."""
+    import dataclasses
+
+    def const(rec, given, what, opt):
+        if rec in consts:
+            return consts[rec][0]
+        if given:
+            return float(given)
+        first = min(ln for ln, (k, _) in readings.items() if rec != "m" or k == "P")
+        raise InputError(f"{path}:{first}: converting this reading to photons needs the {what}: a '{rec} VALUE' "
+                         f"record or {opt}")
+
+    lam = const("w", wavelength_nm, "wavelength (nm)", "--wavelength-nm")
+    area = const("a", pixel_area_um2, "pixel area (um^2)", "--pixel-size-um")
+    det = const("m", detector_area_mm2, "power-meter detector area (mm^2)", "--detector-area-mm2") \
+        if any(k == "P" for k, _ in readings.values()) else consts.get("m", (detector_area_mm2, 0))[0]
+    out = []
+    for lv in levels:
+        if lv.line in readings:
+            kind, v = readings[lv.line]
+            lv = dataclasses.replace(lv, photons=photons_from_reading(kind, v, lv.exposure_s, lam, area, det))
+        out.append(lv)
+    return out, Radiometry(lam, area, det, dict(readings))
 
 
 def _attribution(text: str, path: Path) -> str:

@@ -128,8 +128,27 @@ def analyse_descriptor(path: str | Path | EmvaDescriptor, pixel_area_um2: float 
     r31 = None
     if stack_b is not None:
         r31 = release31(res, stack_b, stack_d)
+    check_radiometric_qe(desc, {"Release 4.0 Linear": sheet.values["QE"], "Release 3.0": res.values["QE"]})
     return EmvaAnalysis(desc, res, ptc, b4, d4, sheet.photon_transfer, sheet, general, r31, inp, found,
                         (sb, sd) if stacks else None)
+
+
+def check_radiometric_qe(desc, qes: dict) -> None:
+    """Refuse photon counts converted from the lab's readings (``E=``/``P=`` levels) that make
+    the quantum efficiency impossible: outside 0 - 100 % (eta is a fraction of the photons,
+    Linear Eq. 2), with the numbers of the conversion -- a unit slip (uW/cm^2 read as W/m^2 is a
+    factor 100; um^2 as mm^2 a factor 1e6) shows at once."""
+    rad = getattr(desc, "radiometry", None)
+    if rad is None:
+        return
+    for release, qe in qes.items():
+        if qe.available and not 0 < qe.value <= 100:
+            lv = next(lv for lv in desc.temporal_bright if lv.line in rad.readings)
+            raise InputError(
+                f"{desc.path}:{lv.line}: the photon counts converted from the lab's readings give a quantum efficiency "
+                f"of {qe.value:.4g} % ({release}), outside 0 - 100 %: {rad.describe(lv.line, lv.exposure_s, lv.photons)}"
+                f"; check the units (E in W/m^2 -- 1 uW/cm^2 = 0.01 W/m^2 --, P in W, A in um^2, the detector area "
+                f"in mm^2)")
 
 
 PAIR_VARIANCES = ("3.x", "4.0")
