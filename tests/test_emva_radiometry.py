@@ -119,3 +119,17 @@ def test_missing_report(tmp_path, capsys):
     assert main(["emva", str(p), "--missing"]) == 0
     out = capsys.readouterr().out
     assert "Release 4.0 Linear" in out and "missing mu_I_mean, mu_I_var" in out
+
+
+def test_the_descriptors_pixel_area_gives_the_per_area_figures(tmp_path, capsys):
+    """An 'a' record is the pixel area of the per-area figures (as --pixel-size-um would be)."""
+    from ares.cli import main
+    from ares.report.emva_xml import read_xml
+
+    p = make_radiometric_set(tmp_path)
+    out = tmp_path / "r.xml"
+    assert main(["emva", str(p), "--release", "3.1", "--xml", str(out)]) == 0
+    s = read_xml(out)["sensitivity"]
+    for k in ("u_p_min", "u_e_min", "u_p_sat", "u_e_sat"):
+        assert s[k + "_area"]["value"] == pytest.approx(s[k]["value"] / AREA, rel=1e-12)
+    capsys.readouterr()

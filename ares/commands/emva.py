@@ -242,15 +242,18 @@ def _meta(args, an: EmvaAnalysis) -> None:
     for k in ("vendor", "model", "serial", "date"):
         if getattr(args, k, None):
             m[k] = getattr(args, k)
-    if getattr(args, "wavelength_nm", None):
-        m["wavelength_nm"] = args.wavelength_nm
-        m["wavelength"] = f"{args.wavelength_nm:g} nm"
+    lam = getattr(args, "wavelength_nm", None) or an.descriptor.wavelength_nm  # the option, else a 'w' record
+    if lam:
+        m["wavelength_nm"] = lam
+        m["wavelength"] = f"{lam:g} nm"
     m.setdefault("date", "not recorded in the descriptor")
     m["footer"] = an.descriptor.attribution
     m["data_mode"] = f"Mono {an.descriptor.bits}"
     m["resolution"] = f"{an.descriptor.width} x {an.descriptor.height} pixels"
     if getattr(args, "pixel_size_um", None):
         m["pixel_size"] = f"{args.pixel_size_um:g} x {args.pixel_size_um:g} µm"
+    elif an.descriptor.pixel_area_um2:
+        m["pixel_size"] = f"{an.descriptor.pixel_area_um2:g} µm² (pixel area)"
     ts = sorted({lv.exposure_s for lv in an.descriptor.temporal_bright})
     if ts:
         m["exposure_time"] = f"{1e3 * ts[0]:.4g} - {1e3 * ts[-1]:.4g} ms" if len(ts) > 1 else f"{1e3 * ts[0]:.4g} ms"
@@ -305,8 +308,9 @@ def run(args) -> int:
     desc = read_descriptor(args.descriptor, wavelength_nm=getattr(args, "wavelength_nm", None),
                            pixel_area_um2=pitch * pitch if pitch else None,
                            detector_area_mm2=getattr(args, "detector_area_mm2", None))
+    area = pitch * pitch if pitch else desc.pixel_area_um2  # the option, else the descriptor's 'a' record
     with contextlib.nullcontext() if uses_kernels(desc) else jit.avoided():
-        an = analyse_descriptor(desc, pitch * pitch if pitch else None)  # the .area figures need it
+        an = analyse_descriptor(desc, area)  # the .area figures need it
     _meta(args, an)
     an = with_pair_variance(an, getattr(args, "pair_variance", None) or "3.x")
     apply_extensions(an, getattr(args, "extension", None) or [])
@@ -337,7 +341,7 @@ def run(args) -> int:
     else:
         print(text(an))
     if getattr(args, "xml", None):
-        write_results_xml(an, args.release, Path(args.xml), pitch * pitch if pitch else None)
+        write_results_xml(an, args.release, Path(args.xml), area)
     if args.csv or args.pdf:
         from ares.report import datasheet  # matplotlib: only for the files that need it
     if args.csv:

@@ -72,6 +72,8 @@ class EmvaDescriptor:
     levels: tuple[EmvaLevel, ...] = field(default_factory=tuple)
     attribution: str = ""  # the line shown with results derived from the data
     radiometry: "Radiometry | None" = None  # the lab's inputs when the photon counts were converted
+    pixel_area_um2: float | None = None  # an 'a' record (the per-area figures)
+    wavelength_nm: float | None = None  # a 'w' record
 
     def select(self, kind: str, dark: bool) -> list[EmvaLevel]:
         return [lv for lv in self.levels if lv.kind == kind and lv.dark == dark]
@@ -255,7 +257,8 @@ def read_descriptor(path: str | Path, check_files: bool = True, wavelength_nm: f
         if key in seen:
             raise InputError(f"{path}:{lv.line}: duplicate {lv.kind} level at exposure {lv.exposure_ns:g} ns")
         seen.add(key)
-    return EmvaDescriptor(path, version, fmt[0], fmt[1], fmt[2], tuple(levels), _attribution(text, path), radiometry)
+    return EmvaDescriptor(path, version, fmt[0], fmt[1], fmt[2], tuple(levels), _attribution(text, path), radiometry,
+                          consts["a"][0] if "a" in consts else None, consts["w"][0] if "w" in consts else None)
 
 
 def _convert(path, levels, readings, consts, wavelength_nm, pixel_area_um2, detector_area_mm2):

@@ -60,7 +60,7 @@ def coverage(desc, pixel_area_um2: float | None = None) -> list[Coverage]:
     photons_known = bool(tb) and all(lv.photons > 0 for lv in tb)
     sb, sd = desc.spatial_bright, desc.spatial_dark
     stack_dark = [lv for lv in sd if sb and abs(lv.exposure_ns - sb[0].exposure_ns) <= 1e-9 * sb[0].exposure_ns]
-    area = pixel_area_um2 or (desc.radiometry.pixel_area_um2 if getattr(desc, "radiometry", None) else None)
+    area = pixel_area_um2 or getattr(desc, "pixel_area_um2", None)
     out = []
     for release in ("3.0 / 3.1", "4.0 Linear", "4.0 General"):
         is40 = release.startswith("4.0")
