@@ -152,8 +152,9 @@ def _linearity_window(td, isat: int) -> tuple[float, float]:
 
 def _histograms31(sd, sb) -> dict:
     """The defect-pixel histograms of Release 3.1: the averaged images high-passed by the 5 x 5
-    box (4.0 Linear Appendix C.5, Eq. 84: the filter 'with defect pixel measurements'), binned by
-    4.0 Linear Eqs. 73 - 81 (``graphs``); PRNU relative to the mean signal, in %."""
+    box (4.0 Linear Appendix C.5, Eq. 84; 3.1 Appendix C.3 item 10: before every nonuniformity
+    evaluation but the spectrograms), binned by 4.0 Linear Eqs. 73 - 81 (``graphs``); PRNU
+    relative to the mean signal, in %."""
     from ares.analysis.emva import graphs
 
     out = {}
