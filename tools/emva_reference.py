@@ -134,12 +134,16 @@ def main(argv=None) -> int:
         print(f"emva_reference: {exc}", file=sys.stderr)
         return 2
     a.outdir.mkdir(parents=True, exist_ok=True)
-    if a.ccd:
-        reference_xml(py, CCD, a.outdir / "ccd_reference.xml")
-        print(a.outdir / "ccd_reference.xml")
-    if a.data_sets:
-        for name in DATA_SETS:
-            print(make_data_set(py, name, a.outdir))
+    try:
+        if a.ccd:
+            reference_xml(py, CCD, a.outdir / "ccd_reference.xml")
+            print(a.outdir / "ccd_reference.xml")
+        if a.data_sets:
+            for name in DATA_SETS:
+                print(make_data_set(py, name, a.outdir))
+    except (RuntimeError, subprocess.CalledProcessError) as exc:
+        print(f"emva_reference: {exc}", file=sys.stderr)
+        return 1
     return 0
 
 
