@@ -36,8 +36,9 @@ def add_arguments(p) -> None:
     p.add_argument("--split", type=int, default=0, metavar="N", help="frame chunks for --stack (default: workers)")
     p.add_argument("--verify", action="store_true", help="cache keys from the full content hash of every file "
                                                          "(default: size, time and the first/last blocks)")
-    p.add_argument("--db", metavar="PATH|URL", help="results database the lot is appended to (default "
-                                                    "OUT/results.sqlite; postgresql://... for PostgreSQL)")
+    p.add_argument("--db", metavar="PATH|URL", help="results database the lot is appended to: a SQLite file or "
+                                                    "any SQLAlchemy URL (sqlite:///path, postgresql+psycopg://"
+                                                    "user@host/db); default OUT/results.sqlite")
     p.add_argument("--no-db", action="store_true", help="do not append the lot to a results database")
     p.add_argument("--json", action="store_true", help="print the results as JSON")
     p.add_argument("--quiet", "-q", action="store_true", help="no progress line")
@@ -86,12 +87,17 @@ def run(args) -> int:
     lot = load_lot(args.lot) if args.lot else None
     paths = [_absolute(p) for p in args.items] + [_absolute(str(it.path)) for it in (lot.items if lot else ())]
     if not paths and not args.stack:
-        raise InputError("ares batch: no items (give run directories / data sets, or a lot file with <item>s)")
+        raise InputError("no items (give run directories / data sets, or a lot file with <item>s)")
     from ares.hardware.stackfiles import split_spec
 
     for p in paths:
         if not split_spec(p)[0].exists():
             raise InputError(f"{p}: no such file or directory")
+    if not args.no_db and not args.stack:  # an unusable database is said before the work, not after
+        from ares.batch import db
+
+        with db.connect(args.db or str(Path(args.out) / "results.sqlite")):
+            pass
     client = make_client(args.scheduler, args.workers)
     try:
         if args.stack:
@@ -133,8 +139,14 @@ def run(args) -> int:
     if not args.no_db:
         from ares.batch import db
 
-        with db.connect(args.db or str(out / "results.sqlite")) as conn:
-            db.append_lot(conn, name, judged)
+        from ares.batch.dbconn import ResultsDbError
+
+        try:
+            with db.connect(args.db or str(out / "results.sqlite")) as conn:
+                db.append_lot(conn, name, judged)
+        except ResultsDbError as exc:
+            raise ResultsDbError(f"{exc}; the lot is not in it, its files are ({out}/lot.csv, lot.h5, lot.pdf): "
+                                 f"run ares batch again to append it (its items come from the cache)") from None
     if args.json:
         print(json.dumps({"lot": name, "yield": judged.yields, "items": results}, indent=2))
     else:

@@ -20,7 +20,8 @@ def add_arguments(p) -> None:
     p.add_argument("action", choices=("list", "compare", "export"))
     p.add_argument("lots", nargs="*", metavar="LOT", help="lot name or id (compare: two; export: one)")
     p.add_argument("--db", metavar="PATH|URL", default="lot/results.sqlite",
-                   help="SQLite file or postgresql:// URL (default lot/results.sqlite, as ares batch)")
+                   help="a SQLite file, or any SQLAlchemy URL: sqlite:///path, postgresql+psycopg://user@host/db "
+                        "(default lot/results.sqlite, as ares batch)")
     p.add_argument("--csv", metavar="FILE", help="export: the CSV file (default: standard output, unless --parquet)")
     p.add_argument("--parquet", metavar="FILE", help="export: a Parquet file of the same rows (typed columns)")
 
@@ -30,7 +31,7 @@ def _list(db) -> None:
 
     rows = rdb.lots(db)
     if not rows:
-        print(f"{db.target}: no lots yet")
+        print(f"{db.name}: no lots yet")
     for r in rows:
         y = (f"yield {r['passed']}/{r['items']} ({100 * r['passed'] / r['items']:.1f} %)" if r["limits_set"]
              and r["items"] else "no limits set")
@@ -97,12 +98,14 @@ def run(args) -> int:
     from pathlib import Path
 
     from ares.batch import db as rdb
+    from ares.batch.dbconn import sqlite_file
     from ares.errors import InputError
 
     want = {"list": 0, "compare": 2, "export": 1}[args.action]
     if len(args.lots) != want:
-        raise InputError(f"ares lots {args.action}: give {want} lot(s) (name or id), not {len(args.lots)}")
-    if not args.db.startswith(("postgresql://", "postgres://")) and not Path(args.db).is_file():
+        raise InputError(f"{args.action}: give {want} lot(s) (name or id), not {len(args.lots)}")
+    f = sqlite_file(args.db)
+    if f is not None and not Path(f).is_file():
         raise InputError(f"{args.db}: no results database (ares batch writes one; --db names it)")
     with rdb.connect(args.db) as db:
         if args.action == "list":
