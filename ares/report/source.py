@@ -194,6 +194,12 @@ def read_run(run_dir: str | Path, verify_arrays: bool = False) -> Run:
             raise InputError(f"{p}: not an ARES stage result (no views.full)")
         stages.append(st)
     check_run(d, meta, stages, arrays=verify_arrays)
+    from ares.rundir import manifest
+    from ares.rundir.check import RunDamaged
+
+    found = manifest.problems(d, hashes=verify_arrays, by=manifest.RUN)  # every file the run wrote
+    if found:
+        raise RunDamaged(manifest.sentence(d, found) + f"; `ares rerun {d}` makes the run again")
     sr = None
     if (d / "scan_results.json").is_file():
         sr = _load_json(d / "scan_results.json")
