@@ -66,7 +66,8 @@ def append_lot(db: Db, name: str, judged) -> int:
                          "unit": f.get("unit") or "", "verdict": f.get("verdict") or ""})
         for k in judged.yields:
             checks.append({"idx": i, "limit_text": k, "outcome": data[i].get(k) or ""})
-    screens = [dict(s) for s in getattr(judged, "screens", ()) or ()]
+    screen_cols = [c.name for c in t.screens.c if c.name != "lot_id"]
+    screens = [{c: s.get(c) for c in screen_cols} for s in judged.screens]
     if db.conn.in_transaction():
         db.conn.commit()  # (a read before: its transaction ends, the append takes the lock)
     with write_lock(db.conn) as c:

@@ -80,7 +80,7 @@ def _absolute(spec: str) -> str:
 
 def run(args) -> int:
     from ares.batch import lot_pdf, lot_report
-    from ares.batch.cluster import make_client, progress_line, run_items
+    from ares.batch.cluster import close_client, make_client, progress_line, run_items
     from ares.errors import InputError
     from ares.protocol.lot import load_lot
 
@@ -123,12 +123,13 @@ def run(args) -> int:
                                 rerun_into=str((out / "reruns").resolve()) if args.rerun else None,
                                 verify=args.verify)
     finally:
-        client.close()
-        cluster = getattr(client, "cluster", None)
-        if cluster is not None:
-            cluster.close()
-    meta = {_absolute(str(it.path)): {"sensor": it.sensor, "x": it.x, "y": it.y} for it in (lot.items if lot else ())}
+        close_client(client)
+    meta = {_absolute(str(it.path)): {"sensor": it.sensor, "x": it.x, "y": it.y, "wafer": it.wafer}
+            for it in (lot.items if lot else ())}
     judged = lot_report.judge(results, lot.limits if lot else (), meta)
+    from ares.batch.screens import screen
+
+    screen(judged, lot.screens if lot else (), lot.limit_bins if lot else ())  # dynamic limits, then bins
     name = lot.name if lot else out.resolve().name
     from ares.rundir.files import write_atomic
 
@@ -156,7 +157,9 @@ def run(args) -> int:
               f"report in {out}/lot.csv, lot.h5, lot.pdf")
         for k, (a, b) in judged.yields.items():
             print(f"  yield {k}: {a}/{b} ({b} item(s) of the lot, errored ones count as failed)")
-        if not judged.limits:
+        for sb, b in judged.bins.items():
+            print(f"  bin {b['hard']}/{sb} {b['name']}: {b['count']}/{len(results)}")
+        if not judged.limits and not judged.bins:
             print(f"  {lot_report.NO_LIMITS}: no item is judged pass or fail")
         for r in results:
             if r.get("rerun_of"):
