@@ -74,7 +74,10 @@ def append_lot(db: Db, name: str, judged) -> int:
         lot_id = int(c.execute(sa.select(sa.func.coalesce(sa.func.max(t.lots.c.lot_id), 0))).scalar()) + 1
         c.execute(t.lots.insert().values(lot_id=lot_id, name=name, created=created, ares_version=__version__,
                                          n_items=len(data), limits_set=int(bool(judged.limits))))
-        for table, rowset in ((t.items, items), (t.figures, figs), (t.checks, checks), (t.screens, screens)):
+        bins = [{"soft_bin": sb, "hard_bin": b["hard"], "name": b["name"], "count": b["count"]}
+                for sb, b in judged.bins.items()]
+        for table, rowset in ((t.items, items), (t.figures, figs), (t.checks, checks), (t.screens, screens),
+                              (t.bins, bins)):
             if rowset:
                 c.execute(table.insert(), [{"lot_id": lot_id, **r} for r in rowset])
     return lot_id
@@ -149,6 +152,30 @@ def screens(db: Db, lot_id: int) -> list[dict]:
     cols = [c.name for c in t.screens.c if c.name != "lot_id"]
     return [dict(zip(cols, r)) for r in _rows(db, sa.select(*[t.screens.c[c] for c in cols])
                                               .where(t.screens.c.lot_id == lot_id).order_by(t.screens.c.screen))]
+
+
+def bins(db: Db, lot_id: int) -> dict[int, dict]:
+    """The lot's bins: {soft bin: {hard, name, count}}."""
+    return {sb: {"hard": hb, "name": nm, "count": n} for sb, hb, nm, n in _rows(db, sa.select(
+        t.bins.c.soft_bin, t.bins.c.hard_bin, t.bins.c.name, t.bins.c["count"]).where(t.bins.c.lot_id == lot_id)
+        .order_by(t.bins.c.soft_bin))}
+
+
+def figures(db: Db, lot_id: int) -> dict[int, dict[str, dict]]:
+    """{item index: {quantity: {value, se, unit, verdict}}} of a lot."""
+    out: dict[int, dict[str, dict]] = {}
+    for i, q, v, s, u, vd in _rows(db, sa.select(t.figures.c.idx, t.figures.c.quantity, t.figures.c.value,
+                                                 t.figures.c.se, t.figures.c.unit, t.figures.c.verdict)
+                                   .where(t.figures.c.lot_id == lot_id)):
+        out.setdefault(i, {})[q] = {"value": v, "se": s, "unit": u, "verdict": vd}
+    return out
+
+
+def lot_info(db: Db, lot_id: int) -> dict:
+    """The lot's row: name, created, ARES version, items, limits set."""
+    r = _rows(db, sa.select(t.lots.c.name, t.lots.c.created, t.lots.c.ares_version, t.lots.c.n_items,
+                            t.lots.c.limits_set).where(t.lots.c.lot_id == lot_id))[0]
+    return dict(zip(("name", "created", "ares_version", "items", "limits_set"), r), lot_id=lot_id)
 
 
 def values(db: Db, lot_id: int, quantity: str) -> list[float]:

@@ -7,7 +7,8 @@ Tables: ``lots`` (one row a lot), ``items`` (one row an item: serial, wafer, x/y
 directory, content hash, ARES version, start time, status, verdict, error, hard and soft
 bin), ``figures`` (item x quantity: canonical name, value, SE, unit, verdict), ``checks``
 (item x limit or screen: pass / FAIL / not tested), ``screens`` (lot x screen: static limits
-and the dynamic part-average-testing limits the lot set itself) and ``ares_schema`` (the
+and the dynamic part-average-testing limits the lot set itself), ``bins`` (lot x soft bin:
+hard bin, name, items) and ``ares_schema`` (the
 version table of the pre-Alembic layer, kept so an older ARES refuses a newer database).
 """
 
@@ -46,4 +47,6 @@ screens = sa.Table("screens", metadata, _key("lot_id"), sa.Column("screen", sa.T
                    sa.Column("low", sa.Double), sa.Column("high", sa.Double), sa.Column("centre", sa.Double),
                    sa.Column("sigma", sa.Double), sa.Column("k", sa.Double),
                    sa.Column("n_tested", sa.Integer, nullable=False), sa.Column("n_failed", sa.Integer, nullable=False))
+bins = sa.Table("bins", metadata, _key("lot_id"), _key("soft_bin"), sa.Column("hard_bin", sa.Integer, nullable=False),
+                sa.Column("name", sa.Text, nullable=False), sa.Column("count", sa.Integer, nullable=False))
 ares_schema = sa.Table("ares_schema", metadata, sa.Column("version", sa.Integer, nullable=False))

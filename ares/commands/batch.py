@@ -136,6 +136,9 @@ def run(args) -> int:
     write_atomic(out / "lot.csv", lot_report.to_csv(judged, name).encode())
     lot_report.write_h5(judged, out / "lot.h5", name)
     lot_pdf.write_pdf(judged, out / "lot.pdf", name)
+    from ares.batch import stdf
+
+    stdf.write(stdf.from_judged(judged, name), out / "lot.stdf")  # for yield tools
     (out / "lot.partial.csv").unlink(missing_ok=True)
     if not args.no_db:
         from ares.batch import db
@@ -146,7 +149,7 @@ def run(args) -> int:
             with db.connect(args.db or str(out / "results.sqlite")) as conn:
                 db.append_lot(conn, name, judged)
         except ResultsDbError as exc:
-            raise ResultsDbError(f"{exc}; the lot is not in it, its files are ({out}/lot.csv, lot.h5, lot.pdf): "
+            raise ResultsDbError(f"{exc}; the lot is not in it, its files are ({out}/lot.csv, lot.h5, lot.pdf, lot.stdf): "
                                  f"run ares batch again to append it (its items come from the cache)") from None
     if args.json:
         print(json.dumps({"lot": name, "yield": judged.yields, "items": results}, indent=2))
@@ -154,7 +157,7 @@ def run(args) -> int:
         n_err = sum(r.get("status") == "error" for r in results)
         n_cached = sum(bool(r.get("cached")) for r in results)
         print(f"lot {name}: {len(results)} item(s), {n_cached} from the cache, {n_err} failed; "
-              f"report in {out}/lot.csv, lot.h5, lot.pdf")
+              f"report in {out}/lot.csv, lot.h5, lot.pdf, lot.stdf")
         for k, (a, b) in judged.yields.items():
             print(f"  yield {k}: {a}/{b} ({b} item(s) of the lot, errored ones count as failed)")
         for sb, b in judged.bins.items():

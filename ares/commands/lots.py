@@ -2,15 +2,17 @@
 
 ``list``: every lot with its items, passed, failed and errored (yield = passed / items);
 ``compare LOT_A LOT_B``: per quantity, items measured, median and interquartile range in each;
-``export LOT [--csv FILE] [--parquet FILE]``: every item of a lot, its traceability, figures, SEs
-and limit outcomes -- the same rows and columns in CSV and in Parquet (numbers as float64, an
-absent figure as null; text as UTF-8 strings).
+``export LOT [--csv FILE] [--parquet FILE] [--stdf FILE]``: every item of a lot, its traceability,
+bins, figures, SEs and limit and screen outcomes -- the same rows and columns in CSV and in
+Parquet (numbers as float64, an absent figure as null; text as UTF-8 strings); STDF V4 for
+yield tools (``ares.batch.stdf``).
 """
 
 from __future__ import annotations
 
 import csv
 import sys
+from pathlib import Path
 
 NAME = "lots"
 HELP = "list, compare and export the lots of a results database"
@@ -24,6 +26,8 @@ def add_arguments(p) -> None:
                         "(default lot/results.sqlite, as ares batch)")
     p.add_argument("--csv", metavar="FILE", help="export: the CSV file (default: standard output, unless --parquet)")
     p.add_argument("--parquet", metavar="FILE", help="export: a Parquet file of the same rows (typed columns)")
+    p.add_argument("--stdf", metavar="FILE", help="export: the lot as STDF V4 (a PTR per measurement with its "
+                                                  "limits, a PRR per sensor with bins and wafer x/y, WRR, HBR/SBR)")
 
 
 def _list(db) -> None:
@@ -54,10 +58,17 @@ def _compare(db, a: str, b: str) -> None:
         print(f"{q:<28} {cells[0]}   {cells[1]}")
 
 
-def _export(db, ref: str, path: str | None, parquet: str | None = None) -> None:
+def _export(db, ref: str, path: str | None, parquet: str | None = None, stdf_path: str | None = None) -> None:
     from ares.batch import db as rdb
 
     lot_id = rdb.find_lot(db, ref)
+    if stdf_path:
+        from ares.batch import stdf
+
+        n = stdf.write(stdf.from_db(db, lot_id), Path(stdf_path))
+        print(f"lot {ref}: STDF V4, {n} records -> {stdf_path}", file=sys.stderr)
+        if not path and not parquet:
+            return
     cols, rows = rdb.item_rows(db, lot_id)
     if parquet:
         write_parquet(parquet, cols, rows, rdb.numeric_columns(db, lot_id))
@@ -113,5 +124,5 @@ def run(args) -> int:
         elif args.action == "compare":
             _compare(db, *args.lots)
         else:
-            _export(db, args.lots[0], args.csv, args.parquet)
+            _export(db, args.lots[0], args.csv, args.parquet, args.stdf)
     return 0
