@@ -86,6 +86,9 @@ def run(args) -> int:
         r = read_run(args.run_dir)
     from ares.rundir import manifest
 
+    for n in r.notes:  # (files of the run that are missing: named, whether the report rebuilds them or not)
+        if manifest.MANIFEST in n:
+            print(f"note: {r.dir}: {n}", file=sys.stderr)
     altered = manifest.problems(r.dir, by=manifest.REPORT)  # reports changed since ARES wrote them
     files = write_reports(args.run_dir, formats, pdf_path=args.pdf, csv_dir=args.csv, h5_path=args.hdf5)
     written = {p.resolve() for p in files}
