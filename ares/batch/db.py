@@ -178,6 +178,12 @@ def lot_info(db: Db, lot_id: int) -> dict:
     return dict(zip(("name", "created", "ares_version", "items", "limits_set"), r), lot_id=lot_id)
 
 
+def unit_of(db: Db, quantity: str) -> str:
+    """The unit a quantity is stored in ("" when no lot has it)."""
+    r = _rows(db, sa.select(t.figures.c.unit).where(t.figures.c.quantity == quantity, t.figures.c.unit != "").limit(1))
+    return r[0][0] if r else ""
+
+
 def values(db: Db, lot_id: int, quantity: str) -> list[float]:
     """Every item's value of ``quantity`` in a lot (items without it left out)."""
     return [float(v) for (v,) in _rows(db, sa.select(t.figures.c.value).where(

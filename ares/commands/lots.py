@@ -1,11 +1,15 @@
-"""``ares lots list|compare|export``: the lots in a results database (written by ``ares batch``).
+"""``ares lots list|compare|export|certificate|trend``: the lots in a results database (written
+by ``ares batch``).
 
 ``list``: every lot with its items, passed, failed and errored (yield = passed / items);
 ``compare LOT_A LOT_B``: per quantity, items measured, median and interquartile range in each;
 ``export LOT [--csv FILE] [--parquet FILE] [--stdf FILE]``: every item of a lot, its traceability,
 bins, figures, SEs and limit and screen outcomes -- the same rows and columns in CSV and in
 Parquet (numbers as float64, an absent figure as null; text as UTF-8 strings); STDF V4 for
-yield tools (``ares.batch.stdf``).
+yield tools (``ares.batch.stdf``);
+``certificate LOT [ITEM]``: a certificate of performance per sensor, one PDF page each
+(``ares.batch.certificate``); ``trend QUANTITY``: median and spread per lot over the database's
+lots with control limits, a plot and a CSV (``ares.batch.trend``).
 """
 
 from __future__ import annotations
@@ -19,13 +23,18 @@ HELP = "list, compare and export the lots of a results database"
 
 
 def add_arguments(p) -> None:
-    p.add_argument("action", choices=("list", "compare", "export"))
-    p.add_argument("lots", nargs="*", metavar="LOT", help="lot name or id (compare: two; export: one)")
+    p.add_argument("action", choices=("list", "compare", "export", "certificate", "trend"))
+    p.add_argument("lots", nargs="*", metavar="LOT", help="lot name or id (compare: two; export: one; certificate: "
+                                                          "one, then optionally an ITEM: serial, path or #N; "
+                                                          "trend: the QUANTITY instead)")
     p.add_argument("--db", metavar="PATH|URL", default="lot/results.sqlite",
                    help="a SQLite file, or any SQLAlchemy URL: sqlite:///path, postgresql+psycopg://user@host/db "
                         "(default lot/results.sqlite, as ares batch)")
     p.add_argument("--csv", metavar="FILE", help="export: the CSV file (default: standard output, unless --parquet)")
     p.add_argument("--parquet", metavar="FILE", help="export: a Parquet file of the same rows (typed columns)")
+    p.add_argument("--out", metavar="FILE", help="certificate: the PDF (default certificates_LOT[_ITEM].pdf); trend: "
+                                                 "the plot, .pdf or .png (default trend_QUANTITY.pdf; the CSV beside "
+                                                 "it, or --csv)")
     p.add_argument("--stdf", metavar="FILE", help="export: the lot as STDF V4 (a PTR per measurement with its "
                                                   "limits, a PRR per sensor with bins and wafer x/y, WRR, HBR/SBR)")
 
@@ -88,6 +97,43 @@ def _export(db, ref: str, path: str | None, parquet: str | None = None, stdf_pat
         print(f"lot {ref}: {len(rows)} item(s) -> {path}", file=sys.stderr)
 
 
+def _certificate(db, ref: str, item: str | None, out: str | None) -> None:
+    from ares.batch import certificate
+    from ares.batch import db as rdb
+
+    lot_id = rdb.find_lot(db, ref)
+    cols, rows = rdb.item_rows(db, lot_id)
+    which = certificate.select(cols, rows, item)
+    safe = "".join(c if c.isalnum() or c in "-_." else "_" for c in f"{ref}" + (f"_{item}" if item else ""))
+    path = Path(out or f"certificates_{safe}.pdf")
+    n = certificate.write(db, lot_id, which, path)
+    print(f"lot {ref}: {len(which)} certificate(s), {n} page(s) -> {path}")
+
+
+def _trend(db, quantity: str, out: str | None, csv_path: str | None) -> None:
+    from ares.batch import db as rdb
+    from ares.batch import trend
+    from ares.batch.vocabulary import canonical
+    from ares.errors import InputError
+    from ares.rundir.files import storage, write_atomic
+
+    q = canonical(quantity)
+    rows, limits = trend.trend(db, q)
+    if not rows:
+        raise InputError(f"results database {db.name}: no lot measured '{quantity}' (ares lots compare lists the "
+                         f"quantities of two lots)")
+    plot = Path(out or f"trend_{q}.pdf")
+    table = Path(csv_path) if csv_path else plot.with_suffix(".csv")
+    with storage(table):
+        write_atomic(table, trend.to_csv(rows).encode())
+    with storage(plot):
+        trend.plot(rows, limits, q, rdb.unit_of(db, q), plot)
+    flagged = [r["lot"] for r in rows if r["out_of_control"] == "yes"]
+    lim = limits["note"] or (f"control limits {limits['low']:.5g} .. {limits['high']:.5g} (centre "
+                             f"{limits['centre']:.5g}); outside: {', '.join(flagged) or 'none'}")
+    print(f"{q} over {len(rows)} lot(s): {lim}; plot {plot}, table {table}")
+
+
 def write_parquet(path: str, cols: list[str], rows: list[tuple], numeric: set[str]) -> None:
     """The rows as a Parquet file (written as .tmp and renamed): ``numeric`` columns float64,
     the others strings; None is null."""
@@ -112,9 +158,11 @@ def run(args) -> int:
     from ares.batch.dbconn import sqlite_file
     from ares.errors import InputError
 
-    want = {"list": 0, "compare": 2, "export": 1}[args.action]
-    if len(args.lots) != want:
-        raise InputError(f"{args.action}: give {want} lot(s) (name or id), not {len(args.lots)}")
+    want = {"list": (0,), "compare": (2,), "export": (1,), "certificate": (1, 2), "trend": (1,)}[args.action]
+    if len(args.lots) not in want:
+        what = "a QUANTITY" if args.action == "trend" else ("a lot and optionally an ITEM"
+                                                            if args.action == "certificate" else f"{want[0]} lot(s)")
+        raise InputError(f"{args.action}: give {what} (name or id), not {len(args.lots)} argument(s)")
     f = sqlite_file(args.db)
     if f is not None and not Path(f).is_file():
         raise InputError(f"{args.db}: no results database (ares batch writes one; --db names it)")
@@ -123,6 +171,10 @@ def run(args) -> int:
             _list(db)
         elif args.action == "compare":
             _compare(db, *args.lots)
+        elif args.action == "certificate":
+            _certificate(db, args.lots[0], args.lots[1] if len(args.lots) > 1 else None, args.out)
+        elif args.action == "trend":
+            _trend(db, args.lots[0], args.out, args.csv)
         else:
             _export(db, args.lots[0], args.csv, args.parquet, args.stdf)
     return 0
