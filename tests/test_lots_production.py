@@ -133,3 +133,28 @@ def test_production_lot_of_200_sensors(backend, tmp_path, scheduler, capsys, req
     db = f"sqlite:///{tmp_path}/lots.db" if backend == "sqlite" else \
         request.getfixturevalue("postgres").replace("postgresql://", "postgresql+psycopg://", 1)
     production(tmp_path, scheduler, 200, db, capsys)
+
+
+def test_a_normal_end_of_ares_batch_is_quiet(tmp_path):
+    """``ares batch`` on its own local cluster, as a user runs it: the terminal shows the
+    lot's lines and nothing of the cluster's shutdown (no CommClosedError traceback, no
+    "Failed to communicate with scheduler", no doubled prefix)."""
+    import os
+    import subprocess
+    import sys
+    from pathlib import Path
+
+    rng = np.random.default_rng(3)
+    for i in range(3):
+        np.save(tmp_path / f"d{i}.npy", (200 + rng.normal(0, 3, (4, 8, 8))).astype(np.uint16))
+    root = Path(__file__).resolve().parents[1]
+    env = {**os.environ, "PYTHONPATH": str(root)}
+    p = subprocess.run([sys.executable, "-m", "ares.cli", "batch", *(str(tmp_path / f"d{i}.npy") for i in range(3)),
+                        "--out", str(tmp_path / "lot"), "--workers", "1", "-q"], capture_output=True, text=True,
+                       env=env, cwd=tmp_path, timeout=300)
+    assert p.returncode == 0, p.stderr
+    assert p.stderr == "", p.stderr
+    assert "lot lot: 3 item(s)" in p.stdout
+    p = subprocess.run([sys.executable, "-m", "ares.cli", "batch", "--out", str(tmp_path / "lot")],
+                       capture_output=True, text=True, env=env, cwd=tmp_path, timeout=300)
+    assert p.returncode == 2 and p.stderr.startswith("ares batch: no items") and "ares batch: ares" not in p.stderr
