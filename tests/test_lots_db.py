@@ -193,3 +193,56 @@ def test_damaged_read_only_and_unreachable_databases_are_one_sentence(tmp_path, 
     with pytest.raises(dbconn.ResultsDbError, match="cannot be written"):
         with rdb.connect(str(tmp_path / "afile" / "r.sqlite")):
             pass
+
+
+def test_ares_batch_says_an_unusable_database_before_the_work(tmp_path, capsys):
+    import numpy as np
+
+    np.save(tmp_path / "d.npy", np.zeros((2, 4, 4), np.uint16))
+    bad = tmp_path / "bad.sqlite"
+    bad.write_bytes(b"\x00garbage" * 512)
+    out = tmp_path / "lot"
+    assert main(["batch", str(tmp_path / "d.npy"), "--out", str(out), "--db", str(bad), "-q"]) == 5
+    err = capsys.readouterr().err
+    assert err.startswith(f"ares batch: results database {bad}: damaged") and err.count("\n") == 1
+    assert not (out / "lot.csv").exists()  # said before any work (no cluster started)
+
+
+def test_a_lock_held_past_the_timeout_at_the_append_keeps_the_lot_files(tmp_path, capsys, monkeypatch):
+    """Another writer holds the database when the lot is appended (after the work): one
+    sentence naming the database, the lot files written, the database without the lot."""
+    import numpy as np
+
+    pytest.importorskip("distributed")
+    from ares.batch.cluster import close_client, make_client
+
+    np.save(tmp_path / "d.npy", (200 + np.arange(2 * 8 * 8).reshape(2, 8, 8) % 7).astype(np.uint16))
+    path = tmp_path / "r.sqlite"
+    real = rdb.append_lot
+    holder = []
+
+    def append_while_locked(db, name, judged):
+        c = sqlite3.connect(path, isolation_level=None)
+        c.execute("BEGIN EXCLUSIVE")  # another process's write, held past the timeout
+        holder.append(c)
+        return real(db, name, judged)
+
+    monkeypatch.setattr(rdb, "append_lot", append_while_locked)
+    monkeypatch.setattr(dbconn, "LOCK_TIMEOUT_S", 0.2)
+    client = make_client(workers=1)
+    try:
+        out = tmp_path / "lot"
+        rc = main(["batch", str(tmp_path / "d.npy"), "--out", str(out), "--db", str(path), "-q",
+                   "--scheduler", client.scheduler.address])
+    finally:
+        close_client(client)
+        for c in holder:
+            c.execute("ROLLBACK")
+            c.close()
+    err = capsys.readouterr().err
+    assert rc == 5 and err.count("\n") == 1 and "Traceback" not in err
+    assert f"results database {path}: locked by another writer for more than 0.2 s" in err
+    assert "the lot is not in it, its files are" in err
+    assert all((out / f).is_file() for f in ("lot.csv", "lot.h5", "lot.pdf", "lot.stdf"))
+    with rdb.connect(str(path)) as db:
+        assert rdb.lots(db) == []
