@@ -88,7 +88,7 @@ def record(d: Path, paths, by: str = REPORT) -> None:
         if _recordable(d, p):
             files[str(rel)] = _entry(p, by)
             changed = True
-    if changed or not (d / MANIFEST).exists():
+    if changed:  # (reports written elsewhere: the run directory is not touched, read-only or not)
         _write(d, files)
 
 
