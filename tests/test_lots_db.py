@@ -75,24 +75,44 @@ def test_migrated_postgresql_is_the_schema_the_queries_use(postgres):  # noqa: F
     assert _schema_diff(url) == []
 
 
-def test_a_pre_alembic_database_is_upgraded_with_its_rows(tmp_path):
-    path = tmp_path / "old.sqlite"
-    c = sqlite3.connect(path)
-    for stmt in LEGACY:
+def _fresh_pg_database(uri: str, name: str) -> str:
+    import psycopg
+
+    with psycopg.connect(uri, autocommit=True) as c:
+        c.execute(f"DROP DATABASE IF EXISTS {name}")
+        c.execute(f"CREATE DATABASE {name}")
+    return uri.replace("/postgres?", f"/{name}?", 1)
+
+
+@pytest.mark.parametrize("backend", ["sqlite", "postgresql"])
+def test_a_pre_alembic_database_is_upgraded_with_its_rows(backend, tmp_path, request):
+    if backend == "sqlite":
+        target = str(tmp_path / "old.sqlite")
+        c = sqlite3.connect(target)
+    else:
+        import psycopg
+
+        target = _fresh_pg_database(request.getfixturevalue("postgres"), "ares_legacy")
+        c = psycopg.connect(target)
+    for stmt in LEGACY:  # (the old layer ran this same DDL on both)
         c.execute(stmt)
     c.commit()
     c.close()
-    with rdb.connect(str(path)) as db:
+    with rdb.connect(target) as db:
         assert rdb.version(db) == rdb.SCHEMA_VERSION
         cols, rows = rdb.item_rows(db, rdb.find_lot(db, "old"))
         r = dict(zip(cols, rows[0]))
         assert (r["serial"], r["x"], r["gain_dn_per_e"], r["gain_dn_per_e >= 0.28"]) == ("SN1", 1.5, 0.3, "pass")
         assert r["hard_bin"] is None  # a column added by the upgrade: empty for the old lot
         assert rdb.append_lot(db, "new", _lot(10)) == 2
-    c = sqlite3.connect(path)
-    assert c.execute("SELECT version FROM ares_schema").fetchone() == (2,)  # an older ARES refuses it now
-    assert c.execute("SELECT version_num FROM alembic_version").fetchone() == ("0002",)
-    c.close()
+        assert rdb.bins(db, 1) == {}  # (a table added by the upgrade)
+    import sqlalchemy as sa
+
+    eng = sa.create_engine(dbconn.url_of(target))
+    with eng.connect() as c:
+        assert c.execute(sa.text("SELECT version FROM ares_schema")).all() == [(2,)]  # an older ARES refuses it now
+        assert c.execute(sa.text("SELECT version_num FROM alembic_version")).all() == [("0002",)]
+    eng.dispose()
 
 
 WRITER = """

@@ -97,10 +97,11 @@ def run_items(client, paths: list[str], cache_dir: str | None, progress=None, re
     return out  # type: ignore[return-value]
 
 
-def progress_line(stream=sys.stderr, log=None, quiet: bool = False):
+def progress_line(stream=None, log=None, quiet: bool = False):
     """``progress(done, total, result)``: a line on ``stream`` (done, failed, items/s, ETA;
     a new line every 5 % and at the end when the stream is not a terminal) and one line
     per item in the open text file ``log``."""
+    stream = sys.stderr if stream is None else stream  # (the stderr of now, not of the import)
     t0 = time.perf_counter()
     failed = [0]
     tty = hasattr(stream, "isatty") and stream.isatty()
