@@ -85,8 +85,9 @@ def sentence(target: str, exc: BaseException) -> str:
 
 
 @contextlib.contextmanager
-def guarded(target: str):
-    """Every SQLAlchemy/driver/file error inside as ``ResultsDbError`` (one sentence)."""
+def guarded(target: str, files: bool = True):
+    """Every SQLAlchemy/driver error inside as ``ResultsDbError`` (one sentence); with
+    ``files``, file-system errors too (opening: the SQLite file and its folder)."""
     import sqlalchemy as sa
 
     try:
@@ -94,6 +95,8 @@ def guarded(target: str):
     except sa.exc.SQLAlchemyError as exc:
         raise ResultsDbError(sentence(target, exc)) from None
     except OSError as exc:
+        if not files:
+            raise
         raise ResultsDbError(sentence(target, exc)) from None
 
 
@@ -211,9 +214,15 @@ def connect(target: str):
     """The database at ``target`` brought to the newest schema, every error one sentence."""
     with guarded(target):
         eng = engine_for(target)
-        try:
-            with eng.connect() as conn:
-                migrate(conn, target)
-                yield Db(conn, target)
-        finally:
-            eng.dispose()
+    conn = None
+    try:
+        with guarded(target):
+            conn = eng.connect()
+            migrate(conn, target)
+        with guarded(target, files=False):  # (a file the caller writes meanwhile is not the database's)
+            yield Db(conn, target)
+    finally:
+        if conn is not None:
+            with contextlib.suppress(Exception):  # (closing rolls back what was not committed)
+                conn.close()
+        eng.dispose()
