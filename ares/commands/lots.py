@@ -74,7 +74,7 @@ def _export(db, ref: str, path: str | None, parquet: str | None = None, stdf_pat
     if stdf_path:
         from ares.batch import stdf
 
-        n = stdf.write(stdf.from_db(db, lot_id), Path(stdf_path))
+        n = stdf.write(stdf.from_db(db, lot_id), _writable(stdf_path, "--stdf"))
         print(f"lot {ref}: STDF V4, {n} records -> {stdf_path}", file=sys.stderr)
         if not path and not parquet:
             return
@@ -97,6 +97,19 @@ def _export(db, ref: str, path: str | None, parquet: str | None = None, stdf_pat
         print(f"lot {ref}: {len(rows)} item(s) -> {path}", file=sys.stderr)
 
 
+def _writable(path, option: str) -> Path:
+    """The output ``path`` of ``option`` checked before the work: its folder exists, and it is
+    not a folder itself (the storage errors of writing it: ``rundir.files.storage``)."""
+    from ares.errors import InputError
+
+    p = Path(path)
+    if p.is_dir():
+        raise InputError(f"{option} {p}: is a folder; give a file name")
+    if not p.parent.is_dir():
+        raise InputError(f"{option} {p}: the folder {p.parent} does not exist")
+    return p
+
+
 def _certificate(db, ref: str, item: str | None, out: str | None) -> None:
     from ares.batch import certificate
     from ares.batch import db as rdb
@@ -105,7 +118,7 @@ def _certificate(db, ref: str, item: str | None, out: str | None) -> None:
     cols, rows = rdb.item_rows(db, lot_id)
     which = certificate.select(cols, rows, item)
     safe = "".join(c if c.isalnum() or c in "-_." else "_" for c in f"{ref}" + (f"_{item}" if item else ""))
-    path = Path(out or f"certificates_{safe}.pdf")
+    path = _writable(out or f"certificates_{safe}.pdf", "--out")
     n = certificate.write(db, lot_id, which, path)
     print(f"lot {ref}: {len(which)} certificate(s), {n} page(s) -> {path}")
 
@@ -122,8 +135,8 @@ def _trend(db, quantity: str, out: str | None, csv_path: str | None) -> None:
     if not rows:
         raise InputError(f"results database {db.name}: no lot measured '{quantity}' (ares lots compare lists the "
                          f"quantities of two lots)")
-    plot = Path(out or f"trend_{q}.pdf")
-    table = Path(csv_path) if csv_path else plot.with_suffix(".csv")
+    plot = _writable(out or f"trend_{q}.pdf", "--out")
+    table = _writable(csv_path, "--csv") if csv_path else plot.with_suffix(".csv")
     with storage(table):
         write_atomic(table, trend.to_csv(rows).encode())
     with storage(plot):
