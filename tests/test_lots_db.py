@@ -191,7 +191,8 @@ def test_a_lock_is_waited_for_within_the_timeout_then_one_sentence(tmp_path, mon
         holder.close()
 
 
-def test_damaged_read_only_and_unreachable_databases_are_one_sentence(tmp_path, capsys):
+def test_damaged_read_only_and_unreachable_databases_are_one_sentence(tmp_path, capsys, monkeypatch):
+    monkeypatch.chdir(tmp_path)
     bad = tmp_path / "bad.sqlite"
     bad.write_bytes(os.urandom(4096))
     assert main(["lots", "list", "--db", str(bad)]) == 5
@@ -206,6 +207,7 @@ def test_damaged_read_only_and_unreachable_databases_are_one_sentence(tmp_path, 
             rdb.append_lot(db, "w2", _lot(5))
     with rdb.connect(str(ok)) as db:  # nothing of the failed append is in it
         assert [r["name"] for r in rdb.lots(db)] == ["w1"]
+    assert not (tmp_path / "file:").exists()  # (a URI filename names the file; no folder "file:" made)
     assert main(["lots", "list", "--db", "postgresql://ares@127.0.0.1:1/lots"]) == 5
     err = capsys.readouterr().err
     assert "results database postgresql+psycopg://ares@127.0.0.1:1/lots: unreachable" in err and err.count("\n") == 1

@@ -58,10 +58,16 @@ def shown(target: str) -> str:
 
 
 def sqlite_file(target: str) -> Path | None:
-    """The file of a SQLite target (None: in memory, or not SQLite)."""
+    """The file of a SQLite target (None: in memory, or not SQLite); a URI filename
+    (``sqlite:///file:path?mode=ro&uri=true``) names the file after ``file:``."""
     url = url_of(target)
-    return Path(url.database) if url.get_backend_name() == "sqlite" and url.database not in (None, "", ":memory:") \
-        else None
+    db = url.database
+    if url.get_backend_name() != "sqlite" or db in (None, "", ":memory:"):
+        return None
+    if url.query.get("uri") == "true" and db.startswith("file:"):
+        db = db[len("file:"):]
+        return None if db.startswith(":memory:") or "mode=memory" in str(url.query) else Path(db)
+    return Path(db)
 
 
 def sentence(target: str, exc: BaseException) -> str:
@@ -107,7 +113,7 @@ def engine_for(target: str):
     backend = url.get_backend_name()
     if backend == "sqlite":
         f = sqlite_file(target)
-        if f is not None:
+        if f is not None and url.query.get("mode") not in ("ro", "rw"):  # (those never create the file)
             f.parent.mkdir(parents=True, exist_ok=True)
         eng = sa.create_engine(url, poolclass=sa.pool.NullPool, connect_args={"timeout": LOCK_TIMEOUT_S})
 
