@@ -130,7 +130,7 @@ for i in range({n}):
 """
 
 
-def _writers(target: str, tmp_path, n: int = 12) -> None:
+def _writers(target: str, tmp_path, n: int = 6) -> None:
     go = tmp_path / "go"
     code = WRITER.format(root=str(ROOT), go=str(go), n=n, target=target)
     procs = [subprocess.Popen([sys.executable, "-c", code, name], cwd=ROOT, stderr=subprocess.PIPE, text=True)
@@ -149,8 +149,8 @@ def test_two_writer_processes_lose_nothing(backend, tmp_path, request):
     with rdb.connect(target) as db:
         got = rdb.lots(db)[before:]
         names = sorted(r["name"] for r in got)
-        assert names == sorted(f"{w}_{i}" for w in "AB" for i in range(12))
-        assert [r["lot_id"] for r in got] == list(range(before + 1, before + 25))
+        assert names == sorted(f"{w}_{i}" for w in "AB" for i in range(6))
+        assert [r["lot_id"] for r in got] == list(range(before + 1, before + 13))
         for r in got:  # every lot whole: its items, figures and checks
             cols, rows = rdb.item_rows(db, r["lot_id"])
             assert len(rows) == r["items"] == 7
