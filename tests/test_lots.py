@@ -114,7 +114,7 @@ def test_sqlite_schema_migrations_and_lots_command(tmp_path, capsys):
     import sqlite3
 
     c = sqlite3.connect(path)
-    c.execute("UPDATE ares_schema SET version = 99")
+    c.execute("UPDATE alembic_version SET version_num = '9999'")
     c.commit()
     c.close()
     assert main(["lots", "list", "--db", path]) == 2

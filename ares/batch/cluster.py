@@ -40,9 +40,34 @@ def make_client(scheduler: str | None = None, workers: int | None = None):
                                                              "OPENBLAS_NUM_THREADS": 1}})
     n = workers or os.cpu_count() or 1
     # dashboard on any free port: two clusters side by side (tests, two lots) never clash
+    # the workers log only what ends them: a task's error comes back through its future, and
+    # the shutdown's "Failed to communicate with scheduler" is no news after a good lot
     cluster = LocalCluster(n_workers=n, threads_per_worker=1, processes=True, dashboard_address=":0",
-                           silence_logs=logging.ERROR)
+                           silence_logs=logging.CRITICAL)
     return Client(cluster)
+
+
+QUIET_WHILE_CLOSING = ("distributed", "tornado", "asyncio")
+
+
+def close_client(client) -> None:
+    """Close the client and, when it started one, its local cluster -- with the loggers of
+    Dask, Tornado and asyncio silent meanwhile: the ``CommClosedError ... Stream is closed``
+    tracebacks a closing cluster logs about its own streams are not the user's concern."""
+    import logging
+
+    loggers = [logging.getLogger(n) for n in QUIET_WHILE_CLOSING]
+    levels = [lg.level for lg in loggers]
+    for lg in loggers:
+        lg.setLevel(logging.CRITICAL + 1)
+    try:
+        cluster = getattr(client, "cluster", None)
+        client.close()
+        if cluster is not None:
+            cluster.close()
+    finally:
+        for lg, lv in zip(loggers, levels):
+            lg.setLevel(lv)
 
 
 def run_items(client, paths: list[str], cache_dir: str | None, progress=None, rerun_into: str | None = None,
@@ -72,10 +97,11 @@ def run_items(client, paths: list[str], cache_dir: str | None, progress=None, re
     return out  # type: ignore[return-value]
 
 
-def progress_line(stream=sys.stderr, log=None, quiet: bool = False):
+def progress_line(stream=None, log=None, quiet: bool = False):
     """``progress(done, total, result)``: a line on ``stream`` (done, failed, items/s, ETA;
     a new line every 5 % and at the end when the stream is not a terminal) and one line
     per item in the open text file ``log``."""
+    stream = sys.stderr if stream is None else stream  # (the stderr of now, not of the import)
     t0 = time.perf_counter()
     failed = [0]
     tty = hasattr(stream, "isatty") and stream.isatty()

@@ -1,15 +1,10 @@
-"""The results database: every lot item's key figures, SEs, verdicts, limit outcomes and
-traceability, appended lot by lot.
+"""The results database: every lot item's key figures, SEs, verdicts, bins, limit and screen
+outcomes and traceability, appended lot by lot -- on SQLAlchemy Core, so one set of queries
+serves SQLite (the default: embedded, one file), PostgreSQL and any database SQLAlchemy
+has a dialect for; the schema and its upgrades are Alembic migrations.
 
-SQLite by default (embedded, one file, nothing to start); PostgreSQL when the target is a
-``postgresql://`` URL (through ``psycopg`` 3). Plain DB-API, one schema for both: the same
-tables, the same rows; ``SCHEMA_VERSION`` is kept in ``ares_schema`` and ``MIGRATIONS`` brings
-an older database up to it when it is opened.
-
-Tables: ``lots`` (one row a lot), ``items`` (one row an item: serial, wafer, x/y, run
-directory, content hash, ARES version, start time, status, verdict, error), ``figures``
-(item x quantity: canonical name, value, SE, unit, verdict) and ``checks`` (item x limit:
-pass / FAIL / not tested).
+Opening (URL or path, lock timeout, upgrade, one-sentence errors): ``ares.batch.dbconn``;
+the tables: ``ares.batch.dbschema``. Here: appending a judged lot and reading lots back.
 """
 
 from __future__ import annotations
@@ -17,114 +12,36 @@ from __future__ import annotations
 import contextlib
 import datetime
 
-SCHEMA_VERSION = 1
-# version -> the statements that bring a database from version - 1 to it
-MIGRATIONS: dict[int, tuple[str, ...]] = {
-    1: (
-        "CREATE TABLE lots (lot_id INTEGER PRIMARY KEY, name TEXT NOT NULL, created TEXT NOT NULL, "
-        "ares_version TEXT NOT NULL, n_items INTEGER NOT NULL, limits_set INTEGER NOT NULL)",
-        "CREATE TABLE items (lot_id INTEGER NOT NULL REFERENCES lots(lot_id), idx INTEGER NOT NULL, "
-        "item TEXT NOT NULL, serial TEXT, wafer TEXT, x DOUBLE PRECISION, y DOUBLE PRECISION, kind TEXT, "
-        "status TEXT NOT NULL, verdict TEXT NOT NULL, error TEXT, run_dir TEXT, content_hash TEXT, "
-        "ares_version TEXT, started TEXT, PRIMARY KEY (lot_id, idx))",
-        "CREATE TABLE figures (lot_id INTEGER NOT NULL, idx INTEGER NOT NULL, quantity TEXT NOT NULL, "
-        "value DOUBLE PRECISION, se DOUBLE PRECISION, unit TEXT, verdict TEXT, PRIMARY KEY (lot_id, idx, quantity))",
-        "CREATE TABLE checks (lot_id INTEGER NOT NULL, idx INTEGER NOT NULL, limit_text TEXT NOT NULL, "
-        "outcome TEXT NOT NULL, PRIMARY KEY (lot_id, idx, limit_text))",
-        "CREATE INDEX figures_quantity ON figures (quantity)",
-    ),
-}
+import sqlalchemy as sa
+
+from ares.batch import dbschema as t
+from ares.batch.dbconn import HEAD, SCHEMA_VERSION, Db, connect, revision, write_lock  # noqa: F401 -- the API
+
 ITEM_COLUMNS = ("item", "serial", "wafer", "x", "y", "kind", "status", "verdict", "error", "run_dir",
                 "content_hash", "ares_version", "started")
-
-
-class Db:
-    """A DB-API connection and its parameter marker (``?`` sqlite3, ``%s`` psycopg)."""
-
-    def __init__(self, conn, mark: str, target: str):
-        self.conn, self.mark, self.target = conn, mark, target
-
-    def sql(self, text: str) -> str:
-        return text.replace("?", self.mark)
-
-    def execute(self, text: str, params=()):
-        cur = self.conn.cursor()
-        cur.execute(self.sql(text), params)
-        return cur
-
-    def executemany(self, text: str, rows) -> None:
-        cur = self.conn.cursor()
-        cur.executemany(self.sql(text), rows)
-
-    def query(self, text: str, params=()) -> list[tuple]:
-        return [tuple(r) for r in self.execute(text, params).fetchall()]
+BIN_COLUMNS = ("hard_bin", "soft_bin")
+NUMERIC_ITEM_COLUMNS = ("x", "y")
 
 
 @contextlib.contextmanager
-def connect(target: str):
-    """The database at ``target`` (a file path: SQLite; ``postgresql://``: PostgreSQL), at
-    ``SCHEMA_VERSION``; committed on leaving, rolled back on an exception."""
-    from ares.errors import InputError
+def _read(db: Db):
+    """A read transaction (ended at once: a SQLite reader holds no lock afterwards)."""
+    if db.conn.in_transaction():
+        yield db.conn
+        return
+    with db.conn.begin():
+        yield db.conn
 
-    if target.startswith(("postgresql://", "postgres://")):
-        try:
-            import psycopg
-        except ImportError:
-            raise InputError(f"{target}: PostgreSQL needs the psycopg package (pip install 'psycopg[binary]')") \
-                from None
-        try:
-            conn = psycopg.connect(target)
-        except psycopg.Error as exc:
-            raise InputError(f"results database {target}: cannot connect ({' '.join(str(exc).split())})") from None
-        db = Db(conn, "%s", target)
-    else:
-        import sqlite3
-        from pathlib import Path
 
-        Path(target).parent.mkdir(parents=True, exist_ok=True)
-        try:
-            conn = sqlite3.connect(target)
-            conn.execute("PRAGMA foreign_keys = ON")
-        except sqlite3.Error as exc:
-            raise InputError(f"results database {target}: {exc}") from None
-        db = Db(conn, "?", target)
-    try:
-        migrate(db)
-        yield db
-        conn.commit()
-    except BaseException:
-        conn.rollback()
-        raise
-    finally:
-        conn.close()
+def _rows(db: Db, stmt) -> list[tuple]:
+    with _read(db) as c:
+        return [tuple(r) for r in c.execute(stmt).all()]
 
 
 def version(db: Db) -> int:
-    try:
-        rows = db.query("SELECT version FROM ares_schema")
-    except Exception:  # noqa: BLE001 -- no such table: an empty database (sqlite3/psycopg raise their own types)
-        db.conn.rollback()
-        return 0
-    return int(rows[0][0]) if rows else 0
-
-
-def migrate(db: Db) -> int:
-    """Apply the migrations the database lacks; its version afterwards."""
-    from ares.errors import InputError
-
-    v = version(db)
-    if v > SCHEMA_VERSION:
-        raise InputError(f"results database {db.target}: schema version {v} is newer than this ARES "
-                         f"({SCHEMA_VERSION}); update ARES")
-    if v == 0:
-        db.execute("CREATE TABLE ares_schema (version INTEGER NOT NULL)")
-        db.execute("INSERT INTO ares_schema (version) VALUES (0)")
-    for n in range(v + 1, SCHEMA_VERSION + 1):
-        for stmt in MIGRATIONS[n]:
-            db.execute(stmt)
-        db.execute("UPDATE ares_schema SET version = ?", (n,))
-    db.conn.commit()
-    return SCHEMA_VERSION
+    with _read(db) as c:
+        rev = revision(c)
+    return 0 if rev is None else int(rev)
 
 
 def _num(v):
@@ -132,40 +49,53 @@ def _num(v):
 
 
 def append_lot(db: Db, name: str, judged) -> int:
-    """Append a judged lot (``lot_report.judge``); its ``lot_id``."""
+    """Append a judged lot (``lot_report.judge``) in one transaction under the write lock;
+    its ``lot_id`` (one more than the highest: the lock makes that safe for many writers)."""
     from ares import __version__
     from ares.batch.lot_report import rows
 
     data, _ = rows(judged, name)
-    lot_id = (db.query("SELECT COALESCE(MAX(lot_id), 0) FROM lots")[0][0] or 0) + 1
     created = datetime.datetime.now(datetime.timezone.utc).isoformat(timespec="seconds")
-    db.execute("INSERT INTO lots (lot_id, name, created, ares_version, n_items, limits_set) VALUES (?, ?, ?, ?, ?, ?)",
-               (lot_id, name, created, __version__, len(data), int(bool(judged.limits))))
-    marks = ", ".join("?" * (len(ITEM_COLUMNS) + 2))
-    db.executemany(f"INSERT INTO items (lot_id, idx, {', '.join(ITEM_COLUMNS)}) VALUES ({marks})",
-                   [(lot_id, i, *(_num(row[c]) if c in ("x", "y") else str(row[c] or "") for c in ITEM_COLUMNS))
-                    for i, row in enumerate(data)])
+    items = [{"idx": i, **{c: _num(row[c]) if c in NUMERIC_ITEM_COLUMNS else str(row[c] or "") for c in ITEM_COLUMNS},
+              **{c: (None if r.get(c) is None else int(r[c])) for c in BIN_COLUMNS}}
+             for i, (row, r) in enumerate(zip(data, judged.results))]
     figs, checks = [], []
     for i, r in enumerate(judged.results):
         for q, f in (r.get("figures") or {}).items():
-            figs.append((lot_id, i, q, _num(f.get("value")), _num(f.get("se")), f.get("unit") or "",
-                         f.get("verdict") or ""))
+            figs.append({"idx": i, "quantity": q, "value": _num(f.get("value")), "se": _num(f.get("se")),
+                         "unit": f.get("unit") or "", "verdict": f.get("verdict") or ""})
         for k in judged.yields:
-            checks.append((lot_id, i, k, data[i].get(k) or ""))
-    db.executemany("INSERT INTO figures (lot_id, idx, quantity, value, se, unit, verdict) VALUES (?, ?, ?, ?, ?, ?, ?)",
-                   figs)
-    db.executemany("INSERT INTO checks (lot_id, idx, limit_text, outcome) VALUES (?, ?, ?, ?)", checks)
+            checks.append({"idx": i, "limit_text": k, "outcome": data[i].get(k) or ""})
+    screen_cols = [c.name for c in t.screens.c if c.name != "lot_id"]
+    screens = [{c: s.get(c) for c in screen_cols} for s in judged.screens]
+    if db.conn.in_transaction():
+        db.conn.commit()  # (a read before: its transaction ends, the append takes the lock)
+    with write_lock(db.conn) as c:
+        lot_id = int(c.execute(sa.select(sa.func.coalesce(sa.func.max(t.lots.c.lot_id), 0))).scalar()) + 1
+        c.execute(t.lots.insert().values(lot_id=lot_id, name=name, created=created, ares_version=__version__,
+                                         n_items=len(data), limits_set=int(bool(judged.limits))))
+        bins = [{"soft_bin": sb, "hard_bin": b["hard"], "name": b["name"], "count": b["count"]}
+                for sb, b in judged.bins.items()]
+        for table, rowset in ((t.items, items), (t.figures, figs), (t.checks, checks), (t.screens, screens),
+                              (t.bins, bins)):
+            if rowset:
+                c.execute(table.insert(), [{"lot_id": lot_id, **r} for r in rowset])
     return lot_id
 
 
 def lots(db: Db) -> list[dict]:
     """Every lot with its item counts and overall yield (passed / items, errored included)."""
+    counts: dict[int, dict[str, int]] = {}
+    for lot_id, verdict, n in _rows(db, sa.select(t.items.c.lot_id, t.items.c.verdict, sa.func.count())
+                                    .group_by(t.items.c.lot_id, t.items.c.verdict)):
+        counts.setdefault(lot_id, {})[verdict] = n
     out = []
-    for lot_id, name, created, ver, n, limited in db.query(
-            "SELECT lot_id, name, created, ares_version, n_items, limits_set FROM lots ORDER BY lot_id"):
-        counts = dict(db.query("SELECT verdict, COUNT(*) FROM items WHERE lot_id = ? GROUP BY verdict", (lot_id,)))
+    for lot_id, name, created, ver, n, limited in _rows(db, sa.select(
+            t.lots.c.lot_id, t.lots.c.name, t.lots.c.created, t.lots.c.ares_version, t.lots.c.n_items,
+            t.lots.c.limits_set).order_by(t.lots.c.lot_id)):
+        c = counts.get(lot_id, {})
         out.append({"lot_id": lot_id, "name": name, "created": created, "ares_version": ver, "items": n,
-                    "passed": counts.get("pass", 0), "failed": counts.get("FAIL", 0), "errors": counts.get("error", 0),
+                    "passed": c.get("pass", 0), "failed": c.get("FAIL", 0), "errors": c.get("error", 0),
                     "limits_set": bool(limited)})
     return out
 
@@ -174,40 +104,39 @@ def find_lot(db: Db, ref: str) -> int:
     """A lot by id or name (the newest of that name)."""
     from ares.errors import InputError
 
-    rows = db.query("SELECT lot_id FROM lots WHERE name = ? ORDER BY lot_id DESC", (ref,))
-    if not rows and ref.isdigit():
-        rows = db.query("SELECT lot_id FROM lots WHERE lot_id = ?", (int(ref),))
+    rows = _rows(db, sa.select(t.lots.c.lot_id).where(t.lots.c.name == ref).order_by(t.lots.c.lot_id.desc()))
+    if not rows and str(ref).isdigit():
+        rows = _rows(db, sa.select(t.lots.c.lot_id).where(t.lots.c.lot_id == int(ref)))
     if not rows:
-        raise InputError(f"results database {db.target}: no lot '{ref}' (ares lots list shows them)")
+        raise InputError(f"results database {db.name}: no lot '{ref}' (ares lots list shows them)")
     return int(rows[0][0])
-
-
-NUMERIC_ITEM_COLUMNS = ("x", "y")
 
 
 def quantities(db: Db, lot_id: int) -> list[str]:
     """The canonical names of the quantities measured in a lot, sorted."""
-    return [r[0] for r in db.query("SELECT DISTINCT quantity FROM figures WHERE lot_id = ? ORDER BY quantity",
-                                   (lot_id,))]
+    return [r[0] for r in _rows(db, sa.select(t.figures.c.quantity).distinct()
+                                .where(t.figures.c.lot_id == lot_id).order_by(t.figures.c.quantity))]
 
 
 def numeric_columns(db: Db, lot_id: int) -> set[str]:
-    """The columns of ``item_rows`` that hold numbers (wafer x/y, each quantity and its SE);
-    the others are text."""
-    return set(NUMERIC_ITEM_COLUMNS) | {c for q in quantities(db, lot_id) for c in (q, f"{q}_se")}
+    """The columns of ``item_rows`` that hold numbers (wafer x/y, bins, each quantity and its
+    SE); the others are text."""
+    return set(NUMERIC_ITEM_COLUMNS) | set(BIN_COLUMNS) | {c for q in quantities(db, lot_id) for c in (q, f"{q}_se")}
 
 
 def item_rows(db: Db, lot_id: int) -> tuple[list[str], list[tuple]]:
-    """The lot's items, one row each: the traceability columns, then value and SE of every
-    quantity (sorted by name), then every limit's outcome."""
-    items = db.query(f"SELECT idx, {', '.join(ITEM_COLUMNS)} FROM items WHERE lot_id = ? ORDER BY idx", (lot_id,))
+    """The lot's items, one row each: the traceability columns, the bins, then value and SE
+    of every quantity (sorted by name), then every limit's and screen's outcome."""
+    cols_sql = [t.items.c[c] for c in ("idx", *ITEM_COLUMNS, *BIN_COLUMNS)]
+    items = _rows(db, sa.select(*cols_sql).where(t.items.c.lot_id == lot_id).order_by(t.items.c.idx))
     qs = quantities(db, lot_id)
-    ls = [r[0] for r in db.query("SELECT DISTINCT limit_text FROM checks WHERE lot_id = ? ORDER BY limit_text",
-                                 (lot_id,))]
-    figs = {(i, q): (v, s) for i, q, v, s in db.query("SELECT idx, quantity, value, se FROM figures WHERE lot_id = ?",
-                                                      (lot_id,))}
-    chk = {(i, k): o for i, k, o in db.query("SELECT idx, limit_text, outcome FROM checks WHERE lot_id = ?", (lot_id,))}
-    cols = list(ITEM_COLUMNS) + [c for q in qs for c in (q, f"{q}_se")] + ls
+    ls = [r[0] for r in _rows(db, sa.select(t.checks.c.limit_text).distinct()
+                              .where(t.checks.c.lot_id == lot_id).order_by(t.checks.c.limit_text))]
+    figs = {(i, q): (v, s) for i, q, v, s in _rows(db, sa.select(
+        t.figures.c.idx, t.figures.c.quantity, t.figures.c.value, t.figures.c.se).where(t.figures.c.lot_id == lot_id))}
+    chk = {(i, k): o for i, k, o in _rows(db, sa.select(t.checks.c.idx, t.checks.c.limit_text, t.checks.c.outcome)
+                                          .where(t.checks.c.lot_id == lot_id))}
+    cols = list(ITEM_COLUMNS) + list(BIN_COLUMNS) + [c for q in qs for c in (q, f"{q}_se")] + ls
     out = []
     for idx, *rest in items:
         row = list(rest)
@@ -218,16 +147,59 @@ def item_rows(db: Db, lot_id: int) -> tuple[list[str], list[tuple]]:
     return cols, out
 
 
+def screens(db: Db, lot_id: int) -> list[dict]:
+    """The lot's screens (static limits and dynamic PAT limits) as stored."""
+    cols = [c.name for c in t.screens.c if c.name != "lot_id"]
+    return [dict(zip(cols, r)) for r in _rows(db, sa.select(*[t.screens.c[c] for c in cols])
+                                              .where(t.screens.c.lot_id == lot_id).order_by(t.screens.c.screen))]
+
+
+def bins(db: Db, lot_id: int) -> dict[int, dict]:
+    """The lot's bins: {soft bin: {hard, name, count}}."""
+    return {sb: {"hard": hb, "name": nm, "count": n} for sb, hb, nm, n in _rows(db, sa.select(
+        t.bins.c.soft_bin, t.bins.c.hard_bin, t.bins.c.name, t.bins.c["count"]).where(t.bins.c.lot_id == lot_id)
+        .order_by(t.bins.c.soft_bin))}
+
+
+def figures(db: Db, lot_id: int) -> dict[int, dict[str, dict]]:
+    """{item index: {quantity: {value, se, unit, verdict}}} of a lot."""
+    out: dict[int, dict[str, dict]] = {}
+    for i, q, v, s, u, vd in _rows(db, sa.select(t.figures.c.idx, t.figures.c.quantity, t.figures.c.value,
+                                                 t.figures.c.se, t.figures.c.unit, t.figures.c.verdict)
+                                   .where(t.figures.c.lot_id == lot_id)):
+        out.setdefault(i, {})[q] = {"value": v, "se": s, "unit": u, "verdict": vd}
+    return out
+
+
+def lot_info(db: Db, lot_id: int) -> dict:
+    """The lot's row: name, created, ARES version, items, limits set."""
+    r = _rows(db, sa.select(t.lots.c.name, t.lots.c.created, t.lots.c.ares_version, t.lots.c.n_items,
+                            t.lots.c.limits_set).where(t.lots.c.lot_id == lot_id))[0]
+    return dict(zip(("name", "created", "ares_version", "items", "limits_set"), r), lot_id=lot_id)
+
+
+def unit_of(db: Db, quantity: str) -> str:
+    """The unit a quantity is stored in ("" when no lot has it)."""
+    r = _rows(db, sa.select(t.figures.c.unit).where(t.figures.c.quantity == quantity, t.figures.c.unit != "").limit(1))
+    return r[0][0] if r else ""
+
+
+def values(db: Db, lot_id: int, quantity: str) -> list[float]:
+    """Every item's value of ``quantity`` in a lot (items without it left out)."""
+    return [float(v) for (v,) in _rows(db, sa.select(t.figures.c.value).where(
+        t.figures.c.lot_id == lot_id, t.figures.c.quantity == quantity, t.figures.c.value.is_not(None)))]
+
+
 def quantity_stats(db: Db, lot_id: int) -> dict[str, tuple[int, float | None, float | None]]:
     """Quantity -> (items measured, median, IQR) in a lot (computed here: portable SQL)."""
     import numpy as np
 
     vals: dict[str, list[float]] = {}
-    for q, v in db.query("SELECT quantity, value FROM figures WHERE lot_id = ? AND value IS NOT NULL", (lot_id,)):
+    for q, v in _rows(db, sa.select(t.figures.c.quantity, t.figures.c.value)
+                      .where(t.figures.c.lot_id == lot_id, t.figures.c.value.is_not(None))):
         vals.setdefault(q, []).append(float(v))
     out = {}
     for q, vs in sorted(vals.items()):
-        a = np.asarray(vs)
-        p25, p50, p75 = np.percentile(a, [25, 50, 75])
+        p25, p50, p75 = np.percentile(np.asarray(vs), [25, 50, 75])
         out[q] = (len(vs), float(p50), float(p75 - p25))
     return out

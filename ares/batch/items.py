@@ -86,6 +86,12 @@ def _figures_of_run(path: Path) -> tuple[dict, str]:
     from ares.report import read_run, tables
 
     run = read_run(path, verify_arrays=True)  # incomplete / corrupt: the item's one line (ares.rundir.check)
+    from ares.rundir import manifest
+    from ares.rundir.check import RunDamaged
+
+    found = manifest.problems(run.dir, by=manifest.REPORT)  # (the run's own files: read_run checked them)
+    if found:
+        raise RunDamaged(manifest.sentence(run.dir, found) + f"; `ares report {run.dir}` writes the reports anew")
     kf = tables.compute_key_figures(run)
     return ({k: {"label": v["label"], "value": v["value"], "se": v["se"], "unit": v["unit"],
                  "verdict": v.get("verdict", ""), "note": v["note"]} for k, v in kf.items()}, run.status)

@@ -1,10 +1,12 @@
-"""The lot PDF, for lots of any size: summary pages (counts, yield per limit with its
-denominator, the distribution of each limited quantity, wafer maps of pass/fail, of bins
-and of each limited quantity with failed and errored dies coloured) and an appendix with
-every item and every error, paginated -- nothing left out, nothing clipped without saying so.
+"""The lot PDF, for lots of any size: summary pages (counts, yield per limit and per screen
+with its denominator, the bins with their yields, every quantity's count, median and
+spread), the distribution of every quantity (its static and dynamic limits drawn), wafer
+maps of pass/fail, of bins and of each limited quantity with failed and errored dies
+coloured, and an appendix with every item and every error, paginated -- nothing left out,
+nothing clipped without saying so (every column of every item is in lot.csv / lot.h5).
 
-Bins: 0 every limit passed (or not tested), k the first failed limit (in the lot file's
-order), E could not be analysed.
+Bins: the soft bin of ``ares.batch.screens`` (1 pass, a limit's or a screen's bin, 99 could
+not be analysed); a lot without limits or screens has none ("-").
 """
 
 from __future__ import annotations
@@ -18,13 +20,28 @@ ROWS_PER_PAGE = 58
 COLOURS = {"pass": "#2ca02c", "FAIL": "#d62728", "error": "#7f7f7f", "no limits set": "#1f77b4"}
 
 
-def bin_of(r: dict, limit_texts: list[str]) -> str:
-    if r.get("status") == "error":
-        return "E"
-    for k, lt in enumerate(limit_texts, 1):
-        if r.get("checks", {}).get(lt) is False:
-            return str(k)
-    return "0"
+def bin_of(r: dict) -> str:
+    return "-" if r.get("soft_bin") is None else str(r["soft_bin"])
+
+
+def _stats(j) -> list[list[str]]:
+    """Every quantity: items measured, median, IQR, min, max, unit."""
+    import numpy as np
+
+    from ares.batch.lot_report import find
+
+    rows = []
+    for q in j.quantities:
+        fs = [find(r.get("figures") or {}, q) or {} for r in j.results]
+        v = np.array([float(f["value"]) for f in fs if f.get("value") is not None
+                      and math.isfinite(float(f["value"]))])
+        unit = next((f.get("unit") for f in fs if f.get("unit")), "")
+        if v.size:
+            p25, p50, p75 = np.percentile(v, [25, 50, 75])
+            rows.append([q, str(v.size), f"{p50:.5g}", f"{p75 - p25:.3g}", f"{v.min():.5g}", f"{v.max():.5g}", unit])
+        else:
+            rows.append([q, "0", "-", "-", "-", "-", unit])
+    return rows
 
 
 def _cell(r: dict, q: str) -> str:
@@ -53,21 +70,49 @@ def _summary(j, lot_name: str):
         counts[v] = counts.get(v, 0) + 1
     sub = f"{n} item(s): " + ", ".join(f"{c} {k}" for k, c in counts.items())
     fig = new_page(f"Lot report: {lot_name}", sub)
-    if j.limits:
-        rows = [[f"{k}. {lt}", str(a), str(b), f"{100 * a / b:.1f} %" if b else "n/a"]
-                for k, (lt, (a, b)) in enumerate(j.yields.items(), 1)]
-        y = text_table(fig, (0.06, 0.92, 0.88), ["bin. limit", "passed", "of items", "yield"], rows,
-                       [0.55, 0.13, 0.13, 0.19], fontsize=8, title="Yield per limit")
-        fig.text(0.06, y - 0.01, "The denominator is every item of the lot: an item that could not be analysed "
-                                 "counts as failed; an item without the quantity is 'not tested' for that limit.",
-                 fontsize=7, color="0.3", va="top", wrap=True)
-    else:
-        fig.text(0.06, 0.9, f"{NO_LIMITS}: the lot file declares no limits, so no item is judged pass or fail.",
-                 fontsize=10, va="top")
+    y = 0.92
+    if j.yields:
+        scr = {s["screen"]: s for s in j.screens}
+        rows = [[lt + (f" [{scr[lt]['low']:.4g}, {scr[lt]['high']:.4g}]" if scr.get(lt, {}).get("kind") == "dynamic"
+                       and scr[lt].get("low") is not None else ""), str(a), str(b), f"{100 * a / b:.1f} %" if b else "n/a"]
+                for lt, (a, b) in j.yields.items()]
+        y = text_table(fig, (0.06, y, 0.88), ["limit or screen", "passed", "of items", "yield"], rows,
+                       [0.58, 0.12, 0.12, 0.18], fontsize=7, title="Yield per limit and per screen")
+        fig.text(0.06, y - 0.005, "The denominator is every item of the lot: an item that could not be analysed "
+                                  "counts as failed; an item without the quantity (or failed before a screen) is "
+                                  "'not tested' for it. Screens: median +- k robust sigma of the items that passed "
+                                  "the static limits.", fontsize=6.5, color="0.3", va="top", wrap=True)
+        y -= 0.05
+    if j.bins:
+        rows = [[str(b["hard"]), str(sb), b["name"], str(b["count"]), f"{100 * b['count'] / n:.1f} %"]
+                for sb, b in j.bins.items()]
+        y = text_table(fig, (0.06, y, 0.88), ["hard bin", "soft bin", "meaning", "items", "yield"], rows,
+                       [0.1, 0.1, 0.56, 0.1, 0.14], fontsize=7, title="Bins")
+        y -= 0.02
+    if not j.yields:
+        fig.text(0.06, y, f"{NO_LIMITS}: the lot file declares no limits or screens (or there is no lot file), "
+                          f"so no item is judged pass or fail or binned.", fontsize=9, va="top")
+        y -= 0.04
     errs = sum(r.get("status") == "error" for r in j.results)
-    fig.text(0.06, 0.08, f"Every item is listed in the appendix ({n} item(s)); every error message in full "
-                         f"({errs} error(s)) after it.", fontsize=8, va="bottom")
+    fig.text(0.06, 0.05, f"Every item is listed in the appendix ({n} item(s)); every error message in full "
+                         f"({errs} error(s)) after it; every quantity's median and spread on the next page(s).",
+             fontsize=8, va="bottom")
     return fig
+
+
+def _stats_pages(j):
+    from ares.report.plots import new_page, text_table
+
+    rows = _stats(j)
+    per = 60
+    pages = []
+    for p in range(0, len(rows), per):
+        fig = new_page(f"Every quantity over the lot ({p // per + 1}/{math.ceil(len(rows) / per)})",
+                       f"{len(rows)} quantities of {len(j.results)} item(s); every value in lot.csv / lot.h5")
+        text_table(fig, (0.04, 0.92, 0.92), ["quantity", "items", "median", "IQR", "min", "max", "unit"],
+                   rows[p:p + per], [0.36, 0.07, 0.12, 0.1, 0.12, 0.12, 0.11], fontsize=6.5)
+        pages.append(fig)
+    return pages
 
 
 def _wafer_pages(j):
@@ -92,19 +137,19 @@ def _wafer_pages(j):
               [f"{k} ({v.count(k)})" for k in COLOURS if k in v], loc="upper left", bbox_to_anchor=(1.0, 1.0),
               fontsize=7)
     ax.set(xlabel="wafer x", ylabel="wafer y", title="verdict per die", aspect="equal")
-    lts = list(j.yields)
-    bins = [bin_of(r, lts) for r in placed]
-    names = sorted(set(bins), key=lambda b: (b == "E", b.zfill(4)))
+    bins = [bin_of(r) for r in placed]
+    names = sorted(set(bins), key=lambda b: (b == "-", b.zfill(4)))
     bx = fig.add_axes([0.12, 0.08, 0.76, 0.37])
     import matplotlib
 
     cmap = matplotlib.colormaps["tab10"]
-    col = {b: ("#2ca02c" if b == "0" else "#7f7f7f" if b == "E" else cmap((int(b) + 2) % 10)) for b in names}
+    col = {b: ("#2ca02c" if b == "1" else "#7f7f7f" if b in ("99", "-") else cmap((int(b) + 2) % 10)) for b in names}
     bx.scatter(xs, ys, c=[col[b] for b in bins], s=size, marker="s")
+    label = {str(sb): b["name"] for sb, b in j.bins.items()}
     bx.legend([Line2D([], [], ls="none", marker="s", color=col[b]) for b in names],
-              [f"bin {b}: " + ("pass" if b == "0" else "error" if b == "E" else lts[int(b) - 1]) +
-               f" ({bins.count(b)})" for b in names], loc="upper left", bbox_to_anchor=(1.0, 1.0), fontsize=6)
-    bx.set(xlabel="wafer x", ylabel="wafer y", title="bin per die (first failed limit)", aspect="equal")
+              [f"bin {b}: {label.get(b, 'not binned')} ({bins.count(b)})" for b in names],
+              loc="upper left", bbox_to_anchor=(1.0, 1.0), fontsize=6)
+    bx.set(xlabel="wafer x", ylabel="wafer y", title="bin per die (soft bin)", aspect="equal")
     pages = [fig]
     for lim in j.limits:
         fig = Figure(figsize=A4)
@@ -133,26 +178,40 @@ def _wafer_pages(j):
 
 
 def _distributions(j):
-    from matplotlib.figure import Figure
+    """Every quantity's histogram, six a page; its static limits (red dashed) and dynamic
+    screen limits (orange dotted) drawn."""
+    from ares.batch.lot_report import find, limit_text
+    from ares.batch.vocabulary import canonical
+    from ares.report.plots import new_page
 
-    from ares.batch.lot_report import find
-    from ares.report.plots import A4
-
-    pages = []
+    lines: dict[str, list[tuple[float, str]]] = {}
     for lim in j.limits:
-        vals = [(find(r.get("figures") or {}, lim.quantity) or {}).get("value") for r in j.results]
+        scr = next((s for s in j.screens if s["screen"] == limit_text(lim)), {})
+        lines.setdefault(canonical(lim.quantity), []).extend((b, "static") for b in (scr.get("low"), scr.get("high"))
+                                                             if b is not None)
+    for s_ in j.screens:
+        if s_["kind"] == "dynamic":
+            lines.setdefault(canonical(s_["quantity"]), []).extend(
+                (b, "dynamic") for b in (s_.get("low"), s_.get("high")) if b is not None)
+    qs = [canonical(lim.quantity) for lim in j.limits]
+    qs += [q for q in j.quantities if q not in qs]
+    plots = []
+    for q in qs:
+        vals = [(find(r.get("figures") or {}, q) or {}).get("value") for r in j.results]
         vals = [float(v) for v in vals if v is not None and math.isfinite(float(v))]
-        if not vals:
-            continue
-        fig = Figure(figsize=A4)
-        fig.text(0.5, 0.97, f"{lim.quantity} over the lot", ha="center", va="top", fontsize=13, weight="bold")
-        ax = fig.add_axes([0.12, 0.55, 0.78, 0.35])
-        ax.hist(vals, bins=min(50, max(5, int(math.sqrt(len(vals))))), color="C0")
-        for b in (lim.min, lim.max):
-            if b is not None:
-                ax.axvline(b, color="C3", ls="--", lw=1)
-        ax.set(xlabel=lim.quantity, ylabel="items",
-               title=f"distribution ({len(vals)} of {len(j.results)} items measured); limit {lim.bounds()}")
+        if vals:
+            plots.append((q, vals))
+    pages = []
+    for p in range(0, len(plots), 6):
+        fig = new_page(f"Distributions ({p // 6 + 1}/{math.ceil(len(plots) / 6)})",
+                       "items per value; red dashed: static limits, orange dotted: dynamic (PAT) limits")
+        for k, (q, vals) in enumerate(plots[p:p + 6]):
+            ax = fig.add_axes([0.1 + 0.47 * (k % 2), 0.66 - 0.3 * (k // 2), 0.37, 0.22])
+            ax.hist(vals, bins=min(50, max(5, int(math.sqrt(len(vals))))), color="C0")
+            for b, kind in lines.get(q, []):
+                ax.axvline(b, color="C3" if kind == "static" else "C1", ls="--" if kind == "static" else ":", lw=1)
+            ax.set_title(f"{q} ({len(vals)} of {len(j.results)})", fontsize=7)
+            ax.tick_params(labelsize=6)
         pages.append(fig)
     return pages
 
@@ -169,12 +228,11 @@ def _appendix(j):
     if base in items:
         base = str(Path(base).parent)
     show = [lim.quantity for lim in j.limits][:3] or j.quantities[:3]
-    lts = list(j.yields)
     lines = []  # every item, its name wrapped (never clipped) over as many lines as it needs
     for k, r in enumerate(j.results, 1):
         name = os.path.relpath(r["item"], base) if base else r["item"]
         parts = _wrap(name, 34)
-        first = [str(k), parts[0], r.get("sensor", "") or "-", verdict(r, j.limits), bin_of(r, lts)] + \
+        first = [str(k), parts[0], r.get("sensor", "") or "-", verdict(r, j.limits), bin_of(r)] + \
             [_cell(r, q) for q in show]
         lines.append(first)
         lines += [["", p, "", "", ""] + [""] * len(show) for p in parts[1:]]
@@ -189,7 +247,8 @@ def _appendix(j):
     for p in range(n_pages):
         chunk = lines[p * ROWS_PER_PAGE:(p + 1) * ROWS_PER_PAGE]
         fig = new_page(f"Appendix: every item ({p + 1}/{n_pages})",
-                       f"{len(j.results)} item(s), paths relative to {base or '/'}")
+                       f"{len(j.results)} item(s), paths relative to {base or '/'}; {len(show)} of "
+                       f"{len(j.quantities)} quantities shown (all in lot.csv / lot.h5)")
         body = [fmt(header), "-" * len(fmt(header))] + [fmt(c) for c in chunk]
         fig.text(0.04, 0.93, "\n".join(body), fontsize=size, va="top", family="monospace", linespacing=1.25)
         pages.append(fig)
@@ -214,7 +273,7 @@ def write_pdf(j, path: Path, lot_name: str) -> None:
 
     from ares.report.plots import RC
 
-    pages = [_summary(j, lot_name), *_distributions(j), *_wafer_pages(j), *_appendix(j)]
+    pages = [_summary(j, lot_name), *_stats_pages(j), *_distributions(j), *_wafer_pages(j), *_appendix(j)]
     tmp = path.with_name(path.name + ".tmp")
     with matplotlib.rc_context(RC), PdfPages(tmp) as pdf:
         for f in pages:

@@ -8,7 +8,7 @@ from __future__ import annotations
 import csv
 import io
 import json
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from pathlib import Path
 
 import numpy as np
@@ -19,7 +19,9 @@ class Judged:
     results: list[dict]  # per item (items.process), with "sensor", "x", "y", "checks", "passed"
     limits: list  # ares.protocol.scan.Limit
     quantities: list[str]  # the figure names in the table (union over the items, first-seen order)
-    yields: dict[str, tuple[int, int]]  # limit text -> (passed, judged)
+    yields: dict[str, tuple[int, int]]  # limit or screen text -> (passed, judged)
+    screens: list[dict] = field(default_factory=list)  # static limits and dynamic screens (ares.batch.screens)
+    bins: dict[int, dict] = field(default_factory=dict)  # soft bin -> {hard, name, count}
 
 
 def limit_text(lim) -> str:
@@ -79,14 +81,14 @@ def judge(results: list[dict], limits, meta: dict[str, dict] | None = None) -> J
 def verdict(r: dict, limits) -> str:
     if r.get("status") == "error":
         return "error"
-    if not limits:
+    if not limits and r.get("hard_bin") is None:
         return NO_LIMITS
     return "pass" if r.get("passed") else "FAIL"
 
 
 # the fixed columns of lot.csv / lot.h5, in this order, whatever the items' kinds
 COLUMNS = ("item", "serial", "lot", "wafer", "x", "y", "kind", "status", "verdict", "error", "run_dir",
-           "content_hash", "ares_version", "started")
+           "content_hash", "ares_version", "started", "hard_bin", "soft_bin")
 
 
 def rows(j: Judged, lot: str = "") -> tuple[list[dict], list[str]]:
@@ -98,7 +100,8 @@ def rows(j: Judged, lot: str = "") -> tuple[list[dict], list[str]]:
                "x": r.get("x"), "y": r.get("y"), "kind": r.get("kind", ""), "status": r.get("status"),
                "verdict": verdict(r, j.limits), "error": r.get("error", ""),
                "run_dir": r["item"] if r.get("kind") == "run" else "", "content_hash": r.get("hash", ""),
-               "ares_version": r.get("ares_version", ""), "started": r.get("started", "")}
+               "ares_version": r.get("ares_version", ""), "started": r.get("started", ""),
+               "hard_bin": r.get("hard_bin"), "soft_bin": r.get("soft_bin")}
         for q in j.quantities:
             f = (r.get("figures") or {}).get(q) or {}
             row[q] = f.get("value")
@@ -132,7 +135,7 @@ def write_h5(j: Judged, path: Path, lot_name: str) -> None:
         g = f.create_group("items")
         for c in cols:
             vals = [r.get(c) for r in data]
-            if c in j.quantities or c.endswith("_se") or c in ("x", "y"):
+            if c in j.quantities or c.endswith("_se") or c in ("x", "y", "hard_bin", "soft_bin"):
                 g.create_dataset(c, data=np.array([np.nan if v is None else float(v) for v in vals], np.float64))
             else:
                 g.create_dataset(c, data=np.array(["" if v is None else str(v) for v in vals], dtype=object),

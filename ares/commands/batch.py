@@ -36,8 +36,9 @@ def add_arguments(p) -> None:
     p.add_argument("--split", type=int, default=0, metavar="N", help="frame chunks for --stack (default: workers)")
     p.add_argument("--verify", action="store_true", help="cache keys from the full content hash of every file "
                                                          "(default: size, time and the first/last blocks)")
-    p.add_argument("--db", metavar="PATH|URL", help="results database the lot is appended to (default "
-                                                    "OUT/results.sqlite; postgresql://... for PostgreSQL)")
+    p.add_argument("--db", metavar="PATH|URL", help="results database the lot is appended to: a SQLite file or "
+                                                    "any SQLAlchemy URL (sqlite:///path, postgresql+psycopg://"
+                                                    "user@host/db); default OUT/results.sqlite")
     p.add_argument("--no-db", action="store_true", help="do not append the lot to a results database")
     p.add_argument("--json", action="store_true", help="print the results as JSON")
     p.add_argument("--quiet", "-q", action="store_true", help="no progress line")
@@ -79,19 +80,24 @@ def _absolute(spec: str) -> str:
 
 def run(args) -> int:
     from ares.batch import lot_pdf, lot_report
-    from ares.batch.cluster import make_client, progress_line, run_items
+    from ares.batch.cluster import close_client, make_client, progress_line, run_items
     from ares.errors import InputError
     from ares.protocol.lot import load_lot
 
     lot = load_lot(args.lot) if args.lot else None
     paths = [_absolute(p) for p in args.items] + [_absolute(str(it.path)) for it in (lot.items if lot else ())]
     if not paths and not args.stack:
-        raise InputError("ares batch: no items (give run directories / data sets, or a lot file with <item>s)")
+        raise InputError("no items (give run directories / data sets, or a lot file with <item>s)")
     from ares.hardware.stackfiles import split_spec
 
     for p in paths:
         if not split_spec(p)[0].exists():
             raise InputError(f"{p}: no such file or directory")
+    if not args.no_db and not args.stack:  # an unusable database is said before the work, not after
+        from ares.batch import db
+
+        with db.connect(args.db or str(Path(args.out) / "results.sqlite")):
+            pass
     client = make_client(args.scheduler, args.workers)
     try:
         if args.stack:
@@ -117,34 +123,46 @@ def run(args) -> int:
                                 rerun_into=str((out / "reruns").resolve()) if args.rerun else None,
                                 verify=args.verify)
     finally:
-        client.close()
-        cluster = getattr(client, "cluster", None)
-        if cluster is not None:
-            cluster.close()
-    meta = {_absolute(str(it.path)): {"sensor": it.sensor, "x": it.x, "y": it.y} for it in (lot.items if lot else ())}
+        close_client(client)
+    meta = {_absolute(str(it.path)): {"sensor": it.sensor, "x": it.x, "y": it.y, "wafer": it.wafer}
+            for it in (lot.items if lot else ())}
     judged = lot_report.judge(results, lot.limits if lot else (), meta)
+    from ares.batch.screens import screen
+
+    screen(judged, lot.screens if lot else (), lot.limit_bins if lot else ())  # dynamic limits, then bins
     name = lot.name if lot else out.resolve().name
     from ares.rundir.files import write_atomic
 
     write_atomic(out / "lot.csv", lot_report.to_csv(judged, name).encode())
     lot_report.write_h5(judged, out / "lot.h5", name)
     lot_pdf.write_pdf(judged, out / "lot.pdf", name)
+    from ares.batch import stdf
+
+    stdf.write(stdf.from_judged(judged, name), out / "lot.stdf")  # for yield tools
     (out / "lot.partial.csv").unlink(missing_ok=True)
     if not args.no_db:
         from ares.batch import db
 
-        with db.connect(args.db or str(out / "results.sqlite")) as conn:
-            db.append_lot(conn, name, judged)
+        from ares.batch.dbconn import ResultsDbError
+
+        try:
+            with db.connect(args.db or str(out / "results.sqlite")) as conn:
+                db.append_lot(conn, name, judged)
+        except ResultsDbError as exc:
+            raise ResultsDbError(f"{exc}; the lot is not in it, its files are ({out}/lot.csv, lot.h5, lot.pdf, lot.stdf): "
+                                 f"run ares batch again to append it (its items come from the cache)") from None
     if args.json:
         print(json.dumps({"lot": name, "yield": judged.yields, "items": results}, indent=2))
     else:
         n_err = sum(r.get("status") == "error" for r in results)
         n_cached = sum(bool(r.get("cached")) for r in results)
         print(f"lot {name}: {len(results)} item(s), {n_cached} from the cache, {n_err} failed; "
-              f"report in {out}/lot.csv, lot.h5, lot.pdf")
+              f"report in {out}/lot.csv, lot.h5, lot.pdf, lot.stdf")
         for k, (a, b) in judged.yields.items():
             print(f"  yield {k}: {a}/{b} ({b} item(s) of the lot, errored ones count as failed)")
-        if not judged.limits:
+        for sb, b in judged.bins.items():
+            print(f"  bin {b['hard']}/{sb} {b['name']}: {b['count']}/{len(results)}")
+        if not judged.limits and not judged.bins:
             print(f"  {lot_report.NO_LIMITS}: no item is judged pass or fail")
         for r in results:
             if r.get("rerun_of"):

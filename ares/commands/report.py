@@ -61,6 +61,10 @@ def give_gain(run_dir, k: float, text: str) -> None:
             doc["analyses"][name] = SCAN_ANALYSES[name](record)
     with storage(d / "scan_results.json"):
         dump_json(d / "scan_results.json", doc)
+        from ares.rundir import manifest
+
+        if (d / manifest.MANIFEST).exists():  # rewritten by ARES on purpose: its new hash recorded
+            manifest.record(d, [d / "scan_results.json"], by=manifest.RUN)
 
 
 def run(args) -> int:
@@ -80,7 +84,18 @@ def run(args) -> int:
         clean_report_leftovers(r.dir)
         set_reports_state(r.dir, "writing", **owner())
         r = read_run(args.run_dir)
+    from ares.rundir import manifest
+
+    for n in r.notes:  # (files of the run that are missing: named, whether the report rebuilds them or not)
+        if manifest.MANIFEST in n:
+            print(f"note: {r.dir}: {n}", file=sys.stderr)
+    altered = manifest.problems(r.dir, by=manifest.REPORT)  # reports changed since ARES wrote them
     files = write_reports(args.run_dir, formats, pdf_path=args.pdf, csv_dir=args.csv, h5_path=args.hdf5)
+    written = {p.resolve() for p in files}
+    for rel, what in altered:  # never rewritten (nor left) without saying so
+        fate = "written anew now" if (r.dir / rel).resolve() in written else "left as found"
+        print(f"note: {r.dir / rel} was {what.replace('altered', 'altered after ARES wrote it', 1)}: {fate}",
+              file=sys.stderr)
     if repair:
         set_reports_state(r.dir, "complete")
     note = r.incompleteness()

@@ -51,7 +51,13 @@ def write_reports(run_dir, formats=DEFAULT_FORMATS, out_dir=None, *, pdf_path=No
             p = _pdf_path(run, out_dir, pdf_path)
             helper.go(p.with_name(p.name + ".parts"))
     try:
-        return _write(run, formats, out_dir, pdf_path, csv_dir, h5_path, helper)
+        files = _write(run, formats, out_dir, pdf_path, csv_dir, h5_path, helper)
+        from ares.rundir import manifest
+        from ares.rundir.files import storage
+
+        with storage(run.dir / manifest.MANIFEST):  # the reports inside the run directory, with their hashes
+            manifest.record(run.dir, files)
+        return files
     except BaseException as exc:  # a signal abandoned the reports, or an error: the helper ends now
         if helper is not None:
             helper.kill()

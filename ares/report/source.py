@@ -212,4 +212,19 @@ def read_run(run_dir: str | Path, verify_arrays: bool = False) -> Run:
             raise InputError(f"{d / broken[0]}: a stage's arrays are missing or not HDF5"
                              + (f" ({len(broken)} stage files)" if len(broken) > 1 else "")
                              + f"; `ares rerun {d}` makes the run again")
+    _check_manifest(d, verify_arrays, notes)
     return Run(d, meta, stages, sr, has_h5, _attribution(d, meta), notes)
+
+
+def _check_manifest(d: Path, hashes: bool, notes: list[str]) -> None:
+    """Every file the run wrote against ``manifest.json``: any altered one raises
+    ``RunDamaged`` naming them all; a missing one (summary.csv, scan_results.json: the
+    report rebuilds them; stages: ``check_run`` said so already) is a note naming it."""
+    from ares.rundir import manifest
+    from ares.rundir.check import RunDamaged
+
+    found = manifest.problems(d, hashes=hashes, by=manifest.RUN)
+    altered = [(rel, what) for rel, what in found if what != "missing"]
+    if altered:
+        raise RunDamaged(manifest.sentence(d, found) + f"; `ares rerun {d}` makes the run again")
+    notes += [f"{rel} is missing (the run wrote it: {manifest.MANIFEST})" for rel, _ in found]

@@ -32,12 +32,16 @@ def compare(a, b) -> tuple[int, int, list[str]]:
 
 
 def original_damage(rec) -> str:
-    """"" when the original run directory is as written, else the one sentence of
-    ``ares.rundir.check`` (incomplete / corrupt: stage N ...)."""
+    """"" when the original run directory is as written, else one sentence: that of
+    ``ares.rundir.check`` (incomplete / corrupt: stage N ...) and every file of the manifest
+    (``ares.rundir.manifest``) that is missing or altered, reports included."""
     from ares.rundir.check import RunDamaged, check_run
 
+    from ares.rundir import manifest
+
+    found = manifest.problems(rec.dir)  # every file the run and its reports wrote
     try:
         check_run(rec.dir, rec.meta, rec.stages, arrays=True)
     except RunDamaged as exc:
-        return str(exc)
-    return ""
+        return str(exc) + (f"; and {manifest.sentence(rec.dir, found)}" if found else "")
+    return manifest.sentence(rec.dir, found) if found else ""

@@ -43,6 +43,8 @@ Layout (all paths relative to the run directory)::
                         Ps_dn2: ares.labels.with_unit) (rewritten atomically per stage);
                         every HDF5 dataset carries its unit as attribute "unit"
     scan_results.json   scan-level analyses (PTC fit ...) and limit checks, at the end
+    manifest.json       SHA-256 and size of every file above (and of the reports, as they
+                        are written): ``ares.rundir.manifest``
 
 Each stage's files are flushed (fsync) before the next stage starts, so killing a run
 after k stages leaves k complete, readable stages. A stage commits when its JSON appears
@@ -126,6 +128,9 @@ class RunWriter:
                         "previous_status": self.meta.get("status"), "previous_message": self.meta.get("message")})
         self.meta.update(owner(), status="running", message="", finished=None, resumed=resumed)
         self.meta.pop("reports", None)  # (written again at its end)
+        from ares.rundir import manifest
+
+        manifest.forget(self.dir)  # (this run writes again: swept anew at its end)
         for leftover in (self.dir / "stages").glob("*.tmp"):  # a stage write the kill cut short
             leftover.unlink()
         recorded = self.meta["stage_sha256"] = dict(self.meta.get("stage_sha256") or {})
@@ -290,6 +295,10 @@ class RunWriter:
             with storage(self.dir / "scan_results.json"):
                 dump_json(self.dir / "scan_results.json", doc)
         self.meta.update(status=status, message=message, finished=time.strftime("%Y-%m-%dT%H:%M:%S%z"))
+        from ares.rundir import manifest
+
+        with storage(self.dir / manifest.MANIFEST):  # every file the run wrote, with its hash
+            manifest.sweep(self.dir)
         self._write_meta()
 
     def set_reports(self, state: str, **extra) -> None:

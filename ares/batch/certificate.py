@@ -1,0 +1,134 @@
+"""A certificate of performance per sensor (``ares lots certificate LOT [ITEM]``): one A4
+page a sensor, from the results database alone -- the sensor's identity (serial, lot,
+wafer and die position, item), its bin and verdict, every key figure with its SE, unit,
+the static limit and the dynamic (part-average-testing) limit on it and the outcome, and
+the traceability of the measurement (ARES version of the item and of the lot, the item's
+content hash, the SHA-256 of its run directory's manifest when the directory is at hand,
+the measurement date, the lot date and this certificate's date).
+"""
+
+from __future__ import annotations
+
+import datetime
+import hashlib
+from pathlib import Path
+
+
+PER_PAGE = 48  # key figures on the first page (below them: the traceability)
+
+
+def select(cols: list[str], rows: list[tuple], ref: str | None) -> list[int]:
+    """The indices of the lot's items ``ref`` names (serial, item path or its last part, or
+    ``#N`` the N-th item from 1); every item when ``ref`` is None."""
+    from ares.errors import InputError
+
+    if ref is None:
+        return list(range(len(rows)))
+    if ref.startswith("#") and ref[1:].isdigit() and 1 <= int(ref[1:]) <= len(rows):
+        return [int(ref[1:]) - 1]
+    s, it = cols.index("serial"), cols.index("item")
+    hit = [i for i, r in enumerate(rows) if ref in (r[s], r[it], Path(r[it]).name)]
+    if not hit:
+        raise InputError(f"no item '{ref}' in the lot (give a serial, an item path or #N)")
+    return hit
+
+
+def _manifest_sha(run_dir: str) -> str:
+    p = Path(run_dir or "") / "manifest.json"
+    if run_dir and p.is_file():
+        return hashlib.sha256(p.read_bytes()).hexdigest()
+    return "not available (the run directory is not at hand here)" if run_dir else "not a run directory"
+
+
+def _limit_cells(q: str, screens: list[dict], outcome: dict) -> tuple[str, str, str]:
+    from ares.batch.vocabulary import canonical
+
+    static, dynamic, verdicts = [], [], []
+    for s in screens:
+        if canonical(s["quantity"]) != q:
+            continue
+        if s["kind"] == "static":
+            static.append(" and ".join(x for x in (f">= {s['low']:g}" if s["low"] is not None else "",
+                                                   f"<= {s['high']:g}" if s["high"] is not None else "") if x))
+        elif s["low"] is not None:
+            dynamic.append(f"{s['low']:.5g} .. {s['high']:.5g} (k={s['k']:g})")
+        else:
+            dynamic.append("not set (too few items)")
+        verdicts.append(outcome.get(s["screen"]) or "not tested")
+    return "; ".join(static) or "none", "; ".join(dynamic) or "none", ", ".join(verdicts) or "-"
+
+
+def pages(db, lot_id: int, which: list[int]):
+    """The certificate pages (matplotlib figures) of the lot's items ``which``."""
+    from ares import __version__
+    from ares.analysis.stats.estimate import format_value
+    from ares.batch import db as rdb
+    from ares.report.plots import new_page, text_table
+
+    info = rdb.lot_info(db, lot_id)
+    cols, rows = rdb.item_rows(db, lot_id)
+    figs = rdb.figures(db, lot_id)
+    screens = rdb.screens(db, lot_id)
+    bins = rdb.bins(db, lot_id)
+    today = datetime.datetime.now(datetime.timezone.utc).isoformat(timespec="seconds")
+    out = []
+    for i in which:
+        r = dict(zip(cols, rows[i]))
+        fig = new_page(f"Certificate of performance: {r['serial'] or Path(r['item']).name}",
+                       f"lot {info['name']} (#{lot_id}), item {i + 1} of {len(rows)}")
+        pos = "-" if r["x"] is None else f"x {r['x']:g}, y {r['y']:g}"
+        b = bins.get(r["soft_bin"]) if r["soft_bin"] is not None else None
+        ident = [["serial", r["serial"] or "-"], ["lot", info["name"]], ["wafer", r["wafer"] or "-"],
+                 ["die position", pos], ["item", r["item"]], ["kind", r["kind"] or "-"],
+                 ["verdict", r["verdict"]],
+                 ["bin", "not binned (the lot sets no limits or screens)" if b is None
+                  else f"hard {r['hard_bin']}, soft {r['soft_bin']}: {b['name']}"]]
+        if r["error"]:
+            ident.append(["error", r["error"]])
+        y = text_table(fig, (0.06, 0.92, 0.88), ["identity", ""], ident, [0.22, 0.78], fontsize=8,
+                       max_chars=[20, 110])
+        rowsf = []
+        for q, f in sorted(figs.get(i, {}).items()):
+            st, dy, v = _limit_cells(q, screens, r)
+            val = format_value(f["value"], f["se"]) if f["value"] is not None else "not available"
+            se = "" if f["value"] is None else ("SE not available" if f["se"] is None else "")
+            rowsf.append([q, f"{val} {f['unit'] or ''}".strip() + (f" ({se})" if se else ""), st, dy, v])
+        head = ["quantity", "value ± SE, unit", "limit", "dynamic limit", "outcome"]
+        w, mc = [0.3, 0.26, 0.16, 0.18, 0.1], [44, 40, 24, 28, 16]
+        rowsf = rowsf or [["no figures", "", "", "", ""]]
+        y = text_table(fig, (0.06, y - 0.02, 0.88), head, rowsf[:PER_PAGE], w, fontsize=6.5,
+                       title=f"Key figures ({len(rowsf)})", max_chars=mc)
+        more = []
+        for k in range(PER_PAGE, len(rowsf), 2 * PER_PAGE):  # (a sensor with very many figures: continued)
+            cont = new_page(f"Certificate of performance: {r['serial'] or Path(r['item']).name} (continued)",
+                            f"lot {info['name']} (#{lot_id}), item {i + 1} of {len(rows)}")
+            text_table(cont, (0.06, 0.92, 0.88), head, rowsf[k:k + 2 * PER_PAGE], w, fontsize=6.5, max_chars=mc)
+            more.append(cont)
+        trace = [["item measured", r["started"] or "-"], ["item ARES version", r["ares_version"] or "-"],
+                 ["content hash (SHA-256)", r["content_hash"] or "-"],
+                 ["run manifest (SHA-256)", _manifest_sha(r["run_dir"])],
+                 ["lot written", f"{info['created']} by ARES {info['ares_version']}"],
+                 ["certificate", f"{today} by ARES {__version__}"]]
+        text_table(fig, (0.06, max(y - 0.02, 0.22), 0.88), ["traceability", ""], trace, [0.26, 0.74], fontsize=7,
+                   title="Traceability", max_chars=[26, 100])
+        out += [fig, *more]
+    return out
+
+
+def write(db, lot_id: int, which: list[int], path: Path) -> int:
+    """The certificates as one PDF (a page a sensor; .tmp, renamed); the pages written."""
+    import matplotlib
+    from matplotlib.backends.backend_pdf import PdfPages
+
+    from ares.report.plots import RC
+    from ares.rundir.files import storage
+
+    path = Path(path)
+    tmp = path.with_name(path.name + ".tmp")
+    with storage(path), matplotlib.rc_context(RC), PdfPages(tmp) as pdf:
+        n = 0
+        for fig in pages(db, lot_id, which):
+            pdf.savefig(fig)
+            n += 1
+    tmp.replace(path)
+    return n

@@ -1,0 +1,83 @@
+"""``ares lots certificate`` (a page per sensor with its identity, every figure with SE and
+limit, bin and traceability) and ``ares lots trend`` (median and spread per lot, control
+limits from the median moving range) against a database holding planted lots: a lot with a shifted median must be
+the one flagged, and the limits are the moving-range formula computed here by hand."""
+
+from __future__ import annotations
+
+import csv
+
+import numpy as np
+import pytest
+
+from ares.batch import db as rdb
+from ares.batch.lot_report import judge
+from ares.batch.screens import screen
+from ares.cli import main
+from ares.protocol.lot import Pat
+from ares.protocol.scan import Limit
+from test_lots_screens import _judged
+
+
+def _fig(v, se, unit):
+    return {"label": "", "value": v, "se": se, "unit": unit, "verdict": "", "note": ""}
+
+
+def _lot(centre: float, n: int = 40, seed: int = 0):
+    rng = np.random.default_rng(seed)
+    res = [{"item": f"/l/die{i}", "status": "done", "kind": "run", "hash": f"{i:064x}", "sensor": f"S{i}",
+            "figures": {"gain_dn_per_e": _fig(float(rng.normal(centre, 0.002)), 1e-4, "DN/e-")}} for i in range(n)]
+    j = judge(res, [Limit("gain_dn_per_e", 0.2, 0.4)])
+    screen(j, [Pat("gain_dn_per_e")])
+    return j
+
+
+def test_trend_flags_the_shifted_lot_with_moving_range_limits(tmp_path, capsys):
+    path = str(tmp_path / "r.sqlite")
+    centres = [0.300, 0.3004, 0.2998, 0.3002, 0.330, 0.3001]
+    with rdb.connect(path) as db:
+        for k, c in enumerate(centres):
+            rdb.append_lot(db, f"L{k}", _lot(c, n=20, seed=k))
+    out = tmp_path / "gain.png"
+    assert main(["lots", "trend", "K", "--db", path, "--out", str(out)]) == 0  # (K: the EMVA name of the gain)
+    printed = capsys.readouterr().out
+    rows = list(csv.DictReader((tmp_path / "gain.csv").open()))
+    assert [r["lot"] for r in rows] == [f"L{k}" for k in range(6)] and out.stat().st_size > 10_000
+    meds = np.array([float(r["median"]) for r in rows])
+    sigma = np.median(np.abs(np.diff(meds))) / 0.954
+    lo, hi = np.median(meds) - 3 * sigma, np.median(meds) + 3 * sigma
+    assert [r["out_of_control"] for r in rows] == ["yes" if not lo <= m <= hi else "no" for m in meds]
+    assert [r["lot"] for r in rows if r["out_of_control"] == "yes"] == ["L4"]
+    assert f"control limits {lo:.5g} .. {hi:.5g}" in printed and "outside: L4" in printed
+    assert main(["lots", "trend", "nothing_like_it", "--db", path]) == 2
+
+
+def test_certificate_per_sensor_has_identity_figures_limits_bin_and_traceability(tmp_path, capsys):
+    from pdftext import pdf_text
+
+    j, truth = _judged()
+    for i, r in enumerate(j.results):
+        r.update(sensor=f"SN{i:04d}", wafer="W1", x=float(i % 10), y=float(i // 10), ares_version="9.9",
+                 started="2026-01-02T03:04:05+00:00")
+    path = str(tmp_path / "r.sqlite")
+    with rdb.connect(path) as db:
+        rdb.append_lot(db, "L1", j)
+    outlier = next(r for r in j.results if truth[r["item"]] == "outlier")
+    pdf = tmp_path / "one.pdf"
+    assert main(["lots", "certificate", "L1", outlier["sensor"], "--db", path, "--out", str(pdf)]) == 0
+    text = pdf_text(pdf)
+    f = outlier["figures"]["gain_dn_per_e"]
+    from ares.analysis.stats.estimate import format_value
+
+    for want in (f"Certificate of performance: {outlier['sensor']}", "lot L1", "W1",
+                 f"x {outlier['x']:g}, y {outlier['y']:g}", format_value(f["value"], f["se"]), "DN/e-",
+                 ">= 0.25 and <= 0.4", "(k=6)", "hard 3, soft 51: outlier", outlier["hash"], "9.9",
+                 "2026-01-02T03:04:05+00:00", "not available (the run directory is not at hand here)"):
+        assert want in text, want
+    with rdb.connect(path) as db:
+        rdb.append_lot(db, "L2", _lot(0.3, n=5))
+    all_pdf = tmp_path / "all.pdf"
+    assert main(["lots", "certificate", "L2", "--db", path, "--out", str(all_pdf)]) == 0
+    assert "5 certificate(s), 5 page(s)" in capsys.readouterr().out
+    assert "Certificate of performance: S4" in pdf_text(all_pdf)
+    assert main(["lots", "certificate", "L1", "nobody", "--db", path]) == 2
