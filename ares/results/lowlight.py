@@ -1,0 +1,107 @@
+"""The scan-level ``dark_temperature`` analysis: dark current against temperature per pixel
+(``ares.analysis.lowlight.arrhenius``) from the dark stages' mean and temporal-variance maps the run
+keeps: each pixel's rate at each temperature (weighted slope against exposure), then its
+Arrhenius fit across temperatures (E_a and ln A maps with SEs), the frame's fit, Meyer-Neldel,
+regimes and hot pixels by E_a. ``ares dark-temperature RUN_DIR`` prints it and writes the maps.
+Registered by importing ``ares.results``."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from ares.results.registry import register_scan_analysis
+
+MIN_TEMPERATURES = 3
+
+
+def _e(x) -> dict:
+    return x.to_dict()
+
+
+def pixel_rate_maps(run) -> tuple[list[float], np.ndarray, np.ndarray, str]:
+    """(temperatures C, rate maps (n_T, R, C), their SEs, unit) from the run's dark stages."""
+    from ares.analysis.lowlight.arrhenius import pixel_rates
+    from ares.results.analyses import _dark_groups, dark_gain
+
+    temps, rates, ses = [], [], []
+    for t, sts in sorted(((t, s) for t, s in _dark_groups(run).items() if t is not None), key=lambda x: x[0]):
+        exp, means, var, nf = [], [], [], []
+        for st in sts:
+            arr = run.arrays(st["index"])
+            if "mean" not in arr or "variance" not in arr:
+                continue
+            n = st["views"]["full"]["level"].get("n_frames") or 1
+            exp.append(float(st["settings"].get("exposure", math.nan)))
+            means.append(np.asarray(arr["mean"], np.float64))
+            var.append(np.asarray(arr["variance"], np.float64))
+            nf.append(n)
+        if len({e for e in exp if math.isfinite(e)}) < 2:
+            continue
+        r, s = pixel_rates(exp, means, var, nf)
+        temps.append(float(t))
+        rates.append(r)
+        ses.append(s)
+    unit = "DN/s"
+    if not temps:
+        return [], np.empty((0, 0, 0)), np.empty((0, 0, 0)), unit
+    rates, ses = np.stack(rates), np.stack(ses)
+    k, _src = dark_gain(run)
+    if k is not None and k.available and k.value > 0:
+        rates, ses, unit = rates / k.value, ses / k.value, "e-/s"
+    return temps, rates, ses, unit
+
+
+def dark_temperature_from_maps(temps, rates, ses, unit: str, at_c: float = 0.0, frame_rates=None) -> tuple[dict, dict]:
+    """(summary dict for JSON, maps) from per-pixel rate maps at each temperature."""
+    from ares.analysis.lowlight import arrhenius as A
+
+    if len(temps) < MIN_TEMPERATURES:
+        return ({"status": "not available",
+                 "note": f"needs dark stages at >= {MIN_TEMPERATURES} temperatures with >= 2 exposures each"}, {})
+    if frame_rates is None:  # the mean of the pixels' rates; SEs from their scatter over temperature
+        frame_rate, frame_se = rates.reshape(len(temps), -1).mean(1), None
+    else:
+        frame_rate, frame_se = frame_rates
+    frame = A.frame_fit(temps, frame_rate, frame_se, ref_c=at_c, unit=unit)
+    fit = A.pixel_fit(temps, rates, ses)
+    summ = A.summarize(fit, at_c)
+    out = {"temperatures_c": [float(t) for t in temps], "unit": unit, "ref_c": at_c,
+           "frame": {"rates": [float(r) for r in frame_rate],
+                     "rates_se": None if frame_se is None else [float(r) for r in frame_se],
+                     **{k: (_e(v) if hasattr(v, "to_dict") else v) for k, v in frame.items()}},
+           "pixels": {k: (_e(v) if hasattr(v, "to_dict") else v) for k, v in summ.items()},
+           "rate_unit": unit}
+    maps = {"activation_ev": fit.activation_ev, "activation_se_ev": fit.activation_se_ev,
+            "ln_prefactor": fit.ln_prefactor, "ln_prefactor_se": fit.ln_prefactor_se,
+            "doubling_c": fit.doubling_c(at_c), "hot_by_activation": A.hot_by_activation(fit),
+            "rates": rates, "rates_se": ses}
+    return out, maps
+
+
+def frame_rates(run, temps, unit: str):
+    """The frame's rate and SE at each temperature from the ``dark_current`` analysis (a line
+    through the frame means: its SE holds the frame-wide temporal terms a pixel average misses)."""
+    from ares.results.analyses import dark_current
+
+    key = "rate_e_per_s" if unit == "e-/s" else "rate_dn_per_s"
+    by_t = {v["temperature_c"]: v for v in (dark_current(run).get("by_temperature") or {}).values()}
+    r, s = [], []
+    for t in temps:
+        e = (by_t.get(t) or {}).get(key) or {}
+        r.append(e.get("value") if e.get("value") is not None else math.nan)
+        s.append(e.get("se") if e.get("se") is not None else math.nan)
+    return (np.asarray(r, float), np.asarray(s, float)) if np.all(np.isfinite(s)) else None
+
+
+def run_dark_temperature(run, at_c: float = 0.0) -> tuple[dict, dict]:
+    """(summary, maps) of a run's dark stages."""
+    temps, rates, ses, unit = pixel_rate_maps(run)
+    fr = frame_rates(run, temps, unit) if len(temps) else None
+    return dark_temperature_from_maps(temps, rates, ses, unit, at_c, fr)
+
+
+@register_scan_analysis("dark_temperature")
+def dark_temperature(run) -> dict:
+    return run_dark_temperature(run)[0]
