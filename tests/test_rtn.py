@@ -1,0 +1,85 @@
+"""Random telegraph noise (``ares.analysis.lowlight.rtn``, ``ares rtn``) against the simulator's RTS
+pixels (their amplitudes and mean dwell times as truth) -- a small fast case; the >= 1000-frame
+benchmark with the recall/precision/amplitude/dwell table is benchmarks/rtn.md."""
+
+from __future__ import annotations
+
+import json
+
+import numpy as np
+import pytest
+
+from ares.analysis.lowlight import rtn
+from ares.cli import main
+
+QUIET = dict(hot_rate_ppm=0, warm_rate_ppm=0, noisy_rate_ppm=0, dead_rate_ppm=0, stuck_rate_ppm=0, lag_fraction=0)
+
+
+@pytest.fixture(scope="module")
+def sim():
+    from ares.sim import SensorParams, SimSensor
+
+    p = SensorParams(rows=32, cols=32, rts_rate_ppm=15000, rts_amplitude_e=15, rts_switch_prob=0.15,
+                     rts_dwell_spread=1.5, **QUIET)
+    s = SimSensor(p, seed=3)
+    frames = s.render(600, exposure_s=0.01, dark=True)
+    return s, frames, s.truth(exposure_s=0.01, dark=True)
+
+
+def test_simulator_rts_found_with_amplitudes_and_dwells(sim):
+    s, frames, truth = sim
+    px, summ = rtn.analyse_stack(frames)
+    idx = s.patterns.defects.index["rts"]
+    ll = truth["lowlight"]
+    sigma = np.sqrt(truth["read_noise_dn"] ** 2 + 0.5**2)  # pixel + chain noise (line terms removed)
+    big = ll["rts_amplitude_dn"] >= 3 * sigma
+    assert big.sum() >= 8
+    found = {int(i): k for k, i in enumerate(px.index)}
+    assert all(int(i) in found for i in idx[big])  # recall
+    assert set(found) <= set(idx.tolist())  # precision
+    k = np.array([found[int(i)] for i in idx[big]])
+    amp = px.amplitude_dn[k] / ll["rts_amplitude_dn"][big] - 1
+    assert np.max(np.abs(amp)) < 0.05
+    for est, se, true in ((px.dwell_low_frames, px.dwell_low_se, ll["rts_dwell_low_frames"]),
+                          (px.dwell_high_frames, px.dwell_high_se, ll["rts_dwell_high_frames"])):
+        pull = (est[k] - true[big]) / se[k]
+        assert np.all(np.abs(pull) < 4) and abs(np.mean(pull)) < 1
+    assert summ["rtn_pixels"] == len(found) and summ["read_noise_increase_pct"].value > 0
+    assert summ["frames_needed"]["3x"] > 600  # dwell times to 10 % need more than these 600 frames
+
+
+def test_white_noise_has_no_rtn():
+    rng = np.random.default_rng(5)
+    frames = np.round(100 + 2.0 * rng.standard_normal((400, 24, 24)) + rng.standard_normal((400, 24, 1)))
+    px, summ = rtn.analyse_stack(frames)
+    assert summ["rtn_pixels"] == 0 and summ["rtn_fraction"].value == 0
+
+
+def test_loo_median():
+    rng = np.random.default_rng(1)
+    for n in (2, 3, 4, 5, 8, 9):
+        d = rng.standard_normal((3, n))
+        ref = np.array([[np.median(np.delete(r, i)) for i in range(n)] for r in d])
+        assert np.allclose(rtn.loo_median(d), ref)
+
+
+def test_frames_needed_falls_with_amplitude():
+    n = [rtn.frames_needed(a, 10, 10, dwell_rel=1.0) for a in (1, 2, 3, 5)]
+    assert n == sorted(n, reverse=True) and n[0] > n[-1]
+    assert rtn.frames_needed(3, 10, 10) >= 2000  # dwell times to 10 %: >= 100 departures from each level
+
+
+def test_command(sim, tmp_path, capsys):
+    _s, frames, _t = sim
+    np.save(tmp_path / "d.npy", frames[:300])
+    assert main(["rtn", str(tmp_path / "d.npy"), "--json", "--csv", str(tmp_path / "p.csv"),
+                 "--hdf5", str(tmp_path / "m.h5")]) == 0
+    out = json.loads(capsys.readouterr().out)
+    assert out["rtn_pixels"] == len(out["pixels_rtn"]) > 5 and out["rtn_fraction"]["verdict"] == "ok"
+    assert (tmp_path / "p.csv").read_text().startswith("row,col,levels,amplitude_dn")
+    assert main(["rtn", str(tmp_path / "d.npy"), "--two-levels"]) == 0
+    text = capsys.readouterr().out
+    assert "RTN pixels" in text and "needs >= " in text
+    np.save(tmp_path / "few.npy", frames[:20])
+    assert main(["rtn", str(tmp_path / "few.npy")]) == 2
+    assert "needs >= 100" in capsys.readouterr().err
