@@ -84,6 +84,10 @@ def test_run_directory_and_maps(tmp_path, capsys):
     out = Runner(load_scan(tmp_path / "scan.xml"), out_dir=tmp_path / "run").run()
     assert out.status == "done"
     dt = out.scan_results["dark_temperature"]
+    from ares.protocol.quantities import PRODUCES
+    from ares.results.registry import flatten
+
+    assert {k.split(".")[-1] for k in flatten(dt)} - {"ref_c"} <= PRODUCES["dark_temperature"]
     assert abs(dt["pixels"]["median_activation_ev"]["value"] - 0.65) < 0.03
     h5 = tmp_path / "maps.h5"
     assert main(["dark-temperature", str(tmp_path / "run"), "--hdf5", str(h5), "--csv", str(tmp_path / "t.csv")]) == 0

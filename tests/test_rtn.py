@@ -83,3 +83,25 @@ def test_command(sim, tmp_path, capsys):
     np.save(tmp_path / "few.npy", frames[:20])
     assert main(["rtn", str(tmp_path / "few.npy")]) == 2
     assert "needs >= 100" in capsys.readouterr().err
+
+
+def test_scan_level_rtn_from_the_runs_raw_frames(tmp_path):
+    from pathlib import Path
+
+    from ares.protocol import load_scan
+    from ares.protocol.quantities import PRODUCES
+    from ares.results.registry import flatten
+    from ares.scan import Runner
+
+    root = Path(__file__).resolve().parents[1]
+    system = (root / "protocols" / "sim_lowlight.xml").read_text().replace('rows="128" cols="128"', 'rows="24" cols="24"')
+    system = system.replace('type="int" value="128"', 'type="int" value="24"').replace('value="3000"', 'value="30000"')
+    (tmp_path / "sys.xml").write_text(system)
+    scan = (root / "scans" / "rtn.xml").read_text().replace("../protocols/sim_lowlight.xml", "sys.xml")
+    scan = scan.replace('<output raw_frames="true" pdf="false"/>', '<output raw_frames="true" pdf="false" csv="false"/>')
+    (tmp_path / "scan.xml").write_text(scan.replace("<frames>2000</frames>", "<frames>200</frames>"))
+    out = Runner(load_scan(tmp_path / "scan.xml"), out_dir=tmp_path / "run").run()
+    assert out.status == "done"
+    r = out.scan_results["rtn"]
+    assert r["frames"] == 200 and r["rtn_pixels"] >= 8 and r["rtn_fraction"]["verdict"] == "ok"
+    assert {k.split(".")[-1] for k in flatten(r)} <= PRODUCES["rtn"] | {"stage"}

@@ -49,7 +49,8 @@ PRODUCES: dict[str, frozenset[str]] = {
                                    "hot_by_activation", "meyer_neldel_ev", "isokinetic_k", "naive_ev", "pixels_mn", "artefact_ev", "rates_se",
                                    "t_mean_k"}),
     "rtn": frozenset({"rtn_pixels", "rtn_fraction", "read_noise_dn", "read_noise_without_rtn_dn",
-                      "read_noise_increase_pct", "median_amplitude_dn", "frames", "candidates", "three_level"}),
+                      "read_noise_increase_pct", "median_amplitude_dn", "frames", "candidates", "three_level",
+                      "pixels", "1x", "2x", "3x", "5x", "read_noise_sigma_dn", "frame_period_s"}),
 }
 
 

@@ -105,3 +105,70 @@ def run_dark_temperature(run, at_c: float = 0.0) -> tuple[dict, dict]:
 @register_scan_analysis("dark_temperature")
 def dark_temperature(run) -> dict:
     return run_dark_temperature(run)[0]
+
+
+RTN_MIN_FRAMES = 100
+
+
+def _stage_frames(run, st):
+    """An iterable over the raw dark frames of stage ``st`` (``<output raw_frames="true">``), or None."""
+    import h5py
+
+    if run.dir is None:
+        return None
+    path = run.dir / "frames" / f"{st['index']:04d}.h5"
+    if not path.is_file():
+        return None
+
+    class _Frames:
+        def __init__(self):
+            with h5py.File(path, "r") as f:
+                self.n = f["frames"].shape[0] if "frames" in f else 0
+
+        def __iter__(self):
+            with h5py.File(path, "r") as f:
+                ds = f["frames"]
+                for i in range(ds.shape[0]):
+                    yield ds[i]
+
+    fr = _Frames()
+    return fr if fr.n else None
+
+
+@register_scan_analysis("rtn")
+def rtn(run) -> dict:
+    """Random telegraph noise over the longest dark stage whose raw frames the run kept."""
+    from ares.analysis.lowlight import rtn as R
+
+    best = None
+    for st in run.stages:
+        if st["scene"] != "dark":
+            continue
+        fr = _stage_frames(run, st)
+        if fr is not None and (best is None or fr.n > best[1].n):
+            best = (st, fr)
+    if best is None:
+        return {"status": "not available", "note": "no dark stage's raw frames in the run (RTN needs the time "
+                                                   "series: <output raw_frames=\"true\"/>)"}
+    st, fr = best
+    if fr.n < RTN_MIN_FRAMES:
+        return {"status": "not available", "note": f"the longest dark stage holds {fr.n} frames; RTN needs >= "
+                                                   f"{RTN_MIN_FRAMES}"}
+    mp = R.MeanPass()
+    for f in fr:
+        mp.add(f)
+    sc = R.Screen(mp.mean)
+    for f in fr:
+        sc.add(f)
+    cand = sc.candidates()
+    se = R.Series(mp.mean, cand)
+    for f in (fr if cand.size else ()):
+        se.add(f)
+    px = R.fit_levels(se.series if cand.size else np.zeros((fr.n, 0)), cand)
+    summ = R.summarize(px, sc.variance, mp.mean.shape)
+    out = {"stage": st["name"]}
+    for k, v in summ.items():
+        if isinstance(v, np.ndarray):
+            continue
+        out[k] = v.to_dict() if hasattr(v, "to_dict") else (list(v) if isinstance(v, tuple) else v)
+    return out
