@@ -105,3 +105,18 @@ def test_scan_level_rtn_from_the_runs_raw_frames(tmp_path):
     r = out.scan_results["rtn"]
     assert r["frames"] == 200 and r["rtn_pixels"] >= 8 and r["rtn_fraction"]["verdict"] == "ok"
     assert {k.split(".")[-1] for k in flatten(r)} <= PRODUCES["rtn"] | {"stage"}
+
+
+def test_kernel_equals_numpy_path():
+    rng = np.random.default_rng(2)
+    F, n = 300, 6
+    st = np.zeros((F, n))
+    s = rng.integers(0, 2, n)
+    for t in range(F):
+        s = np.where(rng.random(n) < 0.1, 1 - s, s)
+        st[t] = s
+    x = 3.0 * st + rng.standard_normal((F, n))
+    a = rtn.fit_hmm(x, 2, iters=400, tol=1e-12)
+    b = rtn.fit_hmm(x, 2, iters=400, tol=1e-12, use_kernel=False)
+    assert np.allclose(a.levels, b.levels, atol=1e-7) and np.allclose(a.trans, b.trans, atol=1e-7)
+    assert np.allclose(a.loglik, b.loglik, atol=1e-6) and np.allclose(a.departures, b.departures, atol=1e-5)

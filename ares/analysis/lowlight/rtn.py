@@ -169,7 +169,7 @@ def _init_levels(x: np.ndarray, k: int) -> np.ndarray:
     return np.sort(q, axis=1)
 
 
-def fit_hmm(x: np.ndarray, k: int, iters: int = EM_ITER, tol: float = 1e-6) -> HmmFit:
+def fit_hmm(x: np.ndarray, k: int, iters: int = EM_ITER, tol: float = 1e-6, use_kernel: bool = True) -> HmmFit:
     """Gaussian HMM with ``k`` levels and one sigma fitted to each column of ``x`` (F, n) by
     Baum-Welch (scaled forward-backward), all columns at once."""
     x = np.asarray(x, np.float64)
@@ -182,6 +182,24 @@ def fit_hmm(x: np.ndarray, k: int, iters: int = EM_ITER, tol: float = 1e-6) -> H
     mu = _init_levels(x, k)
     var = np.maximum(np.mean((x - mu[np.arange(n), np.argmin(np.abs(x[:, :, None] - mu[None]), axis=2)]) ** 2, 0),
                      1e-6 * max(float(np.var(x)), 1e-12))
+    from ares.analysis.kernels.hmm import baum_welch
+
+    res = baum_welch(x, mu, var, iters, tol) if use_kernel else None
+    if res is not None:
+        mu, var, A, occ, dep, ll = res
+    else:
+        mu, var, A, occ, dep, ll = _baum_welch_numpy(x, mu, var, iters, tol)
+    order = np.argsort(mu, axis=1)
+    rows = np.arange(n)[:, None]
+    mu = mu[rows, order]
+    A = A[rows[:, :, None], order[:, :, None], order[:, None, :]]
+    return HmmFit(mu, np.sqrt(var), A, occ[rows, order], dep[rows, order], ll, k)
+
+
+def _baum_welch_numpy(x, mu, var, iters, tol):
+    """The numpy path of ``ares.analysis.kernels.hmm.baum_welch``: all columns at once."""
+    F, n = x.shape
+    k = mu.shape[1]
     A = np.full((n, k, k), 0.1 / (k - 1))
     A[:, np.arange(k), np.arange(k)] = 0.9
     pi = np.full((n, k), 1.0 / k)
@@ -209,8 +227,8 @@ def fit_hmm(x: np.ndarray, k: int, iters: int = EM_ITER, tol: float = 1e-6) -> H
         g = alpha[F - 1] * beta
         gamma_sum += g
         mu_num += g * x[F - 1][:, None]
-        gamma0 = None
-        gammas_last = g
+        sq += g * (x[F - 1] ** 2)[:, None]
+        gamma0 = g
         for t in range(F - 2, -1, -1):
             bb = b[t + 1] * beta
             xi = alpha[t][:, :, None] * A * bb[:, None, :] / c[t + 1][:, None, None]
@@ -219,12 +237,10 @@ def fit_hmm(x: np.ndarray, k: int, iters: int = EM_ITER, tol: float = 1e-6) -> H
             g = alpha[t] * beta
             gamma_sum += g
             mu_num += g * x[t][:, None]
+            sq += g * (x[t] ** 2)[:, None]
             gamma0 = g
-        del gammas_last
         mu_new = mu_num / np.maximum(gamma_sum, 1e-12)
-        # second pass for the shared variance around the new levels (one more backward sweep
-        # is avoided: sum g (x - mu)^2 = sum g x^2 - 2 mu sum g x + mu^2 sum g)
-        sq = _sum_gx2(alpha, A, b, c, x)
+        # the shared variance around the new levels: sum g (x - mu)^2 = sum g x^2 - 2 mu sum g x + mu^2 sum g
         var = np.maximum((sq - 2 * mu_new * mu_num + mu_new**2 * gamma_sum).sum(1) / F, 1e-12)
         mu = mu_new
         A = xi_sum / np.maximum(xi_sum.sum(2, keepdims=True), 1e-300)
@@ -232,25 +248,8 @@ def fit_hmm(x: np.ndarray, k: int, iters: int = EM_ITER, tol: float = 1e-6) -> H
         if np.all(np.abs(ll - prev_ll) < tol * F):
             break
         prev_ll = ll
-    order = np.argsort(mu, axis=1)
-    rows = np.arange(n)[:, None]
-    mu = mu[rows, order]
-    A = A[rows[:, :, None], order[:, :, None], order[:, None, :]]
-    occ = gamma_sum[rows, order]
-    dep = (xi_sum.sum(2) - xi_sum[:, np.arange(k), np.arange(k)])[rows, order]
-    return HmmFit(mu, np.sqrt(var), A, occ, dep, ll, k)
-
-
-def _sum_gx2(alpha, A, b, c, x) -> np.ndarray:
-    """sum_t gamma_t(k) x_t^2 per column and level (a backward sweep)."""
-    F, n, k = alpha.shape
-    beta = np.ones((n, k))
-    out = alpha[F - 1] * beta * (x[F - 1] ** 2)[:, None]
-    for t in range(F - 2, -1, -1):
-        bb = b[t + 1] * beta
-        beta = np.einsum("nkj,nj->nk", A, bb) / c[t + 1][:, None]
-        out += alpha[t] * beta * (x[t] ** 2)[:, None]
-    return out
+    dep = xi_sum.sum(2) - xi_sum[:, np.arange(k), np.arange(k)]
+    return mu, var, A, gamma_sum, dep, ll
 
 
 # ------------------------------------------------------------------ per-pixel results
