@@ -159,7 +159,9 @@ def _print(out: dict) -> None:
     if "median_activation_ev" not in px:
         print(f"per pixel          {px.get('note', 'not available')}")
         return
-    print(f"pixels fitted      {px['pixels']}")
+    print(f"pixels fitted      {px['pixels']}" + (f" ({px['pixels_left_out']} left out: a rate not above 0 at some "
+                                                 "temperature, too dark to take its logarithm)"
+                                                 if px.get("pixels_left_out") else ""))
     print(f"E_a per pixel      median {px['median_activation_ev'].text()}, SD {px['activation_spread_ev'].text()} "
           f"(fit noise rms {px['activation_fit_noise_ev']:.2g} eV)")
     print(f"doubling per pixel median {px['median_doubling_c'].text(with_reason=True)} at {out['ref_c']:g} C")

@@ -46,7 +46,7 @@ PRODUCES: dict[str, frozenset[str]] = {
     "dark_temperature": frozenset({"rates", "doubling_c", "rate_at_ref", "activation_ev", "ln_prefactor", "chi2_dof",
                                    "pixels", "median_activation_ev", "activation_spread_ev", "activation_fit_noise_ev",
                                    "median_doubling_c", "field_enhanced", "depletion", "diffusion",
-                                   "hot_by_activation", "meyer_neldel_ev", "isokinetic_k", "naive_ev", "pixels_mn", "artefact_ev", "rates_se",
+                                   "hot_by_activation", "meyer_neldel_ev", "isokinetic_k", "naive_ev", "pixels_mn", "artefact_ev", "rates_se", "pixels_left_out",
                                    "t_mean_k"}),
     "rtn": frozenset({"rtn_pixels", "rtn_fraction", "read_noise_dn", "read_noise_without_rtn_dn",
                       "read_noise_increase_pct", "median_amplitude_dn", "frames", "candidates", "three_level",
