@@ -89,6 +89,12 @@ def test_run_directory_and_maps(tmp_path, capsys):
 
     assert {k.split(".")[-1] for k in flatten(dt)} - {"ref_c"} <= PRODUCES["dark_temperature"]
     assert abs(dt["pixels"]["median_activation_ev"]["value"] - 0.65) < 0.03
+    from ares.report.lowlight_pages import dark_temperature_page
+    from ares.report.source import read_run
+
+    rr = read_run(tmp_path / "run")
+    fig = dark_temperature_page(rr, rr.analyses["dark_temperature"])
+    assert len(fig.axes) >= 4  # Arrhenius plot, E_a map (+ colour bar), histogram, Meyer-Neldel
     h5 = tmp_path / "maps.h5"
     assert main(["dark-temperature", str(tmp_path / "run"), "--hdf5", str(h5), "--csv", str(tmp_path / "t.csv")]) == 0
     out = capsys.readouterr().out

@@ -105,6 +105,9 @@ def test_scan_level_rtn_from_the_runs_raw_frames(tmp_path):
     r = out.scan_results["rtn"]
     assert r["frames"] == 200 and r["rtn_pixels"] >= 8 and r["rtn_fraction"]["verdict"] == "ok"
     assert {k.split(".")[-1] for k in flatten(r)} <= PRODUCES["rtn"] | {"stage"}
+    from ares.report.lowlight_pages import rtn_page
+
+    assert len(rtn_page(r).axes) == 2  # amplitude and dwell-time histograms
 
 
 def test_kernel_equals_numpy_path():

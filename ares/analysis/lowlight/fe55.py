@@ -68,11 +68,27 @@ class Events:
         return {"single": int(np.sum(self.grade == 0)), "split": int(np.sum(self.grade == 1))}
 
 
-def _residual(frame: np.ndarray) -> np.ndarray:
-    """The frame minus its bias: the frame's median, then each column's median."""
+def _residual(frame: np.ndarray, split: float = 3.0) -> np.ndarray:
+    """The frame minus its bias: the frame's median, then each column's median -- taken again
+    without the pixels above ``split`` noise sigmas and their neighbours (the events' charge
+    would raise the medians: by ~0.1 % of the K-alpha signal at 2 % of the pixels lit)."""
     x = np.asarray(frame, np.float64)
     x = x - np.median(x)
-    return x - np.median(x, axis=0)[None, :]
+    x = x - np.median(x, axis=0)[None, :]
+    hit = x > split * robust_sigma(x)
+    if hit.any():
+        near = hit.copy()
+        near[1:] |= hit[:-1]
+        near[:-1] |= hit[1:]
+        near[:, 1:] |= near[:, :-1].copy()
+        near[:, :-1] |= near[:, 1:].copy()
+        y = np.where(near, np.nan, x)
+        if np.isfinite(y).sum() > y.size // 2:
+            x = x - np.nanmedian(y)
+            y = np.where(near, np.nan, x)
+            col = np.nanmedian(np.where(np.isfinite(y).any(axis=0)[None, :], y, 0.0), axis=0)
+            x = x - np.nan_to_num(col)[None, :]
+    return x
 
 
 def robust_sigma(x: np.ndarray) -> float:
@@ -89,7 +105,7 @@ def find_events(frames, threshold: float = 5.0, split: float = 3.0) -> Events:
     thr_dn = split_dn = math.nan
     for frame in frames:
         n += 1
-        x = _residual(frame)
+        x = _residual(frame, split)
         s = robust_sigma(x)
         if not s > 0:
             s = 1.0
