@@ -118,3 +118,22 @@ def test_command_bad_input(tmp_path, capsys):
     few.write_text("2300\n2310\n")
     assert main(["fe55", "--events", str(few), "--temperature-c", "-95"]) == 0
     assert "n/a (needs >= 50 events" in capsys.readouterr().out
+
+
+def test_scan_level_fe55_from_the_runs_raw_frames(tmp_path):
+    from ares.protocol import load_scan
+    from ares.protocol.quantities import PRODUCES
+    from ares.results.registry import flatten
+    from ares.scan import Runner
+
+    root = Path(__file__).resolve().parents[1]
+    system = (root / "protocols" / "sim_xray.xml").read_text().replace('rows="128" cols="128"', 'rows="48" cols="48"')
+    (tmp_path / "sys.xml").write_text(system.replace('type="int" value="128"', 'type="int" value="48"'))
+    scan = (root / "scans" / "fe55.xml").read_text().replace("../protocols/sim_xray.xml", "sys.xml")
+    scan = scan.replace('<output raw_frames="true" pdf="false"/>', '<output raw_frames="true" pdf="false" csv="false"/>')
+    (tmp_path / "scan.xml").write_text(scan.replace("<frames>200</frames>", "<frames>60</frames>"))
+    out = Runner(load_scan(tmp_path / "scan.xml"), out_dir=tmp_path / "run").run()
+    assert out.status == "done"
+    r = out.scan_results["fe55"]["stages"]["xray"]
+    assert r["temperature_c"] == -20 and abs(r["gain_e_per_dn"]["value"] * 0.28 - 1) < 0.01  # G = 70/250 DN/e-
+    assert {k.split(".")[-1] for k in flatten(r)} <= PRODUCES["fe55"]

@@ -51,6 +51,10 @@ PRODUCES: dict[str, frozenset[str]] = {
     "rtn": frozenset({"rtn_pixels", "rtn_fraction", "read_noise_dn", "read_noise_without_rtn_dn",
                       "read_noise_increase_pct", "median_amplitude_dn", "frames", "candidates", "three_level",
                       "pixels", "1x", "2x", "3x", "5x", "read_noise_sigma_dn", "frame_period_s"}),
+    "fe55": frozenset({"kalpha_dn", "kalpha_sigma_dn", "kbeta_ratio", "gain_e_per_dn", "electrons_per_kalpha",
+                       "pair_energy_ev", "gain_systematic_rel", "temperature_c", "line_ev", "chi2_dof", "events_in_fit",
+                       "events_total", "bin_dn", "single", "split", "threshold_dn", "split_dn", "noise_dn", "frames",
+                       "transfer_per_row", "transfer_per_col"}),
 }
 
 

@@ -173,3 +173,33 @@ def rtn(run) -> dict:
             continue
         out[k] = v.to_dict() if hasattr(v, "to_dict") else (list(v) if isinstance(v, tuple) else v)
     return out
+
+
+@register_scan_analysis("fe55")
+def fe55(run) -> dict:
+    """The Fe-55 gain from the dark stages whose raw frames the run kept, at each stage's
+    temperature setting (the electron yield depends on it; a stage without one is left out)."""
+    from ares.analysis.lowlight import fe55 as X
+
+    out = {}
+    for st in run.stages:
+        if st["scene"] != "dark":
+            continue
+        fr = _stage_frames(run, st)
+        if fr is None:
+            continue
+        t = st["settings"].get("temperature")
+        if t is None:
+            out[st["name"]] = {"status": "not available", "note": "the stage sets no temperature: the electron "
+                                                                  "yield of the K-alpha line depends on it"}
+            continue
+        ev = X.find_events(fr)
+        r = X.analyse(ev.signal_dn, float(t), ev)
+        out[st["name"]] = {k: (v.to_dict() if hasattr(v, "to_dict") else
+                               (None if isinstance(v, float) and not math.isfinite(v) else
+                                (list(v) if isinstance(v, tuple) else v)))
+                           for k, v in r.items() if not k.startswith("_")}
+    if not out:
+        return {"status": "not available", "note": "no dark stage's raw frames in the run (the events need the frames: "
+                                                   "<output raw_frames=\"true\"/>)"}
+    return {"stages": out}
