@@ -226,6 +226,15 @@ class SensorParams:
             self._fail("rts_dwell_spread", "must be at least 1")
         if not 0 <= self.xray_kbeta_fraction <= 1:
             self._fail("xray_kbeta_fraction", "must be in [0, 1]")
+        for name in ("dark_activation_ev", "hot_activation_ev"):
+            if getattr(self, name) > 3.0:
+                self._fail(name, "must be at most 3 eV (silicon's band gap is 1.12 eV)")
+        if self.dark_activation_sigma_ev > 0.5:
+            self._fail("dark_activation_sigma_ev", "must be at most 0.5 eV")
+        if self.xray_spread_px > 1.0:
+            self._fail("xray_spread_px", "must be at most 1 pixel (an X-ray's charge is spread over 5x5 pixels)")
+        if self.xray_events_per_frame > 0.01 * self.rows * self.cols + 1:
+            self._fail("xray_events_per_frame", "must be at most 1 % of the pixels (events would pile up)")
         if self.noisy_factor < 1:
             self._fail("noisy_factor", "must be at least 1")
         if sum(getattr(self, n) for n in _PPM) > 1e6:

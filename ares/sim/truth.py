@@ -40,7 +40,9 @@ temperature and bias), ``dark_charge_e`` (mean clean dark charge), ``read_noise_
 offset), ``max_code``, ``lag_fraction``, ``flutter_pct`` (per-frame relative sigma of q, %), ``adc`` (bits, max_code, offset_dn, gain,
 inl_lsb per transition k=1..max, dnl_lsb per code), ``defects`` (per class a (rows,
 cols) tuple of index arrays; ``bad_columns`` an array; ``properties`` with per-pixel
-values in the same order), ``scene`` (the operating point).
+values in the same order), ``lowlight`` (``ares.sim.lowlight.truth``: the RTS pixels' amplitudes in DN and
+mean dwell times in frames, the per-pixel activation-energy and ln-prefactor maps under Arrhenius, the
+Fe-55 K-alpha electrons and gain), ``scene`` (the operating point).
 """
 
 from __future__ import annotations
