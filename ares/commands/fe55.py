@@ -94,7 +94,11 @@ def run(args) -> int:
     else:
         from ares.hardware.stackfiles import iter_frames
 
-        ev = fe55.find_events(iter_frames(args.frames), args.threshold, args.split)
+        class Frames:  # read twice, frame by frame: the bias frame, then the events
+            def __iter__(self):
+                return iter_frames(args.frames)
+
+        ev = fe55.find_events(Frames(), args.threshold, args.split)
         if ev.frames == 0:
             raise InputError("the frames hold no image")
         res = fe55.analyse(ev.signal_dn, args.temperature_c, ev, line)

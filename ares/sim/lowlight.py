@@ -112,8 +112,9 @@ def truth(sensor, sc) -> dict:
     """The truth of this module's physics at the scene's operating point."""
     p, fp = sensor.params, sensor.patterns
     d = fp.defects
-    out = {"rts_dwell_low_frames": 1.0 / fp.rts_p_up, "rts_dwell_high_frames": 1.0 / fp.rts_p_down,
-           "rts_amplitude_dn": sc.G * d.rts_amplitude_e}
+    with np.errstate(divide="ignore"):  # a trap that never switches: an infinite dwell
+        out = {"rts_dwell_low_frames": 1.0 / fp.rts_p_up, "rts_dwell_high_frames": 1.0 / fp.rts_p_down,
+               "rts_amplitude_dn": sc.G * d.rts_amplitude_e}
     if fp.activation_ev is not None:
         ea = fp.activation_ev.astype(np.float64)
         ref = fp.dark_all_ref_e_per_s.astype(np.float64)
