@@ -22,6 +22,7 @@ from ares.errors import InputError
 NAME = "rtn"
 HELP = "random telegraph noise per pixel: levels, amplitudes, dwell times, share of the read noise"
 MIN_FRAMES = 100
+SERIES_BYTES = 256 * 1024 * 1024  # the candidates' series held at once
 
 
 def add_arguments(p) -> None:
@@ -65,17 +66,20 @@ def analyse_files(darks, z: float, margin: float, three: bool):
     sc = rtn.Screen(mp.mean)
     for f in iter_frames(darks):
         sc.add(f)
-    cand = sc.candidates(z)
-    se = rtn.Series(mp.mean, cand)
-    if cand.size:
-        for f in iter_frames(darks):
-            se.add(f)
-        px = rtn.fit_levels(se.series, cand, margin, three)
-    else:
-        import numpy as np
+    import numpy as np
 
-        px = rtn.fit_levels(np.zeros((mp.n, 0)), cand, margin, three)
-    return px, sc, mp.mean.shape
+    cand = sc.candidates(z)
+    # the candidates' series in groups of at most SERIES_BYTES (float32), one more pass over the files each
+    per = max(1, SERIES_BYTES // (4 * mp.n))
+    parts = []
+    for s in range(0, max(cand.size, 1), per):
+        group = cand[s:s + per]
+        se = rtn.Series(mp.mean, group)
+        if group.size:
+            for f in iter_frames(darks):
+                se.add(f)
+        parts.append(rtn.fit_levels(se.series if group.size else np.zeros((mp.n, 0)), group, margin, three))
+    return rtn.join(parts), sc, mp.mean.shape
 
 
 def run(args) -> int:

@@ -129,11 +129,11 @@ class Series:
         self.rows: list[np.ndarray] = []
 
     def add(self, frame) -> None:
-        self.rows.append(self.free(frame).ravel()[self.index])
+        self.rows.append(self.free(frame).ravel()[self.index].astype(np.float32))
 
     @property
     def series(self) -> np.ndarray:
-        return np.asarray(self.rows, np.float64).reshape(len(self.rows), self.index.size)
+        return np.asarray(self.rows, np.float32).reshape(len(self.rows), self.index.size)
 
 
 # ------------------------------------------------------------------ hidden Markov models
@@ -171,7 +171,8 @@ def _init_levels(x: np.ndarray, k: int) -> np.ndarray:
 
 def fit_hmm(x: np.ndarray, k: int, iters: int = EM_ITER, tol: float = 1e-6, use_kernel: bool = True) -> HmmFit:
     """Gaussian HMM with ``k`` levels and one sigma fitted to each column of ``x`` (F, n) by
-    Baum-Welch (scaled forward-backward), all columns at once."""
+    Baum-Welch (scaled forward-backward): the numba kernel ``ares.analysis.kernels.hmm`` one
+    column at a time, or (no numba, ``use_kernel=False``) the numpy path, all columns at once."""
     x = np.asarray(x, np.float64)
     F, n = x.shape
     if k == 1:
@@ -312,6 +313,17 @@ def fit_levels(series: np.ndarray, index: np.ndarray, bic_margin: float = BIC_MA
     a = lambda k, dt=np.float64: np.asarray(out[k], dt)
     return RtnPixels(a("index", np.int64), a("n_levels", np.int64), out["levels"], a("amp"), a("amp_se"), a("sigma"),
                      a("dl"), a("dl_se"), a("dh"), a("dh_se"), a("occ"), a("dbic"), candidates=n, frames=F)
+
+
+def join(parts: list) -> RtnPixels:
+    """One ``RtnPixels`` of several (candidates fitted in groups)."""
+    if len(parts) == 1:
+        return parts[0]
+    cat = lambda k: np.concatenate([getattr(p, k) for p in parts])
+    keys = ("index", "n_levels", "levels", "amplitude_dn", "amplitude_se_dn", "sigma_dn", "dwell_low_frames",
+            "dwell_low_se", "dwell_high_frames", "dwell_high_se", "occupancy_high", "delta_bic")
+    vals = {k: (sum((p.levels for p in parts), []) if k == "levels" else cat(k)) for k in keys}
+    return RtnPixels(**vals, candidates=sum(p.candidates for p in parts), frames=parts[0].frames)
 
 
 def frames_needed(amplitude_sigma: float, dwell_low: float, dwell_high: float, amp_rel: float = 0.05,
