@@ -135,7 +135,6 @@ def _write_csv(path: Path, ev, res) -> None:
 
 
 def _print(res: dict) -> None:
-    from ares.analysis.stats.estimate import format_value
 
     print(f"K-alpha peak       {res['kalpha_dn'].text(with_reason=True)}  (width {res['kalpha_sigma_dn'].text()}, "
           f"chi2/dof {res['chi2_dof']:.2f}, {res['events_in_fit']} of {res['events_total']} events in the fit window)")
@@ -145,7 +144,8 @@ def _print(res: dict) -> None:
     g = res["gain_e_per_dn"]
     sys_txt = ""
     if g.available:
-        sys_txt = f"; pair-energy systematic ± {format_value(g.value * res['gain_systematic_rel'])} e-/DN not included"
+        sys_txt = (f"; pair-energy systematic ± {g.value * res['gain_systematic_rel']:.2g} e-/DN (1.1 %) not in "
+                   "the SE")
     print(f"gain               {g.text(with_reason=True)}{sys_txt}")
     if "single" in res:
         print(f"events             {res['single']} single-pixel, {res['split']} split (threshold "
