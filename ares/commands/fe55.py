@@ -135,7 +135,6 @@ def _write_csv(path: Path, ev, res) -> None:
 
 
 def _print(res: dict) -> None:
-
     print(f"K-alpha peak       {res['kalpha_dn'].text(with_reason=True)}  (width {res['kalpha_sigma_dn'].text()}, "
           f"chi2/dof {res['chi2_dof']:.2f}, {res['events_in_fit']} of {res['events_total']} events in the fit window)")
     print(f"K-beta/K-alpha     {res['kbeta_ratio'].text(with_reason=True)}")
