@@ -19,6 +19,10 @@ counts, and it weighs every frame by its level probability instead of deciding e
 a change-point segmentation (PELT, binary segmentation) misses dwells of a few frames when the
 amplitude is a few sigma, which biases the mean dwell long, and it runs per pixel in Python.
 The BIC (k ln F penalty: 2, 5, 10 parameters) chooses the number of levels by evidence.
+Libraries weighed: ``hmmlearn`` fits the same model (``covariance_type="tied"``) but one series per
+model object, a Python round trip per pixel and EM iteration, for thousands of candidates; ``ruptures``
+is change-point (above). The Baum-Welch here is ~60 lines of scalar loops, compiled by numba
+(``ares.analysis.kernels.hmm``, already a dependency), over every candidate in one call.
 
 Per RTN pixel: levels, amplitude (highest - lowest level) with its SE sigma sqrt(1/n_lo + 1/n_hi),
 mean dwell time in the lowest and highest level (frames) with SE (dwell / sqrt(departures)), the
