@@ -135,8 +135,9 @@ def _write_csv(path: Path, ev, res) -> None:
 
 
 def _print(res: dict) -> None:
+    chi2 = f"{res['chi2_dof']:.2f}" if math.isfinite(res["chi2_dof"]) else "n/a"
     print(f"K-alpha peak       {res['kalpha_dn'].text(with_reason=True)}  (width {res['kalpha_sigma_dn'].text()}, "
-          f"chi2/dof {res['chi2_dof']:.2f}, {res['events_in_fit']} of {res['events_total']} events in the fit window)")
+          f"chi2/dof {chi2}, {res['events_in_fit']} of {res['events_total']} events in the fit window)")
     print(f"K-beta/K-alpha     {res['kbeta_ratio'].text(with_reason=True)}")
     print(f"electron yield     {res['electrons_per_kalpha']:.1f} e- per {res['line_ev']:g} eV photon at "
           f"{res['temperature_c']:g} C (pair energy {res['pair_energy_ev']:.4f} eV, Lowe & Sareen 2007)")
