@@ -123,3 +123,23 @@ def test_kernel_equals_numpy_path():
     b = rtn.fit_hmm(x, 2, iters=400, tol=1e-12, use_kernel=False)
     assert np.allclose(a.levels, b.levels, atol=1e-7) and np.allclose(a.trans, b.trans, atol=1e-7)
     assert np.allclose(a.loglik, b.loglik, atol=1e-6) and np.allclose(a.departures, b.departures, atol=1e-5)
+
+
+def test_bic_chooses_the_number_of_levels():
+    """White noise: 1 level; one trap: 2; two traps of different amplitudes in one pixel (4 levels): 3, the
+    most the model offers."""
+    rng = np.random.default_rng(9)
+    F = 800
+
+    def trap(p):
+        s, out = 0, np.empty(F)
+        for t in range(F):
+            s = 1 - s if rng.random() < p else s
+            out[t] = s
+        return out
+
+    x = np.stack([rng.standard_normal(F), 4 * trap(0.1) + rng.standard_normal(F),
+                  4 * trap(0.08) + 8 * trap(0.05) + rng.standard_normal(F)], axis=1)
+    px = rtn.fit_levels(x, np.arange(3))
+    assert px.index.tolist() == [1, 2] and px.n_levels.tolist() == [2, 3]
+    assert abs(px.amplitude_dn[0] - 4) < 0.3
