@@ -143,3 +143,20 @@ def test_bic_chooses_the_number_of_levels():
     px = rtn.fit_levels(x, np.arange(3))
     assert px.index.tolist() == [1, 2] and px.n_levels.tolist() == [2, 3]
     assert abs(px.amplitude_dn[0] - 4) < 0.3
+
+
+def test_the_windows_information_items():
+    """The window's Information tab gets the low-light figures (``ares.gui.runner_adapter``, Qt-free)."""
+    from ares.gui.runner_adapter import summarize
+
+    est = lambda v, se, u: {"value": v, "se": se, "unit": u, "verdict": "ok"}  # noqa: E731
+    res = {"rtn": {"rtn_pixels": 47, "frames": 2000, "rtn_fraction": est(0.00287, 0.00042, ""),
+                   "read_noise_dn": est(0.9332, 0.0021, "DN"), "read_noise_without_rtn_dn": est(0.921, 0.0006, "DN")},
+           "dark_temperature": {"pixels": {"median_activation_ev": est(0.65, 0.0002, "eV"),
+                                           "meyer_neldel_ev": est(0.0291, 0.0002, "eV"), "hot_by_activation": 13},
+                                "frame": {"doubling_c": est(11.84, 0.3, "C")}},
+           "fe55": {"stages": {"xray": {"temperature_c": -20.0, "gain_e_per_dn": est(3.5715, 0.0004, "e-/DN")}}}}
+    items = summarize(res)["results"]
+    assert items["RTN pixels"].startswith("47 (0.00287 ± 0.00042")
+    assert items["activation energy (per-pixel median)"] == "0.65000 ± 0.00020 eV"
+    assert items["Fe-55 gain (xray, -20 C)"] == "3.57150 ± 0.00040 e-/DN"
