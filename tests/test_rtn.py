@@ -107,7 +107,8 @@ def test_scan_level_rtn_from_the_runs_raw_frames(tmp_path):
     assert {k.split(".")[-1] for k in flatten(r)} <= PRODUCES["rtn"] | {"stage"}
     from ares.report.lowlight_pages import rtn_page
 
-    assert len(rtn_page(r).axes) == 2  # amplitude and dwell-time histograms
+    assert len(rtn_page(r).axes) == 4  # amplitude and dwell-time histograms, the map and its colour bar
+    assert len(r["map"]["rows"]) == r["rtn_pixels"]
 
 
 def test_kernel_equals_numpy_path():

@@ -109,6 +109,15 @@ def rtn_page(a: dict):
         ax2.set_title("dwell times", fontsize=9)
         ax2.legend(fontsize=7)
         ax2.grid(alpha=0.3)
+    mp = a.get("map")
+    if mp and mp.get("rows"):
+        ax3 = fig.add_axes([0.09, 0.29, 0.5, 0.24])
+        sc = ax3.scatter(mp["cols"], mp["rows"], c=mp["amplitude"], s=6, cmap="viridis")
+        ax3.set_xlim(-0.5, mp["shape"][1] - 0.5)
+        ax3.set_ylim(mp["shape"][0] - 0.5, -0.5)
+        ax3.set_aspect("equal")
+        fig.colorbar(sc, ax=ax3, label="amplitude (DN)")
+        ax3.set_title("RTN map", fontsize=9)
     rows = analysis_rows({k: v for k, v in a.items() if isinstance(v, dict) and "value" in v})
     rows += [["RTN pixels", f"{a.get('rtn_pixels')} of {a.get('pixels')} ({a.get('three_level')} with 3 levels)",
               f"{a.get('candidates')} candidates"]]
@@ -116,5 +125,5 @@ def rtn_page(a: dict):
     dwell = a.get("frames_needed_dwell_frames") or [math.nan, math.nan]
     rows += [[f"frames needed, amplitude {k} sigma", f"needs >= {v}",
               f"dwell {dwell[0]:.3g}/{dwell[1]:.3g} frames; amplitude to 5 %, dwell to 10 %"] for k, v in fn.items()]
-    _table(fig, 0.52, rows, n=20)
+    _table(fig, 0.24 if mp and mp.get("rows") else 0.52, rows, n=20)
     return fig

@@ -109,6 +109,7 @@ def dark_temperature(run) -> dict:
 
 
 RTN_MIN_FRAMES = 100
+RTN_MAP_MAX = 20000  # RTN pixels listed in scan_results.json for the report's map
 
 
 def _stage_frames(run, st):
@@ -168,6 +169,10 @@ def rtn(run) -> dict:
     px = R.fit_levels(se.series if cand.size else np.zeros((fr.n, 0)), cand)
     summ = R.summarize(px, sc.variance, mp.mean.shape)
     out = {"stage": st["name"]}
+    if px.index.size <= RTN_MAP_MAX:  # the RTN map for the report (ares rtn --hdf5 writes it for any count)
+        r, c = np.divmod(px.index, mp.mean.shape[1])
+        out["map"] = {"shape": [int(x) for x in mp.mean.shape], "rows": r.tolist(), "cols": c.tolist(),
+                      "amplitude": [round(float(a), 4) for a in px.amplitude_dn]}
     for k, v in summ.items():
         if isinstance(v, np.ndarray):
             continue
