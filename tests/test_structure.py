@@ -34,7 +34,7 @@ LAYERS = [
     ["cli", "jit"],
 ]
 # the rooms of ares.analysis, lowest first, with the same rule among them
-ROOMS = [["kernels"], ["stats"], ["spatial"], ["noise"], ["ptc"], ["emva"], ["optics", "defects"]]
+ROOMS = [["kernels"], ["stats"], ["spatial"], ["noise"], ["ptc"], ["emva"], ["optics", "defects", "lowlight"]]
 QT = ("PySide6", "pyqtgraph", "shiboken6")
 IO = ("h5py", "PIL", "matplotlib", "serial", "usb", "smbus2", "pypdf", "lxml", "sqlite3", "dask")
 

@@ -34,7 +34,7 @@ def add_arguments(parser) -> None:
                         help="the ADC step in uV, to turn a --gain in uV/e- into DN/e-")
 
 
-GAIN_ANALYSES = ("dark_current", "temperature")  # the analyses a given gain changes
+GAIN_ANALYSES = ("dark_current", "temperature", "dark_temperature")  # the analyses a given gain changes
 
 
 def give_gain(run_dir, k: float, text: str) -> None:

@@ -87,10 +87,38 @@ def summarize(scan_results: dict, thresholds: tuple = ()) -> dict:
             out["defect_caption"] = "Scan-level defect classification: " + "; ".join(parts) + "."
         elif defects.get("note"):
             out["results"]["defects"] = str(defects["note"])
+    out["results"].update(lowlight_items(scan_results))
     for name, r in scan_results.items():
         if name not in ("ptc", "defects") and isinstance(r, dict) and r.get("status"):
             out["results"][name] = f"{r['status']}" + (f" ({r['note']})" if r.get("note") else "")
     return out
+
+
+def lowlight_items(scan_results: dict) -> dict[str, str]:
+    """The low-light analyses' headline figures for the Information tab, as ``ares run`` words them:
+    RTN pixels and the read noise with and without them, the activation energy and doubling
+    temperature, the Fe-55 gain per stage."""
+    out = {}
+    r = scan_results.get("rtn")
+    if isinstance(r, dict) and "rtn_pixels" in r:
+        out["RTN pixels"] = f"{r['rtn_pixels']} ({_fmt(r.get('rtn_fraction'))} of the pixels, {r.get('frames')} frames)"
+        out["read noise with / without RTN"] = (f"{_fmt(r.get('read_noise_dn'))} / "
+                                                f"{_fmt(r.get('read_noise_without_rtn_dn'))}")
+    d = scan_results.get("dark_temperature")
+    if isinstance(d, dict) and isinstance(d.get("pixels"), dict):
+        px, fr = d["pixels"], d.get("frame") or {}
+        if "median_activation_ev" in px:
+            out["activation energy (per-pixel median)"] = _fmt(px["median_activation_ev"])
+            out["Meyer-Neldel energy"] = _fmt(px.get("meyer_neldel_ev"))
+            out["hot pixels by activation energy"] = str(px.get("hot_by_activation"))
+        if "doubling_c" in fr:
+            out["dark current doubling temperature (frame)"] = _fmt(fr["doubling_c"])
+    f = scan_results.get("fe55")
+    if isinstance(f, dict) and isinstance(f.get("stages"), dict):
+        for stage, v in f["stages"].items():
+            if isinstance(v, dict) and "gain_e_per_dn" in v:
+                out[f"Fe-55 gain ({stage}, {v.get('temperature_c'):g} C)"] = _fmt(v["gain_e_per_dn"])
+    return {k: v for k, v in out.items() if v}
 
 
 def _meta(run_dir) -> dict:

@@ -43,6 +43,18 @@ PRODUCES: dict[str, frozenset[str]] = {
     "spectral_qe": frozenset({"qe", "mu_p", "net_signal_dn", "gain_dn_per_e", "wavelength_nm", "bandwidth_nm",
                               "u_calibration", "u_gain", "u_signal", "u_photodiode", "area_mm2", "pixel_pitch_um",
                               "range_nm"}),
+    "dark_temperature": frozenset({"rates", "doubling_c", "rate_at_ref", "activation_ev", "ln_prefactor", "chi2_dof",
+                                   "pixels", "median_activation_ev", "activation_spread_ev", "activation_fit_noise_ev",
+                                   "median_doubling_c", "field_enhanced", "depletion", "diffusion",
+                                   "hot_by_activation", "meyer_neldel_ev", "isokinetic_k", "naive_ev", "pixels_mn", "artefact_ev", "rates_se", "pixels_left_out",
+                                   "t_mean_k"}),
+    "rtn": frozenset({"rtn_pixels", "rtn_fraction", "read_noise_dn", "read_noise_without_rtn_dn",
+                      "read_noise_increase_pct", "median_amplitude_dn", "frames", "candidates", "three_level",
+                      "pixels", "1x", "2x", "3x", "5x", "read_noise_sigma_dn", "frame_period_s"}),
+    "fe55": frozenset({"kalpha_dn", "kalpha_sigma_dn", "kbeta_ratio", "gain_e_per_dn", "electrons_per_kalpha",
+                       "pair_energy_ev", "gain_systematic_rel", "temperature_c", "line_ev", "chi2_dof", "events_in_fit",
+                       "events_total", "bin_dn", "single", "split", "threshold_dn", "split_dn", "noise_dn", "frames",
+                       "transfer_per_row", "transfer_per_col"}),
 }
 
 

@@ -17,7 +17,7 @@ from ares.report.page_tables import _table, analysis_rows, available
 from ares.report import series_tables
 
 HANDLED = ("mtf", "photon_counting", "spectral_qe", "ptc", "decomposition", "dark_current", "temperature", "gain_split", "lag", "defects", "adc_linearity",
-           "emva4")
+           "emva4", "dark_temperature", "rtn")
 
 
 # ------------------------------------------------------------------ dark / temperature
@@ -390,6 +390,13 @@ def pages(run, groups: list) -> list[tuple[str, object]]:
         from ares.report.spectral_qe_page import spectral_qe_page
 
         out.append(("spectral QE", partial(spectral_qe_page, d)))
+    for name, maker in (("dark_temperature", "dark_temperature_page"), ("rtn", "rtn_page")):
+        d = available(run, name)
+        if d:  # (ares.report.lowlight_pages)
+            from ares.report import lowlight_pages
+
+            fn = getattr(lowlight_pages, maker)
+            out.append((name.replace("_", " "), partial(fn, run, d) if name == "dark_temperature" else partial(fn, d)))
     for name, a in run.analyses.items():
         if name not in HANDLED and available(run, name):
             out.append((f"analysis {name}", partial(generic_page, name, a)))

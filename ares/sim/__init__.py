@@ -10,7 +10,7 @@ Public API::
     make_sim_bench(params, seed, faults) -> ares.hardware.interfaces.Bench
     SimRegisterBus, SimFrameSource, SimLightSource, SimChamber
 
-May import ``hardware`` (the interfaces it implements), ``analysis`` (kernels) and the base modules."""
+May import ``hardware`` (the interfaces it implements), ``analysis`` (kernels; the Fe-55 electron yield) and the base modules."""
 
 from ares.sim.bench import SimChamber, SimFrameSource, SimLightSource, SimRegisterBus, make_sim_bench
 from ares.sim.params import SensorParams

@@ -43,6 +43,7 @@ _NON_NEGATIVE = (
     "stuck_rate_ppm", "noisy_rate_ppm", "bad_column_offset_dn", "crosstalk_pct",
     "adc_inl_lsb", "adc_dnl_lsb", "lag_fraction", "added_photocharge_e", "flutter_pct",
     "mono_fwhm_nm", "photodiode_noise_pct", "photodiode_dark_a",
+    "dark_activation_ev", "dark_activation_sigma_ev", "hot_activation_ev", "xray_events_per_frame", "xray_spread_px",
 )
 _POSITIVE = ("full_well_e", "conversion_gain_uv_per_e", "adc_lsb_uv", "qe", "dark_doubling_c")
 _PPM = ("hot_rate_ppm", "warm_rate_ppm", "rts_rate_ppm", "dead_rate_ppm", "stuck_rate_ppm", "noisy_rate_ppm")
@@ -85,6 +86,12 @@ class SensorParams:
     dark_tail_e_per_s: float = 5.0  # Ps3: exponential tail (mean of the zero-centred exponential)
     dark_ref_temp_c: float = 60.0
     dark_doubling_c: float = 8.0
+    dark_activation_ev: float = 0.0  # > 0: per-pixel Arrhenius law instead of the doubling (ares.sim.lowlight)
+    dark_activation_sigma_ev: float = 0.0  # pixel-to-pixel sigma of the activation energy
+    hot_activation_ev: float = 0.0  # > 0: the hot and warm pixels' activation energy (field-enhanced traps)
+    xray_events_per_frame: float = 0.0  # Fe-55 X-rays absorbed per frame (Poisson; ares.sim.lowlight)
+    xray_kbeta_fraction: float = 0.12  # fraction of them at K-beta (6490 eV) instead of K-alpha (5889 eV)
+    xray_spread_px: float = 0.25  # Gaussian sigma of an X-ray's charge cloud, pixels
 
     # --- gain non-uniformity ----------------------------------------------------------------
     prnu_pct: tuple = (1.0, 1.0, 1.0, 1.0)  # Pg sigma per Bayer phase (r%2,c%2): ee, eo, oe, oo
@@ -101,6 +108,8 @@ class SensorParams:
     rts_rate_ppm: float = 100.0
     rts_amplitude_e: float = 20.0  # bistable amplitude, uniform in [0.5, 1.5] x mean
     rts_switch_prob: float = 0.1  # probability per frame that an RTS pixel changes state
+    rts_dwell_spread: float = 1.0  # >= 1: each RTS pixel's mean dwell in each level is log-uniform in
+    #   [1/s, s] x 1/rts_switch_prob frames (1: every pixel switches with rts_switch_prob; ares.sim.lowlight)
     dead_rate_ppm: float = 20.0
     dead_response: float = 0.3  # photo-response fraction of a dead pixel
     stuck_rate_ppm: float = 5.0
@@ -213,6 +222,19 @@ class SensorParams:
             self._fail("dead_response", "must be in [0, 1)")
         if not 0 <= self.rts_switch_prob <= 1:
             self._fail("rts_switch_prob", "must be in [0, 1]")
+        if self.rts_dwell_spread < 1:
+            self._fail("rts_dwell_spread", "must be at least 1")
+        if not 0 <= self.xray_kbeta_fraction <= 1:
+            self._fail("xray_kbeta_fraction", "must be in [0, 1]")
+        for name in ("dark_activation_ev", "hot_activation_ev"):
+            if getattr(self, name) > 3.0:
+                self._fail(name, "must be at most 3 eV (silicon's band gap is 1.12 eV)")
+        if self.dark_activation_sigma_ev > 0.5:
+            self._fail("dark_activation_sigma_ev", "must be at most 0.5 eV")
+        if self.xray_spread_px > 1.0:
+            self._fail("xray_spread_px", "must be at most 1 pixel (an X-ray's charge is spread over 5x5 pixels)")
+        if self.xray_events_per_frame > 0.01 * self.rows * self.cols + 1:
+            self._fail("xray_events_per_frame", "must be at most 1 % of the pixels (events would pile up)")
         if self.noisy_factor < 1:
             self._fail("noisy_factor", "must be at least 1")
         if sum(getattr(self, n) for n in _PPM) > 1e6:

@@ -16,9 +16,10 @@ import numpy as np
 
 from ares.sim.adc import Adc
 from ares.sim.defects import Defects, draw_defects
+from ares.sim.lowlight import activation_map, rts_switch_probs
 from ares.sim.params import SensorParams
 
-_STREAMS = ("col", "row", "pix_offset", "dark", "col_gain", "row_gain", "pix_gain", "defects", "adc")
+_STREAMS = ("col", "row", "pix_offset", "dark", "col_gain", "row_gain", "pix_gain", "defects", "adc", "lowlight")
 
 
 class FixedPatterns:
@@ -64,3 +65,7 @@ class FixedPatterns:
         self.bad_column_offset_dn[d.bad_columns] = p.bad_column_offset_dn
         #: initial RTS trap state (0/1) per RTS pixel (the sensor evolves its own copy)
         self.rts_state0 = rng["defects"].integers(0, 2, len(d.index["rts"])).astype(np.float32)
+        #: per RTS pixel: probability per frame of leaving the low / the high level (ares.sim.lowlight)
+        self.rts_p_up, self.rts_p_down = rts_switch_probs(p, len(d.index["rts"]), rng["lowlight"])
+        #: per-pixel activation energy of the dark current (eV), None under the doubling law
+        self.activation_ev = activation_map(p, d, (R, C), rng["lowlight"])

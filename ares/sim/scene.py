@@ -16,6 +16,7 @@ import numpy as np
 
 from ares.errors import InputError
 from ares.sim.edge import edge_map
+from ares.sim.lowlight import dark_factor
 from ares.sim.noise import SHOT_MODES
 from ares.sim.params import SensorParams
 from ares.sim.patterns import FixedPatterns
@@ -109,13 +110,15 @@ def resolve_scene(p: SensorParams, fp: FixedPatterns, *, exposure_s, photon_flux
         else:
             q = float(qq) + p.added_photocharge_e
 
-    ds = p.dark_scale(temp) * dcs
+    factor = dark_factor(p, fp, temp)  # a number, or a per-pixel map under Arrhenius (ares.sim.lowlight)
+    ds = float(np.mean(factor)) * dcs
     dark_e = dark_clean = None
     if t > 0 and ds > 0:
+        f = np.float32(ds * t) if np.ndim(factor) == 0 else factor * np.float32(dcs * t)
         if np.any(fp.dark_all_ref_e_per_s):
-            dark_e = fp.dark_all_ref_e_per_s * np.float32(ds * t)
+            dark_e = fp.dark_all_ref_e_per_s * f
         if np.any(fp.dark_ref_e_per_s):
-            dark_clean = fp.dark_ref_e_per_s * np.float32(ds * t)
+            dark_clean = fp.dark_ref_e_per_s * f
     return Scene(exposure_s=t, temperature_c=temp, analog_gain=ag, black_level_dn=black, shot_noise=shot_noise,
                  G=G, q=q, dark_e=dark_e, dark_clean_e=dark_clean, read_noise_e=p.read_noise_e * rns,
                  dark_scale=ds, lag=min(p.lag_fraction * lgs, 0.99))

@@ -23,7 +23,7 @@ from __future__ import annotations
 import numpy as np
 
 from ares.errors import InputError
-from ares.sim import cost, fused, noise
+from ares.sim import cost, fused, lowlight, noise
 from ares.sim.params import SensorParams
 from ares.sim.patterns import FixedPatterns
 from ares.sim.scene import Scene, resolve_scene
@@ -281,9 +281,13 @@ class SimSensor:
         bump = None
         if len(rts):
             st = self._rts_state
-            flip = rng.random(len(rts)) < p.rts_switch_prob
+            flip = rng.random(len(rts)) < np.where(st == 0, fp.rts_p_up, fp.rts_p_down)
             st[flip] = 1.0 - st[flip]
             bump = _F32(sc.G) * fp.defects.rts_amplitude_e * st
+        if p.xray_events_per_frame > 0:  # RTS and X-ray charge: one sparse set of pixels (ares.sim.lowlight)
+            sparse = lowlight.sparse_bumps([(rts, bump if bump is not None else ()),
+                                            lowlight.xray_deposits(rng, p, sc.G, sc.temperature_c, shape)])
+            rts, bump = sparse if sparse is not None else (rts, None)
         adc = fp.adc
         if adc.unit_gain and fused.adc_lookup(x, adc, out, row, col):  # the line terms added in its pass
             codes = out

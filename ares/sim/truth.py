@@ -40,13 +40,17 @@ temperature and bias), ``dark_charge_e`` (mean clean dark charge), ``read_noise_
 offset), ``max_code``, ``lag_fraction``, ``flutter_pct`` (per-frame relative sigma of q, %), ``adc`` (bits, max_code, offset_dn, gain,
 inl_lsb per transition k=1..max, dnl_lsb per code), ``defects`` (per class a (rows,
 cols) tuple of index arrays; ``bad_columns`` an array; ``properties`` with per-pixel
-values in the same order), ``scene`` (the operating point).
+values in the same order), ``lowlight`` (``ares.sim.lowlight.truth``: the RTS pixels' amplitudes in DN and
+mean dwell times in frames, the per-pixel activation-energy and ln-prefactor maps under Arrhenius, the
+Fe-55 K-alpha electrons and gain), ``scene`` (the operating point).
 """
 
 from __future__ import annotations
 
 import numpy as np
 
+from ares.sim.lowlight import dark_rate_map
+from ares.sim.lowlight import truth as lowlight_truth
 from ares.sim.scene import Scene
 
 
@@ -97,7 +101,7 @@ def build_truth(sensor, sc: Scene) -> dict:
         "Rg": fp.row_gain.astype(np.float64),
         "Pg": fp.pixel_gain.astype(np.float64),
         "q": q_map,
-        "dark_e_per_s": fp.dark_all_ref_e_per_s.astype(np.float64) * k,
+        "dark_e_per_s": dark_rate_map(p, fp, sc),
         "gain_dn_per_e": G * fp.col_gain[None, :].astype(np.float64) * fp.row_gain[:, None]
         * fp.pixel_gain * fp.response,
     }
@@ -141,6 +145,7 @@ def build_truth(sensor, sc: Scene) -> dict:
         "adc": {"bits": p.adc_bits, "max_code": p.max_code, "offset_dn": list(p.adc_offset_dn),
                 "gain": list(p.adc_gain), "inl_lsb": adc.inl_lsb(), "dnl_lsb": adc.dnl_lsb()},
         "defects": defects,
+        "lowlight": lowlight_truth(sensor, sc),
         "scene": {"exposure_s": t, "temperature_c": sc.temperature_c, "analog_gain": sc.analog_gain,
                   "black_level_dn": sc.black_level_dn, "shot_noise": sc.shot_noise},
     }
