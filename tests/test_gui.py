@@ -565,13 +565,13 @@ def test_two_axis_sweep_fills_the_sweep_map(window, qtbot, tmp_path):
     assert window.session.progress.state == P.DONE, window.session.progress.message
     assert m.ndim == 2 and m.grid().shape == (3, 2) and np.isfinite(m.grid()).all()
     assert [name for name, _ in m.axes()] == ["sf_bias (V)", "tx_low (V)"]  # units from the register map
-    assert "Pt: pixel temporal (read), DN^2" in m.quantities
+    assert "Pt: pixel temporal variance (read), DN^2" in m.quantities
     assert "image lag (%)" in m.quantities  # dark="after": every point is a bright->dark cycle
     show_tab(window, "Sweep Map")
     assert window.sweep.stack.currentWidget() is window.sweep.map_plot
     assert window.sweep.map_image.image.shape == (2, 3)
-    window.sweep.quantity.setCurrentText("Pt: pixel temporal (read), DN^2")
-    assert m.quantity == "Pt: pixel temporal (read), DN^2"
+    window.sweep.quantity.setCurrentText("Pt: pixel temporal variance (read), DN^2")
+    assert m.quantity == "Pt: pixel temporal variance (read), DN^2"
 
 
 def test_drawing_a_region_on_the_live_image_edits_the_table(window, qtbot):

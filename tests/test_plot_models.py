@@ -302,7 +302,7 @@ def test_components_model_orders_rows_and_formats_estimates():
     rows = m.rows()
     assert [r.symbol for r in rows] == ["o", "Pt", "extra"]  # model order first, then the rest
     assert [r.text for r in rows] == ["64", "1.250 ± 0.050", "n/a (one frame)"]  # digits from the SE
-    assert rows[1].description == "pixel temporal (read)"
+    assert rows[1].description == "pixel temporal variance (read)"
     m.select("centre")
     assert [r.symbol for r in m.rows()] == ["Ps"] and m.rows("dark_components") == []
 

@@ -325,7 +325,9 @@ def lag_page(run, stages: list[dict], arrays: dict, lag: dict):
 # ------------------------------------------------------------------ anything else
 
 def generic_page(name: str, a: dict):
-    fig = new_page(f"Scan-level analysis: {name}", "from scan_results.json")
+    from ares.labels import analysis_title
+
+    fig = new_page(f"Scan-level analysis: {analysis_title(name)}", "from scan_results.json")
     y = 0.92
     rows = analysis_rows(a)
     y = _table(fig, y, rows, n=50)

@@ -12,7 +12,7 @@ import time
 
 import numpy as np
 
-from ares.labels import COMPONENTS, HEADLINE_COMPONENTS, PTC_FIGURES
+from ares.labels import FIGURES, HEADLINE_FIGURES, PTC_FIGURES
 from ares.gui.events import (Done, Ending, Failed, FramePreview, Progress, ReportsWritten, RunInfo, StageResult, StageStarted,
                       Stopped)
 from ares.gui.models import progress as P
@@ -46,16 +46,31 @@ REFRESH_S = 1.0
 RESULTS_S = 3.0
 
 
-def headline_key(label: str, component: str | None = None) -> str:
+def headline_key(label: str, component: str | None = None, unit: str | None = None) -> str:
     """The Information tab's name of a headline figure: ``PTC: <label>`` for a photon-transfer
-    figure of ``labels.PTC_FIGURES``, ``<meaning> (<symbol>)`` for a component."""
-    return f"{label} [{component}]" if component else f"PTC: {label}"
+    figure of ``labels.PTC_FIGURES``, ``<name>, <unit>`` for the others of
+    ``labels.HEADLINE_FIGURES`` (DSNU in e- and in DN), ``<meaning> [<symbol>]`` for a component."""
+    if component:
+        return f"{label} [{component}]"
+    if unit is not None:
+        return f"{label}, {unit}" if unit else label
+    return f"PTC: {label}"
 
 
-# The headline figures, in the terminal's order (ares.commands.run.print_summary): they head
+# the unit each headline figure after the photon-transfer ones is stated in
+HEADLINE_UNITS = {"snr_max_emva": "", "dsnu_e": "e-", "dsnu_dn": "DN", "dsnu_all_e": "e-", "dsnu_all_dn": "DN",
+                  "prnu_pct": "% rms", "prnu_all_pct": "% rms"}
+
+
+def figure_key(key: str, name: str) -> str:
+    """The Information tab's row name of headline figure ``key`` (named ``name``)."""
+    return headline_key(name, unit=HEADLINE_UNITS[key]) if key in HEADLINE_UNITS else headline_key(name)
+
+
+# The headline figures, in the terminal's order (ares.commands.run.print_headline): they head
 # the Information tab, above the versions, the scan and the run directory.
 HEADLINE = tuple(headline_key(label) for _, label in PTC_FIGURES) + tuple(
-    headline_key(COMPONENTS[c], c) for c in HEADLINE_COMPONENTS)
+    figure_key(k, FIGURES[k][0]) for k in HEADLINE_FIGURES)
 
 
 class InfoModel(Observable):
