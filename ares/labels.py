@@ -104,6 +104,8 @@ def component_label(c: str, part: str = "components") -> str:
     come from its matched dark stack."""
     if c == "Pt" and part == "flat_anova":
         return "pixel temporal variance (read + shot)"
+    if c == "Ps" and part == "flat_anova":
+        return "pixel FPN variance (offset + response)"
     if c == "delta":
         return "shot-noise variance (= q when G is estimated from this level)"
     return COMPONENTS.get(c, "")
@@ -137,7 +139,7 @@ def with_unit(name: str, unit: str) -> str:
 
 
 # numeric columns that are counts, indices or fractions (unit "1"), and the analog gain factor
-COUNT_COLUMNS = {"index", "stage_index", "code", "transition", "frames", "dark_frames", "n_pixels", "n_frames", "dark_n_frames",
+COUNT_COLUMNS = {"index", "stage_index", "masked_pixels", "code", "transition", "frames", "dark_frames", "n_pixels", "n_frames", "dark_n_frames",
                  "frac_at_max", "frac_at_min", "dark_frac_at_max", "dark_frac_at_min"}
 
 

@@ -513,7 +513,7 @@ def test_photon_transfer_scan_fills_defect_counts_and_information(window, qtbot,
     assert len(window.signal_map.overlay_items) == len(window.preview.overlay_items)
     window.defects.overlay.setChecked(False)
     assert window.preview.overlay_items == []
-    assert "PTC: conversion gain" in s.info.items and "defect thresholds" in s.info.items
+    assert "PTC: conversion gain (charge to voltage)" in s.info.items and "defect thresholds" in s.info.items
     # the stages rewritten once a flat completed the defect mask replaced their points
     pts = s.ptc.by_view["full"]
     assert len({p.stage for p in pts}) == len(pts) == sum(not r.dark for r in s.stages.results.values())

@@ -220,10 +220,8 @@ def print_summary(outcome, scan, seconds: float, out=None, resumed: int = 0) -> 
     out.write(limits_verdict(outcome.status, len(scan.limits), outcome.limit_failures)["text"] + "\n")
 
 
-def analysis_title(name: str) -> str:
-    from ares.labels import analysis_title as title
-
-    return title(name)
+from ares.labels import ANALYSIS_TITLES  # noqa: E402
+from ares.labels import analysis_title  # noqa: E402,F401
 
 
 def print_headline(res: dict, out) -> None:
@@ -271,8 +269,9 @@ def print_headline(res: dict, out) -> None:
             out.write(f"  {d['mask_note']}\n")
         from ares.report.tables import component_label, component_text
 
-        for k, v in d["components"].items():
-            out.write(f"  {k:<14} {component_text(k, v):<34} {component_label(k)}\n")
+        part = "flat_anova" if d.get("scene") == "flat" and "G" not in d["components"] else "components"
+        for k, v in d["components"].items():  # (a lit stack without a matched dark: its Pt holds the shot noise)
+            out.write(f"  {k:<14} {component_text(k, v):<34} {component_label(k, part)}\n")
 
 
 def print_precision(rep: dict, out=None) -> None:
@@ -306,7 +305,8 @@ def _print_estimates(d: dict, out, indent: str, depth: int = 0, path: str = "") 
             out.write(f"{indent}{k:<26} {_num(v)}\n")
         elif isinstance(v, dict) and depth < 5 and any(isinstance(x, dict) for x in v.values()):
             label = (f"option esf_half_width={v['esf_half_width']:g} px (not the standard)"
-                     if k == "option" and "esf_half_width" in v else analysis_title(f"{path}.{k}"))
+                     if k == "option" and "esf_half_width" in v else
+                     analysis_title(f"{path}.{k}") if f"{path}.{k}" in ANALYSIS_TITLES else k)
             out.write(f"{indent}{label}:\n")
             _print_estimates(v, out, indent + "  ", depth + 1, f"{path}.{k}")
         elif isinstance(v, (int, str)) and not isinstance(v, bool) and k in ("counts", "dark_stage"):

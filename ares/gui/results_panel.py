@@ -115,9 +115,10 @@ class ResultsTab(QWidget):
         self.session = session
         self.caption = QLabel()
         grid = QGridLayout()
-        xlabels = {"MEAN SIGNAL": "mean signal (DN)", "NOISE": "temporal sigma (DN)",
+        xlabels = {"MEAN SIGNAL": "mean output (DN, offset included; the report's signal is above dark)", "NOISE": "temporal sigma (DN)",
                    "COLUMNS": "column mean (DN)", "ROWS": "row mean (DN)"}
         self.panels = {name: StatsPanel(session.panels[name], xlabels[name]) for name in PANELS}
+        self.panels["MEAN SIGNAL"].setTitle("MEAN SIGNAL (raw output, offset included)")
         for k, name in enumerate(PANELS):
             grid.addWidget(self.panels[name], k // 2, k % 2)
         lay = QVBoxLayout(self)

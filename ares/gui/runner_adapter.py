@@ -38,12 +38,15 @@ def summarize(scan_results: dict, thresholds: tuple = ()) -> dict:
     out: dict = {"results": {}}
     if thresholds:
         out["results"]["defect thresholds"] = ", ".join(f"{k} = {v:g}" for k, v in thresholds)
+        out["thresholds"] = dict(thresholds)
     ptc = scan_results.get("ptc")
     if isinstance(ptc, dict):
         g = _value(ptc.get("gain_e_per_dn"))
         if g is not None:
             out["gain_e_per_dn"] = g
-            out["gain_note"] = f"fit by the engine over {ptc.get('levels', '?')} levels"
+            fitted = (ptc.get("gain_model") or {}).get("levels")
+            out["gain_note"] = (f"fit by the engine over {fitted} of {ptc.get('levels', '?')} levels" if fitted
+                                else f"fit by the engine over {ptc.get('levels', '?')} levels")
             # the figures as the engine states them: the digits their SE supports
             out["gain_text"] = (f"system gain K = {_fmt(ptc.get('gain_dn_per_e'))}, "
                                 f"1/K = {_fmt(ptc.get('gain_e_per_dn'))}")

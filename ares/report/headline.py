@@ -43,7 +43,7 @@ def _dsnu(ps: dict | None, gain: Estimate | None, which: str, stage: str) -> tup
 
 def _prnu(pg: dict | None, which: str, stage: str) -> Estimate:
     if not isinstance(pg, dict) or pg.get("value") is None:
-        return Estimate.na(f"no pixel gain spread at stage {stage} (a dark stage)", "%")
+        return Estimate.na(f"no pixel gain spread at stage {stage} (a dark stage: no light to spread)", "%")
     v, se = float(pg["value"]), pg.get("se")
     se = float(se) if se is not None else math.nan
     if v <= 0:
@@ -52,11 +52,23 @@ def _prnu(pg: dict | None, which: str, stage: str) -> Estimate:
                     f"100 sqrt(Pg) at stage {stage} ({which})")
 
 
+def lit_without_dark(scene: str | None, every: dict | None) -> bool:
+    """A lit stack decomposed alone (no matched dark, so no stage gain G): its Ps holds the
+    photo-response non-uniformity and its Pt the shot noise -- not a DSNU, not a read noise."""
+    return scene == "flat" and not (every or {}).get("G")
+
+
 def nonuniformity(masked: dict | None, every: dict | None, gain: Estimate | None, stage: str,
-                  why_no_mask: str = NO_MASK) -> dict[str, Estimate]:
+                  why_no_mask: str = NO_MASK, scene: str | None = None) -> dict[str, Estimate]:
     """DSNU/PRNU of one stage's components: ``masked`` (defect pixels left out; None when
     the scan had no mask: ``why_no_mask``) and ``every`` (all pixels). ``gain``: K (DN/e-),
-    its note naming it ("K" or "stage gain G")."""
+    its note naming it ("K" or "stage gain G"). ``scene``: the stage's ("dark"/"flat")."""
+    if lit_without_dark(scene, every):
+        why = (f"stage {stage} is a lit stack without a matched dark: its pixel FPN holds the photo-response "
+               "non-uniformity too, and it has no gain spread")
+        units = {"dsnu_e": "e-", "dsnu_dn": "DN", "dsnu_all_e": "e-", "dsnu_all_dn": "DN", "prnu_pct": "%",
+                 "prnu_all_pct": "%"}
+        return {k: Estimate.na(why, u) for k, u in units.items()}
     out: dict[str, Estimate] = {}
     if masked:
         out["dsnu_e"], out["dsnu_dn"] = _dsnu(masked.get("Ps"), gain, "defect pixels excluded", stage)
@@ -90,7 +102,7 @@ def decomposition_nonuniformity(analyses: dict) -> dict[str, Estimate]:
     else:
         masked, every = None, d["components"]
         why = d.get("mask_note") or f"{NO_MASK} ({labels.MASK_POLICY})"
-    return nonuniformity(masked, every, headline_gain(analyses, every), d["stage"], why)
+    return nonuniformity(masked, every, headline_gain(analyses, every), d["stage"], why, d.get("scene"))
 
 
 def snr_max_emva(ptc: dict) -> Estimate:
@@ -128,6 +140,10 @@ def same_point(ptc: dict) -> str | None:
 def full_well_note(ptc: dict) -> str | None:
     """When the full well's plateau is the ADC's maximum code, not the pixel's well: say so."""
     fw = ptc.get("full_well_definitions") or {}
+    if isinstance(fw.get("plateau"), dict) and fw["plateau"].get("value") is None and \
+            "ADC" in str(fw["plateau"].get("note", "")):
+        return ("full well (charge) is where the ADC clips (its maximum code comes before the pixel's well "
+                "fills): not the pixel's well")
     code, plateau = _est(fw.get("max_code")), _est(fw.get("plateau"))
     if code is not None and plateau is not None and code.available and plateau.available and \
             abs(code.value - plateau.value) <= max(3 * (plateau.se if math.isfinite(plateau.se) else 0.0),

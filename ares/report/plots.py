@@ -6,6 +6,8 @@ files. Pages are A4 portrait (``new_page``).
 
 from __future__ import annotations
 
+from ares import labels
+
 import math
 
 import matplotlib.lines
@@ -155,10 +157,10 @@ def noise_zones(ax, rows: list[dict], res, title: str) -> None:
         nm = res.noise_model
         sn, pr = nm.get("sensor_noise_e"), nm.get("prnu_pct")
         if sn is not None and sn.available:
-            ax.axhline(sn.value * K.value, color="0.4", lw=0.8, ls="--", label=f"sensor noise {sn.value:.3g} e-")
+            ax.axhline(sn.value * K.value, color="0.4", lw=0.8, ls="--", label=f"sensor noise (total-noise model) = {sn.text()}")
         if sn is not None and pr is not None and sn.available and pr.available:
             model = np.sqrt(sn.value**2 + ne + (pr.value / 100 * ne) ** 2) * K.value
-            ax.loglog(xs, model, "-", color="C1", lw=1.2, label=f"total-noise model (PRNU {pr.value:.3g} %)")
+            ax.loglog(xs, model, "-", color="C1", lw=1.2, label=f"total-noise model, {labels.figure_name('noise_model.prnu_pct')} = {pr.text()}")
             ax.loglog(xs, pr.value / 100 * xs, "-.", color="C2", lw=0.8, label="PRNU noise")
         lo, hi = xs[0], xs[-1]
         edges = [lo]
@@ -211,8 +213,10 @@ def snr_curve(ax, res, title: str) -> None:
 def linearity(ax, ax_dev, rows: list[dict], title: str) -> None:
     if all(r["photons"] is not None for r in rows):
         x, xl = np.array([r["photons"] for r in rows], float), "photons per pixel (light x exposure)"
+        per = "DN per photon/pixel"
     else:
         x, xl = np.array([r["exposure_s"] for r in rows], float), "exposure (s)"
+        per = "DN/s"
     S = np.array([r["signal_dn"] for r in rows])
     status = [r["status"] for r in rows]
     _status_scatter(ax, x, S, status)
@@ -226,7 +230,7 @@ def linearity(ax, ax_dev, rows: list[dict], title: str) -> None:
         if sel.sum() >= 2:
             a, b = np.polyfit(x[sel], S[sel], 1, w=1.0 / S[sel])
             xs = np.linspace(0, x[good].max(), 50)
-            ax.plot(xs, a * xs + b, "-", color="0.3", lw=1, label=f"line on 5-95 % (slope {a:.4g} DN/unit)")
+            ax.plot(xs, a * xs + b, "-", color="0.3", lw=1, label=f"line on 5-95 % (slope {a:.4g} {per})")
             dev = 100 * (S - (a * x + b)) / (a * x + b)
             _status_scatter(ax_dev, x, dev, status)
             ax_dev.axhline(0, color="0.3", lw=0.8)

@@ -87,7 +87,7 @@ def temperature_page(run, series: dict):
     if fit.doubling_c.available:
         ts = np.linspace(T.min(), T.max(), 50)
         ax.plot(ts, fit.value_at_ref.value * 2 ** ((ts - fit.ref_c) / fit.doubling_c.value), "-", color="0.3",
-                label=f"doubling temperature {fit.doubling_c:.3g} C")
+                label=f"doubling temperature {fit.doubling_c.text()}")
     ax.set_yscale("log")
     ax.set_xlabel("temperature (C)")
     ax.set_ylabel("dark current (DN/s)")

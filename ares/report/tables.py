@@ -372,6 +372,11 @@ def compute_key_figures(run, groups: list[PtcGroup] | None = None) -> dict:
             kf[f"full_well_e.{k}"] = _entry(FULL_WELL_LABELS.get(k, f"full well ({k})"), e, src)
         for key in ("turnoff_dn", "turnoff_e"):  # one turnoff, SE from the level spacing
             kf[key] = _entry(labels.PTC_LABELS[key], pick(key, res and getattr(res, key)), src)
+        from ares.report.headline import full_well_note, same_point
+
+        for key, text in (("full_well_e", full_well_note(stored)), ("turnoff_e", same_point(stored))):
+            if text and kf.get(key) and kf[key]["value"] is not None:  # said beside the figure, as the terminal says it
+                kf[key]["note"] = f"{text}; {kf[key]['note']}"
         kf["dynamic_range_db"] = _entry(labels.figure_name("dynamic_range_db"), pick("dynamic_range_db", res and res.dynamic_range_db), src)
         if res is not None:
             well = est(kf["full_well_e"])  # the charge capacity: no SNR above its square root
@@ -448,8 +453,9 @@ def defect_count_figures(a: dict) -> dict:
     for cls, n in a["counts"].items():
         if cls == "total":
             continue
-        e = (Estimate(float(n), math.nan, "pixels", f"class {cls}") if n is not None else
-             Estimate.na(why.get(cls) or "not tested by this scan", "pixels"))
+        unit = {"bad_columns": "columns", "bad_rows": "rows", "clusters": "clusters"}.get(cls, "pixels")
+        e = (Estimate(float(n), math.nan, unit, f"class {cls}") if n is not None else
+             Estimate.na(why.get(cls) or "not tested by this scan", unit))
         out[f"defects.{cls}"] = _entry(f"{labels.DEFECTIVE_PIXELS}: {cls}", e, "scan_results.json: defects")
     out["defects.total"] = _entry(labels.DEFECTIVE_PIXELS, Estimate(float(a["counts"]["total"]), math.nan, "pixels",
                                                                     "all classes (see the defects page)"),
@@ -482,7 +488,7 @@ def nonuniformity_figures(run, gain: Estimate | None) -> dict:
         gain = Estimate(gain.value, gain.se, gain.unit, "K")
     dec = (getattr(run, "analyses", None) or {}).get("decomposition") or {}
     why = dec.get("mask_note") or f"{NO_MASK} ({labels.MASK_POLICY})"
-    figs = nonuniformity(full.get("components_masked"), comp, gain, st["name"], why)
+    figs = nonuniformity(full.get("components_masked"), comp, gain, st["name"], why, st.get("scene"))
     return {k: _entry(labels.figure_name(k), e, src) for k, e in figs.items()}
 
 

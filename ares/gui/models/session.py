@@ -229,9 +229,24 @@ class SessionModel:
         self.defects.clear()
         self.stages.clear()
         self.last_frame = None
+        self._forget_images()
         self.throttle = True
         self._result_at, self._result_waits = -math.inf, False
         self._drawn_at.clear()  # the run's first frame and first stage are drawn at once
+
+    def _forget_images(self) -> None:
+        """Nothing of the previous run on any tab once a run starts: the live image, the maps,
+        the statistics panels, the distributions and the profiles are emptied at once."""
+        for key in list(self._jobs):  # the previous run's panels still being computed are not shown
+            job = self._jobs.pop(key)
+            self._before.pop(key, None)
+            job.cancel()
+        for m in (self.preview, self.signal_map, self.noise_map):
+            m.set_image(None, "")
+        for m in list(self.panels.values()) + list(self.distributions.values()):
+            m.clear()
+        self.panels_stage = None
+        self.profiles.update(None, [])
 
     def handle(self, ev) -> None:
         if isinstance(ev, RunInfo):
@@ -458,6 +473,8 @@ class SessionModel:
             value = getattr(gain, "value", gain)
             if value is not None and math.isfinite(float(value)):
                 self.ptc.set_fit(float(value), summary.get("gain_note", ""), summary.get("gain_text", ""))
+        if summary.get("thresholds"):
+            self.defects.set_thresholds(summary["thresholds"])
         defects = summary.get("defects")
         if isinstance(defects, dict) and defects:
             total = int(summary.get("pixels", 0)) or (
