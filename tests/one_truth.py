@@ -19,6 +19,7 @@ import re
 from pathlib import Path
 
 import h5py
+import numpy as np
 
 from ares import labels
 from ares.analysis.stats.estimate import Estimate, component_text, format_dict
@@ -285,7 +286,7 @@ def check_names(name: str, run: Path, terminal: str) -> None:
             if group not in f:
                 continue
             for col, ds in f[group].items():
-                if ds.dtype.kind == "f" and col not in ("value", "se"):
+                if ds.dtype.kind == "f" and col not in ("value", "se") and not np.isnan(ds[()]).all():
                     assert ds.attrs.get("unit"), f"{name}: report.h5 /{group}/{col} has no unit"
             for col, ds in f[group].items():
                 if col.startswith("light_photons_per_pixel"):

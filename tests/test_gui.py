@@ -306,11 +306,11 @@ def test_the_results_caption_says_when_the_newest_stage_is_drawn_at_intervals(wi
     s, tab = window.session, window.results
     s.begin_run("t")
     s.handle(StageResult(1, "dark", np.ones((4, 5)), np.ones((4, 5)), 3))
-    assert tab.caption.text() == ("Stage 1 (dark), 3 frames, full frame (while the scan runs, its newest stage "
+    assert tab.caption.text() == ("Stage 0 (dark), 3 frames, full frame (while the scan runs, its newest stage "
                                   "is drawn at most every 3 s)")
     s.handle(StageResult(2, "flat", np.full((4, 5), 9.0), np.ones((4, 5)), 3))
     s.handle(Done(None, {}))
-    assert tab.caption.text() == "Stage 2 (flat), 3 frames, full frame"
+    assert tab.caption.text() == "Stage 1 (flat), 3 frames, full frame"
 
 
 def test_results_panels_are_computed_off_the_window_s_thread_during_a_scan(window, qtbot, tmp_path, monkeypatch):
@@ -569,7 +569,7 @@ def test_two_axis_sweep_fills_the_sweep_map(window, qtbot, tmp_path):
     assert "image lag (%)" in m.quantities  # dark="after": every point is a bright->dark cycle
     show_tab(window, "Sweep Map")
     assert window.sweep.stack.currentWidget() is window.sweep.map_plot
-    assert window.sweep.map_image.image.shape == (2, 3)
+    assert window.sweep.map_image.image.shape == (3, 2)  # [axis 1 up, axis 2 across], as the PDF
     window.sweep.quantity.setCurrentText("Pt: pixel temporal variance (read), DN^2")
     assert m.quantity == "Pt: pixel temporal variance (read), DN^2"
 
@@ -709,7 +709,7 @@ def test_channel_view_on_a_two_adc_sensor_gives_the_per_channel_sigma(window, qt
     # the stage browser: the first stage on every tab, then back to following the scan
     show_tab(window, "Signal Map")
     window.view_bar.choose_stage(1)
-    assert s.last_result.stage == 1 and "stage 1" in s.signal_map.caption
+    assert s.last_result.stage == 1 and "stage 0" in s.signal_map.caption
     window.view_bar.choose_stage(None)
     assert s.last_result.stage == 2
 

@@ -166,7 +166,7 @@ def dry_run(scan, frames: int | None, seed: int | None = None, out=None, out_dir
         elif s.dark_source == "reuse":
             dark = " + dark (reused)"
         sets = ", ".join(f"{k.removeprefix('reg:')}={v:g}" for k, v in s.settings.items())
-        out.write(f"  {s.index + 1:4d}  {s.name:<18} {s.scene:<4} {s.frames:4d} frames{dark:<18} {sets}\n")
+        out.write(f"  {s.index:4d}  {s.name:<18} {s.scene:<4} {s.frames:4d} frames{dark:<18} {sets}\n")
         total += s.frames_to_grab()
     est = estimate_seconds(scan, stages)
     out.write(f"total: {total} frames, estimated {fmt_s(est)} ({est:.1f} s) of exposure, readout and settling\n")

@@ -132,9 +132,9 @@ class ResultsTab(QWidget):
         if ev is None:
             self.caption.setText("No stage result yet.")
         elif ev.mean is None:
-            self.caption.setText(f"Stage {ev.stage} ({ev.name}): its arrays were dropped to bound memory.")
+            self.caption.setText(f"Stage {ev.stage - 1} ({ev.name}): its arrays were dropped to bound memory.")
         else:
             live = (f" (while the scan runs, its newest stage is drawn at most every {RESULTS_S:g} s)"
                     if self.session.throttle and self.session.stages.following_latest else "")
-            self.caption.setText(f"Stage {ev.stage} ({ev.name}), {ev.frames} frames, "
+            self.caption.setText(f"Stage {ev.stage - 1} ({ev.name}), {ev.frames} frames, "
                                  f"{self.session.region_label(ev.mean.shape)}{live}")

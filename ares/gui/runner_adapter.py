@@ -277,7 +277,7 @@ class RunnerJob:
         sets = ", ".join(f"{k.removeprefix('reg:')}={v:g}" for k, v in st.settings.items()
                          if isinstance(v, (int, float)))
         dark = {"grab": f" + {st.dark_frames} dark", "reuse": " + dark (reused)"}.get(st.dark_source, "")
-        return f"{st.index + 1:3d}  {st.name:<12} {st.scene:<4} {st.frames} frames{dark}  {sets}"
+        return f"{st.index:3d}  {st.name:<12} {st.scene:<4} {st.frames} frames{dark}  {sets}"
 
     @staticmethod
     def _instruments(system) -> dict:

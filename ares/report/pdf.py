@@ -56,8 +56,11 @@ def title_page(run, kf: dict) -> "plots.Figure":
         y -= 0.006
     for k, val in lines:
         fig.text(0.06, y, k, fontsize=8.5, weight="bold", va="top")
-        fig.text(0.27, y, plots.clip(val, 100), fontsize=8.5, va="top", family="monospace" if "SHA" in k else None)
-        y -= 0.018
+        mono = "SHA" in k
+        # a long value (a device's identity, the software line) wraps within the page, never cut at its edge
+        for part in (textwrap.wrap(str(val), 64 if mono else 88) or [""])[:3]:
+            fig.text(0.27, y, part, fontsize=8.5, va="top", family="monospace" if mono else None)
+            y -= 0.018
     if run.attribution:
         fig.text(0.06, y, "data: " + run.attribution, fontsize=9, va="top", style="italic")
         y -= 0.02
@@ -99,8 +102,10 @@ def title_page(run, kf: dict) -> "plots.Figure":
 
 
 def ptc_page(g: tables.PtcGroup, rows: list[dict]):
+    status = [r["status"] for r in rows]
     fig = new_page(f"Photon transfer (analog gain x{g.analog_gain:g})",
-                   f"{len(g.stages)} levels; fit range shaded; dark-subtracted signal and temporal variance")
+                   f"{len(g.stages)} levels ({status.count('fit')} fitted, {status.count('excluded')} excluded); "
+                   "fit range shaded; dark-subtracted signal and temporal variance")
     ax1 = fig.add_axes([0.11, 0.6, 0.83, 0.31])
     notes = plots.ptc_variance(ax1, rows, g.result, "variance vs signal")
     y = 0.545
@@ -128,7 +133,7 @@ def snr_linearity_page(g: tables.PtcGroup, rows: list[dict]):
     return fig
 
 
-EDGE_NOTE = "of an edge image: not a PRNU"
+EDGE_NOTE = "(of an edge image: no PRNU)"
 
 
 def _component_table(fig, y: float, stage: dict, part: str, title: str, edge: bool = False) -> float:

@@ -122,12 +122,25 @@ def ptc_variance(ax, rows: list[dict], res, title: str) -> list[str]:
         if fit:
             ax.axvspan(0, max(lv.signal for lv in fit), color="C0", alpha=0.05, lw=0)
     k = 0
+    marks: list[list] = []  # [x, y, [numbers]]: excluded levels that would overprint share one label
+    xs_all = [r["signal_dn"] for r in rows if np.isfinite(r["signal_dn"])]
+    ys_all = [r["variance_dn2"] for r in rows if np.isfinite(r["variance_dn2"])]
+    dx = 0.03 * (max(xs_all) - min(xs_all)) if xs_all else 0.0
+    dy = 0.05 * (max(ys_all) - min(ys_all)) if ys_all else 0.0
     for r in rows:
         if r["status"] == "excluded" and np.isfinite(r["signal_dn"]) and np.isfinite(r["variance_dn2"]):
             k += 1
-            ax.annotate(str(k), (r["signal_dn"], r["variance_dn2"]), textcoords="offset points", xytext=(3, 4),
-                        fontsize=7, color="C3")
+            x, y = r["signal_dn"], r["variance_dn2"]
+            near = next((m for m in marks if abs(m[0] - x) <= dx and abs(m[1] - y) <= dy), None)
+            if near is None:
+                marks.append([x, y, [k]])
+            else:
+                near[2].append(k)
             notes.append(f"{k}: {r['stage']} -- {r['reason']}")
+    for x, y, ks in marks:
+        text = str(ks[0]) if len(ks) == 1 else (f"{ks[0]}-{ks[-1]}" if ks == list(range(ks[0], ks[-1] + 1))
+                                                else ",".join(map(str, ks)))
+        ax.annotate(text, (x, y), textcoords="offset points", xytext=(3, 4), fontsize=7, color="C3")
     ax.set_xlabel("signal  mu_y - mu_dark  (DN)")
     ax.set_ylabel("temporal variance  s2_y - s2_dark  (DN^2)")
     ax.set_title(title)

@@ -259,7 +259,7 @@ class SessionModel:
         elif isinstance(ev, FramePreview):
             self.last_frame = ev.image
             what = "dark frame" if ev.dark else "frame"
-            self.preview.set_image(ev.image, f"stage {ev.stage}, {what} {ev.frame} of {ev.frames}")
+            self.preview.set_image(ev.image, f"stage {ev.stage - 1}, {what} {ev.frame} of {ev.frames}")
             self.preview.set_rectangles(self._drawn())
             self._update_distributions(ev.image)
             self.progress.update(frame=ev.frame, frames=ev.frames)
@@ -358,12 +358,12 @@ class SessionModel:
         if ev is None:
             self._refresh_result()
             return
-        caption = f"stage {ev.stage}: {ev.name}"
+        caption = f"stage {ev.stage - 1}: {ev.name}"
         self._maps()
         self.ptc.highlight(ev.stage)
         self._refresh_result()
         if ev.components:
-            self.components.set_stage(f"stage {ev.stage}: {ev.name} ({ev.frames} frames)", ev.components)
+            self.components.set_stage(f"stage {ev.stage - 1}: {ev.name} ({ev.frames} frames)", ev.components)
         if ev.defects is not None and ev.mean is not None:
             self.defects.set_counts(ev.defects, ev.mean.size, caption=caption)
 
@@ -371,7 +371,7 @@ class SessionModel:
         ev = self.last_result
         if ev is None:
             return
-        caption = f"stage {ev.stage}: {ev.name}"
+        caption = f"stage {ev.stage - 1}: {ev.name}"
         if ev.mean is None:
             caption += " (arrays dropped to bound memory; the run directory has them)"
         else:
