@@ -18,7 +18,7 @@ COMPONENTS = {
     "o": "offset", "Cs": "column FPN variance", "Ct": "column temporal variance", "Rs": "row FPN variance",
     "Rt": "row temporal variance", "Ps": "pixel offset FPN variance", "Pt": "pixel temporal variance (read)",
     "G": "stage gain G (flat - dark)", "Cg": "column gain NU", "Rg": "row gain NU", "Pg": "pixel gain NU",
-    "q": "photo-charge", "delta": "shot noise",
+    "q": "photo-charge", "delta": "shot-noise variance",
     "frame_global": "frame-global temporal variance", "signal": "signal (flat - dark)",
     "poisson_ratio": "Poisson check: delta / q (1 when the given gain is right)",
 }

@@ -88,3 +88,19 @@ def _second_run(window, qtbot, job, first_info) -> None:  # noqa: F811
     _shown_everywhere(window)
     for name, img in _images(window).items():  # after Stop: the stopped run's, or nothing
         assert img is None or img.shape == SECOND, f"after Stop, {name} shows an image of shape {img.shape}"
+
+
+def test_thresholds_table_shows_the_run_s_values(window):  # noqa: F811
+    """The Defect Counts tab's thresholds are the ones the run used (its scan's <defects>),
+    not the defaults it did not use; an edit is what differs from the run's."""
+    from ares.gui.events import Done
+    from ares.gui.runner_adapter import summarize
+
+    window.session.handle(Done(summary=summarize({}, (("hot_e_per_s", 1000.0),))))
+    show_tab(window, "Defect Counts")
+    view = window.defects
+    row = list(view.defaults).index("hot_e_per_s")
+    assert view.thresholds.item(row, 1).text() == "1000"
+    assert view.overrides() == {}
+    view.set_threshold("hot_e_per_s", "5")
+    assert view.overrides() == {"hot_e_per_s": "5"}

@@ -244,7 +244,8 @@ class SessionModel:
         for m in (self.preview, self.signal_map, self.noise_map):
             m.set_image(None, "")
         for m in list(self.panels.values()) + list(self.distributions.values()):
-            m.clear()
+            if m.values.size:  # (an empty panel is left as it is)
+                m.clear()
         self.panels_stage = None
         self.profiles.update(None, [])
 
