@@ -48,7 +48,9 @@ FIGURES = {
     "qe": ("quantum efficiency", "R / K (EMVA 1288 4.0 Linear Eq. 52)"),
     "linearity_error_pct": ("linearity error", "max |relative deviation| from a line fitted on 5-95 % "
                                                "of saturation"),
-    "snr_max_emva": ("SNR max (EMVA 1288 4.0 Eq. 55)", "sqrt(saturation capacity)"),
+    "snr_max_emva": ("SNR max (sqrt of saturation capacity)", "sqrt(saturation capacity), the form of EMVA 1288 4.0 "
+                                                              "Eq. 55 on the photon-transfer saturation capacity (an "
+                                                              "EMVA datasheet's SNR_max uses its own mu_e.sat)"),
     "snr_max": ("SNR max (measured)", "the largest measured signal / temporal noise on the curve"),
     "dsnu_e": ("DSNU (defects excluded)", "pixel offset FPN rms sqrt(Ps) / K of the decomposed stage, "
                                           "defect pixels left out"),

@@ -237,8 +237,9 @@ def check_masked_names(run: Path) -> None:
 
 # ------------------------------------------------------------------ issue 52: one name, one value
 
+# "PRNU 7.85 %": a figure (a number with its unit) under the bare name; plot axes ("DSNU 0 5 10") are not
 _QUALIFIED = re.compile(r"\b(DSNU|PRNU)\b(?!1288)(?! \((?:defects excluded|all pixels|total-noise model)\))"
-                        r"(?! (?:growth|zone|noise|, ))\s*[:=]?\s*[<>]?\s*\d")
+                        r"(?! (?:growth|zone|noise|, ))\s*[:=]?\s*[<>]?\s*[0-9.]+(?:\s*±\s*[0-9.]+)?\s*(?:%|e-|DN)(?!\w)")
 
 
 def check_names(name: str, run: Path, terminal: str) -> None:
