@@ -104,3 +104,20 @@ def test_thresholds_table_shows_the_run_s_values(window):  # noqa: F811
     assert view.overrides() == {}
     view.set_threshold("hot_e_per_s", "5")
     assert view.overrides() == {"hot_e_per_s": "5"}
+
+
+def test_stage_list_follows_frames_per_stage(window, tmp_path):  # noqa: F811
+    """The Scan tab's stage list shows the frames each stage will take: Frames per stage
+    replaces the scan's counts (issue 52), and the stages are numbered from 0 as in the files."""
+    from pathlib import Path
+
+    scan = Path(__file__).resolve().parents[1] / "scans" / "lag.xml"
+    assert window.load_scan(str(scan))
+    panel = window.controls.scan
+    before = panel.details.toPlainText()
+    assert "\n  0  " in before
+    panel.frames.setValue(5)
+    after = panel.details.toPlainText()
+    stages = after.split("Stages (Frames per stage: 5):\n", 1)[1].splitlines()
+    assert stages and all(" 5 frames" in ln for ln in stages), stages
+    assert all("+ 5 dark" in ln for ln in stages if " + " in ln and "reused" not in ln), stages
