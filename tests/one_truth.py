@@ -19,6 +19,7 @@ import re
 from pathlib import Path
 
 import h5py
+import numpy as np
 
 from ares import labels
 from ares.analysis.stats.estimate import Estimate, component_text, format_dict
@@ -232,3 +233,110 @@ def check_masked_names(run: Path) -> None:
     assert parts["components_masked"].endswith("(defect pixels excluded)")
     views = next(p for p in pages if "Components per view" in p)
     assert "full (masked)" in views and "'(masked)': defect pixels excluded" in views and "Pg in % rms" in views
+
+
+# ------------------------------------------------------------------ issue 52: one name, one value
+
+# "PRNU 7.85 %": a figure (a number with its unit) under the bare name; plot axes ("DSNU 0 5 10") are not
+_QUALIFIED = re.compile(r"\b(DSNU|PRNU)\b(?!1288)(?! \((?:defects excluded|all pixels|total-noise model)\))"
+                        r"(?! (?:growth|zone|noise|, ))\s*[:=]?\s*[<>]?\s*[0-9.]+(?:\s*±\s*[0-9.]+)?\s*(?:%|e-|DN)(?!\w)")
+
+
+def check_names(name: str, run: Path, terminal: str) -> None:
+    """Issue 52: every headline figure (``ares.report.headline``) under its one name and with
+    one value on the terminal, the window's Information tab, key_figures.csv / report.h5 and
+    the PDF; no name of the key figures holds two values in one unit; no bare "DSNU"/"PRNU"
+    with a number on any PDF page (each is qualified: defects excluded, all pixels, total-noise
+    model); every numeric HDF5 column of the report tables carries a unit."""
+    from ares.gui.runner_adapter import summarize
+    from ares.gui.models.session import figure_key
+    from ares.report.headline import headline
+
+    res = json.loads((run / "scan_results.json").read_text())["analyses"]
+    kf = _key_figures(run)
+    by_name = {r["name"]: r for r in kf}
+    seen: dict[tuple[str, str], str] = {}
+    for r in kf:  # two values under one name (and unit) fail
+        if r["value"] == "" or r["name"].startswith(("full_well_e.", "defects.")):
+            continue
+        key = (r["label"], r["unit"])
+        assert seen.setdefault(key, r["value"]) == r["value"], f"{name}: '{r['label']}' ({r['unit']}) has two values"
+    gui = summarize(res)["results"]
+    pages = [_squash(t) for t in page_texts(run / "report.pdf")]
+    pdf = " ".join(pages)
+    term = {}
+    for line in terminal.splitlines():
+        for key, fname, _ in headline(res):
+            if line.startswith(f"  {fname} "):
+                term.setdefault(fname, []).append(line[2 + len(fname):].strip())
+    for key, fname, d in headline(res):
+        text = format_dict(d, with_reason=True)
+        assert text in term.get(fname, []), f"{name}: {fname} = {text} not on the terminal"
+        assert gui.get(figure_key(key, fname)) == text, f"{name}: window {figure_key(key, fname)} != {text}"
+        labels.figure_name(key)  # the one name
+        if key in by_name:
+            r = by_name[key]
+            assert r["label"].startswith(fname), f"{name}: key figure {key} named '{r['label']}', not '{fname}'"
+            if r["value"] != "":
+                assert _same(_num(r["value"]), _num((d or {}).get("value"))), f"{name}: {key} differs in the CSV"
+    for i, page in enumerate(pages):
+        m = _QUALIFIED.search(page)
+        assert not m, f"{name}: page {i + 1} names a bare {m.group(1)}: ...{page[max(0, m.start() - 60):m.end() + 20]}"
+    with h5py.File(run / "report.h5", "r") as f:
+        for group in ("ptc", "components", "levels"):
+            if group not in f:
+                continue
+            for col, ds in f[group].items():
+                if ds.dtype.kind == "f" and col not in ("value", "se") and not np.isnan(ds[()]).all():
+                    assert ds.attrs.get("unit"), f"{name}: report.h5 /{group}/{col} has no unit"
+            for col, ds in f[group].items():
+                if col.startswith("light_photons_per_pixel"):
+                    assert ds.attrs["unit"].startswith("photons/pixel"), (name, col, ds.attrs["unit"])
+
+
+def check_window_components(name: str, run: Path, terminal: str, qtbot) -> None:
+    """The window's Components tab, fed the decomposed stage as the runner's event reaches it,
+    shows the components the terminal prints (defects excluded where the run masked), and says
+    which pixels they are."""
+    import numpy as np
+
+    from ares.gui.main_window import RESULT_TABS, MainWindow
+    from ares.gui.runner_adapter import RunnerJob, summarize
+    from ares.gui.events import Done
+
+    res = json.loads((run / "scan_results.json").read_text())["analyses"]
+    dec = res.get("decomposition")
+    if not isinstance(dec, dict) or not dec.get("components"):
+        return
+    _, comps_t = _terminal_blocks(terminal)
+    stage = next(json.loads(p.read_text()) for p in sorted((run / "stages").glob("*.json"))
+                 if json.loads(p.read_text())["name"] == dec["stage"])
+    job = RunnerJob.__new__(RunnerJob)
+    job._dark_level = {}
+    shape = tuple(res.get("defects", {}).get("shape") or (4, 4))
+    from types import SimpleNamespace
+
+    ev = job._stage_result(SimpleNamespace(result=stage, index=stage["index"],
+                                           arrays={"mean": np.zeros(shape), "variance": np.zeros(shape)}))
+    w = MainWindow()
+    qtbot.addWidget(w)
+    w.resize(1280, 800)
+    w.show()
+    w.session.handle(ev)
+    w.session.flush() if hasattr(w.session, "flush") else None
+    w.session.handle(Done(summary=summarize(res)))
+    w.result_tabs.setCurrentIndex(RESULT_TABS.index("Components"))
+    view = w.components
+    table = view.tables["components"]
+    shown = {table.item(r, 0).text(): f"{table.item(r, 2).text()} {table.item(r, 3).text()}".strip()
+             for r in range(table.rowCount())}
+    for c, text in comps_t.items():
+        want = text.split(" (")[0] if text.startswith("<") else text
+        assert shown.get(c) == want, f"{name}: Components tab {c} = {shown.get(c)}, terminal {text}"
+    cap = view.caption.text()
+    assert ("defects excluded" in cap) == ("masked_pixels" in dec), f"{name}: Components caption '{cap}'"
+    w.result_tabs.setCurrentIndex(RESULT_TABS.index("Information"))
+    info = dict(w.info.rows())
+    for k, v in summarize(res)["results"].items():
+        assert info.get(k) == v, f"{name}: Information tab {k} = {info.get(k)}, not {v}"
+    w.close()

@@ -49,7 +49,7 @@ def test_table_with_dark_png_and_h5_roi(tmp_path, capsys):
     assert rc == 0
     text = capsys.readouterr().out
     assert "20 rows x 28 columns" in text
-    assert "conversion gain" in text and "DN/e-" in text
+    assert "stage gain G" in text and "DN/e-" in text
     assert "flat stack frame-global" in text
     g = [line.split() for line in text.splitlines() if line.split()[:1] == ["G"]][0]
     assert g[2] == "±" and abs(float(g[1]) - 0.5) < 0.1

@@ -25,8 +25,8 @@ def test_dry_run_lists_every_stage(capsys):
     assert "scan 'photon_transfer' on system 'sim_sensor' (640x480): 26 stages" in out
     lines = [ln for ln in out.splitlines() if ln.strip().split(" ")[0].isdigit()]
     assert len(lines) == 26 and "ptc[24]" in lines[-1] and "light=1e+07" in lines[-1]
-    # numbered from 1, as the progress line numbers them ("stage 1/26")
-    assert lines[0].split()[0] == "1" and lines[-1].split()[0] == "26"
+    # numbered from 0, as the run directory's files and tables number them (issue 52)
+    assert lines[0].split()[0] == "0" and lines[-1].split()[0] == "25"
     assert "+ dark (reused)" in lines[1]
     assert "total: 432 frames, estimated 0:00:05" in out  # 432 x (10 ms + 1 ms readout)
 

@@ -58,9 +58,9 @@ def test_emva_text_json_csv_and_pdf_agree(capsys, tmp_path, emva_set, release):
         m = re.search(rf"\s{re.escape(want)}\s", line + " ")
         assert m, (release, k, line, want)
         cols.append(m.end())
-    if release != "3.0":  # one value column: right-aligned at the same place on every row
+    if not release.startswith("3."):  # one value column: right-aligned at the same place on every row
         assert len(set(cols)) == 1, (release, sorted(set(cols)))
-    if release == "3.0":
+    if release.startswith("3."):
         return
     out_csv, out_pdf = tmp_path / "s.csv", tmp_path / "s.pdf"
     _run(capsys, ["emva", str(emva_set), "--release", release, "--csv", str(out_csv)]

@@ -19,12 +19,34 @@ from pdftext import page_texts
 ROOT = Path(__file__).resolve().parents[1]
 
 
+TERMINAL: dict[str, str] = {}  # what `ares run` printed, for the one-name check
+
+
 @pytest.fixture(scope="module")
 def run_dir(tmp_path_factory):
+    import contextlib
+    import io
+
     out = tmp_path_factory.mktemp("emva4") / "run"
-    assert main(["run", str(ROOT / "scans" / "emva_4.xml"), "--out", str(out), "--seed", "3", "--quiet"]) == 0
+    buf = io.StringIO()
+    with contextlib.redirect_stdout(buf):
+        assert main(["run", str(ROOT / "scans" / "emva_4.xml"), "--out", str(out), "--seed", "3", "--quiet"]) == 0
+    TERMINAL["text"] = buf.getvalue()
     return out
 
+
+def test_one_name_one_value_on_every_surface(run_dir):
+    """Issue 52 on emva_4.xml: the headline figures under one name and one value on the
+    terminal, the window, key_figures.csv and the PDF; the full well said to be where the ADC
+    clips; saturation capacity and turnoff said to be one point."""
+    from one_truth import check_names
+
+    check_names("emva_4", run_dir, TERMINAL["text"])
+    text = TERMINAL["text"]
+    assert "where the ADC clips" in text  # 9200 e- is the 12-bit ADC's top, not the 12 000 e- well
+    ptc = json.loads((run_dir / "scan_results.json").read_text())["analyses"]["ptc"]
+    if ptc["saturation_capacity_e"]["value"] == ptc["turnoff_e"]["value"]:
+        assert "are one point" in text
 
 def test_datasheet_pdf_follows_section_10_2(run_dir):
     pages = page_texts(run_dir / "emva_datasheet.pdf")

@@ -68,5 +68,8 @@ def test_k_statement_closed_form():
     same = k_statement(Estimate(0.2800, 0.0010, "DN/e-"), "line", "linear: residuals consistent",
                        Estimate(0.2790, 0.0011, "DN/e-"))
     assert "consistent within their errors" in same["statement"] and "weight the same levels" not in same["statement"]
+    one = k_statement(Estimate(0.2767, 0.0011, "DN/e-"), "ols", "the weighted line fails its own residual check",
+                      Estimate(0.2767, 0.0011, "DN/e-"))  # the headline is Eq. 50's fit itself (issue 52)
+    assert "one fit of the same levels" in one["statement"] and "differ" not in one["statement"]
     na = k_statement(Estimate(0.28, 0.001, "DN/e-"), "line", "", Estimate.na("saturation not reached", "DN/e-"))
     assert "not available" in na["statement"] and "difference" not in na

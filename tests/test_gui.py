@@ -306,11 +306,11 @@ def test_the_results_caption_says_when_the_newest_stage_is_drawn_at_intervals(wi
     s, tab = window.session, window.results
     s.begin_run("t")
     s.handle(StageResult(1, "dark", np.ones((4, 5)), np.ones((4, 5)), 3))
-    assert tab.caption.text() == ("Stage 1 (dark), 3 frames, full frame (while the scan runs, its newest stage "
+    assert tab.caption.text() == ("Stage 0 (dark), 3 frames, full frame (while the scan runs, its newest stage "
                                   "is drawn at most every 3 s)")
     s.handle(StageResult(2, "flat", np.full((4, 5), 9.0), np.ones((4, 5)), 3))
     s.handle(Done(None, {}))
-    assert tab.caption.text() == "Stage 2 (flat), 3 frames, full frame"
+    assert tab.caption.text() == "Stage 1 (flat), 3 frames, full frame"
 
 
 def test_results_panels_are_computed_off_the_window_s_thread_during_a_scan(window, qtbot, tmp_path, monkeypatch):
@@ -513,7 +513,7 @@ def test_photon_transfer_scan_fills_defect_counts_and_information(window, qtbot,
     assert len(window.signal_map.overlay_items) == len(window.preview.overlay_items)
     window.defects.overlay.setChecked(False)
     assert window.preview.overlay_items == []
-    assert "PTC: conversion gain" in s.info.items and "defect thresholds" in s.info.items
+    assert "PTC: conversion gain (charge to voltage)" in s.info.items and "defect thresholds" in s.info.items
     # the stages rewritten once a flat completed the defect mask replaced their points
     pts = s.ptc.by_view["full"]
     assert len({p.stage for p in pts}) == len(pts) == sum(not r.dark for r in s.stages.results.values())
@@ -565,13 +565,13 @@ def test_two_axis_sweep_fills_the_sweep_map(window, qtbot, tmp_path):
     assert window.session.progress.state == P.DONE, window.session.progress.message
     assert m.ndim == 2 and m.grid().shape == (3, 2) and np.isfinite(m.grid()).all()
     assert [name for name, _ in m.axes()] == ["sf_bias (V)", "tx_low (V)"]  # units from the register map
-    assert "Pt: pixel temporal (read), DN^2" in m.quantities
+    assert "Pt: pixel temporal variance (read), DN^2" in m.quantities
     assert "image lag (%)" in m.quantities  # dark="after": every point is a bright->dark cycle
     show_tab(window, "Sweep Map")
     assert window.sweep.stack.currentWidget() is window.sweep.map_plot
-    assert window.sweep.map_image.image.shape == (2, 3)
-    window.sweep.quantity.setCurrentText("Pt: pixel temporal (read), DN^2")
-    assert m.quantity == "Pt: pixel temporal (read), DN^2"
+    assert window.sweep.map_image.image.shape == (3, 2)  # [axis 1 up, axis 2 across], as the PDF
+    window.sweep.quantity.setCurrentText("Pt: pixel temporal variance (read), DN^2")
+    assert m.quantity == "Pt: pixel temporal variance (read), DN^2"
 
 
 def test_drawing_a_region_on_the_live_image_edits_the_table(window, qtbot):
@@ -709,7 +709,7 @@ def test_channel_view_on_a_two_adc_sensor_gives_the_per_channel_sigma(window, qt
     # the stage browser: the first stage on every tab, then back to following the scan
     show_tab(window, "Signal Map")
     window.view_bar.choose_stage(1)
-    assert s.last_result.stage == 1 and "stage 1" in s.signal_map.caption
+    assert s.last_result.stage == 1 and "stage 0" in s.signal_map.caption
     window.view_bar.choose_stage(None)
     assert s.last_result.stage == 2
 

@@ -52,7 +52,7 @@ def test_headline_figures_head_the_information_tab_as_the_terminal_prints_them(w
     assert head == list(HEADLINE), head  # all of them, first, in the one order
     at = []
     for name, value in rows[:len(HEADLINE)]:
-        label = name.removeprefix("PTC: ").split(" [")[0]
+        label = name.removeprefix("PTC: ").split(" [")[0].rsplit(", ", 1)[0]  # "DSNU (...), e-": the unit
         lines = [i for i, line in enumerate(terminal) if label in line and value in line]
         assert lines, (name, value, terminal)  # the terminal's wording and digits
         at.append(lines[0])

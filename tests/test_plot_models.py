@@ -302,7 +302,7 @@ def test_components_model_orders_rows_and_formats_estimates():
     rows = m.rows()
     assert [r.symbol for r in rows] == ["o", "Pt", "extra"]  # model order first, then the rest
     assert [r.text for r in rows] == ["64", "1.250 ± 0.050", "n/a (one frame)"]  # digits from the SE
-    assert rows[1].description == "pixel temporal (read)"
+    assert rows[1].description == "pixel temporal variance (read)"
     m.select("centre")
     assert [r.symbol for r in m.rows()] == ["Ps"] and m.rows("dark_components") == []
 
@@ -370,19 +370,19 @@ def test_the_newest_stage_is_shown_at_most_every_refresh_interval_and_the_ptc_re
     s.handle(stage(0, dark=True))
     s.handle(stage(1))
     assert redraws == [0, 1]  # one notification per stage
-    assert s.components.caption.startswith("stage 0")  # stage 1 came too soon after stage 0
+    assert ": s0 (" in s.components.caption  # stage 1 came too soon after stage 0
     now[0] += RESULTS_S / 5
     s.handle(stage(2))
-    assert s.components.caption.startswith("stage 0") and s.ptc.highlighted == 0
+    assert ": s0 (" in s.components.caption and s.ptc.highlighted == 0
     assert [p.stage for p in s.ptc.points] == [1, 2]  # the points are all there
     now[0] += RESULTS_S
     s.flush()
-    assert s.components.caption.startswith("stage 2") and s.ptc.highlighted == 2
+    assert ": s2 (" in s.components.caption and s.ptc.highlighted == 2
     now[0] += RESULTS_S / 5
     s.handle(stage(3))
-    assert s.components.caption.startswith("stage 2")
+    assert ": s2 (" in s.components.caption
     s.handle(Done(None, {}))  # the end shows the newest at once
-    assert s.components.caption.startswith("stage 3") and s.ptc.highlighted == 3
+    assert ": s3 (" in s.components.caption and s.ptc.highlighted == 3
 
 
 def test_live_image_levels_hold_over_frame_noise_and_follow_a_new_light_level():

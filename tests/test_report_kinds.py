@@ -8,12 +8,15 @@ checked in test_emva4_scan.py; emva_reference.xml needs ../shared/data.)"""
 
 from __future__ import annotations
 
+import os
 from pathlib import Path
 
 import pytest
 
+os.environ.setdefault("QT_QPA_PLATFORM", "offscreen")  # the window's tabs are read too (one_truth)
+
 from ares.cli import main
-from one_truth import check_defect_classes, check_masked_names, check_surfaces
+from one_truth import check_defect_classes, check_masked_names, check_names, check_surfaces, check_window_components
 from pdfrender import ink, render
 from pdftext import page_texts
 
@@ -44,7 +47,7 @@ EXPECT = {
 
 
 @pytest.mark.parametrize("name", sorted(EXPECT))
-def test_report_pages_match_what_the_scan_measured(name, tmp_path, capsys, shared_run):
+def test_report_pages_match_what_the_scan_measured(name, tmp_path, capsys, shared_run, qtbot):
     if name == "emva_reference" and not DATA.is_file():
         pytest.skip("the EMVA reference data set is not in ../shared/data/")
     if name == "emva_reference":  # the run test_replay_bench.py checks too (~60 s): made once
@@ -74,6 +77,8 @@ def test_report_pages_match_what_the_scan_measured(name, tmp_path, capsys, share
         assert (out / csv).is_file(), csv
     check_surfaces(name, out, terminal)
     check_defect_classes(name, out, terminal)
+    check_names(name, out, terminal)  # issue 52: one name, one value; units in report.h5
+    check_window_components(name, out, terminal, qtbot)
     if name == "photon_transfer":
         check_masked_names(out)
     if name == "emva_reference":
@@ -97,7 +102,8 @@ def check_headline_k(out: Path) -> None:
     assert head["estimator"] == "ols" and "fails its own residual check" in head["reason"]
     assert (k50["value"], k50["se"]) == (res["emva4"]["values"]["K"]["value"], res["emva4"]["values"]["K"]["se"])
     assert head["difference"]["value"] == pytest.approx(k["value"] - k50["value"])
-    assert head["z"] < 1 and "consistent within their errors" in head["statement"]
+    # one fit of the same levels: said so, not "they differ by 0 (3.7e-14 SE)" (issue 52)
+    assert head["z"] < 1 and "one fit of the same levels" in head["statement"] and "differ" not in head["statement"]
     for text in ("unweighted line with offset", "Eq. 50 as written", "unweighted least squares with offset"):
         assert text in head["statement"], text
     with open(out / "ptc.csv", newline="") as fh:

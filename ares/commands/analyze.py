@@ -67,6 +67,11 @@ def accumulate_files(specs, roi_text, what, on_frame=None):
 
 
 
+# ares analyze decomposes every pixel: the figures are the "all pixels" ones of ares run
+NO_MASK_NOTE = ("All pixels: no defect mask is applied (ares run leaves out the defect pixels it finds); a few "
+                "stuck, hot or noisy pixels can dominate Ps and Pt -- `ares defects --dark FILES` lists them.")
+
+
 def input_files(args) -> list:
     """The flat (or only) stack's files: the positional ones and ``--flat``'s, refused when
     there are none -- with ``--dark`` given, because its list took them."""
@@ -102,7 +107,7 @@ def run(args) -> int:
         if args.dark:
             out["_flat_stack"] = {k: e.to_dict() for k, e in variances_in_range(an.flat_stack_components).items()}
         out["_meta"] = {
-            "units": UNITS_NOTE,
+            "units": UNITS_NOTE, "pixels": NO_MASK_NOTE,
             "frames": {"dark" if args.dark else "input": an.dark.n_frames, **({"flat": main.n_frames} if args.dark else {})},
             "shape": list(main.shape),
             "roi": args.roi,
@@ -133,4 +138,5 @@ def run(args) -> int:
               "(light-source flicker + dark frame-global)")
     print("Variances in DN^2 (e-^2 in electrons); Cg, Rg, Pg as % rms of the relative gain (--json: their "
           "relative variances); Pt includes the 1/12 DN^2 quantization noise.")
+    print(NO_MASK_NOTE)
     return 0

@@ -166,7 +166,7 @@ def dry_run(scan, frames: int | None, seed: int | None = None, out=None, out_dir
         elif s.dark_source == "reuse":
             dark = " + dark (reused)"
         sets = ", ".join(f"{k.removeprefix('reg:')}={v:g}" for k, v in s.settings.items())
-        out.write(f"  {s.index + 1:4d}  {s.name:<18} {s.scene:<4} {s.frames:4d} frames{dark:<18} {sets}\n")
+        out.write(f"  {s.index:4d}  {s.name:<18} {s.scene:<4} {s.frames:4d} frames{dark:<18} {sets}\n")
         total += s.frames_to_grab()
     est = estimate_seconds(scan, stages)
     out.write(f"total: {total} frames, estimated {fmt_s(est)} ({est:.1f} s) of exposure, readout and settling\n")
@@ -200,14 +200,47 @@ def print_summary(outcome, scan, seconds: float, out=None, resumed: int = 0) -> 
         kinds = ", ".join(f"{x['kind']} {x['count']}" for _, x in lost)
         names = ", ".join(sorted({str(n) for n, _ in lost}))
         out.write(f"frames lost: {kinds}; stage(s) {names} acquired again (<frames on_loss='regrab'>)\n")
+    print_headline(res, out)
+    for name, r in res.items():
+        if name in ("ptc", "decomposition") or not isinstance(r, dict):
+            continue
+        if r.get("status"):
+            out.write(f"{name}: {r['status']}{' (' + r['note'] + ')' if r.get('note') else ''}\n")
+            continue
+        out.write(f"{analysis_title(name)}:\n")
+        _print_estimates(r, out, "  ", path=name)
+    for f in outcome.limit_failures:
+        out.write(f"LIMIT FAILED: {f}\n")
+    if outcome.run_dir:
+        meta = _read_meta(Path(outcome.run_dir))
+        if meta.get("report_error"):
+            out.write(f"report: not written ({meta['report_error']})\n")
+    from ares.results.registry import limits_verdict
+
+    out.write(limits_verdict(outcome.status, len(scan.limits), outcome.limit_failures)["text"] + "\n")
+
+
+from ares.labels import ANALYSIS_TITLES  # noqa: E402
+from ares.labels import analysis_title  # noqa: E402,F401
+
+
+def print_headline(res: dict, out) -> None:
+    """The photon-transfer figures, SNR max, DSNU and PRNU (``ares.report.headline``: the
+    window's and --json's list), then the decomposition's components."""
+    from ares import labels
+    from ares.report.headline import full_well_note, headline, same_point
+
+    rows = headline(res)
+    w = max([len(n) for _, n, _ in rows] + [len(lb) for _, lb in labels.PTC_FIGURES])
     p = res.get("ptc")
     if isinstance(p, dict) and "gain_dn_per_e" in p:
         out.write("photon transfer:\n")
-        from ares.labels import PTC_FIGURES
-
-        w = max(len(label) for _, label in PTC_FIGURES)  # one column for the longest label
-        for key, label in PTC_FIGURES:
-            out.write(f"  {label:<{w}} {_num(p.get(key))}\n")
+        for key, name, d in rows:
+            if key in labels.PTC_LABELS or key == "snr_max_emva":
+                out.write(f"  {name:<{w}} {_num(d)}\n")
+        for label, text in (("same level", same_point(p)), ("full well", full_well_note(p))):
+            if text:
+                out.write(f"  {label:<{w}} {text}\n")
         for label, key in (("gain model", "gain_model"), ("linearity (Eq. 51)", "linearity_check_text"),
                            ("linearity (ARES option)", "linearity_check"), ("saturation", "saturation")):
             if isinstance(p.get(key), dict):
@@ -220,35 +253,25 @@ def print_summary(outcome, scan, seconds: float, out=None, resumed: int = 0) -> 
     d = res.get("decomposition")
     if isinstance(d, dict) and "components" in d:
         sets = ", ".join(f"{k.removeprefix('reg:')}={v:g}" for k, v in d["settings"].items())
+        out.write(f"nonuniformity at stage {d['stage']}:\n")
+        for key, name, e in rows:
+            if key in labels.HEADLINE_FIGURES and key != "snr_max_emva":
+                out.write(f"  {name:<{w}} {_num(e)}\n")
         out.write(f"noise components at stage {d['stage']} ({sets}):\n")
         if "masked_pixels" in d:
             u = {k: v.get("value") for k, v in (d.get("components_unmasked") or {}).items()}
             src = d.get("mask_source") + (f", provisional: {d['provisional']}" if d.get("provisional") else "")
-            out.write(f"  {d['masked_pixels']} defect pixels excluded (mask from {src}); "
+            classes = ", ".join(f"{k} {v}" for k, v in (d.get("mask_classes") or {}).items())
+            out.write(f"  {d['masked_pixels']} {labels.MASKED_PIXELS} (mask from {src}"
+                      f"{': ' + classes if classes else ''}; the defect analysis classifies on its own); "
                       f"with them: Ps {u.get('Ps', float('nan')):.4g} DN^2, Pt {u.get('Pt', float('nan')):.4g} DN^2\n")
         elif d.get("mask_note"):
             out.write(f"  {d['mask_note']}\n")
         from ares.report.tables import component_label, component_text
 
-        for k, v in d["components"].items():
-            out.write(f"  {k:<14} {component_text(k, v):<34} {component_label(k)}\n")
-    for name, r in res.items():
-        if name in ("ptc", "decomposition") or not isinstance(r, dict):
-            continue
-        if r.get("status"):
-            out.write(f"{name}: {r['status']}{' (' + r['note'] + ')' if r.get('note') else ''}\n")
-            continue
-        out.write(f"{name}:\n")
-        _print_estimates(r, out, "  ")
-    for f in outcome.limit_failures:
-        out.write(f"LIMIT FAILED: {f}\n")
-    if outcome.run_dir:
-        meta = _read_meta(Path(outcome.run_dir))
-        if meta.get("report_error"):
-            out.write(f"report: not written ({meta['report_error']})\n")
-    from ares.results.registry import limits_verdict
-
-    out.write(limits_verdict(outcome.status, len(scan.limits), outcome.limit_failures)["text"] + "\n")
+        part = "flat_anova" if d.get("scene") == "flat" and "G" not in d["components"] else "components"
+        for k, v in d["components"].items():  # (a lit stack without a matched dark: its Pt holds the shot noise)
+            out.write(f"  {k:<14} {component_text(k, v):<34} {component_label(k, part)}\n")
 
 
 def print_precision(rep: dict, out=None) -> None:
@@ -274,7 +297,7 @@ def _read_meta(run_dir: Path) -> dict:
         return {}
 
 
-def _print_estimates(d: dict, out, indent: str, depth: int = 0) -> None:
+def _print_estimates(d: dict, out, indent: str, depth: int = 0, path: str = "") -> None:
     """Estimates (``{"value", "se", "unit"}``) of an analysis result, nested up to five levels
     (the MTF's stages -> stage -> channels -> channel -> its option beside the standard)."""
     for k, v in d.items():
@@ -282,13 +305,14 @@ def _print_estimates(d: dict, out, indent: str, depth: int = 0) -> None:
             out.write(f"{indent}{k:<26} {_num(v)}\n")
         elif isinstance(v, dict) and depth < 5 and any(isinstance(x, dict) for x in v.values()):
             label = (f"option esf_half_width={v['esf_half_width']:g} px (not the standard)"
-                     if k == "option" and "esf_half_width" in v else k)
+                     if k == "option" and "esf_half_width" in v else
+                     analysis_title(f"{path}.{k}") if f"{path}.{k}" in ANALYSIS_TITLES else k)
             out.write(f"{indent}{label}:\n")
-            _print_estimates(v, out, indent + "  ", depth + 1)
+            _print_estimates(v, out, indent + "  ", depth + 1, f"{path}.{k}")
         elif isinstance(v, (int, str)) and not isinstance(v, bool) and k in ("counts", "dark_stage"):
             out.write(f"{indent}{k:<26} {v}\n")
         elif k == "counts" and isinstance(v, dict):
-            out.write(f"{indent}{'counts':<26} " + ", ".join(f"{a}={b}" for a, b in v.items() if b) + "\n")
+            out.write(f"{indent}{'defective pixels':<26} " + ", ".join(f"{a}={b}" for a, b in v.items() if b) + "\n")
         elif k == "unavailable" and isinstance(v, dict):
             for a, why in v.items():
                 out.write(f"{indent}{a + ': n/a':<26} {why}\n")
@@ -415,8 +439,13 @@ def _json_summary(outcome, scan, seconds) -> dict:
     from ares.results.registry import limits_verdict
     from ares.rundir.files import _clean
 
+    from ares.labels import FIGURES
+    from ares.report.headline import headline
+
+    head = [{"key": k, "name": n, "definition": FIGURES[k][1], **(d or {"value": None})}
+            for k, n, d in headline(outcome.scan_results or {})]
     return _clean({"scan": scan.name, "status": outcome.status, "run_dir": str(outcome.run_dir),
-                   "seed": outcome.seed, "stages": len(outcome.stages), "seconds": seconds,
+                   "seed": outcome.seed, "stages": len(outcome.stages), "seconds": seconds, "headline": head,
                    "scan_results": outcome.scan_results, "limit_failures": outcome.limit_failures,
                    "limits": limits_verdict(outcome.status, len(scan.limits), outcome.limit_failures)})
 

@@ -115,9 +115,10 @@ class ResultsTab(QWidget):
         self.session = session
         self.caption = QLabel()
         grid = QGridLayout()
-        xlabels = {"MEAN SIGNAL": "mean signal (DN)", "NOISE": "temporal sigma (DN)",
+        xlabels = {"MEAN SIGNAL": "mean output (DN, offset included; the report's signal is above dark)", "NOISE": "temporal sigma (DN)",
                    "COLUMNS": "column mean (DN)", "ROWS": "row mean (DN)"}
         self.panels = {name: StatsPanel(session.panels[name], xlabels[name]) for name in PANELS}
+        self.panels["MEAN SIGNAL"].setTitle("MEAN SIGNAL (raw output, offset included)")
         for k, name in enumerate(PANELS):
             grid.addWidget(self.panels[name], k // 2, k % 2)
         lay = QVBoxLayout(self)
@@ -131,9 +132,9 @@ class ResultsTab(QWidget):
         if ev is None:
             self.caption.setText("No stage result yet.")
         elif ev.mean is None:
-            self.caption.setText(f"Stage {ev.stage} ({ev.name}): its arrays were dropped to bound memory.")
+            self.caption.setText(f"Stage {ev.stage - 1} ({ev.name}): its arrays were dropped to bound memory.")
         else:
             live = (f" (while the scan runs, its newest stage is drawn at most every {RESULTS_S:g} s)"
                     if self.session.throttle and self.session.stages.following_latest else "")
-            self.caption.setText(f"Stage {ev.stage} ({ev.name}), {ev.frames} frames, "
+            self.caption.setText(f"Stage {ev.stage - 1} ({ev.name}), {ev.frames} frames, "
                                  f"{self.session.region_label(ev.mean.shape)}{live}")

@@ -16,7 +16,7 @@ from ares.analysis.stats.estimate import GAIN_SPREADS, format_dict, pct_rms
 from ares.errors import AresError
 
 from ares.gui import events as G
-from ares.gui.models.session import headline_key
+from ares.gui.models.session import figure_key
 
 
 def _value(d):
@@ -38,30 +38,37 @@ def summarize(scan_results: dict, thresholds: tuple = ()) -> dict:
     out: dict = {"results": {}}
     if thresholds:
         out["results"]["defect thresholds"] = ", ".join(f"{k} = {v:g}" for k, v in thresholds)
+        out["thresholds"] = dict(thresholds)
     ptc = scan_results.get("ptc")
     if isinstance(ptc, dict):
         g = _value(ptc.get("gain_e_per_dn"))
         if g is not None:
             out["gain_e_per_dn"] = g
-            out["gain_note"] = f"fit by the engine over {ptc.get('levels', '?')} levels"
+            fitted = (ptc.get("gain_model") or {}).get("levels")
+            out["gain_note"] = (f"fit by the engine over {fitted} of {ptc.get('levels', '?')} levels" if fitted
+                                else f"fit by the engine over {ptc.get('levels', '?')} levels")
             # the figures as the engine states them: the digits their SE supports
             out["gain_text"] = (f"system gain K = {_fmt(ptc.get('gain_dn_per_e'))}, "
                                 f"1/K = {_fmt(ptc.get('gain_e_per_dn'))}")
-        for key, label in labels.PTC_FIGURES:  # the terminal's figures, its order and wording
-            text = _fmt(ptc.get(key))
-            if text:
-                out["results"][headline_key(label)] = text
         if isinstance(ptc.get("level_status"), list):
             out["ptc_level_status"] = ptc["level_status"]
         if "note" in ptc and "gain_dn_per_e" not in ptc:
             out["results"]["PTC"] = str(ptc["note"])
-    d = scan_results.get("decomposition")
-    if isinstance(d, dict) and isinstance(d.get("components"), dict):
-        from ares.analysis.stats.estimate import component_text
+    from ares.report.headline import full_well_note, headline, same_point
 
-        for c in labels.HEADLINE_COMPONENTS:  # DSNU, PRNU as the terminal prints them
-            if isinstance(d["components"].get(c), dict):
-                out["results"][headline_key(labels.COMPONENTS[c], c)] = component_text(c, d["components"][c])
+    for key, name, d in headline(scan_results):  # the terminal's figures, its order and wording
+        text = _fmt(d)
+        if text:
+            out["results"][figure_key(key, name)] = text
+    if isinstance(ptc, dict):
+        for label, text in (("same level", same_point(ptc)), ("full well", full_well_note(ptc))):
+            if text:
+                out["results"][label] = text
+    d = scan_results.get("decomposition")
+    if isinstance(d, dict) and d.get("masked_pixels") is not None:
+        classes = ", ".join(f"{k} {v}" for k, v in (d.get("mask_classes") or {}).items())
+        out["results"][labels.MASKED_PIXELS] = f"{d['masked_pixels']} (mask from {d.get('mask_source')}" + (
+            f": {classes}" if classes else "") + ")"
     defects = scan_results.get("defects")
     if isinstance(defects, dict):
         counts = defects.get("counts")
@@ -89,8 +96,24 @@ def summarize(scan_results: dict, thresholds: tuple = ()) -> dict:
             out["results"]["defects"] = str(defects["note"])
     out["results"].update(lowlight_items(scan_results))
     for name, r in scan_results.items():
-        if name not in ("ptc", "defects") and isinstance(r, dict) and r.get("status"):
+        if name in ("ptc", "defects", "decomposition") or not isinstance(r, dict):
+            continue
+        if r.get("status"):
             out["results"][name] = f"{r['status']}" + (f" ({r['note']})" if r.get("note") else "")
+            continue
+        for key, e in estimates(r):  # every estimate the result holds, as the terminal prints it
+            out["results"][f"{name}: {key}"] = _fmt(e)
+    return out
+
+
+def estimates(d: dict, prefix: str = "", depth: int = 0) -> list[tuple[str, dict]]:
+    """(dotted key, estimate dict) of an analysis result, nested as the terminal prints them."""
+    out = []
+    for k, v in d.items():
+        if isinstance(v, dict) and "value" in v and "unit" in v:
+            out.append((prefix + k, v))
+        elif isinstance(v, dict) and depth < 5:
+            out += estimates(v, f"{prefix}{k}.", depth + 1)
     return out
 
 
@@ -282,7 +305,7 @@ class RunnerJob:
         sets = ", ".join(f"{k.removeprefix('reg:')}={v:g}" for k, v in st.settings.items()
                          if isinstance(v, (int, float)))
         dark = {"grab": f" + {st.dark_frames} dark", "reuse": " + dark (reused)"}.get(st.dark_source, "")
-        return f"{st.index + 1:3d}  {st.name:<12} {st.scene:<4} {st.frames} frames{dark}  {sets}"
+        return f"{st.index:3d}  {st.name:<12} {st.scene:<4} {st.frames} frames{dark}  {sets}"
 
     @staticmethod
     def _instruments(system) -> dict:
@@ -452,5 +475,6 @@ class RunnerJob:
                              dark=(r["scene"] == "dark"), settings=dict(r["settings"]), ptc_point=point,
                              ptc_view="full", ptc_points=points, group=r.get("group", ""), coords=tuple(r.get("coords") or ()),
                              quantities=values, view_quantities={k: quantities(v) for k, v in r["views"].items()},
-                             components={v: {k: d[k] for k in ("components", "dark_components") if k in d}
+                             components={v: {k: d[k] for k in ("components", "dark_components", "components_masked",
+                                                               "masked_pixels") if k in d}
                                          for v, d in r["views"].items()})

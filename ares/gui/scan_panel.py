@@ -82,6 +82,7 @@ class ScanTab(QWidget):
         lay.addLayout(count)
         lay.addWidget(self.details)
         self.open_button.clicked.connect(self.open_requested)
+        self.frames.valueChanged.connect(self._render)
 
     def frame_count(self) -> int | None:
         """The frames every stage takes (None: each stage's own, as the scan says)."""
@@ -89,9 +90,22 @@ class ScanTab(QWidget):
 
     def show_job(self, path: str | None, title: str, info: dict, stage_lines: list[str] | None = None) -> None:
         self.file.setText(f"Scan file: {path}" if path else f"Built-in: {title}")
-        text = "\n".join(f"{k}: {v}" for k, v in info.items() if not isinstance(v, dict))
-        if stage_lines:
-            text += "\n\nStages:\n" + "\n".join(stage_lines)
+        self._shown = ("\n".join(f"{k}: {v}" for k, v in info.items() if not isinstance(v, dict)), stage_lines)
+        self._render()
+
+    def _render(self, *_) -> None:
+        """The job's details and its stage list with the frames each stage will take: the
+        Frames per stage choice replaces the scan's counts (dark stacks included), as it runs."""
+        import re
+
+        text, lines = getattr(self, "_shown", ("", None))
+        n = self.frame_count()
+        if lines:
+            if n is not None:
+                lines = [re.sub(r"\+ \d+ dark", f"+ {n} dark", re.sub(r"\b\d+ frames", f"{n} frames", ln))
+                         for ln in lines]
+            head = "Stages" + (f" (Frames per stage: {n})" if n is not None else "")
+            text += f"\n\n{head}:\n" + "\n".join(lines)
         self.details.setPlainText(text)
 
 

@@ -196,6 +196,13 @@ def basic_information_page(sheet, rel: str) -> Figure:
 
     m = dict(sheet.meta)
     m.setdefault("resolution", _resolution(sheet))
+    if not m.get("pixel_size"):  # the per-area values were divided by a pixel area: say which
+        import re
+
+        area = next((float(x.group(1)) for e in sheet.values.values()
+                     for x in [re.search(r"pixel area \(([0-9.]+) µm²\)", str(e.note))] if x), None)
+        if area:
+            m["pixel_size"] = f"{area ** 0.5:.3g} µm (pixel area {area:g} µm², as the per-area values use)"
     fig = Figure(figsize=A4)
     dp._header(fig, sheet, "Basic information (Section 10.1) and operation point", "basic information", rel)
     y = 0.91
@@ -225,13 +232,13 @@ def notes_page(sheet, general=None, rel: str = LINEAR) -> Figure:
              f"Data: {given(sheet.meta, 'source')}"]
     if rel == GENERAL and general is not None:
         lines += [f"Saturation: {general.saturation}"] + [f"Note: {n}" for n in general.notes]
-        lines += ["Values that are not available, limits, or cannot be measured:"]
-        lines += [f"  {k}: {e.text()} — {e.note}" for k, e in general.values.items() if not e.available or e.bound]
+        na = [f"  {k}: {e.text()} — {e.note}" for k, e in general.values.items() if not e.available or e.bound]
+        lines += (["Values that are not available, limits, or cannot be measured:"] + na) if na else []
     else:
         lines += [f"Saturation: {sheet.photon_transfer.saturation}"] + [f"Note: {n}" for n in sheet.notes]
-        lines += ["Not available values and limits:"]
-        lines += [f"  {SYMBOLS.get(k, k)}: {e.text()} — {e.note}" for k, e in sheet.values.items()
-                  if not e.available or e.bound]
+        na = [f"  {SYMBOLS.get(k, k)}: {e.text()} — {e.note}" for k, e in sheet.values.items()
+              if not e.available or e.bound]
+        lines += (["Not available values and limits:"] + na) if na else []  # no heading over nothing
     for ln in lines:
         for w in textwrap.wrap(ln, 120, subsequent_indent="    ") or [""]:
             fig.text(0.06, y, w, fontsize=7.3, va="top")

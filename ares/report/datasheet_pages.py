@@ -425,6 +425,6 @@ def values_page(sheet, values: dict, title: str, page: str, rel: str = LINEAR) -
     fig = Figure(figsize=A4)
     _header(fig, sheet, title, page, rel)
     data = [[k, value_text(e), e.unit, e.note] for k, e in values.items()]
-    text_table(fig, (0.06, 0.9, 0.88), ["quantity", "value", "unit", "definition"], data, [1.1, 1.2, 0.8, 4.5],
-               fontsize=7 if len(data) <= 45 else 6, max_chars=[18, 22, 12, 80])
+    text_table(fig, (0.06, 0.9, 0.88), ["quantity", "value", "unit", "definition"], data, [1.1, 1.6, 0.8, 4.1],
+               fontsize=7 if len(data) <= 45 else 6, max_chars=[18, 24, 12, 72])
     return fig

@@ -73,6 +73,8 @@ def analysis_label(aname: str, key: str) -> str:
         from ares.analysis.emva.sheet import SYMBOLS
 
         return f"EMVA 1288 4.0 {'General ' if where[:1] == ['general'] else ''}{SYMBOLS.get(parts[-1], parts[-1])}"
+    if aname == "emva1288":  # the older release's figures, named as such beside the 4.0 ones
+        return f"EMVA 1288 3.0 {parts[-1]}" + (f" ({' '.join(where)})" if where else "")
     base = ANALYSIS_LABELS.get(parts[-1], f"{aname}: {parts[-1]}")
     return base + (f" ({' '.join(where)})" if where else "")
 

@@ -56,8 +56,11 @@ def title_page(run, kf: dict) -> "plots.Figure":
         y -= 0.006
     for k, val in lines:
         fig.text(0.06, y, k, fontsize=8.5, weight="bold", va="top")
-        fig.text(0.27, y, plots.clip(val, 100), fontsize=8.5, va="top", family="monospace" if "SHA" in k else None)
-        y -= 0.018
+        mono = "SHA" in k
+        # a long value (a device's identity, the software line) wraps within the page, never cut at its edge
+        for part in (textwrap.wrap(str(val), 64 if mono else 88) or [""])[:3]:
+            fig.text(0.27, y, part, fontsize=8.5, va="top", family="monospace" if mono else None)
+            y -= 0.018
     if run.attribution:
         fig.text(0.06, y, "data: " + run.attribution, fontsize=9, va="top", style="italic")
         y -= 0.02
@@ -99,8 +102,10 @@ def title_page(run, kf: dict) -> "plots.Figure":
 
 
 def ptc_page(g: tables.PtcGroup, rows: list[dict]):
+    status = [r["status"] for r in rows]
     fig = new_page(f"Photon transfer (analog gain x{g.analog_gain:g})",
-                   f"{len(g.stages)} levels; fit range shaded; dark-subtracted signal and temporal variance")
+                   f"{len(g.stages)} levels ({status.count('fit')} fitted, {status.count('excluded')} excluded); "
+                   "fit range shaded; dark-subtracted signal and temporal variance")
     ax1 = fig.add_axes([0.11, 0.6, 0.83, 0.31])
     notes = plots.ptc_variance(ax1, rows, g.result, "variance vs signal")
     y = 0.545
@@ -128,7 +133,10 @@ def snr_linearity_page(g: tables.PtcGroup, rows: list[dict]):
     return fig
 
 
-def _component_table(fig, y: float, stage: dict, part: str, title: str) -> float:
+EDGE_NOTE = "(of an edge image: no PRNU)"
+
+
+def _component_table(fig, y: float, stage: dict, part: str, title: str, edge: bool = False) -> float:
     """A stage's components of ``part``; with a defect mask (``components_masked``, the
     figures the terminal and the key figures state) those are the values, and the
     all-pixel estimate stands beside each under its own heading."""
@@ -139,10 +147,13 @@ def _component_table(fig, y: float, stage: dict, part: str, title: str) -> float
     for c in tables._ordered(comps):
         e = comps[c]
         n = tables.COMPONENTS.index(c) + 1 if c in tables.COMPONENTS else ""
+        spread = edge and c in tables.GAIN_SPREADS  # a gain spread of an edge image is the edge, not the pixels
         row = [f"{n} {c}".strip(), tables.component_text(c, e)]
         if masked:
             row.append(tables.component_text(c, (full.get("components") or {}).get(c) or {}))
-        rows.append(row + [tables.component_label(c, part), e.get("note", "")])
+        alone = part == "components" and stage.get("scene") == "flat" and "G" not in comps  # no matched dark
+        rows.append(row + [tables.component_label(c, "flat_anova" if alone else part),
+                           EDGE_NOTE if spread else e.get("note", "")])
     if masked:
         dm = stage.get("defect_mask") or {}  # (its source: ares.scan.mask_complete)
         kind = ("dark classes only, provisional" if dm.get("provisional")
@@ -161,12 +172,14 @@ def components_page(run, mid: dict | None, dark: dict | None):
     y = 0.92
     if mid is not None:
         s = ", ".join(f"{k}={v:g}" if isinstance(v, (int, float)) else f"{k}={v}" for k, v in mid["settings"].items())
-        y = _component_table(fig, y, mid, "components", f"mid-level stage {mid['name']} ({mid['scene']})")
+        mtf = (getattr(run, "analyses", None) or {}).get("mtf")
+        edge = isinstance(mtf, dict) and mid["name"] in (mtf.get("stages") or {})
+        y = _component_table(fig, y, mid, "components", f"mid-level stage {mid['name']} ({mid['scene']})", edge)
         fig.text(0.06, y - 0.003, plots.clip("settings: " + s, 130), fontsize=7.5, va="top", color="0.3")
         y -= 0.04
         if "flat_anova" in mid["views"]["full"]:
             y = _component_table(fig, y, mid, "flat_anova", f"ANOVA of the flat stack itself ({mid['name']}, "
-                                                            "all pixels)")
+                                                            "all pixels)", edge)
             y -= 0.03
     if dark is not None and dark is not mid and y > 0.3:
         _component_table(fig, y, dark, "components", f"dark stage {dark['name']}")

@@ -6,6 +6,8 @@ files. Pages are A4 portrait (``new_page``).
 
 from __future__ import annotations
 
+from ares import labels
+
 import math
 
 import matplotlib.lines
@@ -120,12 +122,25 @@ def ptc_variance(ax, rows: list[dict], res, title: str) -> list[str]:
         if fit:
             ax.axvspan(0, max(lv.signal for lv in fit), color="C0", alpha=0.05, lw=0)
     k = 0
+    marks: list[list] = []  # [x, y, [numbers]]: excluded levels that would overprint share one label
+    xs_all = [r["signal_dn"] for r in rows if np.isfinite(r["signal_dn"])]
+    ys_all = [r["variance_dn2"] for r in rows if np.isfinite(r["variance_dn2"])]
+    dx = 0.03 * (max(xs_all) - min(xs_all)) if xs_all else 0.0
+    dy = 0.05 * (max(ys_all) - min(ys_all)) if ys_all else 0.0
     for r in rows:
         if r["status"] == "excluded" and np.isfinite(r["signal_dn"]) and np.isfinite(r["variance_dn2"]):
             k += 1
-            ax.annotate(str(k), (r["signal_dn"], r["variance_dn2"]), textcoords="offset points", xytext=(3, 4),
-                        fontsize=7, color="C3")
+            x, y = r["signal_dn"], r["variance_dn2"]
+            near = next((m for m in marks if abs(m[0] - x) <= dx and abs(m[1] - y) <= dy), None)
+            if near is None:
+                marks.append([x, y, [k]])
+            else:
+                near[2].append(k)
             notes.append(f"{k}: {r['stage']} -- {r['reason']}")
+    for x, y, ks in marks:
+        text = str(ks[0]) if len(ks) == 1 else (f"{ks[0]}-{ks[-1]}" if ks == list(range(ks[0], ks[-1] + 1))
+                                                else ",".join(map(str, ks)))
+        ax.annotate(text, (x, y), textcoords="offset points", xytext=(3, 4), fontsize=7, color="C3")
     ax.set_xlabel("signal  mu_y - mu_dark  (DN)")
     ax.set_ylabel("temporal variance  s2_y - s2_dark  (DN^2)")
     ax.set_title(title)
@@ -155,10 +170,10 @@ def noise_zones(ax, rows: list[dict], res, title: str) -> None:
         nm = res.noise_model
         sn, pr = nm.get("sensor_noise_e"), nm.get("prnu_pct")
         if sn is not None and sn.available:
-            ax.axhline(sn.value * K.value, color="0.4", lw=0.8, ls="--", label=f"sensor noise {sn.value:.3g} e-")
+            ax.axhline(sn.value * K.value, color="0.4", lw=0.8, ls="--", label=f"sensor noise (total-noise model) = {sn.text()}")
         if sn is not None and pr is not None and sn.available and pr.available:
             model = np.sqrt(sn.value**2 + ne + (pr.value / 100 * ne) ** 2) * K.value
-            ax.loglog(xs, model, "-", color="C1", lw=1.2, label=f"total-noise model (PRNU {pr.value:.3g} %)")
+            ax.loglog(xs, model, "-", color="C1", lw=1.2, label=f"total-noise model, {labels.figure_name('noise_model.prnu_pct')} = {pr.text()}")
             ax.loglog(xs, pr.value / 100 * xs, "-.", color="C2", lw=0.8, label="PRNU noise")
         lo, hi = xs[0], xs[-1]
         edges = [lo]
@@ -211,8 +226,10 @@ def snr_curve(ax, res, title: str) -> None:
 def linearity(ax, ax_dev, rows: list[dict], title: str) -> None:
     if all(r["photons"] is not None for r in rows):
         x, xl = np.array([r["photons"] for r in rows], float), "photons per pixel (light x exposure)"
+        per = "DN per photon/pixel"
     else:
         x, xl = np.array([r["exposure_s"] for r in rows], float), "exposure (s)"
+        per = "DN/s"
     S = np.array([r["signal_dn"] for r in rows])
     status = [r["status"] for r in rows]
     _status_scatter(ax, x, S, status)
@@ -226,7 +243,7 @@ def linearity(ax, ax_dev, rows: list[dict], title: str) -> None:
         if sel.sum() >= 2:
             a, b = np.polyfit(x[sel], S[sel], 1, w=1.0 / S[sel])
             xs = np.linspace(0, x[good].max(), 50)
-            ax.plot(xs, a * xs + b, "-", color="0.3", lw=1, label=f"line on 5-95 % (slope {a:.4g} DN/unit)")
+            ax.plot(xs, a * xs + b, "-", color="0.3", lw=1, label=f"line on 5-95 % (slope {a:.4g} {per})")
             dev = 100 * (S - (a * x + b)) / (a * x + b)
             _status_scatter(ax_dev, x, dev, status)
             ax_dev.axhline(0, color="0.3", lw=0.8)

@@ -87,7 +87,7 @@ def temperature_page(run, series: dict):
     if fit.doubling_c.available:
         ts = np.linspace(T.min(), T.max(), 50)
         ax.plot(ts, fit.value_at_ref.value * 2 ** ((ts - fit.ref_c) / fit.doubling_c.value), "-", color="0.3",
-                label=f"doubling temperature {fit.doubling_c:.3g} C")
+                label=f"doubling temperature {fit.doubling_c.text()}")
     ax.set_yscale("log")
     ax.set_xlabel("temperature (C)")
     ax.set_ylabel("dark current (DN/s)")
@@ -325,7 +325,9 @@ def lag_page(run, stages: list[dict], arrays: dict, lag: dict):
 # ------------------------------------------------------------------ anything else
 
 def generic_page(name: str, a: dict):
-    fig = new_page(f"Scan-level analysis: {name}", "from scan_results.json")
+    from ares.labels import analysis_title
+
+    fig = new_page(f"Scan-level analysis: {analysis_title(name)}", "from scan_results.json")
     y = 0.92
     rows = analysis_rows(a)
     y = _table(fig, y, rows, n=50)

@@ -40,7 +40,7 @@ component_label = labels.component_label
 
 
 FULL_WELL_LABELS = {
-    "saturation_capacity": "saturation capacity (EMVA 1288 4.0)",
+    "saturation_capacity": labels.figure_name("saturation_capacity_e"),
     "bracket": "full well, saturation bracket centre",
     "max_variance": "full well, max variance (EMVA 1288 3.0)",
     "max_code": "full well, max code (EMVA 1288 4.0)",
@@ -350,20 +350,20 @@ def compute_key_figures(run, groups: list[PtcGroup] | None = None) -> dict:
 
     if have_stored or res is not None:
         ag = stored.get("analog_gain", g0.analog_gain if g0 else 1.0)
-        kf["gain_dn_per_e"] = _entry(f"system gain K (analog gain x{ag:g})",
+        kf["gain_dn_per_e"] = _entry(labels.figure_name("gain_dn_per_e") + (f" (analog gain x{ag:g})" if ag != 1 else ""),
                                      pick("gain_dn_per_e", res and res.gain_dn_per_e), src)
         stmt = (stored.get("gain_headline") or {}).get("statement")
         if stmt and kf["gain_dn_per_e"]["value"] is not None:  # beside 4.0 Eq. 50 (ares.analysis.ptc.gain_compare)
             kf["gain_dn_per_e"]["note"] = stmt
-        kf["gain_e_per_dn"] = _entry("inverse gain 1/K", pick("gain_e_per_dn", res and res.gain_e_per_dn), src)
+        kf["gain_e_per_dn"] = _entry(labels.figure_name("gain_e_per_dn"), pick("gain_e_per_dn", res and res.gain_e_per_dn), src)
         kf["conversion_gain_uv_per_e"] = _entry(
-            "conversion gain", pick("conversion_gain_uv_per_e", res and res.conversion_gain_uv_per_e), src)
+            labels.figure_name("conversion_gain_uv_per_e"), pick("conversion_gain_uv_per_e", res and res.conversion_gain_uv_per_e), src)
         if res is not None:
             kf["gain_origin_dn_per_e"] = _entry("K, EMVA 1288 origin fit", res.gain_origin_dn_per_e, "PTC recomputed")
             kf["gain_astier_dn_per_e"] = _entry("K, Astier 2019 fit", res.gain_astier_dn_per_e, "PTC recomputed")
         for key in ("read_noise_e", "read_noise_dn"):  # distinct names: with / without quantization noise
             kf[key] = _entry(labels.PTC_LABELS[key], pick(key, res and getattr(res, key)), src)
-        kf["full_well_e"] = _entry("full well (charge capacity)", pick("full_well_e", res and res.full_well), src)
+        kf["full_well_e"] = _entry(labels.figure_name("full_well_e"), pick("full_well_e", res and res.full_well), src)
         fwd = stored.get("full_well_definitions") if have_stored else None
         fw = {k: est(v) for k, v in fwd.items()} if fwd else (res.full_well_e if res is not None else {})
         for k, e in fw.items():
@@ -372,29 +372,34 @@ def compute_key_figures(run, groups: list[PtcGroup] | None = None) -> dict:
             kf[f"full_well_e.{k}"] = _entry(FULL_WELL_LABELS.get(k, f"full well ({k})"), e, src)
         for key in ("turnoff_dn", "turnoff_e"):  # one turnoff, SE from the level spacing
             kf[key] = _entry(labels.PTC_LABELS[key], pick(key, res and getattr(res, key)), src)
-        kf["dynamic_range_db"] = _entry("dynamic range", pick("dynamic_range_db", res and res.dynamic_range_db), src)
+        from ares.report.headline import full_well_note, same_point
+
+        for key, text in (("full_well_e", full_well_note(stored)), ("turnoff_e", same_point(stored))):
+            if text and kf.get(key) and kf[key]["value"] is not None:  # said beside the figure, as the terminal says it
+                kf[key]["note"] = f"{text}; {kf[key]['note']}"
+        kf["dynamic_range_db"] = _entry(labels.figure_name("dynamic_range_db"), pick("dynamic_range_db", res and res.dynamic_range_db), src)
         if res is not None:
             well = est(kf["full_well_e"])  # the charge capacity: no SNR above its square root
             s = _snr_max(res, well.value if well.available else math.nan, well.se)
-            kf["snr_max"] = _entry("SNR max (measured)", s, "PTC recomputed")
+            kf["snr_max"] = _entry(labels.figure_name("snr_max"), s, "PTC recomputed")
             if s.available:
-                kf["snr_max_db"] = _entry("SNR max (measured)", snr_db(s, "20 log10 SNR max (measured)"),
+                kf["snr_max_db"] = _entry(labels.figure_name("snr_max"), snr_db(s, "20 log10 SNR max (measured)"),
                                           "PTC recomputed")
             fwv = fw.get("saturation_capacity")
             if fwv is not None and fwv.available:
-                kf["snr_max_emva"] = _entry("SNR max (EMVA 1288 4.0 Eq. 55)",
+                kf["snr_max_emva"] = _entry(labels.figure_name("snr_max_emva"),
                                             Estimate(math.sqrt(fwv.value), fwv.se / (2 * math.sqrt(fwv.value))
                                                      if math.isfinite(fwv.se) else math.nan, "",
                                                      "sqrt(saturation capacity)"), "PTC recomputed")
             for k, e in res.noise_model.items():
                 kf[f"noise_model.{k}"] = _entry({"sensor_noise_e": "sensor noise (total-noise model)",
-                                                  "prnu_pct": "PRNU (total-noise model)"}.get(k, k), e,
+                                                  "prnu_pct": labels.figure_name("noise_model.prnu_pct")}.get(k, k), e,
                                                  "PTC recomputed")
         q = pick("qe", res and res.qe)
         if q.available and q.unit in ("", "1"):  # a fraction (run directories before QE was in %)
             q = Estimate(100 * q.value, 100 * q.se, "%", q.note)
-        kf["qe"] = _entry("quantum efficiency", q, src)
-        kf["linearity_error_pct"] = _entry("linearity error",
+        kf["qe"] = _entry(labels.figure_name("qe"), q, src)
+        kf["linearity_error_pct"] = _entry(labels.figure_name("linearity_error_pct"),
                                            pick("linearity_error_pct", res and res.linearity_error_pct), src)
     gk = kf.get("gain_dn_per_e")
     kf.update(nonuniformity_figures(run, est(gk) if gk and gk["value"] is not None else None))
@@ -428,47 +433,63 @@ def compute_key_figures(run, groups: list[PtcGroup] | None = None) -> dict:
                 label += f" at {a['temperature_c']:g} °C"  # a dark current is only meaningful at its temperature
             kf[f"{aname}.{key}"] = _entry(label, est(e), f"scan_results.json: {aname}")
         if aname == "defects" and isinstance(a.get("counts"), dict) and a["counts"].get("total") is not None:
-            kf["defects.total"] = _entry("defective pixels", Estimate(float(a["counts"]["total"]), math.nan, "pixels",
-                                                                      "all classes (see the defects page)"),
-                                         "scan_results.json: defects")
+            kf.update(defect_count_figures(a))
+    dec = run.analyses.get("decomposition")
+    if isinstance(dec, dict) and dec.get("masked_pixels") is not None:
+        classes = ", ".join(f"{k} {v}" for k, v in (dec.get("mask_classes") or {}).items())
+        kf["decomposition.masked_pixels"] = _entry(
+            labels.MASKED_PIXELS, Estimate(float(dec["masked_pixels"]), math.nan, "pixels",
+                                           f"mask from {dec.get('mask_source')}" + (f": {classes}" if classes else "")
+                                           + "; not the defect analysis's classes"),
+            "scan_results.json: decomposition")
     return kf
 
 
+def defect_count_figures(a: dict) -> dict:
+    """The defect analysis's pixel count per class and in all, each class not tested with its
+    reason (key figures, hence key_figures.csv and report.h5)."""
+    out = {}
+    why = a.get("unavailable") if isinstance(a.get("unavailable"), dict) else {}
+    for cls, n in a["counts"].items():
+        if cls == "total":
+            continue
+        unit = {"bad_columns": "columns", "bad_rows": "rows", "clusters": "clusters"}.get(cls, "pixels")
+        e = (Estimate(float(n), math.nan, unit, f"class {cls}") if n is not None else
+             Estimate.na(why.get(cls) or "not tested by this scan", unit))
+        out[f"defects.{cls}"] = _entry(f"{labels.DEFECTIVE_PIXELS}: {cls}", e, "scan_results.json: defects")
+    out["defects.total"] = _entry(labels.DEFECTIVE_PIXELS, Estimate(float(a["counts"]["total"]), math.nan, "pixels",
+                                                                    "all classes (see the defects page)"),
+                                  "scan_results.json: defects")
+    return out
+
+
 def nonuniformity_figures(run, gain: Estimate | None) -> dict:
-    """DSNU (e-, from the pixel offset FPN Ps of the dark stack) and PRNU (% rms, from the
-    pixel gain spread Pg) of the mid-level stage, defect pixels excluded when the runner
-    masked them; each with its SE or the reason it is not available."""
+    """DSNU (e- rms and DN rms) and PRNU (% rms) of the decomposed stage, with defects
+    excluded and with every pixel, each under its own name (``ares.report.headline``, the
+    terminal's and the window's figures); each with its SE or the reason it is not available."""
+    from ares.report.headline import NO_MASK, nonuniformity
+
     st = mid_stage(run)
     if st is None:
         return {}
     mtf = (getattr(run, "analyses", None) or {}).get("mtf")
+    src = f"stage {st['name']}"
     if isinstance(mtf, dict) and st["name"] in (mtf.get("stages") or {}):  # an edge target, not a uniform flat
         why = f"stage {st['name']} images a slanted edge (the mtf analysis), not a uniform flat"
-        return {"dsnu_e": _entry("DSNU (pixel offset FPN)", Estimate.na(why, "e-"), f"stage {st['name']}"),
-                "prnu_pct": _entry("PRNU (pixel gain spread)", Estimate.na(why, "%"), f"stage {st['name']}")}
+        units = {"dsnu_e": "e-", "dsnu_dn": "DN", "dsnu_all_e": "e-", "dsnu_all_dn": "DN", "prnu_pct": "%",
+                 "prnu_all_pct": "%"}
+        return {k: _entry(labels.figure_name(k), Estimate.na(why, u), src) for k, u in units.items()}
     full = st["views"]["full"]
-    comp = full.get("components_masked") or full.get("components") or {}
-    which = "defect pixels excluded" if full.get("components_masked") else "all pixels"
-    out = {}
-    ps, pg = comp.get("Ps"), comp.get("Pg")
+    comp = full.get("components") or {}
     if (gain is None or not gain.available) and (comp.get("G") or {}).get("value") is not None:
-        gain = est(comp["G"])  # the stage's own gain (flat minus dark) when no PTC measured K
-    if ps and ps.get("value") is not None and gain is not None and gain.available:
-        v, se = ps["value"], ps.get("se") or math.nan
-        if v > 0:
-            d = math.sqrt(v) / gain.value
-            dse = d * math.hypot(se / (2 * v), gain.se / gain.value if math.isfinite(gain.se) else 0.0)
-            e = Estimate(d, dse, "e-", f"sqrt(Ps) / K at stage {st['name']} ({which})")
-        else:
-            e = Estimate.na(f"pixel offset FPN not above 0 at stage {st['name']}", "e-")
-        out["dsnu_e"] = _entry("DSNU (pixel offset FPN)", e, f"stage {st['name']}")
-    if pg and pg.get("value") is not None:
-        v, se = pg["value"], pg.get("se") or math.nan
-        e = (Estimate(100 * math.sqrt(v), 100 * se / (2 * math.sqrt(v)), "%", f"pixel gain spread at stage "
-                      f"{st['name']} ({which})") if v > 0 else
-             Estimate.na(f"pixel gain spread not above 0 at stage {st['name']}", "%"))
-        out["prnu_pct"] = _entry("PRNU (pixel gain spread)", e, f"stage {st['name']}")
-    return out
+        g = est(comp["G"])  # the stage's own gain (flat minus dark) when no PTC measured K
+        gain = Estimate(g.value, g.se, "DN/e-", "stage gain G")
+    elif gain is not None:
+        gain = Estimate(gain.value, gain.se, gain.unit, "K")
+    dec = (getattr(run, "analyses", None) or {}).get("decomposition") or {}
+    why = dec.get("mask_note") or f"{NO_MASK} ({labels.MASK_POLICY})"
+    figs = nonuniformity(full.get("components_masked"), comp, gain, st["name"], why, st.get("scene"))
+    return {k: _entry(labels.figure_name(k), e, src) for k, e in figs.items()}
 
 
 # ------------------------------------------------------------------ dark series

@@ -150,7 +150,7 @@ def decomposition(run) -> dict:
     if st is None:
         return {"status": "not available", "note": "no stages"}
     full = st["views"]["full"]
-    out = {"stage": st["name"], "settings": st["settings"], "components": full["components"]}
+    out = {"stage": st["name"], "scene": st.get("scene"), "settings": st["settings"], "components": full["components"]}
     if "components_masked" in full:
         # the headline components exclude the defect pixels (ares.scan.defect_mask); the
         # unmasked ones stay beside them

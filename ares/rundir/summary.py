@@ -8,7 +8,9 @@ def summary_row(result: dict, units: dict[str, str]) -> dict:
     """A stage's row of ``summary.csv`` (the runner writes it as stages finish; a run
     directory without it gets it rebuilt by ``summary_rows``): settings and components
     named with their units (``exposure_s``, ``reg:sf_bias_v``, ``Ps_dn2``, ``Ps_se_dn2``,
-    ``Pg_rel_var``: ``ares.labels.with_unit``; ``units`` from ``System.setting_units``)."""
+    ``Pg_rel_var``: ``ares.labels.with_unit``; ``units`` from ``System.setting_units``); where
+    the stage was decomposed without its defect pixels too, those components as
+    ``Ps_masked_dn2`` ... and the count ``masked_pixels`` (all-pixel columns unsuffixed)."""
     from ares.labels import with_unit
 
     row = {"index": result["index"], "name": result["name"], "scene": result["scene"], "frames": result["frames"],
@@ -25,6 +27,12 @@ def summary_row(result: dict, units: dict[str, str]) -> dict:
         unit = e.get("unit", "")
         row[with_unit(k, unit)] = e.get("value")
         row[with_unit(f"{k}_se", unit)] = e.get("se")
+    if full.get("components_masked"):  # the same components with the defect pixels left out (Ps_masked_dn2 ...)
+        row["masked_pixels"] = full.get("masked_pixels")
+        for k, e in full["components_masked"].items():
+            unit = e.get("unit", "")
+            row[with_unit(f"{k}_masked", unit)] = e.get("value")
+            row[with_unit(f"{k}_masked_se", unit)] = e.get("se")
     return row
 
 

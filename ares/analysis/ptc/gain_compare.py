@@ -53,6 +53,10 @@ def k_statement(head: Estimate, estimator: str | None, why: str, eq50: Estimate,
         cause = "consistent within their errors"
     if why.split(":", 1)[0] in ("line", "weighted line", "unweighted line", "linear", "Astier 2019"):
         why = why.split(": ", 1)[-1]  # the estimator is named already
+    if abs(diff) <= 1e-9 * abs(eq50.value):  # one fit of the same levels: nothing to compare
+        out["statement"] = (f"System gain K: the report's headline is {name}, {head.text()}, because {why}; "
+                            f"that is the EMVA 1288 datasheet's K too ({EQ50}): one fit of the same levels.")
+        return out
     out["statement"] = (f"System gain K: the report's headline is {name}, {head.text()}, because {why}. The EMVA "
                         f"1288 datasheet's K is {EQ50}, {eq50.text()}. They differ by "
                         f"{Estimate(diff, se, head.unit).text()} ({z:.2g} SE): {cause}.")

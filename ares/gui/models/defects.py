@@ -39,6 +39,7 @@ class DefectCountsModel(Observable):
         self.caption = ""
         self.map: dict | None = None  # {"shape", "locations": {class: [[x, y], ...]}, "bad_column_x", "bad_row_y"}
         self.overlay = False  # draw the map over the images
+        self.thresholds: dict[str, str] = {}  # the run's own thresholds (the scan's <defects>), shown in the table
 
     def set_counts(self, counts: dict[str, int | None], total_pixels: int,
                    criteria: dict[str, str] | None = None, caption: str = "") -> None:
@@ -67,8 +68,13 @@ class DefectCountsModel(Observable):
         return {cls: np.asarray(pts, dtype=np.float64).reshape(-1, 2)
                 for cls, pts in (self.map.get("locations") or {}).items() if pts}
 
+    def set_thresholds(self, values: dict[str, float]) -> None:
+        """The thresholds the run used (the scan's ``<defects>``; the others their defaults)."""
+        self.thresholds = {str(k): f"{float(v):g}" for k, v in values.items()}
+        self._changed()
+
     def clear(self) -> None:
-        self.rows, self.caption, self.map = [], "", None
+        self.rows, self.caption, self.map, self.thresholds = [], "", None, {}
         self._changed()
 
 

@@ -12,7 +12,7 @@ import time
 
 import numpy as np
 
-from ares.labels import COMPONENTS, HEADLINE_COMPONENTS, PTC_FIGURES
+from ares.labels import FIGURES, HEADLINE_FIGURES, PTC_FIGURES
 from ares.gui.events import (Done, Ending, Failed, FramePreview, Progress, ReportsWritten, RunInfo, StageResult, StageStarted,
                       Stopped)
 from ares.gui.models import progress as P
@@ -46,16 +46,31 @@ REFRESH_S = 1.0
 RESULTS_S = 3.0
 
 
-def headline_key(label: str, component: str | None = None) -> str:
+def headline_key(label: str, component: str | None = None, unit: str | None = None) -> str:
     """The Information tab's name of a headline figure: ``PTC: <label>`` for a photon-transfer
-    figure of ``labels.PTC_FIGURES``, ``<meaning> (<symbol>)`` for a component."""
-    return f"{label} [{component}]" if component else f"PTC: {label}"
+    figure of ``labels.PTC_FIGURES``, ``<name>, <unit>`` for the others of
+    ``labels.HEADLINE_FIGURES`` (DSNU in e- and in DN), ``<meaning> [<symbol>]`` for a component."""
+    if component:
+        return f"{label} [{component}]"
+    if unit is not None:
+        return f"{label}, {unit}" if unit else label
+    return f"PTC: {label}"
 
 
-# The headline figures, in the terminal's order (ares.commands.run.print_summary): they head
+# the unit each headline figure after the photon-transfer ones is stated in
+HEADLINE_UNITS = {"snr_max_emva": "", "dsnu_e": "e-", "dsnu_dn": "DN", "dsnu_all_e": "e-", "dsnu_all_dn": "DN",
+                  "prnu_pct": "% rms", "prnu_all_pct": "% rms"}
+
+
+def figure_key(key: str, name: str) -> str:
+    """The Information tab's row name of headline figure ``key`` (named ``name``)."""
+    return headline_key(name, unit=HEADLINE_UNITS[key]) if key in HEADLINE_UNITS else headline_key(name)
+
+
+# The headline figures, in the terminal's order (ares.commands.run.print_headline): they head
 # the Information tab, above the versions, the scan and the run directory.
 HEADLINE = tuple(headline_key(label) for _, label in PTC_FIGURES) + tuple(
-    headline_key(COMPONENTS[c], c) for c in HEADLINE_COMPONENTS)
+    figure_key(k, FIGURES[k][0]) for k in HEADLINE_FIGURES)
 
 
 class InfoModel(Observable):
@@ -214,9 +229,25 @@ class SessionModel:
         self.defects.clear()
         self.stages.clear()
         self.last_frame = None
+        self._forget_images()
         self.throttle = True
         self._result_at, self._result_waits = -math.inf, False
         self._drawn_at.clear()  # the run's first frame and first stage are drawn at once
+
+    def _forget_images(self) -> None:
+        """Nothing of the previous run on any tab once a run starts: the live image, the maps,
+        the statistics panels, the distributions and the profiles are emptied at once."""
+        for key in list(self._jobs):  # the previous run's panels still being computed are not shown
+            job = self._jobs.pop(key)
+            self._before.pop(key, None)
+            job.cancel()
+        for m in (self.preview, self.signal_map, self.noise_map):
+            m.set_image(None, "")
+        for m in list(self.panels.values()) + list(self.distributions.values()):
+            if m.values.size:  # (an empty panel is left as it is)
+                m.clear()
+        self.panels_stage = None
+        self.profiles.update(None, [])
 
     def handle(self, ev) -> None:
         if isinstance(ev, RunInfo):
@@ -229,7 +260,7 @@ class SessionModel:
         elif isinstance(ev, FramePreview):
             self.last_frame = ev.image
             what = "dark frame" if ev.dark else "frame"
-            self.preview.set_image(ev.image, f"stage {ev.stage}, {what} {ev.frame} of {ev.frames}")
+            self.preview.set_image(ev.image, f"stage {ev.stage - 1}, {what} {ev.frame} of {ev.frames}")
             self.preview.set_rectangles(self._drawn())
             self._update_distributions(ev.image)
             self.progress.update(frame=ev.frame, frames=ev.frames)
@@ -328,12 +359,12 @@ class SessionModel:
         if ev is None:
             self._refresh_result()
             return
-        caption = f"stage {ev.stage}: {ev.name}"
+        caption = f"stage {ev.stage - 1}: {ev.name}"
         self._maps()
         self.ptc.highlight(ev.stage)
         self._refresh_result()
         if ev.components:
-            self.components.set_stage(f"stage {ev.stage}: {ev.name} ({ev.frames} frames)", ev.components)
+            self.components.set_stage(f"stage {ev.stage - 1}: {ev.name} ({ev.frames} frames)", ev.components)
         if ev.defects is not None and ev.mean is not None:
             self.defects.set_counts(ev.defects, ev.mean.size, caption=caption)
 
@@ -341,7 +372,7 @@ class SessionModel:
         ev = self.last_result
         if ev is None:
             return
-        caption = f"stage {ev.stage}: {ev.name}"
+        caption = f"stage {ev.stage - 1}: {ev.name}"
         if ev.mean is None:
             caption += " (arrays dropped to bound memory; the run directory has them)"
         else:
@@ -443,6 +474,8 @@ class SessionModel:
             value = getattr(gain, "value", gain)
             if value is not None and math.isfinite(float(value)):
                 self.ptc.set_fit(float(value), summary.get("gain_note", ""), summary.get("gain_text", ""))
+        if summary.get("thresholds"):
+            self.defects.set_thresholds(summary["thresholds"])
         defects = summary.get("defects")
         if isinstance(defects, dict) and defects:
             total = int(summary.get("pixels", 0)) or (

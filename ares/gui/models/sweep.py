@@ -17,6 +17,9 @@ import numpy as np
 from ares.gui.models.observable import Observable
 
 
+FULL_FRAME = "full frame"
+
+
 @dataclass(frozen=True)
 class SweepPoint:
     stage: int
@@ -58,19 +61,30 @@ class SweepModel(Observable):
     def select(self, view: str) -> None:
         if view != self.view:
             self.view = view
+            if self.quantity and self.quantity not in self.quantities:  # the same quantity, named for this view
+                base = self.quantity.removesuffix(f" [{FULL_FRAME}]")
+                self.quantity = next((q for q in (base, f"{base} [{FULL_FRAME}]") if q in self.quantities),
+                                     self.quantity)
             self._changed()
 
     def values(self, p: SweepPoint) -> dict:
-        """A point's quantities in the shown view (none when the engine gave none for it)."""
-        return p.values if self.view == "full" else p.by_view.get(self.view, {})
+        """A point's quantities in the shown view (none when the engine gave none for it); a
+        full-frame-only quantity (the image lag, from frame means) is kept in every view, named so."""
+        if self.view == "full":
+            return p.values
+        own = p.by_view.get(self.view, {})
+        if not own:
+            return {}
+        return {**own, **{f"{k} [{FULL_FRAME}]": v for k, v in p.values.items() if k not in own}}
 
     def clear(self) -> None:
         self.points = []
         self._changed()
 
     def add(self, point: SweepPoint) -> None:
-        if point.coords:  # a stage given again (rewritten with the completed defect mask) replaces its point
-            self.points = [p for p in self.points if p.stage != point.stage] + [point]
+        if point.coords:  # a stage given again (rewritten with the completed defect mask) replaces its point,
+            # in its place: the 1-D curve is drawn in stage order
+            self.points = sorted([p for p in self.points if p.stage != point.stage] + [point], key=lambda p: p.stage)
             if self.quantity is None or self.quantity not in point.values:
                 # noise is what ARES tunes biases for: show it first when the engine gives it
                 noise = [q for q in point.values if q.startswith("temporal noise")]

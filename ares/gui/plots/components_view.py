@@ -50,7 +50,8 @@ class ComponentsView(QWidget):
         else:
             n = m.masked_pixels()
             self.caption.setText(f"{m.caption}, engine view '{m.view}'"
-                                 + (f"; {n} defect pixels excluded (as the report and the terminal)" if n else ""))
+                                 + (f"; defects excluded ({n} defect pixels masked out of the decomposition, "
+                                    f"as the report and the terminal)" if n else "; all pixels (no defect mask)"))
         for which, table in self.tables.items():
             rows = m.rows(which)
             visible = which == "components" or bool(rows)  # the dark table only when reported apart

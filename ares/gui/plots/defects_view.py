@@ -32,6 +32,7 @@ class DefectCountsView(QWidget):
         lay.addWidget(self.table, 3)
         lay.addWidget(self.overlay)
         self.defaults = dict(threshold_defaults())
+        self._shown = dict(self.defaults)
         self.thresholds = QTableWidget(len(self.defaults), 2)
         self.thresholds.setHorizontalHeaderLabels(("Threshold / limit", "Value (empty = default / none)"))
         self.thresholds.horizontalHeader().setStretchLastSection(True)
@@ -61,17 +62,22 @@ class DefectCountsView(QWidget):
                     item.setToolTip(text)
                 self.table.setItem(r, c, item)
         self.overlay.setEnabled(bool(self.model.map))
+        shown = {**self.defaults, **self.model.thresholds}  # the run's values, not the defaults it did not use
+        if shown != self._shown:
+            self._shown = shown
+            for r, name in enumerate(self.defaults):
+                self.thresholds.item(r, 1).setText(shown[name])
 
     def set_threshold(self, name: str, value: str) -> None:
         row = list(self.defaults).index(name)
         self.thresholds.item(row, 1).setText(value)
 
     def overrides(self) -> dict[str, str]:
-        """The values edited away from their defaults."""
+        """The values edited away from the run's (its scan's, else the defaults)."""
         out = {}
         for r, name in enumerate(self.defaults):
             text = self.thresholds.item(r, 1).text().strip()
-            if text and text != self.defaults[name]:
+            if text and text != self._shown[name]:
                 out[name] = text
         return out
 

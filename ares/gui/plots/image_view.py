@@ -89,6 +89,9 @@ class ImagePlot(QWidget):
             if m.image.shape != self._shape:
                 self._shape = m.image.shape
                 self.plot.getPlotItem().autoRange()
+        elif self.image_item.image is not None:  # a new run: nothing of the previous one stays drawn
+            self.image_item.clear()
+            self._shape = None
 
     def _draw_rectangles(self) -> None:
         for item in self._rects:

@@ -83,10 +83,11 @@ class SweepView(QWidget):
             levels = (float(finite.min()), float(finite.max())) if finite.size else (0.0, 1.0)
             if levels[1] <= levels[0]:
                 levels = (levels[0] - 0.5, levels[1] + 0.5)
-            # x = first axis, y = second axis: the image is indexed [axis 2, axis 1]
-            self.map_image.setImage(g.T.astype(np.float32), autoLevels=False, levels=levels)
+            # as the PDF's 2-D sweep pages: the first axis (the outer sweep) up, the second across
+            # -- the image (row-major) is indexed [axis 1, axis 2]
+            self.map_image.setImage(g.astype(np.float32), autoLevels=False, levels=levels)
             set_colorbar_levels(self.colorbar, levels)
-            for side, (name, values) in zip(("bottom", "left"), axes):
+            for side, (name, values) in zip(("left", "bottom"), axes):
                 ax = self.map_plot.getAxis(side)
                 ax.setTicks([[(i + 0.5, f"{v:g}") for i, v in enumerate(values)]])
                 self.map_plot.setLabel(side, name)
