@@ -23,6 +23,10 @@ NAME = "ptc"
 HELP = "photon transfer (gain, read noise, saturation, full well) from a mean/variance table"
 UNKNOWN_PIXELS = 10**12  # no pixel counts: SEs from the fits' residual scatter (and the most a level may hold)
 MAX_FRAMES = 10**9  # frames a level may average
+# Every path of ``ares ptc`` is linear in the rows (issue 54; benchmarks/bench_ptc_rows.py:
+# ~0.13 ms and ~4 kB a row). A photon-transfer table has tens to a few thousand levels;
+# above this many rows (~30 s, ~1 GB) the table is refused before it is parsed.
+MAX_ROWS = 200_000
 
 
 def add_arguments(p) -> None:
@@ -45,8 +49,9 @@ def _levels(table, pixels: int | None, frames: int | None):
     col = table.get
     notes = []
     if col("n_pixels") is None and pixels is None:
-        notes.append("no pixel counts: standard errors from the fits' residual scatter (give --pixels for the "
-                     "Gaussian variance errors)")
+        notes.append("no pixel counts: the decisions (turnoff, gain model) use the levels' measured scatter and "
+                     "the SEs come from the fits' residual scatter (--pixels gives the Gaussian variance errors, "
+                     "still checked against that scatter)")
     if frames is None and col("n_frames") is None:
         notes.append("no frame counts: each level taken as a pair (--frames to change)")
 
@@ -86,12 +91,30 @@ def _axis(table, name: str, notes: list[str]):
     return list(c)
 
 
+def _row_limit(path) -> None:
+    """Refuse a table of more than ``MAX_ROWS`` lines before parsing it (one sentence)."""
+    import os
+    import stat
+
+    try:
+        if not stat.S_ISREG(os.stat(path).st_mode):
+            return  # (a fifo, a directory: the reader names it without reading)
+        with open(path, "rb") as f:
+            lines = sum(chunk.count(b"\n") for chunk in iter(lambda: f.read(1 << 20), b""))
+    except OSError:
+        return  # (the reader names the problem)
+    if lines > MAX_ROWS + 1:
+        raise InputError(f"{path}: {lines} lines; ares ptc takes at most {MAX_ROWS} rows (a photon-transfer table has "
+                         "tens to thousands of levels: average or thin the rows first)")
+
+
 def analyse_table(path: str | Path, columns: list[str] | None = None, pixels: int | None = None,
                   frames: int | None = None, adc_lsb_uv: float | None = None):
     """(PtcResult, JSON dict, level names) for a table file."""
     from ares.analysis.ptc.photon_transfer import analyze_ptc
     from ares.hardware.ptc_table import read_ptc_table
 
+    _row_limit(path)
     table = read_ptc_table(path, columns)
     if len(table) < 2:
         raise InputError(f"{table.path}: one level is not a photon-transfer curve (needs >= 2 rows, "
@@ -102,7 +125,8 @@ def analyse_table(path: str | Path, columns: list[str] | None = None, pixels: in
     sse = table.get("signal_se")
     no_dark = table.get("dark_mean") is None and table.get("dark_var") is None
     r = analyze_ptc(bright, dark, exposure_s=exposure, photons=photons, adc_lsb_uv=adc_lsb_uv,
-                    signal_se=list(sse) if sse is not None else None)
+                    signal_se=list(sse) if sse is not None else None,
+                    counts_known=table.get("n_pixels") is not None or pixels is not None)
     names = [f"line {ln}" for ln in table.lines]
     d = {"table": str(table.path), "levels": len(table)}
     d.update(r.to_dict(names))
@@ -127,7 +151,8 @@ def _text(d: dict) -> str:
     for label, key, field in (("gain model", "gain_model", "reason"),
                               ("linearity (Eq. 51)", "linearity_check_text", "note"),
                               ("linearity (ARES option)", "linearity_check", "note"),
-                              ("saturation", "saturation", "reason")):
+                              ("saturation", "saturation", "reason"),
+                              ("decision errors", "decision_errors", "note")):
         if isinstance(d.get(key), dict):
             out.append(f"  {label:<{w}} {d[key][field]}")
     for n in d.get("notes", []):

@@ -206,10 +206,10 @@ class GainModel:
 
 
 def choose_gain_model(s, v, dof, v_se=None, p_min: float = 1e-3) -> GainModel:
-    """The line ``V = K S + c`` unless the data need the Astier curvature: the line's
-    residuals are inconsistent with its errors (chi-square p < ``p_min``), the extra term
+    """The line ``V = K S + c`` unless the data need the Astier curvature: the extra term
     improves the fit significantly (F-test p < ``p_min``, robust to a common excess
-    scatter) and ``a00`` differs from 0 by more than 3 SE. Brighter-fatter flattening of a
+    scatter) and ``a00`` differs from 0 by more than 3 SE (the errors ``v_se`` should
+    describe the levels' scatter: ``turnoff.decision_errors``). Brighter-fatter flattening of a
     deep-well CCD's PTC then no longer pulls a straight-line gain (Astier et al. 2019)."""
     from ares.analysis.stats.tails import chi2_sf, f_sf
 
@@ -230,10 +230,10 @@ def choose_gain_model(s, v, dof, v_se=None, p_min: float = 1e-3) -> GainModel:
     f = (chi_line - chi_ast) / max(af.chi2_red, 1e-300)
     f_p = f_sf(1, n - 3, f) if f > 0 else 1.0
     a_sig = abs(af.a00) / af.a00_se if af.a00_se > 0 else math.inf
-    if line_p < p_min and f_p < p_min and a_sig > 3:
+    if f_p < p_min and a_sig > 3:  # significant curvature: a line over the bent range is biased (issue 48)
         return GainModel("astier", lf, af, line_p, astier_p, f_p,
-                         f"Astier 2019: the line's residuals fail (chi2/dof {lf.chi2_red:.3g}, p {line_p:.2g}); "
-                         f"the curvature term is significant (a00 = {af.a00:.3g} ± {af.a00_se:.2g} 1/e-, F-test p {f_p:.2g})")
+                         f"Astier 2019: the curvature term is significant (a00 = {af.a00:.3g} ± {af.a00_se:.2g} 1/e-, "
+                         f"F-test p {f_p:.2g}; the line's chi2/dof {lf.chi2_red:.3g}, p {line_p:.2g})")
     why = (f"linear: residuals consistent (chi2/dof {lf.chi2_red:.3g}, p {line_p:.2g})" if line_p >= p_min else
            f"linear: the curvature term does not explain the residuals (a00 {a_sig:.2g} SE from 0, F-test p {f_p:.2g})")
     return GainModel("linear", lf, af, line_p, astier_p, f_p, why)
