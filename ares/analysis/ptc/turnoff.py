@@ -89,6 +89,11 @@ def decision_errors(S, V, Vse, signal_se=None, counts_known: bool = True, curve=
         e = np.maximum(np.abs(V), 1e-300)  # a relative scale until the scatter says how large
     idx = np.flatnonzero(use)
     sc = measured_scatter(S[idx], V[idx], e[idx])
+    # an error is never below rounding: levels on a smooth curve to 1e-9 are exact, and
+    # their decisions fall to the relative floors (the turnoff's 2 %)
+    e = np.maximum(e, 1e-9 * np.abs(V) + 1e-300)
+    if sc.available:
+        sc = Scatter(max(sc.ratio, 1e-9), sc.ratio_se, sc.n, sc.disagree, sc.note)
     if not counts_known:
         if not sc.available:
             return DecisionErrors(np.full(n, math.nan), "none", sc,
@@ -116,7 +121,7 @@ def _cum0(a: np.ndarray) -> np.ndarray:
 
 
 def ptc_turnoff(signal, var, var_se, nsigma: float = 4.0, min_levels: int = 4, confirm: int = 3,
-                rel_floor: float = 0.02, collapse: float = 0.7) -> int:
+                rel_floor: float = 0.02, collapse: float = 0.7, lookback: int = 5) -> int:
     """Number of levels, from the bottom of the signal-sorted input, that lie on the PTC.
 
     The curve is followed from below and stops at the first significant departure: level
@@ -125,7 +130,8 @@ def ptc_turnoff(signal, var, var_se, nsigma: float = 4.0, min_levels: int = 4, c
     more than ``nsigma`` standard errors (its own, inflated by the fit's excess scatter,
     combined with the prediction's), or below the highest variance under it by more than
     ``nsigma`` SE -- and in either case by more than ``rel_floor`` (2 %) of it. A departure
-    counts when at least half of the next ``confirm`` levels depart too (or it is the last
+    counts when the next level departs too (two in a row, as LSST cp_pipe's two consecutive
+    decreases) or at least half of the next ``confirm`` levels do (or it is the last
     level). Among the first quarter of the levels a departure counts only where the
     variance truly collapses (below ``collapse`` of the highest under it): a curve does not
     end at its first levels on a few standard errors. Whatever lies beyond the first
@@ -189,9 +195,18 @@ def ptc_turnoff(signal, var, var_se, nsigma: float = 4.0, min_levels: int = 4, c
         valid[:, k] = ok
     n_after = valid[:, 1:].sum(1)
     hits = dep[:, 1:].sum(1)
-    stop = dep[:, 0] & ((n_after == 0) | (2 * hits >= n_after))
+    stop = dep[:, 0] & ((n_after == 0) | dep[:, 1] | (2 * hits >= n_after))
     first = np.flatnonzero(stop)
-    return int(i[first[0]]) if first.size else n
+    if not first.size:
+        return n
+    stop_i = int(i[first[0]])
+    # the departure is seen where it exceeds nsigma; a gradual roll-off began up to a few
+    # levels earlier. The curve rises up to its turnoff and falls after it, so the turnoff
+    # is the highest variance among the last ``lookback`` levels before the departure
+    lo = max(min_levels, stop_i - lookback)
+    if stop_i - lo < 1:
+        return stop_i
+    return int(lo + int(np.argmax(v[lo:stop_i])) + 1)
 
 
 def lsst_pivot(var, min_var: float = 0.0, consecutive: int = 2) -> int:
