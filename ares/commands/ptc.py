@@ -119,6 +119,8 @@ def analyse_table(path: str | Path, columns: list[str] | None = None, pixels: in
     if len(table) < 2:
         raise InputError(f"{table.path}: one level is not a photon-transfer curve (needs >= 2 rows, "
                          f"best >= 10 from dark to saturation)")
+    if table.get("var") is None:
+        return _ramp(table)
     bright, dark, notes = _levels(table, pixels, frames)
     exposure = _axis(table, "exposure", notes)
     photons = _axis(table, "photons", notes)
@@ -141,7 +143,48 @@ def analyse_table(path: str | Path, columns: list[str] | None = None, pixels: in
     return r, d, names
 
 
+def _ramp(table):
+    """(None, JSON dict, level names) of a linearity ramp: signal against an illumination
+    axis, no variances -- its linearity turnoff and maximum signal (``turnoff.ramp_turnoff``,
+    LSST cp_pipe's rule), every figure with its verdict."""
+    import numpy as np
+
+    from ares.analysis.ptc.turnoff import ramp_turnoff
+    from ares.analysis.stats.estimate import Estimate
+
+    axis = next(a for a in ("monitor", "photons", "exposure") if table.get(a) is not None)
+    x = np.asarray(table.get(axis), float)
+    y = np.asarray(table.get("mean"), float)
+    if table.get("dark_mean") is not None:
+        y = y - np.nan_to_num(np.asarray(table.get("dark_mean"), float))
+    r = ramp_turnoff(x, y)
+    names = [f"line {ln}" for ln in table.lines]
+    d = {"table": str(table.path), "levels": len(table), "ramp_axis": axis}
+    if r.index < 0:
+        to = mx = Estimate.na(r.note, "DN")
+    else:
+        nxt = np.sort(y[np.isfinite(y) & (y > r.turnoff)])
+        se = (float(nxt[0]) - r.turnoff) / 3**0.5 if nxt.size else float("nan")
+        to = (Estimate(r.turnoff, se, "DN", r.note + "; SE: spacing to the next level / sqrt(3)") if r.reached
+              else Estimate.limit(r.turnoff, "lower", "DN", r.note))
+        mx = (Estimate(r.max_signal, float("nan"), "DN", "median of the levels within 1 % of the brightest")
+              if r.reached else Estimate.limit(r.max_signal, "lower", "DN", r.note))
+    d["linearity_turnoff_dn"] = to.to_dict()
+    d["max_signal_dn"] = mx.to_dict()
+    d["linearity_turnoff_level"] = names[r.index] if r.index >= 0 else None
+    d["notes"] = [f"no variance column: a linearity ramp of the signal against {axis}; photon-transfer figures "
+                  "(gain, read noise, full well) need the variances"]
+    return None, d, names
+
+
 def _text(d: dict) -> str:
+    if "ramp_axis" in d:
+        out = [f"linearity ramp of {d['table']} ({d['levels']} levels, signal against {d['ramp_axis']})",
+               f"  linearity turnoff  {format_dict(d['linearity_turnoff_dn'], with_reason=True)}"
+               + (f" ({d['linearity_turnoff_level']})" if d["linearity_turnoff_level"] else ""),
+               f"  maximum signal     {format_dict(d['max_signal_dn'], with_reason=True)}"]
+        out += [f"  note: {n}" for n in d["notes"]]
+        return "\n".join(out) + "\n"
     out = [f"photon transfer of {d['table']} ({d['levels']} levels)"]
     from ares.labels import PTC_FIGURES
 
@@ -186,6 +229,8 @@ def write_pdf(r, names: list[str], path: Path, title: str) -> None:
 def run(args) -> int:
     cols = [c for c in args.columns.split(",")] if args.columns else None
     r, d, names = analyse_table(args.table, cols, args.pixels, args.frames, args.adc_lsb_uv)
+    if args.pdf and r is None:
+        raise InputError(f"{args.table}: --pdf draws the photon-transfer curve, which a ramp without variances has not")
     if args.pdf:
         write_pdf(r, names, Path(args.pdf), str(args.table))
     if args.json:

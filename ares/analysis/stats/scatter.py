@@ -25,6 +25,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from ares.analysis.stats.median import fast_median
+
 MAD_TO_SIGMA = 1.4826  # sigma = 1.4826 MAD for a normal distribution
 MIN_POINTS = 6  # fewer points than this: no measured scatter (the local fit needs 4 neighbours)
 
@@ -97,8 +99,8 @@ def measured_scatter(x, y, y_err, tolerance: float = 1.5, nsigma: float = 3.0) -
     # the claimed error of a residual: the point's own and its neighbours' (weights ~ equal)
     scale = np.sqrt(e * e + (f - 1.0) * np.mean(e[nb] ** 2, axis=1))
     z = r / scale
-    med = float(np.median(z))
-    ratio = MAD_TO_SIGMA * float(np.median(np.abs(z - med)))
+    med = float(fast_median(z))
+    ratio = MAD_TO_SIGMA * float(fast_median(np.abs(z - med)))
     se = 1.17 * ratio / math.sqrt(n)
     t = max(tolerance, 1.0 + nsigma * 1.17 / math.sqrt(n))
     if not ratio > 0:
