@@ -228,7 +228,7 @@ def classify_levels(bright: Sequence[LevelStats], dark: Sequence[LevelStats],
     if cand:
         top = int(np.argmax(V[cand]))
         on[cand[:top + 1] if top + 1 >= 6 else cand] = True
-    de = decision_errors(S, V, Vse, signal_se, counts_known, curve=on)
+    de = decision_errors(S, V, Vse, signal_se, counts_known, curve=on, offset=[d.var for d in dark])
     if de.source == "none":  # no errors at all: the errorless rule (LSST cp_pipe, named)
         n_on = lsst_pivot(V[cand]) if cand else 0
         why = "the variance decreases at two consecutive levels (LSST cp_pipe's errorless PTC cut)"

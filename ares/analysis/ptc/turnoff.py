@@ -34,7 +34,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ares.analysis.stats.scatter import Scatter, measured_scatter
+from ares.analysis.stats.scatter import Scatter, local_residuals, measured_scatter
 from ares.analysis.stats.median import fast_median
 
 
@@ -60,19 +60,43 @@ def _local_median(a: np.ndarray, half: int = 2) -> np.ndarray:
     return fast_median(a[idx], axis=1)
 
 
-def decision_errors(S, V, Vse, signal_se=None, counts_known: bool = True, curve=None) -> DecisionErrors:
+def _smooth_scale(S, V, use, offset) -> np.ndarray:
+    """Per level, (smooth + offset) / (measured + offset): the variance a level's error is
+    proportional to, taken from the leave-one-out local quadratic of its neighbours instead
+    of its own noisy value. An error proportional to the measured value weights the levels
+    that fell low more than those that rose (a bias of many SEs over hundreds of levels);
+    1 where no smooth value exists, and within [0.5, 2]."""
+    n = S.size
+    f = np.ones(n)
+    idx = np.flatnonzero(use)
+    if idx.size < 6:
+        return f
+    o = idx[np.argsort(S[idx], kind="stable")]
+    r, _ = local_residuals(S[o], V[o])
+    num, den = V[o] - r + offset[o], V[o] + offset[o]
+    ok = (num > 0) & (den > 0)
+    f[o[ok]] = np.clip(num[ok] / den[ok], 0.5, 2.0)
+    return f
+
+
+def decision_errors(S, V, Vse, signal_se=None, counts_known: bool = True, curve=None,
+                    offset=None) -> DecisionErrors:
     """Errors for the decisions on levels ``S``, ``V`` (DN, DN^2) whose count-based variance
     errors are ``Vse``. ``signal_se`` (DN): each level's signal error not shared by all
     levels; estimated from few frames it is itself noisy, so each level takes the median of
     its own and its 4 neighbours' (in signal order). ``curve``: the levels (boolean mask)
-    on which the scatter is measured -- those on the curve, not beyond it."""
+    on which the scatter is measured -- those on the curve, not beyond it. ``offset``
+    (DN^2): the part of each level's raw variance not in ``V`` (the dark variance), so that
+    the errors scale with the raw variance's smooth value (``_smooth_scale``)."""
     S = np.asarray(S, float)
     V = np.asarray(V, float)
-    Vse = np.asarray(Vse, float)
     n = S.size
-    use = np.isfinite(S) & np.isfinite(V) & np.isfinite(Vse) & (S > 0)
+    use = np.isfinite(S) & np.isfinite(V) & np.isfinite(np.asarray(Vse, float)) & (S > 0)
     if curve is not None:
         use &= np.asarray(curve, bool)
+    off = np.zeros(n) if offset is None else np.nan_to_num(np.asarray(offset, float))
+    fsm = _smooth_scale(S, V, use, off)
+    Vse = np.asarray(Vse, float) * fsm
     # the slope that turns a signal error into a variance error: median V/S of the usable levels
     k0 = float(fast_median(V[use] / S[use])) if use.any() else math.nan
     e = Vse.copy()
@@ -86,7 +110,7 @@ def decision_errors(S, V, Vse, signal_se=None, counts_known: bool = True, curve=
             e = np.hypot(Vse, k0 * sm)
             sse_note = " with each level's signal error (local median of 5) through the slope"
     if not counts_known:
-        e = np.maximum(np.abs(V), 1e-300)  # a relative scale until the scatter says how large
+        e = np.maximum(np.abs(V + off) * fsm, 1e-300)  # a relative scale until the scatter says how large
     idx = np.flatnonzero(use)
     sc = measured_scatter(S[idx], V[idx], e[idx])
     # an error is never below rounding: levels on a smooth curve to 1e-9 are exact, and
