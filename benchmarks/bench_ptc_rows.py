@@ -49,7 +49,7 @@ def run_once(path: Path) -> tuple[float, float, dict]:
     dt = time.perf_counter() - t0
     rss = next((int(x.split()[1]) for x in p.stderr.splitlines() if x.startswith("MAXRSS")), 0) / 1024
     if p.returncode != 0:
-        raise SystemExit(f"ares ptc failed on {path}: {p.stderr.strip()[-300:]}")
+        return dt, rss, {"refused": p.stderr.strip().splitlines()[0][:160]}
     return dt, rss, json.loads(p.stdout)
 
 
@@ -57,20 +57,23 @@ def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     ap.add_argument("--max-rows", type=int, default=1_000_000)
     a = ap.parse_args()
-    sizes = [n for n in (10, 100, 1_000, 10_000, 100_000, 1_000_000) if n <= a.max_rows]
+    sizes = [n for n in (10, 100, 1_000, 10_000, 100_000, 200_000, 1_000_000) if n <= a.max_rows]
     print("| rows | wall time (s) | peak RSS (MB) | s per 1000 rows | K (truth 0.5) | turnoff DN (truth 30000) |")
     print("|---:|---:|---:|---:|---|---|")
     with tempfile.TemporaryDirectory() as d:
         for n in sizes:
             path = Path(d) / f"ptc_{n}.csv"
-            t = write_table(path, n)
+            write_table(path, n)
             dt, rss, out = run_once(path)
+            if "refused" in out:
+                print(f"| {n} | {dt:.2f} | {rss:.0f} | - | refused before parsing: {out['refused']} | |", flush=True)
+                path.unlink()
+                continue
             k, to = out["gain_dn_per_e"], out["turnoff_dn"]
             ks = f"{k['value']:.5f} ± {k['se']:.1g}" if k["value"] is not None else f"n/a ({k.get('note', '')[:40]})"
             ts = f"{to['value']:.0f}" if to["value"] is not None else f"n/a ({to.get('note', '')[:40]})"
             print(f"| {n} | {dt:.2f} | {rss:.0f} | {1000 * dt / n:.3g} | {ks} | {ts} |", flush=True)
             path.unlink()
-    del t
 
 
 if __name__ == "__main__":

@@ -22,8 +22,9 @@ on the curve, every level at or below the physical turnoff ``S_t`` follows it ex
 ``sat_e`` (= turnoff_dn / K) and, for ``clip``, the plateau full well ``fw_e``.
 
 ``judge(result_json, truth)`` says which targets a result meets: gain within max(1 %,
-3 SE); turnoff and saturation capacity within 3 %; and "absurd ok" -- a figure marked "ok"
-that is off by more than 50 % or fails a sanity bound.
+3 SE); turnoff and saturation capacity within 3 % (and the turnoff within max(3 %, 3 SE),
+its SE the interval it is located in); and "absurd ok" -- a figure marked "ok" that is
+off by more than 50 % or whose SE is larger than its value.
 """
 
 from __future__ import annotations
@@ -169,6 +170,8 @@ def judge(d: dict, truth: dict) -> dict:
     gain_ok = kv is not None and abs(kv - truth["K"]) <= max(0.01 * truth["K"], 3 * kse)
     to = _val(d["turnoff_dn"])
     turnoff_ok = to is not None and abs(to - truth["turnoff_dn"]) <= 0.03 * truth["turnoff_dn"]
+    to_se = d["turnoff_dn"].get("se") or 0.0
+    turnoff_se_ok = to is not None and abs(to - truth["turnoff_dn"]) <= max(0.03 * truth["turnoff_dn"], 3 * to_se)
     sat = _val(d["saturation_capacity_e"])
     sat_ok = sat is not None and abs(sat - truth["sat_e"]) <= 0.03 * truth["sat_e"]
     absurd = []
@@ -184,7 +187,7 @@ def judge(d: dict, truth: dict) -> dict:
         e = d[key]
         if e.get("verdict") == "ok" and e.get("se") is not None and e["se"] > abs(e["value"]):
             absurd.append(f"{key}: SE larger than the value, 'ok'")
-    return {"gain": gain_ok, "turnoff": turnoff_ok, "sat": sat_ok, "absurd": absurd}
+    return {"gain": gain_ok, "turnoff": turnoff_ok, "turnoff_se": turnoff_se_ok, "sat": sat_ok, "absurd": absurd}
 
 
 def run_case(c: Case, tmp: Path) -> tuple[dict, dict]:

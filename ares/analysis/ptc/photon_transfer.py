@@ -15,14 +15,21 @@ Saturation is *bracketed* (``ares.analysis.ptc.saturation``): it lies between th
 on the curve and the first clipped one. Every full-well definition is checked against the
 bracket, and a run that never saturates gets no full well and no dynamic range.
 
-The gain model (line or Astier 2019) is chosen by the data (``choose_gain_model``), and
-the EMVA 1288 4.0 Linear Eq. 51 local-slope check says whether the linear model holds.
+Every decision (the turnoff, the gain model's residual tests) uses errors that describe the
+levels' own scatter (``turnoff.decision_errors``: the counts' errors unless the measured
+scatter disagrees, and the result says which). The headline gain is the Astier 2019 fit
+wherever >= 5 levels determine it (``choose_gain_model``: the line is its a00 = 0 case;
+never a line over a bent range), and the EMVA 1288 4.0 Linear Eq. 51 local-slope check
+says whether the linear model holds. ``sanity`` marks figures no sensor gives (a full
+well below 20x the read noise, a turnoff below 5 % of the brightest signal, an SE above
+the value) not available, with the reason.
 Definitions (all labelled in the result): ``K`` in DN/e- (EMVA), its inverse in e-/DN,
 conversion gain in uV/e- = K * LSB_uV / analog gain; read noise EMVA 4.0 Eqs. 53-54.
 """
 
 from __future__ import annotations
 
+import dataclasses
 import math
 from dataclasses import dataclass, field
 from typing import Sequence
@@ -35,7 +42,7 @@ from ares.analysis.ptc.fit import (AstierFit, GainModel, LineFit, LocalSlopeChec
                                    local_slope_check, local_slope_check_text, origin_fit)
 from ares.analysis.ptc.noise_figures import loglog_slopes, noise_model, read_noise, sensitivity_threshold
 from ares.analysis.ptc.saturation import SaturationBracket, saturation_bracket
-from ares.analysis.ptc.turnoff import DecisionErrors, decision_errors, lsst_pivot, ptc_turnoff
+from ares.analysis.ptc.turnoff import DecisionErrors, decision_errors, lsst_pivot, ptc_turnoff_found
 from ares.analysis.ptc.saturation import _full_well, _turnoffs
 from ares.analysis.ptc.saturation import PtcLevel
 
@@ -230,10 +237,10 @@ def classify_levels(bright: Sequence[LevelStats], dark: Sequence[LevelStats],
         on[cand[:top + 1] if top + 1 >= 6 else cand] = True
     de = decision_errors(S, V, Vse, signal_se, counts_known, curve=on, offset=[d.var for d in dark])
     if de.source == "none":  # no errors at all: the errorless rule (LSST cp_pipe, named)
-        n_on = lsst_pivot(V[cand]) if cand else 0
+        n_on = seen = lsst_pivot(V[cand]) if cand else 0
         why = "the variance decreases at two consecutive levels (LSST cp_pipe's errorless PTC cut)"
     else:
-        n_on = ptc_turnoff(S[cand], V[cand], de.se[cand], nsigma=nsigma) if cand else 0
+        n_on, seen = ptc_turnoff_found(S[cand], V[cand], de.se[cand], nsigma=nsigma) if cand else (0, 0)
         why = (f"variance below the curve of the levels under it, or below their maximum, by > {nsigma:g} SE of the "
                f"{'measured scatter' if de.source == 'measured' else 'counts'}, confirmed by the next levels")
     for i in cand[n_on:]:
@@ -241,6 +248,8 @@ def classify_levels(bright: Sequence[LevelStats], dark: Sequence[LevelStats],
         reason[i] = f"beyond the PTC turnoff: the curve followed from below first departs ({why}) at S = {S[cand[n_on]]:.5g} DN"
     on_curve = np.array([st != "excluded" for st in status])
     br = saturation_bracket(S, clipped, on_curve, nominal)
+    if cand and seen > n_on and seen < len(cand):  # where the departure was seen, for the turnoff's SE
+        br = dataclasses.replace(br, seen_dn=float(S[cand[seen]]))
     if br.reached:
         for i in cand[:n_on]:
             if S[i] > fit_fraction * br.low_dn:

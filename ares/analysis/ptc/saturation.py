@@ -81,6 +81,7 @@ class SaturationBracket:
     low_dn: float
     high_dn: float
     reason: str  # one sentence: how the bracket was found, or why saturation is not reached
+    seen_dn: float = math.nan  # the signal at which the turnoff's departure was seen (above the turnoff)
 
     def contains(self, signal_dn: float, slack: float = 0.0) -> bool:
         """Is ``signal_dn`` consistent with the bracket (``slack`` DN either side)?"""
@@ -252,8 +253,11 @@ def _turnoffs(levels: Sequence[PtcLevel], br: SaturationBracket, gain: Estimate,
         # the level found is the last one before the departure: the turnoff itself lies
         # anywhere between it and the next level, so its error is the rms distance from this
         # level to a point uniform in that interval, spacing/sqrt(3) (not the signal's own SE,
-        # which is ~1000x smaller and says nothing about where the curve turns)
-        return Estimate(s, (nxt[0] - s) / math.sqrt(3) if nxt else math.nan, "DN", note)
+        # which is ~1000x smaller and says nothing about where the curve turns). Where the
+        # departure was seen only levels later (a gradual roll-off in noisy levels), the
+        # turnoff lies anywhere up to there: the interval is that wide (issue 48)
+        top = max(nxt[0] if nxt else math.nan, br.seen_dn if i == br.last_ok and br.seen_dn > s else -math.inf)
+        return Estimate(s, (top - s) / math.sqrt(3) if math.isfinite(top) else math.nan, "DN", note)
 
     if br.last_ok < 0:
         head = Estimate.na(br.reason, "DN")

@@ -144,9 +144,16 @@ def _cum0(a: np.ndarray) -> np.ndarray:
     return np.concatenate([[0.0], np.cumsum(a)])
 
 
-def ptc_turnoff(signal, var, var_se, nsigma: float = 4.0, min_levels: int = 4, confirm: int = 3,
-                rel_floor: float = 0.02, collapse: float = 0.7, lookback: int = 5) -> int:
-    """Number of levels, from the bottom of the signal-sorted input, that lie on the PTC.
+def ptc_turnoff(signal, var, var_se, **kw) -> int:
+    """Number of levels, from the bottom of the signal-sorted input, that lie on the PTC
+    (``ptc_turnoff_found``)."""
+    return ptc_turnoff_found(signal, var, var_se, **kw)[0]
+
+
+def ptc_turnoff_found(signal, var, var_se, nsigma: float = 4.0, min_levels: int = 4, confirm: int = 3,
+                      rel_floor: float = 0.02, collapse: float = 0.7, lookback: int = 5) -> tuple[int, int]:
+    """(levels on the PTC from the bottom of the signal-sorted input, the level where the
+    departure was seen: the turnoff lies between the two -- its uncertainty).
 
     The curve is followed from below and stops at the first significant departure: level
     ``i`` departs when its variance is below the curve fitted to the levels under it (a
@@ -168,7 +175,7 @@ def ptc_turnoff(signal, var, var_se, nsigma: float = 4.0, min_levels: int = 4, c
     e = np.maximum(np.asarray(var_se, float), 1e-300)
     n = s.size
     if n <= min_levels:
-        return n
+        return n, n
     smax = float(np.max(np.abs(s))) or 1.0
     x = s / smax
     half = max(n // 2, 2)
@@ -222,15 +229,15 @@ def ptc_turnoff(signal, var, var_se, nsigma: float = 4.0, min_levels: int = 4, c
     stop = dep[:, 0] & ((n_after == 0) | dep[:, 1] | (2 * hits >= n_after))
     first = np.flatnonzero(stop)
     if not first.size:
-        return n
+        return n, n
     stop_i = int(i[first[0]])
     # the departure is seen where it exceeds nsigma; a gradual roll-off began up to a few
     # levels earlier. The curve rises up to its turnoff and falls after it, so the turnoff
     # is the highest variance among the last ``lookback`` levels before the departure
     lo = max(min_levels, stop_i - lookback)
     if stop_i - lo < 1:
-        return stop_i
-    return int(lo + int(np.argmax(v[lo:stop_i])) + 1)
+        return stop_i, stop_i
+    return int(lo + int(np.argmax(v[lo:stop_i])) + 1), stop_i
 
 
 def lsst_pivot(var, min_var: float = 0.0, consecutive: int = 2) -> int:
