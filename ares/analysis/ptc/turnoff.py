@@ -151,7 +151,8 @@ def ptc_turnoff(signal, var, var_se, **kw) -> int:
 
 
 def ptc_turnoff_found(signal, var, var_se, nsigma: float = 4.0, min_levels: int = 4, confirm: int = 3,
-                      rel_floor: float = 0.02, collapse: float = 0.7, lookback: int = 5) -> tuple[int, int]:
+                      rel_floor: float = 0.02, collapse: float = 0.7, lookback: int = 5,
+                      flat_floor: float = 0.10) -> tuple[int, int]:
     """(levels on the PTC from the bottom of the signal-sorted input, the level where the
     departure was seen: the turnoff lies between the two -- its uncertainty).
 
@@ -160,7 +161,8 @@ def ptc_turnoff_found(signal, var, var_se, nsigma: float = 4.0, min_levels: int 
     line, or a parabola when its curvature is significant: brighter-fatter flattening) by
     more than ``nsigma`` standard errors (its own, inflated by the fit's excess scatter,
     combined with the prediction's), or below the highest variance under it by more than
-    ``nsigma`` SE -- and in either case by more than ``rel_floor`` (2 %) of it. A departure
+    ``nsigma`` SE -- and by more than ``flat_floor`` (10 %) below the curve or ``rel_floor``
+    (2 %) below that maximum. A departure
     counts when the next level departs too (two in a row, as LSST cp_pipe's two consecutive
     decreases) or at least half of the next ``confirm`` levels do (or it is the last
     level). Among the first quarter of the levels a departure counts only where the
@@ -218,7 +220,10 @@ def ptc_turnoff_found(signal, var, var_se, nsigma: float = 4.0, min_levels: int 
         a = np.stack([np.ones(i.size), x[jj], x[jj] ** 2], -1)
         pred = np.einsum("mi,mi->m", a, coef) + np.polyval(ref, x[jj])
         pse = np.sqrt(np.maximum(np.einsum("mi,mij,mj->m", a, cov, a), 0.0)) * scale
-        below_curve = v[jj] - pred < -np.maximum(nsigma * np.hypot(e[jj] * scale, pse), rel_floor * np.abs(pred))
+        # a flattening alone (the variance still rising, below the curve) ends the curve only
+        # beyond ``flat_floor`` (10 %): over a few levels a brighter-fatter bend the line
+        # fitted below cannot follow looks the same up to several percent (issue 48)
+        below_curve = v[jj] - pred < -np.maximum(nsigma * np.hypot(e[jj] * scale, pse), flat_floor * np.abs(pred))
         below_top = v[jj] < vtop - np.maximum(nsigma * scale * np.hypot(e[jj], etop), rel_floor * vtop)
         d = below_curve | below_top
         d &= ~early | (v[jj] < collapse * vtop)
@@ -237,7 +242,17 @@ def ptc_turnoff_found(signal, var, var_se, nsigma: float = 4.0, min_levels: int 
     lo = max(min_levels, stop_i - lookback)
     if stop_i - lo < 1:
         return stop_i, stop_i
-    return int(lo + int(np.argmax(v[lo:stop_i])) + 1), stop_i
+    # (a wild row above the curve -- > 10 % and nsigma above the fit below the window -- is not a peak)
+    k = np.arange(lo, stop_i)
+    q = lo - min_levels
+    A = np.stack([np.ones(k.size), x[k], x[k] ** 2], -1)
+    pred = A @ coef[q] + np.polyval(ref, x[k])
+    pse = np.sqrt(np.maximum(np.einsum("ki,ij,kj->k", A, cov[q], A), 0.0)) * scale[q]
+    above = np.maximum(nsigma * np.hypot(e[k] * scale[q], pse), flat_floor * np.abs(pred))
+    cand = np.where(v[k] - pred <= above, v[k], -np.inf)
+    if not np.isfinite(cand).any():
+        return stop_i, stop_i
+    return int(lo + int(np.argmax(cand)) + 1), stop_i
 
 
 def lsst_pivot(var, min_var: float = 0.0, consecutive: int = 2) -> int:
