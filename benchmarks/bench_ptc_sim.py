@@ -47,12 +47,42 @@ def judge(ptc: dict) -> tuple[bool, bool, str]:
     return bool(k_ok), bool(fw_ok), f"{ks} | {fw_s}"
 
 
+def replay(folder: Path) -> None:
+    """The same judgement on kept ``ptc.csv`` tables (the run's own analysis, redone from
+    its table: ``test_scan_truth`` checks the two agree)."""
+    sys.path.insert(0, str(ROOT))
+    from ares.commands.ptc import analyse_table
+
+    print("| frames | seed | K (DN/e-) | full well (e-) | K within 3 SE | full well within 3 % or n/a |")
+    print("|---:|---:|---|---|---|---|")
+    tot = {}
+    files = sorted(folder.glob("frames_*_seed_*.csv"), key=lambda p: tuple(int(x) for x in p.stem.split("_")[1::2]))
+    for f in files:
+        fr, sd = (int(x) for x in f.stem.split("_")[1::2])
+        _, d, _ = analyse_table(f)
+        k_ok, fw_ok, txt = judge(d)
+        t = tot.setdefault(fr, [0, 0, 0])
+        t[0] += k_ok
+        t[1] += fw_ok
+        t[2] += 1
+        print(f"| {fr} | {sd} | {txt} | {'yes' if k_ok else 'NO'} | {'yes' if fw_ok else 'NO'} |")
+    print()
+    print("| frames | K within 3 SE | full well within 3 % or n/a with reason |")
+    print("|---:|---:|---:|")
+    for fr, (k, w, n) in sorted(tot.items()):
+        print(f"| {fr} | {k}/{n} | {w}/{n} |")
+
+
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     ap.add_argument("--frames", default="2,4,8,16,64")
     ap.add_argument("--seeds", type=int, default=10)
     ap.add_argument("--keep", default=None, help="folder to keep each run's ptc.csv in (frames_F_seed_S.csv)")
+    ap.add_argument("--replay", default=None, help="judge the kept tables of a --keep folder with today's "
+                                                   "analysis (ares ptc on each ptc.csv), without running the scans")
     a = ap.parse_args()
+    if a.replay:
+        return replay(Path(a.replay))
     keep = Path(a.keep) if a.keep else None
     if keep:
         keep.mkdir(parents=True, exist_ok=True)
