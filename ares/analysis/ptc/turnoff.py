@@ -227,6 +227,8 @@ def ptc_turnoff_found(signal, var, var_se, nsigma: float = 4.0, min_levels: int 
         below_top = v[jj] < vtop - np.maximum(nsigma * scale * np.hypot(e[jj], etop), rel_floor * vtop)
         d = below_curve | below_top
         d &= ~early | (v[jj] < collapse * vtop)
+        if k:  # a repeated row (the same signal) is the same level, not a confirmation
+            ok &= x[jj] > x[i]
         dep[:, k] = d & ok
         valid[:, k] = ok
     n_after = valid[:, 1:].sum(1)
