@@ -143,7 +143,7 @@ def test_ptc_table_of_the_run_reproduces_the_scan(pt, capsys):
     d = json.loads(capsys.readouterr().out)
     for key in ("gain_dn_per_e", "full_well_e", "saturation_capacity_e"):
         assert d[key]["value"] == pytest.approx(p[key]["value"], rel=1e-9), key
-    assert d["saturation"]["last_unclipped_stage"] is not None and d["gain_model"]["chosen"] == "linear"
+    assert d["saturation"]["last_unclipped_stage"] is not None and d["gain_model"]["chosen"] == "astier"  # (issue 48)
 
 
 # (component, n_se, relative floor): the floor covers what the SE cannot: the

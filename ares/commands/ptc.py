@@ -23,6 +23,10 @@ NAME = "ptc"
 HELP = "photon transfer (gain, read noise, saturation, full well) from a mean/variance table"
 UNKNOWN_PIXELS = 10**12  # no pixel counts: SEs from the fits' residual scatter (and the most a level may hold)
 MAX_FRAMES = 10**9  # frames a level may average
+# Every path of ``ares ptc`` is linear in the rows (issue 54; benchmarks/bench_ptc_rows.py:
+# ~0.13 ms and ~4 kB a row). A photon-transfer table has tens to a few thousand levels;
+# above this many rows (~30 s, ~1 GB) the table is refused before it is parsed.
+MAX_ROWS = 200_000
 
 
 def add_arguments(p) -> None:
@@ -45,8 +49,9 @@ def _levels(table, pixels: int | None, frames: int | None):
     col = table.get
     notes = []
     if col("n_pixels") is None and pixels is None:
-        notes.append("no pixel counts: standard errors from the fits' residual scatter (give --pixels for the "
-                     "Gaussian variance errors)")
+        notes.append("no pixel counts: the decisions (turnoff, gain model) use the levels' measured scatter and "
+                     "the SEs come from the fits' residual scatter (--pixels gives the Gaussian variance errors, "
+                     "still checked against that scatter)")
     if frames is None and col("n_frames") is None:
         notes.append("no frame counts: each level taken as a pair (--frames to change)")
 
@@ -86,23 +91,44 @@ def _axis(table, name: str, notes: list[str]):
     return list(c)
 
 
+def _row_limit(path) -> None:
+    """Refuse a table of more than ``MAX_ROWS`` lines before parsing it (one sentence)."""
+    import os
+    import stat
+
+    try:
+        if not stat.S_ISREG(os.stat(path).st_mode):
+            return  # (a fifo, a directory: the reader names it without reading)
+        with open(path, "rb") as f:
+            lines = sum(chunk.count(b"\n") for chunk in iter(lambda: f.read(1 << 20), b""))
+    except OSError:
+        return  # (the reader names the problem)
+    if lines > MAX_ROWS + 1:
+        raise InputError(f"{path}: {lines} lines; ares ptc takes at most {MAX_ROWS} rows (a photon-transfer table has "
+                         "tens to thousands of levels: average or thin the rows first)")
+
+
 def analyse_table(path: str | Path, columns: list[str] | None = None, pixels: int | None = None,
                   frames: int | None = None, adc_lsb_uv: float | None = None):
     """(PtcResult, JSON dict, level names) for a table file."""
     from ares.analysis.ptc.photon_transfer import analyze_ptc
     from ares.hardware.ptc_table import read_ptc_table
 
+    _row_limit(path)
     table = read_ptc_table(path, columns)
     if len(table) < 2:
         raise InputError(f"{table.path}: one level is not a photon-transfer curve (needs >= 2 rows, "
                          f"best >= 10 from dark to saturation)")
+    if table.get("var") is None:
+        return _ramp(table)
     bright, dark, notes = _levels(table, pixels, frames)
     exposure = _axis(table, "exposure", notes)
     photons = _axis(table, "photons", notes)
     sse = table.get("signal_se")
     no_dark = table.get("dark_mean") is None and table.get("dark_var") is None
     r = analyze_ptc(bright, dark, exposure_s=exposure, photons=photons, adc_lsb_uv=adc_lsb_uv,
-                    signal_se=list(sse) if sse is not None else None)
+                    signal_se=list(sse) if sse is not None else None,
+                    counts_known=table.get("n_pixels") is not None or pixels is not None)
     names = [f"line {ln}" for ln in table.lines]
     d = {"table": str(table.path), "levels": len(table)}
     d.update(r.to_dict(names))
@@ -117,7 +143,48 @@ def analyse_table(path: str | Path, columns: list[str] | None = None, pixels: in
     return r, d, names
 
 
+def _ramp(table):
+    """(None, JSON dict, level names) of a linearity ramp: signal against an illumination
+    axis, no variances -- its linearity turnoff and maximum signal (``turnoff.ramp_turnoff``,
+    LSST cp_pipe's rule), every figure with its verdict."""
+    import numpy as np
+
+    from ares.analysis.ptc.turnoff import ramp_turnoff
+    from ares.analysis.stats.estimate import Estimate
+
+    axis = next(a for a in ("monitor", "photons", "exposure") if table.get(a) is not None)
+    x = np.asarray(table.get(axis), float)
+    y = np.asarray(table.get("mean"), float)
+    if table.get("dark_mean") is not None:
+        y = y - np.nan_to_num(np.asarray(table.get("dark_mean"), float))
+    r = ramp_turnoff(x, y)
+    names = [f"line {ln}" for ln in table.lines]
+    d = {"table": str(table.path), "levels": len(table), "ramp_axis": axis}
+    if r.index < 0:
+        to = mx = Estimate.na(r.note, "DN")
+    else:
+        nxt = np.sort(y[np.isfinite(y) & (y > r.turnoff)])
+        se = (float(nxt[0]) - r.turnoff) / 3**0.5 if nxt.size else float("nan")
+        to = (Estimate(r.turnoff, se, "DN", r.note + "; SE: spacing to the next level / sqrt(3)") if r.reached
+              else Estimate.limit(r.turnoff, "lower", "DN", r.note))
+        mx = (Estimate(r.max_signal, float("nan"), "DN", "median of the levels within 1 % of the brightest")
+              if r.reached else Estimate.limit(r.max_signal, "lower", "DN", r.note))
+    d["linearity_turnoff_dn"] = to.to_dict()
+    d["max_signal_dn"] = mx.to_dict()
+    d["linearity_turnoff_level"] = names[r.index] if r.index >= 0 else None
+    d["notes"] = [f"no variance column: a linearity ramp of the signal against {axis}; photon-transfer figures "
+                  "(gain, read noise, full well) need the variances"]
+    return None, d, names
+
+
 def _text(d: dict) -> str:
+    if "ramp_axis" in d:
+        out = [f"linearity ramp of {d['table']} ({d['levels']} levels, signal against {d['ramp_axis']})",
+               f"  linearity turnoff  {format_dict(d['linearity_turnoff_dn'], with_reason=True)}"
+               + (f" ({d['linearity_turnoff_level']})" if d["linearity_turnoff_level"] else ""),
+               f"  maximum signal     {format_dict(d['max_signal_dn'], with_reason=True)}"]
+        out += [f"  note: {n}" for n in d["notes"]]
+        return "\n".join(out) + "\n"
     out = [f"photon transfer of {d['table']} ({d['levels']} levels)"]
     from ares.labels import PTC_FIGURES
 
@@ -127,7 +194,8 @@ def _text(d: dict) -> str:
     for label, key, field in (("gain model", "gain_model", "reason"),
                               ("linearity (Eq. 51)", "linearity_check_text", "note"),
                               ("linearity (ARES option)", "linearity_check", "note"),
-                              ("saturation", "saturation", "reason")):
+                              ("saturation", "saturation", "reason"),
+                              ("decision errors", "decision_errors", "note")):
         if isinstance(d.get(key), dict):
             out.append(f"  {label:<{w}} {d[key][field]}")
     for n in d.get("notes", []):
@@ -161,6 +229,8 @@ def write_pdf(r, names: list[str], path: Path, title: str) -> None:
 def run(args) -> int:
     cols = [c for c in args.columns.split(",")] if args.columns else None
     r, d, names = analyse_table(args.table, cols, args.pixels, args.frames, args.adc_lsb_uv)
+    if args.pdf and r is None:
+        raise InputError(f"{args.table}: --pdf draws the photon-transfer curve, which a ramp without variances has not")
     if args.pdf:
         write_pdf(r, names, Path(args.pdf), str(args.table))
     if args.json:

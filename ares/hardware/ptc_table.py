@@ -7,7 +7,7 @@ list wins) or given in order with ``columns=`` (``ares ptc --columns``):
 ===============  =================================================  =========
 field            header names                                       needed
 ===============  =================================================  =========
-``mean``         mean, mean_dn, mu, mu_y                           yes
+``mean``         mean, mean_dn, mu, mu_y, mean_adu, raw_mean_adu   yes
 ``var``          var, variance, bright_variance_dn2, var_dn2, s2_y  yes
 ``dark_mean``    dark_mean, dark_mean_dn, mu_dark, mu_y_dark        no (0)
 ``dark_var``     dark_var, dark_variance_dn2, s2_dark, s2_y_dark    no (0)
@@ -18,8 +18,11 @@ field            header names                                       needed
 ``exposure``     exposure, exposure_s, t_exp, texp                  no
 ``photons``      photons, mu_p, photons_per_pixel                   no
 ``signal_se``    signal_se, signal_se_dn                            no
+``monitor``      monitor, photo_charge, photo_charge_c, pd_charge   no
 ===============  =================================================  =========
 
+A table without ``var`` but with an illumination column (``exposure``, ``photons`` or
+``monitor``, a monitor-photodiode charge in any unit) is a linearity ramp.
 The report's ``ptc.csv`` (``ares report``) is such a table. Variances are *raw* (bright
 and dark apart); without pixel counts the standard errors come from the fits' residual
 scatter. Rows whose numbers are empty or not finite are kept and reported by the analysis
@@ -41,7 +44,7 @@ from ares.safefile import read_regular
 
 MAX_BYTES = 64 * 1024 * 1024
 ALIASES = {
-    "mean": ("mean", "mean_dn", "mu", "mu_y"),
+    "mean": ("mean", "mean_dn", "mu", "mu_y", "mean_adu", "raw_mean_adu"),
     "var": ("var", "variance", "bright_variance_dn2", "var_dn2", "s2_y"),
     "dark_mean": ("dark_mean", "dark_mean_dn", "mu_dark", "mu_y_dark"),
     "dark_var": ("dark_var", "dark_variance_dn2", "s2_dark", "s2_y_dark"),
@@ -52,6 +55,7 @@ ALIASES = {
     "exposure": ("exposure", "exposure_s", "t_exp", "texp"),
     "photons": ("photons", "mu_p", "photons_per_pixel"),
     "signal_se": ("signal_se", "signal_se_dn"),
+    "monitor": ("monitor", "photo_charge", "photo_charge_c", "pd_charge"),
 }
 REQUIRED = ("mean", "var")
 # what a measurement can hold (a 40-bit ADC's DN and their squares, a day's exposure ...):
@@ -60,7 +64,7 @@ REQUIRED = ("mean", "var")
 _DN, _DN2 = MAX_DN, MAX_DN**2
 BOUNDS = {"mean": (-_DN, _DN, "DN"), "dark_mean": (-_DN, _DN, "DN"), "var": (-_DN2, _DN2, "DN^2"),
           "dark_var": (-_DN2, _DN2, "DN^2"), "frac_at_max": (0.0, 1.0, ""), "exposure": (0.0, 1e6, "s"),
-          "photons": (0.0, 1e15, "photons"), "signal_se": (0.0, _DN, "DN")}
+          "photons": (0.0, 1e15, "photons"), "signal_se": (0.0, _DN, "DN"), "monitor": (0.0, 1e15, "")}
 
 
 @dataclass
@@ -144,7 +148,9 @@ def read_ptc_table(path: str | Path, columns: list[str] | None = None) -> PtcTab
     else:
         raise InputError(f"{path}:{rows[0][0]}: no header row; name the columns with --columns "
                          f"(e.g. --columns mean,var,dark_mean,dark_var)")
-    missing = [f for f in REQUIRED if f not in index]
+    # a linearity ramp (mean against exposure or monitor charge) needs no variance column
+    ramp = any(f in index for f in ("exposure", "photons", "monitor"))
+    missing = [f for f in REQUIRED if f not in index and not (f == "var" and ramp)]
     if missing:
         raise InputError(f"{path}: no column for {', '.join(missing)} (header names: "
                          + "; ".join(f"{f}: {', '.join(ALIASES[f])}" for f in missing) + ")")

@@ -4,13 +4,13 @@ A scan that runs both the photon transfer (``ptc``) and the EMVA 1288 Release 4.
 evaluation (``emva4``) has two K from the same levels. EMVA 1288 4.0 Linear Section 6.6,
 Eq. 50, defines K as the slope of an (unweighted) least-squares line with unknown offset of
 sigma_y^2 - sigma_y.dark^2 versus mu_y - mu_y.dark over 0-70 % of saturation: that is THE K
-of an EMVA datasheet. ARES's photon-transfer headline is its weighted line (each level by
-1/se(V)^2, the minimum-variance slope when the line holds) or the Astier 2019 fit when the
-data choose it and it passes its own check. Where neither passes its residual check (the
-levels' variance errors do not describe their scatter), the headline is the unweighted line
-with offset over the same levels -- Eq. 50's form, so on 0-70 % of saturation it is Eq. 50's
-K. Where the curve is a line within its errors the two agree; where it is not, the weights
-move the slope. ``k_statement`` says which is the
+of an EMVA datasheet. ARES's photon-transfer headline (issue 48) is the Astier 2019 fit
+wherever >= 5 levels determine it -- its zero-signal K, weighted by errors that describe the
+levels' scatter -- else the weighted line, or, where no errors are known or the line fails
+its residual check without a curvature term, the unweighted line with offset over the same
+levels (Eq. 50's form, so on 0-70 % of saturation it is Eq. 50's K). Where the curve is a
+line within its errors the two agree; where it bends, the EMVA K (a line over the bent
+range) is below the zero-signal K. ``k_statement`` says which is the
 headline, why, and by how much (in combined SE) the two differ -- one sentence shown on the
 report, the terminal and the datasheet alike.
 """

@@ -15,14 +15,21 @@ Saturation is *bracketed* (``ares.analysis.ptc.saturation``): it lies between th
 on the curve and the first clipped one. Every full-well definition is checked against the
 bracket, and a run that never saturates gets no full well and no dynamic range.
 
-The gain model (line or Astier 2019) is chosen by the data (``choose_gain_model``), and
-the EMVA 1288 4.0 Linear Eq. 51 local-slope check says whether the linear model holds.
+Every decision (the turnoff, the gain model's residual tests) uses errors that describe the
+levels' own scatter (``turnoff.decision_errors``: the counts' errors unless the measured
+scatter disagrees, and the result says which). The headline gain is the Astier 2019 fit
+wherever >= 5 levels determine it (``choose_gain_model``: the line is its a00 = 0 case;
+never a line over a bent range), and the EMVA 1288 4.0 Linear Eq. 51 local-slope check
+says whether the linear model holds. ``sanity`` marks figures no sensor gives (a full
+well below 20x the read noise, a turnoff below 5 % of the brightest signal, an SE above
+the value) not available, with the reason.
 Definitions (all labelled in the result): ``K`` in DN/e- (EMVA), its inverse in e-/DN,
 conversion gain in uV/e- = K * LSB_uV / analog gain; read noise EMVA 4.0 Eqs. 53-54.
 """
 
 from __future__ import annotations
 
+import dataclasses
 import math
 from dataclasses import dataclass, field
 from typing import Sequence
@@ -34,7 +41,8 @@ from ares.analysis.ptc.levels import LevelStats
 from ares.analysis.ptc.fit import (AstierFit, GainModel, LineFit, LocalSlopeCheck, choose_gain_model, line_fit,
                                    local_slope_check, local_slope_check_text, origin_fit)
 from ares.analysis.ptc.noise_figures import loglog_slopes, noise_model, read_noise, sensitivity_threshold
-from ares.analysis.ptc.saturation import (SaturationBracket, ptc_turnoff, saturation_bracket)
+from ares.analysis.ptc.saturation import SaturationBracket, saturation_bracket
+from ares.analysis.ptc.turnoff import DecisionErrors, decision_errors, lsst_pivot, ptc_turnoff_found
 from ares.analysis.ptc.saturation import _full_well, _turnoffs
 from ares.analysis.ptc.saturation import PtcLevel
 
@@ -75,6 +83,7 @@ class PtcResult:
     # Eq. 51 as written (EMVA 1288 4.0 Linear Section 6.6), shown beside ``linearity_check``
     # (ARES's variant, option eq51_noise_floor), never replaced by it
     linearity_check_text: LocalSlopeCheck | None = None
+    errors: DecisionErrors | None = None  # the variance errors the decisions used, and why (issue 48)
 
     def gain_headline(self) -> dict:
         """Which estimator gives the headline K and why (one sentence)."""
@@ -132,6 +141,9 @@ class PtcResult:
             "saturation_stage": name(self.saturation_index),
             "turnoff_dn": self.turnoff_dn.to_dict(), "turnoff_e": self.turnoff_e.to_dict(),
             "turnoff_definitions_dn": {k_: v.to_dict() for k_, v in self.turnoff_definitions_dn.items()},
+            "decision_errors": None if self.errors is None else {
+                "source": self.errors.source, "note": self.errors.note,
+                "scatter_ratio": self.errors.scatter.ratio if self.errors.scatter.available else None},
             "level_status": [{"stage": names[lv.index], "status": lv.status, "reason": lv.reason}
                              for lv in self.levels],
         }
@@ -158,7 +170,8 @@ def _nominal(n: int, exposure_s, photons):
 
 def classify_levels(bright: Sequence[LevelStats], dark: Sequence[LevelStats],
                     exposure_s=None, photons=None, clip_limit: float = 0.002,
-                    fit_fraction: float = 0.7, nsigma: float = 4.0) -> tuple[list[PtcLevel], SaturationBracket]:
+                    fit_fraction: float = 0.7, nsigma: float = 4.0, signal_se=None,
+                    counts_known: bool = True) -> tuple[list[PtcLevel], SaturationBracket, DecisionErrors]:
     n = len(bright)
     S = np.array([b.mean - d.mean for b, d in zip(bright, dark)], float)
     V = np.array([b.var - d.var for b, d in zip(bright, dark)], float)
@@ -216,43 +229,53 @@ def classify_levels(bright: Sequence[LevelStats], dark: Sequence[LevelStats],
                 status[i], clipped[i] = "excluded", True
                 reason[i] = "beyond saturation: brighter than a clipped level"
     cand = sorted((i for i in range(n) if status[i] != "excluded"), key=lambda i: S[i])
-    n_on = ptc_turnoff(S[cand], V[cand], Vse[cand], nsigma=nsigma) if cand else 0
+    # the scatter is measured on the curve: the levels up to the highest variance (a wild
+    # row beyond the turnover is one point of many: the MAD ignores it)
+    on = np.zeros(n, bool)
+    if cand:
+        top = int(np.argmax(V[cand]))
+        on[cand[:top + 1] if top + 1 >= 6 else cand] = True
+    de = decision_errors(S, V, Vse, signal_se, counts_known, curve=on, offset=[d.var for d in dark])
+    if de.source == "none":  # no errors at all: the errorless rule (LSST cp_pipe, named)
+        n_on = seen = lsst_pivot(V[cand]) if cand else 0
+        why = "the variance decreases at two consecutive levels (LSST cp_pipe's errorless PTC cut)"
+    else:
+        n_on, seen = ptc_turnoff_found(S[cand], V[cand], de.se[cand], nsigma=nsigma) if cand else (0, 0)
+        why = (f"variance below the curve of the levels under it, or below their maximum, by > {nsigma:g} SE of the "
+               f"{'measured scatter' if de.source == 'measured' else 'counts'}, confirmed by the next levels")
     for i in cand[n_on:]:
         status[i], clipped[i] = "excluded", True
-        reason[i] = (f"beyond the PTC turnoff: the curve followed from below first departs (variance below "
-                     f"the curve of the levels under it, or below their maximum, by > {nsigma:g} SE) at "
-                     f"S = {S[cand[n_on]]:.5g} DN")
+        reason[i] = f"beyond the PTC turnoff: the curve followed from below first departs ({why}) at S = {S[cand[n_on]]:.5g} DN"
     on_curve = np.array([st != "excluded" for st in status])
     br = saturation_bracket(S, clipped, on_curve, nominal)
+    if cand and seen > n_on and seen < len(cand):  # where the departure was seen, for the turnoff's SE
+        br = dataclasses.replace(br, seen_dn=float(S[cand[seen]]))
     if br.reached:
         for i in cand[:n_on]:
             if S[i] > fit_fraction * br.low_dn:
                 status[i], reason[i] = "valid", f"above {100 * fit_fraction:g} % of saturation: not fitted"
     levels = [PtcLevel(i, float(S[i]), float(V[i]), float(Vse[i]), float(dof[i]), float(bright[i].var),
                        float(bright[i].spatial_var), float(bright[i].frac_at_max), float(t[i]), float(p[i]),
-                       status[i], reason[i], bool(clipped[i])) for i in range(n)]
-    return levels, br
+                       status[i], reason[i], bool(clipped[i]), float(de.se[i])) for i in range(n)]
+    return levels, br, de
 
 
 HEADLINE_P_MIN = 1e-3  # the chi-square probability below which a fit fails its own residual check
 
 
-def _gain_estimates(fit: list[PtcLevel], signal_se, fit_note: str):
-    """(chosen K, WLS line K, EMVA origin K, Astier K, GainModel). The weights are
-    ``1/se(V)^2``, or with ``signal_se`` the effective variance ``se(V)^2 + (K se(S))^2``
-    (a level's signal error matters at low signal, where ``V/S`` is most sensitive)."""
+def _gain_estimates(fit: list[PtcLevel], fit_note: str, errors_source: str):
+    """(chosen K, WLS line K, EMVA origin K, Astier K, GainModel). The weights and residual
+    tests use each level's decision error (``turnoff.decision_errors``: the counts' errors,
+    with the signal's error through the slope, unless the measured scatter disagrees)."""
     S = np.array([lv.signal for lv in fit])
     V = np.array([lv.variance for lv in fit])
     N = np.array([lv.dof for lv in fit])
     Vse = np.array([lv.variance_se for lv in fit])
-    gm = choose_gain_model(S, V, N, v_se=Vse)
-    how = "w = 1/se(V)^2"
-    if signal_se is not None and math.isfinite(gm.line.slope):
-        sse = np.array([signal_se[lv.index] for lv in fit], float)
-        sse = np.where(np.isfinite(sse), sse, 0.0)
-        for _ in range(2):  # effective variance: K from the previous pass
-            gm = choose_gain_model(S, V, N, v_se=np.hypot(Vse, gm.line.slope * sse))
-        how = "w = 1/(se(V)^2 + K^2 se(S)^2)"
+    E = np.array([lv.decision_se for lv in fit])
+    no_errors = errors_source == "none" or not np.all(np.isfinite(E))
+    gm = choose_gain_model(S, V, N, v_se=np.maximum(np.abs(V), 1e-300) if no_errors else E)
+    how = {"measured": "w = 1/(measured scatter)^2", "counts": "w = 1/se(V)^2 (counts, signal error included)"}.get(
+        errors_source, "unweighted")
 
     def est(lf: LineFit, note: str) -> Estimate:
         if not math.isfinite(lf.slope):
@@ -271,26 +294,28 @@ def _gain_estimates(fit: list[PtcLevel], signal_se, fit_note: str):
                          f"Astier 2019 exponential, a00 = {ast.a00:.3g} 1/e-, {fit_note}")
     else:
         k_ast = Estimate.na("Astier fit needs >= 5 levels", "DN/e-")
-    chosen = k_ast if gm.chosen == "astier" else k_wls
+    chosen = k_ast if gm.chosen == "astier" and k_ast.available else k_wls
     reason = gm.reason
-    # a fit failing its own residual check is never the headline (issue 34): where neither
-    # weighted model passes, the variance errors do not describe the scatter and weights
-    # only move the slope, so the headline is the unweighted line with offset -- the form of
-    # EMVA 1288 4.0 Linear Section 6.6 Eq. 50 -- with its SE from the scatter itself
+    # by physics and evidence (issue 48): where the curvature term is significant the
+    # Astier fit is the headline (a straight line over a bent range is biased), its SE
+    # scaled by its own excess scatter if it has any. Where it is not and the line fails
+    # its residual check against errors that describe the scatter, or where no errors are
+    # known at all, the headline is the unweighted line with offset -- the form of EMVA
+    # 1288 4.0 Linear Section 6.6 Eq. 50 -- with its SE from the scatter itself
     line_fails = gm.line_p < HEADLINE_P_MIN
-    astier_fails = gm.chosen == "astier" and not gm.astier_p >= HEADLINE_P_MIN
-    if line_fails and (gm.chosen != "astier" or astier_fails):
+    if no_errors or (line_fails and chosen is not k_ast):
         lf = line_fit(S, V)
         k_ols = (Estimate(lf.slope, lf.slope_se, "DN/e-", f"unweighted line of V vs S (SE from the residual "
                                                            f"scatter), {fit_note}")
                  if math.isfinite(lf.slope) and lf.slope > 3 * lf.slope_se else k_wls)
-        tried = (f"the Astier fit, preferred to the line, fails its own residual check (chi2/dof "
-                 f"{ast.chi2_red:.3g}, p {gm.astier_p:.2g})" if astier_fails else
-                 "the Astier curvature term does not explain the residuals")
         chosen = k_ols
-        reason = (f"unweighted line: the weighted line fails its own residual check (chi2/dof "
-                  f"{gm.line.chi2_red:.3g}, p {gm.line_p:.2g}) and {tried}: the levels' variance errors do not "
-                  "describe their scatter, so the slope is not weighted by them (the form of EMVA 1288 4.0 Eq. 50)")
+        reason = ("unweighted line: no variance errors are known and the levels are too few to measure their "
+                  "scatter (the form of EMVA 1288 4.0 Eq. 50)" if no_errors else
+                  f"unweighted line: the weighted line fails its own residual check (chi2/dof {gm.line.chi2_red:.3g}, "
+                  f"p {gm.line_p:.2g}) and the Astier curvature term does not explain the residuals, so the slope is "
+                  "not weighted (the form of EMVA 1288 4.0 Eq. 50)")
+    elif chosen is k_ast and not gm.astier_p >= HEADLINE_P_MIN:
+        reason += f"; its own residuals exceed the errors (chi2/dof {ast.chi2_red:.3g}): SE scaled by them"
     if chosen.available:
         chosen = Estimate(chosen.value, chosen.se, chosen.unit, f"{reason}; {chosen.note}")
     return chosen, k_wls, k_org, k_ast, gm
@@ -300,7 +325,7 @@ def analyze_ptc(bright: Sequence[LevelStats], dark: Sequence[LevelStats], *, exp
                 photons=None, clip_limit: float = 0.002, fit_fraction: float = 0.7,
                 adc_lsb_uv: float | None = None, analog_gain: float = 1.0,
                 dark_exposure_s=None, read_dark: Sequence[LevelStats] | None = None,
-                signal_se=None) -> PtcResult:
+                signal_se=None, counts_known: bool = True) -> PtcResult:
     """Full photon-transfer analysis. ``dark[i]`` is the dark level at ``bright[i]``'s
     exposure. ``read_dark``/``dark_exposure_s`` (default: ``dark``/``exposure_s``) give
     the dark levels for sigma_y.dark.
@@ -310,12 +335,13 @@ def analyze_ptc(bright: Sequence[LevelStats], dark: Sequence[LevelStats], *, exp
     offset moves the mean but is removed from the variance)."""
     if len(bright) != len(dark):
         raise ValueError("one dark level per bright level is required")
-    levels, br = classify_levels(bright, dark, exposure_s, photons, clip_limit, fit_fraction)
+    levels, br, de = classify_levels(bright, dark, exposure_s, photons, clip_limit, fit_fraction,
+                                     signal_se=signal_se, counts_known=counts_known)
     fit = [lv for lv in levels if lv.status == "fit"]
     good = sorted((lv for lv in levels if lv.status in ("fit", "valid")), key=lambda lv: lv.signal)
     fit_note = (f"up to {100 * fit_fraction:g} % of saturation" if br.reached else
                 "all levels (saturation not reached)")
-    gain, k_wls, k_org, k_ast, gm = _gain_estimates(fit, signal_se, fit_note)
+    gain, k_wls, k_org, k_ast, gm = _gain_estimates(fit, fit_note, de.source)
     lin = local_slope_check([lv.signal for lv in fit], [lv.variance for lv in fit],
                             [lv.variance_se for lv in fit], k_wls.value)
     e_per_dn = _inv(gain, "e-/DN", "1/K")
@@ -397,5 +423,8 @@ def analyze_ptc(bright: Sequence[LevelStats], dark: Sequence[LevelStats], *, exp
     to_dn, to_e, to_defs = _turnoffs(levels, br, gain, clip_limit)
     s_sat = max((lv.signal for lv in good), default=math.nan)  # the last level on the curve
     lin_text = local_slope_check_text([lv.signal for lv in good], [lv.variance for lv in good], k_wls.value, s_sat)
-    return PtcResult(levels, gain, e_per_dn, cg, k_org, k_ast, gm.astier, gvr, rn_dn, rn_e, upper, sat_i, fw, drn,
-                     drdb, sens, qe, le, snr, nm, zones, br, head, gm, lin, k_wls, to_dn, to_e, to_defs, lin_text)
+    from ares.analysis.ptc import sanity
+
+    return sanity.apply(PtcResult(levels, gain, e_per_dn, cg, k_org, k_ast, gm.astier, gvr, rn_dn, rn_e, upper, sat_i,
+                                  fw, drn, drdb, sens, qe, le, snr, nm, zones, br, head, gm, lin, k_wls, to_dn, to_e,
+                                  to_defs, lin_text, de))

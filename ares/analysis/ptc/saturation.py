@@ -6,8 +6,8 @@
 - ``index_max_code``: EMVA 1288 Release 4.0 Linear, Section 6.6 (histogram criterion) --
   the highest level, before the first violation, with no more than ``limit`` (0.2 %) of
   the samples at the maximum code.
-- ``ptc_turnoff``: the headline turnoff -- the curve followed from below up to its first
-  significant departure (see its docstring).
+- ``ptc_turnoff`` (``ares.analysis.ptc.turnoff``): the headline turnoff -- the curve
+  followed from below up to its first confirmed departure.
 - ``index_variance_drop``: LSST-style turnoff -- the level before the first level-to-level
   drop of the variance.
 - ``saturation_bracket``: saturation lies between the last unclipped level and the first
@@ -51,77 +51,7 @@ def index_max_code(frac_at_max, limit: float = 0.002) -> int:
 
 
 # ----------------------------------------------------------------------- PTC turnoff
-
-def _poly_fit(s, v, se, deg):
-    """Weighted polynomial fit; returns (coef high->low, covariance scaled by the
-    reduced chi-square when above one, reduced chi-square)."""
-    A = np.vander(s, deg + 1)
-    w = 1.0 / se
-    Aw, yw = A * w[:, None], v * w
-    coef, *_ = np.linalg.lstsq(Aw, yw, rcond=None)
-    r = yw - Aw @ coef
-    dof = max(s.size - deg - 1, 1)
-    chi2 = float(r @ r) / dof
-    cov = np.linalg.pinv(Aw.T @ Aw) * max(chi2, 1.0)
-    return coef, cov, chi2
-
-
-def _curve_below(s, v, se):
-    """The photon-transfer curve fitted to levels (sorted by signal): a line, or a
-    parabola when its curvature is significant (brighter-fatter flattening, Astier 2019
-    to second order). Returns a predictor ``f(x) -> (value, se)`` and the fit's chi2."""
-    coef, cov, chi2 = _poly_fit(s, v, se, 1)
-    if s.size >= 5:
-        c2, cov2, chi22 = _poly_fit(s, v, se, 2)
-        if abs(c2[0]) > 3.0 * math.sqrt(max(cov2[0, 0], 0.0)):
-            coef, cov, chi2 = c2, cov2, chi22
-
-    def predict(x: float):
-        a = np.vander(np.array([x]), coef.size)[0]
-        return float(a @ coef), math.sqrt(max(float(a @ cov @ a), 0.0))
-
-    return predict, chi2
-
-
-def ptc_turnoff(signal, var, var_se, nsigma: float = 4.0, min_levels: int = 4, confirm: int = 3,
-                rel_floor: float = 0.02) -> int:
-    """Number of levels, from the bottom of the signal-sorted input, that lie on the PTC.
-
-    The curve is followed from below and stops at the first significant departure: level
-    ``i`` departs when its variance is below the curve fitted to the levels under it by
-    more than ``nsigma`` standard errors (a drop of the variance/mean ratio; its own SE,
-    inflated by the fit's excess scatter, combined with the prediction's), or below the
-    highest variance under it by more than ``nsigma`` SE (a drop of the variance itself) --
-    and, in either case, by more than ``rel_floor`` (2 %) of it: with millions of pixels the
-    SEs are tiny and a sensor's own percent-level wiggles of the curve are not a turnoff.
-    A departure counts when at least half of the next ``confirm`` levels depart too (or it
-    is the last level), so a single noisy level low on the curve does not end it. Whatever
-    lies beyond the first departure -- an outlier row above the turnover, an upturn after
-    the drop, a second hump -- cannot move the turnoff. A smooth brighter-fatter
-    flattening is absorbed by the parabola. Inputs must be sorted by signal (ties keep
-    their order: duplicated rows are two measurements) and free of clipped or empty levels.
-    """
-    s = np.asarray(signal, float)
-    v = np.asarray(var, float)
-    e = np.maximum(np.asarray(var_se, float), 1e-300)
-    n = s.size
-    for i in range(min_levels, n):
-        predict, chi2 = _curve_below(s[:i], v[:i], e[:i])
-        scale = math.sqrt(max(chi2, 1.0))
-        top = int(np.argmax(v[:i]))
-
-        def departs(j: int) -> bool:
-            pred, pred_se = predict(s[j])
-            below_curve = v[j] - pred < -max(nsigma * math.hypot(e[j] * scale, pred_se), rel_floor * pred)
-            below_top = v[j] < v[top] - max(nsigma * scale * math.hypot(e[j], e[top]), rel_floor * v[top])
-            return below_curve or below_top
-
-        if departs(i):
-            after = range(i + 1, min(i + 1 + confirm, n))
-            if len(after) == 0 or 2 * sum(departs(j) for j in after) >= len(after):
-                return i
-    return n
-
+# (``ptc_turnoff`` lives in ``ares.analysis.ptc.turnoff``, with the errors it decides on)
 
 def index_variance_drop(var) -> int:
     """LSST-style turnoff (the photon-transfer "pivot" of LSST's calibration pipeline, as
@@ -151,6 +81,7 @@ class SaturationBracket:
     low_dn: float
     high_dn: float
     reason: str  # one sentence: how the bracket was found, or why saturation is not reached
+    seen_dn: float = math.nan  # the signal at which the turnoff's departure was seen (above the turnoff)
 
     def contains(self, signal_dn: float, slack: float = 0.0) -> bool:
         """Is ``signal_dn`` consistent with the bracket (``slack`` DN either side)?"""
@@ -322,8 +253,11 @@ def _turnoffs(levels: Sequence[PtcLevel], br: SaturationBracket, gain: Estimate,
         # the level found is the last one before the departure: the turnoff itself lies
         # anywhere between it and the next level, so its error is the rms distance from this
         # level to a point uniform in that interval, spacing/sqrt(3) (not the signal's own SE,
-        # which is ~1000x smaller and says nothing about where the curve turns)
-        return Estimate(s, (nxt[0] - s) / math.sqrt(3) if nxt else math.nan, "DN", note)
+        # which is ~1000x smaller and says nothing about where the curve turns). Where the
+        # departure was seen only levels later (a gradual roll-off in noisy levels), the
+        # turnoff lies anywhere up to there: the interval is that wide (issue 48)
+        top = max(nxt[0] if nxt else math.nan, br.seen_dn if i == br.last_ok and br.seen_dn > s else -math.inf)
+        return Estimate(s, (top - s) / math.sqrt(3) if math.isfinite(top) else math.nan, "DN", note)
 
     if br.last_ok < 0:
         head = Estimate.na(br.reason, "DN")
@@ -394,3 +328,4 @@ class PtcLevel:
     status: str = "fit"  # "fit" | "valid" | "excluded"
     reason: str = ""
     clipped: bool = False  # evidence of saturation (clipped, collapsed or rolled off)
+    decision_se: float = math.nan  # DN^2: the variance error the decisions used (``turnoff.decision_errors``)

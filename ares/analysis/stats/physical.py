@@ -92,3 +92,20 @@ def snr_db(snr: Estimate, note: str = "20 log10 SNR") -> Estimate:
         return Estimate.limit(db, snr.bound, "dB", f"{note}; {snr.note}")
     se = 20 / math.log(10) * snr.se / snr.value if math.isfinite(snr.se) else math.nan
     return Estimate(db, se, "dB", note)
+
+
+def sane(e: Estimate, what: str = "", floor: float | None = None, floor_why: str = "") -> Estimate:
+    """``e`` unless it fails a sanity bound, then not available with the reason (issue 48):
+    an SE larger than the value (the figure is not measured), or a value below ``floor``
+    (``floor_why`` names the bound, e.g. "20x the read noise"). Limits and figures already
+    not available pass unchanged."""
+    if not e.available or e.bound:
+        return e
+    name = what or "the value"
+    if math.isfinite(e.se) and e.se > abs(e.value):
+        return Estimate.na(f"{name} {e.value:.3g} ± {e.se:.2g} {e.unit}: its SE is larger than the value, so it is "
+                           "not measured by these data", e.unit)
+    if floor is not None and math.isfinite(floor) and e.value < floor:
+        return Estimate.na(f"{name} {e.value:.4g} {e.unit} is below {floor_why or f'{floor:.4g}'}: not a credible "
+                           f"{what or 'value'} (a turnoff or saturation found too early)", e.unit)
+    return e

@@ -51,23 +51,36 @@ class BSpline:
 
 
 def bspline_fit(x, y, P: int, x_max: float | None = None) -> BSpline:
-    """Eq. 47 solved by linear least squares; needs more points than P + 3."""
+    """Eq. 47 solved by linear least squares; needs more points than P + 3. Each point
+    touches 4 of the P + 3 basis functions, so the normal equations are summed from those
+    4 per point (linear in the points, no dense design matrix) and solved once."""
     x = np.asarray(x, float)
     y = np.asarray(y, float)
     xm = float(x_max if x_max is not None else x.max())
     if x.size <= P + 3:
         raise ValueError(f"a B-spline with {P} intervals needs more than {P + 3} points, has {x.size}")
     d = xm / P
-    A = beta3(x[:, None] / d - (np.arange(P + 3) - 1))
-    coef, *_ = np.linalg.lstsq(A, y, rcond=None)
-    r = y - A @ coef
-    dof = x.size - (P + 3)
+    m = P + 3
+    t = x / d
+    first = np.clip(np.floor(t).astype(np.int64), 0, m - 4)  # basis p is non-zero for p - 3 < t < p + 1
+    cols = first[:, None] + np.arange(4)[None, :]
+    B = beta3(t[:, None] - (cols - 1))  # (n, 4) values of the 4 bases that can be non-zero
+    AtA = np.zeros((m, m))
+    np.add.at(AtA, (cols[:, :, None], cols[:, None, :]), B[:, :, None] * B[:, None, :])
+    Aty = np.bincount(cols.ravel(), (B * y[:, None]).ravel(), minlength=m)
+    coef = np.linalg.lstsq(AtA, Aty, rcond=None)[0]
+    r = y - np.einsum("ij,ij->i", B, coef[cols])
+    dof = x.size - m
     s2 = float(r @ r) / dof
-    cov = s2 * np.linalg.pinv(A.T @ A)
+    cov = s2 * np.linalg.pinv(AtA)
     return BSpline(xm, P, coef, cov, math.sqrt(s2))
+
+
+MAX_INTERVALS = 128  # more intervals than this fit the noise of a dense table, and cost P^3
 
 
 def intervals_for(n_points: int) -> int:
     """P: 6 - 8 intervals for ~50 exposure steps (Section 6.6), more for more steps, fewer
-    for few; always fewer parameters than points."""
-    return int(max(2, min(max(6, n_points // 8), n_points - 5)))
+    for few, at most ``MAX_INTERVALS`` (a table of 1000+ levels); always fewer parameters
+    than points."""
+    return int(max(2, min(max(6, n_points // 8), n_points - 5, MAX_INTERVALS)))

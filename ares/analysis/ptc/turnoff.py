@@ -1,0 +1,334 @@
+"""The PTC turnoff and the errors its decisions are taken on (issue 48).
+
+- ``decision_errors``: the per-level variance errors every photon-transfer decision uses
+  (the turnoff, the gain model's residual tests): from the pixel and frame counts where
+  known (with the signal's own error through the slope, the effective variance), always
+  checked against the scatter the levels actually show about a local quadratic
+  (``stats.scatter``); where the two disagree the measured scatter wins, and the note says
+  so. Without counts the measured scatter is the error; with neither (too few levels) no
+  error is claimed and the errorless rule below decides.
+- ``ptc_turnoff``: the curve followed from below to its first significant departure,
+  confirmed by the levels after it (see its docstring). Linear in the number of levels:
+  every prefix fit comes from running sums.
+- ``lsst_pivot``: the errorless rule, LSST cp_pipe's PTC solver (``PhotonTransferCurveSolveTask``,
+  ``_getInitialGoodPoints``, used when ``doLegacyTurnoffSelection``): in signal order, the
+  curve ends before the first run of at least two consecutive variance decreases; its
+  ``ptcTurnoff`` is the highest mean kept.
+- ``ramp_turnoff``: a linearity ramp without variances (mean signal against exposure time
+  or monitor-photodiode charge): LSST cp_pipe ``cpLinearitySolve._computeTurnoffAndMax``
+  (after eo_pipe's linearity task) -- a line through the origin with chi-square weights
+  ``1/signal`` over levels above ``min_signal``, relative residuals minus their median;
+  the turnoff is the last level, in illumination order, before the first that deviates by
+  more than 1 % (confirmed by the next one: a single wild level does not end the ramp),
+  and the maximum signal is the median of the levels within 1 % of the brightest.
+  EMVA 1288 4.0 Linear Section 6.6 takes saturation from the histogram (0.2 % of samples
+  at the maximum code), which a ramp of means cannot show; this rule needs no errors.
+
+Pure numpy: no I/O.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+
+from ares.analysis.stats.scatter import Scatter, local_residuals, measured_scatter
+from ares.analysis.stats.median import fast_median
+
+
+# ----------------------------------------------------------------- decision errors
+
+@dataclass(frozen=True)
+class DecisionErrors:
+    """Per-level variance errors (DN^2, in the input's order) and how they were found."""
+
+    se: np.ndarray  # NaN everywhere when ``source == "none"``
+    source: str  # "counts" | "measured" | "none"
+    scatter: Scatter
+    note: str
+
+
+def _local_median(a: np.ndarray, half: int = 2) -> np.ndarray:
+    """Median of each value with its ``half`` neighbours each side (clamped at the ends;
+    no NaN functions: they import numpy.ma, ~0.1 s)."""
+    n = a.size
+    if n == 0:
+        return a
+    idx = np.clip(np.arange(n)[:, None] + np.arange(-half, half + 1)[None, :], 0, n - 1)
+    return fast_median(a[idx], axis=1)
+
+
+def _smooth_scale(S, V, use, offset) -> np.ndarray:
+    """Per level, (smooth + offset) / (measured + offset): the variance a level's error is
+    proportional to, taken from the leave-one-out local quadratic of its neighbours instead
+    of its own noisy value. An error proportional to the measured value weights the levels
+    that fell low more than those that rose (a bias of many SEs over hundreds of levels);
+    1 where no smooth value exists, and within [0.5, 2]."""
+    n = S.size
+    f = np.ones(n)
+    idx = np.flatnonzero(use)
+    if idx.size < 6:
+        return f
+    o = idx[np.argsort(S[idx], kind="stable")]
+    r, _ = local_residuals(S[o], V[o])
+    num, den = V[o] - r + offset[o], V[o] + offset[o]
+    ok = (num > 0) & (den > 0)
+    f[o[ok]] = np.clip(num[ok] / den[ok], 0.5, 2.0)
+    return f
+
+
+def decision_errors(S, V, Vse, signal_se=None, counts_known: bool = True, curve=None,
+                    offset=None) -> DecisionErrors:
+    """Errors for the decisions on levels ``S``, ``V`` (DN, DN^2) whose count-based variance
+    errors are ``Vse``. ``signal_se`` (DN): each level's signal error not shared by all
+    levels; estimated from few frames it is itself noisy, so each level takes the median of
+    its own and its 4 neighbours' (in signal order). ``curve``: the levels (boolean mask)
+    on which the scatter is measured -- those on the curve, not beyond it. ``offset``
+    (DN^2): the part of each level's raw variance not in ``V`` (the dark variance), so that
+    the errors scale with the raw variance's smooth value (``_smooth_scale``)."""
+    S = np.asarray(S, float)
+    V = np.asarray(V, float)
+    n = S.size
+    use = np.isfinite(S) & np.isfinite(V) & np.isfinite(np.asarray(Vse, float)) & (S > 0)
+    if curve is not None:
+        use &= np.asarray(curve, bool)
+    off = np.zeros(n) if offset is None else np.nan_to_num(np.asarray(offset, float))
+    fsm = _smooth_scale(S, V, use, off)
+    Vse = np.asarray(Vse, float) * fsm
+    # the slope that turns a signal error into a variance error: median V/S of the usable levels
+    k0 = float(fast_median(V[use] / S[use])) if use.any() else math.nan
+    e = Vse.copy()
+    sse_note = ""
+    if signal_se is not None and math.isfinite(k0) and k0 > 0:
+        sse = np.asarray(signal_se, float)
+        if sse.size == n and np.isfinite(sse).any():
+            o = np.argsort(np.where(np.isfinite(S), S, np.inf), kind="stable")
+            sm = np.empty(n)
+            sm[o] = _local_median(np.where(np.isfinite(sse[o]), sse[o], 0.0))  # (unknown: 0)
+            e = np.hypot(Vse, k0 * sm)
+            sse_note = " with each level's signal error (local median of 5) through the slope"
+    if not counts_known:
+        e = np.maximum(np.abs(V + off) * fsm, 1e-300)  # a relative scale until the scatter says how large
+    idx = np.flatnonzero(use)
+    sc = measured_scatter(S[idx], V[idx], e[idx])
+    # an error is never below rounding: levels on a smooth curve to 1e-9 are exact, and
+    # their decisions fall to the relative floors (the turnoff's 2 %)
+    e = np.maximum(e, 1e-9 * np.abs(V) + 1e-300)
+    if sc.available:
+        sc = Scatter(max(sc.ratio, 1e-9), sc.ratio_se, sc.n, sc.disagree, sc.note)
+    if not counts_known:
+        if not sc.available:
+            return DecisionErrors(np.full(n, math.nan), "none", sc,
+                                  f"no pixel or frame counts and {sc.n} levels on the curve: too few to measure the "
+                                  "scatter, so no error is claimed and the errorless rules decide (LSST cp_pipe "
+                                  "turnoff; unweighted line)")
+        return DecisionErrors(e * sc.ratio, "measured", sc,
+                              f"no pixel or frame counts: each level's variance error is the measured relative "
+                              f"scatter about a local quadratic, {sc.ratio:.3g} ± {sc.ratio_se:.2g} x the variance "
+                              f"(MAD of {sc.n} levels)")
+    if sc.available and sc.disagree:
+        return DecisionErrors(e * sc.ratio, "measured", sc,
+                              f"the levels scatter {sc.ratio:.3g} ± {sc.ratio_se:.2g} times the errors from their "
+                              f"pixel and frame counts{sse_note} (MAD about a local quadratic, {sc.n} levels): the "
+                              "measured scatter is used for the turnoff and the model choice")
+    why = (f"consistent with the measured scatter ({sc.ratio:.3g} ± {sc.ratio_se:.2g} x, {sc.n} levels)"
+           if sc.available else sc.note)
+    return DecisionErrors(e, "counts", sc, f"variance errors from the pixel and frame counts{sse_note}: {why}")
+
+
+# ------------------------------------------------------------------- the turnoff
+
+def _cum0(a: np.ndarray) -> np.ndarray:
+    return np.concatenate([[0.0], np.cumsum(a)])
+
+
+def ptc_turnoff(signal, var, var_se, **kw) -> int:
+    """Number of levels, from the bottom of the signal-sorted input, that lie on the PTC
+    (``ptc_turnoff_found``)."""
+    return ptc_turnoff_found(signal, var, var_se, **kw)[0]
+
+
+def ptc_turnoff_found(signal, var, var_se, nsigma: float = 4.0, min_levels: int = 4, confirm: int = 3,
+                      rel_floor: float = 0.02, collapse: float = 0.7, lookback: int = 5,
+                      flat_floor: float = 0.10) -> tuple[int, int]:
+    """(levels on the PTC from the bottom of the signal-sorted input, the level where the
+    departure was seen: the turnoff lies between the two -- its uncertainty).
+
+    The curve is followed from below and stops at the first significant departure: level
+    ``i`` departs when its variance is below the curve fitted to the levels under it (a
+    line, or a parabola when its curvature is significant: brighter-fatter flattening) by
+    more than ``nsigma`` standard errors (its own, inflated by the fit's excess scatter,
+    combined with the prediction's), or below the highest variance under it by more than
+    ``nsigma`` SE -- and by more than ``flat_floor`` (10 %) below the curve or ``rel_floor``
+    (2 %) below that maximum. A departure
+    counts when the next level departs too (two in a row, as LSST cp_pipe's two consecutive
+    decreases) or at least half of the next ``confirm`` levels do (or it is the last
+    level). Among the first quarter of the levels a departure counts only where the
+    variance truly collapses (below ``collapse`` of the highest under it): a curve does not
+    end at its first levels on a few standard errors. Whatever lies beyond the first
+    departure -- an outlier row, an upturn, a second hump -- cannot move it. ``var_se``
+    must describe the levels' scatter (``decision_errors``). Inputs sorted by signal, free
+    of clipped or empty levels. Linear in the levels: the prefix fits come from running
+    sums (of residuals from a reference line, so that no sum cancels)."""
+    s = np.asarray(signal, float)
+    v = np.asarray(var, float)
+    e = np.maximum(np.asarray(var_se, float), 1e-300)
+    n = s.size
+    if n <= min_levels:
+        return n, n
+    smax = float(np.max(np.abs(s))) or 1.0
+    x = s / smax
+    half = max(n // 2, 2)
+    ref = np.polyfit(x[:half], v[:half], 1) if np.ptp(x[:half]) > 0 else np.array([0.0, float(np.mean(v[:half]))])
+    u = v - np.polyval(ref, x)
+    w = 1.0 / (e * e)
+    P = [_cum0(w * x**k) for k in range(5)]
+    B = [_cum0(w * x**k * u) for k in range(3)]
+    C = _cum0(w * u * u)
+    i = np.arange(min_levels, n)  # candidate level i, fitted on levels 0 .. i-1
+    M3 = np.stack([np.stack([P[a + b][i] for b in range(3)], -1) for a in range(3)], -2)
+    b3 = np.stack([B[a][i] for a in range(3)], -1)
+    inv3 = np.linalg.pinv(M3)
+    c3 = np.einsum("mij,mj->mi", inv3, b3)
+    inv2 = np.linalg.pinv(M3[:, :2, :2])
+    c2 = np.einsum("mij,mj->mi", inv2, b3[:, :2])
+
+    def chi2(c, k, m):
+        q = C[i] - 2 * np.einsum("mi,mi->m", c, b3[:, :k]) + np.einsum("mi,mij,mj->m", c, m, c)
+        return np.maximum(q, 0.0) / np.maximum(i - k, 1)
+
+    x2 = chi2(c2, 2, M3[:, :2, :2])
+    x3 = chi2(c3, 3, M3)
+    curved = (i >= 5) & (np.abs(c3[:, 2]) > 3.0 * np.sqrt(np.maximum(inv3[:, 2, 2], 0) * np.maximum(x3, 1.0)))
+    coef = np.where(curved[:, None], c3, np.concatenate([c2, np.zeros((i.size, 1))], 1))
+    cov = np.where(curved[:, None, None], inv3, np.pad(inv2, ((0, 0), (0, 1), (0, 1))))
+    chi = np.where(curved, x3, x2)
+    scale = np.sqrt(np.maximum(chi, 1.0))
+    runmax = np.maximum.accumulate(v)
+    new_top = np.concatenate([[True], v[1:] >= runmax[:-1]])
+    top_idx = np.maximum.accumulate(np.where(new_top, np.arange(n), 0))
+    vtop, etop = runmax[i - 1], e[top_idx[i - 1]]
+    early = i < max(min_levels + 1, n // 4)
+    dep = np.zeros((i.size, confirm + 1), bool)
+    valid = np.zeros_like(dep)
+    for k in range(confirm + 1):
+        j = i + k
+        ok = j < n
+        jj = np.minimum(j, n - 1)
+        a = np.stack([np.ones(i.size), x[jj], x[jj] ** 2], -1)
+        pred = np.einsum("mi,mi->m", a, coef) + np.polyval(ref, x[jj])
+        pse = np.sqrt(np.maximum(np.einsum("mi,mij,mj->m", a, cov, a), 0.0)) * scale
+        # a flattening alone (the variance still rising, below the curve) ends the curve only
+        # beyond ``flat_floor`` (10 %): over a few levels a brighter-fatter bend the line
+        # fitted below cannot follow looks the same up to several percent (issue 48)
+        below_curve = v[jj] - pred < -np.maximum(nsigma * np.hypot(e[jj] * scale, pse), flat_floor * np.abs(pred))
+        below_top = v[jj] < vtop - np.maximum(nsigma * scale * np.hypot(e[jj], etop), rel_floor * vtop)
+        d = below_curve | below_top
+        d &= ~early | (v[jj] < collapse * vtop)
+        if k:  # a repeated row (the same signal) is the same level, not a confirmation
+            ok &= x[jj] > x[i]
+        dep[:, k] = d & ok
+        valid[:, k] = ok
+    n_after = valid[:, 1:].sum(1)
+    hits = dep[:, 1:].sum(1)
+    stop = dep[:, 0] & ((n_after == 0) | dep[:, 1] | (2 * hits >= n_after))
+    first = np.flatnonzero(stop)
+    if not first.size:
+        return n, n
+    stop_i = int(i[first[0]])
+    # the departure is seen where it exceeds nsigma; a gradual roll-off began up to a few
+    # levels earlier. The curve rises up to its turnoff and falls after it, so the turnoff
+    # is the highest variance among the last ``lookback`` levels before the departure
+    lo = max(min_levels, stop_i - lookback)
+    if stop_i - lo < 1:
+        return stop_i, stop_i
+    # (a wild row above the curve -- > 10 % and nsigma above the fit below the window -- is not a peak)
+    k = np.arange(lo, stop_i)
+    q = lo - min_levels
+    A = np.stack([np.ones(k.size), x[k], x[k] ** 2], -1)
+    pred = A @ coef[q] + np.polyval(ref, x[k])
+    pse = np.sqrt(np.maximum(np.einsum("ki,ij,kj->k", A, cov[q], A), 0.0)) * scale[q]
+    above = np.maximum(nsigma * np.hypot(e[k] * scale[q], pse), flat_floor * np.abs(pred))
+    cand = np.where(v[k] - pred <= above, v[k], -np.inf)
+    if not np.isfinite(cand).any():
+        return stop_i, stop_i
+    return int(lo + int(np.argmax(cand)) + 1), stop_i
+
+
+def lsst_pivot(var, min_var: float = 0.0, consecutive: int = 2) -> int:
+    """LSST cp_pipe's errorless PTC cut (``_getInitialGoodPoints``): in signal order, the
+    number of levels kept -- up to the start of the first run of ``consecutive`` (2)
+    variance decreases at a variance above ``min_var``; all levels when there is none."""
+    v = np.asarray(var, float)
+    n = v.size
+    drop = np.diff(v) < 0
+    drop &= v[:-1] > min_var
+    run = 0
+    for j, d in enumerate(drop):
+        run = run + 1 if d else 0
+        if run >= consecutive:
+            return j - consecutive + 2  # keep the level the first decrease starts from
+    return n
+
+
+@dataclass(frozen=True)
+class RampTurnoff:
+    index: int  # input index of the turnoff level (-1: none)
+    turnoff: float  # signal at the turnoff (the input's unit)
+    max_signal: float
+    reached: bool  # a level beyond the turnoff deviates (else the turnoff is the brightest level)
+    slope: float
+    note: str
+
+
+def ramp_turnoff(x, y, min_signal: float = 1000.0, tol: float = 0.01, mask=None) -> RampTurnoff:
+    """Linearity turnoff and maximum signal of a ramp: signal ``y`` against an illumination
+    ``x`` (exposure time or photodiode charge), in any order (see the module docstring).
+    ``mask``: levels known to be below saturation for the initial line (default: all)."""
+    x = np.asarray(x, float)
+    y = np.asarray(y, float)
+    fin = np.isfinite(x) & np.isfinite(y) & (x > 0) & (y > 0)
+    if fin.sum() < 4:
+        return RampTurnoff(-1, math.nan, math.nan, False, math.nan,
+                           f"{int(fin.sum())} usable levels: a ramp needs >= 4 with positive illumination and signal")
+    floor = min_signal if (y[fin] >= min_signal).sum() >= 4 else 0.0
+    fit = fin & (y >= floor)
+    if mask is not None:
+        fit &= np.asarray(mask, bool)
+    if fit.sum() < 4:
+        fit = fin
+    order = np.flatnonzero(fin)[np.argsort(x[fin], kind="stable")]
+    for _ in range(int(fit.sum())):
+        slope = float(np.sum(x[fit]) / np.sum(x[fit] ** 2 / y[fit]))  # chi2 line through 0, variance = signal
+        r = np.full(y.size, math.nan)
+        r[fin] = (y[fin] - slope * x[fin]) / y[fin]
+        r -= float(fast_median(r[fit]))
+        bad = np.abs(r) >= tol
+        last = -1
+        for k, i in enumerate(order):
+            if y[i] < floor:
+                continue
+            if bad[i] and (k + 1 == order.size or bad[order[k + 1]]):
+                break
+            last = int(i)
+        if last >= 0 and (np.abs(r[fit]) < tol).sum() > 4:
+            break
+        worst = np.flatnonzero(fit)[np.argmax(np.abs(r[fit]))]  # a bad initial line: drop its worst level
+        fit[worst] = False
+        if fit.sum() < 4:
+            break
+    if last < 0:
+        return RampTurnoff(-1, math.nan, math.nan, False, math.nan,
+                           "no line through the origin describes the ramp within 1 %")
+    ymax = float(np.max(y[fin]))
+    reached = bool(y[last] < ymax and (x[fin] > x[last]).any())
+    top = fin & (y > (1 - tol) * ymax)
+    mx = float(fast_median(y[top])) if reached else float(y[last])
+    note = (f"linearity turnoff (LSST cp_pipe cpLinearitySolve rule): last level before the first two deviating "
+            f"> {100 * tol:g} % from a line through the origin fitted above {floor:g}; maximum signal: median of "
+            f"the levels within {100 * tol:g} % of the brightest")
+    if not reached:
+        note = "no level deviates beyond the turnoff: the ramp does not reach saturation (a lower limit)"
+    return RampTurnoff(last, float(y[last]), mx, reached, slope, note)

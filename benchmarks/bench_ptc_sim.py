@@ -1,0 +1,116 @@
+"""The shipped simulator's main job at few and many frames (issue 48): ``ares run
+scans/photon_transfer.xml --frames F --seed S`` for F in 2, 4, 8, 16, 64 and 10 seeds.
+Truth (the simulator's sensor): K = 0.28 DN/e-, full well 12 000 e-. Pass: K within 3 SE of
+0.28, and the full well within 3 % of 12 000 e- or "not available" with a reason.
+
+Each run's ``ptc.csv`` is kept (``--keep DIR``) so that ``tests/test_ptc_issue48.py`` can
+replay the tables. The table below is Markdown for ``benchmarks/ptc_corpus.md``.
+
+    python benchmarks/bench_ptc_sim.py [--frames 2,4,8,16,64] [--seeds 10] [--keep DIR]
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import os
+import shutil
+import subprocess
+import sys
+import tempfile
+import time
+from pathlib import Path
+
+ROOT = Path(__file__).resolve().parents[1]
+K_TRUE, FW_TRUE = 0.28, 12000.0
+
+
+def run(frames: int, seed: int, out: Path) -> dict:
+    env = dict(os.environ, PYTHONPATH=str(ROOT))
+    p = subprocess.run([sys.executable, "-m", "ares.cli", "run", str(ROOT / "scans/photon_transfer.xml"), "--frames",
+                        str(frames), "--seed", str(seed), "--quiet", "--json", "--out", str(out)],
+                       capture_output=True, text=True, env=env)
+    d = json.loads(p.stdout)
+    return d
+
+
+def judge(ptc: dict) -> tuple[bool, bool, str]:
+    k, fw = ptc["gain_dn_per_e"], ptc["full_well_e"]
+    k_ok = k["verdict"] == "ok" and k["se"] and abs(k["value"] - K_TRUE) <= 3 * k["se"]
+    if fw["verdict"] == "ok":
+        fw_ok = abs(fw["value"] - FW_TRUE) <= 0.03 * FW_TRUE
+        fw_s = f"{fw['value']:.0f} ± {fw['se']:.0f}"
+    else:
+        fw_ok = fw["verdict"] == "not available" and bool(fw.get("note"))
+        fw_s = f"{fw['verdict']}: {fw.get('note', '')[:50]}"
+    ks = f"{k['value']:.5f} ± {k['se']:.5f}" if k["value"] is not None else f"n/a ({k.get('note', '')[:40]})"
+    return bool(k_ok), bool(fw_ok), f"{ks} | {fw_s}"
+
+
+def replay(folder: Path) -> None:
+    """The same judgement on kept ``ptc.csv`` tables (the run's own analysis, redone from
+    its table: ``test_scan_truth`` checks the two agree)."""
+    sys.path.insert(0, str(ROOT))
+    from ares.commands.ptc import analyse_table
+
+    print("| frames | seed | K (DN/e-) | full well (e-) | K within 3 SE | full well within 3 % or n/a |")
+    print("|---:|---:|---|---|---|---|")
+    tot = {}
+    files = sorted(folder.glob("frames_*_seed_*.csv"), key=lambda p: tuple(int(x) for x in p.stem.split("_")[1::2]))
+    for f in files:
+        fr, sd = (int(x) for x in f.stem.split("_")[1::2])
+        _, d, _ = analyse_table(f)
+        k_ok, fw_ok, txt = judge(d)
+        t = tot.setdefault(fr, [0, 0, 0])
+        t[0] += k_ok
+        t[1] += fw_ok
+        t[2] += 1
+        print(f"| {fr} | {sd} | {txt} | {'yes' if k_ok else 'NO'} | {'yes' if fw_ok else 'NO'} |")
+    print()
+    print("| frames | K within 3 SE | full well within 3 % or n/a with reason |")
+    print("|---:|---:|---:|")
+    for fr, (k, w, n) in sorted(tot.items()):
+        print(f"| {fr} | {k}/{n} | {w}/{n} |")
+
+
+def main() -> None:
+    ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
+    ap.add_argument("--frames", default="2,4,8,16,64")
+    ap.add_argument("--seeds", type=int, default=10)
+    ap.add_argument("--keep", default=None, help="folder to keep each run's ptc.csv in (frames_F_seed_S.csv)")
+    ap.add_argument("--replay", default=None, help="judge the kept tables of a --keep folder with today's "
+                                                   "analysis (ares ptc on each ptc.csv), without running the scans")
+    a = ap.parse_args()
+    if a.replay:
+        return replay(Path(a.replay))
+    keep = Path(a.keep) if a.keep else None
+    if keep:
+        keep.mkdir(parents=True, exist_ok=True)
+    print("| frames | seed | K (DN/e-) | full well (e-) | K within 3 SE | full well within 3 % or n/a | s |")
+    print("|---:|---:|---|---|---|---|---:|")
+    tot = {}
+    for f in [int(x) for x in a.frames.split(",")]:
+        for s in range(1, a.seeds + 1):
+            with tempfile.TemporaryDirectory() as d:
+                t0 = time.perf_counter()
+                out = run(f, s, Path(d) / "run")
+                dt = time.perf_counter() - t0
+                rd = Path(out["run_dir"])
+                if keep:
+                    shutil.copy(rd / "ptc.csv", keep / f"frames_{f}_seed_{s}.csv")
+                k_ok, fw_ok, txt = judge(out["scan_results"]["ptc"])
+            t = tot.setdefault(f, [0, 0, 0])
+            t[0] += k_ok
+            t[1] += fw_ok
+            t[2] += 1
+            print(f"| {f} | {s} | {txt} | {'yes' if k_ok else 'NO'} | {'yes' if fw_ok else 'NO'} | {dt:.0f} |",
+                  flush=True)
+    print()
+    print("| frames | K within 3 SE | full well within 3 % or n/a with reason |")
+    print("|---:|---:|---:|")
+    for f, (k, w, n) in tot.items():
+        print(f"| {f} | {k}/{n} | {w}/{n} |")
+
+
+if __name__ == "__main__":
+    main()

@@ -1,0 +1,237 @@
+"""Never a wrong "ok" in photon transfer (issue 48): decisions on the measured scatter, the
+headline gain by physics and evidence, a turnoff that holds, sanity as a verdict, the
+linearity ramp's turnoff -- against truth (a generated corpus with known answers, the
+simulator's sensor in closed form, LSST's published ComCam ramp).
+
+The full corpus (2000 curves) and the simulator study are in ``test_ptc_study.py``
+(``@pytest.mark.study``); here a stratified 96-curve subset keeps the suite fast."""
+
+from __future__ import annotations
+
+import csv
+import json
+import math
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from ares.analysis.ptc.levels import LevelStats
+from ares.analysis.ptc.photon_transfer import analyze_ptc
+from ares.analysis.ptc.turnoff import decision_errors, ptc_turnoff, ramp_turnoff
+from ares.analysis.stats.scatter import measured_scatter
+from ares.cli import main
+
+from ptc_corpus import case, run_case, stratified
+from ptc_synth import make_levels
+
+COMCAM = Path(__file__).resolve().parents[2] / "shared" / "data" / "real" / "cppipe-comcam-linearity" / \
+    "comcam_linearity.csv"
+# published (cp_pipe tests/test_linearity.py, test_linearity_turnoff; SOURCE.txt)
+COMCAM_TURNOFF, COMCAM_MAX = 99756.30512572, 108730.32842316
+
+
+def _json(capsys, args) -> dict:
+    assert main(args) == 0
+    return json.loads(capsys.readouterr().out)
+
+
+# ------------------------------------------------------------------ the ComCam ramp
+
+needs_comcam = pytest.mark.skipif(not COMCAM.is_file(), reason=f"public ComCam ramp not found at {COMCAM}")
+
+
+@needs_comcam
+def test_comcam_ramp_turnoff_and_max_signal_within_1_percent(capsys):
+    d = _json(capsys, ["ptc", str(COMCAM), "--json"])
+    to, mx = d["linearity_turnoff_dn"], d["max_signal_dn"]
+    assert to["verdict"] == "ok" and abs(to["value"] - COMCAM_TURNOFF) <= 0.01 * COMCAM_TURNOFF, to
+    assert mx["verdict"] == "ok" and abs(mx["value"] - COMCAM_MAX) <= 0.01 * COMCAM_MAX, mx
+    assert d["linearity_turnoff_level"] == "line 92"  # index 90, as published
+    assert to["se"] > 0 and "cp_pipe" in to["note"]
+
+
+@needs_comcam
+@pytest.mark.parametrize("seed", [1, 2, 3])
+def test_comcam_ramp_shuffled_and_thinned_holds(capsys, tmp_path, seed):
+    rows = list(csv.DictReader(open(COMCAM)))
+    rng = np.random.default_rng(seed)
+    drop = set(rng.choice([i for i in range(len(rows)) if i not in (89, 90, 91)], 2, replace=False).tolist())
+    keep = [rows[i] for i in rng.permutation(len(rows)) if i not in drop]
+    p = tmp_path / "ramp.csv"
+    with open(p, "w", newline="") as f:
+        w = csv.writer(f)
+        w.writerow(["monitor", "mean"])
+        w.writerows([[r["photo_charge_C"], r["raw_mean_adu"]] for r in keep])
+    d = _json(capsys, ["ptc", str(p), "--json"])
+    assert abs(d["linearity_turnoff_dn"]["value"] - COMCAM_TURNOFF) <= 0.01 * COMCAM_TURNOFF
+
+
+@needs_comcam
+def test_ramp_that_never_saturates_gives_a_lower_limit(capsys, tmp_path):
+    rows = list(csv.DictReader(open(COMCAM)))[:80]
+    p = tmp_path / "ramp.csv"
+    with open(p, "w", newline="") as f:
+        w = csv.writer(f)
+        w.writerow(["exposure", "mean"])
+        w.writerows([[float(r["photo_charge_C"]) * 1e9, r["raw_mean_adu"]] for r in rows])
+    d = _json(capsys, ["ptc", str(p), "--json"])
+    assert d["linearity_turnoff_dn"]["verdict"] == "lower limit"
+    assert "does not reach saturation" in d["linearity_turnoff_dn"]["note"]
+
+
+def test_ramp_turnoff_of_a_closed_form_ramp():
+    x = np.linspace(1, 100, 60)
+    y = 1000 * x
+    y[x > 70] = 70000 + 200 * (x[x > 70] - 70)  # saturating beyond x = 70
+    r = ramp_turnoff(x, y)
+    assert r.reached and r.turnoff == pytest.approx(1000 * x[x <= 70].max())
+    assert r.max_signal == pytest.approx(np.median(y[y > 0.99 * y.max()]))
+
+
+# ------------------------------------------------------------- measured scatter
+
+@pytest.mark.parametrize("factor", [0.3, 1.0, 3.0])
+def test_measured_scatter_against_claimed_errors(factor):
+    rng = np.random.default_rng(4)
+    x = np.sort(rng.uniform(10, 5e4, 300))
+    y = 0.3 * x + 20 - 1e-6 * x * x
+    e = 0.01 * y
+    sc = measured_scatter(x, y + factor * e * rng.standard_normal(x.size), e)
+    assert sc.ratio == pytest.approx(factor, rel=0.25)
+    assert sc.disagree == (factor != 1.0)
+
+
+def test_counts_that_overstate_the_precision_lose_to_the_scatter_and_the_result_says_so():
+    S = np.geomspace(20, 2e4, 60)
+    V = 0.5 * S + 10
+    rng = np.random.default_rng(1)
+    Vm = V * (1 + 0.02 * rng.standard_normal(S.size))  # 2 % scatter
+    de = decision_errors(S, Vm, 0.002 * V)  # counts claiming 0.2 %
+    assert de.source == "measured" and "measured scatter is used" in de.note
+    assert np.median(de.se / V) == pytest.approx(0.02, rel=0.3)
+    de = decision_errors(S, Vm, 0.02 * V)
+    assert de.source == "counts"
+
+
+# ------------------------------------------------------------------ the turnoff
+
+def test_turnoff_is_linear_prefix_fit_equivalent_on_a_clean_curve():
+    S = np.linspace(10, 1e4, 400)
+    V = 0.4 * S + 5
+    V[S > 8000] *= np.maximum(1 - 4 * (S[S > 8000] - 8000) / 8000, 0.05)
+    n = ptc_turnoff(S, V, 0.005 * V)
+    assert S[n - 1] == pytest.approx(S[S <= 8000].max())
+
+
+def test_turnoff_never_at_the_first_levels_on_a_few_standard_errors():
+    S = np.geomspace(2, 3000, 25)
+    V = 0.28 * S + 0.01
+    V[3] *= 0.97  # a level 3 % low, with errors claiming 0.5 %: not the end of the curve
+    assert ptc_turnoff(S, V, 0.005 * V) == 25
+
+
+def _sim_like(frames: int, seed: int):
+    """Levels like the shipped simulator's main job: K 0.28 DN/e-, full well 12 000 e-,
+    read noise 3.6 e-, 307 200 pixels, 25 log-spaced levels, the last five beyond full
+    well; the signal's error from ``frames`` frame means (1 degree of freedom at 2)."""
+    mu = np.geomspace(6.4, 64000, 25)
+    b, d, t = make_levels(mu, K=0.28, fw_e=12000, prnu=0.005, read_e=3.6, offset=64, n_pixels=307200,
+                          frames=frames, seed=seed)
+    rng = np.random.default_rng(seed)
+    sse = 0.1 * np.sqrt(rng.chisquare(frames - 1, 25) / (frames - 1))
+    for i in range(25):  # the frame means scatter by the offset noise: the means carry it
+        b[i] = LevelStats(b[i].mean + 0.1 * rng.standard_normal(), b[i].var, b[i].n_pixels, frames,
+                          b[i].frac_at_max, b[i].frac_at_min, b[i].spatial_var)
+    return b, d, sse
+
+
+@pytest.mark.parametrize("frames,seed", [(2, 2), (2, 5), (4, 1), (16, 3)])
+def test_simulator_like_levels_give_k_and_full_well(frames, seed):
+    b, d, sse = _sim_like(frames, seed)
+    r = analyze_ptc(b, d, signal_se=sse)
+    k = r.gain_dn_per_e
+    assert k.available and abs(k.value - 0.28) <= 3 * k.se, k
+    fw = r.full_well
+    assert (fw.verdict == "ok" and abs(fw.value - 12000) <= 0.03 * 12000) or (fw.verdict == "not available" and fw.note)
+
+
+# ------------------------------------------------------------ sanity as a verdict
+
+def test_a_full_well_below_20_read_noises_is_not_ok():
+    b, d, _ = make_levels(np.geomspace(2, 400, 20), K=0.5, fw_e=40, read_e=4, n_pixels=100_000, frames=4, seed=3)
+    r = analyze_ptc(b, d)
+    for e in (r.full_well, r.full_well_e["saturation_capacity"]):
+        assert e.verdict != "ok", e
+    sat = r.full_well_e["saturation_capacity"]
+    assert "20x the read noise" in sat.note
+    assert r.dynamic_range_db.verdict == "not available"
+
+
+def test_sanity_turnoff_below_5_percent_and_se_above_value():
+    from ares.analysis.stats.estimate import Estimate
+    from ares.analysis.stats.physical import sane
+
+    assert sane(Estimate(3.0, 4.0, "DN"), "x").verdict == "not available"
+    e = sane(Estimate(30.0, 1.0, "DN"), "PTC turnoff", 100.0, "5 % of the brightest level's signal")
+    assert e.verdict == "not available" and "5 % of the brightest" in e.note
+
+
+# --------------------------------------------------------- the headline by evidence
+
+def _bf_table(path: Path, with_counts: bool):
+    S = np.linspace(300, 60000, 43)
+    g, a00 = 0.7, -2.5e-6  # K = 1/g = 1.43 DN/e-, brighter-fatter at LSST-CCD strength
+    V = (np.expm1(2 * a00 * S * g) / (2 * a00 * g * g)) + 25
+    V[S > 52000] = V[S <= 52000][-1] * np.linspace(0.9, 0.2, int((S > 52000).sum()))
+    rng = np.random.default_rng(7)
+    V = V * (1 + 0.004 * rng.standard_normal(S.size))
+    with open(path, "w", newline="") as f:
+        w = csv.writer(f)
+        w.writerow(["mean", "var"] + (["n_pixels", "n_frames"] if with_counts else []))
+        w.writerows([[s, v] + ([250000, 2] if with_counts else []) for s, v in zip(S, V)])
+    return 1 / g
+
+
+def test_headline_gain_does_not_depend_on_a_guessed_pixel_count(capsys, tmp_path):
+    k_true = _bf_table(tmp_path / "bf.csv", False)
+    heads = []
+    for px in (None, 100, 10_000, 10_000_000):
+        d = _json(capsys, ["ptc", str(tmp_path / "bf.csv"), "--json"] + ([] if px is None else ["--pixels", str(px)]))
+        heads.append((d["gain_headline"]["estimator"], d["gain_dn_per_e"]["value"], d["gain_dn_per_e"]["se"]))
+    assert {h[0] for h in heads} == {"astier"}, heads
+    for _, k, se in heads:
+        assert abs(k - k_true) <= max(0.01 * k_true, 3 * se), heads
+
+
+# --------------------------------------------------------- the corpus, a subset
+
+SUBSET = stratified(240, 96)
+
+
+@pytest.fixture(scope="module")
+def subset(tmp_path_factory):
+    tmp = tmp_path_factory.mktemp("corpus")
+    return [(case(i), *run_case(case(i), tmp)) for i in SUBSET]
+
+
+def test_corpus_subset_rates_and_no_absurd_ok(subset):
+    n = len(subset)
+    gain = sum(j["gain"] for _, _, j in subset) / n
+    turnoff = sum(j["turnoff"] for _, _, j in subset) / n
+    absurd = [(c.i, j["absurd"]) for c, _, j in subset if j["absurd"]]
+    # measured on this subset (see benchmarks/ptc_corpus.md for the full corpus and the
+    # issue's targets, 99 % and 98 %, which these floors are below)
+    assert gain >= 0.90, gain
+    assert turnoff >= 0.85, turnoff
+    assert not absurd, absurd
+
+
+def test_corpus_subset_every_figure_has_a_verdict_and_a_reason(subset):
+    for c, d, _ in subset:
+        for key in ("gain_dn_per_e", "turnoff_dn", "full_well_e", "saturation_capacity_e"):
+            e = d[key]
+            assert e["verdict"] in ("ok", "not available", "lower limit", "upper limit"), (c.i, key)
+            if e["verdict"] != "ok":
+                assert e.get("note"), (c.i, key)
+        assert d["decision_errors"]["note"], c.i
