@@ -52,7 +52,10 @@ def _faults(items: list[str]) -> dict | None:
         try:
             out[k.strip()] = int(v)
         except ValueError:
-            raise InputError(f"--sim-fault expects KEY=N, got '{it}'") from None
+            try:  # a time constant (light_tau_s=0.3)
+                out[k.strip()] = float(v)
+            except ValueError:
+                raise InputError(f"--sim-fault expects KEY=N, got '{it}'") from None
     return out or None
 
 
@@ -373,6 +376,8 @@ def execute(scan, args, *, seed, frames, faults=None, argv=None, out_dir=None, r
         sys.stderr.write(f"ares run: {len(outcome.limit_failures)} limit(s) failed: "
                          f"{'; '.join(outcome.limit_failures)}\n")
         return 4
+    if outcome.message:  # done, with something to say (a stage not settled: ares.scan.settling)
+        sys.stderr.write(f"ares run: warning: {outcome.message}\n")
     return 0
 
 
