@@ -88,11 +88,14 @@ def settle(bench, system, settings: dict, kinds: set, cancel=None, evidence: boo
         rec.update(by="time", settled=None, why="the declared waits only" if evidence else
                    "the declared waits only: the frames after this change are the measurement")
         return rec
-    want = {}
-    for key, tag in (("exposure", "exposure_s"), ("analog_gain", "analog_gain")):
-        name = register_field(system, key)
-        if key in settings and name is not None:
-            want[tag] = bench.registers.get(name)
+    def want() -> dict:  # the settings as the registers hold them (read only when the frames carry tags)
+        out = {}
+        for key, tag in (("exposure", "exposure_s"), ("analog_gain", "analog_gain")):
+            name = register_field(system, key)
+            if key in settings and name is not None:
+                out[tag] = bench.registers.get(name)
+        return out
+
     from ares.scan.settling import settle_by_frames
 
     rec.update(settle_by_frames(bench, cfg, want, cancel, noise=noise))

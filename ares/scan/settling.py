@@ -49,14 +49,26 @@ class FrameNoise:
     """What two frames cannot tell about their own noise: the variance of a difference of
     frame means from whole-frame noise (flicker, clamp drift), learned from the run's stacks
     (the robust scatter of consecutive frame means beyond what their rows and columns
-    explain; the median over the stacks of >= 5 frames so far; 0 before the first)."""
+    explain; the median over the stacks of >= 5 frames so far). Until the run has measured
+    it, a frame's whole-frame noise is taken as large as one row's temporal noise (``prior``:
+    the variance of a difference of two rows' means), a conservative guess."""
 
     def __init__(self):
         self.seen: list[float] = []
 
     @property
+    def known(self) -> bool:
+        return bool(self.seen)
+
+    @property
     def var(self) -> float:
         return float(np.median(self.seen)) if self.seen else 0.0
+
+    def extra(self, a: "FrameStats", b: "FrameStats") -> float:
+        """The variance to add to ``pair_se(a, b)**2``: learned, else the prior from the pair."""
+        if self.seen:
+            return self.var
+        return prior_var(a, b)
 
     def learn(self, stats: list) -> None:
         if len(stats) < 5:
@@ -68,12 +80,18 @@ class FrameNoise:
         self.seen.append(max(0.0, robust * robust - se * se))
 
 
+def prior_var(a: FrameStats, b: FrameStats) -> float:
+    """The variance of a difference of two rows' means (a row's temporal noise, twice)."""
+    dr = b.rows - a.rows
+    return float(dr.var(ddof=1)) if dr.size > 1 else 0.0
+
+
 def tolerance(level: float, se: float, k: float, rtol: float) -> float:
     return max(k * se, rtol * abs(level))
 
 
 def agree(a: FrameStats, b: FrameStats, k: float, rtol: float, extra_var: float = 0.0) -> tuple[bool, float, float]:
-    """(agree, difference, tolerance) of two frames' means; ``extra_var``: ``FrameNoise.var``."""
+    """(agree, difference, tolerance) of two frames' means; ``extra_var``: ``FrameNoise.extra``."""
     d = b.mean - a.mean
     tol = tolerance(max(abs(a.mean), abs(b.mean)), math.sqrt(pair_se(a, b) ** 2 + extra_var), k, rtol)
     return abs(d) <= tol, d, tol
@@ -93,9 +111,10 @@ def tags_match(meta: dict, want: dict) -> bool | None:
     return True if seen else None
 
 
-def settle_by_frames(bench, cfg, want_tags: dict, cancel=None, noise: FrameNoise | None = None) -> dict:
+def settle_by_frames(bench, cfg, want_tags, cancel=None, noise: FrameNoise | None = None) -> dict:
     """Grab probe frames ``cfg.probe_s`` apart (each gap ``cfg.growth`` times the last) until ``cfg.agree`` consecutive pairs agree (and
-    tagged frames carry ``want_tags``), or the cap. Tags alone are not proof: a light or a
+    tagged frames carry ``want_tags``: a dict, or a callable giving it, called only when a
+    frame carries tags), or the cap. Tags alone are not proof: a light or a
     temperature changed with the registers, and a device that tags its frames settles as one
     that does not (the same frames behind the wires as on the simulator). The record: frames discarded, bench seconds waited, settled or not and why."""
     clock = getattr(bench, "clock", None)
@@ -107,7 +126,10 @@ def settle_by_frames(bench, cfg, want_tags: dict, cancel=None, noise: FrameNoise
     while True:
         frame = _grab1(bench)
         frames += 1
-        match = tags_match(frame.meta, want_tags)
+        tagged = any(k in (frame.meta or {}) for k in ("exposure_s", "analog_gain"))
+        if tagged and callable(want_tags):  # the registers read once, and only for a device that tags
+            want_tags = want_tags()
+        match = tags_match(frame.meta, want_tags) if tagged else None
         if match is False:
             prev, run, why = None, 0, "frames tagged with the old settings"
         else:
@@ -115,7 +137,7 @@ def settle_by_frames(bench, cfg, want_tags: dict, cancel=None, noise: FrameNoise
                 by = "tags+frames"
             st = FrameStats.of(frame.data)
             if prev is not None:
-                ok, d, tol = agree(prev, st, cfg.k, cfg.rtol, noise.var if noise is not None else 0.0)
+                ok, d, tol = agree(prev, st, cfg.k, cfg.rtol, noise.extra(prev, st) if noise is not None else 0.0)
                 last = (d, tol)
                 run = run + 1 if ok else 0
                 if not ok:
@@ -163,7 +185,9 @@ def stack_verdict(stats: list[FrameStats], k: float, rtol: float, noise: FrameNo
         return None
     m = np.array([s.mean for s in stats])
     se = float(np.median([pair_se(stats[i], stats[i + 1]) for i in range(n - 1)]))
-    se = math.sqrt(se * se + (noise.var if noise is not None else 0.0))
+    extra = noise.var if noise is not None and noise.known else float(np.median(
+        [prior_var(stats[i], stats[i + 1]) for i in range(n - 1)]))
+    se = math.sqrt(se * se + extra)
     if n >= 5:
         dd = np.diff(m)
         se = max(se, 1.4826 * float(np.median(np.abs(dd - np.median(dd)))))
