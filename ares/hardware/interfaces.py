@@ -121,6 +121,7 @@ class Bench:
     closers: list = field(default_factory=list)  # called after the devices close (emulators unregister)
     monochromator: Monochromator | None = None  # spectral bench (EMVA 1288 4.0 Linear, Section 9)
     photodiode: Photodiode | None = None
+    recovery_clock: object = None  # the clock a device's absence is waited on (emulated time), None: the host's
     clock: object = None  # the bench's time (``now()``, ``sleep(s)``): simulated on the simulator, else None (the host's)
 
     def reconnect(self, device: str = "frames") -> None:

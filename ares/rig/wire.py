@@ -95,6 +95,8 @@ def build_wire_bench(system, seed: int, faults: dict | None = None) -> Bench:
     info = {k: v for k, v in dev.info.items()}
     info.update(system=system.name, wire=True, grabber_serial=grabber.serial)
     bench = Bench(regs, frames, inst.get("light"), inst.get("chamber"), info, clock=dev.clock)
+    if "usb_gone_s" in wire_f:  # the device is away for seconds of the bench's clock: recovery waits on it
+        bench.recovery_clock = dev.clock
     bench.closers.extend(lambda n=n, e=e: unregister(n, e) for n, e in emulated)
     bench.emulators = {"usb": grabber, "i2c": smbus, **{n: e for n, e in emulated}, "device": dev}
     from ares.rig.spectral import attach_simulated

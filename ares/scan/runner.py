@@ -219,7 +219,9 @@ class Runner(MaskCompletion, StageLoop):
 
     def _run(self, bench, writer, completed) -> RunOutcome:
         scan, stages = self.scan, self.stages
-        self._susp = Suspenders(scan.suspend, bench, self._cancelled) if scan.suspend else None
+        rc = getattr(bench, "recovery_clock", None)  # emulated time for a device's absence (ares.rig.wire)
+        clock = {} if rc is None else {"clock": rc.now, "sleep": rc.sleep}
+        self._susp = Suspenders(scan.suspend, bench, self._cancelled, **clock) if scan.suspend else None
         self._noise = FrameNoise()  # the run's whole-frame noise, learned from its stacks (ares.scan.settling)
         self._unsettled = []  # stages whose bench did not settle (ares.scan.settling): named in the run's message
         vw = views(scan)

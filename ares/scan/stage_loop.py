@@ -27,6 +27,7 @@ from ares.scan.kept import KeptFrames
 from ares.scan.settling import FrameStats
 from ares.scan.suspend import Suspended
 
+TRANSIENT = ("timeout", "stall", "short")  # frames lost to a fault that a re-grab outlives
 log = logging.getLogger("ares.scan.runner")  # (the runner's log: the loop is part of it)
 
 
@@ -91,8 +92,10 @@ class StageLoop:
                     if fw is not None:
                         fw.close(keep=False)
                     lost.append({"kind": exc.kind, "count": exc.count, "message": str(exc)})
-                    if self.scan.on_loss != "regrab" or len(lost) > self.scan.max_regrabs:
-                        if self.scan.on_loss == "regrab":
+                    # a transient fault (a late frame, a stalled endpoint) under <suspend device>: re-grab too
+                    transient = exc.kind in TRANSIENT and self._susp is not None and self._susp.handles_devices
+                    if (self.scan.on_loss != "regrab" and not transient) or len(lost) > self.scan.max_regrabs:
+                        if self.scan.on_loss == "regrab" or transient:
                             raise FrameLost(f"{exc} -- still losing frames after {self.scan.max_regrabs} re-grab(s) "
                                             "(<frames max_regrabs>)", exc.kind, exc.count) from None
                         raise
