@@ -7,14 +7,13 @@ instruments with their line protocol, GenICam camera -- dataclasses, loading and
 
 from __future__ import annotations
 
-import codecs
-import re
 from dataclasses import dataclass, field
 
 from lxml import etree
 
-from ares.hardware.line_protocol import Command, LineProtocol
+from ares.hardware.line_protocol import LineProtocol
 from ares.hardware.pixels import WIRE_ORDERS, pixel_format
+from ares.protocol.line_xml import protocol_from_el, protocol_to_el
 from ares.protocol.xmlsafe import fail
 
 
@@ -209,38 +208,11 @@ class SerialInstrument:
     protocol: LineProtocol | None = None  # None: DEFAULT_LIGHT / DEFAULT_CHAMBER
 
 
-def _unescape(s: str) -> str:
-    return codecs.decode(s, "unicode_escape")
-
-
-def _escape(s: str) -> str:
-    return s.encode("unicode_escape").decode("ascii")
-
-
 def serial_from_el(path, el, kind: str) -> SerialInstrument | None:
     if el is None:
         return None
-    proto = None
     p = el.find("protocol")
-    if p is not None:
-        cmds = []
-        for c in p.iterfind("command"):
-            try:
-                re.compile(c.get("reply"))
-                c.get("send").format(value=0.0)
-            except (re.error, ValueError, KeyError, IndexError) as exc:
-                raise fail(path, c.sourceline, f"<command name='{c.get('name')}'>: {exc}") from None
-            cmds.append(Command(c.get("name"), c.get("send"), c.get("reply")))
-        proto = LineProtocol(_unescape(p.get("terminator", "\\n")), _unescape(p.get("reply_terminator", "\\n")),
-                             p.get("error", LineProtocol.error), tuple(cmds), _bool(p.get("echo")),
-                             _int(p.get("retries"), 0))
-        missing = [n for n in NEEDS[kind] if proto.command(n) is None]
-        if missing:
-            raise fail(path, p.sourceline, f"<{kind}> <protocol> declares no command named "
-                                           f"{' or '.join(repr(m) for m in missing)}")
-        names = [c.name for c in cmds]
-        if len(set(names)) != len(names):
-            raise fail(path, p.sourceline, f"<{kind}> <protocol> names a command twice")
+    proto = None if p is None else protocol_from_el(path, p, kind, NEEDS[kind])
     return SerialInstrument(
         name=el.get("name"), port=el.get("port"), baud=_int(el.get("baud"), 9600), bytesize=_int(el.get("bytesize"), 8),
         parity=el.get("parity", "N"), stopbits=_int(el.get("stopbits"), 1), timeout_s=_float(el.get("timeout_s"), 1.0),
@@ -256,11 +228,7 @@ def serial_to_el(parent, tag, s: SerialInstrument):
               settle_s=s.settle_s, settle_timeout_s=s.settle_timeout_s, poll_s=s.poll_s, tolerance=s.tolerance,
               hold_s=s.hold_s)
     if s.protocol is not None:
-        p = _set(etree.SubElement(el, "protocol"), terminator=_escape(s.protocol.terminator),
-                 reply_terminator=_escape(s.protocol.reply_terminator), error=s.protocol.error,
-                 echo=True if s.protocol.echo else None, retries=s.protocol.retries or None)
-        for c in s.protocol.commands:
-            _set(etree.SubElement(p, "command"), name=c.name, send=c.send, reply=c.reply)
+        protocol_to_el(el, s.protocol, _set)
 
 
 @dataclass(frozen=True)
