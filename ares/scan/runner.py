@@ -39,6 +39,7 @@ from ares.rundir.writer import RunWriter
 from ares.scan.stages import Stage, estimate_seconds
 from ares.scan.eta import Eta, eta_stacks
 from ares.scan.settling import FrameNoise
+from ares.scan.stages import instruments_used
 from ares.scan.suspend import Suspenders
 from ares.scan.stage_loop import RunOutcome
 
@@ -142,7 +143,8 @@ class Runner(MaskCompletion, StageLoop):
             if own:
                 from ares.rig.factory import build_bench
 
-                bench = build_bench(self.system, seed=self.seed, faults=self.faults)
+                bench = build_bench(self.system, seed=self.seed, faults=self.faults, uses=instruments_used(
+                    self.stages, self.scan))
             if self.system.simulator is not None:  # its fused kernels loaded now, not in a stage's time
                 from ares.sim import fused
 
