@@ -145,9 +145,32 @@ class ProgressBar:
             self.stream.write(f"\rstage {e.index + 1}/{e.total} {name:<14.14} [{'#' * n}{'.' * (self.width - n)}] "
                               f"{100 * e.fraction:3.0f}% {e.frames_per_s:6.1f} frames/s ETA {fmt_s(e.remaining_s)}")
             self.stream.flush()
+        elif isinstance(e, (ev.Paused, ev.Resumed, ev.Regrab, ev.LinkHealth)):
+            self._health(e, ev)
         elif isinstance(e, (ev.Done, ev.Failed)) and self.tty:
             self.stream.write("\n")
             self.stream.flush()
+
+
+    def _health(self, e, ev) -> None:
+        """Recovery in sight: a line for every pause, resume, re-grab and change of the links'
+        trouble counters (the bar, on a terminal, goes on below it)."""
+        from ares.hardware.link_stats import trouble_text
+
+        where = f"stage {e.index + 1}"
+        if isinstance(e, ev.Paused):
+            text = f"Paused at {where}: {e.reason or 'paused'}"
+        elif isinstance(e, ev.Resumed):
+            took = f" after {e.seconds:.3g} s" if e.seconds is not None else ""
+            text = f"Resumed at {where}{took}"
+        elif isinstance(e, ev.Regrab):
+            text = f"Regrab of {where}: {e.reason}"
+        else:
+            if not e.counts:
+                return
+            text = f"link: {trouble_text(e.counts)}"
+        self.stream.write(("\n" if self.tty else "") + text + "\n")
+        self.stream.flush()
 
 
 def dry_run(scan, frames: int | None, seed: int | None = None, out=None, out_dir=None) -> None:

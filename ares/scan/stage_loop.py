@@ -100,6 +100,7 @@ class StageLoop:
                                             "(<frames max_regrabs>)", exc.kind, exc.count) from None
                         raise
                     self._emit(ev.Regrab(st.index, str(exc)))
+                    self._link_health(bench, st.index)
                     applied = {}  # start the stage from a known state
                     continue
                 except (Suspended, DeviceGone) as exc:  # suspenders: drop the stage's frames, wait, acquire again
@@ -107,7 +108,8 @@ class StageLoop:
                         fw.close(keep=False)
                     if not (self._susp is not None and self._susp.handles(exc)):
                         raise
-                    self._emit(ev.Paused(st.index))
+                    self._emit(ev.Paused(st.index, str(exc)))
+                    self._link_health(bench, st.index)
                     try:
                         suspensions.append(self._susp.wait_out(exc, st.name, len(suspensions)))
                     except Interrupted:
@@ -115,7 +117,7 @@ class StageLoop:
                         break
                     if isinstance(exc, DeviceGone):
                         applied = {}  # it may have lost its settings: apply every one again
-                    self._emit(ev.Resumed(st.index))
+                    self._emit(ev.Resumed(st.index, suspensions[-1].get("seconds"), str(exc)))
                     continue
                 except (_Aborted, Interrupted):  # aborted mid-stage, or stopped while an instrument settled
                     if fw is not None:
@@ -254,6 +256,13 @@ class StageLoop:
         return result, arrays
 
 
+    def _link_health(self, bench, index: int) -> None:
+        """``LinkHealth`` when the links' trouble counters changed since the last one."""
+        now = link_stats.trouble(link_stats.counters(bench))
+        if now != getattr(self, "_health", {}):
+            self._health = now
+            self._emit(ev.LinkHealth(index, now))
+
     def _grab(self, bench, st: Stage, n: int, vw, max_code, fw, dark: bool) -> StackSet:
         src = bench.frames
         shape = tuple(src.shape)
@@ -273,7 +282,7 @@ class StageLoop:
         try:
             while True:
                 if self._pause.is_set():
-                    self._emit(ev.Paused(st.index))
+                    self._emit(ev.Paused(st.index, "paused by the user"))
                     while self._pause.is_set() and not self._abort.is_set():
                         time.sleep(0.02)
                     self._emit(ev.Resumed(st.index))
@@ -302,6 +311,7 @@ class StageLoop:
                 self._eta.frame(elapsed, None if getattr(src, "exposure_paced", True)
                                 else getattr(src, "compute_seconds", None))
                 remaining = self._eta.remaining(elapsed)
+                self._link_health(bench, st.index)
                 self._emit(ev.FramePreview(st.index, k, n, data, dark))
                 self._emit(ev.Progress(st.index, len(self.stages), self._frames_done, self._frames_total, fps,
                                        remaining))
