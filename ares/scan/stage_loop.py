@@ -51,6 +51,10 @@ class StageLoop:
             link0 = link_stats.counters(bench)  # (the snapshot's register reads are the stage's too)
             suspensions, halted, lost, spectral = [], False, [], None
             reacquired, settling = [], {}  # stacks acquired again (a trend or a step), what each change waited
+            # a dark stage after a flat in a lag scan: the decay of image lag in its first frames is the
+            # measurement -- the declared waits only, and its stack is not checked for a trend
+            lag_dark = ("lag" in scan.analyses and st.scene == "dark" and st.index > 0
+                        and stages[st.index - 1].scene == "flat")
             flat = dark = None  # the last stage's stacks are the committer's now (a 4096x3072 stack: 0.2 GB)
             while True:  # once, or again after a suspension (ares.scan.suspend) or lost frames
                 fw = writer.frame_writer(st.index, bench.frames.shape, None) if writer else None
@@ -75,7 +79,7 @@ class StageLoop:
                     elif st.dark_source == "reuse":
                         dark = cache
                     _note(settling, "flat", apply_settings(bench, system, st.settings, applied, self._cancelled,
-                                                          noise=self._noise))
+                                                          evidence=not lag_dark, noise=self._noise))
                     applied = dict(st.settings)
                     pos["flat"] = _position(bench)
                     flat = self._grab(bench, st, st.frames, vw, max_code, fw, dark=False)
@@ -128,7 +132,7 @@ class StageLoop:
                     if fw is not None:
                         fw.close(keep=False)
                     raise
-                unsteady = _unsteady(st, flat, dark, system, self._noise)
+                unsteady = None if lag_dark else _unsteady(st, flat, dark, system, self._noise)
                 if unsteady and self._susp is not None and len(reacquired) < system.timing.settle.reacquire:
                     if fw is not None:  # under <suspend>: a stack that trends or steps is acquired again
                         fw.close(keep=False)
