@@ -43,7 +43,7 @@ def feature_map(cfg) -> RegisterMap:
     """The camera's ``<feature>`` elements as register fields (address = position; the raw
     value is the feature's value in its own unit, physical = scale x raw)."""
     fields = tuple(Field(f.field, i, 0, 31, scale=f.scale, unit=f.unit, minimum=f.min, maximum=f.max,
-                         description=f"GenICam feature {f.node}") for i, f in enumerate(cfg.features))
+                         description=f"GenICam feature {f.node}", signed=True) for i, f in enumerate(cfg.features))
     return RegisterMap(address_bits=16, value_bits=32, endian="big", fields=fields)
 
 
@@ -159,12 +159,13 @@ class FeatureBus:
             raise
         except Exception as exc:
             raise HardwareError(f"{self.name}: cannot read feature {node} ({exc})") from None
-        if v < 0:  # a register field's raw value is unsigned
-            raise HardwareError(f"{self.name}: feature {node} reads {v}, below 0, which a <feature> field cannot hold")
-        return v
+        if not -(1 << 31) <= v < 1 << 31:
+            raise HardwareError(f"{self.name}: feature {node} reads {v}, beyond what a 32-bit <feature> field holds")
+        return v & 0xFFFFFFFF  # (the fields are signed: two's complement, -3 dB reads back as -3)
 
     def write(self, address: int, value: int) -> None:
-        self.camera.write(self._node(address), value)
+        value = int(value)
+        self.camera.write(self._node(address), value - (1 << 32) if value >= 1 << 31 else value)
 
     def reconnect(self) -> None:
         self.camera.reconnect()

@@ -226,6 +226,7 @@ def _fields(path, reg_el, address_bits: int, value_bits: int) -> tuple[Field, ..
             scale=_float(el.get("scale"), 1.0), offset=_float(el.get("offset"), 0.0), unit=el.get("unit", ""),
             minimum=_float(el.get("min")), maximum=_float(el.get("max")), default=_int(el.get("default"), 0),
             description=el.get("description", ""), volatile=el.get("volatile", "false").strip() in ("true", "1"),
+            signed=el.get("signed", "false").strip() in ("true", "1"),
         )
         line = el.sourceline
         if f.lsb > f.msb:
@@ -423,7 +424,8 @@ def system_to_tree(sy: System) -> etree._ElementTree:
         _set(etree.SubElement(re_, "field"), name=f.name, address=f"0x{f.address:04X}", lsb=f.lsb, msb=f.msb,
              count=f.count, access=f.access, scale=float(f.scale), offset=float(f.offset), unit=f.unit or None,
              min=None if f.minimum is None else float(f.minimum), max=None if f.maximum is None else float(f.maximum),
-             default=f.default, description=f.description or None, volatile=True if f.volatile else None)
+             default=f.default, description=f.description or None, volatile=True if f.volatile else None,
+             signed=True if f.signed else None)
     c = sy.controls
     if c != Controls():
         _set(etree.SubElement(root, "controls"), exposure=c.exposure, analog_gain=c.analog_gain, black_level=c.black_level)
