@@ -30,3 +30,29 @@ def test_regrab_and_its_reason_are_shown_with_the_link_statistics(tmp_path, caps
     assert rc == 0, err
     assert any(x.startswith("Regrab of stage 2: ") and "stalled" in x for x in err.splitlines()), err
     assert any(x.startswith("link: frames ") and "1 stalls" in x for x in err.splitlines()), err
+
+
+def test_the_window_shows_pause_regrab_and_link_health(tmp_path):
+    """The window's models (no Qt): a Health event per pause/resume/re-grab sets the run state
+    and its message; the links' trouble counters go to the Information items."""
+    from ares.gui import events as G
+    from ares.gui.models import progress as P
+    from ares.gui.models.session import SessionModel
+    from ares.gui.runner_adapter import RunnerJob
+    from ares.scan import events as ev
+
+    got = []
+    run = RunnerJob.__new__(RunnerJob)  # only its event translation
+    run._emit = got.append
+    run._on_event(ev.Paused(1, "USB frame grabber: device disconnected"))
+    run._on_event(ev.LinkHealth(1, {"frames": {"stalls": 1}}))
+    run._on_event(ev.Resumed(1, 61.5))
+    assert [g.kind for g in got] == ["paused", "link", "resumed"]
+    s = SessionModel()
+    s.handle(got[0])
+    assert s.progress.state == P.PAUSED and "disconnected" in s.progress.message
+    s.handle(got[1])
+    assert s.info.items["link health"] == "frames 1 stalls"
+    s.handle(got[2])
+    assert s.progress.state == P.RUNNING and "after 61.5 s" in s.progress.message
+    assert isinstance(got[0], G.Health)

@@ -155,22 +155,27 @@ class ProgressBar:
     def _health(self, e, ev) -> None:
         """Recovery in sight: a line for every pause, resume, re-grab and change of the links'
         trouble counters (the bar, on a terminal, goes on below it)."""
-        from ares.hardware.link_stats import trouble_text
+        text = health_line(e)
+        if text:
+            self.stream.write(("\n" if self.tty else "") + text + "\n")
+            self.stream.flush()
 
-        where = f"stage {e.index + 1}"
-        if isinstance(e, ev.Paused):
-            text = f"Paused at {where}: {e.reason or 'paused'}"
-        elif isinstance(e, ev.Resumed):
-            took = f" after {e.seconds:.3g} s" if e.seconds is not None else ""
-            text = f"Resumed at {where}{took}"
-        elif isinstance(e, ev.Regrab):
-            text = f"Regrab of {where}: {e.reason}"
-        else:
-            if not e.counts:
-                return
-            text = f"link: {trouble_text(e.counts)}"
-        self.stream.write(("\n" if self.tty else "") + text + "\n")
-        self.stream.flush()
+
+def health_line(e) -> str | None:
+    """The line for a Paused/Resumed/Regrab/LinkHealth event (the terminal's and the window's)."""
+    from ares.hardware.link_stats import trouble_text
+    from ares.scan import events as ev
+
+    where = f"stage {e.index + 1}"
+    if isinstance(e, ev.Paused):
+        return f"Paused at {where}: {e.reason or 'paused'}"
+    if isinstance(e, ev.Resumed):
+        return f"Resumed at {where}" + (f" after {e.seconds:.3g} s" if e.seconds is not None else "")
+    if isinstance(e, ev.Regrab):
+        return f"Regrab of {where}: {e.reason}"
+    if isinstance(e, ev.LinkHealth) and e.counts:
+        return f"link: {trouble_text(e.counts)}"
+    return None
 
 
 def dry_run(scan, frames: int | None, seed: int | None = None, out=None, out_dir=None) -> None:
