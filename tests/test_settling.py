@@ -151,3 +151,30 @@ def test_settle_element_round_trips_and_refuses_nonsense(tmp_path):
     assert load_system(tmp_path / "again.xml").timing.settle == sy.timing.settle
     with pytest.raises(InputError, match="agree"):
         load_system(_system(tmp_path, '<settle agree="5" max_frames="3"/>'))
+
+
+def test_setpoint_and_readback_recorded_with_tolerance(tmp_path):
+    """Every set quantity: the set point, the readback and the tolerance they must agree to
+    (registers from the stage's snapshot, the chamber's last reading while it settled; the
+    light says it has no independent readback instead of comparing its set point with itself)."""
+    sy = _system(tmp_path)
+    p = tmp_path / "rb.xml"
+    p.write_text(f"""<?xml version="1.0"?>
+<scan name="rb" version="1">
+  <system href="{sy}"/>
+  <settings><set quantity="exposure" value="0.0123456"/></settings>
+  <frames>2</frames>
+  <stages>
+    <stage name="lit" scene="flat"><set quantity="light" value="1e5"/></stage>
+    <stage name="warm" scene="dark"><set quantity="temperature" value="30"/></stage>
+  </stages>
+  <output pdf="false" csv="false" hdf5="false"/>
+</scan>
+""")
+    outcome, _ = _run(p, {})
+    lit, warm = (st["setpoints"] for st in outcome.stages)
+    e = lit["exposure"]
+    assert e["set"] == pytest.approx(0.012346) and e["read"] == e["set"] and e["tolerance"] == 5e-7 and e["ok"]
+    assert lit["light"]["read"] is None and "no independent readback" in lit["light"]["note"]
+    t = warm["temperature"]
+    assert t["set"] == 30 and t["read"] == pytest.approx(30) and t["tolerance"] == 0.1 and t["ok"]

@@ -290,6 +290,7 @@ class SerialChamber(SerialInstrument):
     DEFAULT = DEFAULT_CHAMBER
     ROLE = "chamber"
     _setpoint: float | None = None
+    last_reading: float | None = None  # the temperature read last while settling
 
     def set_temperature(self, celsius: float) -> None:
         v = self._check(celsius, "temperature", "C")
@@ -306,7 +307,7 @@ class SerialChamber(SerialInstrument):
                 raise HardwareError(f"{self.name} on {self.cfg.port}: give tolerance= (C) or a 'stable' command "
                                     "in its <protocol> to know when it has settled")
             return self._do("stable").strip() == "1", "it never reported stable"
-        t = self.get_temperature()
+        t = self.last_reading = self.get_temperature()  # (the run records it: set point and readback)
         return abs(t - self._setpoint) <= tol, (f"last reading {t:g} C, set point {self._setpoint:g} "
                                                 f"+/- {tol:g} C")
 

@@ -24,6 +24,7 @@ from ares.scan.stage_analysis import StackSet, analyze_stage
 from ares.rundir.record import RunRecord
 from ares.scan.stages import Stage
 from ares.scan.kept import KeptFrames
+from ares.scan.readback import setpoints
 from ares.scan.settling import FrameStats
 from ares.scan.suspend import Suspended
 
@@ -174,6 +175,12 @@ class StageLoop:
                 extra["bench_position"] = pos  # where the frame stream stood (ares resume)
             if suspensions:
                 extra["suspensions"] = suspensions
+            if pos.get("end") is not None or after:  # each set quantity: set point, readback, tolerance
+                extra["setpoints"] = setpoints(bench, system, st.settings, after or {})
+                off = [k for k, v in extra["setpoints"].items() if v.get("ok") is False]
+                if off:
+                    log.warning("stage %d '%s': readback outside its tolerance for %s", st.index, st.name,
+                                ", ".join(off))
             if settling:  # what each change waited and discarded, and why; a stack that trends or steps
                 extra["settling"] = settling
                 if settling.get("unsettled"):
