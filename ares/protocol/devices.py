@@ -73,6 +73,7 @@ class I2CBus:
     readback_field: str | None = None
     chip_id: tuple[int, int] | None = None  # (register, expected value): checked at connect
     init: tuple[tuple[str, float, int], ...] = ()  # ("write", register, value) / ("wait", seconds, 0), at connect
+    backoff_ms: float = 1.0  # the busy window: the first pause before a retry (doubled each attempt)
 
 
 def i2c_from_el(path, el) -> I2CBus:
@@ -82,7 +83,8 @@ def i2c_from_el(path, el) -> I2CBus:
                el.get("readback_field"), _chip_id(el.find("chip_id")),
                tuple(("write", _int(s.get("register")), _int(s.get("value"))) if s.tag == "write"
                      else ("wait", float(s.get("ms")) / 1000.0, 0)
-                     for s in el.iterfind("init/*") if isinstance(s.tag, str)))
+                     for s in el.iterfind("init/*") if isinstance(s.tag, str)),
+               _float(el.get("backoff_ms"), 1.0))
     if b.address > 0x7F:
         raise fail(path, el.sourceline, f"I2C bus '{b.name}': address 0x{b.address:x} is not a 7-bit address")
     return b
@@ -95,7 +97,7 @@ def _chip_id(el):
 def i2c_to_el(parent, b: I2CBus):
     d = I2CBus(b.name, b.bus, b.address)
     kw = {k: getattr(b, k) for k in ("retries", "verify", "value_endian", "readback", "readback_row",
-                                      "readback_start", "readback_field") if getattr(b, k) != getattr(d, k)}
+                                      "readback_start", "readback_field", "backoff_ms") if getattr(b, k) != getattr(d, k)}
     el = _set(etree.SubElement(parent, "i2c"), name=b.name, bus=b.bus, address=f"0x{b.address:02X}",
               speed_hz=b.speed_hz, **kw)
     if b.chip_id is not None:
