@@ -49,6 +49,8 @@ class FrameSource(Protocol):
     # exposure, as from a real sensor; False for sources that compute or read their frames
     # (the simulator, replays). The time remaining charges a frame its exposure + readout
     # only when True.
+    # Optional: ``recorded`` (default False) -- the frames are a recording (a replay): no probe
+    # frames are taken to prove the bench settled (ares.scan.settling).
     # Optional: ``frame_cost(fields) -> float`` -- the relative cost of making a frame with
     # these settings (register field -> physical value, ``light``, ``temperature``), and
     # ``compute_seconds`` -- wall seconds spent making frames so far: a source whose frame

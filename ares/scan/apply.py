@@ -84,6 +84,9 @@ def settle(bench, system, settings: dict, kinds: set, cancel=None, evidence: boo
         return None
     rec = {"changed": sorted(kinds), "declared_wait_s": seconds, "discarded": discard}
     cfg = t.settle
+    if getattr(bench.frames, "recorded", False):  # a replay: its frames are the recording's, nothing settles
+        rec.update(by="time", settled=None, why="recorded frames: nothing to settle")
+        return rec
     if cfg.by != "frames" or not evidence:
         rec.update(by="time", settled=None, why="the declared waits only" if evidence else
                    "the declared waits only: the frames after this change are the measurement")

@@ -133,7 +133,8 @@ class StageLoop:
                     if fw is not None:
                         fw.close(keep=False)
                     raise
-                unsteady = None if lag_dark else _unsteady(st, flat, dark, system, self._noise)
+                unsteady = (None if lag_dark or getattr(bench.frames, "recorded", False)  # (a replay: as recorded)
+                            else _unsteady(st, flat, dark, system, self._noise))
                 if unsteady and self._susp is not None and len(reacquired) < system.timing.settle.reacquire:
                     if fw is not None:  # under <suspend>: a stack that trends or steps is acquired again
                         fw.close(keep=False)
