@@ -10,12 +10,13 @@ from ares.hardware.waits import wait
 
 
 def apply_settings(bench, system, settings: dict, previous: dict | None = None, cancel=None,
-                   evidence: bool = True, noise=None) -> dict | None:
+                   evidence: bool = True, noise=None, abort=None) -> dict | None:
     """Write every setting; instruments only settle when their value changed. ``cancel``:
     a callable that is true when the run is asked to stop; an instrument's wait then ends
     with ``ares.hardware.waits.Interrupted``. Returns what the bench waited and discarded
     and why (``settle``); ``evidence=False``: the declared waits only (a dark whose decay
-    of image lag is the measurement)."""
+    of image lag is the measurement). ``abort``: what ends the probe frames' waits (a stop
+    lets the stage in flight finish, its settling included, within the cap); default ``cancel``."""
     prev = previous or {}
     kinds = set()  # what changed: "registers", "light", "temperature"
     for key, value in settings.items():
@@ -48,11 +49,11 @@ def apply_settings(bench, system, settings: dict, previous: dict | None = None, 
             bench.registers.set(name, value)
         else:  # the protocol layer admits no other key
             raise InputError(f"unknown setting '{key}'")
-    return settle(bench, system, settings, kinds, cancel, evidence, noise)
+    return settle(bench, system, settings, kinds, cancel, evidence, noise, abort)
 
 
 def settle(bench, system, settings: dict, kinds: set, cancel=None, evidence: bool = True,
-           noise=None) -> dict | None:
+           noise=None, abort=None) -> dict | None:
     """After the changes ``kinds``: the longest declared settle time (on the bench's clock),
     the most frames to discard (``Timing.after_change``), a flush when declared; then, with
     ``<settle by="frames">`` (the default), probe frames until they prove the bench settled
@@ -101,7 +102,7 @@ def settle(bench, system, settings: dict, kinds: set, cancel=None, evidence: boo
 
     from ares.scan.settling import settle_by_frames
 
-    rec.update(settle_by_frames(bench, cfg, want, cancel, noise=noise))
+    rec.update(settle_by_frames(bench, cfg, want, abort if abort is not None else cancel, noise=noise))
     return rec
 
 

@@ -112,11 +112,13 @@ def tags_match(meta: dict, want: dict) -> bool | None:
 
 
 def settle_by_frames(bench, cfg, want_tags, cancel=None, noise: FrameNoise | None = None) -> dict:
-    """Grab probe frames ``cfg.probe_s`` apart (each gap ``cfg.growth`` times the last) until ``cfg.agree`` consecutive pairs agree (and
-    tagged frames carry ``want_tags``: a dict, or a callable giving it, called only when a
-    frame carries tags), or the cap. Tags alone are not proof: a light or a
-    temperature changed with the registers, and a device that tags its frames settles as one
-    that does not (the same frames behind the wires as on the simulator). The record: frames discarded, bench seconds waited, settled or not and why."""
+    """Grab probe frames ``cfg.probe_s`` apart (each gap ``cfg.growth`` times the last) until
+    ``cfg.agree`` consecutive pairs agree (and tagged frames carry ``want_tags``: a dict, or a
+    callable giving it, called only when a frame carries tags), or the cap. Tags alone are
+    not proof: a light or a temperature changed with the registers, and a device that tags
+    its frames settles as one that does not (the same frames behind the wires as on the
+    simulator). ``cancel``: ends the waits (``Interrupted``). The record: frames discarded,
+    bench seconds waited, settled or not and why."""
     clock = getattr(bench, "clock", None)
     now = clock.now if clock is not None else _monotonic
     t0 = now()

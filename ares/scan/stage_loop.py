@@ -65,7 +65,8 @@ class StageLoop:
                     pos["dark"] = _position(bench)
                     if st.dark_source == "grab" and not st.dark_after:  # (dark="after": below)
                         _note(settling, "dark", apply_settings(bench, system, st.dark_settings, applied,
-                                                               self._cancelled, noise=self._noise))
+                                                               self._cancelled, noise=self._noise,
+                                                               abort=self._abort.is_set))
                         applied = st.dark_settings
                         dark = self._grab(bench, st, st.dark_frames, vw, max_code, fw, dark=True)
                         pd_dark = photodiode_readings(bench, system)
@@ -73,14 +74,16 @@ class StageLoop:
                           and cache.kept is None and self._mask is not None):
                         # the dark to reuse predates the defect mask and kept no frames: grab it again
                         _note(settling, "dark", apply_settings(bench, system, st.dark_settings, applied,
-                                                               self._cancelled, noise=self._noise))
+                                                               self._cancelled, noise=self._noise,
+                                                               abort=self._abort.is_set))
                         applied = st.dark_settings
                         dark = cache = self._grab(bench, st, st.dark_frames, vw, max_code, fw, dark=True)
                         pd_dark = photodiode_readings(bench, system)
                     elif st.dark_source == "reuse":
                         dark = cache
                     _note(settling, "flat", apply_settings(bench, system, st.settings, applied, self._cancelled,
-                                                          evidence=not lag_dark, noise=self._noise))
+                                                          evidence=not lag_dark, noise=self._noise,
+                                                          abort=self._abort.is_set))
                     applied = dict(st.settings)
                     pos["flat"] = _position(bench)
                     flat = self._grab(bench, st, st.frames, vw, max_code, fw, dark=False)
