@@ -230,7 +230,8 @@ def print_summary(outcome, scan, seconds: float, out=None, resumed: int = 0) -> 
     if lost:
         kinds = ", ".join(f"{x['kind']} {x['count']}" for _, x in lost)
         names = ", ".join(sorted({str(n) for n, _ in lost}))
-        out.write(f"frames lost: {kinds}; stage(s) {names} acquired again (<frames on_loss='regrab'>)\n")
+        why = "<frames on_loss='regrab'>" if scan.on_loss == "regrab" else "a transient fault under <suspend device>"
+        out.write(f"frames lost: {kinds}; stage(s) {names} acquired again ({why})\n")
     p = res.get("ptc")
     if isinstance(p, dict) and "gain_dn_per_e" in p:
         out.write("photon transfer:\n")
