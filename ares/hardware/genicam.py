@@ -248,13 +248,14 @@ class GenICamFrameSource:
                 try:
                     buf = ia.fetch(timeout=timeout)
                 except Exception as exc:
-                    if "timeout" in type(exc).__name__.lower():
-                        self.timeouts += 1
-                        raise HardwareError(f"{self.name}: no frame within {self.timeout_ms} ms "
-                                            f"(timeout) at frame {self.count}") from None
+                    if "timeout" in type(exc).__name__.lower():  # a frame late: lost, re-grabbed where the
+                        self.timeouts += 1  # scan says so (on_loss="regrab", <suspend device>)
+                        raise FrameLost(f"{self.name}: no frame within {self.timeout_ms} ms "
+                                        f"(timeout) at frame {self.count}", "timeout") from None
                     raise DeviceGone(f"{self.name}: acquisition failed at frame {self.count} ({exc})") from None
                 try:
                     fid = getattr(buf.module, "frame_id", None)
+                    stamp = _device_seconds(buf)  # the camera's own time stamp, when it gives one
                     data = self._convert(buf.payload.components[0])
                 finally:
                     buf.queue()
@@ -270,7 +271,8 @@ class GenICamFrameSource:
                 if top >= (1 << self.bit_depth):
                     raise FrameError(f"{self.name}: frame {self.count} has code {top} above the "
                                      f"{self.bit_depth}-bit range of <adc bits>")
-                frame = Frame(data, self.count, time.time(), {"frame_id": fid})
+                meta = {"frame_id": fid} if stamp is None else {"frame_id": fid, "device_timestamp_s": stamp}
+                frame = Frame(data, self.count, time.time(), meta)
                 self.count += 1
                 yield frame
         finally:
@@ -307,3 +309,12 @@ def build_genicam_bench(system):
         raise
     return Bench(regs, frames, light, chamber, {"system": system.name, "camera": system.genicam.name,
                                                 "producer": producer_path(system.genicam.cti)})
+
+
+def _device_seconds(buf) -> float | None:
+    """The buffer's device time stamp in seconds (GenTL ``timestamp_ns``), None without one."""
+    try:
+        ns = getattr(buf, "timestamp_ns", None)
+        return None if ns is None or int(ns) <= 0 else int(ns) * 1e-9
+    except Exception:  # noqa: BLE001 -- a producer that cannot say: host time only
+        return None
