@@ -167,10 +167,12 @@ ARRAY_UNITS = {"mean": "DN", "variance": "DN^2", "frame_means": "DN", "dark_mean
                "frame_counter": "1 (the device's frame counter, else the frame source's count)",
                "frame_timestamp": "s (host time at arrival; the simulator's model clock)",
                "frame_temperature": "C (the device's, as it reports it)",
+               "frame_device_timestamp": "s (the device's own clock, GenTL timestamp_ns)",
                # the dark stage's RTS candidates and their time series (ares.scan.defect_mask)
                "rts_rows": "1 (pixel row index)", "rts_cols": "1 (pixel column index)",
                "rts_series": "DN (one row per frame, one column per candidate pixel)"}
-ARRAY_UNITS.update({f"dark_{k}": ARRAY_UNITS[k] for k in ("frame_counter", "frame_timestamp", "frame_temperature")})
+ARRAY_UNITS.update({f"dark_{k}": ARRAY_UNITS[k] for k in ("frame_counter", "frame_timestamp", "frame_temperature",
+                                                           "frame_device_timestamp")})
 
 
 def array_unit(name: str) -> str:

@@ -54,18 +54,27 @@ def test_a_frame_exposed_at_the_old_settings_is_discarded_when_declared(tmp_path
 
 
 def test_without_the_declaration_the_stale_frame_is_in_the_stack(tmp_path):
-    """The strict model is strict: the queued frame is at the 10 ms level, far below."""
-    means, se = _means_after_exposure_change(_system(tmp_path))
+    """The strict model is strict: with the declared waits only (``<settle by="time">``) the
+    queued frame is at the 10 ms level, far below."""
+    means, se = _means_after_exposure_change(_system(tmp_path, '<timing readout_s="0.001">'
+                                                               '<settle by="time"/></timing>'))
     assert means[1:].mean() - means[0] > 100 * se, (means, se)
+
+
+def test_by_default_the_frames_prove_the_bench_settled(tmp_path):
+    """Settling by evidence (the default, ares.scan.settling): no declaration, and the stale
+    frame is not in the stack either."""
+    means, se = _means_after_exposure_change(_system(tmp_path))
+    assert abs(means[0] - means[1:].mean()) < 6 * se * np.sqrt(1.5), (means, se)
 
 
 def test_settle_and_discard_per_quantity(tmp_path, monkeypatch):
     sy = _system(tmp_path, '<timing readout_s="0.001" settle_s="0.2" discard_frames="1">'
-                           '<after quantity="light" settle_s="0.7" discard_frames="2"/></timing>')
+                           '<after quantity="light" settle_s="0.7" discard_frames="2"/><settle by="time"/></timing>')
     assert sy.timing.after_change("light") == (0.7, 2) and sy.timing.after_change("registers") == (0.2, 1)
     assert sy.timing.after_change("temperature") == (0.0, 0)
     waited = []
-    monkeypatch.setattr(apply_mod, "wait", lambda s, cancel=None: waited.append(s))
+    monkeypatch.setattr(apply_mod, "wait", lambda s, cancel=None, **clock: waited.append(s))
     bench = build_bench(sy, seed=1)
     try:
         usb = bench.emulators["usb"]

@@ -142,3 +142,28 @@ def test_an_unplugged_camera_is_opened_again_by_the_recovery(tmp_path, monkeypat
                                                                                         serial_number="SN1234")]
     bench.reconnect("frames")
     assert len(opened) == 2 and opened[-1].PixelFormat.value == "Mono12Packed" and cam.nodes is opened[-1]
+
+
+def test_device_timestamps_are_recorded_and_a_timeout_is_a_lost_frame():
+    """Issue 49: the camera's own time stamp (GenTL ``timestamp_ns``) rides with each frame
+    beside the host's arrival time; a fetch that times out is a frame lost (kind "timeout"),
+    which a scan re-grabs under ``on_loss="regrab"`` or a ``<suspend>`` device condition."""
+    from ares.errors import FrameLost
+
+    codes = np.zeros(SHAPE, np.uint16)
+    src = _source("Mono12Packed", [_mono12packed(codes)] * 2, timeout_after=2)
+    bufs = src.camera.ia
+    stamps = iter((1_500_000_000, 1_533_333_333))
+    real = bufs.fetch
+
+    def fetch(timeout):
+        b = real(timeout)
+        b.timestamp_ns = next(stamps)
+        return b
+
+    bufs.fetch = fetch
+    frames = list(src.grab(2))
+    assert [f.meta["device_timestamp_s"] for f in frames] == [1.5, 1.533333333]
+    with pytest.raises(FrameLost) as info:
+        list(src.grab(1))
+    assert info.value.kind == "timeout"

@@ -21,6 +21,16 @@ def ptc_small():
     return load_scan(SMALL / "ptc_small.xml")
 
 
+def _timed(scan):
+    """``scan`` on its system with the declared waits only (``<settle by="time">``)."""
+    import dataclasses
+
+    from ares.protocol.settle import Settle
+
+    t = dataclasses.replace(scan.system.timing, settle=Settle(by="time"))
+    return dataclasses.replace(scan, system=dataclasses.replace(scan.system, timing=t))
+
+
 @pytest.fixture(scope="module")
 def bias_small():
     return load_scan(SMALL / "bias_small.xml")
@@ -161,6 +171,7 @@ def test_abort_while_paused(ptc_small):
 ])
 def test_hardware_fault_keeps_completed_stages(ptc_small, tmp_path, fault, exc, words):
     seen = []
+    ptc_small = _timed(ptc_small)  # the faults are placed by frame count: no probe frames
     r = Runner(ptc_small, out_dir=tmp_path / "run", faults=fault, listeners=(seen.append,))
     with pytest.raises(HardwareError) as info:
         r.run()
@@ -236,7 +247,12 @@ def test_unknown_defect_threshold_is_refused_before_hardware(tmp_path):
 def test_dark_current_temperature_and_lag_analyses():
     dc = Runner(load_scan(ROOT / "scans" / "dark_current.xml"), frames=4).run().scan_results["dark_current"]
     assert dc["gain_from"] == "ptc in this run" and dc["rate_e_per_s"]["value"] > 0
-    lag = Runner(load_scan(ROOT / "scans" / "lag.xml")).run().scan_results["lag"]["cycles"]
+    import dataclasses
+
+    sc = load_scan(ROOT / "scans" / "lag.xml")  # at 20x the shipped lag: the ordering well above the SE
+    sim = dataclasses.replace(sc.system.simulator, params={**sc.system.simulator.params, "lag_fraction": 0.002})
+    sc = dataclasses.replace(sc, system=dataclasses.replace(sc.system, simulator=sim))
+    lag = Runner(sc).run().scan_results["lag"]["cycles"]
     # more negative transfer-gate low level -> more lag (the simulator's bias model)
     assert lag["bright_a"]["lag_pct"]["value"] < lag["bright_b"]["lag_pct"]["value"] < lag["bright_c"]["lag_pct"]["value"]
 
@@ -297,6 +313,7 @@ def test_frame_timeout_from_any_backend(ptc_small, tmp_path):
     """A FrameSource that times out (as the USB grabber does) ends the run like the sim faults."""
     from ares.rig.factory import build_bench
 
+    ptc_small = _timed(ptc_small)  # the fault is placed by frame count: no probe frames
     bench = build_bench(ptc_small.system)
     real = bench.frames
 

@@ -52,7 +52,10 @@ def _faults(items: list[str]) -> dict | None:
         try:
             out[k.strip()] = int(v)
         except ValueError:
-            raise InputError(f"--sim-fault expects KEY=N, got '{it}'") from None
+            try:  # a time constant (light_tau_s=0.3)
+                out[k.strip()] = float(v)
+            except ValueError:
+                raise InputError(f"--sim-fault expects KEY=N, got '{it}'") from None
     return out or None
 
 
@@ -142,9 +145,37 @@ class ProgressBar:
             self.stream.write(f"\rstage {e.index + 1}/{e.total} {name:<14.14} [{'#' * n}{'.' * (self.width - n)}] "
                               f"{100 * e.fraction:3.0f}% {e.frames_per_s:6.1f} frames/s ETA {fmt_s(e.remaining_s)}")
             self.stream.flush()
+        elif isinstance(e, (ev.Paused, ev.Resumed, ev.Regrab, ev.LinkHealth)):
+            self._health(e, ev)
         elif isinstance(e, (ev.Done, ev.Failed)) and self.tty:
             self.stream.write("\n")
             self.stream.flush()
+
+
+    def _health(self, e, ev) -> None:
+        """Recovery in sight: a line for every pause, resume, re-grab and change of the links'
+        trouble counters (the bar, on a terminal, goes on below it)."""
+        text = health_line(e)
+        if text:
+            self.stream.write(("\n" if self.tty else "") + text + "\n")
+            self.stream.flush()
+
+
+def health_line(e) -> str | None:
+    """The line for a Paused/Resumed/Regrab/LinkHealth event (the terminal's and the window's)."""
+    from ares.hardware.link_stats import trouble_text
+    from ares.scan import events as ev
+
+    where = f"stage {e.index + 1}"
+    if isinstance(e, ev.Paused):
+        return f"Paused at {where}: {e.reason or 'paused'}"
+    if isinstance(e, ev.Resumed):
+        return f"Resumed at {where}" + (f" after {e.seconds:.3g} s" if e.seconds is not None else "")
+    if isinstance(e, ev.Regrab):
+        return f"Regrab of {where}: {e.reason}"
+    if isinstance(e, ev.LinkHealth) and e.counts:
+        return f"link: {trouble_text(e.counts)}"
+    return None
 
 
 def dry_run(scan, frames: int | None, seed: int | None = None, out=None, out_dir=None) -> None:
@@ -199,7 +230,8 @@ def print_summary(outcome, scan, seconds: float, out=None, resumed: int = 0) -> 
     if lost:
         kinds = ", ".join(f"{x['kind']} {x['count']}" for _, x in lost)
         names = ", ".join(sorted({str(n) for n, _ in lost}))
-        out.write(f"frames lost: {kinds}; stage(s) {names} acquired again (<frames on_loss='regrab'>)\n")
+        why = "<frames on_loss='regrab'>" if scan.on_loss == "regrab" else "a transient fault under <suspend device>"
+        out.write(f"frames lost: {kinds}; stage(s) {names} acquired again ({why})\n")
     print_headline(res, out)
     for name, r in res.items():
         if name in ("ptc", "decomposition") or not isinstance(r, dict):
@@ -397,6 +429,8 @@ def execute(scan, args, *, seed, frames, faults=None, argv=None, out_dir=None, r
         sys.stderr.write(f"ares run: {len(outcome.limit_failures)} limit(s) failed: "
                          f"{'; '.join(outcome.limit_failures)}\n")
         return 4
+    if outcome.message:  # done, with something to say (a stage not settled: ares.scan.settling)
+        sys.stderr.write(f"ares run: warning: {outcome.message}\n")
     return 0
 
 

@@ -116,5 +116,15 @@ class Failed:
     message: str  # one sentence, never a traceback
 
 
+@dataclass(frozen=True)
+class Health:
+    """Recovery in sight: ``kind`` "paused", "resumed", "regrab" or "link"; ``text`` the line
+    the terminal prints (why, how long, the links' trouble counters)."""
+
+    kind: str
+    stage: int  # 1-based
+    text: str
+
+
 GuiEvent = (RunInfo | StageStarted | FramePreview | StageResult | Progress | Ending | Done | Stopped | ReportsWritten
-            | Failed)
+            | Failed | Health)

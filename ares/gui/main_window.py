@@ -14,7 +14,7 @@ from PySide6.QtWidgets import QFileDialog, QMainWindow, QMessageBox, QSplitter, 
 from ares.errors import AresError
 
 from ares.gui import engine
-from ares.gui.events import Ending, Failed, ReportsWritten, Stopped
+from ares.gui.events import Ending, Failed, Health, ReportsWritten, Stopped
 from ares.gui.info_panel import InfoPanel, versions
 from ares.gui.layout import scrolled
 from ares.gui.models import progress as P
@@ -327,6 +327,8 @@ class MainWindow(QMainWindow):
             self.show_error(ev.message)
         elif isinstance(ev, (Stopped, ReportsWritten)):  # "kept in DIR", then its reports' state
             self.statusBar().showMessage(ev.message)
+        elif isinstance(ev, Health):  # Paused/Resumed/Regrab with why, the links' trouble counters
+            self.statusBar().showMessage(ev.text)
 
     @property
     def _newest(self):

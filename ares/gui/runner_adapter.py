@@ -428,6 +428,13 @@ class RunnerJob:
             emit(G.Progress(e.index + 1, e.total, e.fraction, e.remaining_s))
         elif isinstance(e, (ev.StageFinished, ev.StageUpdated)):  # updated: masked again, replaces it
             emit(self._stage_result(e))
+        elif isinstance(e, (ev.Paused, ev.Resumed, ev.Regrab, ev.LinkHealth)):
+            from ares.commands.run import health_line  # (the terminal's words, one vocabulary)
+
+            text = health_line(e)
+            if text:
+                kind = {ev.Paused: "paused", ev.Resumed: "resumed", ev.Regrab: "regrab"}.get(type(e), "link")
+                emit(G.Health(kind, e.index + 1, text))
         elif isinstance(e, ev.Ending):
             emit(G.Ending(e.status, e.stages_completed))
         elif isinstance(e, ev.Done):

@@ -43,7 +43,7 @@ def feature_map(cfg) -> RegisterMap:
     """The camera's ``<feature>`` elements as register fields (address = position; the raw
     value is the feature's value in its own unit, physical = scale x raw)."""
     fields = tuple(Field(f.field, i, 0, 31, scale=f.scale, unit=f.unit, minimum=f.min, maximum=f.max,
-                         description=f"GenICam feature {f.node}") for i, f in enumerate(cfg.features))
+                         description=f"GenICam feature {f.node}", signed=True) for i, f in enumerate(cfg.features))
     return RegisterMap(address_bits=16, value_bits=32, endian="big", fields=fields)
 
 
@@ -159,12 +159,13 @@ class FeatureBus:
             raise
         except Exception as exc:
             raise HardwareError(f"{self.name}: cannot read feature {node} ({exc})") from None
-        if v < 0:  # a register field's raw value is unsigned
-            raise HardwareError(f"{self.name}: feature {node} reads {v}, below 0, which a <feature> field cannot hold")
-        return v
+        if not -(1 << 31) <= v < 1 << 31:
+            raise HardwareError(f"{self.name}: feature {node} reads {v}, beyond what a 32-bit <feature> field holds")
+        return v & 0xFFFFFFFF  # (the fields are signed: two's complement, -3 dB reads back as -3)
 
     def write(self, address: int, value: int) -> None:
-        self.camera.write(self._node(address), value)
+        value = int(value)
+        self.camera.write(self._node(address), value - (1 << 32) if value >= 1 << 31 else value)
 
     def reconnect(self) -> None:
         self.camera.reconnect()
@@ -247,13 +248,14 @@ class GenICamFrameSource:
                 try:
                     buf = ia.fetch(timeout=timeout)
                 except Exception as exc:
-                    if "timeout" in type(exc).__name__.lower():
-                        self.timeouts += 1
-                        raise HardwareError(f"{self.name}: no frame within {self.timeout_ms} ms "
-                                            f"(timeout) at frame {self.count}") from None
+                    if "timeout" in type(exc).__name__.lower():  # a frame late: lost, re-grabbed where the
+                        self.timeouts += 1  # scan says so (on_loss="regrab", <suspend device>)
+                        raise FrameLost(f"{self.name}: no frame within {self.timeout_ms} ms "
+                                        f"(timeout) at frame {self.count}", "timeout") from None
                     raise DeviceGone(f"{self.name}: acquisition failed at frame {self.count} ({exc})") from None
                 try:
                     fid = getattr(buf.module, "frame_id", None)
+                    stamp = _device_seconds(buf)  # the camera's own time stamp, when it gives one
                     data = self._convert(buf.payload.components[0])
                 finally:
                     buf.queue()
@@ -269,7 +271,8 @@ class GenICamFrameSource:
                 if top >= (1 << self.bit_depth):
                     raise FrameError(f"{self.name}: frame {self.count} has code {top} above the "
                                      f"{self.bit_depth}-bit range of <adc bits>")
-                frame = Frame(data, self.count, time.time(), {"frame_id": fid})
+                meta = {"frame_id": fid} if stamp is None else {"frame_id": fid, "device_timestamp_s": stamp}
+                frame = Frame(data, self.count, time.time(), meta)
                 self.count += 1
                 yield frame
         finally:
@@ -306,3 +309,12 @@ def build_genicam_bench(system):
         raise
     return Bench(regs, frames, light, chamber, {"system": system.name, "camera": system.genicam.name,
                                                 "producer": producer_path(system.genicam.cti)})
+
+
+def _device_seconds(buf) -> float | None:
+    """The buffer's device time stamp in seconds (GenTL ``timestamp_ns``), None without one."""
+    try:
+        ns = getattr(buf, "timestamp_ns", None)
+        return None if ns is None or int(ns) <= 0 else int(ns) * 1e-9
+    except Exception:  # noqa: BLE001 -- a producer that cannot say: host time only
+        return None

@@ -38,13 +38,14 @@ class I2CRegisterBus:
     def __init__(self, bus: int, address: int, address_bits: int = 16, value_bits: int = 8, *,
                  name: str = "i2c", smbus=None, retries: int = 2, verify: bool = False, value_endian: str = "big",
                  sleep=time.sleep, volatile=frozenset(), speed_hz: int | None = None, chip_id=None, init=(),
-                 sysfs: str = "/sys/bus/i2c/devices"):
+                 sysfs: str = "/sys/bus/i2c/devices", backoff_s: float = BACKOFF_S):
         self.name = name
         self.bus_number, self.address = bus, address
         self.abytes, self.vbytes = address_bits // 8, value_bits // 8
         self.value_bits, self.address_bits = value_bits, address_bits
         self.retries, self.verify, self.value_endian = int(retries), bool(verify), value_endian
         self._sleep = sleep
+        self.backoff_s = float(backoff_s)  # the busy window (<i2c backoff_ms>): the first pause before a retry
         self.volatile = frozenset(volatile)  # register addresses not verified by read-back
         self.speed_hz, self.chip_id, self.init, self.sysfs = speed_hz, chip_id, tuple(init), sysfs
         self.adapter_hz: int | None = None  # the adapter's clock, when the kernel shows it
@@ -135,7 +136,7 @@ class I2CRegisterBus:
                         self.busy_retries += 1
                     else:
                         self.other_retries += 1
-                    self._sleep(BACKOFF_S * (1 << attempt))
+                    self._sleep(self.backoff_s * (1 << attempt))
         kind = {errno.ETIMEDOUT: "timeout", errno.EBUSY: "bus busy", errno.EAGAIN: "bus busy (arbitration lost)"}.get(
             last.errno, "no acknowledge")
         raise DeviceGone(f"{self._where(reg)}: {kind} on {what} after {self.retries + 1} attempt(s) "
@@ -195,7 +196,8 @@ def open_i2c_bus(b, regmap, smbus=None) -> I2CRegisterBus:
     volatile = {f.address + k for f in regmap.fields if f.volatile for k in range(f.count)}
     return I2CRegisterBus(b.bus, b.address, regmap.address_bits, regmap.value_bits, name=b.name, smbus=smbus,
                           retries=b.retries, verify=b.verify, value_endian=b.value_endian, volatile=volatile,
-                          speed_hz=b.speed_hz, chip_id=b.chip_id, init=b.init)
+                          speed_hz=b.speed_hz, chip_id=b.chip_id, init=b.init,
+                          backoff_s=getattr(b, "backoff_ms", 1.0) / 1000.0)
 
 
 class ImageRowReadback:

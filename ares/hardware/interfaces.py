@@ -49,6 +49,8 @@ class FrameSource(Protocol):
     # exposure, as from a real sensor; False for sources that compute or read their frames
     # (the simulator, replays). The time remaining charges a frame its exposure + readout
     # only when True.
+    # Optional: ``recorded`` (default False) -- the frames are a recording (a replay): no probe
+    # frames are taken to prove the bench settled (ares.scan.settling).
     # Optional: ``frame_cost(fields) -> float`` -- the relative cost of making a frame with
     # these settings (register field -> physical value, ``light``, ``temperature``), and
     # ``compute_seconds`` -- wall seconds spent making frames so far: a source whose frame
@@ -121,6 +123,8 @@ class Bench:
     closers: list = field(default_factory=list)  # called after the devices close (emulators unregister)
     monochromator: Monochromator | None = None  # spectral bench (EMVA 1288 4.0 Linear, Section 9)
     photodiode: Photodiode | None = None
+    recovery_clock: object = None  # the clock a device's absence is waited on (emulated time), None: the host's
+    clock: object = None  # the bench's time (``now()``, ``sleep(s)``): simulated on the simulator, else None (the host's)
 
     def reconnect(self, device: str = "frames") -> None:
         """Find the bench part that failed again after it was unplugged: ``device`` is

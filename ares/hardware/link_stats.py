@@ -33,6 +33,25 @@ def counters(bench) -> dict:
     return out
 
 
+ROUTINE = ("commands", "transfers", "bytes", "short_packets", "zlps", "transactions", "frames")
+
+
+def trouble(counts: dict) -> dict:
+    """The counters of ``counts`` that tell of trouble (not the routine traffic) and are not 0."""
+    out = {}
+    for part, c in counts.items():
+        bad = {k: v for k, v in c.items() if k not in ROUTINE and v}
+        if bad:
+            out[part] = bad
+    return out
+
+
+def trouble_text(counts: dict) -> str:
+    """``frames 1 timeouts, 1 stalls; light 3 ignored lines`` (``trouble``'s counts)."""
+    return "; ".join(f"{part} " + ", ".join(f"{v} {_WORDS.get(k, k.replace('_', ' '))}" for k, v in c.items())
+                     for part, c in counts.items())
+
+
 def delta(before: dict, after: dict) -> dict:
     """What happened between two ``counters`` readings (same parts, same counters)."""
     return {part: {k: v - before.get(part, {}).get(k, 0) for k, v in c.items()} for part, c in after.items()}

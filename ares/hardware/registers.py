@@ -42,6 +42,7 @@ class Field:
     default: int = 0  # raw
     description: str = ""
     volatile: bool = False  # the device changes it (self-clearing, status): a write is not verified by read-back
+    signed: bool = False  # two's complement raw value (a GenICam feature's -3 dB, a signed offset register)
 
     @property
     def width(self) -> int:
@@ -66,14 +67,17 @@ class Field:
         """Physical value -> raw integer, range-checked (one clear sentence on failure)."""
         self.check(physical)
         raw = round((physical - self.offset) / self.scale)
-        if raw < 0 or raw >= (1 << self.width):
+        lo, hi = (-(1 << (self.width - 1)), 1 << (self.width - 1)) if self.signed else (0, 1 << self.width)
+        if raw < lo or raw >= hi:
             raise ValueOutOfRange(
                 f"register field '{self.name}': {physical:g} needs raw value {raw}, "
-                f"which does not fit in {self.width} bits"
+                f"which does not fit in {self.width} {'signed ' if self.signed else ''}bits"
             )
-        return int(raw)
+        return int(raw) & ((1 << self.width) - 1)  # (signed: two's complement on the wire)
 
     def to_physical(self, raw: int) -> float:
+        if self.signed and raw >= 1 << (self.width - 1):
+            raw -= 1 << self.width
         return self.offset + self.scale * raw
 
 

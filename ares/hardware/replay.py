@@ -84,6 +84,7 @@ class ReplayFrameSource:
     """``FrameSource`` over an EMVA 1288 descriptor, selected by exposure register + light."""
 
     exposure_paced = False  # files are read, not exposed
+    recorded = True  # nothing settles: the frames are what was recorded (no probe frames, ares.scan.settling)
 
     def __init__(self, descriptor: EmvaDescriptor, registers: RegisterFile, exposure_field: str,
                  light: ReplayLight, light_tolerance: float = 0.01, name: str | None = None):

@@ -21,6 +21,12 @@ line back first; it must come back unchanged. A garbled reply (bytes that are no
 ASCII, a bad echo, a reply the command's pattern does not match) or none at all is tried
 again ``retries`` times (``<protocol retries>``, default 0); a reply matching the error
 pattern is the instrument refusing (``HardwareError`` quoting it, never retried).
+Instruments that talk unprompted: lines matching a declared ``<ignore pattern>`` (status
+lines, asynchronous notices) are skipped wherever they come, and lines matching the
+``<stream pattern>`` (a meter's streamed readings) are never taken as a reply, except by a
+command declared ``stream="true"`` (its reply is the next streamed reading). A command's own
+``timeout_s`` and ``retries`` override the instrument's; a command declared
+``idempotent="false"`` is never sent twice (a lost or garbled reply is an error naming it).
 A silent instrument (timeout, the port still open) is a ``HardwareError``: reopening the
 port would not help. A port that is gone (an OS error on write or read: an unplugged USB
 adapter, a closed pty) is ``DeviceGone``: the recovery reopens that port.
@@ -59,6 +65,7 @@ class SerialInstrument:
         # link statistics (ares.hardware.link_stats): commands sent (each attempt), replies
         # that were garbled (noise, partial line, bad echo, wrong form) and replies that never came
         self.commands = self.garbled = self.timeouts = 0
+        self.ignored = self.streamed = 0  # unsolicited lines skipped: declared status/async, streamed readings
         self.ident: str | None = None  # the answer to the declared 'identify' command at connect
 
     def _wait(self, seconds: float, cancel=None) -> None:
@@ -95,42 +102,76 @@ class SerialInstrument:
         if self.cfg.protocol is not None and self.cfg.protocol.command("identify") is not None:
             self.ident = self.identify()
 
-    def _line(self) -> bytes:
+    def _line(self, timeout: float | None = None) -> bytes:
         term = self.protocol.reply_terminator.encode("ascii")
+        if timeout is not None and getattr(self.port, "timeout", None) is not None and self.port.timeout != timeout:
+            try:  # (the wait left for this command: its own timeout less the lines skipped)
+                self.port.timeout = timeout
+            except (AttributeError, ValueError):  # a port (a test's fake) whose timeout is fixed
+                pass
         read_until = getattr(self.port, "read_until", None)
         return read_until(term) if read_until is not None else self.port.readline()
 
-    def _exchange(self, command: str) -> str | None:
-        """One attempt: flush, send, (echo,) reply line. None: no whole line in time."""
+    def _exchange(self, command: str, cmd=None) -> str | None:
+        """One attempt: flush, send, (echo,) reply line -- past the unsolicited lines the
+        protocol declares. None: no whole line in time (``cmd.timeout_s`` or the instrument's)."""
         p = self.protocol
         term = p.reply_terminator.encode("ascii")
+        timeout = cmd.timeout_s if cmd is not None and cmd.timeout_s is not None else self.cfg.timeout_s
         self.commands += 1
         try:
             flush = getattr(self.port, "reset_input_buffer", None)
             if flush is not None:  # a late reply to an earlier command must not answer this one
                 flush()
             self.port.write((command + p.terminator).encode("ascii"))
-            if p.echo:
-                echo = self._line()
-                if not echo.endswith(term):
+            deadline = self._clock() + timeout
+            echoed = not p.echo
+            while True:
+                left = deadline - self._clock()
+                if left <= 0:
                     return None
-                if _text(echo) != command:
-                    raise _Garbled(f"echo '{_text(echo)}' of '{command}' is not the command (garbled)")
-            line = self._line()
+                line = self._line(left)
+                if not line.endswith(term):
+                    return _garbled_check(line)  # (None: silence; bytes without the terminator: garbled)
+                text = _text(line)
+                if self._unsolicited(text, cmd):
+                    continue
+                if not echoed:
+                    if text != command:
+                        raise _Garbled(f"echo '{text}' of '{command}' is not the command (garbled)")
+                    echoed = True
+                    continue
+                return text
         except OSError as exc:
             raise DeviceGone(f"{self.name} on {self.cfg.port}: port error on '{command}' ({exc})", self.ROLE) from None
-        return line.decode("ascii", "replace").strip() if line.endswith(term) else _garbled_check(line)
 
-    def query(self, command: str, pattern: str | None = None):
-        """Send ``command`` and return its reply (with ``pattern``: the match object),
-        retrying a garbled or missing reply ``retries`` times."""
+    def _unsolicited(self, text: str, cmd) -> bool:
+        """A line the instrument sent unasked: a declared status/async line, or a streamed
+        reading when ``cmd`` does not take its reply from the stream."""
         p = self.protocol
-        for attempt in range(p.retries + 1):
+        if any(re.fullmatch(pat, text) for pat in p.ignore):
+            self.ignored += 1
+            return True
+        if p.stream is not None and not (cmd is not None and cmd.stream) and re.fullmatch(p.stream, text):
+            self.streamed += 1
+            return True
+        return False
+
+    def query(self, command: str, pattern: str | None = None, cmd=None):
+        """Send ``command`` and return its reply (with ``pattern``: the match object),
+        retrying a garbled or missing reply ``retries`` times (the command's, else the
+        protocol's; never for a command declared ``idempotent="false"``)."""
+        p = self.protocol
+        retries = p.retries if cmd is None or cmd.retries is None else cmd.retries
+        if cmd is not None and not cmd.idempotent:
+            retries = 0  # sent twice it would act twice (a trigger, a toggle, a relative move)
+        timeout = cmd.timeout_s if cmd is not None and cmd.timeout_s is not None else self.cfg.timeout_s
+        for attempt in range(retries + 1):
             try:
-                reply = self._exchange(command)
+                reply = self._exchange(command, cmd)
                 if reply is None:
                     self.timeouts += 1
-                    why = (f"no reply to '{command}' within {self.cfg.timeout_s:g} s (timeout: the instrument is "
+                    why = (f"no reply to '{command}' within {timeout:g} s (timeout: the instrument is "
                            "silent, its port open)")
                     continue
                 _printable(reply, command)
@@ -151,7 +192,9 @@ class SerialInstrument:
             finally:
                 if attempt:
                     self.retried += 1
-        tries = f" after {p.retries + 1} attempts" if p.retries else ""
+        tries = f" after {retries + 1} attempts" if retries else ""
+        if cmd is not None and not cmd.idempotent:
+            tries += f" (not sent again: '{cmd.name}' is declared idempotent=\"false\")"
         raise HardwareError(f"{self.name} on {self.cfg.port}: {why}{tries}")
 
     def _do(self, name: str, value: float | None = None) -> str:
@@ -160,7 +203,7 @@ class SerialInstrument:
         c = self.protocol.command(name)
         if c is None:
             raise HardwareError(f"{self.name} on {self.cfg.port}: its <protocol> has no '{name}' command")
-        m = self.query(c.send.format(value=value), c.reply)
+        m = self.query(c.send.format(value=value), c.reply, c)
         return m.groupdict().get("value") or m.group(0)
 
     def _number(self, name: str) -> float:
@@ -186,8 +229,10 @@ class SerialInstrument:
 
     def link_counters(self) -> dict:
         """The link statistics since open (``ares.hardware.link_stats``)."""
-        return {"commands": self.commands, "retries": self.retried, "garbled": self.garbled,
-                "timeouts": self.timeouts}
+        out = {"commands": self.commands, "retries": self.retried, "garbled": self.garbled, "timeouts": self.timeouts}
+        if self.protocol.ignore or self.protocol.stream:  # an instrument that talks unprompted: what was skipped
+            out.update(ignored_lines=self.ignored, streamed_lines=self.streamed)
+        return out
 
     def identity(self) -> dict:
         """The port and what the instrument answered to its identify command at connect."""
@@ -245,6 +290,7 @@ class SerialChamber(SerialInstrument):
     DEFAULT = DEFAULT_CHAMBER
     ROLE = "chamber"
     _setpoint: float | None = None
+    last_reading: float | None = None  # the temperature read last while settling
 
     def set_temperature(self, celsius: float) -> None:
         v = self._check(celsius, "temperature", "C")
@@ -261,7 +307,7 @@ class SerialChamber(SerialInstrument):
                 raise HardwareError(f"{self.name} on {self.cfg.port}: give tolerance= (C) or a 'stable' command "
                                     "in its <protocol> to know when it has settled")
             return self._do("stable").strip() == "1", "it never reported stable"
-        t = self.get_temperature()
+        t = self.last_reading = self.get_temperature()  # (the run records it: set point and readback)
         return abs(t - self._setpoint) <= tol, (f"last reading {t:g} C, set point {self._setpoint:g} "
                                                 f"+/- {tol:g} C")
 

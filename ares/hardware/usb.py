@@ -11,8 +11,13 @@ word (searched for again after garbage: resynchronisation), size and format agai
 XML, the payload CRC when the device sends one, and the frame counter -- a gap is a
 dropped frame. Frames that do not arrive whole raise ``FrameLost`` (dropped, corrupt,
 short: a bulk read that ends early ends the transfer); the scan re-grabs the stage or
-fails, as it declares. A read that times out is a ``HardwareError``; a device that
-vanishes is ``DeviceGone``; and a watchdog (``watchdog_ms`` for a whole frame) ends a
+fails, as it declares. Transient faults are frames lost too: a read that times out (a frame
+late past the timeout) is ``FrameLost`` kind "timeout", a stalled endpoint (EPIPE) is
+cleared (``clear_halt``) and is ``FrameLost`` kind "stall"; either way the grab is stopped,
+what the device still holds is flushed before the next start and the frame counter is
+followed afresh, so a re-grab starts clean (``<frames on_loss="regrab">`` or a ``<suspend>``
+device condition re-acquire the stage). A device that vanishes is ``DeviceGone``; its
+reconnect disposes of the old handle and reads the endpoint's packet size anew. A watchdog (``watchdog_ms`` for a whole frame) ends a
 grab whose data trickle in without ever completing a frame. Every sentence names the
 grabber.
 
@@ -77,6 +82,8 @@ class UsbFrameSource:
         # that ended their transfer with a short packet / a zero-length packet, timeouts, overflows
         self.transfers = self.bytes = self.short_packets = self.zlps = self.timeouts = self.overflows = 0
         self._lost_sync = False  # searching for a sync word (counted once per search)
+        self.stalls = 0  # endpoint halts cleared (EPIPE -> clear_halt)
+        self._dirty = False  # a transient fault left bytes in the device: flush before the next start
 
     # ------------------------------------------------------------ open / control
     @classmethod
@@ -102,12 +109,19 @@ class UsbFrameSource:
         return src
 
     def reconnect(self) -> None:
-        """Find the grabber by VID/PID (and serial) again and configure it (``DeviceGone`` while away)."""
+        """Find the grabber by VID/PID (and serial) again and configure it (``DeviceGone`` while
+        away): the old handle is disposed of, and the endpoint's packet size read anew (a
+        device may come back at another speed: 512-byte high-speed, 1024-byte super-speed)."""
         again = type(self).open(self.cfg, self.shape, self.bit_depth, getattr(self, "_backend", None),
                                 self.channels, self.interleave)
-        self.dev = again.dev
+        old, self.dev = self.dev, again.dev
+        _dispose(old)
+        self.max_packet = again.max_packet
+        self._chunk = again._chunk
+        self._bufs = {len(self._chunk): self._chunk}
         self.last_counter = None
         self._carry.clear()
+        self._ended = self._dirty = False
 
     def _control(self, when: str, frames: int) -> None:
         core = _usb()
@@ -185,6 +199,14 @@ class UsbFrameSource:
                 self.zlps += 1
         return n
 
+    def _transient(self, message: str, kind: str) -> FrameLost:
+        """A transient fault: the frame is lost, the stream is followed afresh (the counter is
+        resynchronised, carried bytes dropped, the device flushed before the next start)."""
+        self._carry.clear()
+        self.last_counter = None
+        self._dirty = True
+        return FrameLost(message, kind)
+
     # ------------------------------------------------------------ bytes
     def _read(self, want: int, deadline: float) -> memoryview:
         """One bulk read of at least ``want`` bytes rounded up to whole packets (more may
@@ -201,9 +223,17 @@ class UsbFrameSource:
             n = self._bulk(buf, self.timeout_ms)
         except core.USBTimeoutError:
             self.timeouts += 1
-            raise HardwareError(f"{self.name}: no data on endpoint 0x{self.cfg.endpoint:02x} within "
-                                f"{self.timeout_ms} ms (timeout) at frame {self.count}") from None
+            raise self._transient(f"{self.name}: no data on endpoint 0x{self.cfg.endpoint:02x} within "
+                                  f"{self.timeout_ms} ms (timeout) at frame {self.count}", "timeout") from None
         except core.USBError as exc:
+            if getattr(exc, "errno", None) == errno.EPIPE:  # the endpoint halted: clear it, then re-grab
+                try:
+                    self.dev.clear_halt(self.cfg.endpoint)
+                except core.USBError as again:
+                    raise self._usb_error(again, f"clearing the halted endpoint at frame {self.count}") from None
+                self.stalls += 1
+                raise self._transient(f"{self.name}: endpoint 0x{self.cfg.endpoint:02x} stalled at frame {self.count} "
+                                      "(EPIPE; the halt was cleared)", "stall") from None
             raise self._usb_error(exc, f"frame {self.count}") from None
         self._ended = n < want  # a short packet (or ZLP): this transfer is over
         return memoryview(buf)[:n]
@@ -319,6 +349,9 @@ class UsbFrameSource:
         elif self.counter_mode == "per_grab":
             self.last_counter = -1  # the device counts from 0 at every start
         self._first = True
+        if self._dirty:  # after a transient fault: what the device still held is stale
+            self._dirty = False
+            self.flush()
         self._control("start", n)
         ok = False
         try:
@@ -347,7 +380,8 @@ class UsbFrameSource:
         """The link statistics since open (``ares.hardware.link_stats``)."""
         return {"transfers": self.transfers, "bytes": self.bytes, "short_packets": self.short_packets,
                 "zlps": self.zlps, "timeouts": self.timeouts, "overflows": self.overflows, "resyncs": self.resyncs,
-                "dropped_frames": self.dropped, "corrupt_frames": self.corrupt, "short_frames": self.short}
+                "dropped_frames": self.dropped, "corrupt_frames": self.corrupt, "short_frames": self.short,
+                "stalls": self.stalls}
 
     def identity(self) -> dict:
         """What the grabber says it is: VID:PID, serial number, manufacturer and product strings."""
@@ -359,12 +393,17 @@ class UsbFrameSource:
         return out
 
     def close(self) -> None:
-        try:
-            import usb.util
+        _dispose(self.dev)
 
-            usb.util.dispose_resources(self.dev)
-        except Exception:  # closing a vanished device must not mask the original error
-            pass
+
+def _dispose(dev) -> None:
+    """Let go of a device handle (closing a vanished device must not mask the original error)."""
+    try:
+        import usb.util
+
+        usb.util.dispose_resources(dev)
+    except Exception:  # noqa: BLE001
+        pass
 
 
 def counter_mode(cfg) -> str:

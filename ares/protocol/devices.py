@@ -7,14 +7,13 @@ instruments with their line protocol, GenICam camera -- dataclasses, loading and
 
 from __future__ import annotations
 
-import codecs
-import re
 from dataclasses import dataclass, field
 
 from lxml import etree
 
-from ares.hardware.line_protocol import Command, LineProtocol
+from ares.hardware.line_protocol import LineProtocol
 from ares.hardware.pixels import WIRE_ORDERS, pixel_format
+from ares.protocol.line_xml import protocol_from_el, protocol_to_el
 from ares.protocol.xmlsafe import fail
 
 
@@ -74,6 +73,7 @@ class I2CBus:
     readback_field: str | None = None
     chip_id: tuple[int, int] | None = None  # (register, expected value): checked at connect
     init: tuple[tuple[str, float, int], ...] = ()  # ("write", register, value) / ("wait", seconds, 0), at connect
+    backoff_ms: float = 1.0  # the busy window: the first pause before a retry (doubled each attempt)
 
 
 def i2c_from_el(path, el) -> I2CBus:
@@ -83,7 +83,8 @@ def i2c_from_el(path, el) -> I2CBus:
                el.get("readback_field"), _chip_id(el.find("chip_id")),
                tuple(("write", _int(s.get("register")), _int(s.get("value"))) if s.tag == "write"
                      else ("wait", float(s.get("ms")) / 1000.0, 0)
-                     for s in el.iterfind("init/*") if isinstance(s.tag, str)))
+                     for s in el.iterfind("init/*") if isinstance(s.tag, str)),
+               _float(el.get("backoff_ms"), 1.0))
     if b.address > 0x7F:
         raise fail(path, el.sourceline, f"I2C bus '{b.name}': address 0x{b.address:x} is not a 7-bit address")
     return b
@@ -96,7 +97,7 @@ def _chip_id(el):
 def i2c_to_el(parent, b: I2CBus):
     d = I2CBus(b.name, b.bus, b.address)
     kw = {k: getattr(b, k) for k in ("retries", "verify", "value_endian", "readback", "readback_row",
-                                      "readback_start", "readback_field") if getattr(b, k) != getattr(d, k)}
+                                      "readback_start", "readback_field", "backoff_ms") if getattr(b, k) != getattr(d, k)}
     el = _set(etree.SubElement(parent, "i2c"), name=b.name, bus=b.bus, address=f"0x{b.address:02X}",
               speed_hz=b.speed_hz, **kw)
     if b.chip_id is not None:
@@ -209,38 +210,11 @@ class SerialInstrument:
     protocol: LineProtocol | None = None  # None: DEFAULT_LIGHT / DEFAULT_CHAMBER
 
 
-def _unescape(s: str) -> str:
-    return codecs.decode(s, "unicode_escape")
-
-
-def _escape(s: str) -> str:
-    return s.encode("unicode_escape").decode("ascii")
-
-
 def serial_from_el(path, el, kind: str) -> SerialInstrument | None:
     if el is None:
         return None
-    proto = None
     p = el.find("protocol")
-    if p is not None:
-        cmds = []
-        for c in p.iterfind("command"):
-            try:
-                re.compile(c.get("reply"))
-                c.get("send").format(value=0.0)
-            except (re.error, ValueError, KeyError, IndexError) as exc:
-                raise fail(path, c.sourceline, f"<command name='{c.get('name')}'>: {exc}") from None
-            cmds.append(Command(c.get("name"), c.get("send"), c.get("reply")))
-        proto = LineProtocol(_unescape(p.get("terminator", "\\n")), _unescape(p.get("reply_terminator", "\\n")),
-                             p.get("error", LineProtocol.error), tuple(cmds), _bool(p.get("echo")),
-                             _int(p.get("retries"), 0))
-        missing = [n for n in NEEDS[kind] if proto.command(n) is None]
-        if missing:
-            raise fail(path, p.sourceline, f"<{kind}> <protocol> declares no command named "
-                                           f"{' or '.join(repr(m) for m in missing)}")
-        names = [c.name for c in cmds]
-        if len(set(names)) != len(names):
-            raise fail(path, p.sourceline, f"<{kind}> <protocol> names a command twice")
+    proto = None if p is None else protocol_from_el(path, p, kind, NEEDS[kind])
     return SerialInstrument(
         name=el.get("name"), port=el.get("port"), baud=_int(el.get("baud"), 9600), bytesize=_int(el.get("bytesize"), 8),
         parity=el.get("parity", "N"), stopbits=_int(el.get("stopbits"), 1), timeout_s=_float(el.get("timeout_s"), 1.0),
@@ -256,11 +230,7 @@ def serial_to_el(parent, tag, s: SerialInstrument):
               settle_s=s.settle_s, settle_timeout_s=s.settle_timeout_s, poll_s=s.poll_s, tolerance=s.tolerance,
               hold_s=s.hold_s)
     if s.protocol is not None:
-        p = _set(etree.SubElement(el, "protocol"), terminator=_escape(s.protocol.terminator),
-                 reply_terminator=_escape(s.protocol.reply_terminator), error=s.protocol.error,
-                 echo=True if s.protocol.echo else None, retries=s.protocol.retries or None)
-        for c in s.protocol.commands:
-            _set(etree.SubElement(p, "command"), name=c.name, send=c.send, reply=c.reply)
+        protocol_to_el(el, s.protocol, _set)
 
 
 @dataclass(frozen=True)

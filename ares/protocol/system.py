@@ -20,6 +20,7 @@ from ares.protocol.devices import (GenICam, I2CBus, Photodiode, SerialInstrument
                                    genicam_from_el, genicam_to_el, i2c_from_el, i2c_to_el, photodiode_from_el,
                                    photodiode_to_el, serial_from_el, serial_to_el,
                                    usb_from_el, usb_to_el)
+from ares.protocol.settle import Settle, settle_from_el, settle_to_el
 from ares.protocol.xmlsafe import fail
 
 
@@ -73,6 +74,7 @@ class Timing:
     flush: bool = False  # drain what the frame source holds before every stack
     margin_s: float = 0.5  # read timeouts: at least exposure + readout_s + margin_s
     after: tuple = ()  # (quantity, settle_s, discard_frames): <after quantity="light|temperature|registers">
+    settle: Settle = Settle()  # <settle>: settling proven by the frames (ares.protocol.settle)
 
     def after_change(self, quantity: str) -> tuple[float, int]:
         """(settle seconds, frames to discard) after ``quantity`` changed ("registers",
@@ -224,6 +226,7 @@ def _fields(path, reg_el, address_bits: int, value_bits: int) -> tuple[Field, ..
             scale=_float(el.get("scale"), 1.0), offset=_float(el.get("offset"), 0.0), unit=el.get("unit", ""),
             minimum=_float(el.get("min")), maximum=_float(el.get("max")), default=_int(el.get("default"), 0),
             description=el.get("description", ""), volatile=el.get("volatile", "false").strip() in ("true", "1"),
+            signed=el.get("signed", "false").strip() in ("true", "1"),
         )
         line = el.sourceline
         if f.lsb > f.msb:
@@ -305,7 +308,7 @@ def system_from_tree(tree, path) -> System:
         _float(tim.get("readout_s"), 0.0), _float(tim.get("settle_s"), 0.0), int(tim.get("discard_frames", 0)),
         tim.get("flush", "false") in ("true", "1"), _float(tim.get("margin_s"), 0.5),
         tuple((a.get("quantity"), _float(a.get("settle_s"), 0.0), int(a.get("discard_frames", 0)))
-              for a in tim.iterfind("after")))
+              for a in tim.iterfind("after")), settle_from_el(path, tim.find("settle")))
     buses = tuple(i2c_from_el(path, el) for el in root.iterfind("buses/i2c"))
     g = root.find("devices/usb_grabber")
     grabber = None if g is None else usb_from_el(path, g)
@@ -421,7 +424,8 @@ def system_to_tree(sy: System) -> etree._ElementTree:
         _set(etree.SubElement(re_, "field"), name=f.name, address=f"0x{f.address:04X}", lsb=f.lsb, msb=f.msb,
              count=f.count, access=f.access, scale=float(f.scale), offset=float(f.offset), unit=f.unit or None,
              min=None if f.minimum is None else float(f.minimum), max=None if f.maximum is None else float(f.maximum),
-             default=f.default, description=f.description or None, volatile=True if f.volatile else None)
+             default=f.default, description=f.description or None, volatile=True if f.volatile else None,
+             signed=True if f.signed else None)
     c = sy.controls
     if c != Controls():
         _set(etree.SubElement(root, "controls"), exposure=c.exposure, analog_gain=c.analog_gain, black_level=c.black_level)
@@ -432,6 +436,7 @@ def system_to_tree(sy: System) -> etree._ElementTree:
                   margin_s=None if t.margin_s == 0.5 else t.margin_s)
         for q, settle, discard in t.after:
             _set(etree.SubElement(te, "after"), quantity=q, settle_s=settle, discard_frames=discard or None)
+        settle_to_el(te, t.settle, etree.SubElement)
     if sy.buses:
         b = etree.SubElement(root, "buses")
         for bus in sy.buses:

@@ -6,15 +6,19 @@ from __future__ import annotations
 from ares.errors import InputError
 from ares.hardware.interfaces import Bench
 from ares.hardware.registers import RegisterFile
+from ares.rig.instruments import open_instrument
 from ares.sim.from_system import sim_params
 
 
-def build_bench(system, *, seed: int | None = None, faults: dict | None = None) -> Bench:
-    """The simulated bench when the system has ``<simulator>``, else the real devices."""
+def build_bench(system, *, seed: int | None = None, faults: dict | None = None, uses: set | None = None) -> Bench:
+    """The simulated bench when the system has ``<simulator>``, else the real devices.
+    ``uses``: the instruments the scan needs ("light", "chamber"; None: every one) -- one
+    it does not need may fail to open (not answer its identify command): the bench goes
+    without it and says why in ``info["unavailable"]``."""
     if system.simulator is not None and system.simulator.wire:
         from ares.rig.wire import build_wire_bench
 
-        return build_wire_bench(system, system.simulator.seed if seed is None else seed, faults)
+        return build_wire_bench(system, system.simulator.seed if seed is None else seed, faults, uses)
     if system.simulator is not None:
         from ares.sim import make_sim_bench
 
@@ -39,10 +43,10 @@ def build_bench(system, *, seed: int | None = None, faults: dict | None = None) 
         from ares.hardware.replay import build_replay_bench
 
         return build_replay_bench(system)
-    return build_real_bench(system)
+    return build_real_bench(system, uses)
 
 
-def build_real_bench(system) -> Bench:
+def build_real_bench(system, uses: set | None = None) -> Bench:
     from ares.hardware.i2c import open_i2c_bus
     from ares.hardware.serial_instruments import SerialChamber, SerialLightSource
     from ares.hardware.usb import UsbFrameSource
@@ -68,11 +72,16 @@ def build_real_bench(system) -> Bench:
             enable = (lambda on: regs.set(b.readback_field, 1 if on else 0)) if b.readback_field else None
             bus.readback = ImageRowReadback(bus, frames, b.readback_row, b.readback_start, enable)
             bus.connect()
-        light = SerialLightSource.open(system.light_source) if system.light_source else None
+        unavailable = {}
+        light = open_instrument("light", lambda: SerialLightSource.open(system.light_source), uses,
+                                unavailable) if system.light_source else None
         opened.append(light)
-        chamber = SerialChamber.open(system.chamber) if system.chamber else None
+        chamber = open_instrument("chamber", lambda: SerialChamber.open(system.chamber), uses,
+                                  unavailable) if system.chamber else None
         opened.append(chamber)
         bench = Bench(regs, frames, light, chamber, {"system": system.name})
+        if unavailable:
+            bench.info["unavailable"] = unavailable
         from ares.rig.spectral import open_spectral
 
         open_spectral(bench, system, opened)

@@ -36,7 +36,7 @@ def _aresemu_name(port: str) -> str | None:
     return port.split("://", 1)[1].strip("/") if port.startswith("aresemu://") else None
 
 
-def build_wire_bench(system, seed: int, faults: dict | None = None) -> Bench:
+def build_wire_bench(system, seed: int, faults: dict | None = None, uses: set | None = None) -> Bench:
     from ares.hardware.emulators.i2c_device import EmulatedSMBus
     from ares.hardware.emulators.serial_device import EmulatedChamber, EmulatedInstrument, register, unregister
     from ares.hardware.emulators.usb_device import EmulatedGrabber, EmulatedUsbBackend
@@ -71,7 +71,9 @@ def build_wire_bench(system, seed: int, faults: dict | None = None) -> Bench:
         if readback:
             bus.readback = ImageRowReadback(bus, frames, b.readback_row, b.readback_start)
         bus.connect()
-        inst = {}
+        from ares.rig.instruments import open_instrument
+
+        inst, unavailable = {}, {}
         for role, cfg, emu, host, device in (("light", system.light_source, EmulatedInstrument, SerialLightSource,
                                               dev.light),
                                              ("chamber", system.chamber, EmulatedChamber, SerialChamber, dev.chamber)):
@@ -84,17 +86,22 @@ def build_wire_bench(system, seed: int, faults: dict | None = None) -> Bench:
             e = emu(device, wire_f)
             register(name, e)
             emulated.append((name, e))
-            inst[role] = host.open(cfg)
+            inst[role] = open_instrument(role, lambda host=host, cfg=cfg: host.open(cfg), uses, unavailable)
             opened.append(inst[role])
     except BaseException:
         for d in opened:
-            d.close()
+            if d is not None:
+                d.close()
         for name, e in emulated:
             unregister(name, e)
         raise
     info = {k: v for k, v in dev.info.items()}
     info.update(system=system.name, wire=True, grabber_serial=grabber.serial)
-    bench = Bench(regs, frames, inst.get("light"), inst.get("chamber"), info)
+    if unavailable:  # instruments the scan does not use that did not answer
+        info["unavailable"] = unavailable
+    bench = Bench(regs, frames, inst.get("light"), inst.get("chamber"), info, clock=dev.clock)
+    if "usb_gone_s" in wire_f:  # the device is away for seconds of the bench's clock: recovery waits on it
+        bench.recovery_clock = dev.clock
     bench.closers.extend(lambda n=n, e=e: unregister(n, e) for n, e in emulated)
     bench.emulators = {"usb": grabber, "i2c": smbus, **{n: e for n, e in emulated}, "device": dev}
     from ares.rig.spectral import attach_simulated

@@ -5,7 +5,8 @@ Public API::
     expand(scan, frames=None) -> list[Stage];  estimate_seconds(scan, stages)
     Runner(scan, out_dir=, seed=, frames=, bench=, faults=) .run() -> RunOutcome
         .add_listener(fn) .pause() .resume() .stop() .abort()
-    events: RunStarted StageStarted FramePreview Progress StageFinished StageUpdated Paused Resumed Done Failed
+    events: RunStarted StageStarted FramePreview Progress StageFinished StageUpdated Paused Resumed Regrab
+            LinkHealth Ending Done Failed
     RunWriter, load_run(dir) -> RunRecord, scan_level_results(run), register_scan_analysis(name)
     auto_repeat(make_runner, count)
 

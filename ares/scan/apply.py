@@ -9,10 +9,14 @@ from ares.errors import InputError
 from ares.hardware.waits import wait
 
 
-def apply_settings(bench, system, settings: dict, previous: dict | None = None, cancel=None) -> None:
+def apply_settings(bench, system, settings: dict, previous: dict | None = None, cancel=None,
+                   evidence: bool = True, noise=None, abort=None) -> dict | None:
     """Write every setting; instruments only settle when their value changed. ``cancel``:
     a callable that is true when the run is asked to stop; an instrument's wait then ends
-    with ``ares.hardware.waits.Interrupted``."""
+    with ``ares.hardware.waits.Interrupted``. Returns what the bench waited and discarded
+    and why (``settle``); ``evidence=False``: the declared waits only (a dark whose decay
+    of image lag is the measurement). ``abort``: what ends the probe frames' waits (a stop
+    lets the stage in flight finish, its settling included, within the cap); default ``cancel``."""
     prev = previous or {}
     kinds = set()  # what changed: "registers", "light", "temperature"
     for key, value in settings.items():
@@ -45,24 +49,31 @@ def apply_settings(bench, system, settings: dict, previous: dict | None = None, 
             bench.registers.set(name, value)
         else:  # the protocol layer admits no other key
             raise InputError(f"unknown setting '{key}'")
-    settle(bench, system, settings, kinds, cancel)
+    return settle(bench, system, settings, kinds, cancel, evidence, noise, abort)
 
 
-def settle(bench, system, settings: dict, kinds: set, cancel=None) -> None:
-    """After the changes ``kinds``: the longest declared settle time, the most frames to
-    discard (``Timing.after_change``), a flush when declared; the frame time (exposure +
-    readout) to the frame source's read timeouts."""
+def settle(bench, system, settings: dict, kinds: set, cancel=None, evidence: bool = True,
+           noise=None, abort=None) -> dict | None:
+    """After the changes ``kinds``: the longest declared settle time (on the bench's clock),
+    the most frames to discard (``Timing.after_change``), a flush when declared; then, with
+    ``<settle by="frames">`` (the default), probe frames until they prove the bench settled
+    (``ares.scan.settling``). The frame time (exposure + readout) goes to the frame source's
+    read timeouts. Returns the record of what was waited and discarded and why (None: no change)."""
     t = getattr(system, "timing", None)
     if t is None:
-        return
+        return None
     frame_time = getattr(bench.frames, "set_frame_time", None)
     if frame_time is not None and "exposure" in settings:
         frame_time(float(settings["exposure"]) + t.readout_s + t.margin_s)
     waits = [t.after_change(k) for k in kinds]
     seconds = max((w[0] for w in waits), default=0.0)
     discard = max((w[1] for w in waits), default=0)
+    clock = getattr(bench, "clock", None)
     if seconds > 0:
-        wait(seconds, cancel)
+        if clock is not None:
+            wait(seconds, cancel, sleep=clock.sleep, clock=clock.now)
+        else:
+            wait(seconds, cancel)
     if discard:
         for _ in bench.frames.grab(discard):
             pass
@@ -70,6 +81,29 @@ def settle(bench, system, settings: dict, kinds: set, cancel=None) -> None:
         flush = getattr(bench.frames, "flush", None)
         if flush is not None:
             flush()
+    if not kinds:
+        return None
+    rec = {"changed": sorted(kinds), "declared_wait_s": seconds, "discarded": discard}
+    cfg = t.settle
+    if getattr(bench.frames, "recorded", False):  # a replay: its frames are the recording's, nothing settles
+        rec.update(by="time", settled=None, why="recorded frames: nothing to settle")
+        return rec
+    if cfg.by != "frames" or not evidence:
+        rec.update(by="time", settled=None, why="the declared waits only" if evidence else
+                   "the declared waits only: the frames after this change are the measurement")
+        return rec
+    def want() -> dict:  # the settings as the registers hold them (read only when the frames carry tags)
+        out = {}
+        for key, tag in (("exposure", "exposure_s"), ("analog_gain", "analog_gain")):
+            name = register_field(system, key)
+            if key in settings and name is not None:
+                out[tag] = bench.registers.get(name)
+        return out
+
+    from ares.scan.settling import settle_by_frames
+
+    rec.update(settle_by_frames(bench, cfg, want, abort if abort is not None else cancel, noise=noise))
+    return rec
 
 
 def as_fields(system, settings: dict) -> dict:

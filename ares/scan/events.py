@@ -74,11 +74,23 @@ class StageUpdated:
 @dataclass(frozen=True)
 class Paused:
     index: int
+    reason: str = ""  # why: the user paused, a condition out of tolerance, a device gone
 
 
 @dataclass(frozen=True)
 class Resumed:
     index: int
+    seconds: float | None = None  # how long the pause lasted (a recovery's record)
+    reason: str = ""
+
+
+@dataclass(frozen=True)
+class LinkHealth:
+    """The links' trouble counters changed (retries, timeouts, lost frames, skipped lines):
+    ``counts`` {part: {counter: count}} since the run started, only those not 0."""
+
+    index: int
+    counts: dict
 
 
 @dataclass(frozen=True)

@@ -109,7 +109,8 @@ class _Prefixed:
 
 
 def _with_frames(bench: Bench, frames) -> Bench:
-    return Bench(bench.registers, frames, bench.light, bench.chamber, bench.info, [])
+    return Bench(bench.registers, frames, bench.light, bench.chamber, bench.info, [],
+                 recovery_clock=bench.recovery_clock, clock=bench.clock)  # (waits on the bench's clock)
 
 
 class PrecisionRunner:

@@ -38,6 +38,8 @@ from ares.rundir.state import is_storage_error, storage_sentence
 from ares.rundir.writer import RunWriter
 from ares.scan.stages import Stage, estimate_seconds
 from ares.scan.eta import Eta, eta_stacks
+from ares.scan.settling import FrameNoise
+from ares.scan.stages import instruments_used
 from ares.scan.suspend import Suspenders
 from ares.scan.stage_loop import RunOutcome
 
@@ -141,7 +143,8 @@ class Runner(MaskCompletion, StageLoop):
             if own:
                 from ares.rig.factory import build_bench
 
-                bench = build_bench(self.system, seed=self.seed, faults=self.faults)
+                bench = build_bench(self.system, seed=self.seed, faults=self.faults, uses=instruments_used(
+                    self.stages, self.scan))
             if self.system.simulator is not None:  # its fused kernels loaded now, not in a stage's time
                 from ares.sim import fused
 
@@ -218,7 +221,11 @@ class Runner(MaskCompletion, StageLoop):
 
     def _run(self, bench, writer, completed) -> RunOutcome:
         scan, stages = self.scan, self.stages
-        self._susp = Suspenders(scan.suspend, bench, self._cancelled) if scan.suspend else None
+        rc = getattr(bench, "recovery_clock", None)  # emulated time for a device's absence (ares.rig.wire)
+        clock = {} if rc is None else {"clock": rc.now, "sleep": rc.sleep}
+        self._susp = Suspenders(scan.suspend, bench, self._cancelled, **clock) if scan.suspend else None
+        self._noise = FrameNoise()  # the run's whole-frame noise, learned from its stacks (ares.scan.settling)
+        self._unsettled = []  # stages whose bench did not settle (ares.scan.settling): named in the run's message
         vw = views(scan)
         max_code = (1 << int(bench.frames.bit_depth)) - 1
         self._frames_total = sum(s.frames_to_grab() for s in stages)

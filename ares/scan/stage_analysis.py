@@ -77,9 +77,9 @@ class StackSet:
         temperature when the source reports one (``temperature_c``)."""
         m = frame.meta or {}
         counter = m.get("counter", m.get("frame_id"))
-        t = m.get("temperature_c")
+        t, dev = m.get("temperature_c"), m.get("device_timestamp_s")  # (the device's own clock, when it has one)
         self.frame_meta.append((int(frame.index if counter is None else counter), float(frame.timestamp),
-                                float("nan") if t is None else float(t)))
+                                float("nan") if t is None else float(t), float("nan") if dev is None else float(dev)))
 
     def add(self, data: np.ndarray) -> None:
         m = self.masked
@@ -255,13 +255,16 @@ def analyze_stage(stage, flat: StackSet, dark: StackSet | None) -> tuple[dict, d
 
 def frame_meta_arrays(stack: StackSet, prefix: str = "") -> dict:
     """Per-frame metadata of a stack as arrays (``frame_counter``, ``frame_timestamp``,
-    ``frame_temperature`` when any frame carried one); none when the stack recorded none."""
+    ``frame_temperature``, ``frame_device_timestamp`` when any frame carried one); none when the
+    stack recorded none."""
     if not stack.frame_meta:
         return {}
-    counter, stamp, temp = (np.asarray(c) for c in zip(*stack.frame_meta))
+    counter, stamp, temp, dev = (np.asarray(c) for c in zip(*stack.frame_meta))
     out = {f"{prefix}frame_counter": counter.astype(np.int64), f"{prefix}frame_timestamp": stamp.astype(np.float64)}
     if np.isfinite(temp).any():
         out[f"{prefix}frame_temperature"] = temp.astype(np.float64)
+    if np.isfinite(dev).any():  # the device's time stamps (GenTL timestamp_ns), beside the host's arrival times
+        out[f"{prefix}frame_device_timestamp"] = dev.astype(np.float64)
     return out
 
 

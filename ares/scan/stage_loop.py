@@ -24,8 +24,11 @@ from ares.scan.stage_analysis import StackSet, analyze_stage
 from ares.rundir.record import RunRecord
 from ares.scan.stages import Stage
 from ares.scan.kept import KeptFrames
+from ares.scan.readback import setpoints
+from ares.scan.settling import FrameStats
 from ares.scan.suspend import Suspended
 
+TRANSIENT = ("timeout", "stall", "short")  # frames lost to a fault that a re-grab outlives
 log = logging.getLogger("ares.scan.runner")  # (the runner's log: the loop is part of it)
 
 
@@ -48,6 +51,11 @@ class StageLoop:
             t_start = time.time()
             link0 = link_stats.counters(bench)  # (the snapshot's register reads are the stage's too)
             suspensions, halted, lost, spectral = [], False, [], None
+            reacquired, settling = [], {}  # stacks acquired again (a trend or a step), what each change waited
+            # a dark stage after a flat in a lag scan: the decay of image lag in its first frames is the
+            # measurement -- the declared waits only, and its stack is not checked for a trend
+            lag_dark = ("lag" in scan.analyses and st.scene == "dark" and st.index > 0
+                        and stages[st.index - 1].scene == "flat")
             flat = dark = None  # the last stage's stacks are the committer's now (a 4096x3072 stack: 0.2 GB)
             while True:  # once, or again after a suspension (ares.scan.suspend) or lost frames
                 fw = writer.frame_writer(st.index, bench.frames.shape, None) if writer else None
@@ -56,27 +64,34 @@ class StageLoop:
                     before, dark = bench.registers.snapshot(), None
                     pos["dark"] = _position(bench)
                     if st.dark_source == "grab" and not st.dark_after:  # (dark="after": below)
-                        apply_settings(bench, system, st.dark_settings, applied, self._cancelled)
+                        _note(settling, "dark", apply_settings(bench, system, st.dark_settings, applied,
+                                                               self._cancelled, noise=self._noise,
+                                                               abort=self._abort.is_set))
                         applied = st.dark_settings
                         dark = self._grab(bench, st, st.dark_frames, vw, max_code, fw, dark=True)
                         pd_dark = photodiode_readings(bench, system)
                     elif (st.dark_source == "reuse" and cache is not None and cache.masked is None
                           and cache.kept is None and self._mask is not None):
                         # the dark to reuse predates the defect mask and kept no frames: grab it again
-                        apply_settings(bench, system, st.dark_settings, applied, self._cancelled)
+                        _note(settling, "dark", apply_settings(bench, system, st.dark_settings, applied,
+                                                               self._cancelled, noise=self._noise,
+                                                               abort=self._abort.is_set))
                         applied = st.dark_settings
                         dark = cache = self._grab(bench, st, st.dark_frames, vw, max_code, fw, dark=True)
                         pd_dark = photodiode_readings(bench, system)
                     elif st.dark_source == "reuse":
                         dark = cache
-                    apply_settings(bench, system, st.settings, applied, self._cancelled)
+                    _note(settling, "flat", apply_settings(bench, system, st.settings, applied, self._cancelled,
+                                                          evidence=not lag_dark, noise=self._noise,
+                                                          abort=self._abort.is_set))
                     applied = dict(st.settings)
                     pos["flat"] = _position(bench)
                     flat = self._grab(bench, st, st.frames, vw, max_code, fw, dark=False)
                     spectral = spectral_readings(bench, system)
                     if st.dark_after:  # the bright->dark cycle the lag analysis reads
                         pos["dark"] = _position(bench)
-                        apply_settings(bench, system, st.dark_settings, applied, self._cancelled)
+                        _note(settling, "dark", apply_settings(bench, system, st.dark_settings, applied,
+                                                               self._cancelled, evidence=False))
                         applied = st.dark_settings
                         dark = self._grab(bench, st, st.dark_frames, vw, max_code, fw, dark=True)
                         pd_dark = photodiode_readings(bench, system)
@@ -85,12 +100,15 @@ class StageLoop:
                     if fw is not None:
                         fw.close(keep=False)
                     lost.append({"kind": exc.kind, "count": exc.count, "message": str(exc)})
-                    if self.scan.on_loss != "regrab" or len(lost) > self.scan.max_regrabs:
-                        if self.scan.on_loss == "regrab":
+                    # a transient fault (a late frame, a stalled endpoint) under <suspend device>: re-grab too
+                    transient = exc.kind in TRANSIENT and self._susp is not None and self._susp.handles_devices
+                    if (self.scan.on_loss != "regrab" and not transient) or len(lost) > self.scan.max_regrabs:
+                        if self.scan.on_loss == "regrab" or transient:
                             raise FrameLost(f"{exc} -- still losing frames after {self.scan.max_regrabs} re-grab(s) "
                                             "(<frames max_regrabs>)", exc.kind, exc.count) from None
                         raise
                     self._emit(ev.Regrab(st.index, str(exc)))
+                    self._link_health(bench, st.index)
                     applied = {}  # start the stage from a known state
                     continue
                 except (Suspended, DeviceGone) as exc:  # suspenders: drop the stage's frames, wait, acquire again
@@ -98,7 +116,8 @@ class StageLoop:
                         fw.close(keep=False)
                     if not (self._susp is not None and self._susp.handles(exc)):
                         raise
-                    self._emit(ev.Paused(st.index))
+                    self._emit(ev.Paused(st.index, str(exc)))
+                    self._link_health(bench, st.index)
                     try:
                         suspensions.append(self._susp.wait_out(exc, st.name, len(suspensions)))
                     except Interrupted:
@@ -106,7 +125,7 @@ class StageLoop:
                         break
                     if isinstance(exc, DeviceGone):
                         applied = {}  # it may have lost its settings: apply every one again
-                    self._emit(ev.Resumed(st.index))
+                    self._emit(ev.Resumed(st.index, suspensions[-1].get("seconds"), str(exc)))
                     continue
                 except (_Aborted, Interrupted):  # aborted mid-stage, or stopped while an instrument settled
                     if fw is not None:
@@ -117,6 +136,16 @@ class StageLoop:
                     if fw is not None:
                         fw.close(keep=False)
                     raise
+                unsteady = (None if lag_dark or getattr(bench.frames, "recorded", False)  # (a replay: as recorded)
+                            else _unsteady(st, flat, dark, system, self._noise))
+                if unsteady and self._susp is not None and len(reacquired) < system.timing.settle.reacquire:
+                    if fw is not None:  # under <suspend>: a stack that trends or steps is acquired again
+                        fw.close(keep=False)
+                    reacquired.append(unsteady)
+                    self._emit(ev.Regrab(st.index, "not settled: " + _say(unsteady)))
+                    applied = {}  # every setting again, and the bench settled again by its frames
+                    continue
+                settling.update(_verdict(settling, unsteady, reacquired))
                 break
             if halted:
                 break
@@ -150,6 +179,17 @@ class StageLoop:
                 extra["bench_position"] = pos  # where the frame stream stood (ares resume)
             if suspensions:
                 extra["suspensions"] = suspensions
+            if pos.get("end") is not None or after:  # each set quantity: set point, readback, tolerance
+                extra["setpoints"] = setpoints(bench, system, st.settings, after or {})
+                off = [k for k, v in extra["setpoints"].items() if v.get("ok") is False]
+                if off:
+                    log.warning("stage %d '%s': readback outside its tolerance for %s", st.index, st.name,
+                                ", ".join(off))
+            if settling:  # what each change waited and discarded, and why; a stack that trends or steps
+                extra["settling"] = settling
+                if settling.get("unsettled"):
+                    self._unsettled.append(f"stage {st.index} '{st.name}': {settling['unsettled']}")
+                    log.warning("stage %d '%s' is not settled: %s", st.index, st.name, settling["unsettled"])
             if lost:
                 extra["frames_lost"] = lost
             if link0:  # what the stage did on each link, retries and recoveries included
@@ -182,6 +222,8 @@ class StageLoop:
                 message = "scan-level analysis failed: " + "; ".join(f"{k}: {v}" for k, v in broken.items())
             if status == "done":
                 fails = check_limits(scan, scan_results)
+        if self._unsettled:  # said on every surface: run.json's message, the outcome, the log
+            message = "; ".join(m for m in (message, "not settled: " + "; ".join(self._unsettled)) if m)
         if writer:  # the reports to come are part of the run: "done" reads so only once they are written
             writer.finish(status, message or "; ".join(fails), scan_results, fails,
                           reports="writing" if completed and self._report_formats() else None,
@@ -229,6 +271,13 @@ class StageLoop:
         return result, arrays
 
 
+    def _link_health(self, bench, index: int) -> None:
+        """``LinkHealth`` when the links' trouble counters changed since the last one."""
+        now = link_stats.trouble(link_stats.counters(bench))
+        if now != getattr(self, "_health", {}):
+            self._health = now
+            self._emit(ev.LinkHealth(index, now))
+
     def _grab(self, bench, st: Stage, n: int, vw, max_code, fw, dark: bool) -> StackSet:
         src = bench.frames
         shape = tuple(src.shape)
@@ -242,12 +291,13 @@ class StageLoop:
             ss.kept = KeptFrames(max(KEEP_FOR_MASK_BYTES - self._pending_in_memory(), 0), self._scratch_dir)
         self._eta.stage_started(time.monotonic() - self._t0,  # waiting for a first frame is stage work
                                 "dark" if dark or st.scene == "dark" else "flat", st.scene)
+        ss.frame_stats = []
         it = iter(src.grab(n))
         k = 0
         try:
             while True:
                 if self._pause.is_set():
-                    self._emit(ev.Paused(st.index))
+                    self._emit(ev.Paused(st.index, "paused by the user"))
                     while self._pause.is_set() and not self._abort.is_set():
                         time.sleep(0.02)
                     self._emit(ev.Resumed(st.index))
@@ -267,6 +317,7 @@ class StageLoop:
                                      f"{data.shape[0]}, expected {shape[1]}x{shape[0]})")
                 ss.add(data)
                 ss.note_frame(frame)
+                ss.frame_stats.append(FrameStats.of(data))  # the stack's steadiness (ares.scan.settling)
                 if fw is not None:
                     fw.add(data, dark=dark)
                 self._frames_done += 1
@@ -275,6 +326,7 @@ class StageLoop:
                 self._eta.frame(elapsed, None if getattr(src, "exposure_paced", True)
                                 else getattr(src, "compute_seconds", None))
                 remaining = self._eta.remaining(elapsed)
+                self._link_health(bench, st.index)
                 self._emit(ev.FramePreview(st.index, k, n, data, dark))
                 self._emit(ev.Progress(st.index, len(self.stages), self._frames_done, self._frames_total, fps,
                                        remaining))
@@ -302,6 +354,49 @@ class RunOutcome:
 
 class _Aborted(Exception):
     pass
+
+
+def _note(settling: dict, which: str, rec: dict | None) -> None:
+    """Keep a change's settling record (the latest of an acquisition repeated)."""
+    if rec is not None:
+        settling[which] = rec
+
+
+def _unsteady(st: Stage, flat, dark, system, noise) -> dict | None:
+    """The stacks that trend or step (``ares.scan.settling.stack_verdict``): {"flat"/"dark": what}.
+    A dark grabbed after its flat is not checked (the decay of image lag is its measurement),
+    nor a dark reused from an earlier stage."""
+    from ares.scan.settling import stack_verdict
+
+    cfg = system.timing.settle  # (checked whichever way the bench settled: by="time" too)
+    out = {}
+    for which, ss in (("flat", flat), ("dark", dark if st.dark_source == "grab" and not st.dark_after else None)):
+        stats = getattr(ss, "frame_stats", None)
+        v = stack_verdict(stats, cfg.k, cfg.rtol, noise) if stats else None
+        if v is not None:
+            out[which] = v
+        elif stats:
+            noise.learn(stats)  # a steady stack teaches the run its whole-frame noise
+    return out or None
+
+
+def _say(unsteady: dict) -> str:
+    return "; ".join(f"the {w} stack {v['kind']}s by {v['change_dn']:+.3g} DN (tolerance {v['tolerance_dn']:.3g} DN)"
+                     for w, v in unsteady.items())
+
+
+def _verdict(settling: dict, unsteady: dict | None, reacquired: list) -> dict:
+    """The stage's settling verdict: ``unsettled`` names why when a change did not settle
+    within its cap or the stack kept trending or stepping."""
+    out = {"stack": unsteady or "steady"}
+    if reacquired:
+        out["reacquired"] = reacquired
+    why = [f"{w}: {r['why']}" for w, r in settling.items() if isinstance(r, dict) and r.get("settled") is False]
+    if unsteady:
+        why.append(_say(unsteady))
+    if why:
+        out["unsettled"] = "; ".join(why)
+    return out
 
 
 def _position(bench) -> dict | None:

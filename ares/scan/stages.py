@@ -110,3 +110,18 @@ def estimate_seconds(scan: Scan, stages: list[Stage]) -> float:
             total += ch
             prev_t = t
     return total
+
+
+def instruments_used(stages, scan) -> set:
+    """The bench instruments a scan needs: "light" and "chamber" when a stage sets them or a
+    ``<suspend>`` condition reads them (``ares.rig.factory.build_bench``: one it does not
+    need may fail to answer without failing the scan). Every dark sets the light to 0 (a
+    light that does not answer may be on): a declared light is always needed."""
+    keys = {k for st in stages for d in (st.settings, st.dark_settings) for k in d}
+    conds = {q for q, _ in (scan.suspend.conditions if getattr(scan, "suspend", None) else ())}
+    used = set()
+    if "light" in keys or "light" in conds:
+        used.add("light")
+    if "temperature" in keys or "temperature" in conds:
+        used.add("chamber")
+    return used

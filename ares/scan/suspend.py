@@ -63,6 +63,11 @@ class Suspenders:
         if why:
             raise Suspended(why, settings)
 
+    @property
+    def handles_devices(self) -> bool:
+        """A ``device`` condition: devices that fail are waited for and reopened."""
+        return any(q == "device" for q, _ in self.spec.conditions)
+
     def handles(self, exc: Exception) -> bool:
         """A failed condition always; an unplugged frame source with a ``device`` condition."""
         return isinstance(exc, Suspended) or (isinstance(exc, DeviceGone)

@@ -31,8 +31,10 @@ from ares.sim.params import SensorParams
 from ares.sim.ranges import TEMPERATURE_C
 from ares.sim.regmap import SIM_REGISTER_MAP
 from ares.sim.sensor import SimSensor
+from ares.sim.strict import Pipeline, SettlingLight, SimClock
 
-_FAULTS = ("disconnect_after_frames", "reconnect_after_polls", "short_frame_at", "frame_delay_ms")  # delay: a slow camera, for kill tests
+_FAULTS = ("disconnect_after_frames", "reconnect_after_polls", "short_frame_at", "frame_delay_ms",  # delay: a slow camera
+           "light_tau_s", "pipeline_lag_frames")  # strict devices (ares.sim.strict): a settling LED, a lagging pipeline
 _CHUNK = 1  # frames rendered per call inside grab(): one at a time -- the operating point and its plan are
 #   cached across calls, so chunks saved nothing; frames now arrive as they are made (the time remaining
 #   measures the render as frame time) and a 4096x3072 grab holds one frame, not 16 (400 MB)
@@ -81,12 +83,20 @@ class SimRegisterBus:
 
 
 class SimLightSource:
-    """Uniform illumination; level in photons per pixel per second at the sensor."""
+    """Uniform illumination; level in photons per pixel per second at the sensor. With
+    ``tau_s`` (and the bench's ``clock``) the level reaching the sensor relaxes to a new set
+    point with that time constant (``ares.sim.strict.SettlingLight``); ``get_level`` reads
+    the set point back, as an LED driver does."""
 
-    def __init__(self, name: str = "sim-light", level: float = 0.0):
+    def __init__(self, name: str = "sim-light", level: float = 0.0, clock=None, tau_s: float = 0.0):
         self.name = name
         self._level = 0.0
+        self._settling = SettlingLight(clock, tau_s) if clock is not None and tau_s > 0 else None
         self.set_level(level)
+
+    def level_at(self, t: float) -> float:
+        """The level at the sensor at simulated time ``t``."""
+        return self._level if self._settling is None else self._settling.level_at(t)
 
     def set_level(self, level: float) -> None:
         try:
@@ -96,6 +106,8 @@ class SimLightSource:
         if not math.isfinite(v) or v < 0:
             raise ValueOutOfRange(f"{self.name}: light level {level!r} photons/pixel/s must be finite and >= 0")
         self._level = v
+        if self._settling is not None:
+            self._settling.set(v)
 
     def get_level(self) -> float:
         return self._level
@@ -143,7 +155,7 @@ class SimFrameSource:
 
     def __init__(self, sensor: SimSensor, registers: RegisterFile, light: SimLightSource | None = None,
                  chamber: SimChamber | None = None, faults: dict | None = None, name: str = "sim grabber",
-                 readout_s: float | None = None):
+                 readout_s: float | None = None, clock: SimClock | None = None):
         """``readout_s``: paced, as a sensor streams -- a frame comes no sooner than its
         exposure + ``readout_s`` after the one before (the first: after the grab starts), or
         when computed if that is later; None: as soon as computed."""
@@ -167,7 +179,9 @@ class SimFrameSource:
         self.faults = faults
         self.frames_delivered = 0
         self._short_fired = False
-        self.clock_s = 0.0  # simulated time: sum of exposures
+        self.clock = clock if clock is not None else SimClock()  # simulated time: exposures and waits
+        lag = int(faults.get("pipeline_lag_frames", 0))
+        self._pipeline = Pipeline(lag) if lag > 0 else None
         self.compute_seconds = 0.0  # wall seconds spent making frames (the time remaining weighs stages by it)
         self._sf0 = SIM_REGISTER_MAP.field("sf_bias").to_physical(SIM_REGISTER_MAP.field("sf_bias").default)
         self._tx0 = SIM_REGISTER_MAP.field("tx_low").to_physical(SIM_REGISTER_MAP.field("tx_low").default)
@@ -204,6 +218,24 @@ class SimFrameSource:
             lag_scale=2.0 ** (-(tx - self._tx0) / 0.25),
         )
 
+    @property
+    def clock_s(self) -> float:
+        return self.clock.now()
+
+    @clock_s.setter
+    def clock_s(self, t: float) -> None:
+        self.clock.t = float(t)
+
+    def _strict(self, s: dict) -> dict:
+        """The next frame's settings on a strict bench: the pipeline's, the light's now."""
+        s = dict(s)
+        if self._pipeline is not None:
+            s.update(self._pipeline.frame_settings(s))
+        if getattr(self.light, "_settling", None) is not None:  # the level reaching the sensor mid-exposure
+            now = self.light.level_at(self.clock.now() + s["exposure_s"] / 2)
+            s["photon_flux"] = self.settings({"light": now})["photon_flux"]
+        return s
+
     def frame_cost(self, fields: dict) -> float:
         """Relative cost of a frame with ``fields`` set (as ``settings``): the time
         remaining charges the stages to come by it (``ares.sim.cost``)."""
@@ -233,10 +265,11 @@ class SimFrameSource:
             if k == 0:
                 self._raise_fault()
             t0 = time.perf_counter()
+            fs = self._strict(s) if self._pipeline is not None or getattr(self.light, "_settling", None) else s
             if mode == 2:
                 data = self.sensor.render_ramp(k)
             else:
-                data = self.sensor.render(k, dark=(mode == 1), shot_noise=self.sensor.params.shot_noise, **s)
+                data = self.sensor.render(k, dark=(mode == 1), shot_noise=self.sensor.params.shot_noise, **fs)
             self.compute_seconds += time.perf_counter() - t0
             for frame in data:
                 if self.faults.get("frame_delay_ms"):
@@ -251,8 +284,8 @@ class SimFrameSource:
                 # the counter at n, or fault-injection points drift by one.
                 index, stamp = self.frames_delivered, self.clock_s
                 self.frames_delivered += 1
-                self.clock_s += s["exposure_s"]
-                yield Frame(data=frame, index=index, timestamp=stamp, meta=dict(meta))
+                self.clock.advance(fs["exposure_s"])
+                yield Frame(data=frame, index=index, timestamp=stamp, meta=dict(meta, **fs) if fs is not s else dict(meta))
             left -= k
 
     def position(self) -> dict:
@@ -327,8 +360,10 @@ def make_sim_bench(params: SensorParams | None = None, seed: int = 0, faults: di
     sensor = SimSensor(params, seed)
     bus = SimRegisterBus()
     regs = RegisterFile(SIM_REGISTER_MAP, bus)
-    light, chamber = SimLightSource(), SimChamber()
-    frames = SimFrameSource(sensor, regs, light, chamber, faults, readout_s=readout_s)
-    return Bench(registers=regs, frames=frames, light=light, chamber=chamber,
+    clock = SimClock()
+    tau = float((faults or {}).get("light_tau_s", 0.0))
+    light, chamber = SimLightSource(clock=clock, tau_s=tau), SimChamber()
+    frames = SimFrameSource(sensor, regs, light, chamber, faults, readout_s=readout_s, clock=clock)
+    return Bench(registers=regs, frames=frames, light=light, chamber=chamber, clock=clock,
                  info={"simulator": True, "seed": int(seed), "sensor": sensor,
                        "params": sensor.params.to_dict(), "chip_id": regs.get("chip_id")})

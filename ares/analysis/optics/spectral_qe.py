@@ -102,13 +102,14 @@ def qe_point(p: SpectralPoint, K: Estimate, table, pd_area_m2: float, pixel_area
         return na(f"outside the photodiode's calibration table ({table[0][0]:g}-{table[0][-1]:g} nm)")
     if p.frac_at_max > SATURATED_FRACTION:
         return na(f"saturated ({100 * p.frac_at_max:.2g} % of the pixels at the top code)")
+    floor = DARK_SIGMAS * p.dark_sigma_dn
+    if not net > floor:  # (first: a dim signal's shot variance is below the scatter of the variance itself,
+        #   so the collapse test below would call it saturated by chance)
+        return na(f"too dark (net signal {net:.3g} DN below {DARK_SIGMAS:g} dark sigmas, {floor:.3g} DN)")
     shot = p.var_dn2 - p.dark_sigma_dn**2
     if K.available and net > 0 and shot < SHOT_FRACTION * K.value * net:  # full well: the variance collapses
         return na(f"saturated (temporal variance {shot:.3g} DN^2 is below half the shot noise K x signal, "
                   f"{K.value * net:.3g} DN^2: the pixels clip)")
-    floor = DARK_SIGMAS * p.dark_sigma_dn
-    if not net > floor:
-        return na(f"too dark (net signal {net:.3g} DN below {DARK_SIGMAS:g} dark sigmas, {floor:.3g} DN)")
     pd = p.pd_light - p.pd_dark
     if not pd > 0:
         return na("the photodiode read no light above its dark reading")

@@ -13,8 +13,8 @@ import time
 import numpy as np
 
 from ares.labels import FIGURES, HEADLINE_FIGURES, PTC_FIGURES
-from ares.gui.events import (Done, Ending, Failed, FramePreview, Progress, ReportsWritten, RunInfo, StageResult, StageStarted,
-                      Stopped)
+from ares.gui.events import (Done, Ending, Failed, FramePreview, Health, Progress, ReportsWritten, RunInfo, StageResult,
+                             StageStarted, Stopped)
 from ares.gui.models import progress as P
 from ares.gui.models.components import ComponentsModel
 from ares.gui.models.defects import DefectCountsModel
@@ -300,6 +300,11 @@ class SessionModel:
         elif isinstance(ev, Failed):
             self._end_of_run()
             self.progress.update(state=P.FAILED, seconds_remaining=None, message=ev.message)
+        elif isinstance(ev, Health):  # a pause, a resume, a re-grab (why), the links' trouble counters
+            if ev.kind == "link":
+                self.info.update(link_health=ev.text.removeprefix("link: "))
+            else:
+                self.progress.update(state=P.PAUSED if ev.kind == "paused" else P.RUNNING, message=ev.text)
 
     # ---- per-event updates ------------------------------------------------------------
     def _update_distributions(self, image: np.ndarray) -> None:

@@ -49,6 +49,8 @@ class Serial(SerialBase):
                 reply = self.instrument.handle(line)
                 if isinstance(reply, Late):
                     self._late += (reply + "\n").encode("ascii")
+                elif isinstance(reply, list):  # lines the instrument sent unasked, then its reply
+                    self._rx += "".join(r + "\n" for r in reply).encode("ascii")
                 elif reply is not None:
                     self._rx += (reply + "\n").encode("ascii")
         return len(data)

@@ -13,10 +13,17 @@ in a faults dict given to their emulators, N = 0-based command count):
 ``ROLE_timeout_at`` (no reply), ``ROLE_wrong_reply_at`` (a reply of the wrong form),
 ``ROLE_error_at`` (``ERR`` reply), ``ROLE_disconnect_at`` (the port is gone from then on),
 ``ROLE_late_at`` (the reply comes after the host's read timed out: it waits in the input buffer).
+
+``ROLE_chatty`` = SEED: an instrument that talks unprompted (issue 49) -- before a reply come
+0 to 2 lines it sends on its own, drawn with that seed: a status line (``STATUS 25.00 C OK``,
+as one sent every 0.3 s would land), an asynchronous ``SETTLED`` notice and a streamed
+reading (``+1.2345E-03``, a bare number as a streaming meter sends). A host that declares
+them (``<ignore>``, ``<stream>``) skips them; one that does not takes them for the reply.
 """
 
 from __future__ import annotations
 
+import random
 import threading
 
 from ares.errors import AresError
@@ -42,7 +49,12 @@ def lookup(name: str) -> "EmulatedInstrument | None":
 
 
 def faults_for(role: str) -> tuple[str, ...]:
-    return tuple(f"{role}_{k}" for k in ("timeout_at", "wrong_reply_at", "error_at", "disconnect_at", "late_at"))
+    return tuple(f"{role}_{k}" for k in ("timeout_at", "wrong_reply_at", "error_at", "disconnect_at", "late_at",
+                                         "chatty"))
+
+
+class Chatty(list):
+    """Lines the instrument sends before its reply (the reply last)."""
 
 
 class Late(str):
@@ -66,8 +78,19 @@ class EmulatedInstrument:
         self.commands = 0
         self.gone = False
         self.log: list[str] = []
+        seed = self.faults.get("chatty")
+        self._chat = random.Random(seed) if seed is not None else None
 
-    def handle(self, line: str) -> str | None:
+    def handle(self, line: str):
+        reply = self._handle(line)
+        if self._chat is None or reply is None or isinstance(reply, Late):
+            return reply
+        said = [self._chat.choice((f"STATUS {25 + self._chat.random():.2f} C OK", "SETTLED",
+                                   f"{self._chat.uniform(-1, 1) * 1e-3:+.4E}"))
+                for _ in range(self._chat.choice((0, 1, 1, 2)))]
+        return Chatty(said + [reply])
+
+    def _handle(self, line: str) -> str | None:
         n = self.commands
         self.commands += 1
         self.log.append(line)

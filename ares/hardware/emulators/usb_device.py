@@ -29,6 +29,13 @@ ends), ``usb_garbage_at`` (junk bytes before frame N: the host resynchronises),
 ``usb_timeout_at`` (no data: the read times out), ``usb_disconnect_at`` (unplugged; with
 ``usb_reconnect_after_polls`` = M it is found again at the M-th search).
 
+Transient faults (issue 49): ``usb_late_at`` (frame N comes ``usb_late_ms`` late, default 1200:
+past the host's read timeout it is a timeout, and the frame arrives after it), ``usb_stall_at``
+(the endpoint halts at frame N: every bulk read is EPIPE until the host clears the halt;
+what the FIFO held is lost), ``usb_gone_s`` = S (with ``usb_disconnect_at``: unplugged for S
+seconds of the bench's clock -- emulated time -- then found again), ``usb_reconnect_packet``
+= P (found again with wMaxPacketSize P: the host must read the descriptor anew).
+
 ``usb_pipeline_frames`` = K: a sensor that keeps exposing after a stop -- K frames exposed at
 the settings of that moment wait in the device and come first at the next start (what a
 settings change must discard: ``<timing discard_frames>``).
@@ -48,7 +55,8 @@ from ares.hardware import frame_header as fh
 from ares.hardware.pixels import pack, pixel_format, to_wire_order
 
 FAULTS = ("usb_drop_at", "usb_corrupt_at", "usb_short_at", "usb_garbage_at", "usb_timeout_at",
-          "usb_disconnect_at", "usb_reconnect_after_polls", "usb_pipeline_frames")
+          "usb_disconnect_at", "usb_reconnect_after_polls", "usb_pipeline_frames", "usb_late_at", "usb_late_ms",
+          "usb_stall_at", "usb_gone_s", "usb_reconnect_packet")
 
 
 class EmulatedGrabber:
@@ -78,6 +86,10 @@ class EmulatedGrabber:
         start = [c for c in cfg.controls if c.when == "start"]
         self._start = start[0] if start and start[0].value == "frames" else None
         self.requests: list[tuple] = []  # control requests received (tests look at them)
+        self.clock = getattr(frames, "clock", None)  # the bench's clock (emulated time: usb_gone_s)
+        self.halted = False  # the endpoint stalled (usb_stall_at) until the host clears the halt
+        self._gone_at = None
+        self.handles_closed = 0  # host handles disposed (a reconnect must let go of the old one)
 
     # ------------------------------------------------------------ descriptors
     def device_descriptor(self, address: int):
@@ -142,10 +154,17 @@ class EmulatedGrabber:
 
     def _next_transfer(self, timeout_ms: int | None = None) -> None:
         n = self.counter
+        if self.halted:
+            raise _usb_error(errno.EPIPE, "Pipe error (endpoint halted)")
         if n == self.faults.get("usb_disconnect_at"):
             self.connected = False
             self.faults.pop("usb_disconnect_at")
+            self._gone_at = self.clock.now() if self.clock is not None else None
             self._gone()
+        if n == self.faults.get("usb_stall_at"):
+            self.faults.pop("usb_stall_at")
+            self.halted = True
+            raise _usb_error(errno.EPIPE, "Pipe error (endpoint halted)")
         if n == self.faults.get("usb_timeout_at"):
             self.faults.pop("usb_timeout_at")
             time.sleep(self.cfg.timeout_ms / 1000.0)
@@ -194,6 +213,11 @@ class EmulatedGrabber:
         else:
             self._send(junk + head)
             self._send(bytes(payload))
+        if n == self.faults.get("usb_late_at"):  # the frame is on its way, after the host stopped waiting
+            self.faults.pop("usb_late_at")
+            late = self.faults.get("usb_late_ms", 1200) + (1000 * self.latency() if self.latency else 0)
+            if timeout_ms and late > timeout_ms:
+                raise _usb_error(errno.ETIMEDOUT, "Operation timed out (frame late)", timeout=True)
 
     def _embed(self, img: np.ndarray) -> np.ndarray:
         """A sensor without I2C read: its registers, one byte per pixel, in an image row."""
@@ -227,14 +251,27 @@ class EmulatedGrabber:
                 break
         return bytes(got)
 
+    def clear_halt(self, endpoint: int) -> None:
+        """The host clears the endpoint's halt: reads work again; what the FIFO held is lost."""
+        self._gone()
+        self.halted = False
+        self._out = deque()
+
     def present(self) -> bool:
-        """Seen by a search: a disconnected device comes back at the M-th search after it left."""
+        """Seen by a search: a disconnected device comes back at the M-th search after it left
+        (``usb_reconnect_after_polls``), or ``usb_gone_s`` seconds of the bench's clock after."""
         if not self.connected:
             self.polls += 1
             back = self.faults.get("usb_reconnect_after_polls")
+            gone_s = self.faults.get("usb_gone_s")
+            if gone_s is not None and self.clock is not None and self._gone_at is not None:
+                if self.clock.now() - self._gone_at >= gone_s:
+                    back = 0
             if back is not None and self.polls >= back:
                 self.connected = True
                 self._gen, self._out = None, deque()
+                if "usb_reconnect_packet" in self.faults:  # enumerated again at another speed
+                    self.max_packet = int(self.faults["usb_reconnect_packet"])
         return self.connected
 
 
@@ -281,7 +318,7 @@ class EmulatedUsbBackend(_backend_base()):
         return dev[1]
 
     def close_device(self, dev_handle):
-        pass
+        dev_handle.handles_closed += 1
 
     def set_configuration(self, dev_handle, config_value):
         dev_handle._gone()
@@ -315,7 +352,7 @@ class EmulatedUsbBackend(_backend_base()):
         return out
 
     def clear_halt(self, dev_handle, ep):
-        pass
+        dev_handle.clear_halt(ep)
 
     def reset_device(self, dev_handle):
         pass
