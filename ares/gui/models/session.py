@@ -67,7 +67,7 @@ def figure_key(key: str, name: str) -> str:
     return headline_key(name, unit=HEADLINE_UNITS[key]) if key in HEADLINE_UNITS else headline_key(name)
 
 
-# The headline figures, in the terminal's order (ares.commands.run.print_headline): they head
+# The headline figures, in the terminal's order (ares.commands.run_summary.print_headline): they head
 # the Information tab, above the versions, the scan and the run directory.
 HEADLINE = tuple(headline_key(label) for _, label in PTC_FIGURES) + tuple(
     figure_key(k, FIGURES[k][0]) for k in HEADLINE_FIGURES)
