@@ -15,13 +15,13 @@ import sys
 from ares import __version__
 from ares.errors import AresError
 
-COMMANDS = ["run", "resume", "validate", "rerun", "analyze", "emva", "ptc", "mtf", "defects", "report", "batch", "lots",
-            "bench", "gui"]
+COMMANDS = ["run", "resume", "validate", "rerun", "analyze", "emva", "ptc", "mtf", "photon-counting", "defects", "report",
+            "batch", "lots", "bench", "gui"]
 
 
-# where a command lives when not in ``ares.commands`` (the window's command belongs to ``ares.gui``:
+# where a command lives when not ``ares.commands.<name>`` (a hyphenated name; the window's command belongs to ``ares.gui``:
 # nothing below the window imports it)
-HOMES = {"gui": "ares.gui.command"}
+HOMES = {"gui": "ares.gui.command", "photon-counting": "ares.commands.photon_counting"}
 
 
 def _modules():
@@ -66,7 +66,7 @@ def tune_malloc() -> None:
 
 # Commands that leave nothing behind when they return (no worker processes, no Qt, every
 # file closed): the ``ares`` script ends them without the interpreter's teardown.
-FAST_EXIT = {"run", "resume", "rerun", "validate", "analyze", "emva", "ptc", "defects", "report"}
+FAST_EXIT = {"run", "resume", "rerun", "validate", "analyze", "emva", "ptc", "photon-counting", "defects", "report"}
 _ran: list[str] = []  # the command main() ran, for console()
 
 

@@ -16,7 +16,7 @@ ROOT = Path(__file__).resolve().parents[1]
 def _rows() -> dict[str, str]:
     rows = {}
     for line in (ROOT / "README.md").read_text().splitlines():
-        m = re.match(r"\| `ares (\w+)[ `]", line)
+        m = re.match(r"\| `ares ([\w-]+)[ `]", line)
         if m:
             rows[m.group(1)] = line
     return rows
