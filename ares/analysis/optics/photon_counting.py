@@ -136,6 +136,34 @@ def _zero_peak_start(codes, h, o0: float, sd_dn: float, p_below: float):
     return K0, min(max(sd_dn / K0, 0.03), 1.0), H0, o0
 
 
+def _refine(codes, h, K0: float, o0: float, rounds: int = 3):
+    """A comb start made from the histogram: the centroids of the values within 0.3 K of each
+    tooth, regressed on the electron number (weighted by their counts), give K and the offset;
+    the values' spread about their centroids the width; the mean the charge."""
+    K, o = K0, o0
+    n = h.sum()
+    mean = float((codes * h).sum() / n)
+    for _ in range(rounds):
+        if not (math.isfinite(K) and K >= 1.0):
+            return None
+        k = np.rint((codes - o) / K)
+        near = (np.abs(codes - o - k * K) <= 0.3 * K) & (k >= 0)
+        ks = np.unique(k[near])
+        w = np.array([h[near & (k == j)].sum() for j in ks])
+        if ks.size < 2 or np.count_nonzero(w >= 5) < 2:
+            return None
+        c = np.array([np.sum(codes[near & (k == j)] * h[near & (k == j)]) / max(wj, 1) for j, wj in zip(ks, w)])
+        ok = w >= 5
+        K, o = np.polyfit(ks[ok], c[ok], 1, w=np.sqrt(w[ok]))
+        K, o = float(K), float(o)
+        sd = math.sqrt(max(float(sum(np.sum(h[near & (k == j)] * (codes[near & (k == j)] - (o + j * K)) ** 2)
+                                     for j in ks[ok]) / w[ok].sum()) - 1 / 12, 0.01))
+    H = (mean - o) / K
+    if not (math.isfinite(K) and K >= 1.0 and H > 0.001):
+        return None
+    return K, min(max(sd / K, 0.02), 1.0), H, o
+
+
 def _starts(codes, h, dcodes, dh) -> list[tuple]:
     """Starting points: from the dark stack's zero peak, from the light histogram's mode as
     the zero peak (low light), and from each strong comb spacing anchored at the mode."""
@@ -160,7 +188,8 @@ def _starts(codes, h, dcodes, dh) -> list[tuple]:
             H0 = (mean - o0) / K0
             if H0 > 0.01:
                 out.append((K0, 0.3, H0, o0))
-    return [s for s in out if s is not None]
+    out = [s for s in out if s is not None]
+    return out + [r for r in (_refine(codes, h, K0, o0) for K0, _, _, o0 in out) if r is not None]
 
 
 def fit_histogram(values, *, dark=None, read_noise_limit_e: float = READ_NOISE_LIMIT_E) -> dict:
