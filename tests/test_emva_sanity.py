@@ -92,3 +92,29 @@ def test_general_prnu_from_a_stack_with_inconsistent_photons(sim_set):
     e = g2.values["PRNU1288"]
     assert e.verdict == "not available" and "inconsistent photon counts" in e.note and "12" in e.note, e
     assert all(g2.values[k].verdict == "not available" for k in ("PRNU1288_row", "PRNU1288_col", "PRNU1288_pix"))
+
+
+def test_key_figures_state_the_datasheet_snr_max():
+    """One SNR_max: the key figures' "SNR max (EMVA 1288 4.0 Eq. 55)" is the run's EMVA
+    evaluation's (the datasheet's), not sqrt of a second saturation capacity from the photon
+    transfer (95.881 against 95.866 on the 8-bit set)."""
+    from types import SimpleNamespace
+
+    import numpy as np
+
+    from ares.analysis.ptc.levels import LevelStats
+    from ares.analysis.ptc.photon_transfer import analyze_ptc
+    from ares.report.tables import PtcGroup, compute_key_figures
+
+    K, n = 0.25, 20
+    q = np.r_[np.geomspace(100, 16000, n - 4), [16000 * 1.05, 16000 * 1.1, 16000 * 1.2, 16000 * 1.3]]
+    s = K * np.minimum(q, 16000)
+    v = K * K * np.minimum(q, 16000) + 4.0
+    v[n - 4:] = 0.5
+    res = analyze_ptc([LevelStats(100 + a, b, 100000, 16, 0.0) for a, b in zip(s, v)],
+                      [LevelStats(100.0, 4.0, 100000, 16) for _ in s], photons=q / 0.6)
+    g = PtcGroup(1.0, [], res, {}, list(q / 1e6), [None] * n, list(q / 0.6))
+    em = Estimate(95.866, 0.2, "", "sqrt(mu_e.sat) (Eq. 55)").to_dict()
+    run = SimpleNamespace(analyses={"emva4": {"values": {"SNR_max": em}}}, stages=[], complete=True)
+    kf = compute_key_figures(run, [g])
+    assert kf["snr_max_emva"]["value"] == 95.866 and kf["snr_max_emva"]["source"] == "scan_results.json: emva4"
