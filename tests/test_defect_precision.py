@@ -77,3 +77,12 @@ def test_shipped_sensor_every_reported_class_is_precise(case, frames):
         got = precision(shipped, 1, dict(exposure_s=4.0, temperature_c=40.0), 2.1e3, frames,
                         dict(hot_e_per_s=120, warm_e_per_s=15))
     _check(got)
+
+
+def test_without_gain_few_frames_no_class_takes_held_traps():
+    """Without K and the exposure hot/warm are dark offsets; at 4 frames (RTS not testable) a
+    trap held high has one too: warm took 14 RTS traps, one noisy and one good pixel (0/16
+    right). Now hot/warm say "not available" and why; stuck and dead stay right."""
+    got = precision(shipped, 1, dict(exposure_s=0.01, temperature_c=25.0), 8.3e5, 4, gain=False)
+    _check(got)
+    assert got["stuck"] == (2, 2) and got["dead"] == (6, 6) and "warm" not in got

@@ -285,7 +285,7 @@ def classify_defects(
             flags[c] = np.zeros(shape, bool)
     rts = np.zeros(shape, bool)
     rts_stat = np.broadcast_to(0.0, shape)  # filled at the candidates, if tested
-    rts_available, rts_note = False, ""
+    rts_available, rts_note, rts_few_frames = False, "", False
     if rts_series is None:
         rts_note = "needs the time series of the candidate pixels (none was given)"
     else:
@@ -303,7 +303,8 @@ def classify_defects(
         nfr = series.shape[0] if series.ndim == 2 else 0
         if series.ndim != 2 or series.shape[1] != crow.size:
             raise ValueError(f"rts_series returned shape {series.shape}, expected (frames, {crow.size})")
-        if nfr < th.rts_min_frames:
+        rts_few_frames = nfr < th.rts_min_frames
+        if rts_few_frames:
             rts_note = (f"needs >= {th.rts_min_frames} frames: {nfr} in the time series (rts_min_frames="
                         f"{th.rts_min_frames}: over fewer a single-level series splits into two apparent levels "
                         "too often)")
@@ -324,6 +325,13 @@ def classify_defects(
             detection["rts"] = rts_note
     flags["rts"] = rts
     stats["rts"] = rts_stat
+    if not rate_mode and rts_few_frames:
+        # without a rate the hot/warm test is a dark offset; a telegraph trap held in its high
+        # state over these frames has one too, and the RTS test that tells them apart cannot run
+        for c in ("hot", "warm"):
+            flags[c] = np.zeros(shape, bool)
+            unavailable[c] = (f"without K and the exposure a {c} pixel is a dark offset, which a telegraph (RTS) "
+                              f"trap held high over the frames shows too; RTS is not testable here ({rts_note})")
 
     # ---- histograms (the last use of the levels' per-pixel maps: freed after them -- a
     # 4096x3072 classification held a dozen float64 frames of them to the end)
