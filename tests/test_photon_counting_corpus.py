@@ -9,6 +9,8 @@ photon_counting_corpus.md has its table)."""
 
 from __future__ import annotations
 
+import functools
+
 import numpy as np
 import pytest
 
@@ -37,6 +39,7 @@ def test_merged_peaks_are_not_available():
                                    or "does not describe" in r["note"]), r
 
 
+@functools.lru_cache(maxsize=1)
 def _grid():
     """Each cell its own seeds (cells sharing seeds share their draws: their errors correlate)."""
     cells = [(K, rn, H) for K in GAINS for rn in READ_NOISES for H in CHARGES]
