@@ -15,15 +15,14 @@ import sys
 from ares import __version__
 from ares.errors import AresError
 
-COMMANDS = ["run", "resume", "validate", "rerun", "analyze", "emva", "emva-compare", "ptc", "mtf", "defects", "rtn",
-            "dark-temperature", "fe55", "report", "batch", "lots",
-            "bench", "gui"]
+COMMANDS = ["run", "resume", "validate", "rerun", "analyze", "emva", "emva-compare", "ptc", "mtf", "photon-counting",
+            "defects", "rtn", "dark-temperature", "fe55", "report", "batch", "lots", "bench", "gui"]
 
 
-# where a command lives when not in ``ares.commands`` (the window's command belongs to ``ares.gui``:
+# where a command lives when not ``ares.commands.<name>`` (a hyphenated name; the window's command belongs to ``ares.gui``:
 # nothing below the window imports it)
 HOMES = {"gui": "ares.gui.command", "emva-compare": "ares.commands.emva_compare",
-         "dark-temperature": "ares.commands.dark_temperature"}
+         "dark-temperature": "ares.commands.dark_temperature", "photon-counting": "ares.commands.photon_counting"}
 
 
 def _modules():
@@ -68,8 +67,8 @@ def tune_malloc() -> None:
 
 # Commands that leave nothing behind when they return (no worker processes, no Qt, every
 # file closed): the ``ares`` script ends them without the interpreter's teardown.
-FAST_EXIT = {"run", "resume", "rerun", "validate", "analyze", "emva", "emva-compare", "ptc", "defects", "report", "rtn",
-             "dark-temperature", "fe55"}
+FAST_EXIT = {"run", "resume", "rerun", "validate", "analyze", "emva", "emva-compare", "ptc", "photon-counting", "defects",
+             "report", "rtn", "dark-temperature", "fe55"}
 _ran: list[str] = []  # the command main() ran, for console()
 
 

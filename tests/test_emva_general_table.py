@@ -98,8 +98,8 @@ def _dark_and_curve():
 def test_dark_noise_dark_current_and_dsnu_in_photons_from_the_text(ccd):
     """Method I (the exposure time varies): sigma_y.dark^2 is the offset of its regression over
     the exposure times (General Section 6.7), sigma_d = sqrt(sigma_y.dark^2 - 1/12) / R_d
-    (Eq. 50); dark current = slopes of the dark mean and variance / R_d and R_d^2 (Section
-    7.1); DSNU1288 parts = s_y.dark / R_d (Eq. 58) with the split of the Linear text."""
+    (Eq. 50); dark current = slopes of the dark mean / R_d and of the variance / (K R_d) (Eqs.
+    22 - 25, Section 7.1); DSNU1288 parts = s_y.dark / R_d (Eq. 58) with the split of the Linear text."""
     from test_emva4_as_written import _split
 
     from ares.hardware.emva_descriptor import iter_level, read_descriptor
@@ -110,7 +110,11 @@ def test_dark_noise_dark_current_and_dsnu_in_photons_from_the_text(ccd):
     b, a = np.polyfit(t, s2d, 1)
     assert v["sigma_y_dark"]["value"] == pytest.approx(math.sqrt(a), rel=1e-6)
     assert v["sigma_d"]["value"] == pytest.approx(math.sqrt(a - 1 / 12) / Rd, rel=1e-6)
-    assert v["mu_I_var"]["value"] == pytest.approx(b / Rd**2, rel=1e-6)
+    # from the variance the photons need K too (the variance grows by K^2 per electron, R_d = K eta):
+    # slope / (K R_d), K of the 4.0 Linear evaluation (1.5 % below the published Release 3 0.280769);
+    # slope / R_d^2 divided by eta^2 where eta belongs (issue 48)
+    assert v["mu_I_var"]["value"] == pytest.approx(b / (0.280769 * Rd), rel=0.02)
+    assert "K from the Linear evaluation" in v["mu_I_var"]["note"]
     assert v["mu_I_mean"]["value"] == pytest.approx(np.polyfit(t, mud, 1)[0] / Rd, rel=1e-6)
     desc = read_descriptor(DESC)
     lv = desc.spatial_bright[0]

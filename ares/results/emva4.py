@@ -168,6 +168,8 @@ def build_input(run):
     series = _dark_series(run)
     meta = _meta(run)
     pitch = meta.pop("pixel_pitch_um", None)
+    if pitch:  # the datasheet's "Pixel size" is the one the .area figures were divided by
+        meta["pixel_size"] = f"{pitch:g} x {pitch:g} µm"
     inp = EmvaInput(photons, texp, bright, dark, splits if len(splits) == len(steps) else None, np.array(diffs),
                     stack_d if stack_b is not None else None, stack_b if stack_d is not None else None,
                     dark_series=series.pop(None, None) or (next(iter(series.values())) if len(series) == 1 else None),

@@ -13,7 +13,7 @@ from ares.results.registry import register_scan_analysis
 
 @register_scan_analysis("photon_counting")
 def photon_counting(run) -> dict:
-    from ares.analysis.optics.photon_counting import fit_code_histogram, photon_transfer_levels  # scipy: only when run
+    from ares.analysis.optics.photon_counting import fit_code_histogram, photon_transfer_levels, result_dict
 
     out = {}
     for st in run.stages:
@@ -24,18 +24,13 @@ def photon_counting(run) -> dict:
             continue
         h = np.asarray(h, np.float64)
         r = fit_code_histogram(np.arange(h.size), h)
-        res = {k: r[k].to_dict() for k in ("K", "read_noise_e", "mean_e", "offset_dn")}
-        if "hist_codes" in r:
-            res["histogram"] = {"codes": [int(c) for c in r["hist_codes"]], "counts": [int(c) for c in r["hist_counts"]],
-                                "model": [round(float(m), 3) for m in r["hist_model"]],
-                                "chi2_ndf": round(r["chi2_ndf"], 3)}
+        pt = None
         full = st["views"]["full"]
         if "dark_level" in full:
             lv, dk = full["level"], full["dark_level"]
             pt = photon_transfer_levels(lv["mean_dn"], lv["var_dn2"], lv["n_frames"], dk["mean_dn"], dk["var_dn2"],
                                         dk["n_frames"], lv["n_pixels"])
-            res["photon_transfer"] = {k: e.to_dict() for k, e in pt.items()}
-        out[st["name"]] = res
+        out[st["name"]] = result_dict(r, pt)
     if not out:
         return {"status": "not available", "note": "no flat stage with a code histogram in the run"}
     return {"stages": out}

@@ -6,7 +6,7 @@ import math
 from typing import Sequence
 import numpy as np
 from ares.analysis.stats.median import fast_median
-from ares.analysis.defects.dist import chi2_ppf, trim_mean
+from ares.analysis.defects.dist import chi2_isf, chi2_ppf, trim_mean
 from ares.analysis.defects.params import DefectThresholds
 from ares.analysis.defects.limits import p_constant_codes, stuck_in_darks
 from ares.analysis.defects.robust import block_median_background, local_background, remove_lines, robust_sigma, sampled_median, structure_ratio
@@ -59,7 +59,10 @@ class _Dark:
 
 def _level_flags(d: "_Dark", var: np.ndarray, th: DefectThresholds, rate_mode: bool, hot_n, warm_n, hot_stat) -> None:
     """One dark level's hot/warm votes: its excess over the noise of its averaged excess
-    (``var``, consumed), above the rate thresholds (with K and t) or the z ones."""
+    (``var``, consumed), above the rate thresholds (with K and t) or the z ones. Without a
+    rate a z-warm pixel must not show a raised temporal variance (p = 0.01): a trap that
+    switches over a few frames raises the mean as a warm pixel does, and its variance with
+    it; such a pixel is left to the RTS test."""
     np.sqrt(var, out=var)
     z = np.divide(d.res, var, out=var)
     sig = z > th.warm_z
@@ -69,8 +72,9 @@ def _level_flags(d: "_Dark", var: np.ndarray, th: DefectThresholds, rate_mode: b
         warm = sig & (rate > th.warm_e_per_s) & ~hot
         np.maximum(hot_stat, rate, out=hot_stat)
     else:
+        dof = d.st.n_frames - 1
         hot = z > th.hot_z
-        warm = sig & ~hot
+        warm = sig & ~hot & (d.var_ratio <= chi2_isf(0.01, dof) / dof)
         np.maximum(hot_stat, z, out=hot_stat)
     hot_n += hot
     warm_n += warm

@@ -26,6 +26,7 @@ import math
 
 import numpy as np
 
+from ares.analysis.emva.sanity import judge
 from ares.analysis.stats.estimate import Estimate
 
 # Table 2 of the General document: (key, printed symbol, unit)
@@ -61,6 +62,23 @@ def _per_area(e: Estimate, area: float | None, unit: str) -> Estimate:
         Estimate(e.value / area, e.se / area, unit, note)
 
 
+PHOTON_COUNT_TOLERANCE = 0.10  # the bright stack's signal against the curve at its declared photons
+
+
+def photon_count_mismatch(stack_bright, stack_dark, curve) -> str:
+    """Why the bright stack's declared photons cannot be used (its signal is not what the
+    set's own characteristic curve gives at them, beyond ``PHOTON_COUNT_TOLERANCE``), or ""."""
+    if curve is None or stack_bright is None or stack_dark is None or not stack_bright.photons > 0:
+        return ""
+    sig = float(np.mean(stack_bright.mean_image) - np.mean(stack_dark.mean_image))
+    want = float(curve(float(stack_bright.photons)))
+    if not (want > 0 and sig > 0) or abs(sig / want - 1) <= PHOTON_COUNT_TOLERANCE:
+        return ""
+    return (f"inconsistent photon counts: the bright stack's signal {sig:.4g} DN is {sig / want:.3g}x what the set's "
+            f"own characteristic curve gives at its declared {stack_bright.photons:.4g} photons ({want:.4g} DN); "
+            "its nonuniformity in photons would be off by as much")
+
+
 def _nonuniformity(v: dict, res, stack_dark, stack_bright) -> None:
     """DSNU1288 (Eq. 58) and PRNU1288 (Eq. 59) with their parts, in photons."""
     from ares.analysis.spatial.nonuniformity import PARTS, _std_estimate
@@ -90,6 +108,11 @@ def _nonuniformity(v: dict, res, stack_dark, stack_bright) -> None:
     if stack_bright is None or not mu_p50 > 0 or res.curve is None:
         why = "no bright stack (averaged images at ~50 % saturation) with its photons" if stack_bright is None or \
             not mu_p50 > 0 else "no characteristic curve"
+        for k, u in keys[4:]:
+            v[k] = Estimate.na(why, u)
+        return
+    why = photon_count_mismatch(stack_bright, stack_dark, res.curve)
+    if why:
         for k, u in keys[4:]:
             v[k] = Estimate.na(why, u)
         return
@@ -138,7 +161,12 @@ def _linearity(v: dict, res, linear) -> None:
         v["LE"] = Estimate.na(f"linearity not decided (no Linear Eq. 51 check); LE would read {le:.3g} %", "%")
 
 
-def _dark_current(v: dict, dark, texp, dark_series) -> None:
+def _dark_current(v: dict, dark, texp, dark_series, linear=None) -> None:
+    """mu_I.p = mu_I.y / R_d from the dark mean's slope (General Eqs. 22, 24, 25). From the
+    variance's slope (Eq. 23) the photons need K as well: the variance grows by K^2 per
+    electron, R_d = K eta, so photons/s = slope / (K R_d) (dividing by R_d^2 would divide by
+    eta^2 where eta belongs); K is not defined by the General model, so it comes from the
+    Linear evaluation of the same data, or the figure is not available."""
     from ares.analysis.ptc.dark_current import dark_current, with_upper_limit
 
     rd = v.get("R_d", Estimate.na("no characteristic curve"))
@@ -151,10 +179,23 @@ def _dark_current(v: dict, dark, texp, dark_series) -> None:
             v[k] = Estimate.na("no exposure times given", "photons/s")
         return
     dc = dark_current(t, mu, rd, s2)
-    for key, e, div in (("mu_I_mean", dc.rate_e_per_s, "R_d"), ("mu_I_var", dc.rate_from_variance_e_per_s, "R_d^2")):
+    k = linear.values.get("K") if linear is not None else None
+    if k is not None and k.available and rd.available and k.value > 0 and rd.value > 0:
+        g = math.sqrt(k.value * rd.value)  # slope / g^2 = slope / (K R_d)
+        gse = 0.5 * g * math.hypot(k.se / k.value if math.isfinite(k.se) else 0.0,
+                                   rd.se / rd.value if math.isfinite(rd.se) else 0.0)
+        var_e = dark_current(t, mu, Estimate(g, gse, "DN/e-"), s2).rate_from_variance_e_per_s
+        var_div = "(K R_d), K from the Linear evaluation"
+    else:
+        var_e = Estimate.na("from the variance it needs the system gain K (photons/s = slope / (K R_d)), which "
+                            "the General model does not define and no Linear evaluation gave (General Section 3.1)",
+                            "photons/s")
+        var_div = ""
+    for key, e, div in (("mu_I_mean", dc.rate_e_per_s, "R_d"), ("mu_I_var", var_e, var_div)):
         if e.available:
             e = Estimate(e.value, e.se, "photons/s", f"slope over the exposure time / {div} (EMVA 1288 4.0 General "
-                                                     "Section 7.1)")
+                                                     "Eqs. 22 - 25, Section 7.1)") if not e.bound else \
+                Estimate.limit(e.value, e.bound, "photons/s", e.note)
         else:
             e = Estimate.na(e.note, "photons/s")
         v.update(with_upper_limit(key, e))
@@ -193,10 +234,13 @@ def complete(res, dark, texp, *, stack_dark=None, stack_bright=None, dark_series
                                      "photons/µm²")
     _nonuniformity(v, res, stack_dark, stack_bright)
     _linearity(v, res, linear)
-    _dark_current(v, dark, texp, dark_series)
+    _dark_current(v, dark, texp, dark_series, linear)
     if step_spatial_var is not None:
         res.snr_p_total = total_snr(res, step_spatial_var)
     for k, _, u in GENERAL_TABLE2:
         v.setdefault(k, Estimate.na("not computed: too few levels for the characteristic curve", u))
+    tx = dark_series[0] if dark_series is not None else texp
+    v = judge(v, saturation=v.get("mu_p_sat"), longest_exposure_s=float(np.max(tx)) if tx is not None and np.size(tx)
+              else None)
     order = [k for k, _, _ in GENERAL_TABLE2]
     res.values = {**{k: v[k] for k in order}, **{k: e for k, e in v.items() if k not in order}}

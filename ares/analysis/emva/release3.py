@@ -35,6 +35,7 @@ from typing import Sequence
 
 import numpy as np
 
+from ares.analysis.emva.sanity import judge
 from ares.analysis.stats.estimate import Estimate
 from ares.analysis.ptc.levels import SpatialStats, pair_stats, spatial_stats
 from ares.analysis.stats.median import n_distinct
@@ -218,6 +219,10 @@ def emva1288_results(temporal: TemporalData, spatial_bright: SpatialStats | None
     for key, pick in (("LE_min", np.min), ("LE_max", np.max)):
         vals[key] = na(why_le, "%") if why_le else Estimate(float(pick(dev[window])), math.nan, "%",
                                                              "5-95 % of saturation")
+    sat = vals.get("u_e_sat")
+    tmax = float(np.max(td.texp_s)) if np.size(td.texp_s) else None
+    vals, extra = (judge(vals, saturation=sat, longest_exposure_s=tmax),
+                   judge(extra, saturation=sat, longest_exposure_s=tmax))
     return Emva1288Result(vals, isat, imax, dev, td, extra)
 
 

@@ -19,6 +19,7 @@ import numpy as np
 from ares.analysis.emva import graphs
 from ares.analysis.emva.linear import Emva4Result, emva4_linear
 from ares.analysis.spatial.nonuniformity import Split, dsnu, prnu, snr_model, snr_total_model, split
+from ares.analysis.emva.sanity import judge
 from ares.analysis.stats.estimate import Estimate
 from ares.analysis.ptc.levels import LevelStats, LineTemporal
 
@@ -258,6 +259,7 @@ def evaluate_linear(inp: EmvaInput, highpass_release: str = "4.0") -> EmvaSheet:
         mu = np.array([d.mean for d in inp.dark])
         s2 = np.array([d.var for d in inp.dark])
     v.update(dark_current_4(t, mu, s2, K))
+    v = judge(v, saturation=v.get("mu_e_sat"), longest_exposure_s=float(np.max(t)) if np.size(t) else None)
     curves = _curves(inp, pt, v, t, mu, s2)
     if sd is not None and "DSNU1288_DN" in v:
         curves.update(_stack_graphs(sd, sb, highpass_release, v))
