@@ -264,6 +264,11 @@ def run(args) -> int:
     from ares.analysis.kernels import jit
     from ares.hardware.emva_descriptor import read_descriptor
 
+    from ares.safefile import output_file, writing
+
+    for opt, path in (("--csv", args.csv), ("--pdf", args.pdf)):  # before the work (ares.safefile)
+        if path:
+            output_file(path, opt)
     pitch = getattr(args, "pixel_size_um", None)
     desc = read_descriptor(args.descriptor)
     with contextlib.nullcontext() if uses_kernels(desc) else jit.avoided():
@@ -302,10 +307,12 @@ def run(args) -> int:
         from ares.rundir.files import write_atomic
 
         gen = an.general if args.release == "4.0-general" else None
-        write_atomic(Path(args.csv), datasheet.to_csv(an.sheet, gen).encode())
+        with writing(args.csv):
+            write_atomic(Path(args.csv), datasheet.to_csv(an.sheet, gen).encode())
     if args.pdf:
-        if args.release.startswith("4.0"):
-            datasheet.write_datasheet(an.sheet, Path(args.pdf), an.general, args.release)
-        else:
-            write_pdf(an, Path(args.pdf), args.release)
+        with writing(args.pdf):
+            if args.release.startswith("4.0"):
+                datasheet.write_datasheet(an.sheet, Path(args.pdf), an.general, args.release)
+            else:
+                write_pdf(an, Path(args.pdf), args.release)
     return 0

@@ -102,6 +102,11 @@ def run(args) -> int:
     want = {"list": 0, "compare": 2, "export": 1}[args.action]
     if len(args.lots) != want:
         raise InputError(f"ares lots {args.action}: give {want} lot(s) (name or id), not {len(args.lots)}")
+    from ares.safefile import output_file, writing
+
+    for opt, path in (("--csv", getattr(args, "csv", None)), ("--parquet", getattr(args, "parquet", None))):
+        if path and args.action == "export":  # before the work (ares.safefile)
+            output_file(path, opt)
     if not args.db.startswith(("postgresql://", "postgres://")) and not Path(args.db).is_file():
         raise InputError(f"{args.db}: no results database (ares batch writes one; --db names it)")
     with rdb.connect(args.db) as db:
@@ -110,5 +115,6 @@ def run(args) -> int:
         elif args.action == "compare":
             _compare(db, *args.lots)
         else:
-            _export(db, args.lots[0], args.csv, args.parquet)
+            with writing(args.csv or args.parquet):
+                _export(db, args.lots[0], args.csv, args.parquet)
     return 0

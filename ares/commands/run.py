@@ -14,7 +14,8 @@ from pathlib import Path
 
 from ares.analysis.stats.estimate import format_dict
 from ares.errors import InputError
-from ares.commands.run_signals import ReportsAbandoned, Signals, abandon_reports, finished_anyway
+from ares.commands.run_signals import (ReportsAbandoned, Signals, abandon_reports, complete_anyway, finished_anyway,
+                                      refuse_if_stopped)
 
 CLAIM = ".ares-claim"  # ares.rundir.files.CLAIM (not imported here: `ares --help` stays light)
 
@@ -306,6 +307,7 @@ def execute(scan, args, *, seed, frames, faults=None, argv=None, out_dir=None, r
     from ares.rundir.state import quiet_unraisable_storage_errors
 
     quiet_unraisable_storage_errors()
+    refuse_if_stopped("nothing was written" if resume_from is None else f"{out_dir} is as it was")
     if resume_from is None:
         check_run(scan, frames, seed, out_dir)  # refused before a run directory exists (Runner checks again)
         out_dir = claim_out(out_dir, scan.name)
@@ -356,6 +358,8 @@ def execute(scan, args, *, seed, frames, faults=None, argv=None, out_dir=None, r
             helper.close()  # (when no report was written: --json, nothing pending)
         if sigs.received:  # a signal whose exception Python lost on the way: the reports are written
             return finished_anyway(sigs, outcome.run_dir, getattr(args, "command", None) or "run")
+        if sigs.hits and outcome.status == "done":  # a stop after the last stage: complete, yet told
+            return complete_anyway(sigs, outcome.run_dir, getattr(args, "command", None) or "run")
     except ReportsAbandoned as exc:
         return abandon_reports(exc, outcome.run_dir, helper, getattr(args, "command", None) or "run",
                                len(outcome.stages))

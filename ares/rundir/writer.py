@@ -126,8 +126,9 @@ class RunWriter:
                         "previous_status": self.meta.get("status"), "previous_message": self.meta.get("message")})
         self.meta.update(owner(), status="running", message="", finished=None, resumed=resumed)
         self.meta.pop("reports", None)  # (written again at its end)
-        for leftover in (self.dir / "stages").glob("*.tmp"):  # a stage write the kill cut short
-            leftover.unlink()
+        # a stage, index or table write the kill cut short (results.h5.tmp, summary.csv.tmp, ...)
+        for leftover in [*(self.dir / "stages").glob("*.tmp"), *self.dir.glob("*.tmp")]:
+            leftover.unlink(missing_ok=True)
         recorded = self.meta["stage_sha256"] = dict(self.meta.get("stage_sha256") or {})
         dropped = self._drop_stages_from(len(stages), recorded)
         if dropped:  # committed with a provisional defect mask (ares.scan.resume): acquired again
