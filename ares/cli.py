@@ -71,7 +71,7 @@ _ran: list[str] = []  # the command main() ran, for console()
 
 
 # Commands whose stop signals are theirs from the first instruction (``ares.commands.run_signals``)
-SIGNAL_COMMANDS = {"run", "resume"}
+SIGNAL_COMMANDS = {"run", "resume", "rerun"}
 
 
 def main(argv: list[str] | None = None, keep_handlers: bool = False) -> int:

@@ -76,6 +76,30 @@ def is_storage_error(exc: BaseException) -> bool:
     return os_errno(exc) in STORAGE_ERRNOS
 
 
+def machine_memory() -> tuple[float | None, float | None]:
+    """(total, available) physical memory in bytes, from /proc/meminfo or sysconf."""
+    try:
+        with open("/proc/meminfo", encoding="ascii") as f:
+            info = {ln.split(":")[0]: float(ln.split()[1]) * 1024 for ln in f if ":" in ln}
+        return info.get("MemTotal"), info.get("MemAvailable")
+    except (OSError, ValueError, IndexError):
+        pass
+    try:
+        return float(os.sysconf("SC_PAGE_SIZE") * os.sysconf("SC_PHYS_PAGES")), None
+    except (ValueError, OSError, AttributeError):
+        return None, None
+
+
+def check_memory(need_bytes: float, where: str, what: str) -> None:
+    """Before allocating: ``need_bytes`` (``what`` takes them, e.g. "analysing 12000x12000
+    frames") fit the memory this machine has available; one sentence naming ``where`` otherwise."""
+    total, avail = machine_memory()
+    have = avail if avail is not None else total
+    if have is not None and need_bytes > have:
+        raise InputError(f"{where}: {what} takes about {need_bytes / 2**30:.1f} GiB of memory, more than the "
+                         f"{have / 2**30:.1f} GiB this machine has available; not read")
+
+
 def check_regular(path: str | Path, max_bytes: int, what: str = "file") -> int:
     """The size of ``path`` after checking that it is a regular file no larger than
     ``max_bytes``; one sentence otherwise."""
@@ -231,6 +255,7 @@ def output_folder(path: str | Path, option: str, need_bytes: float | None = None
         bad = next((a for a in p.parents if a.exists() and not a.is_dir()), None)
         if bad is not None:
             raise InputError(f"{option} {p}: cannot create the folder ({bad} is not a folder)")
+        _writable_folder(next(a for a in p.absolute().parents if a.exists()), option, need_bytes)
         try:
             p.mkdir(parents=True, exist_ok=True)
         except OSError as exc:

@@ -13,7 +13,7 @@ import time
 from pathlib import Path
 
 from ares.analysis.stats.estimate import format_dict
-from ares.errors import InputError
+from ares.errors import InputError, interruption
 from ares.commands.run_signals import (ReportsAbandoned, Signals, abandon_reports, complete_anyway, finished_anyway,
                                       refuse_if_stopped)
 
@@ -363,6 +363,12 @@ def execute(scan, args, *, seed, frames, faults=None, argv=None, out_dir=None, r
     except ReportsAbandoned as exc:
         return abandon_reports(exc, outcome.run_dir, helper, getattr(args, "command", None) or "run",
                                len(outcome.stages))
+    except Exception as exc:  # the signal cut a library short and it raised its own error over it
+        sig = interruption(exc)  # (an import of matplotlib for the summary: "ImportError: initialization failed")
+        if not isinstance(sig, ReportsAbandoned):
+            raise
+        return abandon_reports(sig, outcome.run_dir, helper, getattr(args, "command", None) or "run",
+                               len(outcome.stages))
     finally:
         sigs.restore()
     if outcome.status in ("stopped", "aborted"):
@@ -398,6 +404,11 @@ def finish_reports(run_, args) -> int:
         write_reports(run_.dir, formats, helper=helper)
     except ReportsAbandoned as exc:
         return abandon_reports(exc, run_.dir, helper, getattr(args, "command", None) or "resume", len(run_.stages))
+    except Exception as exc:  # (a library's own error over the signal, as in ``execute``)
+        sig = interruption(exc)
+        if not isinstance(sig, ReportsAbandoned):
+            raise
+        return abandon_reports(sig, run_.dir, helper, getattr(args, "command", None) or "resume", len(run_.stages))
     finally:
         sigs.restore()
     set_reports_state(run_.dir, "complete")
