@@ -200,6 +200,8 @@ def _iter_npz_member(z, name: str, where: str) -> Iterator[np.ndarray]:
             read_header = npf.read_array_header_1_0 if version == (1, 0) else npf.read_array_header_2_0
             shape, fortran, dtype = read_header(f)
             header = f.tell()
+        except (OSError, EOFError, zipfile.BadZipFile, zlib.error) as exc:  # the archive's own check (CRC)
+            raise InputError(f"{where}: corrupt array ({exc})") from None
         except Exception:  # any parse failure of untrusted bytes; numpy's text would echo them
             raise InputError(f"{where}: corrupt array (no valid NumPy header)") from None
         _check_ndim(shape, where)
