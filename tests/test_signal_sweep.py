@@ -101,7 +101,8 @@ def check_truthful_then_resume(d: Path, p: subprocess.CompletedProcess, referenc
                            capture_output=True, text=True)
         assert r.returncode == 0 and "Traceback" not in r.stderr, r.stderr
     meta = json.loads((d / "run.json").read_text())
-    assert effective_status(meta)[0] == "done" and meta["reports"] == "complete", meta
+    assert effective_status(meta)[0] == "done" and meta["reports"] == "complete", (
+        meta.get("status"), meta.get("reports"), meta.get("report_error"), meta.get("resumed"), p.stderr)
     assert all((d / f).is_file() for f in PROMISED)
     assert not list(d.glob("*.tmp")) and not list((d / "stages").glob("*.tmp"))
     assert tables(d) == tables(reference)

@@ -128,22 +128,31 @@ def _iter_h5(path: Path, dset: str | None) -> Iterator[np.ndarray]:
     except OSError as exc:
         raise InputError(f"{path}: not a readable HDF5 file ({exc})") from None
     with f:
-        if dset is None:
-            found = []
-            f.visititems(lambda n, o: found.append(n) if isinstance(o, h5py.Dataset) and o.ndim in (2, 3) else None)
-            if len(found) != 1:
-                raise InputError(f"{path}: holds {len(found)} image datasets; name one as {path}:/dataset")
-            dset = found[0]
-        if dset not in f or not isinstance(f[dset], h5py.Dataset):
-            raise InputError(f"{path}: no dataset '{dset}'")
+        try:  # (a damaged file: h5py raises KeyError/RuntimeError/OSError/ValueError from HDF5's internals)
+            if dset is None:
+                found = []
+                f.visititems(lambda n, o: found.append(n) if isinstance(o, h5py.Dataset) and o.ndim in (2, 3) else None)
+                if len(found) != 1:
+                    raise InputError(f"{path}: holds {len(found)} image datasets; name one as {path}:/dataset")
+                dset = found[0]
+            if dset not in f or not isinstance(f[dset], h5py.Dataset):
+                raise InputError(f"{path}: no dataset '{dset}'")
+        except (KeyError, RuntimeError, OSError, ValueError, TypeError) as exc:
+            raise InputError(f"{path}: a damaged HDF5 file ({_h5_reason(exc)})") from None
         try:
             _check_ndim(f[dset].shape, f"{path}:{dset}")
             _check_frame_size(f[dset].shape, f"{path}:{dset}")
             _check_written(f[dset], f"{path}:{dset}")
             _check_memory(f[dset].shape, f"{path}:{dset}")
             yield from _frames_of_array(f[dset], f"{path}:{dset}")
-        except OSError as exc:
-            raise InputError(f"{path}:{dset}: corrupt data ({exc})") from None
+        except (OSError, RuntimeError, KeyError, ValueError, TypeError) as exc:
+            raise InputError(f"{path}:{dset}: corrupt data ({_h5_reason(exc)})") from None
+
+
+def _h5_reason(exc: BaseException) -> str:
+    """HDF5's own words, without h5py's "Unable to synchronously ..." preamble."""
+    text = str(exc).strip("'\"")
+    return text[text.find("(") + 1:text.rfind(")")] if "(" in text and text.endswith(")") else text
 
 
 def _iter_npy(path: Path) -> Iterator[np.ndarray]:
