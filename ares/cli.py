@@ -115,6 +115,11 @@ def _main(argv: list[str] | None) -> int:
     except KeyboardInterrupt:
         print(f"ares {args.command}: interrupted", file=sys.stderr)
         return 130
+    except BrokenPipeError:  # `ares ... | head`: the reader left; not an error of ours
+        import os
+
+        os.dup2(os.open(os.devnull, os.O_WRONLY), sys.stdout.fileno())  # no second error at exit
+        return 0
     except Exception as exc:  # a write the disk refused where no command guard caught it: still one sentence
         from ares.safefile import WRITE_ERRNOS, storage_error
 
@@ -123,11 +128,6 @@ def _main(argv: list[str] | None) -> int:
             raise
         print(f"ares {args.command}: {err}", file=sys.stderr)
         return err.exit_code
-    except BrokenPipeError:  # `ares ... | head`: the reader left; not an error of ours
-        import os
-
-        os.dup2(os.open(os.devnull, os.O_WRONLY), sys.stdout.fileno())  # no second error at exit
-        return 0
 
 
 def console() -> None:

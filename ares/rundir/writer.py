@@ -126,9 +126,11 @@ class RunWriter:
                         "previous_status": self.meta.get("status"), "previous_message": self.meta.get("message")})
         self.meta.update(owner(), status="running", message="", finished=None, resumed=resumed)
         self.meta.pop("reports", None)  # (written again at its end)
-        # a stage, index or table write the kill cut short (results.h5.tmp, summary.csv.tmp, ...)
-        for leftover in [*(self.dir / "stages").glob("*.tmp"), *self.dir.glob("*.tmp")]:
+        for leftover in (self.dir / "stages").glob("*.tmp"):  # a stage write the kill cut short
             leftover.unlink(missing_ok=True)
+        from ares.rundir.record import clean_report_leftovers
+
+        clean_report_leftovers(self.dir)  # results.h5.tmp, a report's .tmp and report.pdf.parts
         recorded = self.meta["stage_sha256"] = dict(self.meta.get("stage_sha256") or {})
         dropped = self._drop_stages_from(len(stages), recorded)
         if dropped:  # committed with a provisional defect mask (ares.scan.resume): acquired again
