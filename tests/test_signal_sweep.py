@@ -57,6 +57,7 @@ sys.exit(main(cli, keep_handlers=True))
 # (name, target, nth call): each a window of the main job
 INSTANTS = {
     "last stage's arrays": ("ares.rundir.writer:RunWriter._write_stage_h5", STAGES),
+    "the last stage's JSON, not its index": ("ares.rundir.writer:RunWriter._write_index", STAGES),
     "between the last stage and done": ("ares.rundir.writer:RunWriter.finish", 1),
     "the reports' tables": ("ares.report.csv_export:write_csv", 1),
     "the reports' HDF5": ("ares.report.h5_export:write_h5", 1),
@@ -109,12 +110,16 @@ def check_truthful_then_resume(d: Path, p: subprocess.CompletedProcess, referenc
     assert none_left(d)
 
 
-@pytest.mark.parametrize("instant", ["between the last stage and done"] + [
-    pytest.param(i, marks=pytest.mark.study) for i in INSTANTS if i != "between the last stage and done"])
+NORMAL = ("between the last stage and done", "the last stage's JSON, not its index")  # (the rest: study)
+
+
+@pytest.mark.parametrize("instant", [i if i in NORMAL else pytest.param(i, marks=pytest.mark.study) for i in INSTANTS])
 def test_sigkill_at_an_instant_then_resume_is_identical(instant, scan, reference, tmp_path):
     """A SIGKILL between the last stage and ``done`` could never be resumed (StopIteration
     from the time estimate of an empty plan, the run turned failed, results.h5.tmp left,
-    every later resume the same); at each instant now: resume completes it identically."""
+    every later resume the same); one after the last stage's JSON (its commit) and before
+    the index and summary.csv followed left both without that stage (found by the sweep);
+    at each instant now: resume completes it identically."""
     target, nth = INSTANTS[instant]
     d = tmp_path / "run"
     p = child(scan, d, target, "SIGKILL", nth)
