@@ -185,11 +185,12 @@ def _events(d: Path) -> list:
 
 
 @pytest.mark.study
-def test_sweep_under_load(scan, reference, tmp_path):
+def test_sweep_under_load(scan, reference, tmp_path, report):
     """50 instants x SIGKILL/SIGTERM/SIGHUP over the main job (every stage, the window
     after the last, the reports) while every core is kept busy: each ends truthful and
     resume is identical."""
     rnd = random.Random(54)
+    tally: dict[str, int] = {}
     load = _load(max(1, (os.cpu_count() or 2) // 2))  # (a shared machine: half its cores spinning)
     try:
         for i in range(50):
@@ -205,6 +206,8 @@ def test_sweep_under_load(scan, reference, tmp_path):
                 proc.send_signal(sig)
             out, err = proc.communicate()
             p = subprocess.CompletedProcess(proc.args, proc.returncode, out, err)
+            key = f"{signal.Signals(sig).name} after {name.split()[0]}: exit {proc.returncode}"
+            tally[key] = tally.get(key, 0) + 1
             if proc.returncode == 0:  # ended before the signal: nothing to check but the run
                 assert effective_status(json.loads((d / "run.json").read_text()))[0] == "done"
                 continue
@@ -216,3 +219,5 @@ def test_sweep_under_load(scan, reference, tmp_path):
         for q in load:
             q.kill()
             q.wait()
+        report.append(f"signal sweep under load ({len(load)} spinning process(es)): "
+                      + "; ".join(f"{k} x{n}" for k, n in sorted(tally.items())))
