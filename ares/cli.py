@@ -72,7 +72,27 @@ FAST_EXIT = {"run", "resume", "rerun", "validate", "analyze", "emva", "emva-comp
 _ran: list[str] = []  # the command main() ran, for console()
 
 
-def main(argv: list[str] | None = None) -> int:
+# Commands whose stop signals are theirs from the first instruction (``ares.commands.run_signals``)
+SIGNAL_COMMANDS = {"run", "resume", "rerun"}
+
+
+def main(argv: list[str] | None = None, keep_handlers: bool = False) -> int:
+    """``keep_handlers``: the stop-signal handlers of a run stay until the process ends (the
+    ``ares`` script); a caller in the same process (tests) gets its own back."""
+    words = [a for a in (sys.argv[1:] if argv is None else argv) if not a.startswith("-")]
+    early = bool(words) and words[0] in SIGNAL_COMMANDS
+    if early:  # before anything else: a signal in the first second is not lost
+        from ares.commands import run_signals
+
+        run_signals.install_early()
+    try:
+        return _main(argv)
+    finally:
+        if early and not keep_handlers:
+            run_signals.restore_early()
+
+
+def _main(argv: list[str] | None) -> int:
     set_blas_threads()
     parser = build_parser()
     args = parser.parse_args(argv)
@@ -81,8 +101,16 @@ def main(argv: list[str] | None = None) -> int:
         parser.print_help()
         return 2
     tune_malloc()
+    from ares.rundir.state import quiet_unraisable_storage_errors
+
+    quiet_unraisable_storage_errors()  # (h5py's echoes of a write the disk refused: the sentence says it)
     try:
-        return int(args._run(args) or 0)
+        rc = int(args._run(args) or 0)
+        if args.command in SIGNAL_COMMANDS:  # a stop that came when nothing was left to stop
+            from ares.commands.run_signals import ended_anyway
+
+            rc = ended_anyway(args.command, rc)
+        return rc
     except AresError as exc:
         print(f"ares {args.command}: {exc}", file=sys.stderr)
         return exc.exit_code
@@ -94,6 +122,14 @@ def main(argv: list[str] | None = None) -> int:
 
         os.dup2(os.open(os.devnull, os.O_WRONLY), sys.stdout.fileno())  # no second error at exit
         return 0
+    except Exception as exc:  # a write the disk refused where no command guard caught it: still one sentence
+        from ares.safefile import WRITE_ERRNOS, storage_error
+
+        err = storage_error(exc, "an output file", WRITE_ERRNOS)
+        if err is None:
+            raise
+        print(f"ares {args.command}: {err}", file=sys.stderr)
+        return err.exit_code
 
 
 def console() -> None:
@@ -105,7 +141,7 @@ def console() -> None:
     import os
     import threading
 
-    code = main()
+    code = main(keep_handlers=True)
     if _ran and _ran[-1] in FAST_EXIT and threading.active_count() == 1:
         try:
             sys.stdout.flush()

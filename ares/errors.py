@@ -79,12 +79,13 @@ def interruption(exc: BaseException | None) -> BaseException | None:
     ``Exception``), else the one it replaced on its way out. A signal cuts a library's work
     short; its cleanup on the way out (a ``with`` block's ``__exit__``, a ``finally``) may
     then fail with an error of its own that carries the signal's only as ``__context__``
-    (matplotlib's PdfPages flushing a zlib stream the signal had finished: ``zlib.error``).
-    None when no interruption is in the chain."""
+    (matplotlib's PdfPages flushing a zlib stream the signal had finished: ``zlib.error``),
+    or carry it as its cause (a C extension's module init that the signal cut short:
+    ``ImportError: initialization failed``). None when no interruption is in the chain."""
     seen: set[int] = set()
     while exc is not None and id(exc) not in seen:
         if not isinstance(exc, (Exception, GeneratorExit)):
             return exc
         seen.add(id(exc))
-        exc = exc.__context__
+        exc = exc.__cause__ or exc.__context__
     return None

@@ -392,3 +392,282 @@ def test_a_first_run_is_estimated_with_numba_compiling_and_says_so(tmp_path, mon
     cached = check_run(scan, refuse_disk=False)
     assert cached.kernels_cached and "numba kernels cached" in cached.memory_note()
     assert first.memory_bytes - cached.memory_bytes == COMPILE_BYTES
+
+
+# ================================================================ issue 54
+# Each case: one sentence on stderr, the documented exit code, no traceback.
+
+PTC_TABLE = ROOT / "fixtures" / "ptc" / "sim_photon_transfer.csv"
+
+
+def _one_sentence(capsys, rc: int, want: int, *words: str) -> str:
+    err = capsys.readouterr().err
+    assert rc == want, err
+    assert "Traceback" not in err and len(err.strip().splitlines()) == 1, err
+    for w in words:
+        assert w in err, err
+    return err
+
+
+# every command's output options: (argv before the output, the option, file or folder)
+OUTPUTS = [
+    (["ptc", str(PTC_TABLE)], "--pdf", "file"),
+    (["emva", "no_descriptor.txt"], "--pdf", "file"),
+    (["emva", "no_descriptor.txt"], "--csv", "file"),
+    (["mtf", "no_image.png"], "--pdf", "file"),
+    (["defects", "--dark", "no_dark.npy"], "--mask-h5", "file"),
+    (["lots", "export", "L1", "--db", "no.sqlite"], "--csv", "file"),
+    (["batch", str(PTC_TABLE), "--no-db"], "--out", "folder"),
+]
+
+
+def _guarded(tmp_path, kind, how):
+    """(the path to give, a monkeypatch to apply) for one hostile output place."""
+    import ares.safefile as sf
+
+    folder = tmp_path / "out"
+    folder.mkdir()
+    target = folder / ("x.out" if kind == "file" else "lot")
+    if how == "read-only":
+        return target, [(sf, "_read_only_fs", lambda p: True),
+                        (sf.os, "access", lambda p, m, _real=os.access: False if Path(p) == folder else _real(p, m))]
+    if how == "full disk":
+        import shutil
+        from collections import namedtuple
+
+        usage = namedtuple("usage", "total used free")
+        return target, [(shutil, "disk_usage", lambda p: usage(10**9, 10**9, 0))]
+    if how == "a folder" and kind == "file":
+        return folder, []
+    if how == "a folder":  # (a folder option: a file where the folder goes)
+        (folder / "file").write_text("x")
+        return folder / "file", []
+    return (tmp_path / "missing" / "x.out", []) if kind == "file" else (PTC_TABLE / "sub", [])
+
+
+@pytest.mark.parametrize("how, code", [("read-only", 5), ("full disk", 5), ("a folder", 2), ("missing folder", 2)])
+@pytest.mark.parametrize("argv, option, kind", OUTPUTS, ids=[f"{a[0]} {o}" for a, o, _ in OUTPUTS])
+def test_every_output_is_checked_before_the_work(argv, option, kind, how, code, tmp_path, capsys, monkeypatch):
+    """Output that cannot be written ended in a traceback, exit 1, in every command but
+    ``ares run`` (OSError, zlib.error, h5py internals): now the checks ``ares run`` makes,
+    before the work (the inputs here do not even exist: the output is refused first)."""
+    from ares.cli import main
+
+    monkeypatch.chdir(tmp_path)
+    target, patches = _guarded(tmp_path, kind, how)
+    for obj, name, fn in patches:
+        monkeypatch.setattr(obj, name, fn)
+    rc = main([*argv, option, str(target)])
+    _one_sentence(capsys, rc, code)
+
+
+@pytest.fixture(scope="module")
+def tiny_run(tmp_path_factory):
+    """A complete 3-stage run on the small simulated sensor (read-only to the tests)."""
+    from ares.cli import main
+
+    d = tmp_path_factory.mktemp("tiny")
+    (d / "sim_small.xml").write_bytes((ROOT / "fixtures" / "xml" / "small" / "sim_small.xml").read_bytes())
+    (d / "t.xml").write_text("""<?xml version="1.0" encoding="UTF-8"?>
+<scan name="t" version="1"><system href="sim_small.xml"/>
+  <settings><set quantity="exposure" value="0.01"/><set quantity="analog_gain" value="1"/></settings>
+  <frames>2</frames>
+  <stages><stage name="dark" scene="dark"/>
+    <sweep name="ptc" scene="flat" dark="matched"><axis quantity="light"><log start="10000" stop="300000" points="2"/></axis></sweep>
+  </stages>
+  <analyses><analysis name="ptc"/></analyses>
+  <output pdf="false"/>
+</scan>""")
+    assert main(["run", str(d / "t.xml"), "--out", str(d / "run"), "--quiet"]) == 0
+    return d / "run"
+
+
+@pytest.mark.parametrize("option", ["--pdf", "--hdf5", "--csv"])
+@pytest.mark.parametrize("how, code", [("read-only", 5), ("full disk", 5), ("a folder", 2), ("missing folder", 2)])
+def test_report_outputs_are_checked_before_the_work(option, how, code, tiny_run, tmp_path, capsys, monkeypatch):
+    from ares.cli import main
+
+    kind = "folder" if option == "--csv" else "file"
+    target, patches = _guarded(tmp_path, kind, how)
+    for obj, name, fn in patches:
+        monkeypatch.setattr(obj, name, fn)
+    rc = main(["report", str(tiny_run), option, str(target)])
+    _one_sentence(capsys, rc, code)
+
+
+def _enospc(*a, **k):
+    import errno
+
+    raise OSError(errno.ENOSPC, "No space left on device")
+
+
+def _zlib_over_enospc(*a, **k):
+    """matplotlib's PdfPages: the disk fills, then its cleanup raises zlib.error over it."""
+    import zlib
+
+    try:
+        _enospc()
+    except OSError:
+        raise zlib.error("Error -2 while flushing: inconsistent stream state")
+
+
+def _h5py_enospc(*a, **k):
+    raise RuntimeError("Can't decrement id ref count (file write failed: time = x, filename = 'r.h5.tmp', "
+                       "file descriptor = 3, errno = 28, error message = 'No space left on device')")
+
+
+@pytest.mark.parametrize("fail", [_enospc, _zlib_over_enospc, _h5py_enospc], ids=["OSError", "zlib.error", "h5py"])
+def test_a_disk_that_fills_during_the_write_is_exit_5(fail, tiny_run, tmp_path, capsys, monkeypatch):
+    """The disk fills while the file is written (after the checks passed): one sentence,
+    exit 5, whatever the library raised over the disk's error; no partial file left."""
+    from ares.cli import main
+    from ares.report import plots
+
+    monkeypatch.setattr(plots, "save_pdf", fail)
+    rc = main(["ptc", str(PTC_TABLE), "--pdf", str(tmp_path / "p.pdf")])
+    _one_sentence(capsys, rc, 5, "the disk is full")
+    assert not list(tmp_path.iterdir())
+    from ares.report import h5_export
+
+    monkeypatch.setattr(h5_export, "write_h5", fail)
+    rc = main(["report", str(tiny_run), "--hdf5", str(tmp_path / "r.h5")])
+    _one_sentence(capsys, rc, 5, "the disk is full")
+    assert not list(tmp_path.iterdir())
+
+
+def test_a_big_endian_npy_gives_the_native_files_figures(tmp_path, capsys):
+    """A ``>u2`` .npy (a valid NumPy file) crashed ``ares analyze`` and ``ares defects``
+    with a numba typing error: now converted, and the figures are the native file's."""
+    import numpy as np
+
+    from ares.cli import main
+
+    rng = np.random.default_rng(54)
+    flat, dark = rng.poisson(300, (4, 32, 48)), rng.poisson(100, (4, 32, 48))
+    out = {}
+    for order in ("<u2", ">u2"):
+        np.save(tmp_path / f"f{order[0] == '>'}.npy", flat.astype(order))
+        np.save(tmp_path / f"d{order[0] == '>'}.npy", dark.astype(order))
+        b = order[0] == ">"
+        assert main(["analyze", str(tmp_path / f"f{b}.npy"), "--dark", str(tmp_path / f"d{b}.npy"), "--json"]) == 0
+        assert main(["defects", "--dark", str(tmp_path / f"d{b}.npy"), "--json"]) == 0
+        out[order] = capsys.readouterr().out
+    assert out["<u2"] == out[">u2"] and "components" not in out["<u2"][:0]
+
+
+def test_an_hdf5_dataset_claiming_1e12_pixels_is_refused_from_its_header(tmp_path, capsys):
+    """A chunked HDF5 dataset that claims 1e6 frames of 1 Mpx and stores none ran past
+    300 s: refused before a frame is read."""
+    import h5py
+
+    from ares.cli import main
+
+    with h5py.File(tmp_path / "huge.h5", "w") as f:
+        f.create_dataset("x", shape=(1_000_000, 1000, 1000), dtype="u2", chunks=(1, 1000, 1000))
+    rc = main(["analyze", f"{tmp_path / 'huge.h5'}:/x"])
+    _one_sentence(capsys, rc, 2, "huge.h5", "chunks are written")
+
+
+def test_an_npz_that_inflates_too_far_is_refused_before_inflating(tmp_path, capsys):
+    """A .npz whose 75 MB deflate to 16 GiB ended in ArrayMemoryError: an archive member
+    is now read frame by frame, and one claiming over 100x its compressed size is refused
+    (here 0.4 MB claiming 256 MiB of zeros)."""
+    import io
+    import zipfile
+
+    import numpy as np
+
+    from ares.cli import main
+
+    hdr = io.BytesIO()
+    np.lib.format.write_array_header_1_0(hdr, {"descr": "<u2", "fortran_order": False, "shape": (128, 1024, 1024)})
+    with zipfile.ZipFile(tmp_path / "bomb.npz", "w", zipfile.ZIP_DEFLATED) as z, z.open("x.npy", "w") as m:
+        m.write(hdr.getvalue())
+        for _ in range(16):
+            m.write(bytes(1 << 24))
+    rc = main(["analyze", str(tmp_path / "bomb.npz")])
+    _one_sentence(capsys, rc, 2, "bomb.npz:x", "compression bomb")
+
+
+def test_an_npz_stack_is_read_frame_by_frame_with_the_arrays_figures(tmp_path, capsys):
+    """The streamed .npz reader gives the frames np.load gives (a compressed and a stored
+    archive, big-endian and Fortran-ordered 2-D members among them)."""
+    import numpy as np
+
+    from ares.hardware.stackfiles import iter_frames
+
+    rng = np.random.default_rng(1)
+    a, b = rng.integers(0, 4096, (3, 20, 30)).astype(">u2"), np.asfortranarray(rng.integers(0, 4096, (20, 30)))
+    np.savez_compressed(tmp_path / "c.npz", a=a, b=b.astype(np.uint16, order="F"))
+    np.savez(tmp_path / "s.npz", a=a, b=b.astype(np.uint16, order="F"))
+    for name in ("c.npz", "s.npz"):
+        got = list(iter_frames([str(tmp_path / name)]))
+        assert len(got) == 4 and all(f.dtype.isnative for f in got)
+        assert all((g == w).all() for g, w in zip(got, [*a, b]))
+
+
+@pytest.mark.parametrize("kind", ["png", "npy"])
+def test_a_144_mpx_frame_is_checked_against_the_machines_memory_before_reading(kind, tmp_path, capsys, monkeypatch):
+    """A 144-megapixel PNG ended in ArrayMemoryError: its header's size is checked against
+    what its analysis takes (110 bytes a pixel) and the memory available (here 4 GiB)."""
+    import struct
+    import zlib
+
+    import numpy as np
+
+    import ares.safefile as sf
+    from ares.cli import main
+
+    monkeypatch.setattr(sf, "machine_memory", lambda: (8.0 * 2**30, 4.0 * 2**30))
+    p = tmp_path / f"big.{kind}"
+    if kind == "png":  # a valid IHDR claiming 12000 x 12000 16-bit; the rest is never read
+        ihdr = struct.pack(">IIBBBBB", 12000, 12000, 16, 0, 0, 0, 0)
+        chunk = struct.pack(">I", 13) + b"IHDR" + ihdr + struct.pack(">I", zlib.crc32(b"IHDR" + ihdr))
+        p.write_bytes(b"\x89PNG\r\n\x1a\n" + chunk + b"\0" * 64)
+    else:
+        with open(p, "wb") as f:
+            np.lib.format.write_array_header_1_0(f, {"descr": "<u2", "fortran_order": False, "shape": (12000, 12000)})
+            f.truncate(12000 * 12000 * 2 + f.tell())  # (sparse: the header's data are there)
+    rc = main(["analyze", str(p)])
+    _one_sentence(capsys, rc, 2, f"big.{kind}", "GiB of memory")
+
+
+@pytest.mark.parametrize("command", ["resume", "rerun"])
+@pytest.mark.parametrize("damage", ["cut short", "not JSON"])
+def test_a_damaged_stage_record_is_named_by_file(command, damage, tiny_run, tmp_path, capsys):
+    """A stage JSON cut short crashed ``ares rerun`` and ``ares resume`` (JSONDecodeError)."""
+    import json
+    import shutil
+
+    from ares.cli import main
+
+    d = tmp_path / "run"
+    shutil.copytree(tiny_run, d)
+    st = d / "stages" / "0001.json"
+    st.write_bytes(st.read_bytes()[:200] if damage == "cut short" else b"\xff\xfe\x00garbage")
+    meta = json.loads((d / "run.json").read_text())
+    (d / "run.json").write_text(json.dumps(dict(meta, status="stopped")))
+    rc = main([command, str(d), "--quiet"])
+    _one_sentence(capsys, rc, 2, "0001.json", "damaged or cut short")
+
+
+def test_the_heartbeat_ends_quietly_when_the_run_directory_is_removed(tmp_path, monkeypatch):
+    """The run directory removed under a running scan: the heartbeat thread printed a
+    traceback (it caught OSError; the writer raises StorageError). Now it ends quietly;
+    the main thread reports the disk at its next write."""
+    import threading
+
+    from ares.errors import StorageError
+    from ares.rundir.state import Heartbeat
+
+    seen, beat = [], threading.Event()
+    monkeypatch.setattr(threading, "excepthook", lambda a: seen.append(a.exc_type))
+
+    def fail():
+        beat.set()
+        raise StorageError(f"cannot write {tmp_path}/run.json: the directory does not exist (or disappeared)")
+
+    hb = Heartbeat(fail, interval=0.001).start()
+    assert beat.wait(60)
+    hb.stop()
+    assert seen == []

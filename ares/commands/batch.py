@@ -93,6 +93,10 @@ def run(args) -> int:
     for p in paths:
         if not split_spec(p)[0].exists():
             raise InputError(f"{p}: no such file or directory")
+    from ares.safefile import output_folder, writing
+
+    if not args.stack:  # before the work (ares.safefile): the checks ares run makes for --out
+        output_folder(args.out, "--out")
     if not args.no_db and not args.stack:  # an unusable database is said before the work, not after
         from ares.batch import db
 
@@ -133,12 +137,13 @@ def run(args) -> int:
     name = lot.name if lot else out.resolve().name
     from ares.rundir.files import write_atomic
 
-    write_atomic(out / "lot.csv", lot_report.to_csv(judged, name).encode())
-    lot_report.write_h5(judged, out / "lot.h5", name)
-    lot_pdf.write_pdf(judged, out / "lot.pdf", name)
     from ares.batch import stdf
 
-    stdf.write(stdf.from_judged(judged, name), out / "lot.stdf")  # for yield tools
+    with writing(out):
+        write_atomic(out / "lot.csv", lot_report.to_csv(judged, name).encode())
+        lot_report.write_h5(judged, out / "lot.h5", name)
+        lot_pdf.write_pdf(judged, out / "lot.pdf", name)
+        stdf.write(stdf.from_judged(judged, name), out / "lot.stdf")  # for yield tools
     (out / "lot.partial.csv").unlink(missing_ok=True)
     if not args.no_db:
         from ares.batch import db

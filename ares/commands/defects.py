@@ -201,6 +201,11 @@ def classify_files(dark_levels, flat_levels, *, gain=None, exposure=None, flat_e
 def run(args) -> int:
     import numpy as np
 
+    from ares.safefile import output_file, writing
+
+    for opt, path in (("--mask-png", args.mask_png), ("--mask-h5", args.mask_h5)):  # before the work
+        if path:
+            output_file(path, opt)
     th = _thresholds(args.settings)
     regions = BAYER_PHASES if args.bayer else None
     k = args.gain.dn_per_e(args.adc_lsb_uv) if args.gain is not None else None
@@ -211,9 +216,11 @@ def run(args) -> int:
         rs, cs = regions[name] if regions else (slice(None), slice(None))
         mask[rs, cs] = res.mask
     if args.mask_png:
-        write_mask_png(args.mask_png, mask)
+        with writing(args.mask_png):
+            write_mask_png(args.mask_png, mask)
     if args.mask_h5:
-        write_mask_h5(args.mask_h5, mask, results)
+        with writing(args.mask_h5):
+            write_mask_h5(args.mask_h5, mask, results)
     if args.json:
         doc = {name: r.to_dict() for name, r in results.items()} if regions else results["all"].to_dict()
         print(json.dumps(_jsonable(doc), indent=1))

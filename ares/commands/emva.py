@@ -292,6 +292,11 @@ def run(args) -> int:
     from ares.analysis.kernels import jit
     from ares.hardware.emva_descriptor import read_descriptor
 
+    from ares.safefile import output_file, writing
+
+    for opt, path in (("--csv", args.csv), ("--pdf", args.pdf)):  # before the work (ares.safefile)
+        if path:
+            output_file(path, opt)
     pitch = getattr(args, "pixel_size_um", None)
     if getattr(args, "missing", False):
         from ares.results.emva_missing import coverage, format_coverage
@@ -348,10 +353,12 @@ def run(args) -> int:
         from ares.rundir.files import write_atomic
 
         gen = an.general if args.release == "4.0-general" else None
-        write_atomic(Path(args.csv), datasheet.to_csv(an.sheet, gen).encode())
+        with writing(args.csv):
+            write_atomic(Path(args.csv), datasheet.to_csv(an.sheet, gen).encode())
     if args.pdf:
-        if args.release.startswith("4.0"):
-            datasheet.write_datasheet(an.sheet, Path(args.pdf), an.general, args.release)
-        else:
-            write_pdf(an, Path(args.pdf), args.release)
+        with writing(args.pdf):
+            if args.release.startswith("4.0"):
+                datasheet.write_datasheet(an.sheet, Path(args.pdf), an.general, args.release)
+            else:
+                write_pdf(an, Path(args.pdf), args.release)
     return 0

@@ -176,6 +176,12 @@ def run(args) -> int:
         what = "a QUANTITY" if args.action == "trend" else ("a lot and optionally an ITEM"
                                                             if args.action == "certificate" else f"{want[0]} lot(s)")
         raise InputError(f"{args.action}: give {what} (name or id), not {len(args.lots)} argument(s)")
+    from ares.safefile import output_file, writing
+
+    for opt, path in (("--csv", getattr(args, "csv", None)), ("--parquet", getattr(args, "parquet", None)),
+                      ("--stdf", getattr(args, "stdf", None))):
+        if path and args.action == "export":  # before the work (ares.safefile)
+            output_file(path, opt)
     f = sqlite_file(args.db)
     if f is not None and not Path(f).is_file():
         raise InputError(f"{args.db}: no results database (ares batch writes one; --db names it)")
@@ -189,5 +195,6 @@ def run(args) -> int:
         elif args.action == "trend":
             _trend(db, args.lots[0], args.out, args.csv)
         else:
-            _export(db, args.lots[0], args.csv, args.parquet, args.stdf)
+            with writing(args.csv or args.parquet or args.stdf):
+                _export(db, args.lots[0], args.csv, args.parquet, args.stdf)
     return 0

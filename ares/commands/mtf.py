@@ -61,6 +61,10 @@ def run(args) -> int:
     from ares.protocol.scan import ANALYSIS_OPTIONS
     from ares.hardware.stackfiles import iter_frames
 
+    from ares.safefile import output_file, writing
+
+    if args.pdf:  # before the work (ares.safefile)
+        output_file(args.pdf, "--pdf")
     if args.bayer is not None and args.bayer.upper() not in CHANNEL_NAMES:
         raise InputError(f"--bayer {args.bayer!r}: use one of {', '.join(CHANNEL_NAMES)}")
     hw, hw_min = args.esf_half_width, ANALYSIS_OPTIONS["mtf"]["esf_half_width"]
@@ -86,7 +90,8 @@ def run(args) -> int:
     out = {"images": [str(p) for p in args.images], "frames": n, "roi": args.roi,
            "channels": channels_dict(res, opt, hw, curve=args.json or bool(args.pdf))}
     if args.pdf:
-        _write_pdf(out["channels"], Path(args.pdf), ", ".join(out["images"])[:90])
+        with writing(args.pdf):
+            _write_pdf(out["channels"], Path(args.pdf), ", ".join(out["images"])[:90])
     if args.json:
         print(json.dumps(out, indent=2, allow_nan=False))
         return 0

@@ -227,12 +227,17 @@ def write_pdf(r, names: list[str], path: Path, title: str) -> None:
 
 
 def run(args) -> int:
+    from ares.safefile import output_file, writing
+
+    if args.pdf:  # before the work (ares.safefile)
+        output_file(args.pdf, "--pdf")
     cols = [c for c in args.columns.split(",")] if args.columns else None
     r, d, names = analyse_table(args.table, cols, args.pixels, args.frames, args.adc_lsb_uv)
     if args.pdf and r is None:
         raise InputError(f"{args.table}: --pdf draws the photon-transfer curve, which a ramp without variances has not")
     if args.pdf:
-        write_pdf(r, names, Path(args.pdf), str(args.table))
+        with writing(args.pdf):
+            write_pdf(r, names, Path(args.pdf), str(args.table))
     if args.json:
         print(json.dumps(d, indent=2, allow_nan=False))
     else:

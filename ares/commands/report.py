@@ -75,7 +75,17 @@ def run(args) -> int:
     from ares.rundir.state import REPORTS_INCOMPLETE, owner
     from ares.rundir.record import clean_report_leftovers, set_reports_state
 
+    from ares.safefile import output_file, output_folder, writing
+
     r = read_run(args.run_dir, verify_arrays=True)  # (incomplete / corrupt: one sentence, exit 2)
+    # every output checked before the work (ares.safefile: the checks ares run makes)
+    for opt, path in (("--pdf", args.pdf), ("--hdf5", args.hdf5)):
+        if path:
+            output_file(path, opt)
+    if args.csv:
+        output_folder(args.csv, "--csv")
+    if not (args.pdf and args.hdf5 and args.csv):  # (some go into the run directory)
+        output_folder(r.dir, "RUN_DIR")
     if args.gain is not None:
         give_gain(r.dir, args.gain.dn_per_e(args.adc_lsb_uv), args.gain.text)
         r = read_run(args.run_dir)
@@ -90,7 +100,9 @@ def run(args) -> int:
         if manifest.MANIFEST in n:
             print(f"note: {r.dir}: {n}", file=sys.stderr)
     altered = manifest.problems(r.dir, by=manifest.REPORT)  # reports changed since ARES wrote them
-    files = write_reports(args.run_dir, formats, pdf_path=args.pdf, csv_dir=args.csv, h5_path=args.hdf5)
+    target = args.pdf if formats == ["pdf"] else args.hdf5 if formats == ["hdf5"] else args.csv or r.dir
+    with writing(target):
+        files = write_reports(args.run_dir, formats, pdf_path=args.pdf, csv_dir=args.csv, h5_path=args.hdf5)
     written = {p.resolve() for p in files}
     for rel, what in altered:  # never rewritten (nor left) without saying so
         fate = "written anew now" if (r.dir / rel).resolve() in written else "left as found"

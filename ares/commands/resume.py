@@ -29,7 +29,10 @@ def run(args) -> int:
 
     from ares.rundir.state import REPORTS_INCOMPLETE, effective_status
 
+    from ares.commands.run_signals import refuse_if_stopped
+
     run_ = load_run(args.run_dir)
+    refuse_if_stopped(f"{run_.dir} is as it was")
     if effective_status(run_.meta)[0] == REPORTS_INCOMPLETE:  # stages complete, reports not: write them
         from ares.commands.run import finish_reports
 

@@ -12,9 +12,10 @@ import sys
 import time
 from pathlib import Path
 
-from ares.errors import InputError
+from ares.errors import InputError, interruption
 from ares.commands.run_summary import print_precision, print_summary  # noqa: F401 (tests import them here)
-from ares.commands.run_signals import ReportsAbandoned, Signals, abandon_reports, finished_anyway
+from ares.commands.run_signals import (ReportsAbandoned, Signals, abandon_reports, complete_anyway, finished_anyway,
+                                      refuse_if_stopped)
 
 CLAIM = ".ares-claim"  # ares.rundir.files.CLAIM (not imported here: `ares --help` stays light)
 
@@ -213,6 +214,7 @@ def execute(scan, args, *, seed, frames, faults=None, argv=None, out_dir=None, r
     from ares.rundir.state import quiet_unraisable_storage_errors
 
     quiet_unraisable_storage_errors()
+    refuse_if_stopped("nothing was written" if resume_from is None else f"{out_dir} is as it was")
     if resume_from is None:
         check_run(scan, frames, seed, out_dir)  # refused before a run directory exists (Runner checks again)
         out_dir = claim_out(out_dir, scan.name)
@@ -263,8 +265,16 @@ def execute(scan, args, *, seed, frames, faults=None, argv=None, out_dir=None, r
             helper.close()  # (when no report was written: --json, nothing pending)
         if sigs.received:  # a signal whose exception Python lost on the way: the reports are written
             return finished_anyway(sigs, outcome.run_dir, getattr(args, "command", None) or "run")
+        if sigs.hits and outcome.status == "done":  # a stop after the last stage: complete, yet told
+            return complete_anyway(sigs, outcome.run_dir, getattr(args, "command", None) or "run")
     except ReportsAbandoned as exc:
         return abandon_reports(exc, outcome.run_dir, helper, getattr(args, "command", None) or "run",
+                               len(outcome.stages))
+    except Exception as exc:  # the signal cut a library short and it raised its own error over it
+        sig = interruption(exc)  # (an import of matplotlib for the summary: "ImportError: initialization failed")
+        if not isinstance(sig, ReportsAbandoned):
+            raise
+        return abandon_reports(sig, outcome.run_dir, helper, getattr(args, "command", None) or "run",
                                len(outcome.stages))
     finally:
         sigs.restore()
@@ -303,6 +313,11 @@ def finish_reports(run_, args) -> int:
         write_reports(run_.dir, formats, helper=helper)
     except ReportsAbandoned as exc:
         return abandon_reports(exc, run_.dir, helper, getattr(args, "command", None) or "resume", len(run_.stages))
+    except Exception as exc:  # (a library's own error over the signal, as in ``execute``)
+        sig = interruption(exc)
+        if not isinstance(sig, ReportsAbandoned):
+            raise
+        return abandon_reports(sig, run_.dir, helper, getattr(args, "command", None) or "resume", len(run_.stages))
     finally:
         sigs.restore()
     set_reports_state(run_.dir, "complete")

@@ -1,4 +1,12 @@
-"""Stop signals during ``ares run`` and ``ares resume``: SIGINT, SIGTERM and SIGHUP stop the scan after the stage in flight (a second one aborts), and a signal during the reports abandons them with the run's state on disk true."""
+"""Stop signals during ``ares run`` and ``ares resume``: SIGINT, SIGTERM and SIGHUP stop the scan after the stage in flight (a second one aborts), and a signal during the reports abandons them with the run's state on disk true.
+
+From the first instruction to the last: ``install_early`` (called by ``ares.cli.main``
+before it parses anything) records a signal that lands before the run's own handler
+exists (loading the XML, the checks, the bench): the run then does not start (nothing
+written, exit 130), or -- once the run directory is claimed -- stops before its first
+stage. A signal after the last stage (the scan-level analyses, the reports, or after
+everything) still ends the process with exit 130 and a sentence saying the run is complete.
+"""
 
 from __future__ import annotations
 
@@ -13,6 +21,66 @@ class ReportsAbandoned(BaseException):
 
 
 SIGNAL_NAMES = {signal.SIGINT: "Ctrl-C", signal.SIGTERM: "SIGTERM", signal.SIGHUP: "SIGHUP"}
+STOP_SIGNALS = (signal.SIGINT, signal.SIGTERM, signal.SIGHUP)
+
+
+class _Early:
+    """The process's stop signals before (and after) a run's own handler: their names in
+    order (``received``), and whether a second one may end the process now (``raise_second``:
+    not once a run directory is being claimed -- the run's handler takes them over)."""
+
+    def __init__(self):
+        self.received: list[str] = []
+        self.raise_second = True
+        self.old: dict = {}
+
+    def __call__(self, signum, frame) -> None:
+        name = SIGNAL_NAMES.get(signum, "signal")
+        self.received.append(name)
+        if len(self.received) == 1:
+            sys.stderr.write(f"\n{name}: stopping before the run starts ({name} again to end now)\n")
+        elif self.raise_second:
+            raise KeyboardInterrupt
+
+
+EARLY = _Early()
+
+
+def install_early() -> None:
+    """Record SIGINT/SIGTERM/SIGHUP from now on (the process's first instructions: a SIGHUP
+    in a run's first second was lost -- its default, or an inherited ignore, before the
+    run's handler existed); ``restore_early`` puts the previous handlers back."""
+    EARLY.received.clear()
+    EARLY.raise_second = True
+    if _main_thread():
+        EARLY.old = {s: signal.signal(s, EARLY) for s in STOP_SIGNALS}
+
+
+def restore_early() -> None:
+    for s, h in EARLY.old.items():
+        signal.signal(s, h)
+    EARLY.old = {}
+
+
+def refuse_if_stopped(what: str) -> None:
+    """Before a run claims anything: a stop signal that came already ends the command here
+    (``Interrupted``, exit 130) with ``what`` -- the state of the disk -- said; later ones are
+    the run's to handle (a second one no longer ends the process at once)."""
+    from ares.errors import Interrupted
+
+    EARLY.raise_second = False
+    if EARLY.received:
+        raise Interrupted(f"{EARLY.received[0]} before the run started: {what}")
+
+
+def ended_anyway(command: str, rc: int) -> int:
+    """The exit code of a command that returned ``rc`` although a stop signal came (after
+    the run ended, or too late to change it): 130 and one sentence instead of 0."""
+    if rc != 0 or not EARLY.received:
+        return rc
+    sys.stderr.write(f"ares {command}: {EARLY.received[0]} received after the run's work was done; "
+                     "everything it did is complete\n")
+    return 130
 
 
 class Signals:
@@ -27,7 +95,7 @@ class Signals:
     is not printed; the handler is armed again (a second signal abandons the reports), and
     ``received`` tells the caller that a signal came though the reports were finished."""
 
-    SIGS = (signal.SIGINT, signal.SIGTERM, signal.SIGHUP)
+    SIGS = STOP_SIGNALS
 
     def __init__(self, runner=None):
         self.runner, self.hits, self.old = runner, 0, {}
@@ -36,9 +104,17 @@ class Signals:
         self._unraisable = None
 
     def install(self) -> "Signals":
+        """Installed; the stop signals recorded before (``EARLY``) taken over: one stops the
+        runner before its first stage, two abort it."""
         if _main_thread():
             self.old = {s: signal.signal(s, self) for s in self.SIGS}
             self._unraisable, sys.unraisablehook = sys.unraisablehook, self._lost
+        self._seen = len(EARLY.received)
+        self.hits = self._seen
+        if self.runner is not None and self.hits:
+            self.runner.stop()
+            if self.hits > 1:
+                self.runner.abort()
         return self
 
     def restore(self) -> None:
@@ -56,9 +132,15 @@ class Signals:
             return
         self._unraisable(u)
 
+    @property
+    def first(self) -> str:
+        """The name of the first stop signal the run received ("" if none)."""
+        return EARLY.received[0] if EARLY.received else ""
+
     def __call__(self, signum, frame) -> None:
         self.hits += 1
         name = SIGNAL_NAMES.get(signum, "signal")
+        EARLY.received.append(name)
         if self.phase == "reports":
             self.phase, self.received = "abandoning", name
             raise ReportsAbandoned(name)
@@ -83,6 +165,15 @@ def abandon_reports(exc: ReportsAbandoned, run_dir, helper, command: str, stages
         set_reports_state(run_dir, "incomplete", report_note=f"{exc} while the reports were written")
     sys.stderr.write(f"ares {command}: {exc} while writing the reports: the {stages} completed stage(s) are kept in "
                      f"{run_dir}, the reports are incomplete; `ares resume {run_dir}` writes them\n")
+    return 130
+
+
+def complete_anyway(sigs: Signals, run_dir, command: str) -> int:
+    """A stop signal came after the last stage was committed (during the scan-level
+    analyses, or before the reports): the run is complete and run.json says ``done``; one
+    line, exit 130."""
+    sys.stderr.write(f"ares {command}: {sigs.first} after the last stage: nothing was left to stop, "
+                     f"the run is complete in {run_dir}\n")
     return 130
 
 

@@ -72,9 +72,14 @@ def load_run(run_dir: str | Path) -> RunRecord:
     if not (d / "run.json").is_file():
         raise InputError(f"{d}: not an ARES run directory (no run.json)")
     try:
-        meta = json.loads((d / "run.json").read_text())
-    except json.JSONDecodeError as exc:
-        raise InputError(f"{d / 'run.json'}: unreadable ({exc})") from None
+        meta = json.loads((d / "run.json").read_bytes())
+    except (ValueError, OSError) as exc:
+        raise InputError(f"{d / 'run.json'}: unreadable ({type(exc).__name__}: {exc})") from None
+    if not isinstance(meta, dict):
+        raise InputError(f"{d / 'run.json'}: not a run record (not a JSON object)")
+    for key in ("scan_file", "system_file"):
+        if not isinstance(meta.get(key), str):
+            raise InputError(f"{d / 'run.json'}: names no {key.replace('_', ' ')}; not an ARES run record")
     for key in ("scan_file", "system_file"):
         p = d / meta[key]
         if not p.is_file():
@@ -88,5 +93,17 @@ def load_run(run_dir: str | Path) -> RunRecord:
         from ares.hardware.replay import relocate_replay
 
         scan = dataclasses.replace(scan, system=relocate_replay(scan.system, meta.get("bench")))
-    stages = [json.loads(p.read_text()) for p in sorted((d / "stages").glob("[0-9][0-9][0-9][0-9].json"))]
+    stages = [_stage_json(p) for p in sorted((d / "stages").glob("[0-9][0-9][0-9][0-9].json"))]
     return RunRecord(d, meta, scan, stages)
+
+
+def _stage_json(p: Path) -> dict:
+    """A committed stage's record, or one sentence naming its file (cut short, damaged)."""
+    try:
+        st = json.loads(p.read_bytes())
+    except (ValueError, OSError) as exc:  # (JSONDecodeError and UnicodeDecodeError are ValueErrors)
+        raise InputError(f"{p}: the stage record is damaged or cut short ({type(exc).__name__}); the run directory "
+                         "cannot be read as written") from None
+    if not isinstance(st, dict) or not isinstance(st.get("index"), int):
+        raise InputError(f"{p}: not a stage record (no stage index); the run directory cannot be read as written")
+    return st

@@ -1,6 +1,6 @@
 """A run's state as its directory tells it, and the errors of the disk it is written to.
 
-Imports nothing of the project, so that the writer (``ares.rundir.writer``), the report
+Imports nothing of the project but ``ares.safefile`` (the storage errors' sentences), so that the writer (``ares.rundir.writer``), the report
 (``ares.report.source``) and the GUI read a run's state the same way.
 
 - ``run.json`` records who runs it: ``pid``, ``host``, ``heartbeat`` (seconds since the
@@ -19,35 +19,18 @@ Imports nothing of the project, so that the writer (``ares.rundir.writer``), the
 
 from __future__ import annotations
 
-import errno
 import os
 import socket
 import threading
 import time
 
+# the storage errors' sentences are every command's (``ares.safefile``: the output guard)
+from ares.safefile import STORAGE_ERRNOS, is_storage_error, os_errno, storage_sentence  # noqa: F401
+
 HEARTBEAT_S = 5.0
 STALE_S = 120.0
 
 REPORTS_INCOMPLETE = "reports incomplete"
-
-STORAGE_ERRNOS = {
-    errno.ENOSPC: "the disk is full",
-    errno.EFBIG: "the file is larger than the file-size limit (ulimit -f) or the file system allows",
-    errno.EDQUOT: "the disk quota is exceeded",
-    errno.EROFS: "the file system is read-only",
-    errno.EACCES: "permission denied",
-    errno.EPERM: "operation not permitted",
-    errno.EIO: "an input/output error",
-    errno.ENOENT: "the directory does not exist (or disappeared)",
-    errno.ENOTDIR: "a folder of the path is a file",
-    errno.EISDIR: "the path is a directory",
-    errno.EMFILE: "too many files are open",
-    errno.ENFILE: "too many files are open on the system",
-    errno.ENAMETOOLONG: "the file name is too long",
-    errno.ESTALE: "the network file system lost the file (stale handle)",
-    errno.ENXIO: "the device is gone",
-    errno.ENODEV: "the device is gone",
-}
 
 
 def owner() -> dict:
@@ -97,37 +80,6 @@ def effective_status(meta: dict, now: float | None = None) -> tuple[str, str]:
     return "running", ""
 
 
-def os_errno(exc: BaseException) -> int | None:
-    """The errno of an OS error, also when a library wraps it in its message only
-    (h5py/HDF5 raise OSError or RuntimeError "... file write failed: ... filename = 'x',
-    ... errno = 27, error message = 'File too large' ...")."""
-    if isinstance(exc, OSError) and exc.errno is not None:
-        return exc.errno
-    if not isinstance(exc, (OSError, RuntimeError)):
-        return None
-    import re
-
-    m = re.search(r"errno = (\d+)", str(exc))
-    return int(m.group(1)) if m else None
-
-
-def storage_sentence(exc: BaseException, path) -> str:
-    """One sentence: the file (the error's own when it names one) and what the disk said."""
-    import re
-
-    code = os_errno(exc)
-    why = STORAGE_ERRNOS.get(code, getattr(exc, "strerror", None) or type(exc).__name__)
-    named = getattr(exc, "filename", None)
-    if named is None:
-        m = re.search(r"filename = '([^']*)'", str(exc))
-        named = m.group(1) if m else None
-    return f"cannot write {named or path}: {why}"
-
-
-def is_storage_error(exc: BaseException) -> bool:
-    return os_errno(exc) in STORAGE_ERRNOS
-
-
 def quiet_unraisable_storage_errors() -> None:
     """HDF5 reports a failed write again each time h5py frees one of the file's objects
     (a traceback through ``h5py/_objects.pyx`` printed by the excepthook, then "Exception
@@ -174,8 +126,8 @@ class Heartbeat:
         while not self._stop.wait(self._interval):
             try:
                 self._beat()
-            except OSError:  # the disk failed: the main thread reports it at its next write
-                return
+            except Exception:  # noqa: BLE001 -- the disk failed (OSError, or the writer's StorageError: the
+                return  # run directory removed, full, read-only): the main thread reports it at its next write
 
     def stop(self) -> None:
         self._stop.set()

@@ -132,11 +132,20 @@ class RunWriter:
 
         manifest.forget(self.dir)  # (this run writes again: swept anew at its end)
         for leftover in (self.dir / "stages").glob("*.tmp"):  # a stage write the kill cut short
-            leftover.unlink()
+            leftover.unlink(missing_ok=True)
+        from ares.rundir.record import clean_report_leftovers
+
+        clean_report_leftovers(self.dir)  # results.h5.tmp, a report's .tmp and report.pdf.parts
         recorded = self.meta["stage_sha256"] = dict(self.meta.get("stage_sha256") or {})
         dropped = self._drop_stages_from(len(stages), recorded)
         if dropped:  # committed with a provisional defect mask (ares.scan.resume): acquired again
             resumed[-1]["acquired_again"] = dropped
+        elif stages:  # a kill after a stage's JSON (its commit) and before the index and summary.csv
+            with storage(self.dir):  # followed: both written again from the committed stages
+                if self.scan.output.hdf5:
+                    self._write_index()
+                if self.scan.output.csv:
+                    write_atomic(self.dir / "summary.csv", summary_csv(self.rows))
         for st in stages:  # a stage committed (its JSON written) just before the kill reached run.json
             key = f"{st['index']:04d}"
             if key not in recorded:

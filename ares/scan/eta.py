@@ -66,7 +66,7 @@ class Eta:
                 key = (float(cost), float(weight[0]) if weight else 1.0)
                 self.left[kind].append([n, *key])
                 totals[key] = totals.get(key, 0) + n
-        self.kind = next(iter(self.left))
+        self.kind = next(iter(self.left), "")  # (no stack left: a resume after the last stage)
         self._cost = 0.0  # model seconds of a frame of the current stack
         self._weight = 1.0  # ... and its relative cost
         # finished stacks, their latest six: s/frame beyond the model by (kind, cost) and its median;

@@ -31,7 +31,6 @@ compiling, until issue 41's refit.)
 from __future__ import annotations
 
 import math
-import os
 import shutil
 from dataclasses import dataclass
 from pathlib import Path
@@ -222,17 +221,11 @@ def disk_free(folder: Path) -> float | None:
 
 
 def machine_memory() -> tuple[float | None, float | None]:
-    """(total, available) physical memory in bytes, from /proc/meminfo or sysconf."""
-    try:
-        with open("/proc/meminfo", encoding="ascii") as f:
-            info = {ln.split(":")[0]: float(ln.split()[1]) * 1024 for ln in f if ":" in ln}
-        return info.get("MemTotal"), info.get("MemAvailable")
-    except (OSError, ValueError, IndexError):
-        pass
-    try:
-        return float(os.sysconf("SC_PAGE_SIZE") * os.sysconf("SC_PHYS_PAGES")), None
-    except (ValueError, OSError, AttributeError):
-        return None, None
+    """(total, available) physical memory in bytes (``ares.safefile.machine_memory``: every
+    reader's size check asks the same)."""
+    from ares.safefile import machine_memory as mm
+
+    return mm()
 
 
 def check_run(scan, frames: int | None = None, seed: int | None = None, out_dir=None, refuse_disk: bool = True) -> Plan:
