@@ -2,7 +2,7 @@
 Makefile's install step -- and measure the libraries' memory for ``ares validate``'s estimate.
 
 A top-level entry: it imports the kernel modules (``ares.analysis.kernels``, ``ares.sim.fused``);
-nothing imports it. The compile helpers themselves are ``ares.analysis.kernels.compile``.
+nothing imports it. The compile helpers themselves are ``ares.analysis.kernels.jit``.
 """
 
 from __future__ import annotations
@@ -19,6 +19,7 @@ def warm_all() -> float:
 
     t0 = time.perf_counter()
     from ares.analysis.kernels import highpass as highpass_kernel
+    from ares.analysis.kernels import hmm
     from ares.analysis.kernels import int_fold
     from ares.analysis.kernels import lowpass
     from ares.analysis.kernels import masked_fold
@@ -26,6 +27,7 @@ def warm_all() -> float:
     from ares.sim import fused
 
     fused.warm()
+    hmm.warm()
     lowpass.warm()
     highpass_kernel.warm()
     int_fold.warm()

@@ -7,6 +7,8 @@ from __future__ import annotations
 from pathlib import Path
 
 import h5py
+import json
+
 import numpy as np
 
 from ares.cli import main
@@ -41,7 +43,11 @@ def test_usb_frame_counters_and_timestamps_per_stage_in_report_h5(tmp_path):
         assert f["stages/0000/frame_counter"].attrs["unit"].startswith("1 (the device's frame counter")
         assert "frame_temperature" not in f["stages/0000"]  # the USB header carries none
     flat = [c for c in counters]
-    assert flat[0] == [0, 1, 2]  # the device counter from the ares32 header, continuous over stages
+    st0 = json.loads((out / "stages" / "0000.json").read_text())
+    # the frames settling took before the first stage (ares.scan.settling: its record says how many)
+    before = sum(r.get("probe_frames", 0) + r.get("discarded", 0)
+                 for r in st0.get("settling", {}).values() if isinstance(r, dict) and "changed" in r)
+    assert flat[0] == [before, before + 1, before + 2]  # the device counter from the ares32 header, over stages
     assert all(b[0] > a[-1] for a, b in zip(flat, flat[1:])) and all(np.diff(c).tolist() == [1, 1] for c in flat)
     assert np.all(np.diff(stamps) >= 0)
 

@@ -13,7 +13,8 @@ from ares.results.registry import flatten, names_quantity
 
 ROOT = Path(__file__).resolve().parents[1]
 NOT_QUANTITIES = {"analog_gain", "exposure", "light", "temperature_c", "levels", "samples", "ref_c", "signal",
-                  "index_u_ysat", "n_pixels", "n_frames", "cluster_min_size", "a00_se"}
+                  "index_u_ysat", "n_pixels", "n_frames", "cluster_min_size", "a00_se",
+                  "scatter_ratio"}  # (the PTC decision errors: measured scatter over claimed, a diagnostic)
 SCAN = """<?xml version="1.0" encoding="UTF-8"?>
 <scan name="all_analyses" version="1">
   <system href="{system}"/>

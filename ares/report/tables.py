@@ -385,10 +385,8 @@ def compute_key_figures(run, groups: list[PtcGroup] | None = None) -> dict:
             if s.available:
                 kf["snr_max_db"] = _entry(labels.figure_name("snr_max"), snr_db(s, "20 log10 SNR max (measured)"),
                                           "PTC recomputed")
-            fwv, em = fw.get("saturation_capacity"), ((run.analyses.get("emva4") or {}).get("values") or {}).get("SNR_max")
-            if em is not None:  # one SNR_max: the datasheet's (the EMVA evaluation of the same run)
-                kf["snr_max_emva"] = _entry(labels.figure_name("snr_max_emva"), est(em), "scan_results.json: emva4")
-            elif fwv is not None and fwv.available:
+            fwv = fw.get("saturation_capacity")  # (the datasheet's SNR_max, on its own mu_e.sat, is its own figure)
+            if fwv is not None and fwv.available:
                 kf["snr_max_emva"] = _entry(labels.figure_name("snr_max_emva"),
                                             Estimate(math.sqrt(fwv.value), fwv.se / (2 * math.sqrt(fwv.value))
                                                      if math.isfinite(fwv.se) else math.nan, "",

@@ -4,8 +4,8 @@ steps through time for all series at once, ~10 small array operations a frame, w
 cost of a long series; here each frame of each series is a few scalar loops. Same start, same
 updates, each series stops on its own once its log-likelihood changes by less than
 ``tol x frames`` (the numpy path when all have): equal to it within the tolerance (tested).
-Compiled on first use (not among ``jit.KERNEL_MODULES``: only ``ares rtn`` and the ``rtn``
-analysis use it)."""
+Among ``jit.KERNEL_MODULES``: compiled once at install (``python -m ares.jit``, ``warm``), so
+the first ``ares rtn`` does not pay for it."""
 
 from __future__ import annotations
 
@@ -156,3 +156,9 @@ def baum_welch(x: np.ndarray, mu_init: np.ndarray, var_init: np.ndarray, iters: 
     _kernel_c(x, np.ascontiguousarray(mu_init, np.float64), np.ascontiguousarray(var_init, np.float64), int(iters),
               float(tol), mu, var, A, occ, dep, ll)
     return mu, var, A, occ, dep, ll
+
+
+def warm() -> None:
+    """Compile (or load from numba's cache) the kernel on a tiny series."""
+    x = np.array([0.0, 1.0, 0.1, 0.9, 0.0, 1.1, 0.05, 0.95])[:, None]  # (frames, series)
+    baum_welch(x, np.array([[0.0, 1.0]]), np.array([0.1]), 2, 1e-6)

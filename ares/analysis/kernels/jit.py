@@ -75,7 +75,7 @@ def cached(dispatcher) -> bool:
 # the modules whose kernels ``jit.compiled`` caches (``warm_all`` loads every one), under ares/
 _ROOT = Path(os.path.abspath(__file__)).parents[2]  # ares/ (as numba names folders: not resolved)
 KERNEL_MODULES = ("sim/fused.py", "analysis/kernels/lowpass.py", "analysis/kernels/int_fold.py", "analysis/kernels/masked_fold.py",
-                  "analysis/kernels/pair.py", "analysis/kernels/highpass.py")
+                  "analysis/kernels/pair.py", "analysis/kernels/highpass.py", "analysis/kernels/hmm.py")
 
 
 def kernels_cached() -> bool:

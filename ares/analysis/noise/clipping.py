@@ -105,7 +105,7 @@ def too_clipped(s: dict) -> str | None:
     cols = int(np.sum(good.sum(axis=0) >= 2))
     if rows >= 2 and cols >= 2:
         return None
-    where = " and ".join(w for w, n in ((f"{s['top_dn']:g} ({s['top_source']})", s["at_top"]), ("0", s["at_zero"])) if n)
+    where = " and ".join(([f"{s['top_dn']:g} ({s['top_source']})"] if s["at_top"] else []) + (["0"] if s["at_zero"] else []))
     if not good.any():
         return f"every pixel is clipped (at {where}) in at least one frame: the values are not the sensor's signal"
     return (f"{s['pixels']} of {s['total']} pixels are clipped (at {where}): fewer than 2 rows and 2 columns of "
