@@ -87,7 +87,7 @@ def _wait_for(path: Path, proc: subprocess.Popen, timeout: float = 600.0) -> boo
     return True
 
 
-@pytest.mark.parametrize("seed", [1, 2, 3])
+@pytest.mark.parametrize("seed", [1, pytest.param(2, marks=pytest.mark.study), pytest.param(3, marks=pytest.mark.study)])
 def test_sigkill_at_a_random_point_then_resume(seed, tmp_path, reference, capsys):
     k = random.Random(seed).randint(1, 6)
     d = tmp_path / "run"

@@ -347,6 +347,7 @@ sys.exit(rc)
 """
 
 
+@pytest.mark.study  # a memory measurement: make bench-quick
 def test_the_memory_estimate_is_within_10_percent_of_a_shipped_scans_peak(tmp_path):
     """Finding 7: the memory `ares validate` / `--dry-run` print (``ares.scan.preflight``)
     against the high-water mark (VmHWM) of `ares run` of a shipped scan, in a child (the PDF

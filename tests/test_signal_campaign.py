@@ -123,7 +123,9 @@ CASES = [("SIGTERM", "reports"), ("SIGINT", "reports"), ("SIGINTx2", "reports"),
          ("SIGKILL", "stages"), ("SIGINTx2", "stages")]
 
 
-@pytest.mark.parametrize("seed, how, when", [(i, h, w) for i, (h, w) in enumerate(CASES)])
+# two cases in the suite (a stop in the reports, a kill in the stages); the rest in make bench-quick
+@pytest.mark.parametrize("seed, how, when", [(i, h, w) if i in (0, 4) else pytest.param(i, h, w, marks=pytest.mark.study)
+                                             for i, (h, w) in enumerate(CASES)])
 def test_signal_at_a_random_moment_then_resume(seed, how, when, scan, reference, tmp_path):
     rnd = random.Random(41 + seed)
     d = tmp_path / "run"

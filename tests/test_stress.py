@@ -28,6 +28,7 @@ from ares.protocol.scan import Axis, Region, StageSpec
 from ares.scan import Runner
 from ares.sim.bench import SimChamber, SimLightSource, SimRegisterBus
 from ares.sim.regmap import SIM_REGISTER_MAP
+from ares.sim.strict import SimClock
 
 ROOT = Path(__file__).resolve().parents[1]
 
@@ -96,7 +97,7 @@ def run_case(c: Case, *, on_loss: str = "fail"):
                                on_loss=on_loss, settings=tuple(s for s in base.settings if s.key == "exposure"))
     regs = RegisterFile(SIM_REGISTER_MAP, SimRegisterBus())
     lamp = SimLightSource()
-    bench = Bench(regs, ToyFrames(c, regs, lamp), lamp, SimChamber(), {})
+    bench = Bench(regs, ToyFrames(c, regs, lamp), lamp, SimChamber(), {}, clock=SimClock())  # settling waits: bench time
     with warnings.catch_warnings():
         warnings.simplefilter("error")
         with np.errstate(divide="raise", over="raise", invalid="raise"):  # underflow to 0 is benign
