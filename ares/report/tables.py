@@ -22,6 +22,7 @@ from ares import labels
 from ares.analysis.stats.physical import snr_db, snr_in_range
 from ares.analysis.ptc.photon_transfer import PtcResult, analyze_ptc
 from ares.results.registry import ptc_level_keys
+from ares.results.analyses import signal_se  # one definition: the input the runner's PTC analysis gives
 from ares.report.series_tables import dark_current_figures
 from ares.report.series_tables import _entry, _nan
 from ares.report.page_tables import analysis_label
@@ -129,15 +130,6 @@ def _adc_lsb_uv(run, stored: dict) -> float | None:
         return float(SensorParams().adc_lsb_uv)
     except Exception:  # noqa: BLE001 -- best effort; conversion gain is then n/a
         return None
-
-
-def signal_se(stage: dict) -> float:
-    """SE (DN) of a flat stage's mean from the scatter of its frame means -- the same
-    input the runner's PTC analysis gives ``analyze_ptc(signal_se=...)``."""
-    fm = stage["views"]["full"]["level"].get("frame_means") or []
-    if len(fm) < 2:
-        return math.nan
-    return float(np.std(np.asarray(fm, float), ddof=1) / math.sqrt(len(fm)))
 
 
 def _analyze(bright, dark, **kw) -> PtcResult:

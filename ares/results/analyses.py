@@ -53,7 +53,7 @@ def _adc_lsb_uv(system):
     return None
 
 
-def _signal_se(stage: dict) -> float:
+def signal_se(stage: dict) -> float:
     """SE (DN) of a flat stage's mean from the scatter of its frame means: the frame-global
     offset and the row/column temporal terms move the mean of every frame. The matched
     dark's share is common to the levels that reuse it (absorbed by the fit's intercept)
@@ -102,7 +102,7 @@ def ptc_one(run, stages: list, analog_gain: float) -> dict:
         photons = None
     r = analyze_ptc(bright, dark, exposure_s=exp if all(math.isfinite(e) for e in exp) else None,
                     photons=photons, adc_lsb_uv=_adc_lsb_uv(run.system), analog_gain=analog_gain,
-                    signal_se=[_signal_se(s) for s in stages])
+                    signal_se=[signal_se(s) for s in stages])
     rn_dn, rn_e = _read_noise_with_line_terms(r, stages)
     out = {"analog_gain": analog_gain, "levels": len(stages),
            "defect_pixels_excluded": stages[0]["views"]["full"].get("masked_pixels", 0) if masked else 0}
