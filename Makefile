@@ -20,7 +20,7 @@ run: $(BIN)/.installed
 
 # All tests but the many-seed studies (offscreen Qt; two workers for the two cores).
 test: $(BIN)/.installed
-	QT_QPA_PLATFORM=offscreen $(BIN)/python -m pytest -n 2 -q --durations=30 -m "not study"
+	QT_QPA_PLATFORM=offscreen $(BIN)/python -m pytest -n 2 --dist worksteal -q --durations=30 -m "not study"
 
 # The studies over many seeds or cases (tests marked `study`): coverage, bias and sweeps.
 bench-quick: $(BIN)/.installed

@@ -211,7 +211,8 @@ for case in sys.argv[3:]:
 
 
 @pytest.mark.slow
-@pytest.mark.parametrize("device", sorted(POSITIONS))
+@pytest.mark.parametrize("device", [d if d == "usb" else pytest.param(d, marks=pytest.mark.study)
+                                    for d in sorted(POSITIONS)])  # usb in the suite, the rest in bench-quick
 def test_fault_campaign_every_kind_ends_in_0_or_3(device, tmp_path):
     """Each fault kind of the device at three positions (frame / transaction / command
     counts): the run recovers within the limits (exit 0) or fails truthfully (exit 3), never
