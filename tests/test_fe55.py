@@ -120,6 +120,21 @@ def test_command_bad_input(tmp_path, capsys):
     assert "n/a (needs >= 50 events" in capsys.readouterr().out
 
 
+def test_frames_without_xrays_say_so_and_exit_1(tmp_path, capsys):
+    """No candidate above the threshold, or candidates that are noise peaks (a heavy-tailed noise:
+    many local maxima over 5 robust sigmas, all near the threshold): one sentence, exit 1."""
+    rng = np.random.default_rng(2)
+    np.save(tmp_path / "g.npy", np.round(100 + 3 * rng.standard_normal((20, 32, 32))))
+    assert main(["fe55", str(tmp_path / "g.npy"), "--temperature-c", "20"]) == 1
+    text = capsys.readouterr().out
+    assert text.startswith("No X-ray events found: 0 candidate events above the threshold") and "20 frames" in text
+    np.save(tmp_path / "t.npy", np.round(100 + 3 * rng.standard_t(2, (20, 32, 32))))
+    assert main(["fe55", str(tmp_path / "t.npy"), "--temperature-c", "20", "--json"]) == 1
+    out = json.loads(capsys.readouterr().out)
+    assert not out["xray_events"] and "noise peaks, not X-rays" in out["no_xray"]
+    assert out["gain_e_per_dn"]["verdict"] != "ok" and out["gain_e_per_dn"]["value"] is None
+
+
 def test_scan_level_fe55_from_the_runs_raw_frames(tmp_path):
     from ares.protocol import load_scan
     from ares.protocol.quantities import PRODUCES

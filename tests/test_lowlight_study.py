@@ -21,8 +21,11 @@ def test_rtn_1000_frames_recall_precision_amplitude_dwell():
     r = one(seed=3, frames=1000)
     assert r["recall"] >= 0.95 and r["precision"] >= 0.95
     assert r["amp_5"] >= 0.95
-    assert min(r["dlo_real_10"], r["dhi_real_10"]) >= 0.9  # against the dwells the traps realized
-    assert 0.8 < r["dlo_pull_sd"] < 1.2 and 0.8 < r["dhi_pull_sd"] < 1.2  # the SEs cover the parameter's error
+    # dwell times: within 10 % as often as the trap's true states allow (at 1000 frames ~55 %: SEs of 11-18 %),
+    # unbiased, and the reported SEs cover the errors
+    assert r["dw_10"] >= r["known_10"] - 0.05 and abs(r["dw_bias"]) < 0.03
+    assert r["cov"][2] >= 0.97 and r["cov"][1] >= 0.92 and 0.8 < r["pull_sd"] < 1.2
+    assert r["need10"] > 1000  # the median pixel's dwell SE is over 10 %: "needs >= N frames" says so
 
 
 @pytest.mark.study

@@ -46,6 +46,32 @@ def test_simulator_rts_found_with_amplitudes_and_dwells(sim):
         assert np.all(np.abs(pull) < 4) and abs(np.mean(pull)) < 1
     assert summ["rtn_pixels"] == len(found) and summ["read_noise_increase_pct"].value > 0
     assert summ["frames_needed"]["3x"] > 600  # dwell times to 10 % need more than these 600 frames
+    # the pixels' own dwell SEs say the same: over 10 % for the median pixel, which needs more frames for it
+    assert summ["dwell_se_median_pct"] > 10 and summ["dwell_frames_needed"] > 600
+    assert summ["dwell_resolved"] < summ["rtn_pixels"] / 2
+
+
+def test_continuous_dwells_of_a_sampled_telegraph():
+    """A continuous-time telegraph (exponential dwells of 30 and 12 ms) sampled every 10 ms: the frame
+    chain's mean dwells (known states, departures / frames) turned back into the telegraph's by
+    ``continuous_dwell_s`` (the docstring's closed form) -- where frames x period is 17-40 % off."""
+    rng = np.random.default_rng(4)
+    tau, period, n = (0.030, 0.012), 0.010, 400_000
+    dur = rng.exponential(np.tile(tau, n // 2))  # low, high, low, ...
+    ends = np.cumsum(dur)
+    t = np.arange(0, ends[-1] * 0.999, period)
+    st = np.searchsorted(ends, t, side="right") % 2
+    d = []
+    for lev in (0, 1):
+        inl = st[:-1] == lev
+        d.append(inl.sum() / (inl & (st[1:] != lev)).sum())
+    tl, th, sl, sh = rtn.continuous_dwell_s(d[0], d[1], period, d[0] * 0.01, d[1] * 0.01)
+    assert abs(tl / tau[0] - 1) < 0.02 and abs(th / tau[1] - 1) < 0.02
+    assert abs(d[1] * period / tau[1] - 1) > 0.15  # the naive conversion
+    assert 0 < sl and 0 < sh and np.isfinite(sl + sh)
+    tl, th, sl, _ = rtn.continuous_dwell_s(500.0, 800.0, period, 5.0, 8.0)  # P << 1: tau -> period x frames
+    assert abs(tl / (500 * period) - 1) < 2e-3 and abs(sl / (5.0 * period) - 1) < 0.01
+    assert np.isnan(rtn.continuous_dwell_s(1.2, 1.5, period)[0])  # switches more often than not: no telegraph
 
 
 def test_white_noise_has_no_rtn():
@@ -77,9 +103,12 @@ def test_command(sim, tmp_path, capsys):
     out = json.loads(capsys.readouterr().out)
     assert out["rtn_pixels"] == len(out["pixels_rtn"]) > 5 and out["rtn_fraction"]["verdict"] == "ok"
     assert (tmp_path / "p.csv").read_text().startswith("row,col,levels,amplitude_dn")
-    assert main(["rtn", str(tmp_path / "d.npy"), "--two-levels"]) == 0
+    assert main(["rtn", str(tmp_path / "d.npy"), "--two-levels", "--frame-period-s", "0.01", "--csv",
+                 str(tmp_path / "s.csv")]) == 0
     text = capsys.readouterr().out
-    assert "RTN pixels" in text and "needs >= " in text
+    assert "RTN pixels" in text and "needs >= " in text and "dwell SE" in text and "continuous time" in text
+    head = (tmp_path / "s.csv").read_text().splitlines()[0]
+    assert head.endswith("dwell_frames_needed,dwell_low_s,dwell_low_se_s,dwell_high_s,dwell_high_se_s")
     np.save(tmp_path / "few.npy", frames[:20])
     assert main(["rtn", str(tmp_path / "few.npy")]) == 2
     assert "needs >= 100" in capsys.readouterr().err

@@ -9,7 +9,9 @@ frame's robust noise sigma, both stated in DN in the output); ``--events`` takes
 signals in DN (one per line, or a table with a ``signal_dn`` column and optional ``row``/``col``).
 The K-alpha/K-beta fit, the gain in e-/DN from the electron yield at the declared temperature
 (with the pair energy's 1.1 % systematic beside the statistical SE), and, with positions, the
-charge-transfer trend across rows and columns. ``--csv`` writes the events.
+charge-transfer trend across rows and columns. ``--csv`` writes the events. Frames without
+X-ray events (no candidate above the threshold, or candidates that are noise peaks) say so in one
+sentence and exit with 1.
 """
 
 from __future__ import annotations
@@ -101,19 +103,20 @@ def run(args) -> int:
         ev = fe55.find_events(Frames(), args.threshold, args.split)
         if ev.frames == 0:
             raise InputError("the frames hold no image")
-        res = fe55.analyse(ev.signal_dn, args.temperature_c, ev, line)
+        res = fe55.analyse(ev.signal_dn, args.temperature_c, ev, line, args.threshold)
         res["threshold_sigma"], res["split_sigma"] = args.threshold, args.split
         source = {"frames": [str(f) for f in args.frames]}
     if args.csv:
         _write_csv(Path(args.csv), ev, res)
     out = {**source, **_jsonable(res)}
+    rc = 0 if res["xray_events"] else 1  # no X-ray events: nothing measured, the exit says so
     if args.json:
         print(json.dumps(out, indent=2, allow_nan=False))
-        return 0
+        return rc
     _print(res)
     if args.csv:
         print(f"events written to {args.csv}")
-    return 0
+    return rc
 
 
 def _write_csv(path: Path, ev, res) -> None:
@@ -135,6 +138,9 @@ def _write_csv(path: Path, ev, res) -> None:
 
 
 def _print(res: dict) -> None:
+    if not res["xray_events"]:
+        print(res["no_xray"][0].upper() + res["no_xray"][1:] + ".")
+        return
     chi2 = f"{res['chi2_dof']:.2f}" if math.isfinite(res["chi2_dof"]) else "n/a"
     print(f"K-alpha peak       {res['kalpha_dn'].text(with_reason=True)}  (width {res['kalpha_sigma_dn'].text()}, "
           f"chi2/dof {chi2}, {res['events_in_fit']} of {res['events_total']} events in the fit window)")

@@ -111,7 +111,10 @@ def run(args) -> int:
 
 
 def _pixel_rows(px, shape) -> list[dict]:
+    from ares.analysis.lowlight.rtn import dwell_frames_needed
+
     rows = []
+    need = dwell_frames_needed(px)
     for i in range(px.index.size):
         r, c = divmod(int(px.index[i]), shape[1])
         fin = lambda v: float(v) if math.isfinite(v) else None
@@ -119,7 +122,8 @@ def _pixel_rows(px, shape) -> list[dict]:
                      "amplitude_se_dn": fin(px.amplitude_se_dn[i]), "sigma_dn": fin(px.sigma_dn[i]),
                      "dwell_low_frames": fin(px.dwell_low_frames[i]), "dwell_low_se": fin(px.dwell_low_se[i]),
                      "dwell_high_frames": fin(px.dwell_high_frames[i]), "dwell_high_se": fin(px.dwell_high_se[i]),
-                     "occupancy_high": fin(px.occupancy_high[i]), "delta_bic": fin(px.delta_bic[i])})
+                     "occupancy_high": fin(px.occupancy_high[i]), "delta_bic": fin(px.delta_bic[i]),
+                     "dwell_frames_needed": int(need[i])})
     return rows
 
 
@@ -127,13 +131,13 @@ def _write_csv(path: Path, px, shape, period) -> None:
     from ares.rundir.files import storage, write_atomic
 
     cols = ["row", "col", "levels", "amplitude_dn", "amplitude_se_dn", "sigma_dn", "dwell_low_frames", "dwell_low_se",
-            "dwell_high_frames", "dwell_high_se", "occupancy_high", "delta_bic"]
-    lines = [",".join(cols + (["dwell_low_s", "dwell_high_s"] if period else []))]
-    for r in _pixel_rows(px, shape):
+            "dwell_high_frames", "dwell_high_se", "occupancy_high", "delta_bic", "dwell_frames_needed"]
+    lines = [",".join(cols + (["dwell_low_s", "dwell_low_se_s", "dwell_high_s", "dwell_high_se_s"] if period else []))]
+    secs = _seconds(px, period) if period else None
+    for i, r in enumerate(_pixel_rows(px, shape)):
         cells = ["" if r[c] is None else (f"{r[c]:.6g}" if isinstance(r[c], float) else str(r[c])) for c in cols]
-        if period:
-            cells += [f"{r['dwell_low_frames'] * period:.6g}" if r["dwell_low_frames"] else "",
-                      f"{r['dwell_high_frames'] * period:.6g}" if r["dwell_high_frames"] else ""]
+        if secs is not None:
+            cells += [f"{v[i]:.6g}" if math.isfinite(v[i]) else "" for v in secs]
         lines.append(",".join(cells))
     with storage(path):
         write_atomic(path, ("\n".join(lines) + "\n").encode())
@@ -164,9 +168,23 @@ def _write_hdf5(path: Path, px, sc, summ, shape) -> None:
         tmp.replace(path)
 
 
+def _seconds(px, period):
+    """(tau_lo, se, tau_hi, se) in s of the continuous-time telegraph these frame dwells sample."""
+    from ares.analysis.lowlight.rtn import continuous_dwell_s
+
+    tl, th, sl, sh = continuous_dwell_s(px.dwell_low_frames, px.dwell_high_frames, period, px.dwell_low_se,
+                                        px.dwell_high_se)
+    return tl, sl, th, sh
+
+
 def _print(s: dict, px, period) -> None:
-    def sec(v):
-        return f" ({v * period:.3g} s)" if period else ""
+    def sec(dl, dh):
+        if not period:
+            return ""
+        from ares.analysis.lowlight.rtn import continuous_dwell_s
+
+        tl, th, _, _ = continuous_dwell_s(dl, dh, period)
+        return f" (continuous time: low {float(tl):.3g} s, high {float(th):.3g} s)"
 
     print(f"frames             {s['frames']} ({s['pixels']} pixels; {s['candidates']} candidates by lag-1 "
           f"autocorrelation >= {s['z_screen']:g} SE)")
@@ -181,7 +199,11 @@ def _print(s: dict, px, period) -> None:
         print(f"amplitude          median {s['median_amplitude_dn'].text()} (within-level sigma "
               f"{s['read_noise_sigma_dn']:.3g} DN)")
         dl, dh = s["frames_needed_dwell_frames"]
-        print(f"dwell (median)     low {dl:.3g} frames{sec(dl)}, high {dh:.3g} frames{sec(dh)}")
+        print(f"dwell (median)     low {dl:.3g} frames, high {dh:.3g} frames{sec(dl, dh)}")
+        need = s["dwell_frames_needed"]
+        print(f"dwell SE           median {s['dwell_se_median_pct']:.3g} % (10-90 %: {s['dwell_se_p10_pct']:.3g}-"
+              f"{s['dwell_se_p90_pct']:.3g} %); within 10 % for {s['dwell_resolved']} of {s['rtn_pixels']} pixels"
+              + (f"; the median pixel needs >= {need} frames for it" if need > s["frames"] else ""))
         h = s["amplitude_hist"]
         print("amplitude / sigma  " + ", ".join(f"{a}-{b}: {c}" for a, b, c in
                                                zip(h["edges_sigma"][:-1], h["edges_sigma"][1:], h["counts"]) if c))

@@ -31,6 +31,7 @@ from ares.analysis.ptc.fit import line_fit
 
 KALPHA_EV = 5889.0  # Mn K-alpha (eotest's value; the K-alpha1/alpha2 doublet is 5899/5888 eV)
 KBETA_EV = 6490.0  # Mn K-beta
+MAX_LINE_WIDTH = 0.2  # sigma / peak above which a histogram peak is no X-ray line (Fano + noise: ~1-5 %)
 EPAIR_REF_EV = 3.654  # Lowe & Sareen 2007, at 270 K
 EPAIR_REF_SIGMA_EV = 0.040
 EPAIR_SLOPE_PER_K = -1.31e-4
@@ -254,7 +255,8 @@ def fit_lines(signal_dn, min_events: int = 50) -> LineFit:
     res = levenberg_marquardt(lambda p: _model(x, p, ratio), h.astype(float), sig, p0,
                               scale=[m, s0, max(h.max(), 1), max(h.max(), 1), 1.0])
     if res is None:
-        return na("the K-alpha/K-beta fit did not converge")
+        return na(f"no X-ray line among the {v.size} event signals: their histogram has no K-alpha peak a "
+                  "two-Gaussian fit converges on")
     for _ in range(3):  # Pearson weights (the model's own Poisson variance): the Neyman weights of the counts
         # pull the fit towards bins that fluctuated low and misstate its SEs at small counts
         sig = np.sqrt(np.maximum(_model(x, res[0], ratio), 0.5))
@@ -270,7 +272,10 @@ def fit_lines(signal_dn, min_events: int = 50) -> LineFit:
     se = np.sqrt(np.maximum(np.diag(cov), 0.0)) * math.sqrt(max(chi2, 1.0))
     mu, s = float(p[0]), abs(float(p[1]))
     if not (lo < mu < hi) or not s > 0:
-        return na("the K-alpha fit left its window")
+        return na(f"no X-ray line among the {v.size} event signals: the K-alpha fit left its window")
+    if s > MAX_LINE_WIDTH * mu:
+        return na(f"no X-ray line among the {v.size} event signals: their histogram's peak at {mu:.4g} DN is "
+                  f"{100 * s / mu:.0f} % wide (sigma; a K-alpha line is a few %)")
     r = float(p[3] / p[2]) if p[2] > 0 else math.nan
     # counts ratio: SE of b/a from the amplitude SEs (their covariance neglected: small)
     r_se = abs(r) * math.hypot(se[2] / p[2], se[3] / p[3]) if p[3] != 0 and p[2] > 0 else math.nan
@@ -278,6 +283,28 @@ def fit_lines(signal_dn, min_events: int = 50) -> LineFit:
     return LineFit(Estimate(mu, float(se[0]), "DN", note), Estimate(s, float(se[1]), "DN", "K-alpha line width"),
                    Estimate(r, r_se, "", "K-beta / K-alpha peak heights"), chi2, int(w.size), (float(lo), float(hi)),
                    float(width), (x, h, model))
+
+
+def no_xray_reason(ev: Events, fit: LineFit, threshold_sigma: float | None = None) -> str | None:
+    """The plain sentence when the frames hold no X-ray events (None when they do): no candidate
+    above the threshold, or candidates whose peak sits where noise peaks do -- a local maximum just
+    over the threshold sums, over its 3x3 pixels, to the threshold give or take 3 noise sigmas, so
+    a "line" within 3 of those (9 sigma) of the threshold is the noise's, not a photon's."""
+    n, thr, noise = int(ev.signal_dn.size), ev.threshold_dn, ev.noise_dn
+    if not math.isfinite(thr):  # an event list: no threshold to judge against
+        return None
+    t = f" ({threshold_sigma:g} x the {noise:.3g} DN noise)" if threshold_sigma else f" (noise {noise:.3g} DN)"
+    where = f"above the threshold {thr:.4g} DN{t} in {ev.frames} frames"
+    if n == 0:
+        return f"no X-ray events found: 0 candidate events {where}"
+    k = fit.kalpha_dn
+    peak, what = (k.value, "peak") if k.available else (float(np.median(ev.signal_dn)), "have a median signal")
+    if peak < thr + 9 * noise:
+        return (f"no X-ray events found: the {n} candidate events {where} {what} at {peak:.4g} DN, within 9 noise "
+                "sigmas of the threshold: noise peaks, not X-rays")
+    if not k.available and k.note.startswith("no X-ray line"):
+        return f"no X-ray events found: {n} candidate events {where}, and {k.note}"
+    return None
 
 
 def gain_e_per_dn(kalpha_dn: Estimate, temperature_c: float, line_ev: float = KALPHA_EV) -> tuple[Estimate, float]:
@@ -309,16 +336,24 @@ def transfer_trend(ev: Events, fit: LineFit) -> dict[str, Estimate]:
     return out
 
 
-def analyse(signal_dn, temperature_c: float, events: Events | None = None, line_ev: float = KALPHA_EV) -> dict:
-    """Everything ``ares fe55`` reports, as Estimates and plain numbers."""
+def analyse(signal_dn, temperature_c: float, events: Events | None = None, line_ev: float = KALPHA_EV,
+            threshold_sigma: float | None = None) -> dict:
+    """Everything ``ares fe55`` reports, as Estimates and plain numbers; ``xray_events`` False
+    (with ``no_xray`` the sentence why) when the frames hold no X-ray events."""
     fit = fit_lines(signal_dn)
+    why = no_xray_reason(events, fit, threshold_sigma) if events is not None else None
+    if why:
+        fit = LineFit(Estimate.na(why, "DN"), Estimate.na(why, "DN"), Estimate.na(why), math.nan, fit.n_events,
+                      fit.window_dn, fit.bin_dn, fit.hist)
     gain, sys_rel = gain_e_per_dn(fit.kalpha_dn, temperature_c, line_ev)
     out = {"kalpha_dn": fit.kalpha_dn, "kalpha_sigma_dn": fit.sigma_dn, "kbeta_ratio": fit.kbeta_ratio,
            "gain_e_per_dn": gain, "electrons_per_kalpha": electron_yield(temperature_c, line_ev),
            "pair_energy_ev": pair_energy_ev(temperature_c)[0], "gain_systematic_rel": sys_rel,
            "temperature_c": float(temperature_c), "line_ev": float(line_ev), "chi2_dof": fit.chi2_dof,
            "events_in_fit": fit.n_events, "events_total": int(np.size(signal_dn)), "fit_window_dn": fit.window_dn,
-           "bin_dn": fit.bin_dn, "_fit": fit}
+           "bin_dn": fit.bin_dn, "xray_events": why is None, "_fit": fit}
+    if why:
+        out["no_xray"] = why
     if events is not None:
         out.update(events.counts())
         out["threshold_dn"], out["split_dn"], out["noise_dn"], out["frames"] = (
