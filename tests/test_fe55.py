@@ -133,6 +133,10 @@ def test_frames_without_xrays_say_so_and_exit_1(tmp_path, capsys):
     out = json.loads(capsys.readouterr().out)
     assert not out["xray_events"] and "noise peaks, not X-rays" in out["no_xray"]
     assert out["gain_e_per_dn"]["verdict"] != "ok" and out["gain_e_per_dn"]["value"] is None
+    from ares.report.fe55_page import fe55_page
+
+    page = " ".join(t.get_text() for t in fe55_page("dark", out).texts)  # the report page says it too
+    assert "No X-ray events found" in page and "not found" in page
 
 
 def test_scan_level_fe55_from_the_runs_raw_frames(tmp_path):
@@ -152,3 +156,8 @@ def test_scan_level_fe55_from_the_runs_raw_frames(tmp_path):
     r = out.scan_results["fe55"]["stages"]["xray"]
     assert r["temperature_c"] == -20 and abs(r["gain_e_per_dn"]["value"] * 0.28 - 1) < 0.01  # G = 70/250 DN/e-
     assert {k.split(".")[-1] for k in flatten(r)} <= PRODUCES["fe55"]
+    from ares.report.fe55_page import fe55_page
+
+    fig = fe55_page("xray", r)  # the report page: the fitted histogram and the figures, 1/K by its one name
+    assert len(fig.axes) == 2 and sum(r["histogram"]["counts"]) == r["events_in_fit"]
+    assert "inverse system gain 1/K (Fe-55 K-alpha)" in " ".join(t.get_text() for t in fig.texts)

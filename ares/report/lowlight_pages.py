@@ -84,6 +84,15 @@ def dark_temperature_page(run, a: dict):
     return fig
 
 
+# the RTN summary's figures by what they are: its noise is the pixels' temporal noise with the row and column
+# terms removed (sqrt of the pixel temporal variance Pt, ares.labels.COMPONENTS), not the dark noise sigma_y.dark
+RTN_LABELS = {"rtn_fraction": "RTN pixels / pixels",
+              "read_noise_dn": "pixel temporal noise sqrt(Pt), all pixels",
+              "read_noise_without_rtn_dn": "pixel temporal noise sqrt(Pt), RTN pixels left out",
+              "read_noise_increase_pct": "noise raised by the RTN pixels",
+              "median_amplitude_dn": "RTN amplitude (median)"}
+
+
 def rtn_page(a: dict):
     fig = new_page("Random telegraph noise", f"stage {a.get('stage', '')}: {a.get('frames')} frames, "
                    "1/2/3-level hidden Markov models by BIC on the lag-1 autocorrelation candidates")
@@ -95,6 +104,7 @@ def rtn_page(a: dict):
         ax.set_xticks(np.arange(len(labels)), labels, rotation=45, fontsize=7)
         ax.set_xlabel("amplitude / within-level sigma")
         ax.set_ylabel("RTN pixels")
+        ax.yaxis.get_major_locator().set_params(integer=True)
         ax.set_title("amplitudes", fontsize=9)
         ax.grid(alpha=0.3)
     d = a.get("dwell_hist")
@@ -107,6 +117,7 @@ def rtn_page(a: dict):
         ax2.set_xticks(x, labels, rotation=45, fontsize=7)
         ax2.set_xlabel("mean dwell (frames)")
         ax2.set_title("dwell times", fontsize=9)
+        ax2.yaxis.get_major_locator().set_params(integer=True)
         ax2.legend(fontsize=7)
         ax2.grid(alpha=0.3)
     mp = a.get("map")
@@ -118,12 +129,20 @@ def rtn_page(a: dict):
         ax3.set_aspect("equal")
         fig.colorbar(sc, ax=ax3, label="amplitude (DN)")
         ax3.set_title("RTN map", fontsize=9)
-    rows = analysis_rows({k: v for k, v in a.items() if isinstance(v, dict) and "value" in v})
+    rows = [[RTN_LABELS.get(r[0], r[0])] + r[1:]
+            for r in analysis_rows({k: v for k, v in a.items() if isinstance(v, dict) and "value" in v})]
     rows += [["RTN pixels", f"{a.get('rtn_pixels')} of {a.get('pixels')} ({a.get('three_level')} with 3 levels)",
               f"{a.get('candidates')} candidates"]]
     fn = a.get("frames_needed") or {}
     dwell = a.get("frames_needed_dwell_frames") or [math.nan, math.nan]
     rows += [[f"frames needed, amplitude {k} sigma", f"needs >= {v}",
               f"dwell {dwell[0]:.3g}/{dwell[1]:.3g} frames; amplitude to 5 %, dwell to 10 %"] for k, v in fn.items()]
+    if "dwell_se_median_pct" in a:  # the measured pixels' own dwell SEs (ares.analysis.lowlight.rtn.dwell_precision)
+        need = a.get("dwell_frames_needed", -1)
+        rows += [["dwell time SE (median, 10-90 %)", f"{a['dwell_se_median_pct']:.3g} % ({a['dwell_se_p10_pct']:.3g}-"
+                  f"{a['dwell_se_p90_pct']:.3g} %)", f"within 10 % for {a.get('dwell_resolved')} of "
+                  f"{a.get('rtn_pixels')} RTN pixels"],
+                 ["dwell times to 10 % (median pixel)", f"needs >= {need} frames" if need > (a.get("frames") or 0)
+                  else f"reached with {a.get('frames')} frames", "the SE falls as 1/sqrt(frames)"]]
     _table(fig, 0.24 if mp and mp.get("rows") else 0.52, rows, n=20)
     return fig

@@ -17,7 +17,7 @@ from ares.report.page_tables import _table, analysis_rows, available
 from ares.report import series_tables
 
 HANDLED = ("mtf", "photon_counting", "spectral_qe", "ptc", "decomposition", "dark_current", "temperature", "gain_split", "lag", "defects", "adc_linearity",
-           "emva4", "dark_temperature", "rtn")
+           "emva4", "dark_temperature", "rtn", "fe55")
 
 
 # ------------------------------------------------------------------ dark / temperature
@@ -392,6 +392,11 @@ def pages(run, groups: list) -> list[tuple[str, object]]:
         from ares.report.spectral_qe_page import spectral_qe_page
 
         out.append(("spectral QE", partial(spectral_qe_page, d)))
+    d = available(run, "fe55")
+    if d:  # the Fe-55 line fit, one page per stage (ares.report.fe55_page)
+        from ares.report.fe55_page import fe55_page
+
+        out += [(f"fe55 {k}", partial(fe55_page, k, v)) for k, v in d["stages"].items() if "kalpha_dn" in v]
     for name, maker in (("dark_temperature", "dark_temperature_page"), ("rtn", "rtn_page")):
         d = available(run, name)
         if d:  # (ares.report.lowlight_pages)

@@ -199,11 +199,16 @@ def fe55(run) -> dict:
                                                                   "yield of the K-alpha line depends on it"}
             continue
         ev = X.find_events(fr)
-        r = X.analyse(ev.signal_dn, float(t), ev)
+        r = X.analyse(ev.signal_dn, float(t), ev, threshold_sigma=X.THRESHOLD_SIGMA)
         out[st["name"]] = {k: (v.to_dict() if hasattr(v, "to_dict") else
                                (None if isinstance(v, float) and not math.isfinite(v) else
                                 (list(v) if isinstance(v, tuple) else v)))
                            for k, v in r.items() if not k.startswith("_")}
+        x, h, m = r["_fit"].hist
+        if len(x):  # the fitted histogram for the report page (ares.report.fe55_page)
+            out[st["name"]]["histogram"] = {"centres_dn": [round(float(v), 3) for v in x],
+                                            "counts": [int(v) for v in h],
+                                            "model": [round(float(v), 3) for v in m]}
     if not out:
         return {"status": "not available", "note": "no dark stage's raw frames in the run (the events need the frames: "
                                                    "<output raw_frames=\"true\"/>)"}

@@ -31,6 +31,7 @@ from ares.analysis.ptc.fit import line_fit
 
 KALPHA_EV = 5889.0  # Mn K-alpha (eotest's value; the K-alpha1/alpha2 doublet is 5899/5888 eV)
 KBETA_EV = 6490.0  # Mn K-beta
+THRESHOLD_SIGMA = 5.0  # the default event threshold, noise sigmas
 MAX_LINE_WIDTH = 0.2  # sigma / peak above which a histogram peak is no X-ray line (Fano + noise: ~1-5 %)
 EPAIR_REF_EV = 3.654  # Lowe & Sareen 2007, at 270 K
 EPAIR_REF_SIGMA_EV = 0.040
@@ -127,7 +128,7 @@ def robust_sigma(x: np.ndarray) -> float:
     return 1.4826 * float(np.median(np.abs(x - np.median(x))))
 
 
-def find_events(frames, threshold: float = 5.0, split: float = 3.0, bias: np.ndarray | None = None) -> Events:
+def find_events(frames, threshold: float = THRESHOLD_SIGMA, split: float = 3.0, bias: np.ndarray | None = None) -> Events:
     """Events in each frame of ``frames`` (an iterable of 2-D arrays); ``threshold`` and
     ``split`` in units of each frame's robust noise sigma. The bias: ``bias``, else, when
     ``frames`` can be read twice (a list, an array, a re-readable source), ``bias_frame`` of
