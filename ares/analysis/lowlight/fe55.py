@@ -290,7 +290,8 @@ def no_xray_reason(ev: Events, fit: LineFit, threshold_sigma: float | None = Non
     """The plain sentence when the frames hold no X-ray events (None when they do): no candidate
     above the threshold, or candidates whose peak sits where noise peaks do -- a local maximum just
     over the threshold sums, over its 3x3 pixels, to the threshold give or take 3 noise sigmas, so
-    a "line" within 3 of those (9 sigma) of the threshold is the noise's, not a photon's."""
+    a "line" within 3 of those (9 sigma) of the threshold is the noise's, not a photon's -- or
+    candidates well above the noise whose signals hold no line (hot pixels, cosmic rays)."""
     n, thr, noise = int(ev.signal_dn.size), ev.threshold_dn, ev.noise_dn
     if not math.isfinite(thr):  # an event list: no threshold to judge against
         return None
@@ -303,8 +304,9 @@ def no_xray_reason(ev: Events, fit: LineFit, threshold_sigma: float | None = Non
     if peak < thr + 9 * noise:
         return (f"no X-ray events found: the {n} candidate events {where} {what} at {peak:.4g} DN, within 9 noise "
                 "sigmas of the threshold: noise peaks, not X-rays")
-    if not k.available and k.note.startswith("no X-ray line"):
-        return f"no X-ray events found: {n} candidate events {where}, and {k.note}"
+    if not k.available and k.note.startswith("no X-ray line"):  # signals well above the noise, but no line
+        return (f"no X-ray line found among the {n} candidate events {where} (median signal {peak:.4g} DN): "
+                + k.note.split(": ", 1)[1])
     return None
 
 
