@@ -103,6 +103,11 @@ def test_command(sim, tmp_path, capsys):
     out = json.loads(capsys.readouterr().out)
     assert out["rtn_pixels"] == len(out["pixels_rtn"]) > 5 and out["rtn_fraction"]["verdict"] == "ok"
     assert (tmp_path / "p.csv").read_text().startswith("row,col,levels,amplitude_dn")
+    import h5py
+
+    with h5py.File(tmp_path / "m.h5") as f:  # every dwell map beside its SE map
+        assert {"dwell_low_se", "dwell_high_se", "dwell_frames_needed"} <= set(f)
+        assert np.nanmax(f["dwell_frames_needed"][()]) > 300
     assert main(["rtn", str(tmp_path / "d.npy"), "--two-levels", "--frame-period-s", "0.01", "--csv",
                  str(tmp_path / "s.csv")]) == 0
     text = capsys.readouterr().out

@@ -147,6 +147,7 @@ def _write_hdf5(path: Path, px, sc, summ, shape) -> None:
     import h5py
     import numpy as np
 
+    from ares.analysis.lowlight import rtn
     from ares.rundir.files import storage
 
     def m(values, fill=np.nan):
@@ -156,6 +157,8 @@ def _write_hdf5(path: Path, px, sc, summ, shape) -> None:
 
     maps = {"amplitude_dn": (m(px.amplitude_dn, 0.0), "DN"), "amplitude_se_dn": (m(px.amplitude_se_dn), "DN"),
             "dwell_low_frames": (m(px.dwell_low_frames), "frames"), "dwell_high_frames": (m(px.dwell_high_frames), "frames"),
+            "dwell_low_se": (m(px.dwell_low_se), "frames"), "dwell_high_se": (m(px.dwell_high_se), "frames"),
+            "dwell_frames_needed": (m(rtn.dwell_frames_needed(px), -1.0), "frames"),
             "levels": (m(px.n_levels, 1.0), ""), "temporal_noise_dn": (np.sqrt(sc.variance), "DN"),
             "lag1_autocorrelation": (sc.rho1, "")}
     tmp = path.with_name(path.name + ".tmp")
