@@ -362,6 +362,8 @@ class MainWindow(QMainWindow):
         if state == P.DONE:
             run_dir = self.session.info.items.get("run directory")
             self.statusBar().showMessage(f"Scan finished; {run_dir} complete." if run_dir else "Scan finished.")
+            from ares.gui.plots.lowlight_view import show_for_run  # the RTN map / Fe-55 histogram, when it has them
+            show_for_run(self.result_tabs, run_dir)
             if self.buttons.auto_repeat.isChecked() and not self.running:
                 QTimer.singleShot(0, self._repeat)
 
