@@ -149,7 +149,7 @@ def test_scan_level_fe55_from_the_runs_raw_frames(tmp_path):
     system = (root / "protocols" / "sim_xray.xml").read_text().replace('rows="128" cols="128"', 'rows="96" cols="96"')
     (tmp_path / "sys.xml").write_text(system.replace('type="int" value="128"', 'type="int" value="96"'))
     scan = (root / "scans" / "fe55.xml").read_text().replace("../protocols/sim_xray.xml", "sys.xml")
-    scan = scan.replace('<output raw_frames="true" pdf="false"/>', '<output raw_frames="true" pdf="false" csv="false"/>')
+    scan = scan.replace('<output raw_frames="true"/>', '<output raw_frames="true" pdf="false" csv="false"/>')
     (tmp_path / "scan.xml").write_text(scan.replace("<frames>200</frames>", "<frames>30</frames>"))
     out = Runner(load_scan(tmp_path / "scan.xml"), out_dir=tmp_path / "run").run()
     assert out.status == "done"

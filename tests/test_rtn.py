@@ -132,7 +132,7 @@ def test_scan_level_rtn_from_the_runs_raw_frames(tmp_path):
     system = system.replace('type="int" value="128"', 'type="int" value="24"').replace('value="3000"', 'value="30000"')
     (tmp_path / "sys.xml").write_text(system)
     scan = (root / "scans" / "rtn.xml").read_text().replace("../protocols/sim_lowlight.xml", "sys.xml")
-    scan = scan.replace('<output raw_frames="true" pdf="false"/>', '<output raw_frames="true" pdf="false" csv="false"/>')
+    scan = scan.replace('<output raw_frames="true"/>', '<output raw_frames="true" pdf="false" csv="false"/>')
     (tmp_path / "scan.xml").write_text(scan.replace("<frames>2000</frames>", "<frames>200</frames>"))
     out = Runner(load_scan(tmp_path / "scan.xml"), out_dir=tmp_path / "run").run()
     assert out.status == "done"
