@@ -100,8 +100,8 @@ def build_wire_bench(system, seed: int, faults: dict | None = None, uses: set | 
     if unavailable:  # instruments the scan does not use that did not answer
         info["unavailable"] = unavailable
     bench = Bench(regs, frames, inst.get("light"), inst.get("chamber"), info, clock=dev.clock)
-    if "usb_gone_s" in wire_f:  # the device is away for seconds of the bench's clock: recovery waits on it
-        bench.recovery_clock = dev.clock
+    if "usb_gone_s" in wire_f or dev.recovery_clock is not None:  # the device is away (the LED settles) for
+        bench.recovery_clock = dev.clock  # seconds of the bench's clock: a recovery waits on it
     bench.closers.extend(lambda n=n, e=e: unregister(n, e) for n, e in emulated)
     bench.emulators = {"usb": grabber, "i2c": smbus, **{n: e for n, e in emulated}, "device": dev}
     from ares.rig.spectral import attach_simulated
