@@ -21,7 +21,17 @@ def wire_faults() -> tuple[str, ...]:
     return usb_device.FAULTS + i2c_device.FAULTS + serial_device.FAULTS
 
 
+# The simulator's device faults as the wire shows them (issue 49: given to the simulator behind the
+# wire they raised its Python exceptions straight through the emulator into the host code, so no
+# byte path saw them): the grabber unplugged at that frame, found again at that search; a frame
+# cut short on the wire.
+WIRE_EQUIVALENT = {"disconnect_after_frames": "usb_disconnect_at", "reconnect_after_polls": "usb_reconnect_after_polls",
+                   "short_frame_at": "usb_short_at"}
+
+
 def _split_faults(faults: dict | None) -> tuple[dict, dict]:
+    """(the simulator's faults: device physics -- a settling LED, a lagging pipeline, a slow
+    frame; the wire's), the simulator's device faults moved onto the wire (``WIRE_EQUIVALENT``)."""
     from ares.sim.bench import _FAULTS as SIM
 
     faults = dict(faults or {})
@@ -29,6 +39,11 @@ def _split_faults(faults: dict | None) -> tuple[dict, dict]:
     unknown = sorted(k for k in faults if k not in wire and k not in SIM)
     if unknown:
         raise InputError(f"unknown fault(s) {unknown} (known: {', '.join(SIM + wire)})")
+    for k, w in WIRE_EQUIVALENT.items():
+        if k in faults:
+            if w in faults:
+                raise InputError(f"faults {k} and {w} are the same fault on the wire: give one")
+            faults[w] = faults.pop(k)
     return {k: v for k, v in faults.items() if k in SIM}, {k: v for k, v in faults.items() if k in wire}
 
 

@@ -51,6 +51,7 @@ from types import SimpleNamespace
 
 import numpy as np
 
+from ares.errors import DeviceGone, FrameError
 from ares.hardware import frame_header as fh
 from ares.hardware.pixels import pack, pixel_format, to_wire_order
 
@@ -171,20 +172,23 @@ class EmulatedGrabber:
             raise _usb_error(errno.ETIMEDOUT, "Operation timed out", timeout=True)
         if self.latency is not None and timeout_ms and 1000 * self.latency() > timeout_ms:
             raise _usb_error(errno.ETIMEDOUT, "Operation timed out", timeout=True)  # the frame is still exposing
-        if self._start is None:
-            frame = next(iter(self.frames.grab(1)))
-        else:
-            if self._gen is None:
-                raise _usb_error(errno.ETIMEDOUT, "Operation timed out (not armed)", timeout=True)
-            try:
-                frame = next(self._gen)
-            except StopIteration:
-                if not self._owed:
-                    self._gen = None
-                    raise _usb_error(errno.ETIMEDOUT, "Operation timed out (no more frames armed)",
-                                     timeout=True) from None
-                self._owed -= 1  # a dropped frame still costs an exposure: one more to deliver N
-                frame = next(iter(self.frames.grab(1)))
+        try:
+            frame = self._render()
+        except DeviceGone:  # the sensor behind the wire is gone: the host sees the device vanish (ENODEV),
+            self.connected, self._gen, self._out = False, None, deque()  # never the sensor's own exception
+            self._gone_at = self.clock.now() if self.clock is not None else None
+            self._gone()
+        except FrameError:  # a frame the sensor could not read out: its header, then the transfer ends
+            self.counter += 1  # (as far as it came: less than a packet)
+            rows, cols = self.frames.shape
+            head = fh.Header(n, cols, rows, self.fmt.code, self.fmt.payload_bytes(rows * cols)).encode()
+            cut = bytes(self.max_packet // 2)
+            if self.header_packet == "inline":
+                self._send(head + cut)
+            else:
+                self._send(head)
+                self._send(cut)
+            return
         self.counter += 1
         if n == self.faults.get("usb_drop_at"):  # rendered, lost: the next frame shows the gap
             self.faults.pop("usb_drop_at")
@@ -218,6 +222,21 @@ class EmulatedGrabber:
             late = self.faults.get("usb_late_ms", 1200) + (1000 * self.latency() if self.latency else 0)
             if timeout_ms and late > timeout_ms:
                 raise _usb_error(errno.ETIMEDOUT, "Operation timed out (frame late)", timeout=True)
+
+    def _render(self):
+        """The sensor's next frame: armed ones first (a grab with a start control), else one now."""
+        if self._start is None:
+            return next(iter(self.frames.grab(1)))
+        if self._gen is None:
+            raise _usb_error(errno.ETIMEDOUT, "Operation timed out (not armed)", timeout=True)
+        try:
+            return next(self._gen)
+        except StopIteration:
+            if not self._owed:
+                self._gen = None
+                raise _usb_error(errno.ETIMEDOUT, "Operation timed out (no more frames armed)", timeout=True) from None
+            self._owed -= 1  # a dropped frame still costs an exposure: one more to deliver N
+            return next(iter(self.frames.grab(1)))
 
     def _embed(self, img: np.ndarray) -> np.ndarray:
         """A sensor without I2C read: its registers, one byte per pixel, in an image row."""
