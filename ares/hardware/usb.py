@@ -84,6 +84,7 @@ class UsbFrameSource:
         self._lost_sync = False  # searching for a sync word (counted once per search)
         self.stalls = 0  # endpoint halts cleared (EPIPE -> clear_halt)
         self._dirty = False  # a transient fault left bytes in the device: flush before the next start
+        self.after_frame: list = []  # called as each frame arrives (double-buffered registers read back)
 
     # ------------------------------------------------------------ open / control
     @classmethod
@@ -358,6 +359,8 @@ class UsbFrameSource:
             for _ in range(n):
                 frame = self._frame()
                 self.count += 1
+                for hook in self.after_frame:  # a frame boundary has passed since the last register writes
+                    hook()
                 yield frame
             ok = True
         finally:

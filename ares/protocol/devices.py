@@ -90,6 +90,37 @@ def i2c_from_el(path, el) -> I2CBus:
     return b
 
 
+def group_hold_from_el(reg_el) -> tuple[int, int, int] | None:
+    """``<registers><group_hold register hold release>``: (register, hold value, release value)."""
+    el = reg_el.find("group_hold")
+    return None if el is None else (_int(el.get("register")), _int(el.get("hold")), _int(el.get("release")))
+
+
+def check_buses(path, root, buses: tuple, regmap) -> None:
+    """Several I2C devices: names unique; ``<registers bus>`` and every ``<field bus>`` name one;
+    a ``buffered="shadow"`` field gives its ``shadow`` address (inside the address space)."""
+    names = [b.name for b in buses]
+    line = root.find("buses").sourceline if root.find("buses") is not None else root.sourceline
+    if len(set(names)) != len(names):
+        raise fail(path, line, f"<buses> declares an <i2c name> twice ({', '.join(names)})")
+    reg = root.find("registers")
+    if regmap.bus is not None and regmap.bus not in names:
+        raise fail(path, reg.sourceline, f"<registers bus='{regmap.bus}'> names no <i2c> (declared: "
+                                         f"{', '.join(names) or 'none'})")
+    els = {el.get("name"): el for el in (reg.iterfind("field") if reg is not None else ())}
+    for f in regmap.fields:
+        where = els[f.name].sourceline if f.name in els else line
+        if f.bus is not None and f.bus not in names:
+            raise fail(path, where, f"register field '{f.name}': bus='{f.bus}' names no <i2c> (declared: "
+                                    f"{', '.join(names) or 'none'})")
+        if f.buffered == "shadow" and f.shadow is None:
+            raise fail(path, where, f"register field '{f.name}': buffered='shadow' needs shadow= (the address its "
+                                    "pending value reads back at)")
+        if f.shadow is not None and f.shadow + f.count > (1 << regmap.address_bits):
+            raise fail(path, where, f"register field '{f.name}': shadow address 0x{f.shadow:x} is outside the "
+                                    f"{regmap.address_bits}-bit address space")
+
+
 def _chip_id(el):
     return None if el is None else (_int(el.get("register")), _int(el.get("value")))
 

@@ -91,6 +91,7 @@ class EmulatedGrabber:
         self.halted = False  # the endpoint stalled (usb_stall_at) until the host clears the halt
         self._gone_at = None
         self.handles_closed = 0  # host handles disposed (a reconnect must let go of the old one)
+        self.on_frame_start = None  # callable: a frame starts (a double-buffered sensor latches its registers)
 
     # ------------------------------------------------------------ descriptors
     def device_descriptor(self, address: int):
@@ -225,6 +226,8 @@ class EmulatedGrabber:
 
     def _render(self):
         """The sensor's next frame: armed ones first (a grab with a start control), else one now."""
+        if self.on_frame_start is not None:
+            self.on_frame_start()
         if self._start is None:
             return next(iter(self.frames.grab(1)))
         if self._gen is None:
