@@ -13,6 +13,7 @@ from lxml import etree
 
 from ares.hardware.line_protocol import LineProtocol
 from ares.hardware.pixels import WIRE_ORDERS, pixel_format
+from ares.hardware.trigger import Trigger
 from ares.protocol.line_xml import protocol_from_el, protocol_to_el
 from ares.protocol.xmlsafe import fail
 
@@ -157,6 +158,21 @@ class UsbControl:
     data: bytes = b""
 
 
+def trigger_from_el(path, el) -> Trigger | None:
+    if el is None:
+        return None
+    return Trigger(el.get("mode", "free_run"), _int(el.get("line"), 0), el.get("edge", "rising"),
+                   _int(el.get("timeout_ms")), el.get("strobe", "off"), _int(el.get("strobe_line"), 1))
+
+
+def trigger_to_el(parent, t: Trigger | None):
+    if t is not None:
+        d = Trigger()
+        _set(etree.SubElement(parent, "trigger"), **{k: getattr(t, k) for k in
+                                                     ("mode", "line", "edge", "timeout_ms", "strobe", "strobe_line")
+                                                     if getattr(t, k) != getattr(d, k)})
+
+
 @dataclass(frozen=True)
 class UsbGrabber:
     name: str
@@ -175,6 +191,8 @@ class UsbGrabber:
     controls: tuple[UsbControl, ...] = ()
     counter: str | None = None  # "continuous", "per_grab", "free_running" (ares.hardware.usb.counter_mode)
     header_packet: str = "own"  # "own": the header is a short packet of its own; "inline": one transfer with the payload
+    trigger: Trigger | None = None  # <trigger>: free run / software / hardware trigger, strobe
+    timestamp_hz: float = 1e9  # header="ares40": the device clock's ticks per second
 
 
 def _data(s: str | None) -> bytes:
@@ -186,17 +204,27 @@ def usb_from_el(path, g) -> UsbGrabber:
     for c in g.iterfind("control"):
         v = c.get("value", "0")
         ctl.append(UsbControl(c.get("when"), _int(c.get("request_type")), _int(c.get("request")),
-                              v if v == "frames" else _int(v), _int(c.get("index"), 0), _data(c.get("data"))))
+                              v if v in ("frames", "mode", "strobe") else _int(v), _int(c.get("index"), 0),
+                              _data(c.get("data"))))
     u = UsbGrabber(g.get("name"), _int(g.get("vid")), _int(g.get("pid")), _int(g.get("endpoint")), g.get("format"),
                    _int(g.get("header_bytes"), 0), _int(g.get("timeout_ms"), 1000), g.get("serial"),
                    g.get("header", "none"), _int(g.get("chunk_bytes"), 1 << 20), _int(g.get("watchdog_ms")),
                    g.get("wire_order", "image"), _int(g.get("interface"), 0), tuple(ctl), g.get("counter"),
-                   g.get("header_packet", "own"))
+                   g.get("header_packet", "own"), trigger_from_el(path, g.find("trigger")),
+                   _float(g.get("timestamp_hz"), 1e9))
     if u.vid > 0xFFFF or u.pid > 0xFFFF:
         raise fail(path, g.sourceline, "USB vid/pid must be 16-bit numbers")
     pixel_format(u.format)  # the schema lists the names; this keeps one table
-    if u.header == "ares32" and u.header_bytes:
-        raise fail(path, g.sourceline, "header='ares32' has its own 32-byte header; drop header_bytes")
+    if u.header != "none" and u.header_bytes:
+        raise fail(path, g.sourceline, f"header='{u.header}' has its own header; drop header_bytes")
+    t, whens = u.trigger, {c.when for c in u.controls}
+    if t is not None:
+        line = g.find("trigger").sourceline
+        for need, why in (("trigger_mode", t.mode != "free_run"), ("trigger", t.mode == "software"),
+                          ("strobe", t.strobe != "off")):
+            if why and need not in whens:
+                raise fail(path, line, f"<trigger mode='{t.mode}' strobe='{t.strobe}'> needs the grabber's "
+                                       f"<control when='{need}'> (the request that does it on this device)")
     if u.wire_order not in WIRE_ORDERS:
         raise fail(path, g.sourceline, f"wire_order '{u.wire_order}' is not one of {', '.join(WIRE_ORDERS)}")
     return u
@@ -208,11 +236,13 @@ def usb_to_el(parent, g: UsbGrabber):
               timeout_ms=g.timeout_ms, serial=g.serial, header=None if g.header == "none" else g.header,
               chunk_bytes=None if g.chunk_bytes == 1 << 20 else g.chunk_bytes, watchdog_ms=g.watchdog_ms,
               wire_order=None if g.wire_order == "image" else g.wire_order, interface=g.interface or None,
-              counter=g.counter, header_packet=None if g.header_packet == "own" else g.header_packet)
+              counter=g.counter, header_packet=None if g.header_packet == "own" else g.header_packet,
+              timestamp_hz=None if g.timestamp_hz == 1e9 else g.timestamp_hz)
     for c in g.controls:
         _set(etree.SubElement(el, "control"), when=c.when, request_type=f"0x{c.request_type:02X}",
              request=f"0x{c.request:02X}", value=c.value, index=c.index,
              data=" ".join(f"{b:02X}" for b in c.data) or None)
+    trigger_to_el(el, g.trigger)
 
 
 # ---------------------------------------------------------------- serial instruments

@@ -92,6 +92,15 @@ class EmulatedGrabber:
         self._gone_at = None
         self.handles_closed = 0  # host handles disposed (a reconnect must let go of the old one)
         self.on_frame_start = None  # callable: a frame starts (a double-buffered sensor latches its registers)
+        # trigger and strobe, as the firmware keeps them: free run at power-up, set by the host's requests
+        self.trigger_mode, self.trigger_input, self.falling = 0, 0, False  # 0 free run, 1 software, 2 hardware
+        self.software_triggers = 0  # software trigger requests not yet answered with a frame
+        self.line = TriggerLine()  # the hardware trigger input: a frame per edge, none without
+        self.strobe, self.strobe_output = False, 1
+        self.strobes: list[tuple[float, float]] = []  # (start, width s) of each strobe pulse driven
+        self.head_size = fh.SIZES.get(cfg.header, 32)
+        self.timestamp_hz = float(getattr(cfg, "timestamp_hz", 1e9))
+        self._started = 0.0  # the device clock at the current frame's exposure start
 
     # ------------------------------------------------------------ descriptors
     def device_descriptor(self, address: int):
@@ -133,7 +142,14 @@ class EmulatedGrabber:
         self.requests.append((request_type, request, value, index, bytes(data or b"")))
         for c in self.cfg.controls:
             if (c.request_type, c.request) == (request_type, request):
-                if c.when == "start" and self._start is not None:
+                if c.when == "trigger_mode":
+                    self.trigger_mode, self.trigger_input = int(value), int(index) & 0xFF
+                    self.falling, self.software_triggers = bool(index & 0x100), 0
+                elif c.when == "strobe":
+                    self.strobe, self.strobe_output = bool(value), int(index)
+                elif c.when == "trigger":
+                    self.software_triggers += 1
+                elif c.when == "start" and self._start is not None:
                     queued, self._queued = self._queued[:int(value)], []
                     fresh = int(value) - len(queued)
                     self._gen = itertools.chain(queued, self.frames.grab(fresh) if fresh else ())
@@ -173,6 +189,13 @@ class EmulatedGrabber:
             raise _usb_error(errno.ETIMEDOUT, "Operation timed out", timeout=True)
         if self.latency is not None and timeout_ms and 1000 * self.latency() > timeout_ms:
             raise _usb_error(errno.ETIMEDOUT, "Operation timed out", timeout=True)  # the frame is still exposing
+        if self.trigger_mode == 1 and not self.software_triggers:  # waiting for the host's trigger
+            raise _usb_error(errno.ETIMEDOUT, "Operation timed out (no software trigger)", timeout=True)
+        if self.trigger_mode == 2 and not self.line.take():  # waiting for an edge on the trigger input
+            raise _usb_error(errno.ETIMEDOUT, "Operation timed out (no edge on the trigger line)", timeout=True)
+        if self.trigger_mode == 1:
+            self.software_triggers -= 1
+        self._started = self.clock.now() if self.clock is not None else float(self.counter)
         try:
             frame = self._render()
         except DeviceGone:  # the sensor behind the wire is gone: the host sees the device vanish (ENODEV),
@@ -182,7 +205,7 @@ class EmulatedGrabber:
         except FrameError:  # a frame the sensor could not read out: its header, then the transfer ends
             self.counter += 1  # (as far as it came: less than a packet)
             rows, cols = self.frames.shape
-            head = fh.Header(n, cols, rows, self.fmt.code, self.fmt.payload_bytes(rows * cols)).encode()
+            head = fh.Header(n, cols, rows, self.fmt.code, self.fmt.payload_bytes(rows * cols)).encode(self.head_size)
             cut = bytes(self.max_packet // 2)
             if self.header_packet == "inline":
                 self._send(head + cut)
@@ -195,6 +218,8 @@ class EmulatedGrabber:
             self.faults.pop("usb_drop_at")
             self._owed += 1
             return self._next_transfer(timeout_ms)
+        if self.strobe:  # high while the frame exposes
+            self.strobes.append((self._started, float(getattr(frame, "meta", {}).get("exposure_s", 0.0))))
         img = np.asarray(frame.data)
         if self.embed is not None:
             img = self._embed(img)
@@ -205,7 +230,8 @@ class EmulatedGrabber:
             self.faults.pop("usb_corrupt_at")
             payload[len(payload) // 3:len(payload) // 3 + 64] = b"\xff" * 64
         rows, cols = wire.shape
-        head = fh.Header(n, cols, rows, self.fmt.code, len(payload), fh.FLAG_CRC if self.crc else 0, crc).encode()
+        head = fh.Header(n, cols, rows, self.fmt.code, len(payload), fh.FLAG_CRC if self.crc else 0, crc,
+                         round(self._started * self.timestamp_hz)).encode(self.head_size)
         if n == self.faults.get("usb_short_at"):
             self.faults.pop("usb_short_at")
             payload = payload[:len(payload) // 2]
@@ -295,6 +321,25 @@ class EmulatedGrabber:
                 if "usb_reconnect_packet" in self.faults:  # enumerated again at another speed
                     self.max_packet = int(self.faults["usb_reconnect_packet"])
         return self.connected
+
+
+class TriggerLine:
+    """The grabber's hardware trigger input: ``fire(n)`` sends n edges (a pulse generator, a light
+    source's sync output); each starts one frame in hardware-trigger mode, none arrives without."""
+
+    def __init__(self):
+        self.edges = 0  # edges not yet answered with a frame
+        self.fired = 0
+
+    def fire(self, n: int = 1) -> None:
+        self.edges += int(n)
+        self.fired += int(n)
+
+    def take(self) -> bool:
+        if self.edges <= 0:
+            return False
+        self.edges -= 1
+        return True
 
 
 def _usb_error(code: int, text: str, timeout: bool = False):
