@@ -365,6 +365,8 @@ class GenICam:
     timeout_ms: int = 3000
     sets: tuple[tuple[str, str], ...] = ()
     features: tuple[Feature, ...] = ()
+    trigger: Trigger | None = None  # <trigger>: SFNC TriggerMode/TriggerSource/TriggerActivation, LineSource
+    chunk_timestamp: bool = False  # the camera's chunk data carries each frame's time stamp (ChunkTimestamp)
 
 
 def genicam_from_el(path, el) -> GenICam | None:
@@ -376,13 +378,16 @@ def genicam_from_el(path, el) -> GenICam | None:
     names = [f.field for f in feats]
     if len(set(names)) != len(names):
         raise fail(path, el.sourceline, "<genicam> declares a <feature field=...> twice")
-    return GenICam(el.get("name"), el.get("cti"), el.get("device", "0"), _int(el.get("timeout_ms"), 3000), sets, feats)
+    return GenICam(el.get("name"), el.get("cti"), el.get("device", "0"), _int(el.get("timeout_ms"), 3000), sets, feats,
+                   trigger_from_el(path, el.find("trigger")), _bool(el.get("chunk_timestamp")))
 
 
 def genicam_to_el(parent, g: GenICam):
-    el = _set(etree.SubElement(parent, "genicam"), name=g.name, cti=g.cti, device=g.device, timeout_ms=g.timeout_ms)
+    el = _set(etree.SubElement(parent, "genicam"), name=g.name, cti=g.cti, device=g.device, timeout_ms=g.timeout_ms,
+              chunk_timestamp=True if g.chunk_timestamp else None)
     for node, value in g.sets:
         _set(etree.SubElement(el, "set"), node=node, value=value)
     for f in g.features:
         _set(etree.SubElement(el, "feature"), field=f.field, node=f.node, scale=float(f.scale), unit=f.unit or None,
              min=f.min, max=f.max)
+    trigger_to_el(el, g.trigger)
