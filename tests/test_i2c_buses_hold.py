@@ -179,3 +179,25 @@ def test_a_frame_latched_register_on_the_wire_takes_effect_at_the_next_frame(tmp
         assert frames[0].data.mean() < 1e4
     finally:
         bench.close()
+
+
+def test_held_writes_on_the_wire_are_verified_after_the_frame(tmp_path):
+    """sim_wire (verify="true") with a group hold declared: the exposure's two registers are
+    written inside the hold, read back only after the frame they take effect at (at once they
+    would still read the old value: a false write-verify error), and that frame has the new value."""
+    from ares.rig.factory import build_bench
+
+    p = small_wire(tmp_path)
+    p.write_text(p.read_text().replace('<registers address_bits="16" value_bits="16" endian="big">',
+                                       '<registers address_bits="16" value_bits="16" endian="big">'
+                                       '<group_hold register="0x0104" hold="0x01" release="0x00"/>'))
+    bench = build_bench(load_system(p), seed=1)
+    try:
+        bench.registers.set("exposure", 0.004)
+        assert set(bench.registers.bus.pending) == {0x10, 0x11}
+        assert [r for r in bench.emulators["sensor_registers"].exposed] == []
+        frames = list(bench.frames.grab(2))
+        assert bench.registers.bus.pending == {} and frames[0].meta["counter"] >= 0
+        assert bench.emulators["sensor_registers"].exposed[0]["exposure"] == 4000
+    finally:
+        bench.close()

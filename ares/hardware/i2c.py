@@ -53,6 +53,7 @@ class I2CRegisterBus:
         self.shadow = dict(shadow or {})  # address -> the address its pending value reads back at
         self.deferred = frozenset(deferred)  # addresses verified after the frame boundary (verify_pending)
         self.pending: dict[int, int] = {}  # written, not yet verified (the frame boundary has not passed)
+        self.holding = False  # inside the sensor's group hold: writes take effect at the frame after release
         self.speed_hz, self.chip_id, self.init, self.sysfs = speed_hz, chip_id, tuple(init), sysfs
         self.adapter_hz: int | None = None  # the adapter's clock, when the kernel shows it
         self.chip_id_read: int | None = None  # what the chip-ID register answered at connect
@@ -171,7 +172,7 @@ class I2CRegisterBus:
         if self.readback is not None:
             self.readback.written(address, value)
         elif (self.verify if verify is None else verify) and address not in self.volatile:
-            if address in self.deferred:  # takes effect at the frame boundary: read back after it
+            if address in self.deferred or self.holding:  # takes effect at the frame boundary: read back after it
                 self.pending[address] = value
                 return
             at = self.shadow.get(address, address)

@@ -167,10 +167,12 @@ class RegisterFile:
             return
         self.bus.write(gh[0], gh[1])
         self._holding = 1
+        self.bus.holding = True  # (held writes are verified after the frame boundary where they take effect)
         try:
             yield
         finally:
             self._holding = 0
+            self.bus.holding = False
             self.bus.write(gh[0], gh[2])  # release: the held registers take effect together
 
     def _write_value(self, f: Field, value: int) -> None:

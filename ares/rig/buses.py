@@ -37,8 +37,9 @@ def open_buses(system, smbus_for=None):
 
 
 def verify_after_frames(frames, buses) -> None:
-    """Double-buffered registers (``buffered="frame"``) are read back once a frame has arrived
-    after their write: the frame source calls each bus's ``verify_pending`` per frame."""
-    hooks = [b.verify_pending for b in buses if getattr(b, "deferred", None)]
+    """Double-buffered registers (``buffered="frame"``) and writes inside a group hold are read
+    back once a frame has arrived after them: the frame source calls each verifying bus's
+    ``verify_pending`` per frame."""
+    hooks = [b.verify_pending for b in buses if getattr(b, "verify", False)]  # (nothing pending: nothing read)
     if hooks:
         frames.after_frame = list(getattr(frames, "after_frame", [])) + hooks
