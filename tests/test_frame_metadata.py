@@ -36,11 +36,20 @@ def _scan(tmp_path: Path, system: str | Path) -> Path:
 
 def test_usb_frame_counters_and_timestamps_per_stage_in_report_h5(tmp_path):
     """... and the device's own time stamps where its header carries them (``header="ares40"``,
-    issue 49): the device clock at each frame's exposure start, beside the host's arrival time."""
+    issue 49): the device clock at each frame's exposure start, beside the host's arrival time --
+    here with the grabber in hardware-trigger mode, a frame per edge of the emulated bench's pulse
+    generator, which skips one edge (the read times out; the stage is grabbed again)."""
     out = tmp_path / "run"
     system = tmp_path / "sim_wire_ares40.xml"
-    system.write_text((ROOT / "protocols" / "sim_wire.xml").read_text().replace('header="ares32"', 'header="ares40"'))
-    assert main(["run", str(_scan(tmp_path, system)), "--out", str(out), "-q"]) == 0
+    text = (ROOT / "protocols" / "sim_wire.xml").read_text().replace('header="ares32"', 'header="ares40"')
+    system.write_text(text.replace('      <control when="stop" request_type="0x40" request="0xB2" value="0"/>',
+                                   '      <control when="stop" request_type="0x40" request="0xB2" value="0"/>\n'
+                                   '      <control when="trigger_mode" request_type="0x40" request="0xC1" value="mode"/>\n'
+                                   '      <trigger mode="hardware" timeout_ms="100"/>'))
+    scan = _scan(tmp_path, system)
+    scan.write_text(scan.read_text().replace("<frames>3</frames>", '<frames on_loss="regrab">3</frames>'))
+    assert main(["run", str(scan), "--out", str(out), "-q", "--sim-fault", "usb_trigger_missing_at=7"]) == 0
+    assert any(json.loads((out / "stages" / f"{k:04d}.json").read_text()).get("frames_lost") for k in range(3))
     with h5py.File(out / "report.h5", "r") as f:
         counters = [list(f[f"stages/{k:04d}/frame_counter"][()]) for k in range(3)]
         stamps = np.concatenate([f[f"stages/{k:04d}/frame_timestamp"][()] for k in range(3)])

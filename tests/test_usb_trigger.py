@@ -39,6 +39,8 @@ def test_hardware_trigger_no_frame_until_the_line_fires(tmp_path):
     bench = build_bench(sy, seed=1)
     try:
         grabber = bench.emulators["usb"]
+        assert grabber.line.generator  # the wire bench wires a pulse generator to the line: switched off here
+        grabber.line.generator = False
         assert (grabber.trigger_mode, grabber.trigger_input, grabber.falling) == (2, 2, True)  # told at open
         assert bench.frames.timeout_ms == 2000 + 500  # the read waits for the edge too
         with pytest.raises(FrameLost, match=r"timeout; no edge on hardware trigger line 2\?"):

@@ -87,6 +87,8 @@ def build_wire_bench(system, seed: int, faults: dict | None = None, uses: set | 
                               embed=(b.readback_row, b.readback_start, dev.registers.bus, m.value_bits)
                               if readback else None,
                               latency=lambda: dev.registers.get("exposure") + system.timing.readout_s)
+    t = g.trigger
+    grabber.line.generator = t is not None and t.mode == "hardware"  # a pulse generator on the trigger input
     emulated, opened = [], list(buses)
     try:
         frames = UsbFrameSource.open(g, (s.rows, s.cols), s.adc_bits, backend=EmulatedUsbBackend([grabber]),

@@ -36,6 +36,9 @@ what the FIFO held is lost), ``usb_gone_s`` = S (with ``usb_disconnect_at``: unp
 seconds of the bench's clock -- emulated time -- then found again), ``usb_reconnect_packet``
 = P (found again with wMaxPacketSize P: the host must read the descriptor anew).
 
+``usb_trigger_missing_at`` = N: in hardware-trigger mode the pulse generator skips the edge for
+frame N (the host's read times out; the frame comes at the next edge).
+
 ``usb_pipeline_frames`` = K: a sensor that keeps exposing after a stop -- K frames exposed at
 the settings of that moment wait in the device and come first at the next start (what a
 settings change must discard: ``<timing discard_frames>``).
@@ -57,7 +60,7 @@ from ares.hardware.pixels import pack, pixel_format, to_wire_order
 
 FAULTS = ("usb_drop_at", "usb_corrupt_at", "usb_short_at", "usb_garbage_at", "usb_timeout_at",
           "usb_disconnect_at", "usb_reconnect_after_polls", "usb_pipeline_frames", "usb_late_at", "usb_late_ms",
-          "usb_stall_at", "usb_gone_s", "usb_reconnect_packet")
+          "usb_stall_at", "usb_gone_s", "usb_reconnect_packet", "usb_trigger_missing_at")
 
 
 class EmulatedGrabber:
@@ -191,6 +194,9 @@ class EmulatedGrabber:
             raise _usb_error(errno.ETIMEDOUT, "Operation timed out", timeout=True)  # the frame is still exposing
         if self.trigger_mode == 1 and not self.software_triggers:  # waiting for the host's trigger
             raise _usb_error(errno.ETIMEDOUT, "Operation timed out (no software trigger)", timeout=True)
+        if self.trigger_mode == 2 and n == self.faults.get("usb_trigger_missing_at"):  # the generator skips one
+            self.faults.pop("usb_trigger_missing_at")
+            raise _usb_error(errno.ETIMEDOUT, "Operation timed out (no edge on the trigger line)", timeout=True)
         if self.trigger_mode == 2 and not self.line.take():  # waiting for an edge on the trigger input
             raise _usb_error(errno.ETIMEDOUT, "Operation timed out (no edge on the trigger line)", timeout=True)
         if self.trigger_mode == 1:
@@ -324,18 +330,23 @@ class EmulatedGrabber:
 
 
 class TriggerLine:
-    """The grabber's hardware trigger input: ``fire(n)`` sends n edges (a pulse generator, a light
-    source's sync output); each starts one frame in hardware-trigger mode, none arrives without."""
+    """The grabber's hardware trigger input: ``fire(n)`` sends n edges (a light source's sync
+    output, a test); each starts one frame in hardware-trigger mode, none arrives without. With
+    ``generator`` a pulse generator drives it at the frame rate: an edge whenever the sensor is
+    ready for one (the wire bench wires one to a system declaring a hardware trigger)."""
 
-    def __init__(self):
+    def __init__(self, generator: bool = False):
         self.edges = 0  # edges not yet answered with a frame
         self.fired = 0
+        self.generator = generator
 
     def fire(self, n: int = 1) -> None:
         self.edges += int(n)
         self.fired += int(n)
 
     def take(self) -> bool:
+        if self.edges <= 0 and self.generator:
+            self.fire()
         if self.edges <= 0:
             return False
         self.edges -= 1
