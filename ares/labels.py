@@ -167,7 +167,7 @@ ARRAY_UNITS = {"mean": "DN", "variance": "DN^2", "frame_means": "DN", "dark_mean
                "frame_counter": "1 (the device's frame counter, else the frame source's count)",
                "frame_timestamp": "s (host time at arrival; the simulator's model clock)",
                "frame_temperature": "C (the device's, as it reports it)",
-               "frame_device_timestamp": "s (the device's own clock, GenTL timestamp_ns)",
+               "frame_device_timestamp": "s (the device's own clock: GenTL timestamp_ns, the ares40 USB header)",
                # the dark stage's RTS candidates and their time series (ares.scan.defect_mask)
                "rts_rows": "1 (pixel row index)", "rts_cols": "1 (pixel column index)",
                "rts_series": "DN (one row per frame, one column per candidate pixel)"}

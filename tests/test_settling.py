@@ -156,7 +156,7 @@ def test_settle_element_round_trips_and_refuses_nonsense(tmp_path):
 def test_setpoint_and_readback_recorded_with_tolerance(tmp_path):
     """Every set quantity: the set point, the readback and the tolerance they must agree to
     (registers from the stage's snapshot, the chamber's last reading while it settled; the
-    light says it has no independent readback instead of comparing its set point with itself)."""
+    light its monitor's reading of the output -- the ``read`` command, not its set point)."""
     sy = _system(tmp_path)
     p = tmp_path / "rb.xml"
     p.write_text(f"""<?xml version="1.0"?>
@@ -175,6 +175,35 @@ def test_setpoint_and_readback_recorded_with_tolerance(tmp_path):
     lit, warm = (st["setpoints"] for st in outcome.stages)
     e = lit["exposure"]
     assert e["set"] == pytest.approx(0.012346) and e["read"] == e["set"] and e["tolerance"] == 5e-7 and e["ok"]
-    assert lit["light"]["read"] is None and "no independent readback" in lit["light"]["note"]
+    li = lit["light"]  # the LED's monitor (MON?), within the declared tolerance (100 photons/pixel/s)
+    assert li["set"] == 1e5 and li["read"] == pytest.approx(1e5) and li["tolerance"] == 100 and li["ok"]
     t = warm["temperature"]
     assert t["set"] == 30 and t["read"] == pytest.approx(30) and t["tolerance"] == 0.1 and t["ok"]
+
+
+def test_the_light_condition_reads_the_output_back_not_the_set_point(tmp_path):
+    """Issue 49: the light ``<suspend>`` condition compared the driver's set point with itself.
+    Now it asks the source's monitor (the ``read`` command on the wire) for its output: an LED
+    still relaxing (0.3 s time constant, bench time) is out of tolerance, then in once settled;
+    a source that can only echo its set point cannot be checked, and says so."""
+    from types import SimpleNamespace
+
+    from ares.errors import HardwareError
+    from ares.scan.suspend import Suspenders
+
+    bench = build_bench(load_system(_system(tmp_path)), seed=1, faults={"light_tau_s": 0.3})
+    try:
+        bench.light.set_level(1e5)
+        spec = SimpleNamespace(conditions=(("light", 0.02),), poll_s=0.0)
+        s = Suspenders(spec, bench)
+        why = s.violation({"light": 1e5})
+        assert why is not None and why.startswith("light level reads back ") and "set 100000 +/- 2 %" in why
+        assert bench.light.get_level() == 1e5  # (the set point, what the old check compared with itself)
+        bench.clock.sleep(5 * 0.3)  # the LED relaxes on the bench's clock
+        assert s.violation({"light": 1e5}) is None
+        assert bench.emulators["led"].log[-1] == "MON?"  # asked on the wire
+    finally:
+        bench.close()
+    mute = SimpleNamespace(name="led", read_level=lambda: None)
+    with pytest.raises(HardwareError, match="needs a readback of the light's output"):
+        Suspenders(spec, SimpleNamespace(light=mute, chamber=None)).violation({"light": 1e5})

@@ -14,6 +14,12 @@
 
 A reader that finds no sync word where a header must start searches forward for the
 next one (``find_sync``) and counts the bytes it skipped.
+
+``header="ares40"``: the same, with the device's time stamp before the header CRC -- 40 bytes::
+
+   28  timestamp   u64      the device clock at the frame's exposure start, in ticks of
+                            ``<usb_grabber timestamp_hz>`` (flags bit 1: valid)
+   36  hcrc        u32      CRC-32 of header bytes 0..35
 """
 
 from __future__ import annotations
@@ -26,6 +32,8 @@ SYNC = b"\xa5\x5a\xc3\x3c"
 SIZE = 32
 _FMT = struct.Struct("<4sIHHIIIII")
 FLAG_CRC = 1
+FLAG_TIMESTAMP = 2  # ares40: the timestamp field is valid
+SIZES = {"ares32": 32, "ares40": 40}
 
 
 @dataclass(frozen=True)
@@ -37,10 +45,14 @@ class Header:
     payload: int
     flags: int = 0
     crc: int = 0
+    timestamp: int | None = None  # ares40: device clock ticks (None in an ares32 header)
 
-    def encode(self) -> bytes:
+    def encode(self, size: int = SIZE) -> bytes:
+        flags = self.flags | (FLAG_TIMESTAMP if size == 40 and self.timestamp is not None else 0)
         head = _FMT.pack(SYNC, self.counter & 0xFFFFFFFF, self.width, self.height, self.format_code,
-                         self.payload, self.flags, self.crc, 0)[:28]
+                         self.payload, flags, self.crc, 0)[:28]
+        if size == 40:
+            head += struct.pack("<Q", int(self.timestamp or 0) & 0xFFFFFFFFFFFFFFFF)
         return head + struct.pack("<I", zlib.crc32(head))
 
 
@@ -48,16 +60,17 @@ class BadHeader(ValueError):
     """Not a valid header at this position (no sync word, or its own CRC fails)."""
 
 
-def decode(buf) -> Header:
-    b = bytes(buf[:SIZE])
-    if len(b) < SIZE:
-        raise BadHeader(f"{len(b)} bytes, a header has {SIZE}")
-    sync, counter, w, h, code, payload, flags, crc, hcrc = _FMT.unpack(b)
+def decode(buf, size: int = SIZE) -> Header:
+    b = bytes(buf[:size])
+    if len(b) < size:
+        raise BadHeader(f"{len(b)} bytes, a header has {size}")
+    sync, counter, w, h, code, payload, flags, crc, _ = _FMT.unpack(b[:32])
     if sync != SYNC:
         raise BadHeader("no sync word")
-    if zlib.crc32(b[:28]) != hcrc:
+    if zlib.crc32(b[:size - 4]) != struct.unpack("<I", b[size - 4:size])[0]:
         raise BadHeader("header CRC mismatch")
-    return Header(counter, w, h, code, payload, flags, crc)
+    stamp = struct.unpack("<Q", b[28:36])[0] if size == 40 and flags & FLAG_TIMESTAMP else None
+    return Header(counter, w, h, code, payload, flags & ~FLAG_TIMESTAMP, crc, stamp)
 
 
 def find_sync(buf, start: int = 0) -> int:

@@ -86,9 +86,38 @@ class GenICamCamera:
         except Exception as exc:  # harvesters/GenTL raise their own types
             self.h.reset()
             raise DeviceGone(f"{self.name}: cannot open the camera through {path} ({exc})") from None
+        self._configure()
+
+    @classmethod
+    def attach(cls, cfg, ia) -> "GenICamCamera":
+        """A camera around an image acquirer already opened (an emulated one: no GenTL producer)."""
+        cam = cls.__new__(cls)
+        cam.cfg, cam.name, cam.ia, cam.h = cfg, f"GenICam camera '{cfg.name}'", ia, None
+        cam._configure()
+        return cam
+
+    def _configure(self) -> None:
+        """The ``<set>`` features, then the trigger, strobe and chunk time stamp as declared (SFNC)."""
+        cfg = self.cfg
         self.nodes = self.ia.remote_device.node_map
         for node, value in cfg.sets:
             self.write(node, value)
+        t = getattr(cfg, "trigger", None)
+        if t is not None:
+            self.write("TriggerSelector", "FrameStart")
+            self.write("TriggerMode", "Off" if t.mode == "free_run" else "On")
+            if t.mode != "free_run":
+                self.write("TriggerSource", "Software" if t.mode == "software" else f"Line{t.line}")
+                if t.mode == "hardware":
+                    self.write("TriggerActivation", "RisingEdge" if t.edge == "rising" else "FallingEdge")
+            if t.strobe == "exposure":  # the output line high while exposing
+                self.write("LineSelector", f"Line{t.strobe_line}")
+                self.write("LineMode", "Output")
+                self.write("LineSource", "ExposureActive")
+        if getattr(cfg, "chunk_timestamp", False):
+            self.write("ChunkModeActive", "true")
+            self.write("ChunkSelector", "Timestamp")
+            self.write("ChunkEnable", "true")
 
     def _select(self):
         infos = self.h.device_info_list
@@ -135,7 +164,8 @@ class GenICamCamera:
         try:
             self.ia.destroy()
         finally:
-            self.h.reset()
+            if self.h is not None:
+                self.h.reset()
 
 
 class FeatureBus:
@@ -190,7 +220,11 @@ class GenICamFrameSource:
 
     @property
     def timeout_ms(self) -> int:
-        return max(int(self.camera.cfg.timeout_ms), int(round(1000 * self.frame_time_s)))
+        base = max(int(self.camera.cfg.timeout_ms), int(round(1000 * self.frame_time_s)))
+        t = getattr(self.camera.cfg, "trigger", None)
+        if t is not None and t.mode == "hardware":  # waiting for the line's edge too
+            return base + int(t.timeout_ms or self.camera.cfg.timeout_ms)
+        return base
 
     def _convert(self, comp) -> np.ndarray:
         fmt = str(comp.data_format)
@@ -243,19 +277,24 @@ class GenICamFrameSource:
             ia.start()
         except Exception as exc:
             raise DeviceGone(f"{self.name}: cannot start acquisition ({exc})") from None
+        t = getattr(self.camera.cfg, "trigger", None)
+        chunk = getattr(self.camera.cfg, "chunk_timestamp", False)
         try:
             for _ in range(n):
+                if t is not None and t.mode == "software":  # one frame per software trigger
+                    self.camera.node("TriggerSoftware").execute()
                 try:
                     buf = ia.fetch(timeout=timeout)
                 except Exception as exc:
                     if "timeout" in type(exc).__name__.lower():  # a frame late: lost, re-grabbed where the
                         self.timeouts += 1  # scan says so (on_loss="regrab", <suspend device>)
+                        why = f"; no edge on hardware trigger line {t.line}?" if t and t.mode == "hardware" else ""
                         raise FrameLost(f"{self.name}: no frame within {self.timeout_ms} ms "
-                                        f"(timeout) at frame {self.count}", "timeout") from None
+                                        f"(timeout{why}) at frame {self.count}", "timeout") from None
                     raise DeviceGone(f"{self.name}: acquisition failed at frame {self.count} ({exc})") from None
                 try:
                     fid = getattr(buf.module, "frame_id", None)
-                    stamp = _device_seconds(buf)  # the camera's own time stamp, when it gives one
+                    stamp = _chunk_seconds(self.camera) if chunk else _device_seconds(buf)  # the camera's clock
                     data = self._convert(buf.payload.components[0])
                 finally:
                     buf.queue()
@@ -309,6 +348,15 @@ def build_genicam_bench(system):
         raise
     return Bench(regs, frames, light, chamber, {"system": system.name, "camera": system.genicam.name,
                                                 "producer": producer_path(system.genicam.cti)})
+
+
+def _chunk_seconds(camera) -> float | None:
+    """The frame's time stamp from its chunk data (``ChunkTimestamp``, ns), None without one."""
+    try:
+        ns = int(camera.nodes.ChunkTimestamp.value)
+        return ns * 1e-9 if ns >= 0 else None
+    except Exception:  # noqa: BLE001 -- no chunk in this buffer: host time only
+        return None
 
 
 def _device_seconds(buf) -> float | None:

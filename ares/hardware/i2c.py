@@ -38,7 +38,8 @@ class I2CRegisterBus:
     def __init__(self, bus: int, address: int, address_bits: int = 16, value_bits: int = 8, *,
                  name: str = "i2c", smbus=None, retries: int = 2, verify: bool = False, value_endian: str = "big",
                  sleep=time.sleep, volatile=frozenset(), speed_hz: int | None = None, chip_id=None, init=(),
-                 sysfs: str = "/sys/bus/i2c/devices", backoff_s: float = BACKOFF_S):
+                 sysfs: str = "/sys/bus/i2c/devices", backoff_s: float = BACKOFF_S, shadow=None,
+                 deferred=frozenset()):
         self.name = name
         self.bus_number, self.address = bus, address
         self.abytes, self.vbytes = address_bits // 8, value_bits // 8
@@ -47,6 +48,12 @@ class I2CRegisterBus:
         self._sleep = sleep
         self.backoff_s = float(backoff_s)  # the busy window (<i2c backoff_ms>): the first pause before a retry
         self.volatile = frozenset(volatile)  # register addresses not verified by read-back
+        # double-buffered registers: a write lands in a pending (shadow) register and takes effect at
+        # the next frame boundary; verified at the shadow address, or after a frame has arrived
+        self.shadow = dict(shadow or {})  # address -> the address its pending value reads back at
+        self.deferred = frozenset(deferred)  # addresses verified after the frame boundary (verify_pending)
+        self.pending: dict[int, int] = {}  # written, not yet verified (the frame boundary has not passed)
+        self.holding = False  # inside the sensor's group hold: writes take effect at the frame after release
         self.speed_hz, self.chip_id, self.init, self.sysfs = speed_hz, chip_id, tuple(init), sysfs
         self.adapter_hz: int | None = None  # the adapter's clock, when the kernel shows it
         self.chip_id_read: int | None = None  # what the chip-ID register answered at connect
@@ -165,10 +172,25 @@ class I2CRegisterBus:
         if self.readback is not None:
             self.readback.written(address, value)
         elif (self.verify if verify is None else verify) and address not in self.volatile:
+            if address in self.deferred or self.holding:  # takes effect at the frame boundary: read back after it
+                self.pending[address] = value
+                return
+            at = self.shadow.get(address, address)
+            got = self.read(at)
+            if got != value:
+                where = "" if at == address else f" at its shadow register 0x{at:0{2 * self.abytes}x}"
+                raise HardwareError(f"{self._where(address)}: wrote 0x{value:x} but read back 0x{got:x}{where} "
+                                    "(write-verify)")
+
+    def verify_pending(self) -> None:
+        """A frame has arrived since the writes to double-buffered registers (``buffered="frame"``):
+        the boundary where they take effect has passed; read them back now."""
+        pending, self.pending = self.pending, {}
+        for address, value in pending.items():
             got = self.read(address)
             if got != value:
-                raise HardwareError(f"{self._where(address)}: wrote 0x{value:x} but read back 0x{got:x} "
-                                    "(write-verify)")
+                raise HardwareError(f"{self._where(address)}: wrote 0x{value:x} but read back 0x{got:x} after the "
+                                    "frame boundary where a double-buffered register takes effect (write-verify)")
 
     def link_counters(self) -> dict:
         """The link statistics since open (``ares.hardware.link_stats``)."""
@@ -190,14 +212,19 @@ class I2CRegisterBus:
             close()
 
 
-def open_i2c_bus(b, regmap, smbus=None) -> I2CRegisterBus:
-    """The sensor's bus from its ``<i2c>`` declaration and register map (volatile fields'
-    addresses are not verified), not yet connected (``connect()``)."""
-    volatile = {f.address + k for f in regmap.fields if f.volatile for k in range(f.count)}
+def open_i2c_bus(b, regmap, smbus=None, sensor: bool = True) -> I2CRegisterBus:
+    """A device's bus from its ``<i2c>`` declaration and the register map's fields on it (those
+    with ``bus=`` its name; ``sensor``: also those without), not yet connected (``connect()``):
+    volatile fields' addresses are not verified, double-buffered ones at their shadow address
+    or after the frame boundary."""
+    mine = [f for f in regmap.fields if f.bus == b.name or (sensor and f.bus is None)]
+    volatile = {f.address + k for f in mine if f.volatile for k in range(f.count)}
+    shadow = {f.address + k: f.shadow + k for f in mine if f.buffered == "shadow" for k in range(f.count)}
+    deferred = {f.address + k for f in mine if f.buffered == "frame" for k in range(f.count)}
     return I2CRegisterBus(b.bus, b.address, regmap.address_bits, regmap.value_bits, name=b.name, smbus=smbus,
                           retries=b.retries, verify=b.verify, value_endian=b.value_endian, volatile=volatile,
                           speed_hz=b.speed_hz, chip_id=b.chip_id, init=b.init,
-                          backoff_s=getattr(b, "backoff_ms", 1.0) / 1000.0)
+                          backoff_s=getattr(b, "backoff_ms", 1.0) / 1000.0, shadow=shadow, deferred=deferred)
 
 
 class ImageRowReadback:

@@ -136,6 +136,9 @@ class Bench:
         part = {"frames": self.frames, "registers": getattr(self.registers, "bus", None), "light": self.light,
                 "chamber": self.chamber, "monochromator": self.monochromator,
                 "photodiode": self.photodiode}.get(device)
+        if device == "registers":  # every I2C device declared (an adapter unplugged takes them all)
+            for other in _other_buses(self.registers):
+                other.reconnect()
         again = getattr(part, "reconnect", None)
         if again is None:
             name = getattr(part, "name", device)
@@ -143,9 +146,16 @@ class Bench:
         again()
 
     def close(self) -> None:
-        for dev in (self.frames, self.light, self.chamber, self.monochromator, self.photodiode, self.registers.bus):
+        for dev in (self.frames, self.light, self.chamber, self.monochromator, self.photodiode, self.registers.bus,
+                    *_other_buses(self.registers)):
             close = getattr(dev, "close", None)
             if callable(close):
                 close()
         for fn in self.closers:
             fn()
+
+
+def _other_buses(registers) -> list:
+    """The register file's I2C devices beside the sensor's own (``RegisterFile.buses``)."""
+    main = getattr(registers, "bus", None)
+    return [b for b in getattr(registers, "buses", {}).values() if b is not main]

@@ -16,6 +16,11 @@ from ares.errors import HardwareError, UnknownRegister, ValueOutOfRange, InputEr
 
 
 @contextmanager
+def _nothing():
+    yield
+
+
+@contextmanager
 def _naming(name: str):
     """A bus error inside a field access names the field too (the bus knows only addresses)."""
     try:
@@ -43,6 +48,10 @@ class Field:
     description: str = ""
     volatile: bool = False  # the device changes it (self-clearing, status): a write is not verified by read-back
     signed: bool = False  # two's complement raw value (a GenICam feature's -3 dB, a signed offset register)
+    bus: str | None = None  # the <i2c name> of the device it lives on (None: the register map's bus)
+    buffered: str | None = None  # double-buffered: "shadow" (read back at ``shadow``) or "frame" (takes
+    #   effect at the next frame boundary: verified after a frame has arrived)
+    shadow: int | None = None  # buffered="shadow": the address the pending value reads back at
 
     @property
     def width(self) -> int:
@@ -87,6 +96,9 @@ class RegisterMap:
     value_bits: int = 16
     endian: str = "big"  # order of multi-register values: "big" = lowest address is most significant
     fields: tuple[Field, ...] = ()
+    bus: str | None = None  # the <i2c name> the sensor's registers are on (None: the first declared)
+    group_hold: tuple[int, int, int] | None = None  # (register, hold value, release value): a multi-register
+    #   value is written between them, so the sensor never latches half of it
 
     def __post_init__(self):
         names = [f.name for f in self.fields]
@@ -114,30 +126,65 @@ class RegisterMap:
 
 
 class RegisterFile:
-    """Read/write named fields through a bus (read-modify-write for partial fields)."""
+    """Read/write named fields through a bus (read-modify-write for partial fields).
 
-    def __init__(self, regmap: RegisterMap, bus):
+    ``buses``: every declared I2C device by its ``<i2c name>`` -- a field with ``bus=`` is read and
+    written on that one, the others on ``bus`` (the sensor's). With the map's ``group_hold`` a
+    value spanning several registers is written inside hold/release, and ``hold()`` groups
+    several fields the same way (nested: one hold)."""
+
+    def __init__(self, regmap: RegisterMap, bus, buses: dict | None = None):
         self.map = regmap
         self.bus = bus
+        self.buses = dict(buses or {})
+        self._holding = 0
+
+    def _bus(self, f: Field):
+        if f.bus is None or f.bus not in self.buses:
+            return self.bus
+        return self.buses[f.bus]
 
     def _addresses(self, f: Field) -> list[int]:
         addrs = [f.address + i for i in range(f.count)]
         return addrs if self.map.endian == "big" else addrs[::-1]  # most significant first
 
     def _read_value(self, f: Field) -> int:
-        v = 0
+        v, bus = 0, self._bus(f)
         for a in self._addresses(f):
-            v = (v << self.map.value_bits) | int(self.bus.read(a))
+            v = (v << self.map.value_bits) | int(bus.read(a))
         return v
 
+    @contextmanager
+    def hold(self):
+        """The sensor's group hold around the writes inside (nothing without ``group_hold``)."""
+        gh = self.map.group_hold
+        if gh is None or self._holding:
+            self._holding += 1
+            try:
+                yield
+            finally:
+                self._holding -= 1
+            return
+        self.bus.write(gh[0], gh[1])
+        self._holding = 1
+        self.bus.holding = True  # (held writes are verified after the frame boundary where they take effect)
+        try:
+            yield
+        finally:
+            self._holding = 0
+            self.bus.holding = False
+            self.bus.write(gh[0], gh[2])  # release: the held registers take effect together
+
     def _write_value(self, f: Field, value: int) -> None:
-        bits = self.map.value_bits
+        bits, bus = self.map.value_bits, self._bus(f)
         words = []
         for _ in range(f.count):
             words.append(value & ((1 << bits) - 1))
             value >>= bits
-        for a, w in zip(self._addresses(f), reversed(words)):
-            self.bus.write(a, w)
+        held = self.map.group_hold is not None and f.count > 1 and bus is self.bus
+        with (self.hold() if held else _nothing()):
+            for a, w in zip(self._addresses(f), reversed(words)):
+                bus.write(a, w)
 
     def get_raw(self, name: str) -> int:
         f = self.map.field(name)

@@ -280,7 +280,18 @@ class SerialLightSource(SerialInstrument):
         self._do("set", self._check(level, "light level", self.cfg.unit or ""))
 
     def get_level(self) -> float:
+        """The driver's set point, as the instrument answers ``get``."""
         return self._number("get")
+
+    def read_level(self) -> float | None:
+        """The output the source measures (its monitor photodiode: the ``read`` command of its
+        ``<protocol>``), None when it declares none -- ``get`` only echoes the set point."""
+        return self._number("read") if self.protocol.command("read") is not None else None
+
+    @property
+    def level_tolerance(self) -> float | None:
+        """``<light_source tolerance>``: how far the readback may be from the set point (its unit)."""
+        return self.cfg.tolerance
 
     def settle(self, cancel=None) -> None:
         self._wait(self.cfg.settle_s, cancel)

@@ -42,6 +42,7 @@ from ares.errors import DeviceGone, FrameError, FrameLost, HardwareError
 from ares.hardware import frame_header as fh
 from ares.hardware.interfaces import Frame
 from ares.hardware.pixels import from_wire_order, pixel_format, unpack
+from ares.hardware.trigger import usb_request
 
 
 def _usb():
@@ -59,7 +60,8 @@ class UsbFrameSource:
         self.channels, self.interleave = int(channels), interleave
         self.fmt = pixel_format(cfg.format)
         self.payload = self.fmt.payload_bytes(shape[0] * shape[1])
-        self.head = fh.SIZE if cfg.header == "ares32" else int(cfg.header_bytes)
+        self.head = fh.SIZES.get(cfg.header, int(cfg.header_bytes))
+        self.trigger = getattr(cfg, "trigger", None)  # <trigger>: None/free_run streams, else one frame per trigger
         self.frame_bytes = self.head + self.payload
         self.watchdog_s = (cfg.watchdog_ms or 4 * cfg.timeout_ms) / 1000.0
         self.max_packet = _max_packet(device, cfg)
@@ -84,6 +86,7 @@ class UsbFrameSource:
         self._lost_sync = False  # searching for a sync word (counted once per search)
         self.stalls = 0  # endpoint halts cleared (EPIPE -> clear_halt)
         self._dirty = False  # a transient fault left bytes in the device: flush before the next start
+        self.after_frame: list = []  # called as each frame arrives (double-buffered registers read back)
 
     # ------------------------------------------------------------ open / control
     @classmethod
@@ -106,6 +109,8 @@ class UsbFrameSource:
         src = cls(dev, cfg, shape, bit_depth, channels, interleave)
         src._backend = backend
         src._control("open", 0)
+        src._control("trigger_mode", 0)  # the device's trigger mode and strobe, as declared (again after a replug)
+        src._control("strobe", 0)
         return src
 
     def reconnect(self) -> None:
@@ -128,13 +133,15 @@ class UsbFrameSource:
         for c in self.cfg.controls:
             if c.when != when:
                 continue
-            value = frames if c.value == "frames" else c.value
+            value, index = frames if c.value == "frames" else c.value, c.index
+            if when in ("trigger_mode", "strobe"):
+                value, index = usb_request(self.trigger, when)
             try:
                 if c.request_type & 0x80:  # device-to-host: read (and discard) what it answers
-                    self.dev.ctrl_transfer(c.request_type, c.request, value & 0xFFFF, c.index, max(1, len(c.data)),
+                    self.dev.ctrl_transfer(c.request_type, c.request, value & 0xFFFF, index, max(1, len(c.data)),
                                            self.cfg.timeout_ms)
                 else:
-                    self.dev.ctrl_transfer(c.request_type, c.request, value & 0xFFFF, c.index, c.data or None,
+                    self.dev.ctrl_transfer(c.request_type, c.request, value & 0xFFFF, index, c.data or None,
                                            self.cfg.timeout_ms)
             except core.USBTimeoutError:
                 raise HardwareError(f"{self.name}: no answer to the '{when}' control request 0x{c.request:02x} "
@@ -157,7 +164,10 @@ class UsbFrameSource:
     def timeout_ms(self) -> int:
         """One bulk read's timeout: the XML's ``timeout_ms``, or longer when a frame takes
         longer (exposure + readout + margin, from ``set_frame_time``)."""
-        return max(int(self.cfg.timeout_ms), int(round(1000 * self.frame_time_s)))
+        base = max(int(self.cfg.timeout_ms), int(round(1000 * self.frame_time_s)))
+        if self.trigger is not None and self.trigger.mode == "hardware":  # waiting for the line's edge too
+            return base + int(self.trigger.timeout_ms or self.cfg.timeout_ms)
+        return base
 
     def set_frame_time(self, seconds: float) -> None:
         """The current frame time (exposure + ``<timing readout_s>`` + ``margin_s``): a 20 s
@@ -223,8 +233,10 @@ class UsbFrameSource:
             n = self._bulk(buf, self.timeout_ms)
         except core.USBTimeoutError:
             self.timeouts += 1
+            t = self.trigger
+            why = (f"; no edge on hardware trigger line {t.line}?" if t is not None and t.mode == "hardware" else "")
             raise self._transient(f"{self.name}: no data on endpoint 0x{self.cfg.endpoint:02x} within "
-                                  f"{self.timeout_ms} ms (timeout) at frame {self.count}", "timeout") from None
+                                  f"{self.timeout_ms} ms (timeout{why}) at frame {self.count}", "timeout") from None
         except core.USBError as exc:
             if getattr(exc, "errno", None) == errno.EPIPE:  # the endpoint halted: clear it, then re-grab
                 try:
@@ -240,17 +252,17 @@ class UsbFrameSource:
 
     def _header(self, deadline: float):
         """The next valid header (searching past garbage), or None with header='none'."""
-        if self.cfg.header != "ares32":
+        if self.cfg.header not in fh.SIZES:
             if self.head:
                 self._payload_from(self.head, deadline, skip=True)
             return None
         while True:
-            while len(self._carry) < fh.SIZE:
-                need = (self.frame_bytes if self.inline else fh.SIZE) - len(self._carry)
+            while len(self._carry) < self.head:
+                need = (self.frame_bytes if self.inline else self.head) - len(self._carry)
                 self._carry += self._read(need, deadline)
             try:
-                h = fh.decode(self._carry)
-                del self._carry[:fh.SIZE]
+                h = fh.decode(self._carry, self.head)
+                del self._carry[:self.head]
                 return h
             except fh.BadHeader:
                 p = self._carry.find(fh.SYNC, 1)
@@ -341,6 +353,8 @@ class UsbFrameSource:
             raise FrameLost(f"{self.name}: {where} is corrupt (code {top} above the {self.bit_depth}-bit range)",
                             "corrupt")
         meta = {"counter": h.counter} if h is not None else {}
+        if h is not None and h.timestamp is not None:  # the device's clock at exposure start (ares40)
+            meta["device_timestamp_s"] = h.timestamp / float(getattr(self.cfg, "timestamp_hz", 1e9))
         return Frame(data, self.count, time.time(), meta)
 
     def grab(self, n: int):
@@ -356,8 +370,12 @@ class UsbFrameSource:
         ok = False
         try:
             for _ in range(n):
+                if self.trigger is not None and self.trigger.mode == "software":
+                    self._control("trigger", 0)  # one frame per software trigger
                 frame = self._frame()
                 self.count += 1
+                for hook in self.after_frame:  # a frame boundary has passed since the last register writes
+                    hook()
                 yield frame
             ok = True
         finally:

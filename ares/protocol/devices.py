@@ -13,6 +13,7 @@ from lxml import etree
 
 from ares.hardware.line_protocol import LineProtocol
 from ares.hardware.pixels import WIRE_ORDERS, pixel_format
+from ares.hardware.trigger import Trigger
 from ares.protocol.line_xml import protocol_from_el, protocol_to_el
 from ares.protocol.xmlsafe import fail
 
@@ -90,6 +91,37 @@ def i2c_from_el(path, el) -> I2CBus:
     return b
 
 
+def group_hold_from_el(reg_el) -> tuple[int, int, int] | None:
+    """``<registers><group_hold register hold release>``: (register, hold value, release value)."""
+    el = reg_el.find("group_hold")
+    return None if el is None else (_int(el.get("register")), _int(el.get("hold")), _int(el.get("release")))
+
+
+def check_buses(path, root, buses: tuple, regmap) -> None:
+    """Several I2C devices: names unique; ``<registers bus>`` and every ``<field bus>`` name one;
+    a ``buffered="shadow"`` field gives its ``shadow`` address (inside the address space)."""
+    names = [b.name for b in buses]
+    line = root.find("buses").sourceline if root.find("buses") is not None else root.sourceline
+    if len(set(names)) != len(names):
+        raise fail(path, line, f"<buses> declares an <i2c name> twice ({', '.join(names)})")
+    reg = root.find("registers")
+    if regmap.bus is not None and regmap.bus not in names:
+        raise fail(path, reg.sourceline, f"<registers bus='{regmap.bus}'> names no <i2c> (declared: "
+                                         f"{', '.join(names) or 'none'})")
+    els = {el.get("name"): el for el in (reg.iterfind("field") if reg is not None else ())}
+    for f in regmap.fields:
+        where = els[f.name].sourceline if f.name in els else line
+        if f.bus is not None and f.bus not in names:
+            raise fail(path, where, f"register field '{f.name}': bus='{f.bus}' names no <i2c> (declared: "
+                                    f"{', '.join(names) or 'none'})")
+        if f.buffered == "shadow" and f.shadow is None:
+            raise fail(path, where, f"register field '{f.name}': buffered='shadow' needs shadow= (the address its "
+                                    "pending value reads back at)")
+        if f.shadow is not None and f.shadow + f.count > (1 << regmap.address_bits):
+            raise fail(path, where, f"register field '{f.name}': shadow address 0x{f.shadow:x} is outside the "
+                                    f"{regmap.address_bits}-bit address space")
+
+
 def _chip_id(el):
     return None if el is None else (_int(el.get("register")), _int(el.get("value")))
 
@@ -126,6 +158,21 @@ class UsbControl:
     data: bytes = b""
 
 
+def trigger_from_el(path, el) -> Trigger | None:
+    if el is None:
+        return None
+    return Trigger(el.get("mode", "free_run"), _int(el.get("line"), 0), el.get("edge", "rising"),
+                   _int(el.get("timeout_ms")), el.get("strobe", "off"), _int(el.get("strobe_line"), 1))
+
+
+def trigger_to_el(parent, t: Trigger | None):
+    if t is not None:
+        d = Trigger()
+        _set(etree.SubElement(parent, "trigger"), **{k: getattr(t, k) for k in
+                                                     ("mode", "line", "edge", "timeout_ms", "strobe", "strobe_line")
+                                                     if getattr(t, k) != getattr(d, k)})
+
+
 @dataclass(frozen=True)
 class UsbGrabber:
     name: str
@@ -144,6 +191,8 @@ class UsbGrabber:
     controls: tuple[UsbControl, ...] = ()
     counter: str | None = None  # "continuous", "per_grab", "free_running" (ares.hardware.usb.counter_mode)
     header_packet: str = "own"  # "own": the header is a short packet of its own; "inline": one transfer with the payload
+    trigger: Trigger | None = None  # <trigger>: free run / software / hardware trigger, strobe
+    timestamp_hz: float = 1e9  # header="ares40": the device clock's ticks per second
 
 
 def _data(s: str | None) -> bytes:
@@ -155,17 +204,27 @@ def usb_from_el(path, g) -> UsbGrabber:
     for c in g.iterfind("control"):
         v = c.get("value", "0")
         ctl.append(UsbControl(c.get("when"), _int(c.get("request_type")), _int(c.get("request")),
-                              v if v == "frames" else _int(v), _int(c.get("index"), 0), _data(c.get("data"))))
+                              v if v in ("frames", "mode", "strobe") else _int(v), _int(c.get("index"), 0),
+                              _data(c.get("data"))))
     u = UsbGrabber(g.get("name"), _int(g.get("vid")), _int(g.get("pid")), _int(g.get("endpoint")), g.get("format"),
                    _int(g.get("header_bytes"), 0), _int(g.get("timeout_ms"), 1000), g.get("serial"),
                    g.get("header", "none"), _int(g.get("chunk_bytes"), 1 << 20), _int(g.get("watchdog_ms")),
                    g.get("wire_order", "image"), _int(g.get("interface"), 0), tuple(ctl), g.get("counter"),
-                   g.get("header_packet", "own"))
+                   g.get("header_packet", "own"), trigger_from_el(path, g.find("trigger")),
+                   _float(g.get("timestamp_hz"), 1e9))
     if u.vid > 0xFFFF or u.pid > 0xFFFF:
         raise fail(path, g.sourceline, "USB vid/pid must be 16-bit numbers")
     pixel_format(u.format)  # the schema lists the names; this keeps one table
-    if u.header == "ares32" and u.header_bytes:
-        raise fail(path, g.sourceline, "header='ares32' has its own 32-byte header; drop header_bytes")
+    if u.header != "none" and u.header_bytes:
+        raise fail(path, g.sourceline, f"header='{u.header}' has its own header; drop header_bytes")
+    t, whens = u.trigger, {c.when for c in u.controls}
+    if t is not None:
+        line = g.find("trigger").sourceline
+        for need, why in (("trigger_mode", t.mode != "free_run"), ("trigger", t.mode == "software"),
+                          ("strobe", t.strobe != "off")):
+            if why and need not in whens:
+                raise fail(path, line, f"<trigger mode='{t.mode}' strobe='{t.strobe}'> needs the grabber's "
+                                       f"<control when='{need}'> (the request that does it on this device)")
     if u.wire_order not in WIRE_ORDERS:
         raise fail(path, g.sourceline, f"wire_order '{u.wire_order}' is not one of {', '.join(WIRE_ORDERS)}")
     return u
@@ -177,11 +236,13 @@ def usb_to_el(parent, g: UsbGrabber):
               timeout_ms=g.timeout_ms, serial=g.serial, header=None if g.header == "none" else g.header,
               chunk_bytes=None if g.chunk_bytes == 1 << 20 else g.chunk_bytes, watchdog_ms=g.watchdog_ms,
               wire_order=None if g.wire_order == "image" else g.wire_order, interface=g.interface or None,
-              counter=g.counter, header_packet=None if g.header_packet == "own" else g.header_packet)
+              counter=g.counter, header_packet=None if g.header_packet == "own" else g.header_packet,
+              timestamp_hz=None if g.timestamp_hz == 1e9 else g.timestamp_hz)
     for c in g.controls:
         _set(etree.SubElement(el, "control"), when=c.when, request_type=f"0x{c.request_type:02X}",
              request=f"0x{c.request:02X}", value=c.value, index=c.index,
              data=" ".join(f"{b:02X}" for b in c.data) or None)
+    trigger_to_el(el, g.trigger)
 
 
 # ---------------------------------------------------------------- serial instruments
@@ -304,6 +365,8 @@ class GenICam:
     timeout_ms: int = 3000
     sets: tuple[tuple[str, str], ...] = ()
     features: tuple[Feature, ...] = ()
+    trigger: Trigger | None = None  # <trigger>: SFNC TriggerMode/TriggerSource/TriggerActivation, LineSource
+    chunk_timestamp: bool = False  # the camera's chunk data carries each frame's time stamp (ChunkTimestamp)
 
 
 def genicam_from_el(path, el) -> GenICam | None:
@@ -315,13 +378,16 @@ def genicam_from_el(path, el) -> GenICam | None:
     names = [f.field for f in feats]
     if len(set(names)) != len(names):
         raise fail(path, el.sourceline, "<genicam> declares a <feature field=...> twice")
-    return GenICam(el.get("name"), el.get("cti"), el.get("device", "0"), _int(el.get("timeout_ms"), 3000), sets, feats)
+    return GenICam(el.get("name"), el.get("cti"), el.get("device", "0"), _int(el.get("timeout_ms"), 3000), sets, feats,
+                   trigger_from_el(path, el.find("trigger")), _bool(el.get("chunk_timestamp")))
 
 
 def genicam_to_el(parent, g: GenICam):
-    el = _set(etree.SubElement(parent, "genicam"), name=g.name, cti=g.cti, device=g.device, timeout_ms=g.timeout_ms)
+    el = _set(etree.SubElement(parent, "genicam"), name=g.name, cti=g.cti, device=g.device, timeout_ms=g.timeout_ms,
+              chunk_timestamp=True if g.chunk_timestamp else None)
     for node, value in g.sets:
         _set(etree.SubElement(el, "set"), node=node, value=value)
     for f in g.features:
         _set(etree.SubElement(el, "feature"), field=f.field, node=f.node, scale=float(f.scale), unit=f.unit or None,
              min=f.min, max=f.max)
+    trigger_to_el(el, g.trigger)

@@ -17,7 +17,7 @@ from ares.errors import InputError
 from ares.hardware.registers import Field, RegisterMap
 from ares.protocol import xmlsafe
 from ares.protocol.devices import (GenICam, I2CBus, Photodiode, SerialInstrument, UsbGrabber, _bool, _float, _int, _set,
-                                   genicam_from_el, genicam_to_el, i2c_from_el, i2c_to_el, photodiode_from_el,
+                                   check_buses, genicam_from_el, group_hold_from_el, genicam_to_el, i2c_from_el, i2c_to_el, photodiode_from_el,
                                    photodiode_to_el, serial_from_el, serial_to_el,
                                    usb_from_el, usb_to_el)
 from ares.protocol.settle import Settle, settle_from_el, settle_to_el
@@ -226,7 +226,8 @@ def _fields(path, reg_el, address_bits: int, value_bits: int) -> tuple[Field, ..
             scale=_float(el.get("scale"), 1.0), offset=_float(el.get("offset"), 0.0), unit=el.get("unit", ""),
             minimum=_float(el.get("min")), maximum=_float(el.get("max")), default=_int(el.get("default"), 0),
             description=el.get("description", ""), volatile=el.get("volatile", "false").strip() in ("true", "1"),
-            signed=el.get("signed", "false").strip() in ("true", "1"),
+            signed=el.get("signed", "false").strip() in ("true", "1"), bus=el.get("bus"),
+            buffered=el.get("buffered"), shadow=_int(el.get("shadow")),
         )
         line = el.sourceline
         if f.lsb > f.msb:
@@ -284,7 +285,7 @@ def system_from_tree(tree, path) -> System:
         abits, vbits = int(reg.get("address_bits")), int(reg.get("value_bits"))
         fields = _fields(path, reg, abits, vbits)
         try:
-            regmap = RegisterMap(abits, vbits, reg.get("endian", "big"), fields)
+            regmap = RegisterMap(abits, vbits, reg.get("endian", "big"), fields, reg.get("bus"), group_hold_from_el(reg))
         except InputError as exc:
             raise fail(path, reg.sourceline, str(exc)) from None
     elif root.find("devices/genicam") is not None:  # the camera's features are its fields
@@ -310,6 +311,7 @@ def system_from_tree(tree, path) -> System:
         tuple((a.get("quantity"), _float(a.get("settle_s"), 0.0), int(a.get("discard_frames", 0)))
               for a in tim.iterfind("after")), settle_from_el(path, tim.find("settle")))
     buses = tuple(i2c_from_el(path, el) for el in root.iterfind("buses/i2c"))
+    check_buses(path, root, buses, regmap)
     g = root.find("devices/usb_grabber")
     grabber = None if g is None else usb_from_el(path, g)
     cam = genicam_from_el(path, root.find("devices/genicam"))
@@ -419,13 +421,18 @@ def system_to_tree(sy: System) -> etree._ElementTree:
 
         if m == feature_map(sy.genicam):
             m = None  # derived from the <feature> elements: not written twice
-    re_ = None if m is None else _set(etree.SubElement(root, "registers"), address_bits=m.address_bits, value_bits=m.value_bits, endian=m.endian)
+    re_ = None if m is None else _set(etree.SubElement(root, "registers"), address_bits=m.address_bits,
+                                      value_bits=m.value_bits, endian=m.endian, bus=m.bus)
+    if m is not None and m.group_hold is not None:
+        _set(etree.SubElement(re_, "group_hold"), register=f"0x{m.group_hold[0]:04X}", hold=f"0x{m.group_hold[1]:X}",
+             release=f"0x{m.group_hold[2]:X}")
     for f in (m.fields if m is not None else ()):
         _set(etree.SubElement(re_, "field"), name=f.name, address=f"0x{f.address:04X}", lsb=f.lsb, msb=f.msb,
              count=f.count, access=f.access, scale=float(f.scale), offset=float(f.offset), unit=f.unit or None,
              min=None if f.minimum is None else float(f.minimum), max=None if f.maximum is None else float(f.maximum),
              default=f.default, description=f.description or None, volatile=True if f.volatile else None,
-             signed=True if f.signed else None)
+             signed=True if f.signed else None, bus=f.bus, buffered=f.buffered,
+             shadow=None if f.shadow is None else f"0x{f.shadow:04X}")
     c = sy.controls
     if c != Controls():
         _set(etree.SubElement(root, "controls"), exposure=c.exposure, analog_gain=c.analog_gain, black_level=c.black_level)

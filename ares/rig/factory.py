@@ -5,7 +5,6 @@ from __future__ import annotations
 
 from ares.errors import InputError
 from ares.hardware.interfaces import Bench
-from ares.hardware.registers import RegisterFile
 from ares.rig.instruments import open_instrument
 from ares.sim.from_system import sim_params
 
@@ -47,7 +46,6 @@ def build_bench(system, *, seed: int | None = None, faults: dict | None = None, 
 
 
 def build_real_bench(system, uses: set | None = None) -> Bench:
-    from ares.hardware.i2c import open_i2c_bus
     from ares.hardware.serial_instruments import SerialChamber, SerialLightSource
     from ares.hardware.usb import UsbFrameSource
 
@@ -55,17 +53,18 @@ def build_real_bench(system, uses: set | None = None) -> Bench:
         raise InputError(f"system '{system.name}' declares no <buses><i2c> for the sensor registers")
     if system.usb_grabber is None:
         raise InputError(f"system '{system.name}' declares no <usb_grabber> frame source")
-    b, s = system.buses[0], system.sensor
-    bus = open_i2c_bus(b, system.registers)
-    opened = [bus]
+    from ares.rig.buses import open_buses, sensor_bus, verify_after_frames
+
+    b, s = sensor_bus(system), system.sensor
+    regs, bus, opened = open_buses(system)
     try:
         if b.readback != "image_row":  # an image-row sensor is connected once its frames flow
             bus.connect()
-        regs = RegisterFile(system.registers, bus)
         g = system.usb_grabber
         frames = UsbFrameSource.open(g, (s.rows, s.cols), s.adc_bits, channels=s.adc_channels,
                                      interleave=s.adc_interleave)
         opened.append(frames)
+        verify_after_frames(frames, opened)
         if b.readback == "image_row":
             from ares.hardware.i2c import ImageRowReadback
 
@@ -80,6 +79,8 @@ def build_real_bench(system, uses: set | None = None) -> Bench:
                                   unavailable) if system.chamber else None
         opened.append(chamber)
         bench = Bench(regs, frames, light, chamber, {"system": system.name})
+        if len(system.buses) > 1:
+            bench.info["i2c_devices"] = [x.name for x in system.buses]
         if unavailable:
             bench.info["unavailable"] = unavailable
         from ares.rig.spectral import open_spectral
@@ -91,3 +92,4 @@ def build_real_bench(system, uses: set | None = None) -> Bench:
                 dev.close()
         raise
     return bench
+

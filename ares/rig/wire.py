@@ -12,7 +12,7 @@ from __future__ import annotations
 
 from ares.errors import InputError
 from ares.hardware.interfaces import Bench
-from ares.hardware.registers import RegisterFile
+from ares.hardware.registers import RegisterMap
 
 
 def wire_faults() -> tuple[str, ...]:
@@ -21,7 +21,17 @@ def wire_faults() -> tuple[str, ...]:
     return usb_device.FAULTS + i2c_device.FAULTS + serial_device.FAULTS
 
 
+# The simulator's device faults as the wire shows them (issue 49: given to the simulator behind the
+# wire they raised its Python exceptions straight through the emulator into the host code, so no
+# byte path saw them): the grabber unplugged at that frame, found again at that search; a frame
+# cut short on the wire.
+WIRE_EQUIVALENT = {"disconnect_after_frames": "usb_disconnect_at", "reconnect_after_polls": "usb_reconnect_after_polls",
+                   "short_frame_at": "usb_short_at"}
+
+
 def _split_faults(faults: dict | None) -> tuple[dict, dict]:
+    """(the simulator's faults: device physics -- a settling LED, a lagging pipeline, a slow
+    frame; the wire's), the simulator's device faults moved onto the wire (``WIRE_EQUIVALENT``)."""
     from ares.sim.bench import _FAULTS as SIM
 
     faults = dict(faults or {})
@@ -29,6 +39,11 @@ def _split_faults(faults: dict | None) -> tuple[dict, dict]:
     unknown = sorted(k for k in faults if k not in wire and k not in SIM)
     if unknown:
         raise InputError(f"unknown fault(s) {unknown} (known: {', '.join(SIM + wire)})")
+    for k, w in WIRE_EQUIVALENT.items():
+        if k in faults:
+            if w in faults:
+                raise InputError(f"faults {k} and {w} are the same fault on the wire: give one")
+            faults[w] = faults.pop(k)
     return {k: v for k, v in faults.items() if k in SIM}, {k: v for k, v in faults.items() if k in wire}
 
 
@@ -38,10 +53,12 @@ def _aresemu_name(port: str) -> str | None:
 
 def build_wire_bench(system, seed: int, faults: dict | None = None, uses: set | None = None) -> Bench:
     from ares.hardware.emulators.i2c_device import EmulatedSMBus
+    from ares.hardware.emulators.sensor_registers import device_registers
     from ares.hardware.emulators.serial_device import EmulatedChamber, EmulatedInstrument, register, unregister
     from ares.hardware.emulators.usb_device import EmulatedGrabber, EmulatedUsbBackend
     from ares.sim.from_system import sim_params
-    from ares.hardware.i2c import ImageRowReadback, open_i2c_bus
+    from ares.hardware.i2c import ImageRowReadback
+    from ares.sim.bench import SimRegisterBus
     from ares.hardware.serial_instruments import SerialChamber, SerialLightSource
     from ares.hardware.usb import UsbFrameSource
     from ares.sim import make_sim_bench
@@ -51,23 +68,36 @@ def build_wire_bench(system, seed: int, faults: dict | None = None, uses: set | 
         raise InputError(f"{src}: <simulator wire='true'> needs <buses><i2c> and <devices><usb_grabber> to emulate")
     sim_f, wire_f = _split_faults(faults)
     dev = make_sim_bench(sim_params(system), seed, sim_f)
-    s, m, b, g = system.sensor, system.registers, system.buses[0], system.usb_grabber
+    from ares.rig.buses import open_buses, sensor_bus, verify_after_frames
+
+    s, m, b, g = system.sensor, system.registers, sensor_bus(system), system.usb_grabber
     readback = b.readback == "image_row"
-    smbus = EmulatedSMBus(b.address, dev.registers.bus, address_bits=m.address_bits, value_bits=m.value_bits,
+    sensor_regs = device_registers(m, dev.registers.bus)
+    smbus = EmulatedSMBus(b.address, sensor_regs, address_bits=m.address_bits, value_bits=m.value_bits,
                           value_endian=b.value_endian, faults=wire_f, readable=not readback)
-    bus = open_i2c_bus(b, m, smbus)
+    others = {}  # the other I2C devices: register files of their own behind their own adapters
+    for o in system.buses:
+        if o is not b:
+            own = RegisterMap(m.address_bits, m.value_bits, m.endian, tuple(f for f in m.fields if f.bus == o.name))
+            others[o.name] = EmulatedSMBus(o.address, SimRegisterBus(own, name=o.name), address_bits=m.address_bits,
+                                           value_bits=m.value_bits, value_endian=o.value_endian)
+    regs, bus, buses = open_buses(system, lambda x: smbus if x is b else others[x.name])
     grabber = EmulatedGrabber(dev.frames, g, channels=s.adc_channels, interleave=s.adc_interleave, faults=wire_f,
                               serial=g.serial or "ARES-EMU-0001",
                               embed=(b.readback_row, b.readback_start, dev.registers.bus, m.value_bits)
                               if readback else None,
                               latency=lambda: dev.registers.get("exposure") + system.timing.readout_s)
-    emulated, opened = [], [bus]
+    t = g.trigger
+    grabber.line.generator = t is not None and t.mode == "hardware"  # a pulse generator on the trigger input
+    emulated, opened = [], list(buses)
     try:
         frames = UsbFrameSource.open(g, (s.rows, s.cols), s.adc_bits, backend=EmulatedUsbBackend([grabber]),
                                      channels=s.adc_channels, interleave=s.adc_interleave)
         frames.exposure_paced = False  # the simulator behind the emulated wire computes its frames
         opened.append(frames)
-        regs = RegisterFile(m, bus)
+        verify_after_frames(frames, buses)
+        if hasattr(sensor_regs, "frame_boundary"):  # a double-buffered sensor latches at each frame's start
+            grabber.on_frame_start = sensor_regs.frame_boundary
         if readback:
             bus.readback = ImageRowReadback(bus, frames, b.readback_row, b.readback_start)
         bus.connect()
@@ -100,10 +130,11 @@ def build_wire_bench(system, seed: int, faults: dict | None = None, uses: set | 
     if unavailable:  # instruments the scan does not use that did not answer
         info["unavailable"] = unavailable
     bench = Bench(regs, frames, inst.get("light"), inst.get("chamber"), info, clock=dev.clock)
-    if "usb_gone_s" in wire_f:  # the device is away for seconds of the bench's clock: recovery waits on it
-        bench.recovery_clock = dev.clock
+    if "usb_gone_s" in wire_f or dev.recovery_clock is not None:  # the device is away (the LED settles) for
+        bench.recovery_clock = dev.clock  # seconds of the bench's clock: a recovery waits on it
     bench.closers.extend(lambda n=n, e=e: unregister(n, e) for n, e in emulated)
-    bench.emulators = {"usb": grabber, "i2c": smbus, **{n: e for n, e in emulated}, "device": dev}
+    bench.emulators = {"usb": grabber, "i2c": smbus, **{n: e for n, e in emulated}, "device": dev,
+                       **{f"i2c:{n}": e for n, e in others.items()}, "sensor_registers": sensor_regs}
     from ares.rig.spectral import attach_simulated
 
     try:

@@ -4,8 +4,10 @@ sets (as ophyd's and PyMoDAQ's setpoint/readback pairs): the stage JSON's ``setp
 Registers are read back from the snapshot the stage takes after its frames (no extra bus
 traffic) and agree within half a step of the field (``scale / 2``); the chamber's readback is
 its last reading while it settled (tolerance: its ``tolerance=``); a monochromator is asked
-its wavelength (tolerance: half its bandwidth, when it knows it). A light source reads back
-its own set point only -- no independent readback, said so rather than compared with itself."""
+its wavelength (tolerance: half its bandwidth, when it knows it). A light source is read back
+by its ``read`` command (its monitor of the output; tolerance: its ``tolerance=``); one
+without it answers its own set point only -- no independent readback, said so rather than
+compared with itself."""
 
 from __future__ import annotations
 
@@ -18,9 +20,16 @@ def setpoints(bench, system, settings: dict, registers_after: dict) -> dict:
     out = {}
     for key, value in settings.items():
         if key == "light":
+            light = bench.light
+            read = getattr(light, "read_level", None)
+            got = read() if read is not None else None
+            if got is not None:  # its monitor's reading of the output, with its tolerance
+                out[key] = _pair(value, got, getattr(light, "level_tolerance", None), None)
+                continue
             pd = getattr(bench, "photodiode", None)
-            out[key] = _pair(value, None, None, "no independent readback: a light source reads back its own set "
-                             "point" + (" (the photodiode's readings are in 'spectral')" if pd is not None else ""))
+            out[key] = _pair(value, None, None, "no independent readback: the light source declares no 'read' "
+                             "command (it only answers its set point)"
+                             + (" (the photodiode's readings are in 'spectral')" if pd is not None else ""))
         elif key == "temperature":
             ch = bench.chamber
             got = getattr(ch, "last_reading", None)

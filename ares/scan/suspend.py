@@ -26,6 +26,18 @@ from ares.hardware.waits import Interrupted, wait
 BACKOFF_CAP = 16  # the longest pause between reconnect attempts, in poll_s
 
 
+def light_readback(light) -> float:
+    """What the light source measures it gives (``read_level``: its monitor); a source that can
+    only echo its set point cannot be checked, and saying it is in tolerance would be a lie."""
+    read = getattr(light, "read_level", None)
+    got = read() if read is not None else None
+    if got is None:
+        raise HardwareError(f"{light.name}: the <suspend> light condition needs a readback of the light's output "
+                            "(a 'read' command in its <protocol>, e.g. its monitor photodiode); 'get' only "
+                            "answers the set point")
+    return float(got)
+
+
 class Suspended(Exception):
     """A condition is out of tolerance: the stage in flight must be acquired again."""
 
@@ -48,9 +60,9 @@ class Suspenders:
                 if not abs(got - want) <= tol:
                     return f"chamber at {got:g} C, set point {want:g} +/- {tol:g} C"
             elif q == "light" and settings.get("light") and self.bench.light is not None:
-                want, got = settings["light"], self.bench.light.get_level()
+                want, got = settings["light"], light_readback(self.bench.light)  # its output, not its set point
                 if not abs(got - want) <= tol * abs(want):
-                    return f"light level {got:.6g}, set {want:.6g} +/- {100 * tol:g} %"
+                    return f"light level reads back {got:.6g}, set {want:.6g} +/- {100 * tol:g} %"
         return None
 
     def check(self, settings: dict, force: bool = False) -> None:

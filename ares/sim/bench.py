@@ -86,10 +86,14 @@ class SimLightSource:
     """Uniform illumination; level in photons per pixel per second at the sensor. With
     ``tau_s`` (and the bench's ``clock``) the level reaching the sensor relaxes to a new set
     point with that time constant (``ares.sim.strict.SettlingLight``); ``get_level`` reads
-    the set point back, as an LED driver does."""
+    the set point back, as an LED driver does; ``read_level`` is the output now, as the
+    driver's monitor photodiode measures it (``readback_rtol`` relative: its tolerance)."""
+
+    readback_rtol = 0.001  # the monitor's accuracy (relative): the readback tolerance
 
     def __init__(self, name: str = "sim-light", level: float = 0.0, clock=None, tau_s: float = 0.0):
         self.name = name
+        self._clock = clock
         self._level = 0.0
         self._settling = SettlingLight(clock, tau_s) if clock is not None and tau_s > 0 else None
         self.set_level(level)
@@ -111,6 +115,14 @@ class SimLightSource:
 
     def get_level(self) -> float:
         return self._level
+
+    def read_level(self) -> float:
+        """The level reaching the sensor now (the monitor's reading)."""
+        return self.level_at(self._clock.now()) if self._clock is not None else self._level
+
+    @property
+    def level_tolerance(self) -> float:
+        return self.readback_rtol * self._level
 
     def settle(self, cancel=None) -> None:
         pass
@@ -364,6 +376,9 @@ def make_sim_bench(params: SensorParams | None = None, seed: int = 0, faults: di
     tau = float((faults or {}).get("light_tau_s", 0.0))
     light, chamber = SimLightSource(clock=clock, tau_s=tau), SimChamber()
     frames = SimFrameSource(sensor, regs, light, chamber, faults, readout_s=readout_s, clock=clock)
-    return Bench(registers=regs, frames=frames, light=light, chamber=chamber, clock=clock,
-                 info={"simulator": True, "seed": int(seed), "sensor": sensor,
-                       "params": sensor.params.to_dict(), "chip_id": regs.get("chip_id")})
+    bench = Bench(registers=regs, frames=frames, light=light, chamber=chamber, clock=clock,
+                  info={"simulator": True, "seed": int(seed), "sensor": sensor,
+                        "params": sensor.params.to_dict(), "chip_id": regs.get("chip_id")})
+    if tau > 0:  # the LED relaxes on the bench's clock: a <suspend> wait for it runs on that clock too
+        bench.recovery_clock = clock
+    return bench

@@ -20,6 +20,16 @@ def _line_of(path, name: str) -> int | None:
     return text.count("\n", 0, m.start()) + 1 if m else None
 
 
+def sensor_layout(regmap):
+    """The sensor's own register layout: its fields (not those of other I2C devices, ``bus=``),
+    without how its registers behave on the wire (double buffering, group hold, which bus): the
+    emulators add those (``ares.hardware.emulators.sensor_registers``)."""
+    from dataclasses import replace
+
+    return replace(regmap, bus=None, group_hold=None,
+                   fields=tuple(replace(f, buffered=None, shadow=None) for f in regmap.fields if f.bus is None))
+
+
 def sim_params(system):
     """``SensorParams`` from the system's ``<simulator>`` block (array size and ADC bits
     from ``<sensor>``); errors name the system file and the parameter's line."""
@@ -31,7 +41,7 @@ def sim_params(system):
 
     d = dict(system.simulator.params)
     src = system.source or system.name
-    if system.registers != SIM_REGISTER_MAP:
+    if sensor_layout(system.registers) != SIM_REGISTER_MAP:
         raise InputError(f"{src}:{_line_of(src, '')}: a <simulator> system must declare the simulated sensor's "
                          "register map (copy <registers> from protocols/sim_sensor.xml)")
     for key, want in (("rows", system.sensor.rows), ("cols", system.sensor.cols), ("adc_bits", system.sensor.adc_bits)):

@@ -28,7 +28,8 @@ FAULTS = ("i2c_nack_at", "i2c_enxio_at", "i2c_busy_at", "i2c_fault_count", "i2c_
 
 class EmulatedSMBus:
     def __init__(self, device_address: int, registers, *, address_bits: int = 16, value_bits: int = 16,
-                 value_endian: str = "big", faults: dict | None = None, readable: bool = True):
+                 value_endian: str = "big", faults: dict | None = None, readable: bool = True, clock=None,
+                 speed_hz: int = 400000):
         self.device_address = device_address
         self.registers = registers  # .read(addr) / .write(addr, value)
         self.abytes, self.vbytes = address_bits // 8, value_bits // 8
@@ -38,6 +39,7 @@ class EmulatedSMBus:
         self.transactions = 0
         self.gone = False
         self._pointer = 0
+        self.clock, self.speed_hz = clock, int(speed_hz)  # a transaction takes bus time on the bench's clock
 
     def _fault(self) -> None:
         n = self.transactions
@@ -65,6 +67,8 @@ class EmulatedSMBus:
 
     def i2c_rdwr(self, *msgs) -> None:
         self._fault()
+        if self.clock is not None:  # start, address byte + data bytes (9 clocks each, with the ACK), stop
+            self.clock.advance(sum(9 * (1 + m.len) + 2 for m in msgs) / self.speed_hz)
         for m in msgs:
             if m.addr != self.device_address:
                 raise OSError(errno.EREMOTEIO, "Remote I/O error")

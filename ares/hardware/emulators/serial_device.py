@@ -119,8 +119,10 @@ class EmulatedInstrument:
         if cmd == "LEVEL":
             self.device.set_level(float(arg))
             return "OK"
-        if cmd == "LEVEL?":
+        if cmd == "LEVEL?":  # the driver's set point
             return repr(float(self.device.get_level()))
+        if cmd == "MON?" and hasattr(self.device, "read_level"):  # its monitor photodiode: the output now
+            return repr(float(self.device.read_level()))
         return f"ERR unknown command '{cmd}'"
 
 

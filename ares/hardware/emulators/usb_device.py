@@ -36,6 +36,9 @@ what the FIFO held is lost), ``usb_gone_s`` = S (with ``usb_disconnect_at``: unp
 seconds of the bench's clock -- emulated time -- then found again), ``usb_reconnect_packet``
 = P (found again with wMaxPacketSize P: the host must read the descriptor anew).
 
+``usb_trigger_missing_at`` = N: in hardware-trigger mode the pulse generator skips the edge for
+frame N (the host's read times out; the frame comes at the next edge).
+
 ``usb_pipeline_frames`` = K: a sensor that keeps exposing after a stop -- K frames exposed at
 the settings of that moment wait in the device and come first at the next start (what a
 settings change must discard: ``<timing discard_frames>``).
@@ -51,12 +54,13 @@ from types import SimpleNamespace
 
 import numpy as np
 
+from ares.errors import DeviceGone, FrameError
 from ares.hardware import frame_header as fh
 from ares.hardware.pixels import pack, pixel_format, to_wire_order
 
 FAULTS = ("usb_drop_at", "usb_corrupt_at", "usb_short_at", "usb_garbage_at", "usb_timeout_at",
           "usb_disconnect_at", "usb_reconnect_after_polls", "usb_pipeline_frames", "usb_late_at", "usb_late_ms",
-          "usb_stall_at", "usb_gone_s", "usb_reconnect_packet")
+          "usb_stall_at", "usb_gone_s", "usb_reconnect_packet", "usb_trigger_missing_at")
 
 
 class EmulatedGrabber:
@@ -90,6 +94,16 @@ class EmulatedGrabber:
         self.halted = False  # the endpoint stalled (usb_stall_at) until the host clears the halt
         self._gone_at = None
         self.handles_closed = 0  # host handles disposed (a reconnect must let go of the old one)
+        self.on_frame_start = None  # callable: a frame starts (a double-buffered sensor latches its registers)
+        # trigger and strobe, as the firmware keeps them: free run at power-up, set by the host's requests
+        self.trigger_mode, self.trigger_input, self.falling = 0, 0, False  # 0 free run, 1 software, 2 hardware
+        self.software_triggers = 0  # software trigger requests not yet answered with a frame
+        self.line = TriggerLine()  # the hardware trigger input: a frame per edge, none without
+        self.strobe, self.strobe_output = False, 1
+        self.strobes: list[tuple[float, float]] = []  # (start, width s) of each strobe pulse driven
+        self.head_size = fh.SIZES.get(cfg.header, 32)
+        self.timestamp_hz = float(getattr(cfg, "timestamp_hz", 1e9))
+        self._started = 0.0  # the device clock at the current frame's exposure start
 
     # ------------------------------------------------------------ descriptors
     def device_descriptor(self, address: int):
@@ -131,7 +145,14 @@ class EmulatedGrabber:
         self.requests.append((request_type, request, value, index, bytes(data or b"")))
         for c in self.cfg.controls:
             if (c.request_type, c.request) == (request_type, request):
-                if c.when == "start" and self._start is not None:
+                if c.when == "trigger_mode":
+                    self.trigger_mode, self.trigger_input = int(value), int(index) & 0xFF
+                    self.falling, self.software_triggers = bool(index & 0x100), 0
+                elif c.when == "strobe":
+                    self.strobe, self.strobe_output = bool(value), int(index)
+                elif c.when == "trigger":
+                    self.software_triggers += 1
+                elif c.when == "start" and self._start is not None:
                     queued, self._queued = self._queued[:int(value)], []
                     fresh = int(value) - len(queued)
                     self._gen = itertools.chain(queued, self.frames.grab(fresh) if fresh else ())
@@ -171,25 +192,40 @@ class EmulatedGrabber:
             raise _usb_error(errno.ETIMEDOUT, "Operation timed out", timeout=True)
         if self.latency is not None and timeout_ms and 1000 * self.latency() > timeout_ms:
             raise _usb_error(errno.ETIMEDOUT, "Operation timed out", timeout=True)  # the frame is still exposing
-        if self._start is None:
-            frame = next(iter(self.frames.grab(1)))
-        else:
-            if self._gen is None:
-                raise _usb_error(errno.ETIMEDOUT, "Operation timed out (not armed)", timeout=True)
-            try:
-                frame = next(self._gen)
-            except StopIteration:
-                if not self._owed:
-                    self._gen = None
-                    raise _usb_error(errno.ETIMEDOUT, "Operation timed out (no more frames armed)",
-                                     timeout=True) from None
-                self._owed -= 1  # a dropped frame still costs an exposure: one more to deliver N
-                frame = next(iter(self.frames.grab(1)))
+        if self.trigger_mode == 1 and not self.software_triggers:  # waiting for the host's trigger
+            raise _usb_error(errno.ETIMEDOUT, "Operation timed out (no software trigger)", timeout=True)
+        if self.trigger_mode == 2 and n == self.faults.get("usb_trigger_missing_at"):  # the generator skips one
+            self.faults.pop("usb_trigger_missing_at")
+            raise _usb_error(errno.ETIMEDOUT, "Operation timed out (no edge on the trigger line)", timeout=True)
+        if self.trigger_mode == 2 and not self.line.take():  # waiting for an edge on the trigger input
+            raise _usb_error(errno.ETIMEDOUT, "Operation timed out (no edge on the trigger line)", timeout=True)
+        if self.trigger_mode == 1:
+            self.software_triggers -= 1
+        self._started = self.clock.now() if self.clock is not None else float(self.counter)
+        try:
+            frame = self._render()
+        except DeviceGone:  # the sensor behind the wire is gone: the host sees the device vanish (ENODEV),
+            self.connected, self._gen, self._out = False, None, deque()  # never the sensor's own exception
+            self._gone_at = self.clock.now() if self.clock is not None else None
+            self._gone()
+        except FrameError:  # a frame the sensor could not read out: its header, then the transfer ends
+            self.counter += 1  # (as far as it came: less than a packet)
+            rows, cols = self.frames.shape
+            head = fh.Header(n, cols, rows, self.fmt.code, self.fmt.payload_bytes(rows * cols)).encode(self.head_size)
+            cut = bytes(self.max_packet // 2)
+            if self.header_packet == "inline":
+                self._send(head + cut)
+            else:
+                self._send(head)
+                self._send(cut)
+            return
         self.counter += 1
         if n == self.faults.get("usb_drop_at"):  # rendered, lost: the next frame shows the gap
             self.faults.pop("usb_drop_at")
             self._owed += 1
             return self._next_transfer(timeout_ms)
+        if self.strobe:  # high while the frame exposes
+            self.strobes.append((self._started, float(getattr(frame, "meta", {}).get("exposure_s", 0.0))))
         img = np.asarray(frame.data)
         if self.embed is not None:
             img = self._embed(img)
@@ -200,7 +236,8 @@ class EmulatedGrabber:
             self.faults.pop("usb_corrupt_at")
             payload[len(payload) // 3:len(payload) // 3 + 64] = b"\xff" * 64
         rows, cols = wire.shape
-        head = fh.Header(n, cols, rows, self.fmt.code, len(payload), fh.FLAG_CRC if self.crc else 0, crc).encode()
+        head = fh.Header(n, cols, rows, self.fmt.code, len(payload), fh.FLAG_CRC if self.crc else 0, crc,
+                         round(self._started * self.timestamp_hz)).encode(self.head_size)
         if n == self.faults.get("usb_short_at"):
             self.faults.pop("usb_short_at")
             payload = payload[:len(payload) // 2]
@@ -218,6 +255,23 @@ class EmulatedGrabber:
             late = self.faults.get("usb_late_ms", 1200) + (1000 * self.latency() if self.latency else 0)
             if timeout_ms and late > timeout_ms:
                 raise _usb_error(errno.ETIMEDOUT, "Operation timed out (frame late)", timeout=True)
+
+    def _render(self):
+        """The sensor's next frame: armed ones first (a grab with a start control), else one now."""
+        if self.on_frame_start is not None:
+            self.on_frame_start()
+        if self._start is None:
+            return next(iter(self.frames.grab(1)))
+        if self._gen is None:
+            raise _usb_error(errno.ETIMEDOUT, "Operation timed out (not armed)", timeout=True)
+        try:
+            return next(self._gen)
+        except StopIteration:
+            if not self._owed:
+                self._gen = None
+                raise _usb_error(errno.ETIMEDOUT, "Operation timed out (no more frames armed)", timeout=True) from None
+            self._owed -= 1  # a dropped frame still costs an exposure: one more to deliver N
+            return next(iter(self.frames.grab(1)))
 
     def _embed(self, img: np.ndarray) -> np.ndarray:
         """A sensor without I2C read: its registers, one byte per pixel, in an image row."""
@@ -273,6 +327,30 @@ class EmulatedGrabber:
                 if "usb_reconnect_packet" in self.faults:  # enumerated again at another speed
                     self.max_packet = int(self.faults["usb_reconnect_packet"])
         return self.connected
+
+
+class TriggerLine:
+    """The grabber's hardware trigger input: ``fire(n)`` sends n edges (a light source's sync
+    output, a test); each starts one frame in hardware-trigger mode, none arrives without. With
+    ``generator`` a pulse generator drives it at the frame rate: an edge whenever the sensor is
+    ready for one (the wire bench wires one to a system declaring a hardware trigger)."""
+
+    def __init__(self, generator: bool = False):
+        self.edges = 0  # edges not yet answered with a frame
+        self.fired = 0
+        self.generator = generator
+
+    def fire(self, n: int = 1) -> None:
+        self.edges += int(n)
+        self.fired += int(n)
+
+    def take(self) -> bool:
+        if self.edges <= 0 and self.generator:
+            self.fire()
+        if self.edges <= 0:
+            return False
+        self.edges -= 1
+        return True
 
 
 def _usb_error(code: int, text: str, timeout: bool = False):
