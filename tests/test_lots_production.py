@@ -94,8 +94,12 @@ def production(base, scheduler, n: int, db: str, capsys, trend: bool = True) -> 
             assert (p["HARD_BIN"], p["SOFT_BIN"]) == (int(r["hard_bin"]), int(r["soft_bin"]))
             assert (p["X_COORD"], p["Y_COORD"]) == (int(float(r["x"])), int(float(r["y"])))
             for t in recs["PTR"][k:k + p["NUM_TEST"]]:
-                if t["TEST_NUM"] < 5000:
-                    assert t["RESULT"] == float(np.float32(float(r[t["TEST_TXT"]]))), (p["PART_ID"], t["TEST_TXT"])
+                if t["TEST_NUM"] < 5000:  # the value and its SE ("<quantity> SE")
+                    col = t["TEST_TXT"].replace(" SE", "_se")
+                    if r[col] == "":  # an SE not available: "RESULT not valid", not a number
+                        assert col.endswith("_se") and t["TEST_FLG"] & 0x02, (p["PART_ID"], t["TEST_TXT"])
+                    else:
+                        assert t["RESULT"] == float(np.float32(float(r[col]))), (p["PART_ID"], t["TEST_TXT"])
             k += p["NUM_TEST"]
         assert {b["HBIN_NUM"]: b["HBIN_CNT"] for b in recs["HBR"]} == {
             WANT_BIN[kd][0]: c for kd, c in counts.items() if c}
