@@ -73,7 +73,7 @@ def _schema_diff(target: str) -> list:
 def test_migrated_sqlite_is_the_schema_the_queries_use_and_a_url_is_a_url(tmp_path, monkeypatch):
     monkeypatch.chdir(tmp_path)
     with rdb.connect("sqlite:///results/lots.db") as db:
-        assert rdb.version(db) == rdb.SCHEMA_VERSION == 2
+        assert rdb.version(db) == rdb.SCHEMA_VERSION == 3
         rdb.append_lot(db, "w1", _lot(40))
     assert (tmp_path / "results" / "lots.db").is_file() and not (tmp_path / "sqlite:").exists()
     assert _schema_diff("results/lots.db") == []  # a plain path is the same SQLite file
@@ -123,8 +123,8 @@ def test_a_pre_alembic_database_is_upgraded_with_its_rows(backend, tmp_path, req
 
     eng = sa.create_engine(dbconn.url_of(target))
     with eng.connect() as c:
-        assert c.execute(sa.text("SELECT version FROM ares_schema")).all() == [(2,)]  # an older ARES refuses it now
-        assert c.execute(sa.text("SELECT version_num FROM alembic_version")).all() == [("0002",)]
+        assert c.execute(sa.text("SELECT version FROM ares_schema")).all() == [(3,)]  # an older ARES refuses it now
+        assert c.execute(sa.text("SELECT version_num FROM alembic_version")).all() == [("0003",)]
     eng.dispose()
 
 

@@ -109,7 +109,7 @@ def production(base, scheduler, n: int, db: str, capsys, trend: bool = True) -> 
     from pdftext import pdf_text
 
     text = pdf_text(base / "c.pdf")
-    assert f"Certificate of performance: {outlier}" in text and "hard 3, soft 51" in text
+    assert f"Certificate of performance: {outlier}" in text and "hard 3 (outlier of a dynamic screen, fail), soft 51" in text
     if not trend:
         return
     # a trend over three lots (the items come from the cache the second and third time)

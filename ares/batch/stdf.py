@@ -8,8 +8,9 @@ its unit, the lot's static limits as LO/HI_LIMIT with the fail flag), one PTR fo
 a dynamic part-average-testing screen as its own test with the lot's own limits, and a PRR
 (hard and soft bin, wafer x/y rounded to integers, serial as PART_ID, item path as
 PART_TXT, the failed flag), and a WRR (parts and good parts of the wafer); sensors without
-a wafer follow the wafers; then one HBR and one SBR per bin (HEAD_NUM 255: all sites; the
-bins the lot file declares, with their names and pass/fail), a PCR and the MRR.
+a wafer follow the wafers; then one SBR per soft bin and one HBR per hard bin (HEAD_NUM 255:
+all sites; the bins the lot file declares -- with 0 parts too -- or the default ones, with
+their names and pass/fail), a PCR and the MRR.
 
 Every PTR carries its test's limits and unit (OPT_FLAG, LO/HI_LIMIT, UNITS), not only the
 first of a test: a reader that takes one sensor's records alone sees the limits too.
@@ -195,15 +196,13 @@ def write(lot: dict, path: Path) -> int:
                             FABWF_ID="", FRAME_ID="", MASK_ID="", USR_DESC="", EXC_DESC=""))
     hard: dict[int, list] = {}
     for sb, b in lot["bins"].items():
-        pf = "P" if b["hard"] == 1 else "F"
+        pf = "P" if b["pass"] else "F"
         out.append(_rec("SBR", HEAD_NUM=ALL_HEADS, SITE_NUM=0, SBIN_NUM=int(sb), SBIN_CNT=b["count"], SBIN_PF=pf,
                         SBIN_NAM=b["name"]))
-        h = hard.setdefault(b["hard"], [0, pf, set()])
+        h = hard.setdefault(b["hard"], [0, pf, b["hard_name"]])
         h[0] += b["count"]
-        h[2].add(b["name"] if b["hard"] in (1, 4) else {2: "failed a static limit", 3: "outlier"}[b["hard"]])
-    for hb, (n, pf, names) in sorted(hard.items()):
-        out.append(_rec("HBR", HEAD_NUM=ALL_HEADS, SITE_NUM=0, HBIN_NUM=hb, HBIN_CNT=n, HBIN_PF=pf,
-                        HBIN_NAM="; ".join(sorted(names))))
+    for hb, (n, pf, name) in sorted(hard.items()):
+        out.append(_rec("HBR", HEAD_NUM=ALL_HEADS, SITE_NUM=0, HBIN_NUM=hb, HBIN_CNT=n, HBIN_PF=pf, HBIN_NAM=name))
     parts = lot["parts"]
     out.append(_rec("PCR", HEAD_NUM=ALL_HEADS, SITE_NUM=0, PART_CNT=len(parts), RTST_CNT=0, ABRT_CNT=0,
                     GOOD_CNT=sum(p["passed"] is True for p in parts), FUNC_CNT=0))
