@@ -106,3 +106,15 @@ def test_without_bins_the_default_pass_and_error_soft_bins_are_reserved(tmp_path
     f.write_text('<lot name="L" version="1">\n<limits>\n<limit quantity="K" min="0.2" soft_bin="99"/>\n</limits>\n</lot>')
     with pytest.raises(InputError, match=r"l.xml:3: limit on 'K': soft bin 99 is the default error bin"):
         load_lot(f)
+
+
+def test_declared_bins_without_limits_sort_good_from_unanalysable(tmp_path):
+    start, end = BINS.index("  <limits>"), BINS.index("  <bins>")
+    (tmp_path / "b.xml").write_text(BINS[:start] + BINS[end:])
+    lot = load_lot(tmp_path / "b.xml")
+    res, truth = planted(60)
+    j = judge(res, lot.limits)
+    screen(j, lot.screens, lot.limit_bins, lot.hard_bins, lot.soft_bins)
+    for r in j.results:
+        assert (r["hard_bin"], r["soft_bin"]) == ((7, 97) if truth[r["item"]] == "error" else (8, 2))
+    assert {sb: b["count"] for sb, b in j.bins.items()} == {2: 59, 21: 0, 22: 0, 40: 0, 97: 1}

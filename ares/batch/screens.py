@@ -28,7 +28,7 @@ Either way an item goes to the first failure's bin: could not be analysed, then 
 limits in file order, then the screens. Declared bins are all listed (with 0 items too);
 default ones as they fill.
 
-A lot without limits or screens bins nothing (hard and soft bin empty): no item is judged.
+A lot without limits, screens or declared bins bins nothing (hard and soft bin empty): no item is judged.
 """
 
 from __future__ import annotations
@@ -100,7 +100,7 @@ def screen(j, pats=(), limit_bins=(), hard_bins=(), soft_bins=()) -> None:
     limit_names = [limit_text(lim) for lim in j.limits]
     pat_names = [pat_text(p) for p in pats]
     pl = plan(limit_names, pat_names, limit_bins, [p.soft_bin for p in pats], hard_bins, soft_bins)
-    judged_at_all = bool(j.limits) or bool(pats)
+    judged_at_all = bool(j.limits) or bool(pats) or pl["declared"]  # (declared bins: bin, limits or not)
     names = {sb: {**b, "count": 0} for sb, b in pl["soft"].items()} if pl["declared"] else {}
     for r in j.results:
         if not judged_at_all:
