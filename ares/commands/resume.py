@@ -10,10 +10,11 @@ whose directory was edited is refused with one sentence.
 The manifest (``ares.rundir.manifest``) is checked first: a file of the run itself (XML,
 stages, arrays, results) altered refuses the resume, naming every such file -- continuing
 would build on them and record them as the run's own. A report altered since ARES wrote
-it, and any recorded file that is missing (a stage taken out is acquired again), is named
-on stderr with its fate: written anew by the resume, or left as found and still recorded
-as altered or missing (the resume's new manifest keeps its old entry: an altered file is
-never re-blessed in silence).
+it is named on stderr with its fate: written anew by the resume, or left as found and still
+recorded as altered (the resume's new manifest keeps its old entry: an altered file is
+never re-blessed in silence); a recorded file that is missing is written again by the
+resume (a stage taken out is acquired again, a report written), or named and still
+recorded as missing.
 """
 
 from __future__ import annotations
@@ -56,6 +57,8 @@ def _say_fates(d, reports: dict) -> None:
     for rel, (what, entry, sha_before) in reports.items():
         p = d / rel
         if p.is_file() and manifest.file_sha256(p) != sha_before:
+            if what == "missing":
+                continue  # (a missing file the resume wrote: its job, nothing altered to hide)
             fate = "written anew by the resume"
         else:
             fate = "left as found, and still recorded as altered (`ares report` writes it anew)" if p.is_file() \
