@@ -93,7 +93,7 @@ def test_cache_recomputes_only_what_changed(client, runs, tmp_path):
     assert [r["cached"] for r in third] == [True, True, True, True, False]
 
 
-def test_lot_file_limits_yield_and_report_files(client, runs, tmp_path):
+def test_lot_file_limits_yield_and_report_files(client, runs, tmp_path, capsys):
     base, dirs, bad = runs
     lot = base / "lot.xml"
     items = "\n".join(f'  <item path="{d.name}" sensor="S{i}" x="{i % 3}" y="{i // 3}"/>' for i, d in enumerate(dirs))
@@ -137,7 +137,9 @@ def test_lot_file_limits_yield_and_report_files(client, runs, tmp_path):
     ok = base / "ok.xml"  # item paths are relative to the lot file
     ok.write_text(lot.read_text().replace('  <item path="bad" sensor="BAD"/>\n', "")
                   .replace('min="0.5"', 'min="0.1"'))
-    assert main(["batch", "--lot", str(ok), "--out", str(tmp_path / "out2"), "--scheduler", addr, "-q"]) == 0
+    # (into the same --out: its items come from the lot's cache, not analysed again)
+    assert main(["batch", "--lot", str(ok), "--out", str(out), "--scheduler", addr, "-q"]) == 0
+    assert "8 from the cache" in capsys.readouterr().out
 
 
 def test_lot_file_errors_name_the_line(tmp_path):

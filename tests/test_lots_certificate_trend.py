@@ -71,7 +71,7 @@ def test_certificate_per_sensor_has_identity_figures_limits_bin_and_traceability
 
     for want in (f"Certificate of performance: {outlier['sensor']}", "lot L1", "W1",
                  f"x {outlier['x']:g}, y {outlier['y']:g}", format_value(f["value"], f["se"]), "DN/e-",
-                 ">= 0.25 and <= 0.4", "(k=6)", "hard 3, soft 51: outlier", outlier["hash"], "9.9",
+                 ">= 0.25 and <= 0.4", "(k=6)", "hard 3 (outlier of a dynamic screen, fail), soft 51: outlier", outlier["hash"], "9.9",
                  "2026-01-02T03:04:05+00:00", "not available (the run directory is not at hand here)"):
         assert want in text, want
     with rdb.connect(path) as db:

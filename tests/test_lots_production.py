@@ -1,7 +1,8 @@
-"""The production workflow end to end: a lot of cheap simulated sensors (a dark stack each:
-offset ~ N(200, 2) DN, pixel temporal noise 3 DN) across 4 wafers, with planted truth --
-sensors whose offset is outside the static limit, sensors whose temporal noise is 4x (an
-outlier only the lot's own dynamic PAT limit catches), one unreadable file -- through
+"""The production workflow end to end: a lot of cheap simulated sensors (``ares.batch.demo``:
+a dark stack each, offset ~ N(200, 2) DN, pixel temporal noise 3 DN) across 4 wafers, with
+planted truth -- sensors whose offset is outside the static limit, sensors whose temporal
+noise is 4x (an outlier only the lot's own dynamic PAT limit catches), one unreadable file
+-- and the bins its lot file declares, through
 ``ares batch`` on a real Dask scheduler into a results database by URL; bins equal to the
 truth, lot.stdf and ``ares lots export --stdf`` read back by pystdf equal to lot.csv,
 certificates and a trend over three lots.
@@ -17,15 +18,13 @@ import csv
 import numpy as np
 import pytest
 
+from ares.batch import demo
 from ares.cli import main
 from test_lots import postgres  # noqa: F401 -- the PostgreSQL fixture
 from test_lots_stdf import read_stdf
 
 pytest.importorskip("distributed")
 pytest.importorskip("pystdf")
-
-PER_WAFER_COLS = 10
-
 
 @pytest.fixture(scope="module")
 def scheduler():
@@ -36,36 +35,11 @@ def scheduler():
     close_client(c)
 
 
-def make_lot(base, n: int, name: str = "prod") -> dict[str, str]:
-    """n sensors over 4 wafers and the lot file; {serial: planted kind}."""
-    rng = np.random.default_rng(2026)
-    truth, items = {}, []
-    (base / "dies").mkdir(parents=True, exist_ok=True)
-    for i in range(n):
-        serial, wafer, k = f"SN{i:04d}", f"W{i % 4 + 1}", i // 4
-        kind = "pass"
-        offset, noise = 200 + rng.normal(0, 2), 3.0
-        if i % 23 == 5:
-            kind, offset = "limit", 300.0
-        elif i % 19 == 7:
-            kind, noise = "outlier", 12.0
-        path = base / "dies" / f"{serial}.npy"
-        if i == n - 2:
-            kind = "error"
-            path.write_bytes(b"\x93NUMPY garbage")
-        else:
-            np.save(path, np.clip(offset + rng.normal(0, noise, (5, 16, 16)), 0, 65535).astype(np.uint16))
-        truth[serial] = kind
-        items.append(f'  <item path="dies/{serial}.npy" sensor="{serial}" wafer="{wafer}" x="{k % PER_WAFER_COLS}" '
-                     f'y="{k // PER_WAFER_COLS}"/>')
-    (base / f"{name}.xml").write_text(
-        f'<lot name="{name}" version="1">\n' + "\n".join(items) +
-        '\n  <limits>\n    <limit quantity="o" min="190" max="250" soft_bin="20"/>\n'
-        '    <pat quantity="Pt" k="6"/>\n  </limits>\n</lot>\n')
-    return truth
+def make_lot(base, n: int) -> dict[str, str]:
+    return demo.make_lot(base, n, "prod")  # (the generator the README's workflow uses)
 
 
-WANT_BIN = {"pass": (1, 1), "limit": (2, 20), "outlier": (3, 51), "error": (4, 99)}
+WANT_BIN = demo.BIN_OF
 
 
 def production(base, scheduler, n: int, db: str, capsys, trend: bool = True) -> None:
@@ -94,8 +68,12 @@ def production(base, scheduler, n: int, db: str, capsys, trend: bool = True) -> 
             assert (p["HARD_BIN"], p["SOFT_BIN"]) == (int(r["hard_bin"]), int(r["soft_bin"]))
             assert (p["X_COORD"], p["Y_COORD"]) == (int(float(r["x"])), int(float(r["y"])))
             for t in recs["PTR"][k:k + p["NUM_TEST"]]:
-                if t["TEST_NUM"] < 5000:
-                    assert t["RESULT"] == float(np.float32(float(r[t["TEST_TXT"]]))), (p["PART_ID"], t["TEST_TXT"])
+                if t["TEST_NUM"] < 5000:  # the value and its SE ("<quantity> SE")
+                    col = t["TEST_TXT"].replace(" SE", "_se")
+                    if r[col] == "":  # an SE not available: "RESULT not valid", not a number
+                        assert col.endswith("_se") and t["TEST_FLG"] & 0x02, (p["PART_ID"], t["TEST_TXT"])
+                    else:
+                        assert t["RESULT"] == float(np.float32(float(r[col]))), (p["PART_ID"], t["TEST_TXT"])
             k += p["NUM_TEST"]
         assert {b["HBIN_NUM"]: b["HBIN_CNT"] for b in recs["HBR"]} == {
             WANT_BIN[kd][0]: c for kd, c in counts.items() if c}
@@ -105,7 +83,7 @@ def production(base, scheduler, n: int, db: str, capsys, trend: bool = True) -> 
     from pdftext import pdf_text
 
     text = pdf_text(base / "c.pdf")
-    assert f"Certificate of performance: {outlier}" in text and "hard 3, soft 51" in text
+    assert f"Certificate of performance: {outlier}" in text and "hard 3 (outlier, fail), soft 51: noise outlier" in text
     if not trend:
         return
     # a trend over three lots (the items come from the cache the second and third time)

@@ -42,6 +42,8 @@ def lot_with_wafers():
     j, truth = _judged()
     for i, r in enumerate(j.results):
         r.update(wafer=f"W{i % 4 + 1}", x=float(i // 4 % 10), y=float(i // 40), sensor=f"SN{i:04d}")
+        if i % 13 == 0 and r.get("figures"):  # an SE the estimator could not give
+            r["figures"]["read_noise_e"]["se"] = None
     return j, truth
 
 
@@ -62,18 +64,33 @@ def check_against(recs: dict, j) -> None:
         mine = ptr[k:k + p["NUM_TEST"]]
         k += p["NUM_TEST"]
         figs = r.get("figures") or {}
-        values = [t for t in mine if t["TEST_NUM"] < stdf.SCREEN_BASE]
+        values = [t for t in mine if t["TEST_NUM"] < stdf.SE_BASE]
         assert {t["TEST_TXT"] for t in values} == set(figs)
         for t in values:
             assert t["RESULT"] == f32(figs[t["TEST_TXT"]]["value"])
+            se = mine[mine.index(t) + 1]  # the SE's own test, right after the value
+            f = figs[t["TEST_TXT"]]
+            assert (se["TEST_NUM"], se["TEST_TXT"]) == (t["TEST_NUM"] - stdf.TEST_BASE + stdf.SE_BASE,
+                                                        f"{t['TEST_TXT']} SE")
+            assert se["UNITS"] == t["UNITS"] and se["OPT_FLAG"] & 0xC0 == 0xC0 and se["TEST_FLG"] & 0x40
+            if f["se"] is None:  # not available: STDF's "RESULT is not valid", never a number
+                assert se["TEST_FLG"] & 0x02
+            else:
+                assert se["RESULT"] == f32(f["se"]) and not se["TEST_FLG"] & 0x02
         screens = [t for t in mine if t["TEST_NUM"] >= stdf.SCREEN_BASE]
         assert len(screens) == (1 if r["hard_bin"] in (1, 3) else 0)  # failed a static limit: not screened
         for t in mine:
-            if t.get("OPT_FLAG") is not None and t["TEST_NUM"] not in limits:
+            assert t["OPT_FLAG"] is not None and t["UNITS"] is not None  # every PTR carries its limits
+            if t["TEST_NUM"] in limits:
+                assert (t["LO_LIMIT"], t["HI_LIMIT"]) == (limits[t["TEST_NUM"]]["LO_LIMIT"],
+                                                          limits[t["TEST_NUM"]]["HI_LIMIT"])
+            if t["TEST_NUM"] not in limits:
                 limits[t["TEST_NUM"]] = t
             limited = t["TEST_TXT"] == "gain_dn_per_e"  # (read_noise_e has no limit: never fails)
             assert bool(t["TEST_FLG"] & 0x80) is (r["hard_bin"] == 2 and limited or r["hard_bin"] == 3 and t in screens)
             assert bool(t["TEST_FLG"] & 0x40) is (not limited and t not in screens)  # no pass/fail indication
+            if limited:
+                assert (t["LO_LIMIT"], t["HI_LIMIT"]) == (f32(0.25), f32(0.40))
     assert k == len(ptr)
     stat = next(s for s in j.screens if s["kind"] == "static")
     dyn = next(s for s in j.screens if s["kind"] == "dynamic")

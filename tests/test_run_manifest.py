@@ -102,3 +102,34 @@ def test_every_missing_or_altered_run_file_is_named_and_nothing_is_reported(good
     assert err.count("\n") == 1 and "Traceback" not in err
     assert "scan_results.json altered (" in err and "results.h5 altered (its SHA-256" in err
     assert "report.h5" not in err and not (d / "again.h5").exists()
+
+
+def test_resume_names_altered_reports_and_never_re_blesses_them(good, tmp_path, capsys):
+    """An interrupted run (its report.h5 written at the interruption, an extra report written
+    into it by `ares report`), both reports garbled before `ares resume`: the resume names
+    each -- report.h5 written anew, the extra one left as found and still recorded as
+    altered (the resume's new manifest does not take it as the run's own). An altered file
+    of the run itself (results.h5) refuses the resume, naming it."""
+    from ares.rundir import manifest
+
+    d = tmp_path / "cut"
+    assert main(["run", str(good.parent / "ptc_tiny.xml"), "--out", str(d), "--seed", "3", "-q",
+                 "--sim-fault", "disconnect_after_frames=13"]) == 3
+    assert main(["report", str(d), "--hdf5", str(d / "extra.h5")]) == 0
+    edited = _copy(d, tmp_path, "edited")
+    _garble_middle(edited / "results.h5", 16)
+    for p in (d / "report.h5", d / "extra.h5"):
+        _garble_middle(p)
+    capsys.readouterr()
+    assert main(["resume", str(edited), "-q"]) == 2
+    err = capsys.readouterr().err
+    assert f"{edited}: not as written: results.h5 altered (its SHA-256" in err and "a resume would continue" in err
+    assert err.count("\n") == 1 and "Traceback" not in err
+    assert main(["resume", str(d), "-q"]) == 0
+    err = capsys.readouterr().err
+    assert f"note: {d / 'report.h5'} was altered after ARES wrote it (its SHA-256 differs" in err
+    assert "written anew by the resume" in err
+    assert f"note: {d / 'extra.h5'} was altered after ARES wrote it" in err and "still recorded as altered" in err
+    assert manifest.problems(d) == [("extra.h5", "altered (its SHA-256 differs from the one recorded when it was "
+                                                 "written)")]
+    assert manifest.load(d)["extra.h5"]["by"] == manifest.REPORT

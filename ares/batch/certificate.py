@@ -82,7 +82,8 @@ def pages(db, lot_id: int, which: list[int]):
                  ["die position", pos], ["item", r["item"]], ["kind", r["kind"] or "-"],
                  ["verdict", r["verdict"]],
                  ["bin", "not binned (the lot sets no limits or screens)" if b is None
-                  else f"hard {r['hard_bin']}, soft {r['soft_bin']}: {b['name']}"]]
+                  else f"hard {r['hard_bin']} ({b['hard_name']}, {'pass' if b['pass'] else 'fail'}), "
+                       f"soft {r['soft_bin']}: {b['name']}"]]
         if r["error"]:
             ident.append(["error", r["error"]])
         y = text_table(fig, (0.06, 0.92, 0.88), ["identity", ""], ident, [0.22, 0.78], fontsize=8,

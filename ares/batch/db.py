@@ -74,7 +74,8 @@ def append_lot(db: Db, name: str, judged) -> int:
         lot_id = int(c.execute(sa.select(sa.func.coalesce(sa.func.max(t.lots.c.lot_id), 0))).scalar()) + 1
         c.execute(t.lots.insert().values(lot_id=lot_id, name=name, created=created, ares_version=__version__,
                                          n_items=len(data), limits_set=int(bool(judged.limits))))
-        bins = [{"soft_bin": sb, "hard_bin": b["hard"], "name": b["name"], "count": b["count"]}
+        bins = [{"soft_bin": sb, "hard_bin": b["hard"], "name": b["name"], "count": b["count"],
+                 "hard_name": b.get("hard_name"), "pass": None if b.get("pass") is None else int(bool(b["pass"]))}
                 for sb, b in judged.bins.items()]
         for table, rowset in ((t.items, items), (t.figures, figs), (t.checks, checks), (t.screens, screens),
                               (t.bins, bins)):
@@ -155,10 +156,18 @@ def screens(db: Db, lot_id: int) -> list[dict]:
 
 
 def bins(db: Db, lot_id: int) -> dict[int, dict]:
-    """The lot's bins: {soft bin: {hard, name, count}}."""
-    return {sb: {"hard": hb, "name": nm, "count": n} for sb, hb, nm, n in _rows(db, sa.select(
-        t.bins.c.soft_bin, t.bins.c.hard_bin, t.bins.c.name, t.bins.c["count"]).where(t.bins.c.lot_id == lot_id)
-        .order_by(t.bins.c.soft_bin))}
+    """The lot's bins: {soft bin: {hard, hard_name, pass, name, count}} (a lot of schema 2:
+    the default bins' hard names and pass/fail)."""
+    from ares.batch.screens import DEFAULT_HARD
+
+    out = {}
+    for sb, hb, nm, n, hn, ok in _rows(db, sa.select(
+            t.bins.c.soft_bin, t.bins.c.hard_bin, t.bins.c.name, t.bins.c["count"], t.bins.c.hard_name,
+            t.bins.c["pass"]).where(t.bins.c.lot_id == lot_id).order_by(t.bins.c.soft_bin)):
+        default = DEFAULT_HARD.get(hb, (f"hard bin {hb}", False))
+        out[sb] = {"hard": hb, "name": nm, "count": n, "hard_name": default[0] if hn is None else hn,
+                   "pass": default[1] if ok is None else bool(ok)}
+    return out
 
 
 def figures(db: Db, lot_id: int) -> dict[int, dict[str, dict]]:

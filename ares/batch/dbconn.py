@@ -26,8 +26,8 @@ from ares.errors import InputError, StorageError
 LOCK_TIMEOUT_S = 30.0  # a writer waits this long for another one's lock before giving up
 CONNECT_TIMEOUT_S = 10  # a PostgreSQL server that does not answer within this is unreachable
 MIGRATIONS = Path(__file__).with_name("migrations")
-HEAD = "0002"  # the newest Alembic revision under migrations/versions
-SCHEMA_VERSION = 2  # its number (ares_schema, as the pre-Alembic layer counted)
+HEAD = "0003"  # the newest Alembic revision under migrations/versions
+SCHEMA_VERSION = 3  # its number (ares_schema, as the pre-Alembic layer counted)
 _URL = re.compile(r"^[A-Za-z][A-Za-z0-9+.-]*://")
 
 

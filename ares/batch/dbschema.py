@@ -48,5 +48,6 @@ screens = sa.Table("screens", metadata, _key("lot_id"), sa.Column("screen", sa.T
                    sa.Column("sigma", sa.Double), sa.Column("k", sa.Double),
                    sa.Column("n_tested", sa.Integer, nullable=False), sa.Column("n_failed", sa.Integer, nullable=False))
 bins = sa.Table("bins", metadata, _key("lot_id"), _key("soft_bin"), sa.Column("hard_bin", sa.Integer, nullable=False),
-                sa.Column("name", sa.Text, nullable=False), sa.Column("count", sa.Integer, nullable=False))
+                sa.Column("name", sa.Text, nullable=False), sa.Column("count", sa.Integer, nullable=False),
+                sa.Column("hard_name", sa.Text), sa.Column("pass", sa.Integer))
 ares_schema = sa.Table("ares_schema", metadata, sa.Column("version", sa.Integer, nullable=False))

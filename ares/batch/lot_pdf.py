@@ -84,10 +84,10 @@ def _summary(j, lot_name: str):
                                   "the static limits.", fontsize=6.5, color="0.3", va="top", wrap=True)
         y -= 0.05
     if j.bins:
-        rows = [[str(b["hard"]), str(sb), b["name"], str(b["count"]), f"{100 * b['count'] / n:.1f} %"]
-                for sb, b in j.bins.items()]
+        rows = [[f"{b['hard']} {b.get('hard_name', '')} ({'pass' if b.get('pass') else 'fail'})", str(sb), b["name"],
+                 str(b["count"]), f"{100 * b['count'] / n:.1f} %"] for sb, b in j.bins.items()]
         y = text_table(fig, (0.06, y, 0.88), ["hard bin", "soft bin", "meaning", "items", "yield"], rows,
-                       [0.1, 0.1, 0.56, 0.1, 0.14], fontsize=7, title="Bins")
+                       [0.3, 0.08, 0.4, 0.08, 0.14], fontsize=7, title="Bins", max_chars=[48, 8, 64, 8, 10])
         y -= 0.02
     if not j.yields:
         fig.text(0.06, y, f"{NO_LIMITS}: the lot file declares no limits or screens (or there is no lot file), "
@@ -143,7 +143,8 @@ def _wafer_pages(j):
     import matplotlib
 
     cmap = matplotlib.colormaps["tab10"]
-    col = {b: ("#2ca02c" if b == "1" else "#7f7f7f" if b in ("99", "-") else cmap((int(b) + 2) % 10)) for b in names}
+    good = {str(sb) for sb, b in j.bins.items() if b.get("pass")}
+    col = {b: ("#2ca02c" if b in good else "#7f7f7f" if b == "-" else cmap((int(b) + 2) % 10)) for b in names}
     bx.scatter(xs, ys, c=[col[b] for b in bins], s=size, marker="s")
     label = {str(sb): b["name"] for sb, b in j.bins.items()}
     bx.legend([Line2D([], [], ls="none", marker="s", color=col[b]) for b in names],

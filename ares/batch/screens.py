@@ -7,12 +7,16 @@ of a unit normal) set the limits median +- k sigma (k = 6 unless declared); an i
 fails the screen. Screens come after the static limits: an item already failed keeps its
 static bin, and is "not tested" by the screen.
 
-Bins (one hard and one soft bin per item, as a tester's handler sorts parts):
+Bins (one hard and one soft bin per item, as a tester's handler sorts parts): declared in the
+lot file's ``<bins>`` (``ares.protocol.lot``: hard bins with name and pass/fail, soft bins
+with their hard bin, name and role; a limit or screen goes to the soft bin its
+``soft_bin=`` names, else to the soft bin ``for="limit"`` / ``for="pat"``). Without
+``<bins>``, the default:
 
 ============  =========  =====================================================
 hard bin      soft bin   meaning
 ============  =========  =====================================================
-1             1          passed every limit and screen
+1 (pass)      1          passed every limit and screen
 2             limit's    failed a static limit (the first failed, in file order;
                          soft bin ``soft_bin=`` or 10 + the limit's number)
 3             screen's   an outlier of a dynamic screen (``soft_bin=`` or 50 +
@@ -20,7 +24,11 @@ hard bin      soft bin   meaning
 4             99         could not be analysed
 ============  =========  =====================================================
 
-A lot without limits or screens bins nothing (hard and soft bin empty): no item is judged.
+Either way an item goes to the first failure's bin: could not be analysed, then the static
+limits in file order, then the screens. Declared bins are all listed (with 0 items too);
+default ones as they fill.
+
+A lot without limits, screens or declared bins bins nothing (hard and soft bin empty): no item is judged.
 """
 
 from __future__ import annotations
@@ -53,11 +61,12 @@ def _value(r: dict, quantity: str):
     return None if v is None or not np.isfinite(float(v)) else float(v)
 
 
-def screen(j, pats=(), limit_bins=()) -> None:
+def screen(j, pats=(), limit_bins=(), hard_bins=(), soft_bins=()) -> None:
     """Apply the dynamic screens ``pats`` to the judged lot ``j`` and bin every item: sets
     ``r["checks"][screen]``, ``r["passed"]``, ``r["hard_bin"]``, ``r["soft_bin"]``,
     ``j.yields[screen]``, ``j.screens`` (every static limit and dynamic screen with its
-    limits and counts) and ``j.bins`` ({soft bin: {hard, name, count}})."""
+    limits and counts) and ``j.bins`` ({soft bin: {hard, hard_name, pass, name, count}});
+    ``hard_bins``/``soft_bins``: the lot file's declared bins (none: the default, ``plan``)."""
     from ares.batch.lot_report import limit_text
 
     j.screens = []
@@ -88,27 +97,62 @@ def screen(j, pats=(), limit_bins=()) -> None:
                           "centre": centre, "sigma": sigma, "k": p.k, "n_tested": len(tested), "n_failed": failed,
                           "note": "" if lo is not None else f"{len(vals)} item(s) passed the static limits and "
                                                             f"have {p.quantity}: at least 4 are needed"})
-    names = {}
     limit_names = [limit_text(lim) for lim in j.limits]
-    limit_soft = [b or 10 + n for n, b in enumerate(list(limit_bins) + [None] * len(j.limits), 1)][:len(j.limits)]
     pat_names = [pat_text(p) for p in pats]
-    pat_soft = [p.soft_bin or 50 + n for n, p in enumerate(pats, 1)]
-    judged_at_all = bool(j.limits) or bool(pats)
+    pl = plan(limit_names, pat_names, limit_bins, [p.soft_bin for p in pats], hard_bins, soft_bins)
+    judged_at_all = bool(j.limits) or bool(pats) or pl["declared"]  # (declared bins: bin, limits or not)
+    names = {sb: {**b, "count": 0} for sb, b in pl["soft"].items()} if pl["declared"] else {}
     for r in j.results:
         if not judged_at_all:
             r["hard_bin"] = r["soft_bin"] = None
             continue
         checks = r.get("checks") or {}
         if r.get("status") == "error":
-            hb, sb, nm = HARD_ERROR, SOFT_ERROR, "could not be analysed"
+            sb, why = pl["error"], "could not be analysed"
         elif (bad := next((n for n, k in enumerate(limit_names) if checks.get(k) is False), None)) is not None:
-            hb, sb, nm = HARD_LIMIT, limit_soft[bad], f"failed {limit_names[bad]}"
+            sb, why = pl["limits"][bad], f"failed {limit_names[bad]}"
         elif (bad := next((n for n, k in enumerate(pat_names) if checks.get(k) is False), None)) is not None:
-            hb, sb, nm = HARD_SCREEN, pat_soft[bad], f"outlier: {pat_names[bad]}"
+            sb, why = pl["pats"][bad], f"outlier: {pat_names[bad]}"
         else:
-            hb, sb, nm = HARD_PASS, SOFT_PASS, "pass"
+            sb, why = pl["pass"], "pass"
+        hb = pl["soft"][sb]["hard"]
         r["hard_bin"], r["soft_bin"] = hb, sb
-        r["passed"] = hb == HARD_PASS
-        e = names.setdefault(sb, {"hard": hb, "name": nm, "count": 0})
+        r["passed"] = pl["hard"][hb]["pass"]
+        e = names.setdefault(sb, {**pl["soft"][sb], "name": pl["soft"][sb]["name"] or why, "count": 0})
         e["count"] += 1
     j.bins = dict(sorted(names.items()))
+
+
+DEFAULT_HARD = {HARD_PASS: ("pass", True), HARD_LIMIT: ("failed a static limit", False),
+                HARD_SCREEN: ("outlier of a dynamic screen", False), HARD_ERROR: ("could not be analysed", False)}
+
+
+def plan(limit_names, pat_names, limit_bins=(), pat_bins=(), hard_bins=(), soft_bins=()) -> dict:
+    """Where every outcome goes: {"pass": soft bin, "error": soft bin, "limits": [soft bin of
+    each limit], "pats": [of each screen], "soft": {soft bin: {hard, hard_name, pass, name}},
+    "hard": {hard bin: {name, pass}}, "declared": bins from the lot file}. ``hard_bins`` /
+    ``soft_bins``: ``ares.protocol.lot.HardBin`` / ``SoftBin`` (checked when the lot file was
+    read); none: the default bins (a soft bin's name "" -- the first item's reason names it)."""
+    limit_bins = list(limit_bins) + [None] * len(limit_names)
+    pat_bins = list(pat_bins) + [None] * len(pat_names)
+    if hard_bins:
+        hard = {h.number: {"name": h.name, "pass": h.passed} for h in hard_bins}
+        role = {b.role: b.number for b in soft_bins if b.role}
+        soft = {b.number: {"hard": b.hard, "name": b.name} for b in soft_bins}
+        lims = [b or role["limit"] for b in limit_bins[:len(limit_names)]]
+        pats = [b or role["pat"] for b in pat_bins[:len(pat_names)]]
+        pass_, error = role["pass"], role["error"]
+    else:
+        hard = {n: {"name": nm, "pass": ok} for n, (nm, ok) in DEFAULT_HARD.items()}
+        lims = [b or 10 + n for n, b in enumerate(limit_bins[:len(limit_names)], 1)]
+        pats = [b or 50 + n for n, b in enumerate(pat_bins[:len(pat_names)], 1)]
+        pass_, error = SOFT_PASS, SOFT_ERROR
+        soft = {SOFT_PASS: {"hard": HARD_PASS, "name": "pass"}, SOFT_ERROR: {"hard": HARD_ERROR, "name": ""}}
+        for sb in lims:
+            soft.setdefault(sb, {"hard": HARD_LIMIT, "name": ""})
+        for sb in pats:
+            soft.setdefault(sb, {"hard": HARD_SCREEN, "name": ""})
+    for b in soft.values():
+        b.update(hard_name=hard[b["hard"]]["name"], **{"pass": hard[b["hard"]]["pass"]})
+    return {"pass": pass_, "error": error, "limits": lims, "pats": pats, "soft": soft, "hard": hard,
+            "declared": bool(hard_bins)}

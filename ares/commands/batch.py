@@ -133,7 +133,8 @@ def run(args) -> int:
     judged = lot_report.judge(results, lot.limits if lot else (), meta)
     from ares.batch.screens import screen
 
-    screen(judged, lot.screens if lot else (), lot.limit_bins if lot else ())  # dynamic limits, then bins
+    screen(judged, lot.screens if lot else (), lot.limit_bins if lot else (),  # dynamic limits, then bins
+           lot.hard_bins if lot else (), lot.soft_bins if lot else ())
     name = lot.name if lot else out.resolve().name
     from ares.rundir.files import write_atomic
 

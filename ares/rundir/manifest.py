@@ -92,6 +92,15 @@ def record(d: Path, paths, by: str = REPORT) -> None:
         _write(d, files)
 
 
+def restore(d: Path, entries: dict) -> None:
+    """Put recorded entries back as they were ({relative path: entry}): a file a resume found
+    altered and left as it was stays recorded as altered, not re-blessed by the new sweep.
+    Nothing when the directory has no manifest (then nothing was recorded anew either)."""
+    d = Path(d)
+    if entries and (d / MANIFEST).exists():
+        _write(d, {**load(d), **entries})
+
+
 def forget(d: Path) -> None:
     """No manifest (a run being resumed writes again: the writer sweeps at its end)."""
     (Path(d) / MANIFEST).unlink(missing_ok=True)
