@@ -40,7 +40,7 @@ from ares.analysis.stats.estimate import Estimate
 from ares.analysis.ptc.levels import SpatialStats, pair_stats, spatial_stats
 from ares.analysis.stats.median import n_distinct
 from ares.analysis.stats.physical import snr_db, snr_in_range
-from ares.analysis.ptc.fit import line_fit, origin_fit
+from ares.analysis.ptc.fit import deviation_se, line_fit, origin_fit
 from ares.analysis.ptc.saturation import index_max_variance
 
 S2Q = 1.0 / 12.0
@@ -216,9 +216,17 @@ def emva1288_results(temporal: TemporalData, spatial_bright: SpatialStats | None
         vals["PRNU1288"] = na("no bright and dark stacks", "%")
 
     dev, window, why_le = _linearity(td.u_p, Y, isat)
-    for key, pick in (("LE_min", np.min), ("LE_max", np.max)):
-        vals[key] = na(why_le, "%") if why_le else Estimate(float(pick(dev[window])), math.nan, "%",
-                                                             "5-95 % of saturation")
+    # SE: each level's signal SE (the pair means' temporal noise over the pixels) through the
+    # fit to the extreme level (ares.analysis.ptc.fit.deviation_se)
+    y_se = np.sqrt((td.s2_y + td.s2_ydark) / (2 * td.n_pixels)) if td.n_pixels else np.full(Y.shape, math.nan)
+    for key, pick in (("LE_min", np.argmin), ("LE_max", np.argmax)):
+        if why_le:
+            vals[key] = na(why_le, "%")
+            continue
+        k = int(pick(dev[window]))
+        se = deviation_se(td.u_p[window], Y[window], y_se[window], k)
+        vals[key] = Estimate(float(dev[window][k]), se, "%", "5-95 % of saturation; SE: the pair means' temporal "
+                                                             "noise through the fit, at that level")
     sat = vals.get("u_e_sat")
     tmax = float(np.max(td.texp_s)) if np.size(td.texp_s) else None
     vals, extra = (judge(vals, saturation=sat, longest_exposure_s=tmax),
