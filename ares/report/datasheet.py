@@ -55,13 +55,32 @@ def rows(sheet, general=None) -> list[dict]:
     return out
 
 
-def to_csv(sheet, general=None) -> str:
+CSV_COLUMNS = ["release", "quantity", "symbol", "value", "se", "unit", "verdict", "definition"]
+
+
+def _csv(rows_: list[dict]) -> str:
     buf = io.StringIO()
-    w = csv.DictWriter(buf, ["release", "quantity", "symbol", "value", "se", "unit", "verdict", "definition"])
+    w = csv.DictWriter(buf, CSV_COLUMNS)
     w.writeheader()
-    for r in rows(sheet, general):
+    for r in rows_:
         w.writerow({k: ("" if v is None else v) for k, v in r.items()})
     return buf.getvalue()
+
+
+def to_csv(sheet, general=None) -> str:
+    return _csv(rows(sheet, general))
+
+
+def values_csv(release: str, values: dict, shown: dict) -> str:
+    """A release's figures (``values``: key -> Estimate) as the same CSV, in the order and
+    with the keys of its --json (``shown``): ``ares emva --release 3.0/3.1 --csv``."""
+    out = []
+    for k in shown:
+        e = values[k]
+        d = e.to_dict()
+        out.append({"release": release, "quantity": k, "symbol": k, "value": d["value"], "se": d["se"],
+                    "unit": e.unit, "verdict": d["verdict"], "definition": e.note})
+    return _csv(out)
 
 
 # ------------------------------------------------------------------ pages
@@ -166,7 +185,9 @@ def general_summary_page(sheet, general) -> Figure:
     y -= 0.0155
     for k, e in values.items():
         fig.text(0.645, y, k[:18], fontsize=6.6, va="top")
-        fig.text(0.95, y, cell(e)[:26], fontsize=6.6, va="top", ha="right", family="monospace")
+        txt = cell(e)  # never cut (R_d's unit was): a long value in a smaller font
+        fig.text(0.95, y, txt, fontsize=6.6 if len(txt) <= 26 else 6.6 * 26 / len(txt), va="top", ha="right",
+                 family="monospace")
         y -= 0.0118
         if y < 0.06:
             break
