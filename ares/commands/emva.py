@@ -134,6 +134,7 @@ def write_pdf(an: EmvaAnalysis, out: Path, release: str = "3.0") -> None:
     K = an.emva.values["K"].value
     with PdfPages(out) as pdf:
         fig, ax = plt.subplots(2, 2, figsize=(11, 8.5))
+        fig.subplots_adjust(hspace=0.32)  # the upper plots' axis labels clear the lower plots' titles
         ax[0, 0].plot(Y, V, "o", ms=3, label="data")
         if an.emva.values["K"].available:
             xs = np.linspace(0, Y[an.emva.index_sensitivity_max], 10)

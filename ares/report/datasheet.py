@@ -147,6 +147,12 @@ def cell(e) -> str:
     return value_text(e) + (f" {e.unit}" if e.available and e.unit else "")
 
 
+def _snr_height(top: float) -> float:
+    """The lower plot's height: below the upper plot (its bottom at ``top - 0.33``) with room
+    for that plot's axis label and its own title (a warning above pushed them onto each other)."""
+    return min(0.34, top - 0.33 - 0.075 - 0.09)
+
+
 def summary_page(sheet) -> Figure:
     fig = Figure(figsize=A4)
     m = sheet.meta
@@ -158,7 +164,7 @@ def summary_page(sheet) -> Figure:
     top = min(0.83, y - 0.01)
     a1 = fig.add_axes([0.09, top - 0.33, 0.50, 0.30])
     dp._ptc_axes(a1, sheet)
-    a2 = fig.add_axes([0.09, 0.09, 0.50, 0.34])
+    a2 = fig.add_axes([0.09, 0.09, 0.50, _snr_height(top)])
     dp._snr_axes(a2, sheet)
     y = _table_column(fig, GROUPS, sheet.values, top)
     fig.text(0.64, y - 0.004, "Values with their standard error; '<' / '>' mark limits; n/a: see the notes page.",
@@ -178,7 +184,7 @@ def general_summary_page(sheet, general) -> Figure:
     top = min(0.83, y - 0.01)
     if general is not None and general.curve is not None:
         dp.general_curve_axes(fig.add_axes([0.09, top - 0.33, 0.50, 0.30]), general)
-        dp.general_snr_axes(fig.add_axes([0.09, 0.09, 0.50, 0.34]), general)
+        dp.general_snr_axes(fig.add_axes([0.09, 0.09, 0.50, _snr_height(top)]), general)
     values = general.values if general is not None else {}
     y = top
     fig.text(0.64, y, "Release 4.0 General, Table 2", fontsize=7.5, weight="bold", va="top")
