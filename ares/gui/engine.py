@@ -135,7 +135,7 @@ class DemoScan(JobControl):
                 dark_mean, dark_var = float(mean.mean()), float(np.nanmean(var))
             elif dark_mean is not None:
                 point = (float(mean.mean()) - dark_mean, float(np.nanmean(var)) - dark_var)
-            quantities = {"mean signal (DN)": float(mean.mean()) + self.offset,
+            quantities = {"mean output (DN, offset included)": float(mean.mean()) + self.offset,
                           "temporal noise (DN)": math.sqrt(max(float(np.nanmean(var)), 0.0))}
             emit(StageResult(k, name, mean + self.offset, var, n, dark=(level == 0),
                              settings={"light_e": level}, ptc_point=point, ptc_view="full",

@@ -166,7 +166,7 @@ def quantities(view: dict) -> dict[str, float]:
     """Sweep-map quantities of one stage view, as the engine computed them."""
     out: dict[str, float] = {}
     level = view.get("level", {})
-    for label, key, root in (("mean signal (DN)", "mean_dn", False), ("temporal noise (DN)", "var_dn2", True),
+    for label, key, root in (("mean output (DN, offset included)", "mean_dn", False), ("temporal noise (DN)", "var_dn2", True),
                              ("spatial noise (DN)", "spatial_var_dn2", True)):
         v = level.get(key)
         if isinstance(v, (int, float)) and math.isfinite(v):
