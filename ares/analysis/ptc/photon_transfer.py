@@ -276,10 +276,13 @@ def classify_levels(bright: Sequence[LevelStats], dark: Sequence[LevelStats],
                 status[i], reason[i] = "valid", f"above {100 * fit_fraction:g} % of saturation: not fitted"
     # each signal's SE: the given one (the frame means' scatter), else the temporal noise of the
     # bright and dark means over their pixels and frames
+    def mean_var(x: LevelStats) -> float:  # the variance of a level's mean over its pixels and frames
+        n = x.n_pixels * x.n_frames
+        return x.var / n if n and math.isfinite(x.var) and x.var >= 0 else math.nan
+
     s_se = [float(signal_se[i]) if signal_se is not None and math.isfinite(signal_se[i]) else
-            math.sqrt(b.var / (b.n_pixels * b.n_frames) + d.var / (d.n_pixels * d.n_frames))
-            if b.n_pixels and b.n_frames and d.n_pixels and d.n_frames else math.nan for i, (b, d) in
-            enumerate(zip(bright, dark))]
+            math.sqrt(mean_var(b) + mean_var(d)) if math.isfinite(mean_var(b) + mean_var(d)) else math.nan
+            for i, (b, d) in enumerate(zip(bright, dark))]
     levels = [PtcLevel(i, float(S[i]), float(V[i]), float(Vse[i]), float(dof[i]), float(bright[i].var),
                        float(bright[i].spatial_var), float(bright[i].frac_at_max), float(t[i]), float(p[i]),
                        status[i], reason[i], bool(clipped[i]), float(de.se[i]), s_se[i]) for i in range(n)]
@@ -433,6 +436,8 @@ def analyze_ptc(bright: Sequence[LevelStats], dark: Sequence[LevelStats], *, exp
             src = "the frame means' scatter" if signal_se is not None else "temporal noise / sqrt(N)"
             note = (f"max |relative deviation| from a line fitted on 5-95 % of saturation (min {dev.min():.3g}, "
                     f"max {dev.max():.3g}); SE: each level's signal SE ({src}) through the fit, at the extreme level")
+            if not math.isfinite(le_se):
+                note += " (SE not available: the levels' pixel and frame counts or frame means are not given)"
             le = Estimate(le_v, le_se, "%", note)
             if math.isfinite(le_se) and le_se > le_v:  # within the noise: how linear the data show it to be
                 le = Estimate.limit(le_v + 2 * le_se, "upper", "%", f"{le_v:.3g} ± {le_se:.2g} %, within the "
