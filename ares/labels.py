@@ -51,7 +51,8 @@ FIGURES = {
     "snr_max_emva": ("SNR max (sqrt of saturation capacity)", "sqrt(saturation capacity), the form of EMVA 1288 4.0 "
                                                               "Eq. 55 on the photon-transfer saturation capacity (an "
                                                               "EMVA datasheet's SNR_max uses its own mu_e.sat)"),
-    "snr_max": ("SNR max (measured)", "the largest measured signal / temporal noise on the curve"),
+    "snr_max": ("SNR max (measured)", "the largest measured signal / temporal noise on the curve (SE from the "
+                                      "variance's chi-square scatter; at most sqrt of the full well)"),
     "dsnu_e": ("DSNU (defects excluded)", "pixel offset FPN rms sqrt(Ps) / K of the decomposed stage, "
                                           "defect pixels left out"),
     "dsnu_dn": ("DSNU (defects excluded)", "pixel offset FPN rms sqrt(Ps), defect pixels left out"),
@@ -86,8 +87,9 @@ PTC_FIGURES = tuple((k, FIGURES[k][0]) for k in (
 PTC_LABELS = dict(PTC_FIGURES)
 # The headline figures after the photon-transfer ones, on the terminal, in --json and at the
 # top of the window's Information tab (ares.report.headline computes them from the results):
-# SNR max, then DSNU and PRNU with defects excluded and with every pixel.
-HEADLINE_FIGURES = ("snr_max_emva", "dsnu_e", "dsnu_dn", "dsnu_all_e", "dsnu_all_dn", "prnu_pct", "prnu_all_pct")
+# the two SNR max (sqrt of the saturation capacity; measured), then DSNU and PRNU with defects excluded and with every pixel.
+SNR_FIGURES = ("snr_max_emva", "snr_max")  # printed with the photon-transfer figures
+HEADLINE_FIGURES = ("snr_max_emva", "snr_max", "dsnu_e", "dsnu_dn", "dsnu_all_e", "dsnu_all_dn", "prnu_pct", "prnu_all_pct")
 # One mask policy for every scan kind (ares.scan.defect_mask): a scan whose stages include a
 # dark and a flat stack finds its defect pixels and leaves them out of every decomposition;
 # a scan without that pair has no mask, and its "defects excluded" figures say so.

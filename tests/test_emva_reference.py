@@ -111,12 +111,14 @@ def test_cli_json_and_table(analysis, capsys, tmp_path):
     from ares.cli import main
 
     assert main(["emva", str(DESC), "--release", "3.0", "--json"]) == 0
-    out = json.loads(capsys.readouterr().out)
+    doc = json.loads(capsys.readouterr().out)
+    out = doc["values"]  # the shape of every release: {"release", "values", ...}
+    assert doc["release"] == "EMVA 1288 Release 3.0" and doc["index_u_ysat"] == 36
     for k in ("K", "sigma_y_dark", "u_e_sat", "QE", "SNR_max", "DR", "u_I_mean", "DSNU1288", "PRNU1288",
               "LE_min", "LE_max"):
         assert "value" in out[k] and "unit" in out[k]
     assert out["K"]["value"] == pytest.approx(0.280769, rel=1e-5)
-    assert out["attribution"] == ATTRIBUTION
+    assert doc["attribution"] == ATTRIBUTION
     pdf = tmp_path / "r.pdf"
     assert main(["emva", str(DESC), "--release", "3.0", "--pdf", str(pdf)]) == 0
     text = capsys.readouterr().out

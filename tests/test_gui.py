@@ -184,7 +184,7 @@ def test_stop_finishes_stage_in_flight_then_stops(window, qtbot):
     qtbot.waitUntil(lambda: idle(window), timeout=TIMEOUT_MS)
     s = window.session
     assert s.progress.state == P.STOPPED
-    assert s.last_result is not None and s.last_result.stage == 1  # the stage in flight was finished
+    assert s.last_result is not None and s.last_result.stage == 0  # the stage in flight was finished
     assert "completed stages are kept" in window.statusBar().currentMessage()
 
 
@@ -305,10 +305,10 @@ def test_the_results_caption_says_when_the_newest_stage_is_drawn_at_intervals(wi
 
     s, tab = window.session, window.results
     s.begin_run("t")
-    s.handle(StageResult(1, "dark", np.ones((4, 5)), np.ones((4, 5)), 3))
+    s.handle(StageResult(0, "dark", np.ones((4, 5)), np.ones((4, 5)), 3))
     assert tab.caption.text() == ("Stage 0 (dark), 3 frames, full frame (while the scan runs, its newest stage "
                                   "is drawn at most every 3 s)")
-    s.handle(StageResult(2, "flat", np.full((4, 5), 9.0), np.ones((4, 5)), 3))
+    s.handle(StageResult(1, "flat", np.full((4, 5), 9.0), np.ones((4, 5)), 3))
     s.handle(Done(None, {}))
     assert tab.caption.text() == "Stage 1 (flat), 3 frames, full frame"
 
@@ -708,10 +708,10 @@ def test_channel_view_on_a_two_adc_sensor_gives_the_per_channel_sigma(window, qt
         assert window.results.caption.text().endswith(s.views.labels[f"adc{k}"])
     # the stage browser: the first stage on every tab, then back to following the scan
     show_tab(window, "Signal Map")
-    window.view_bar.choose_stage(1)
-    assert s.last_result.stage == 1 and "stage 0" in s.signal_map.caption
+    window.view_bar.choose_stage(0)
+    assert s.last_result.stage == 0 and "stage 0" in s.signal_map.caption
     window.view_bar.choose_stage(None)
-    assert s.last_result.stage == 2
+    assert s.last_result.stage == 1
 
 
 def test_register_written_in_the_instrumentation_tab_reaches_the_bench(window, qtbot):

@@ -17,8 +17,29 @@ pytest.importorskip("pyqtgraph")
 from PySide6.QtCore import Qt  # noqa: E402
 
 from ares.gui.engine import DemoScan  # noqa: E402
-from ares.gui.main_window import RESULT_TABS  # noqa: E402
-from test_gui import TIMEOUT_MS, idle, run_to_end, show_tab, tiny, window  # noqa: E402,F401 (fixture)
+from ares.gui.main_window import RESULT_TABS, MainWindow  # noqa: E402
+from test_gui import TIMEOUT_MS, idle, run_to_end, show_tab, tiny  # noqa: E402
+
+# One window for the module (building one costs ~0.7 s): each test sets what it reads
+# (a run, a Done summary, a loaded scan), so the order does not matter.
+
+
+@pytest.fixture(scope="module")
+def window(qapp):
+    from PySide6.QtCore import QCoreApplication, QDeadlineTimer
+
+    w = MainWindow()
+    w.resize(1280, 800)
+    w.show()
+    w.confirm = lambda title, text: True  # never a modal question
+    yield w
+    if w.running:
+        w.abort_scan()
+    deadline = QDeadlineTimer(TIMEOUT_MS)
+    while not idle(w) and not deadline.hasExpired():
+        QCoreApplication.processEvents()
+    w.close()
+    w.deleteLater()
 
 pytestmark = pytest.mark.gui
 FIRST, SECOND = (12, 16), (10, 14)
@@ -52,11 +73,17 @@ def _shown_everywhere(w) -> None:
         show_tab(w, name)
 
 
-def test_start_and_stop_show_nothing_of_the_previous_run(window, qtbot):  # noqa: F811
+def test_start_and_stop_show_nothing_of_the_previous_run(window, qtbot):
     window.set_job_factory(tiny(shape=FIRST))
     run_to_end(qtbot, window)
     _shown_everywhere(window)
     assert window.session.signal_map.image.shape == FIRST  # the first run is on screen
+    # stage numbers are the index from 0 (docs/quantities.md) in the browser and captions;
+    # the Current Stage is a count
+    bar = window.view_bar.stage
+    assert [bar.itemText(i) for i in range(1, bar.count())] == ["0: dark", "1: 100 e-", "2: 400 e-"]
+    assert window.session.signal_map.caption.startswith("stage 2: 400 e-")
+    assert window.session.progress.stage_text == "3 of 3 (400 e-)"
     first_info = dict(window.session.info.items)
 
     job = HeldAtStart()
@@ -67,7 +94,7 @@ def test_start_and_stop_show_nothing_of_the_previous_run(window, qtbot):  # noqa
         job.gate.set()  # (a failed check must not leave the demo held)
 
 
-def _second_run(window, qtbot, job, first_info) -> None:  # noqa: F811
+def _second_run(window, qtbot, job, first_info) -> None:
     qtbot.mouseClick(window.buttons.start, Qt.MouseButton.LeftButton)
     _shown_everywhere(window)
     s = window.session
@@ -90,7 +117,7 @@ def _second_run(window, qtbot, job, first_info) -> None:  # noqa: F811
         assert img is None or img.shape == SECOND, f"after Stop, {name} shows an image of shape {img.shape}"
 
 
-def test_thresholds_table_shows_the_run_s_values(window):  # noqa: F811
+def test_thresholds_table_shows_the_run_s_values(window):
     """The Defect Counts tab's thresholds are the ones the run used (its scan's <defects>),
     not the defaults it did not use; an edit is what differs from the run's."""
     from ares.gui.events import Done
@@ -106,10 +133,18 @@ def test_thresholds_table_shows_the_run_s_values(window):  # noqa: F811
     assert view.overrides() == {"hot_e_per_s": "5"}
 
 
-def test_stage_list_follows_frames_per_stage(window, tmp_path):  # noqa: F811
+def test_stage_list_follows_frames_per_stage(window, monkeypatch):
     """The Scan tab's stage list shows the frames each stage will take: Frames per stage
-    replaces the scan's counts (issue 52), and the stages are numbered from 0 as in the files."""
+    replaces the scan's counts (issue 52), and the stages are numbered from 0 as in the files.
+    (Loading warms the run's imports and numba kernels for a smooth Start: ~1.5 s of CPU this
+    test does not need, so it is skipped here.)"""
     from pathlib import Path
+
+    from ares.gui import runner_adapter
+    from ares.sim import fused
+
+    monkeypatch.setattr(runner_adapter, "warm_imports", lambda: None)
+    monkeypatch.setattr(fused, "warm", lambda: None)
 
     scan = Path(__file__).resolve().parents[1] / "scans" / "lag.xml"
     assert window.load_scan(str(scan))

@@ -71,7 +71,7 @@ def test_the_ptc_tab_shows_the_view_chosen_in_the_view_bar(window, qtbot, tmp_pa
     means = {}
     for k in (0, 1):
         window.view_bar.choose_view(f"adc{k}")
-        window.sweep.quantity.setCurrentText("mean signal (DN)")
+        window.sweep.quantity.setCurrentText("mean output (DN, offset included)")
         assert f"view 'adc{k}'" in window.sweep.caption.text()
         means[k] = window.session.sweep.curve()[1]
     signal = (means[1][1:] - means[1][0]) / (means[0][1:] - means[0][0])  # above the sweep's first (dimmest) level
@@ -80,7 +80,7 @@ def test_the_ptc_tab_shows_the_view_chosen_in_the_view_bar(window, qtbot, tmp_pa
     # a region: its own pixels' signal, from the stage arrays the window holds
     window.view_bar.choose_view("roa0")
     assert s.ptc.view == "centre"
-    dark = s.stages.results[1].mean.astype(np.float64)[6:18, 8:24].mean()
+    dark = s.stages.results[0].mean.astype(np.float64)[6:18, 8:24].mean()  # stage 0: the dark
     for p in s.ptc.points:
         ev = s.stages.results[p.stage]
         assert p.signal_dn == pytest.approx(ev.mean.astype(np.float64)[6:18, 8:24].mean() - dark, rel=1e-3, abs=0.05)

@@ -18,8 +18,8 @@ def test_pause_resume_and_link_counters_are_shown(tmp_path, capsys):
     rc, err = _stderr(tmp_path, capsys, f"usb_disconnect_at={AT}", "usb_gone_s=60")
     assert rc == 0, err
     lines = err.splitlines()
-    paused = [x for x in lines if x.startswith("Paused at stage 2: ")]
-    resumed = [x for x in lines if x.startswith("Resumed at stage 2 after ")]
+    paused = [x for x in lines if x.startswith("Paused at stage 1: ")]
+    resumed = [x for x in lines if x.startswith("Resumed at stage 1 after ")]
     assert len(paused) == 1 and "disconnected" in paused[0], err
     assert len(resumed) == 1 and float(resumed[0].split("after ")[1].split(" s")[0]) >= 60, err
     assert lines.index(paused[0]) < lines.index(resumed[0])
@@ -28,7 +28,7 @@ def test_pause_resume_and_link_counters_are_shown(tmp_path, capsys):
 def test_regrab_and_its_reason_are_shown_with_the_link_statistics(tmp_path, capsys):
     rc, err = _stderr(tmp_path, capsys, f"usb_stall_at={AT}")
     assert rc == 0, err
-    assert any(x.startswith("Regrab of stage 2: ") and "stalled" in x for x in err.splitlines()), err
+    assert any(x.startswith("Regrab of stage 1: ") and "stalled" in x for x in err.splitlines()), err
     assert any(x.startswith("link: frames ") and "1 stalls" in x for x in err.splitlines()), err
 
 
@@ -48,6 +48,7 @@ def test_the_window_shows_pause_regrab_and_link_health(tmp_path):
     run._on_event(ev.LinkHealth(1, {"frames": {"stalls": 1}}))
     run._on_event(ev.Resumed(1, 61.5))
     assert [g.kind for g in got] == ["paused", "link", "resumed"]
+    assert got[0].stage == 1 and got[0].text.startswith("Paused at stage 1: ")  # the index, as in the files
     s = SessionModel()
     s.handle(got[0])
     assert s.progress.state == P.PAUSED and "disconnected" in s.progress.message

@@ -206,7 +206,7 @@ def test_format_remaining():
     assert P.format_remaining(None) == "- : -- : --"
     pm = P.ProgressModel()
     assert pm.stage_text == P.IDLE_TEXT
-    pm.update(stage=2, total=5, stage_name="dark")
+    pm.update(stage=1, total=5, stage_name="dark")  # the stage index (from 0); the text is a count
     assert pm.stage_text == "2 of 5 (dark)"
 
 

@@ -329,6 +329,6 @@ def test_frame_timeout_from_any_backend(ptc_small, tmp_path):
                 yield f
 
     bench.frames = Slow()
-    with pytest.raises(HardwareError, match=r"timeout\) \(during stage 3 of 9; 2 completed stage\(s\) saved"):
+    with pytest.raises(HardwareError, match=r"timeout\) \(during stage 2, 3 of 9; 2 completed stage\(s\) saved"):
         Runner(ptc_small, bench=bench, out_dir=tmp_path / "t").run()
     assert len(load_run(tmp_path / "t").stages) == 2

@@ -134,6 +134,7 @@ def write_pdf(an: EmvaAnalysis, out: Path, release: str = "3.0") -> None:
     K = an.emva.values["K"].value
     with PdfPages(out) as pdf:
         fig, ax = plt.subplots(2, 2, figsize=(11, 8.5))
+        fig.subplots_adjust(hspace=0.32)  # the upper plots' axis labels clear the lower plots' titles
         ax[0, 0].plot(Y, V, "o", ms=3, label="data")
         if an.emva.values["K"].available:
             xs = np.linspace(0, Y[an.emva.index_sensitivity_max], 10)
@@ -337,8 +338,8 @@ def run(args) -> int:
     elif args.release == "3.1":
         d = {"release": "EMVA 1288 Release 3.1", "values": {k: e.to_dict() for k, e in (an.release31 or {}).items()}}
         text = format_table31
-    else:
-        d = {**an.emva.to_json(), "index_u_ysat": an.emva.index_u_ysat}
+    else:  # one shape for every release: {"release", "values", ...}
+        d = {"release": "EMVA 1288 Release 3.0", "values": an.emva.to_json(), "index_u_ysat": an.emva.index_u_ysat}
         text = format_table
     if args.json:
         d["attribution"] = att
@@ -353,8 +354,11 @@ def run(args) -> int:
         from ares.rundir.files import write_atomic
 
         gen = an.general if args.release == "4.0-general" else None
+        # the release asked for: 3.x writes its own values, not the 4.0 sheet's
+        csv_text = datasheet.to_csv(an.sheet, gen) if args.release.startswith("4.0") else \
+            datasheet.values_csv(d["release"], (an.release31 or {}) if args.release == "3.1" else an.emva.values, d["values"])
         with writing(args.csv):
-            write_atomic(Path(args.csv), datasheet.to_csv(an.sheet, gen).encode())
+            write_atomic(Path(args.csv), csv_text.encode())
     if args.pdf:
         with writing(args.pdf):
             if args.release.startswith("4.0"):

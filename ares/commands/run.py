@@ -133,7 +133,7 @@ class ProgressBar:
         if isinstance(e, ev.StageStarted):
             self.stage = e
             if not self.tty:
-                self.stream.write(f"stage {e.index + 1}/{e.total} {e.stage.name} ({e.stage.scene}, "
+                self.stream.write(f"stage {e.index} {e.stage.name} ({e.index + 1} of {e.total}; {e.stage.scene}, "
                                   f"{e.stage.frames} frames)\n")
                 self.stream.flush()
         elif isinstance(e, ev.Progress) and self.tty:
@@ -143,7 +143,7 @@ class ProgressBar:
             self.last = now
             n = int(self.width * e.fraction)
             name = self.stage.stage.name if self.stage else ""
-            self.stream.write(f"\rstage {e.index + 1}/{e.total} {name:<14.14} [{'#' * n}{'.' * (self.width - n)}] "
+            self.stream.write(f"\rstage {e.index} {name:<14.14} {e.index + 1:>3}/{e.total} [{'#' * n}{'.' * (self.width - n)}] "
                               f"{100 * e.fraction:3.0f}% {e.frames_per_s:6.1f} frames/s ETA {fmt_s(e.remaining_s)}")
             self.stream.flush()
         elif isinstance(e, (ev.Paused, ev.Resumed, ev.Regrab, ev.LinkHealth)):
@@ -167,7 +167,7 @@ def health_line(e) -> str | None:
     from ares.hardware.link_stats import trouble_text
     from ares.scan import events as ev
 
-    where = f"stage {e.index + 1}"
+    where = f"stage {e.index}"  # the stage index, from 0 as in the files
     if isinstance(e, ev.Paused):
         return f"Paused at {where}: {e.reason or 'paused'}"
     if isinstance(e, ev.Resumed):

@@ -75,7 +75,7 @@ def print_headline(res: dict, out) -> None:
     if isinstance(p, dict) and "gain_dn_per_e" in p:
         out.write("photon transfer:\n")
         for key, name, d in rows:
-            if key in labels.PTC_LABELS or key == "snr_max_emva":
+            if key in labels.PTC_LABELS or key in labels.SNR_FIGURES:
                 out.write(f"  {name:<{w}} {_num(d)}\n")
         for label, text in (("same level", same_point(p)), ("full well", full_well_note(p))):
             if text:
@@ -94,7 +94,7 @@ def print_headline(res: dict, out) -> None:
         sets = ", ".join(f"{k.removeprefix('reg:')}={v:g}" for k, v in d["settings"].items())
         out.write(f"nonuniformity at stage {d['stage']}:\n")
         for key, name, e in rows:
-            if key in labels.HEADLINE_FIGURES and key != "snr_max_emva":
+            if key in labels.HEADLINE_FIGURES and key not in labels.SNR_FIGURES:
                 out.write(f"  {name:<{w}} {_num(e)}\n")
         out.write(f"noise components at stage {d['stage']} ({sets}):\n")
         if "masked_pixels" in d:

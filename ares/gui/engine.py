@@ -108,9 +108,9 @@ class DemoScan(JobControl):
         t0 = time.monotonic()
         emit(RunInfo(None, total, None))
         dark_mean = dark_var = None
-        for k, level in enumerate(self.levels_e, start=1):
+        for k, level in enumerate(self.levels_e):  # k: the stage index, from 0 as in the files
             if self.stopping:
-                emit(Stopped("Stopped after stage %d of %d; completed stages are kept." % (k - 1, total)))
+                emit(Stopped("Stopped after %d of %d stages; completed stages are kept." % (k, total)))
                 return
             name = "dark" if level == 0 else f"{level:g} e-"
             emit(StageStarted(k, total, name, self.frames, {"light_e": level}))
@@ -124,7 +124,7 @@ class DemoScan(JobControl):
                 acc_sum += d
                 acc_sq += d * d
                 emit(FramePreview(k, f, self.frames, frame))
-                done = (k - 1 + f / self.frames) / total
+                done = (k + f / self.frames) / total
                 elapsed = time.monotonic() - t0
                 emit(Progress(k, total, done, elapsed * (1 - done) / done if done > 0 else None))
             n = self.frames
@@ -135,11 +135,11 @@ class DemoScan(JobControl):
                 dark_mean, dark_var = float(mean.mean()), float(np.nanmean(var))
             elif dark_mean is not None:
                 point = (float(mean.mean()) - dark_mean, float(np.nanmean(var)) - dark_var)
-            quantities = {"mean signal (DN)": float(mean.mean()) + self.offset,
+            quantities = {"mean output (DN, offset included)": float(mean.mean()) + self.offset,
                           "temporal noise (DN)": math.sqrt(max(float(np.nanmean(var)), 0.0))}
             emit(StageResult(k, name, mean + self.offset, var, n, dark=(level == 0),
                              settings={"light_e": level}, ptc_point=point, ptc_view="full",
-                             group="light sweep", coords=(k - 1,), quantities=quantities))
+                             group="light sweep", coords=(k,), quantities=quantities))
         emit(Done(None, {"pixels": int(np.prod(self.shape))}))
 
 

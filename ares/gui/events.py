@@ -16,7 +16,7 @@ import numpy as np
 
 @dataclass(frozen=True)
 class StageStarted:
-    stage: int  # 1-based
+    stage: int  # the stage index, from 0 as in the files (stages/0000.json) and every surface
     total: int
     name: str = ""
     frames: int = 0
@@ -122,7 +122,7 @@ class Health:
     the terminal prints (why, how long, the links' trouble counters)."""
 
     kind: str
-    stage: int  # 1-based
+    stage: int  # the stage index, from 0
     text: str
 
 

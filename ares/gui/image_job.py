@@ -38,22 +38,22 @@ class ImageStackJob(JobControl):
         emit(RunInfo(None, len(stacks), None))
         accs = []
         t0 = time.monotonic()
-        for k, (what, specs) in enumerate(stacks, start=1):
+        for k, (what, specs) in enumerate(stacks):  # k: the stage index, from 0
             emit(StageStarted(k, len(stacks), what, 0))
 
             def seen(i, frame, k=k, what=what):
                 self.checkpoint()
                 emit(FramePreview(k, i + 1, 0, frame, dark=(what == "dark")))
-                emit(Progress(k, len(stacks), (k - 1) / len(stacks), None))
+                emit(Progress(k, len(stacks), k / len(stacks), None))
 
             accs.append(accumulate_files(specs, None, what, on_frame=seen))
         if len(accs) == 2 and accs[0].shape != accs[1].shape:
             raise InputError(f"dark frames {accs[0].shape} and flat frames {accs[1].shape} differ in shape")
         an = StackAnalysis(*accs, gain=self.gain) if len(accs) == 2 else StackAnalysis(accs[0], gain=self.gain)
         comps = {k: e.to_dict() for k, e in {**an.components(), **an.extras()}.items()}
-        for k, ((what, _), acc) in enumerate(zip(stacks, accs), start=1):
-            view = {"components": comps} if k == len(accs) else {}
-            if len(accs) == 2 and k == 1:
+        for k, ((what, _), acc) in enumerate(zip(stacks, accs)):
+            view = {"components": comps} if k == len(accs) - 1 else {}
+            if len(accs) == 2 and k == 0:
                 view = {"components": {k_: v for k_, v in comps.items()
                                        if k_ in ("o", "Cs", "Ct", "Rs", "Rt", "Ps", "Pt", "frame_global")}}
             emit(StageResult(k, what, acc.mean_map(), acc.temporal_var_map(), acc.n_frames, dark=(what == "dark"),

@@ -115,10 +115,13 @@ class ResultsTab(QWidget):
         self.session = session
         self.caption = QLabel()
         grid = QGridLayout()
-        xlabels = {"MEAN SIGNAL": "mean output (DN, offset included; the report's signal is above dark)", "NOISE": "temporal sigma (DN)",
+        # (the axis label fits the panel at 1280 x 800: the note on the report's signal is the tooltip)
+        xlabels = {"MEAN SIGNAL": "mean output (DN, offset included)", "NOISE": "temporal sigma (DN)",
                    "COLUMNS": "column mean (DN)", "ROWS": "row mean (DN)"}
         self.panels = {name: StatsPanel(session.panels[name], xlabels[name]) for name in PANELS}
         self.panels["MEAN SIGNAL"].setTitle("MEAN SIGNAL (raw output, offset included)")
+        self.panels["MEAN SIGNAL"].setToolTip("The raw output, offset included: the report's and the terminal's "
+                                              "signal is the mean above dark.")
         for k, name in enumerate(PANELS):
             grid.addWidget(self.panels[name], k // 2, k % 2)
         lay = QVBoxLayout(self)
@@ -132,9 +135,9 @@ class ResultsTab(QWidget):
         if ev is None:
             self.caption.setText("No stage result yet.")
         elif ev.mean is None:
-            self.caption.setText(f"Stage {ev.stage - 1} ({ev.name}): its arrays were dropped to bound memory.")
+            self.caption.setText(f"Stage {ev.stage} ({ev.name}): its arrays were dropped to bound memory.")
         else:
             live = (f" (while the scan runs, its newest stage is drawn at most every {RESULTS_S:g} s)"
                     if self.session.throttle and self.session.stages.following_latest else "")
-            self.caption.setText(f"Stage {ev.stage - 1} ({ev.name}), {ev.frames} frames, "
+            self.caption.setText(f"Stage {ev.stage} ({ev.name}), {ev.frames} frames, "
                                  f"{self.session.region_label(ev.mean.shape)}{live}")

@@ -166,7 +166,7 @@ def quantities(view: dict) -> dict[str, float]:
     """Sweep-map quantities of one stage view, as the engine computed them."""
     out: dict[str, float] = {}
     level = view.get("level", {})
-    for label, key, root in (("mean signal (DN)", "mean_dn", False), ("temporal noise (DN)", "var_dn2", True),
+    for label, key, root in (("mean output (DN, offset included)", "mean_dn", False), ("temporal noise (DN)", "var_dn2", True),
                              ("spatial noise (DN)", "spatial_var_dn2", True)):
         v = level.get(key)
         if isinstance(v, (int, float)) and math.isfinite(v):
@@ -421,11 +421,11 @@ class RunnerJob:
             emit(G.RunInfo(e.run_dir, e.total_stages, e.estimated_s))
         elif isinstance(e, ev.StageStarted):
             st = e.stage
-            emit(G.StageStarted(e.index + 1, e.total, st.name, st.frames, dict(st.settings)))
+            emit(G.StageStarted(e.index, e.total, st.name, st.frames, dict(st.settings)))
         elif isinstance(e, ev.FramePreview):
-            emit(G.FramePreview(e.index + 1, e.frame + 1, e.frames, e.data, e.dark))
+            emit(G.FramePreview(e.index, e.frame + 1, e.frames, e.data, e.dark))
         elif isinstance(e, ev.Progress):
-            emit(G.Progress(e.index + 1, e.total, e.fraction, e.remaining_s))
+            emit(G.Progress(e.index, e.total, e.fraction, e.remaining_s))
         elif isinstance(e, (ev.StageFinished, ev.StageUpdated)):  # updated: masked again, replaces it
             emit(self._stage_result(e))
         elif isinstance(e, (ev.Paused, ev.Resumed, ev.Regrab, ev.LinkHealth)):
@@ -434,7 +434,7 @@ class RunnerJob:
             text = health_line(e)
             if text:
                 kind = {ev.Paused: "paused", ev.Resumed: "resumed", ev.Regrab: "regrab"}.get(type(e), "link")
-                emit(G.Health(kind, e.index + 1, text))
+                emit(G.Health(kind, e.index, text))
         elif isinstance(e, ev.Ending):
             emit(G.Ending(e.status, e.stages_completed))
         elif isinstance(e, ev.Done):
@@ -478,7 +478,7 @@ class RunnerJob:
         cycle = stage_lag_cycle(r)  # dark="after": this stage is a bright->dark cycle
         if cycle is not None and cycle[0].available:
             values["image lag (%)"] = cycle[0].value
-        return G.StageResult(e.index + 1, r["name"], e.arrays["mean"], e.arrays["variance"], r["frames"],
+        return G.StageResult(e.index, r["name"], e.arrays["mean"], e.arrays["variance"], r["frames"],
                              dark=(r["scene"] == "dark"), settings=dict(r["settings"]), ptc_point=point,
                              ptc_view="full", ptc_points=points, group=r.get("group", ""), coords=tuple(r.get("coords") or ()),
                              quantities=values, view_quantities={k: quantities(v) for k, v in r["views"].items()},

@@ -57,7 +57,7 @@ class ViewBar(QWidget):
 
     def _fill_stages(self) -> None:
         st = self.session.stages
-        items = [(None, LATEST)] + [(k, f"{k - 1}: {r.name}" + (" (dark)" if r.dark else ""))
+        items = [(None, LATEST)] + [(k, f"{k}: {r.name}" + (" (dark)" if r.dark and r.name != "dark" else ""))
                                     for k, r in st.results.items()]
         self._refill(self.stage, items, st.shown)
 

@@ -13,7 +13,7 @@ PRODUCES: dict[str, frozenset[str]] = {
     "ptc": frozenset({
         "gain_dn_per_e", "gain_e_per_dn", "gain_line_dn_per_e", "gain_origin_dn_per_e", "gain_astier_dn_per_e", "conversion_gain_uv_per_e", "read_noise_e",
         "read_noise_dn", "full_well_e", "saturation_capacity_e", "dynamic_range_db", "sensitivity_threshold_e",
-        "linearity_error_pct", "mean_rel_dev", "qe", "a00_per_e", "ptc_turnoff", "plateau", "bracket",
+        "linearity_error_pct", "mean_rel_dev", "qe", "snr_max", "a00_per_e", "ptc_turnoff", "plateau", "bracket",
         "linearity_1pct", "max_variance", "max_code", "saturation_capacity", "low_e", "high_e",
         "defect_pixels_excluded", "line_chi2_red", "line_p", "astier_chi2_red", "astier_p", "curvature_f_test_p",
         "turnoff_dn", "turnoff_e", "emva4_saturation", "lsst_turnoff"}),

@@ -55,13 +55,32 @@ def rows(sheet, general=None) -> list[dict]:
     return out
 
 
-def to_csv(sheet, general=None) -> str:
+CSV_COLUMNS = ["release", "quantity", "symbol", "value", "se", "unit", "verdict", "definition"]
+
+
+def _csv(rows_: list[dict]) -> str:
     buf = io.StringIO()
-    w = csv.DictWriter(buf, ["release", "quantity", "symbol", "value", "se", "unit", "verdict", "definition"])
+    w = csv.DictWriter(buf, CSV_COLUMNS)
     w.writeheader()
-    for r in rows(sheet, general):
+    for r in rows_:
         w.writerow({k: ("" if v is None else v) for k, v in r.items()})
     return buf.getvalue()
+
+
+def to_csv(sheet, general=None) -> str:
+    return _csv(rows(sheet, general))
+
+
+def values_csv(release: str, values: dict, shown: dict) -> str:
+    """A release's figures (``values``: key -> Estimate) as the same CSV, in the order and
+    with the keys of its --json (``shown``): ``ares emva --release 3.0/3.1 --csv``."""
+    out = []
+    for k in shown:
+        e = values[k]
+        d = e.to_dict()
+        out.append({"release": release, "quantity": k, "symbol": k, "value": d["value"], "se": d["se"],
+                    "unit": e.unit, "verdict": d["verdict"], "definition": e.note})
+    return _csv(out)
 
 
 # ------------------------------------------------------------------ pages
@@ -128,6 +147,12 @@ def cell(e) -> str:
     return value_text(e) + (f" {e.unit}" if e.available and e.unit else "")
 
 
+def _snr_height(top: float) -> float:
+    """The lower plot's height: below the upper plot (its bottom at ``top - 0.33``) with room
+    for that plot's axis label and its own title (a warning above pushed them onto each other)."""
+    return min(0.34, top - 0.33 - 0.075 - 0.09)
+
+
 def summary_page(sheet) -> Figure:
     fig = Figure(figsize=A4)
     m = sheet.meta
@@ -139,7 +164,7 @@ def summary_page(sheet) -> Figure:
     top = min(0.83, y - 0.01)
     a1 = fig.add_axes([0.09, top - 0.33, 0.50, 0.30])
     dp._ptc_axes(a1, sheet)
-    a2 = fig.add_axes([0.09, 0.09, 0.50, 0.34])
+    a2 = fig.add_axes([0.09, 0.09, 0.50, _snr_height(top)])
     dp._snr_axes(a2, sheet)
     y = _table_column(fig, GROUPS, sheet.values, top)
     fig.text(0.64, y - 0.004, "Values with their standard error; '<' / '>' mark limits; n/a: see the notes page.",
@@ -159,14 +184,16 @@ def general_summary_page(sheet, general) -> Figure:
     top = min(0.83, y - 0.01)
     if general is not None and general.curve is not None:
         dp.general_curve_axes(fig.add_axes([0.09, top - 0.33, 0.50, 0.30]), general)
-        dp.general_snr_axes(fig.add_axes([0.09, 0.09, 0.50, 0.34]), general)
+        dp.general_snr_axes(fig.add_axes([0.09, 0.09, 0.50, _snr_height(top)]), general)
     values = general.values if general is not None else {}
     y = top
     fig.text(0.64, y, "Release 4.0 General, Table 2", fontsize=7.5, weight="bold", va="top")
     y -= 0.0155
     for k, e in values.items():
         fig.text(0.645, y, k[:18], fontsize=6.6, va="top")
-        fig.text(0.95, y, cell(e)[:26], fontsize=6.6, va="top", ha="right", family="monospace")
+        txt = cell(e)  # never cut (R_d's unit was): a long value in a smaller font
+        fig.text(0.95, y, txt, fontsize=6.6 if len(txt) <= 26 else 6.6 * 26 / len(txt), va="top", ha="right",
+                 family="monospace")
         y -= 0.0118
         if y < 0.06:
             break

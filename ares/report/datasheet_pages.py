@@ -90,7 +90,9 @@ def _ptc_axes(ax, sheet, large: bool = False) -> None:
         ax.axvline(sig[c["index_sat"]], ls="--", color="0.4", lw=0.8, label="saturation")
     ax.text(0.03, 0.95, f"{dark_var_text(sheet)}\nK = {K.text()}", transform=ax.transAxes, fontsize=7, va="top")
     ax.set(xlabel="mean − dark value (DN)", ylabel="variance − dark variance (DN²)", title="Photon transfer")
-    ax.legend(fontsize=6.5, loc="lower right")
+    # under the text, top left: the curve rises from the bottom left, and the steps past
+    # saturation fall to the bottom right, where the legend hid them
+    ax.legend(fontsize=6.5, loc="upper left", bbox_to_anchor=(0.0, 0.86))
 
 
 def characteristic_axes(ax, sheet) -> None:

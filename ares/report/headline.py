@@ -122,6 +122,9 @@ def headline(analyses: dict) -> list[tuple[str, str, dict | None]]:
     if isinstance(p, dict) and "gain_dn_per_e" in p:
         out += [(k, name, p.get(k)) for k, name in labels.PTC_FIGURES]
         out.append(("snr_max_emva", labels.figure_name("snr_max_emva"), snr_max_emva(p).to_dict()))
+        out.append(("snr_max", labels.figure_name("snr_max"), p["snr_max"] if isinstance(p.get("snr_max"), dict) else
+                    Estimate.na("not in these results (stored before ARES kept it: the report's key figures "
+                                "recompute it from the curve)", "").to_dict()))
     for k, e in decomposition_nonuniformity(analyses).items():
         out.append((k, labels.figure_name(k), e.to_dict()))
     return out

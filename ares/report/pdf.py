@@ -159,11 +159,19 @@ def _component_table(fig, y: float, stage: dict, part: str, title: str, edge: bo
         kind = ("dark classes only, provisional" if dm.get("provisional")
                 else "dark and flat classes" if "flat stage" in str(dm.get("mask_source", "")) else "")
         title += f": {full.get('masked_pixels', 0)} defect pixels excluded" + (f" (mask: {kind})" if kind else "")
+    if not any(r[-1] for r in rows):  # no notes: the meaning gets their room ("(read + shot)" was cut)
+        rows = [r[:-1] for r in rows]
+        if masked:
+            return text_table(fig, (0.06, y, 0.9), ["component", "defects excluded", "all pixels", "meaning"],
+                              rows, [0.12, 0.23, 0.23, 0.42], fontsize=8, title=title, max_chars=[12, 26, 26, 50])
+        return text_table(fig, (0.06, y, 0.9), ["component", "value ± SE", "meaning"], rows,
+                          [0.14, 0.3, 0.56], fontsize=8.5, title=title, max_chars=[14, 30, 64])
+    if masked:
         return text_table(fig, (0.06, y, 0.9), ["component", "defects excluded", "all pixels", "meaning", "note"],
-                          rows, [0.12, 0.23, 0.23, 0.22, 0.2], fontsize=8, title=title,
-                          max_chars=[12, 26, 26, 26, 24])
+                          rows, [0.12, 0.21, 0.21, 0.3, 0.16], fontsize=8, title=title,
+                          max_chars=[12, 24, 24, 40, 20])
     return text_table(fig, (0.06, y, 0.9), ["component", "value ± SE", "meaning", "note"], rows,
-                      [0.14, 0.3, 0.26, 0.3], fontsize=8.5, title=title, max_chars=[14, 30, 30, 36])
+                      [0.14, 0.28, 0.34, 0.24], fontsize=8.5, title=title, max_chars=[14, 30, 40, 30])
 
 
 def components_page(run, mid: dict | None, dark: dict | None):

@@ -35,10 +35,11 @@ def dark_page(run, series: dict):
     ax3 = fig.add_axes([0.59, y2, 0.35, 0.25])
     for k, (t, s) in enumerate(sorted(series.items(), key=lambda kv: (kv[0] is None, kv[0] or 0))):
         lab = "" if t is None else f"{t:g} C"
-        ax1.plot(s["exposure_s"], s["mean_dn"], "o", color=f"C{k}", label=lab or "dark mean")
-        ax2.plot(s["exposure_s"], s["var_dn2"], "o", color=f"C{k}", label=lab or "temporal")
+        fit = np.unique(s["exposure_s"]).size >= 2  # then the fit's legend entry names the colour
+        ax1.plot(s["exposure_s"], s["mean_dn"], "o", color=f"C{k}", label=None if fit else lab or "dark mean")
+        ax2.plot(s["exposure_s"], s["var_dn2"], "o", color=f"C{k}", label=None if fit else lab or "temporal")
         ax3.plot(s["exposure_s"], s["spatial_var_dn2"], "s", mfc="none", color=f"C{k}", label=lab or "spatial")
-        if np.unique(s["exposure_s"]).size >= 2:
+        if fit:
             lf = line_fit(s["exposure_s"], s["mean_dn"])
             xs = np.linspace(0, s["exposure_s"].max(), 20)
             ax1.plot(xs, lf.intercept + lf.slope * xs, "-", color=f"C{k}", lw=0.8,
@@ -54,10 +55,10 @@ def dark_page(run, series: dict):
     ax2.set_title("temporal variance vs exposure", fontsize=9)
     ax3.set_xlabel("exposure (s)")
     ax3.set_ylabel("spatial variance (DN^2)")
-    ax3.set_title("spatial variance (DSNU^2) vs exposure", fontsize=9)
+    ax3.set_title("dark spatial variance vs exposure", fontsize=9)
     for a in (ax1, ax2, ax3):
         a.grid(alpha=0.3)
-        a.legend(fontsize=7, ncol=2 if a is ax1 else 1)
+        a.legend(fontsize=7 if a is ax1 else 6, ncol=2 if a is ax1 else 1, loc="upper left", framealpha=0.6)
     if dc:
         rows = [r for r in analysis_rows(dc, skip_na=True) if not r[0].endswith("temperature_c")]
         _table(fig, 0.22, rows, "dark_current analysis (scan_results.json)", n=12)

@@ -19,7 +19,7 @@ from ares.analysis.stats.estimate import (GAIN_SPREADS, Estimate, component_disp
                                     format_value)  # (component_* re-exported for the report pages)
 from ares.analysis.ptc.levels import LevelStats
 from ares import labels
-from ares.analysis.stats.physical import snr_db, snr_in_range
+from ares.analysis.stats.physical import snr_db
 from ares.analysis.ptc.photon_transfer import PtcResult, analyze_ptc
 from ares.results.registry import ptc_level_keys
 from ares.results.analyses import signal_se  # one definition: the input the runner's PTC analysis gives
@@ -303,16 +303,8 @@ def dark_stage(run) -> dict | None:
 
 
 def _snr_max(res: PtcResult, well_e: float, well_se: float = 0.0) -> Estimate:
-    """The largest measured SNR, judged against sqrt of the full well (``well_e``, e-):
-    above it the noise was mis-measured (``ares.analysis.stats.physical.snr_in_range``)."""
-    snr = res.snr.get("snr")
-    if snr is None or not len(snr):
-        return Estimate.na("no valid PTC level")
-    i = int(np.argmax(snr))
-    se = res.snr["snr_se"][i] if "snr_se" in res.snr else math.nan
-    s = Estimate(float(snr[i]), float(se), "",
-                 f"max measured signal / temporal noise (at {res.snr['signal_dn'][i]:.5g} DN)")
-    return snr_in_range(s, well_e, "SNR max (measured)", charge_se=well_se)
+    """SNR max (measured) judged against sqrt of the full well ``well_e`` (``PtcResult.snr_max``)."""
+    return res.snr_max(well_e, well_se)
 
 
 def _flat_estimates(d: dict, prefix: str = "") -> list[tuple[str, dict]]:
@@ -372,8 +364,9 @@ def compute_key_figures(run, groups: list[PtcGroup] | None = None) -> dict:
         kf["dynamic_range_db"] = _entry(labels.figure_name("dynamic_range_db"), pick("dynamic_range_db", res and res.dynamic_range_db), src)
         if res is not None:
             well = est(kf["full_well_e"])  # the charge capacity: no SNR above its square root
-            s = _snr_max(res, well.value if well.available else math.nan, well.se)
-            kf["snr_max"] = _entry(labels.figure_name("snr_max"), s, "PTC recomputed")
+            s = pick("snr_max", _snr_max(res, well.value if well.available else math.nan, well.se))
+            kf["snr_max"] = _entry(labels.figure_name("snr_max"), s, src if have_stored and "snr_max" in stored
+                                   else "PTC recomputed")
             if s.available:
                 kf["snr_max_db"] = _entry(labels.figure_name("snr_max"), snr_db(s, "20 log10 SNR max (measured)"),
                                           "PTC recomputed")

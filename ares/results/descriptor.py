@@ -125,9 +125,7 @@ def analyse_descriptor(path: str | Path | EmvaDescriptor, pixel_area_um2: float 
                      + ("" if found == max_code else f"; not the {desc.bits}-bit 2^k - 1 = {max_code}"))
     sheet = evaluate_linear(inp)
     general = general_from_input(inp, sheet.photon_transfer)  # the whole General Table 2
-    r31 = None
-    if stack_b is not None:
-        r31 = release31(res, stack_b, stack_d)
+    r31 = release31(res, stack_b, stack_d)  # (without the stacks: its DSNU1288/PRNU1288 say what they need)
     check_radiometric_qe(desc, {"Release 4.0 Linear": sheet.values["QE"], "Release 3.0": res.values["QE"]})
     return EmvaAnalysis(desc, res, ptc, b4, d4, sheet.photon_transfer, sheet, general, r31, inp, found,
                         (sb, sd) if stacks else None)
@@ -172,9 +170,8 @@ def with_pair_variance(an: EmvaAnalysis, pair_variance: str) -> EmvaAnalysis:
                              s2_ydark=np.array([d.var for d in an.dark]))
     sb, sd = an.spatial or (None, None)
     res = emva1288_results(td, sb, sd)
-    r31 = None
-    if an.inp is not None and an.inp.stack_bright is not None and an.inp.stack_dark is not None:
-        r31 = release31(res, an.inp.stack_bright, an.inp.stack_dark)
+    inp = an.inp
+    r31 = release31(res, inp.stack_bright if inp is not None else None, inp.stack_dark if inp is not None else None)
     return dataclasses.replace(an, emva=res, release31=r31)
 
 
@@ -189,6 +186,10 @@ def release31(res, stack_b, stack_d) -> dict:
     def s2(st):  # Eq. 86: the filter keeps 0.96^2 of a white pattern and of the temporal residual
         return st.highpassed_var("3.1") / 0.96**2 - st.temporal_var / st.L
 
+    if stack_b is None or stack_d is None:
+        why = "needs a bright and a dark stack of images for the 5x5 high-pass (Appendix C.5); the data set has none"
+        out["DSNU1288"], out["PRNU1288"] = Estimate.na(why, "e-"), Estimate.na(why, "%")
+        return out
     try:
         d2, b2 = s2(stack_d), s2(stack_b)
     except ValueError as exc:  # smaller than the 5x5 filter

@@ -179,7 +179,7 @@ class Runner(MaskCompletion, StageLoop):
         except AresError as exc:
             msg = str(exc)
             if isinstance(exc, HardwareError) and writer is not None:
-                msg = (f"{exc} (during stage {len(completed) + 1} of {len(self.stages)}; "
+                msg = (f"{exc} (during stage {len(completed)}, {len(completed) + 1} of {len(self.stages)}; "
                        f"{len(completed)} completed stage(s) saved in {writer.dir})")
                 exc = type(exc)(msg)
             if writer is not None:

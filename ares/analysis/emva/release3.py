@@ -170,12 +170,19 @@ def emva1288_results(temporal: TemporalData, spatial_bright: SpatialStats | None
         vals["SNR_max"] = snr_in_range(Estimate(math.sqrt(u_e_sat), 0.5 * math.sqrt(u_e_sat) * QE_se / QE, "",
                                                 "sqrt(mu_e.sat)"), u_p_sat, "SNR_max", "the photons at saturation")
         extra["SNR_max_dB"] = snr_db(vals["SNR_max"], "20 log10 SNR_max")
-        u_p_min = (syd / K + 0.5) / QE
-        extra["u_p_min"] = Estimate(u_p_min, math.nan, "p", "(sigma_y.dark/K + 1/2)/QE")
-        extra["u_e_min"] = Estimate(QE * u_p_min, math.nan, "e-", "QE * mu_p.min")
+        u_p_min = (syd / K + 0.5) / QE  # = (sigma_y.dark + K/2) / R
+        # SEs (issue 52): sigma_y.dark's, K's and R's, first order and independent; mu_p.sat is the
+        # level's given photon count (no SE); sigma_y.dark's SE is 0 where two exposures cannot give it
+        syd_se = vals["sigma_y_dark"].se if math.isfinite(vals["sigma_y_dark"].se) else 0.0
+        p_se = math.hypot(syd_se / R, K_se / (2 * R), u_p_min * R_se / R)
+        why_se = "" if math.isfinite(vals["sigma_y_dark"].se) else "; SE without sigma_y.dark's (not measured)"
+        extra["u_p_min"] = Estimate(u_p_min, p_se, "p", "(sigma_y.dark/K + 1/2)/QE" + why_se)
+        u_e_min = QE * u_p_min  # = sigma_y.dark/K + 1/2
+        extra["u_e_min"] = Estimate(u_e_min, math.hypot(syd_se / K, syd / K * K_se / K), "e-", "QE * mu_p.min" + why_se)
         DR = u_p_sat / u_p_min
-        vals["DR"] = Estimate(DR, math.nan, "", "mu_p.sat / mu_p.min")
-        extra["DR_dB"] = Estimate(20 * math.log10(DR), math.nan, "dB", "")
+        DR_se = DR * p_se / u_p_min
+        vals["DR"] = Estimate(DR, DR_se, "", "mu_p.sat / mu_p.min" + why_se)
+        extra["DR_dB"] = Estimate(20 * math.log10(DR), 20 / math.log(10) * DR_se / DR, "dB", "20 log10 DR")
     else:
         for key, unit, into in (("u_e_sat", "e-", vals), ("SNR_max", "", vals), ("SNR_max_dB", "dB", extra),
                                 ("u_p_min", "p", extra), ("u_e_min", "e-", extra), ("DR", "", vals),
@@ -216,6 +223,9 @@ def emva1288_results(temporal: TemporalData, spatial_bright: SpatialStats | None
         vals["PRNU1288"] = na("no bright and dark stacks", "%")
 
     dev, window, why_le = _linearity(td.u_p, Y, isat)
+    # (no SE: a signed extreme near 0 has an SE above its value, which the sanity rule turns into
+    # "not available", and the reference implementation's published LE_min/LE_max would be lost;
+    # the Release 4.0 LE and ARES's linearity error carry theirs)
     for key, pick in (("LE_min", np.min), ("LE_max", np.max)):
         vals[key] = na(why_le, "%") if why_le else Estimate(float(pick(dev[window])), math.nan, "%",
                                                              "5-95 % of saturation")

@@ -14,6 +14,9 @@
   to saturation, unweighted least squares) through the photon transfer curve; the mean
   |K_i - K| / K of its local slopes at the levels within 0 - 70 % of saturation must stay
   below 3 % for the linear model to hold.
+- ``max_relative_deviation``: the linearity error -- the largest |relative deviation| of
+  the signal from a line fitted with 1/S weights -- with its SE propagated from each
+  level's signal SE (delta method through the fit, at the extreme level).
 - ``local_slope_check``: ARES's variant (option ``eq51_noise_floor``): a weighted spline with
   at most three interior knots at signal quantiles over the fitted levels only, the linear
   model rejected only when the deviation exceeds 3 % by more than the noise of the local
@@ -353,3 +356,30 @@ def local_slope_check(s, v, v_se, k: float, limit: float = 0.03) -> LocalSlopeCh
     return LocalSlopeCheck(dev, False, f"the linear model does not hold here: mean |K_i - K|/K = {100 * dev:.2g} % "
                                        f">= {100 * limit:g} % (ARES's variant of EMVA 1288 4.0 Linear Eq. 51, option "
                                        "eq51_noise_floor); use the general model")
+
+
+def deviation_se(x, y, y_se, k: int) -> float:
+    """SE (in %) of level ``k``'s relative deviation ``100 (y_k - f_k) / f_k`` from the line
+    ``f = a x + b`` fitted with weights 1/y, from each level's signal SE ``y_se`` (DN): the fit
+    is ``f = H y`` (hat matrix, weights held fixed), so by the delta method
+    ``d dev_k / d y_j = 100 (delta_kj / f_k - H_kj y_k / f_k^2)``."""
+    x, y, y_se = (np.asarray(a, float) for a in (x, y, y_se))
+    A = np.column_stack([x, np.ones_like(x)])
+    w2 = 1.0 / (y * y)
+    H = A @ np.linalg.solve(A.T @ (A * w2[:, None]), (A * w2[:, None]).T)
+    f = H @ y
+    g = -100.0 * H[k] * y[k] / (f[k] * f[k])
+    g[k] += 100.0 / f[k]
+    return float(math.sqrt(np.sum((g * y_se) ** 2)))
+
+
+def max_relative_deviation(x, y, y_se) -> tuple[float, float, np.ndarray]:
+    """(max |dev| in %, its SE in %, dev in %): ``dev = 100 (y - f) / f`` from the line
+    ``f = a x + b`` fitted with weights 1/y (minimising relative deviations, as EMVA 1288);
+    the SE is ``deviation_se`` at the level where |dev| is largest. (A max over levels is
+    biased up by noise; its SE is that of the extreme level only.)"""
+    x, y = np.asarray(x, float), np.asarray(y, float)
+    a, b = np.polyfit(x, y, 1, w=1.0 / y)
+    dev = 100.0 * (y - (a * x + b)) / (a * x + b)
+    k = int(np.argmax(np.abs(dev)))
+    return float(abs(dev[k])), deviation_se(x, y, y_se, k), dev

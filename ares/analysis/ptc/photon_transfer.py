@@ -39,7 +39,8 @@ import numpy as np
 from ares.analysis.stats.estimate import Estimate
 from ares.analysis.ptc.levels import LevelStats
 from ares.analysis.ptc.fit import (AstierFit, GainModel, LineFit, LocalSlopeCheck, choose_gain_model, line_fit,
-                                   local_slope_check, local_slope_check_text, origin_fit)
+                                   local_slope_check, local_slope_check_text, max_relative_deviation,
+                                   origin_fit)
 from ares.analysis.ptc.noise_figures import loglog_slopes, noise_model, read_noise, sensitivity_threshold
 from ares.analysis.ptc.saturation import SaturationBracket, saturation_bracket
 from ares.analysis.ptc.turnoff import DecisionErrors, decision_errors, lsst_pivot, ptc_turnoff_found
@@ -96,6 +97,24 @@ class PtcResult:
         is_ast = (self.gain_astier_dn_per_e.available and k.value == self.gain_astier_dn_per_e.value)
         return {"estimator": "astier" if is_ast else "line", "reason": reason}
 
+    def snr_max(self, well_e: float | None = None, well_se: float | None = None) -> Estimate:
+        """SNR max (measured): the largest signal / temporal noise on the curve, its SE from
+        the variance's chi-square scatter, judged against sqrt of the full well (``well_e``,
+        default the headline full well): above it the noise was mis-measured."""
+        from ares.analysis.stats.physical import snr_in_range
+
+        snr = self.snr.get("snr")
+        if snr is None or not len(snr):
+            return Estimate.na("no valid PTC level", "")
+        if well_e is None:
+            fw = self.full_well
+            well_e, well_se = (fw.value, fw.se) if fw.available else (math.nan, 0.0)
+        i = int(np.argmax(snr))
+        se = self.snr["snr_se"][i] if "snr_se" in self.snr else math.nan
+        s = Estimate(float(snr[i]), float(se), "",
+                     f"max measured signal / temporal noise (at {self.snr['signal_dn'][i]:.5g} DN)")
+        return snr_in_range(s, well_e, "SNR max (measured)", charge_se=well_se or 0.0)
+
     def used(self, status: str = "fit") -> list[PtcLevel]:
         return [lv for lv in self.levels if lv.status == status]
 
@@ -138,6 +157,7 @@ class PtcResult:
             "sensitivity_threshold_e": self.sensitivity_threshold_e.to_dict(),
             "dynamic_range_db": self.dynamic_range_db.to_dict(), "qe": self.qe.to_dict(),
             "linearity_error_pct": self.linearity_error_pct.to_dict(),
+            "snr_max": self.snr_max().to_dict(),
             "saturation_stage": name(self.saturation_index),
             "turnoff_dn": self.turnoff_dn.to_dict(), "turnoff_e": self.turnoff_e.to_dict(),
             "turnoff_definitions_dn": {k_: v.to_dict() for k_, v in self.turnoff_definitions_dn.items()},
@@ -254,9 +274,18 @@ def classify_levels(bright: Sequence[LevelStats], dark: Sequence[LevelStats],
         for i in cand[:n_on]:
             if S[i] > fit_fraction * br.low_dn:
                 status[i], reason[i] = "valid", f"above {100 * fit_fraction:g} % of saturation: not fitted"
+    # each signal's SE: the given one (the frame means' scatter), else the temporal noise of the
+    # bright and dark means over their pixels and frames
+    def mean_var(x: LevelStats) -> float:  # the variance of a level's mean over its pixels and frames
+        n = x.n_pixels * x.n_frames
+        return x.var / n if n and math.isfinite(x.var) and x.var >= 0 else math.nan
+
+    s_se = [float(signal_se[i]) if signal_se is not None and math.isfinite(signal_se[i]) else
+            math.sqrt(mean_var(b) + mean_var(d)) if math.isfinite(mean_var(b) + mean_var(d)) else math.nan
+            for i, (b, d) in enumerate(zip(bright, dark))]
     levels = [PtcLevel(i, float(S[i]), float(V[i]), float(Vse[i]), float(dof[i]), float(bright[i].var),
                        float(bright[i].spatial_var), float(bright[i].frac_at_max), float(t[i]), float(p[i]),
-                       status[i], reason[i], bool(clipped[i]), float(de.se[i])) for i in range(n)]
+                       status[i], reason[i], bool(clipped[i]), float(de.se[i]), s_se[i]) for i in range(n)]
     return levels, br, de
 
 
@@ -403,11 +432,16 @@ def analyze_ptc(bright: Sequence[LevelStats], dark: Sequence[LevelStats], *, exp
         if len(sel) >= 3:
             x = xs[[lv.index for lv in sel]]
             y = np.array([lv.signal for lv in sel])
-            a, b = np.polyfit(x, y, 1, w=1.0 / y)  # minimises relative deviations (as EMVA 1288)
-            dev = 100 * (y - (a * x + b)) / (a * x + b)
-            le = Estimate(float(np.max(np.abs(dev))), math.nan, "%",
-                          f"max |relative deviation| from a line fitted on 5-95 % of saturation "
-                          f"(min {dev.min():.3g}, max {dev.max():.3g})")
+            le_v, le_se, dev = max_relative_deviation(x, y, [lv.signal_se for lv in sel])
+            src = "the frame means' scatter" if signal_se is not None else "temporal noise / sqrt(N)"
+            note = (f"max |relative deviation| from a line fitted on 5-95 % of saturation (min {dev.min():.3g}, "
+                    f"max {dev.max():.3g}); SE: each level's signal SE ({src}) through the fit, at the extreme level")
+            if not math.isfinite(le_se):
+                note += " (SE not available: the levels' pixel and frame counts or frame means are not given)"
+            le = Estimate(le_v, le_se, "%", note)
+            if math.isfinite(le_se) and le_se > le_v:  # within the noise: how linear the data show it to be
+                le = Estimate.limit(le_v + 2 * le_se, "upper", "%", f"{le_v:.3g} ± {le_se:.2g} %, within the "
+                                    f"levels' noise: below the value + 2 SE; {note}")
         else:
             le = Estimate.na(f"{len(sel)} levels within 5-95 % of saturation (needs 3)", "%")
 

@@ -49,5 +49,6 @@ def apply(r):
         gain_dn_per_e=sane(r.gain_dn_per_e, "system gain K"), gain_e_per_dn=sane(r.gain_e_per_dn, "1/K"),
         conversion_gain_uv_per_e=sane(r.conversion_gain_uv_per_e, "conversion gain"),
         read_noise_dn=sane(r.read_noise_dn, "read noise"), read_noise_e=sane(r.read_noise_e, "read noise"),
-        sensitivity_threshold_e=sane(r.sensitivity_threshold_e, "sensitivity threshold"), qe=sane(r.qe, "QE"))
+        sensitivity_threshold_e=sane(r.sensitivity_threshold_e, "sensitivity threshold"), qe=sane(r.qe, "QE"),
+        linearity_error_pct=sane(r.linearity_error_pct, "linearity error"))
     return out

@@ -329,3 +329,4 @@ class PtcLevel:
     reason: str = ""
     clipped: bool = False  # evidence of saturation (clipped, collapsed or rolled off)
     decision_se: float = math.nan  # DN^2: the variance error the decisions used (``turnoff.decision_errors``)
+    signal_se: float = math.nan  # DN: the signal's SE (frame means' scatter, else the temporal noise / sqrt(N))

@@ -40,7 +40,7 @@ class ProgressModel(Observable):
     def stage_text(self) -> str:
         if not self.total:
             return IDLE_TEXT
-        text = f"{self.stage} of {self.total}"
+        text = f"{self.stage + 1} of {self.total}"  # a count; ``stage`` is the index (from 0, as in the files)
         return f"{text} ({self.stage_name})" if self.stage_name else text
 
     @property

@@ -58,7 +58,7 @@ def headline_key(label: str, component: str | None = None, unit: str | None = No
 
 
 # the unit each headline figure after the photon-transfer ones is stated in
-HEADLINE_UNITS = {"snr_max_emva": "", "dsnu_e": "e-", "dsnu_dn": "DN", "dsnu_all_e": "e-", "dsnu_all_dn": "DN",
+HEADLINE_UNITS = {"snr_max_emva": "", "snr_max": "", "dsnu_e": "e-", "dsnu_dn": "DN", "dsnu_all_e": "e-", "dsnu_all_dn": "DN",
                   "prnu_pct": "% rms", "prnu_all_pct": "% rms"}
 
 
@@ -260,7 +260,7 @@ class SessionModel:
         elif isinstance(ev, FramePreview):
             self.last_frame = ev.image
             what = "dark frame" if ev.dark else "frame"
-            self.preview.set_image(ev.image, f"stage {ev.stage - 1}, {what} {ev.frame} of {ev.frames}")
+            self.preview.set_image(ev.image, f"stage {ev.stage}, {what} {ev.frame} of {ev.frames}")
             self.preview.set_rectangles(self._drawn())
             self._update_distributions(ev.image)
             self.progress.update(frame=ev.frame, frames=ev.frames)
@@ -364,12 +364,12 @@ class SessionModel:
         if ev is None:
             self._refresh_result()
             return
-        caption = f"stage {ev.stage - 1}: {ev.name}"
+        caption = f"stage {ev.stage}: {ev.name}"
         self._maps()
         self.ptc.highlight(ev.stage)
         self._refresh_result()
         if ev.components:
-            self.components.set_stage(f"stage {ev.stage - 1}: {ev.name} ({ev.frames} frames)", ev.components)
+            self.components.set_stage(f"stage {ev.stage}: {ev.name} ({ev.frames} frames)", ev.components)
         if ev.defects is not None and ev.mean is not None:
             self.defects.set_counts(ev.defects, ev.mean.size, caption=caption)
 
@@ -377,7 +377,7 @@ class SessionModel:
         ev = self.last_result
         if ev is None:
             return
-        caption = f"stage {ev.stage - 1}: {ev.name}"
+        caption = f"stage {ev.stage}: {ev.name}"
         if ev.mean is None:
             caption += " (arrays dropped to bound memory; the run directory has them)"
         else:

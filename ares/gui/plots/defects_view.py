@@ -20,10 +20,14 @@ class DefectCountsView(QWidget):
         self.model = model
         self.run_dir, self.on_error = run_dir, on_error
         self.caption = QLabel()
+        self.caption.setWordWrap(True)  # a long list of stages must not widen the tab past 1280 x 800
         self.table = QTableWidget(0, len(self.HEADERS))
         self.table.setHorizontalHeaderLabels(self.HEADERS)
-        self.table.horizontalHeader().setSectionResizeMode(QHeaderView.ResizeMode.ResizeToContents)
-        self.table.horizontalHeader().setStretchLastSection(True)
+        head = self.table.horizontalHeader()
+        head.setSectionResizeMode(QHeaderView.ResizeMode.ResizeToContents)
+        # the criterion takes the room left (wrapped, its full text in the tooltip), never more
+        head.setSectionResizeMode(len(self.HEADERS) - 1, QHeaderView.ResizeMode.Stretch)
+        self.table.setWordWrap(True)
         self.table.setEditTriggers(QTableWidget.EditTrigger.NoEditTriggers)
         self.overlay = QCheckBox("Show the defect map on the images (colours as in the first column)")
         self.overlay.toggled.connect(model.set_overlay)

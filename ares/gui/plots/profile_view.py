@@ -18,7 +18,7 @@ class ProfilesView(QWidget):
         self.columns.setLabel("bottom", "column")
         self.rows.setLabel("bottom", "row")
         for p in (self.columns, self.rows):
-            p.setLabel("left", "mean signal", units="DN")
+            p.setLabel("left", "mean output (offset included)", units="DN")
             p.addLegend(offset=(-10, 10))
             plain_axes(p)
         lay = QVBoxLayout(self)
