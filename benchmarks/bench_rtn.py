@@ -67,7 +67,7 @@ def one(seed: int, frames: int) -> dict:
            "recall": hit[big].mean(), "precision": np.mean([i in true_set for i in found]) if found else 1.0,
            "calls": len(found), "candidates": px.candidates, "amp_med": np.median(np.abs(amp)),
            "amp_max": np.max(np.abs(amp)), "amp_5": np.mean(np.abs(amp) < 0.05),
-           "rn_inc": summ["read_noise_increase_pct"].value, "need3": summ["frames_needed"]["3x"]}
+           "rn_inc": summ["temporal_noise_increase_pct"].value, "need3": summ["frames_needed"]["3x"]}
     errs, pulls, rels, known = [], [], [], []
     for est, se, key, lev in ((px.dwell_low_frames, px.dwell_low_se, "rts_dwell_low_frames", 0),
                               (px.dwell_high_frames, px.dwell_high_se, "rts_dwell_high_frames", 1)):

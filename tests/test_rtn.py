@@ -44,7 +44,7 @@ def test_simulator_rts_found_with_amplitudes_and_dwells(sim):
                           (px.dwell_high_frames, px.dwell_high_se, ll["rts_dwell_high_frames"])):
         pull = (est[k] - true[big]) / se[k]
         assert np.all(np.abs(pull) < 4) and abs(np.mean(pull)) < 1
-    assert summ["rtn_pixels"] == len(found) and summ["read_noise_increase_pct"].value > 0
+    assert summ["rtn_pixels"] == len(found) and summ["temporal_noise_increase_pct"].value > 0
     assert summ["frames_needed"]["3x"] > 600  # dwell times to 10 % need more than these 600 frames
     # the pixels' own dwell SEs say the same: over 10 % for the median pixel, which needs more frames for it
     assert summ["dwell_se_median_pct"] > 10 and summ["dwell_frames_needed"] > 600
@@ -186,7 +186,7 @@ def test_the_windows_information_items():
 
     est = lambda v, se, u: {"value": v, "se": se, "unit": u, "verdict": "ok"}  # noqa: E731
     res = {"rtn": {"rtn_pixels": 47, "frames": 2000, "rtn_fraction": est(0.00287, 0.00042, ""),
-                   "read_noise_dn": est(0.9332, 0.0021, "DN"), "read_noise_without_rtn_dn": est(0.921, 0.0006, "DN")},
+                   "temporal_noise_dn": est(0.9332, 0.0021, "DN"), "temporal_noise_without_rtn_dn": est(0.921, 0.0006, "DN")},
            "dark_temperature": {"pixels": {"median_activation_ev": est(0.65, 0.0002, "eV"),
                                            "meyer_neldel_ev": est(0.0291, 0.0002, "eV"), "hot_by_activation": 13},
                                 "frame": {"doubling_c": est(11.84, 0.3, "C")}},

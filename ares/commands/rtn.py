@@ -194,13 +194,13 @@ def _print(s: dict, px, period) -> None:
     print(f"model              {s['model']}, margin {s['bic_margin']:g}")
     print(f"RTN pixels         {s['rtn_pixels']} ({s['rtn_fraction'].text()} of the pixels; {s['three_level']} with "
           "3 levels)")
-    print(f"read noise         {s['read_noise_dn'].text()} with them, {s['read_noise_without_rtn_dn'].text()} without: "
-          f"the RTN pixels raise it by {s['read_noise_increase_pct'].text(with_reason=True)}")
+    print(f"temporal noise     {s['temporal_noise_dn'].text()} with them, {s['temporal_noise_without_rtn_dn'].text()} without: "
+          f"the RTN pixels raise it by {s['temporal_noise_increase_pct'].text(with_reason=True)}")
     if s["rtn_pixels"]:
         import numpy as np
 
         print(f"amplitude          median {s['median_amplitude_dn'].text()} (within-level sigma "
-              f"{s['read_noise_sigma_dn']:.3g} DN)")
+              f"{s['within_level_sigma_dn']:.3g} DN)")
         dl, dh = s["frames_needed_dwell_frames"]
         print(f"dwell (median)     low {dl:.3g} frames, high {dh:.3g} frames{sec(dl, dh)}")
         need = s["dwell_frames_needed"]

@@ -119,14 +119,14 @@ def estimates(d: dict, prefix: str = "", depth: int = 0) -> list[tuple[str, dict
 
 def lowlight_items(scan_results: dict) -> dict[str, str]:
     """The low-light analyses' headline figures for the Information tab, as ``ares run`` words them:
-    RTN pixels and the read noise with and without them, the activation energy and doubling
+    RTN pixels and the pixels' temporal noise with and without them, the activation energy and doubling
     temperature, the Fe-55 gain per stage."""
     out = {}
     r = scan_results.get("rtn")
     if isinstance(r, dict) and "rtn_pixels" in r:
         out["RTN pixels"] = f"{r['rtn_pixels']} ({_fmt(r.get('rtn_fraction'))} of the pixels, {r.get('frames')} frames)"
-        out["read noise with / without RTN"] = (f"{_fmt(r.get('read_noise_dn'))} / "
-                                                f"{_fmt(r.get('read_noise_without_rtn_dn'))}")
+        out["pixel temporal noise with / without RTN"] = (f"{_fmt(r.get('temporal_noise_dn'))} / "
+                                                          f"{_fmt(r.get('temporal_noise_without_rtn_dn'))}")
     d = scan_results.get("dark_temperature")
     if isinstance(d, dict) and isinstance(d.get("pixels"), dict):
         px, fr = d["pixels"], d.get("frame") or {}

@@ -87,9 +87,9 @@ def dark_temperature_page(run, a: dict):
 # the RTN summary's figures by what they are: its noise is the pixels' temporal noise with the row and column
 # terms removed (sqrt of the pixel temporal variance Pt, ares.labels.COMPONENTS), not the dark noise sigma_y.dark
 RTN_LABELS = {"rtn_fraction": "RTN pixels / pixels",
-              "read_noise_dn": "pixel temporal noise sqrt(Pt), all pixels",
-              "read_noise_without_rtn_dn": "pixel temporal noise sqrt(Pt), RTN pixels left out",
-              "read_noise_increase_pct": "noise raised by the RTN pixels",
+              "temporal_noise_dn": "pixel temporal noise sqrt(Pt), all pixels",
+              "temporal_noise_without_rtn_dn": "pixel temporal noise sqrt(Pt), RTN pixels left out",
+              "temporal_noise_increase_pct": "noise raised by the RTN pixels",
               "median_amplitude_dn": "RTN amplitude (median)"}
 
 

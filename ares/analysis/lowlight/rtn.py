@@ -399,9 +399,9 @@ def summarize(px: RtnPixels, variance_map: np.ndarray, shape, frame_period_s: fl
         "rtn_fraction": Estimate(frac, math.sqrt(frac * (1 - frac) / npx) if npx else math.nan, "",
                                  "pixels with 2 or 3 levels by BIC / pixels"),
         "three_level": int(np.sum(px.n_levels == 3)),
-        "read_noise_dn": Estimate(rn_all, se_all, "DN", "rms temporal noise of every pixel (line terms removed)"),
-        "read_noise_without_rtn_dn": Estimate(rn_without, se_wo, "DN", "the same without the RTN pixels"),
-        "read_noise_increase_pct": _increase(var, is_rtn)
+        "temporal_noise_dn": Estimate(rn_all, se_all, "DN", "rms temporal noise of every pixel (line terms removed)"),
+        "temporal_noise_without_rtn_dn": Estimate(rn_without, se_wo, "DN", "the same without the RTN pixels"),
+        "temporal_noise_increase_pct": _increase(var, is_rtn)
         if math.isfinite(rn_without) and rn_without > 0 else Estimate.na("no pixel without RTN", "%"),
         "median_amplitude_dn": Estimate(float(np.median(px.amplitude_dn)), _median_se(px.amplitude_dn), "DN",
                                         "median over the RTN pixels") if n else Estimate.na("no RTN pixel", "DN"),
@@ -422,7 +422,7 @@ def summarize(px: RtnPixels, variance_map: np.ndarray, shape, frame_period_s: fl
     out.update(dwell_precision(px))
     out["frames_needed"] = {f"{a:g}x": frames_needed(a, dl, dh) for a in amplitude_sigmas}
     out["frames_needed_dwell_frames"] = (dl, dh)
-    out["read_noise_sigma_dn"] = sig
+    out["within_level_sigma_dn"] = sig
     if frame_period_s:
         out["frame_period_s"] = frame_period_s
     return out
