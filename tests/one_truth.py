@@ -163,8 +163,10 @@ def check_surfaces(name: str, run: Path, terminal: str) -> None:
         if key in by_name and by_name[key]["verdict"] == "ok":
             r = by_name[key]
             assert ptc_t[label] == Estimate(_num(r["value"]), _num(r["se"]), r["unit"]).text(), (name, key)
-        if f"PTC: {label}" in gui:
-            assert gui[f"PTC: {label}"] == ptc_t[label], (name, key)
+        from ares.gui.models.session import headline_key
+
+        if headline_key(label) in gui:
+            assert gui[headline_key(label)] == ptc_t[label], (name, key)
 
     # the decomposition: terminal, JSON, components.csv, the PDF's components page and the
     # window's Noise Components table state the same components

@@ -106,7 +106,7 @@ def _second_run(window, qtbot, job, first_info) -> None:
     assert not s.ptc.points and not s.components.views and not s.stages.results
     assert not s.sweep.points
     for k, v in first_info.items():  # the previous run's figures are gone from the Information tab
-        if k.startswith("PTC: ") or k in ("gain",):
+        if k.startswith("PTC") or k in ("gain",):
             assert s.info.items.get(k) != v, k
 
     qtbot.mouseClick(window.buttons.stop, Qt.MouseButton.LeftButton)

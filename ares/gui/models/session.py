@@ -48,13 +48,13 @@ RESULTS_S = 3.0
 
 def headline_key(label: str, component: str | None = None, unit: str | None = None) -> str:
     """The Information tab's name of a headline figure: ``PTC: <label>`` for a photon-transfer
-    figure of ``labels.PTC_FIGURES``, ``<name>, <unit>`` for the others of
+    figure of ``labels.PTC_FIGURES`` (the label alone where it already starts with "PTC"), ``<name>, <unit>`` for the others of
     ``labels.HEADLINE_FIGURES`` (DSNU in e- and in DN), ``<meaning> [<symbol>]`` for a component."""
     if component:
         return f"{label} [{component}]"
     if unit is not None:
         return f"{label}, {unit}" if unit else label
-    return f"PTC: {label}"
+    return label if label.startswith("PTC") else f"PTC: {label}"
 
 
 # the unit each headline figure after the photon-transfer ones is stated in
