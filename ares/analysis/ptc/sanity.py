@@ -6,7 +6,13 @@ PDF, GUI) shows the same verdict and reason (``stats.physical.sane``):
   at the first levels, not a sensor's charge capacity (a dynamic range below 26 dB);
 - a PTC turnoff below 5 % of the brightest level's signal: the curve was cut at its
   bottom;
-- any headline figure whose SE is larger than its value: not measured by these data.
+- any headline figure whose SE is larger than its value: not measured by these data;
+- a PTC turnoff (and the saturation capacity, the same level) that the levels' scatter
+  cannot identify within ``PRECISION`` (3 %): the plausible last levels on the curve
+  (``SaturationBracket.plausible_dn``) span more than that -- the value and its interval
+  are in the reason;
+- a charge (full well, saturation capacity, turnoff in e-) whose K, or own SE, is known
+  only to more than ``PRECISION`` / 3: 3 SE would exceed the 3 % a datasheet states it to.
 
 The dynamic range follows its saturation capacity. Pure: no I/O.
 """
@@ -21,6 +27,37 @@ from ares.analysis.stats.physical import sane
 
 FULL_WELL_MIN_READ_NOISES = 20.0
 TURNOFF_MIN_FRACTION = 0.05
+PRECISION = 0.03  # a headline turnoff or charge capacity is "ok" only when located to 3 % (at 3 SE)
+
+
+def _unlocated(r) -> str:
+    """Why the turnoff is not identified within ``PRECISION`` ('' when it is)."""
+    to, br = r.turnoff_dn, r.saturation
+    if not to.available or to.bound or br is None:
+        return ""
+    lo, hi = br.plausible_dn
+    if not (math.isfinite(lo) and math.isfinite(hi)) or to.value <= 0:
+        return ""
+    span = max(to.value - lo, hi - to.value) / to.value
+    if span <= PRECISION:
+        return ""
+    return (f"the levels' scatter places the last level on the curve only between {lo:.5g} and {hi:.5g} DN "
+            f"({to.value:.5g} most likely, {100 * span:.2g} % away): not located within {100 * PRECISION:g} %")
+
+
+def _imprecise(e: Estimate, what: str, k: Estimate, own_se: bool = False) -> Estimate:
+    """``e`` (a charge, e-) not available when K's relative SE -- or, with ``own_se``, its
+    own -- times 3 exceeds ``PRECISION``."""
+    if not e.available or e.bound:
+        return e
+    rel = k.se / k.value if k.available and math.isfinite(k.se) and k.value else 0.0
+    why = f"the system gain K is known only to ± {100 * rel:.2g} % here"
+    if own_se and math.isfinite(e.se) and e.value and e.se / abs(e.value) > rel:
+        rel, why = e.se / abs(e.value), f"it is known only to ± {100 * e.se / abs(e.value):.2g} % (SE)"
+    if 3 * rel <= PRECISION:
+        return e
+    return Estimate.na(f"{what} {e.text()}: {why}, so 3 SE exceed the {100 * PRECISION:g} % a charge capacity is "
+                       "stated to", e.unit)
 
 
 def apply(r):
@@ -36,6 +73,18 @@ def apply(r):
     to_dn = sane(r.turnoff_dn, "PTC turnoff", t_floor, t_why)
     to_e = r.turnoff_e if to_dn.available or not r.turnoff_e.available else Estimate.na(to_dn.note, "e-")
     to_e = sane(to_e, "PTC turnoff (charge)")
+    k = r.gain_dn_per_e
+    fw = {k_: _imprecise(v, f"full well ({k_})", k) for k_, v in fw.items()}
+    head = _imprecise(head, "full well", k)
+    to_e = _imprecise(to_e, "PTC turnoff (charge)", k)
+    unloc = _unlocated(r)
+    if unloc:
+        to_dn = Estimate.na(f"PTC turnoff {to_dn.text()}: {unloc}", "DN") if to_dn.available else to_dn
+        to_e = Estimate.na(to_dn.note, "e-") if to_e.available else to_e
+        sc = fw.get("saturation_capacity")
+        if sc is not None and sc.available:
+            fw["saturation_capacity"] = Estimate.na(f"saturation capacity {sc.text()} (the turnoff level): {unloc}",
+                                                    "e-")
     defs = dict(r.turnoff_definitions_dn)
     if "ptc_turnoff" in defs:
         defs["ptc_turnoff"] = to_dn

@@ -147,14 +147,15 @@ def _cum0(a: np.ndarray) -> np.ndarray:
 def ptc_turnoff(signal, var, var_se, **kw) -> int:
     """Number of levels, from the bottom of the signal-sorted input, that lie on the PTC
     (``ptc_turnoff_found``)."""
-    return ptc_turnoff_found(signal, var, var_se, **kw)[0]
+    return ptc_turnoff_found(signal, var, var_se, **kw).n_on
 
 
 def ptc_turnoff_found(signal, var, var_se, nsigma: float = 4.0, min_levels: int = 4, confirm: int = 3,
                       rel_floor: float = 0.02, collapse: float = 0.7, lookback: int = 5,
-                      flat_floor: float = 0.10) -> tuple[int, int]:
-    """(levels on the PTC from the bottom of the signal-sorted input, the level where the
-    departure was seen: the turnoff lies between the two -- its uncertainty).
+                      flat_floor: float = 0.10, window: float = 0.15) -> "TurnoffFound":
+    """Levels on the PTC from the bottom of the signal-sorted input, the level where the
+    departure was seen, and the levels that may be the last on the curve given the
+    scatter -- the turnoff's identification (``TurnoffFound``).
 
     The curve is followed from below and stops at the first significant departure: level
     ``i`` departs when its variance is below the curve fitted to the levels under it (a
@@ -177,7 +178,7 @@ def ptc_turnoff_found(signal, var, var_se, nsigma: float = 4.0, min_levels: int 
     e = np.maximum(np.asarray(var_se, float), 1e-300)
     n = s.size
     if n <= min_levels:
-        return n, n
+        return TurnoffFound(n, n, n - 1, n - 1)
     smax = float(np.max(np.abs(s))) or 1.0
     x = s / smax
     half = max(n // 2, 2)
@@ -230,31 +231,100 @@ def ptc_turnoff_found(signal, var, var_se, nsigma: float = 4.0, min_levels: int 
         if k:  # a repeated row (the same signal) is the same level, not a confirmation
             ok &= x[jj] > x[i]
         dep[:, k] = d & ok
+        if k == 0:  # a fall deeper than any flattening (1.5 x the floor): a turnover if confirmed
+            deep = d & (v[jj] - pred < -1.5 * flat_floor * np.abs(pred))
         valid[:, k] = ok
     n_after = valid[:, 1:].sum(1)
     hits = dep[:, 1:].sum(1)
     stop = dep[:, 0] & ((n_after == 0) | dep[:, 1] | (2 * hits >= n_after))
     first = np.flatnonzero(stop)
     if not first.size:
-        return n, n
+        return TurnoffFound(n, n, n - 1, n - 1)
     stop_i = int(i[first[0]])
-    # the departure is seen where it exceeds nsigma; a gradual roll-off began up to a few
-    # levels earlier. The curve rises up to its turnoff and falls after it, so the turnoff
-    # is the highest variance among the last ``lookback`` levels before the departure
+    # an earlier departure the next levels did not confirm (a dip, or the first fall of a
+    # curve that climbs a second hump): the turnoff may lie there too (its ambiguity)
+    unconf = np.flatnonzero(deep & ~stop & (i < stop_i))
     lo = max(min_levels, stop_i - lookback)
+    # (a roll-off seen at the departure began within ``window`` (15 %) of its signal: on a
+    # sparse curve the fit below extrapolates no further)
+    lo = max(lo, int(np.searchsorted(x, (1 - window) * x[stop_i])))
     if stop_i - lo < 1:
-        return stop_i, stop_i
-    # (a wild row above the curve -- > 10 % and nsigma above the fit below the window -- is not a peak)
-    k = np.arange(lo, stop_i)
+        return TurnoffFound(stop_i, stop_i, stop_i - 1, stop_i - 1)
+    # the departure is seen where it exceeds nsigma; a gradual roll-off began up to
+    # ``lookback`` levels earlier. Which of the levels lo-1 .. stop_i-1 is the last on the
+    # curve is a change-point choice (``_locate``) on their residuals from the curve fitted
+    # below the window -- in SE of the measured scatter and of the prediction, with a model
+    # floor (below) -- not the highest (noisy) variance
     q = lo - min_levels
+    k = np.arange(lo, stop_i + 1)
     A = np.stack([np.ones(k.size), x[k], x[k] ** 2], -1)
     pred = A @ coef[q] + np.polyval(ref, x[k])
     pse = np.sqrt(np.maximum(np.einsum("ki,ij,kj->k", A, cov[q], A), 0.0)) * scale[q]
-    above = np.maximum(nsigma * np.hypot(e[k] * scale[q], pse), flat_floor * np.abs(pred))
-    cand = np.where(v[k] - pred <= above, v[k], -np.inf)
-    if not np.isfinite(cand).any():
-        return stop_i, stop_i
-    return int(lo + int(np.argmax(cand)) + 1), stop_i
+    # the model floor: twice the relative misfit of the fit at its last levels below the
+    # window (a bend it does not follow), at most flat_floor / nsigma; 0 on a curve it follows
+    kb = np.arange(max(lo - 5, 0), lo)
+    Ab = np.stack([np.ones(kb.size), x[kb], x[kb] ** 2], -1)
+    fb = Ab @ coef[q] + np.polyval(ref, x[kb])
+    mis = float(np.sqrt(np.mean(((v[kb] - fb) / np.where(fb != 0, fb, 1.0)) ** 2))) if kb.size else 0.0
+    sig = np.hypot(np.hypot(e[k] * scale[q], pse), min(2 * mis, flat_floor / nsigma) * np.abs(pred))
+    # (a wild row above the curve -- > 10 % and nsigma above the fit below the window -- is on neither side)
+    wild = v[k] - pred > np.maximum(nsigma * np.hypot(e[k] * scale[q], pse), flat_floor * np.abs(pred))
+    best, a_lo, a_hi = _locate((v[k] - pred) / np.maximum(sig, 1e-300), wild)
+    t = lo + best
+    # the level found may itself lie just beyond the turnoff (a gentle roll-off's first
+    # level, not yet below the curve): any level before it whose variance the scatter
+    # cannot tell from its own (within ``PEAK_SE``) may be the peak
+    j = np.arange(max(lo - 1, 0), t)
+    same = (~wild[np.maximum(j - lo, 0)] | (j < lo)) & (v[j] >= v[t] - PEAK_SE * scale[q] * np.hypot(e[j], e[t]))
+    if same.any():
+        a_lo = min(a_lo, int(j[same][0]) - lo)
+    a_lo += lo
+    if unconf.size:  # the curve fell there and came back: the turnoff may be that fall
+        a_lo = min(a_lo, int(i[unconf[0]]) - 1)
+    return TurnoffFound(t + 1, stop_i, max(a_lo, 0), lo + a_hi)
+
+
+PEAK_SE = 0.5  # a level before it within 0.5 SE of its variance may be the peak (a roll-off's first level beyond it)
+
+
+OFF_PENALTY = 4.0  # chi-square cost of calling a level beyond the turnoff: it must lie > 2 SE below the curve
+PLAUSIBLE = 3.0  # a turnoff whose cost is within this of the best one's is plausible (likelihood ratio 0.22)
+
+
+def _locate(z, wild) -> tuple[int, int, int]:
+    """(the level -- position in the window -- most likely the last on the curve, and the
+    first and last plausible ones; -1: the level before the window). A change-point choice
+    on ``z``, each level's residual from the curve fitted below the window in SE (the last
+    is the departure): the turnoff is level t when the levels up to t follow the curve (cost
+    z^2 each) and those after it lie below it by an unknown amount (cost ``OFF_PENALTY``
+    each, plus z^2 where above it): a level is called beyond only when it is > 2 SE below,
+    and the turnoff is doubtful (another t plausible within ``PLAUSIBLE``) when the last
+    level kept is > 1 SE below the curve or the first dropped < 2.6 SE below. Rows above
+    the curve (``wild``) belong to neither."""
+    z = np.asarray(z, float)
+    wild = np.asarray(wild, bool)
+    m = z.size - 1
+    on = np.where(wild, 0.0, z * z)
+    off = np.where(wild, 0.0, OFF_PENALTY + np.maximum(z, 0.0) ** 2)
+    c_on = np.concatenate([[0.0], np.cumsum(on[:m])])
+    c_off = np.concatenate([[0.0], np.cumsum(off[:m][::-1])])[::-1]
+    cost = np.where(np.concatenate([[True], ~wild[:m]]), c_on + c_off, np.inf)  # a wild row is no turnoff
+    best = int(np.argmin(cost))
+    plaus = np.flatnonzero(cost <= cost[best] + PLAUSIBLE)
+    return best - 1, int(plaus[0]) - 1, int(plaus[-1]) - 1
+
+
+@dataclass(frozen=True)
+class TurnoffFound:
+    """``ptc_turnoff_found``'s answer (indices into the signal-sorted input)."""
+
+    n_on: int  # levels on the curve: the turnoff is level n_on - 1
+    seen: int  # the level where the departure was seen (n: none)
+    amb_lo: int  # the levels that may be the last on the curve, given the scatter: amb_lo .. amb_hi
+    amb_hi: int
+
+    def __iter__(self):  # (n_on, seen), as before
+        return iter((self.n_on, self.seen))
 
 
 def lsst_pivot(var, min_var: float = 0.0, consecutive: int = 2) -> int:
