@@ -269,7 +269,7 @@ def ptc_turnoff_found(signal, var, var_se, nsigma: float = 4.0, min_levels: int 
     sig = np.hypot(np.hypot(e[k] * scale[q], pse), min(2 * mis, flat_floor / nsigma) * np.abs(pred))
     # (a wild row above the curve -- > 10 % and nsigma above the fit below the window -- is on neither side)
     wild = v[k] - pred > np.maximum(nsigma * np.hypot(e[k] * scale[q], pse), flat_floor * np.abs(pred))
-    best, a_lo, a_hi = _locate((v[k] - pred) / np.maximum(sig, 1e-300), wild)
+    best, a_lo, a_hi = _locate((v[k] - pred) / np.maximum(sig, 1e-300), wild, x[lo - 1:stop_i + 1])
     t = lo + best
     # the level found may itself lie just beyond the turnoff (a gentle roll-off's first
     # level, not yet below the curve): any level before it whose variance the scatter
@@ -287,33 +287,6 @@ def ptc_turnoff_found(signal, var, var_se, nsigma: float = 4.0, min_levels: int 
 PEAK_SE = 0.5  # a level before it within 0.5 SE of its variance may be the peak (a roll-off's first level beyond it)
 
 
-OFF_PENALTY = 4.0  # chi-square cost of calling a level beyond the turnoff: it must lie > 2 SE below the curve
-PLAUSIBLE = 3.0  # a turnoff whose cost is within this of the best one's is plausible (likelihood ratio 0.22)
-
-
-def _locate(z, wild) -> tuple[int, int, int]:
-    """(the level -- position in the window -- most likely the last on the curve, and the
-    first and last plausible ones; -1: the level before the window). A change-point choice
-    on ``z``, each level's residual from the curve fitted below the window in SE (the last
-    is the departure): the turnoff is level t when the levels up to t follow the curve (cost
-    z^2 each) and those after it lie below it by an unknown amount (cost ``OFF_PENALTY``
-    each, plus z^2 where above it): a level is called beyond only when it is > 2 SE below,
-    and the turnoff is doubtful (another t plausible within ``PLAUSIBLE``) when the last
-    level kept is > 1 SE below the curve or the first dropped < 2.6 SE below. Rows above
-    the curve (``wild``) belong to neither."""
-    z = np.asarray(z, float)
-    wild = np.asarray(wild, bool)
-    m = z.size - 1
-    on = np.where(wild, 0.0, z * z)
-    off = np.where(wild, 0.0, OFF_PENALTY + np.maximum(z, 0.0) ** 2)
-    c_on = np.concatenate([[0.0], np.cumsum(on[:m])])
-    c_off = np.concatenate([[0.0], np.cumsum(off[:m][::-1])])[::-1]
-    cost = np.where(np.concatenate([[True], ~wild[:m]]), c_on + c_off, np.inf)  # a wild row is no turnoff
-    best = int(np.argmin(cost))
-    plaus = np.flatnonzero(cost <= cost[best] + PLAUSIBLE)
-    return best - 1, int(plaus[0]) - 1, int(plaus[-1]) - 1
-
-
 @dataclass(frozen=True)
 class TurnoffFound:
     """``ptc_turnoff_found``'s answer (indices into the signal-sorted input)."""
@@ -325,6 +298,122 @@ class TurnoffFound:
 
     def __iter__(self):  # (n_on, seen), as before
         return iter((self.n_on, self.seen))
+@dataclass(frozen=True)
+class RampTurnoff:
+    index: int  # input index of the turnoff level (-1: none)
+    turnoff: float  # signal at the turnoff (the input's unit)
+    max_signal: float
+    reached: bool  # a level beyond the turnoff deviates (else the turnoff is the brightest level)
+    slope: float
+    note: str
+
+
+def ramp_turnoff(x, y, min_signal: float = 1000.0, tol: float = 0.01, mask=None) -> RampTurnoff:
+    """Linearity turnoff and maximum signal of a ramp: signal ``y`` against an illumination
+    ``x`` (exposure time or photodiode charge), in any order (see the module docstring).
+    ``mask``: levels known to be below saturation for the initial line (default: all)."""
+    x = np.asarray(x, float)
+    y = np.asarray(y, float)
+    fin = np.isfinite(x) & np.isfinite(y) & (x > 0) & (y > 0)
+    if fin.sum() < 4:
+        return RampTurnoff(-1, math.nan, math.nan, False, math.nan,
+                           f"{int(fin.sum())} usable levels: a ramp needs >= 4 with positive illumination and signal")
+    floor = min_signal if (y[fin] >= min_signal).sum() >= 4 else 0.0
+    fit = fin & (y >= floor)
+    if mask is not None:
+        fit &= np.asarray(mask, bool)
+    if fit.sum() < 4:
+        fit = fin
+    order = np.flatnonzero(fin)[np.argsort(x[fin], kind="stable")]
+    for _ in range(int(fit.sum())):
+        slope = float(np.sum(x[fit]) / np.sum(x[fit] ** 2 / y[fit]))  # chi2 line through 0, variance = signal
+        r = np.full(y.size, math.nan)
+        r[fin] = (y[fin] - slope * x[fin]) / y[fin]
+        r -= float(fast_median(r[fit]))
+        bad = np.abs(r) >= tol
+        last = -1
+        for k, i in enumerate(order):
+            if y[i] < floor:
+                continue
+            if bad[i] and (k + 1 == order.size or bad[order[k + 1]]):
+                break
+            last = int(i)
+        if last >= 0 and (np.abs(r[fit]) < tol).sum() > 4:
+            break
+        worst = np.flatnonzero(fit)[np.argmax(np.abs(r[fit]))]  # a bad initial line: drop its worst level
+        fit[worst] = False
+        if fit.sum() < 4:
+            break
+    if last < 0:
+        return RampTurnoff(-1, math.nan, math.nan, False, math.nan,
+                           "no line through the origin describes the ramp within 1 %")
+    ymax = float(np.max(y[fin]))
+    reached = bool(y[last] < ymax and (x[fin] > x[last]).any())
+    top = fin & (y > (1 - tol) * ymax)
+    mx = float(fast_median(y[top])) if reached else float(y[last])
+    note = (f"linearity turnoff (LSST cp_pipe cpLinearitySolve rule): last level before the first two deviating "
+            f"> {100 * tol:g} % from a line through the origin fitted above {floor:g}; maximum signal: median of "
+            f"the levels within {100 * tol:g} % of the brightest")
+    if not reached:
+        note = "no level deviates beyond the turnoff: the ramp does not reach saturation (a lower limit)"
+    return RampTurnoff(last, float(y[last]), mx, reached, slope, note)
+
+
+PLAUSIBLE = 3.0  # a turnoff whose cost (-2 log likelihood) is within this of the best one's is plausible (ratio 0.22)
+
+
+def _phi_cdf(u: float) -> float:
+    return 0.5 * (1.0 + math.erf(u / math.sqrt(2.0)))
+
+
+def _locate(z, wild, xs) -> tuple[int, int, int]:
+    """(the level -- position in the window -- most likely the last on the curve, and the
+    first and last plausible ones; -1: the level before the window). A change-point choice
+    on ``z``, each level's residual from the curve fitted below the window in SE (the last
+    is the departure), at signals ``xs`` (one more at the front: the level before the
+    window). The turnoff is level t when the levels up to t follow the curve (z ~ N(0, 1))
+    and those after it have rolled off: the curve turns somewhere between level t and the
+    next, and falls to the departure's depth, so a level beyond lies below the curve by an
+    amount uniform between 0 and the depth a straight roll-off from level t would give it,
+    plus its noise. A level barely below the curve just before a deep departure is then
+    unlikely to be beyond (a clip), one on a gentle roll-off is doubtful; every t within
+    ``PLAUSIBLE`` of the best is plausible (and under the one-sided model below, which
+    picks the level). Rows above the curve (``wild``) belong to neither."""
+    z = np.asarray(z, float)
+    wild = np.asarray(wild, bool)
+    xs = np.asarray(xs, float)
+    m = z.size - 1
+    on = np.where(wild, 0.0, z * z + math.log(2 * math.pi))
+    cost = np.full(m + 1, np.inf)
+    for t in range(-1, m):
+        if t >= 0 and wild[t]:
+            continue  # a wild row is no turnoff
+        c = float(np.sum(on[:t + 1]))
+        x0, span = xs[t + 1], xs[-1] - xs[t + 1]
+        for j in range(t + 1, m):
+            if wild[j]:
+                continue
+            depth = min(float(z[-1]), 0.0) * (xs[j + 1] - x0) / span if span > 0 else 0.0
+            if depth > -0.5:  # no room to fall: beyond or not, it sits on the curve
+                c += on[j]
+                continue
+            p = (_phi_cdf(z[j] - depth) - _phi_cdf(z[j])) / -depth
+            c += -2.0 * math.log(max(p, 1e-300))
+        cost[t + 1] = c
+    # the same choice where a level beyond lies > 2 SE below the curve (cost OFF_PENALTY
+    # each, plus z^2 above it) whatever the departure's depth: the most likely turnoff, and
+    # a turnoff is plausible only where both models allow it
+    one = np.where(wild, 0.0, OFF_PENALTY + np.maximum(z, 0.0) ** 2)
+    c_on = np.concatenate([[0.0], np.cumsum(np.where(wild, 0.0, z * z)[:m])])
+    c_off = np.concatenate([[0.0], np.cumsum(one[:m][::-1])])[::-1]
+    cost1 = np.where(np.isfinite(cost), c_on + c_off, np.inf)
+    best = int(np.argmin(cost1))
+    plaus = np.flatnonzero(((cost1 <= cost1[best] + PLAUSIBLE) & (cost <= np.min(cost) + PLAUSIBLE))
+                           | (np.arange(m + 1) == best))
+    return best - 1, int(plaus[0]) - 1, int(plaus[-1]) - 1
+
+
+OFF_PENALTY = 4.0  # a level is called beyond the turnoff (one-sided model) only when > 2 SE below the curve
 
 
 def lsst_pivot(var, min_var: float = 0.0, consecutive: int = 2) -> int:
