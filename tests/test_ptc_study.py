@@ -9,7 +9,8 @@
 
 The issue's corpus targets (gain 99 %, turnoff and full well 98 %) are stated beside the
 floors asserted here: the floors are what the analysis measurably reaches (a regression
-guard), the gap is reported in ``benchmarks/ptc_corpus.md``, not hidden."""
+guard), the gap is reported in ``benchmarks/ptc_corpus.md``, not hidden. The corpus runs
+twice: the seed the analysis was developed on and a held-out one."""
 
 from __future__ import annotations
 
@@ -24,10 +25,18 @@ N_CORPUS = 2000
 ROOT = Path(__file__).resolve().parents[1]
 
 
-@pytest.fixture(scope="module")
-def corpus(tmp_path_factory):
+@pytest.fixture(scope="module", params=[0, 1], ids=["seed0", "heldout1"])
+def corpus(request, tmp_path_factory):
+    """The corpus the analysis was developed on (seed 0) and a held-out one (seed 1)."""
     tmp = tmp_path_factory.mktemp("corpus")
-    return [(case(i), *run_case(case(i), tmp)) for i in range(N_CORPUS)]
+    return [(c, *run_case(c, tmp)) for c in (case(i, request.param) for i in range(N_CORPUS))]
+
+
+def _wrong_ok(corpus, key, truth_key):
+    ok = [(c, d) for c, d, _ in corpus if d[key]["verdict"] == "ok"]
+    wrong = [(c.i, d[key]["value"], c.truth[truth_key]) for c, d in ok
+             if abs(d[key]["value"] - c.truth[truth_key]) > 0.03 * c.truth[truth_key]]
+    return len(ok), wrong
 
 
 def test_full_corpus(corpus):
@@ -37,14 +46,24 @@ def test_full_corpus(corpus):
     absurd = [(c.i, j["absurd"]) for c, _, j in corpus if j["absurd"]]
     assert not absurd, absurd[:10]
     assert gain >= 0.98, gain  # target 0.99
-    assert turnoff >= 0.88, turnoff  # target 0.98 (benchmarks/ptc_corpus.md: what is missing, by stratum)
+    # target 0.98; measured 76 % (seed 0) and 77 % (held out): the rest is "not available"
+    # with the interval, the noisy curves (benchmarks/ptc_corpus.md)
+    assert turnoff >= 0.70, turnoff
+
+
+def test_full_corpus_never_a_wrong_ok(corpus):
+    """Measured: 18 of 1544 "ok" turnoffs off by > 3 % (seed 0), 10 of 1150 saturation
+    capacities; held out similar -- ~1 %, was 142 of 1994 and 322 of 1994."""
+    for key, truth_key in (("turnoff_dn", "turnoff_dn"), ("saturation_capacity_e", "sat_e")):
+        n_ok, wrong = _wrong_ok(corpus, key, truth_key)
+        assert len(wrong) <= 0.02 * n_ok, (key, n_ok, wrong[:10])
 
 
 def test_full_corpus_exact_and_low_noise_curves_meet_the_targets(corpus):
     low = [(c, j) for c, _, j in corpus if c.params["noise"] <= 0.01]
     n = len(low)
     assert sum(j["gain"] for _, j in low) / n >= 0.98
-    assert sum(j["turnoff"] for _, j in low) / n >= 0.98
+    assert sum(j["turnoff"] for _, j in low) / n >= 0.95  # measured 97 %
 
 
 @pytest.mark.parametrize("frames", [2, 4, 8, 16, 64])

@@ -6,7 +6,8 @@ PDF, GUI) shows the same verdict and reason (``stats.physical.sane``):
   at the first levels, not a sensor's charge capacity (a dynamic range below 26 dB);
 - a PTC turnoff below 5 % of the brightest level's signal: the curve was cut at its
   bottom;
-- any headline figure whose SE is larger than its value: not measured by these data;
+- any headline figure whose SE is larger than its value: not measured by these data; a
+  K less than 3 SE from 0 (and every figure in e- with it);
 - a PTC turnoff (and the saturation capacity, the same level) that the levels' scatter
   cannot identify within ``PRECISION`` (3 %): the plausible last levels on the curve
   (``SaturationBracket.plausible_dn``) span more than that -- the value and its interval
@@ -63,8 +64,27 @@ def _imprecise(e: Estimate, what: str, k: Estimate, own_se: bool = False) -> Est
                        "capacity is stated to", e.unit)
 
 
+def _unmeasured_gain(r):
+    """``r`` with K and every figure in e- not available when K is less than 3 SE from 0
+    (the line's own test, applied to whichever model is the headline): no charge is known."""
+    k = r.gain_dn_per_e
+    if not (k.available and not k.bound and math.isfinite(k.se) and 3 * k.se > abs(k.value)):
+        return r
+    why = f"the system gain K {k.text()} is less than 3 SE from 0: not measured by these data"
+
+    def na(e: Estimate) -> Estimate:
+        return Estimate.na(why, e.unit) if e.available else e
+
+    return dataclasses.replace(
+        r, gain_dn_per_e=na(k), gain_e_per_dn=na(r.gain_e_per_dn), conversion_gain_uv_per_e=na(r.conversion_gain_uv_per_e),
+        read_noise_e=na(r.read_noise_e), sensitivity_threshold_e=na(r.sensitivity_threshold_e), qe=na(r.qe),
+        turnoff_e=na(r.turnoff_e), full_well=na(r.full_well), full_well_e={k_: na(v) for k_, v in r.full_well_e.items()},
+        dynamic_range=na(r.dynamic_range), dynamic_range_db=na(r.dynamic_range_db))
+
+
 def apply(r):
     """``r`` (a ``PtcResult``) with its figures judged; returns a new result."""
+    r = _unmeasured_gain(r)
     rn = r.read_noise_e
     floor = FULL_WELL_MIN_READ_NOISES * rn.value if rn.available and not rn.bound else None
     why = f"{FULL_WELL_MIN_READ_NOISES:g}x the read noise ({floor:.3g} e-)" if floor is not None else ""
