@@ -310,7 +310,7 @@ def local_slope_check_text(s, v, k: float, s_sat: float, limit: float = 0.03,
                                              f"{P} equal intervals up to saturation): the linear model {verdict}", P)
 
 
-def local_slope_check(s, v, v_se, k: float, limit: float = 0.03) -> LocalSlopeCheck:
+def local_slope_check(s, v, v_se, k: float, limit: float = 0.03, errors_name: str = "counts' errors") -> LocalSlopeCheck:
     """ARES's variant of Eq. 51 (option ``eq51_noise_floor``, beyond the text): local slopes ``K_i`` of a weighted cubic B-spline regression of ``V`` vs ``S``
     (interior knots at signal quantiles, one per four levels, at most three: a smoothing
     regression, not an interpolation) at every fitted level, against the fitted ``K``.
@@ -319,7 +319,8 @@ def local_slope_check(s, v, v_se, k: float, limit: float = 0.03) -> LocalSlopeCh
     (from pixel and frame counts; NaN or None where none are known) are checked against the
     residual scatter about a local quadratic (``stats.scatter.measured_scatter``); where
     the two disagree -- or no errors are known -- the measured scatter sets the errors,
-    hence the noise floor of the local slopes, and the note says so."""
+    hence the noise floor of the local slopes, and the note says so. ``errors_name`` names
+    where ``v_se`` came from (the counts, or the decisions' measured-scatter errors)."""
     from ares.analysis.stats.scatter import measured_scatter
 
     s = np.asarray(s, float)
@@ -337,12 +338,12 @@ def local_slope_check(s, v, v_se, k: float, limit: float = 0.03) -> LocalSlopeCh
     if sc.available and sc.ratio > 0 and (sc.disagree or not known):
         e = e * sc.ratio
         errs = (f"errors from the measured scatter about a local quadratic ({sc.ratio:.3g} x the "
-                + ("counts' errors" if known else "variance") + f", {sc.n} levels)")
+                + (errors_name if known else "variance") + f", {sc.n} levels)")
     elif sc.available and sc.ratio == 0:  # exact levels: the floor is ~0 and the deviation alone decides
         e = np.maximum(e * 1e-9, 1e-300)
         errs = "the levels lie on a smooth curve to rounding: no scatter to measure"
     elif known:
-        errs = ("errors from the counts, " + (f"consistent with the measured scatter ({sc.ratio:.3g} ± "
+        errs = (f"errors: the {errors_name}, " + (f"consistent with the measured scatter ({sc.ratio:.3g} ± "
                                                f"{sc.ratio_se:.2g} x, {sc.n} levels)" if sc.available else
                                                f"unchecked: {sc.note}"))
     else:

@@ -348,7 +348,9 @@ def analyze_ptc(bright: Sequence[LevelStats], dark: Sequence[LevelStats], *, exp
     gain, k_wls, k_org, k_ast, gm = _gain_estimates(fit, fit_note, de.source)
     # decided on the errors the turnoff used (the measured scatter where it disagrees with the counts)
     lin = local_slope_check([lv.signal for lv in fit], [lv.variance for lv in fit],
-                            None if de.source == "none" else [lv.decision_se for lv in fit], k_wls.value)
+                            None if de.source == "none" else [lv.decision_se for lv in fit], k_wls.value,
+                            errors_name="counts' errors" if de.source == "counts" else
+                            "measured-scatter errors the turnoff used")
     e_per_dn = _inv(gain, "e-/DN", "1/K")
     if adc_lsb_uv is not None and gain.available:
         cg = Estimate(gain.value * adc_lsb_uv / analog_gain, gain.se * adc_lsb_uv / analog_gain, "uV/e-",

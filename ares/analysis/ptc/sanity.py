@@ -97,7 +97,8 @@ def apply(r):
     to_e = r.turnoff_e if to_dn.available or not r.turnoff_e.available else Estimate.na(to_dn.note, "e-")
     to_e = sane(to_e, "PTC turnoff (charge)")
     k = r.gain_dn_per_e
-    fw = {k_: _imprecise(v, f"full well ({k_})", k) for k_, v in fw.items()}
+    fw = {k_: _imprecise(v, "saturation capacity" if k_ == "saturation_capacity" else f"full well ({k_})", k)
+          for k_, v in fw.items()}
     head = _imprecise(head, "full well", k)
     to_e = _imprecise(to_e, "PTC turnoff (charge)", k)
     unloc = _unlocated(r)
