@@ -168,7 +168,9 @@ def ptc_turnoff_found(signal, var, var_se, nsigma: float = 4.0, min_levels: int 
     decreases) or at least half of the next ``confirm`` levels do (or it is the last
     level). Among the first quarter of the levels a departure counts only where the
     variance truly collapses (below ``collapse`` of the highest under it): a curve does not
-    end at its first levels on a few standard errors. Whatever lies beyond the first
+    end at its first levels on a few standard errors. Which of the last levels before the
+    departure is the last on the curve, and which others the scatter leaves plausible, is a
+    change-point choice (``_locate``). Whatever lies beyond the first
     departure -- an outlier row, an upturn, a second hump -- cannot move it. ``var_se``
     must describe the levels' scatter (``decision_errors``). Inputs sorted by signal, free
     of clipped or empty levels. Linear in the levels: the prefix fits come from running
@@ -249,7 +251,8 @@ def ptc_turnoff_found(signal, var, var_se, nsigma: float = 4.0, min_levels: int 
     # sparse curve the fit below extrapolates no further)
     lo = max(lo, int(np.searchsorted(x, (1 - window) * x[stop_i])))
     if stop_i - lo < 1:
-        return TurnoffFound(stop_i, stop_i, stop_i - 1, stop_i - 1)
+        return TurnoffFound(stop_i, stop_i, max(min(stop_i - 1, int(i[unconf[0]]) - 1 if unconf.size else n), 0),
+                            stop_i - 1)
     # the departure is seen where it exceeds nsigma; a gradual roll-off began up to
     # ``lookback`` levels earlier. Which of the levels lo-1 .. stop_i-1 is the last on the
     # curve is a change-point choice (``_locate``) on their residuals from the curve fitted
