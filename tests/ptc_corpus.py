@@ -65,8 +65,10 @@ def _curve_e(mu_e, a00):
     return mu_e.copy() if a00 == 0 else np.expm1(2 * a00 * mu_e) / (2 * a00)
 
 
-def case(i: int) -> Case:
-    rng = np.random.default_rng(1_000_003 * (i + 1))
+def case(i: int, seed: int = 0) -> Case:
+    """Curve ``i`` of the corpus ``seed`` (0: the corpus the analysis was developed on;
+    any other: a held-out corpus of the same family)."""
+    rng = np.random.default_rng(1_000_003 * (i + 1) if seed == 0 else [seed, i])
     shape = SHAPES[i % len(SHAPES)]
     n = int(round(math.exp(rng.uniform(math.log(8), math.log(400)))))
     K = math.exp(rng.uniform(math.log(0.1), math.log(10)))
@@ -155,7 +157,7 @@ def case(i: int) -> Case:
     if rng.random() < 0.3:
         rows = [rows[j] for j in rng.permutation(len(rows))]
     params = dict(shape=shape, levels=n, K=K, a00=a00, fw_e=fw, rn_e=rn, noise=noise, frames=frames,
-                  counts=counts, misstate=float(misstate), dark=dark, log_spacing=log_spacing)
+                  counts=counts, misstate=float(misstate), dark=dark, log_spacing=log_spacing, seed=seed)
     return Case(i, params, header, rows, truth)
 
 

@@ -114,6 +114,25 @@ def test_counts_that_overstate_the_precision_lose_to_the_scatter_and_the_result_
     assert de.source == "counts"
 
 
+def test_linearity_verdict_decides_on_the_measured_scatter():
+    """A straight PTC with 5 % per-level scatter whose counts claim 0.5 %: its local slopes
+    scatter 3.6 % about K, which the counts' errors call non-linear; the measured scatter
+    (14x the claimed) sets the noise floor, the linear model holds, and the note says so."""
+    from ares.analysis.ptc.fit import local_slope_check
+
+    S = np.geomspace(100, 5e4, 40)
+    V = 0.5 * S + 20
+    Vm = V * (1 + 0.05 * np.random.default_rng(4).standard_normal(S.size))
+    r = local_slope_check(S, Vm, 0.005 * V, 0.5)
+    assert r.mean_rel_dev > 0.03 and r.holds is True, r
+    assert "errors from the measured scatter" in r.note and "counts' errors" in r.note, r.note
+    r = local_slope_check(S, Vm, None, 0.5)  # no errors at all: the measured scatter alone
+    assert r.holds is True and "x the variance" in r.note, r.note
+    bent = 0.5 * S * (1 - S / 2e5)  # a real 12 % flattening is still seen
+    r = local_slope_check(S, bent * (1 + 0.003 * np.random.default_rng(1).standard_normal(S.size)), 0.003 * bent, 0.5)
+    assert r.holds is False, r
+
+
 # ------------------------------------------------------------------ the turnoff
 
 def test_turnoff_is_linear_prefix_fit_equivalent_on_a_clean_curve():
@@ -223,8 +242,26 @@ def test_corpus_subset_rates_and_no_absurd_ok(subset):
     # measured on this subset (see benchmarks/ptc_corpus.md for the full corpus and the
     # issue's targets, 99 % and 98 %, which these floors are below)
     assert gain >= 0.90, gain
-    assert turnoff >= 0.85, turnoff
+    assert turnoff >= 0.70, turnoff
     assert not absurd, absurd
+
+
+def _wrong_ok(subset, key, truth_key):
+    return [(c.i, d[key]["value"], c.truth[truth_key]) for c, d, _ in subset if d[key]["verdict"] == "ok"
+            and abs(d[key]["value"] - c.truth[truth_key]) > 0.03 * c.truth[truth_key]]
+
+
+def test_corpus_subset_never_a_wrong_ok_turnoff_or_saturation_capacity(subset):
+    """A turnoff the scatter cannot identify within 3 %, or a charge whose K is not known to
+    1 %, is "not available" with the interval in the reason, never a wrong "ok" (issue 48;
+    the full corpus: benchmarks/ptc_corpus.md, ~1 % of the "ok" turnoffs off)."""
+    assert len(_wrong_ok(subset, "turnoff_dn", "turnoff_dn")) <= 1, _wrong_ok(subset, "turnoff_dn", "turnoff_dn")
+    assert len(_wrong_ok(subset, "saturation_capacity_e", "sat_e")) <= 1
+    unloc = [d["turnoff_dn"]["note"] for _, d, _ in subset if d["turnoff_dn"]["verdict"] == "not available"]
+    assert unloc and all("DN" in u for u in unloc)
+    assert any("not located within 3 %" in u for u in unloc), unloc[:3]
+    ok = sum(d["turnoff_dn"]["verdict"] == "ok" for _, d, _ in subset)
+    assert ok >= 0.6 * len(subset), ok  # honest, not silent: most turnoffs are still located
 
 
 def test_corpus_subset_every_figure_has_a_verdict_and_a_reason(subset):

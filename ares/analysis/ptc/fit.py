@@ -313,18 +313,46 @@ def local_slope_check_text(s, v, k: float, s_sat: float, limit: float = 0.03,
                                              f"{P} equal intervals up to saturation): the linear model {verdict}", P)
 
 
-def local_slope_check(s, v, v_se, k: float, limit: float = 0.03) -> LocalSlopeCheck:
+def local_slope_check(s, v, v_se, k: float, limit: float = 0.03, errors_name: str = "counts' errors") -> LocalSlopeCheck:
     """ARES's variant of Eq. 51 (option ``eq51_noise_floor``, beyond the text): local slopes ``K_i`` of a weighted cubic B-spline regression of ``V`` vs ``S``
     (interior knots at signal quantiles, one per four levels, at most three: a smoothing
-    regression, not an interpolation) at every fitted level, against the fitted ``K``."""
+    regression, not an interpolation) at every fitted level, against the fitted ``K``.
+
+    The verdict is decided on the levels' measured scatter (issue 48): the errors ``v_se``
+    (from pixel and frame counts; NaN or None where none are known) are checked against the
+    residual scatter about a local quadratic (``stats.scatter.measured_scatter``); where
+    the two disagree -- or no errors are known -- the measured scatter sets the errors,
+    hence the noise floor of the local slopes, and the note says so. ``errors_name`` names
+    where ``v_se`` came from (the counts, or the decisions' measured-scatter errors)."""
+    from ares.analysis.stats.scatter import measured_scatter
+
     s = np.asarray(s, float)
     v = np.asarray(v, float)
-    e = np.maximum(np.asarray(v_se, float), 1e-300)
     n = s.size
+    e = np.full(n, math.nan) if v_se is None else np.asarray(v_se, float)
     if n < 5 or not math.isfinite(k) or k == 0:
         return LocalSlopeCheck(math.nan, None, f"needs >= 5 fitted levels and a gain (has {n})")
     o = np.argsort(s)
     s, v, e = s[o], v[o], e[o]
+    known = bool(np.all(np.isfinite(e) & (e > 0)))
+    if not known:  # a relative scale until the scatter says how large
+        e = np.maximum(np.abs(v), 1e-300)
+    sc = measured_scatter(s, v, e)
+    if sc.available and sc.ratio > 0 and (sc.disagree or not known):
+        e = e * sc.ratio
+        errs = (f"errors from the measured scatter about a local quadratic ({sc.ratio:.3g} x the "
+                + (errors_name if known else "variance") + f", {sc.n} levels)")
+    elif sc.available and sc.ratio == 0:  # exact levels: the floor is ~0 and the deviation alone decides
+        e = np.maximum(e * 1e-9, 1e-300)
+        errs = "the levels lie on a smooth curve to rounding: no scatter to measure"
+    elif known:
+        errs = (f"errors: the {errors_name}, " + (f"consistent with the measured scatter ({sc.ratio:.3g} ± "
+                                               f"{sc.ratio_se:.2g} x, {sc.n} levels)" if sc.available else
+                                               f"unchecked: {sc.note}"))
+    else:
+        return LocalSlopeCheck(math.nan, None, f"no variance errors are known and {n} levels are too few to measure "
+                                               "their scatter: see Eq. 51 as written")
+    e = np.maximum(e, 1e-300)
     m = min(max((n - 4) // 4, 0), 3)
     inner = list(sorted_quantiles(s, np.linspace(0, 1, m + 2)[1:-1])) if m else []
     t = np.r_[[s[0]] * 4, inner, [s[-1]] * 4]
@@ -343,19 +371,21 @@ def local_slope_check(s, v, v_se, k: float, limit: float = 0.03) -> LocalSlopeCh
     # error bars (E|N(0, se)| = se sqrt(2/pi)), from the regression's coefficient covariance
     se_k = np.sqrt(np.maximum(np.einsum("ij,jk,ik->i", D, cov, D), 0.0))
     floor = float(np.mean(se_k) * math.sqrt(2 / math.pi) / abs(k))
-    excess = dev - floor if math.isfinite(floor) else dev
+    # (the noise adds to the deviation in quadrature, as rms values do: a linear subtraction
+    # would let a noise floor half the size of a real bend hide it)
+    excess = math.sqrt(max(dev * dev - floor * floor, 0.0)) if math.isfinite(floor) else dev
     if dev < limit:
         return LocalSlopeCheck(dev, True, f"linear model holds: mean |K_i - K|/K = {100 * dev:.2g} % "
                                           f"< {100 * limit:g} % (ARES's variant of EMVA 1288 4.0 Linear Eq. 51, "
-                                          "option eq51_noise_floor)")
+                                          f"option eq51_noise_floor; {errs})")
     if excess < limit and math.isfinite(floor):
         return LocalSlopeCheck(dev, True, f"linear model holds: mean |K_i - K|/K = {100 * dev:.2g} %, of which "
                                           f"{100 * floor:.2g} % is the noise of the local slopes; the excess "
                                           f"{100 * excess:.2g} % < {100 * limit:g} % (ARES option eq51_noise_floor, "
-                                          "beyond EMVA 1288 4.0 Linear Eq. 51: noise floor removed)")
+                                          f"beyond EMVA 1288 4.0 Linear Eq. 51: noise floor removed; {errs})")
     return LocalSlopeCheck(dev, False, f"the linear model does not hold here: mean |K_i - K|/K = {100 * dev:.2g} % "
                                        f">= {100 * limit:g} % (ARES's variant of EMVA 1288 4.0 Linear Eq. 51, option "
-                                       "eq51_noise_floor); use the general model")
+                                       f"eq51_noise_floor; {errs}); use the general model")
 
 
 def deviation_se(x, y, y_se, k: int) -> float:

@@ -258,9 +258,11 @@ def classify_levels(bright: Sequence[LevelStats], dark: Sequence[LevelStats],
     de = decision_errors(S, V, Vse, signal_se, counts_known, curve=on, offset=[d.var for d in dark])
     if de.source == "none":  # no errors at all: the errorless rule (LSST cp_pipe, named)
         n_on = seen = lsst_pivot(V[cand]) if cand else 0
+        found = None
         why = "the variance decreases at two consecutive levels (LSST cp_pipe's errorless PTC cut)"
     else:
-        n_on, seen = ptc_turnoff_found(S[cand], V[cand], de.se[cand], nsigma=nsigma) if cand else (0, 0)
+        found = ptc_turnoff_found(S[cand], V[cand], de.se[cand], nsigma=nsigma) if cand else None
+        n_on, seen = found if found is not None else (0, 0)
         why = (f"variance below the curve of the levels under it, or below their maximum, by > {nsigma:g} SE of the "
                f"{'measured scatter' if de.source == 'measured' else 'counts'}, confirmed by the next levels")
     for i in cand[n_on:]:
@@ -270,6 +272,8 @@ def classify_levels(bright: Sequence[LevelStats], dark: Sequence[LevelStats],
     br = saturation_bracket(S, clipped, on_curve, nominal)
     if cand and seen > n_on and seen < len(cand):  # where the departure was seen, for the turnoff's SE
         br = dataclasses.replace(br, seen_dn=float(S[cand[seen]]))
+    if found is not None and 0 <= found.amb_lo <= found.amb_hi < len(cand):
+        br = dataclasses.replace(br, plausible_dn=(float(S[cand[found.amb_lo]]), float(S[cand[found.amb_hi]])))
     if br.reached:
         for i in cand[:n_on]:
             if S[i] > fit_fraction * br.low_dn:
@@ -371,8 +375,11 @@ def analyze_ptc(bright: Sequence[LevelStats], dark: Sequence[LevelStats], *, exp
     fit_note = (f"up to {100 * fit_fraction:g} % of saturation" if br.reached else
                 "all levels (saturation not reached)")
     gain, k_wls, k_org, k_ast, gm = _gain_estimates(fit, fit_note, de.source)
+    # decided on the errors the turnoff used (the measured scatter where it disagrees with the counts)
     lin = local_slope_check([lv.signal for lv in fit], [lv.variance for lv in fit],
-                            [lv.variance_se for lv in fit], k_wls.value)
+                            None if de.source == "none" else [lv.decision_se for lv in fit], k_wls.value,
+                            errors_name="counts' errors" if de.source == "counts" else
+                            "measured-scatter errors the turnoff used")
     e_per_dn = _inv(gain, "e-/DN", "1/K")
     if adc_lsb_uv is not None and gain.available:
         cg = Estimate(gain.value * adc_lsb_uv / analog_gain, gain.se * adc_lsb_uv / analog_gain, "uV/e-",

@@ -6,7 +6,16 @@ PDF, GUI) shows the same verdict and reason (``stats.physical.sane``):
   at the first levels, not a sensor's charge capacity (a dynamic range below 26 dB);
 - a PTC turnoff below 5 % of the brightest level's signal: the curve was cut at its
   bottom;
-- any headline figure whose SE is larger than its value: not measured by these data.
+- any headline figure whose SE is larger than its value: not measured by these data; a
+  K less than 3 SE from 0 (and every figure in e- with it);
+- a PTC turnoff (and the saturation capacity, the same level) that the levels' scatter
+  cannot identify within ``PRECISION`` (3 %): the plausible last levels on the curve
+  (``SaturationBracket.plausible_dn``) span more than that -- the value and its interval
+  are in the reason;
+- a charge (full well, saturation capacity, turnoff in e-) whose K is known only to more
+  than ``PRECISION`` / ``PRECISION_SE`` (1.5 %): 2 SE would exceed the 3 % a datasheet
+  states it to (generated corpus: 1 % of the "ok" saturation capacities off by > 3 %,
+  ``benchmarks/ptc_corpus.md``).
 
 The dynamic range follows its saturation capacity. Pure: no I/O.
 """
@@ -21,10 +30,61 @@ from ares.analysis.stats.physical import sane
 
 FULL_WELL_MIN_READ_NOISES = 20.0
 TURNOFF_MIN_FRACTION = 0.05
+PRECISION = 0.03  # a headline turnoff or charge capacity is "ok" only when located to 3 %
+PRECISION_SE = 2.0  # ... by its identification, and by K to PRECISION_SE standard errors (K's SE <= 1.5 %)
+
+
+def _unlocated(r) -> str:
+    """Why the turnoff is not identified within ``PRECISION`` ('' when it is)."""
+    to, br = r.turnoff_dn, r.saturation
+    if not to.available or to.bound or br is None:
+        return ""
+    lo, hi = br.plausible_dn
+    if not (math.isfinite(lo) and math.isfinite(hi)) or to.value <= 0:
+        return ""
+    span = max(to.value - lo, hi - to.value) / to.value
+    if span <= PRECISION:
+        return ""
+    return (f"the levels' scatter places the last level on the curve only between {lo:.5g} and {hi:.5g} DN "
+            f"({to.value:.5g} most likely, {100 * span:.2g} % away): not located within {100 * PRECISION:g} %")
+
+
+def _imprecise(e: Estimate, what: str, k: Estimate, own_se: bool = False) -> Estimate:
+    """``e`` (a charge, e-) not available when K's relative SE -- or, with ``own_se``, its
+    own -- times ``PRECISION_SE`` exceeds ``PRECISION``."""
+    if not e.available or e.bound:
+        return e
+    rel = k.se / k.value if k.available and math.isfinite(k.se) and k.value else 0.0
+    why = f"the system gain K is known only to ± {100 * rel:.2g} % here"
+    if own_se and math.isfinite(e.se) and e.value and e.se / abs(e.value) > rel:
+        rel, why = e.se / abs(e.value), f"it is known only to ± {100 * e.se / abs(e.value):.2g} % (SE)"
+    if PRECISION_SE * rel <= PRECISION:
+        return e
+    return Estimate.na(f"{what} {e.text()}: {why}, so {PRECISION_SE:g} SE exceed the {100 * PRECISION:g} % a charge "
+                       "capacity is stated to", e.unit)
+
+
+def _unmeasured_gain(r):
+    """``r`` with K and every figure in e- not available when K is less than 3 SE from 0
+    (the line's own test, applied to whichever model is the headline): no charge is known."""
+    k = r.gain_dn_per_e
+    if not (k.available and not k.bound and math.isfinite(k.se) and 3 * k.se > abs(k.value)):
+        return r
+    why = f"the system gain K {k.text()} is less than 3 SE from 0: not measured by these data"
+
+    def na(e: Estimate) -> Estimate:
+        return Estimate.na(why, e.unit) if e.available else e
+
+    return dataclasses.replace(
+        r, gain_dn_per_e=na(k), gain_e_per_dn=na(r.gain_e_per_dn), conversion_gain_uv_per_e=na(r.conversion_gain_uv_per_e),
+        read_noise_e=na(r.read_noise_e), sensitivity_threshold_e=na(r.sensitivity_threshold_e), qe=na(r.qe),
+        turnoff_e=na(r.turnoff_e), full_well=na(r.full_well), full_well_e={k_: na(v) for k_, v in r.full_well_e.items()},
+        dynamic_range=na(r.dynamic_range), dynamic_range_db=na(r.dynamic_range_db))
 
 
 def apply(r):
     """``r`` (a ``PtcResult``) with its figures judged; returns a new result."""
+    r = _unmeasured_gain(r)
     rn = r.read_noise_e
     floor = FULL_WELL_MIN_READ_NOISES * rn.value if rn.available and not rn.bound else None
     why = f"{FULL_WELL_MIN_READ_NOISES:g}x the read noise ({floor:.3g} e-)" if floor is not None else ""
@@ -36,6 +96,19 @@ def apply(r):
     to_dn = sane(r.turnoff_dn, "PTC turnoff", t_floor, t_why)
     to_e = r.turnoff_e if to_dn.available or not r.turnoff_e.available else Estimate.na(to_dn.note, "e-")
     to_e = sane(to_e, "PTC turnoff (charge)")
+    k = r.gain_dn_per_e
+    fw = {k_: _imprecise(v, "saturation capacity" if k_ == "saturation_capacity" else f"full well ({k_})", k)
+          for k_, v in fw.items()}
+    head = _imprecise(head, "full well", k)
+    to_e = _imprecise(to_e, "PTC turnoff (charge)", k)
+    unloc = _unlocated(r)
+    if unloc:
+        to_dn = Estimate.na(f"PTC turnoff {to_dn.text()}: {unloc}", "DN") if to_dn.available else to_dn
+        to_e = Estimate.na(to_dn.note, "e-") if to_e.available else to_e
+        sc = fw.get("saturation_capacity")
+        if sc is not None and sc.available:
+            fw["saturation_capacity"] = Estimate.na(f"saturation capacity {sc.text()} (the turnoff level): {unloc}",
+                                                    "e-")
     defs = dict(r.turnoff_definitions_dn)
     if "ptc_turnoff" in defs:
         defs["ptc_turnoff"] = to_dn

@@ -82,6 +82,9 @@ class SaturationBracket:
     high_dn: float
     reason: str  # one sentence: how the bracket was found, or why saturation is not reached
     seen_dn: float = math.nan  # the signal at which the turnoff's departure was seen (above the turnoff)
+    # the signals of the first and last level that may be the last on the curve, given the
+    # levels' scatter (``turnoff.ptc_turnoff_found``): the turnoff's identification
+    plausible_dn: tuple[float, float] = (math.nan, math.nan)
 
     def contains(self, signal_dn: float, slack: float = 0.0) -> bool:
         """Is ``signal_dn`` consistent with the bracket (``slack`` DN either side)?"""

@@ -147,14 +147,15 @@ def _cum0(a: np.ndarray) -> np.ndarray:
 def ptc_turnoff(signal, var, var_se, **kw) -> int:
     """Number of levels, from the bottom of the signal-sorted input, that lie on the PTC
     (``ptc_turnoff_found``)."""
-    return ptc_turnoff_found(signal, var, var_se, **kw)[0]
+    return ptc_turnoff_found(signal, var, var_se, **kw).n_on
 
 
 def ptc_turnoff_found(signal, var, var_se, nsigma: float = 4.0, min_levels: int = 4, confirm: int = 3,
                       rel_floor: float = 0.02, collapse: float = 0.7, lookback: int = 5,
-                      flat_floor: float = 0.10) -> tuple[int, int]:
-    """(levels on the PTC from the bottom of the signal-sorted input, the level where the
-    departure was seen: the turnoff lies between the two -- its uncertainty).
+                      flat_floor: float = 0.10, window: float = 0.15) -> "TurnoffFound":
+    """Levels on the PTC from the bottom of the signal-sorted input, the level where the
+    departure was seen, and the levels that may be the last on the curve given the
+    scatter -- the turnoff's identification (``TurnoffFound``).
 
     The curve is followed from below and stops at the first significant departure: level
     ``i`` departs when its variance is below the curve fitted to the levels under it (a
@@ -167,7 +168,9 @@ def ptc_turnoff_found(signal, var, var_se, nsigma: float = 4.0, min_levels: int 
     decreases) or at least half of the next ``confirm`` levels do (or it is the last
     level). Among the first quarter of the levels a departure counts only where the
     variance truly collapses (below ``collapse`` of the highest under it): a curve does not
-    end at its first levels on a few standard errors. Whatever lies beyond the first
+    end at its first levels on a few standard errors. Which of the last levels before the
+    departure is the last on the curve, and which others the scatter leaves plausible, is a
+    change-point choice (``_locate``). Whatever lies beyond the first
     departure -- an outlier row, an upturn, a second hump -- cannot move it. ``var_se``
     must describe the levels' scatter (``decision_errors``). Inputs sorted by signal, free
     of clipped or empty levels. Linear in the levels: the prefix fits come from running
@@ -177,7 +180,7 @@ def ptc_turnoff_found(signal, var, var_se, nsigma: float = 4.0, min_levels: int 
     e = np.maximum(np.asarray(var_se, float), 1e-300)
     n = s.size
     if n <= min_levels:
-        return n, n
+        return TurnoffFound(n, n, n - 1, n - 1)
     smax = float(np.max(np.abs(s))) or 1.0
     x = s / smax
     half = max(n // 2, 2)
@@ -230,31 +233,190 @@ def ptc_turnoff_found(signal, var, var_se, nsigma: float = 4.0, min_levels: int 
         if k:  # a repeated row (the same signal) is the same level, not a confirmation
             ok &= x[jj] > x[i]
         dep[:, k] = d & ok
+        if k == 0:  # a fall deeper than any flattening (1.5 x the floor): a turnover if confirmed
+            deep = d & (v[jj] - pred < -1.5 * flat_floor * np.abs(pred))
         valid[:, k] = ok
     n_after = valid[:, 1:].sum(1)
     hits = dep[:, 1:].sum(1)
     stop = dep[:, 0] & ((n_after == 0) | dep[:, 1] | (2 * hits >= n_after))
     first = np.flatnonzero(stop)
     if not first.size:
-        return n, n
+        return TurnoffFound(n, n, n - 1, n - 1)
     stop_i = int(i[first[0]])
-    # the departure is seen where it exceeds nsigma; a gradual roll-off began up to a few
-    # levels earlier. The curve rises up to its turnoff and falls after it, so the turnoff
-    # is the highest variance among the last ``lookback`` levels before the departure
+    # an earlier departure the next levels did not confirm (a dip, or the first fall of a
+    # curve that climbs a second hump): the turnoff may lie there too (its ambiguity)
+    unconf = np.flatnonzero(deep & ~stop & (i < stop_i))
     lo = max(min_levels, stop_i - lookback)
+    # (a roll-off seen at the departure began within ``window`` (15 %) of its signal: on a
+    # sparse curve the fit below extrapolates no further)
+    lo = max(lo, int(np.searchsorted(x, (1 - window) * x[stop_i])))
     if stop_i - lo < 1:
-        return stop_i, stop_i
-    # (a wild row above the curve -- > 10 % and nsigma above the fit below the window -- is not a peak)
-    k = np.arange(lo, stop_i)
+        return TurnoffFound(stop_i, stop_i, max(min(stop_i - 1, int(i[unconf[0]]) - 1 if unconf.size else n), 0),
+                            stop_i - 1)
+    # the departure is seen where it exceeds nsigma; a gradual roll-off began up to
+    # ``lookback`` levels earlier. Which of the levels lo-1 .. stop_i-1 is the last on the
+    # curve is a change-point choice (``_locate``) on their residuals from the curve fitted
+    # below the window -- in SE of the measured scatter and of the prediction, with a model
+    # floor (below) -- not the highest (noisy) variance
     q = lo - min_levels
+    k = np.arange(lo, stop_i + 1)
     A = np.stack([np.ones(k.size), x[k], x[k] ** 2], -1)
     pred = A @ coef[q] + np.polyval(ref, x[k])
     pse = np.sqrt(np.maximum(np.einsum("ki,ij,kj->k", A, cov[q], A), 0.0)) * scale[q]
-    above = np.maximum(nsigma * np.hypot(e[k] * scale[q], pse), flat_floor * np.abs(pred))
-    cand = np.where(v[k] - pred <= above, v[k], -np.inf)
-    if not np.isfinite(cand).any():
-        return stop_i, stop_i
-    return int(lo + int(np.argmax(cand)) + 1), stop_i
+    # the model floor: twice the relative misfit of the fit at its last levels below the
+    # window (a bend it does not follow), at most flat_floor / nsigma; 0 on a curve it follows
+    kb = np.arange(max(lo - 5, 0), lo)
+    Ab = np.stack([np.ones(kb.size), x[kb], x[kb] ** 2], -1)
+    fb = Ab @ coef[q] + np.polyval(ref, x[kb])
+    mis = float(np.sqrt(np.mean(((v[kb] - fb) / np.where(fb != 0, fb, 1.0)) ** 2))) if kb.size else 0.0
+    sig = np.hypot(np.hypot(e[k] * scale[q], pse), min(2 * mis, flat_floor / nsigma) * np.abs(pred))
+    # (a wild row above the curve -- > 10 % and nsigma above the fit below the window -- is on neither side)
+    wild = v[k] - pred > np.maximum(nsigma * np.hypot(e[k] * scale[q], pse), flat_floor * np.abs(pred))
+    best, a_lo, a_hi = _locate((v[k] - pred) / np.maximum(sig, 1e-300), wild, x[lo - 1:stop_i + 1])
+    t = lo + best
+    # the level found may itself lie just beyond the turnoff (a gentle roll-off's first
+    # level, not yet below the curve): any level before it whose variance the scatter
+    # cannot tell from its own (within ``PEAK_SE``) may be the peak
+    j = np.arange(max(lo - 1, 0), t)
+    same = (~wild[np.maximum(j - lo, 0)] | (j < lo)) & (v[j] >= v[t] - PEAK_SE * scale[q] * np.hypot(e[j], e[t]))
+    if same.any():
+        a_lo = min(a_lo, int(j[same][0]) - lo)
+    a_lo += lo
+    if unconf.size:  # the curve fell there and came back: the turnoff may be that fall
+        a_lo = min(a_lo, int(i[unconf[0]]) - 1)
+    return TurnoffFound(t + 1, stop_i, max(a_lo, 0), lo + a_hi)
+
+
+PEAK_SE = 0.5  # a level before it within 0.5 SE of its variance may be the peak (a roll-off's first level beyond it)
+
+
+@dataclass(frozen=True)
+class TurnoffFound:
+    """``ptc_turnoff_found``'s answer (indices into the signal-sorted input)."""
+
+    n_on: int  # levels on the curve: the turnoff is level n_on - 1
+    seen: int  # the level where the departure was seen (n: none)
+    amb_lo: int  # the levels that may be the last on the curve, given the scatter: amb_lo .. amb_hi
+    amb_hi: int
+
+    def __iter__(self):  # (n_on, seen), as before
+        return iter((self.n_on, self.seen))
+@dataclass(frozen=True)
+class RampTurnoff:
+    index: int  # input index of the turnoff level (-1: none)
+    turnoff: float  # signal at the turnoff (the input's unit)
+    max_signal: float
+    reached: bool  # a level beyond the turnoff deviates (else the turnoff is the brightest level)
+    slope: float
+    note: str
+
+
+def ramp_turnoff(x, y, min_signal: float = 1000.0, tol: float = 0.01, mask=None) -> RampTurnoff:
+    """Linearity turnoff and maximum signal of a ramp: signal ``y`` against an illumination
+    ``x`` (exposure time or photodiode charge), in any order (see the module docstring).
+    ``mask``: levels known to be below saturation for the initial line (default: all)."""
+    x = np.asarray(x, float)
+    y = np.asarray(y, float)
+    fin = np.isfinite(x) & np.isfinite(y) & (x > 0) & (y > 0)
+    if fin.sum() < 4:
+        return RampTurnoff(-1, math.nan, math.nan, False, math.nan,
+                           f"{int(fin.sum())} usable levels: a ramp needs >= 4 with positive illumination and signal")
+    floor = min_signal if (y[fin] >= min_signal).sum() >= 4 else 0.0
+    fit = fin & (y >= floor)
+    if mask is not None:
+        fit &= np.asarray(mask, bool)
+    if fit.sum() < 4:
+        fit = fin
+    order = np.flatnonzero(fin)[np.argsort(x[fin], kind="stable")]
+    for _ in range(int(fit.sum())):
+        slope = float(np.sum(x[fit]) / np.sum(x[fit] ** 2 / y[fit]))  # chi2 line through 0, variance = signal
+        r = np.full(y.size, math.nan)
+        r[fin] = (y[fin] - slope * x[fin]) / y[fin]
+        r -= float(fast_median(r[fit]))
+        bad = np.abs(r) >= tol
+        last = -1
+        for k, i in enumerate(order):
+            if y[i] < floor:
+                continue
+            if bad[i] and (k + 1 == order.size or bad[order[k + 1]]):
+                break
+            last = int(i)
+        if last >= 0 and (np.abs(r[fit]) < tol).sum() > 4:
+            break
+        worst = np.flatnonzero(fit)[np.argmax(np.abs(r[fit]))]  # a bad initial line: drop its worst level
+        fit[worst] = False
+        if fit.sum() < 4:
+            break
+    if last < 0:
+        return RampTurnoff(-1, math.nan, math.nan, False, math.nan,
+                           "no line through the origin describes the ramp within 1 %")
+    ymax = float(np.max(y[fin]))
+    reached = bool(y[last] < ymax and (x[fin] > x[last]).any())
+    top = fin & (y > (1 - tol) * ymax)
+    mx = float(fast_median(y[top])) if reached else float(y[last])
+    note = (f"linearity turnoff (LSST cp_pipe cpLinearitySolve rule): last level before the first two deviating "
+            f"> {100 * tol:g} % from a line through the origin fitted above {floor:g}; maximum signal: median of "
+            f"the levels within {100 * tol:g} % of the brightest")
+    if not reached:
+        note = "no level deviates beyond the turnoff: the ramp does not reach saturation (a lower limit)"
+    return RampTurnoff(last, float(y[last]), mx, reached, slope, note)
+
+
+PLAUSIBLE = 3.0  # a turnoff whose cost (-2 log likelihood) is within this of the best one's is plausible (ratio 0.22)
+
+
+def _phi_cdf(u: float) -> float:
+    return 0.5 * (1.0 + math.erf(u / math.sqrt(2.0)))
+
+
+def _locate(z, wild, xs) -> tuple[int, int, int]:
+    """(the level -- position in the window -- most likely the last on the curve, and the
+    first and last plausible ones; -1: the level before the window). A change-point choice
+    on ``z``, each level's residual from the curve fitted below the window in SE (the last
+    is the departure), at signals ``xs`` (one more at the front: the level before the
+    window). The turnoff is level t when the levels up to t follow the curve (z ~ N(0, 1))
+    and those after it have rolled off: the curve turns somewhere between level t and the
+    next, and falls to the departure's depth, so a level beyond lies below the curve by an
+    amount uniform between 0 and the depth a straight roll-off from level t would give it,
+    plus its noise. A level barely below the curve just before a deep departure is then
+    unlikely to be beyond (a clip), one on a gentle roll-off is doubtful; every t within
+    ``PLAUSIBLE`` of the best is plausible (and under the one-sided model below, which
+    picks the level). Rows above the curve (``wild``) belong to neither."""
+    z = np.asarray(z, float)
+    wild = np.asarray(wild, bool)
+    xs = np.asarray(xs, float)
+    m = z.size - 1
+    on = np.where(wild, 0.0, z * z + math.log(2 * math.pi))
+    cost = np.full(m + 1, np.inf)
+    for t in range(-1, m):
+        if t >= 0 and wild[t]:
+            continue  # a wild row is no turnoff
+        c = float(np.sum(on[:t + 1]))
+        x0, span = xs[t + 1], xs[-1] - xs[t + 1]
+        for j in range(t + 1, m):
+            if wild[j]:
+                continue
+            depth = min(float(z[-1]), 0.0) * (xs[j + 1] - x0) / span if span > 0 else 0.0
+            if depth > -0.5:  # no room to fall: beyond or not, it sits on the curve
+                c += on[j]
+                continue
+            p = (_phi_cdf(z[j] - depth) - _phi_cdf(z[j])) / -depth
+            c += -2.0 * math.log(max(p, 1e-300))
+        cost[t + 1] = c
+    # the same choice where a level beyond lies > 2 SE below the curve (cost OFF_PENALTY
+    # each, plus z^2 above it) whatever the departure's depth: the most likely turnoff, and
+    # a turnoff is plausible only where both models allow it
+    one = np.where(wild, 0.0, OFF_PENALTY + np.maximum(z, 0.0) ** 2)
+    c_on = np.concatenate([[0.0], np.cumsum(np.where(wild, 0.0, z * z)[:m])])
+    c_off = np.concatenate([[0.0], np.cumsum(one[:m][::-1])])[::-1]
+    cost1 = np.where(np.isfinite(cost), c_on + c_off, np.inf)
+    best = int(np.argmin(cost1))
+    plaus = np.flatnonzero(((cost1 <= cost1[best] + PLAUSIBLE) & (cost <= np.min(cost) + PLAUSIBLE))
+                           | (np.arange(m + 1) == best))
+    return best - 1, int(plaus[0]) - 1, int(plaus[-1]) - 1
+
+
+OFF_PENALTY = 4.0  # a level is called beyond the turnoff (one-sided model) only when > 2 SE below the curve
 
 
 def lsst_pivot(var, min_var: float = 0.0, consecutive: int = 2) -> int:
