@@ -20,6 +20,7 @@ import functools
 import math
 
 import numpy as np
+from scipy import special
 
 
 def two_level_split(series: np.ndarray, min_occupancy: float) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
@@ -90,3 +91,64 @@ def rts_threshold(frames: int, min_separation: float, min_occupancy: float, p_fa
     """The separation an RTS pixel must show at this frame count: the configured minimum
     or the Gaussian null's (1 - p_fa) quantile, whichever is larger."""
     return max(float(min_separation), null_separation(int(frames), float(min_occupancy), float(p_fa)))
+
+
+def lag1_autocorrelation(series: np.ndarray) -> np.ndarray:
+    """Lag-1 autocorrelation of each column of ``series`` (F, n) in frame order:
+    sum (x_t - m)(x_t+1 - m) / sum (x_t - m)^2; 0 for a constant column.
+
+    A telegraph pixel's levels persist from frame to frame (a trap that flips with
+    probability p per frame has a telegraph autocorrelation 1 - 2p at lag 1), so its series
+    is not white; a noisy pixel's excess read noise is (about -1/F). Unlike the two-level
+    split this needs no resolved levels: it tells a trap whose amplitude is a few times the
+    temporal noise from a noisy pixel by the time order alone."""
+    x = np.asarray(series, dtype=np.float64)
+    if x.shape[0] < 3 or x.shape[1] == 0:
+        return np.zeros(x.shape[1] if x.ndim == 2 else 0)
+    x = x - x.mean(axis=0)
+    den = np.einsum("ij,ij->j", x, x)
+    num = np.einsum("ij,ij->j", x[:-1], x[1:])
+    with np.errstate(divide="ignore", invalid="ignore"):
+        return np.where(den > 0, num / den, 0.0)
+
+
+@functools.lru_cache(maxsize=64)
+def null_autocorrelation(frames: int, p_fa: float) -> float:
+    """Lag-1 autocorrelation a white Gaussian series of ``frames`` frames exceeds with
+    probability ``p_fa`` (one-sided: a telegraph raises it). Scale- and offset-free, so one
+    Monte Carlo of standard normals with a fixed seed serves every pixel (as
+    :func:`null_separation`); above NULL_MAX_FRAMES the 128-frame quantile (it falls with
+    F, about 1/sqrt(F): conservative)."""
+    f = min(int(frames), NULL_MAX_FRAMES)
+    if f < 3:
+        return math.inf
+    rng = np.random.default_rng(20261207 + f)
+    n = max(NULL_SERIES // max(f // 16, 1), int(50 / p_fa))
+    r = [lag1_autocorrelation(rng.standard_normal((f, min(20_000, n - i)))) for i in range(0, n, 20_000)]
+    return float(np.quantile(np.concatenate(r), 1.0 - p_fa))
+
+
+
+def low_outlier(series: np.ndarray) -> np.ndarray:
+    """Grubbs' statistic of each column's lowest frame: (mean - min) / sample SD. A dark
+    pixel's steady excess (a hot or warm pixel's dark current, Poisson and white) does not
+    drop far below its own level in one frame; a telegraph trap held high that fell back for
+    a frame does (and a cosmic ray only adds charge). 0 for a constant column."""
+    x = np.asarray(series, dtype=np.float64)
+    if x.shape[0] < 3 or x.shape[1] == 0:
+        return np.zeros(x.shape[1] if x.ndim == 2 else 0)
+    sd = x.std(axis=0, ddof=1)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        return np.where(sd > 0, (x.mean(axis=0) - x.min(axis=0)) / sd, 0.0)
+
+
+def low_outlier_critical(frames: int, p_fa: float) -> float:
+    """The one-sided Grubbs critical value: a Gaussian series of ``frames`` frames has its
+    lowest frame this far below its mean (in sample SDs) with probability <= ``p_fa``
+    (Grubbs 1969, the Bonferroni bound through Student's t with F - 2 dof; tight at small
+    p). Closed form: no Monte Carlo."""
+    f = int(frames)
+    if f < 3:
+        return math.inf
+    t = float(special.stdtrit(f - 2, 1.0 - p_fa / f))
+    return (f - 1) / math.sqrt(f) * math.sqrt(t * t / (f - 2 + t * t))
