@@ -24,15 +24,17 @@ from ares.analysis.defects.result import BITS, DEFECT_DTYPE, PIXEL_CLASSES, Defe
 from ares.analysis.defects.limits import (Z99, hot_limit_text, noisy_available, p_constant_codes, partial_rate_text,
                                          rate_available)
 from ares.analysis.defects.robust import robust_sigma
-from ares.analysis.defects.rts import (detect_rts, lag1_autocorrelation, low_outlier, null_autocorrelation,
-                                       low_outlier_critical, null_separation, rts_threshold)
+from ares.analysis.defects.rts import (detect_rts, low_outlier, low_outlier_critical, null_separation, rts_threshold,
+                                       telegraph_evidence)
 from ares.analysis.defects.stats import PixelStats, SeriesCollector
 from ares.analysis.defects.inputs import _Dark, _Flat, _Slope, _level_flags, _levels, _match_dark, _need
 
 _ROWS = 256  # rows per block of elementwise work on a frame
-# a noisy pixel is RTS when its series splits into two levels beyond a one-level Gaussian
-# series at this p (0.3 % of truly noisy pixels; 0.01 cost the simulator 1.6 % of its noisy)
-NOISY_RTS_P = 3e-3
+# a noisy pixel is RTS when its series shows a telegraph (two levels, persisting from frame
+# to frame) beyond a white Gaussian series at this p: 0.1 % of truly noisy pixels. 3e-3 found
+# one more overlapping trap in 16 simulator stacks of 64 frames but called one of the 77
+# injected noisy pixels RTS (benchmarks/defect_classes.md)
+NOISY_RTS_P = 1e-3
 
 RtsSource = Callable[[np.ndarray, np.ndarray], np.ndarray] | SeriesCollector
 
@@ -320,16 +322,16 @@ def classify_defects(
             # a noisy pixel (its variance already significant) whose series splits into two
             # levels beyond what a one-level Gaussian series shows at NOISY_RTS_P is a telegraph
             # pixel whose levels are closer than rts_min_separation, not a noisy one
-            # levels closer than rts_min_separation, not a noisy one; or whose series is not
-            # white -- a trap's level persists from frame to frame (lag-1 autocorrelation
-            # beyond a white Gaussian series'), which finds traps of a few sigma_w whose
-            # levels overlap. Each test at NOISY_RTS_P / 2: a noisy pixel is called RTS with
-            # probability <= NOISY_RTS_P.
-            null = null_separation(nfr, th.rts_min_occupancy, NOISY_RTS_P / 2)
+            # levels closer than rts_min_separation, not a noisy one; and so is one whose series
+            # is not white -- a trap's level persists from frame to frame. Both signs in one
+            # test (rts.telegraph_evidence: Fisher's combination of the split's and the lag-1
+            # autocorrelation's p against a white Gaussian series): a noisy pixel is called
+            # RTS with probability NOISY_RTS_P; a trap whose levels overlap (~3 sigma_w),
+            # which neither sign shows alone, is found
             noisy_c = flags["noisy"][crow, ccol]
-            r1 = lag1_autocorrelation(series)
-            is_rts |= noisy_c & ((np.nan_to_num(sep, nan=0.0) >= null)
-                                 | (r1 >= null_autocorrelation(nfr, NOISY_RTS_P / 2)))
+            if noisy_c.any():
+                ev = telegraph_evidence(series[:, noisy_c], th.rts_min_occupancy, NOISY_RTS_P)
+                is_rts[np.flatnonzero(noisy_c)[ev >= float(chi2_isf(NOISY_RTS_P, 4))]] = True
             rts[crow[is_rts], ccol[is_rts]] = True
             # a hot/warm candidate whose series drops far below its own level in a frame is
             # no steady dark rate (a trap held high that fell back): no class takes it
