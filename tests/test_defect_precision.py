@@ -107,3 +107,6 @@ def test_rate_classes_below_their_limit_keep_the_pixels_they_find():
     tp = int(np.count_nonzero(found & (truth == "hot")))
     assert tp >= 0.95 * np.count_nonzero(found), (tp, int(found.sum()))
     assert tp >= 0.6 * inj.truth["hot"][0].size  # most of them found (rates above the ~15 e-/s limit)
+    from ares.commands.defects import _text
+    text = _text(res)
+    assert f">= {res.counts['hot']}" in text and "hot: incomplete" in text
