@@ -16,8 +16,9 @@ import pytest
 
 from pc_corpus import CHARGES, GAINS, READ_NOISES, run_case
 
-STRATA = [(10.0, 0.15, 0.05), (20.0, 0.15, 0.1), (2.0, 0.1, 0.5), (30.0, 0.3, 2.0), (5.0, 0.45, 0.5),
-          (20.0, 0.45, 0.1)]
+# (30, 0.3, 2): its fit takes ~2.5 s (many peaks, every start refined); the grid covers it in the study
+STRATA = [(10.0, 0.15, 0.05), (20.0, 0.15, 0.1), (2.0, 0.1, 0.5), pytest.param(30.0, 0.3, 2.0, marks=pytest.mark.study),
+          (5.0, 0.45, 0.5), (20.0, 0.45, 0.1)]
 
 
 @pytest.mark.parametrize("K,rn,H", STRATA)
