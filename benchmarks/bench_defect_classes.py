@@ -25,6 +25,10 @@ dark stack and whose amplitude is >= the frame count's separation threshold + 2 
 pixel's temporal noise; the others ("rts (not seen)") showed no levels in these frames --
 a classifier may call them good (or noisy, for an unresolved two-level variance), never hot.
 
+Then held-out seeds (not the ones the tests use) at 64 frames, where noisy and RTS are
+told apart by the telegraph test (issue 48), and the rate classes below their limit (an
+injected set whose hot pixels stand 5-9 sigma above the averaged dark's noise).
+
     python benchmarks/bench_defect_classes.py            # writes benchmarks/defect_classes.md
 """
 
@@ -161,6 +165,104 @@ def _pct(x) -> str:
     return "-" if x is None else f"{100 * x:.0f} %"
 
 
+HELD_OUT_TEXT = """The noisy-vs-RTS test (issue 48): a noisy pixel is RTS when its series shows a telegraph
+beyond a white Gaussian series at p = 1e-3 -- Fisher's combination of two p-values, the
+two-level split's (its values fall into two levels; order-free) and the lag-1
+autocorrelation's (its level persists from frame to frame; order only), each against a
+fixed-seed Monte Carlo of standard normal series of as many frames (ares.analysis.defects.rts
+.telegraph_evidence). Before, the split alone at 3e-3: noisy precision 63/67 (dense seed 7)
+and 31/36 (long dark seed 1) at 64 frames -- the two stacks the tests use; now 64/65 and
+31/32. Over held-out seeds 13 of 16 stacks are >= 95 % in every class; the three below (dense
+seed 3: 63/67; long dark seeds 4 and 5: 31/33) are RTS traps of ~3 sigma_w amplitude whose
+levels and persistence show neither alone nor together at p = 1e-3 in 64 frames (split ~3.0-3.4
+sigma_w, lag-1 autocorrelation 0.17-0.28 against 0.125 for white noise). At p = 3e-3 the same 16
+stacks gave 14 of 16, but one of the 77 injected noisy pixels of tests/test_defects_injected.py
+was called RTS; the lag-1 test alone (Bonferroni with the split, 1.5e-3 each) 13 of 16."""
+RATE_TEXT = """A rate class whose 99 % limit is between ``rate_detect_factor`` (2x) and ``rate_partial_factor``
+(10x) its threshold keeps the pixels it finds, its count a lower bound ("incomplete", `ares
+defects` shows ">= N"), with the exposure that would find all; beyond 10x (the main job's 10 ms:
+limit 922 e-/s for a 5 e-/s threshold) it stays "not available": what one short exposure finds
+there are offsets that are no rate (traps held high: 0 of 9 "hot" were hot at 16 frames). A
+hot/warm pixel whose series drops far below its own level in a frame (one-sided Grubbs test at
+max_false_alarm, 1e-5) is no steady dark rate and takes neither class. Seed 5's extra pixel is an
+RTS trap high in 31 of 32 frames whose one low frame sits at Grubbs 4.10 against the critical
+4.13: a trap that fell back once is at the test's edge; its series is otherwise a hot pixel's."""
+HELD_OUT = {"dense (90 s, 5 C)": range(1, 11), "shipped, long dark (4 s, 40 C)": range(1, 7)}
+
+
+def held_out(frames: int = 64) -> list[str]:
+    """Per-class precision over held-out seeds: pixels given the class / those truly of it
+    (every RTS trap counts as RTS, seen or not)."""
+    out = [f"## Held-out seeds, {frames} frames: per-class precision", "",
+           "Each row one seed (the tests use dense seed 7 and shipped seed 1); a class below 95 % in bold.", "",
+           "| case | seed | " + " | ".join(PIXEL_CLASSES) + " |", "|---|---:|" + "---:|" * len(PIXEL_CLASSES)]
+    n_ok = n_all = 0
+    for name, seeds in HELD_OUT.items():
+        params_fn, _seed, op, flux, th_kw = CASES[name]
+        for seed in seeds:
+            p = params_fn()
+            s = sim.SimSensor(p, seed)
+            dark = s.render(frames, dark=True, **op)
+            flat = s.render(frames, photon_flux=flux, **op)
+            truth = s.truth(dark=True, **op)
+            res = classify_stack(dark, flat, gain_dn_per_e=p.gain_dn_per_e(), exposure_s=op["exposure_s"],
+                                 thresholds=DefectThresholds(**th_kw))
+            lab = truth_labels(truth, dark.shape[1:])
+            prim = primary_class(res.mask)
+            pred = np.where(prim >= 0, np.array(PIXEL_CLASSES)[np.maximum(prim, 0)], "")
+            cells, good = [], True
+            for c in PIXEL_CLASSES:
+                n = int(np.count_nonzero(pred == c))
+                if res.counts.get(c) is None or n == 0:
+                    cells.append("n/a" if res.counts.get(c) is None else "-")
+                    continue
+                tp = int(np.count_nonzero((pred == c) & (lab == c)))
+                bad = tp < 0.95 * n
+                good &= not bad
+                cells.append(("**" if bad else "") + f"{tp}/{n}" + ("**" if bad else ""))
+            n_ok += good
+            n_all += 1
+            out.append(f"| {name} | {seed} | " + " | ".join(cells) + " |")
+            print("held out", name, seed, file=sys.stderr)
+    out += ["", f"{n_ok} of {n_all} stacks have every reported class >= 95 % precise.", "", HELD_OUT_TEXT, ""]
+    return out
+
+
+def rate_classes_below_limit() -> list[str]:
+    """tests/defect_injection.py at 1 s, K 0.5 DN/e-, hot pixels 10-18 e-/s (5-9 sigma of the
+    averaged dark's noise), 32 frames: before, hot and warm were "not available" and every
+    hot pixel in no class."""
+    sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "tests"))
+    from defect_injection import inject
+
+    out = ["## Rate classes below their limit (issue 48)", "",
+           "tests/defect_injection.py, 96 x 128, 32 frames at 1 s, K 0.5 DN/e-, hot pixels 10-18 e-/s (5-9 sigma of "
+           "the averaged dark's noise; the 99 % limit ~15 e-/s is 3x the 5 e-/s threshold): before, hot and warm "
+           "were \"not available\" and every hot pixel in no class. Held: RTS traps in one state in every frame "
+           "(a constant offset in these frames, which no classifier can tell from a dark rate); precision without "
+           "them.", "",
+           "| seed | hot found | given hot | of them held traps | precision | warm |", "|---:|---:|---:|---:|---:|---|"]
+    for seed in range(1, 6):
+        inj = inject(rows=96, cols=128, frames=32, flat_frames=10, seed=seed, exposure_s=1.0, gain=0.5,
+                     hot_e_per_s=(10.0, 18.0))
+        res = classify_stack(inj.dark, inj.flat, gain_dn_per_e=inj.gain, exposure_s=inj.exposure_s)
+        prim = primary_class(res.mask)
+        hot = prim == PIXEL_CLASSES.index("hot")
+        lab = inj.truth_map()
+        st = inj.params["rts_states"]
+        r, c = inj.truth["rts"]
+        held = np.zeros(lab.shape, bool)
+        held[r, c] = st.all(axis=0) | ~st.any(axis=0)
+        tp = int(np.count_nonzero(hot & (lab == "hot")))
+        n_held = int(np.count_nonzero(hot & held))
+        given = int(hot.sum()) - n_held
+        out.append(f"| {seed} | {tp} of {inj.truth['hot'][0].size} | {int(hot.sum())} | {n_held} | "
+                   f"{tp}/{given} = {100 * tp / max(given, 1):.0f} % | "
+                   + ("not available" if "warm" in res.unavailable else "available") + " |")
+    out += ["", RATE_TEXT, "", "hot: " + res.detection.get("hot", res.unavailable.get("hot", "")), ""]
+    return out
+
+
 def main() -> int:
     lines = ["# Defect classes against the simulator's truth", "",
              (__doc__ or "").split("\n\n    python")[0].strip(), "",
@@ -200,6 +302,7 @@ def main() -> int:
                 undefined.append(f"{name.split(' (')[0]}, {cls}" + (f" ({note})" if note else ""))
         lines.append("")
         print(name, f, "done", file=sys.stderr)
+    lines += held_out() + rate_classes_below_limit()
     load1 = os.getloadavg()
     head = [f"Machine load (1-min load average, 2 cores shared): {load0[0]:.1f} at the start, {load1[0]:.1f} at "
             "the end; the seconds above are indicative only, the matrices do not depend on them.",

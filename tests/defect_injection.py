@@ -89,9 +89,11 @@ def inject(rows=240, cols=320, frames=100, flat_frames=20, seed=0, *, rate_ppm=1
     r, c = truth["rts"]
     amp = rng.uniform(*rts_amp_sigma, r.size) * temporal_dn
     state = rng.random(r.size) < 0.5
+    states = np.empty((frames, r.size), bool)
     for f in range(frames):
         flip = rng.random(r.size) < rts_switch
         state = state ^ flip
+        states[f] = state
         dark[f, r, c] = np.clip(dark[f, r, c] + np.rint(amp * state), 0, 65535).astype(np.uint16)
     # stuck
     r, c = truth["stuck"]
@@ -107,7 +109,8 @@ def inject(rows=240, cols=320, frames=100, flat_frames=20, seed=0, *, rate_ppm=1
     r, c = truth["stuck"]
     flat[:, r, c] = codes
     return Injected(dark, flat, truth, gain, exposure_s,
-                    dict(temporal_dn=temporal_dn, pixel_fpn_dn=pixel_fpn_dn, offset=offset, rts_amp=amp))
+                    dict(temporal_dn=temporal_dn, pixel_fpn_dn=pixel_fpn_dn, offset=offset, rts_amp=amp,
+                         rts_states=states))
 
 
 def confusion(truth_map: np.ndarray, result) -> tuple[dict, str]:

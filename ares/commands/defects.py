@@ -137,7 +137,8 @@ def _text(res: DefectResult) -> str:
            f"({res.counts['total'] / (res.shape[0] * res.shape[1]) * 1e6:.1f} ppm)"]
     for c in ("hot", "warm", "stuck", "rts", "noisy", "dead", "low_response", "high_response"):
         n = res.counts[c]
-        out.append(f"  {c:<14} {'n/a' if n is None else n:>8}")
+        part = n is not None and res.detection.get(c, "").startswith("incomplete")  # a lower bound
+        out.append(f"  {c:<14} {'n/a' if n is None else ('>= ' if part else '') + str(n):>8}")
     out.append(f"  {'bad columns':<14} {res.counts['bad_columns']:>8}  " +
                " ".join(str(c["x"]) for c in res.bad_columns[:20]))
     out.append(f"  {'bad rows':<14} {res.counts['bad_rows']:>8}  " + " ".join(str(r["y"]) for r in res.bad_rows[:20]))
@@ -145,6 +146,7 @@ def _text(res: DefectResult) -> str:
     out.append(f"  {'clusters':<14} {res.counts['clusters']:>8}  (group sizes {hist or 'none'})")
     if res.rts_available:
         out.append(f"  {res.rts_note}")
+    out.extend(f"  {c}: {why}" for c, why in res.detection.items() if why.startswith("incomplete"))
     out.extend(f"  {c}: not available: {why}" for c, why in res.unavailable.items())
     out.extend(f"  note: {n}" for n in res.notes)
     for lim in res.limits:

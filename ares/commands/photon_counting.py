@@ -83,6 +83,7 @@ def measure(files, dark_files, roi) -> dict:
                                         int(np.prod(light.shape)))
     fit = fit_code_histogram(lh.codes(), lh.h, **kw)
     return {"fit": fit, "photon_transfer": pt, "frames": light.n_frames,
+            "dark_values": int(dh.h.sum()) if dark_files else 0,
             "dark_frames": dark.n_frames if dark is not None else 0, "shape": list(light.shape)}
 
 
@@ -96,6 +97,11 @@ def run(args) -> int:
     files = input_files(args)
     m = measure(files, args.dark, args.roi)
     res = result_dict(m["fit"], m["photon_transfer"])
+    frames = max(m["frames"], m["dark_frames"])
+    for k in ("K", "read_noise_e"):  # the values a precise enough result needs, as frames of this stack
+        if "needs_values" in res[k]:
+            n = float(np.sum(m["fit"]["hist_counts"])) + m["dark_values"]
+            res[k]["needs_frames"] = int(np.ceil(frames * res[k]["needs_values"] / max(n, 1)))
     if args.pdf:
         import matplotlib
 
@@ -122,6 +128,9 @@ def run(args) -> int:
         if k in pt:
             line += f"   (photon transfer: {pt[k].text(with_reason=True)})"
         print(line)
+        if "precision" in res[k]:
+            print(f"  {'':<12} {res[k]['verdict']}: {res[k]['precision']}; >= {res[k]['needs_frames']} frames "
+                  "(light and dark each) of this size")
     if "chi2_ndf" in fit:
         print(f"  histogram scatter about the fit: {fit['chi2_ndf']:.3g}x its Poisson expectation")
     first = next((e for e in (fit[k] for k in NAMES) if e.available), None)

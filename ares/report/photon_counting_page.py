@@ -48,7 +48,7 @@ def photon_counting_page(stage: str, d: dict):
     names = {"K": "gain K (DN/e-)", "read_noise_e": "read noise (e-)", "mean_e": "mean electrons (e-)",
              "offset_dn": "offset (DN)"}
     rows = [[names[k], e.text(with_unit=False), pt[k].text(with_unit=False) if k in pt else "-",
-             _finer(e, pt.get(k)), "ok" if e.available else e.note] for k, e in est.items()]
+             _finer(e, pt.get(k)), _verdict(d[k], e)] for k, e in est.items()]
     y0 = 0.33 if hist else 0.9
     yb = text_table(fig, (0.08, y0, 0.86), ["quantity", "histogram fit (± SE)", "photon transfer (± SE)",
                                        "SE ratio", "verdict"],
@@ -65,3 +65,13 @@ def _finer(e: Estimate, other: Estimate | None) -> str:
     if other is None or not (e.available and other.available) or not e.se > 0:
         return "-"
     return f"{other.se / e.se:.1f}x"
+
+
+def _verdict(d: dict, e: Estimate) -> str:
+    """The table's verdict: "ok", the reason it is not available, or that its precision is
+    not enough (analysis.optics.photon_counting.K_TARGET / RN_TARGET) and what would reach it."""
+    if not e.available:
+        return e.note
+    if "precision" in d:
+        return f"{d['verdict']}: {d['precision']}"
+    return d.get("verdict", "ok")

@@ -121,3 +121,11 @@ def rate_available(cls: str, threshold: float, lim: float, exposure_s: float, si
                    f"(pixel-to-pixel noise {sigma_dn:.2g} DN) only dark rates >= {lim:.3g} e-/s are found (99 %), "
                    f"above {factor:g}x the {cls} threshold {threshold:g} e-/s (a lower bound: longer where the dark's "
                    "non-uniformity grows with exposure)")
+
+
+def partial_rate_text(cls: str, threshold: float, lim: float, why_not: str) -> str:
+    """The detection sentence of a rate class reported incomplete: the pixels found (rate >=
+    ``lim`` e-/s, 99 %) are of the class, those between its threshold and ``lim`` are missed;
+    ``why_not`` (rate_available's sentence) says the exposure that would find them all."""
+    return (f"incomplete: finds only dark rates >= {lim:.3g} e-/s (99 %), {cls} pixels between {threshold:g} and "
+            f"{lim:.3g} e-/s are missed -- the count is a lower bound; for all of them it " + why_not)

@@ -55,7 +55,10 @@ channel; "z" is a robust z-score, sigma = 1.4826 * MAD):
 * detection limits -- ``max_false_alarm`` (1e-5 per pixel), ``noisy_detect_ratio`` (10x
   the population variance), ``rate_detect_factor`` (hot/warm: a pixel at 2x the class's
   rate threshold is found with 99 %, else the class is not available and the exposure it
-  needs is named; with several dark exposures the rate is the slope over them) and
+  needs is named; with several dark exposures the rate is the slope over them --
+  between that and ``rate_partial_factor`` (10x the threshold) the class keeps the pixels it
+  finds, its count "incomplete", a lower bound; beyond, what a single exposure finds is the
+  far tail, where offsets that are no rate (a trap held high) outnumber dark current) and
   ``max_plausible_fraction`` (1 %): see ``limits.py``; a
   class that cannot meet them at the data's frame count is not available, with the reason.
 * clusters -- 8-connected groups of >= ``cluster_min_size`` defective pixels.
@@ -105,6 +108,7 @@ class DefectThresholds:
     max_false_alarm: float = 1e-5
     noisy_detect_ratio: float = 10.0
     rate_detect_factor: float = 2.0
+    rate_partial_factor: float = 10.0
     max_plausible_fraction: float = 0.01
     # random telegraph signal
     rts_min_frames: int = 12
