@@ -1,6 +1,21 @@
 """Shared test fixtures."""
 
-import pytest
+import sys
+
+from ares.cli import set_blas_threads
+
+# The suite's processes (its xdist workers, the commands it starts) run with the BLAS threads
+# `ares` itself runs with (one): set before numpy is first imported, or OpenBLAS starts a
+# thread per core in each worker, and its multithreaded level-1 calls (np.dot of a frame's
+# 19200 pixels: ~1 ms with two workers on two cores, 2 us on one thread) made
+# test_emva4_truth.py take 67 s of CPU instead of 10 (benchmarks/suite_time.md).
+if "numpy" in sys.modules:  # (a plugin imported it: the setting below reaches only the commands started)
+    import warnings
+
+    warnings.warn("numpy was imported before tests/conftest.py set the BLAS threads to ARES's: the suite is slower")
+set_blas_threads()
+
+import pytest  # noqa: E402
 
 
 @pytest.fixture(scope="module")
