@@ -61,7 +61,6 @@ def test_declared_bins_take_the_planted_truth_into_the_database_and_stdf(tmp_pat
         lot_id = rdb.append_lot(db, "B", j)
         assert rdb.bins(db, lot_id) == j.bins
         from_db = stdf.from_db(db, lot_id)
-    hard_names = {8: "good", 5: "parametric", 6: "outlier", 7: "no data"}
     for name, content in (("judged", stdf.from_judged(j, "B")), ("db", from_db)):
         stdf.write(content, tmp_path / f"{name}.stdf")
         recs = read_stdf(tmp_path / f"{name}.stdf")

@@ -8,7 +8,6 @@ from __future__ import annotations
 import csv
 
 import numpy as np
-import pytest
 
 from ares.batch import db as rdb
 from ares.batch.lot_report import judge

@@ -221,5 +221,5 @@ def _print(s: dict, px, period) -> None:
                   f"{format_value(px.dwell_low_frames[i], px.dwell_low_se[i]):19s}  "
                   f"{format_value(px.dwell_high_frames[i], px.dwell_high_se[i])}")
     dl, dh = s["frames_needed_dwell_frames"]
-    print(f"frames needed      " + ", ".join(f"amplitude {a} sigma: needs >= {n}" for a, n in s["frames_needed"].items())
+    print("frames needed      " + ", ".join(f"amplitude {a} sigma: needs >= {n}" for a, n in s["frames_needed"].items())
           + f" (dwell {dl:.3g}/{dh:.3g} frames; amplitude to 5 %, dwell times to 10 %, found at {s['z_screen']:g} SE)")

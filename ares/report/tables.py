@@ -13,7 +13,6 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass
 
-import numpy as np
 
 from ares.analysis.stats.estimate import (GAIN_SPREADS, Estimate, component_display, component_text,  # noqa: F401
                                     format_value)  # (component_* re-exported for the report pages)

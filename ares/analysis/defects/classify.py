@@ -24,7 +24,7 @@ from ares.analysis.defects.result import BITS, DEFECT_DTYPE, PIXEL_CLASSES, Defe
 from ares.analysis.defects.limits import (Z99, hot_limit_text, noisy_available, p_constant_codes, partial_rate_text,
                                          rate_available)
 from ares.analysis.defects.robust import robust_sigma
-from ares.analysis.defects.rts import (detect_rts, low_outlier, low_outlier_critical, null_separation, rts_threshold,
+from ares.analysis.defects.rts import (detect_rts, low_outlier, low_outlier_critical, rts_threshold,
                                        telegraph_evidence)
 from ares.analysis.defects.stats import PixelStats, SeriesCollector
 from ares.analysis.defects.inputs import _Dark, _Flat, _Slope, _level_flags, _levels, _match_dark, _need

@@ -360,7 +360,6 @@ def local_slope_check(s, v, v_se, k: float, limit: float = 0.03, errors_name: st
     D = bspline_design(s, t, derivative=True)
     try:
         coef, _, rank, _ = np.linalg.lstsq(A, v / e, rcond=None)
-        cov = np.linalg.pinv(A.T @ A)
     except np.linalg.LinAlgError as exc:
         return LocalSlopeCheck(math.nan, None, f"B-spline regression failed ({exc})")
     if rank < A.shape[1]:

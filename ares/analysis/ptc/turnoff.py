@@ -301,65 +301,6 @@ class TurnoffFound:
 
     def __iter__(self):  # (n_on, seen), as before
         return iter((self.n_on, self.seen))
-@dataclass(frozen=True)
-class RampTurnoff:
-    index: int  # input index of the turnoff level (-1: none)
-    turnoff: float  # signal at the turnoff (the input's unit)
-    max_signal: float
-    reached: bool  # a level beyond the turnoff deviates (else the turnoff is the brightest level)
-    slope: float
-    note: str
-
-
-def ramp_turnoff(x, y, min_signal: float = 1000.0, tol: float = 0.01, mask=None) -> RampTurnoff:
-    """Linearity turnoff and maximum signal of a ramp: signal ``y`` against an illumination
-    ``x`` (exposure time or photodiode charge), in any order (see the module docstring).
-    ``mask``: levels known to be below saturation for the initial line (default: all)."""
-    x = np.asarray(x, float)
-    y = np.asarray(y, float)
-    fin = np.isfinite(x) & np.isfinite(y) & (x > 0) & (y > 0)
-    if fin.sum() < 4:
-        return RampTurnoff(-1, math.nan, math.nan, False, math.nan,
-                           f"{int(fin.sum())} usable levels: a ramp needs >= 4 with positive illumination and signal")
-    floor = min_signal if (y[fin] >= min_signal).sum() >= 4 else 0.0
-    fit = fin & (y >= floor)
-    if mask is not None:
-        fit &= np.asarray(mask, bool)
-    if fit.sum() < 4:
-        fit = fin
-    order = np.flatnonzero(fin)[np.argsort(x[fin], kind="stable")]
-    for _ in range(int(fit.sum())):
-        slope = float(np.sum(x[fit]) / np.sum(x[fit] ** 2 / y[fit]))  # chi2 line through 0, variance = signal
-        r = np.full(y.size, math.nan)
-        r[fin] = (y[fin] - slope * x[fin]) / y[fin]
-        r -= float(fast_median(r[fit]))
-        bad = np.abs(r) >= tol
-        last = -1
-        for k, i in enumerate(order):
-            if y[i] < floor:
-                continue
-            if bad[i] and (k + 1 == order.size or bad[order[k + 1]]):
-                break
-            last = int(i)
-        if last >= 0 and (np.abs(r[fit]) < tol).sum() > 4:
-            break
-        worst = np.flatnonzero(fit)[np.argmax(np.abs(r[fit]))]  # a bad initial line: drop its worst level
-        fit[worst] = False
-        if fit.sum() < 4:
-            break
-    if last < 0:
-        return RampTurnoff(-1, math.nan, math.nan, False, math.nan,
-                           "no line through the origin describes the ramp within 1 %")
-    ymax = float(np.max(y[fin]))
-    reached = bool(y[last] < ymax and (x[fin] > x[last]).any())
-    top = fin & (y > (1 - tol) * ymax)
-    mx = float(fast_median(y[top])) if reached else float(y[last])
-    note = (f"linearity turnoff (LSST cp_pipe cpLinearitySolve rule): last level before the first two deviating "
-            f"> {100 * tol:g} % from a line through the origin fitted above {floor:g}; maximum signal: median of "
-            f"the levels within {100 * tol:g} % of the brightest")
-    if not reached:
-        note = "no level deviates beyond the turnoff: the ramp does not reach saturation (a lower limit)"
-    return RampTurnoff(last, float(y[last]), mx, reached, slope, note)
 
 
 PLAUSIBLE = 3.0  # a turnoff whose cost (-2 log likelihood) is within this of the best one's is plausible (ratio 0.22)
