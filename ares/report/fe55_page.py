@@ -15,7 +15,7 @@ import numpy as np
 
 from ares.analysis.stats.estimate import Estimate
 from ares.labels import FIGURES
-from ares.report.plots import new_page, text_table
+from ares.report.plots import histogram_residuals, new_page, text_table
 
 ROWS = (("kalpha_dn", "K-alpha peak (3x3 signal)"), ("kalpha_sigma_dn", "K-alpha line width (sigma)"),
         ("kbeta_ratio", "K-beta / K-alpha peak heights"),
@@ -49,12 +49,7 @@ def fe55_page(stage: str, d: dict):
         ax.set_ylabel("events per bin")
         ax.legend(loc="upper right", fontsize=7.5)
         ax.grid(alpha=0.3)
-        ax2 = fig.add_axes([0.11, 0.46, 0.83, 0.11], sharex=ax)
-        ax2.plot(x, (h - m) / np.sqrt(np.maximum(m, 1.0)), ".", ms=3, color="k")
-        ax2.axhline(0, color="0.5", lw=0.6)
-        ax2.set_ylabel("residual / sqrt(model)")
-        ax2.set_xlabel("event signal, sum of 3x3 pixels (DN)")
-        ax2.grid(alpha=0.3)
+        histogram_residuals(fig, [0.11, 0.46, 0.83, 0.11], ax, x, h, m, "event signal, sum of 3x3 pixels (DN)")
         y0 = 0.4
     elif d.get("no_xray"):
         fig.text(0.08, 0.9, textwrap.fill(d["no_xray"][0].upper() + d["no_xray"][1:] + ".", 95), fontsize=10,

@@ -11,7 +11,7 @@ from scipy.stats import poisson
 
 from ares.analysis.stats.estimate import Estimate
 from ares.analysis.optics.photon_counting import READ_NOISE_LIMIT_E
-from ares.report.plots import new_page, text_table
+from ares.report.plots import histogram_residuals, new_page, text_table
 
 
 def photon_counting_page(stage: str, d: dict):
@@ -38,12 +38,7 @@ def photon_counting_page(stage: str, d: dict):
         ax.set_ylabel("pixels x frames")
         ax.legend(loc="upper right")
         ax.grid(alpha=0.3)
-        ax2 = fig.add_axes([0.11, 0.40, 0.83, 0.12], sharex=ax)
-        ax2.plot(x, (h - m) / np.sqrt(np.maximum(m, 1.0)), ".", ms=3, color="k")
-        ax2.axhline(0, color="0.5", lw=0.6)
-        ax2.set_ylabel("residual / sqrt(model)")
-        ax2.set_xlabel("code (DN)")
-        ax2.grid(alpha=0.3)
+        histogram_residuals(fig, [0.11, 0.40, 0.83, 0.12], ax, x, h, m, "code (DN)")
     pt = {k: Estimate.from_dict(v) for k, v in (d.get("photon_transfer") or {}).items()}
     names = {"K": "gain K (DN/e-)", "read_noise_e": "read noise (e-)", "mean_e": "mean electrons (e-)",
              "offset_dn": "offset (DN)"}

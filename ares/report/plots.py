@@ -324,3 +324,15 @@ def grid_image(fig, ax, values: np.ndarray, xvals, yvals, xlabel: str, ylabel: s
     ax.set_xlabel(xlabel)
     ax.set_ylabel(ylabel)
     ax.set_title(title)
+
+
+def histogram_residuals(fig, rect, ax, x, h, m, xlabel: str):
+    """The panel under a fitted histogram: each bin's (count - model) / sqrt(model), sharing
+    ``ax``'s x axis (photon counting, Fe-55)."""
+    ax2 = fig.add_axes(rect, sharex=ax)
+    ax2.plot(x, (h - m) / np.sqrt(np.maximum(m, 1.0)), ".", ms=3, color="k")
+    ax2.axhline(0, color="0.5", lw=0.6)
+    ax2.set_ylabel("residual / sqrt(model)")
+    ax2.set_xlabel(xlabel)
+    ax2.grid(alpha=0.3)
+    return ax2
