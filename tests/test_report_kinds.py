@@ -2,7 +2,8 @@
 match what it measured, and states every figure the same on every surface (terminal,
 JSON, CSV, HDF5, PDF, the window's models: ``one_truth.check_surfaces``) (issue: reports for every scan kind): a dark-current scan has its
 dark-current pages, a 2-D sweep its maps with axis units, an ADC scan its INL/DNL page, the
-MTF, photon-counting and spectral-QE scans their pages, and
+MTF, photon-counting, spectral-QE, Fe-55, RTN and per-pixel dark-vs-temperature scans their
+pages, and
 no scan gets photon-transfer pages it did not measure; no page is blank. (emva_4.xml is
 checked in test_emva4_scan.py; emva_reference.xml needs ../shared/data.)"""
 
@@ -43,7 +44,17 @@ EXPECT = {
                          "SE ratio"], ["Photon transfer (analog gain", "SNR and linearity"]),
     "spectral_qe": (["Spectral quantum efficiency", "QE per wavelength", "outside the photodiode's calibration table",
                      "Photon transfer (analog gain x1)"], ["Scan-level analysis: spectral_qe"]),
+    "fe55": (["Fe-55 X-ray gain: stage xray", "K-alpha peak (3x3 signal)", "inverse system gain 1/K (Fe-55 K-alpha)"],
+             ["Photon transfer (analog gain", "SNR and linearity"]),
+    "rtn": (["Random telegraph noise", "pixel temporal noise sqrt(Pt), all pixels"],
+            ["Photon transfer (analog gain", "SNR and linearity"]),
+    "dark_temperature": (["Dark current against temperature, per pixel", "Dark current vs temperature",
+                          "temperature (C)"], ["Photon transfer (analog gain", "SNR and linearity"]),
+    "genicam_quick": (["Noise components", "Stages"], ["Photon transfer (analog gain", "SNR and linearity"]),
+    "photon_transfer_precision": (["Photon transfer (analog gain x1)", "SNR and linearity", "Defect map"], []),
 }
+# frames per stage for the check (3 unless said): RTN needs its long dark series
+FRAMES = {"rtn": None}
 
 
 # the main job, the replayed reference CCD and the cheap kinds in the suite; every other shipped
@@ -61,8 +72,9 @@ def test_report_pages_match_what_the_scan_measured(name, tmp_path, capsys, share
                                                           "--seed", "2", "--quiet"])
     else:
         out = tmp_path / "run"
+        frames = FRAMES.get(name, "3")
         args = ["run", str(ROOT / "scans" / f"{name}.xml"), "--out", str(out), "--seed", "2", "--quiet",
-                "--frames", "3"]
+                *(["--frames", frames] if frames else [])]
         capsys.readouterr()
         rc = main(args)
         terminal = capsys.readouterr().out
