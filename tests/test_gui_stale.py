@@ -5,6 +5,7 @@ so any image of the first one is recognised by its shape."""
 
 from __future__ import annotations
 
+import json
 import os
 import threading
 
@@ -18,6 +19,7 @@ from PySide6.QtCore import Qt  # noqa: E402
 
 from ares.gui.engine import DemoScan  # noqa: E402
 from ares.gui.main_window import RESULT_TABS, MainWindow  # noqa: E402
+from ares.gui.plots.lowlight_view import TAB, show_for_run  # noqa: E402
 from test_gui import TIMEOUT_MS, idle, run_to_end, show_tab, tiny  # noqa: E402
 
 # One window for the module (building one costs ~0.7 s): each test sets what it reads
@@ -73,7 +75,7 @@ def _shown_everywhere(w) -> None:
         show_tab(w, name)
 
 
-def test_start_and_stop_show_nothing_of_the_previous_run(window, qtbot):
+def test_start_and_stop_show_nothing_of_the_previous_run(window, qtbot, tmp_path):
     window.set_job_factory(tiny(shape=FIRST))
     run_to_end(qtbot, window)
     _shown_everywhere(window)
@@ -85,6 +87,12 @@ def test_start_and_stop_show_nothing_of_the_previous_run(window, qtbot):
     assert window.session.signal_map.caption.startswith("stage 2: 400 e-")
     assert window.session.progress.stage_text == "3 of 3 (400 e-)"
     first_info = dict(window.session.info.items)
+    # a run with an RTN map leaves a Low Light tab (ares.gui.plots.lowlight_view); Start takes it away
+    rtn_dir = tmp_path
+    (rtn_dir / "scan_results.json").write_text(json.dumps({"analyses": {"rtn": {
+        "rtn_pixels": 1, "pixels": 4, "frames": 1000, "stage": "dark",
+        "map": {"shape": [2, 2], "rows": [1], "cols": [0], "amplitude": [3.0]}}}}))
+    assert show_for_run(window.result_tabs, rtn_dir) is not None
 
     job = HeldAtStart()
     window.set_job_factory(lambda: job)
@@ -105,6 +113,8 @@ def _second_run(window, qtbot, job, first_info) -> None:
     assert not s.profiles.columns and not s.profiles.rows, "Profiles of the previous run"
     assert not s.ptc.points and not s.components.views and not s.stages.results
     assert not s.sweep.points
+    tabs = window.result_tabs
+    assert TAB not in [tabs.tabText(i) for i in range(tabs.count())], "the previous run's Low Light tab"
     for k, v in first_info.items():  # the previous run's figures are gone from the Information tab
         if k.startswith("PTC") or k in ("gain",):
             assert s.info.items.get(k) != v, k

@@ -270,6 +270,9 @@ class MainWindow(QMainWindow):
         self.last_error = None
         self.runs_started += 1
         self.session.begin_run(getattr(job, "title", ""))
+        from ares.gui.plots.lowlight_view import show_for_run
+
+        show_for_run(self.result_tabs, None)  # the previous run's RTN map / Fe-55 fit leave with it
         thread = self.scan_thread = ScanThread(job, self)
         thread.event.connect(lambda ev: self._on_event(ev, thread))
         thread.timer.timeout.connect(self._flush)  # statistics computed meanwhile are shown
