@@ -147,3 +147,27 @@ def test_a_run_stopped_before_the_flat_keeps_its_stages_provisional_and_resumes_
         for key in ("views", "settings", "bench_position", "defect_mask"):
             assert have[name][key] == want[name][key], (name, key)
     assert json.loads((d / "scan_results.json").read_text()) == json.loads((ref / "scan_results.json").read_text())
+
+
+def test_a_kill_inside_a_stage_rewrite_leaves_a_readable_run(run, tmp_path):
+    """A stage rewritten with the completed mask (RunWriter.replace_stage) is a two-phase
+    commit: run.json first learns the new JSON's hash ("stage_sha256_replacing"), then the
+    file is replaced, then the hash is recorded. A SIGKILL after the file but before the last
+    run.json left "corrupt: stage 0 ... differs from the SHA-256 recorded" and the resumed
+    run's reports failed (test_signal_campaign, seed 4); now either hash is the stage's."""
+    import hashlib
+    import shutil
+
+    from ares.rundir.check import RunDamaged, check_stage_files
+
+    rd = tmp_path / "run"
+    shutil.copytree(run[2], rd)
+    meta = json.loads((rd / "run.json").read_text())
+    assert "stage_sha256_replacing" not in meta  # a finished rewrite leaves no trace
+    now = hashlib.sha256((rd / "stages" / "0000.json").read_bytes()).hexdigest()
+    assert meta["stage_sha256"]["0000"] == now
+    provisional = dict(meta, stage_sha256={**meta["stage_sha256"], "0000": "0" * 64})
+    with pytest.raises(RunDamaged, match="stage 0"):  # the file replaced, run.json still the provisional hash
+        check_stage_files(rd, provisional)
+    check_stage_files(rd, dict(provisional, stage_sha256_replacing={"0000": now}))  # killed after the file
+    check_stage_files(rd, dict(meta, stage_sha256_replacing={"0000": "0" * 64}))  # killed before the file

@@ -6,7 +6,9 @@ What the writer (``ares.rundir.writer``) records, hashing bytes it holds in memo
 - in each stage's JSON (written after its HDF5): ``arrays_sha256`` -- ``{array name: SHA-256}``
   of every array of ``stages/NNNN.h5`` (``array_sha256``: dtype, shape and the C-order bytes,
   so the HDF5 filters do not matter) -- and ``h5_bytes``, that file's size;
-- in ``run.json``: ``stage_sha256`` -- ``{"NNNN": SHA-256 of stages/NNNN.json}``.
+- in ``run.json``: ``stage_sha256`` -- ``{"NNNN": SHA-256 of stages/NNNN.json}``; while a
+  committed stage is rewritten (``RunWriter.replace_stage``) ``stage_sha256_replacing`` holds
+  the new file's hash too, and either is accepted.
 
 ``check_run`` says what is wrong in one sentence, naming the stage and the file:
 ``incomplete: stage N ...`` (a recorded stage, or its arrays, deleted) or ``corrupt: stage N
@@ -72,7 +74,8 @@ def check_stage_files(d: Path, meta: dict) -> None:
         if key not in present:
             raise RunDamaged(f"{d}: incomplete: stage {int(key)} is missing (stages/{key}.json, recorded in "
                              f"run.json when it was written, is gone){_rerun(d)}")
-        if hashlib.sha256(p.read_bytes()).hexdigest() != recorded[key]:
+        replacing = (meta.get("stage_sha256_replacing") or {}).get(key)  # a rewrite cut short after its file
+        if hashlib.sha256(p.read_bytes()).hexdigest() not in (recorded[key], replacing):
             raise RunDamaged(f"{d}: corrupt: stage {int(key)}{_stage_name(d, key)}: stages/{key}.json differs from "
                              f"the SHA-256 recorded in run.json when it was written{_rerun(d)}")
     if meta.get("status") == "done":

@@ -88,9 +88,14 @@ def _fsync(path: Path) -> None:
         os.fsync(fh.fileno())
 
 
+def json_bytes(obj) -> bytes:
+    """``obj`` as the strict JSON bytes ``dump_json`` writes."""
+    return json.dumps(_clean(obj), indent=1, default=_json_default, allow_nan=False).encode()
+
+
 def dump_json(path: Path, obj) -> str:
     """Write ``obj`` as strict JSON (atomically); the SHA-256 of the bytes written."""
-    data = json.dumps(_clean(obj), indent=1, default=_json_default, allow_nan=False).encode()
+    data = json_bytes(obj)
     write_atomic(path, data)
     return sha256(data)
 

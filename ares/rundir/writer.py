@@ -68,7 +68,8 @@ import numpy as np
 
 from ares.labels import array_unit
 from ares.rundir.state import Heartbeat, owner
-from ares.rundir.files import _clean, _fsync, _json_default, claim_run_dir, dump_json, sha256, storage, versions, write_atomic
+from ares.rundir.files import (_clean, _fsync, _json_default, claim_run_dir, dump_json, json_bytes, sha256, storage,
+                               versions, write_atomic)
 
 SUMMARY_COMPONENTS = ("o", "Pt", "Ps", "Rt", "Rs", "Ct", "Cs", "frame_global")
 
@@ -137,6 +138,10 @@ class RunWriter:
 
         clean_report_leftovers(self.dir)  # results.h5.tmp, a report's .tmp and report.pdf.parts
         recorded = self.meta["stage_sha256"] = dict(self.meta.get("stage_sha256") or {})
+        for key, new in (self.meta.pop("stage_sha256_replacing", None) or {}).items():  # a rewrite the kill cut
+            p = self.dir / "stages" / f"{key}.json"  # short after its file: the file is the stage now
+            if p.is_file() and sha256(p.read_bytes()) == new:
+                recorded[key] = new
         dropped = self._drop_stages_from(len(stages), recorded)
         if dropped:  # committed with a provisional defect mask (ares.scan.resume): acquired again
             resumed[-1]["acquired_again"] = dropped
@@ -221,9 +226,23 @@ class RunWriter:
         with storage(self.dir / "stages"):
             if self.scan.output.hdf5:  # its arrays' hashes go into the JSON (ares.rundir.check)
                 record["arrays_sha256"], record["h5_bytes"] = self._write_stage_h5(i, result, arrays)
-            digest = dump_json(self.dir / "stages" / f"{i:04d}.json", record)
+            key = f"{i:04d}"
+            if replace:  # two-phase: run.json learns the new JSON's hash before the file changes, so a
+                # kill between the two leaves a file matching one of the two recorded hashes
+                # (ares.rundir.check accepts "stage_sha256_replacing"), never a "corrupt" stage
+                with self._lock:
+                    self.meta["stage_sha256_replacing"] = {**self.meta.get("stage_sha256_replacing", {}),
+                                                           key: sha256(json_bytes(record))}
+                self._write_meta()
+            digest = dump_json(self.dir / "stages" / f"{key}.json", record)
             with self._lock:  # (a new dict: the heartbeat thread may be serialising the old one)
-                self.meta["stage_sha256"] = {**self.meta.get("stage_sha256", {}), f"{i:04d}": digest}
+                self.meta["stage_sha256"] = {**self.meta.get("stage_sha256", {}), key: digest}
+                if replace:
+                    rest = {k: v for k, v in self.meta.get("stage_sha256_replacing", {}).items() if k != key}
+                    if rest:
+                        self.meta["stage_sha256_replacing"] = rest
+                    else:
+                        self.meta.pop("stage_sha256_replacing", None)
             if self.scan.output.hdf5 and not replace:
                 self._write_index(f"{i:04d}")
             row = _summary_row(result, self.scan)
