@@ -102,7 +102,20 @@ def test_hardware_fault_exit_3(tmp_path, capsys):
     assert f"{len(rec.stages)} completed stage(s) saved in" in err
 
 
+def _ptc_no_pdf(tmp_path) -> str:
+    """ptc_small.xml without its PDF (for tests that compare statuses and results: the PDF
+    was most of each run), beside its system file."""
+    d = tmp_path / "xml"
+    d.mkdir()
+    (d / "sim_small.xml").write_text((SMALL / "sim_small.xml").read_text())
+    text = (SMALL / "ptc_small.xml").read_text()
+    assert '<output raw_frames="true"/>' in text
+    (d / "ptc_small.xml").write_text(text.replace('<output raw_frames="true"/>', '<output raw_frames="true" pdf="false"/>'))
+    return str(d / "ptc_small.xml")
+
+
 def test_rerun_reproduces_the_run(tmp_path, capsys):
+    PTC = _ptc_no_pdf(tmp_path)
     assert main(["run", PTC, "--out", str(tmp_path / "a"), "-q", "--seed", "11", "--frames", "3"]) == 0
     capsys.readouterr()
     assert main(["rerun", str(tmp_path / "a"), "--out", str(tmp_path / "b"), "-q"]) == 0
@@ -142,6 +155,7 @@ def test_ctrl_c_stops_after_the_current_stage(tmp_path):
 
 
 def test_auto_repeat_from_the_cli(tmp_path, capsys):
+    PTC = _ptc_no_pdf(tmp_path)
     assert main(["run", PTC, "--out", str(tmp_path / "rep"), "-q", "--frames", "2", "--repeat", "2"]) == 0
     assert [load_run(tmp_path / "rep" / f"repeat_{i:03d}").meta["status"] for i in (1, 2)] == ["done", "done"]
 

@@ -61,7 +61,10 @@ def assert_resumes_to_reference(d: Path, ref: Path, capsys) -> None:
     assert json.loads((d / "scan_results.json").read_text()) == json.loads((ref / "scan_results.json").read_text())
 
 
-@pytest.mark.parametrize("fault", ["disconnect_after_frames=13", "short_frame_at=22"])
+# the disconnect in the suite; the short frame in make bench-quick (short frames themselves: test_scan_runner,
+# test_sim_bench, test_usb_transient)
+@pytest.mark.parametrize("fault", ["disconnect_after_frames=13",
+                                   pytest.param("short_frame_at=22", marks=pytest.mark.study)])
 def test_hardware_fault_then_resume(fault, tmp_path, reference, capsys):
     d = tmp_path / "run"
     rc = main(["run", str(SCAN), "--out", str(d), "--quiet", "--sim-fault", fault])
@@ -207,12 +210,12 @@ def test_concurrent_runs_into_one_out_never_nest(tmp_path):
     out = tmp_path / "same"
     procs = [subprocess.Popen([sys.executable, "-m", "ares.cli", "run", str(SCAN), "--out", str(out), "--quiet"],
                               cwd=ROOT, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE,
-                              env={**os.environ, "PYTHONPATH": str(ROOT)}) for _ in range(4)]
+                              env={**os.environ, "PYTHONPATH": str(ROOT)}) for _ in range(3)]
     for p in procs:
         p.communicate(timeout=900)
         assert p.returncode == 0
     runs = sorted(p for p in tmp_path.iterdir() if (p / "run.json").exists())
-    assert len(runs) == 4
+    assert len(runs) == 3
     for r in runs:  # no run directory inside another
         assert not any((c / "run.json").exists() for c in r.iterdir() if c.is_dir())
 
