@@ -18,6 +18,7 @@ import json
 import math
 from pathlib import Path
 
+from ares.commands.jsonable import jsonable
 from ares.errors import InputError
 
 NAME = "dark-temperature"
@@ -35,18 +36,6 @@ def add_arguments(p) -> None:
     p.add_argument("--json", action="store_true", help="print the result as JSON")
     p.add_argument("--hdf5", default=None, metavar="FILE", help="write the per-pixel maps (run directory only)")
     p.add_argument("--csv", default=None, metavar="FILE", help="write the per-temperature rates as CSV")
-
-
-def _dicts(d):
-    from ares.analysis.stats.estimate import Estimate
-
-    if isinstance(d, Estimate):
-        return d.to_dict()
-    if isinstance(d, dict):
-        return {k: _dicts(v) for k, v in d.items()}
-    if isinstance(d, float) and not math.isfinite(d):
-        return None
-    return d
 
 
 def _from_table(path: Path, ref_c: float, unit: str | None) -> dict:
@@ -96,7 +85,7 @@ def run(args) -> int:
     if args.csv:
         _write_csv(Path(args.csv), out)
     if args.json:
-        print(json.dumps(_dicts(out), indent=2, allow_nan=False))
+        print(json.dumps(jsonable(out), indent=2, allow_nan=False))
         return 0
     _print(out)
     for what, f in (("maps", args.hdf5), ("table", args.csv)):
@@ -135,7 +124,7 @@ def _write_hdf5(path: Path, maps: dict, out: dict) -> None:
                 ds.attrs["unit"] = units.get(k, "")
             f["temperatures_c"] = np.asarray(out["temperatures_c"], float)
             f["temperatures_c"].attrs["unit"] = "C"
-            f.attrs["summary_json"] = json.dumps(_dicts(out), allow_nan=False)
+            f.attrs["summary_json"] = json.dumps(jsonable(out), allow_nan=False)
         tmp.replace(path)
 
 

@@ -21,6 +21,7 @@ import json
 import math
 from pathlib import Path
 
+from ares.commands.jsonable import jsonable
 from ares.errors import InputError
 
 NAME = "fe55"
@@ -41,24 +42,6 @@ def add_arguments(p) -> None:
     p.add_argument("--line-ev", type=float, default=None, help="K-alpha line energy in eV (default 5889, Mn)")
     p.add_argument("--json", action="store_true", help="print the result as JSON")
     p.add_argument("--csv", default=None, metavar="FILE", help="write the events (row, col, signal, grade) as CSV")
-
-
-def _jsonable(res: dict) -> dict:
-    from ares.analysis.stats.estimate import Estimate
-
-    out = {}
-    for k, v in res.items():
-        if k.startswith("_"):
-            continue
-        if isinstance(v, Estimate):
-            out[k] = v.to_dict()
-        elif isinstance(v, float) and not math.isfinite(v):
-            out[k] = None
-        elif isinstance(v, tuple):
-            out[k] = [None if not math.isfinite(x) else x for x in v]
-        else:
-            out[k] = v
-    return out
 
 
 def run(args) -> int:
@@ -108,7 +91,7 @@ def run(args) -> int:
         source = {"frames": [str(f) for f in args.frames]}
     if args.csv:
         _write_csv(Path(args.csv), ev, res)
-    out = {**source, **_jsonable(res)}
+    out = {**source, **jsonable(res)}
     rc = 0 if res["xray_events"] else 1  # no X-ray events: nothing measured, the exit says so
     if args.json:
         print(json.dumps(out, indent=2, allow_nan=False))

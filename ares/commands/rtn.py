@@ -17,6 +17,7 @@ import json
 import math
 from pathlib import Path
 
+from ares.commands.jsonable import jsonable
 from ares.errors import InputError
 
 NAME = "rtn"
@@ -35,22 +36,6 @@ def add_arguments(p) -> None:
     p.add_argument("--json", action="store_true", help="print the result as JSON")
     p.add_argument("--csv", default=None, metavar="FILE", help="write one row per RTN pixel")
     p.add_argument("--hdf5", default=None, metavar="FILE", help="write the RTN maps (amplitude, dwell times, noise)")
-
-
-def _dicts(d):
-    import numpy as np
-
-    from ares.analysis.stats.estimate import Estimate
-
-    if isinstance(d, Estimate):
-        return d.to_dict()
-    if isinstance(d, dict):
-        return {k: _dicts(v) for k, v in d.items() if not isinstance(v, np.ndarray)}
-    if isinstance(d, tuple):
-        return [_dicts(v) for v in d]
-    if isinstance(d, float) and not math.isfinite(d):
-        return None
-    return d
 
 
 def analyse_files(darks, z: float, margin: float, three: bool):
@@ -100,7 +85,7 @@ def run(args) -> int:
     if args.hdf5:
         _write_hdf5(Path(args.hdf5), px, sc, summ, shape)
     if args.json:
-        out = {"darks": [str(d) for d in args.darks], **_dicts(summ), "pixels_rtn": _pixel_rows(px, shape)}
+        out = {"darks": [str(d) for d in args.darks], **jsonable(summ), "pixels_rtn": _pixel_rows(px, shape)}
         print(json.dumps(out, indent=2, allow_nan=False))
         return 0
     _print(summ, px, args.frame_period_s)
@@ -167,7 +152,7 @@ def _write_hdf5(path: Path, px, sc, summ, shape) -> None:
             for k, (v, unit) in maps.items():
                 ds = f.create_dataset(k, data=v, compression="gzip")
                 ds.attrs["unit"] = unit
-            f.attrs["summary_json"] = json.dumps(_dicts(summ), allow_nan=False)
+            f.attrs["summary_json"] = json.dumps(jsonable(summ), allow_nan=False)
         tmp.replace(path)
 
 
