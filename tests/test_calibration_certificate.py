@@ -10,9 +10,9 @@ calibration's uncertainty. The public files are read where they are, never copie
 from __future__ import annotations
 
 import csv
+import hashlib
 import json
 import math
-import shutil
 import statistics
 from pathlib import Path
 
@@ -187,3 +187,4 @@ def test_spectral_qe_with_od142_as_the_monitor_diode(tmp_path):
     assert cal["file"] == str(od142) and cal["range_nm"] == [350.0, 1100.0]
     assert cal["header"]["Test Date"] == "12/15/10" and cal["header"]["Work. Stds."] == "H630, H633"
     assert cal["header"]["Lab Temperature"] == "22.5 °C ± 0.5 °C" and "k = 2" in cal["uncertainty"]
+    assert cal["sha256"] == hashlib.sha256(od142.read_bytes()).hexdigest()

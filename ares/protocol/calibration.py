@@ -29,9 +29,10 @@ relative one below 100 %). Any fault is one sentence naming the file and its lin
 from __future__ import annotations
 
 import csv
+import hashlib
 import math
 import re
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from pathlib import Path
 
 from ares.errors import InputError
@@ -39,8 +40,8 @@ from ares.errors import InputError
 COLUMNS = ("wavelength_nm", "responsivity_a_per_w", "u_responsivity_a_per_w")
 MAX_BYTES = 1 << 20  # a certificate's table is a few kB
 ARES, CERTIFICATE = "ares", "certificate"  # the two layouts
-_CERT_HEAD = re.compile(r"wavelength\s*\[\s*nm\s*\]", re.I)
-_K = re.compile(r"\(\s*k\s*=\s*([^)\s]+)\s*\)", re.I)
+_CERT_HEAD = re.compile(r"wavelength\s*\[\s*nm\s*\]", re.IGNORECASE)
+_K = re.compile(r"\(\s*k\s*=\s*([^)\s]+)\s*\)", re.IGNORECASE)
 # control characters no CSV text holds (a UTF-16 file's NULs, a binary file): tab, CR, LF allowed
 _CONTROL = re.compile(r"[\x00-\x08\x0b\x0c\x0e-\x1f\x7f]")
 FIELDS = "wavelength, responsivity, uncertainty"
@@ -59,6 +60,7 @@ class CalibrationTable:
     layout: str = ARES
     coverage_k: float = 1.0
     header: tuple[tuple[str, str], ...] = ()
+    sha256: str = ""  # of the file's bytes (which certificate, exactly)
 
     @property
     def range_text(self) -> str:
@@ -74,14 +76,15 @@ class CalibrationTable:
         return {"layout": "calibration certificate (Wavelength [nm], responsivity [A/W], relative uncertainty [%])"
                 if self.layout == CERTIFICATE else "ARES table (wavelength_nm, responsivity_a_per_w, "
                                                    "u_responsivity_a_per_w)",
-                "uncertainty": unc, "header": {k: v for k, v in self.header}}
+                "uncertainty": unc, "header": {k: v for k, v in self.header}, "sha256": self.sha256}
 
 
 def load_calibration(path: str | Path) -> CalibrationTable:
     from ares.safefile import read_regular
 
     data = read_regular(path, MAX_BYTES, "photodiode calibration table")
-    return parse_calibration(decode_text(data, str(path)), str(path))
+    table = parse_calibration(decode_text(data, str(path)), str(path))
+    return replace(table, sha256=hashlib.sha256(data).hexdigest())
 
 
 def decode_text(data: bytes, where: str) -> str:
@@ -199,9 +202,8 @@ def _row(cells: list[str], line: str, n: int, where: str, rows: list) -> tuple[f
     """One data row checked against the rows before it: (wavelength nm, responsivity A/W,
     uncertainty: A/W or % as the layout has it)."""
     if len(cells) != 3 or not all(cells):
-        got = sum(1 for c in cells if c)
-        raise InputError(f"{where}:{n}: expected 3 fields ({FIELDS}), got {got}" +
-                         (f" of {len(cells)} cells (an empty one)" if got != len(cells) else "") + f": '{line}'")
+        got = f"{len(cells)}" if len(cells) > 3 else f"{sum(1 for c in cells if c)} (a field is missing)"
+        raise InputError(f"{where}:{n}: expected 3 fields ({FIELDS}), got {got}: '{line}'")
     try:
         nm, r, u = (float(c) for c in cells)
     except ValueError:
