@@ -185,6 +185,7 @@ def test_spectral_qe_with_od142_as_the_monitor_diode(tmp_path):
     # provenance: the certificate's own lines in the run's results (scan_results.json)
     cal = json.loads((tmp_path / "run" / "scan_results.json").read_text())["analyses"]["spectral_qe"]["calibration"]
     assert cal["file"] == str(od142) and cal["range_nm"] == [350.0, 1100.0]
-    assert cal["header"]["Test Date"] == "12/15/10" and cal["header"]["Work. Stds."] == "H630, H633"
-    assert cal["header"]["Lab Temperature"] == "22.5 °C ± 0.5 °C" and "k = 2" in cal["uncertainty"]
+    assert cal["header"] == [["title", "Responsivity of Hamamatsu S2281 Si Photodiode, OD142 (280316)"],
+                             ["Lab Temperature", "22.5 °C ± 0.5 °C"], ["Work. Stds.", "H630, H633"],
+                             ["Test Date", "12/15/10"]] and "k = 2" in cal["uncertainty"]
     assert cal["sha256"] == hashlib.sha256(od142.read_bytes()).hexdigest()

@@ -68,7 +68,9 @@ class CalibrationTable:
 
     def provenance(self) -> dict:
         """What a run records of the calibration beside its file name: the layout, how its
-        uncertainty became a standard one, and the certificate's metadata (all text)."""
+        uncertainty became a standard one, the certificate's metadata lines as [name, text]
+        pairs (a list, not a mapping: the terminal prints a result's mappings as sections) and
+        the file's SHA-256."""
         if self.layout == CERTIFICATE:
             unc = f"relative expanded uncertainty U (k = {self.coverage_k:g}) in %, standard u(R) = R U / (100 k)"
         else:
@@ -76,7 +78,7 @@ class CalibrationTable:
         return {"layout": "calibration certificate (Wavelength [nm], responsivity [A/W], relative uncertainty [%])"
                 if self.layout == CERTIFICATE else "ARES table (wavelength_nm, responsivity_a_per_w, "
                                                    "u_responsivity_a_per_w)",
-                "uncertainty": unc, "header": {k: v for k, v in self.header}, "sha256": self.sha256}
+                "uncertainty": unc, "header": [list(kv) for kv in self.header], "sha256": self.sha256}
 
 
 def load_calibration(path: str | Path) -> CalibrationTable:

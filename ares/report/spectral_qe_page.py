@@ -37,7 +37,7 @@ def spectral_qe_page(d: dict):
     lines = [f"system gain K = {K.text(with_reason=True)}" + (f" ({d['gain_source']})" if d.get("gain_source") else ""),
              f"reference photodiode: {cal.get('area_mm2', 0):g} mm^2, reads {cal.get('reading', '?')}, calibration "
              f"{cal.get('file', '?')} ({'-'.join(f'{x:g}' for x in cal.get('range_nm') or [])} nm)"]
-    hdr = "; ".join(v if k == "title" else f"{k}: {v}" for k, v in (cal.get("header") or {}).items())
+    hdr = "; ".join(v if k == "title" else f"{k}: {v}" for k, v in cal.get("header") or [])
     if hdr:  # the calibration certificate's own lines (ares.protocol.calibration), wrapped to the page
         lines += textwrap.wrap(f"calibration certificate: {hdr}", 105, subsequent_indent="    ")[:3]
     if cal.get("uncertainty"):
