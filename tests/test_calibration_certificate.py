@@ -97,6 +97,8 @@ def test_a_certificate_in_its_own_encoding_and_a_standard_uncertainty_header(tmp
     t = load_calibration(p)
     assert t.coverage_k == 1 and t.u_a_per_w[1] == pytest.approx(0.1850 * 0.36 / 100, rel=1e-12)
     assert t.header[1] == ("Lab Temperature", "22.5 °C ± 0.5 °C")
+    p.write_text(CERT.replace("[nm]", "(nm)").replace("[A/W]", "(A/W)").replace("[%]", "(%)").replace("(k = 2)", "(k=3)"))
+    assert load_calibration(p).u_a_per_w[1] == pytest.approx(0.1850 * 0.36 / 300, rel=1e-12)
 
 
 @pytest.mark.parametrize("edit,line,words", [

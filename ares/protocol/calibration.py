@@ -15,9 +15,10 @@ files LSST's eotest ships, ``data/qe/Harvard/OD142.csv``) -- metadata lines (a t
     Wavelength [nm],Spectral power responsivity [A/W],Relative expanded uncertainty (k = 2) [%]
     350,0.1498,0.72                        (U: relative, expanded with the k the header states)
 
-whose uncertainty becomes u = R x U / 100 / k (GUM 6.2.1: U = k u); a header that says
-"standard uncertainty" without a k is k = 1, an expanded one without a k is refused. The
-metadata lines are kept (``header``) for the run's provenance. Trailing empty CSV cells
+(units in brackets or parentheses), whose uncertainty becomes u = R x U / 100 / k (GUM
+6.2.1: U = k u); a header that says "standard uncertainty" without a k is k = 1, an
+expanded one without a k is refused. The metadata lines are kept (``header``) for the run's
+provenance. Trailing empty CSV cells
 (a spreadsheet's export) are ignored; the text is UTF-8 or, failing that, an 8-bit
 encoding (``decode_text``: the certificate's degree and plus-minus signs).
 
@@ -40,7 +41,7 @@ from ares.errors import InputError
 COLUMNS = ("wavelength_nm", "responsivity_a_per_w", "u_responsivity_a_per_w")
 MAX_BYTES = 1 << 20  # a certificate's table is a few kB
 ARES, CERTIFICATE = "ares", "certificate"  # the two layouts
-_CERT_HEAD = re.compile(r"wavelength\s*\[\s*nm\s*\]", re.IGNORECASE)
+_CERT_HEAD = re.compile(r"wavelength\s*[\[(]\s*nm\s*[\])]", re.IGNORECASE)  # units in [] or ()
 _K = re.compile(r"\(\s*k\s*=\s*([^)\s]+)\s*\)", re.IGNORECASE)
 # control characters no CSV text holds (a UTF-16 file's NULs, a binary file): tab, CR, LF allowed
 _CONTROL = re.compile(r"[\x00-\x08\x0b\x0c\x0e-\x1f\x7f]")
@@ -155,11 +156,11 @@ def _ares_table(lines: list[str], head: int, where: str) -> CalibrationTable:
 
 
 def _certificate(lines: list[str], head: int, cells: list[str], where: str) -> CalibrationTable:
-    if len(cells) != 3 or "[a/w]" not in cells[1].lower().replace(" ", ""):
+    if len(cells) != 3 or not re.search(r"[\[(]a/w[\])]", cells[1].lower().replace(" ", "")):
         raise InputError(f"{where}:{head}: a calibration certificate's header must name 3 columns, wavelength [nm], "
                          f"responsivity [A/W] and its relative uncertainty [%], not '{','.join(cells)}'")
     unc = cells[2].lower()
-    if not unc.replace(" ", "").endswith("[%]"):
+    if not unc.replace(" ", "").endswith(("[%]", "(%)")):
         raise InputError(f"{where}:{head}: the uncertainty column must be relative, in % ('... [%]'), not '{cells[2]}'")
     m = _K.search(cells[2])
     if m:
