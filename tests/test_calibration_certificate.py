@@ -99,6 +99,11 @@ def test_a_certificate_in_its_own_encoding_and_a_standard_uncertainty_header(tmp
     assert t.header[1] == ("Lab Temperature", "22.5 °C ± 0.5 °C")
     p.write_text(CERT.replace("[nm]", "(nm)").replace("[A/W]", "(A/W)").replace("[%]", "(%)").replace("(k = 2)", "(k=3)"))
     assert load_calibration(p).u_a_per_w[1] == pytest.approx(0.1850 * 0.36 / 300, rel=1e-12)
+    # ARES's own table: u in A/W as given (k = 1), its leading comments kept as its header
+    p.write_text("# Si diode, cert 7\n# k = 1\nwavelength_nm,responsivity_a_per_w,u_responsivity_a_per_w,,\n"
+                 "400,0.18,0.0027,,\n450,0.24,0.0024\n")
+    t = load_calibration(p)
+    assert t.layout == "ares" and t.u_a_per_w == (0.0027, 0.0024) and t.header == (("comment", "Si diode, cert 7 k = 1"),)
 
 
 @pytest.mark.parametrize("edit,line,words", [

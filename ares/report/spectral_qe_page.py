@@ -38,8 +38,8 @@ def spectral_qe_page(d: dict):
              f"reference photodiode: {cal.get('area_mm2', 0):g} mm^2, reads {cal.get('reading', '?')}, calibration "
              f"{cal.get('file', '?')} ({'-'.join(f'{x:g}' for x in cal.get('range_nm') or [])} nm)"]
     hdr = "; ".join(v if k == "title" else f"{k}: {v}" for k, v in cal.get("header") or [])
-    if hdr:  # the calibration certificate's own lines (ares.protocol.calibration), wrapped to the page
-        lines += textwrap.wrap(f"calibration certificate: {hdr}", 105, subsequent_indent="    ")[:3]
+    if hdr:  # the calibration file's own lines (a certificate's metadata, a table's comments), wrapped
+        lines += textwrap.wrap(f"calibration file header: {hdr}", 105, subsequent_indent="    ")[:3]
     if cal.get("uncertainty"):
         lines.append(f"calibration uncertainty: {cal['uncertainty']}")
     lines += [f"WARNING: {w}" for w in d.get("warnings") or []]
