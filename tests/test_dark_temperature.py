@@ -5,6 +5,7 @@ the simulator's per-pixel Arrhenius law (its activation-energy map as truth)."""
 from __future__ import annotations
 
 import json
+import math
 from pathlib import Path
 
 import numpy as np
@@ -25,6 +26,13 @@ def test_public_table_rate_and_doubling_within_one_percent(capsys):
     assert abs(fr["rate_at_ref"]["value"] / 0.0957 - 1) < 0.01
     assert abs(fr["doubling_c"]["value"] / 6.774 - 1) < 0.01
     assert fr["doubling_c"]["se"] > 0 and 0.5 < fr["activation_ev"]["value"] < 0.9  # 0.71 eV recomputed
+    # the published digits (its fit: least squares of ln I on T), and the SE with no published errors: the
+    # 4 points' scatter about the line, closed form (numpy's residual-scaled covariance of log2 I on T)
+    assert round(fr["doubling_c"]["value"], 3) == 6.774 and round(fr["rate_at_ref"]["value"], 4) == 0.0957
+    t, rate = np.loadtxt(DESI, delimiter=",", skiprows=1, unpack=True)
+    (b, a), cov = np.polyfit(t, np.log2(rate), 1, cov=True)
+    assert fr["doubling_c"]["se"] == pytest.approx(math.sqrt(cov[0, 0]) / b**2, rel=1e-6)  # 1.38 C
+    assert fr["rate_at_ref"]["se"] == pytest.approx(2**a * math.log(2) * math.sqrt(cov[1, 1]), rel=1e-6)
     assert main(["dark-temperature", str(DESI)]) == 0
     text = capsys.readouterr().out
     assert "rate at 0 C" in text and "not available: a (T, rate) table holds no pixels" in text

@@ -47,10 +47,18 @@ def test_public_event_list_kalpha_and_gain():
     v = np.loadtxt(DATA)
     r = fe55.analyse(v, -95.0)
     k = r["kalpha_dn"]
-    assert abs(k.value / _unbinned_kalpha(v) - 1) < 0.005
+    ml = _unbinned_kalpha(v)
+    assert abs(k.value / ml - 1) < 0.005
+    assert abs(k.value - ml) < k.se  # two fits of one event list: far inside its SE (0.03 vs 1.4 DN)
     assert abs(k.value / 2300.0 - 1) < 0.005  # eotest's published mode
+    assert abs(k.value - 2300.0) < 2 * k.se  # ... which its SE covers (2298.9 +- 1.4 DN)
     g = r["gain_e_per_dn"]
     assert 0 < g.se < 0.01 * g.value and abs(g.value / 0.69 - 1) < 0.01  # eotest's published 0.69 e-/DN
+    # gain = electrons per K-alpha / K-alpha peak, its SE the peak's; the published 0.69 is two digits (0.6927
+    # is 6 statistical SEs from 0.690, inside its rounding and the 1.1 % pair-energy systematic the SE leaves out)
+    assert g.value == pytest.approx(r["electrons_per_kalpha"] / k.value, rel=1e-12)
+    assert g.se / g.value == pytest.approx(k.se / k.value, rel=1e-6) and round(g.value, 2) == 0.69
+    assert abs(g.value / 0.69 - 1) < r["gain_systematic_rel"]
     assert 0.05 < r["kbeta_ratio"].value < 0.3
 
 

@@ -7,6 +7,8 @@ JSON form (``scan_results.json: spectral_qe``); the simulator's truth is never d
 
 from __future__ import annotations
 
+import textwrap
+
 from ares.analysis.stats.estimate import Estimate
 from ares.report.plots import new_page, text_table
 
@@ -35,6 +37,11 @@ def spectral_qe_page(d: dict):
     lines = [f"system gain K = {K.text(with_reason=True)}" + (f" ({d['gain_source']})" if d.get("gain_source") else ""),
              f"reference photodiode: {cal.get('area_mm2', 0):g} mm^2, reads {cal.get('reading', '?')}, calibration "
              f"{cal.get('file', '?')} ({'-'.join(f'{x:g}' for x in cal.get('range_nm') or [])} nm)"]
+    hdr = "; ".join(v if k == "title" else f"{k}: {v}" for k, v in cal.get("header") or [])
+    if hdr:  # the calibration file's own lines (a certificate's metadata, a table's comments), wrapped
+        lines += textwrap.wrap(f"calibration file header: {hdr}", 105, subsequent_indent="    ")[:3]
+    if cal.get("uncertainty"):
+        lines.append(f"calibration uncertainty: {cal['uncertainty']}")
     lines += [f"WARNING: {w}" for w in d.get("warnings") or []]
     for i, t in enumerate(lines):
         fig.text(0.08, 0.545 - 0.018 * i, t, fontsize=8, va="top")

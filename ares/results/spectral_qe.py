@@ -99,7 +99,7 @@ def spectral_qe(run) -> dict:
     bw = [p["bandwidth_nm"] for p in points.values() if p["bandwidth_nm"] is not None]
     res = {"gain_dn_per_e": K.to_dict(), "gain_source": where, "points": points,
            "calibration": {"file": pd.calibration, "range_nm": [t.wavelength_nm[0], t.wavelength_nm[-1]],
-                           "reading": pd.reading, "area_mm2": pd.area_mm2},
+                           "reading": pd.reading, "area_mm2": pd.area_mm2, **t.provenance()},
            "pixel_pitch_um": pitch}
     if bw and max(bw) > 10:  # Section 9.2: FWHM below 10 nm, up to 50 nm allowed when reported
         res["warnings"] = [f"bandwidth (FWHM) up to {max(bw):g} nm: above the 10 nm EMVA 1288 4.0 asks for "
