@@ -33,6 +33,10 @@ def test_public_table_rate_and_doubling_within_one_percent(capsys):
     (b, a), cov = np.polyfit(t, np.log2(rate), 1, cov=True)
     assert fr["doubling_c"]["se"] == pytest.approx(math.sqrt(cov[0, 0]) / b**2, rel=1e-6)  # 1.38 C
     assert fr["rate_at_ref"]["se"] == pytest.approx(2**a * math.log(2) * math.sqrt(cov[1, 1]), rel=1e-6)
+    # no SEs in the table: no chi-square is claimed; the rms scatter of ln I about the Arrhenius line is
+    x = 1 / (8.617333262e-5 * (t + 273.15))
+    res = np.log(rate) - np.polyval(np.polyfit(x, np.log(rate), 1), x)
+    assert "chi2_dof" not in fr and fr["ln_rate_scatter"] == pytest.approx(math.sqrt(np.sum(res**2) / 2), rel=1e-9)
     assert main(["dark-temperature", str(DESI)]) == 0
     text = capsys.readouterr().out
     assert "rate at 0 C" in text and "not available: a (T, rate) table holds no pixels" in text

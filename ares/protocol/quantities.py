@@ -44,6 +44,7 @@ PRODUCES: dict[str, frozenset[str]] = {
                               "u_calibration", "u_gain", "u_signal", "u_photodiode", "area_mm2", "pixel_pitch_um",
                               "range_nm"}),
     "dark_temperature": frozenset({"rates", "doubling_c", "rate_at_ref", "activation_ev", "ln_prefactor", "chi2_dof",
+                                   "ln_rate_scatter",
                                    "pixels", "median_activation_ev", "activation_spread_ev", "activation_fit_noise_ev",
                                    "median_doubling_c", "field_enhanced", "depletion", "diffusion",
                                    "hot_by_activation", "meyer_neldel_ev", "isokinetic_k", "naive_ev", "pixels_mn", "artefact_ev", "rates_se", "pixels_left_out",

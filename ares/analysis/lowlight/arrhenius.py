@@ -59,7 +59,10 @@ def frame_fit(temperature_c, rate, rate_se=None, ref_c: float = 0.0, unit: str =
     out.update(activation_ev=_physical(Estimate(float(ea[0]), float(ea_se[0]), "eV", note)),
                ln_prefactor=Estimate(float(la[0]), float(la_se[0]), f"ln({unit})", "intercept of ln I at 1/kT = 0"),
                )
-    out["chi2_dof"] = float(chi2[0])
+    if se is not None:  # chi-square per degree of freedom against the rates' SEs
+        out["chi2_dof"] = float(chi2[0])
+    else:  # no SEs: no chi-square -- the rms scatter of ln I about the line (w = 1), named so
+        out["ln_rate_scatter"] = float(math.sqrt(chi2[0]))
     return out
 
 
