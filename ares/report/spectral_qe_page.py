@@ -35,8 +35,10 @@ def spectral_qe_page(d: dict):
     K = Estimate.from_dict(d.get("gain_dn_per_e") or {})
     cal = d.get("calibration") or {}
     lines = [f"system gain K = {K.text(with_reason=True)}" + (f" ({d['gain_source']})" if d.get("gain_source") else ""),
-             f"reference photodiode: {cal.get('area_mm2', 0):g} mm^2, reads {cal.get('reading', '?')}, calibration "
-             f"{cal.get('file', '?')} ({'-'.join(f'{x:g}' for x in cal.get('range_nm') or [])} nm)"]
+             *textwrap.wrap(f"reference photodiode: {cal.get('area_mm2', 0):g} mm^2, reads {cal.get('reading', '?')}, "
+                            f"calibration {cal.get('file', '?')} "
+                            f"({'-'.join(f'{x:g}' for x in cal.get('range_nm') or [])} nm)", 105,
+                            subsequent_indent="    ", break_on_hyphens=False)[:2]]  # (a long path ran off the page)
     hdr = "; ".join(v if k == "title" else f"{k}: {v}" for k, v in cal.get("header") or [])
     if hdr:  # the calibration file's own lines (a certificate's metadata, a table's comments), wrapped
         lines += textwrap.wrap(f"calibration file header: {hdr}", 105, subsequent_indent="    ")[:3]
