@@ -138,6 +138,9 @@ class RegisterFile:
         self.bus = bus
         self.buses = dict(buses or {})
         self._holding = 0
+        self._held: dict[int, int] = {}  # the sensor's registers written inside the open hold: the device
+        #   still reads them old until the latch, so a read-modify-write of a second field in the same
+        #   register must start from what was written, not from what the device reads
 
     def _bus(self, f: Field):
         if f.bus is None or f.bus not in self.buses:
@@ -148,10 +151,15 @@ class RegisterFile:
         addrs = [f.address + i for i in range(f.count)]
         return addrs if self.map.endian == "big" else addrs[::-1]  # most significant first
 
+    def _read1(self, bus, a: int) -> int:
+        if self._holding and bus is self.bus and a in self._held:
+            return self._held[a]
+        return int(bus.read(a))
+
     def _read_value(self, f: Field) -> int:
         v, bus = 0, self._bus(f)
         for a in self._addresses(f):
-            v = (v << self.map.value_bits) | int(bus.read(a))
+            v = (v << self.map.value_bits) | self._read1(bus, a)
         return v
 
     @contextmanager
@@ -166,12 +174,12 @@ class RegisterFile:
                 self._holding -= 1
             return
         self.bus.write(gh[0], gh[1])
-        self._holding = 1
+        self._holding, self._held = 1, {}
         self.bus.holding = True  # (held writes are verified after the frame boundary where they take effect)
         try:
             yield
         finally:
-            self._holding = 0
+            self._holding, self._held = 0, {}
             self.bus.holding = False
             self.bus.write(gh[0], gh[2])  # release: the held registers take effect together
 
@@ -185,6 +193,8 @@ class RegisterFile:
         with (self.hold() if held else _nothing()):
             for a, w in zip(self._addresses(f), reversed(words)):
                 bus.write(a, w)
+                if self._holding and bus is self.bus:
+                    self._held[a] = w
 
     def get_raw(self, name: str) -> int:
         f = self.map.field(name)
@@ -211,6 +221,36 @@ class RegisterFile:
     def set(self, name: str, physical: float) -> None:
         f = self.map.field(name)
         self.set_raw(name, f.to_raw(physical))
+
+    def set_many(self, values: dict[str, float], changed=None) -> dict:
+        """Several fields as one change (a scan stage's settings): every value checked against its
+        limits first, then all written inside one group hold when the map declares one -- they
+        latch together at the next frame start, never some new and some old -- else one at a
+        time, as before. Returns what was done (``write_record``) for ``changed`` (default: all)."""
+        for name, physical in values.items():
+            self.map.field(name).check(physical)  # (nothing written when one is out of its limits)
+        with (self.hold() if self.map.group_hold is not None and values else _nothing()):
+            for name, physical in values.items():
+                self.set(name, physical)
+        return self.write_record(list(values) if changed is None else list(changed))
+
+    def write_record(self, names) -> dict:
+        """Whether a change of the fields ``names`` written by ``set_many`` takes effect at one
+        frame start (``atomic``) and how, in one sentence (a stage's metadata)."""
+        fields = [self.map.field(n) for n in names]
+        gh = self.map.group_hold
+        outside = [f.name for f in fields if self._bus(f) is not self.bus]
+        rec = {"fields": [f.name for f in fields]}
+        if gh is not None and not outside:
+            return dict(rec, atomic=True, how=f"inside one group hold (register 0x{gh[0]:04x}): they take effect "
+                        "together at the next frame start")
+        if len(fields) <= 1 and all(f.count == 1 for f in fields):
+            return dict(rec, atomic=True, how="one register: it takes effect at once")
+        if gh is not None:
+            return dict(rec, atomic=False, how=f"inside one group hold (register 0x{gh[0]:04x}) except "
+                        f"{', '.join(outside)} on another device, which take(s) effect when written")
+        return dict(rec, atomic=False, how="one register at a time: the register map declares no <group_hold>, so a "
+                    "frame that starts between two writes carries some new settings and some old")
 
     def snapshot(self) -> dict[str, float]:
         """Every readable field's physical value (for run-directory provenance)."""
