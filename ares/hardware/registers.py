@@ -15,6 +15,9 @@ from contextlib import contextmanager
 from ares.errors import HardwareError, UnknownRegister, ValueOutOfRange, InputError
 
 
+READ_TRIES = 4  # reads of a multi-register value before it is called unreadable (it changed during each)
+
+
 @contextmanager
 def _nothing():
     yield
@@ -90,6 +93,14 @@ class Field:
         return self.offset + self.scale * raw
 
 
+def latching_address(f: Field, endian: str, latch: str | None) -> int | None:
+    """The register of a multi-register field whose read latches the others (``latch`` "msb"
+    or "lsb": its most or least significant; registers combined ``endian``), None without one."""
+    if not latch or f.count < 2:
+        return None
+    return f.address if (latch == "msb") == (endian == "big") else f.address + f.count - 1
+
+
 @dataclass(frozen=True)
 class RegisterMap:
     address_bits: int = 16
@@ -99,6 +110,8 @@ class RegisterMap:
     bus: str | None = None  # the <i2c name> the sensor's registers are on (None: the first declared)
     group_hold: tuple[int, int, int] | None = None  # (register, hold value, release value): a multi-register
     #   value is written between them, so the sensor never latches half of it
+    read_latch: str | None = None  # "msb"/"lsb": reading that register of a multi-register value latches the
+    #   others until they are read (read once, that one first); None: read consistently by reading again
 
     def __post_init__(self):
         names = [f.name for f in self.fields]
@@ -157,10 +170,31 @@ class RegisterFile:
         return int(bus.read(a))
 
     def _read_value(self, f: Field) -> int:
-        v, bus = 0, self._bus(f)
-        for a in self._addresses(f):
-            v = (v << self.map.value_bits) | self._read1(bus, a)
-        return v
+        """A value spanning several registers, read whole: a frame boundary between two of its
+        register reads would give half the old value and half the new (a torn read). A device that
+        latches the value when one of its registers is read (``read_latch``) is read once, that
+        register first; any other is read most significant first and its upper registers read
+        again: unchanged, the value is whole (a change between the reads moved only the registers
+        read after them); changed, it is read again."""
+        bus, addrs, bits = self._bus(f), self._addresses(f), self.map.value_bits
+
+        def combine(words):
+            v = 0
+            for w in words:
+                v = (v << bits) | w
+            return v
+
+        if len(addrs) == 1 or self.map.read_latch == "msb":
+            return combine([self._read1(bus, a) for a in addrs])
+        if self.map.read_latch == "lsb":
+            return combine(reversed([self._read1(bus, a) for a in reversed(addrs)]))
+        for _ in range(READ_TRIES):
+            words = [self._read1(bus, a) for a in addrs]
+            if [self._read1(bus, a) for a in addrs[:-1]] == words[:-1]:
+                return combine(words)
+        raise HardwareError(f"{getattr(bus, 'name', 'registers')}: the {f.count} registers from 0x{f.address:x} "
+                            f"changed during each of {READ_TRIES} reads: the value cannot be read whole (a device "
+                            "that latches it on one register's read: declare <registers read_latch>)")
 
     @contextmanager
     def hold(self):

@@ -285,7 +285,8 @@ def system_from_tree(tree, path) -> System:
         abits, vbits = int(reg.get("address_bits")), int(reg.get("value_bits"))
         fields = _fields(path, reg, abits, vbits)
         try:
-            regmap = RegisterMap(abits, vbits, reg.get("endian", "big"), fields, reg.get("bus"), group_hold_from_el(reg))
+            regmap = RegisterMap(abits, vbits, reg.get("endian", "big"), fields, reg.get("bus"), group_hold_from_el(reg),
+                                 reg.get("read_latch"))
         except InputError as exc:
             raise fail(path, reg.sourceline, str(exc)) from None
     elif root.find("devices/genicam") is not None:  # the camera's features are its fields
@@ -422,7 +423,7 @@ def system_to_tree(sy: System) -> etree._ElementTree:
         if m == feature_map(sy.genicam):
             m = None  # derived from the <feature> elements: not written twice
     re_ = None if m is None else _set(etree.SubElement(root, "registers"), address_bits=m.address_bits,
-                                      value_bits=m.value_bits, endian=m.endian, bus=m.bus)
+                                      value_bits=m.value_bits, endian=m.endian, bus=m.bus, read_latch=m.read_latch)
     if m is not None and m.group_hold is not None:
         _set(etree.SubElement(re_, "group_hold"), register=f"0x{m.group_hold[0]:04X}", hold=f"0x{m.group_hold[1]:X}",
              release=f"0x{m.group_hold[2]:X}")
