@@ -17,7 +17,7 @@ from ares.errors import InputError
 from ares.hardware.registers import Field, RegisterMap
 from ares.protocol import xmlsafe
 from ares.protocol.devices import (GenICam, I2CBus, Photodiode, SerialInstrument, UsbGrabber, _bool, _float, _int, _set,
-                                   check_buses, genicam_from_el, group_hold_from_el, genicam_to_el, i2c_from_el, i2c_to_el, photodiode_from_el,
+                                   check_buses, check_simulated_trigger, genicam_from_el, group_hold_from_el, genicam_to_el, i2c_from_el, i2c_to_el, photodiode_from_el,
                                    photodiode_to_el, serial_from_el, serial_to_el,
                                    usb_from_el, usb_to_el)
 from ares.protocol.settle import Settle, settle_from_el, settle_to_el
@@ -324,6 +324,7 @@ def system_from_tree(tree, path) -> System:
         if sim.paced and sim.wire:
             raise fail(path, sim_el.sourceline, "<simulator paced=\"true\"> applies to the direct simulator; "
                                                 "behind the wires (wire=\"true\") frames come as fast as they are made")
+        check_simulated_trigger(path, root, sim.wire)
     light = serial_from_el(path, root.find("devices/light_source"), "light_source")
     rep_el = root.find("replay")
     replay = None
