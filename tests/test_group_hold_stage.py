@@ -116,3 +116,47 @@ def test_two_fields_of_one_register_changed_in_one_hold_both_take_effect():
     with pytest.raises(Exception, match="above its maximum"):  # every value checked before the hold opens
         regs.set_many({"gain_coarse": 1, "gain_fine": 16})
     assert not dev.holding and dev.held == {} and dev.pending == {}  # nothing written
+
+
+def test_settling_by_tags_discards_the_frame_latched_before_the_hold_closed(tmp_path):
+    """A streaming sensor that tags each frame with the exposure it was exposed with (chunk data,
+    embedded lines) and latches a held change at the next frame start, which begins as the frame in
+    flight is read out. Settling by tags sees the change at the right frame: the frame in flight
+    (latched before the hold closed: the old exposure) is discarded by its tag, though its mean
+    agrees, and the register read back for the comparison is the latched new value."""
+    import numpy as np
+
+    from ares.hardware.emulators.i2c_device import EmulatedSMBus
+    from ares.hardware.emulators.sensor_registers import SensorRegisters
+    from ares.hardware.i2c import I2CRegisterBus
+    from ares.hardware.interfaces import Bench, Frame
+    from ares.hardware.registers import RegisterFile
+    from ares.protocol import load_system
+    from ares.scan.apply import apply_settings
+    from ares.sim.bench import SimRegisterBus
+    from ares.sim.strict import SimClock
+
+    system = small_wire(tmp_path)
+    system.write_text(system.read_text().replace(REGISTERS, REGISTERS + HOLD))
+    system = load_system(system)
+    dev = SensorRegisters(system.registers, SimRegisterBus(system.registers))
+    regs = RegisterFile(system.registers, I2CRegisterBus(1, 0x36, 16, 16, smbus=EmulatedSMBus(0x36, dev)))
+    exposure = system.registers.field("exposure")
+
+    class Streaming:  # the next frame starts, latching the registers, as one is read out
+        name, shape, n = "streaming sensor", (8, 8), 0
+
+        def grab(self, k):
+            for _ in range(k):
+                self.n += 1
+                raw = dev.inner.read(0x10) << 16 | dev.inner.read(0x11)  # what this frame was latched with
+                yield Frame(np.full(self.shape, 200, np.uint16), self.n, 0.0,
+                            {"exposure_s": exposure.to_physical(raw)})
+                dev.frame_boundary()
+
+    bench = Bench(regs, Streaming(), clock=SimClock())
+    list(bench.frames.grab(2))
+    rec = apply_settings(bench, system, {"exposure": 0.004}, {"exposure": 0.01})
+    assert rec["registers"]["atomic"] is True
+    assert rec["settled"] is True and rec["by"] == "tags+frames", {k: rec[k] for k in ("why", "probe_frames")}
+    assert rec["probe_frames"] == 4  # the frame in flight (old exposure) and three that agree
