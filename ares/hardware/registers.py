@@ -261,8 +261,15 @@ class RegisterFile:
         limits first, then all written inside one group hold when the map declares one -- they
         latch together at the next frame start, never some new and some old -- else one at a
         time, as before. Returns what was done (``write_record``) for ``changed`` (default: all)."""
-        for name, physical in values.items():
-            self.map.field(name).check(physical)  # (nothing written when one is out of its limits)
+        plain = type(self).set is RegisterFile.set  # (a subclass -- GenICam features -- checks its own way)
+        for name, physical in values.items():  # nothing written when one cannot be
+            f = self.map.field(name)
+            if f.access == "ro":
+                raise InputError(f"register field '{name}' is read-only and cannot be written")
+            if plain:
+                f.to_raw(physical)  # (its limits and its bits)
+            else:
+                f.check(physical)
         with (self.hold() if self.map.group_hold is not None and values else _nothing()):
             for name, physical in values.items():
                 self.set(name, physical)
