@@ -42,6 +42,7 @@ class SensorRegisters:
             if first is not None:
                 self.latch_on[first] = [f.address + k for k in range(f.count) if f.address + k != first]
         self.latch: dict[int, int] = {}  # what the last latching read copied
+        self.start_owed = False  # a streaming sensor with vertical blanking: the next frame starts later
         self.name = getattr(inner, "name", "sensor")
         gh = regmap.group_hold
         self.hold_register, self.hold_value, self.release_value = gh if gh is not None else (None, None, None)
@@ -62,6 +63,16 @@ class SensorRegisters:
         while self.clock.now() >= self._next:
             self.frame_boundary()
             self._next += self.period
+
+    def owe_start(self) -> None:
+        """A frame was read out; the next starts after the vertical blanking -- later than a host's
+        read-back right after the frame, sooner than its next register writes (``start_if_owed``)."""
+        self.start_owed = True
+
+    def start_if_owed(self) -> None:
+        if self.start_owed:
+            self.start_owed = False
+            self.frame_boundary()
 
     def frame_boundary(self) -> None:
         """A frame starts: pending registers take effect; the frame is exposed with what is active."""
@@ -92,6 +103,7 @@ class SensorRegisters:
 
     def write(self, address: int, value: int) -> None:
         self._tick()
+        self.start_if_owed()  # (the host took longer than the blanking to write: the frame started first)
         if address == self.hold_register:
             if value == self.hold_value:
                 self.holding = True

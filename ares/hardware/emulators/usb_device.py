@@ -48,7 +48,10 @@ latches its held and double-buffered registers, as soon as one is read out; it i
 at the next host read with what its registers hold then. The first frame after a register
 change was latched before it: it carries none of a held change, and an unheld, unbuffered
 register written since (an analog gain) with the old latched ones (a multi-register exposure
-written in its own hold) -- a frame half old, half new.
+written in its own hold) -- a frame half old, half new. ``usb_frame_in_flight`` = 2: the same
+with vertical blanking -- the next frame starts after it, which is later than a host's read-back
+right after a frame and sooner than its next register writes (``SensorRegisters.owe_start``): a
+read-back after the frame in flight still finds the old values latched.
 
 ``exposed_with``: device frame counter -> the settings the simulator rendered that frame with
 (``exposure_s``, ``analog_gain``, ``black_level_dn``, ``photon_flux``): the device's truth.
@@ -117,6 +120,7 @@ class EmulatedGrabber:
         self._started = 0.0  # the device clock at the current frame's exposure start
         self.exposed_with: dict[int, dict] = {}  # device frame counter -> the settings it was rendered with
         self._in_flight = False  # (usb_frame_in_flight) the next frame has started: its registers are latched
+        self.blanking = None  # (usb_frame_in_flight=2) the sensor registers: owe_start(), start_if_owed()
 
     # ------------------------------------------------------------ descriptors
     def device_descriptor(self, address: int):
@@ -277,12 +281,18 @@ class EmulatedGrabber:
 
     def _render(self):
         """The sensor's next frame: armed ones first (a grab with a start control), else one now."""
-        ahead = bool(self.faults.get("usb_frame_in_flight"))
+        ahead = int(self.faults.get("usb_frame_in_flight", 0))
+        blank = self.blanking if ahead == 2 else None
         if self.on_frame_start is not None and not (ahead and self._in_flight):
             self.on_frame_start()  # (streaming ahead: it started, latched, when the frame before was read out)
+        elif blank is not None:
+            blank.start_if_owed()  # (after the blanking: before it is read out, at the latest)
         frame = self._read_out()
         if ahead and self.on_frame_start is not None:  # the next frame starts as this one is read out
-            self.on_frame_start()
+            if blank is not None:
+                blank.owe_start()  # (or after the blanking)
+            else:
+                self.on_frame_start()
             self._in_flight = True
         return frame
 
