@@ -54,7 +54,8 @@ right after a frame and sooner than its next register writes (``SensorRegisters.
 read-back after the frame in flight still finds the old values latched.
 
 ``exposed_with``: device frame counter -> the settings the simulator rendered that frame with
-(``exposure_s``, ``analog_gain``, ``black_level_dn``, ``photon_flux``): the device's truth.
+(``exposure_s``, ``analog_gain``, ``black_level_dn``, ``photon_flux``): the device's truth (the
+latest 20000 frames).
 """
 
 from __future__ import annotations
@@ -75,6 +76,7 @@ FAULTS = ("usb_drop_at", "usb_corrupt_at", "usb_short_at", "usb_garbage_at", "us
           "usb_disconnect_at", "usb_reconnect_after_polls", "usb_pipeline_frames", "usb_late_at", "usb_late_ms",
           "usb_stall_at", "usb_gone_s", "usb_reconnect_packet", "usb_trigger_missing_at", "usb_frame_in_flight")
 TRUTH = ("exposure_s", "analog_gain", "black_level_dn", "photon_flux")  # what ``exposed_with`` keeps of a frame
+EXPOSED_KEPT = 20000  # frames ``exposed_with`` remembers
 
 
 class EmulatedGrabber:
@@ -243,6 +245,8 @@ class EmulatedGrabber:
         self.counter += 1
         meta = getattr(frame, "meta", None) or {}
         self.exposed_with[n] = {k: meta[k] for k in TRUTH if k in meta}
+        if len(self.exposed_with) > EXPOSED_KEPT:  # (a long run on the wires: the latest frames')
+            del self.exposed_with[next(iter(self.exposed_with))]
         if n == self.faults.get("usb_drop_at"):  # rendered, lost: the next frame shows the gap
             self.faults.pop("usb_drop_at")
             self._owed += 1
