@@ -30,8 +30,8 @@ from wire_small import small_wire
 ROOT = Path(__file__).resolve().parents[1]
 WIRE = ROOT / "protocols" / "sim_wire.xml"
 HANG_S = 300  # only a hang detector: a run that takes this long is stuck
-I2C_AT = 62  # an I2C transaction in the third stage's register writes (sf_bias set before each stage; the
-# first two are the chip-ID read and the <init> write at connect)
+I2C_AT = 67  # the third stage's sf_bias write (sf_bias set before each stage, the exposure's upper register
+# read again after its two; the first two transactions are the chip-ID read and the <init> write at connect)
 
 
 def _scan(tmp_path: Path, timeout_s: float = 2, max_recoveries: int = 5, chamber: bool = False,

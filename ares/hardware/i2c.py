@@ -27,6 +27,7 @@ import errno
 import time
 
 from ares.errors import DeviceGone, HardwareError, ValueOutOfRange
+from ares.hardware.registers import latching_address
 
 _GONE = {errno.ENODEV, errno.ENOENT, errno.EBADF}  # the adapter itself; ENXIO is a NACK (retried)
 _NACK = {errno.ENXIO, errno.EREMOTEIO}  # no acknowledge (Documentation/i2c/fault-codes)
@@ -39,7 +40,7 @@ class I2CRegisterBus:
                  name: str = "i2c", smbus=None, retries: int = 2, verify: bool = False, value_endian: str = "big",
                  sleep=time.sleep, volatile=frozenset(), speed_hz: int | None = None, chip_id=None, init=(),
                  sysfs: str = "/sys/bus/i2c/devices", backoff_s: float = BACKOFF_S, shadow=None,
-                 deferred=frozenset()):
+                 deferred=frozenset(), latch_via=None):
         self.name = name
         self.bus_number, self.address = bus, address
         self.abytes, self.vbytes = address_bits // 8, value_bits // 8
@@ -53,6 +54,10 @@ class I2CRegisterBus:
         self.shadow = dict(shadow or {})  # address -> the address its pending value reads back at
         self.deferred = frozenset(deferred)  # addresses verified after the frame boundary (verify_pending)
         self.pending: dict[int, int] = {}  # written, not yet verified (the frame boundary has not passed)
+        self._frames_seen: dict[int, int] = {}  # pending address -> frames arrived since its write
+        # a device that latches a multi-register value when one of its registers is read (<registers
+        # read_latch>) answers the others from that latch: a read-back reads the latching one first
+        self.latch_via = dict(latch_via or {})  # address -> the register whose read latches it
         self.holding = False  # inside the sensor's group hold: writes take effect at the frame after release
         self.speed_hz, self.chip_id, self.init, self.sysfs = speed_hz, chip_id, tuple(init), sysfs
         self.adapter_hz: int | None = None  # the adapter's clock, when the kernel shows it
@@ -174,23 +179,36 @@ class I2CRegisterBus:
         elif (self.verify if verify is None else verify) and address not in self.volatile:
             if address in self.deferred or self.holding:  # takes effect at the frame boundary: read back after it
                 self.pending[address] = value
+                self._frames_seen[address] = 0
                 return
             at = self.shadow.get(address, address)
-            got = self.read(at)
+            got = self._read_back(at)
             if got != value:
                 where = "" if at == address else f" at its shadow register 0x{at:0{2 * self.abytes}x}"
                 raise HardwareError(f"{self._where(address)}: wrote 0x{value:x} but read back 0x{got:x}{where} "
                                     "(write-verify)")
 
+    def _read_back(self, address: int) -> int:
+        if address in self.latch_via:  # (its latch holds what the last read of the latching register copied)
+            self.read(self.latch_via[address])
+        return self.read(address)
+
     def verify_pending(self) -> None:
-        """A frame has arrived since the writes to double-buffered registers (``buffered="frame"``):
-        the boundary where they take effect has passed; read them back now."""
+        """A frame has arrived since the writes to double-buffered registers (``buffered="frame"``) or
+        inside a group hold: read them back now. On a streaming sensor that frame may have started
+        before the writes (the frame in flight) and the next one, whose start latches them, may
+        start only after the vertical blanking -- after this read: a value not yet taken is read
+        back again after the next frame, and only then called a failed write."""
         pending, self.pending = self.pending, {}
         for address, value in pending.items():
-            got = self.read(address)
-            if got != value:
+            got = self._read_back(address)
+            seen = self._frames_seen.pop(address, 1) + 1
+            if got != value and seen < 2:
+                self.pending[address], self._frames_seen[address] = value, seen
+            elif got != value:
                 raise HardwareError(f"{self._where(address)}: wrote 0x{value:x} but read back 0x{got:x} after the "
-                                    "frame boundary where a double-buffered register takes effect (write-verify)")
+                                    "frame boundary where a double-buffered register takes effect, two frames after "
+                                    "the write (write-verify)")
 
     def link_counters(self) -> dict:
         """The link statistics since open (``ares.hardware.link_stats``)."""
@@ -221,10 +239,16 @@ def open_i2c_bus(b, regmap, smbus=None, sensor: bool = True) -> I2CRegisterBus:
     volatile = {f.address + k for f in mine if f.volatile for k in range(f.count)}
     shadow = {f.address + k: f.shadow + k for f in mine if f.buffered == "shadow" for k in range(f.count)}
     deferred = {f.address + k for f in mine if f.buffered == "frame" for k in range(f.count)}
+    latch_via = {}
+    for f in mine:
+        first = latching_address(f, regmap.endian, regmap.read_latch)
+        if first is not None:
+            latch_via.update({f.address + k: first for k in range(f.count) if f.address + k != first})
     return I2CRegisterBus(b.bus, b.address, regmap.address_bits, regmap.value_bits, name=b.name, smbus=smbus,
                           retries=b.retries, verify=b.verify, value_endian=b.value_endian, volatile=volatile,
                           speed_hz=b.speed_hz, chip_id=b.chip_id, init=b.init,
-                          backoff_s=getattr(b, "backoff_ms", 1.0) / 1000.0, shadow=shadow, deferred=deferred)
+                          backoff_s=getattr(b, "backoff_ms", 1.0) / 1000.0, shadow=shadow, deferred=deferred,
+                          latch_via=latch_via)
 
 
 class ImageRowReadback:

@@ -15,6 +15,9 @@ from contextlib import contextmanager
 from ares.errors import HardwareError, UnknownRegister, ValueOutOfRange, InputError
 
 
+READ_TRIES = 4  # reads of a multi-register value before it is called unreadable (it changed during each)
+
+
 @contextmanager
 def _nothing():
     yield
@@ -90,6 +93,14 @@ class Field:
         return self.offset + self.scale * raw
 
 
+def latching_address(f: Field, endian: str, latch: str | None) -> int | None:
+    """The register of a multi-register field whose read latches the others (``latch`` "msb"
+    or "lsb": its most or least significant; registers combined ``endian``), None without one."""
+    if not latch or f.count < 2:
+        return None
+    return f.address if (latch == "msb") == (endian == "big") else f.address + f.count - 1
+
+
 @dataclass(frozen=True)
 class RegisterMap:
     address_bits: int = 16
@@ -99,6 +110,8 @@ class RegisterMap:
     bus: str | None = None  # the <i2c name> the sensor's registers are on (None: the first declared)
     group_hold: tuple[int, int, int] | None = None  # (register, hold value, release value): a multi-register
     #   value is written between them, so the sensor never latches half of it
+    read_latch: str | None = None  # "msb"/"lsb": reading that register of a multi-register value latches the
+    #   others until they are read (read once, that one first); None: read consistently by reading again
 
     def __post_init__(self):
         names = [f.name for f in self.fields]
@@ -138,6 +151,9 @@ class RegisterFile:
         self.bus = bus
         self.buses = dict(buses or {})
         self._holding = 0
+        self._held: dict[int, int] = {}  # the sensor's registers written inside the open hold: the device
+        #   still reads them old until the latch, so a read-modify-write of a second field in the same
+        #   register must start from what was written, not from what the device reads
 
     def _bus(self, f: Field):
         if f.bus is None or f.bus not in self.buses:
@@ -148,11 +164,37 @@ class RegisterFile:
         addrs = [f.address + i for i in range(f.count)]
         return addrs if self.map.endian == "big" else addrs[::-1]  # most significant first
 
+    def _read1(self, bus, a: int) -> int:
+        if self._holding and bus is self.bus and a in self._held:
+            return self._held[a]
+        return int(bus.read(a))
+
     def _read_value(self, f: Field) -> int:
-        v, bus = 0, self._bus(f)
-        for a in self._addresses(f):
-            v = (v << self.map.value_bits) | int(bus.read(a))
-        return v
+        """A value spanning several registers, read whole: a frame boundary between two of its
+        register reads would give half the old value and half the new (a torn read). A device that
+        latches the value when one of its registers is read (``read_latch``) is read once, that
+        register first; any other is read most significant first and its upper registers read
+        again: unchanged, the value is whole (a change between the reads moved only the registers
+        read after them); changed, it is read again."""
+        bus, addrs, bits = self._bus(f), self._addresses(f), self.map.value_bits
+
+        def combine(words):
+            v = 0
+            for w in words:
+                v = (v << bits) | w
+            return v
+
+        if len(addrs) == 1 or self.map.read_latch == "msb":
+            return combine([self._read1(bus, a) for a in addrs])
+        if self.map.read_latch == "lsb":
+            return combine(reversed([self._read1(bus, a) for a in reversed(addrs)]))
+        for _ in range(READ_TRIES):
+            words = [self._read1(bus, a) for a in addrs]
+            if [self._read1(bus, a) for a in addrs[:-1]] == words[:-1]:
+                return combine(words)
+        raise HardwareError(f"{getattr(bus, 'name', 'registers')}: the {f.count} registers from 0x{f.address:x} "
+                            f"changed during each of {READ_TRIES} reads: the value cannot be read whole (a device "
+                            "that latches it on one register's read: declare <registers read_latch>)")
 
     @contextmanager
     def hold(self):
@@ -166,12 +208,12 @@ class RegisterFile:
                 self._holding -= 1
             return
         self.bus.write(gh[0], gh[1])
-        self._holding = 1
+        self._holding, self._held = 1, {}
         self.bus.holding = True  # (held writes are verified after the frame boundary where they take effect)
         try:
             yield
         finally:
-            self._holding = 0
+            self._holding, self._held = 0, {}
             self.bus.holding = False
             self.bus.write(gh[0], gh[2])  # release: the held registers take effect together
 
@@ -185,6 +227,8 @@ class RegisterFile:
         with (self.hold() if held else _nothing()):
             for a, w in zip(self._addresses(f), reversed(words)):
                 bus.write(a, w)
+                if self._holding and bus is self.bus:
+                    self._held[a] = w
 
     def get_raw(self, name: str) -> int:
         f = self.map.field(name)
@@ -211,6 +255,43 @@ class RegisterFile:
     def set(self, name: str, physical: float) -> None:
         f = self.map.field(name)
         self.set_raw(name, f.to_raw(physical))
+
+    def set_many(self, values: dict[str, float], changed=None) -> dict:
+        """Several fields as one change (a scan stage's settings): every value checked against its
+        limits first, then all written inside one group hold when the map declares one -- they
+        latch together at the next frame start, never some new and some old -- else one at a
+        time, as before. Returns what was done (``write_record``) for ``changed`` (default: all)."""
+        plain = type(self).set is RegisterFile.set  # (a subclass -- GenICam features -- checks its own way)
+        for name, physical in values.items():  # nothing written when one cannot be
+            f = self.map.field(name)
+            if f.access == "ro":
+                raise InputError(f"register field '{name}' is read-only and cannot be written")
+            if plain:
+                f.to_raw(physical)  # (its limits and its bits)
+            else:
+                f.check(physical)
+        with (self.hold() if self.map.group_hold is not None and values else _nothing()):
+            for name, physical in values.items():
+                self.set(name, physical)
+        return self.write_record(list(values) if changed is None else list(changed))
+
+    def write_record(self, names) -> dict:
+        """Whether a change of the fields ``names`` written by ``set_many`` takes effect at one
+        frame start (``atomic``) and how, in one sentence (a stage's metadata)."""
+        fields = [self.map.field(n) for n in names]
+        gh = self.map.group_hold
+        outside = [f.name for f in fields if self._bus(f) is not self.bus]
+        rec = {"fields": [f.name for f in fields]}
+        if gh is not None and not outside:
+            return dict(rec, atomic=True, how=f"inside one group hold (register 0x{gh[0]:04x}): they take effect "
+                        "together at the next frame start")
+        if len(fields) <= 1 and all(f.count == 1 for f in fields):
+            return dict(rec, atomic=True, how="one register: it takes effect at once")
+        if gh is not None:
+            return dict(rec, atomic=False, how=f"inside one group hold (register 0x{gh[0]:04x}) except "
+                        f"{', '.join(outside)} on another device, which take(s) effect when written")
+        return dict(rec, atomic=False, how="one register at a time: the register map declares no <group_hold>, so a "
+                    "frame that starts between two writes carries some new settings and some old")
 
     def snapshot(self) -> dict[str, float]:
         """Every readable field's physical value (for run-directory provenance)."""

@@ -165,6 +165,24 @@ def trigger_from_el(path, el) -> Trigger | None:
                    _int(el.get("timeout_ms")), el.get("strobe", "off"), _int(el.get("strobe_line"), 1))
 
 
+def check_simulated_trigger(path, root, wire: bool) -> None:
+    """A ``<trigger>`` (a mode other than free run, or a strobe) on a system the simulator stands in
+    for is refused, never silently ignored: the direct simulator computes each frame when it is
+    grabbed and models neither; behind the wires only the emulated ``<usb_grabber>`` honours one."""
+    for kind in ("usb_grabber", "genicam"):
+        el = root.find(f"devices/{kind}/trigger")
+        t = trigger_from_el(path, el)
+        if t is None or (t.mode == "free_run" and t.strobe == "off") or (wire and kind == "usb_grabber"):
+            continue
+        what = f"<{kind}><trigger mode='{t.mode}' strobe='{t.strobe}'>"
+        if wire:
+            raise fail(path, el.sourceline, f"{what} is not emulated: behind the wires the simulator stands in for "
+                                            "a <usb_grabber>, whose trigger it emulates; remove this <trigger>")
+        raise fail(path, el.sourceline, f"{what} is not modelled by the direct simulator, which computes each frame "
+                                        "when it is grabbed: run it behind the emulated grabber (<simulator "
+                                        "wire=\"true\">) or remove the <trigger>")
+
+
 def trigger_to_el(parent, t: Trigger | None):
     if t is not None:
         d = Trigger()

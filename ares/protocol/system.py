@@ -17,7 +17,7 @@ from ares.errors import InputError
 from ares.hardware.registers import Field, RegisterMap
 from ares.protocol import xmlsafe
 from ares.protocol.devices import (GenICam, I2CBus, Photodiode, SerialInstrument, UsbGrabber, _bool, _float, _int, _set,
-                                   check_buses, genicam_from_el, group_hold_from_el, genicam_to_el, i2c_from_el, i2c_to_el, photodiode_from_el,
+                                   check_buses, check_simulated_trigger, genicam_from_el, group_hold_from_el, genicam_to_el, i2c_from_el, i2c_to_el, photodiode_from_el,
                                    photodiode_to_el, serial_from_el, serial_to_el,
                                    usb_from_el, usb_to_el)
 from ares.protocol.settle import Settle, settle_from_el, settle_to_el
@@ -285,7 +285,8 @@ def system_from_tree(tree, path) -> System:
         abits, vbits = int(reg.get("address_bits")), int(reg.get("value_bits"))
         fields = _fields(path, reg, abits, vbits)
         try:
-            regmap = RegisterMap(abits, vbits, reg.get("endian", "big"), fields, reg.get("bus"), group_hold_from_el(reg))
+            regmap = RegisterMap(abits, vbits, reg.get("endian", "big"), fields, reg.get("bus"), group_hold_from_el(reg),
+                                 reg.get("read_latch"))
         except InputError as exc:
             raise fail(path, reg.sourceline, str(exc)) from None
     elif root.find("devices/genicam") is not None:  # the camera's features are its fields
@@ -323,6 +324,7 @@ def system_from_tree(tree, path) -> System:
         if sim.paced and sim.wire:
             raise fail(path, sim_el.sourceline, "<simulator paced=\"true\"> applies to the direct simulator; "
                                                 "behind the wires (wire=\"true\") frames come as fast as they are made")
+        check_simulated_trigger(path, root, sim.wire)
     light = serial_from_el(path, root.find("devices/light_source"), "light_source")
     rep_el = root.find("replay")
     replay = None
@@ -422,7 +424,7 @@ def system_to_tree(sy: System) -> etree._ElementTree:
         if m == feature_map(sy.genicam):
             m = None  # derived from the <feature> elements: not written twice
     re_ = None if m is None else _set(etree.SubElement(root, "registers"), address_bits=m.address_bits,
-                                      value_bits=m.value_bits, endian=m.endian, bus=m.bus)
+                                      value_bits=m.value_bits, endian=m.endian, bus=m.bus, read_latch=m.read_latch)
     if m is not None and m.group_hold is not None:
         _set(etree.SubElement(re_, "group_hold"), register=f"0x{m.group_hold[0]:04X}", hold=f"0x{m.group_hold[1]:X}",
              release=f"0x{m.group_hold[2]:X}")

@@ -98,6 +98,7 @@ def build_wire_bench(system, seed: int, faults: dict | None = None, uses: set | 
         verify_after_frames(frames, buses)
         if hasattr(sensor_regs, "frame_boundary"):  # a double-buffered sensor latches at each frame's start
             grabber.on_frame_start = sensor_regs.frame_boundary
+            grabber.blanking = sensor_regs  # (usb_frame_in_flight=2: the next frame starts after a blanking)
         if readback:
             bus.readback = ImageRowReadback(bus, frames, b.readback_row, b.readback_start)
         bus.connect()

@@ -1,4 +1,5 @@
-"""Apply a stage's resolved settings to a bench (slow instruments first, light last), then
+"""Apply a stage's resolved settings to a bench (slow instruments first, light last; the register
+fields as one change, inside one group hold where the register map declares one), then
 let the bench settle as the system XML declares (``<timing>``): wait ``settle_s`` and drop
 ``discard_frames`` frames after a change (frames still exposed at the old settings), drain
 the frame source (``flush``), and tell it the frame time its read timeouts must cover."""
@@ -19,10 +20,22 @@ def apply_settings(bench, system, settings: dict, previous: dict | None = None, 
     lets the stage in flight finish, its settling included, within the cap); default ``cancel``."""
     prev = previous or {}
     kinds = set()  # what changed: "registers", "light", "temperature"
+    regs, changed_regs = {}, []  # the register fields: written together, as one change, after the
+    for key, value in settings.items():  # chamber and before the monochromator and the light
+        if (name := register_field(system, key)) is not None:
+            regs[name] = value
+            if prev.get(key) != value:
+                changed_regs.append(name)
+                kinds.add("registers")
+    writes, written = None, not regs
     for key, value in settings.items():
+        if register_field(system, key) is not None:
+            continue
         changed = prev.get(key) != value
         if changed:
-            kinds.add(key if key in ("light", "temperature", "wavelength") else "registers")
+            kinds.add(key)
+        if key in ("light", "wavelength") and not written:
+            writes, written = write_registers(bench, regs, changed_regs), True
         if key == "temperature":
             if bench.chamber is None:
                 raise InputError(f"system '{system.name}' has no thermal chamber to set {value:g} C")
@@ -45,11 +58,25 @@ def apply_settings(bench, system, settings: dict, previous: dict | None = None, 
                 if getattr(bench, "photodiode", None) is not None:  # a power meter corrects for it
                     bench.photodiode.set_wavelength(value)
                 bench.monochromator.settle(cancel)
-        elif (name := register_field(system, key)) is not None:
-            bench.registers.set(name, value)
         else:  # the protocol layer admits no other key
             raise InputError(f"unknown setting '{key}'")
-    return settle(bench, system, settings, kinds, cancel, evidence, noise, abort)
+    if not written:
+        writes = write_registers(bench, regs, changed_regs)
+    rec = settle(bench, system, settings, kinds, cancel, evidence, noise, abort)
+    if rec is not None and writes is not None and changed_regs:
+        rec["registers"] = writes  # whether the change took effect at one frame start, and how
+    return rec
+
+
+def write_registers(bench, values: dict, changed) -> dict | None:
+    """A stage's register fields as one change (``RegisterFile.set_many``: inside one group hold
+    where the register map declares one); what was done, for the stage's record."""
+    many = getattr(bench.registers, "set_many", None)
+    if many is not None:
+        return many(values, changed)
+    for name, value in values.items():  # a register file of another kind: one at a time
+        bench.registers.set(name, value)
+    return None
 
 
 def settle(bench, system, settings: dict, kinds: set, cancel=None, evidence: bool = True,

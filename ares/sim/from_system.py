@@ -22,11 +22,11 @@ def _line_of(path, name: str) -> int | None:
 
 def sensor_layout(regmap):
     """The sensor's own register layout: its fields (not those of other I2C devices, ``bus=``),
-    without how its registers behave on the wire (double buffering, group hold, which bus): the
+    without how its registers behave on the wire (double buffering, group hold, read latch, which bus): the
     emulators add those (``ares.hardware.emulators.sensor_registers``)."""
     from dataclasses import replace
 
-    return replace(regmap, bus=None, group_hold=None,
+    return replace(regmap, bus=None, group_hold=None, read_latch=None,
                    fields=tuple(replace(f, buffered=None, shadow=None) for f in regmap.fields if f.bus is None))
 
 

@@ -11,6 +11,13 @@ registers: group hold and double-buffered (shadowed) registers.
   pending value.
 * Every other register takes effect at once -- so a multi-register value written without the
   hold is torn when a frame boundary falls between its registers.
+* Reads return the active values as they are at each register's read: a frame boundary (a
+  latch) between the reads of a multi-register value's registers gives half the old value
+  and half the new (a torn read). ``read_latch`` ("msb"/"lsb", default the map's
+  ``<registers read_latch>``): reading that register of a value copies the value's other
+  registers into a latch they are then read from (until that register is read again) -- the
+  16-bit timer of a microcontroller (low byte first) or a sensor's shadowed readout (high byte
+  first) -- so a host that reads it first reads the value whole.
 
 Frame boundaries: ``frame_boundary()`` (the grabber calls it as each frame starts); on a
 free-running sensor with ``frame_period_s`` also at every multiple of it on ``clock`` (the
@@ -22,10 +29,20 @@ record of what its frames saw.
 
 from __future__ import annotations
 
+from ares.hardware.registers import latching_address
+
 
 class SensorRegisters:
-    def __init__(self, regmap, inner, *, clock=None, frame_period_s: float | None = None):
+    def __init__(self, regmap, inner, *, clock=None, frame_period_s: float | None = None, read_latch="map"):
         self.map, self.inner = regmap, inner
+        latch = regmap.read_latch if read_latch == "map" else read_latch
+        self.latch_on: dict[int, list[int]] = {}  # the register whose read latches -> the value's others
+        for f in regmap.fields:
+            first = latching_address(f, regmap.endian, latch) if f.bus is None else None
+            if first is not None:
+                self.latch_on[first] = [f.address + k for k in range(f.count) if f.address + k != first]
+        self.latch: dict[int, int] = {}  # what the last latching read copied
+        self.start_owed = False  # a streaming sensor with vertical blanking: the next frame starts later
         self.name = getattr(inner, "name", "sensor")
         gh = regmap.group_hold
         self.hold_register, self.hold_value, self.release_value = gh if gh is not None else (None, None, None)
@@ -46,6 +63,16 @@ class SensorRegisters:
         while self.clock.now() >= self._next:
             self.frame_boundary()
             self._next += self.period
+
+    def owe_start(self) -> None:
+        """A frame was read out; the next starts after the vertical blanking -- later than a host's
+        read-back right after the frame, sooner than its next register writes (``start_if_owed``)."""
+        self.start_owed = True
+
+    def start_if_owed(self) -> None:
+        if self.start_owed:
+            self.start_owed = False
+            self.frame_boundary()
 
     def frame_boundary(self) -> None:
         """A frame starts: pending registers take effect; the frame is exposed with what is active."""
@@ -68,10 +95,15 @@ class SensorRegisters:
             return self.pending.get(src, self.held.get(src, self.inner.read(src)))
         if address == self.hold_register:
             return self.hold_value if self.holding else self.release_value
+        if address in self.latch_on:  # the latching register: the value's others are copied now
+            self.latch.update({a: self.inner.read(a) for a in self.latch_on[address]})
+        elif address in self.latch:
+            return self.latch[address]
         return self.inner.read(address)
 
     def write(self, address: int, value: int) -> None:
         self._tick()
+        self.start_if_owed()  # (the host took longer than the blanking to write: the frame started first)
         if address == self.hold_register:
             if value == self.hold_value:
                 self.holding = True
@@ -95,7 +127,7 @@ class SensorRegisters:
 
 def device_registers(regmap, inner, **kw):
     """The sensor's registers with the behaviours its map declares (group hold, double
-    buffering), or ``inner`` itself when it declares none."""
-    if regmap.group_hold is None and not any(f.buffered for f in regmap.fields):
+    buffering, a read latch), or ``inner`` itself when it declares none."""
+    if regmap.group_hold is None and regmap.read_latch is None and not any(f.buffered for f in regmap.fields):
         return inner
     return SensorRegisters(regmap, inner, **kw)

@@ -42,6 +42,20 @@ frame N (the host's read times out; the frame comes at the next edge).
 ``usb_pipeline_frames`` = K: a sensor that keeps exposing after a stop -- K frames exposed at
 the settings of that moment wait in the device and come first at the next start (what a
 settings change must discard: ``<timing discard_frames>``).
+
+``usb_frame_in_flight`` = 1: a streaming rolling-shutter sensor -- the next frame starts, and
+latches its held and double-buffered registers, as soon as one is read out; it is read out
+at the next host read with what its registers hold then. The first frame after a register
+change was latched before it: it carries none of a held change, and an unheld, unbuffered
+register written since (an analog gain) with the old latched ones (a multi-register exposure
+written in its own hold) -- a frame half old, half new. ``usb_frame_in_flight`` = 2: the same
+with vertical blanking -- the next frame starts after it, which is later than a host's read-back
+right after a frame and sooner than its next register writes (``SensorRegisters.owe_start``): a
+read-back after the frame in flight still finds the old values latched.
+
+``exposed_with``: device frame counter -> the settings the simulator rendered that frame with
+(``exposure_s``, ``analog_gain``, ``black_level_dn``, ``photon_flux``): the device's truth (the
+latest 20000 frames).
 """
 
 from __future__ import annotations
@@ -60,7 +74,9 @@ from ares.hardware.pixels import pack, pixel_format, to_wire_order
 
 FAULTS = ("usb_drop_at", "usb_corrupt_at", "usb_short_at", "usb_garbage_at", "usb_timeout_at",
           "usb_disconnect_at", "usb_reconnect_after_polls", "usb_pipeline_frames", "usb_late_at", "usb_late_ms",
-          "usb_stall_at", "usb_gone_s", "usb_reconnect_packet", "usb_trigger_missing_at")
+          "usb_stall_at", "usb_gone_s", "usb_reconnect_packet", "usb_trigger_missing_at", "usb_frame_in_flight")
+TRUTH = ("exposure_s", "analog_gain", "black_level_dn", "photon_flux")  # what ``exposed_with`` keeps of a frame
+EXPOSED_KEPT = 20000  # frames ``exposed_with`` remembers
 
 
 class EmulatedGrabber:
@@ -104,6 +120,9 @@ class EmulatedGrabber:
         self.head_size = fh.SIZES.get(cfg.header, 32)
         self.timestamp_hz = float(getattr(cfg, "timestamp_hz", 1e9))
         self._started = 0.0  # the device clock at the current frame's exposure start
+        self.exposed_with: dict[int, dict] = {}  # device frame counter -> the settings it was rendered with
+        self._in_flight = False  # (usb_frame_in_flight) the next frame has started: its registers are latched
+        self.blanking = None  # (usb_frame_in_flight=2) the sensor registers: owe_start(), start_if_owed()
 
     # ------------------------------------------------------------ descriptors
     def device_descriptor(self, address: int):
@@ -155,7 +174,11 @@ class EmulatedGrabber:
                 elif c.when == "start" and self._start is not None:
                     queued, self._queued = self._queued[:int(value)], []
                     fresh = int(value) - len(queued)
-                    self._gen = itertools.chain(queued, self.frames.grab(fresh) if fresh else ())
+                    if self.faults.get("usb_frame_in_flight"):  # each frame read out with its own registers
+                        fresh_frames = (next(iter(self.frames.grab(1))) for _ in range(fresh))
+                    else:
+                        fresh_frames = self.frames.grab(fresh) if fresh else ()
+                    self._gen = itertools.chain(queued, fresh_frames)
                     self._out, self._owed = deque(), 0
                 elif c.when == "stop":
                     self._gen, self._out = None, deque()
@@ -220,6 +243,10 @@ class EmulatedGrabber:
                 self._send(cut)
             return
         self.counter += 1
+        meta = getattr(frame, "meta", None) or {}
+        self.exposed_with[n] = {k: meta[k] for k in TRUTH if k in meta}
+        if len(self.exposed_with) > EXPOSED_KEPT:  # (a long run on the wires: the latest frames')
+            del self.exposed_with[next(iter(self.exposed_with))]
         if n == self.faults.get("usb_drop_at"):  # rendered, lost: the next frame shows the gap
             self.faults.pop("usb_drop_at")
             self._owed += 1
@@ -258,8 +285,22 @@ class EmulatedGrabber:
 
     def _render(self):
         """The sensor's next frame: armed ones first (a grab with a start control), else one now."""
-        if self.on_frame_start is not None:
-            self.on_frame_start()
+        ahead = int(self.faults.get("usb_frame_in_flight", 0))
+        blank = self.blanking if ahead == 2 else None
+        if self.on_frame_start is not None and not (ahead and self._in_flight):
+            self.on_frame_start()  # (streaming ahead: it started, latched, when the frame before was read out)
+        elif blank is not None:
+            blank.start_if_owed()  # (after the blanking: before it is read out, at the latest)
+        frame = self._read_out()
+        if ahead and self.on_frame_start is not None:  # the next frame starts as this one is read out
+            if blank is not None:
+                blank.owe_start()  # (or after the blanking)
+            else:
+                self.on_frame_start()
+            self._in_flight = True
+        return frame
+
+    def _read_out(self):
         if self._start is None:
             return next(iter(self.frames.grab(1)))
         if self._gen is None:
