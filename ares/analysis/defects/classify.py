@@ -362,6 +362,17 @@ def classify_defects(
                              "trap held high, no steady dark rate): neither hot nor warm, left unclassified")
             zw = zwarm[crow, ccol] & ~is_rts & ~drop
             flags["warm"][crow[zw], ccol[zw]] = True
+            if rate_mode:
+                # with K a steady dark rate's temporal variance is the population's plus its
+                # own shot noise, which the noisy test allows for: a hot/warm pixel that is
+                # noisy beyond that (p = noisy_p_fa) and shows no telegraph is no steady rate --
+                # a trap mostly high whose switching these frames do not resolve, or a noisy
+                # pixel with an offset: noisy (its temporal noise is), not hot/warm
+                unsteady = flags["noisy"] & ~rts
+                for c in ("hot", "warm"):
+                    flags[c] = flags[c] & ~unsteady
+                    if c in held:
+                        held[c] = held[c] & ~unsteady
             rts_stat = np.zeros(shape)
             rts_stat[crow, ccol] = sep
             rts_available = True
