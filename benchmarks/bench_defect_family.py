@@ -19,6 +19,7 @@ from pathlib import Path
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "tests"))
 
+from ares.analysis.defects.result import PIXEL_CLASSES, primary_class  # noqa: E402
 from defect_family import CLASSES, classify, make_case, score  # noqa: E402
 
 OUT = Path(__file__).with_name("defect_family.md")
@@ -35,7 +36,22 @@ def run(seeds) -> dict:
             for di, d in enumerate(DENSITIES):
                 for g in (True, False):
                     case = make_case(seed * 1000 + fr * 10 + di, fr, d, g)
-                    sc = score(case, classify(case))
+                    res = classify(case)
+                    sc = score(case, res)
+                    prim = primary_class(res.mask).ravel()
+                    name = lambda i: PIXEL_CLASSES[prim[i]] if prim[i] >= 0 else "good"  # noqa: E731
+                    hard = case.info["hard"]
+                    ex = case.excluded.ravel()
+                    for key, pix, ok in (("stuck at 0", [hard["stuck0"]], lambda i: name(i) == "stuck"),
+                                         ("noisy pixel in a bad column", [hard["noisy_col"]] if hard["noisy_col"]
+                                          is not None else [], lambda i: name(i) == "noisy"),
+                                         ("RTS trap on a hot pixel", [i for i in hard["rts_hot"] if not ex[i]],
+                                          lambda i: name(i) in ("rts", "hot", "warm", "noisy"))):
+                        h = agg.setdefault(f"hard|{fr}|{int(g)}|{key}", dict(right=0, n=0, got={}))
+                        for i in pix:
+                            h["n"] += 1
+                            h["right"] += ok(i)
+                            h["got"][name(i)] = h["got"].get(name(i), 0) + 1
                     for c, v in sc.items():
                         a = agg.setdefault(f"{fr}|{int(g)}|{c}", dict(given=0, right=0, strict=0, found=0, total=0,
                                                                        na=0, n=0, na_silent=0))
@@ -70,6 +86,20 @@ def table(before: dict, after: dict, title: str) -> list[str]:
                 na = f"{a['na']}/{a['n']}" + (f" ({a['na_silent']} silent)" if a["na_silent"] else "")
                 lines.append(f"| {fr} | {'given' if g else 'no'} | {c} | {pct(b['right'], b['given']) if b else '-'} | "
                              f"{p_after} | {pct(a['strict'], a['given'])} | {pct(a['found'], a['total'])} | {na} |")
+    hard = sorted({k.split("|", 3)[3] for k in after if k.startswith("hard|")})
+    if hard:
+        lines += ["", "The hard pixels (one of each per stack; an RTS trap on a hot pixel is right as rts, hot, "
+                  "warm -- by its rate -- or noisy; indistinguishable traps left out; noisy is not available "
+                  "below 19 frames, so the noisy pixel in a bad column is in no class there):", "",
+                  "| frames | K, t | " + " | ".join(hard) + " |", "|---:|---|" + "---|" * len(hard)]
+        for fr in FRAMES:
+            for g in (1, 0):
+                cells = []
+                for key in hard:
+                    h = after.get(f"hard|{fr}|{g}|{key}")
+                    got = ", ".join(f"{c} {n}" for c, n in sorted(h["got"].items())) if h else ""
+                    cells.append(f"{h['right']}/{h['n']} ({got})" if h and h["n"] else "-")
+                lines.append(f"| {fr} | {'given' if g else 'no'} | " + " | ".join(cells) + " |")
     ex = sum(after.get(f"{fr}|{g}|excluded", {"n": 0})["n"] for fr in FRAMES for g in (0, 1))
     lines += ["", f"Indistinguishable RTS traps (not in any precision or recall): {ex}; "
               f"classification of {len(FRAMES) * len(DENSITIES) * 2 * 5} stacks: {after['seconds']:.0f} s (after).", ""]
@@ -90,11 +120,12 @@ def main() -> None:
 
 HEAD = """tests/defect_family.py, 96 x 128 pixels, K 0.5 DN/e-, temporal noise 2 DN, pixel FPN 1 DN,
 exposure 1 or 10 s; per (frames, with/without K and t): 5 seeds x 4 densities (0.01, 0.1,
-0.5, 2 %). "before": the classifier of main (telegraph test: Fisher's combination of the
-two-level split and the lag-1 autocorrelation, noisy pixels only; Grubbs drop at 1e-5; no
-z-warm pixel with a raised variance); "after": this branch (two-state HMM likelihood ratio
-on every RTS candidate against a measured null table, Grubbs drop at rts_p_fa, z-warm
-pixels cleared by the telegraph tests are warm).
+0.5, 2 %). "before": the classifier before issue 48's telegraph ratio (Fisher's combination
+of the two-level split and the lag-1 autocorrelation, on noisy pixels only; without K a
+z-warm pixel with a raised variance -- its own dark shot noise -- fell into noisy); "after":
+the two-state HMM likelihood ratio against its measured null on every noisy, hot and warm
+candidate, z-warm pixels the telegraph tests clear are warm, and with K a hot/warm pixel
+noisy beyond its shot noise (no steady rate) is noisy.
 
 Precision is scored against the truth *set* of each pixel (tests/defect_family.py): its own
 class; hot/warm by the true rate, either where the rate is within 3 SE of a threshold;

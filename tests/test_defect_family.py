@@ -49,7 +49,7 @@ def test_telegraph_ratio_false_alarm_rate_as_tabled():
     probability 1e-2 (within 4 binomial SE; at 34 frames, between two table rows: the larger
     threshold, at most p); the statistic is offset- and scale-free."""
     rng = np.random.default_rng(990_001)
-    n, f = 10_000, 34
+    n, f = 6_000, 34
     assert f not in HMM_NULL_FRAMES
     lr = telegraph_lr(rng.standard_normal((f, n)))
     fa = float(np.mean(lr >= hmm_null_threshold(f, 1e-2)))

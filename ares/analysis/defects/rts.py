@@ -116,7 +116,7 @@ def rts_threshold(frames: int, min_separation: float, min_occupancy: float, p_fa
 #: procedure, and the null table below was made with it)
 HMM_ITERS = 10
 #: frames of the longest null: a longer series is tested on its first HMM_MAX_FRAMES frames
-HMM_MAX_FRAMES = 128
+HMM_MAX_FRAMES = 256
 
 
 def telegraph_lr(series: np.ndarray) -> np.ndarray | None:
@@ -152,7 +152,7 @@ def telegraph_lr(series: np.ndarray) -> np.ndarray | None:
 #: --table``: 100 000 white standard normal series per frame count, fixed seeds; its measured
 #: false-alarm rates on other seeds in ``benchmarks/defect_hmm_null.md``)
 HMM_NULL_P = (1e-2, 3e-3, 1e-3)
-HMM_NULL_FRAMES = tuple(range(12, 33)) + tuple(range(36, 65, 4)) + tuple(range(72, 129, 8))
+HMM_NULL_FRAMES = tuple(range(12, 33)) + tuple(range(36, 65, 4)) + tuple(range(72, 129, 8)) + tuple(range(144, 257, 16))
 HMM_NULL: dict[int, tuple[float, ...]] = {
     12: (14.874, 17.877, 20.506),
     13: (14.602, 17.290, 19.892),
@@ -191,6 +191,14 @@ HMM_NULL: dict[int, tuple[float, ...]] = {
     112: (12.226, 14.948, 17.375),
     120: (12.305, 15.046, 17.721),
     128: (12.212, 14.951, 17.610),
+    144: (11.975, 14.758, 17.371),
+    160: (11.845, 14.793, 17.344),
+    176: (11.726, 14.482, 17.087),
+    192: (11.863, 14.750, 17.283),
+    208: (11.499, 14.325, 16.849),
+    224: (11.457, 14.188, 17.133),
+    240: (11.326, 14.144, 16.633),
+    256: (11.360, 14.339, 16.670),
 }
 
 
