@@ -340,7 +340,12 @@ def classify_defects(
                     notes.append("candidates not tested for a telegraph whose levels overlap: the two-state "
                                  "hidden Markov test needs numba (ARES_NO_NUMBA set or numba missing)")
                 else:
-                    is_rts[np.flatnonzero(tel)[lr >= hmm_null_threshold(nfr, NOISY_RTS_P)]] = True
+                    with np.errstate(invalid="ignore"):
+                        is_rts[np.flatnonzero(tel)[lr >= hmm_null_threshold(nfr, NOISY_RTS_P)]] = True
+                    if np.isnan(lr).any():
+                        notes.append(f"{int(np.isnan(lr).sum())} candidates' series sit on too few codes (within-level "
+                                     "noise < 0.6 quantization steps) for the telegraph ratio: a series on two or "
+                                     "three codes is two-level by quantization; only the two-level split tested them")
             rts[crow[is_rts], ccol[is_rts]] = True
             # a hot/warm candidate whose series drops far below its own level in a frame is
             # no steady dark rate (a trap held high that fell back): no class takes it
