@@ -24,8 +24,7 @@ from ares.analysis.defects.result import BITS, DEFECT_DTYPE, PIXEL_CLASSES, Defe
 from ares.analysis.defects.limits import (Z99, hot_limit_text, noisy_available, p_constant_codes, partial_rate_text,
                                          rate_available)
 from ares.analysis.defects.robust import robust_sigma
-from ares.analysis.defects.rts import (detect_rts, hmm_null_threshold, low_outlier, low_outlier_critical,
-                                       rts_threshold, telegraph_lr)
+from ares.analysis.defects.rts import detect_rts, low_outlier, low_outlier_critical, rts_threshold, telegraph_test
 from ares.analysis.defects.stats import PixelStats, SeriesCollector
 from ares.analysis.defects.inputs import _Dark, _Flat, _Slope, _level_flags, _levels, _match_dark, _need
 
@@ -34,6 +33,11 @@ _ROWS = 256  # rows per block of elementwise work on a frame
 # to frame) beyond a white Gaussian series at this p: 0.1 % of truly noisy pixels (one of
 # rts.HMM_NULL_P; benchmarks/defect_classes.md)
 NOISY_RTS_P = 1e-3
+# below this temporal noise (the population's, quantization included; in code steps) the noisy
+# test is not available: with integer codes and 0.3 DN of noise (0.42 measured) half the pixels
+# "noisy" at 256 frames were good, at 0.4 DN (0.49) 1 of 19 at 64 frames, at 0.5 DN (0.58) none
+# (tests/defect_family.py with the noise lowered)
+NOISY_MIN_STEPS = 0.55
 
 RtsSource = Callable[[np.ndarray, np.ndarray], np.ndarray] | SeriesCollector
 
@@ -181,6 +185,11 @@ def classify_defects(
     incomplete: dict[str, str] = {}  # rate classes whose limit is above 2x the threshold (see below)
     fmin = min(d.st.n_frames for d in D)
     noisy_ok, why = noisy_available(fmin, th.noisy_p_fa, th.noisy_detect_ratio)
+    quiet = [d for d in D if d.st.code_step and math.sqrt(d.pop_var) < NOISY_MIN_STEPS * d.st.code_step]
+    if noisy_ok and quiet:
+        noisy_ok, why = False, (f"needs a temporal noise >= {NOISY_MIN_STEPS:g} code steps: at "
+                                f"{math.sqrt(quiet[0].pop_var):.2g} DN a pixel's variance depends on where its mean "
+                                "sits between two codes (quantization), which the chi-square test does not model")
     (detection if noisy_ok else unavailable)["noisy"] = why
     stuck_ok = any(d.stuck_ok for d in D) or any(fl.stuck_ok for fl in F)
     if not stuck_ok:
@@ -335,17 +344,9 @@ def classify_defects(
             # reached it (2 of 307 200 in the long dark at 64 frames)
             tel = (flags["noisy"] | flags["hot"] | flags["warm"] | zwarm)[crow, ccol] & ~is_rts
             if tel.any():
-                lr = telegraph_lr(series[:, tel])
-                if lr is None:
-                    notes.append("candidates not tested for a telegraph whose levels overlap: the two-state "
-                                 "hidden Markov test needs numba (ARES_NO_NUMBA set or numba missing)")
-                else:
-                    with np.errstate(invalid="ignore"):
-                        is_rts[np.flatnonzero(tel)[lr >= hmm_null_threshold(nfr, NOISY_RTS_P)]] = True
-                    if np.isnan(lr).any():
-                        notes.append(f"{int(np.isnan(lr).sum())} candidates' series sit on too few codes (within-level "
-                                     "noise < 0.6 quantization steps) for the telegraph ratio: a series on two or "
-                                     "three codes is two-level by quantization; only the two-level split tested them")
+                hit, note = telegraph_test(series[:, tel], nfr, NOISY_RTS_P)
+                is_rts[np.flatnonzero(tel)[hit]] = True
+                notes.extend([note] if note else [])
             rts[crow[is_rts], ccol[is_rts]] = True
             # a hot/warm candidate whose series drops far below its own level in a frame is
             # no steady dark rate (a trap held high that fell back): no class takes it

@@ -66,8 +66,18 @@ def two_level_split(series: np.ndarray, min_occupancy: float) -> tuple[np.ndarra
 
 
 def detect_rts(series: np.ndarray, min_separation: float, min_occupancy: float) -> tuple[np.ndarray, np.ndarray]:
-    """(is_rts, separation) for each column of ``series`` (F, n)."""
-    sep, _amp, _sw, _p = two_level_split(series, min_occupancy)
+    """(is_rts, separation) for each column of ``series`` (F, n). The within-level noise has a
+    floor of the quantization noise step^2 / 12 (``quantization_step``): a quiet pixel's
+    series on three or four codes splits between two codes with levels sharper than its
+    noise (white noise of 0.5 DN reached separations > 4 at 256 frames), a trap's levels
+    several codes apart keep theirs."""
+    _sep, amp, sw, _p = two_level_split(series, min_occupancy)
+    q = quantization_step(series)
+    q = np.where(np.isfinite(q), q, 0.0)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        swq = np.sqrt(sw * sw + q * q / 12.0)
+        sep = np.where(swq > 0, amp / swq, np.where(amp > 0, np.inf, 0.0))
+    sep = np.where(np.isnan(amp), np.nan, sep)
     return np.nan_to_num(sep, nan=0.0) >= min_separation, sep
 
 
@@ -150,6 +160,22 @@ def telegraph_lr(series: np.ndarray) -> np.ndarray | None:
     lr = np.where(sd > 0, np.maximum(lr, 0.0), 0.0)
     # a series on a few codes is two-level by quantization, not by a trap: no test (NaN)
     return np.where(np.nan_to_num(sw) * sd >= HMM_MIN_SW_STEPS * step, lr, np.nan)
+
+
+def telegraph_test(series: np.ndarray, frames: int, p: float) -> tuple[np.ndarray, str]:
+    """(telegraph beyond a white series at ``p``, per column of ``series``; a note for the
+    result, "" if none): ``telegraph_lr`` against ``hmm_null_threshold``."""
+    lr = telegraph_lr(series)
+    if lr is None:
+        return np.zeros(series.shape[1], bool), ("candidates not tested for a telegraph whose levels overlap: the "
+                                                 "two-state hidden Markov test needs numba (ARES_NO_NUMBA set or "
+                                                 "numba missing)")
+    with np.errstate(invalid="ignore"):
+        hit = lr >= hmm_null_threshold(frames, p)
+    n = int(np.isnan(lr).sum())
+    return hit, (f"{n} candidates' series sit on too few codes (within-level noise < {HMM_MIN_SW_STEPS:g} "
+                 "quantization steps) for the telegraph ratio: a series on two or three codes is two-level by "
+                 "quantization; only the two-level split tested them" if n else "")
 
 
 #: the within-level noise (the two-means split's, in quantization steps) a series needs for the
