@@ -60,8 +60,11 @@ class Case:
     info: dict
 
 
-def make_case(seed: int, frames: int, density: float, with_gain: bool, exposure_s: float | None = None) -> Case:
+def make_case(seed: int, frames: int, density: float, with_gain: bool, exposure_s: float | None = None,
+              temporal: float = TEMPORAL) -> Case:
+    """``temporal``: the white temporal noise (DN; a quiet sensor: 0.3-0.5, its FPN scaled with it)."""
     rng = np.random.default_rng(seed)
+    fpn = PIX_FPN * min(1.0, temporal / TEMPORAL * 2)
     n = ROWS * COLS
     t = exposure_s if exposure_s is not None else float(rng.choice([1.0, 10.0]))
     per = max(1, int(round(density * n / len(CLASSES))))
@@ -76,7 +79,7 @@ def make_case(seed: int, frames: int, density: float, with_gain: bool, exposure_
     stuck0 = int(next(take))
     n_cols = int(rng.integers(0, 3))
     bad_cols = rng.choice(np.arange(4, COLS - 4), size=max(n_cols, 1), replace=False)[:n_cols]
-    base = (OFFSET + rng.normal(0, COL_FPN, COLS)[None, :] + rng.normal(0, PIX_FPN, (ROWS, COLS)))
+    base = (OFFSET + rng.normal(0, fpn, COLS)[None, :] + rng.normal(0, fpn, (ROWS, COLS)))
     base[:, bad_cols] += 20.0
     # clusters (2x2 or 3x3 of one class) away from the other defects where possible
     clusters = []
@@ -97,7 +100,7 @@ def make_case(seed: int, frames: int, density: float, with_gain: bool, exposure_
         cls_of[noisy_col] = "noisy"
 
     rate = np.zeros(n)
-    sig = np.full(n, TEMPORAL)
+    sig = np.full(n, temporal)
     resp = np.ones(n)
     for i, c in cls_of.items():
         if c in ("hot", "warm", "rts+hot"):
@@ -129,7 +132,7 @@ def make_case(seed: int, frames: int, density: float, with_gain: bool, exposure_
         u = rng.random(rts_i.size)
         state = np.where(state, u >= p_down, u < p_up)
         states[f] = state
-    dark[:, rts_i] += amp * TEMPORAL * states
+    dark[:, rts_i] += amp * temporal * states
     # stuck codes
     stuck_i = [i for i, c in cls_of.items() if c == "stuck"]
     codes = {}
@@ -147,7 +150,7 @@ def make_case(seed: int, frames: int, density: float, with_gain: bool, exposure_
         flat[:, i] = code
 
     # ---- truth sets
-    se_rate = math.sqrt(PIX_FPN**2 + TEMPORAL**2 / frames) / (K * t)
+    se_rate = math.sqrt(fpn**2 + temporal**2 / frames) / (K * t)
     truth: list = [None] * n
     primary: dict = {}
     excluded = np.zeros(n, bool)
@@ -189,7 +192,7 @@ def make_case(seed: int, frames: int, density: float, with_gain: bool, exposure_
             truth[i] = frozenset(s)
         if p is not None:
             primary[i] = p
-    info = dict(seed=seed, frames=frames, density=density, with_gain=with_gain, exposure_s=t,
+    info = dict(seed=seed, frames=frames, density=density, with_gain=with_gain, exposure_s=t, temporal=temporal,
                 bad_columns=[int(c) for c in bad_cols], clusters=clusters, se_rate=se_rate,
                 hard=dict(rts_hot=combo_rts_hot, stuck0=stuck0, noisy_col=noisy_col))
     return Case(dark.reshape(frames, ROWS, COLS), flat.reshape(frames, ROWS, COLS), t, truth, primary,
