@@ -35,16 +35,25 @@ channel; "z" is a robust z-score, sigma = 1.4826 * MAD):
   probability ``noisy_p_fa`` per pixel (1e-7: 0.1 false alarms per megapixel, leaving
   room in a 1-per-megapixel budget); with K known the expected variance of a pixel
   includes the shot noise of its excess dark signal (K * excess DN), so hot pixels are
-  not also noisy.
+  not also noisy. What "noisy" asserts: the pixel's temporal noise is significantly above
+  the population's -- white excess noise, or a telegraph these frames do not resolve (an
+  RTS trap raises the temporal noise too; where the time order shows the telegraph the
+  pixel is rts instead). With K, a hot/warm pixel that is noisy beyond its own shot noise
+  and no telegraph is noisy, not hot/warm (no steady rate). Without K a pixel's dark shot
+  noise cannot be told from excess read noise, so a warm pixel may be noisy too.
 * rts -- multi-level temporal behaviour: a candidate (hot, warm, noisy, or a temporal
   variance above the chi-square limit at p = ``rts_p_fa``) whose time series splits into
   two levels separated by at least ``rts_min_separation`` (4) times the within-level noise
   AND by more than a single-level Gaussian series of that many frames shows with
   probability ``rts_p_fa`` (1e-3; ``rts.null_separation``: 5.9 at 16 frames, 3.4 at 100),
   each level holding at least ``rts_min_occupancy`` (3 %) of the frames; needs >=
-  ``rts_min_frames`` (12) frames, else RTS is "not available, needs >= 12 frames". A
-  noisy pixel is one whose variance is high WITHOUT such levels, a hot pixel one whose
-  mean dark rate is high: RTS takes precedence over both.
+  ``rts_min_frames`` (12) frames, else RTS is "not available, needs >= 12 frames"; or a
+  noisy, hot or warm pixel whose series is a telegraph by the likelihood ratio of a
+  two-state hidden Markov model against one Gaussian beyond a white series at p = 1e-3
+  (``rts.telegraph_lr``, its null measured: ``benchmarks/defect_hmm_null.md``) -- levels
+  that overlap, or a trap mostly in one level. A noisy pixel is one whose variance is high
+  WITHOUT such a telegraph, a hot pixel one whose mean dark rate is high: RTS takes
+  precedence over both.
 * bad columns / rows -- >= ``line_hot_count`` (20) hot/warm or >= ``line_dead_count``
   (100) dead/low-response/stuck pixels in the line, or a line's median dark offset or
   median response more than ``line_z`` (6) robust sigmas from its neighbours, or its

@@ -21,6 +21,7 @@ class PixelStats:
     var: np.ndarray
     n_frames: int
     exposure_s: float | None = None
+    code_step: float | None = None  # the data's code step (1 DN for integer frames); None: not known
 
     def __post_init__(self) -> None:
         if self.mean.shape != self.var.shape or self.mean.ndim != 2:
@@ -39,7 +40,7 @@ class PixelStats:
                    int(acc.n_frames), exposure_s)
 
     def region(self, rows: slice, cols: slice) -> "PixelStats":
-        return PixelStats(self.mean[rows, cols], self.var[rows, cols], self.n_frames, self.exposure_s)
+        return PixelStats(self.mean[rows, cols], self.var[rows, cols], self.n_frames, self.exposure_s, self.code_step)
 
 
 def pixel_stats(stack: np.ndarray, exposure_s: float | None = None, block_rows: int = 4) -> PixelStats:
@@ -82,7 +83,7 @@ def pixel_stats(stack: np.ndarray, exposure_s: float | None = None, block_rows: 
         s2 = s2.astype(np.float64)
         mean[r0:r0 + block_rows] = ref + s1 / f
         var[r0:r0 + block_rows] = np.maximum(s2 - s1 * s1 / f, 0.0) / (f - 1)
-    return PixelStats(mean, var, f, exposure_s)
+    return PixelStats(mean, var, f, exposure_s, 1.0 if stack.dtype.kind in "ui" else None)
 
 
 def candidate_series(stack: np.ndarray, rows: np.ndarray, cols: np.ndarray) -> np.ndarray:
