@@ -58,6 +58,23 @@ def test_telegraph_ratio_false_alarm_rate_as_tabled():
     np.testing.assert_allclose(telegraph_lr(3.0 * x + 100.0), telegraph_lr(x), atol=1e-6)
 
 
+def test_telegraph_ratio_without_numba_is_the_same_test(monkeypatch):
+    """Without numba the telegraph ratio runs the numpy path of the same Baum-Welch (one
+    kernel module holds both): the same decisions on white and telegraph series."""
+    from ares.analysis.kernels import hmm
+
+    rng = np.random.default_rng(990_002)
+    f = 64
+    state = (np.arange(f)[:, None] // 8 + np.arange(100)[None, :]) % 2
+    x = np.concatenate([rng.standard_normal((f, 300)), 3.0 * state + rng.standard_normal((f, 100))], axis=1)
+    fast = telegraph_lr(x)
+    monkeypatch.setattr(hmm, "baum_welch", lambda *a, **k: None)
+    slow = telegraph_lr(x)
+    thr = hmm_null_threshold(f, 1e-3)
+    assert np.mean((fast >= thr) == (slow >= thr)) >= 0.99 and np.mean(slow[300:] >= thr) > 0.9
+    np.testing.assert_allclose(slow, fast, rtol=0.05, atol=0.5)
+
+
 def test_telegraph_ratio_leaves_series_on_a_few_codes_untested():
     """White noise of 0.5 code steps rounded to integer codes sits on two or three codes: a
     two-state model fits that (84 % of such series of 64 frames reached the p = 1e-3 threshold):

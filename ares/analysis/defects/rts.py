@@ -129,7 +129,7 @@ HMM_ITERS = 10
 HMM_MAX_FRAMES = 256
 
 
-def telegraph_lr(series: np.ndarray) -> np.ndarray | None:
+def telegraph_lr(series: np.ndarray) -> np.ndarray:
     """Likelihood ratio 2 (ln L_2 - ln L_1) of a two-state Gaussian hidden Markov model (two
     levels, one within-level sigma, Markov switching: a trap's telegraph) against one
     Gaussian, per column of ``series`` (F, n), by ``HMM_ITERS`` Baum-Welch iterations
@@ -138,9 +138,9 @@ def telegraph_lr(series: np.ndarray) -> np.ndarray | None:
     offset- and scale-free, so one null of standard normal series serves every pixel, and
     under that null it is independent of the sample variance (Basu) -- the test on top of a
     variance test keeps its own false-alarm rate. Over ``HMM_MAX_FRAMES`` the first that many
-    frames. NaN where the series is on too few codes for it (``HMM_MIN_SW_STEPS``). None
-    without numba (the kernel's only path here)."""
-    from ares.analysis.kernels.hmm import baum_welch
+    frames. NaN where the series is on too few codes for it (``HMM_MIN_SW_STEPS``). Without
+    numba the numpy path of the same Baum-Welch."""
+    from ares.analysis.kernels.hmm import baum_welch, baum_welch_numpy
 
     x = np.asarray(series, dtype=np.float64)[:HMM_MAX_FRAMES]
     f, n = x.shape
@@ -152,10 +152,9 @@ def telegraph_lr(series: np.ndarray) -> np.ndarray | None:
     _sep, amp, sw, up = two_level_split(x, 0.0)
     mu0 = np.stack([-amp * up, amp * (1.0 - up)], axis=1)
     var0 = np.maximum(sw * sw * (f - 2) / f, 1e-3)
-    res = baum_welch(x, np.nan_to_num(mu0), np.nan_to_num(var0, nan=1.0), HMM_ITERS, 1e-6)
-    if res is None:
-        return None
-    ll2 = res[-1]
+    mu0, var0 = np.nan_to_num(mu0), np.nan_to_num(var0, nan=1.0)
+    res = baum_welch(x, mu0, var0, HMM_ITERS, 1e-6)
+    ll2 = (res if res is not None else baum_welch_numpy(x, mu0, var0, HMM_ITERS, 1e-6))[-1]
     lr = 2.0 * (ll2 + 0.5 * f * (math.log(2.0 * math.pi) + 1.0))
     lr = np.where(sd > 0, np.maximum(lr, 0.0), 0.0)
     # a series on a few codes is two-level by quantization, not by a trap: no test (NaN)
@@ -166,10 +165,6 @@ def telegraph_test(series: np.ndarray, frames: int, p: float) -> tuple[np.ndarra
     """(telegraph beyond a white series at ``p``, per column of ``series``; a note for the
     result, "" if none): ``telegraph_lr`` against ``hmm_null_threshold``."""
     lr = telegraph_lr(series)
-    if lr is None:
-        return np.zeros(series.shape[1], bool), ("candidates not tested for a telegraph whose levels overlap: the "
-                                                 "two-state hidden Markov test needs numba (ARES_NO_NUMBA set or "
-                                                 "numba missing)")
     with np.errstate(invalid="ignore"):
         hit = lr >= hmm_null_threshold(frames, p)
     n = int(np.isnan(lr).sum())

@@ -1,5 +1,5 @@
 """Baum-Welch for Gaussian hidden Markov models with one shared sigma, one series at a time
-(numba, ``ares.analysis.kernels.jit``): the numpy path (``ares.analysis.lowlight.rtn.fit_hmm``)
+(numba, ``ares.analysis.kernels.jit``): the numpy path (``baum_welch_numpy``, used without numba)
 steps through time for all series at once, ~10 small array operations a frame, which is the
 cost of a long series; here each frame of each series is a few scalar loops. Same start, same
 updates, each series stops on its own once its log-likelihood changes by less than
@@ -156,6 +156,63 @@ def baum_welch(x: np.ndarray, mu_init: np.ndarray, var_init: np.ndarray, iters: 
     _kernel_c(x, np.ascontiguousarray(mu_init, np.float64), np.ascontiguousarray(var_init, np.float64), int(iters),
               float(tol), mu, var, A, occ, dep, ll)
     return mu, var, A, occ, dep, ll
+
+
+def baum_welch_numpy(x, mu, var, iters, tol):
+    """The numpy path of ``baum_welch`` (without numba): all columns at once, stepping through
+    time; the same start and updates, stopping when every series has converged."""
+    F, n = x.shape
+    k = mu.shape[1]
+    A = np.full((n, k, k), 0.1 / (k - 1))
+    A[:, np.arange(k), np.arange(k)] = 0.9
+    pi = np.full((n, k), 1.0 / k)
+    alpha = np.empty((F, n, k))
+    c = np.empty((F, n))
+    prev_ll = np.full(n, -np.inf)
+    for _ in range(iters):
+        # emission densities (F, n, k), scaled per frame (the common factor cancels in gamma/xi)
+        z = (x[:, :, None] - mu[None]) ** 2 / var[None, :, None]
+        b = np.exp(-0.5 * (z - z.min(axis=2, keepdims=True)))
+        logscale = -0.5 * z.min(axis=2) - 0.5 * np.log(2 * np.pi * var)[None, :]
+        a = pi * b[0]
+        c[0] = a.sum(1)
+        alpha[0] = a / c[0][:, None]
+        for t in range(1, F):
+            a = np.einsum("nk,nkj->nj", alpha[t - 1], A) * b[t]
+            c[t] = a.sum(1)
+            alpha[t] = a / c[t][:, None]
+        ll = np.log(c).sum(0) + logscale.sum(0)
+        beta = np.ones((n, k))
+        gamma_sum = np.zeros((n, k))
+        xi_sum = np.zeros((n, k, k))
+        mu_num = np.zeros((n, k))
+        sq = np.zeros((n, k))
+        g = alpha[F - 1] * beta
+        gamma_sum += g
+        mu_num += g * x[F - 1][:, None]
+        sq += g * (x[F - 1] ** 2)[:, None]
+        gamma0 = g
+        for t in range(F - 2, -1, -1):
+            bb = b[t + 1] * beta
+            xi = alpha[t][:, :, None] * A * bb[:, None, :] / c[t + 1][:, None, None]
+            xi_sum += xi
+            beta = np.einsum("nkj,nj->nk", A, bb) / c[t + 1][:, None]
+            g = alpha[t] * beta
+            gamma_sum += g
+            mu_num += g * x[t][:, None]
+            sq += g * (x[t] ** 2)[:, None]
+            gamma0 = g
+        mu_new = mu_num / np.maximum(gamma_sum, 1e-12)
+        # the shared variance around the new levels: sum g (x - mu)^2 = sum g x^2 - 2 mu sum g x + mu^2 sum g
+        var = np.maximum((sq - 2 * mu_new * mu_num + mu_new**2 * gamma_sum).sum(1) / F, 1e-12)
+        mu = mu_new
+        A = xi_sum / np.maximum(xi_sum.sum(2, keepdims=True), 1e-300)
+        pi = gamma0 / gamma0.sum(1, keepdims=True)
+        if np.all(np.abs(ll - prev_ll) < tol * F):
+            break
+        prev_ll = ll
+    dep = xi_sum.sum(2) - xi_sum[:, np.arange(k), np.arange(k)]
+    return mu, var, A, gamma_sum, dep, ll
 
 
 def warm() -> None:

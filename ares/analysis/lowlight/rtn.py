@@ -192,74 +192,15 @@ def fit_hmm(x: np.ndarray, k: int, iters: int = EM_ITER, tol: float = 1e-6, use_
     mu = _init_levels(x, k)
     var = np.maximum(np.mean((x - mu[np.arange(n), np.argmin(np.abs(x[:, :, None] - mu[None]), axis=2)]) ** 2, 0),
                      1e-6 * max(float(np.var(x)), 1e-12))
-    from ares.analysis.kernels.hmm import baum_welch
+    from ares.analysis.kernels.hmm import baum_welch, baum_welch_numpy
 
     res = baum_welch(x, mu, var, iters, tol) if use_kernel else None
-    if res is not None:
-        mu, var, A, occ, dep, ll = res
-    else:
-        mu, var, A, occ, dep, ll = _baum_welch_numpy(x, mu, var, iters, tol)
+    mu, var, A, occ, dep, ll = res if res is not None else baum_welch_numpy(x, mu, var, iters, tol)
     order = np.argsort(mu, axis=1)
     rows = np.arange(n)[:, None]
     mu = mu[rows, order]
     A = A[rows[:, :, None], order[:, :, None], order[:, None, :]]
     return HmmFit(mu, np.sqrt(var), A, occ[rows, order], dep[rows, order], ll, k)
-
-
-def _baum_welch_numpy(x, mu, var, iters, tol):
-    """The numpy path of ``ares.analysis.kernels.hmm.baum_welch``: all columns at once."""
-    F, n = x.shape
-    k = mu.shape[1]
-    A = np.full((n, k, k), 0.1 / (k - 1))
-    A[:, np.arange(k), np.arange(k)] = 0.9
-    pi = np.full((n, k), 1.0 / k)
-    alpha = np.empty((F, n, k))
-    c = np.empty((F, n))
-    prev_ll = np.full(n, -np.inf)
-    for _ in range(iters):
-        # emission densities (F, n, k), scaled per frame (the common factor cancels in gamma/xi)
-        z = (x[:, :, None] - mu[None]) ** 2 / var[None, :, None]
-        b = np.exp(-0.5 * (z - z.min(axis=2, keepdims=True)))
-        logscale = -0.5 * z.min(axis=2) - 0.5 * np.log(2 * np.pi * var)[None, :]
-        a = pi * b[0]
-        c[0] = a.sum(1)
-        alpha[0] = a / c[0][:, None]
-        for t in range(1, F):
-            a = np.einsum("nk,nkj->nj", alpha[t - 1], A) * b[t]
-            c[t] = a.sum(1)
-            alpha[t] = a / c[t][:, None]
-        ll = np.log(c).sum(0) + logscale.sum(0)
-        beta = np.ones((n, k))
-        gamma_sum = np.zeros((n, k))
-        xi_sum = np.zeros((n, k, k))
-        mu_num = np.zeros((n, k))
-        sq = np.zeros((n, k))
-        g = alpha[F - 1] * beta
-        gamma_sum += g
-        mu_num += g * x[F - 1][:, None]
-        sq += g * (x[F - 1] ** 2)[:, None]
-        gamma0 = g
-        for t in range(F - 2, -1, -1):
-            bb = b[t + 1] * beta
-            xi = alpha[t][:, :, None] * A * bb[:, None, :] / c[t + 1][:, None, None]
-            xi_sum += xi
-            beta = np.einsum("nkj,nj->nk", A, bb) / c[t + 1][:, None]
-            g = alpha[t] * beta
-            gamma_sum += g
-            mu_num += g * x[t][:, None]
-            sq += g * (x[t] ** 2)[:, None]
-            gamma0 = g
-        mu_new = mu_num / np.maximum(gamma_sum, 1e-12)
-        # the shared variance around the new levels: sum g (x - mu)^2 = sum g x^2 - 2 mu sum g x + mu^2 sum g
-        var = np.maximum((sq - 2 * mu_new * mu_num + mu_new**2 * gamma_sum).sum(1) / F, 1e-12)
-        mu = mu_new
-        A = xi_sum / np.maximum(xi_sum.sum(2, keepdims=True), 1e-300)
-        pi = gamma0 / gamma0.sum(1, keepdims=True)
-        if np.all(np.abs(ll - prev_ll) < tol * F):
-            break
-        prev_ll = ll
-    dep = xi_sum.sum(2) - xi_sum[:, np.arange(k), np.arange(k)]
-    return mu, var, A, gamma_sum, dep, ll
 
 
 # ------------------------------------------------------------------ per-pixel results
