@@ -15,6 +15,17 @@ if "numpy" in sys.modules:  # (a plugin imported it: the setting below reaches o
     warnings.warn("numpy was imported before tests/conftest.py set the BLAS threads to ARES's: the suite is slower")
 set_blas_threads()
 
+import os  # noqa: E402
+
+# The report PDF's second process (ares.report.pdf_parts: a helper that imports matplotlib and
+# the report modules and draws half the pages) buys wall time only on an idle second core; in
+# the suite both cores run xdist workers, so each helper only added its start-up (~2 s of CPU
+# per report: test_report.py 38.5 -> 31.1 s CPU). Off here (and in the commands the tests
+# start, which inherit it) unless the environment says otherwise; the helper itself is tested
+# where it is the subject: test_report_parts.py, test_cli_run.py's with/without case, and the
+# SIGKILL/signal cases of test_signal_campaign.py / test_signal_sweep.py (their runs keep it on).
+os.environ.setdefault("ARES_PDF_HELPER", "0")
+
 import pytest  # noqa: E402
 
 
