@@ -38,6 +38,7 @@ def test_dry_run_touches_nothing(tmp_path, capsys):
 
 
 def test_run_prints_summary(tmp_path, capsys):
+    PTC = _ptc_no_pdf(tmp_path)  # (the terminal summary; the report line: the next test)
     assert main(["run", PTC, "--out", str(tmp_path / "r"), "--quiet"]) == 0
     out = capsys.readouterr().out
     for words in ("ptc_small: done, 9 stage(s)", "conversion gain", "uV/e-", "read noise", "full well",
@@ -56,6 +57,7 @@ def test_run_names_its_report_with_or_without_the_report_helper(tmp_path, capsys
 
 
 def test_run_json(tmp_path, capsys):
+    PTC = _ptc_no_pdf(tmp_path)  # (the JSON's status and results)
     assert main(["run", PTC, "--out", str(tmp_path / "r"), "--quiet", "--json", "--frames", "3"]) == 0
     d = json.loads(capsys.readouterr().out)
     assert d["status"] == "done" and d["stages"] == 9 and d["seed"] == 7
@@ -170,6 +172,7 @@ def test_out_dir_resolution(tmp_path, capsys):
     (tmp_path / "other" / "notes.txt").write_text("x")
     assert resolve_out(tmp_path / "other", "s").parent == tmp_path / "other"
     # `make run` style: the same --out twice never fails and never overwrites
+    PTC = _ptc_no_pdf(tmp_path)  # (statuses compared)
     for _ in range(2):
         assert main(["run", PTC, "--out", str(tmp_path / "runs"), "-q", "--frames", "2"]) == 0
     assert load_run(tmp_path / "runs").meta["status"] == load_run(tmp_path / "runs_2").meta["status"] == "done"
