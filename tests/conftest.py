@@ -72,3 +72,19 @@ def shared_run(tmp_path_factory):
         return out, d["rc"], d["terminal"]
 
     return get
+
+
+@pytest.fixture(scope="session")
+def ptc_small_no_pdf(tmp_path_factory):
+    """fixtures/xml/small/ptc_small.xml without its PDF, beside its system file (one copy a
+    worker): for tests that check statuses, stages, results, CSVs or the terminal but never
+    read the PDF, which was most of each such run's time; the report's tests read it."""
+    from pathlib import Path
+
+    small = Path(__file__).resolve().parents[1] / "fixtures" / "xml" / "small"
+    d = tmp_path_factory.mktemp("ptc_small_no_pdf")
+    (d / "sim_small.xml").write_text((small / "sim_small.xml").read_text())
+    text = (small / "ptc_small.xml").read_text()
+    assert '<output raw_frames="true"/>' in text
+    (d / "ptc_small.xml").write_text(text.replace('<output raw_frames="true"/>', '<output raw_frames="true" pdf="false"/>'))
+    return d / "ptc_small.xml"

@@ -28,17 +28,10 @@ SCAN = SMALL / "ptc_small.xml"  # without its PDF, below
 
 
 @pytest.fixture(scope="module", autouse=True)
-def _scan_without_pdf(tmp_path_factory):
-    """ptc_small.xml without its PDF, beside its system file: these runs compare statuses,
-    stages and scan results, never the PDF (it was most of each run's time)."""
+def _scan_without_pdf(ptc_small_no_pdf):
+    """These runs compare statuses, stages and scan results, never the PDF."""
     global SCAN
-    d = tmp_path_factory.mktemp("xml")
-    (d / "sim_small.xml").write_text((SMALL / "sim_small.xml").read_text())
-    text = (SMALL / "ptc_small.xml").read_text()
-    assert '<output raw_frames="true"/>' in text
-    (d / "ptc_small.xml").write_text(text.replace('<output raw_frames="true"/>',
-                                                  '<output raw_frames="true" pdf="false"/>'))
-    SCAN = d / "ptc_small.xml"
+    SCAN = ptc_small_no_pdf
 RESULT_KEYS = ("views", "settings", "registers_after", "bench_position", "defect_mask")
 
 
