@@ -19,7 +19,12 @@ run: $(BIN)/.installed
 	$(BIN)/ares run scans/photon_transfer.xml
 
 # All tests but the many-seed studies (offscreen Qt; two workers for the two cores).
+# compileall: ares is installed editable, so with PYTHONDONTWRITEBYTECODE set (as on CI VMs)
+# no process ever caches its bytecode and each of the suite's hundreds of processes (workers,
+# `ares` commands, dask workers) compiled the modules it imports again (~0.5 s CPU each);
+# compiling once costs ~1 s and only what changed since (benchmarks/suite_time.md).
 test: $(BIN)/.installed
+	$(BIN)/python -m compileall -q -x "tests/test_" ares tests
 	QT_QPA_PLATFORM=offscreen $(BIN)/python -m pytest -n 2 --dist worksteal -q --durations=30 -m "not study"
 
 # The studies over many seeds or cases (tests marked `study`): coverage, bias and sweeps.

@@ -15,6 +15,17 @@ if "numpy" in sys.modules:  # (a plugin imported it: the setting below reaches o
     warnings.warn("numpy was imported before tests/conftest.py set the BLAS threads to ARES's: the suite is slower")
 set_blas_threads()
 
+import os  # noqa: E402
+
+# The report PDF's second process (ares.report.pdf_parts: a helper that imports matplotlib and
+# the report modules and draws half the pages) buys wall time only on an idle second core; in
+# the suite both cores run xdist workers, so each helper only added its start-up (~2 s of CPU
+# per report: test_report.py 38.5 -> 31.1 s CPU). Off here (and in the commands the tests
+# start, which inherit it) unless the environment says otherwise; the helper itself is tested
+# where it is the subject: test_report_parts.py, test_cli_run.py's with/without case, and the
+# SIGKILL/signal cases of test_signal_campaign.py / test_signal_sweep.py (their runs keep it on).
+os.environ.setdefault("ARES_PDF_HELPER", "0")
+
 import pytest  # noqa: E402
 
 
@@ -61,3 +72,19 @@ def shared_run(tmp_path_factory):
         return out, d["rc"], d["terminal"]
 
     return get
+
+
+@pytest.fixture(scope="session")
+def ptc_small_no_pdf(tmp_path_factory):
+    """fixtures/xml/small/ptc_small.xml without its PDF, beside its system file (one copy a
+    worker): for tests that check statuses, stages, results, CSVs or the terminal but never
+    read the PDF, which was most of each such run's time; the report's tests read it."""
+    from pathlib import Path
+
+    small = Path(__file__).resolve().parents[1] / "fixtures" / "xml" / "small"
+    d = tmp_path_factory.mktemp("ptc_small_no_pdf")
+    (d / "sim_small.xml").write_text((small / "sim_small.xml").read_text())
+    text = (small / "ptc_small.xml").read_text()
+    assert '<output raw_frames="true"/>' in text
+    (d / "ptc_small.xml").write_text(text.replace('<output raw_frames="true"/>', '<output raw_frames="true" pdf="false"/>'))
+    return d / "ptc_small.xml"

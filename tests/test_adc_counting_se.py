@@ -32,7 +32,13 @@ def test_counting_se_matches_the_spread_of_an_ideal_adc():
 
 def test_adc_scan_reports_extremes_with_se_and_exports_the_curves(tmp_path):
     out = tmp_path / "run"
-    assert main(["run", str(ROOT / "scans" / "adc_linearity.xml"), "--out", str(out), "--frames", "3",
+    text = (ROOT / "scans" / "adc_linearity.xml").read_text()  # the shipped scan without the PDF (not read)
+    old = 'href="../protocols/sim_sensor.xml"'
+    assert old in text and "<output" not in text
+    scan = tmp_path / "adc_linearity.xml"
+    scan.write_text(text.replace(old, f'href="{ROOT / "protocols" / "sim_sensor.xml"}"').replace(
+        "</scan>", '<output pdf="false"/>\n</scan>'))
+    assert main(["run", str(scan), "--out", str(out), "--frames", "3",
                  "--seed", "2", "--quiet"]) in (0, 4)
     res = json.loads((out / "scan_results.json").read_text())["analyses"]["adc_linearity"]
     with open(out / "adc_inl_dnl.csv", newline="") as fh:

@@ -46,14 +46,15 @@ def cluster(tmp_path_factory):
         assert time.monotonic() < deadline, "dask scheduler did not start"
         time.sleep(0.2)
     for _ in range(2):
-        procs.append(_dask("worker", "--scheduler-file", str(sched_file), "--nthreads", "1", "--nworkers", "1",
+        procs.append(_dask("worker", "--scheduler-file", str(sched_file), "--nthreads", "1", "--no-nanny",
                            "--no-dashboard", "--local-directory", str(where), cwd=where, env=env))
     client = Client(scheduler_file=str(sched_file), timeout=f"{HANG}s")
     client.wait_for_workers(2, timeout=HANG)
     yield client.scheduler.address
     client.close()
-    for p in procs[::-1]:
-        p.terminate()
+    for p in procs[:0:-1]:  # the workers (no nanny: one process each, no graceful close to wait for)
+        p.kill()
+    procs[0].terminate()
     for p in procs[::-1]:
         try:
             p.wait(timeout=HANG)

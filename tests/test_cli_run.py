@@ -37,7 +37,8 @@ def test_dry_run_touches_nothing(tmp_path, capsys):
     assert "bias_map[4,3]" in capsys.readouterr().out and not (tmp_path / "x").exists()
 
 
-def test_run_prints_summary(tmp_path, capsys):
+def test_run_prints_summary(tmp_path, ptc_small_no_pdf, capsys):
+    PTC = str(ptc_small_no_pdf)  # (the terminal summary; the report line: the next test)
     assert main(["run", PTC, "--out", str(tmp_path / "r"), "--quiet"]) == 0
     out = capsys.readouterr().out
     for words in ("ptc_small: done, 9 stage(s)", "conversion gain", "uV/e-", "read noise", "full well",
@@ -55,7 +56,8 @@ def test_run_names_its_report_with_or_without_the_report_helper(tmp_path, capsys
     assert not list((tmp_path / "r").glob("*.parts")) and not list((tmp_path / "r").glob("*.tmp"))
 
 
-def test_run_json(tmp_path, capsys):
+def test_run_json(tmp_path, ptc_small_no_pdf, capsys):
+    PTC = str(ptc_small_no_pdf)  # (the JSON's status and results)
     assert main(["run", PTC, "--out", str(tmp_path / "r"), "--quiet", "--json", "--frames", "3"]) == 0
     d = json.loads(capsys.readouterr().out)
     assert d["status"] == "done" and d["stages"] == 9 and d["seed"] == 7
@@ -102,20 +104,8 @@ def test_hardware_fault_exit_3(tmp_path, capsys):
     assert f"{len(rec.stages)} completed stage(s) saved in" in err
 
 
-def _ptc_no_pdf(tmp_path) -> str:
-    """ptc_small.xml without its PDF (for tests that compare statuses and results: the PDF
-    was most of each run), beside its system file."""
-    d = tmp_path / "xml"
-    d.mkdir()
-    (d / "sim_small.xml").write_text((SMALL / "sim_small.xml").read_text())
-    text = (SMALL / "ptc_small.xml").read_text()
-    assert '<output raw_frames="true"/>' in text
-    (d / "ptc_small.xml").write_text(text.replace('<output raw_frames="true"/>', '<output raw_frames="true" pdf="false"/>'))
-    return str(d / "ptc_small.xml")
-
-
-def test_rerun_reproduces_the_run(tmp_path, capsys):
-    PTC = _ptc_no_pdf(tmp_path)
+def test_rerun_reproduces_the_run(tmp_path, ptc_small_no_pdf, capsys):
+    PTC = str(ptc_small_no_pdf)
     assert main(["run", PTC, "--out", str(tmp_path / "a"), "-q", "--seed", "11", "--frames", "3"]) == 0
     capsys.readouterr()
     assert main(["rerun", str(tmp_path / "a"), "--out", str(tmp_path / "b"), "-q"]) == 0
@@ -154,13 +144,13 @@ def test_ctrl_c_stops_after_the_current_stage(tmp_path):
     assert b"completed stages are kept" in err
 
 
-def test_auto_repeat_from_the_cli(tmp_path, capsys):
-    PTC = _ptc_no_pdf(tmp_path)
+def test_auto_repeat_from_the_cli(tmp_path, ptc_small_no_pdf, capsys):
+    PTC = str(ptc_small_no_pdf)
     assert main(["run", PTC, "--out", str(tmp_path / "rep"), "-q", "--frames", "2", "--repeat", "2"]) == 0
     assert [load_run(tmp_path / "rep" / f"repeat_{i:03d}").meta["status"] for i in (1, 2)] == ["done", "done"]
 
 
-def test_out_dir_resolution(tmp_path, capsys):
+def test_out_dir_resolution(tmp_path, ptc_small_no_pdf, capsys):
     from ares.commands.run import resolve_out
 
     assert resolve_out(tmp_path / "new", "s") == tmp_path / "new"
@@ -170,6 +160,7 @@ def test_out_dir_resolution(tmp_path, capsys):
     (tmp_path / "other" / "notes.txt").write_text("x")
     assert resolve_out(tmp_path / "other", "s").parent == tmp_path / "other"
     # `make run` style: the same --out twice never fails and never overwrites
+    PTC = str(ptc_small_no_pdf)  # (statuses compared)
     for _ in range(2):
         assert main(["run", PTC, "--out", str(tmp_path / "runs"), "-q", "--frames", "2"]) == 0
     assert load_run(tmp_path / "runs").meta["status"] == load_run(tmp_path / "runs_2").meta["status"] == "done"

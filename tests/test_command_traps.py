@@ -117,13 +117,13 @@ def test_bench_grid_defaults_to_the_scans_own_sensor():
     assert _grid(ns, scan)["size"] == (64,)
 
 
-def test_resume_summary_counts_the_stages_it_ran(tmp_path, capsys):
+def test_resume_summary_counts_the_stages_it_ran(tmp_path, capsys, ptc_small_no_pdf):
     """The resume summary said "26 stage(s) in 4.7 s" when 16 ran: the time is this
     session's and is now charged to the stages run now."""
     import json as _json
 
     d = tmp_path / "run"
-    scan = ROOT / "fixtures" / "xml" / "small" / "ptc_small.xml"
+    scan = ptc_small_no_pdf  # (stage counts and the summary: no PDF read)
     # late enough that a flat has completed the defect mask: the stages before the first one
     # still on the provisional (dark-only) mask are the ones resume keeps (ares.scan.resume)
     assert main(["run", str(scan), "--out", str(d), "--quiet", "--sim-fault", "disconnect_after_frames=30"]) == 3

@@ -23,7 +23,15 @@ from ares.cli import main
 from ares.rundir.state import effective_status
 
 ROOT = Path(__file__).resolve().parents[1]
-SCAN = ROOT / "fixtures" / "xml" / "small" / "ptc_small.xml"
+SMALL = ROOT / "fixtures" / "xml" / "small"
+SCAN = SMALL / "ptc_small.xml"  # without its PDF, below
+
+
+@pytest.fixture(scope="module", autouse=True)
+def _scan_without_pdf(ptc_small_no_pdf):
+    """These runs compare statuses, stages and scan results, never the PDF."""
+    global SCAN
+    SCAN = ptc_small_no_pdf
 RESULT_KEYS = ("views", "settings", "registers_after", "bench_position", "defect_mask")
 
 

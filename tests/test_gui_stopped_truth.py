@@ -42,9 +42,11 @@ def _stopping_job(path, after: int):
     return StopAfter(path, frames=3)
 
 
-def test_after_stop_every_tab_shows_the_stopped_runs_own_figures(window, qtbot, tmp_path):  # noqa: F811
+def test_after_stop_every_tab_shows_the_stopped_runs_own_figures(window, qtbot, tmp_path,  # noqa: F811
+                                                                 ptc_small_no_pdf):
     from ares.gui.runner_adapter import RunnerJob, summarize
 
+    PTC_SMALL = str(ptc_small_no_pdf)  # (the window's figures and scan_results.json: no PDF read)
     window.controls.output.directory.setText(str(tmp_path))
     window.set_job_factory(lambda: RunnerJob(PTC_SMALL, frames=3), PTC_SMALL)
     run_to_end(qtbot, window)
@@ -73,11 +75,11 @@ def test_after_stop_every_tab_shows_the_stopped_runs_own_figures(window, qtbot, 
         assert s.ptc.gain_e_per_dn is None or s.ptc.gain_e_per_dn != pytest.approx(first.get("gain", -1))
 
 
-def test_limits_read_none_set_for_a_scan_without_limits(window, qtbot, tmp_path):  # noqa: F811
+def test_limits_read_none_set_for_a_scan_without_limits(window, qtbot, tmp_path, ptc_small_no_pdf):  # noqa: F811
     from ares.gui.runner_adapter import RunnerJob
 
     scan = tmp_path / "nolimits.xml"
-    text = open(PTC_SMALL).read()
+    text = open(ptc_small_no_pdf).read()  # (the limits line: no PDF read)
     start, end = text.index("<limits>"), text.index("</limits>") + len("</limits>")
     scan.write_text(text[:start] + text[end:])
     (tmp_path / "sim_small.xml").write_text(open(os.path.join(os.path.dirname(PTC_SMALL), "sim_small.xml")).read())

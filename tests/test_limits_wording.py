@@ -41,8 +41,8 @@ def test_scan_without_limits_says_none_set(tmp_path, capsys):
     assert read_run(tmp_path / "r").limits["state"] == "none set"
 
 
-def test_stopped_run_says_not_checked(tmp_path):
-    r = Runner(load_scan(PTC), out_dir=tmp_path / "run")
+def test_stopped_run_says_not_checked(tmp_path, ptc_small_no_pdf):
+    r = Runner(load_scan(ptc_small_no_pdf), out_dir=tmp_path / "run")
 
     def listener(e):
         if isinstance(e, ev.FramePreview) and e.index == 2 and e.frame == 1 and not e.dark:

@@ -18,6 +18,12 @@ ROOT = Path(__file__).resolve().parents[1]
 SMALL = ROOT / "fixtures" / "xml" / "small"
 
 
+@pytest.fixture(autouse=True)
+def helper_on(monkeypatch):
+    """The helper is what these tests test (tests/conftest.py turns it off elsewhere)."""
+    monkeypatch.setenv("ARES_PDF_HELPER", "1")
+
+
 @pytest.fixture(scope="module")
 def runs(tmp_path_factory):
     sc = load_scan(SMALL / "ptc_small.xml")
@@ -34,20 +40,23 @@ def _texts(path: Path) -> list[str]:
     return [p.extract_text() for p in PdfReader(path).pages]
 
 
-def _one_process(run_dir: Path, tmp: Path, monkeypatch) -> list[str]:
-    monkeypatch.setenv("ARES_PDF_HELPER", "0")
-    write_reports(run_dir, ("pdf",), pdf_path=tmp / "one.pdf")
-    monkeypatch.delenv("ARES_PDF_HELPER")
-    return _texts(tmp / "one.pdf")
+@pytest.fixture(scope="module")
+def ref(runs, tmp_path_factory) -> list[str]:
+    """The pages' text of runs[0]'s report drawn by one process (no helper): what every
+    report drawn by two must equal (drawn once for the module)."""
+    out = tmp_path_factory.mktemp("one") / "one.pdf"
+    with pytest.MonkeyPatch.context() as mp:
+        mp.setenv("ARES_PDF_HELPER", "0")
+        write_reports(runs[0], ("pdf",), pdf_path=out)
+    return _texts(out)
 
 
-def test_pages_drawn_by_two_processes_merge_into_the_report(runs, tmp_path, monkeypatch):
+def test_pages_drawn_by_two_processes_merge_into_the_report(runs, tmp_path, ref):
     import matplotlib
 
     from ares.report import pdf, plots
     from ares.report.source import read_run
 
-    ref = _one_process(runs[0], tmp_path, monkeypatch)
     run = read_run(runs[0])
     with matplotlib.rc_context(plots.RC):
         pages = pdf.page_plan(run)
@@ -93,25 +102,22 @@ def test_a_helper_left_no_page_ends_normally(runs, tmp_path):
     helper.close()
 
 
-def test_write_reports_with_a_helper_gives_the_same_report(runs, tmp_path, monkeypatch):
-    ref = _one_process(runs[0], tmp_path, monkeypatch)
+def test_write_reports_with_a_helper_gives_the_same_report(runs, tmp_path, ref):
     helper = pdf_parts.start(runs[0])
     assert helper is not None
     write_reports(runs[0], ("pdf",), pdf_path=tmp_path / "two.pdf", helper=helper)
     assert helper.proc.returncode == 0
     assert _texts(tmp_path / "two.pdf") == ref
-    assert sorted(p.name for p in tmp_path.iterdir()) == ["one.pdf", "two.pdf"]  # no part files left
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["two.pdf"]  # no part files left
 
 
-def test_a_helper_for_another_run_is_not_used(runs, tmp_path, monkeypatch):
-    ref = _one_process(runs[0], tmp_path, monkeypatch)
+def test_a_helper_for_another_run_is_not_used(runs, tmp_path, ref):
     helper = pdf_parts.start(runs[1])  # same scan, other run: same titles, other numbers
     write_reports(runs[0], ("pdf",), pdf_path=tmp_path / "r.pdf", helper=helper)
     assert _texts(tmp_path / "r.pdf") == ref
 
 
-def test_a_dead_helper_is_replaced(runs, tmp_path, monkeypatch):
-    ref = _one_process(runs[0], tmp_path, monkeypatch)
+def test_a_dead_helper_is_replaced(runs, tmp_path, ref):
     helper = pdf_parts.start(runs[0])
     helper.proc.kill()
     write_reports(runs[0], ("pdf",), pdf_path=tmp_path / "r.pdf", helper=helper)

@@ -31,6 +31,14 @@ def _timed(scan):
     return dataclasses.replace(scan, system=dataclasses.replace(scan.system, timing=t))
 
 
+def _no_pdf(scan):
+    """``scan`` without its PDF: for runs whose checks read results, stages and files, not the
+    report (the PDF was most of a small run's time; the report's own tests read it)."""
+    import dataclasses
+
+    return dataclasses.replace(scan, output=dataclasses.replace(scan.output, pdf=False))
+
+
 @pytest.fixture(scope="module")
 def bias_small():
     return load_scan(SMALL / "bias_small.xml")
@@ -92,7 +100,7 @@ def test_events_in_order(ptc_small):
 
 
 def test_stop_finishes_the_current_stage(ptc_small, tmp_path):
-    r = Runner(ptc_small, out_dir=tmp_path / "run")
+    r = Runner(_no_pdf(ptc_small), out_dir=tmp_path / "run")
 
     def listener(e):
         if isinstance(e, ev.FramePreview) and e.index == 2 and e.frame == 1 and not e.dark:
@@ -107,7 +115,7 @@ def test_stop_finishes_the_current_stage(ptc_small, tmp_path):
 
 
 def test_abort_drops_only_the_stage_in_flight(ptc_small, tmp_path):
-    r = Runner(ptc_small, out_dir=tmp_path / "run")
+    r = Runner(_no_pdf(ptc_small), out_dir=tmp_path / "run")
 
     def listener(e):
         if isinstance(e, ev.FramePreview) and e.index == 3 and e.frame == 2:
@@ -196,7 +204,7 @@ def test_same_seed_same_results_and_other_seed_differs(ptc_small):
 
 
 def test_frames_not_kept_unless_asked(bias_small, tmp_path):
-    out = Runner(bias_small, out_dir=tmp_path / "run").run()
+    out = Runner(_no_pdf(bias_small), out_dir=tmp_path / "run").run()
     assert out.status == "done" and not (tmp_path / "run" / "frames").exists()
     assert len(out.stages) == 6 and out.limit_failures  # the fixture's Pt limit fails on purpose
 
@@ -223,7 +231,7 @@ def test_photon_transfer_recovers_the_simulators_truth(tmp_path):
     from ares.sim.from_system import sim_params
 
     sc = load_scan(ROOT / "scans" / "photon_transfer.xml")
-    out = Runner(sc, out_dir=tmp_path / "pt").run()
+    out = Runner(_no_pdf(sc), out_dir=tmp_path / "pt").run()
     assert out.status == "done" and not out.limit_failures
     p = sim_params(sc.system)
     k_true = p.gain_dn_per_e(1.0)
@@ -264,7 +272,7 @@ def test_adc_linearity_from_the_ramp_stage(tmp_path):
     from ares.sim.from_system import sim_params
 
     sc = load_scan(ROOT / "scans" / "adc_linearity.xml")
-    res = Runner(sc, out_dir=tmp_path / "adc", frames=4).run().scan_results["adc_linearity"]
+    res = Runner(_no_pdf(sc), out_dir=tmp_path / "adc", frames=4).run().scan_results["adc_linearity"]
     ch = res["channels"]["full"]
     inl = sim_params(sc.system).adc_inl_lsb  # half-sine bow of this amplitude
     assert res["stages"] == ["ramp"] and ch["missing_codes"] == 0
@@ -285,7 +293,7 @@ def test_bayer_views(tmp_path):
 
 
 def test_keyboard_interrupt_without_handler_aborts_and_keeps_stages(ptc_small, tmp_path):
-    r = Runner(ptc_small, out_dir=tmp_path / "run")
+    r = Runner(_no_pdf(ptc_small), out_dir=tmp_path / "run")
 
     def listener(e):
         if isinstance(e, ev.FramePreview) and e.index == 2:

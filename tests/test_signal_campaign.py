@@ -57,7 +57,7 @@ def _cli(*args) -> list[str]:
     return [sys.executable, "-m", "ares.cli", *args]
 
 
-ENV = {**os.environ, "PYTHONPATH": str(ROOT)}
+ENV = {**os.environ, "PYTHONPATH": str(ROOT), "ARES_PDF_HELPER": "1"}  # (the runs' PDF helper, killed with them)
 
 
 @pytest.fixture(scope="module")

@@ -26,7 +26,7 @@ from ares.rundir.state import effective_status
 from test_signal_campaign import PROMISED, SCAN, SMALL, STAGES, none_left, tables
 
 ROOT = Path(__file__).resolve().parents[1]
-ENV = {**os.environ, "PYTHONPATH": str(ROOT)}
+ENV = {**os.environ, "PYTHONPATH": str(ROOT), "ARES_PDF_HELPER": "1"}  # (the runs' PDF helper, killed with them)
 
 # The child: patch one function so that reaching it kills (or signals) this very process,
 # then run the CLI. argv: target ("module:Class.method" or "module:function"), action

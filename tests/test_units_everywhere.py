@@ -28,9 +28,9 @@ def test_naming_scheme_round_trips():
 
 
 @pytest.fixture(scope="module")
-def run(tmp_path_factory) -> Path:
-    out = tmp_path_factory.mktemp("units") / "run"
-    assert main(["run", str(ROOT / "fixtures" / "xml" / "small" / "ptc_small.xml"), "--out", str(out), "--quiet"]) == 0
+def run(tmp_path_factory, ptc_small_no_pdf) -> Path:
+    out = tmp_path_factory.mktemp("units") / "run"  # (the CSVs' and HDF5's columns: no PDF read)
+    assert main(["run", str(ptc_small_no_pdf), "--out", str(out), "--quiet"]) == 0
     return out
 
 
