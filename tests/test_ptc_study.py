@@ -64,7 +64,7 @@ def test_full_corpus_exact_and_low_noise_curves_meet_the_targets(corpus):
     low = [(c, j) for c, _, j in corpus if c.params["noise"] <= 0.01]
     n = len(low)
     assert sum(j["gain"] for _, j in low) / n >= 0.98
-    assert sum(j["turnoff"] for _, j in low) / n >= 0.95  # measured 97 %
+    assert sum(j["turnoff"] for _, j in low) / n >= 0.95  # measured 98.3 % (seed 0), 98.0 % (held out)
 
 
 @pytest.mark.parametrize("frames", [2, 4, 8, 16, 64])
