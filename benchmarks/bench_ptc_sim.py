@@ -7,6 +7,7 @@ Each run's ``ptc.csv`` is kept (``--keep DIR``) so that ``tests/test_ptc_issue48
 replay the tables. The table below is Markdown for ``benchmarks/ptc_corpus.md``.
 
     python benchmarks/bench_ptc_sim.py [--frames 2,4,8,16,64] [--seeds 10] [--keep DIR]
+    python benchmarks/bench_ptc_sim.py --truth [--frames 2,64]   # K also against the PTC truth
 """
 
 from __future__ import annotations
@@ -73,6 +74,61 @@ def replay(folder: Path) -> None:
         print(f"| {fr} | {k}/{n} | {w}/{n} |")
 
 
+class _Tmp:
+    """The ``mktemp`` of pytest's tmp_path_factory, for ``test_scan_truth._run``."""
+
+    def __init__(self, root: Path):
+        self.root, self.n = root, 0
+
+    def mktemp(self, name: str) -> Path:
+        self.n += 1
+        p = self.root / f"{name}{self.n}"
+        p.mkdir()
+        return p
+
+
+def with_truth(frames_list, seeds: int) -> None:
+    """The same runs in-process (``test_scan_truth._run``), K judged against both the nominal
+    0.28 and the PTC truth of the simulated sensor (``test_scan_truth._ptc_k``: realized gain
+    map, lag, INL bow -- what ``tests/test_ptc_study.py::test_simulator_main_job`` asserts),
+    the full well against ``_full_well_e``."""
+    sys.path.insert(0, str(ROOT))
+    sys.path.insert(0, str(ROOT / "tests"))
+    from test_scan_truth import _full_well_e, _ptc_k, _run, _truth
+
+    print("| frames | seed | K (DN/e-) | PTC truth K | full well (e-) | K within 3 SE of 0.28 | K within 3 SE of the PTC truth "
+          "| full well within 3 % of its truth or n/a |")
+    print("|---:|---:|---|---:|---|---|---|---|")
+    tot = {}
+    for f in frames_list:
+        for sd in range(1, seeds + 1):
+            with tempfile.TemporaryDirectory() as d:
+                scan, bench, res, stages = _run("photon_transfer", _Tmp(Path(d)), frames=f, seed=sd)
+                ptc = res["ptc"]
+                mid = next(s_ for s_ in stages if s_["name"] == res["decomposition"]["stage"])
+                t = _truth(scan, bench, mid["settings"])
+                k_true = _ptc_k(t, mid["views"]["full"]["level"]["n_frames"])
+                k_nom, _, txt = judge(ptc)
+                k, fw = ptc["gain_dn_per_e"], ptc["full_well_e"]
+                k_ok = k["verdict"] == "ok" and abs(k["value"] - k_true) <= 3 * k["se"]
+                fw_true = _full_well_e(t, k_true)
+                fw_ok = (abs(fw["value"] - fw_true) <= 0.03 * fw_true if fw["verdict"] == "ok"
+                         else fw["verdict"] == "not available" and bool(fw.get("note")))
+            ks, fws = txt.split(" | ")
+            tt = tot.setdefault(f, [0, 0, 0, 0])
+            tt[0] += k_nom
+            tt[1] += k_ok
+            tt[2] += fw_ok
+            tt[3] += 1
+            print(f"| {f} | {sd} | {ks} | {k_true:.5f} | {fws} | {'yes' if k_nom else 'NO'} | {'yes' if k_ok else 'NO'} "
+                  f"| {'yes' if fw_ok else 'NO'} |", flush=True)
+    print()
+    print("| frames | K within 3 SE of 0.28 | K within 3 SE of the PTC truth | full well within 3 % or n/a with reason |")
+    print("|---:|---:|---:|---:|")
+    for f, (a, b, c, n) in sorted(tot.items()):
+        print(f"| {f} | {a}/{n} | {b}/{n} | {c}/{n} |")
+
+
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     ap.add_argument("--frames", default="2,4,8,16,64")
@@ -80,7 +136,11 @@ def main() -> None:
     ap.add_argument("--keep", default=None, help="folder to keep each run's ptc.csv in (frames_F_seed_S.csv)")
     ap.add_argument("--replay", default=None, help="judge the kept tables of a --keep folder with today's "
                                                    "analysis (ares ptc on each ptc.csv), without running the scans")
+    ap.add_argument("--truth", action="store_true", help="run in-process and judge K also against the simulated "
+                                                          "sensor's PTC truth (test_scan_truth._ptc_k)")
     a = ap.parse_args()
+    if a.truth:
+        return with_truth([int(x) for x in a.frames.split(",")], a.seeds)
     if a.replay:
         return replay(Path(a.replay))
     keep = Path(a.keep) if a.keep else None

@@ -46,6 +46,7 @@ class Case:
     header: list[str]
     rows: list[list[float]]
     truth: dict = field(default_factory=dict)
+    levels: dict = field(default_factory=dict)
 
     def write(self, path: Path) -> Path:
         with open(path, "w", newline="") as f:
@@ -63,6 +64,73 @@ def _curve_e(mu_e, a00):
     """Shot-noise variance (e-^2) of a mean charge, Astier 2019 C00 (g = 1)."""
     mu_e = np.asarray(mu_e, float)
     return mu_e.copy() if a00 == 0 else np.expm1(2 * a00 * mu_e) / (2 * a00)
+
+
+def _k0(rel: np.ndarray, rate: float) -> int:
+    """Where an upturn or a second hump starts among the levels beyond the turnoff: after
+    the second level whose variance fell >= 15 % (the drop before it is a real one)."""
+    fell = np.flatnonzero(np.maximum(1 - rate * rel, 0.03) <= 0.85)
+    return int(fell[1]) + 1 if fell.size >= 2 else rel.size
+
+
+def shape_draws(rng, shape: str, x: np.ndarray, fw: float) -> dict:
+    """The random parameters of the shape beyond the turnoff, drawn from ``rng`` in the
+    corpus's order (``x``: each level's charge without saturation, e-; ``fw``: the physical
+    turnoff, e-). Which draws are made depends on ``x / fw`` only."""
+    beyond = np.flatnonzero(x > fw)
+    sp: dict = {}
+    if shape == "clip":
+        sp["clip_jitter"] = rng.random(beyond.size)
+        sp["clip_v"] = rng.uniform(0.001, 0.03, beyond.size)
+        return sp
+    sp["rate"] = rate = rng.uniform(3, 10)  # relative variance loss per unit of relative signal
+    k0 = _k0((x[beyond] - fw) / fw, rate)
+    if shape == "upturn" and k0 < beyond.size:
+        sp["upturn"] = rng.uniform(1.05, 1.3)
+    elif shape == "wild":
+        sp["wild"] = rng.uniform(2, 4)
+    elif shape == "dip":
+        cand = np.flatnonzero((x > 0.3 * fw) & (x < 0.7 * fw))
+        if cand.size:
+            sp["dip_at"] = int(rng.choice(cand))
+            sp["dip"] = rng.uniform(0.04, 0.10)
+    return sp
+
+
+def model_e(x, fw: float, a00: float, shape: str, sp: dict) -> tuple[np.ndarray, np.ndarray]:
+    """The noiseless curve: (mean charge, shot-noise variance) in e- and e-^2 of levels that
+    would collect ``x`` e- without saturation, for a physical turnoff ``fw`` e-, the
+    brighter-fatter ``a00`` and the shape ``shape`` with its draws ``sp`` (``shape_draws``;
+    the clip's per-level draws may be scalars). Every level at or below ``fw`` is on the
+    curve; ``case`` and the oracle (``benchmarks/bench_ptc_oracle.py``) both call this."""
+    x = np.asarray(x, float)
+    on = x <= fw
+    mu = np.minimum(x, fw)
+    v = _curve_e(mu, a00)  # e-^2 on the curve
+    last = int(np.flatnonzero(on)[-1])
+    v_peak = float(_curve_e(x[last], a00))
+    beyond = np.flatnonzero(~on)
+    if shape == "clip":
+        mu[beyond] = max(fw, 1.005 * x[last]) * (1 + 0.002 * np.asarray(sp["clip_jitter"]))
+        v[beyond] = v_peak * np.asarray(sp["clip_v"])
+        return mu, v
+    rate = sp["rate"]
+    rel = (x[beyond] - fw) / fw
+    mu[beyond] = fw * (1 + 0.6 * rel)  # the mean still rises, compressed
+    v[beyond] = v_peak * np.maximum(1 - rate * rel, 0.03)
+    k0 = _k0(rel, rate)  # the drop before an upturn or a second hump is a real one
+    if shape == "upturn" and k0 < beyond.size and "upturn" in sp:
+        v[beyond[k0]] = v_peak * sp["upturn"]
+    elif shape == "hump" and k0 + 2 < beyond.size:  # it falls, climbs a second, higher hump, falls
+        k = beyond[k0:]
+        v[k] = v_peak * np.linspace(1.05, 1.25, k.size)
+        v[k[-1]] = v_peak * 0.3
+    elif shape == "wild" and beyond.size:
+        k = beyond[min(1, beyond.size - 1)]
+        v[k] = _curve_e(x[k], a00) * sp["wild"]
+    elif shape == "dip" and "dip_at" in sp:
+        v[sp["dip_at"]] *= 1 - sp["dip"]
+    return mu, v
 
 
 def case(i: int, seed: int = 0) -> Case:
@@ -94,35 +162,9 @@ def case(i: int, seed: int = 0) -> Case:
         x[:-5] *= 0.98  # (the last level on the curve below the plateau)
         n = x.size
         on = x <= fw
-    mu = np.minimum(x, fw)
-    v = _curve_e(mu, a00)  # e-^2 on the curve
+    sp = shape_draws(rng, shape, x, fw)
+    mu, v = model_e(x, fw, a00, shape, sp)
     last = int(np.flatnonzero(on)[-1])
-    v_peak = float(_curve_e(x[last], a00))
-    beyond = np.flatnonzero(~on)
-    if shape == "clip":
-        mu[beyond] = max(fw, 1.005 * x[last]) * (1 + 0.002 * rng.random(beyond.size))
-        v[beyond] = v_peak * rng.uniform(0.001, 0.03, beyond.size)
-    else:
-        rate = rng.uniform(3, 10)  # relative variance loss per unit of relative signal
-        rel = (x[beyond] - fw) / fw
-        mu[beyond] = fw * (1 + 0.6 * rel)  # the mean still rises, compressed
-        v[beyond] = v_peak * np.maximum(1 - rate * rel, 0.03)
-        # the drop before an upturn or a second hump is a real one: two levels >= 15 % down
-        fell = np.flatnonzero(v[beyond] <= 0.85 * v_peak)
-        k0 = int(fell[1]) + 1 if fell.size >= 2 else beyond.size
-        if shape == "upturn" and k0 < beyond.size:
-            v[beyond[k0]] = v_peak * rng.uniform(1.05, 1.3)
-        elif shape == "hump" and k0 + 2 < beyond.size:  # it falls, climbs a second, higher hump, falls
-            k = beyond[k0:]
-            v[k] = v_peak * np.linspace(1.05, 1.25, k.size)
-            v[k[-1]] = v_peak * 0.3
-        elif shape == "wild":
-            k = beyond[min(1, beyond.size - 1)]
-            v[k] = _curve_e(x[k], a00) * rng.uniform(2, 4)
-        elif shape == "dip":
-            cand = np.flatnonzero((x > 0.3 * fw) & (x < 0.7 * fw))
-            if cand.size:
-                v[rng.choice(cand)] *= 1 - rng.uniform(0.04, 0.10)
     S = K * mu
     V = K * K * v
     rd = K * K * rn * rn
@@ -158,7 +200,10 @@ def case(i: int, seed: int = 0) -> Case:
         rows = [rows[j] for j in rng.permutation(len(rows))]
     params = dict(shape=shape, levels=n, K=K, a00=a00, fw_e=fw, rn_e=rn, noise=noise, frames=frames,
                   counts=counts, misstate=float(misstate), dark=dark, log_spacing=log_spacing, seed=seed)
-    return Case(i, params, header, rows, truth)
+    # the levels in illumination order before rows were repeated, dropped or shuffled (the
+    # oracle's input: benchmarks/bench_ptc_oracle.py), and the shape's own draws
+    levels = dict(x=x, S=Sm, V=Vb, offset=offset, last=last, shape_draws=sp)
+    return Case(i, params, header, rows, truth, levels)
 
 
 def _val(d):

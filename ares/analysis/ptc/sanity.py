@@ -15,7 +15,8 @@ PDF, GUI) shows the same verdict and reason (``stats.physical.sane``):
 - a charge (full well, saturation capacity, turnoff in e-) whose K is known only to more
   than ``PRECISION`` / ``PRECISION_SE`` (1.5 %): 2 SE would exceed the 3 % a datasheet
   states it to (generated corpus: 1 % of the "ok" saturation capacities off by > 3 %,
-  ``benchmarks/ptc_corpus.md``).
+  ``benchmarks/ptc_corpus.md``); and the saturation capacity (turnoff in e-) whose level's
+  location and K's 2 SE together, in quadrature, exceed 3 %.
 
 The dynamic range follows its saturation capacity. Pure: no I/O.
 """
@@ -34,17 +35,24 @@ PRECISION = 0.03  # a headline turnoff or charge capacity is "ok" only when loca
 PRECISION_SE = 2.0  # ... by its identification, and by K to PRECISION_SE standard errors (K's SE <= 1.5 %)
 
 
-def _unlocated(r) -> str:
-    """Why the turnoff is not identified within ``PRECISION`` ('' when it is)."""
+def _span(r) -> float:
+    """How far (relative) the plausible last levels on the curve lie from the turnoff given
+    (0 when it is the only one or unknown)."""
     to, br = r.turnoff_dn, r.saturation
     if not to.available or to.bound or br is None:
-        return ""
+        return 0.0
     lo, hi = br.plausible_dn
     if not (math.isfinite(lo) and math.isfinite(hi)) or to.value <= 0:
-        return ""
-    span = max(to.value - lo, hi - to.value) / to.value
+        return 0.0
+    return max(to.value - lo, hi - to.value, 0.0) / to.value
+
+
+def _unlocated(r) -> str:
+    """Why the turnoff is not identified within ``PRECISION`` ('' when it is)."""
+    span = _span(r)
     if span <= PRECISION:
         return ""
+    to, (lo, hi) = r.turnoff_dn, r.saturation.plausible_dn
     return (f"the levels' scatter places the last level on the curve only between {lo:.5g} and {hi:.5g} DN "
             f"({to.value:.5g} most likely, {100 * span:.2g} % away): not located within {100 * PRECISION:g} %")
 
@@ -62,6 +70,22 @@ def _imprecise(e: Estimate, what: str, k: Estimate, own_se: bool = False) -> Est
         return e
     return Estimate.na(f"{what} {e.text()}: {why}, so {PRECISION_SE:g} SE exceed the {100 * PRECISION:g} % a charge "
                        "capacity is stated to", e.unit)
+
+
+def _located_and_measured(e: Estimate, what: str, span: float, k: Estimate) -> Estimate:
+    """``e`` (a charge at the turnoff level: S / K) not available when its level's location
+    (``span``, relative) and K (``PRECISION_SE`` SE) together, in quadrature, exceed
+    ``PRECISION``: each alone within it, their errors still add (generated corpus: a level
+    2.9 % from the last on the curve and K 1 % low gave a saturation capacity 4 % off)."""
+    if not e.available or e.bound or span <= 0:
+        return e
+    rel = k.se / k.value if k.available and math.isfinite(k.se) and k.value else 0.0
+    tot = math.hypot(span, PRECISION_SE * rel)
+    if tot <= PRECISION:
+        return e
+    return Estimate.na(f"{what} {e.text()}: its level is located only to {100 * span:.2g} % and the system gain K to "
+                       f"± {100 * rel:.2g} % ({PRECISION_SE:g} SE: {100 * tot:.2g} % together), more than the "
+                       f"{100 * PRECISION:g} % a charge capacity is stated to", e.unit)
 
 
 def _unmeasured_gain(r):
@@ -109,6 +133,12 @@ def apply(r):
         if sc is not None and sc.available:
             fw["saturation_capacity"] = Estimate.na(f"saturation capacity {sc.text()} (the turnoff level): {unloc}",
                                                     "e-")
+    else:
+        span = _span(r)
+        to_e = _located_and_measured(to_e, "PTC turnoff (charge)", span, k)
+        sc = fw.get("saturation_capacity")
+        if sc is not None:
+            fw["saturation_capacity"] = _located_and_measured(sc, "saturation capacity", span, k)
     defs = dict(r.turnoff_definitions_dn)
     if "ptc_turnoff" in defs:
         defs["ptc_turnoff"] = to_dn

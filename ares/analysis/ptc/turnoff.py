@@ -36,6 +36,7 @@ import numpy as np
 
 from ares.analysis.stats.scatter import Scatter, local_residuals, measured_scatter
 from ares.analysis.stats.median import fast_median
+from ares.analysis.ptc.changepoint import FALL_LEVELS, FALL_PLAUSIBLE, fall_cost, locate
 
 
 # ----------------------------------------------------------------- decision errors
@@ -170,7 +171,7 @@ def ptc_turnoff_found(signal, var, var_se, nsigma: float = 4.0, min_levels: int 
     variance truly collapses (below ``collapse`` of the highest under it): a curve does not
     end at its first levels on a few standard errors. Which of the last levels before the
     departure is the last on the curve, and which others the scatter leaves plausible, is a
-    change-point choice (``_locate``). Whatever lies beyond the first
+    change-point choice (``changepoint.locate``). Whatever lies beyond the first
     departure -- an outlier row, an upturn, a second hump -- cannot move it. ``var_se``
     must describe the levels' scatter (``decision_errors``). Inputs sorted by signal, free
     of clipped or empty levels. Linear in the levels: the prefix fits come from running
@@ -255,7 +256,7 @@ def ptc_turnoff_found(signal, var, var_se, nsigma: float = 4.0, min_levels: int 
                             stop_i - 1)
     # the departure is seen where it exceeds nsigma; a gradual roll-off began up to
     # ``lookback`` levels earlier. Which of the levels lo-1 .. stop_i-1 is the last on the
-    # curve is a change-point choice (``_locate``) on their residuals from the curve fitted
+    # curve is a change-point choice (``changepoint.locate``) on their residuals from the curve fitted
     # below the window -- in SE of the measured scatter and of the prediction, with a model
     # floor (below) -- not the highest (noisy) variance
     q = lo - min_levels
@@ -272,13 +273,30 @@ def ptc_turnoff_found(signal, var, var_se, nsigma: float = 4.0, min_levels: int 
     sig = np.hypot(np.hypot(e[k] * scale[q], pse), min(2 * mis, flat_floor / nsigma) * np.abs(pred))
     # (a wild row above the curve -- > 10 % and nsigma above the fit below the window -- is on neither side)
     wild = v[k] - pred > np.maximum(nsigma * np.hypot(e[k] * scale[q], pse), flat_floor * np.abs(pred))
-    best, a_lo, a_hi = _locate((v[k] - pred) / np.maximum(sig, 1e-300), wild, x[lo - 1:stop_i + 1])
+    # the global change point: the levels beyond the window too (up to ``FALL_LEVELS`` past
+    # the departure), on a fall continuous at the turnoff (``_fall_cost``)
+    kf = np.arange(stop_i + 1, min(n, stop_i + 1 + FALL_LEVELS))
+    Af = np.stack([np.ones(kf.size), x[kf], x[kf] ** 2], -1)
+    pf = Af @ coef[q] + np.polyval(ref, x[kf])
+    pfse = np.sqrt(np.maximum(np.einsum("ki,ij,kj->k", Af, cov[q], Af), 0.0)) * scale[q]
+    sig_f = np.hypot(np.hypot(e[kf] * scale[q], pfse), min(2 * mis, flat_floor / nsigma) * np.abs(pf))
+    kk = np.concatenate([k, kf])
+
+    def curve_at(xc):
+        xc = np.asarray(xc, float)
+        return coef[q][0] + coef[q][1] * xc + coef[q][2] * xc * xc + np.polyval(ref, xc)
+
+    z = (v[k] - pred) / np.maximum(sig, 1e-300)
+    fall = fall_cost(z, wild, x[lo - 1:], v[kk], np.concatenate([sig, sig_f]), curve_at)
+    best, a_lo, a_hi = locate(z, wild, x[lo - 1:stop_i + 1], fall)
     t = lo + best
     # the level found may itself lie just beyond the turnoff (a gentle roll-off's first
     # level, not yet below the curve): any level before it whose variance the scatter
     # cannot tell from its own (within ``PEAK_SE``) may be the peak
     j = np.arange(max(lo - 1, 0), t)
     same = (~wild[np.maximum(j - lo, 0)] | (j < lo)) & (v[j] >= v[t] - PEAK_SE * scale[q] * np.hypot(e[j], e[t]))
+    if np.isfinite(fall).any():  # ... unless the fall beyond it says it is not (the global change point)
+        same &= fall[j - lo + 1] <= np.min(fall) + FALL_PLAUSIBLE
     if same.any():
         a_lo = min(a_lo, int(j[same][0]) - lo)
     a_lo += lo
@@ -301,63 +319,6 @@ class TurnoffFound:
 
     def __iter__(self):  # (n_on, seen), as before
         return iter((self.n_on, self.seen))
-
-
-PLAUSIBLE = 3.0  # a turnoff whose cost (-2 log likelihood) is within this of the best one's is plausible (ratio 0.22)
-
-
-def _phi_cdf(u: float) -> float:
-    return 0.5 * (1.0 + math.erf(u / math.sqrt(2.0)))
-
-
-def _locate(z, wild, xs) -> tuple[int, int, int]:
-    """(the level -- position in the window -- most likely the last on the curve, and the
-    first and last plausible ones; -1: the level before the window). A change-point choice
-    on ``z``, each level's residual from the curve fitted below the window in SE (the last
-    is the departure), at signals ``xs`` (one more at the front: the level before the
-    window). The turnoff is level t when the levels up to t follow the curve (z ~ N(0, 1))
-    and those after it have rolled off: the curve turns somewhere between level t and the
-    next, and falls to the departure's depth, so a level beyond lies below the curve by an
-    amount uniform between 0 and the depth a straight roll-off from level t would give it,
-    plus its noise. A level barely below the curve just before a deep departure is then
-    unlikely to be beyond (a clip), one on a gentle roll-off is doubtful; every t within
-    ``PLAUSIBLE`` of the best is plausible (and under the one-sided model below, which
-    picks the level). Rows above the curve (``wild``) belong to neither."""
-    z = np.asarray(z, float)
-    wild = np.asarray(wild, bool)
-    xs = np.asarray(xs, float)
-    m = z.size - 1
-    on = np.where(wild, 0.0, z * z + math.log(2 * math.pi))
-    cost = np.full(m + 1, np.inf)
-    for t in range(-1, m):
-        if t >= 0 and wild[t]:
-            continue  # a wild row is no turnoff
-        c = float(np.sum(on[:t + 1]))
-        x0, span = xs[t + 1], xs[-1] - xs[t + 1]
-        for j in range(t + 1, m):
-            if wild[j]:
-                continue
-            depth = min(float(z[-1]), 0.0) * (xs[j + 1] - x0) / span if span > 0 else 0.0
-            if depth > -0.5:  # no room to fall: beyond or not, it sits on the curve
-                c += on[j]
-                continue
-            p = (_phi_cdf(z[j] - depth) - _phi_cdf(z[j])) / -depth
-            c += -2.0 * math.log(max(p, 1e-300))
-        cost[t + 1] = c
-    # the same choice where a level beyond lies > 2 SE below the curve (cost OFF_PENALTY
-    # each, plus z^2 above it) whatever the departure's depth: the most likely turnoff, and
-    # a turnoff is plausible only where both models allow it
-    one = np.where(wild, 0.0, OFF_PENALTY + np.maximum(z, 0.0) ** 2)
-    c_on = np.concatenate([[0.0], np.cumsum(np.where(wild, 0.0, z * z)[:m])])
-    c_off = np.concatenate([[0.0], np.cumsum(one[:m][::-1])])[::-1]
-    cost1 = np.where(np.isfinite(cost), c_on + c_off, np.inf)
-    best = int(np.argmin(cost1))
-    plaus = np.flatnonzero(((cost1 <= cost1[best] + PLAUSIBLE) & (cost <= np.min(cost) + PLAUSIBLE))
-                           | (np.arange(m + 1) == best))
-    return best - 1, int(plaus[0]) - 1, int(plaus[-1]) - 1
-
-
-OFF_PENALTY = 4.0  # a level is called beyond the turnoff (one-sided model) only when > 2 SE below the curve
 
 
 def lsst_pivot(var, min_var: float = 0.0, consecutive: int = 2) -> int:

@@ -1,0 +1,135 @@
+"""The PTC turnoff as a change point (issue 48): which of the last levels before the
+curve's first confirmed departure (``turnoff.ptc_turnoff_found``) is the last on the curve,
+and which others the levels' scatter leaves plausible.
+
+- ``locate``: two models of the window before the departure (a level beyond lies > 2 SE
+  below the curve fitted under the window; or below it by up to the depth a straight
+  roll-off to the departure gives it), each level's residual in SE of the measured scatter;
+- ``fall_cost``: one global model over the window and up to ``FALL_LEVELS`` levels beyond
+  the departure -- the curve below the change point, a parametric fall beyond it (rate and
+  floor fitted), continuous where it turns -- so that every level of the fall, not just the
+  next few, says where the curve ended. It narrows the window's plausible levels and may
+  widen them by a later level or the departure itself.
+
+The achievable limit (an oracle that knows the generating model but the turnoff) and the
+rates reached are in ``benchmarks/ptc_corpus.md``. Pure numpy: no I/O.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+PLAUSIBLE = 3.0  # a turnoff whose cost (-2 log likelihood) is within this of the best one's is plausible (ratio 0.22)
+
+
+def _phi_cdf(u: float) -> float:
+    return 0.5 * (1.0 + math.erf(u / math.sqrt(2.0)))
+
+
+FALL_LEVELS = 32  # the global change point uses up to this many levels beyond the departure
+FALL_PLAUSIBLE = 10.0  # the fall model excludes a change point only beyond this cost over its best (ratio e^-5)
+FALL_ADD = 3.0  # ... and a later one within this of its best stays plausible whatever the window's models say
+FALL_CAP = 9.0  # ... each costing at most 3 SE squared (an upturn, a second hump, a wild row)
+_FALL_R = np.concatenate([[0.0], np.geomspace(0.1, 1e4, 40)])  # fall per relative signal
+_FALL_F = np.array([0.0, 0.01, 0.03, 0.1, 0.2, 0.3, 0.5])  # the floor it falls to (x the turnoff's)
+# where between the last level on the curve and the next it turns: up to just before the
+# next, so that a level barely past the turn (as good as on the curve) never excludes the
+# level before it
+_FALL_U = np.array([0.0, 0.25, 0.5, 0.75, 0.9, 0.99])
+
+
+def fall_cost(z, wild, xs, vb, sb, curve_at) -> np.ndarray:
+    """-2 log likelihood (up to a constant) of each change point t (-1 .. m, as in
+    ``locate``, and m: the departure itself on the curve) under one global model: the levels up to t on the curve fitted below the
+    window (residuals ``z`` in SE), every level after it -- the window's and up to
+    ``FALL_LEVELS`` beyond (variances ``vb``, SEs ``sb``, signals ``xs[1:]``; ``xs[0]``
+    is the level before the window) -- on a fall continuous with the curve where it
+    turns: v = P(xc) max(1 - r (x - xc) / xc, f), xc between level t and the next, the
+    rate r and the floor f fitted (a profile over grids), each level beyond costing at
+    most ``FALL_CAP``. Unlike the window's two models it uses the shape of the whole fall,
+    as an oracle that knew the fall's parameters would (benchmarks/ptc_corpus.md)."""
+    z = np.asarray(z, float)
+    m = z.size - 1
+    on = np.where(wild, 0.0, z * z)
+    c_on = np.concatenate([[0.0], np.cumsum(on)])
+    vb, sb = np.asarray(vb, float), np.maximum(np.asarray(sb, float), 1e-300)
+    xb = np.asarray(xs[1:1 + vb.size], float)
+    keep = np.ones(xb.size, bool)
+    keep[: wild.size] = ~np.asarray(wild, bool)
+    cost = np.full(m + 2, np.inf)
+    for t in range(-1, min(m + 1, xb.size - 1)):
+        j0 = t + 1  # first level beyond (position in xb)
+        x0 = float(xs[t + 1])
+        xc = x0 + _FALL_U * (float(xb[j0]) - x0)  # (nu,)
+        pc = curve_at(xc)
+        if not np.all(pc > 0):
+            continue
+        xj, vj, sj = xb[j0:][keep[j0:]], vb[j0:][keep[j0:]], sb[j0:][keep[j0:]]
+        d = np.maximum(xj[None, :] - xc[:, None], 0.0) / xc[:, None]  # (nu, nb)
+        g = np.maximum(1.0 - _FALL_R[:, None, None] * d[None], _FALL_F[:, None, None, None])  # (nf, nr, nu, nb)
+        r2 = np.minimum(((vj - g * pc[None, None, :, None]) / sj) ** 2, FALL_CAP).sum(-1)
+        cost[t + 1] = c_on[t + 1] + float(r2.min())
+    return cost
+
+
+def locate(z, wild, xs, fall=None) -> tuple[int, int, int]:
+    """(the level -- position in the window -- most likely the last on the curve, and the
+    first and last plausible ones; -1: the level before the window). A change-point choice
+    on ``z``, each level's residual from the curve fitted below the window in SE (the last
+    is the departure), at signals ``xs`` (one more at the front: the level before the
+    window). The turnoff is level t when the levels up to t follow the curve (z ~ N(0, 1))
+    and those after it have rolled off: the curve turns somewhere between level t and the
+    next, and falls to the departure's depth, so a level beyond lies below the curve by an
+    amount uniform between 0 and the depth a straight roll-off from level t would give it,
+    plus its noise. A level barely below the curve just before a deep departure is then
+    unlikely to be beyond (a clip), one on a gentle roll-off is doubtful; every t within
+    ``PLAUSIBLE`` of the best is plausible (and under the one-sided model below, which
+    picks the level). Rows above the curve (``wild``) belong to neither."""
+    z = np.asarray(z, float)
+    wild = np.asarray(wild, bool)
+    xs = np.asarray(xs, float)
+    m = z.size - 1
+    on = np.where(wild, 0.0, z * z + math.log(2 * math.pi))
+    cost = np.full(m + 1, np.inf)
+    for t in range(-1, m):
+        if t >= 0 and wild[t]:
+            continue  # a wild row is no turnoff
+        c = float(np.sum(on[:t + 1]))
+        x0, span = xs[t + 1], xs[-1] - xs[t + 1]
+        for j in range(t + 1, m):
+            if wild[j]:
+                continue
+            depth = min(float(z[-1]), 0.0) * (xs[j + 1] - x0) / span if span > 0 else 0.0
+            if depth > -0.5:  # no room to fall: beyond or not, it sits on the curve
+                c += on[j]
+                continue
+            p = (_phi_cdf(z[j] - depth) - _phi_cdf(z[j])) / -depth
+            c += -2.0 * math.log(max(p, 1e-300))
+        cost[t + 1] = c
+    # the same choice where a level beyond lies > 2 SE below the curve (cost OFF_PENALTY
+    # each, plus z^2 above it) whatever the departure's depth: the most likely turnoff, and
+    # a turnoff is plausible only where both models allow it
+    one = np.where(wild, 0.0, OFF_PENALTY + np.maximum(z, 0.0) ** 2)
+    c_on = np.concatenate([[0.0], np.cumsum(np.where(wild, 0.0, z * z)[:m])])
+    c_off = np.concatenate([[0.0], np.cumsum(one[:m][::-1])])[::-1]
+    cost1 = np.where(np.isfinite(cost), c_on + c_off, np.inf)
+    best = int(np.argmin(cost1))
+    ok = (cost1 <= cost1[best] + PLAUSIBLE) & (cost <= np.min(cost) + PLAUSIBLE)
+    pick = np.arange(m + 1) == best
+    beyond_departure = False
+    if fall is not None and np.isfinite(fall).any():
+        fall_ok = fall <= np.min(fall) + FALL_PLAUSIBLE
+        # the fall model narrows the window's plausible levels; a later level it finds nearly
+        # as likely as its best (the window's fit below took a bend for a fall) stays
+        # plausible, and it alone can judge the departure itself on the curve
+        ok = (ok & fall_ok[:m + 1]) | ((fall <= np.min(fall) + FALL_ADD)[:m + 1] & (np.arange(m + 1) > best))
+        beyond_departure = bool(fall_ok[m + 1])
+    plaus = np.flatnonzero(ok | pick)
+    if beyond_departure:
+        return best - 1, int(plaus[0]) - 1, m
+    return best - 1, int(plaus[0]) - 1, int(plaus[-1]) - 1
+
+
+OFF_PENALTY = 4.0  # a level is called beyond the turnoff (one-sided model) only when > 2 SE below the curve
