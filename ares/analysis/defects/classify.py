@@ -21,8 +21,8 @@ from ares.analysis.defects.histograms import deviation_histograms
 from ares.analysis.defects.lines import LineFlags, line_z
 from ares.analysis.defects.params import DefectThresholds
 from ares.analysis.defects.result import BITS, DEFECT_DTYPE, PIXEL_CLASSES, DefectResult, primary_class
-from ares.analysis.defects.limits import (Z99, hot_limit_text, noisy_available, p_constant_codes, partial_rate_text,
-                                         rate_available)
+from ares.analysis.defects.limits import (Z99, hot_limit_text, min_sigma_constant, noisy_available, p_constant_codes,
+                                          partial_rate_text, rate_available)
 from ares.analysis.defects.robust import robust_sigma
 from ares.analysis.defects.rts import detect_rts, low_outlier, low_outlier_critical, rts_threshold, telegraph_test
 from ares.analysis.defects.stats import PixelStats, SeriesCollector
@@ -230,10 +230,14 @@ def classify_defects(
     # Only where such a pixel's own shot noise makes one code in every frame improbable
     # (with K known; with 2 frames a warm pixel repeats its code often).
     const = np.logical_and.reduce([d.st.var <= 0.0 for d in D]) & (flags["hot"] | flags["warm"] | flags["noisy"])
-    if gain_dn_per_e:
-        for r, c in zip(*np.nonzero(const)):
-            const[r, c] = all(p_constant_codes(math.sqrt(d.pop_var + gain_dn_per_e * max(float(d.res[r, c]), 0.0)),
-                                               d.st.n_frames) <= th.rts_p_fa for d in D)
+    if gain_dn_per_e:  # each pixel's sigma (population + its own shot noise) against the one that makes p_fa
+        cand = np.nonzero(const)
+        keep = np.ones(cand[0].size, bool)
+        for d in D:
+            with np.errstate(invalid="ignore"):
+                sig = np.sqrt(d.pop_var + gain_dn_per_e * np.maximum(np.asarray(d.res[cand], np.float64), 0.0))
+                keep &= sig >= min_sigma_constant(d.st.n_frames, th.rts_p_fa)
+        const[cand] = keep
     else:
         const &= np.array([p_constant_codes(math.sqrt(d.pop_var), d.st.n_frames) <= th.rts_p_fa for d in D]).all()
     if not stuck_ok:

@@ -23,6 +23,7 @@ thousands of normal pixels (SCIENCE.md, "Detection limits").
 from __future__ import annotations
 
 import math
+from functools import lru_cache
 
 import numpy as np
 
@@ -43,6 +44,25 @@ def p_constant_codes(sigma_dn: float, frames: int, n_phase: int = 32) -> float:
     p = (norm_cdf((k[None, :] + 0.5 - mu[:, None]) / sigma_dn)
          - norm_cdf((k[None, :] - 0.5 - mu[:, None]) / sigma_dn))
     return float(np.mean(np.sum(p**frames, axis=1)))
+
+
+@lru_cache(maxsize=64)
+def min_sigma_constant(frames: int, p_max: float) -> float:
+    """The smallest sigma (DN) at which ``frames`` codes are all equal with probability <=
+    ``p_max`` (``p_constant_codes`` falls monotonically with sigma: checked for 2-256 frames
+    in tests/test_defects_limits.py), by bisection in log sigma; inf where even 4096 DN does
+    not get there (2 frames, a small p_max). Lets a classification compare each pixel's
+    sigma with one number instead of summing the code probabilities per pixel."""
+    hi = 4096.0
+    if frames < 2 or p_constant_codes(hi, frames) > p_max:
+        return math.inf
+    lo = 1e-3
+    if p_constant_codes(lo, frames) <= p_max:
+        return lo
+    while hi / lo > 1 + 1e-9:
+        mid = math.sqrt(lo * hi)
+        lo, hi = (lo, mid) if p_constant_codes(mid, frames) <= p_max else (mid, hi)
+    return hi
 
 
 def min_frames_stuck(sigma_dn: float, p_max: float, f_max: int = 4096) -> int | None:
