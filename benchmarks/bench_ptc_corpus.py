@@ -67,7 +67,7 @@ def measure(n: int, seed: int = 0) -> dict:
             if c.truth.get("fw_e") and fw["verdict"] == "ok":
                 plateau = abs(fw["value"] - c.truth["fw_e"]) <= 0.03 * c.truth["fw_e"]
             ok = (res["turnoff_dn"]["verdict"] == "ok", sat_d["verdict"] == "ok")
-            rows.append((c, j, sat_se_ok, plateau, ok))
+            rows.append((c, j, sat_se_ok, plateau, ok, res["turnoff_dn"]))
     return {"rows": rows, "seconds": time.perf_counter() - t0}
 
 
@@ -153,6 +153,7 @@ def main() -> None:
     ap.add_argument("--not-reached", action="store_true")
     ap.add_argument("--before", action="store_true")
     ap.add_argument("--gentle", action="store_true")
+    ap.add_argument("--list", action="store_true", help="also list the wrong 'ok' turnoffs and saturation capacities")
     a = ap.parse_args()
     if a.not_reached:
         if a.before:
@@ -185,6 +186,15 @@ def main() -> None:
         print(sep)
         print("\n".join(table(m["rows"], key)))
         print()
+    if a.list:
+        for c, j, _, _, ok, to in m["rows"]:
+            bad = [w for w, o, k in (("turnoff", ok[0], "turnoff"), ("saturation capacity", ok[1], "sat")) if o and not j[k]]
+            if bad:
+                p = c.params
+                print(f"- curve {c.i}: wrong 'ok' {' and '.join(bad)}; {p['shape']}, {p['levels']} levels, noise "
+                      f"{100 * p['noise']:.2g} %, {'counts' if p['counts'] else 'no counts'}, a00 {p['a00']:.2g}, "
+                      f"truth {c.truth['turnoff_dn']:.6g} DN, turnoff {to['value']:.6g} ± {to['se'] or 0:.2g} DN "
+                      f"({100 * (to['value'] / c.truth['turnoff_dn'] - 1):+.1f} %)")
 
 
 if __name__ == "__main__":
