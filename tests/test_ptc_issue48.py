@@ -149,6 +149,33 @@ def test_turnoff_never_at_the_first_levels_on_a_few_standard_errors():
     assert ptc_turnoff(S, V, 0.005 * V) == 25
 
 
+def _gentle(tmp_path, top: float, n: int = 200) -> dict:
+    """``ares ptc`` on a curve turning at 30 000 DN (K 1) whose slope then falls 1.5 per unit
+    of relative signal (the variance still rising: a gentle roll-off the fits below take for
+    a brighter-fatter bend), 3 % per-level noise, levels up to ``top`` x the turnoff."""
+    from ares.commands.ptc import analyse_table
+
+    S = np.linspace(0.02, top, n) * 30000.0
+    r = np.maximum(S - 30000.0, 0) / 30000.0
+    V = np.where(r > 0, 30000.0 + (S - 30000.0) * (1 - 0.75 * r), S) + 25.0
+    V *= 1 + 0.03 * np.random.default_rng(0).standard_normal(n)
+    path = tmp_path / "gentle.csv"
+    path.write_text("mean,var\n" + "".join(f"{float(a)!r},{float(b)!r}\n" for a, b in zip(S, V)))
+    return analyse_table(path)[1]
+
+
+def test_a_gentle_rolloff_is_no_lower_limit_and_a_curve_below_its_turnoff_keeps_it(tmp_path):
+    # the top levels fit a turnover better than one smooth curve: "not available" with the
+    # interval, not "saturation not reached" at 45 000 DN (it was, before the test of the top)
+    to = _gentle(tmp_path, 1.5)["turnoff_dn"]
+    assert to["verdict"] == "not available" and "saturation may be reached" in to["note"]
+    lo = float(to["note"].split("turning between ")[1].split(" and ")[0])
+    assert lo <= 30000 * 1.03
+    # the same curve cut below its turnoff still gives its lower limit, at its top level
+    to = _gentle(tmp_path, 0.98)["turnoff_dn"]
+    assert to["verdict"] == "lower limit" and to["value"] == pytest.approx(0.98 * 30000)
+
+
 def _sim_like(frames: int, seed: int):
     """Levels like the shipped simulator's main job: K 0.28 DN/e-, full well 12 000 e-,
     read noise 3.6 e-, 307 200 pixels, 25 log-spaced levels, the last five beyond full

@@ -10,6 +10,9 @@ and which others the levels' scatter leaves plausible.
   floor fitted), continuous where it turns -- so that every level of the fall, not just the
   next few, says where the curve ended. It narrows the window's plausible levels and may
   widen them by a later level or the departure itself.
+- ``rolloff_evidence``: where no departure is confirmed, whether the top levels fit a
+  turnover (a kink) significantly better than one smooth curve through all levels -- then
+  "saturation not reached" (a lower limit) is not claimed (``sanity``).
 
 The achievable limit (an oracle that knows the generating model but the turnoff) and the
 rates reached are in ``benchmarks/ptc_corpus.md``. Pure numpy: no I/O.
@@ -133,3 +136,56 @@ def locate(z, wild, xs, fall=None) -> tuple[int, int, int]:
 
 
 OFF_PENALTY = 4.0  # a level is called beyond the turnoff (one-sided model) only when > 2 SE below the curve
+
+
+# a turnover above the last level is plausible where a kink gains more than this chi-square
+# (2 SE, as OFF_PENALTY) over one smooth curve ...
+ROLL_EVIDENCE = 4.0
+ROLL_DEPTH = 0.02  # ... and takes the top level at least 2 % below the smooth curve
+ROLL_DEGREE = 2  # the smooth curve: a parabola (or a cubic, whichever fits better)
+
+
+def rolloff_evidence(x, v, e, first: int) -> tuple[float, int, int]:
+    """Is the top of a curve with no confirmed departure still on it? (The lower limit
+    "saturation not reached" is a claim, as safe as an "ok" must be: issue 48.) One smooth
+    curve through every level -- a weighted parabola, or a cubic where it fits better (the
+    brighter-fatter bend and its next term) -- against the parabola with a kink at level t
+    (the slope dropping there, or falling from there on; one-sided), for every t from
+    ``first`` to the second-last level, on the errors ``e`` (the measured scatter), scaled
+    up by the kinked fit's own excess scatter. Returns (the largest chi-square gain of a
+    kink whose depth at the top level is at least ``ROLL_DEPTH`` of the curve there, the
+    first and last t within ``PLAUSIBLE`` of it); (0, -1, -1) when none is. On curves truly
+    below their turnoff (0-10 % noise, 8-400 levels) 97 % keep their lower limit
+    (``benchmarks/ptc_corpus.md``)."""
+    x = np.asarray(x, float)
+    v = np.asarray(v, float)
+    n = x.size
+    if n < ROLL_DEGREE + 4 or first >= n - 1:
+        return 0.0, -1, -1
+    x = x / (float(np.max(np.abs(x))) or 1.0)
+    sw = 1.0 / np.maximum(np.asarray(e, float), 1e-300)
+    a0 = np.stack([x**k for k in range(ROLL_DEGREE + 1)], 1)
+
+    def fit(a):
+        aw = a * sw[:, None]
+        c = np.linalg.lstsq(aw, v * sw, rcond=None)[0]
+        r = v * sw - aw @ c
+        return c, float(r @ r)
+
+    _, chi0 = fit(a0)
+    # (a smooth bend of higher order -- the brighter-fatter curve's next term -- explains a
+    # deficit at the top as well: the kink must beat it too, with as many parameters)
+    chi0 = min(chi0, fit(np.column_stack([a0, x ** (ROLL_DEGREE + 1)]))[1])
+    gain = np.zeros(n)
+    for t in range(max(first, 2), n - 1):
+        for p in (1, 2):  # the slope dropping at t (a roll-off) or falling from t on (a bend beginning there)
+            h = np.maximum(x - x[t], 0.0) ** p
+            c, chi = fit(np.column_stack([a0, h]))
+            top = float(a0[-1] @ c[:-1])
+            if c[-1] < 0 and top > 0 and -c[-1] * h[-1] >= ROLL_DEPTH * top:
+                gain[t] = max(gain[t], (chi0 - chi) / max(chi / max(n - a0.shape[1] - 1, 1), 1.0))
+    best = int(np.argmax(gain))
+    if gain[best] <= 0:
+        return 0.0, -1, -1
+    near = np.flatnonzero(gain >= gain[best] - PLAUSIBLE)
+    return float(gain[best]), int(near[0]), int(near[-1])

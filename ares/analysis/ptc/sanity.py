@@ -12,6 +12,9 @@ PDF, GUI) shows the same verdict and reason (``stats.physical.sane``):
   cannot identify within ``PRECISION`` (3 %): the plausible last levels on the curve
   (``SaturationBracket.plausible_dn``) span more than that -- the value and its interval
   are in the reason;
+- a lower limit ("saturation not reached": no confirmed departure) where the top levels
+  fit a turnover more than ``PRECISION`` below the brightest level significantly better
+  than one smooth curve: not available, the interval where the curve may turn in the reason;
 - a charge (full well, saturation capacity, turnoff in e-) whose K is known only to more
   than ``PRECISION`` / ``PRECISION_SE`` (1.5 %): 2 SE would exceed the 3 % a datasheet
   states it to (generated corpus: 1 % of the "ok" saturation capacities off by > 3 %,
@@ -44,6 +47,8 @@ def _span(r) -> float:
     lo, hi = br.plausible_dn
     if not (math.isfinite(lo) and math.isfinite(hi)) or to.value <= 0:
         return 0.0
+    if hi < to.value:  # a turnover the top levels may fit, with no departure seen (``_turnover_plausible``):
+        return 0.0  # it bears on a lower limit only, not on a turnoff that clipped levels beyond it confirm
     return max(to.value - lo, hi - to.value, 0.0) / to.value
 
 
@@ -55,6 +60,21 @@ def _unlocated(r) -> str:
     to, (lo, hi) = r.turnoff_dn, r.saturation.plausible_dn
     return (f"the levels' scatter places the last level on the curve only between {lo:.5g} and {hi:.5g} DN "
             f"({to.value:.5g} most likely, {100 * span:.2g} % away): not located within {100 * PRECISION:g} %")
+
+
+def _turnover_plausible(r) -> str:
+    """Why a lower-limit turnoff ("saturation not reached") is not stated ('' when it may
+    be): the top levels fit a kink -- a turnover -- below the brightest level by more than
+    ``PRECISION`` significantly better than one smooth curve (``changepoint.rolloff_evidence``)."""
+    to, br = r.turnoff_dn, r.saturation
+    if not to.available or to.bound != "lower" or br is None:
+        return ""
+    lo, hi = br.plausible_dn
+    if not (math.isfinite(lo) and math.isfinite(hi)) or not lo < (1 - PRECISION) * to.value:
+        return ""
+    return (f"saturation may be reached: the top levels fall below one smooth curve through all levels (a turnover "
+            f"fits them significantly better, by the levels' measured scatter), the curve turning between {lo:.5g} "
+            f"and {hi:.5g} DN, so the brightest level ({to.value:.5g} DN) is no lower limit")
 
 
 def _imprecise(e: Estimate, what: str, k: Estimate, own_se: bool = False) -> Estimate:
@@ -126,7 +146,11 @@ def apply(r):
     head = _imprecise(head, "full well", k)
     to_e = _imprecise(to_e, "PTC turnoff (charge)", k)
     unloc = _unlocated(r)
-    if unloc:
+    turn = _turnover_plausible(r)
+    if turn:
+        to_dn = Estimate.na(f"PTC turnoff: {turn}", "DN")
+        to_e = Estimate.na(to_dn.note, "e-") if to_e.available else to_e
+    elif unloc:
         to_dn = Estimate.na(f"PTC turnoff {to_dn.text()}: {unloc}", "DN") if to_dn.available else to_dn
         to_e = Estimate.na(to_dn.note, "e-") if to_e.available else to_e
         sc = fw.get("saturation_capacity")

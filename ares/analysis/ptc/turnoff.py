@@ -36,7 +36,7 @@ import numpy as np
 
 from ares.analysis.stats.scatter import Scatter, local_residuals, measured_scatter
 from ares.analysis.stats.median import fast_median
-from ares.analysis.ptc.changepoint import FALL_LEVELS, FALL_PLAUSIBLE, fall_cost, locate
+from ares.analysis.ptc.changepoint import FALL_LEVELS, FALL_PLAUSIBLE, ROLL_EVIDENCE, fall_cost, locate, rolloff_evidence
 
 
 # ----------------------------------------------------------------- decision errors
@@ -242,6 +242,12 @@ def ptc_turnoff_found(signal, var, var_se, nsigma: float = 4.0, min_levels: int 
     stop = dep[:, 0] & ((n_after == 0) | dep[:, 1] | (2 * hits >= n_after))
     first = np.flatnonzero(stop)
     if not first.size:
+        # no departure confirmed: "saturation not reached" is a lower limit only when the top
+        # levels are consistent with one smooth curve; where a kink fits them significantly
+        # better (a gentle roll-off the fits below took for a bend) the turnoff may lie lower
+        ev, t_lo, t_hi = rolloff_evidence(x, v, e, max(min_levels, n // 4))
+        if ev > ROLL_EVIDENCE:
+            return TurnoffFound(n, n, t_lo, t_hi)
         return TurnoffFound(n, n, n - 1, n - 1)
     stop_i = int(i[first[0]])
     # an earlier departure the next levels did not confirm (a dip, or the first fall of a
@@ -315,7 +321,7 @@ class TurnoffFound:
     n_on: int  # levels on the curve: the turnoff is level n_on - 1
     seen: int  # the level where the departure was seen (n: none)
     amb_lo: int  # the levels that may be the last on the curve, given the scatter: amb_lo .. amb_hi
-    amb_hi: int
+    amb_hi: int  # (no departure seen: n - 1, or below it where the top levels fit a turnover, ``rolloff_evidence``)
 
     def __iter__(self):  # (n_on, seen), as before
         return iter((self.n_on, self.seen))
