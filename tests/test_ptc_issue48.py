@@ -176,6 +176,26 @@ def test_a_gentle_rolloff_is_no_lower_limit_and_a_curve_below_its_turnoff_keeps_
     assert to["verdict"] == "lower limit" and to["value"] == pytest.approx(0.98 * 30000)
 
 
+def test_a_sparse_gentle_rolloff_confirmed_late_is_no_ok(tmp_path):
+    # 16 log-spaced levels, the curve turning at 30 000 DN (its last level on the curve:
+    # 22 400 DN), the slope then falling 1.5 per unit of relative signal, 0.5 % noise: the
+    # departure is confirmed only at the top level, and the turnoff was "ok" at 29 900 DN
+    # (+33 %); the levels up to it fit a turnover below it, so it is "not available" with
+    # an interval reaching the true last level
+    from ares.commands.ptc import analyse_table
+
+    S = np.geomspace(0.02, 1.5, 16) * 30000.0
+    r = np.maximum(S - 30000.0, 0) / 30000.0
+    V = (np.where(r > 0, 30000.0 + (S - 30000.0) * (1 - 0.75 * r), S) + 25.0) * (
+        1 + 0.005 * np.random.default_rng(0).standard_normal(16))
+    path = tmp_path / "sparse_gentle.csv"
+    path.write_text("mean,var\n" + "".join(f"{float(a)!r},{float(b)!r}\n" for a, b in zip(S, V)))
+    to = analyse_table(path)[1]["turnoff_dn"]
+    assert to["verdict"] == "not available", to
+    lo = float(to["note"].split("only between ")[1].split(" and ")[0])
+    assert lo <= 1.03 * S[S <= 30000.0][-1]
+
+
 def _sim_like(frames: int, seed: int):
     """Levels like the shipped simulator's main job: K 0.28 DN/e-, full well 12 000 e-,
     read noise 3.6 e-, 307 200 pixels, 25 log-spaced levels, the last five beyond full

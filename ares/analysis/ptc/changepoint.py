@@ -145,7 +145,7 @@ ROLL_DEPTH = 0.02  # ... and takes the top level at least 2 % below the smooth c
 ROLL_DEGREE = 2  # the smooth curve: a parabola (or a cubic, whichever fits better)
 
 
-def rolloff_evidence(x, v, e, first: int) -> tuple[float, int, int]:
+def rolloff_evidence(x, v, e, first: int, between: tuple = (0.0,)) -> tuple[float, int, int]:
     """Is the top of a curve with no confirmed departure still on it? (The lower limit
     "saturation not reached" is a claim, as safe as an "ok" must be: issue 48.) One smooth
     curve through every level -- a weighted parabola, or a cubic where it fits better (the
@@ -154,7 +154,9 @@ def rolloff_evidence(x, v, e, first: int) -> tuple[float, int, int]:
     ``first`` to the second-last level, on the errors ``e`` (the measured scatter), scaled
     up by the kinked fit's own excess scatter. Returns (the largest chi-square gain of a
     kink whose depth at the top level is at least ``ROLL_DEPTH`` of the curve there, the
-    first and last t within ``PLAUSIBLE`` of it); (0, -1, -1) when none is. On curves truly
+    first and last t within ``PLAUSIBLE`` of it); (0, -1, -1) when none is. ``between``:
+    where between level t and the next the kink may lie (0: at level t; a sparse curve's
+    turn lies between its levels, ``turnoff._gentle_lo``). On curves truly
     below their turnoff (0-10 % noise, 8-400 levels) 97 % keep their lower limit
     (``benchmarks/ptc_corpus.md``)."""
     x = np.asarray(x, float)
@@ -178,8 +180,11 @@ def rolloff_evidence(x, v, e, first: int) -> tuple[float, int, int]:
     chi0 = min(chi0, fit(np.column_stack([a0, x ** (ROLL_DEGREE + 1)]))[1])
     gain = np.zeros(n)
     for t in range(max(first, 2), n - 1):
-        for p in (1, 2):  # the slope dropping at t (a roll-off) or falling from t on (a bend beginning there)
-            h = np.maximum(x - x[t], 0.0) ** p
+        # the slope dropping at the kink (a roll-off) or falling from it on (a bend beginning
+        # there); the kink at level t or a fraction ``between`` of the way to the next (t is
+        # then still the last level on the curve)
+        for p, u in ((p_, u_) for p_ in (1, 2) for u_ in between):
+            h = np.maximum(x - (x[t] + u * (x[t + 1] - x[t])), 0.0) ** p
             c, chi = fit(np.column_stack([a0, h]))
             top = float(a0[-1] @ c[:-1])
             if c[-1] < 0 and top > 0 and -c[-1] * h[-1] >= ROLL_DEPTH * top:

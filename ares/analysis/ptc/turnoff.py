@@ -258,8 +258,8 @@ def ptc_turnoff_found(signal, var, var_se, nsigma: float = 4.0, min_levels: int 
     # sparse curve the fit below extrapolates no further)
     lo = max(lo, int(np.searchsorted(x, (1 - window) * x[stop_i])))
     if stop_i - lo < 1:
-        return TurnoffFound(stop_i, stop_i, max(min(stop_i - 1, int(i[unconf[0]]) - 1 if unconf.size else n), 0),
-                            stop_i - 1)
+        return TurnoffFound(stop_i, stop_i, _gentle_lo(x, v, e, stop_i - 1, max(min_levels, n // 4),
+                            max(min(stop_i - 1, int(i[unconf[0]]) - 1 if unconf.size else n), 0)), stop_i - 1)
     # the departure is seen where it exceeds nsigma; a gradual roll-off began up to
     # ``lookback`` levels earlier. Which of the levels lo-1 .. stop_i-1 is the last on the
     # curve is a change-point choice (``changepoint.locate``) on their residuals from the curve fitted
@@ -308,7 +308,28 @@ def ptc_turnoff_found(signal, var, var_se, nsigma: float = 4.0, min_levels: int 
     a_lo += lo
     if unconf.size:  # the curve fell there and came back: the turnoff may be that fall
         a_lo = min(a_lo, int(i[unconf[0]]) - 1)
-    return TurnoffFound(t + 1, stop_i, max(a_lo, 0), lo + a_hi)
+    a_lo = max(a_lo, 0)
+    if stop_i - lo < lookback:  # (a window cut short by its 15 %: a gentle roll-off may have begun below it)
+        a_lo = _gentle_lo(x, v, e, t, max(min_levels, n // 4), a_lo)
+    return TurnoffFound(t + 1, stop_i, a_lo, lo + a_hi)
+
+
+def _gentle_lo(x, v, e, t: int, first: int, a_lo: int) -> int:
+    """The first plausible last level on the curve, ``a_lo``, lowered where the levels up to
+    the turnoff found (``t``) and the next one fit a turnover (``changepoint.rolloff_evidence``,
+    kinks at and halfway between levels) significantly better than one smooth curve, with
+    every plausible kink below ``a_lo``, and the next level's variance still above level
+    ``t``'s: a gentle roll-off (the slope falling ~1.5 per unit of relative signal, the
+    variance still rising) is taken for a brighter-fatter bend by
+    the fits below and confirmed as a departure a level or more late, beyond the window
+    (``window``, 15 %) on a sparse curve (issue 48; ``benchmarks/ptc_corpus.md``)."""
+    m = min(t + 2, x.size)
+    if m < t + 2 or v[t + 1] < v[t]:  # (the next level falls: a departure the window's models judge)
+        return a_lo
+    ev, t_lo, t_hi = rolloff_evidence(x[:m], v[:m], e[:m], first, between=(0.0, 0.5))
+    if ev > ROLL_EVIDENCE and 0 <= t_lo <= t_hi < a_lo:
+        return t_lo
+    return a_lo
 
 
 PEAK_SE = 0.5  # a level before it within 0.5 SE of its variance may be the peak (a roll-off's first level beyond it)
