@@ -94,11 +94,12 @@ def with_truth(frames_list, seeds: int) -> None:
     the full well against ``_full_well_e``."""
     sys.path.insert(0, str(ROOT))
     sys.path.insert(0, str(ROOT / "tests"))
-    from test_scan_truth import _full_well_e, _ptc_k, _run, _truth
+    from test_scan_truth import _full_well_e, _ptc_k, _ptc_k_factors, _run, _truth
 
-    print("| frames | seed | K (DN/e-) | PTC truth K | full well (e-) | K within 3 SE of 0.28 | K within 3 SE of the PTC truth "
+    print("| frames | seed | K (DN/e-) | PTC truth K | (K - 0.28) / SE | (K - truth) / SE | mean gain / G | gain map "
+          "| lag | INL | full well (e-) | K within 3 SE of 0.28 | K within 3 SE of the PTC truth "
           "| full well within 3 % of its truth or n/a |")
-    print("|---:|---:|---|---:|---|---|---|---|")
+    print("|---:|---:|---|---:|---:|---:|---:|---:|---:|---:|---|---|---|---|")
     tot = {}
     for f in frames_list:
         for sd in range(1, seeds + 1):
@@ -108,6 +109,7 @@ def with_truth(frames_list, seeds: int) -> None:
                 mid = next(s_ for s_ in stages if s_["name"] == res["decomposition"]["stage"])
                 t = _truth(scan, bench, mid["settings"])
                 k_true = _ptc_k(t, mid["views"]["full"]["level"]["n_frames"])
+                fac = _ptc_k_factors(t, mid["views"]["full"]["level"]["n_frames"])
                 k_nom, _, txt = judge(ptc)
                 k, fw = ptc["gain_dn_per_e"], ptc["full_well_e"]
                 k_ok = k["verdict"] == "ok" and abs(k["value"] - k_true) <= 3 * k["se"]
@@ -120,7 +122,10 @@ def with_truth(frames_list, seeds: int) -> None:
             tt[1] += k_ok
             tt[2] += fw_ok
             tt[3] += 1
-            print(f"| {f} | {sd} | {ks} | {k_true:.5f} | {fws} | {'yes' if k_nom else 'NO'} | {'yes' if k_ok else 'NO'} "
+            z0 = (k["value"] - K_TRUE) / k["se"] if k["se"] else float("nan")
+            zt = (k["value"] - k_true) / k["se"] if k["se"] else float("nan")
+            fs = " | ".join(f"{fac[n]:.5f}" for n in ("mean_gain", "gain_map", "lag", "inl"))
+            print(f"| {f} | {sd} | {ks} | {k_true:.5f} | {z0:+.1f} | {zt:+.1f} | {fs} | {fws} | {'yes' if k_nom else 'NO'} | {'yes' if k_ok else 'NO'} "
                   f"| {'yes' if fw_ok else 'NO'} |", flush=True)
     print()
     print("| frames | K within 3 SE of 0.28 | K within 3 SE of the PTC truth | full well within 3 % or n/a with reason |")

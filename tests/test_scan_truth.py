@@ -103,23 +103,32 @@ def _ptc_k(t: dict, frames: int) -> float:
     -0.006 +- 0.05 % against this):
     - conversion-gain non-uniformity: the gain map g (Cg Rg Pg response) multiplies every
       electron, so a pixel's shot variance is g^2 q and its signal g q; averaged over the
-      pixels the slope is sum(g^2 q) / sum(g q) of the realized map (not exactly G: its
-      mean and spread are this seed's draws);
+      pixels the slope is sum(g^2 q) / sum(g q) of the realized map: G (1 + var g) for a
+      uniform q, since the simulator scales the map to mean exactly G (its spread, ~1e-4
+      at 1 % PRNU, is this seed's draw);
     - image lag L: a frame reads (1 - L) P_n + L P_(n-1) of the photo-charges P, so a
       stack of ``frames`` has variance ((1 - L)^2 + L^2 - 2 L (1 - L) / frames) q;
     - the ADC's INL bow: codes per analog DN at the dark level, where the fit's K is the
       slope at zero signal (its a00 term takes the bow's curvature), from the transition
       levels T_k = k - 1/2 + INL_k over +-32 codes."""
+    f = _ptc_k_factors(t, frames)
+    return t["G"] * f["gain_map"] * f["lag"] * f["inl"]
+
+
+def _ptc_k_factors(t: dict, frames: int) -> dict:
+    """``_ptc_k``'s factors on G: ``mean_gain`` (the realized map's mean over the lit pixels,
+    over G), ``gain_map`` (its sum(g^2 q) / sum(g q) over G: the mean times the spread
+    term), ``lag`` and ``inl``."""
     gm, q = t["maps"]["gain_dn_per_e"], t["maps"]["q"]
     use = gm > 0
-    k = float(np.sum(gm[use] ** 2 * q[use]) / np.sum(gm[use] * q[use]))
+    f = {"mean_gain": float(np.mean(gm[use])) / t["G"],
+         "gain_map": float(np.sum(gm[use] ** 2 * q[use]) / np.sum(gm[use] * q[use])) / t["G"]}
     lag = t["lag_fraction"]
-    k *= (1 - lag) ** 2 + lag**2 - 2 * lag * (1 - lag) / frames
+    f["lag"] = (1 - lag) ** 2 + lag**2 - 2 * lag * (1 - lag) / frames
     inl = np.asarray(t["adc"]["inl_lsb"], float)
     c, w = int(round(t["o"])), 32
-    if w < c < inl.size - w:
-        k *= 2 * w / (2 * w + inl[c + w - 1] - inl[c - w - 1])
-    return k
+    f["inl"] = 2 * w / (2 * w + inl[c + w - 1] - inl[c - w - 1]) if w < c < inl.size - w else 1.0
+    return f
 
 
 def _full_well_e(t: dict, k: float) -> float:

@@ -4,6 +4,11 @@ One frozen dataclass, ``SensorParams``. Field names carry their unit. Electrons 
 are pixel-domain quantities; they reach the output through the system gain
 ``G [DN/e-] = conversion_gain_uv_per_e * analog_gain / adc_lsb_uv``. DN quantities are
 at the ADC input (after the analog gain), so they do not scale with the analog gain.
+G is the realized array's mean conversion gain: the column, row and pixel gain
+non-uniformity maps are drawn with their sigmas and scaled to mean exactly 1
+(``patterns.py``). What a photon-transfer fit measures departs from G by the sensor's
+physics, not by the seed: the gain spread (x (1 + var g), ~ +1e-4 at 1 % PRNU), image lag
+(x ~ (1 - 2 lag)) and an ADC INL bow (codes per DN at the signal where the slope is taken).
 
 Defaults describe a plausible small CMOS sensor: 640x480, 3.3 um pixels, 12 ke- full
 well, 70 uV/e-, 2.5 e- read noise, 12-bit ADC with a 250 uV LSB (G = 0.28 DN/e- at x1).

@@ -7,7 +7,11 @@ Offset terms (ARTEMIS ``d``): column FPN ``Cs`` and row FPN ``Rs`` in DN; pixel 
 ``Ps = Ps1 + Ps2 + Ps3``: Ps1 "minimal" Gaussian offset in e-, Ps2 Gaussian DSNU and Ps3
 a zero-centred exponential tail of the dark current in e-/s (at the reference
 temperature; the pixel dark rate is clipped at 0). Gain terms: ``Cg``, ``Rg`` and the
-per-Bayer-phase ``Pg``, all ``1 + sigma * N(0,1)``.
+per-Bayer-phase ``Pg``, all ``1 + sigma * N(0,1)``, then scaled so that each realized map
+has mean exactly 1 (``Cg`` over the columns, ``Rg`` over the rows, ``Pg`` per Bayer phase
+on the ``Cg Rg`` it multiplies): the array's mean conversion gain is then the system gain G
+itself, not G times this seed's sampling error of the mean (~1e-4 on VGA), and the spreads
+stay as drawn.
 """
 
 from __future__ import annotations
@@ -42,7 +46,8 @@ class FixedPatterns:
         self.row_gain = (1.0 + p.row_gain_pct / 100 * rng["row_gain"].standard_normal(R)).astype(f32)
         self.phase = ((np.arange(R)[:, None] % 2) * 2 + (np.arange(C)[None, :] % 2)).astype(np.uint8)  # 0..3
         prnu = np.asarray(p.prnu_pct) / 100
-        self.pixel_gain = (1.0 + prnu[self.phase] * rng["pix_gain"].standard_normal((R, C))).astype(f32)
+        pg = 1.0 + prnu[self.phase] * rng["pix_gain"].standard_normal((R, C))
+        self.col_gain, self.row_gain, self.pixel_gain = _unit_mean_gains(self.col_gain, self.row_gain, pg)
         self.defects: Defects = draw_defects(p, rng["defects"])
         self.adc = Adc(p, rng["adc"])
 
@@ -69,3 +74,20 @@ class FixedPatterns:
         self.rts_p_up, self.rts_p_down = rts_switch_probs(p, len(d.index["rts"]), rng["lowlight"])
         #: per-pixel activation energy of the dark current (eV), None under the doubling law
         self.activation_ev = activation_map(p, d, (R, C), rng["lowlight"])
+
+
+def _unit_mean_gains(cg: np.ndarray, rg: np.ndarray, pg: np.ndarray):
+    """The relative gain maps scaled to realized mean 1: ``Cg`` and ``Rg`` by their means,
+    ``Pg`` per Bayer phase (rows and columns of one parity) so that mean(Cg Rg Pg) over the
+    phase's pixels is 1 -- the whole array's mean gain factor is then 1 exactly (up to
+    float32 rounding) whatever the cross terms of the three draws. No full-size temporary
+    beyond ``pg`` (float64, scaled in place); float32 maps out."""
+    cg = cg.astype(np.float64) / float(np.mean(cg, dtype=np.float64))
+    rg = rg.astype(np.float64) / float(np.mean(rg, dtype=np.float64))
+    for r0 in (0, 1):
+        for c0 in (0, 1):
+            sub = pg[r0::2, c0::2]
+            if sub.size:
+                sub /= float(rg[r0::2] @ (sub @ cg[c0::2])) / sub.size
+    f32 = np.float32
+    return cg.astype(f32), rg.astype(f32), pg.astype(f32)

@@ -15,8 +15,10 @@ Parameter values (expectations of the model):
                    + G^2 * mean dark charge (dark shot noise); excludes photo shot noise
   ``frame_global`` variance of the frame-global offset, DN^2
   ``G``            system gain, DN/e-
-  ``Cg``, ``Rg``, ``Pg``  variances of the relative gain factors (mean 1); ``Pg`` averaged
-                   over the Bayer phases (per phase: ``Pg_by_phase``)
+  ``Cg``, ``Rg``, ``Pg``  variances of the relative gain factors (realized mean exactly 1:
+                   Cg over the columns, Rg over the rows, Cg Rg Pg per Bayer phase, so the
+                   array's mean gain is G); ``Pg`` averaged over the Bayer phases (per
+                   phase: ``Pg_by_phase``)
   ``q``            mean photo-charge per pixel, e- (over all pixels; OB columns hold 0;
                    includes added_photocharge_e); ``q_by_phase``: per Bayer phase
                    (r%2, c%2) = (0,0), (0,1), (1,0), (1,1)
