@@ -8,6 +8,9 @@ replay the tables. The table below is Markdown for ``benchmarks/ptc_corpus.md``.
 
     python benchmarks/bench_ptc_sim.py [--frames 2,4,8,16,64] [--seeds 10] [--keep DIR]
     python benchmarks/bench_ptc_sim.py --truth [--frames 2,64]   # K also against the PTC truth
+
+``--truth`` prints the PTC truth's factors per run too (gain map, lag, INL bow); its table is
+``benchmarks/ptc_sim.md``.
 """
 
 from __future__ import annotations

@@ -67,14 +67,25 @@ def test_full_corpus_exact_and_low_noise_curves_meet_the_targets(corpus):
     assert sum(j["turnoff"] for _, j in low) / n >= 0.95  # measured 98.3 % (seed 0), 98.0 % (held out)
 
 
+# Frame counts where the nominal G = 0.28 DN/e- is what the PTC measures within its SE. The
+# simulator's gain map has mean exactly G (ares/sim/patterns.py), but the sensor's physics
+# moves the PTC slope by -0.05 % on every seed (gain spread +0.010 %, lag 1e-4 -0.02 %, the
+# 0.5 LSB INL bow at the dark level -0.038 %; no seed-to-seed part left): 0.3-0.8 SE of K at
+# 2-8 frames, 1.2 SE at 16 (seed 4: 3.9 SE from 0.28, 2.1 from the truth), 2.5 SE at 64 --
+# there only the sensor's PTC truth (_ptc_k) is the truth (benchmarks/ptc_sim.md).
+NOMINAL_K, NOMINAL_FRAMES = 0.28, (2, 4, 8)
+
+
 @pytest.mark.parametrize("frames", [2, 4, 8, 16, 64])
 def test_simulator_main_job(tmp_path_factory, frames):
-    """K within 3 SE of what a PTC of the simulated sensor measures (``test_scan_truth._ptc_k``:
-    the realized gain map, the stack's lag, the ADC's INL bow -- not the nominal 0.28, which
-    64 frames resolve), the full well within 3 % of its truth (``_full_well_e``) or not
-    available with the reason."""
+    """Issue 48's main job, 10 seeds: K within 3 SE of what a PTC of the simulated sensor
+    measures (``test_scan_truth._ptc_k``: the realized gain map's spread, the stack's lag,
+    the ADC's INL bow) and, where that is 0.28 within the SE (``NOMINAL_FRAMES``), of the
+    nominal 0.28 too; the full well within 3 % of its truth (``_full_well_e``) or not
+    available with the reason. Every seed is judged before the assert (``-s`` prints them)."""
     from test_scan_truth import _full_well_e, _ptc_k, _run, _truth
 
+    bad = []
     for seed in range(1, 11):
         scan, bench, res, stages = _run("photon_transfer", tmp_path_factory, frames=frames, seed=seed)
         ptc = res["ptc"]
@@ -82,9 +93,20 @@ def test_simulator_main_job(tmp_path_factory, frames):
         t = _truth(scan, bench, mid["settings"])
         k_true = _ptc_k(t, mid["views"]["full"]["level"]["n_frames"])
         k, fw = ptc["gain_dn_per_e"], ptc["full_well_e"]
-        assert k["verdict"] == "ok" and abs(k["value"] - k_true) <= 3 * k["se"], (frames, seed, k, k_true)
+        k_ok = k["verdict"] == "ok" and bool(k.get("se"))
+        ok = {"K ok": k_ok, "K vs PTC truth": k_ok and abs(k["value"] - k_true) <= 3 * k["se"]}
+        if frames in NOMINAL_FRAMES:
+            ok["K vs 0.28"] = k_ok and abs(k["value"] - NOMINAL_K) <= 3 * k["se"]
         if fw["verdict"] == "ok":
             fw_true = _full_well_e(t, k_true)
-            assert abs(fw["value"] - fw_true) <= 0.03 * fw_true, (frames, seed, fw, fw_true)
+            ok["full well"] = abs(fw["value"] - fw_true) <= 0.03 * fw_true
+            ok["full well vs 12 000 e-"] = abs(fw["value"] - t["full_well_e"]) <= 0.03 * t["full_well_e"]
         else:
-            assert fw["verdict"] == "not available" and fw.get("note"), (frames, seed, fw)
+            ok["full well n/a with reason"] = fw["verdict"] == "not available" and bool(fw.get("note"))
+        z = {n: (k["value"] - v) / k["se"] if k.get("se") else float("nan") for n, v in (("t", k_true), ("n", NOMINAL_K))}
+        print(f"frames {frames} seed {seed}: K {k['value']} +- {k.get('se')} {k['verdict']}, PTC truth {k_true:.5f} "
+              f"({z['t']:+.1f} SE), 0.28 ({z['n']:+.1f} SE); full well {fw['value']} +- {fw.get('se')} {fw['verdict']}; "
+              f"failed: {[n for n, v in ok.items() if not v]}")
+        if not all(ok.values()):
+            bad.append((seed, [n for n, v in ok.items() if not v], k, k_true, fw))
+    assert not bad, (frames, bad)
