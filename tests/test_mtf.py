@@ -120,7 +120,7 @@ def test_mtf50_within_2pct_of_closed_form_at_snr50(angle):
     assert abs(o.mtf50.value - truth) < 4 * o.mtf50.se  # the SE covers the error
     assert r.mtf50.available and abs(r.mtf50.value - truth) < 4 * r.mtf50.se + 0.005 * truth
     nyq = float(true_mtf(0.5, angle, SIGMA, s.params.crosstalk_pct))
-    assert abs(r.mtf_nyquist.value - nyq) < 0.03
+    assert abs(r.mtf_nyquist.value - nyq) < 4 * r.mtf_nyquist.se  # the SE covers the error (SE ~0.011)
 
 
 @pytest.mark.parametrize("angle", [2.0, 6.0, 10.0])
@@ -133,13 +133,15 @@ def test_mtf50_within_1pct_of_an_independent_implementation(angle):
 
 def test_low_noise_option_beside_the_standard():
     """esf_half_width keeps 16 px of the ESF either side: less noise, the same MTF50 within
-    its SE, and a smaller SE than the standard's whole-region ESF on the same image."""
+    its SE, and a smaller SE than the standard's whole-region ESF on the same image (60
+    re-noised copies: 20 do not resolve the ~12 % smaller SE on this image, the SEs' ratio
+    came out 1.01 at 20 copies, 0.88 at 60, 0.89 at 200)."""
     from ares.analysis.optics.mtf import LOW_NOISE_HALF_WIDTH
 
     s = _edge_sensor(6.0, seed=7)
     img = _stack_mean(s, 1)
-    std = sfr(img, bootstrap=20)
-    opt = sfr(img, bootstrap=20, esf_half_width=LOW_NOISE_HALF_WIDTH)
+    std = sfr(img, bootstrap=60)
+    opt = sfr(img, bootstrap=60, esf_half_width=LOW_NOISE_HALF_WIDTH)
     truth = true_mtf50(6.0, SIGMA, s.params.crosstalk_pct)
     assert abs(opt.mtf50.value / truth - 1) < 0.02 and abs(opt.mtf50.value - truth) < 4 * opt.mtf50.se
     assert opt.mtf50.se < std.mtf50.se
