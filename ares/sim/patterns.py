@@ -80,14 +80,18 @@ def _unit_mean_gains(cg: np.ndarray, rg: np.ndarray, pg: np.ndarray):
     """The relative gain maps scaled to realized mean 1: ``Cg`` and ``Rg`` by their means,
     ``Pg`` per Bayer phase (rows and columns of one parity) so that mean(Cg Rg Pg) over the
     phase's pixels is 1 -- the whole array's mean gain factor is then 1 exactly (up to
-    float32 rounding) whatever the cross terms of the three draws. No full-size temporary
-    beyond ``pg`` (float64, scaled in place); float32 maps out."""
+    float32 rounding) whatever the cross terms of the three draws. ``pg`` (float64) is
+    scaled in place, a row parity at a time (no full-size temporary); float32 maps out."""
     cg = cg.astype(np.float64) / float(np.mean(cg, dtype=np.float64))
     rg = rg.astype(np.float64) / float(np.mean(rg, dtype=np.float64))
+    odd = np.arange(cg.size) % 2 == 1
     for r0 in (0, 1):
-        for c0 in (0, 1):
-            sub = pg[r0::2, c0::2]
-            if sub.size:
-                sub /= float(rg[r0::2] @ (sub @ cg[c0::2])) / sub.size
+        rows = pg[r0::2]
+        if not rows.size:
+            continue
+        w = (rg[r0::2] @ rows) * cg  # per column: sum over this parity's rows of Cg Rg Pg
+        mean = [float(w[odd == c].sum()) / (rows.shape[0] * int(np.count_nonzero(odd == c))) if np.any(odd == c)
+                else 1.0 for c in (False, True)]
+        rows *= np.where(odd, 1.0 / mean[1], 1.0 / mean[0])[None, :]
     f32 = np.float32
     return cg.astype(f32), rg.astype(f32), pg.astype(f32)
