@@ -21,18 +21,14 @@ from ares.scan import Runner
 from ares.scan import events as ev
 from wire_small import small_wire
 
-REGISTERS = '<registers address_bits="16" value_bits="16" endian="big">'
-HOLD = '<group_hold register="0x0104" hold="0x01" release="0x00"/>'
 TIMED = '<timing readout_s="0.001" settle_s="0"><settle by="time"/></timing>'
 # exposure and gain change at every stage (the light stays): the settings tell the stages apart
 STAGES = ((0.008, 1.0), (0.004, 2.0), (0.002, 4.0))
 
 
-def _scan(tmp_path: Path, header: str = "ares32", sim: bool = False, hold: bool = False) -> Path:
-    system = small_wire(tmp_path)
-    text = system.read_text().replace('<timing readout_s="0.001" settle_s="0"/>', TIMED)
-    if hold:  # (a streaming sensor latches held registers as the frame in flight starts: it keeps the old)
-        text = text.replace(REGISTERS, REGISTERS + HOLD)
+def _scan(tmp_path: Path, header: str = "ares32", sim: bool = False, hold: bool = True) -> Path:
+    system = small_wire(tmp_path, hold=hold)  # (held: a streaming sensor latches them as the frame in flight
+    text = system.read_text().replace('<timing readout_s="0.001" settle_s="0"/>', TIMED)  # starts: the old)
     system.write_text(text.replace('header="ares32"', f'header="{header}"'))
     if sim:  # the direct simulator at the same size: frames stamped at exposure start on its clock
         text = system.read_text().replace('<simulator seed="1" wire="true">', '<simulator seed="1">')
