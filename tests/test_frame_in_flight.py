@@ -88,11 +88,13 @@ def test_no_kept_frame_was_exposed_with_the_previous_stages_settings(tmp_path, f
     assert len(stale) == len(STAGES) - 1, (kept, truth)
 
 
-def test_device_time_stamps_tell_the_frame_in_flight(tmp_path):
+@pytest.mark.parametrize("fault", ["usb_frame_in_flight", "usb_pipeline_frames"])
+def test_device_time_stamps_tell_the_frame_in_flight(tmp_path, fault):
     """With the device's exposure-start time stamps (``header="ares40"``, on the bench's clock) the
-    host discards exactly the frames that started before the commit -- the one the device exposed
-    at its stop -- and keeps the next: nothing fresh is wasted."""
-    outcome, kept, truth, recs = _run(_scan(tmp_path, "ares40"), {"usb_pipeline_frames": 1})
+    host discards exactly the frames that started before the commit -- the one streamed ahead (it
+    started as the frame before was read out, before the I2C writes), the one exposed at the stop --
+    and keeps the next: nothing fresh is wasted."""
+    outcome, kept, truth, recs = _run(_scan(tmp_path, "ares40"), {fault: 1})
     for st, counters in zip(outcome.stages, kept):
         assert all(truth[n]["analog_gain"] == st["settings"]["analog_gain"] for n in counters), (st["name"], counters)
     for st, rec in zip(outcome.stages, recs):
