@@ -3,7 +3,8 @@
 Each bench script measures its own baseline in the same run (figures are ratios, since
 these machines are shared and noisy) and writes its table to benchmarks/<topic>.md
 (``topic_table.publish``); this script runs them and concatenates the tables under a
-common header.
+common header. README.md is only ever this concatenation: a section written by hand goes in
+a topic file of its own (``ptc_rows.md``), or the next rebuild drops it.
 
     python benchmarks/run_all.py [--only sim,accumulate] [--no-run]
 """
@@ -33,6 +34,11 @@ with `make bench` (or `python benchmarks/run_all.py --only TOPIC`).
 ALL_CORES = {"batch", "estimates", "eta", "first_run", "gui", "gui_big", "lots", "scan", "peer", "live_pipeline", "twelve_mp"}  # batch, lots: 1 vs 2 workers; eta: the commit thread beside the frames; gui, gui_big: the window thread next to the scan; scan: make run; peer: ares emva vs emva1288; live_pipeline: the grab thread beside the window's; twelve_mp: a 12 MP EMVA 4.0 scan and ares emva vs emva1288; estimates: every shipped scan as ares run runs it
 
 
+def readme_lines() -> list[str]:
+    p = HERE / "README.md"
+    return p.read_text().splitlines() if p.exists() else []
+
+
 def main() -> int:
     ap = argparse.ArgumentParser()
     ap.add_argument("--only", default="", help="comma-separated topics (bench_<topic>.py)")
@@ -55,8 +61,11 @@ def main() -> int:
             print(f"   ({time.perf_counter() - t0:.0f} s, exit {rc})", flush=True)
             if rc:
                 failed.append(script.name)
-    parts = [HEADER, f"Last run: {time.strftime('%Y-%m-%d')} on {platform.machine()}, "
-             f"Python {platform.python_version()}, {os.cpu_count()} cores (one used).\n"]
+    last = (f"Last run: {time.strftime('%Y-%m-%d')} on {platform.machine()}, "
+            f"Python {platform.python_version()}, {os.cpu_count()} cores (one used).")
+    if args.no_run:  # nothing was run: the date of the last run stays
+        last = next((line for line in readme_lines() if line.startswith("Last run: ")), last)
+    parts = [HEADER, last + "\n"]
     for md in sorted(HERE.glob("*.md")):
         if md.name == "README.md":
             continue

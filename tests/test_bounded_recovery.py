@@ -30,8 +30,9 @@ from wire_small import small_wire
 ROOT = Path(__file__).resolve().parents[1]
 WIRE = ROOT / "protocols" / "sim_wire.xml"
 HANG_S = 300  # only a hang detector: a run that takes this long is stuck
-I2C_AT = 67  # the third stage's sf_bias write (sf_bias set before each stage, the exposure's upper register
-# read again after its two; the first two transactions are the chip-ID read and the <init> write at connect)
+I2C_AT = 77  # the third stage's sf_bias write (sf_bias set before each stage inside sim_wire's group hold, the
+# exposure's upper register read again after its two; the first two transactions are the chip-ID read and the
+# <init> write at connect)
 
 
 def _scan(tmp_path: Path, timeout_s: float = 2, max_recoveries: int = 5, chamber: bool = False,
@@ -110,13 +111,13 @@ def _in_process(tmp_path, faults: dict, **scan_kw):
 
 
 def test_the_device_that_failed_is_reopened_not_the_grabber(tmp_path):
-    runner, bench, opened, box, t = _in_process(tmp_path, {"i2c_disconnect_at": I2C_AT, "i2c_gone_for": 3})
+    runner, bench, opened, box, t = _in_process(tmp_path, {"i2c_disconnect_at": I2C_AT, "i2c_gone_for": 4})
     t.start()
     t.join(HANG_S)
     bench.close()
     assert not t.is_alive() and "error" not in box, box
     assert box["outcome"].status == "done"
-    # gone for transactions 60..62: the write and two probes fail, the third probe answers
+    # gone for transactions 77..80: the write, the hold's release and two probes fail, the third probe answers
     assert opened == {"frames": 0, "registers": 3, "light": 0}
     sus = [s for st in box["outcome"].stages for s in st.get("suspensions", [])]
     assert [(s["device"], s["attempts"]) for s in sus] == [("registers", 3)]

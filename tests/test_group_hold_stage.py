@@ -20,17 +20,13 @@ from ares.scan import Runner
 from ares.scan import events as ev
 from wire_small import small_wire
 
-HOLD = '<group_hold register="0x0104" hold="0x01" release="0x00"/>'
-REGISTERS = '<registers address_bits="16" value_bits="16" endian="big">'
 # exposure x gain constant on the lit stages: a frame of the old settings has the new one's mean,
 # a frame half old, half new has not; each stage changes a two-register exposure and the gain
 STAGES = ((0.008, 1.0), (0.004, 2.0), (0.002, 4.0), (0.008, 1.0))
 
 
 def _scan(tmp_path: Path, hold: bool) -> Path:
-    system = small_wire(tmp_path)
-    if hold:
-        system.write_text(system.read_text().replace(REGISTERS, REGISTERS + HOLD))
+    system = small_wire(tmp_path, hold=hold)  # (sim_wire.xml declares one)
     stages = "\n".join(f'    <stage name="s{k}" scene="flat"><set quantity="exposure" value="{e}"/>'
                        f'<set quantity="analog_gain" value="{g}"/></stage>' for k, (e, g) in enumerate(STAGES))
     p = tmp_path / "hold_scan.xml"
@@ -140,9 +136,7 @@ def test_settling_by_tags_discards_the_frame_latched_before_the_hold_closed(tmp_
     from ares.sim.bench import SimRegisterBus
     from ares.sim.strict import SimClock
 
-    system = small_wire(tmp_path)
-    system.write_text(system.read_text().replace(REGISTERS, REGISTERS + HOLD))
-    system = load_system(system)
+    system = load_system(small_wire(tmp_path))  # (sim_wire.xml declares its sensor's group hold)
     dev = SensorRegisters(system.registers, SimRegisterBus(system.registers))
     regs = RegisterFile(system.registers, I2CRegisterBus(1, 0x36, 16, 16, smbus=EmulatedSMBus(0x36, dev)))
     exposure = system.registers.field("exposure")

@@ -123,8 +123,7 @@ def test_group_hold_keeps_a_multi_register_value_whole_across_frame_boundaries()
 def test_group_hold_from_the_register_map_xml_round_trips(tmp_path):
     p = small_wire(tmp_path)
     p.write_text(p.read_text().replace('<registers address_bits="16" value_bits="16" endian="big">',
-                                       '<registers address_bits="16" value_bits="16" endian="big" bus="sensor">'
-                                       '<group_hold register="0x0104" hold="0x01" release="0x00"/>'))
+                                       '<registers address_bits="16" value_bits="16" endian="big" bus="sensor">'))
     sy = load_system(p)
     assert sy.registers.group_hold == HOLD and sy.registers.bus == "sensor"
     save_system(sy, tmp_path / "again.xml")
@@ -189,10 +188,7 @@ def test_held_writes_on_the_wire_are_verified_after_the_frame(tmp_path):
     would still read the old value: a false write-verify error), and that frame has the new value."""
     from ares.rig.factory import build_bench
 
-    p = small_wire(tmp_path)
-    p.write_text(p.read_text().replace('<registers address_bits="16" value_bits="16" endian="big">',
-                                       '<registers address_bits="16" value_bits="16" endian="big">'
-                                       '<group_hold register="0x0104" hold="0x01" release="0x00"/>'))
+    p = small_wire(tmp_path)  # (sim_wire.xml declares its sensor's group hold)
     bench = build_bench(load_system(p), seed=1)
     try:
         bench.registers.set("exposure", 0.004)

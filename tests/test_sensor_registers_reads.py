@@ -95,7 +95,7 @@ def test_read_latch_from_the_register_map_xml(tmp_path):
     from ares.rig.factory import build_bench
     from wire_small import small_wire
 
-    p = small_wire(tmp_path)
+    p = small_wire(tmp_path, hold=False)  # (a held write would latch at the next frame only)
     regs_el = '<registers address_bits="16" value_bits="16" endian="big"'
     p.write_text(p.read_text().replace(regs_el, regs_el + ' read_latch="msb"'))
     sy = load_system(p)

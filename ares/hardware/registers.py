@@ -212,10 +212,17 @@ class RegisterFile:
         self.bus.holding = True  # (held writes are verified after the frame boundary where they take effect)
         try:
             yield
-        finally:
+        except BaseException:
             self._holding, self._held = 0, {}
             self.bus.holding = False
-            self.bus.write(gh[0], gh[2])  # release: the held registers take effect together
+            try:  # release what was held; a write that failed inside says why (a failed release would hide it)
+                self.bus.write(gh[0], gh[2])
+            except Exception:
+                pass
+            raise
+        self._holding, self._held = 0, {}
+        self.bus.holding = False
+        self.bus.write(gh[0], gh[2])  # release: the held registers take effect together
 
     def _write_value(self, f: Field, value: int) -> None:
         bits, bus = self.map.value_bits, self._bus(f)

@@ -74,7 +74,8 @@ def build_wire_bench(system, seed: int, faults: dict | None = None, uses: set | 
     readback = b.readback == "image_row"
     sensor_regs = device_registers(m, dev.registers.bus)
     smbus = EmulatedSMBus(b.address, sensor_regs, address_bits=m.address_bits, value_bits=m.value_bits,
-                          value_endian=b.value_endian, faults=wire_f, readable=not readback)
+                          value_endian=b.value_endian, faults=wire_f, readable=not readback,
+                          clock=dev.clock, speed_hz=b.speed_hz)  # (a transaction takes its bus time on the bench's clock)
     others = {}  # the other I2C devices: register files of their own behind their own adapters
     for o in system.buses:
         if o is not b:

@@ -2,12 +2,15 @@
 fields as one change, inside one group hold where the register map declares one), then
 let the bench settle as the system XML declares (``<timing>``): wait ``settle_s`` and drop
 ``discard_frames`` frames after a change (frames still exposed at the old settings), drain
-the frame source (``flush``), and tell it the frame time its read timeouts must cover."""
+the frame source (``flush``), and tell it the frame time its read timeouts must cover. The
+frame in flight at a register change is never kept (``ares.scan.in_flight``)."""
 
 from __future__ import annotations
 
 from ares.errors import InputError
 from ares.hardware.waits import wait
+
+TAGS = {"exposure": "exposure_s", "analog_gain": "analog_gain"}  # a control -> the tag of a frame exposed with it
 
 
 def apply_settings(bench, system, settings: dict, previous: dict | None = None, cancel=None,
@@ -28,6 +31,8 @@ def apply_settings(bench, system, settings: dict, previous: dict | None = None, 
                 changed_regs.append(name)
                 kinds.add("registers")
     writes, written = None, not regs
+    committed = None  # the bench's clock when the register change was committed (the frame in flight)
+    clock = getattr(bench, "clock", None)
     for key, value in settings.items():
         if register_field(system, key) is not None:
             continue
@@ -36,6 +41,7 @@ def apply_settings(bench, system, settings: dict, previous: dict | None = None, 
             kinds.add(key)
         if key in ("light", "wavelength") and not written:
             writes, written = write_registers(bench, regs, changed_regs), True
+            committed = clock.now() if clock is not None else None
         if key == "temperature":
             if bench.chamber is None:
                 raise InputError(f"system '{system.name}' has no thermal chamber to set {value:g} C")
@@ -62,7 +68,9 @@ def apply_settings(bench, system, settings: dict, previous: dict | None = None, 
             raise InputError(f"unknown setting '{key}'")
     if not written:
         writes = write_registers(bench, regs, changed_regs)
-    rec = settle(bench, system, settings, kinds, cancel, evidence, noise, abort)
+        committed = clock.now() if clock is not None else None
+    rec = settle(bench, system, settings, kinds, cancel, evidence, noise, abort,
+                 (changed_regs, committed) if changed_regs else None)
     if rec is not None and writes is not None and changed_regs:
         rec["registers"] = writes  # whether the change took effect at one frame start, and how
     return rec
@@ -80,12 +88,15 @@ def write_registers(bench, values: dict, changed) -> dict | None:
 
 
 def settle(bench, system, settings: dict, kinds: set, cancel=None, evidence: bool = True,
-           noise=None, abort=None) -> dict | None:
+           noise=None, abort=None, registers: tuple | None = None) -> dict | None:
     """After the changes ``kinds``: the longest declared settle time (on the bench's clock),
     the most frames to discard (``Timing.after_change``), a flush when declared; then, with
     ``<settle by="frames">`` (the default), probe frames until they prove the bench settled
     (``ares.scan.settling``). The frame time (exposure + readout) goes to the frame source's
-    read timeouts. Returns the record of what was waited and discarded and why (None: no change)."""
+    read timeouts. ``registers``: (the register fields changed, when on the bench's clock): where the
+    frames after the change are kept as they come (``by="time"``, or ``evidence=False``), the frame in
+    flight at the change is never among them (``ares.scan.in_flight``). Returns the record of what was
+    waited and discarded and why (None: no change)."""
     t = getattr(system, "timing", None)
     if t is None:
         return None
@@ -118,10 +129,19 @@ def settle(bench, system, settings: dict, kinds: set, cancel=None, evidence: boo
     if cfg.by != "frames" or not evidence:
         rec.update(by="time", settled=None, why="the declared waits only" if evidence else
                    "the declared waits only: the frames after this change are the measurement")
+        if registers is not None and not discard:  # the frame in flight at the register change is not kept
+            from ares.scan.in_flight import drop_in_flight
+
+            changed, committed = registers
+            want = {tag: bench.registers.get(register_field(system, key)) for key, tag in TAGS.items()
+                    if key in settings and register_field(system, key) is not None}
+            cover = set(changed) <= {register_field(system, k) for k in TAGS if k in settings}
+            rec["in_flight"] = drop_in_flight(bench, want, bool(want) and cover, committed)
+            rec["discarded"] = rec["in_flight"]["discarded"]
         return rec
     def want() -> dict:  # the settings as the registers hold them (read only when the frames carry tags)
         out = {}
-        for key, tag in (("exposure", "exposure_s"), ("analog_gain", "analog_gain")):
+        for key, tag in TAGS.items():
             name = register_field(system, key)
             if key in settings and name is not None:
                 out[tag] = bench.registers.get(name)

@@ -37,11 +37,9 @@ seconds of the bench's clock -- emulated time -- then found again), ``usb_reconn
 = P (found again with wMaxPacketSize P: the host must read the descriptor anew).
 
 ``usb_trigger_missing_at`` = N: in hardware-trigger mode the pulse generator skips the edge for
-frame N (the host's read times out; the frame comes at the next edge).
-
-``usb_pipeline_frames`` = K: a sensor that keeps exposing after a stop -- K frames exposed at
-the settings of that moment wait in the device and come first at the next start (what a
-settings change must discard: ``<timing discard_frames>``).
+frame N (the host's read times out; the frame comes at the next edge). ``usb_pipeline_frames``
+= K: a sensor that keeps exposing after a stop -- K frames exposed at the settings of that moment
+wait in the device and come first at the next start (what a settings change must discard).
 
 ``usb_frame_in_flight`` = 1: a streaming rolling-shutter sensor -- the next frame starts, and
 latches its held and double-buffered registers, as soon as one is read out; it is read out
@@ -54,8 +52,8 @@ right after a frame and sooner than its next register writes (``SensorRegisters.
 read-back after the frame in flight still finds the old values latched.
 
 ``exposed_with``: device frame counter -> the settings the simulator rendered that frame with
-(``exposure_s``, ``analog_gain``, ``black_level_dn``, ``photon_flux``): the device's truth (the
-latest 20000 frames).
+(``exposure_s``, ``analog_gain``, ``black_level_dn``, ``photon_flux``) and ``exposure_start_s``
+(the ``ares40`` time stamp, on the bench's clock): the device's truth (the latest 20000 frames).
 """
 
 from __future__ import annotations
@@ -121,7 +119,8 @@ class EmulatedGrabber:
         self.timestamp_hz = float(getattr(cfg, "timestamp_hz", 1e9))
         self._started = 0.0  # the device clock at the current frame's exposure start
         self.exposed_with: dict[int, dict] = {}  # device frame counter -> the settings it was rendered with
-        self._in_flight = False  # (usb_frame_in_flight) the next frame has started: its registers are latched
+        self._in_flight, self._ahead_start = False, None  # (usb_frame_in_flight) the next frame has started
+        # (latching its registers) at that device clock
         self.blanking = None  # (usb_frame_in_flight=2) the sensor registers: owe_start(), start_if_owed()
 
     # ------------------------------------------------------------ descriptors
@@ -213,6 +212,7 @@ class EmulatedGrabber:
             self.faults.pop("usb_timeout_at")
             time.sleep(self.cfg.timeout_ms / 1000.0)
             raise _usb_error(errno.ETIMEDOUT, "Operation timed out", timeout=True)
+        self._frame_starts()  # (latching held registers: the exposure this frame takes is the latched one)
         if self.latency is not None and timeout_ms and 1000 * self.latency() > timeout_ms:
             raise _usb_error(errno.ETIMEDOUT, "Operation timed out", timeout=True)  # the frame is still exposing
         if self.trigger_mode == 1 and not self.software_triggers:  # waiting for the host's trigger
@@ -245,6 +245,7 @@ class EmulatedGrabber:
         self.counter += 1
         meta = getattr(frame, "meta", None) or {}
         self.exposed_with[n] = {k: meta[k] for k in TRUTH if k in meta}
+        self.exposed_with[n]["exposure_start_s"] = self._started
         if len(self.exposed_with) > EXPOSED_KEPT:  # (a long run on the wires: the latest frames')
             del self.exposed_with[next(iter(self.exposed_with))]
         if n == self.faults.get("usb_drop_at"):  # rendered, lost: the next frame shows the gap
@@ -283,21 +284,34 @@ class EmulatedGrabber:
             if timeout_ms and late > timeout_ms:
                 raise _usb_error(errno.ETIMEDOUT, "Operation timed out (frame late)", timeout=True)
 
+    def _exposure_start(self, frame) -> float:
+        """When ``frame`` started exposing (ahead: at the last read-out; the simulator's: its stamp)."""
+        if self._ahead_start is not None:
+            return self._ahead_start
+        if self.clock is not None and getattr(self.frames, "clock", None) is self.clock:
+            return float(frame.timestamp)
+        return self._started
+
+    def _frame_starts(self) -> None:  # a frame starts: the registers it is exposed with latch
+        ahead = int(self.faults.get("usb_frame_in_flight", 0))
+        if self.on_frame_start is not None and not (ahead and self._in_flight):
+            self.on_frame_start()  # (streaming ahead: it started, latched, when the frame before was read out)
+            self._ahead_start = None
+        elif ahead == 2 and self.blanking is not None:
+            self.blanking.start_if_owed()  # (after the blanking: before it is read out, at the latest)
+
     def _render(self):
         """The sensor's next frame: armed ones first (a grab with a start control), else one now."""
         ahead = int(self.faults.get("usb_frame_in_flight", 0))
-        blank = self.blanking if ahead == 2 else None
-        if self.on_frame_start is not None and not (ahead and self._in_flight):
-            self.on_frame_start()  # (streaming ahead: it started, latched, when the frame before was read out)
-        elif blank is not None:
-            blank.start_if_owed()  # (after the blanking: before it is read out, at the latest)
-        frame = self._read_out()
+        frame, blank = self._read_out(), self.blanking if ahead == 2 else None
+        self._started = self._exposure_start(frame)
         if ahead and self.on_frame_start is not None:  # the next frame starts as this one is read out
             if blank is not None:
                 blank.owe_start()  # (or after the blanking)
             else:
                 self.on_frame_start()
             self._in_flight = True
+            self._ahead_start = self.clock.now() if self.clock is not None else float(self.counter + 1)
         return frame
 
     def _read_out(self):

@@ -1,0 +1,113 @@
+"""The frame in flight at a register change is never kept (``ares.scan.apply``; FORMAT.md, Bench
+dynamics). With ``<settle by="time">`` and no declared ``discard_frames`` the frame that was
+exposing when a stage's registers changed used to be the stage's first kept frame, although it
+was exposed (wholly or partly) with the old settings.
+
+The device is the wire-emulated simulator (protocols/sim_wire.xml at 48x64 pixels) with a frame
+in flight: ``usb_frame_in_flight=1`` (a streaming sensor: the next frame starts, latching its
+registers, as one is read out) or ``usb_pipeline_frames=1`` (a sensor that keeps exposing after a
+stop). The grabber's ``exposed_with`` is the device's truth: the settings each frame (by its device
+counter) was exposed with; the stage arrays' ``frame_counter`` names the frames the stage kept."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import pytest
+
+from ares.protocol import load_scan
+from ares.rig.factory import build_bench
+from ares.scan import Runner
+from ares.scan import events as ev
+from wire_small import small_wire
+
+TIMED = '<timing readout_s="0.001" settle_s="0"><settle by="time"/></timing>'
+# exposure and gain change at every stage (the light stays): the settings tell the stages apart
+STAGES = ((0.008, 1.0), (0.004, 2.0), (0.002, 4.0))
+
+
+def _scan(tmp_path: Path, header: str = "ares32", sim: bool = False, hold: bool = True) -> Path:
+    system = small_wire(tmp_path, hold=hold)  # (held: a streaming sensor latches them as the frame in flight
+    text = system.read_text().replace('<timing readout_s="0.001" settle_s="0"/>', TIMED)  # starts: the old)
+    system.write_text(text.replace('header="ares32"', f'header="{header}"'))
+    if sim:  # the direct simulator at the same size: frames stamped at exposure start on its clock
+        text = system.read_text().replace('<simulator seed="1" wire="true">', '<simulator seed="1">')
+        system.write_text(text)
+    stages = "\n".join(f'    <stage name="s{k}" scene="flat"><set quantity="exposure" value="{e}"/>'
+                       f'<set quantity="analog_gain" value="{g}"/></stage>' for k, (e, g) in enumerate(STAGES))
+    p = tmp_path / "in_flight.xml"
+    p.write_text(f"""<?xml version="1.0"?>
+<scan name="in_flight" version="1">
+  <system href="{system}"/>
+  <settings><set quantity="light" value="2e5"/></settings>
+  <frames>3</frames>
+  <stages>
+{stages}
+  </stages>
+  <output pdf="false" csv="false" hdf5="false"/>
+</scan>
+""")
+    return p
+
+
+def _run(scan_path: Path, faults: dict):
+    """(outcome, the device counters of the frames each stage kept, the device's truth, each
+    stage's settling record of its change)."""
+    scan = load_scan(scan_path)
+    bench = build_bench(scan.system, seed=1, faults=faults)
+    kept = {}
+    listen = (lambda e: kept.setdefault(e.index, e.arrays["frame_counter"].tolist())
+              if isinstance(e, ev.StageFinished) else None)
+    try:
+        outcome = Runner(scan, bench=bench, listeners=(listen,)).run()
+        truth = dict(bench.emulators["usb"].exposed_with) if getattr(bench, "emulators", None) else {}
+    finally:
+        bench.close()
+    assert outcome.status == "done", outcome.message
+    return outcome, [kept[st["index"]] for st in outcome.stages], truth, [st["settling"]["flat"] for st in outcome.stages]
+
+
+@pytest.mark.parametrize("fault,hold", [("usb_frame_in_flight", True), ("usb_pipeline_frames", False)],
+                         ids=["streaming_latched", "exposed_at_stop"])
+def test_no_kept_frame_was_exposed_with_the_previous_stages_settings(tmp_path, fault, hold):
+    """The device's record: every frame a stage kept was exposed with that stage's exposure and
+    gain. Without device time stamps (sim_wire's ares32 header) and without tags, the host cannot
+    tell the frame in flight from a fresh one: it discards one frame after every register change,
+    and the stage record on disk says so and why."""
+    outcome, kept, truth, recs = _run(_scan(tmp_path, hold=hold), {fault: 1})
+    for st, counters in zip(outcome.stages, kept):
+        want = (pytest.approx(st["settings"]["exposure"]), st["settings"]["analog_gain"])
+        got = [(truth[n]["exposure_s"], truth[n]["analog_gain"]) for n in counters]
+        assert all(g == want for g in got), (st["name"], counters, got)
+    for rec in recs:
+        fl = rec["in_flight"]
+        assert fl["discarded"] == 1 and fl["evidence"] == "none" and "in flight" in fl["why"], fl
+        assert rec["discarded"] == 1  # (declared 0, and the frame in flight)
+    # the device did deliver a frame exposed with the old settings after each change: it was dropped
+    stale = [n for c in kept[1:] for n in [c[0] - 1] if truth[n]["analog_gain"] != truth[c[0]]["analog_gain"]]
+    assert len(stale) == len(STAGES) - 1, (kept, truth)
+
+
+@pytest.mark.parametrize("fault", ["usb_frame_in_flight", "usb_pipeline_frames"])
+def test_device_time_stamps_tell_the_frame_in_flight(tmp_path, fault):
+    """With the device's exposure-start time stamps (``header="ares40"``, on the bench's clock) the
+    host discards exactly the frames that started before the commit -- the one streamed ahead (it
+    started as the frame before was read out, before the I2C writes), the one exposed at the stop --
+    and keeps the next: nothing fresh is wasted."""
+    outcome, kept, truth, recs = _run(_scan(tmp_path, "ares40"), {fault: 1})
+    for st, counters in zip(outcome.stages, kept):
+        assert all(truth[n]["analog_gain"] == st["settings"]["analog_gain"] for n in counters), (st["name"], counters)
+    for st, rec in zip(outcome.stages, recs):
+        fl = rec["in_flight"]
+        assert fl["evidence"] == "device timestamp" and fl["discarded"] == (0 if st["index"] == 0 else 1), fl
+
+
+def test_the_direct_simulator_has_no_frame_in_flight(tmp_path):
+    """The direct simulator exposes a frame when it is grabbed: its time stamps (exposure start on
+    the bench's clock) show the first frame after the change started after it, so it is kept, and
+    the stage's frames are those it always had (the first frame is the one looked at)."""
+    outcome, kept, truth, recs = _run(_scan(tmp_path, sim=True), {})
+    for rec in recs:
+        fl = rec["in_flight"]
+        assert fl["discarded"] == 0 and fl["kept"] == 1 and fl["evidence"] == "device timestamp", fl
+    assert [k for k in kept] == [[0, 1, 2], [3, 4, 5], [6, 7, 8]]
