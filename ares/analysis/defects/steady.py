@@ -1,0 +1,86 @@
+"""Is a hot or warm pixel's dark excess a steady dark rate? (issue 48)
+
+A dark rate is charge collected at a constant mean rate: with K known its frames scatter by
+the population's temporal variance plus the excess's own shot noise (K x excess DN), white
+from frame to frame. A pixel claimed hot or warm is held to that by three tests, together at
+``P_STEADY`` (1 %, Bonferroni: each at a third of it): one in a hundred true hot/warm pixels
+loses its class -- recall -- while the claims kept are ones their own series do not contradict
+-- precision:
+
+* its temporal variance (chi-square, F - 1 dof) is not above the population's plus the shot
+  noise of its measured excess -- a noisy pixel whose few frames put its mean high, or a
+  telegraph trap mostly in its high level, scatters more;
+* nor below the population's plus the shot noise of the smallest excess its measured one is
+  consistent with (the excess minus z x the averaged dark's pixel-to-pixel noise -- a pixel's
+  own offset adds to it -- z the one-sided normal quantile at the same p) -- an offset without shot noise (a trap held high over most
+  frames, a raised offset) is no charge collected;
+* where the series can be tested (``rts.telegraph_lr``, >= 12 frames, not on a few codes),
+  its telegraph ratio is below the white series' at ``P_TELEGRAPH`` (classify.py).
+
+Where the evidence against a steady rate is strong enough for a class of its own the pixel
+takes it (rts at p = 1e-3, noisy at ``noisy_p_fa``); otherwise it is left unclassified:
+neither claim clears its false-alarm level.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+from scipy import special
+
+from ares.analysis.defects.dist import chi2_isf, chi2_ppf
+from ares.analysis.defects.limits import min_sigma_constant, p_constant_codes
+
+#: the steady-rate tests' false-alarm level together (the z-warm vote's raised-variance test
+#: without K, inputs._level_flags, is at the same 1 %)
+P_STEADY = 1e-2
+#: each variance side's share of it
+P_VARIANCE_SIDE = P_STEADY / 3
+#: the telegraph ratio's: the tabled p of rts.HMM_NULL nearest a third of P_STEADY
+P_TELEGRAPH = 3e-3
+
+
+def variance_unsteady(darks, rows: np.ndarray, cols: np.ndarray, gain: float, need: int,
+                      line_var: np.ndarray | None = None) -> np.ndarray:
+    """Per pixel (rows[i], cols[i]): its temporal variance departs from a steady dark rate's
+    at ``P_VARIANCE_SIDE`` (either side) in >= ``need`` of the dark levels ``darks`` (inputs._Dark).
+    ``line_var``: the pixels' bad-line variance factors (1 outside bad lines)."""
+    p = P_VARIANCE_SIDE
+    z = float(-special.ndtri(p))
+    n = np.zeros(rows.size, np.int16)
+    if rows.size == 0:
+        return n.astype(bool)
+    for d in darks:
+        dof = d.st.n_frames - 1
+        var = np.asarray(d.st.var[rows, cols], np.float64)
+        if line_var is not None:
+            var = var / line_var
+        res = np.asarray(d.res[rows, cols], np.float64)
+        hi = d.pop_var + gain * np.maximum(res, 0.0)
+        lo = d.pop_var + gain * np.maximum(res - z * d.sigma, 0.0)
+        # integer codes: the smallest nonzero sample variance of F codes is step^2 / F (one code
+        # a step off the others) -- a variance within that of the limit is no evidence (two equal
+        # codes of 2 frames are no missing shot noise)
+        q = (d.st.code_step or 0.0) ** 2 / d.st.n_frames
+        n += (var > hi * (chi2_isf(p, dof) / dof)) | (var + q < lo * (chi2_ppf(p, dof) / dof))
+    return n >= need
+
+
+def one_code(darks, suspect: np.ndarray, gain: float | None, p: float) -> np.ndarray:
+    """The ``suspect`` pixels (hot, warm or noisy flags) that repeat one code in every frame of
+    every dark level: no dark shot noise, so none of those -- only where a pixel's own sigma
+    (the population's plus, with K, its own shot noise) makes one code in every frame
+    improbable (``p``; with 2 frames a warm pixel repeats its code often)."""
+    const = np.logical_and.reduce([d.st.var <= 0.0 for d in darks]) & suspect
+    if gain:
+        cand = np.nonzero(const)
+        keep = np.ones(cand[0].size, bool)
+        for d in darks:
+            with np.errstate(invalid="ignore"):
+                sig = np.sqrt(d.pop_var + gain * np.maximum(np.asarray(d.res[cand], np.float64), 0.0))
+                keep &= sig >= min_sigma_constant(d.st.n_frames, p)
+        const[cand] = keep
+    else:
+        const &= np.array([p_constant_codes(math.sqrt(d.pop_var), d.st.n_frames) <= p for d in darks]).all()
+    return const
