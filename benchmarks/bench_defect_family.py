@@ -195,9 +195,11 @@ defined (their temporal noise is raised), not as injected.
 
 Below 95 %: noisy with K on the quiet sensor at 0.5 DN, 256 frames (94 %: sub-threshold
 dark-rate pixels whose negative FPN offset hides part of their excess, so the shot-noise
-allowance K x excess is too small and their own dark shot noise reads as noisy; an allowance
-from the excess's upper bound would raise every pixel's expected variance by ~2x at 0.5 DN
-and lose the mildly noisy ones -- not done).
+allowance K x excess is too small and their own dark shot noise reads as noisy). Tried: the
+allowance from the excess's upper bound (measured excess + 2.7 x the averaged dark's
+pixel-to-pixel noise) makes it 198/198, but raises every pixel's expected variance (~3x at
+0.5 DN): noisy recall there 219 -> 198 of 221, and RTS recall -4 to -9 % everywhere with K (its
+candidates are noisy pixels) -- not kept.
 
 What the steady-rate check costs (recall, after against before): with K hot and warm lose
 0-2.2 % of their injected pixels (1 % of the steady ones by design); without K hot-or-warm
