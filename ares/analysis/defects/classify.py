@@ -286,9 +286,8 @@ def classify_defects(
     # Without K a warm pixel's own dark shot noise raises its variance, which the z-warm vote
     # refuses (a trap switching over a few frames raises mean and variance as well): such a
     # pixel (z > warm_z, not hot) is a candidate, warm where the telegraph tests clear it.
-    # With K a hot/warm claim needs the temporal variance of a steady dark rate (steady.py): one
-    # noisy beyond its own shot noise (a trap mostly high, a noisy pixel with an offset) is no
-    # steady rate -- noisy where its temporal noise is (noisy_p_fa), rts where its telegraph shows
+    # With K a hot/warm claim needs the temporal variance of a steady dark rate (steady.py): a
+    # trap mostly high, a noisy pixel with an offset is not -- noisy or rts where its tests say
     no_rate = np.zeros(shape, bool)
     withheld = np.zeros(shape, bool)  # a dark excess no class takes: "unclassified" (result.BITS)
     if rate_mode:
@@ -379,17 +378,17 @@ def classify_defects(
             rts_note = (f"{crow.size} candidates (noisy, hot, warm, raised variance) tested over {nfr} frames; "
                         f"finds telegraph amplitudes >= {thr:.2g}x the within-level noise")
             detection["rts"] = rts_note
-    no_rate &= flags["hot"] | flags["warm"] | np.logical_or.reduce(list(held.values()), initial=False)
     if no_rate.any():
+        no_rate &= flags["hot"] | flags["warm"] | np.logical_or.reduce(list(held.values()), initial=False)
         withheld |= no_rate
         for c in ("hot", "warm"):
             flags[c] = flags[c] & ~no_rate
             if c in held:
                 held[c] = held[c] & ~no_rate
-        notes.append(f"{int((no_rate & ~rts & ~flags['noisy']).sum())} pixels with a dark excess are no steady dark "
-                     f"rate at p = {P_STEADY:g} (a temporal variance above or below the population's plus their own "
-                     "shot noise, or a telegraph) and not rts or noisy either: in no class, in the defect mask "
-                     "('unclassified')")
+        n_left = int((no_rate & ~rts & ~flags["noisy"]).sum())
+        notes.extend([f"{n_left} pixels with a dark excess are no steady dark rate at p = {P_STEADY:g} (a temporal "
+                      "variance above or below the population's plus their own shot noise, or a telegraph) and not "
+                      "rts or noisy either: in no class, in the defect mask ('unclassified')"] if n_left else [])
     flags["rts"] = rts
     stats["rts"] = rts_stat
     if rts_available:
@@ -435,7 +434,8 @@ def classify_defects(
         mask[flags[c]] |= BITS[c]
     mask[:, lines["bad_column"].bad] |= BITS["bad_column"]
     mask[lines["bad_row"].bad, :] |= BITS["bad_row"]
-    mask[withheld & ((mask & sum(BITS[c] for c in PIXEL_CLASSES)) == 0)] |= BITS["unclassified"]
+    if withheld.any():
+        mask[withheld & ((mask & sum(BITS[c] for c in PIXEL_CLASSES)) == 0)] |= BITS["unclassified"]
     prim = primary_class(mask)
     rows, cols = np.nonzero(prim >= 0)
     pcls = prim[rows, cols]
