@@ -176,7 +176,8 @@ Which false members made warm (with K) imprecise before, on the tuning seeds: at
 noisy pixel (10x the temporal noise) whose 4 frames put its mean 6.8 DN high (z 4.8, rate 1.35
 e-/s; its variance 5x the steady-rate expectation); at 16 frames four RTS traps of 2.9-6.8
 sigma high in 10-13 of the 16 frames (variance 1.4-3.6x the expectation, telegraph ratio
-9.7-19.0 against 19.8 at p = 1e-3). No hot pixel near the warm/hot boundary (those are in
+9.7-19.0 against 19.8 at p = 1e-3); three are withheld now, the fourth (variance 1.4x, ratio
+9.7) looks steady in its 16 frames and stays warm (57/58). No hot pixel near the warm/hot boundary (those are in
 either truth set), no good pixel in the dark-shot-noise tail, no cluster. On the quiet sensors
 (0.3 DN) the false warm members were RTS traps mostly high, of 1-2.5 DN, on two or three codes:
 a mean 1.4-3.5 DN high without the shot noise such a dark signal carries (their variance
