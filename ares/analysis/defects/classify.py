@@ -293,7 +293,8 @@ def classify_defects(
     if rate_mode:
         hr, hc = np.nonzero(flags["hot"] | flags["warm"])
         lv = line_factors["bad_column"][0][hc] * line_factors["bad_row"][0][hr]
-        no_rate[hr, hc] = variance_unsteady(D, hr, hc, gain_dn_per_e, _need(len(D), th.confirm_fraction), lv)
+        no_rate[hr, hc], note = variance_unsteady(D, hr, hc, gain_dn_per_e, _need(len(D), th.confirm_fraction), lv)
+        notes.extend([note] if note else [])
     dof0 = D[0].st.n_frames - 1
     zwarm = ((stats["hot"] > th.warm_z) & ~flags["hot"] & ~flags["warm"]) if not rate_mode else np.zeros(shape, bool)
     cand = (flags["noisy"] | flags["hot"] | flags["warm"] | zwarm
