@@ -24,9 +24,9 @@ neither claim clears its false-alarm level.
 The variance tests trust K. Where most of the claimed pixels fail them (of >= ``MIN_JUDGED``),
 it is K or the shot-noise model that the data contradict, not the pixels (a wrong K given, or
 offsets without shot noise as in benchmarks/bench_defects.py): the variance tests are not
-applied, and the result says so. A K too high by 2-3x is not caught so (at 16 frames it fails
-6-29 % of true hot pixels on the lower side, which are then withheld): a K that the dark data
-themselves contradict would need a population estimate of K -- not done.
+applied, and the result says so; likewise where the K the claimed pixels' own variance shows
+(the median of (variance - population's) / excess over those whose shot noise dominates, the
+median's chi-square bias divided out) is not within ``K_FACTOR`` of the K given.
 """
 
 from __future__ import annotations
@@ -49,6 +49,10 @@ P_TELEGRAPH = 3e-3
 #: claimed pixels needed before a majority failing the variance tests is read as K (or the
 #: shot-noise model) being wrong rather than the pixels
 MIN_JUDGED = 10
+#: the K the claimed pixels' own variance shows (the median over those whose shot noise
+#: dominates) must be within this factor of the K given -- or within 3 of its SE -- else the
+#: variance tests would trust a K the data contradict
+K_FACTOR = 1.5
 
 
 def variance_unsteady(darks, rows: np.ndarray, cols: np.ndarray, gain: float, need: int,
@@ -62,6 +66,7 @@ def variance_unsteady(darks, rows: np.ndarray, cols: np.ndarray, gain: float, ne
     n = np.zeros(rows.size, np.int16)
     if rows.size == 0:
         return n.astype(bool), ""
+    k_seen = []  # per pixel whose shot noise dominates: (variance - population's) / excess, DN/e-
     for d in darks:
         dof = d.st.n_frames - 1
         var = np.asarray(d.st.var[rows, cols], np.float64)
@@ -75,7 +80,21 @@ def variance_unsteady(darks, rows: np.ndarray, cols: np.ndarray, gain: float, ne
         # codes of 2 frames are no missing shot noise)
         q = (d.st.code_step or 0.0) ** 2 / d.st.n_frames
         n += (var > hi * (chi2_isf(p, dof) / dof)) | (var + q < lo * (chi2_ppf(p, dof) / dof))
+        big = gain * res > d.pop_var
+        k_seen.append((var[big] - d.pop_var) / res[big] / (chi2_ppf(0.5, dof) / dof))
     out = n >= need
+    k_seen = np.concatenate(k_seen)
+    k_med = float(np.median(k_seen)) if k_seen.size else gain
+    # the median's SE from the measured scatter (1.2533 x robust sigma / sqrt(n)): the data must
+    # contradict K both significantly (3 SE) and substantially (K_FACTOR)
+    k_se = (1.2533 * 1.4826 * float(np.median(np.abs(k_seen - k_med))) / np.sqrt(k_seen.size)
+            if k_seen.size else np.inf)
+    if (k_seen.size >= MIN_JUDGED and abs(k_med - gain) > 3 * k_se
+            and not 1 / K_FACTOR <= k_med / gain <= K_FACTOR):
+        return np.zeros(rows.size, bool), (
+            f"the hot/warm pixels' temporal variance grows with their dark excess as K = "
+            f"{k_med:.3g} +- {k_se:.2g} DN/e- (median of {k_seen.size} whose shot noise dominates), K given "
+            f"{gain:g}: their variance was not used to withhold a claim (check K)")
     if rows.size >= MIN_JUDGED and 2 * int(out.sum()) > rows.size:
         return np.zeros(rows.size, bool), (
             f"{int(out.sum())} of the {rows.size} hot/warm pixels have a temporal variance outside the population's "
