@@ -156,9 +156,10 @@ rate shows (ares.analysis.defects.steady: with K a temporal variance neither abo
 the population's plus the shot noise of its own excess, and no telegraph at p = 3e-3 --
 together 1 % of true hot/warm pixels withheld; without K a z-warm pixel needs its telegraph
 ratio computed and cleared). A withheld pixel that takes no other class stays in the defect
-mask as "unclassified" and in no class. Where most of a stack's hot/warm claims (>= 10) fail
-the variance tests, K or the shot-noise model is what the data contradict: the variance is
-then not used to withhold, and a note says to check K (never the case in these stacks).
+mask as "unclassified" and in no class. Where the claimed pixels' own variance shows a K
+more than 1.5x (and 3 SE) off the K given, or most of a stack's claims (>= 10) fail the
+variance tests, K or the shot-noise model is what the data contradict: the variance is then
+not used to withhold, and a note says to check K (never the case in these stacks).
 
 Precision is scored against the truth *set* of each pixel (tests/defect_family.py): its own
 class; hot/warm by the true rate, either where the rate is within 3 SE of a threshold;
