@@ -194,7 +194,9 @@ def make_case(seed: int, frames: int, density: float, with_gain: bool, exposure_
             primary[i] = p
     info = dict(seed=seed, frames=frames, density=density, with_gain=with_gain, exposure_s=t, temporal=temporal,
                 bad_columns=[int(c) for c in bad_cols], clusters=clusters, se_rate=se_rate,
-                hard=dict(rts_hot=combo_rts_hot, stuck0=stuck0, noisy_col=noisy_col))
+                hard=dict(rts_hot=combo_rts_hot, stuck0=stuck0, noisy_col=noisy_col),
+                injected=cls_of, rate=rate, sigma=sig, rts_states={int(i): states[:, j] for j, i in enumerate(rts_i)},
+                rts_amp_all={int(i): float(amp[j]) for j, i in enumerate(rts_i)})
     return Case(dark.reshape(frames, ROWS, COLS), flat.reshape(frames, ROWS, COLS), t, truth, primary,
                 excluded.reshape(ROWS, COLS), rts_amp, info)
 

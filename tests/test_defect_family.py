@@ -44,6 +44,26 @@ def test_dense_case_every_class_precise_and_the_hard_pixels_right():
         assert case.excluded.ravel()[i] or name(i) in ("rts", "hot"), (i, name(i))
 
 
+@pytest.mark.parametrize("seed, frames, di, pixels", [(2, 4, 2, (2417,)), (5, 16, 3, (381, 4094))])
+def test_warm_with_k_not_claimed_where_the_series_is_no_steady_rate(seed, frames, di, pixels):
+    """Tuning-seed stacks where warm (with K) was 92 % and 94 % precise: a noisy pixel whose 4
+    frames put its mean 6.8 DN high; RTS traps of 2.9-5 sigma high in 10-13 of 16 frames
+    (benchmarks/defect_family.md). Their series contradict a steady dark rate (a variance above
+    the shot noise of their excess, a telegraph at p = 3e-3): not warm, but in the defect mask;
+    the stack's true warm pixels keep their class."""
+    from ares.analysis.defects.result import BITS, PIXEL_CLASSES, primary_class
+
+    d = (1e-4, 1e-3, 5e-3, 2e-2)[di]
+    case = make_case(seed * 1000 + frames * 10 + di, frames, d, True)
+    res = classify(case)
+    prim = primary_class(res.mask).ravel()
+    for i in pixels:
+        assert case.info["injected"][i] in ("noisy", "rts") and prim[i] != PIXEL_CLASSES.index("warm"), i
+        assert res.defective().ravel()[i] and (res.mask.ravel()[i] & BITS["unclassified"] or prim[i] >= 0), i
+    sc = score(case, res)
+    assert sc["warm"]["right"] >= 1 and sc["hot"]["right"] == sc["hot"]["given"], sc["warm"]
+
+
 def test_telegraph_ratio_false_alarm_rate_as_tabled():
     """White series the table was not made from reach the tabled threshold at p = 1e-2 with
     probability 1e-2 (within 4 binomial SE; at 34 frames, between two table rows: the larger
@@ -96,12 +116,13 @@ def test_telegraph_ratio_leaves_series_on_a_few_codes_untested():
 @pytest.mark.study
 @pytest.mark.parametrize("frames", [4, 8, 16, 64, 256])
 @pytest.mark.parametrize("with_gain", [True, False])
-def test_family_held_out_seeds_every_reported_class_precise(frames, with_gain):
-    """Held-out seeds (101-105, not the tuning ones) over the four densities: summed over
-    them, each class given to >= 20 pixels is >= 95 % precise; a class not available
-    always says why."""
+@pytest.mark.parametrize("seeds", [(101, 102, 103, 104, 105), (1, 2, 3, 4, 5)], ids=["held", "tune"])
+def test_family_held_out_seeds_every_reported_class_precise(frames, with_gain, seeds):
+    """Held-out seeds (101-105, not the tuning ones) and the tuning seeds over the four
+    densities: summed over them, each class given to >= 10 pixels is >= 95 % precise; a
+    class not available always says why."""
     tot = {c: [0, 0] for c in CLASSES}
-    for seed in (101, 102, 103, 104, 105):
+    for seed in seeds:
         for di, d in enumerate((1e-4, 1e-3, 5e-3, 2e-2)):
             case = make_case(seed * 1000 + frames * 10 + di, frames, d, with_gain)
             sc = score(case, classify(case))
@@ -109,7 +130,7 @@ def test_family_held_out_seeds_every_reported_class_precise(frames, with_gain):
                 tot[c][0] += v["right"]
                 tot[c][1] += v["given"]
                 assert v["available"] or v["verdict"], c
-    bad = {c: f"{r}/{g}" for c, (r, g) in tot.items() if g >= 20 and r < 0.95 * g}
+    bad = {c: f"{r}/{g}" for c, (r, g) in tot.items() if g >= 10 and r < 0.95 * g}
     assert not bad, (bad, tot)
 
 

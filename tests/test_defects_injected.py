@@ -45,7 +45,11 @@ def test_confusion_matrix_recall_and_false_positives(inj, result):
     for c in CLASSES:
         n = inj.truth[c][0].size
         assert n > 0
-        assert table[(c, c)] >= 0.99 * n, f"recall of {c} below 99 %{msg}"
+        # a hot/warm claim is withheld where the pixel's own series contradicts a steady rate
+        # at P_STEADY (1 %, steady.py): of 77 steady pixels up to 3 (Binomial(77, 1 %) > 3 at
+        # p ~ 7e-3) may lose their class by chance
+        lost = 3 if c in ("hot", "warm") else int(0.01 * n)
+        assert table[(c, c)] >= n - lost, f"recall of {c} below {1 - lost / n:.0%}{msg}"
     assert fp / (npix / 1e6) <= 1.0, f"more than 1 false positive per megapixel{msg}"
     found = sorted(c["x"] for c in result.bad_columns)
     assert found == sorted(inj.truth["bad_columns"].tolist()), msg

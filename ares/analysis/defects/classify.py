@@ -21,10 +21,11 @@ from ares.analysis.defects.histograms import deviation_histograms
 from ares.analysis.defects.lines import LineFlags, line_z
 from ares.analysis.defects.params import DefectThresholds
 from ares.analysis.defects.result import BITS, DEFECT_DTYPE, PIXEL_CLASSES, DefectResult, primary_class
-from ares.analysis.defects.limits import (Z99, hot_limit_text, min_sigma_constant, noisy_available, p_constant_codes,
-                                          partial_rate_text, rate_available)
+from ares.analysis.defects.limits import Z99, hot_limit_text, noisy_available, partial_rate_text, rate_available
 from ares.analysis.defects.robust import robust_sigma
-from ares.analysis.defects.rts import detect_rts, low_outlier, low_outlier_critical, rts_threshold, telegraph_test
+from ares.analysis.defects.rts import (detect_rts, hmm_null_threshold, low_outlier, low_outlier_critical, rts_threshold,
+                                       telegraph_test)
+from ares.analysis.defects.steady import P_STEADY, P_TELEGRAPH, one_code, variance_unsteady
 from ares.analysis.defects.stats import PixelStats, SeriesCollector
 from ares.analysis.defects.inputs import _Dark, _Flat, _Slope, _level_flags, _levels, _match_dark, _need
 
@@ -224,22 +225,9 @@ def classify_defects(
 
     ones_c, ones_r = np.ones(ncol), np.ones(nrow)
     flags, stats = pixel_flags(ones_c, ones_r, ones_c, ones_r)
-    # one code in every frame of every dark level: no dark shot noise, so not a hot or warm
-    # pixel (whose excess charge is Poisson) -- stuck where stuck can be tested, otherwise
-    # left unclassified (a pixel that fits no class it can test goes into none)
-    # Only where such a pixel's own shot noise makes one code in every frame improbable
-    # (with K known; with 2 frames a warm pixel repeats its code often).
-    const = np.logical_and.reduce([d.st.var <= 0.0 for d in D]) & (flags["hot"] | flags["warm"] | flags["noisy"])
-    if gain_dn_per_e:  # each pixel's sigma (population + its own shot noise) against the one that makes p_fa
-        cand = np.nonzero(const)
-        keep = np.ones(cand[0].size, bool)
-        for d in D:
-            with np.errstate(invalid="ignore"):
-                sig = np.sqrt(d.pop_var + gain_dn_per_e * np.maximum(np.asarray(d.res[cand], np.float64), 0.0))
-                keep &= sig >= min_sigma_constant(d.st.n_frames, th.rts_p_fa)
-        const[cand] = keep
-    else:
-        const &= np.array([p_constant_codes(math.sqrt(d.pop_var), d.st.n_frames) <= th.rts_p_fa for d in D]).all()
+    # one code in every frame of every dark level: no dark shot noise, so no hot, warm or noisy
+    # pixel -- stuck where stuck can be tested, otherwise left unclassified (steady.py)
+    const = one_code(D, flags["hot"] | flags["warm"] | flags["noisy"], gain_dn_per_e, th.rts_p_fa)
     if not stuck_ok:
         odd = const & (flags["hot"] | flags["warm"])
         if odd.any():
@@ -298,6 +286,15 @@ def classify_defects(
     # Without K a warm pixel's own dark shot noise raises its variance, which the z-warm vote
     # refuses (a trap switching over a few frames raises mean and variance as well): such a
     # pixel (z > warm_z, not hot) is a candidate, warm where the telegraph tests clear it.
+    # With K a hot/warm claim needs the temporal variance of a steady dark rate (steady.py): a
+    # trap mostly high, a noisy pixel with an offset is not -- noisy or rts where its tests say
+    no_rate = np.zeros(shape, bool)
+    withheld = np.zeros(shape, bool)  # a dark excess no class takes: "unclassified" (result.BITS)
+    if rate_mode:
+        hr, hc = np.nonzero(flags["hot"] | flags["warm"])
+        lv = line_factors["bad_column"][0][hc] * line_factors["bad_row"][0][hr]
+        no_rate[hr, hc], note = variance_unsteady(D, hr, hc, gain_dn_per_e, _need(len(D), th.confirm_fraction), lv)
+        notes.extend([note] if note else [])
     dof0 = D[0].st.n_frames - 1
     zwarm = ((stats["hot"] > th.warm_z) & ~flags["hot"] & ~flags["warm"]) if not rate_mode else np.zeros(shape, bool)
     cand = (flags["noisy"] | flags["hot"] | flags["warm"] | zwarm
@@ -345,50 +342,54 @@ def classify_defects(
             # is offset- and scale-free: a truly noisy, hot or warm pixel is called RTS with
             # probability NOISY_RTS_P. Not on pixels whose variance is merely raised at
             # rts_p_fa: the simulator's good pixels with a slow drift of their own (not white)
-            # reached it (2 of 307 200 in the long dark at 64 frames)
+            # reached it (2 of 307 200 in the long dark at 64 frames). A hot/warm pixel whose ratio
+            # reaches the white series' at P_TELEGRAPH is no steady rate (steady.py); a z-warm pixel
+            # is warm only where the ratio was computed and cleared.
             tel = (flags["noisy"] | flags["hot"] | flags["warm"] | zwarm)[crow, ccol] & ~is_rts
+            lr = np.full(crow.size, np.nan)
             if tel.any():
-                hit, note = telegraph_test(series[:, tel], nfr, NOISY_RTS_P)
-                is_rts[np.flatnonzero(tel)[hit]] = True
+                lr[tel], note = telegraph_test(series[:, tel])
                 notes.extend([note] if note else [])
+            with np.errstate(invalid="ignore"):
+                is_rts |= lr >= hmm_null_threshold(nfr, NOISY_RTS_P)
+                cleared = lr < hmm_null_threshold(nfr, P_TELEGRAPH)
+            no_rate[crow[tel & ~cleared], ccol[tel & ~cleared]] = True
             rts[crow[is_rts], ccol[is_rts]] = True
             # a hot/warm candidate whose series drops far below its own level in a frame is
-            # no steady dark rate (a trap held high that fell back): no class takes it
-            # (Grubbs at max_false_alarm: 1e-5 of the true hot/warm pixels lost -- such a pixel
-            # leaves the defect mask: at rts_p_fa 2 of the 77 hot pixels of
-            # tests/test_defects_injected.py did, 2 more by the telegraph ratio at 1e-2, and
-            # its masked DSNU came out 1.5x the truth)
+            # no steady dark rate (a trap held high that fell back): no class takes it, it stays
+            # in the defect mask (Grubbs at max_false_alarm: 1e-5 of the true hot/warm pixels)
             hw = (flags["hot"] | flags["warm"] | zwarm)[crow, ccol]
             for c in held:
                 hw |= held[c][crow, ccol]
             drop = hw & ~is_rts & (low_outlier(series) >= low_outlier_critical(nfr, th.max_false_alarm))
             if drop.any():
+                withheld[crow[drop], ccol[drop]] = True
                 for c in ("hot", "warm"):
                     flags[c][crow[drop], ccol[drop]] = False
                     if c in held:
                         held[c] = held[c].copy()
                         held[c][crow[drop], ccol[drop]] = False
                 notes.append(f"{int(drop.sum())} pixels with a dark excess drop far below it in a frame (a telegraph "
-                             "trap held high, no steady dark rate): neither hot nor warm, left unclassified")
-            zw = zwarm[crow, ccol] & ~is_rts & ~drop
+                             "trap held high, no steady dark rate): neither hot nor warm, 'unclassified' in the mask")
+            zw = zwarm[crow, ccol] & ~is_rts & ~drop & cleared
             flags["warm"][crow[zw], ccol[zw]] = True
-            if rate_mode:
-                # with K a steady dark rate's temporal variance is the population's plus its
-                # own shot noise, which the noisy test allows for: a hot/warm pixel that is
-                # noisy beyond that (p = noisy_p_fa) and shows no telegraph is no steady rate --
-                # a trap mostly high whose switching these frames do not resolve, or a noisy
-                # pixel with an offset: noisy (its temporal noise is), not hot/warm
-                unsteady = flags["noisy"] & ~rts
-                for c in ("hot", "warm"):
-                    flags[c] = flags[c] & ~unsteady
-                    if c in held:
-                        held[c] = held[c] & ~unsteady
             rts_stat = np.zeros(shape)
             rts_stat[crow, ccol] = sep
             rts_available = True
             rts_note = (f"{crow.size} candidates (noisy, hot, warm, raised variance) tested over {nfr} frames; "
                         f"finds telegraph amplitudes >= {thr:.2g}x the within-level noise")
             detection["rts"] = rts_note
+    if no_rate.any():
+        no_rate &= flags["hot"] | flags["warm"] | np.logical_or.reduce(list(held.values()), initial=False)
+        withheld |= no_rate
+        for c in ("hot", "warm"):
+            flags[c] = flags[c] & ~no_rate
+            if c in held:
+                held[c] = held[c] & ~no_rate
+        n_left = int((no_rate & ~rts & ~flags["noisy"]).sum())
+        notes.extend([f"{n_left} pixels with a dark excess are no steady dark rate at p = {P_STEADY:g} (a temporal "
+                      "variance above or below the population's plus their own shot noise, or a telegraph) and not "
+                      "rts or noisy either: in no class, in the defect mask ('unclassified')"] if n_left else [])
     flags["rts"] = rts
     stats["rts"] = rts_stat
     if rts_available:
@@ -434,6 +435,8 @@ def classify_defects(
         mask[flags[c]] |= BITS[c]
     mask[:, lines["bad_column"].bad] |= BITS["bad_column"]
     mask[lines["bad_row"].bad, :] |= BITS["bad_row"]
+    if withheld.any():
+        mask[withheld & ((mask & sum(BITS[c] for c in PIXEL_CLASSES)) == 0)] |= BITS["unclassified"]
     prim = primary_class(mask)
     rows, cols = np.nonzero(prim >= 0)
     pcls = prim[rows, cols]

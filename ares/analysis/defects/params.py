@@ -15,7 +15,11 @@ channel; "z" is a robust z-score, sigma = 1.4826 * MAD):
   population gives < 1 false alarm per megapixel there); a pixel is reliably (99 %)
   found when its excess is ~2.3 sigma above max(threshold rate * K * t, 4.8 sigma).
   With several dark levels a pixel is confirmed when flagged in >= ``confirm_fraction``
-  (70 %) of them (hot in too few levels but hot-or-warm in enough -> warm).
+  (70 %) of them (hot in too few levels but hot-or-warm in enough -> warm). A hot/warm
+  claim also needs a series a steady dark rate shows (``steady.py``, 1 % of true ones lost):
+  with K its temporal variance neither above nor below the population's plus its own shot
+  noise, and no telegraph; a pixel that fails it and takes no other class is
+  "unclassified" -- in the defect mask, in no class.
 * dead / low-response / high-response -- dark-subtracted flat response divided by the
   local response (medians of ``background_block_px``-square tiles, bilinearly
   interpolated): below ``dead_fraction`` (0.5) is dead, below ``low_response_fraction``

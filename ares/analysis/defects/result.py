@@ -8,15 +8,18 @@ import numpy as np
 
 from ares.analysis.defects.params import DefectThresholds
 
-#: bit of each class in the integer class mask (uint16, one per pixel)
+#: bit of each class in the integer class mask (uint16, one per pixel); "unclassified": a
+#: significant dark excess that is no steady dark rate (steady.py) and clears no other class's
+#: test -- defective (out of the noise statistics: a hot pixel left in would bias DSNU) but in
+#: no class, count or list
 BITS: dict[str, int] = {
     "hot": 1 << 0, "warm": 1 << 1, "dead": 1 << 2, "low_response": 1 << 3,
     "high_response": 1 << 4, "stuck": 1 << 5, "noisy": 1 << 6, "rts": 1 << 7,
-    "bad_column": 1 << 8, "bad_row": 1 << 9,
+    "bad_column": 1 << 8, "bad_row": 1 << 9, "unclassified": 1 << 10,
 }
 #: pixel classes in order of precedence: a pixel's primary class is the first it has
 PIXEL_CLASSES: tuple[str, ...] = ("stuck", "rts", "hot", "warm", "noisy", "dead", "low_response", "high_response")
-PIXEL_BITS = sum(BITS[c] for c in PIXEL_CLASSES)
+PIXEL_BITS = sum(BITS[c] for c in PIXEL_CLASSES) | BITS["unclassified"]
 LINE_BITS = BITS["bad_column"] | BITS["bad_row"]
 
 DEFECT_DTYPE = np.dtype([("x", np.int32), ("y", np.int32), ("cls", "U13"), ("statistic", np.float64)])

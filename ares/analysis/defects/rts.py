@@ -161,14 +161,12 @@ def telegraph_lr(series: np.ndarray) -> np.ndarray:
     return np.where(np.nan_to_num(sw) * sd >= HMM_MIN_SW_STEPS * step, lr, np.nan)
 
 
-def telegraph_test(series: np.ndarray, frames: int, p: float) -> tuple[np.ndarray, str]:
-    """(telegraph beyond a white series at ``p``, per column of ``series``; a note for the
-    result, "" if none): ``telegraph_lr`` against ``hmm_null_threshold``."""
+def telegraph_test(series: np.ndarray) -> tuple[np.ndarray, str]:
+    """(``telegraph_lr`` per column of ``series``, NaN where untested; a note for the result,
+    "" if none): compare with ``hmm_null_threshold`` at the p a decision needs."""
     lr = telegraph_lr(series)
-    with np.errstate(invalid="ignore"):
-        hit = lr >= hmm_null_threshold(frames, p)
     n = int(np.isnan(lr).sum())
-    return hit, (f"{n} candidates' series sit on too few codes (within-level noise < {HMM_MIN_SW_STEPS:g} "
+    return lr, (f"{n} candidates' series sit on too few codes (within-level noise < {HMM_MIN_SW_STEPS:g} "
                  "quantization steps) for the telegraph ratio: a series on two or three codes is two-level by "
                  "quantization; only the two-level split tested them" if n else "")
 

@@ -1,0 +1,122 @@
+"""Is a hot or warm pixel's dark excess a steady dark rate? (issue 48)
+
+A dark rate is charge collected at a constant mean rate: with K known its frames scatter by
+the population's temporal variance plus the excess's own shot noise (K x excess DN), white
+from frame to frame. A pixel claimed hot or warm is held to that by three tests, together at
+``P_STEADY`` (1 %, Bonferroni: each at a third of it): one in a hundred true hot/warm pixels
+loses its class -- recall -- while the claims kept are ones their own series do not contradict
+-- precision:
+
+* its temporal variance (chi-square, F - 1 dof) is not above the population's plus the shot
+  noise of its measured excess -- a noisy pixel whose few frames put its mean high, or a
+  telegraph trap mostly in its high level, scatters more;
+* nor below the population's plus the shot noise of the smallest excess its measured one is
+  consistent with (the excess minus z x the averaged dark's pixel-to-pixel noise -- a pixel's
+  own offset adds to it -- z the one-sided normal quantile at the same p) -- an offset without shot noise (a trap held high over most
+  frames, a raised offset) is no charge collected;
+* where the series can be tested (``rts.telegraph_lr``, >= 12 frames, not on a few codes),
+  its telegraph ratio is below the white series' at ``P_TELEGRAPH`` (classify.py).
+
+Where the evidence against a steady rate is strong enough for a class of its own the pixel
+takes it (rts at p = 1e-3, noisy at ``noisy_p_fa``); otherwise it is left unclassified:
+neither claim clears its false-alarm level.
+
+The variance tests trust K. Where most of the claimed pixels fail them (of >= ``MIN_JUDGED``),
+it is K or the shot-noise model that the data contradict, not the pixels (a wrong K given, or
+offsets without shot noise as in benchmarks/bench_defects.py): the variance tests are not
+applied, and the result says so; likewise where the K the claimed pixels' own variance shows
+(the median of (variance - population's) / excess over those whose shot noise dominates, the
+median's chi-square bias divided out) is not within ``K_FACTOR`` of the K given.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+from scipy import special
+
+from ares.analysis.defects.dist import chi2_isf, chi2_ppf
+from ares.analysis.defects.limits import min_sigma_constant, p_constant_codes
+
+#: the steady-rate tests' false-alarm level together (the z-warm vote's raised-variance test
+#: without K, inputs._level_flags, is at the same 1 %)
+P_STEADY = 1e-2
+#: each variance side's share of it
+P_VARIANCE_SIDE = P_STEADY / 3
+#: the telegraph ratio's: the tabled p of rts.HMM_NULL nearest a third of P_STEADY
+P_TELEGRAPH = 3e-3
+#: claimed pixels needed before a majority failing the variance tests is read as K (or the
+#: shot-noise model) being wrong rather than the pixels
+MIN_JUDGED = 10
+#: the K the claimed pixels' own variance shows (the median over those whose shot noise
+#: dominates) must be within this factor of the K given -- or within 3 of its SE -- else the
+#: variance tests would trust a K the data contradict
+K_FACTOR = 1.5
+
+
+def variance_unsteady(darks, rows: np.ndarray, cols: np.ndarray, gain: float, need: int,
+                      line_var: np.ndarray | None = None) -> tuple[np.ndarray, str]:
+    """Per pixel (rows[i], cols[i]): its temporal variance departs from a steady dark rate's
+    at ``P_VARIANCE_SIDE`` (either side) in >= ``need`` of the dark levels ``darks`` (inputs._Dark).
+    ``line_var``: the pixels' bad-line variance factors (1 outside bad lines). With a note
+    (else "") where a majority failed and the tests were not applied (module docstring)."""
+    p = P_VARIANCE_SIDE
+    z = float(-special.ndtri(p))
+    n = np.zeros(rows.size, np.int16)
+    if rows.size == 0:
+        return n.astype(bool), ""
+    k_seen = []  # per pixel whose shot noise dominates: (variance - population's) / excess, DN/e-
+    for d in darks:
+        dof = d.st.n_frames - 1
+        var = np.asarray(d.st.var[rows, cols], np.float64)
+        if line_var is not None:
+            var = var / line_var
+        res = np.asarray(d.res[rows, cols], np.float64)
+        hi = d.pop_var + gain * np.maximum(res, 0.0)
+        lo = d.pop_var + gain * np.maximum(res - z * d.sigma, 0.0)
+        # integer codes: the smallest nonzero sample variance of F codes is step^2 / F (one code
+        # a step off the others) -- a variance within that of the limit is no evidence (two equal
+        # codes of 2 frames are no missing shot noise)
+        q = (d.st.code_step or 0.0) ** 2 / d.st.n_frames
+        n += (var > hi * (chi2_isf(p, dof) / dof)) | (var + q < lo * (chi2_ppf(p, dof) / dof))
+        big = gain * res > d.pop_var
+        k_seen.append((var[big] - d.pop_var) / res[big] / (chi2_ppf(0.5, dof) / dof))
+    out = n >= need
+    k_seen = np.concatenate(k_seen)
+    k_med = float(np.median(k_seen)) if k_seen.size else gain
+    # the median's SE from the measured scatter (1.2533 x robust sigma / sqrt(n)): the data must
+    # contradict K both significantly (3 SE) and substantially (K_FACTOR)
+    k_se = (1.2533 * 1.4826 * float(np.median(np.abs(k_seen - k_med))) / np.sqrt(k_seen.size)
+            if k_seen.size else np.inf)
+    if (k_seen.size >= MIN_JUDGED and abs(k_med - gain) > 3 * k_se
+            and not 1 / K_FACTOR <= k_med / gain <= K_FACTOR):
+        return np.zeros(rows.size, bool), (
+            f"the hot/warm pixels' temporal variance grows with their dark excess as K = "
+            f"{k_med:.3g} +- {k_se:.2g} DN/e- (median of {k_seen.size} whose shot noise dominates), K given "
+            f"{gain:g}: their variance was not used to withhold a claim (check K)")
+    if rows.size >= MIN_JUDGED and 2 * int(out.sum()) > rows.size:
+        return np.zeros(rows.size, bool), (
+            f"{int(out.sum())} of the {rows.size} hot/warm pixels have a temporal variance outside the population's "
+            f"plus K x their dark excess (K = {gain:g} DN/e-; p = {p:.2g} each side): K, or a steady dark rate, does "
+            "not describe them as a population -- their variance was not used to withhold a claim (check K)")
+    return out, ""
+
+
+def one_code(darks, suspect: np.ndarray, gain: float | None, p: float) -> np.ndarray:
+    """The ``suspect`` pixels (hot, warm or noisy flags) that repeat one code in every frame of
+    every dark level: no dark shot noise, so none of those -- only where a pixel's own sigma
+    (the population's plus, with K, its own shot noise) makes one code in every frame
+    improbable (``p``; with 2 frames a warm pixel repeats its code often)."""
+    const = np.logical_and.reduce([d.st.var <= 0.0 for d in darks]) & suspect
+    if gain:
+        cand = np.nonzero(const)
+        keep = np.ones(cand[0].size, bool)
+        for d in darks:
+            with np.errstate(invalid="ignore"):
+                sig = np.sqrt(d.pop_var + gain * np.maximum(np.asarray(d.res[cand], np.float64), 0.0))
+                keep &= sig >= min_sigma_constant(d.st.n_frames, p)
+        const[cand] = keep
+    else:
+        const &= np.array([p_constant_codes(math.sqrt(d.pop_var), d.st.n_frames) <= p for d in darks]).all()
+    return const
