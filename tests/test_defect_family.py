@@ -60,6 +60,12 @@ def test_warm_with_k_not_claimed_where_the_series_is_no_steady_rate(seed, frames
     for i in pixels:
         assert case.info["injected"][i] in ("noisy", "rts") and prim[i] != PIXEL_CLASSES.index("warm"), i
         assert res.defective().ravel()[i] and (res.mask.ravel()[i] & BITS["unclassified"] or prim[i] >= 0), i
+    # a withheld pixel is no good pixel on any surface: listed, counted, in the total a limit sees
+    unc = ((res.mask & BITS["unclassified"]) != 0).ravel() & (prim < 0)
+    assert unc.any() and res.counts["unclassified"] == int(unc.sum())
+    assert res.counts["total"] == sum(res.counts[c] or 0 for c in PIXEL_CLASSES) + res.counts["unclassified"] == len(res.defects)
+    listed = set(zip(res.defects["y"][res.defects["cls"] == "unclassified"], res.defects["x"][res.defects["cls"] == "unclassified"]))
+    assert listed == {divmod(int(i), res.mask.shape[1]) for i in np.flatnonzero(unc)}
     sc = score(case, res)
     assert sc["warm"]["right"] >= 1 and sc["hot"]["right"] == sc["hot"]["given"], sc["warm"]
 

@@ -135,7 +135,7 @@ def _thresholds(settings: list[str]) -> DefectThresholds:
 def _text(res: DefectResult) -> str:
     out = [f"{res.shape[1]} x {res.shape[0]} pixels, {res.counts['total']} defective pixels "
            f"({res.counts['total'] / (res.shape[0] * res.shape[1]) * 1e6:.1f} ppm)"]
-    for c in ("hot", "warm", "stuck", "rts", "noisy", "dead", "low_response", "high_response"):
+    for c in ("hot", "warm", "stuck", "rts", "noisy", "dead", "low_response", "high_response", "unclassified"):
         n = res.counts[c]
         part = n is not None and res.detection.get(c, "").startswith("incomplete")  # a lower bound
         out.append(f"  {c:<14} {'n/a' if n is None else ('>= ' if part else '') + str(n):>8}")

@@ -26,7 +26,7 @@ PRODUCES: dict[str, frozenset[str]] = {
     "gain_split": frozenset({"pixel_noise_e", "chain_noise_dn", "crossover_gain_dn_per_e", "chi2_red"}),
     "lag": frozenset({"lag_pct", "bright_signal_dn"}),
     "defects": frozenset({"hot", "warm", "dead", "stuck", "low_response", "high_response", "bad_rows",
-                          "bad_columns", "clusters", "total"}),
+                          "bad_columns", "clusters", "unclassified", "total"}),
     "adc_linearity": frozenset({"dnl_max_lsb", "dnl_min_lsb", "inl_max_lsb", "inl_min_lsb", "missing_codes"}),
     "emva1288": frozenset({"K", "QE", "sigma_y_dark", "u_I_mean", "u_I_var", "u_e_sat", "DR", "SNR_max",
                            "DSNU1288", "PRNU1288", "LE_min", "LE_max"}),

@@ -435,26 +435,27 @@ def classify_defects(
         mask[flags[c]] |= BITS[c]
     mask[:, lines["bad_column"].bad] |= BITS["bad_column"]
     mask[lines["bad_row"].bad, :] |= BITS["bad_row"]
-    if withheld.any():
-        mask[withheld & ((mask & sum(BITS[c] for c in PIXEL_CLASSES)) == 0)] |= BITS["unclassified"]
+    mask[withheld & ((mask & sum(BITS[c] for c in PIXEL_CLASSES)) == 0)] |= BITS["unclassified"]
     prim = primary_class(mask)
-    rows, cols = np.nonzero(prim >= 0)
-    pcls = prim[rows, cols]
+    # a withheld pixel (in no class) is listed, counted in "total" and in limits as "unclassified"
+    listed = (prim >= 0) | ((mask & BITS["unclassified"]) != 0)
+    rows, cols = np.nonzero(listed)
+    pcls = prim[rows, cols]  # -1: unclassified, the last of ``names``
     defects = np.empty(rows.size, DEFECT_DTYPE)
     defects["x"] = origin[1] + step[1] * cols
     defects["y"] = origin[0] + step[0] * rows
-    names = np.array(PIXEL_CLASSES)
+    names = np.array(PIXEL_CLASSES + ("unclassified",))
     defects["cls"] = names[pcls]
     st = np.empty(rows.size)
     for i, c in enumerate(PIXEL_CLASSES):
         sel = pcls == i
         st[sel] = stats[c][rows[sel], cols[sel]]
-    defects["statistic"] = st
-    counts = {c: int((pcls == i).sum()) for i, c in enumerate(PIXEL_CLASSES)}
+    defects["statistic"] = np.where(pcls < 0, stats["hot"][rows, cols], st)
+    counts = {c: int((pcls == i).sum()) for i, c in enumerate(PIXEL_CLASSES)} | {"unclassified": int((pcls < 0).sum())}
     flag_counts = {c: int(flags[c].sum()) for c in PIXEL_CLASSES}
     bad_columns = [dict(r, x=int(origin[1] + step[1] * r.pop("index"))) for r in lines["bad_column"].records()]
     bad_rows = [dict(r, y=int(origin[0] + step[0] * r.pop("index"))) for r in lines["bad_row"].records()]
-    clusters = find_clusters(prim >= 0, th.cluster_min_size)
+    clusters = find_clusters(listed, th.cluster_min_size)
     clusters.pop("labels")
     for cl in clusters["clusters"]:
         cl.update(x0=origin[1] + step[1] * cl.pop("col0"), x1=origin[1] + step[1] * cl.pop("col1"),

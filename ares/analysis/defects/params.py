@@ -169,6 +169,7 @@ class DefectThresholds:
                            f"> {self.line_z:g} sigma off, or noise > {self.line_noise_factor:g} x",
             "bad_rows": f">= {self.line_hot_count} hot or {self.line_dead_count} dead pixels, or a mean "
                         f"> {self.line_z:g} sigma off, or noise > {self.line_noise_factor:g} x",
+            "unclassified": "a significant dark excess that is no steady dark rate and clears no other class's test",
             "clusters": f">= {self.cluster_min_size} defective pixels touching",
             "total": "every defective pixel, each counted once",
         }

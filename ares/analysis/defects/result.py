@@ -10,8 +10,8 @@ from ares.analysis.defects.params import DefectThresholds
 
 #: bit of each class in the integer class mask (uint16, one per pixel); "unclassified": a
 #: significant dark excess that is no steady dark rate (steady.py) and clears no other class's
-#: test -- defective (out of the noise statistics: a hot pixel left in would bias DSNU) but in
-#: no class, count or list
+#: test -- defective (out of the noise statistics: a hot pixel left in would bias DSNU), in no
+#: class, but listed, counted as "unclassified" and in "total" (so a limit on the total sees it)
 BITS: dict[str, int] = {
     "hot": 1 << 0, "warm": 1 << 1, "dead": 1 << 2, "low_response": 1 << 3,
     "high_response": 1 << 4, "stuck": 1 << 5, "noisy": 1 << 6, "rts": 1 << 7,
