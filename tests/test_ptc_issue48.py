@@ -334,6 +334,17 @@ def test_the_fall_beyond_the_turnoff_locates_it(tmp_path, i):
     assert d["turnoff_dn"]["verdict"] == "ok" and j["turnoff"], (d["turnoff_dn"], c.truth["turnoff_dn"])
 
 
+@pytest.mark.parametrize("i", [146, 453, 701])
+def test_a_low_noise_sparse_curve_is_located(tmp_path, i):
+    """Sparse curves (10-18 levels) with 0-0.3 % per-level noise whose window models left
+    the level before the turnoff plausible (8-25 % away: "not available"); where the levels'
+    measured scatter is <= 1 % the likelihood thresholds are tighter (``turnoff.LOW_NOISE``),
+    and the turnoff is "ok" and within 3 % of truth."""
+    c = case(i)
+    d, j = run_case(c, tmp_path)
+    assert d["turnoff_dn"]["verdict"] == "ok" and j["turnoff"], (d["turnoff_dn"], c.truth["turnoff_dn"])
+
+
 def test_corpus_subset_every_figure_has_a_verdict_and_a_reason(subset):
     for c, d, _ in subset:
         for key in ("gain_dn_per_e", "turnoff_dn", "full_well_e", "saturation_capacity_e"):
