@@ -345,6 +345,19 @@ def test_a_low_noise_sparse_curve_is_located(tmp_path, i):
     assert d["turnoff_dn"]["verdict"] == "ok" and j["turnoff"], (d["turnoff_dn"], c.truth["turnoff_dn"])
 
 
+def test_a_charge_on_a_k_from_a_three_level_line_is_not_ok(tmp_path):
+    """Corpus curve 701 (10 levels, exact, brighter-fatter): its turnoff is located exactly,
+    but K comes from an unweighted line through 3 levels, 4.8 % low at a claimed SE of
+    1.3 %: with 1 degree of freedom its SE is itself a guess, so a charge needs Student's t
+    (14 SE) within 3 %, not 2 SE -- the saturation capacity is "not available", not a
+    wrong "ok" (``sanity._coverage``)."""
+    c = case(701)
+    d, j = run_case(c, tmp_path)
+    assert d["turnoff_dn"]["verdict"] == "ok" and j["turnoff"]
+    sat = d["saturation_capacity_e"]
+    assert sat["verdict"] == "not available" and "Student's t" in sat["note"], sat
+
+
 def test_corpus_subset_every_figure_has_a_verdict_and_a_reason(subset):
     for c, d, _ in subset:
         for key in ("gain_dn_per_e", "turnoff_dn", "full_well_e", "saturation_capacity_e"):
