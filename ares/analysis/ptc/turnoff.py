@@ -237,6 +237,9 @@ def ptc_turnoff_found(signal, var, var_se, nsigma: float = 4.0, min_levels: int 
         dep[:, k] = d & ok
         if k == 0:  # a fall deeper than any flattening (1.5 x the floor): a turnover if confirmed
             deep = d & (v[jj] - pred < -1.5 * flat_floor * np.abs(pred))
+            # (each level's residual from the curve below it, for a run of levels jointly below it)
+            zz0 = (v[jj] - pred) / np.maximum(np.hypot(e[jj] * scale, pse), 1e-300)
+            low0 = (v[jj] - pred < -flat_floor * np.abs(pred)) & (zz0 < -RUN_SE) & ~early
         valid[:, k] = ok
     n_after = valid[:, 1:].sum(1)
     hits = dep[:, 1:].sum(1)
@@ -253,6 +256,10 @@ def ptc_turnoff_found(signal, var, var_se, nsigma: float = 4.0, min_levels: int 
     stop_i = int(i[first[0]])
     # an earlier departure the next levels did not confirm (a dip, or the first fall of a
     # curve that climbs a second hump): the turnoff may lie there too (its ambiguity)
+    # ... or a run of consecutive levels each > ``flat_floor`` (10 %) and > ``RUN_SE`` below the
+    # curve fitted under it, jointly > ``RUN_CHI2`` -- none alone a departure at 5-10 % scatter:
+    # the shallow first fall of a curve that climbs a second hump near the curve's extension
+    deep = deep | _run_starts(low0, zz0)
     unconf = np.flatnonzero(deep & ~stop & (i < stop_i))
     lo = max(min_levels, stop_i - lookback)
     # (a roll-off seen at the departure began within ``window`` (15 %) of its signal: on a
@@ -319,6 +326,20 @@ def ptc_turnoff_found(signal, var, var_se, nsigma: float = 4.0, min_levels: int 
     return TurnoffFound(t + 1, stop_i, a_lo, lo + a_hi)
 
 
+def _run_starts(low, z) -> np.ndarray:
+    """Where each run of consecutive ``low`` levels (two or more) whose ``z`` squared sum to
+    at least ``RUN_CHI2`` starts (boolean, per level)."""
+    out = np.zeros(low.size, bool)
+    idx = np.flatnonzero(low)
+    if idx.size < 2:
+        return out
+    breaks = np.flatnonzero(np.diff(idx) > 1) + 1
+    for r in np.split(idx, breaks):
+        if r.size >= 2 and float(np.sum(z[r] ** 2)) >= RUN_CHI2:
+            out[r[0]] = True
+    return out
+
+
 def _gentle_lo(x, v, e, t: int, first: int, a_lo: int) -> int:
     """The first plausible last level on the curve, ``a_lo``, lowered where the levels up to
     the turnoff found (``t``) and the next one fit a turnover (``changepoint.rolloff_evidence``,
@@ -345,6 +366,11 @@ def _gentle_lo(x, v, e, t: int, first: int, a_lo: int) -> int:
 LOW_NOISE = 0.01
 PLAUSIBLE_LOW_NOISE = 1.0
 FALL_LOW_NOISE = 6.0
+# a run of levels each > 2 SE and > 10 % below the curve fitted under it, jointly > 5 SE (25 in
+# chi-square), is a fall the next levels did not confirm (the turnoff may lie there): chosen on
+# corpus seed 0 (wrong "ok" turnoffs 15 -> 13, none lost), checked on seed 1 (18 -> 17)
+RUN_SE = 2.0
+RUN_CHI2 = 25.0
 PEAK_SE = 0.5  # a level before it within 0.5 SE of its variance may be the peak (a roll-off's first level beyond it)
 
 
