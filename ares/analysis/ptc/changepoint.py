@@ -77,7 +77,8 @@ def fall_cost(z, wild, xs, vb, sb, curve_at) -> np.ndarray:
     return cost
 
 
-def locate(z, wild, xs, fall=None) -> tuple[int, int, int]:
+def locate(z, wild, xs, fall=None, plausible: float = PLAUSIBLE,
+           fall_plausible: float = FALL_PLAUSIBLE) -> tuple[int, int, int]:
     """(the level -- position in the window -- most likely the last on the curve, and the
     first and last plausible ones; -1: the level before the window). A change-point choice
     on ``z``, each level's residual from the curve fitted below the window in SE (the last
@@ -89,7 +90,9 @@ def locate(z, wild, xs, fall=None) -> tuple[int, int, int]:
     plus its noise. A level barely below the curve just before a deep departure is then
     unlikely to be beyond (a clip), one on a gentle roll-off is doubtful; every t within
     ``PLAUSIBLE`` of the best is plausible (and under the one-sided model below, which
-    picks the level). Rows above the curve (``wild``) belong to neither."""
+    picks the level). Rows above the curve (``wild``) belong to neither. ``plausible``,
+    ``fall_plausible``: the thresholds (``turnoff`` tightens both where the levels' measured
+    scatter is <= 1 %)."""
     z = np.asarray(z, float)
     wild = np.asarray(wild, bool)
     xs = np.asarray(xs, float)
@@ -119,11 +122,11 @@ def locate(z, wild, xs, fall=None) -> tuple[int, int, int]:
     c_off = np.concatenate([[0.0], np.cumsum(one[:m][::-1])])[::-1]
     cost1 = np.where(np.isfinite(cost), c_on + c_off, np.inf)
     best = int(np.argmin(cost1))
-    ok = (cost1 <= cost1[best] + PLAUSIBLE) & (cost <= np.min(cost) + PLAUSIBLE)
+    ok = (cost1 <= cost1[best] + plausible) & (cost <= np.min(cost) + plausible)
     pick = np.arange(m + 1) == best
     beyond_departure = False
     if fall is not None and np.isfinite(fall).any():
-        fall_ok = fall <= np.min(fall) + FALL_PLAUSIBLE
+        fall_ok = fall <= np.min(fall) + fall_plausible
         # the fall model narrows the window's plausible levels; a later level it finds nearly
         # as likely as its best (the window's fit below took a bend for a fall) stays
         # plausible, and it alone can judge the departure itself on the curve

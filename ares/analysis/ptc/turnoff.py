@@ -36,7 +36,8 @@ import numpy as np
 
 from ares.analysis.stats.scatter import Scatter, local_residuals, measured_scatter
 from ares.analysis.stats.median import fast_median
-from ares.analysis.ptc.changepoint import FALL_LEVELS, FALL_PLAUSIBLE, ROLL_EVIDENCE, fall_cost, locate, rolloff_evidence
+from ares.analysis.ptc.changepoint import (FALL_LEVELS, FALL_PLAUSIBLE, PLAUSIBLE, ROLL_EVIDENCE, fall_cost, locate,
+                                            rolloff_evidence)
 
 
 # ----------------------------------------------------------------- decision errors
@@ -236,6 +237,9 @@ def ptc_turnoff_found(signal, var, var_se, nsigma: float = 4.0, min_levels: int 
         dep[:, k] = d & ok
         if k == 0:  # a fall deeper than any flattening (1.5 x the floor): a turnover if confirmed
             deep = d & (v[jj] - pred < -1.5 * flat_floor * np.abs(pred))
+            # (each level's residual from the curve below it, for a run of levels jointly below it)
+            zz0 = (v[jj] - pred) / np.maximum(np.hypot(e[jj] * scale, pse), 1e-300)
+            low0 = (v[jj] - pred < -flat_floor * np.abs(pred)) & (zz0 < -RUN_SE) & ~early
         valid[:, k] = ok
     n_after = valid[:, 1:].sum(1)
     hits = dep[:, 1:].sum(1)
@@ -252,6 +256,10 @@ def ptc_turnoff_found(signal, var, var_se, nsigma: float = 4.0, min_levels: int 
     stop_i = int(i[first[0]])
     # an earlier departure the next levels did not confirm (a dip, or the first fall of a
     # curve that climbs a second hump): the turnoff may lie there too (its ambiguity)
+    # ... or a run of consecutive levels each > ``flat_floor`` (10 %) and > ``RUN_SE`` below the
+    # curve fitted under it, jointly > ``RUN_CHI2`` -- none alone a departure at 5-10 % scatter:
+    # the shallow first fall of a curve that climbs a second hump near the curve's extension
+    deep = deep | _run_starts(low0, zz0)
     unconf = np.flatnonzero(deep & ~stop & (i < stop_i))
     lo = max(min_levels, stop_i - lookback)
     # (a roll-off seen at the departure began within ``window`` (15 %) of its signal: on a
@@ -294,7 +302,11 @@ def ptc_turnoff_found(signal, var, var_se, nsigma: float = 4.0, min_levels: int 
 
     z = (v[k] - pred) / np.maximum(sig, 1e-300)
     fall = fall_cost(z, wild, x[lo - 1:], v[kk], np.concatenate([sig, sig_f]), curve_at)
-    best, a_lo, a_hi = locate(z, wild, x[lo - 1:stop_i + 1], fall)
+    # the levels' measured relative scatter at the window (their decision errors over their variances)
+    rel = float(np.median(e[k[:-1]] / np.maximum(np.abs(v[k[:-1]]), 1e-300)))
+    low = rel <= LOW_NOISE
+    best, a_lo, a_hi = locate(z, wild, x[lo - 1:stop_i + 1], fall, PLAUSIBLE_LOW_NOISE if low else PLAUSIBLE,
+                              FALL_LOW_NOISE if low else FALL_PLAUSIBLE)
     t = lo + best
     # the level found may itself lie just beyond the turnoff (a gentle roll-off's first
     # level, not yet below the curve): any level before it whose variance the scatter
@@ -312,6 +324,20 @@ def ptc_turnoff_found(signal, var, var_se, nsigma: float = 4.0, min_levels: int 
     if stop_i - lo < lookback:  # (a window cut short by its 15 %: a gentle roll-off may have begun below it)
         a_lo = _gentle_lo(x, v, e, t, max(min_levels, n // 4), a_lo)
     return TurnoffFound(t + 1, stop_i, a_lo, lo + a_hi)
+
+
+def _run_starts(low, z) -> np.ndarray:
+    """Where each run of consecutive ``low`` levels (two or more) whose ``z`` squared sum to
+    at least ``RUN_CHI2`` starts (boolean, per level)."""
+    out = np.zeros(low.size, bool)
+    idx = np.flatnonzero(low)
+    if idx.size < 2:
+        return out
+    breaks = np.flatnonzero(np.diff(idx) > 1) + 1
+    for r in np.split(idx, breaks):
+        if r.size >= 2 and float(np.sum(z[r] ** 2)) >= RUN_CHI2:
+            out[r[0]] = True
+    return out
 
 
 def _gentle_lo(x, v, e, t: int, first: int, a_lo: int) -> int:
@@ -332,6 +358,19 @@ def _gentle_lo(x, v, e, t: int, first: int, a_lo: int) -> int:
     return a_lo
 
 
+# where the levels' measured relative scatter at the window is <= 1 %, the window's two models
+# keep a level plausible only within e^-0.5 of their best (1 in -2 log likelihood), not e^-1.5,
+# and the fall model excludes one beyond e^-3, not e^-5: chosen on corpus seed 0, checked on
+# the held-out seed 1 -- no new wrong "ok" on either; at higher scatter every such tightening
+# cost wrong "ok"s on both seeds (benchmarks/ptc_corpus.md)
+LOW_NOISE = 0.01
+PLAUSIBLE_LOW_NOISE = 1.0
+FALL_LOW_NOISE = 6.0
+# a run of levels each > 2 SE and > 10 % below the curve fitted under it, jointly > 5 SE (25 in
+# chi-square), is a fall the next levels did not confirm (the turnoff may lie there): chosen on
+# corpus seed 0 (wrong "ok" turnoffs 15 -> 13, none lost), checked on seed 1 (18 -> 17)
+RUN_SE = 2.0
+RUN_CHI2 = 25.0
 PEAK_SE = 0.5  # a level before it within 0.5 SE of its variance may be the peak (a roll-off's first level beyond it)
 
 
