@@ -66,7 +66,7 @@ def measure(n: int, seed: int = 0) -> dict:
             plateau = None
             if c.truth.get("fw_e") and fw["verdict"] == "ok":
                 plateau = abs(fw["value"] - c.truth["fw_e"]) <= 0.03 * c.truth["fw_e"]
-            ok = (res["turnoff_dn"]["verdict"] == "ok", sat_d["verdict"] == "ok")
+            ok = (res["turnoff_dn"]["verdict"] == "ok", sat_d["verdict"] == "ok", res["gain_dn_per_e"]["verdict"] == "ok")
             rows.append((c, j, sat_se_ok, plateau, ok, res["turnoff_dn"]))
     return {"rows": rows, "seconds": time.perf_counter() - t0}
 
@@ -84,6 +84,7 @@ def table(rows, key=None) -> list[str]:
         rs = groups[g]
         n = len(rs)
         gain = sum(r[1]["gain"] for r in rs)
+        gain_wrong = sum(r[4][2] and not r[1]["gain"] for r in rs)  # K "ok" yet off by > max(1 %, 3 SE)
         to = sum(r[1]["turnoff"] for r in rs)
         to_ok = [r for r in rs if r[4][0]]
         to_wrong = sum(not r[1]["turnoff"] for r in to_ok)
@@ -92,7 +93,7 @@ def table(rows, key=None) -> list[str]:
         sat_wrong = sum(not r[1]["sat"] for r in sat_ok)
         pl = [r[3] for r in rs if r[3] is not None]
         absurd = sum(bool(r[1]["absurd"]) for r in rs)
-        out.append(f"| {g} | {n} | {pct(gain, n)} | {pct(to, n)} | {pct(len(to_ok), n)} | "
+        out.append(f"| {g} | {n} | {pct(gain, n)} | {gain_wrong} | {pct(to, n)} | {pct(len(to_ok), n)} | "
                    f"{pct(len(to_ok) - to_wrong, len(to_ok))} | {to_wrong} | {pct(sat, n)} | {pct(len(sat_ok), n)} | "
                    f"{pct(len(sat_ok) - sat_wrong, len(sat_ok))} | {sat_wrong} | "
                    + (f"{len(pl) - sum(pl)} of {len(pl)}" if pl else "-") + f" | {absurd} |")
@@ -176,11 +177,11 @@ def main() -> None:
         print("\n" + "\n".join(f"- {k}" for k in out.get("_lost", {})))
         return
     m = measure(a.n, a.seed)
-    head = ("| stratum | curves | gain within max(1 %, 3 SE) | turnoff within 3 % | turnoff 'ok' | "
+    head = ("| stratum | curves | gain within max(1 %, 3 SE) | 'ok' K off > max(1 %, 3 SE) | turnoff within 3 % | turnoff 'ok' | "
             "within 3 % among 'ok' | 'ok' turnoffs off > 3 % | saturation capacity within 3 % | "
             "saturation capacity 'ok' | within 3 % among 'ok' | 'ok' saturation capacities off > 3 % | "
             "'ok' plateau full wells off > 3 % (hard clip) | absurd 'ok' |")
-    sep = "|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|"
+    sep = "|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|"
     print(f"{a.n} curves (corpus seed {a.seed}) in {m['seconds']:.0f} s\n")
     for key in [None] + [k for k in a.keys.split(",") if k]:
         print(f"**{key or 'all curves'}**\n")
@@ -190,13 +191,17 @@ def main() -> None:
         print()
     if a.list:
         for c, j, _, _, ok, to in m["rows"]:
-            bad = [w for w, o, k in (("turnoff", ok[0], "turnoff"), ("saturation capacity", ok[1], "sat")) if o and not j[k]]
+            bad = [w for w, o, k in (("turnoff", ok[0], "turnoff"), ("saturation capacity", ok[1], "sat"),
+                                     ("K", ok[2], "gain")) if o and not j[k]]
             if bad:
                 p = c.params
                 print(f"- curve {c.i}: wrong 'ok' {' and '.join(bad)}; {p['shape']}, {p['levels']} levels, noise "
                       f"{100 * p['noise']:.2g} %, {'counts' if p['counts'] else 'no counts'}, a00 {p['a00']:.2g}, "
-                      f"truth {c.truth['turnoff_dn']:.6g} DN, turnoff {to['value']:.6g} ± {to['se'] or 0:.2g} DN "
-                      f"({100 * (to['value'] / c.truth['turnoff_dn'] - 1):+.1f} %)")
+                      f"truth {c.truth['turnoff_dn']:.6g} DN, " + (
+                          f"turnoff {to['value']:.6g} ± {to['se'] or 0:.2g} DN "
+                          f"({100 * (to['value'] / c.truth['turnoff_dn'] - 1):+.1f} %)" if to["value"] is not None
+                          else f"turnoff {to['verdict']}") + (
+                          f"; K {j['k_off_pct']:+.1f} % at an SE of {j['k_se_pct']:.2g} %" if "K" in bad else ""))
 
 
 if __name__ == "__main__":

@@ -234,7 +234,8 @@ def judge(d: dict, truth: dict) -> dict:
         e = d[key]
         if e.get("verdict") == "ok" and e.get("se") is not None and e["se"] > abs(e["value"]):
             absurd.append(f"{key}: SE larger than the value, 'ok'")
-    return {"gain": gain_ok, "turnoff": turnoff_ok, "turnoff_se": turnoff_se_ok, "sat": sat_ok, "absurd": absurd}
+    return {"gain": gain_ok, "k_off_pct": 100 * (kv / truth["K"] - 1) if kv is not None else None,
+            "k_se_pct": 100 * kse / kv if kv else None, "turnoff": turnoff_ok, "turnoff_se": turnoff_se_ok, "sat": sat_ok, "absurd": absurd}
 
 
 def run_case(c: Case, tmp: Path) -> tuple[dict, dict]:

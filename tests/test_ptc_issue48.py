@@ -10,6 +10,7 @@ from __future__ import annotations
 
 import csv
 import json
+import math
 from pathlib import Path
 
 import numpy as np
@@ -362,17 +363,34 @@ def test_a_second_hump_s_shallow_first_fall_is_no_wrong_ok(tmp_path, i):
     assert lo <= 1.03 * c.truth["turnoff_dn"], (lo, c.truth["turnoff_dn"])
 
 
-def test_a_charge_on_a_k_from_a_three_level_line_is_not_ok(tmp_path):
+def test_a_k_from_a_three_level_line_is_not_ok(tmp_path):
     """Corpus curve 701 (10 levels, exact, brighter-fatter): its turnoff is located exactly,
-    but K comes from an unweighted line through 3 levels, 4.8 % low at a claimed SE of
-    1.3 %: with 1 degree of freedom its SE is itself a guess, so a charge needs Student's t
-    (14 SE) within 3 %, not 2 SE -- the saturation capacity is "not available", not a
-    wrong "ok" (``sanity._coverage``)."""
-    c = case(701)
-    d, j = run_case(c, tmp_path)
-    assert d["turnoff_dn"]["verdict"] == "ok" and j["turnoff"]
-    sat = d["saturation_capacity_e"]
-    assert sat["verdict"] == "not available" and "Student's t" in sat["note"], sat
+    but K comes from an unweighted line through 3 levels, 4.8 % low at a residual SE of
+    1.3 %: with 1 degree of freedom that SE is itself a guess (Student's t: 3 SE become 236),
+    so K is not "ok" (it was, 3.7 SE off), nor any charge on it. Curve 1976 (4 levels, 2
+    dof): K 13.9 % low at a residual SE of 3.1 % stays "ok" with its SE x 6.4, and within it."""
+    for i, n, ok in ((701, 3, False), (1976, 4, True)):
+        c = case(i)
+        d, j = run_case(c, tmp_path)
+        k = d["gain_dn_per_e"]
+        assert d["gain_model"]["levels"] == n and d["gain_headline"]["estimator"] == ("ols" if ok else None), i
+        assert "Student's t" in k["note"], k
+        assert (k["verdict"] == "ok") == ok and (j["gain"] or not ok), (i, k)
+        assert d["saturation_capacity_e"]["verdict"] == "not available", (i, d["saturation_capacity_e"])
+        if i == 701:
+            assert d["turnoff_dn"]["verdict"] == "ok" and j["turnoff"]
+
+
+def test_t_quantile_closed_forms():
+    """``fit.t_quantile`` against Student's t closed forms: 1 dof is Cauchy, tan(pi (p - 1/2));
+    2 dof, (2p - 1) / sqrt(2 p (1 - p)); many dof, the normal's 3 SE."""
+    from ares.analysis.ptc.fit import residual_se_widening, t_quantile
+
+    for p in (0.9, 0.97725, 0.99865):
+        assert t_quantile(p, 1) == pytest.approx(math.tan(math.pi * (p - 0.5)), rel=1e-10)
+        assert t_quantile(p, 2) == pytest.approx((2 * p - 1) / math.sqrt(2 * p * (1 - p)), rel=1e-10)
+    assert residual_se_widening(10**6) == pytest.approx(1.0, abs=1e-4)
+    assert residual_se_widening(0) == math.inf
 
 
 def test_corpus_subset_every_figure_has_a_verdict_and_a_reason(subset):

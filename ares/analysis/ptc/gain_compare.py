@@ -24,7 +24,7 @@ from ares.analysis.stats.estimate import Estimate
 ESTIMATORS = {
     "line": "ARES's weighted line (WLS, each level weighted by 1/se(V)^2)",
     "astier": "the Astier 2019 fit (brighter-fatter curvature)",
-    "ols": "the unweighted line with offset (OLS, SE from the residual scatter)",
+    "ols": "the unweighted line with offset (OLS, SE from the residual scatter x Student's t for its n - 2 dof)",
 }
 EQ50 = ("EMVA 1288 4.0 Linear Section 6.6 Eq. 50 as written (unweighted least squares with offset, "
         "0-70 % of saturation)")

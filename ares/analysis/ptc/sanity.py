@@ -36,11 +36,8 @@ FULL_WELL_MIN_READ_NOISES = 20.0
 TURNOFF_MIN_FRACTION = 0.05
 PRECISION = 0.03  # a headline turnoff or charge capacity is "ok" only when located to 3 %
 PRECISION_SE = 2.0  # ... by its identification, and by K to PRECISION_SE standard errors (K's SE <= 1.5 %)
-# K's SE taken from its own line's residual scatter (the unweighted line, EMVA 1288 4.0 Eq. 50)
-# is itself uncertain with few levels: the 2-SE coverage (97.7 % one-sided) becomes Student's t
-# quantile for the line's n - 2 degrees of freedom (1 dof: 14 SE; 30 or more: ~2)
-_T_97725 = (13.97, 4.53, 3.31, 2.87, 2.65, 2.52, 2.43, 2.37, 2.32, 2.28, 2.25, 2.23, 2.21, 2.2, 2.18, 2.17, 2.16,
-            2.15, 2.14, 2.13, 2.13, 2.12, 2.11, 2.11, 2.11, 2.1, 2.1, 2.09, 2.09, 2.09)
+# (K's SE taken from its own line's residual scatter on few levels already carries Student's t:
+# ``photon_transfer._gain_estimates``, ``fit.residual_se_widening``)
 
 
 def _span(r) -> float:
@@ -82,22 +79,9 @@ def _turnover_plausible(r) -> str:
             f"and {hi:.5g} DN, so the brightest level ({to.value:.5g} DN) is no lower limit")
 
 
-def _coverage(r) -> float:
-    """How many of K's SEs a charge's 3 % must hold: ``PRECISION_SE``, or Student's t
-    quantile where K's SE comes from its own unweighted line's residual scatter on few
-    levels (a 3-level line: 1 degree of freedom, 14 SE)."""
-    gm = getattr(r, "gain_model", None)
-    if gm is None or r.gain_headline().get("estimator") != "ols":
-        return PRECISION_SE
-    dof = int(gm.line.n) - 2
-    if dof < 1:
-        return math.inf
-    return max(PRECISION_SE, _T_97725[dof - 1]) if dof <= len(_T_97725) else PRECISION_SE
-
-
 def _imprecise(e: Estimate, what: str, k: Estimate, own_se: bool = False, cover: float = PRECISION_SE) -> Estimate:
     """``e`` (a charge, e-) not available when K's relative SE -- or, with ``own_se``, its
-    own -- times ``cover`` (``PRECISION_SE``, or ``_coverage``) exceeds ``PRECISION``."""
+    own -- times ``cover`` (``PRECISION_SE``) exceeds ``PRECISION``."""
     if not e.available or e.bound:
         return e
     rel = k.se / k.value if k.available and math.isfinite(k.se) and k.value else 0.0
@@ -106,10 +90,8 @@ def _imprecise(e: Estimate, what: str, k: Estimate, own_se: bool = False, cover:
         rel, why = e.se / abs(e.value), f"it is known only to ± {100 * e.se / abs(e.value):.2g} % (SE)"
     if cover * rel <= PRECISION:
         return e
-    times = (f"{PRECISION_SE:g} SE exceed" if cover == PRECISION_SE else
-             f"{cover:.3g} SE (Student's t: K's SE is its line's residual scatter on few levels) exceed")
-    return Estimate.na(f"{what} {e.text()}: {why}, so {times} the {100 * PRECISION:g} % a charge capacity is "
-                       "stated to", e.unit)
+    return Estimate.na(f"{what} {e.text()}: {why}, so {cover:g} SE exceed the {100 * PRECISION:g} % a charge "
+                       "capacity is stated to", e.unit)
 
 
 def _located_and_measured(e: Estimate, what: str, span: float, k: Estimate, cover: float = PRECISION_SE) -> Estimate:
@@ -161,7 +143,7 @@ def apply(r):
     to_e = r.turnoff_e if to_dn.available or not r.turnoff_e.available else Estimate.na(to_dn.note, "e-")
     to_e = sane(to_e, "PTC turnoff (charge)")
     k = r.gain_dn_per_e
-    cover = _coverage(r)
+    cover = PRECISION_SE
     fw = {k_: _imprecise(v, "saturation capacity" if k_ == "saturation_capacity" else f"full well ({k_})", k,
                          cover=cover) for k_, v in fw.items()}
     head = _imprecise(head, "full well", k, cover=cover)
