@@ -274,7 +274,9 @@ def classify_levels(bright: Sequence[LevelStats], dark: Sequence[LevelStats],
     if cand and seen > n_on and seen < len(cand):  # where the departure was seen, for the turnoff's SE
         br = dataclasses.replace(br, seen_dn=float(S[cand[seen]]))
     if found is not None and 0 <= found.amb_lo <= found.amb_hi < len(cand):
-        br = dataclasses.replace(br, plausible_dn=(float(S[cand[found.amb_lo]]), float(S[cand[found.amb_hi]])))
+        br = dataclasses.replace(br, plausible_dn=(float(S[cand[found.amb_lo]]), float(S[cand[found.amb_hi]])),
+                                 charge_plausible_dn=(float(S[cand[min(found.lo_wide, found.amb_lo)]]),
+                                                      float(S[cand[found.amb_hi]])))
     if br.reached:
         for i in cand[:n_on]:
             if S[i] > fit_fraction * br.low_dn:

@@ -40,13 +40,22 @@ PRECISION_SE = 2.0  # ... by its identification, and by K to PRECISION_SE standa
 # ``photon_transfer._gain_estimates``, ``fit.residual_se_widening``)
 
 
-def _span(r) -> float:
+def _interval(br, charge: bool = False) -> tuple[float, float]:
+    """The plausible last levels on the curve (DN): the turnoff's own interval, or with
+    ``charge`` the wider one before its low-scatter tightening that a charge at the turnoff
+    level is judged on (``turnoff.BEFORE_LOW_NOISE``)."""
+    if charge and all(math.isfinite(x) for x in br.charge_plausible_dn):
+        return br.charge_plausible_dn
+    return br.plausible_dn
+
+
+def _span(r, charge: bool = False) -> float:
     """How far (relative) the plausible last levels on the curve lie from the turnoff given
-    (0 when it is the only one or unknown)."""
+    (0 when it is the only one or unknown); ``charge``: on the charge's interval."""
     to, br = r.turnoff_dn, r.saturation
     if not to.available or to.bound or br is None:
         return 0.0
-    lo, hi = br.plausible_dn
+    lo, hi = _interval(br, charge)
     if not (math.isfinite(lo) and math.isfinite(hi)) or to.value <= 0:
         return 0.0
     if hi < to.value:  # a turnover the top levels may fit, with no departure seen (``_turnover_plausible``):
@@ -54,12 +63,13 @@ def _span(r) -> float:
     return max(to.value - lo, hi - to.value, 0.0) / to.value
 
 
-def _unlocated(r) -> str:
-    """Why the turnoff is not identified within ``PRECISION`` ('' when it is)."""
-    span = _span(r)
+def _unlocated(r, charge: bool = False) -> str:
+    """Why the turnoff (``charge``: a charge at its level) is not identified within
+    ``PRECISION`` ('' when it is)."""
+    span = _span(r, charge)
     if span <= PRECISION:
         return ""
-    to, (lo, hi) = r.turnoff_dn, r.saturation.plausible_dn
+    to, (lo, hi) = r.turnoff_dn, _interval(r.saturation, charge)
     return (f"the levels' scatter places the last level on the curve only between {lo:.5g} and {hi:.5g} DN "
             f"({to.value:.5g} most likely, {100 * span:.2g} % away): not located within {100 * PRECISION:g} %")
 
@@ -160,8 +170,15 @@ def apply(r):
         if sc is not None and sc.available:
             fw["saturation_capacity"] = Estimate.na(f"saturation capacity {sc.text()} (the turnoff level): {unloc}",
                                                     "e-")
+    elif _unlocated(r, charge=True):  # the turnoff located by its tightened interval, its charge not
+        unloc = _unlocated(r, charge=True)
+        to_e = Estimate.na(f"PTC turnoff (charge) {to_e.text()}: {unloc}", "e-") if to_e.available else to_e
+        sc = fw.get("saturation_capacity")
+        if sc is not None and sc.available:
+            fw["saturation_capacity"] = Estimate.na(f"saturation capacity {sc.text()} (the turnoff level): {unloc}",
+                                                    "e-")
     else:
-        span = _span(r)
+        span = _span(r, charge=True)
         to_e = _located_and_measured(to_e, "PTC turnoff (charge)", span, k, cover)
         sc = fw.get("saturation_capacity")
         if sc is not None:

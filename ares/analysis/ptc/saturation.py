@@ -85,6 +85,9 @@ class SaturationBracket:
     # the signals of the first and last level that may be the last on the curve, given the
     # levels' scatter (``turnoff.ptc_turnoff_found``): the turnoff's identification
     plausible_dn: tuple[float, float] = (math.nan, math.nan)
+    # the same before the turnoff's low-scatter tightening: what a charge at the turnoff
+    # level (the saturation capacity) is judged on (NaN: ``plausible_dn``)
+    charge_plausible_dn: tuple[float, float] = (math.nan, math.nan)
 
     def contains(self, signal_dn: float, slack: float = 0.0) -> bool:
         """Is ``signal_dn`` consistent with the bracket (``slack`` DN either side)?"""

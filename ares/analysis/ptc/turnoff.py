@@ -313,17 +313,34 @@ def ptc_turnoff_found(signal, var, var_se, nsigma: float = 4.0, min_levels: int 
     # cannot tell from its own (within ``PEAK_SE``) may be the peak
     j = np.arange(max(lo - 1, 0), t)
     same = (~wild[np.maximum(j - lo, 0)] | (j < lo)) & (v[j] >= v[t] - PEAK_SE * scale[q] * np.hypot(e[j], e[t]))
+    tight = same.copy()
     if np.isfinite(fall).any():  # ... unless the fall beyond it says it is not (the global change point)
         same &= fall[j - lo + 1] <= np.min(fall) + FALL_PLAUSIBLE
-    if same.any():
-        a_lo = min(a_lo, int(j[same][0]) - lo)
-    a_lo += lo
-    if unconf.size:  # the curve fell there and came back: the turnoff may be that fall
-        a_lo = min(a_lo, int(i[unconf[0]]) - 1)
-    a_lo = max(a_lo, 0)
+        # where the levels scatter <= ``BEFORE_LOW_NOISE`` (their measured relative scatter,
+        # times the fit's own excess scatter below the window where larger: counts that
+        # claim too much precision fool the scatter check on few levels), within e^-3
+        if rel * scale[q] <= BEFORE_LOW_NOISE:
+            tight &= fall[j - lo + 1] <= np.min(fall) + BEFORE_FALL
+        else:
+            tight = same
+    else:
+        tight = same
+    # the turnoff's own interval (``tight``) and the wider one a charge at its level is
+    # judged on (``same``: a level late within the tightened interval and K low, each within
+    # its uncertainty, gave a saturation capacity 3.2 % off -- corpus seed 0 curve 1084)
+    def first_of(ok) -> int:
+        b = min(a_lo, int(j[ok][0]) - lo) if ok.any() else a_lo
+        b += lo
+        if unconf.size:  # the curve fell there and came back: the turnoff may be that fall
+            b = min(b, int(i[unconf[0]]) - 1)
+        return max(b, 0)
+
+    out = [first_of(tight), first_of(same)]
     if stop_i - lo < lookback:  # (a window cut short by its 15 %: a gentle roll-off may have begun below it)
-        a_lo = _gentle_lo(x, v, e, t, max(min_levels, n // 4), a_lo)
-    return TurnoffFound(t + 1, stop_i, a_lo, lo + a_hi)
+        g = [_gentle_lo(x, v, e, t, max(min_levels, n // 4), out[0])]
+        g.append(g[0] if out[1] == out[0] else _gentle_lo(x, v, e, t, max(min_levels, n // 4), out[1]))
+        out = g
+    return TurnoffFound(t + 1, stop_i, out[0], lo + a_hi, out[1])
 
 
 def _run_starts(low, z) -> np.ndarray:
@@ -372,6 +389,10 @@ FALL_LOW_NOISE = 6.0
 RUN_SE = 2.0
 RUN_CHI2 = 25.0
 PEAK_SE = 0.5  # a level before it within 0.5 SE of its variance may be the peak (a roll-off's first level beyond it)
+# ... allowed by the fall model within e^-5 (``FALL_PLAUSIBLE``), or within e^-3 where the
+# levels scatter <= 4 % (the turnoff's own interval; its charge keeps the wider one)
+BEFORE_LOW_NOISE = 0.04
+BEFORE_FALL = 6.0
 
 
 @dataclass(frozen=True)
@@ -382,6 +403,11 @@ class TurnoffFound:
     seen: int  # the level where the departure was seen (n: none)
     amb_lo: int  # the levels that may be the last on the curve, given the scatter: amb_lo .. amb_hi
     amb_hi: int  # (no departure seen: n - 1, or below it where the top levels fit a turnover, ``rolloff_evidence``)
+    amb_lo_wide: int = -1  # amb_lo before the low-scatter tightening (the charge at the turnoff is judged on it; -1: amb_lo)
+
+    @property
+    def lo_wide(self) -> int:
+        return self.amb_lo_wide if self.amb_lo_wide >= 0 else self.amb_lo
 
     def __iter__(self):  # (n_on, seen), as before
         return iter((self.n_on, self.seen))
