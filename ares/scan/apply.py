@@ -96,8 +96,8 @@ def settle(bench, system, settings: dict, kinds: set, cancel=None, evidence: boo
     read timeouts. ``registers``: (the register fields changed, when on the bench's clock): where the
     frames after the change are kept as they come (``by="time"``, or ``evidence=False``), the frame in
     flight at the change is never among them (``ares.scan.in_flight``) -- at a light or temperature
-    change, no frame that started before the instrument settled and the declared waits were over. Returns the record of what was
-    waited and discarded and why (None: no change)."""
+    change, no frame that started before the instrument settled and the declared waits were over.
+    Returns the record of what was waited and discarded and why (None: no change)."""
     t = getattr(system, "timing", None)
     if t is None:
         return None
