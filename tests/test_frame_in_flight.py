@@ -116,14 +116,16 @@ def test_the_direct_simulator_has_no_frame_in_flight(tmp_path):
 LIGHTS = (1e5, 4e5, 2e5)  # photons/pixel/s: the light changes at every stage (exposure and gain stay)
 
 
-def _light_scan(tmp_path: Path, header: str, timing: str = TIMED) -> Path:
+def _light_scan(tmp_path: Path, header: str, timing: str = TIMED, quantity: str = "light",
+                values: tuple = LIGHTS) -> Path:
     p = _scan(tmp_path, header)
     system = tmp_path / "sim_wire_48x64.xml"
     system.write_text(system.read_text().replace(TIMED, timing))
-    stages = "\n".join(f'    <stage name="l{k}" scene="flat"><set quantity="light" value="{v:g}"/></stage>'
-                       for k, v in enumerate(LIGHTS))
+    stages = "\n".join(f'    <stage name="l{k}" scene="flat"><set quantity="{quantity}" value="{v:g}"/></stage>'
+                       for k, v in enumerate(values))
+    keep = '<set quantity="exposure" value="0.004"/><set quantity="analog_gain" value="2"/>'
     text = p.read_text().replace('<set quantity="light" value="2e5"/>',
-                                 '<set quantity="exposure" value="0.004"/><set quantity="analog_gain" value="2"/>')
+                                 keep if quantity == "light" else keep + '<set quantity="light" value="2e5"/>')
     head, _, rest = text.partition("<stages>\n")
     p.write_text(head + "<stages>\n" + stages + "\n  </stages>" + rest.partition("</stages>")[2])
     return p
@@ -169,3 +171,27 @@ def test_no_kept_frame_started_before_the_light_reached_its_level(tmp_path, head
         fl = st["settling"]["flat"]["in_flight"]
         assert fl["evidence"] == ("device timestamp" if header == "ares40" else "none"), fl
         assert fl["discarded"] == (1 if st["index"] or header == "ares32" else 0) and "light" in fl["why"], fl
+
+
+def test_no_kept_frame_started_before_the_chamber_reached_its_temperature(tmp_path):
+    """The same at a temperature change (only the chamber's set point changes; the emulated
+    chamber is there at once, its ``changes`` say when): the frame the grabber held from before
+    is discarded by its time stamp, the record names the temperature change."""
+    scan = load_scan(_light_scan(tmp_path, "ares40", quantity="temperature", values=(25, 30, 35)))
+    bench = build_bench(scan.system, seed=1, faults={"usb_pipeline_frames": 1})
+    kept = {}
+    listen = (lambda e: kept.setdefault(e.index, e.arrays["frame_counter"].tolist())
+              if isinstance(e, ev.StageFinished) else None)
+    try:
+        outcome = Runner(scan, bench=bench, listeners=(listen,)).run()
+        truth, chamber = dict(bench.emulators["usb"].exposed_with), list(bench.emulators["chamber"].changes)
+    finally:
+        bench.close()
+    assert outcome.status == "done", outcome.message
+    assert [c["level"] for c in chamber] == [25, 30, 35]
+    for st, change in zip(outcome.stages, chamber):
+        starts = [truth[n]["exposure_start_s"] for n in kept[st["index"]]]
+        assert len(starts) == 3 and min(starts) >= change["settled_s"] - 1e-9, (st["name"], starts, change)
+    for st in outcome.stages[1:]:
+        fl = st["settling"]["flat"]["in_flight"]
+        assert fl["discarded"] == 1 and fl["evidence"] == "device timestamp" and "temperature change" in fl["why"], fl

@@ -14,7 +14,7 @@ in a faults dict given to their emulators, N = 0-based command count):
 ``ROLE_error_at`` (``ERR`` reply), ``ROLE_disconnect_at`` (the port is gone from then on),
 ``ROLE_late_at`` (the reply comes after the host's read timed out: it waits in the input buffer).
 
-``changes`` (the light): every ``LEVEL`` command's level, when it came (``commanded_s``) and when the
+``changes`` (the light, the chamber): every ``LEVEL`` (``TEMP``) command's level, when it came (``commanded_s``) and when the
 output reached it (``settled_s``: within the monitor's accuracy; later than the command for an LED
 relaxing with ``light_tau_s``), on the bench's clock -- the device's truth of a light change.
 
@@ -162,6 +162,7 @@ class EmulatedChamber(EmulatedInstrument):
     def answer(self, cmd: str, arg: str) -> str:
         if cmd == "TEMP":
             self.device.set_temperature(float(arg))
+            self._record(None, float(arg))  # (the simulator's chamber is there at once)
             return "OK"
         if cmd == "TEMP?":
             return repr(float(self.device.get_temperature()))
