@@ -111,3 +111,87 @@ def test_the_direct_simulator_has_no_frame_in_flight(tmp_path):
         fl = rec["in_flight"]
         assert fl["discarded"] == 0 and fl["kept"] == 1 and fl["evidence"] == "device timestamp", fl
     assert [k for k in kept] == [[0, 1, 2], [3, 4, 5], [6, 7, 8]]
+
+
+LIGHTS = (1e5, 4e5, 2e5)  # photons/pixel/s: the light changes at every stage (exposure and gain stay)
+
+
+def _light_scan(tmp_path: Path, header: str, timing: str = TIMED, quantity: str = "light",
+                values: tuple = LIGHTS) -> Path:
+    p = _scan(tmp_path, header)
+    system = tmp_path / "sim_wire_48x64.xml"
+    system.write_text(system.read_text().replace(TIMED, timing))
+    stages = "\n".join(f'    <stage name="l{k}" scene="flat"><set quantity="{quantity}" value="{v:g}"/></stage>'
+                       for k, v in enumerate(values))
+    keep = '<set quantity="exposure" value="0.004"/><set quantity="analog_gain" value="2"/>'
+    text = p.read_text().replace('<set quantity="light" value="2e5"/>',
+                                 keep if quantity == "light" else keep + '<set quantity="light" value="2e5"/>')
+    head, _, rest = text.partition("<stages>\n")
+    p.write_text(head + "<stages>\n" + stages + "\n  </stages>" + rest.partition("</stages>")[2])
+    return p
+
+
+@pytest.mark.parametrize("header,fault,faults", [
+    ("ares40", "usb_pipeline_frames", {"usb_pipeline_frames": 1}),
+    ("ares40", "usb_frame_in_flight", {"usb_frame_in_flight": 1}),
+    ("ares32", "usb_pipeline_frames", {"usb_pipeline_frames": 1, "light_tau_s": 0.002}),
+], ids=["fifo_stamped", "streaming_stamped", "fifo_unstamped_ramp"])
+def test_no_kept_frame_started_before_the_light_reached_its_level(tmp_path, header, fault, faults):
+    """A stage that changes only the light, ``<settle by="time">``, no ``discard_frames``: the
+    device's record -- the grabber's exposure start of every frame (``exposed_with``), the light
+    source's time its output reached the new level (``changes``: commanded, then within its
+    monitor's accuracy; with ``light_tau_s`` an LED relaxing over its time constant, the declared
+    ``<after quantity="light" settle_s>`` covering it) -- shows no kept frame started exposing
+    before that. A grabber that holds a frame exposed at its last stop (its FIFO) or a sensor
+    exposing the next frame as one is read out delivers such a frame first after the change; the
+    host discards it (by its time stamp, or one frame blind without one) and says so."""
+    timing = TIMED if "light_tau_s" not in faults else TIMED.replace(
+        '<settle by="time"/>', '<after quantity="light" settle_s="0.05"/><settle by="time"/>')
+    scan = load_scan(_light_scan(tmp_path, header, timing))
+    bench = build_bench(scan.system, seed=1, faults=faults)
+    kept = {}
+    listen = (lambda e: kept.setdefault(e.index, e.arrays["frame_counter"].tolist())
+              if isinstance(e, ev.StageFinished) else None)
+    try:
+        outcome = Runner(scan, bench=bench, listeners=(listen,)).run()
+        truth, light = dict(bench.emulators["usb"].exposed_with), list(bench.emulators["led"].changes)
+    finally:
+        bench.close()
+    assert outcome.status == "done", outcome.message
+    assert [c["level"] for c in light] == list(LIGHTS)  # one change per stage, in order
+    if "light_tau_s" in faults:  # the LED ramps: its output reached the level after the command
+        assert all(c["settled_s"] > c["commanded_s"] for c in light[1:]), light
+    early = {st["name"]: [(n, truth[n]["exposure_start_s"], change["settled_s"]) for n in kept[st["index"]]
+                          if truth[n]["exposure_start_s"] < change["settled_s"] - 1e-9]
+             for st, change in zip(outcome.stages, light)}
+    assert not any(early.values()), early  # (stage: [(device counter, exposure start, light settled)])
+    assert all(len(kept[st["index"]]) == 3 for st in outcome.stages)
+    assert not [st["name"] for st in outcome.stages if st["settling"].get("unsettled")]  # (before: 'steps by +403 DN')
+    for st in outcome.stages:
+        fl = st["settling"]["flat"]["in_flight"]
+        assert fl["evidence"] == ("device timestamp" if header == "ares40" else "none"), fl
+        assert fl["discarded"] == (1 if st["index"] or header == "ares32" else 0) and "light" in fl["why"], fl
+
+
+def test_no_kept_frame_started_before_the_chamber_reached_its_temperature(tmp_path):
+    """The same at a temperature change (only the chamber's set point changes; the emulated
+    chamber is there at once, its ``changes`` say when): the frame the grabber held from before
+    is discarded by its time stamp, the record names the temperature change."""
+    scan = load_scan(_light_scan(tmp_path, "ares40", quantity="temperature", values=(25, 30, 35)))
+    bench = build_bench(scan.system, seed=1, faults={"usb_pipeline_frames": 1})
+    kept = {}
+    listen = (lambda e: kept.setdefault(e.index, e.arrays["frame_counter"].tolist())
+              if isinstance(e, ev.StageFinished) else None)
+    try:
+        outcome = Runner(scan, bench=bench, listeners=(listen,)).run()
+        truth, chamber = dict(bench.emulators["usb"].exposed_with), list(bench.emulators["chamber"].changes)
+    finally:
+        bench.close()
+    assert outcome.status == "done", outcome.message
+    assert [c["level"] for c in chamber] == [25, 30, 35]
+    for st, change in zip(outcome.stages, chamber):
+        starts = [truth[n]["exposure_start_s"] for n in kept[st["index"]]]
+        assert len(starts) == 3 and min(starts) >= change["settled_s"] - 1e-9, (st["name"], starts, change)
+    for st in outcome.stages[1:]:
+        fl = st["settling"]["flat"]["in_flight"]
+        assert fl["discarded"] == 1 and fl["evidence"] == "device timestamp" and "temperature change" in fl["why"], fl

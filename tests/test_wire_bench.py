@@ -24,8 +24,9 @@ WIRE = ROOT / "protocols" / "sim_wire.xml"
 
 def _short_scan(tmp_path: Path, frames_attrs: str = "") -> Path:
     """dark, three light levels, one chamber set point: 5 stages of 2 frames (device frame
-    counter 0..9; light commands after the identity: a set point and its readback (MON?) per stage;
-    chamber commands from stage 5), on
+    counter 0..14: the frame in flight at each stage's change is discarded -- sim_wire's ares32
+    header tells no exposure start -- so ptc[1] keeps frames 7, 8; light commands after the
+    identity: a set point and its readback (MON?) per stage; chamber commands from stage 5), on
     sim_wire.xml with the declared waits only (``<settle by="time">``: no probe frames)."""
     p = tmp_path / "wire_short.xml"
     timed = tmp_path / "sim_wire_timed.xml"  # the faults are placed by device frame: the declared waits only
@@ -146,11 +147,11 @@ def _i2c_transactions_at_stage(tmp_path, stage: int) -> int:
 
 
 FAULTS = [  # (faults, what the sentence must say, completed stages); serial command 0 is *IDN? at open
-    (["usb_drop_at=5"], r"grabber.*1 frame\(s\) dropped before frame 5", 2),
-    (["usb_corrupt_at=5"], r"grabber.*frame 5 \(device counter 5\) is corrupt \(payload CRC mismatch\)", 2),
-    (["usb_short_at=5"], r"grabber.*frame 5 .* arrived short \(230432 of 460832 bytes\)", 2),
-    (["usb_timeout_at=5"], r"grabber.*no data on endpoint 0x81 within 2000 ms \(timeout\)", 2),
-    (["usb_disconnect_at=5"], r"grabber.*device disconnected", 2),
+    (["usb_drop_at=7"], r"grabber.*1 frame\(s\) dropped before frame 7", 2),
+    (["usb_corrupt_at=7"], r"grabber.*frame 7 \(device counter 7\) is corrupt \(payload CRC mismatch\)", 2),
+    (["usb_short_at=7"], r"grabber.*frame 7 .* arrived short \(230432 of 460832 bytes\)", 2),
+    (["usb_timeout_at=7"], r"grabber.*no data on endpoint 0x81 within 2000 ms \(timeout\)", 2),
+    (["usb_disconnect_at=7"], r"grabber.*device disconnected", 2),
     (["light_timeout_at=5"], r"led on aresemu://led: no reply to 'LEVEL 100000.0' within 1 s", 2),
     (["light_wrong_reply_at=5"], r"led on aresemu://led: reply '\?#%' to 'LEVEL 100000.0' does not match 'OK'", 2),
     (["light_error_at=5"], r"led on aresemu://led: refused 'LEVEL 100000.0': emulated fault", 2),
@@ -200,18 +201,18 @@ def test_a_retry_absorbs_one_nack_and_garbage_is_skipped(tmp_path, capsys):
 def test_dropped_frame_regrabs_the_stage_when_the_scan_says_so(tmp_path, capsys):
     out = tmp_path / "run"
     assert main(["run", str(_short_scan(tmp_path, ' on_loss="regrab"')), "--out", str(out), "--sim-fault",
-                 "usb_drop_at=5"]) == 0
+                 "usb_drop_at=7"]) == 0
     assert "frames lost: dropped 1; stage(s) ptc[1] acquired again" in capsys.readouterr().out
     st = json.loads((out / "stages" / "0002.json").read_text())
     assert st["frames_lost"] == [{"kind": "dropped", "count": 1, "message": st["frames_lost"][0]["message"]}]
-    assert "frame counter jumped from 4 to 6" in st["frames_lost"][0]["message"]
+    assert "frame counter jumped from 6 to 8" in st["frames_lost"][0]["message"]
     assert "frames_lost" not in json.loads((out / "stages" / "0001.json").read_text())
     assert json.loads((out / "run.json").read_text())["stages_completed"] == 5
 
 
 def test_regrab_limit_then_fail(tmp_path, capsys):
     out = tmp_path / "run"
-    rc = _run(_short_scan(tmp_path, ' on_loss="regrab" max_regrabs="0"'), out, "--sim-fault", "usb_corrupt_at=5")
+    rc = _run(_short_scan(tmp_path, ' on_loss="regrab" max_regrabs="0"'), out, "--sim-fault", "usb_corrupt_at=7")
     assert rc == 3
     assert "still losing frames after 0 re-grab(s)" in capsys.readouterr().err
 

@@ -115,7 +115,7 @@ def build_wire_bench(system, seed: int, faults: dict | None = None, uses: set | 
             if name is None:
                 raise InputError(f"{src}: <{'light_source' if role == 'light' else 'chamber'} port='{cfg.port}'> "
                                  "must be aresemu://NAME in a wire-emulated system")
-            e = emu(device, wire_f)
+            e = emu(device, wire_f, clock=dev.clock)  # (its record of a change: on the bench's clock)
             register(name, e)
             emulated.append((name, e))
             inst[role] = open_instrument(role, lambda host=host, cfg=cfg: host.open(cfg), uses, unavailable)

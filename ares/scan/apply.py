@@ -3,7 +3,7 @@ fields as one change, inside one group hold where the register map declares one)
 let the bench settle as the system XML declares (``<timing>``): wait ``settle_s`` and drop
 ``discard_frames`` frames after a change (frames still exposed at the old settings), drain
 the frame source (``flush``), and tell it the frame time its read timeouts must cover. The
-frame in flight at a register change is never kept (``ares.scan.in_flight``)."""
+frame in flight at a register, light or temperature change is never kept (``ares.scan.in_flight``)."""
 
 from __future__ import annotations
 
@@ -95,8 +95,9 @@ def settle(bench, system, settings: dict, kinds: set, cancel=None, evidence: boo
     (``ares.scan.settling``). The frame time (exposure + readout) goes to the frame source's
     read timeouts. ``registers``: (the register fields changed, when on the bench's clock): where the
     frames after the change are kept as they come (``by="time"``, or ``evidence=False``), the frame in
-    flight at the change is never among them (``ares.scan.in_flight``). Returns the record of what was
-    waited and discarded and why (None: no change)."""
+    flight at the change is never among them (``ares.scan.in_flight``) -- at a light or temperature
+    change, no frame that started before the instrument settled and the declared waits were over.
+    Returns the record of what was waited and discarded and why (None: no change)."""
     t = getattr(system, "timing", None)
     if t is None:
         return None
@@ -112,6 +113,7 @@ def settle(bench, system, settings: dict, kinds: set, cancel=None, evidence: boo
             wait(seconds, cancel, sleep=clock.sleep, clock=clock.now)
         else:
             wait(seconds, cancel)
+    done = clock.now() if clock is not None else None  # an instrument's change is complete (its settle, the waits)
     if discard:
         for _ in bench.frames.grab(discard):
             pass
@@ -129,14 +131,18 @@ def settle(bench, system, settings: dict, kinds: set, cancel=None, evidence: boo
     if cfg.by != "frames" or not evidence:
         rec.update(by="time", settled=None, why="the declared waits only" if evidence else
                    "the declared waits only: the frames after this change are the measurement")
-        if registers is not None and not discard:  # the frame in flight at the register change is not kept
+        slow = sorted(kinds & {"light", "temperature"})  # instruments: complete when settled and waited for
+        if (registers is not None or slow) and not discard:  # the frame in flight at the change is not kept
             from ares.scan.in_flight import drop_in_flight
 
-            changed, committed = registers
+            changed, committed = registers if registers is not None else ((), None)
+            if slow:  # no frame that started before the light (the chamber) reached its new level
+                committed = done
             want = {tag: bench.registers.get(register_field(system, key)) for key, tag in TAGS.items()
                     if key in settings and register_field(system, key) is not None}
-            cover = set(changed) <= {register_field(system, k) for k in TAGS if k in settings}
-            rec["in_flight"] = drop_in_flight(bench, want, bool(want) and cover, committed)
+            cover = not slow and set(changed) <= {register_field(system, k) for k in TAGS if k in settings}
+            what = " and ".join(slow + (["register"] if registers is not None else [])) + " change"
+            rec["in_flight"] = drop_in_flight(bench, want, bool(want) and cover, committed, what)
             rec["discarded"] = rec["in_flight"]["discarded"]
         return rec
     def want() -> dict:  # the settings as the registers hold them (read only when the frames carry tags)

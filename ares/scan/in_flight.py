@@ -1,4 +1,4 @@
-"""The frame in flight at a register change (``ares.scan.apply``; FORMAT.md, Bench dynamics).
+"""The frame in flight at a register, light or temperature change (``ares.scan.apply``; FORMAT.md, Bench dynamics).
 
 A streaming sensor is already exposing the next frame when the host writes a stage's
 registers, and a grabber may hold frames exposed before (at its last stop): the first frame
@@ -16,6 +16,11 @@ device what it is:
   changed register;
 - nothing (a real grabber's ``ares32`` header: a counter, no time): the host cannot tell the frame
   in flight from a fresh one, so it discards one frame, and the record says so.
+
+The same holds at a light or temperature change: a grabber still holds frames exposed under the
+old light (its FIFO) and one was exposing when it changed. The time compared with is when the change
+was complete -- the instrument settled and the declared waits over -- and no tag tells the light, so
+only a time stamp proves a frame fresh; without one, one frame is discarded.
 
 A declared ``discard_frames`` >= 1 is trusted to take the frame in flight (nothing is looked at).
 
@@ -60,12 +65,13 @@ def judge(bench, frame, committed: float | None, want: dict, tags_cover: bool) -
     return None, "none"
 
 
-def drop_in_flight(bench, want: dict, tags_cover: bool, committed: float | None) -> dict:
+def drop_in_flight(bench, want: dict, tags_cover: bool, committed: float | None, what: str = "register change") -> dict:
     """After a register change committed at ``committed`` (the bench's clock; None: a bench without
     one), no frame discarded by declaration: discard what the device says was exposed before it, or
     the first frame when it says nothing; the first fresh frame goes back to the frame source
     (``push_back``). ``want``: the tags a fresh frame carries (``exposure_s``/``analog_gain`` as the
-    registers hold them); ``tags_cover``: they cover every register changed."""
+    registers hold them); ``tags_cover``: they cover every register changed (never a light change's: no
+    tag tells the light). ``what``: the change, as the record names it ("light change")."""
     dropped, evidence = 0, "none"
     while dropped < CAP:
         frame = _grab1(bench)
@@ -75,17 +81,19 @@ def drop_in_flight(bench, want: dict, tags_cover: bool, committed: float | None)
             continue
         if fresh is None and not dropped:
             return {"discarded": 1, "kept": 0, "evidence": "none",
-                    "why": "the frame in flight at the register change is discarded: it may have been exposed "
-                           "partly with the old settings, and the device gives neither its exposure start nor "
+                    "why": f"the frame in flight at the {what} is discarded: it may have been exposed partly "
+                           "before the change was complete, and the device gives neither its exposure start nor "
                            "its settings to tell"}
         push_back(bench.frames, [frame])  # fresh: the stack's first frame
         if dropped:
-            why = f"{dropped} frame(s) exposed before the change discarded ({evidence}); the first after it is kept"
+            why = (f"{dropped} frame(s) exposed before the {what} was complete discarded ({evidence}); "
+                   "the first after it is kept")
         else:
-            why = f"no frame was exposed before the change ({evidence}): the first after it is kept"
+            why = f"no frame was exposed before the {what} was complete ({evidence}): the first after it is kept"
         return {"discarded": dropped, "kept": 1, "evidence": evidence, "why": why}
     return {"discarded": dropped, "kept": 0, "evidence": evidence,
-            "why": f"{dropped} frames in a row were exposed before the change ({evidence}); the stack follows regardless"}
+            "why": f"{dropped} frames in a row were exposed before the {what} was complete ({evidence}); the stack "
+                   "follows regardless"}
 
 
 def push_back(src, frames: list) -> None:

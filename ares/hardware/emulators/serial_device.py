@@ -14,6 +14,10 @@ in a faults dict given to their emulators, N = 0-based command count):
 ``ROLE_error_at`` (``ERR`` reply), ``ROLE_disconnect_at`` (the port is gone from then on),
 ``ROLE_late_at`` (the reply comes after the host's read timed out: it waits in the input buffer).
 
+``changes`` (the light, the chamber): every ``LEVEL`` (``TEMP``) command's level, when it came (``commanded_s``) and when the
+output reached it (``settled_s``: within the monitor's accuracy; later than the command for an LED
+relaxing with ``light_tau_s``), on the bench's clock -- the device's truth of a light change.
+
 ``ROLE_chatty`` = SEED: an instrument that talks unprompted (issue 49) -- before a reply come
 0 to 2 lines it sends on its own, drawn with that seed: a status line (``STATUS 25.00 C OK``,
 as one sent every 0.3 s would land), an asynchronous ``SETTLED`` notice and a streamed
@@ -71,8 +75,10 @@ class EmulatedInstrument:
     role = "light"
     ident = "ARES,EMULATED-LED,0,1.0"
 
-    def __init__(self, device, faults: dict | None = None):
+    def __init__(self, device, faults: dict | None = None, clock=None):
         self.device = device
+        self.clock = clock  # the bench's clock (the simulator's): when its output changed
+        self.changes: list[dict] = []  # (the light) every LEVEL command: level, commanded_s, settled_s
         keys = faults_for(self.role)
         self.faults = {k[len(self.role) + 1:]: int(v) for k, v in (faults or {}).items() if k in keys}
         self.commands = 0
@@ -117,13 +123,36 @@ class EmulatedInstrument:
         if cmd == "*IDN?":
             return self.ident
         if cmd == "LEVEL":
+            before = self.device.read_level() if hasattr(self.device, "read_level") else None
             self.device.set_level(float(arg))
+            self._record(before, float(arg))
             return "OK"
         if cmd == "LEVEL?":  # the driver's set point
             return repr(float(self.device.get_level()))
         if cmd == "MON?" and hasattr(self.device, "read_level"):  # its monitor photodiode: the output now
             return repr(float(self.device.read_level()))
         return f"ERR unknown command '{cmd}'"
+
+
+    def _record(self, before: float | None, level: float) -> None:
+        """The device's truth of a light change: when it was commanded and when its output
+        (``level_at``: an LED relaxing with its time constant) was within the monitor's accuracy
+        (``readback_rtol`` of the larger of the two levels) of the new level, on the bench's clock."""
+        if self.clock is None:
+            return
+        t0 = self.clock.now()
+        at = getattr(self.device, "level_at", None)
+        tol = getattr(self.device, "readback_rtol", 0.0) * max(abs(level), abs(before or 0.0))
+        done = (lambda dt: abs(at(t0 + dt) - level) <= tol) if at is not None else (lambda dt: True)
+        lo, hi = 0.0, 0.0
+        if not done(0.0):  # a ramp: the first time within tolerance, by doubling then bisection
+            hi = 1e-6
+            while not done(hi) and hi < 1e6:
+                lo, hi = hi, 2 * hi
+            for _ in range(60):
+                mid = (lo + hi) / 2
+                lo, hi = (lo, mid) if done(mid) else (mid, hi)
+        self.changes.append({"level": level, "commanded_s": t0, "settled_s": t0 + hi})
 
 
 class EmulatedChamber(EmulatedInstrument):
@@ -133,6 +162,7 @@ class EmulatedChamber(EmulatedInstrument):
     def answer(self, cmd: str, arg: str) -> str:
         if cmd == "TEMP":
             self.device.set_temperature(float(arg))
+            self._record(None, float(arg))  # (the simulator's chamber is there at once)
             return "OK"
         if cmd == "TEMP?":
             return repr(float(self.device.get_temperature()))
