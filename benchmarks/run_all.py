@@ -39,6 +39,21 @@ def readme_lines() -> list[str]:
     return p.read_text().splitlines() if p.exists() else []
 
 
+def section(text: str) -> str:
+    """A topic file as a section of the README: a file written as a document of its own (its
+    first heading "# ") has every heading demoted one level, so each topic is a "## " section
+    under the README's one title (headings inside ``` blocks are code, left alone)."""
+    lines = text.splitlines()
+    first = next((ln for ln in lines if ln.startswith("#")), "")
+    if not first.startswith("# "):
+        return text
+    out, code = [], False
+    for ln in lines:
+        code ^= ln.startswith("```")
+        out.append("#" + ln if not code and ln.startswith("#") else ln)
+    return "\n".join(out)
+
+
 def main() -> int:
     ap = argparse.ArgumentParser()
     ap.add_argument("--only", default="", help="comma-separated topics (bench_<topic>.py)")
@@ -69,7 +84,7 @@ def main() -> int:
     for md in sorted(HERE.glob("*.md")):
         if md.name == "README.md":
             continue
-        parts.append("\n" + md.read_text().strip() + "\n")
+        parts.append("\n" + section(md.read_text().strip()) + "\n")
     (HERE / "README.md").write_text("\n".join(parts))
     if failed:
         print("failed:", ", ".join(failed), file=sys.stderr)
