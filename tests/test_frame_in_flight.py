@@ -15,7 +15,9 @@ from pathlib import Path
 
 import pytest
 
+from ares.errors import InputError
 from ares.protocol import load_scan
+from ares.protocol.system import load_system, save_system
 from ares.rig.factory import build_bench
 from ares.scan import Runner
 from ares.scan import events as ev
@@ -195,3 +197,45 @@ def test_no_kept_frame_started_before_the_chamber_reached_its_temperature(tmp_pa
     for st in outcome.stages[1:]:
         fl = st["settling"]["flat"]["in_flight"]
         assert fl["discarded"] == 1 and fl["evidence"] == "device timestamp" and "temperature change" in fl["why"], fl
+
+
+@pytest.mark.parametrize("declared", [None, 2], ids=["depth_undeclared", "frames_in_flight_2"])
+def test_a_pipeline_two_frames_deep_without_evidence(tmp_path, declared):
+    """The simulator's sensor pipeline two frames deep (``pipeline_lag_frames=2``: the two frames after
+    a register change are still exposed with the old settings -- the device's ``exposed_with``) behind
+    an ``ares32`` grabber (no time stamps, no tags). Nothing tells which frames are stale, so the host
+    discards as many as the device can hold in flight: one assumed when the system declares nothing --
+    the second stale frame is then the stage's first kept frame -- and the declared
+    ``<timing frames_in_flight="2">`` takes both; the record says how many and whence the number."""
+    scan = _scan(tmp_path)
+    if declared:
+        system = tmp_path / "sim_wire_48x64.xml"
+        system.write_text(system.read_text().replace("<timing ", f'<timing frames_in_flight="{declared}" ', 1))
+        sy = load_scan(scan).system
+        assert sy.timing.frames_in_flight == declared
+        save_system(sy, tmp_path / "saved.xml")  # (written back as declared)
+        assert load_system(tmp_path / "saved.xml").timing.frames_in_flight == declared
+    outcome, kept, truth, recs = _run(scan, {"pipeline_lag_frames": 2})
+    stale = {st["name"]: [n for n in counters if truth[n]["analog_gain"] != st["settings"]["analog_gain"]
+                          or truth[n]["exposure_s"] != pytest.approx(st["settings"]["exposure"])]
+             for st, counters in zip(outcome.stages, kept)}
+    if declared is None:  # the device's truth: the frame right after the one discarded blind was stale
+        assert stale == {"s0": [], "s1": [kept[1][0]], "s2": [kept[2][0]]}, (stale, kept)
+    else:
+        assert not any(stale.values()), (stale, kept)
+    n = declared or 1
+    for rec in recs:
+        fl = rec["in_flight"]
+        assert fl["evidence"] == "none" and fl["discarded"] == fl["frames_in_flight"] == n == rec["discarded"], fl
+        assert fl["depth"] == ("declared" if declared else "assumed") and "in flight" in fl["why"], fl
+
+
+@pytest.mark.parametrize("value", ["0", "17", "two"])
+def test_a_bad_frames_in_flight_names_the_file_and_line(tmp_path, value):
+    system = tmp_path / "sim_wire_48x64.xml"
+    _scan(tmp_path)
+    text = system.read_text()
+    system.write_text(text.replace("<timing ", f'<timing frames_in_flight="{value}" ', 1))
+    line = text[:text.index("<timing ")].count("\n") + 1
+    with pytest.raises(InputError, match=rf"{system.name}:{line}: <timing frames_in_flight"):
+        load_system(system)

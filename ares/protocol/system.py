@@ -75,6 +75,7 @@ class Timing:
     margin_s: float = 0.5  # read timeouts: at least exposure + readout_s + margin_s
     after: tuple = ()  # (quantity, settle_s, discard_frames): <after quantity="light|temperature|registers">
     settle: Settle = Settle()  # <settle>: settling proven by the frames (ares.protocol.settle)
+    frames_in_flight: int | None = None  # frames the grabber/sensor pipeline can hold (None: undeclared, 1 assumed)
 
     def after_change(self, quantity: str) -> tuple[float, int]:
         """(settle seconds, frames to discard) after ``quantity`` changed ("registers",
@@ -94,6 +95,7 @@ class Simulator:
     paced: bool = False  # frames delivered at the sensor's frame period (exposure + <timing readout_s>)
 
 
+IN_FLIGHT_CAP = 16  # <timing frames_in_flight> at most (ares.scan.in_flight.CAP: a grabber's FIFO)
 REPLAY_LIGHT_PORT = "replay"  # port of the virtual light source a replay system presents
 
 
@@ -310,7 +312,11 @@ def system_from_tree(tree, path) -> System:
         _float(tim.get("readout_s"), 0.0), _float(tim.get("settle_s"), 0.0), int(tim.get("discard_frames", 0)),
         tim.get("flush", "false") in ("true", "1"), _float(tim.get("margin_s"), 0.5),
         tuple((a.get("quantity"), _float(a.get("settle_s"), 0.0), int(a.get("discard_frames", 0)))
-              for a in tim.iterfind("after")), settle_from_el(path, tim.find("settle")))
+              for a in tim.iterfind("after")), settle_from_el(path, tim.find("settle")),
+        None if tim.get("frames_in_flight") is None else _int(tim.get("frames_in_flight"), 1))
+    if timing.frames_in_flight is not None and not 1 <= timing.frames_in_flight <= IN_FLIGHT_CAP:
+        raise fail(path, tim.sourceline, f"<timing frames_in_flight='{timing.frames_in_flight}'> must be 1 .. "
+                                         f"{IN_FLIGHT_CAP} (the frames a grabber and sensor can hold in flight)")
     buses = tuple(i2c_from_el(path, el) for el in root.iterfind("buses/i2c"))
     check_buses(path, root, buses, regmap)
     g = root.find("devices/usb_grabber")
@@ -442,7 +448,7 @@ def system_to_tree(sy: System) -> etree._ElementTree:
         t = sy.timing
         te = _set(etree.SubElement(root, "timing"), readout_s=float(t.readout_s), settle_s=float(t.settle_s),
                   discard_frames=t.discard_frames or None, flush="true" if t.flush else None,
-                  margin_s=None if t.margin_s == 0.5 else t.margin_s)
+                  margin_s=None if t.margin_s == 0.5 else t.margin_s, frames_in_flight=t.frames_in_flight)
         for q, settle, discard in t.after:
             _set(etree.SubElement(te, "after"), quantity=q, settle_s=settle, discard_frames=discard or None)
         settle_to_el(te, t.settle, etree.SubElement)

@@ -142,7 +142,8 @@ def settle(bench, system, settings: dict, kinds: set, cancel=None, evidence: boo
                     if key in settings and register_field(system, key) is not None}
             cover = not slow and set(changed) <= {register_field(system, k) for k in TAGS if k in settings}
             what = " and ".join(slow + (["register"] if registers is not None else [])) + " change"
-            rec["in_flight"] = drop_in_flight(bench, want, bool(want) and cover, committed, what)
+            rec["in_flight"] = drop_in_flight(bench, want, bool(want) and cover, committed, what,
+                                              getattr(t, "frames_in_flight", None))
             rec["discarded"] = rec["in_flight"]["discarded"]
         return rec
     def want() -> dict:  # the settings as the registers hold them (read only when the frames carry tags)

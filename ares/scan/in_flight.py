@@ -14,27 +14,31 @@ device what it is:
 - its tags (the exposure/gain a device tags its frames with): a frame tagged with other settings
   than the registers now hold is discarded; tags that match are proof when they cover every
   changed register;
-- nothing (a real grabber's ``ares32`` header: a counter, no time): the host cannot tell the frame
-  in flight from a fresh one, so it discards one frame, and the record says so.
+- nothing (a real grabber's ``ares32`` header: a counter, no time): the host cannot tell the frames
+  in flight from fresh ones, so it discards as many frames as the device can hold in flight -- the
+  pipeline depth the system declares (``<timing frames_in_flight="N">``), else one (assumed) -- and
+  the record says so.
 
 The same holds at a light or temperature change: a grabber still holds frames exposed under the
 old light (its FIFO) and one was exposing when it changed. The time compared with is when the change
 was complete -- the instrument settled and the declared waits over -- and no tag tells the light, so
-only a time stamp proves a frame fresh; without one, one frame is discarded.
+only a time stamp proves a frame fresh; without one, the pipeline depth's frames are discarded.
 
 A declared ``discard_frames`` >= 1 is trusted to take the frame in flight (nothing is looked at).
 
 The record (the stage JSON's ``settling`` -> ``in_flight``): ``discarded``, ``kept`` (1: the frame
 looked at was fresh and is the stack's first), ``evidence`` ("device timestamp", "frame tags",
-"none") and ``why``."""
+"none"), ``why``; when nothing told (``evidence`` "none"): ``frames_in_flight`` (the frames discarded
+blind) and ``depth`` ("declared": ``<timing frames_in_flight>``; "assumed": one, none declared)."""
 
 from __future__ import annotations
 
 import numpy as np
 
+from ares.protocol.system import IN_FLIGHT_CAP
 from ares.scan.settling import _grab1, tags_match
 
-CAP = 16  # frames exposed before a change that a device may still deliver (a grabber's FIFO)
+CAP = IN_FLIGHT_CAP  # frames exposed before a change that a device may still deliver (a grabber's FIFO)
 
 
 def exposure_start(bench, frame) -> float | None:
@@ -65,7 +69,8 @@ def judge(bench, frame, committed: float | None, want: dict, tags_cover: bool) -
     return None, "none"
 
 
-def drop_in_flight(bench, want: dict, tags_cover: bool, committed: float | None, what: str = "register change") -> dict:
+def drop_in_flight(bench, want: dict, tags_cover: bool, committed: float | None, what: str = "register change",
+                   depth: int | None = None) -> dict:
     """After a register change committed at ``committed`` (the bench's clock; None: a bench without
     one), no frame discarded by declaration: discard what the device says was exposed before it, or
     the first frame when it says nothing; the first fresh frame goes back to the frame source
@@ -80,10 +85,16 @@ def drop_in_flight(bench, want: dict, tags_cover: bool, committed: float | None,
             dropped += 1
             continue
         if fresh is None and not dropped:
-            return {"discarded": 1, "kept": 0, "evidence": "none",
-                    "why": f"the frame in flight at the {what} is discarded: it may have been exposed partly "
-                           "before the change was complete, and the device gives neither its exposure start nor "
-                           "its settings to tell"}
+            n = min(max(int(depth or 1), 1), CAP)
+            for _ in range(n - 1):  # the rest of the pipeline: no more evidence than the first
+                _grab1(bench)
+            told = (f"the pipeline depth the system declares (<timing frames_in_flight=\"{n}\">)" if depth is not None
+                    else "one assumed: the system declares no pipeline depth (<timing frames_in_flight>)")
+            return {"discarded": n, "kept": 0, "evidence": "none", "frames_in_flight": n,
+                    "depth": "declared" if depth is not None else "assumed",
+                    "why": f"{n} frame(s) discarded, as many as may be in flight at the {what} ({told}): they may "
+                           "have been exposed partly before the change was complete, and the device gives neither its "
+                           "exposure start nor its settings to tell"}
         push_back(bench.frames, [frame])  # fresh: the stack's first frame
         if dropped:
             why = (f"{dropped} frame(s) exposed before the {what} was complete discarded ({evidence}); "
