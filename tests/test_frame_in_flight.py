@@ -239,3 +239,38 @@ def test_a_bad_frames_in_flight_names_the_file_and_line(tmp_path, value):
     line = text[:text.index("<timing ")].count("\n") + 1
     with pytest.raises(InputError, match=rf"{system.name}:{line}: <timing frames_in_flight"):
         load_system(system)
+
+
+MONO = """    <monochromator name="cs130" port="aresemu://cs130" baud="9600" timeout_s="2" min="250" max="1100" unit="nm">
+      <protocol terminator="\\r\\n" reply_terminator="\\n" error="ERR\\s*(?P&lt;text&gt;.*)">
+        <command name="set" send="GOWAVE {value:.2f}" reply="OK"/>
+        <command name="get" send="WAVE?" reply="(?P&lt;value&gt;\\S+)"/>
+        <command name="bandwidth" send="BANDPASS?" reply="(?P&lt;value&gt;\\S+)"/>
+      </protocol>
+    </monochromator>
+  </devices>"""
+QE = ('<param name="qe_curve_nm" type="floats" value="400 500 600 700"/>'
+      '<param name="qe_curve" type="floats" value="0.40 0.70 0.60 0.30"/>')
+
+
+@pytest.mark.parametrize("header", ["ares40", "ares32"])
+def test_no_kept_frame_was_exposed_at_the_previous_wavelength(tmp_path, header):
+    """A stage that changes only the monochromator's wavelength changes the light on the sensor
+    (its QE there): the grabber holding a frame exposed at its last stop (``usb_pipeline_frames=1``)
+    delivers it first. The device's record of each frame's light (``exposed_with``: the photon flux
+    it was rendered with, the QE at the wavelength then) shows no kept frame of the old wavelength;
+    the frame is discarded by its time stamp (``ares40``) or blind (``ares32``), the record names
+    the wavelength change. (The emulated monochromator keeps no time of its change: the frames'
+    light is the truth here.)"""
+    scan = _light_scan(tmp_path, header, quantity="wavelength", values=(450, 550, 650))
+    system = tmp_path / "sim_wire_48x64.xml"
+    text = system.read_text().replace("  </devices>", MONO, 1)
+    system.write_text(text.replace('<simulator seed="1" wire="true">', '<simulator seed="1" wire="true">' + QE, 1))
+    outcome, kept, truth, recs = _run(scan, {"usb_pipeline_frames": 1})
+    flux = [{truth[n]["photon_flux"] for n in counters} for counters in kept]
+    assert all(len(f) == 1 for f in flux) and len(set.union(*flux)) == 3, (kept, flux)  # one light per stage, each its own
+    for st, rec in zip(outcome.stages[1:], recs[1:]):
+        fl = rec["in_flight"]
+        assert fl["discarded"] == 1 and "wavelength change" in fl["why"], fl
+        assert fl["evidence"] == ("device timestamp" if header == "ares40" else "none"), fl
+        assert truth[kept[st["index"]][0] - 1]["photon_flux"] not in flux[st["index"]]  # the one dropped: the old light

@@ -95,8 +95,8 @@ def settle(bench, system, settings: dict, kinds: set, cancel=None, evidence: boo
     (``ares.scan.settling``). The frame time (exposure + readout) goes to the frame source's
     read timeouts. ``registers``: (the register fields changed, when on the bench's clock): where the
     frames after the change are kept as they come (``by="time"``, or ``evidence=False``), the frame in
-    flight at the change is never among them (``ares.scan.in_flight``) -- at a light or temperature
-    change, no frame that started before the instrument settled and the declared waits were over.
+    flight at the change is never among them (``ares.scan.in_flight``) -- at a light, temperature or
+    wavelength change, no frame that started before the instrument settled and the declared waits were over.
     Returns the record of what was waited and discarded and why (None: no change)."""
     t = getattr(system, "timing", None)
     if t is None:
@@ -131,7 +131,7 @@ def settle(bench, system, settings: dict, kinds: set, cancel=None, evidence: boo
     if cfg.by != "frames" or not evidence:
         rec.update(by="time", settled=None, why="the declared waits only" if evidence else
                    "the declared waits only: the frames after this change are the measurement")
-        slow = sorted(kinds & {"light", "temperature"})  # instruments: complete when settled and waited for
+        slow = sorted(kinds & {"light", "temperature", "wavelength"})  # instruments: complete when settled and waited for
         if (registers is not None or slow) and not discard:  # the frame in flight at the change is not kept
             from ares.scan.in_flight import drop_in_flight
 

@@ -19,7 +19,8 @@ device what it is:
   pipeline depth the system declares (``<timing frames_in_flight="N">``), else one (assumed) -- and
   the record says so.
 
-The same holds at a light or temperature change: a grabber still holds frames exposed under the
+The same holds at a light, temperature or wavelength change (a monochromator's: the light on the
+sensor, its QE there): a grabber still holds frames exposed under the
 old light (its FIFO) and one was exposing when it changed. The time compared with is when the change
 was complete -- the instrument settled and the declared waits over -- and no tag tells the light, so
 only a time stamp proves a frame fresh; without one, the pipeline depth's frames are discarded.
