@@ -230,6 +230,19 @@ def test_a_pipeline_two_frames_deep_without_evidence(tmp_path, declared):
         assert fl["depth"] == ("declared" if declared else "assumed") and "in flight" in fl["why"], fl
 
 
+def test_a_declared_discard_below_the_declared_depth_takes_the_depth(tmp_path):
+    """``discard_frames="1"`` with ``frames_in_flight="2"`` on the two-frame-deep pipeline: a declared
+    discard is trusted to take the frame in flight, but one fewer than the declared depth would keep
+    the second stale frame (the device's ``exposed_with``); the depth wins and the record says why."""
+    scan = _scan(tmp_path)
+    system = tmp_path / "sim_wire_48x64.xml"
+    system.write_text(system.read_text().replace("<timing ", '<timing frames_in_flight="2" discard_frames="1" ', 1))
+    outcome, kept, truth, recs = _run(scan, {"pipeline_lag_frames": 2})
+    for st, counters in zip(outcome.stages, kept):
+        assert all(truth[n]["analog_gain"] == st["settings"]["analog_gain"] for n in counters), (st["name"], counters)
+    assert recs and all(r["discarded"] == 2 and "frames_in_flight" in r["why_discarded"] for r in recs), recs
+
+
 @pytest.mark.parametrize("value", ["0", "17", "two"])
 def test_a_bad_frames_in_flight_names_the_file_and_line(tmp_path, value):
     system = tmp_path / "sim_wire_48x64.xml"

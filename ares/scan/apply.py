@@ -107,6 +107,10 @@ def settle(bench, system, settings: dict, kinds: set, cancel=None, evidence: boo
     waits = [t.after_change(k) for k in kinds]
     seconds = max((w[0] for w in waits), default=0.0)
     discard = max((w[1] for w in waits), default=0)
+    depth = getattr(t, "frames_in_flight", None)
+    raised = bool(discard) and depth is not None and discard < depth  # a declared discard below the declared depth
+    if raised:  # would keep a frame the pipeline still held: the depth wins, the record says so
+        discard = depth
     clock = getattr(bench, "clock", None)
     if seconds > 0:
         if clock is not None:
@@ -124,6 +128,9 @@ def settle(bench, system, settings: dict, kinds: set, cancel=None, evidence: boo
     if not kinds:
         return None
     rec = {"changed": sorted(kinds), "declared_wait_s": seconds, "discarded": discard}
+    if raised:
+        rec["why_discarded"] = (f"{discard} frames, the declared pipeline depth (<timing frames_in_flight=\"{depth}\">): "
+                                "the declared discard_frames is fewer, and would keep a frame still in flight")
     cfg = t.settle
     if getattr(bench.frames, "recorded", False):  # a replay: its frames are the recording's, nothing settles
         rec.update(by="time", settled=None, why="recorded frames: nothing to settle")
