@@ -16,7 +16,10 @@ def defects_page(run, d: dict):
     n_pix = None
     if run.stages:
         n_pix = run.stages[0]["views"]["full"]["level"].get("n_pixels")
-    rows = [[k.replace("_", " "), "n/a (not measured)" if v is None else str(v),
+    why = d.get("unavailable") if isinstance(d.get("unavailable"), dict) else {}
+    na = (lambda k: "n/a: why under detection limits, next page") if d.get("shape") else (  # (the map page has it)
+        lambda k: "n/a: " + plots.clip(why.get(k) or "not tested by this scan", 60))
+    rows = [[k.replace("_", " "), na(k) if v is None else str(v),
              "" if v is None or not n_pix or k in ("bad_columns", "bad_rows", "clusters") else f"{1e6 * v / n_pix:.1f}"]
             for k, v in counts.items()]
     y = text_table(fig, (0.08, 0.92, 0.84), ["class", "count", "ppm of pixels"], rows, [0.4, 0.3, 0.3],
