@@ -52,19 +52,27 @@ def _scan(tmp_path: Path, header: str = "ares32", sim: bool = False, hold: bool 
     return p
 
 
-def _run(scan_path: Path, faults: dict):
-    """(outcome, the device counters of the frames each stage kept, the device's truth, each
-    stage's settling record of its change)."""
-    scan = load_scan(scan_path)
+def _run_recorded(scan, faults: dict, instrument: str | None = None):
+    """Run ``scan`` on its bench: (outcome, the device counters of the frames each stage kept, by
+    stage index, the grabber's per-frame record ``exposed_with`` ({} on the direct simulator), the
+    ``instrument`` emulator's record of its changes)."""
     bench = build_bench(scan.system, seed=1, faults=faults)
     kept = {}
     listen = (lambda e: kept.setdefault(e.index, e.arrays["frame_counter"].tolist())
               if isinstance(e, ev.StageFinished) else None)
     try:
         outcome = Runner(scan, bench=bench, listeners=(listen,)).run()
-        truth = dict(bench.emulators["usb"].exposed_with) if getattr(bench, "emulators", None) else {}
+        emu = getattr(bench, "emulators", None) or {}
+        truth = dict(emu["usb"].exposed_with) if emu else {}
+        return outcome, kept, truth, list(emu[instrument].changes) if instrument else []
     finally:
         bench.close()
+
+
+def _run(scan_path: Path, faults: dict):
+    """(outcome, the device counters of the frames each stage kept, the device's truth, each
+    stage's settling record of its change)."""
+    outcome, kept, truth, _ = _run_recorded(load_scan(scan_path), faults)
     assert outcome.status == "done", outcome.message
     return outcome, [kept[st["index"]] for st in outcome.stages], truth, [st["settling"]["flat"] for st in outcome.stages]
 
@@ -133,20 +141,6 @@ def _light_scan(tmp_path: Path, header: str, timing: str = TIMED, quantity: str 
     return p
 
 
-def _run_instrument(scan, faults: dict, instrument: str):
-    """Run ``scan`` on its wire bench: (outcome, kept device counters per stage index, the grabber's
-    per-frame record ``exposed_with``, the ``instrument`` emulator's record of its changes)."""
-    bench = build_bench(scan.system, seed=1, faults=faults)
-    kept = {}
-    listen = (lambda e: kept.setdefault(e.index, e.arrays["frame_counter"].tolist())
-              if isinstance(e, ev.StageFinished) else None)
-    try:
-        outcome = Runner(scan, bench=bench, listeners=(listen,)).run()
-        return outcome, kept, dict(bench.emulators["usb"].exposed_with), list(bench.emulators[instrument].changes)
-    finally:
-        bench.close()
-
-
 @pytest.mark.parametrize("header,fault,faults", [
     ("ares40", "usb_pipeline_frames", {"usb_pipeline_frames": 1}),
     ("ares40", "usb_frame_in_flight", {"usb_frame_in_flight": 1}),
@@ -163,7 +157,7 @@ def test_no_kept_frame_started_before_the_light_reached_its_level(tmp_path, head
     host discards it (by its time stamp, or one frame blind without one) and says so."""
     timing = TIMED if "light_tau_s" not in faults else TIMED.replace(
         '<settle by="time"/>', '<after quantity="light" settle_s="0.05"/><settle by="time"/>')
-    outcome, kept, truth, light = _run_instrument(load_scan(_light_scan(tmp_path, header, timing)), faults, "led")
+    outcome, kept, truth, light = _run_recorded(load_scan(_light_scan(tmp_path, header, timing)), faults, "led")
     assert outcome.status == "done", outcome.message
     assert [c["level"] for c in light] == list(LIGHTS)  # one change per stage, in order
     if "light_tau_s" in faults:  # the LED ramps: its output reached the level after the command
@@ -185,7 +179,7 @@ def test_no_kept_frame_started_before_the_chamber_reached_its_temperature(tmp_pa
     chamber is there at once, its ``changes`` say when): the frame the grabber held from before
     is discarded by its time stamp, the record names the temperature change."""
     scan = load_scan(_light_scan(tmp_path, "ares40", quantity="temperature", values=(25, 30, 35)))
-    outcome, kept, truth, chamber = _run_instrument(scan, {"usb_pipeline_frames": 1}, "chamber")
+    outcome, kept, truth, chamber = _run_recorded(scan, {"usb_pipeline_frames": 1}, "chamber")
     assert outcome.status == "done", outcome.message
     assert [c["level"] for c in chamber] == [25, 30, 35]
     for st, change in zip(outcome.stages, chamber):
