@@ -496,6 +496,10 @@ def test_photon_transfer_scan_fills_defect_counts_and_information(window, qtbot,
     assert s.progress.state == P.DONE, s.progress.message
     names = [r.name for r in s.defects.rows]
     assert "hot" in names and "dead" in names
+    # the engine's order (a class not tested is in its place, not below "total" out of view)
+    assert names == [k for k in ("stuck", "rts", "hot", "warm", "noisy", "dead", "low_response", "high_response",
+                                 "unclassified", "bad_columns", "bad_rows", "clusters", "total") if k in names], names
+    assert names[-1] == "total"
     show_tab(window, "Defect Counts")
     table = window.defects.table
     assert table.rowCount() == len(names) and table.item(0, 0).text() == names[0]

@@ -73,11 +73,14 @@ def summarize(scan_results: dict, thresholds: tuple = ()) -> dict:
     if isinstance(defects, dict):
         counts = defects.get("counts")
         if isinstance(counts, dict) and counts:
-            out["defects"] = {str(k): int(v) for k, v in counts.items() if isinstance(v, (int, float))}
-            out["defect_criteria"] = {str(k): str(v) for k, v in (defects.get("criteria") or {}).items()}
-            for k, v in counts.items():  # a class the run could not test: its row says why
-                if v is None and k in out["defect_criteria"]:
-                    out["defects"][str(k)] = None
+            crit = {str(k): str(v) for k, v in (defects.get("criteria") or {}).items()}
+            why = defects.get("unavailable") if isinstance(defects.get("unavailable"), dict) else {}
+            out["defects"] = {}
+            for k, v in counts.items():  # a class the run could not test: its row says n/a and why
+                if v is None:
+                    crit.setdefault(str(k), "not available: " + str(why.get(k) or "not tested by this scan"))
+                out["defects"][str(k)] = int(v) if isinstance(v, (int, float)) else None
+            out["defect_criteria"] = crit
             if defects.get("locations") is not None and defects.get("shape"):
                 out["defect_map"] = {"shape": tuple(defects["shape"]), "locations": defects["locations"],
                                      "bad_column_x": defects.get("bad_column_x") or [],
