@@ -17,11 +17,13 @@ def dark_series(run) -> dict[float | None, dict[str, np.ndarray]]:
         lv = st["views"]["full"]["level"]
         t = st["settings"].get("temperature")
         out.setdefault(t, []).append((float(st["settings"]["exposure"]), lv["mean_dn"], _nan(lv.get("var_dn2")),
-                                      _nan(lv.get("spatial_var_dn2"))))
+                                      _nan(lv.get("spatial_var_dn2")), lv.get("frame_means")))
     res = {}
     for t, rows in out.items():
-        a = np.array(sorted(rows), float)
-        res[t] = {"exposure_s": a[:, 0], "mean_dn": a[:, 1], "var_dn2": a[:, 2], "spatial_var_dn2": a[:, 3]}
+        rows = sorted(rows, key=lambda r: r[:4])
+        a = np.array([r[:4] for r in rows], float)
+        res[t] = {"exposure_s": a[:, 0], "mean_dn": a[:, 1], "var_dn2": a[:, 2], "spatial_var_dn2": a[:, 3],
+                  "frame_means": [r[4] for r in rows]}
     return res
 
 
@@ -35,7 +37,8 @@ def dark_current_figures(run, gain: Estimate | None) -> dict:
     for t, s in dark_series(run).items():
         if np.unique(s["exposure_s"]).size < MIN_EXPOSURES:
             continue
-        dc = dark_current(s["exposure_s"], s["mean_dn"], gain if gain is not None else math.nan, s["var_dn2"])
+        dc = dark_current(s["exposure_s"], s["mean_dn"], gain if gain is not None else math.nan, s["var_dn2"],
+                          frame_means=s["frame_means"])
         at = "" if t is None else f" at {t:g} C"
         key = "dark_current" + ("" if t is None else f"@{t:g}C")
         kf[key + "_dn_per_s"] = _entry("dark current" + at, dc.rate_dn_per_s, "computed by the report from dark stages")

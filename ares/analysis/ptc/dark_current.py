@@ -2,7 +2,11 @@
 
 - ``dark_current``: slope of the dark mean vs exposure (>= 6 exposures) in DN/s, / K
   -> e-/s; cross-check: slope of the dark temporal variance vs exposure / K^2 (dark
-  shot noise: the variance in e-^2 grows like the mean in e-).
+  shot noise: the variance in e-^2 grows like the mean in e-). Given each level's frame
+  means (ARES's estimator on a recorded run), the slope's SE is decided on the stacks'
+  measured frame-to-frame scatter and checked against the levels' residuals about the
+  line (``_mean_slope``); without them (EMVA 1288 4.0 Section 7.1 as written: a table)
+  it is the regression's one-sigma error.
 - ``dsnu_vs_exposure``: ``sigma_spatial^2 = A^2 + t^2 DSNU^2`` (seed 001, "Dark noise as
   f(exposure time)"), linear in (A^2, DSNU^2).
 - ``doubling_temperature``: ``X_T = X_60 * 2^((T - 60)/Td)`` fitted as a line of
@@ -19,7 +23,7 @@ import numpy as np
 from ares.analysis.stats.estimate import Estimate
 from ares.analysis.stats.median import n_distinct
 from ares.analysis.stats.physical import in_range
-from ares.analysis.ptc.fit import line_fit
+from ares.analysis.ptc.fit import line_fit, residual_se_widening, wls_line
 
 MIN_EXPOSURES = 6
 QUANT_SIGMA_DN = 0.24  # EMVA 1288 4.0 Linear Section 6.6: below it the dark noise is quantization noise
@@ -42,19 +46,87 @@ def _div(e: Estimate, k: Estimate | float, unit: str, note: str) -> Estimate:
     return Estimate(v, math.hypot(e.se / kv, v * kse / kv), unit, note)
 
 
+DRIFT_P = 0.01  # the levels scatter about the line more than their frames do, at this F-test probability
+
+
+def _pooled_frame_scatter(frame_means) -> tuple[float, int]:
+    """(variance of one frame's mean about its stack's mean, pooled over the levels, DN^2;
+    its degrees of freedom) from each level's frame means."""
+    ss, dof = 0.0, 0
+    for fm in frame_means:
+        x = np.asarray(fm if fm is not None else [], float)
+        x = x[np.isfinite(x)]
+        if x.size >= 2:
+            ss += float(np.sum((x - x.mean()) ** 2))
+            dof += x.size - 1
+    return (ss / dof if dof else math.nan), dof
+
+
+def _mean_slope(t, m, frame_means) -> tuple[float, float, float, float, str]:
+    """(slope DN/s, its SE, intercept DN, its SE, how the SEs were decided) of the dark mean against
+    exposure, on the measured scatter (issue 48: decisions on the data's own scatter).
+
+    Each level's mean is uncertain by the frame-to-frame scatter of its stack's frame means
+    (the frame-global offset, flicker, clamp noise), pooled over the levels, / sqrt(frames):
+    the weights and the SE, which carries Student's t for the pooled degrees of freedom (so
+    3 SE cover what they claim). Where the levels scatter about the line significantly more
+    than their frames do (F-test p < ``DRIFT_P``: an offset or temperature drifting between
+    stages), the measured residuals win: the SE is the residuals' with Student's t for n - 2
+    degrees of freedom, and the note says so. Without frame means the SE is the residuals'
+    with Student's t. (The residuals of 8 levels alone gave a 2-frame dark current 7 SE off
+    its truth on the simulator, "ok", where the frames scatter 4x more than those residuals.)"""
+    n = t.size
+    s2, dof_f = _pooled_frame_scatter(frame_means) if frame_means is not None else (math.nan, 0)
+    nf = np.array([max(int(np.isfinite(np.asarray(fm if fm is not None else [], float)).sum()), 1)
+                   for fm in frame_means], float) if frame_means is not None else np.ones(n)
+    if not (dof_f >= 1 and s2 > 0):
+        lf = line_fit(t, m)
+        w = residual_se_widening(n - 2)
+        return lf.slope, lf.slope_se * w, lf.intercept, lf.intercept_se * w, (
+            f"SE from the {n} levels' residuals about the line x Student's t ({n - 2} dof: x {w:.3g})")
+    sig = np.sqrt(s2 / nf)
+    lf = wls_line(t, m, nf, v_se=sig)
+    r = (m - (lf.slope * t + lf.intercept)) / sig
+    chi2 = float(r @ r) / max(n - 2, 1)
+    undo = 1.0 / math.sqrt(max(lf.chi2_red, 1.0))  # (wls_line scales its SEs by chi2 > 1: undone here)
+    se_f, ise_f = lf.slope_se * undo, lf.intercept_se * undo
+    from ares.analysis.stats.tails import f_sf
+
+    p = f_sf(n - 2, dof_f, chi2) if chi2 > 1 and n > 2 else 1.0
+    if p < DRIFT_P:
+        w = residual_se_widening(n - 2)
+        return lf.slope, se_f * math.sqrt(chi2) * w, lf.intercept, ise_f * math.sqrt(chi2) * w, (
+            f"the levels scatter about the line {math.sqrt(chi2):.2g}x more than their frames do (F-test p "
+            f"{p:.2g}: an offset or temperature drifting between stages); SE from the residuals x Student's t "
+            f"({n - 2} dof: x {w:.3g})")
+    w = residual_se_widening(dof_f)
+    return lf.slope, se_f * w, lf.intercept, ise_f * w, (
+        f"SE from the stacks' frame-to-frame scatter ({math.sqrt(s2):.2g} DN a frame, {dof_f} dof, x Student's t "
+        f"{w:.3g}); the levels' residuals agree with it (chi2/dof {chi2:.2g})")
+
+
 def dark_current(exposure_s, dark_mean_dn, gain_dn_per_e: Estimate | float, dark_var_dn2=None,
-                 min_exposures: int = MIN_EXPOSURES) -> DarkCurrent:
+                 min_exposures: int = MIN_EXPOSURES, frame_means=None) -> DarkCurrent:
+    """``frame_means``: each level's frame means (DN), as a run records them: the SEs are
+    then decided on the measured scatter (``_mean_slope``), the variance slope's SE carries
+    Student's t; without them, EMVA 1288 4.0 Section 7.1 as written (the regression's
+    one-sigma errors)."""
     t = np.asarray(exposure_s, float)
     m = np.asarray(dark_mean_dn, float)
     distinct = n_distinct(t)
     if distinct < min_exposures:
         na = Estimate.na(f"needs >= {min_exposures} distinct exposure times, got {distinct}", "e-/s")
         return DarkCurrent(Estimate.na(na.note, "DN/s"), na, na, Estimate.na(na.note, "DN"))
-    lf = line_fit(t, m)
-    rate_dn = in_range(Estimate(lf.slope, lf.slope_se, "DN/s", "slope of dark mean vs exposure"), 0.0,
+    if frame_means is not None:
+        slope, slope_se, icpt, icpt_se, how = _mean_slope(t, m, frame_means)
+        how = "; " + how
+    else:
+        lf = line_fit(t, m)
+        slope, slope_se, icpt, icpt_se, how = lf.slope, lf.slope_se, lf.intercept, lf.intercept_se, ""
+    rate_dn = in_range(Estimate(slope, slope_se, "DN/s", "slope of dark mean vs exposure" + how), 0.0,
                        what="dark current")
-    rate_e = in_range(_div(Estimate(lf.slope, lf.slope_se, "DN/s"), gain_dn_per_e, "e-/s",
-                           "slope of dark mean vs exposure / K"), 0.0, what="dark current")
+    rate_e = in_range(_div(Estimate(slope, slope_se, "DN/s"), gain_dn_per_e, "e-/s",
+                           "slope of dark mean vs exposure / K" + how), 0.0, what="dark current")
     k = gain_dn_per_e.value if isinstance(gain_dn_per_e, Estimate) else float(gain_dn_per_e)
     if dark_var_dn2 is not None and not (math.isfinite(k) and k > 0):
         rv = Estimate.na("gain not available", "e-/s")
@@ -66,7 +138,8 @@ def dark_current(exposure_s, dark_mean_dn, gain_dn_per_e: Estimate | float, dark
         lv = line_fit(t, np.asarray(dark_var_dn2, float))
         kse = gain_dn_per_e.se if isinstance(gain_dn_per_e, Estimate) and math.isfinite(gain_dn_per_e.se) else 0.0
         v = lv.slope / k**2
-        se = math.hypot(lv.slope_se / k**2, 2 * v * kse / k)
+        widen = residual_se_widening(t.size - 2) if frame_means is not None else 1.0  # (residual SE: t, as above)
+        se = math.hypot(widen * lv.slope_se / k**2, 2 * v * kse / k)
         rv = Estimate(v, se, "e-/s", "slope of dark temporal variance vs exposure / K^2 (cross-check; EMVA 1288 "
                                      "4.0 Section 7.1)")
         # (a rise of the variance smaller than the quantization noise's 1/12 DN^2 is still measured:
@@ -75,7 +148,7 @@ def dark_current(exposure_s, dark_mean_dn, gain_dn_per_e: Estimate | float, dark
         rv = in_range(rv, 0.0, what="dark current from the variance")
     else:
         rv = Estimate.na("dark variances not given", "e-/s")
-    return DarkCurrent(rate_dn, rate_e, rv, Estimate(lf.intercept, lf.intercept_se, "DN", "dark mean at t = 0"))
+    return DarkCurrent(rate_dn, rate_e, rv, Estimate(icpt, icpt_se, "DN", "dark mean at t = 0"))
 
 
 def with_upper_limit(key: str, e: Estimate) -> dict[str, Estimate]:
