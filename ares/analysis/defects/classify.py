@@ -24,7 +24,7 @@ from ares.analysis.defects.limits import Z99, hot_limit_text, noisy_available, p
 from ares.analysis.defects.robust import robust_sigma
 from ares.analysis.defects.rts import (detect_rts, hmm_null_threshold, low_outlier, low_outlier_critical, rts_threshold,
                                        telegraph_test)
-from ares.analysis.defects.steady import (P_STEADY, P_TELEGRAPH, ambiguous_noisy_text, one_code,
+from ares.analysis.defects.steady import (P_STEADY, P_TELEGRAPH, note_ambiguous_noisy, one_code,
                                           shot_noise_could_explain, variance_unsteady)
 from ares.analysis.defects.stats import PixelStats, SeriesCollector
 from ares.analysis.defects.inputs import _Dark, _Flat, _Slope, _level_flags, _levels, _match_dark, _need
@@ -410,8 +410,7 @@ def classify_defects(
         flags["noisy"][nr[amb], nc[amb]] = False
         withheld[nr[amb], nc[amb]] = True
         if amb.any():
-            notes.append(ambiguous_noisy_text(int(amb.sum()), dref0.sigma, gain_dn_per_e))
-            detection["noisy"] = f"{detection.get('noisy', '')}; {notes[-1]}"
+            notes.append(note_ambiguous_noisy(detection, int(amb.sum()), dref0.sigma, gain_dn_per_e))
     # ---- histograms (the last use of the levels' per-pixel maps: freed after them -- a
     # 4096x3072 classification held a dozen float64 frames of them to the end)
     dref = max(D, key=lambda d: d.st.exposure_s or 0.0)

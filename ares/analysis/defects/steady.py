@@ -140,12 +140,17 @@ def shot_noise_could_explain(darks, rows: np.ndarray, cols: np.ndarray, gain: fl
     return n < need
 
 
-def ambiguous_noisy_text(n: int, sigma: float, gain: float) -> str:
-    """The note (and noisy's detection sentence) for ``n`` pixels ``shot_noise_could_explain`` withheld."""
+def note_ambiguous_noisy(detection: dict, n: int, sigma: float, gain: float) -> str:
+    """The note for ``n`` pixels ``shot_noise_could_explain`` withheld from noisy; adds why to
+    noisy's and unclassified's detection sentences (every surface shows those: the window's
+    criteria, the report's detection limits -- clipped, so the count and the reason first)."""
     z = float(-special.ndtri(P_VARIANCE_SIDE))
-    return (f"{n} pixels with a raised temporal noise are not noisy but 'unclassified': the shot noise of a dark "
-            f"signal hidden by their offset (up to {z:.2g} x {sigma:.2g} DN, the averaged dark's pixel-to-pixel noise; "
-            f"K = {gain:g} DN/e-) could give it, which the data cannot tell from excess read noise")
+    why = (f"the shot noise of a dark signal their offset hides (up to {z:.2g} x {sigma:.2g} DN, the averaged "
+           f"dark's pixel-to-pixel noise; K = {gain:g} DN/e-) could give their raised temporal noise")
+    detection["noisy"] = (f"{detection.get('noisy', '')}; {n} more 'unclassified' (a hidden dark signal could give "
+                          "their noise)")
+    detection["unclassified"] = f"{n} of them: {why} -- noisy or a dark signal, the data cannot tell"
+    return f"{n} pixels are not noisy but 'unclassified': {why}, which the data cannot tell from excess read noise"
 
 
 def one_code(darks, suspect: np.ndarray, gain: float | None, p: float) -> np.ndarray:
