@@ -76,7 +76,8 @@ def test_noisy_with_k_on_a_quiet_sensor_not_claimed_where_a_hidden_dark_signal_e
     hides part of their excess read as noisy (their shot noise above K x the measured excess).
     Where the shot noise of a dark signal the excess does not rule out explains the variance,
     the pixel is not noisy but 'unclassified' (in the mask, listed, with the reason on the
-    noisy verdict and in the notes); noisy >= 95 % precise, recall >= 85 % of the injected."""
+    noisy verdict and in the notes); noisy >= 95 % precise, recall >= 85 % of the injected. Not
+    where the data contradict K (the steady-rate check's note): the test trusts K."""
     from ares.analysis.defects.result import BITS, primary_class
 
     case = make_case(2 * 1000 + 256 * 10 + 3, 256, 2e-2, True, temporal=0.5)
@@ -87,6 +88,12 @@ def test_noisy_with_k_on_a_quiet_sensor_not_claimed_where_a_hidden_dark_signal_e
     assert res.counts["unclassified"] == int(unc.sum()) > 0
     assert "more 'unclassified'" in res.detection["noisy"] and "cannot tell" in res.detection["unclassified"]
     assert any("not noisy but 'unclassified'" in n for n in res.notes)
+    # with a K the hot pixels' own variance contradicts (3x too high) the test trusts K no more than
+    # the steady-rate check does: neither withholds
+    from ares.analysis.defects import classify_stack
+
+    wrong = classify_stack(case.dark, case.flat, gain_dn_per_e=1.5, exposure_s=case.exposure_s)
+    assert any("check K" in n for n in wrong.notes) and not any("not noisy but" in n for n in wrong.notes)
 
 
 def test_telegraph_ratio_false_alarm_rate_as_tabled():

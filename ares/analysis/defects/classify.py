@@ -283,13 +283,13 @@ def classify_defects(
     # candidate, warm where the telegraph tests clear it. With K a hot/warm claim needs the temporal variance of a
     # steady dark rate (steady.py): a trap mostly high, a noisy pixel with an offset is not -- noisy or rts where
     # its tests say
-    no_rate = np.zeros(shape, bool)
+    no_rate, k_note = np.zeros(shape, bool), ""  # k_note: why the variance tests do not trust K (steady.py)
     withheld = np.zeros(shape, bool)  # a dark excess no class takes: "unclassified" (result.BITS)
     if rate_mode:
         hr, hc = np.nonzero(flags["hot"] | flags["warm"])
         lv = line_factors["bad_column"][0][hc] * line_factors["bad_row"][0][hr]
-        no_rate[hr, hc], note = variance_unsteady(D, hr, hc, gain_dn_per_e, _need(len(D), th.confirm_fraction), lv)
-        notes.extend([note] if note else [])
+        no_rate[hr, hc], k_note = variance_unsteady(D, hr, hc, gain_dn_per_e, _need(len(D), th.confirm_fraction), lv)
+        notes.extend([k_note] if k_note else [])
     dof0 = D[0].st.n_frames - 1
     zwarm = ((stats["hot"] > th.warm_z) & ~flags["hot"] & ~flags["warm"]) if not rate_mode else np.zeros(shape, bool)
     cand = (flags["noisy"] | flags["hot"] | flags["warm"] | zwarm
@@ -403,7 +403,7 @@ def classify_defects(
             unavailable[c] = (f"without K and the exposure a {c} pixel is a dark offset, which a telegraph (RTS) "
                               f"trap held high over the frames shows too; RTS is not testable here ({rts_note})")
 
-    if gain_dn_per_e:  # noisy, or the shot noise of a dark signal its FPN offset hides: not told (steady.py)
+    if gain_dn_per_e and not k_note:  # noisy, or the shot noise of a dark signal its offset hides (steady.py)
         nr, nc = np.nonzero(flags["noisy"] & ~rts & ~flags["stuck"] & ~flags["hot"] & ~flags["warm"])
         amb = shot_noise_could_explain(D, nr, nc, gain_dn_per_e, _need(len(D), th.confirm_fraction),
                                        line_factors["bad_column"][0][nc] * line_factors["bad_row"][0][nr])

@@ -32,7 +32,8 @@ it is K or the shot-noise model that the data contradict, not the pixels (a wron
 offsets without shot noise as in benchmarks/bench_defects.py): the variance tests are not
 applied, and the result says so; likewise where the K the claimed pixels' own variance shows
 (the median of (variance - population's) / excess over those whose shot noise dominates, the
-median's chi-square bias divided out) is not within ``K_FACTOR`` of the K given.
+median's chi-square bias divided out) is not within ``K_FACTOR`` of the K given. Nor is the
+hidden-signal test on noisy claims then (classify.py): it trusts K as much.
 """
 
 from __future__ import annotations
