@@ -146,11 +146,11 @@ def note_ambiguous_noisy(detection: dict, n: int, sigma: float, gain: float) -> 
     noisy's and unclassified's detection sentences (every surface shows those: the window's
     criteria, the report's detection limits -- clipped, so the count and the reason first)."""
     z = float(-special.ndtri(P_VARIANCE_SIDE))
-    why = (f"the shot noise of a dark signal their offset hides (up to {z:.2g} x {sigma:.2g} DN, the averaged "
-           f"dark's pixel-to-pixel noise; K = {gain:g} DN/e-) could give their raised temporal noise")
+    why = (f"their raised temporal noise could be the shot noise of a dark signal their offset hides (up to {z:.2g} "
+           f"x {sigma:.2g} DN, the averaged dark's pixel-to-pixel noise; K = {gain:g} DN/e-)")
     detection["noisy"] = (f"{detection.get('noisy', '')}; {n} more 'unclassified' (a hidden dark signal could give "
                           "their noise)")
-    detection["unclassified"] = f"{n} of them: {why} -- noisy or a dark signal, the data cannot tell"
+    detection["unclassified"] = f"{n} of them: noisy or a hidden dark signal, the data cannot tell -- {why}"
     return f"{n} pixels are not noisy but 'unclassified': {why}, which the data cannot tell from excess read noise"
 
 
