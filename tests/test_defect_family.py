@@ -70,6 +70,32 @@ def test_warm_with_k_not_claimed_where_the_series_is_no_steady_rate(seed, frames
     assert sc["warm"]["right"] >= 1 and sc["hot"]["right"] == sc["hot"]["given"], sc["warm"]
 
 
+def test_noisy_with_k_on_a_quiet_sensor_not_claimed_where_a_hidden_dark_signal_explains_it():
+    """Issue 48: a quiet sensor (0.5 DN of noise and FPN, integer codes), 256 frames, K given --
+    the tuning-seed stack where noisy was 35/39 precise: dark-rate pixels whose negative offset
+    hides part of their excess read as noisy (their shot noise above K x the measured excess).
+    Where the shot noise of a dark signal the excess does not rule out explains the variance,
+    the pixel is not noisy but 'unclassified' (in the mask, listed, with the reason on the
+    noisy verdict and in the notes); noisy >= 95 % precise, recall >= 85 % of the injected. Not
+    where the data contradict K (the steady-rate check's note): the test trusts K."""
+    from ares.analysis.defects.result import BITS, primary_class
+
+    case = make_case(2 * 1000 + 256 * 10 + 3, 256, 2e-2, True, temporal=0.5)
+    res = classify(case)
+    sc = score(case, res)["noisy"]
+    assert sc["available"] and sc["right"] >= 0.95 * sc["given"] and sc["found"] >= 0.85 * sc["total"], sc
+    unc = ((res.mask & BITS["unclassified"]) != 0) & (primary_class(res.mask) < 0)
+    assert res.counts["unclassified"] == int(unc.sum()) > 0
+    assert "more 'unclassified'" in res.detection["noisy"] and "cannot tell" in res.detection["unclassified"]
+    assert any("not noisy but 'unclassified'" in n for n in res.notes)
+    # with a K the hot pixels' own variance contradicts (3x too high) the test trusts K no more than
+    # the steady-rate check does: neither withholds
+    from ares.analysis.defects import classify_stack
+
+    wrong = classify_stack(case.dark, case.flat, gain_dn_per_e=1.5, exposure_s=case.exposure_s)
+    assert any("check K" in n for n in wrong.notes) and not any("not noisy but" in n for n in wrong.notes)
+
+
 def test_telegraph_ratio_false_alarm_rate_as_tabled():
     """White series the table was not made from reach the tabled threshold at p = 1e-2 with
     probability 1e-2 (within 4 binomial SE; at 34 frames, between two table rows: the larger
@@ -123,14 +149,14 @@ def test_telegraph_ratio_leaves_series_on_a_few_codes_untested():
 @pytest.mark.parametrize("frames", [4, 8, 16, 64, 256])
 @pytest.mark.parametrize("with_gain", [True, False])
 @pytest.mark.parametrize("seeds", [(101, 102, 103, 104, 105), (1, 2, 3, 4, 5)], ids=["held", "tune"])
-def test_family_held_out_seeds_every_reported_class_precise(frames, with_gain, seeds):
+def test_family_held_out_seeds_every_reported_class_precise(frames, with_gain, seeds, temporal=2.0):
     """Held-out seeds (101-105, not the tuning ones) and the tuning seeds over the four
     densities: summed over them, each class given to >= 10 pixels is >= 95 % precise; a
     class not available always says why."""
     tot = {c: [0, 0] for c in CLASSES}
     for seed in seeds:
         for di, d in enumerate((1e-4, 1e-3, 5e-3, 2e-2)):
-            case = make_case(seed * 1000 + frames * 10 + di, frames, d, with_gain)
+            case = make_case(seed * 1000 + frames * 10 + di, frames, d, with_gain, temporal=temporal)
             sc = score(case, classify(case))
             for c, v in sc.items():
                 tot[c][0] += v["right"]
@@ -138,6 +164,17 @@ def test_family_held_out_seeds_every_reported_class_precise(frames, with_gain, s
                 assert v["available"] or v["verdict"], c
     bad = {c: f"{r}/{g}" for c, (r, g) in tot.items() if g >= 10 and r < 0.95 * g}
     assert not bad, (bad, tot)
+
+
+@pytest.mark.study
+@pytest.mark.parametrize("frames", [64, 256])
+@pytest.mark.parametrize("with_gain", [True, False])
+@pytest.mark.parametrize("seeds", [(101, 102, 103, 104, 105), (1, 2, 3, 4, 5)], ids=["held", "tune"])
+@pytest.mark.parametrize("temporal", [0.3, 0.5])
+def test_family_quiet_sensor_every_reported_class_precise(frames, with_gain, seeds, temporal):
+    """The same on a quiet sensor (integer codes, 0.3 and 0.5 DN of noise and FPN): noisy with K at
+    0.5 DN and 256 frames was 94 % (issue 48: a dark signal its offset hides, benchmarks/defect_family.md)."""
+    test_family_held_out_seeds_every_reported_class_precise(frames, with_gain, seeds, temporal)
 
 
 @pytest.mark.study

@@ -11,7 +11,7 @@ from types import SimpleNamespace
 
 import numpy as np
 
-from ares.analysis.defects.steady import P_VARIANCE_SIDE, variance_unsteady
+from ares.analysis.defects.steady import P_VARIANCE_SIDE, shot_noise_could_explain, variance_unsteady
 
 POP, FPN, K, F = 4.0, 1.0, 0.5, 16
 
@@ -80,3 +80,37 @@ def test_a_wrong_gain_is_not_read_as_unsteady_pixels():
         assert not flagged.any() and "check K" in note, note
     flagged, note = _flagged(steady, gain=1.3 * K)
     assert not note and flagged.mean() < 0.03
+
+
+def _quiet(signal, extra_var, rng, pop, fpn, frames=256):
+    """One dark level of n pixels: a dark signal ``signal`` DN (its shot noise K x signal in the
+    variance), their own offset (FPN), ``extra_var`` DN^2 of excess read noise; the variances
+    drawn as chi-square over ``frames`` - 1 dof."""
+    n = signal.size
+    res = signal + fpn * rng.standard_normal(n) + np.sqrt((pop + K * signal + extra_var) / frames) * rng.standard_normal(n)
+    var = (pop + K * signal + extra_var) * rng.chisquare(frames - 1, n) / (frames - 1)
+    st = SimpleNamespace(n_frames=frames, var=var[None, :], code_step=None)
+    return SimpleNamespace(st=st, res=res[None, :], pop_var=pop, sigma=math.sqrt(fpn**2 + pop / frames))
+
+
+def test_a_dark_signal_its_offset_hides_is_not_read_as_noisy():
+    """Issue 48: on a quiet sensor (0.5 DN of noise and FPN, K 0.5, 256 frames) a dark signal of
+    0.15-3.5 DN whose negative offset hides it raises the variance beyond the shot noise of its
+    measured excess (the noisy test's allowance): the shot noise of a signal its excess does not
+    rule out explains it, in all but P_VARIANCE_SIDE (4 binomial SE). Noisy pixels without a dark
+    signal of 3-10x the temporal noise are not explained (<= 0.5 %; of 1.5-2x most are: there the
+    two give the same data); nor at 2 DN of noise and 1 DN of FPN a noisy pixel of 1.5x, the
+    family's weakest (<= 0.1 %: the allowance is inside the noisy test's own margin)."""
+    rng = np.random.default_rng(48_104)
+    n = 20_000
+    idx = np.zeros(n, np.intp), np.arange(n)
+    dark = _quiet(rng.uniform(0.15, 3.5, n), np.zeros(n), rng, 0.25, 0.5)
+    rate = 1.0 - float(shot_noise_could_explain([dark], *idx, K, 1).mean())
+    assert rate <= P_VARIANCE_SIDE + 4 * math.sqrt(P_VARIANCE_SIDE / n), rate
+    noisy = _quiet(np.zeros(n), 0.25 * (rng.uniform(3.0, 10.0, n) ** 2 - 1), rng, 0.25, 0.5)
+    assert shot_noise_could_explain([noisy], *idx, K, 1).mean() <= 5e-3
+    weak = _quiet(np.zeros(n), 0.25 * (rng.uniform(1.5, 2.0, n) ** 2 - 1), rng, 0.25, 0.5)
+    assert shot_noise_could_explain([weak], *idx, K, 1).mean() >= 0.5
+    loud = _quiet(np.zeros(n), np.full(n, 4.0 * (1.5**2 - 1)), rng, 4.0, 1.0)
+    assert shot_noise_could_explain([loud], *idx, K, 1).mean() <= 1e-3
+

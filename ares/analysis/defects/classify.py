@@ -14,7 +14,6 @@ from typing import Callable, Sequence
 
 import numpy as np
 
-
 from ares.analysis.defects.clusters import find_clusters
 from ares.analysis.defects.dist import chi2_isf, chi2_ppf
 from ares.analysis.defects.histograms import deviation_histograms
@@ -25,19 +24,18 @@ from ares.analysis.defects.limits import Z99, hot_limit_text, noisy_available, p
 from ares.analysis.defects.robust import robust_sigma
 from ares.analysis.defects.rts import (detect_rts, hmm_null_threshold, low_outlier, low_outlier_critical, rts_threshold,
                                        telegraph_test)
-from ares.analysis.defects.steady import P_STEADY, P_TELEGRAPH, one_code, variance_unsteady
+from ares.analysis.defects.steady import (P_STEADY, P_TELEGRAPH, note_ambiguous_noisy, one_code,
+                                          shot_noise_could_explain, variance_unsteady)
 from ares.analysis.defects.stats import PixelStats, SeriesCollector
 from ares.analysis.defects.inputs import _Dark, _Flat, _Slope, _level_flags, _levels, _match_dark, _need
 
 _ROWS = 256  # rows per block of elementwise work on a frame
-# a noisy pixel is RTS when its series shows a telegraph (two levels, persisting from frame
-# to frame) beyond a white Gaussian series at this p: 0.1 % of truly noisy pixels (one of
-# rts.HMM_NULL_P; benchmarks/defect_classes.md)
+# a noisy pixel is RTS when its series shows a telegraph (two levels, persisting from frame to frame) beyond a
+# white Gaussian series at this p: 0.1 % of truly noisy pixels (one of rts.HMM_NULL_P; benchmarks/defect_classes.md)
 NOISY_RTS_P = 1e-3
-# below this temporal noise (the population's, quantization included; in code steps) the noisy
-# test is not available: with integer codes and 0.3 DN of noise (0.42 measured) half the pixels
-# "noisy" at 256 frames were good, at 0.4 DN (0.49) 1 of 19 at 64 frames, at 0.5 DN (0.58) none
-# (tests/defect_family.py with the noise lowered)
+# below this temporal noise (the population's, quantization included; in code steps) the noisy test is not
+# available: with integer codes and 0.3 DN of noise (0.42 measured) half the pixels "noisy" at 256 frames were
+# good, at 0.4 DN (0.49) 1 of 19 at 64 frames, at 0.5 DN (0.58) none (tests/defect_family.py, noise lowered)
 NOISY_MIN_STEPS = 0.55
 
 RtsSource = Callable[[np.ndarray, np.ndarray], np.ndarray] | SeriesCollector
@@ -275,26 +273,23 @@ def classify_defects(
         flags2, stats = pixel_flags(cv, rv, cr, rr_)
         flags = {k: flags[k] & flags2[k] for k in flags}
 
-    # ---- RTS (pass 2 on the candidates: noisy pixels, and hot/warm ones -- an RTS that
-    # sits mostly in its high state looks like a warm pixel whose variance the
-    # dark-shot-noise allowance explains)
-    # and every pixel whose variance in the series' level (the first dark) is above the
-    # chi-square limit at rts_p_fa: an RTS of a few sigma raises the variance only a few
-    # times, below the noisy limit at 16 frames. The separation of a Gaussian series is
-    # independent of its sample variance (Basu), so the joint false alarm per normal
-    # pixel is rts_p_fa^2.
-    # Without K a warm pixel's own dark shot noise raises its variance, which the z-warm vote
-    # refuses (a trap switching over a few frames raises mean and variance as well): such a
-    # pixel (z > warm_z, not hot) is a candidate, warm where the telegraph tests clear it.
-    # With K a hot/warm claim needs the temporal variance of a steady dark rate (steady.py): a
-    # trap mostly high, a noisy pixel with an offset is not -- noisy or rts where its tests say
-    no_rate = np.zeros(shape, bool)
+    # ---- RTS (pass 2 on the candidates: noisy pixels, and hot/warm ones -- an RTS that sits mostly in its high
+    # state looks like a warm pixel whose variance the dark-shot-noise allowance explains) and every pixel whose
+    # variance in the series' level (the first dark) is above the chi-square limit at rts_p_fa: an RTS of a few
+    # sigma raises the variance only a few times, below the noisy limit at 16 frames. The separation of a Gaussian
+    # series is independent of its sample variance (Basu): the joint false alarm per normal pixel is rts_p_fa^2.
+    # Without K a warm pixel's own dark shot noise raises its variance, which the z-warm vote refuses (a trap
+    # switching over a few frames raises mean and variance as well): such a pixel (z > warm_z, not hot) is a
+    # candidate, warm where the telegraph tests clear it. With K a hot/warm claim needs the temporal variance of a
+    # steady dark rate (steady.py): a trap mostly high, a noisy pixel with an offset is not -- noisy or rts where
+    # its tests say
+    no_rate, k_note = np.zeros(shape, bool), ""  # k_note: why the variance tests do not trust K (steady.py)
     withheld = np.zeros(shape, bool)  # a dark excess no class takes: "unclassified" (result.BITS)
     if rate_mode:
         hr, hc = np.nonzero(flags["hot"] | flags["warm"])
         lv = line_factors["bad_column"][0][hc] * line_factors["bad_row"][0][hr]
-        no_rate[hr, hc], note = variance_unsteady(D, hr, hc, gain_dn_per_e, _need(len(D), th.confirm_fraction), lv)
-        notes.extend([note] if note else [])
+        no_rate[hr, hc], k_note = variance_unsteady(D, hr, hc, gain_dn_per_e, _need(len(D), th.confirm_fraction), lv)
+        notes.extend([k_note] if k_note else [])
     dof0 = D[0].st.n_frames - 1
     zwarm = ((stats["hot"] > th.warm_z) & ~flags["hot"] & ~flags["warm"]) if not rate_mode else np.zeros(shape, bool)
     cand = (flags["noisy"] | flags["hot"] | flags["warm"] | zwarm
@@ -332,19 +327,16 @@ def classify_defects(
         else:
             thr = rts_threshold(nfr, th.rts_min_separation, th.rts_min_occupancy, th.rts_p_fa)
             is_rts, sep = detect_rts(series, thr, th.rts_min_occupancy)
-            # a noisy, hot or warm candidate whose series is a telegraph beyond what a white
-            # Gaussian series shows at NOISY_RTS_P is RTS --
-            # its levels closer than rts_min_separation, or a trap mostly in one level (which
-            # looks warm or hot). The test: the likelihood ratio of a two-state hidden Markov
-            # model (two levels, persisting from frame to frame) against one Gaussian
-            # (rts.telegraph_lr), against its table of white series of as many frames
-            # (rts.HMM_NULL, false-alarm rate measured in benchmarks/defect_hmm_null.md). It
-            # is offset- and scale-free: a truly noisy, hot or warm pixel is called RTS with
-            # probability NOISY_RTS_P. Not on pixels whose variance is merely raised at
-            # rts_p_fa: the simulator's good pixels with a slow drift of their own (not white)
-            # reached it (2 of 307 200 in the long dark at 64 frames). A hot/warm pixel whose ratio
-            # reaches the white series' at P_TELEGRAPH is no steady rate (steady.py); a z-warm pixel
-            # is warm only where the ratio was computed and cleared.
+            # a noisy, hot or warm candidate whose series is a telegraph beyond what a white Gaussian series shows at
+            # NOISY_RTS_P is RTS -- its levels closer than rts_min_separation, or a trap mostly in one level (which
+            # looks warm or hot). The test: the likelihood ratio of a two-state hidden Markov model (two levels,
+            # persisting from frame to frame) against one Gaussian (rts.telegraph_lr), against its table of white
+            # series of as many frames (rts.HMM_NULL, false-alarm rate measured in benchmarks/defect_hmm_null.md).
+            # It is offset- and scale-free: a truly noisy, hot or warm pixel is called RTS with probability
+            # NOISY_RTS_P. Not on pixels whose variance is merely raised at rts_p_fa: the simulator's good pixels with
+            # a slow drift of their own (not white) reached it (2 of 307 200 in the long dark at 64 frames). A
+            # hot/warm pixel whose ratio reaches the white series' at P_TELEGRAPH is no steady rate (steady.py); a
+            # z-warm pixel is warm only where the ratio was computed and cleared.
             tel = (flags["noisy"] | flags["hot"] | flags["warm"] | zwarm)[crow, ccol] & ~is_rts
             lr = np.full(crow.size, np.nan)
             if tel.any():
@@ -393,12 +385,11 @@ def classify_defects(
     flags["rts"] = rts
     stats["rts"] = rts_stat
     if rts_available:
-        # a rate class whose 99 % limit is above rate_detect_factor x its threshold (up to
-        # rate_partial_factor x) misses some of its pixels (recall), but the pixels it does find -- a dark excess > warm_z
-        # sigma AND a rate above the threshold -- are of it (precision): they keep the class,
-        # its count marked incomplete, rather than falling into none (issue 48: hot pixels
-        # 5-9 sigma above the noise were in no class once K and the exposure were given).
-        # Only where the RTS test ran: a trap held high over the frames is an offset, which
+        # a rate class whose 99 % limit is above rate_detect_factor x its threshold (up to rate_partial_factor x)
+        # misses some of its pixels (recall), but the pixels it does find -- a dark excess > warm_z sigma AND a rate
+        # above the threshold -- are of it (precision): they keep the class, its count marked incomplete, rather
+        # than falling into none (issue 48: hot pixels 5-9 sigma above the noise were in no class once K and the
+        # exposure were given). Only where the RTS test ran: a trap held high over the frames is an offset, which
         # the series of a switching trap tells apart; with too few frames nothing does.
         for c, why in incomplete.items():
             flags[c] = held[c]
@@ -412,6 +403,14 @@ def classify_defects(
             unavailable[c] = (f"without K and the exposure a {c} pixel is a dark offset, which a telegraph (RTS) "
                               f"trap held high over the frames shows too; RTS is not testable here ({rts_note})")
 
+    if gain_dn_per_e and not k_note:  # noisy, or the shot noise of a dark signal its offset hides (steady.py)
+        nr, nc = np.nonzero(flags["noisy"] & ~rts & ~flags["stuck"] & ~flags["hot"] & ~flags["warm"])
+        amb = shot_noise_could_explain(D, nr, nc, gain_dn_per_e, _need(len(D), th.confirm_fraction),
+                                       line_factors["bad_column"][0][nc] * line_factors["bad_row"][0][nr])
+        flags["noisy"][nr[amb], nc[amb]] = False
+        withheld[nr[amb], nc[amb]] = True
+        if amb.any():
+            notes.append(note_ambiguous_noisy(detection, int(amb.sum()), dref0.sigma, gain_dn_per_e))
     # ---- histograms (the last use of the levels' per-pixel maps: freed after them -- a
     # 4096x3072 classification held a dozen float64 frames of them to the end)
     dref = max(D, key=lambda d: d.st.exposure_s or 0.0)

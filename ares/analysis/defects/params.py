@@ -44,7 +44,11 @@ channel; "z" is a robust z-score, sigma = 1.4826 * MAD):
   RTS trap raises the temporal noise too; where the time order shows the telegraph the
   pixel is rts instead). With K, a hot/warm pixel that is noisy beyond its own shot noise
   and no telegraph is noisy, not hot/warm (no steady rate). Without K a pixel's dark shot
-  noise cannot be told from excess read noise, so a warm pixel may be noisy too.
+  noise cannot be told from excess read noise, so a warm pixel may be noisy too. With K a
+  noisy claim also needs a variance above the shot noise of the largest dark signal its
+  measured excess does not rule out (a negative offset hides part of one: ``steady.py``);
+  below it -- a quiet sensor's weak noisy pixel, or a dark signal under the averaged dark's
+  noise -- the data cannot tell the two and the pixel is "unclassified".
 * rts -- multi-level temporal behaviour: a candidate (hot, warm, noisy, or a temporal
   variance above the chi-square limit at p = ``rts_p_fa``) whose time series splits into
   two levels separated by at least ``rts_min_separation`` (4) times the within-level noise
@@ -169,7 +173,8 @@ class DefectThresholds:
                            f"> {self.line_z:g} sigma off, or noise > {self.line_noise_factor:g} x",
             "bad_rows": f">= {self.line_hot_count} hot or {self.line_dead_count} dead pixels, or a mean "
                         f"> {self.line_z:g} sigma off, or noise > {self.line_noise_factor:g} x",
-            "unclassified": "a significant dark excess that is no steady dark rate and clears no other class's test",
+            "unclassified": "a significant dark excess that is no steady dark rate, or a raised temporal noise a "
+                            "hidden dark signal's shot noise could give; clears no other class's test",
             "clusters": f">= {self.cluster_min_size} defective pixels touching",
             "total": "every defective pixel, each counted once",
         }

@@ -9,7 +9,8 @@ import numpy as np
 from ares.analysis.defects.params import DefectThresholds
 
 #: bit of each class in the integer class mask (uint16, one per pixel); "unclassified": a
-#: significant dark excess that is no steady dark rate (steady.py) and clears no other class's
+#: significant dark excess that is no steady dark rate, or (with K) a raised temporal noise the
+#: shot noise of a dark signal its offset hides could give (steady.py), and clears no other class's
 #: test -- defective (out of the noise statistics: a hot pixel left in would bias DSNU), in no
 #: class, but listed, counted as "unclassified" and in "total" (so a limit on the total sees it)
 BITS: dict[str, int] = {
