@@ -236,7 +236,8 @@ def test_unplugged_grabber_is_found_again_by_serial():
 def test_grabber_picked_by_serial_and_two_adc_wire_order():
     """Two grabbers on one bus: the XML's serial picks one. A 2-ADC sensor sending each row
     ADC by ADC (wire_order='channel_rows') is put back in image order."""
-    from ares.hardware.emulators.usb_device import EmulatedGrabber, EmulatedUsbBackend
+    from ares.hardware.emulators.usb_backend import EmulatedUsbBackend
+    from ares.hardware.emulators.usb_device import EmulatedGrabber
     from ares.hardware.interfaces import Frame
     from ares.hardware.usb import UsbFrameSource
 
@@ -262,7 +263,8 @@ def test_watchdog_ends_a_trickling_frame():
     """Data that keep coming, each read within the timeout, but never a whole frame."""
     import time
 
-    from ares.hardware.emulators.usb_device import EmulatedGrabber, EmulatedUsbBackend
+    from ares.hardware.emulators.usb_backend import EmulatedUsbBackend
+    from ares.hardware.emulators.usb_device import EmulatedGrabber
     from ares.hardware.usb import UsbFrameSource
 
     class Trickle(EmulatedGrabber):  # a full-speed device: 64-byte packets

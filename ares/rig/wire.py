@@ -55,7 +55,8 @@ def build_wire_bench(system, seed: int, faults: dict | None = None, uses: set | 
     from ares.hardware.emulators.i2c_device import EmulatedSMBus
     from ares.hardware.emulators.sensor_registers import device_registers
     from ares.hardware.emulators.serial_device import EmulatedChamber, EmulatedInstrument, register, unregister
-    from ares.hardware.emulators.usb_device import EmulatedGrabber, EmulatedUsbBackend
+    from ares.hardware.emulators.usb_backend import EmulatedUsbBackend
+    from ares.hardware.emulators.usb_device import EmulatedGrabber
     from ares.sim.from_system import sim_params
     from ares.hardware.i2c import ImageRowReadback
     from ares.sim.bench import SimRegisterBus
