@@ -52,7 +52,8 @@ right after a frame and sooner than its next register writes (``SensorRegisters.
 read-back after the frame in flight still finds the old values latched.
 
 ``exposed_with``: device frame counter -> the settings the simulator rendered that frame with
-(``exposure_s``, ``analog_gain``, ``black_level_dn``, ``photon_flux``) and ``exposure_start_s``
+(``exposure_s``, ``analog_gain``, ``black_level_dn``, ``photon_flux``: the light over the frame's
+own exposure window, a frame in flight's included) and ``exposure_start_s``
 (the ``ares40`` time stamp, on the bench's clock): the device's truth (the latest 20000 frames).
 """
 
@@ -175,7 +176,7 @@ class EmulatedGrabber:
                     queued, self._queued = self._queued[:int(value)], []
                     fresh = int(value) - len(queued)
                     if self.faults.get("usb_frame_in_flight"):  # each frame read out with its own registers
-                        fresh_frames = (next(iter(self.frames.grab(1))) for _ in range(fresh))
+                        fresh_frames = (self._grab_one() for _ in range(fresh))
                     else:
                         fresh_frames = self.frames.grab(fresh) if fresh else ()
                     self._gen = itertools.chain(queued, fresh_frames)
@@ -317,7 +318,7 @@ class EmulatedGrabber:
 
     def _read_out(self):
         if self._start is None:
-            return next(iter(self.frames.grab(1)))
+            return self._grab_one()
         if self._gen is None:
             raise usb_error(errno.ETIMEDOUT, "Operation timed out (not armed)", timeout=True)
         try:
@@ -327,7 +328,15 @@ class EmulatedGrabber:
                 self._gen = None
                 raise usb_error(errno.ETIMEDOUT, "Operation timed out (no more frames armed)", timeout=True) from None
             self._owed -= 1  # a dropped frame still costs an exposure: one more to deliver N
-            return next(iter(self.frames.grab(1)))
+            return self._grab_one()
+
+    def _grab_one(self):
+        """The sensor's next frame. One streamed ahead (``usb_frame_in_flight``) started exposing as
+        the frame before was read out: the simulator renders it with the light over its own exposure
+        from then (part old, part new at a change), as its time stamp says."""
+        if self._ahead_start is not None and self.faults.get("usb_frame_in_flight") and self.clock is not None:
+            return next(iter(self.frames.grab(1, started=self._ahead_start)))
+        return next(iter(self.frames.grab(1)))
 
     def _embed(self, img: np.ndarray) -> np.ndarray:
         """A sensor without I2C read: its registers, one byte per pixel, in an image row."""
