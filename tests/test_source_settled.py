@@ -129,3 +129,30 @@ def test_without_a_monitor_settling_is_not_verified_and_says_so(tmp_path):
     early = [n for st, c in zip(outcome.stages, light) for n in kept[st["index"]]
              if truth[n]["exposure_start_s"] < c["settled_s"] - 1e-9]
     assert early, (kept, light)
+
+
+@pytest.mark.parametrize("quantity", ["wavelength", "wavelenght"])
+def test_after_quantity_wavelength_is_accepted_and_a_bad_one_names_the_line(tmp_path, quantity):
+    """``<after quantity="wavelength">`` as for the light: its wait and discard after a wavelength
+    change, written back by ``save_system``; a quantity ARES does not know is one sentence with file:line."""
+    from ares.errors import InputError
+    from ares.protocol.system import load_system, save_system
+
+    _mono_scan(tmp_path)
+    system = tmp_path / "sim_wire_48x64.xml"
+    text = system.read_text().replace('<settle by="time"/>', f'<after quantity="{quantity}" settle_s="0.3" '
+                                                             'discard_frames="2"/><settle by="time"/>', 1)
+    system.write_text(text)
+    if quantity != "wavelength":
+        line = text[:text.index("<after ")].count("\n") + 1
+        with pytest.raises(InputError, match=rf"{system.name}:{line}: <after quantity=.*wavelength, got 'wavelenght'"):
+            load_system(system)
+        return
+    sy = load_system(system)
+    assert sy.timing.after_change("wavelength") == (0.3, 2) and sy.timing.after_change("light") == (0.0, 0)
+    save_system(sy, tmp_path / "saved.xml")
+    assert load_system(tmp_path / "saved.xml").timing.after_change("wavelength") == (0.3, 2)
+    outcome, _, _, changes = _run_recorded(load_scan(tmp_path / "in_flight.xml"), {}, "cs130")
+    for st in outcome.stages:
+        rec = st["settling"]["flat"]
+        assert rec["declared_wait_s"] == 0.3 and rec["discarded"] == 2 and "wavelength" in rec["changed"], rec

@@ -119,7 +119,9 @@ def build_wire_bench(system, seed: int, faults: dict | None = None, uses: set | 
             e = emu(device, wire_f, clock=dev.clock)  # (its record of a change: on the bench's clock)
             register(name, e)
             emulated.append((name, e))
-            inst[role] = open_instrument(role, lambda host=host, cfg=cfg: host.open(cfg), uses, unavailable)
+            inst[role] = open_instrument(role, lambda host=host, cfg=cfg: host.open(cfg, sleep=dev.clock.sleep,
+                                                                                 clock=dev.clock.now), uses, unavailable)
+            # (its waits -- settle_s, a chamber's polls -- on the bench's clock, as the device's changes are)
             opened.append(inst[role])
     except BaseException:
         for d in opened:
