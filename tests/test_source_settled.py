@@ -156,3 +156,16 @@ def test_after_quantity_wavelength_is_accepted_and_a_bad_one_names_the_line(tmp_
     for st in outcome.stages:
         rec = st["settling"]["flat"]
         assert rec["declared_wait_s"] == 0.3 and rec["discarded"] == 2 and "wavelength" in rec["changed"], rec
+
+
+def test_the_direct_simulator_light_turned_off_is_waited_for_within_its_monitor_offset(tmp_path):
+    """The direct simulator's LED (tau 10 ms) turned off under ``by="time"``: its monitor reads within
+    its offset (1 photon/pixel/s) of 0 after a bounded wait -- a relative tolerance alone (0 at 0)
+    would never be met: the stage would fail at the cap."""
+    p = _light_scan(tmp_path, "ares40", values=(1e5, 0))
+    system = tmp_path / "sim_wire_48x64.xml"
+    system.write_text(system.read_text().replace('<simulator seed="1" wire="true">', '<simulator seed="1">'))
+    outcome, _, _, _ = _run_recorded(load_scan(p), {"light_tau_s": 0.01})
+    assert outcome.status == "done", outcome.message
+    off = outcome.stages[1]["settling"]["flat"]["sources"]["light"]
+    assert off["verified"] and off["tolerance"] == 1.0 and 0.05 < off["waited_s"] < 0.3 and off["read"] <= 1.0, off

@@ -91,6 +91,7 @@ class SimLightSource:
     now, as the driver's monitor photodiode measures it (``readback_rtol`` relative: its tolerance)."""
 
     readback_rtol = 0.001  # the monitor's accuracy (relative): the readback tolerance
+    readback_floor = 1.0  # ... and its offset (photons/pixel/s): a source turned off reads within it of 0
 
     def __init__(self, name: str = "sim-light", level: float = 0.0, clock=None, tau_s: float = 0.0):
         self.name = name
@@ -128,7 +129,7 @@ class SimLightSource:
 
     @property
     def level_tolerance(self) -> float:
-        return self.readback_rtol * self._level
+        return max(self.readback_rtol * self._level, self.readback_floor)
 
     def settle(self, cancel=None) -> None:
         pass
