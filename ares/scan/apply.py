@@ -148,6 +148,7 @@ def settle(bench, system, settings: dict, kinds: set, cancel=None, evidence: boo
                    "the declared waits only: the frames after this change are the measurement")
         if sources:  # the sources' own evidence after the declared waits (ares.scan.source_settled)
             rec["sources"] = sources
+            rec["why"] += ", then the sources' own evidence ('sources')"
         slow = sorted(kinds & {"light", "temperature", "wavelength"})  # instruments: complete when settled and waited for
         if (registers is not None or slow) and not discard:  # the frame in flight at the change is not kept
             from ares.scan.in_flight import drop_in_flight
