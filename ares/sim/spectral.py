@@ -165,10 +165,12 @@ class SimPhotodiode:
         self._meter_nm = 550.0
 
     def power_w(self) -> float:
-        """The optical power on the photodiode now (W): the truth behind its reading."""
+        """The optical power on the photodiode now (W): the truth behind its reading -- the light
+        source's output and the grating's position now."""
         nm = self.mono.get_wavelength()
         photon_j = H_PLANCK * C_LIGHT / (nm * 1e-9)
-        return self.light.get_level() / self.pixel_area_m2 * self.area_m2 * photon_j
+        out = getattr(self.light, "read_level", None)  # the output now (an LED still relaxing), not its set point
+        return (out() if out is not None else self.light.get_level()) / self.pixel_area_m2 * self.area_m2 * photon_j
 
     def set_wavelength(self, nm: float) -> None:
         self._meter_nm = float(nm)
