@@ -250,6 +250,7 @@ MONO = """    <monochromator name="cs130" port="aresemu://cs130" baud="9600" tim
         <command name="set" send="GOWAVE {value:.2f}" reply="OK"/>
         <command name="get" send="WAVE?" reply="(?P&lt;value&gt;\\S+)"/>
         <command name="bandwidth" send="BANDPASS?" reply="(?P&lt;value&gt;\\S+)"/>
+        <command name="complete" send="*OPC?" reply="1" timeout_s="30"/>
       </protocol>
     </monochromator>
   </devices>"""
@@ -264,8 +265,8 @@ def test_no_kept_frame_was_exposed_at_the_previous_wavelength(tmp_path, header):
     delivers it first. The device's record of each frame's light (``exposed_with``: the photon flux
     it was rendered with, the QE at the wavelength then) shows no kept frame of the old wavelength;
     the frame is discarded by its time stamp (``ares40``) or blind (``ares32``), the record names
-    the wavelength change. (The emulated monochromator keeps no time of its change: the frames'
-    light is the truth here.)"""
+    the wavelength change. (The monochromator answers ``*OPC?`` when its grating has stopped:
+    ``test_source_settled`` shows the frames exposed while it moves are not kept.)"""
     scan = _light_scan(tmp_path, header, quantity="wavelength", values=(450, 550, 650))
     system = tmp_path / "sim_wire_48x64.xml"
     text = system.read_text().replace("  </devices>", MONO, 1)
@@ -278,3 +279,33 @@ def test_no_kept_frame_was_exposed_at_the_previous_wavelength(tmp_path, header):
         assert fl["discarded"] == 1 and "wavelength change" in fl["why"], fl
         assert fl["evidence"] == ("device timestamp" if header == "ares40" else "none"), fl
         assert truth[kept[st["index"]][0] - 1]["photon_flux"] not in flux[st["index"]]  # the one dropped: the old light
+
+
+def test_the_frame_in_flight_integrates_the_light_of_its_own_exposure(tmp_path, monkeypatch):
+    """A streaming sensor's frame in flight (``usb_frame_in_flight=1``) started exposing as the one
+    before was read out; the light changed during its exposure. The device renders it with the light
+    that fell on it -- the time-weighted mix over its own exposure window, by the device's records
+    (its exposure start, the light's commanded time, the exposure) -- not with the new light its
+    read-out comes under: the host that kept it would keep a frame of the wrong light."""
+    from ares.scan import in_flight
+
+    scan = load_scan(_light_scan(tmp_path, "ares40"))
+    outcome, kept, truth, light = _run_recorded(scan, {"usb_frame_in_flight": 1}, "led")
+    assert outcome.status == "done", outcome.message
+    mixed = 0
+    for st, before, change in zip(outcome.stages[1:], light, light[1:]):
+        n = kept[st["index"]][0] - 1  # the frame discarded: in flight at the change
+        rec, exp = truth[n], truth[n]["exposure_s"]
+        new = min(max((rec["exposure_start_s"] + exp - change["commanded_s"]) / exp, 0.0), 1.0)
+        want = before["level"] * (1 - new) + change["level"] * new
+        assert rec["photon_flux"] == pytest.approx(want, rel=1e-9), (rec, change, new)
+        assert abs(rec["photon_flux"] - change["level"]) > 0.5 * abs(change["level"] - before["level"]), rec
+        mixed += 0 < new < 1
+        assert all(truth[k]["photon_flux"] == change["level"] for k in kept[st["index"]])
+    assert mixed == 2  # (here the change falls inside the frame's exposure, near its end: mostly old light)
+    monkeypatch.setattr(in_flight, "judge", lambda *a, **k: (True, "device timestamp"))  # a host that keeps it
+    outcome, kept, truth, light = _run_recorded(load_scan(_light_scan(tmp_path, "ares40")), {"usb_frame_in_flight": 1},
+                                                "led")
+    for st, change in zip(outcome.stages[1:], light[1:]):
+        first = truth[kept[st["index"]][0]]["photon_flux"]
+        assert abs(first - change["level"]) > 0.5 * abs(change["level"] - light[st["index"] - 1]["level"]), first

@@ -142,9 +142,13 @@ def test_emulated_instruments_speak_their_dialects():
     bench = build_bench(load_system(ROOT / "protocols" / "sim_spectral.xml"))
     try:
         m, pd = bench.monochromator, bench.photodiode
-        m.set_wavelength(632.8)
+        t0 = bench.clock.now()
+        m.set_wavelength(632.8)  # answered at once: the grating has not moved yet (the drive's position)
+        assert m.get_wavelength() == 550.0
+        m.settle()  # *OPC?: answered when the move is done, on the bench's clock
         assert m.get_wavelength() == 632.8 and m.bandwidth() == 5.0
-        assert m.port.instrument.log[-3:] == ["GOWAVE 632.80", "WAVE?", "BANDPASS?"]
+        assert m.port.instrument.log[-5:] == ["GOWAVE 632.80", "WAVE?", "*OPC?", "WAVE?", "BANDPASS?"]
+        assert 0.5 < bench.clock.now() - t0 < 1.5  # 82.8 nm at 150 nm/s, with acceleration and ringing
         with pytest.raises(ValueOutOfRange):
             m.set_wavelength(1500)
         bench.light.set_level(1e6)

@@ -12,7 +12,8 @@ import numpy as np
 import pytest
 
 from ares.errors import HardwareError
-from ares.hardware.emulators.usb_device import EmulatedGrabber, EmulatedUsbBackend
+from ares.hardware.emulators.usb_backend import EmulatedUsbBackend
+from ares.hardware.emulators.usb_device import EmulatedGrabber
 from ares.hardware.interfaces import Frame
 from ares.hardware.usb import UsbFrameSource
 from ares.protocol import load_system

@@ -26,7 +26,8 @@ def _short_scan(tmp_path: Path, frames_attrs: str = "") -> Path:
     """dark, three light levels, one chamber set point: 5 stages of 2 frames (device frame
     counter 0..14: the frame in flight at each stage's change is discarded -- sim_wire's ares32
     header tells no exposure start -- so ptc[1] keeps frames 7, 8; light commands after the
-    identity: a set point and its readback (MON?) per stage; chamber commands from stage 5), on
+    identity: a set point, the check that the output is there (MON?, ``ares.scan.source_settled``)
+    and its readback (MON?) per stage; chamber commands from stage 5), on
     sim_wire.xml with the declared waits only (``<settle by="time">``: no probe frames)."""
     p = tmp_path / "wire_short.xml"
     timed = tmp_path / "sim_wire_timed.xml"  # the faults are placed by device frame: the declared waits only
@@ -152,10 +153,10 @@ FAULTS = [  # (faults, what the sentence must say, completed stages); serial com
     (["usb_short_at=7"], r"grabber.*frame 7 .* arrived short \(230432 of 460832 bytes\)", 2),
     (["usb_timeout_at=7"], r"grabber.*no data on endpoint 0x81 within 2000 ms \(timeout\)", 2),
     (["usb_disconnect_at=7"], r"grabber.*device disconnected", 2),
-    (["light_timeout_at=5"], r"led on aresemu://led: no reply to 'LEVEL 100000.0' within 1 s", 2),
-    (["light_wrong_reply_at=5"], r"led on aresemu://led: reply '\?#%' to 'LEVEL 100000.0' does not match 'OK'", 2),
-    (["light_error_at=5"], r"led on aresemu://led: refused 'LEVEL 100000.0': emulated fault", 2),
-    (["light_disconnect_at=5"], r"led on aresemu://led: port error", 2),
+    (["light_timeout_at=7"], r"led on aresemu://led: no reply to 'LEVEL 100000.0' within 1 s", 2),
+    (["light_wrong_reply_at=7"], r"led on aresemu://led: reply '\?#%' to 'LEVEL 100000.0' does not match 'OK'", 2),
+    (["light_error_at=7"], r"led on aresemu://led: refused 'LEVEL 100000.0': emulated fault", 2),
+    (["light_disconnect_at=7"], r"led on aresemu://led: port error", 2),
     (["chamber_timeout_at=1"], r"chamber on aresemu://chamber: no reply to 'TEMP 30.0'", 4),
     (["chamber_wrong_reply_at=2"], r"chamber on aresemu://chamber: reply '\?#%' to 'TEMP\?' is not a number", 4),
     ("i2c_nack", r"I2C device 0x36 on bus 1 \('sensor'\), register 0x[0-9a-f]{4}: no acknowledge on (read|write) "
@@ -236,7 +237,8 @@ def test_unplugged_grabber_is_found_again_by_serial():
 def test_grabber_picked_by_serial_and_two_adc_wire_order():
     """Two grabbers on one bus: the XML's serial picks one. A 2-ADC sensor sending each row
     ADC by ADC (wire_order='channel_rows') is put back in image order."""
-    from ares.hardware.emulators.usb_device import EmulatedGrabber, EmulatedUsbBackend
+    from ares.hardware.emulators.usb_backend import EmulatedUsbBackend
+    from ares.hardware.emulators.usb_device import EmulatedGrabber
     from ares.hardware.interfaces import Frame
     from ares.hardware.usb import UsbFrameSource
 
@@ -262,7 +264,8 @@ def test_watchdog_ends_a_trickling_frame():
     """Data that keep coming, each read within the timeout, but never a whole frame."""
     import time
 
-    from ares.hardware.emulators.usb_device import EmulatedGrabber, EmulatedUsbBackend
+    from ares.hardware.emulators.usb_backend import EmulatedUsbBackend
+    from ares.hardware.emulators.usb_device import EmulatedGrabber
     from ares.hardware.usb import UsbFrameSource
 
     class Trickle(EmulatedGrabber):  # a full-speed device: 64-byte packets

@@ -59,7 +59,8 @@ DEFAULT_CHAMBER = LineProtocol(commands=(
 # Cornerstone-like dialect, a reference photodiode on a Thorlabs PM100-like (SCPI) meter.
 DEFAULT_MONOCHROMATOR = LineProtocol(commands=(
     Command("identify", "*IDN?", IDN_PATTERN), Command("set", "GOWAVE {value:.2f}", "OK"),
-    Command("get", "WAVE?", r"(?P<value>\S+)"), Command("bandwidth", "BANDPASS?", r"(?P<value>\S+)")))
+    Command("get", "WAVE?", r"(?P<value>\S+)"), Command("bandwidth", "BANDPASS?", r"(?P<value>\S+)"),
+    Command("complete", "*OPC?", "1", timeout_s=30.0)))  # answered when the grating's move is done
 DEFAULT_PHOTODIODE = LineProtocol(commands=(
     Command("identify", "*IDN?", IDN_PATTERN), Command("read", "MEAS:CURR?", r"(?P<value>\S+)"),
     Command("wavelength", "SENS:CORR:WAV {value:.1f};*OPC?", "1")))

@@ -344,7 +344,12 @@ class SerialChamber(SerialInstrument):
 class SerialMonochromator(SerialInstrument):
     """The spectral bench's wavelength-selectable light (EMVA 1288 4.0 Linear, Section 9.1):
     ``set``/``get`` the wavelength in nm (range-checked against the XML's min/max), and the
-    FWHM bandwidth when its protocol has a ``bandwidth`` command (NaN without)."""
+    FWHM bandwidth when its protocol has a ``bandwidth`` command (NaN without). A grating move
+    takes time (the set command of a Cornerstone is overlapped: answered before the move ends):
+    a ``complete`` command (IEEE 488.2 ``*OPC?``, answered when the move is done) is waited on by
+    ``settle`` before its ``settle_s`` soak; ``completion`` says whether the instrument told."""
+
+    completion = False  # the last settle asked the instrument whether its move was complete
 
     DEFAULT = DEFAULT_MONOCHROMATOR
     ROLE = "monochromator"
@@ -359,6 +364,9 @@ class SerialMonochromator(SerialInstrument):
         return self._number("bandwidth") if self.protocol.command("bandwidth") is not None else math.nan
 
     def settle(self, cancel=None) -> None:
+        self.completion = self.protocol.command("complete") is not None
+        if self.completion:  # its reply comes when the move is done (give the command a timeout_s that covers one)
+            self._do("complete")
         self._wait(self.cfg.settle_s, cancel)
 
 

@@ -73,13 +73,13 @@ class Timing:
     discard_frames: int = 0  # frames grabbed and dropped after a register change (exposed at the old settings)
     flush: bool = False  # drain what the frame source holds before every stack
     margin_s: float = 0.5  # read timeouts: at least exposure + readout_s + margin_s
-    after: tuple = ()  # (quantity, settle_s, discard_frames): <after quantity="light|temperature|registers">
+    after: tuple = ()  # (quantity, settle_s, discard_frames): <after quantity="registers|light|temperature|wavelength">
     settle: Settle = Settle()  # <settle>: settling proven by the frames (ares.protocol.settle)
     frames_in_flight: int | None = None  # frames the grabber/sensor pipeline can hold (None: undeclared, 1 assumed)
 
     def after_change(self, quantity: str) -> tuple[float, int]:
         """(settle seconds, frames to discard) after ``quantity`` changed ("registers",
-        "light", "temperature"): its ``<after>`` element, else the register defaults for
+        "light", "temperature", "wavelength"): its ``<after>`` element, else the register defaults for
         registers and nothing for an instrument (its own settle is in its device element)."""
         for q, settle, discard in self.after:
             if q == quantity:

@@ -55,7 +55,8 @@ def build_wire_bench(system, seed: int, faults: dict | None = None, uses: set | 
     from ares.hardware.emulators.i2c_device import EmulatedSMBus
     from ares.hardware.emulators.sensor_registers import device_registers
     from ares.hardware.emulators.serial_device import EmulatedChamber, EmulatedInstrument, register, unregister
-    from ares.hardware.emulators.usb_device import EmulatedGrabber, EmulatedUsbBackend
+    from ares.hardware.emulators.usb_backend import EmulatedUsbBackend
+    from ares.hardware.emulators.usb_device import EmulatedGrabber
     from ares.sim.from_system import sim_params
     from ares.hardware.i2c import ImageRowReadback
     from ares.sim.bench import SimRegisterBus
@@ -118,7 +119,9 @@ def build_wire_bench(system, seed: int, faults: dict | None = None, uses: set | 
             e = emu(device, wire_f, clock=dev.clock)  # (its record of a change: on the bench's clock)
             register(name, e)
             emulated.append((name, e))
-            inst[role] = open_instrument(role, lambda host=host, cfg=cfg: host.open(cfg), uses, unavailable)
+            inst[role] = open_instrument(role, lambda host=host, cfg=cfg: host.open(cfg, sleep=dev.clock.sleep,
+                                                                                 clock=dev.clock.now), uses, unavailable)
+            # (its waits -- settle_s, a chamber's polls -- on the bench's clock, as the device's changes are)
             opened.append(inst[role])
     except BaseException:
         for d in opened:

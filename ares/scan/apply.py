@@ -3,7 +3,9 @@ fields as one change, inside one group hold where the register map declares one)
 let the bench settle as the system XML declares (``<timing>``): wait ``settle_s`` and drop
 ``discard_frames`` frames after a change (frames still exposed at the old settings), drain
 the frame source (``flush``), and tell it the frame time its read timeouts must cover. The
-frame in flight at a register, light or temperature change is never kept (``ares.scan.in_flight``)."""
+frame in flight at a register, light or temperature change is never kept (``ares.scan.in_flight``);
+under ``<settle by="time">`` a light source or monochromator is checked to be settled after the declared
+waits where the rig gives evidence (``ares.scan.source_settled``)."""
 
 from __future__ import annotations
 
@@ -117,6 +119,13 @@ def settle(bench, system, settings: dict, kinds: set, cancel=None, evidence: boo
             wait(seconds, cancel, sleep=clock.sleep, clock=clock.now)
         else:
             wait(seconds, cancel)
+    cfg = t.settle
+    replay = getattr(bench.frames, "recorded", False)  # a replay: its frames are the recording's, nothing settles
+    sources = None
+    if (cfg.by != "frames" or not evidence) and not replay and kinds & {"light", "wavelength"}:
+        from ares.scan.source_settled import check_sources  # is the source there? (else wait for it, or fail)
+
+        sources = check_sources(bench, settings, kinds, cfg.max_s, cancel)
     done = clock.now() if clock is not None else None  # an instrument's change is complete (its settle, the waits)
     if discard:
         for _ in bench.frames.grab(discard):
@@ -131,13 +140,15 @@ def settle(bench, system, settings: dict, kinds: set, cancel=None, evidence: boo
     if raised:
         rec["why_discarded"] = (f"{discard} frames, the declared pipeline depth (<timing frames_in_flight=\"{depth}\">): "
                                 "the declared discard_frames is fewer, and would keep a frame still in flight")
-    cfg = t.settle
-    if getattr(bench.frames, "recorded", False):  # a replay: its frames are the recording's, nothing settles
+    if replay:
         rec.update(by="time", settled=None, why="recorded frames: nothing to settle")
         return rec
     if cfg.by != "frames" or not evidence:
         rec.update(by="time", settled=None, why="the declared waits only" if evidence else
                    "the declared waits only: the frames after this change are the measurement")
+        if sources:  # the sources' own evidence after the declared waits (ares.scan.source_settled)
+            rec["sources"] = sources
+            rec["why"] += ", then the sources' own evidence ('sources')"
         slow = sorted(kinds & {"light", "temperature", "wavelength"})  # instruments: complete when settled and waited for
         if (registers is not None or slow) and not discard:  # the frame in flight at the change is not kept
             from ares.scan.in_flight import drop_in_flight

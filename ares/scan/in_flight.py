@@ -22,7 +22,8 @@ device what it is:
 The same holds at a light, temperature or wavelength change (a monochromator's: the light on the
 sensor, its QE there): a grabber still holds frames exposed under the
 old light (its FIFO) and one was exposing when it changed. The time compared with is when the change
-was complete -- the instrument settled and the declared waits over -- and no tag tells the light, so
+was complete -- the instrument settled (a monochromator's move: its ``*OPC?``), the declared waits over
+and the source found there by its own evidence (``ares.scan.source_settled``) -- and no tag tells the light, so
 only a time stamp proves a frame fresh; without one, the pipeline depth's frames are discarded.
 
 A declared ``discard_frames`` >= 1 is trusted to take the frame in flight (nothing is looked at).

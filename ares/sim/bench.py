@@ -83,24 +83,31 @@ class SimRegisterBus:
 
 
 class SimLightSource:
-    """Uniform illumination; level in photons per pixel per second at the sensor. With
-    ``tau_s`` (and the bench's ``clock``) the level reaching the sensor relaxes to a new set
-    point with that time constant (``ares.sim.strict.SettlingLight``); ``get_level`` reads
-    the set point back, as an LED driver does; ``read_level`` is the output now, as the
-    driver's monitor photodiode measures it (``readback_rtol`` relative: its tolerance)."""
+    """Uniform illumination; level in photons per pixel per second at the sensor. With the
+    bench's ``clock`` its output is known at every time (``ares.sim.strict.SettlingLight``): a
+    step at each change, or with ``tau_s`` a relaxation to the new set point with that time
+    constant -- ``level_at(t)``, and ``mean_level(t0, t1)`` over a frame's exposure window;
+    ``get_level`` reads the set point back, as an LED driver does; ``read_level`` is the output
+    now, as the driver's monitor photodiode measures it (``readback_rtol`` relative: its tolerance)."""
 
     readback_rtol = 0.001  # the monitor's accuracy (relative): the readback tolerance
+    readback_floor = 1.0  # ... and its offset (photons/pixel/s): a source turned off reads within it of 0
 
     def __init__(self, name: str = "sim-light", level: float = 0.0, clock=None, tau_s: float = 0.0):
         self.name = name
         self._clock = clock
         self._level = 0.0
-        self._settling = SettlingLight(clock, tau_s) if clock is not None and tau_s > 0 else None
+        self.tau_s = float(tau_s)
+        self._output = SettlingLight(clock, tau_s) if clock is not None else None
         self.set_level(level)
 
     def level_at(self, t: float) -> float:
         """The level at the sensor at simulated time ``t``."""
-        return self._level if self._settling is None else self._settling.level_at(t)
+        return self._level if self._output is None else self._output.level_at(t)
+
+    def mean_level(self, t0: float, t1: float) -> float:
+        """The time-weighted level at the sensor over [t0, t1] (a frame's exposure window)."""
+        return self._level if self._output is None else self._output.mean(t0, t1)
 
     def set_level(self, level: float) -> None:
         try:
@@ -110,8 +117,8 @@ class SimLightSource:
         if not math.isfinite(v) or v < 0:
             raise ValueOutOfRange(f"{self.name}: light level {level!r} photons/pixel/s must be finite and >= 0")
         self._level = v
-        if self._settling is not None:
-            self._settling.set(v)
+        if self._output is not None:
+            self._output.set(v)
 
     def get_level(self) -> float:
         return self._level
@@ -122,7 +129,7 @@ class SimLightSource:
 
     @property
     def level_tolerance(self) -> float:
-        return self.readback_rtol * self._level
+        return max(self.readback_rtol * self._level, self.readback_floor)
 
     def settle(self, cancel=None) -> None:
         pass
@@ -238,15 +245,34 @@ class SimFrameSource:
     def clock_s(self, t: float) -> None:
         self.clock.t = float(t)
 
-    def _strict(self, s: dict) -> dict:
-        """The next frame's settings on a strict bench: the pipeline's, the light's now."""
-        s = dict(s)
+    def _exposed(self, s: dict, start: float) -> dict:
+        """The next frame's settings as it is really exposed from ``start`` (the bench's clock): on a
+        strict bench the pipeline's registers; and the light that fell on the sensor over the frame's
+        own exposure window [start, start + exposure] -- the source's output and the monochromator's
+        wavelength (the QE there), time-weighted, so a frame exposing across a change integrates part
+        old, part new (``s`` itself where that is the light it was given)."""
+        out = s
         if self._pipeline is not None:
-            s.update(self._pipeline.frame_settings(s))
-        if getattr(self.light, "_settling", None) is not None:  # the level reaching the sensor mid-exposure
-            now = self.light.level_at(self.clock.now() + s["exposure_s"] / 2)
-            s["photon_flux"] = self.settings({"light": now})["photon_flux"]
-        return s
+            out = dict(s, **self._pipeline.frame_settings(s))
+        flux = self._window_flux(start, start + out["exposure_s"])
+        if flux is not None and flux != out["photon_flux"]:
+            out = dict(out, photon_flux=flux)
+        return out
+
+    def _window_flux(self, t0: float, t1: float) -> float | None:
+        """The photon flux (photons/pixel/s at the sensor's ``qe``) over [t0, t1]; None: no light."""
+        light, mono = self.light, self.monochromator
+        if light is None or not hasattr(light, "mean_level"):
+            return None
+        if mono is None:
+            return light.mean_level(t0, t1)
+        p = self.sensor.params
+        if not (hasattr(mono, "moving") and mono.moving(t0, t1)):
+            nm = mono.wavelength_at(t0) if hasattr(mono, "wavelength_at") else mono.get_wavelength()
+            return light.mean_level(t0, t1) * (p.qe_at(nm) / p.qe)
+        n = 64  # the grating moves while the frame exposes: the QE-weighted light at n midpoints
+        ts = [t0 + (k + 0.5) * (t1 - t0) / n for k in range(n)]
+        return sum(light.level_at(t) * p.qe_at(mono.wavelength_at(t)) for t in ts) / (n * p.qe)
 
     def frame_cost(self, fields: dict) -> float:
         """Relative cost of a frame with ``fields`` set (as ``settings``): the time
@@ -258,8 +284,11 @@ class SimFrameSource:
             return cost.ramp_cost(self.sensor.patterns.adc.thresholds is not None)
         return self.sensor.frame_cost(dark=mode == 1, shot_noise=self.sensor.params.shot_noise, **s)
 
-    def grab(self, n: int):
-        """Yield ``n`` frames (ares.hardware.interfaces.Frame, uint16 data)."""
+    def grab(self, n: int, started: float | None = None):
+        """Yield ``n`` frames (ares.hardware.interfaces.Frame, uint16 data), each stamped at its
+        exposure start on the bench's clock and rendered with the light over its own exposure.
+        ``started``: the first frame began exposing then, not now (a streaming sensor's frame in
+        flight, started as the one before was read out: ``ares.hardware.emulators.usb_device``)."""
         if isinstance(n, bool) or not isinstance(n, (int, np.integer)) or n < 0:
             raise InputError(f"{self.name}: the number of frames must be a non-negative integer, not {n!r}")
         s = self.settings()
@@ -277,7 +306,8 @@ class SimFrameSource:
             if k == 0:
                 self._raise_fault()
             t0 = time.perf_counter()
-            fs = self._strict(s) if self._pipeline is not None or getattr(self.light, "_settling", None) else s
+            start = float(started) if started is not None and left == n else self.clock_s
+            fs = self._exposed(s, start)
             if mode == 2:
                 data = self.sensor.render_ramp(k)
             else:
@@ -294,7 +324,7 @@ class SimFrameSource:
                     last = max(due, now)
                 # Count before yielding: a consumer that stops after n frames must leave
                 # the counter at n, or fault-injection points drift by one.
-                index, stamp = self.frames_delivered, self.clock_s
+                index, stamp = self.frames_delivered, start
                 self.frames_delivered += 1
                 self.clock.advance(fs["exposure_s"])
                 yield Frame(data=frame, index=index, timestamp=stamp, meta=dict(meta, **fs) if fs is not s else dict(meta))

@@ -47,10 +47,11 @@ _NON_NEGATIVE = (
     "warm_mean_e_per_s", "rts_rate_ppm", "rts_amplitude_e", "dead_rate_ppm",
     "stuck_rate_ppm", "noisy_rate_ppm", "bad_column_offset_dn", "crosstalk_pct",
     "adc_inl_lsb", "adc_dnl_lsb", "lag_fraction", "added_photocharge_e", "flutter_pct",
-    "mono_fwhm_nm", "photodiode_noise_pct", "photodiode_dark_a",
+    "mono_fwhm_nm", "mono_backlash_nm", "mono_settle_s", "photodiode_noise_pct", "photodiode_dark_a",
     "dark_activation_ev", "dark_activation_sigma_ev", "hot_activation_ev", "xray_events_per_frame", "xray_spread_px",
 )
-_POSITIVE = ("full_well_e", "conversion_gain_uv_per_e", "adc_lsb_uv", "qe", "dark_doubling_c")
+_POSITIVE = ("full_well_e", "conversion_gain_uv_per_e", "adc_lsb_uv", "qe", "dark_doubling_c", "mono_slew_nm_s",
+             "mono_accel_nm_s2")
 _PPM = ("hot_rate_ppm", "warm_rate_ppm", "rts_rate_ppm", "dead_rate_ppm", "stuck_rate_ppm", "noisy_rate_ppm")
 
 
@@ -145,6 +146,10 @@ class SensorParams:
     qe_curve_nm: tuple = ()  # wavelengths (nm, increasing) of the QE(lambda) table; () = flat at qe
     qe_curve: tuple = ()  # QE at those wavelengths (0..1), linear between them, the end values beyond
     mono_fwhm_nm: float = 5.0  # simulated monochromator's bandwidth (FWHM); the line is taken as monochromatic
+    mono_slew_nm_s: float = 150.0  # its grating drive (ares.sim.spectral.GratingDrive): slew speed,
+    mono_accel_nm_s2: float = 1000.0  # acceleration,
+    mono_backlash_nm: float = 5.0  # the overshoot of a move downwards (the last approach is upwards),
+    mono_settle_s: float = 0.05  # and the mount's ringing after the drive stops
     photodiode_noise_pct: float = 0.1  # reference photodiode: relative noise of one reading (Gaussian)
     photodiode_dark_a: float = 2e-11  # reference photodiode: dark current (A) under every reading
     photodiode_error_pct: float = 0.0  # its true responsivity differs from its calibration table by this

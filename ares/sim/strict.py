@@ -13,6 +13,7 @@ Faults/behaviours of ``ares.sim.bench.SimFrameSource``: ``{"light_tau_s": 0.3,
 
 from __future__ import annotations
 
+import bisect
 import math
 import time
 
@@ -46,23 +47,59 @@ class WallClock:
 
 
 class SettlingLight:
-    """A level that relaxes to its set point with time constant ``tau_s`` on ``clock``."""
+    """A level that relaxes to its set point with time constant ``tau_s`` on ``clock`` (0: a step).
+    Every change is kept (the latest ``HISTORY``), so the level is known at any time since --
+    ``level_at(t)`` -- and over a frame's own exposure window: ``mean(t0, t1)``, the time-weighted
+    level a pixel integrates (part old, part new when a change falls inside the window)."""
+
+    HISTORY = 256
 
     def __init__(self, clock: SimClock, tau_s: float, level: float = 0.0):
         if not (math.isfinite(tau_s) and tau_s >= 0):
             raise ValueError(f"light time constant {tau_s!r} s must be finite and >= 0")
         self.clock, self.tau_s = clock, float(tau_s)
-        self._from = self._to = float(level)
-        self._t0 = clock.now()
+        self._segs = [(clock.now(), float(level), float(level))]  # (since, from, to): one per change
+        self._starts = [self._segs[0][0]]
 
     def set(self, level: float) -> None:
-        self._from = self.level_at(self.clock.now())
-        self._to, self._t0 = float(level), self.clock.now()
+        t = self.clock.now()
+        start = self.level_at(t)
+        while len(self._segs) > 1 and self._starts[-1] >= t:  # set again at the same instant: replaces
+            self._segs.pop()
+            self._starts.pop()
+        self._segs.append((t, start, float(level)))
+        self._starts.append(t)
+        if len(self._segs) > self.HISTORY:
+            del self._segs[0], self._starts[0]
+
+    def _seg(self, t: float) -> tuple:
+        i = bisect.bisect_right(self._starts, t) - 1
+        return self._segs[max(i, 0)] if i >= 0 else (t, self._segs[0][1], self._segs[0][1])
 
     def level_at(self, t: float) -> float:
-        if self.tau_s == 0 or t <= self._t0:
-            return self._to if self.tau_s == 0 else self._from
-        return self._to + (self._from - self._to) * math.exp(-(t - self._t0) / self.tau_s)
+        t0, a, b = self._seg(t)
+        if self.tau_s == 0 or t <= t0:
+            return b if self.tau_s == 0 else a
+        return b + (a - b) * math.exp(-(t - t0) / self.tau_s)
+
+    def mean(self, t0: float, t1: float) -> float:
+        """The time-weighted level over [t0, t1] (the level at t0 for an empty window)."""
+        if not t1 > t0:
+            return self.level_at(t0)
+        i = max(bisect.bisect_right(self._starts, t0) - 1, 0)
+        j = bisect.bisect_left(self._starts, t1)
+        if j - i <= 1 and self.tau_s == 0:  # one step level over the whole window: exactly it
+            return self.level_at(t0)
+        edges = [t0] + [u for u in self._starts[i + 1:j] if t0 < u < t1] + [t1]
+        total = 0.0
+        for u0, u1 in zip(edges, edges[1:]):
+            s, a, b = self._seg(u0)
+            if self.tau_s == 0:
+                total += b * (u1 - u0)
+            else:  # b + (a - b) exp(-(t - s) / tau), integrated from u0 to u1
+                tau = self.tau_s
+                total += b * (u1 - u0) + (a - b) * tau * (math.exp(-(u0 - s) / tau) - math.exp(-(u1 - s) / tau))
+        return total / (t1 - t0)
 
 
 # the settings a register change moves (the light and the temperature are the instruments')

@@ -14,7 +14,7 @@ in a faults dict given to their emulators, N = 0-based command count):
 ``ROLE_error_at`` (``ERR`` reply), ``ROLE_disconnect_at`` (the port is gone from then on),
 ``ROLE_late_at`` (the reply comes after the host's read timed out: it waits in the input buffer).
 
-``changes`` (the light, the chamber): every ``LEVEL`` (``TEMP``) command's level, when it came (``commanded_s``) and when the
+``changes`` (the light, the chamber, the monochromator's ``GOWAVE``): every ``LEVEL`` (``TEMP``) command's level, when it came (``commanded_s``) and when the
 output reached it (``settled_s``: within the monitor's accuracy; later than the command for an LED
 relaxing with ``light_tau_s``), on the bench's clock -- the device's truth of a light change.
 
@@ -172,13 +172,29 @@ class EmulatedChamber(EmulatedInstrument):
 
 
 class EmulatedMonochromator(EmulatedInstrument):
+    """``GOWAVE nm`` starts the grating's move and is answered at once (an overlapped command, as a
+    Cornerstone's); ``WAVE?`` is the drive's position now (mid-move: where it is); ``*OPC?`` answers
+    ``1`` when the move is complete -- the drive stopped and rung out -- and the reply comes then
+    (the bench's clock moves on to it, as a blocking query holds the host). With the bench's clock
+    ``changes`` keeps every ``GOWAVE``: its wavelength (``level``), ``commanded_s`` and ``settled_s``
+    (the device's ``settled_at``: its truth of a wavelength change)."""
+
     role = "monochromator"
     ident = "ARES,EMULATED-CS130,0,1.0"
 
     def answer(self, cmd: str, arg: str) -> str:
         if cmd == "GOWAVE":
             self.device.set_wavelength(float(arg))
+            if self.clock is not None:
+                now = self.clock.now()
+                self.changes.append({"level": float(arg), "commanded_s": now,
+                                     "settled_s": max(float(getattr(self.device, "settled_at", now)), now)})
             return "OK"
+        if cmd == "*OPC?":
+            left = float(getattr(self.device, "settled_at", 0.0)) - self.clock.now() if self.clock is not None else 0.0
+            if left > 0:
+                self.clock.sleep(left)
+            return "1"
         if cmd == "WAVE?":
             return f"{self.device.get_wavelength():.3f}"
         if cmd == "BANDPASS?":

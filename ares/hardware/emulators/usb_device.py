@@ -1,6 +1,6 @@
 """An emulated USB frame grabber behind a pyusb backend (``usb.backend.IBackend``).
 
-``usb.core.find(..., backend=EmulatedUsbBackend([grabber]))`` finds it like a real device;
+``usb.core.find(..., backend=EmulatedUsbBackend([grabber]))`` (``usb_backend``) finds it like a real device;
 ``UsbFrameSource`` then drives it through pyusb's public API only: descriptors, string
 descriptors (the serial number), ``set_configuration``, control transfers and bulk reads.
 
@@ -52,7 +52,8 @@ right after a frame and sooner than its next register writes (``SensorRegisters.
 read-back after the frame in flight still finds the old values latched.
 
 ``exposed_with``: device frame counter -> the settings the simulator rendered that frame with
-(``exposure_s``, ``analog_gain``, ``black_level_dn``, ``photon_flux``) and ``exposure_start_s``
+(``exposure_s``, ``analog_gain``, ``black_level_dn``, ``photon_flux``: the light over the frame's
+own exposure window, a frame in flight's included) and ``exposure_start_s``
 (the ``ares40`` time stamp, on the bench's clock): the device's truth (the latest 20000 frames).
 """
 
@@ -68,6 +69,7 @@ import numpy as np
 
 from ares.errors import DeviceGone, FrameError
 from ares.hardware import frame_header as fh
+from ares.hardware.emulators.usb_backend import usb_error
 from ares.hardware.pixels import pack, pixel_format, to_wire_order
 
 FAULTS = ("usb_drop_at", "usb_corrupt_at", "usb_short_at", "usb_garbage_at", "usb_timeout_at",
@@ -154,7 +156,7 @@ class EmulatedGrabber:
     # ------------------------------------------------------------ requests
     def _gone(self):
         if not self.connected:
-            raise _usb_error(errno.ENODEV, "No such device (it may have been disconnected)")
+            raise usb_error(errno.ENODEV, "No such device (it may have been disconnected)")
 
     def control(self, request_type: int, request: int, value: int, index: int, data) -> bytes | int:
         self._gone()
@@ -174,7 +176,7 @@ class EmulatedGrabber:
                     queued, self._queued = self._queued[:int(value)], []
                     fresh = int(value) - len(queued)
                     if self.faults.get("usb_frame_in_flight"):  # each frame read out with its own registers
-                        fresh_frames = (next(iter(self.frames.grab(1))) for _ in range(fresh))
+                        fresh_frames = (self._grab_one() for _ in range(fresh))
                     else:
                         fresh_frames = self.frames.grab(fresh) if fresh else ()
                     self._gen = itertools.chain(queued, fresh_frames)
@@ -198,7 +200,7 @@ class EmulatedGrabber:
     def _next_transfer(self, timeout_ms: int | None = None) -> None:
         n = self.counter
         if self.halted:
-            raise _usb_error(errno.EPIPE, "Pipe error (endpoint halted)")
+            raise usb_error(errno.EPIPE, "Pipe error (endpoint halted)")
         if n == self.faults.get("usb_disconnect_at"):
             self.connected = False
             self.faults.pop("usb_disconnect_at")
@@ -207,21 +209,21 @@ class EmulatedGrabber:
         if n == self.faults.get("usb_stall_at"):
             self.faults.pop("usb_stall_at")
             self.halted = True
-            raise _usb_error(errno.EPIPE, "Pipe error (endpoint halted)")
+            raise usb_error(errno.EPIPE, "Pipe error (endpoint halted)")
         if n == self.faults.get("usb_timeout_at"):
             self.faults.pop("usb_timeout_at")
             time.sleep(self.cfg.timeout_ms / 1000.0)
-            raise _usb_error(errno.ETIMEDOUT, "Operation timed out", timeout=True)
+            raise usb_error(errno.ETIMEDOUT, "Operation timed out", timeout=True)
         self._frame_starts()  # (latching held registers: the exposure this frame takes is the latched one)
         if self.latency is not None and timeout_ms and 1000 * self.latency() > timeout_ms:
-            raise _usb_error(errno.ETIMEDOUT, "Operation timed out", timeout=True)  # the frame is still exposing
+            raise usb_error(errno.ETIMEDOUT, "Operation timed out", timeout=True)  # the frame is still exposing
         if self.trigger_mode == 1 and not self.software_triggers:  # waiting for the host's trigger
-            raise _usb_error(errno.ETIMEDOUT, "Operation timed out (no software trigger)", timeout=True)
+            raise usb_error(errno.ETIMEDOUT, "Operation timed out (no software trigger)", timeout=True)
         if self.trigger_mode == 2 and n == self.faults.get("usb_trigger_missing_at"):  # the generator skips one
             self.faults.pop("usb_trigger_missing_at")
-            raise _usb_error(errno.ETIMEDOUT, "Operation timed out (no edge on the trigger line)", timeout=True)
+            raise usb_error(errno.ETIMEDOUT, "Operation timed out (no edge on the trigger line)", timeout=True)
         if self.trigger_mode == 2 and not self.line.take():  # waiting for an edge on the trigger input
-            raise _usb_error(errno.ETIMEDOUT, "Operation timed out (no edge on the trigger line)", timeout=True)
+            raise usb_error(errno.ETIMEDOUT, "Operation timed out (no edge on the trigger line)", timeout=True)
         if self.trigger_mode == 1:
             self.software_triggers -= 1
         self._started = self.clock.now() if self.clock is not None else float(self.counter)
@@ -282,7 +284,7 @@ class EmulatedGrabber:
             self.faults.pop("usb_late_at")
             late = self.faults.get("usb_late_ms", 1200) + (1000 * self.latency() if self.latency else 0)
             if timeout_ms and late > timeout_ms:
-                raise _usb_error(errno.ETIMEDOUT, "Operation timed out (frame late)", timeout=True)
+                raise usb_error(errno.ETIMEDOUT, "Operation timed out (frame late)", timeout=True)
 
     def _exposure_start(self, frame) -> float:
         """When ``frame`` started exposing (ahead: at the last read-out; the simulator's: its stamp)."""
@@ -316,17 +318,25 @@ class EmulatedGrabber:
 
     def _read_out(self):
         if self._start is None:
-            return next(iter(self.frames.grab(1)))
+            return self._grab_one()
         if self._gen is None:
-            raise _usb_error(errno.ETIMEDOUT, "Operation timed out (not armed)", timeout=True)
+            raise usb_error(errno.ETIMEDOUT, "Operation timed out (not armed)", timeout=True)
         try:
             return next(self._gen)
         except StopIteration:
             if not self._owed:
                 self._gen = None
-                raise _usb_error(errno.ETIMEDOUT, "Operation timed out (no more frames armed)", timeout=True) from None
+                raise usb_error(errno.ETIMEDOUT, "Operation timed out (no more frames armed)", timeout=True) from None
             self._owed -= 1  # a dropped frame still costs an exposure: one more to deliver N
-            return next(iter(self.frames.grab(1)))
+            return self._grab_one()
+
+    def _grab_one(self):
+        """The sensor's next frame. One streamed ahead (``usb_frame_in_flight``) started exposing as
+        the frame before was read out: the simulator renders it with the light over its own exposure
+        from then (part old, part new at a change), as its time stamp says."""
+        if self._ahead_start is not None and self.faults.get("usb_frame_in_flight") and self.clock is not None:
+            return next(iter(self.frames.grab(1, started=self._ahead_start)))
+        return next(iter(self.frames.grab(1)))
 
     def _embed(self, img: np.ndarray) -> np.ndarray:
         """A sensor without I2C read: its registers, one byte per pixel, in an image row."""
@@ -346,7 +356,7 @@ class EmulatedGrabber:
         """One host read of up to ``size`` bytes under the packet rules (module docstring)."""
         self._gone()
         if endpoint != self.cfg.endpoint:
-            raise _usb_error(errno.EPIPE, f"endpoint 0x{endpoint:02x} does not exist")
+            raise usb_error(errno.EPIPE, f"endpoint 0x{endpoint:02x} does not exist")
         got = bytearray()
         while len(got) < size:
             if not self._out:
@@ -354,7 +364,7 @@ class EmulatedGrabber:
             packet = self._out.popleft()
             if len(packet) > size - len(got):
                 self.overflows += 1
-                raise _usb_error(errno.EOVERFLOW, "Overflow")
+                raise usb_error(errno.EOVERFLOW, "Overflow")
             got += packet
             if len(packet) < self.max_packet:  # short packet or ZLP: the transfer ended
                 break
@@ -406,95 +416,3 @@ class TriggerLine:
             return False
         self.edges -= 1
         return True
-
-
-def _usb_error(code: int, text: str, timeout: bool = False):
-    import usb.core
-
-    cls = usb.core.USBTimeoutError if timeout else usb.core.USBError
-    return cls(text, errno=code)
-
-
-def _backend_base():
-    import usb.backend
-
-    return usb.backend.IBackend
-
-
-class EmulatedUsbBackend(_backend_base()):
-    """pyusb backend whose bus holds ``EmulatedGrabber`` devices."""
-
-    def __init__(self, devices):
-        super().__init__()
-        self.devices = list(devices)
-
-    def enumerate_devices(self):
-        for i, d in enumerate(self.devices):
-            if d.present():
-                yield (i, d)
-
-    def get_device_descriptor(self, dev):
-        i, d = dev
-        return d.device_descriptor(i + 1)
-
-    def get_configuration_descriptor(self, dev, config):
-        return dev[1].config_descriptor()
-
-    def get_interface_descriptor(self, dev, intf, alt, config):
-        return dev[1].interface_descriptor()
-
-    def get_endpoint_descriptor(self, dev, ep, intf, alt, config):
-        return dev[1].endpoint_descriptor()
-
-    def open_device(self, dev):
-        dev[1]._gone()
-        return dev[1]
-
-    def close_device(self, dev_handle):
-        dev_handle.handles_closed += 1
-
-    def set_configuration(self, dev_handle, config_value):
-        dev_handle._gone()
-        dev_handle.configuration = config_value
-
-    def get_configuration(self, dev_handle):
-        dev_handle._gone()
-        return dev_handle.configuration or 1
-
-    def set_interface_altsetting(self, dev_handle, intf, altsetting):
-        pass
-
-    def claim_interface(self, dev_handle, intf):
-        dev_handle._gone()
-
-    def release_interface(self, dev_handle, intf):
-        pass
-
-    def bulk_read(self, dev_handle, ep, intf, buff, timeout):
-        part = dev_handle.bulk_read(ep, len(buff), timeout)
-        n = len(part)
-        memoryview(buff).cast("B")[:n] = part
-        return n
-
-    def ctrl_transfer(self, dev_handle, bmRequestType, bRequest, wValue, wIndex, data, timeout):
-        out = dev_handle.control(bmRequestType, bRequest, wValue, wIndex, data)
-        if bmRequestType & 0x80:  # IN: copy into the caller's buffer, return the count
-            n = min(len(out), len(data))
-            memoryview(data).cast("B")[:n] = out[:n]
-            return n
-        return out
-
-    def clear_halt(self, dev_handle, ep):
-        dev_handle.clear_halt(ep)
-
-    def reset_device(self, dev_handle):
-        pass
-
-    def is_kernel_driver_active(self, dev_handle, intf):
-        return False
-
-    def detach_kernel_driver(self, dev_handle, intf):
-        pass
-
-    def attach_kernel_driver(self, dev_handle, intf):
-        pass
