@@ -304,6 +304,8 @@ def test_bias_sweep_2d(tmp_path_factory):
                         comp["Rt"]["se"], comp["Ct"]["se"])
         got = {"value": dl["var_dn2"], "se": se}
         check(f"bias {st['name']} dark var [DN^2]", want, got, rel=0.05, n_se=4)
+        # the light read back while the stage's lit frames were taken, not after its dark="after" turned it off
+        assert st["setpoints"]["light"]["ok"] is True, st["setpoints"]["light"]
 
 
 def teardown_module(module):

@@ -16,13 +16,22 @@ import math
 from ares.scan.apply import register_field
 
 
-def setpoints(bench, system, settings: dict, registers_after: dict) -> dict:
+def light_reading(bench) -> float | None:
+    """The light source's monitor reading of its output now (None: it gives none)."""
+    read = getattr(bench.light, "read_level", None) if bench.light is not None else None
+    got = read() if read is not None else None
+    return None if got is None else float(got)
+
+
+def setpoints(bench, system, settings: dict, registers_after: dict, light_read: float | None = None) -> dict:
+    """``light_read``: the light monitor's reading taken right after the stage's lit frames --
+    a matched dark grabbed after them (``dark="after"``) has turned the light off since, and a
+    reading now would compare the dark's level with the stage's set point."""
     out = {}
     for key, value in settings.items():
         if key == "light":
             light = bench.light
-            read = getattr(light, "read_level", None)
-            got = read() if read is not None else None
+            got = light_read if light_read is not None else light_reading(bench)
             if got is not None:  # its monitor's reading of the output, with its tolerance
                 out[key] = _pair(value, got, getattr(light, "level_tolerance", None), None)
                 continue

@@ -24,7 +24,7 @@ from ares.scan.stage_analysis import StackSet, analyze_stage
 from ares.rundir.record import RunRecord
 from ares.scan.stages import Stage
 from ares.scan.kept import KeptFrames
-from ares.scan.readback import setpoints
+from ares.scan.readback import light_reading, setpoints
 from ares.scan.settling import FrameStats
 from ares.scan.suspend import Suspended
 
@@ -56,7 +56,7 @@ class StageLoop:
             # measurement -- the declared waits only, and its stack is not checked for a trend
             lag_dark = ("lag" in scan.analyses and st.scene == "dark" and st.index > 0
                         and stages[st.index - 1].scene == "flat")
-            flat = dark = None  # the last stage's stacks are the committer's now (a 4096x3072 stack: 0.2 GB)
+            flat = dark = lit = None  # the last stage's stacks are the committer's now (a 4096x3072 stack: 0.2 GB)
             while True:  # once, or again after a suspension (ares.scan.suspend) or lost frames
                 fw = writer.frame_writer(st.index, bench.frames.shape, None) if writer else None
                 pos = {}
@@ -88,6 +88,7 @@ class StageLoop:
                     pos["flat"] = _position(bench)
                     flat = self._grab(bench, st, st.frames, vw, max_code, fw, dark=False)
                     spectral = spectral_readings(bench, system)
+                    lit = light_reading(bench) if st.dark_after else None  # (its dark turns the light off)
                     if st.dark_after:  # the bright->dark cycle the lag analysis reads
                         pos["dark"] = _position(bench)
                         _note(settling, "dark", apply_settings(bench, system, st.dark_settings, applied,
@@ -180,7 +181,7 @@ class StageLoop:
             if suspensions:
                 extra["suspensions"] = suspensions
             if pos.get("end") is not None or after:  # each set quantity: set point, readback, tolerance
-                extra["setpoints"] = setpoints(bench, system, st.settings, after or {})
+                extra["setpoints"] = setpoints(bench, system, st.settings, after or {}, lit)
                 off = [k for k, v in extra["setpoints"].items() if v.get("ok") is False]
                 if off:
                     log.warning("stage %d '%s': readback outside its tolerance for %s", st.index, st.name,
