@@ -309,3 +309,53 @@ def test_the_frame_in_flight_integrates_the_light_of_its_own_exposure(tmp_path, 
     for st, change in zip(outcome.stages[1:], light[1:]):
         first = truth[kept[st["index"]][0]]["photon_flux"]
         assert abs(first - change["level"]) > 0.5 * abs(change["level"] - light[st["index"] - 1]["level"]), first
+
+
+def test_time_stamps_do_not_prove_the_settings_a_frame_latched(tmp_path):
+    """A sensor whose registers take effect two frames late (``pipeline_lag_frames=2``, declared
+    ``<timing frames_in_flight="2">``) behind an ``ares40`` grabber: every frame after the write
+    started after it (its time stamp), yet the first two carry the old settings (the device's
+    ``exposed_with``). The time stamps called them fresh and two of each stage's three kept
+    frames were stale; a time stamp tells when a frame started, not what it latched, so the
+    declared depth's frames go unless tags prove them."""
+    scan = _scan(tmp_path, header="ares40", hold=False)
+    system = tmp_path / "sim_wire_48x64.xml"
+    system.write_text(system.read_text().replace("<timing ", '<timing frames_in_flight="2" ', 1))
+    outcome, kept, truth, recs = _run(scan, {"pipeline_lag_frames": 2})
+    for st, counters in zip(outcome.stages, kept):
+        assert all(truth[n]["analog_gain"] == st["settings"]["analog_gain"] for n in counters), (st["name"], counters)
+    for rec in recs:
+        fl = rec["in_flight"]
+        assert fl["evidence"] == "device timestamp" and fl["discarded"] == 2 and "latched" in fl["why"], fl
+
+
+def test_a_declared_depth_the_device_time_stamps_contradict_is_named():
+    """Two frames stamped before the change where the system declares one in flight: both go
+    (their time stamps), and the record names the declaration they contradict -- on a device
+    that tells nothing the declared depth would keep the second."""
+    import numpy as np
+
+    from ares.hardware.interfaces import Frame
+    from ares.scan.in_flight import drop_in_flight
+
+    class Src:
+        name, shape, bit_depth = "stamped", (2, 2), 12
+
+        def __init__(self):
+            self.t = iter([0.9, 0.95, 1.2, 1.3])
+
+        def grab(self, n):
+            for _ in range(n):
+                yield Frame(np.zeros((2, 2), np.uint16), meta={"device_timestamp_s": next(self.t)})
+
+    class Bench:
+        clock = object()
+
+        def __init__(self):
+            self.frames = Src()
+
+    rec = drop_in_flight(Bench(), {}, False, 1.0, "light change", depth=1)
+    assert rec["discarded"] == 2 and rec["kept"] == 1 and rec["depth_exceeded"] == {"declared": 1, "seen": 2}, rec
+    assert 'frames_in_flight="2"' in rec["why"], rec
+    ok = drop_in_flight(Bench(), {}, False, 1.0, "light change", depth=2)
+    assert ok["discarded"] == 2 and "depth_exceeded" not in ok, ok

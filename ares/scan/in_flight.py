@@ -31,15 +31,20 @@ A declared ``discard_frames`` >= 1 is trusted to take the frame in flight (nothi
 The record (the stage JSON's ``settling`` -> ``in_flight``): ``discarded``, ``kept`` (1: the frame
 looked at was fresh and is the stack's first), ``evidence`` ("device timestamp", "frame tags",
 "none"), ``why``; when nothing told (``evidence`` "none"): ``frames_in_flight`` (the frames discarded
-blind) and ``depth`` ("declared": ``<timing frames_in_flight>``; "assumed": one, none declared)."""
+blind) and ``depth`` ("declared": ``<timing frames_in_flight>``; "assumed": one, none declared). Where
+the device's evidence shows more stale frames than the declared depth, ``depth_exceeded``
+({"declared", "seen"}) and a warning: the declaration is checked wherever the device can check it."""
 
 from __future__ import annotations
+
+import logging
 
 import numpy as np
 
 from ares.protocol.system import IN_FLIGHT_CAP
 from ares.scan.settling import _grab1, tags_match
 
+log = logging.getLogger(__name__)
 CAP = IN_FLIGHT_CAP  # frames exposed before a change that a device may still deliver (a grabber's FIFO)
 
 
@@ -97,13 +102,35 @@ def drop_in_flight(bench, want: dict, tags_cover: bool, committed: float | None,
                     "why": f"{n} frame(s) discarded, as many as may be in flight at the {what} ({told}): they may "
                            "have been exposed partly before the change was complete, and the device gives neither its "
                            "exposure start nor its settings to tell"}
+        if (evidence == "device timestamp" and "register" in what and depth is not None
+                and dropped < depth):
+            # a time stamp tells when a frame started, not which settings it latched: a sensor whose
+            # registers take effect frames late (double-buffered) delivers frames started after the
+            # write with the old settings -- the declared depth's frames go unless tags prove them
+            late = int(depth) - dropped
+            for _ in range(late - 1):
+                _grab1(bench)
+            return {"discarded": dropped + late, "kept": 0, "evidence": evidence, "frames_in_flight": int(depth),
+                    "depth": "declared",
+                    "why": f"{dropped} frame(s) exposed before the {what} was complete discarded ({evidence}), and "
+                           f"{late} more up to the pipeline depth the system declares (<timing frames_in_flight="
+                           f"\"{depth}\">): a time stamp tells when a frame started, not which settings it latched "
+                           "(a sensor whose registers take effect frames late), and no tag tells"}
         push_back(bench.frames, [frame])  # fresh: the stack's first frame
         if dropped:
             why = (f"{dropped} frame(s) exposed before the {what} was complete discarded ({evidence}); "
                    "the first after it is kept")
         else:
             why = f"no frame was exposed before the {what} was complete ({evidence}): the first after it is kept"
-        return {"discarded": dropped, "kept": 1, "evidence": evidence, "why": why}
+        rec = {"discarded": dropped, "kept": 1, "evidence": evidence, "why": why}
+        if depth is not None and dropped > depth:  # the device's evidence against the system's declaration
+            rec["depth_exceeded"] = {"declared": int(depth), "seen": dropped}
+            rec["why"] += (f"; the device held {dropped} frames exposed before the change, more than the pipeline "
+                           f"depth the system declares (<timing frames_in_flight=\"{depth}\">): where it tells "
+                           f"nothing (no time stamp, no tags) {dropped - depth} stale frame(s) would be kept -- "
+                           f"declare frames_in_flight=\"{dropped}\"")
+            log.warning("%s", rec["why"])
+        return rec
     return {"discarded": dropped, "kept": 0, "evidence": evidence,
             "why": f"{dropped} frames in a row were exposed before the {what} was complete ({evidence}); the stack "
                    "follows regardless"}
