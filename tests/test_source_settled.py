@@ -109,6 +109,9 @@ def test_a_light_slower_than_declared_is_waited_for_by_its_monitor(tmp_path):
         starts = [truth[n]["exposure_start_s"] for n in kept[st["index"]]]
         assert min(starts) >= change["settled_s"] - 1e-9, (st["name"], starts, change)
         assert all(abs(truth[n]["photon_flux"] - change["level"]) <= 100 for n in kept[st["index"]])
+    # the run says so, once (outcome and run.json's message): the declared settle time is too short
+    assert "light settled slower than declared" in outcome.message and "<after settle_s>" in outcome.message, \
+        outcome.message
 
 
 def test_a_light_past_the_cap_fails_the_stage_naming_the_device(tmp_path):

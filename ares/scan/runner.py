@@ -226,6 +226,7 @@ class Runner(MaskCompletion, StageLoop):
         self._susp = Suspenders(scan.suspend, bench, self._cancelled, **clock) if scan.suspend else None
         self._noise = FrameNoise()  # the run's whole-frame noise, learned from its stacks (ares.scan.settling)
         self._unsettled = []  # stages whose bench did not settle (ares.scan.settling): named in the run's message
+        self._late = {}  # sources slower than declared, depths the device contradicts: {what: [(stage, figure)]}
         vw = views(scan)
         max_code = (1 << int(bench.frames.bit_depth)) - 1
         self._frames_total = sum(s.frames_to_grab() for s in stages)

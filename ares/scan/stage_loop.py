@@ -188,6 +188,7 @@ class StageLoop:
                                 ", ".join(off))
             if settling:  # what each change waited and discarded, and why; a stack that trends or steps
                 extra["settling"] = settling
+                _late(self._late, st.index, settling)
                 if settling.get("unsettled"):
                     self._unsettled.append(f"stage {st.index} '{st.name}': {settling['unsettled']}")
                     log.warning("stage %d '%s' is not settled: %s", st.index, st.name, settling["unsettled"])
@@ -225,6 +226,8 @@ class StageLoop:
                 fails = check_limits(scan, scan_results)
         if self._unsettled:  # said on every surface: run.json's message, the outcome, the log
             message = "; ".join(m for m in (message, "not settled: " + "; ".join(self._unsettled)) if m)
+        if self._late:  # the bench slower or deeper than its system XML declares: the host waited or discarded
+            message = "; ".join(m for m in (message, late_text(self._late)) if m)
         if writer:  # the reports to come are part of the run: "done" reads so only once they are written
             writer.finish(status, message or "; ".join(fails), scan_results, fails,
                           reports="writing" if completed and self._report_formats() else None,
@@ -355,6 +358,37 @@ class RunOutcome:
 
 class _Aborted(Exception):
     pass
+
+
+def _late(late: dict, index: int, settling: dict) -> None:
+    """Collect what a stage's settling records show slower or deeper than declared: a source
+    the host had to wait for beyond the declared waits (``source_settled``), a device holding
+    more frames from before a change than ``frames_in_flight`` (``in_flight.depth_exceeded``)."""
+    for rec in settling.values():
+        if not isinstance(rec, dict):
+            continue
+        for q, s in (rec.get("sources") or {}).items():
+            if (s.get("waited_s") or 0) > 0:
+                late.setdefault(q, []).append((index, float(s["waited_s"])))
+        dx = (rec.get("in_flight") or {}).get("depth_exceeded")
+        if dx:
+            late.setdefault("frames in flight", []).append((index, dx))
+
+
+def late_text(late: dict) -> str:
+    """One sentence for the run's message from ``_late``'s collection."""
+    parts = []
+    for what, hits in late.items():
+        stages = ", ".join(str(i) for i, _ in hits[:8]) + (" ..." if len(hits) > 8 else "")
+        if what == "frames in flight":
+            seen, decl = max(d["seen"] for _, d in hits), hits[0][1]["declared"]
+            parts.append(f"the device held up to {seen} frames from before a change where the system declares "
+                         f"<timing frames_in_flight=\"{decl}\"> (stages {stages}): declare {seen}")
+        else:
+            parts.append(f"{what} settled slower than declared (stages {stages}; waited up to "
+                         f"{max(w for _, w in hits):.3g} s beyond the declared waits): lengthen its <after settle_s>")
+    log.warning("bench slower than declared: %s", "; ".join(parts))
+    return "bench slower than declared: " + "; ".join(parts)
 
 
 def _note(settling: dict, which: str, rec: dict | None) -> None:
