@@ -23,6 +23,7 @@ HANDLED = ("mtf", "photon_counting", "spectral_qe", "ptc", "decomposition", "dar
 # ------------------------------------------------------------------ dark / temperature
 
 def dark_page(run, series: dict):
+    from ares.analysis.ptc.dark_current import dark_current
     from ares.analysis.ptc.fit import line_fit
 
     fig = new_page("Dark signal vs exposure", "dark stages; dark current = slope of the dark mean vs exposure")
@@ -39,14 +40,17 @@ def dark_page(run, series: dict):
         ax1.plot(s["exposure_s"], s["mean_dn"], "o", color=f"C{k}", label=None if fit else lab or "dark mean")
         ax2.plot(s["exposure_s"], s["var_dn2"], "o", color=f"C{k}", label=None if fit else lab or "temporal")
         ax3.plot(s["exposure_s"], s["spatial_var_dn2"], "s", mfc="none", color=f"C{k}", label=lab or "spatial")
-        if fit:
+        if fit:  # the analysis's own slopes and SEs (K = 1: DN/s and DN^2/s), as the table beside them
+            d = dark_current(s["exposure_s"], s["mean_dn"], 1.0, s["var_dn2"], frame_means=s.get("frame_means"))
             lf = line_fit(s["exposure_s"], s["mean_dn"])
-            xs = np.linspace(0, s["exposure_s"].max(), 20)
-            ax1.plot(xs, lf.intercept + lf.slope * xs, "-", color=f"C{k}", lw=0.8,
-                     label=f"{lab} fit: {page_tables.fmt_value(lf.slope, lf.slope_se, 'DN/s')}".strip())
             lv = line_fit(s["exposure_s"], s["var_dn2"])
-            ax2.plot(xs, lv.intercept + lv.slope * xs, "-", color=f"C{k}", lw=0.8,
-                     label=f"{lab} slope {page_tables.fmt_value(lv.slope, lv.slope_se, 'DN^2/s')}".strip())
+            m_txt = (page_tables.fmt_value(d.rate_dn_per_s.value, d.rate_dn_per_s.se, 'DN/s')
+                     if d.rate_dn_per_s.available else f"n/a ({d.rate_dn_per_s.note})")
+            v = d.rate_from_variance_e_per_s
+            v_txt = page_tables.fmt_value(v.value, v.se, 'DN^2/s') if v.available else f"n/a ({v.note})"
+            xs = np.linspace(0, s["exposure_s"].max(), 20)
+            ax1.plot(xs, lf.intercept + lf.slope * xs, "-", color=f"C{k}", lw=0.8, label=f"{lab} fit: {m_txt}".strip())
+            ax2.plot(xs, lv.intercept + lv.slope * xs, "-", color=f"C{k}", lw=0.8, label=f"{lab} slope {v_txt}".strip())
     ax1.set_xlabel("exposure (s)")
     ax1.set_ylabel("dark mean (DN)")
     ax1.set_title("dark mean vs exposure")
@@ -67,15 +71,14 @@ def dark_page(run, series: dict):
 
 def temperature_page(run, series: dict):
     """Dark current vs temperature with the doubling-temperature fit (>= 3 temperatures)."""
-    from ares.analysis.ptc.dark_current import doubling_temperature
-    from ares.analysis.ptc.fit import line_fit
+    from ares.analysis.ptc.dark_current import dark_current, doubling_temperature
 
     T, r, rse = [], [], []
     for t, s in sorted((kv for kv in series.items() if kv[0] is not None), key=lambda kv: kv[0]):
-        if np.unique(s["exposure_s"]).size < 2:
-            continue
-        lf = line_fit(s["exposure_s"], s["mean_dn"])
-        T.append(t), r.append(lf.slope), rse.append(lf.slope_se)
+        # the analysis's own dark current per temperature (DN/s: K = 1), its SE on the frames' scatter
+        e = dark_current(s["exposure_s"], s["mean_dn"], 1.0, frame_means=s.get("frame_means")).rate_dn_per_s
+        if e.available:
+            T.append(t), r.append(e.value), rse.append(e.se)
     T, r, rse = map(np.array, (T, r, rse))
     fig = new_page("Dark current vs temperature", "slope of the dark mean vs exposure per temperature; "
                    "X_T = X_ref * 2^((T - ref)/Td)")
