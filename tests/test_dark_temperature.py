@@ -77,6 +77,11 @@ def test_simulator_activation_map_within_its_ses():
     assert found[hot].all() and (found & ~hot).sum() <= 1
     summ = A.summarize(fit)
     assert abs(summ["median_activation_ev"].value - 0.65) < 0.01 and summ["regimes"]["depletion"] > 0.9 * pull.size
+    # every figure with its SE (the median doubling temperature carries the median E_a's; the plain
+    # regression its jackknife's): a number shown bare was one without a verdict
+    td, ea = summ["median_doubling_c"], summ["median_activation_ev"]
+    assert td.se == pytest.approx(td.value * ea.se / ea.value, rel=1e-9) and td.se > 0
+    assert np.isfinite(summ["naive_ev"].se) and 0 < summ["naive_ev"].se < summ["naive_ev"].value
 
 
 def test_run_directory_and_maps(tmp_path, capsys):

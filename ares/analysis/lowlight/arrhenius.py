@@ -164,10 +164,12 @@ def meyer_neldel(fit: PixelArrhenius, min_pixels: int = 10, blocks: int = 20) ->
     x, y, vx, c = ea[ok], la[ok], se[ok] ** 2, cov[ok]
     n = x.size
     b = _mn_slope(x, y, vx, c)
-    naive = float(np.mean((x - x.mean()) * (y - y.mean()))) / float(np.var(x))
+    naive = _naive(x, y)
     idx = np.arange(n) % blocks
     jk = np.array([_mn_slope(x[idx != j], y[idx != j], vx[idx != j], c[idx != j]) for j in range(blocks)])
     b_se = math.sqrt((blocks - 1) / blocks * float(np.sum((jk - jk.mean()) ** 2))) if np.all(np.isfinite(jk)) else math.nan
+    nv = np.array([_naive(x[idx != j], y[idx != j]) for j in range(blocks)])  # (its SE: the same jackknife)
+    naive_se = math.sqrt((blocks - 1) / blocks * float(np.sum((nv - nv.mean()) ** 2)))
     note = f"1 / slope of ln A vs E_a over {n} pixels, the fit errors' covariance removed"
     if not (b > 0 and math.isfinite(b_se)) or b_se > b:
         why = ("the pixels' E_a spread is within their fit errors: no slope beyond them" if not b > 0 or b_se > b
@@ -177,9 +179,14 @@ def meyer_neldel(fit: PixelArrhenius, min_pixels: int = 10, blocks: int = 20) ->
         emn = Estimate(1 / b, b_se / b**2, "eV", note)
     iso = Estimate(emn.value / K_B_EV, emn.se / K_B_EV, "K", "E_MN / k") if emn.available else Estimate.na(emn.note, "K")
     return {"meyer_neldel_ev": emn, "isokinetic_k": iso,
-            "naive_ev": Estimate(1 / naive, math.nan, "eV", "plain regression, fit errors included")
+            "naive_ev": Estimate(1 / naive, naive_se / naive**2, "eV", "plain regression, fit errors included")
             if naive > 0 else Estimate.na("ln A does not grow with E_a", "eV"),
             "pixels_mn": int(n), **base}
+
+
+def _naive(x, y) -> float:
+    """The plain regression's slope of ``y`` on ``x`` (no errors-in-variables correction)."""
+    return float(np.mean((x - x.mean()) * (y - y.mean()))) / float(np.var(x))
 
 
 def regimes(fit: PixelArrhenius) -> dict[str, int]:
@@ -226,7 +233,9 @@ def summarize(fit: PixelArrhenius, at_c: float = 0.0) -> dict:
         "activation_spread_ev": Estimate(spread, spread / math.sqrt(2 * (n - 1)) if n > 1 else math.nan, "eV",
                                          "SD of the per-pixel E_a (fit noise included)"),
         "activation_fit_noise_ev": noise,
-        "median_doubling_c": Estimate(float(np.median(td)), math.nan, "C",
+        # (ln2 k T^2 / E_a falls as E_a rises: the median's relative SE is the median E_a's)
+        "median_doubling_c": Estimate(float(np.median(td)), float(np.median(td)) * 1.2533 * spread / math.sqrt(n) / med
+                                      if n > 1 and med > 0 else math.nan, "C",
                                       f"median of ln2 k T^2 / E_a at {at_c:g} C") if td.size else Estimate.na("no E_a", "C"),
         "regimes": regimes(fit),
         "hot_by_activation": int(hot_by_activation(fit).sum()),
