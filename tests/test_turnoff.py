@@ -112,7 +112,9 @@ def test_published_definitions_by_name(capsys, tmp_path):
     assert defs["ptc_turnoff"] == d["turnoff_dn"]
     # the level-to-level rule stops at the first drop, noise included: never above the turnover
     assert 0 < defs["lsst_turnoff"]["value"] <= T
-    assert defs["emva4_saturation"]["verdict"] == "ok"
+    # the table gives no level's clipped fraction: the 0.2 % criterion finds nothing below the brightest
+    # level, which is then only a lower limit (it was "ok", a saturation no data showed)
+    assert defs["emva4_saturation"]["verdict"] == "lower limit" and defs["emva4_saturation"]["value"] == s.max()
 
 
 def test_unreached_turnoff_is_a_lower_limit(capsys, tmp_path):
@@ -120,6 +122,9 @@ def test_unreached_turnoff_is_a_lower_limit(capsys, tmp_path):
     d = ptc_json(capsys, write(tmp_path / "low.csv", s, _trend(s)))
     assert not d["saturation"]["reached"]
     assert d["turnoff_dn"]["verdict"] == "lower limit" and d["turnoff_dn"]["value"] == pytest.approx(s[-1])
+    # every published definition alike: nothing beyond the brightest level, a lower limit, never "ok"
+    for name, e in d["turnoff_definitions_dn"].items():
+        assert e["verdict"] == "lower limit" and e["value"] == pytest.approx(s[-1]), (name, e)
 
 
 def test_text_output_shows_the_turnoff(capsys, tmp_path):

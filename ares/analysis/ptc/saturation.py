@@ -248,11 +248,13 @@ def _turnoffs(levels: Sequence[PtcLevel], br: SaturationBracket, gain: Estimate,
                   key=lambda lv: lv.signal)
     pos = {lv.index: j for j, lv in enumerate(meas)}
 
-    def at(i: int, note: str, bound: str = "") -> Estimate:
+    def at(i: int, note: str, bound: str = "", top_is_limit: bool = False) -> Estimate:
         if i < 0 or i not in pos:
             return Estimate.na("not found in the data", "DN")
         j = pos[i]
         s = meas[j].signal
+        if top_is_limit and j == len(meas) - 1 and not bound:  # a definition that found nothing beyond the
+            bound, note = "lower", f"{note}; a lower limit: the brightest level, nothing beyond it"  # brightest level
         if bound:
             return Estimate.limit(s, bound, "DN", note)
         nxt = [lv.signal for lv in meas[j + 1:] if lv.signal > s]
@@ -284,11 +286,13 @@ def _turnoffs(levels: Sequence[PtcLevel], br: SaturationBracket, gain: Estimate,
     defs = {
         "ptc_turnoff": head,
         "emva4_saturation": at(idx[im] if im >= 0 and meas else -1, "EMVA 1288 4.0 Section 6.6: the highest level "
-                               f"before the first with > {100 * clip_limit:g} % of samples at the maximum code"),
+                               f"before the first with > {100 * clip_limit:g} % of samples at the maximum code",
+                               top_is_limit=True),
         "max_variance": at(idx[int(np.argmax(var))] if meas else -1,
-                           "EMVA 1288 3.0: the level of maximum temporal variance"),
+                           "EMVA 1288 3.0: the level of maximum temporal variance", top_is_limit=True),
         "lsst_turnoff": at(idx[index_variance_drop(var)] if meas else -1,
-                           "LSST-style: the level before the first level-to-level drop of the variance"),
+                           "LSST-style: the level before the first level-to-level drop of the variance",
+                           top_is_limit=True),
     }
     return head, head_e, defs
 
