@@ -129,3 +129,7 @@ def test_reference_ccd_release_4_near_the_published_release_3_values(capsys):
     assert v["sigma_y_dark"]["value"] == pytest.approx(3.07342, rel=0.002)
     assert v["mu_e_sat"]["value"] == pytest.approx(13972.6, rel=0.02)
     assert "level 36" in out["saturation"] and out["linear_model_holds"] is True
+    # every "ok" figure with its SE, the stacks' Eq. 65 temporal noise too (it was shown bare)
+    bare = [k for k, e in v.items() if e["verdict"] == "ok" and e.get("se") is None]
+    assert not bare, bare
+    assert 0 < v["sigma_y_stack_dark"]["se"] < 1e-2 * v["sigma_y_stack_dark"]["value"]

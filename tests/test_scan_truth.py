@@ -54,7 +54,25 @@ def _run(name, tmp_path_factory, frames=None, clean=False, seed=SEED):
     RUN_DIRS[name + ("_clean" if clean else "")] = rd
     res = json.loads((rd / "scan_results.json").read_text())["analyses"]
     stages = [json.loads(p.read_text()) for p in sorted((rd / "stages").glob("*.json"))]
+    bare = _bare_ok(res)
+    assert not bare, f"{name}: figures 'ok' without an SE: {bare}"
     return scan, bench, res, stages
+
+
+EXACT = ("artefact_ev",)  # constants of the scan's own set points (k T at its mean 1/kT): exact
+
+
+def _bare_ok(x, path: str = "") -> list[str]:
+    """Every figure of a run's results reported "ok" with no SE (a number without its verdict's
+    evidence), but the exact constants ``EXACT``."""
+    if isinstance(x, dict):
+        if "verdict" in x and "value" in x:
+            bare = x["verdict"] == "ok" and x.get("se") is None and x["value"] is not None
+            return [path] if bare and not path.endswith(EXACT) else []
+        return [p for k, v in x.items() for p in _bare_ok(v, f"{path}.{k}")]
+    if isinstance(x, list):
+        return [p for i, v in enumerate(x) for p in _bare_ok(v, f"{path}[{i}]")]
+    return []
 
 
 def _truth(scan, bench, settings: dict) -> dict:

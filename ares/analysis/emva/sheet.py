@@ -43,6 +43,16 @@ EXTRA = (("R", "R", "DN/photon"), ("mu_p_min", "µp.min", "photons"), ("mu_p_sat
 SYMBOLS = {k: s for k, s, _ in TABLE2 + EXTRA}
 
 
+def _stack_sigma(st: "StackImage", note: str) -> Estimate:
+    """Eq. 65's temporal noise of a stack with its SE: the mean of N pixels' variances over L
+    frames has N (L - 1) degrees of freedom (white noise: the variance's relative SE is
+    sqrt(2 / (N (L - 1))), the noise's half of it)."""
+    var = max(st.temporal_var, 0.0)
+    dof = st.mean_image.size * (st.L - 1)
+    sig = math.sqrt(var)
+    return Estimate(sig, sig / math.sqrt(2 * dof) if dof > 0 else math.nan, "DN", note)
+
+
 @dataclass
 class StackImage:
     """An averaged image of L frames (Eq. 33) and its mean per-pixel temporal variance (Eq. 65)."""
@@ -232,13 +242,11 @@ def evaluate_linear(inp: EmvaInput, highpass_release: str = "4.0") -> EmvaSheet:
     if sd is not None and K.available:
         dsplit = sd.split(highpass_release)
         v.update(dsnu(dsplit, K.value, K.se))
-        v["sigma_y_stack_dark"] = Estimate(math.sqrt(max(sd.temporal_var, 0)), math.nan, "DN",
-                                           "temporal noise of the dark stack (Eq. 65)")
+        v["sigma_y_stack_dark"] = _stack_sigma(sd, "temporal noise of the dark stack (Eq. 65)")
         if sb is not None:
             bsplit = sb.split(highpass_release)
             v.update(prnu(bsplit, dsplit))
-            v["sigma_y_stack_50"] = Estimate(math.sqrt(max(sb.temporal_var, 0)), math.nan, "DN",
-                                             "temporal noise of the bright stack (Eq. 65)")
+            v["sigma_y_stack_50"] = _stack_sigma(sb, "temporal noise of the bright stack (Eq. 65)")
             if pt.index_sat is not None and bsplit.mean - dsplit.mean > 0:
                 frac = (bsplit.mean - dsplit.mean) / v["mu_y_sat"].value
                 if not 0.3 <= frac <= 0.7:
