@@ -212,3 +212,17 @@ def test_key_figure_snr_is_judged_against_sqrt_of_the_full_well():
     assert kf["snr_max_db"]["verdict"] == "ok"
     low = _snr_max(res, 0.5 * snr["value"] ** 2)  # SNR = 1.41 sqrt(well)
     assert low.verdict == "not available" and "physical maximum" in low.note
+
+
+def test_a_signed_figure_not_resolved_from_zero_is_a_limit_never_ok():
+    """Issue 48: an SE larger than the value is never "ok". For a figure whose truth may be 0
+    (image lag, a charge-transfer trend) the data still bound it: value + 3 SE above, value - 3 SE
+    below for a negative value."""
+    from ares.analysis.stats.physical import resolved
+
+    up = resolved(Estimate(0.016, 0.02, "%"), "image lag")
+    assert up.bound == "upper" and up.value == pytest.approx(0.076) and "not resolved from 0" in up.note
+    lo = resolved(Estimate(-5e-6, 2e-5, "1/px"), "signal change per row")
+    assert lo.bound == "lower" and lo.value == pytest.approx(-6.5e-5) and up.verdict != "ok" != lo.verdict
+    kept = Estimate(0.05, 0.02, "%")
+    assert resolved(kept) is kept and resolved(Estimate.na("x")).verdict == "not available"

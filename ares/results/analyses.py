@@ -11,6 +11,7 @@ import math
 import warnings
 
 from ares.analysis.stats.estimate import Estimate
+from ares.analysis.stats.physical import resolved
 from ares.results.registry import register_scan_analysis
 
 
@@ -309,6 +310,9 @@ def lag_cycle(fb: list, fd: list, settle: int = LAG_SETTLE):
     if est.available and not math.isfinite(est.se) and len(fd) > settle + 1:
         se = 100 * float(np.std(fd[settle:], ddof=1)) / r.bright_signal_dn
         est = Estimate(est.value, se, "%", "frame means; SE from the scatter of the settled dark frame means")
+    # (signed: a clamp recovering after the bright frames undershoots -- the first dark frame's residual
+    # may be below the settled dark; one not resolved from 0 is a limit, never "ok")
+    est = resolved(est, "image lag")
     return est, r.bright_signal_dn
 
 

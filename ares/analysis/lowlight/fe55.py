@@ -26,6 +26,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from ares.analysis.stats.estimate import Estimate
+from ares.analysis.stats.physical import resolved
 from ares.analysis.stats.lsq import levenberg_marquardt
 from ares.analysis.ptc.fit import line_fit
 
@@ -334,8 +335,9 @@ def transfer_trend(ev: Events, fit: LineFit) -> dict[str, Estimate]:
             out[name] = Estimate.na(f"needs >= 20 K-alpha events spread over the {name[4:]}s", "1/px")
             continue
         lf = line_fit(pos[sel].astype(float), ev.signal_dn[sel])
-        out[name] = Estimate(lf.slope / mu, lf.slope_se / mu, "1/px",
-                             f"slope of the K-alpha signal vs {name[4:]} / peak ({int(sel.sum())} events)")
+        out[name] = resolved(Estimate(lf.slope / mu, lf.slope_se / mu, "1/px",
+                                      f"slope of the K-alpha signal vs {name[4:]} / peak ({int(sel.sum())} events)"),
+                             f"signal change per {name[4:]}")
     return out
 
 

@@ -109,3 +109,20 @@ def sane(e: Estimate, what: str = "", floor: float | None = None, floor_why: str
         return Estimate.na(f"{name} {e.value:.4g} {e.unit} is below {floor_why or f'{floor:.4g}'}: not a credible "
                            f"{what or 'value'} (a turnoff or saturation found too early)", e.unit)
     return e
+
+
+def resolved(e: Estimate, what: str = "") -> Estimate:
+    """A signed figure whose true value may be 0 (image lag, an INL/DNL extreme, a charge-transfer
+    trend) with an SE larger than its magnitude is not resolved from 0: never "ok" (issue 48),
+    only the limit the data give on the side away from 0 -- value + ``NSIGMA`` SE as an upper
+    limit (value - ``NSIGMA`` SE as a lower limit for a negative value), with the reason. (``sane``
+    makes such a figure not available instead: right for a figure that is never near 0, like a
+    gain; here "consistent with 0, below x" is the measurement.)"""
+    if not e.available or e.bound or not (math.isfinite(e.se) and e.se > abs(e.value)):
+        return e
+    name = what or "the value"
+    why = f"{name} {e.value:.3g} ± {e.se:.2g} {e.unit}".rstrip() + ": not resolved from 0 (its SE is larger than the value)"
+    if e.value >= 0:
+        return Estimate.limit(e.value + NSIGMA * e.se, "upper", e.unit, f"{why}: only an upper limit (value + "
+                                                                           f"{NSIGMA:g} SE)")
+    return Estimate.limit(e.value - NSIGMA * e.se, "lower", e.unit, f"{why}: only a lower limit (value - {NSIGMA:g} SE)")
