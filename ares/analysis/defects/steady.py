@@ -62,6 +62,15 @@ MIN_JUDGED = 10
 K_FACTOR = 1.5
 
 
+def _claimed(darks, rows: np.ndarray, cols: np.ndarray, line_var: np.ndarray | None):
+    """Per dark level: (the level, its frames' degrees of freedom, the claimed pixels' temporal
+    variances -- divided by their line's noise factor where given -- and their dark excesses)."""
+    for d in darks:
+        var = np.asarray(d.st.var[rows, cols], np.float64)
+        yield (d, d.st.n_frames - 1, var / line_var if line_var is not None else var,
+               np.asarray(d.res[rows, cols], np.float64))
+
+
 def variance_unsteady(darks, rows: np.ndarray, cols: np.ndarray, gain: float, need: int,
                       line_var: np.ndarray | None = None) -> tuple[np.ndarray, str]:
     """Per pixel (rows[i], cols[i]): its temporal variance departs from a steady dark rate's
@@ -74,12 +83,7 @@ def variance_unsteady(darks, rows: np.ndarray, cols: np.ndarray, gain: float, ne
     if rows.size == 0:
         return n.astype(bool), ""
     k_seen = []  # per pixel whose shot noise dominates: (variance - population's) / excess, DN/e-
-    for d in darks:
-        dof = d.st.n_frames - 1
-        var = np.asarray(d.st.var[rows, cols], np.float64)
-        if line_var is not None:
-            var = var / line_var
-        res = np.asarray(d.res[rows, cols], np.float64)
+    for d, dof, var, res in _claimed(darks, rows, cols, line_var):
         hi = d.pop_var + gain * np.maximum(res, 0.0)
         lo = d.pop_var + gain * np.maximum(res - z * d.sigma, 0.0)
         # integer codes: the smallest nonzero sample variance of F codes is step^2 / F (one code
@@ -124,12 +128,7 @@ def shot_noise_could_explain(darks, rows: np.ndarray, cols: np.ndarray, gain: fl
     p = P_VARIANCE_SIDE
     z = float(-special.ndtri(p))
     n = np.zeros(rows.size, np.int16)
-    for d in darks:
-        dof = d.st.n_frames - 1
-        var = np.asarray(d.st.var[rows, cols], np.float64)
-        if line_var is not None:
-            var = var / line_var
-        res = np.asarray(d.res[rows, cols], np.float64)
+    for d, dof, var, res in _claimed(darks, rows, cols, line_var):
         v = d.pop_var + gain * np.maximum(res, 0.0)  # a steady dark signal at the measured excess
         # the two margins at p each: the variance's chi-square one, and K x the extra signal an
         # offset as low as -z sigma hides (never below no signal) -- added in quadrature (exact for
