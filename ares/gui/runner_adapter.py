@@ -479,8 +479,8 @@ class RunnerJob:
         from ares.results.analyses import stage_lag_cycle
 
         cycle = stage_lag_cycle(r)  # dark="after": this stage is a bright->dark cycle
-        if cycle is not None and cycle[0].available:
-            values["image lag (%)"] = cycle[0].value
+        if cycle is not None and cycle[0].available and not cycle[0].bound:  # (a limit -- not resolved from 0 --
+            values["image lag (%)"] = cycle[0].value  # is no value to colour a map cell with: left blank)
         return G.StageResult(e.index, r["name"], e.arrays["mean"], e.arrays["variance"], r["frames"],
                              dark=(r["scene"] == "dark"), settings=dict(r["settings"]), ptc_point=point,
                              ptc_view="full", ptc_points=points, group=r.get("group", ""), coords=tuple(r.get("coords") or ()),

@@ -59,7 +59,7 @@ def fe55_page(stage: str, d: dict):
     for key, name in ROWS:
         if key in d:
             e = Estimate.from_dict(d[key])
-            rows.append([name, e.text(), "ok" if e.available else ("no X-ray events (above)" if not xray else e.note)])
+            rows.append([name, e.text(), e.verdict if e.available else ("no X-ray events (above)" if not xray else e.note)])
     g = Estimate.from_dict(d["gain_e_per_dn"]) if "gain_e_per_dn" in d else None
     if g is not None and g.available and d.get("gain_systematic_rel"):
         rel = d["gain_systematic_rel"]

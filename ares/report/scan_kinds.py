@@ -209,7 +209,8 @@ def sweep2d_pages(run) -> list:
         panels = panels[:4]
         cycles = ((available(run, "lag") or {}).get("cycles") or {})
         if any(s["name"] in cycles for s in sts):  # dark="after": the lag of every point (the window's lag map)
-            panels.append(("image lag", "%", grid(lambda s: (cycles[s["name"]].get("lag_pct") or {}).get("value"))))
+            panels.append(("image lag (blank: not resolved from 0)", "%",  # (a limit is no value to colour)
+                           grid(lambda s: _ok_value(cycles[s["name"]].get("lag_pct")))))
         fig = new_page(f"2-D sweep '{name}': {ky.removeprefix('reg:')} x {kx.removeprefix('reg:')}",
                        f"{len(sts)} stages; values of view 'full'")
         units = run.setting_units
@@ -227,6 +228,11 @@ def sweep2d_pages(run) -> list:
 
 
 # ------------------------------------------------------------------ frame means, lag
+
+def _ok_value(e: dict | None):
+    """A figure's value where its verdict is "ok" (None for a limit or not available)."""
+    return e.get("value") if e and e.get("verdict") == "ok" else None
+
 
 def frame_means_page(run, stages: list[dict], arrays: dict):
     """Frame means per stage in run order (lag after bright stages, drift, flicker)."""
@@ -267,7 +273,8 @@ def frame_means_page(run, stages: list[dict], arrays: dict):
             e = c.get("lag_pct") or {}
             s = ", ".join(f"{k.removeprefix('reg:')}={v:g}" for k, v in (c.get("settings") or {}).items()
                           if isinstance(v, (int, float)) and k in vary)
-            crow.append([bright, str(c.get("dark_stage", "")), page_tables.fmt_value(e.get("value"), e.get("se"), "%"),
+            crow.append([bright, str(c.get("dark_stage", "")),
+                         page_tables.fmt_value(e.get("value"), e.get("se"), "%", e.get("verdict", "")),
                          f"{c.get('bright_signal_dn', float('nan')):.5g}", s])
         text_table(fig, (0.08, y - 0.03, 0.84), ["bright stage", "dark stage", "lag (%)", "bright signal (DN)",
                                                   "settings that vary"], crow[:20], [0.16, 0.14, 0.2, 0.18, 0.32],
@@ -306,11 +313,17 @@ def lag_page(run, stages: list[dict], arrays: dict, lag: dict):
     if num:
         key = num[0]
         xs = [c["settings"][key] for c in cyc.values()]
-        ys = [(c.get("lag_pct") or {}).get("value") for c in cyc.values()]
-        es = [(c.get("lag_pct") or {}).get("se") for c in cyc.values()]
-        ok = [i for i, y in enumerate(ys) if y is not None]
+        es_ = [c.get("lag_pct") or {} for c in cyc.values()]
+        ok = [i for i, e in enumerate(es_) if e.get("verdict") == "ok"]
         ax2 = fig.add_axes([0.11, 0.12, 0.83, 0.32])
-        ax2.errorbar([xs[i] for i in ok], [ys[i] for i in ok], yerr=[es[i] or 0 for i in ok], fmt="o-", capsize=3)
+        ax2.errorbar([xs[i] for i in ok], [es_[i]["value"] for i in ok], yerr=[es_[i].get("se") or 0 for i in ok],
+                     fmt="o-", capsize=3, label="image lag ± 1 SE")
+        for which, mark in (("upper limit", "v"), ("lower limit", "^")):  # not resolved from 0: the bound only
+            lim = [i for i, e in enumerate(es_) if e.get("verdict") == which]
+            if lim:
+                ax2.plot([xs[i] for i in lim], [es_[i]["value"] for i in lim], mark, color="0.35", ls="none",
+                         label=f"{which} (not resolved from 0: value {'+' if mark == 'v' else '-'} 3 SE)")
+        ax2.legend(fontsize=7)
         ax2.axhline(0, color="0.4", lw=0.8)
         unit = run.setting_units.get(key, "")
         ax2.set_xlabel(f"{key.removeprefix('reg:')}" + (f" ({unit})" if unit else ""))

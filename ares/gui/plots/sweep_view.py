@@ -86,6 +86,9 @@ class SweepView(QWidget):
             # as the PDF's 2-D sweep pages: the first axis (the outer sweep) up, the second across
             # -- the image (row-major) is indexed [axis 1, axis 2]
             self.map_image.setImage(g.astype(np.float32), autoLevels=False, levels=levels)
+            if not np.isfinite(g).all():  # say what a blank cell is, as the PDF's panel title does
+                self.caption.setText(self.caption.text() + "; blank: no value there (not available, or only a "
+                                     "limit: not resolved from 0)")
             set_colorbar_levels(self.colorbar, levels)
             for side, (name, values) in zip(("left", "bottom"), axes):
                 ax = self.map_plot.getAxis(side)
