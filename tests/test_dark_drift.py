@@ -1,0 +1,118 @@
+"""A black level drifting on the bench's clock (``ares.sim.drift``) against the dark current
+(``ares.analysis.ptc.dark_drift``), checked against the simulator's truth: a die warm-up of
+3 DN with a 100 s time constant during a dark sweep of 8 exposures x 16 frames (~65 s of clock)
+adds ~1 DN/s to a ~2.5 DN/s dark current taken in increasing order -- "ok" at many SE before;
+now the drift is fitted beside the rate on every frame's mean and readout time: not "ok" in
+increasing order (the order cannot separate them, with what to do), right within 3 SE in
+shuffled order; without a drift, the same figures as before."""
+
+from __future__ import annotations
+
+import math
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from ares.analysis.ptc.dark_current import dark_current
+from ares.errors import InputError
+from ares.protocol import load_scan
+from ares.results.dark_drift import frame_times
+from ares.rig.factory import build_bench
+from ares.scan import Runner
+from ares.sim import SensorParams, make_sim_bench
+from ares.sim.drift import offset_dn, rate_dn_per_s
+
+ROOT = Path(__file__).resolve().parents[1]
+WARMUP = {"offset_warmup_dn": 3.0, "offset_warmup_tau_s": 100.0}
+EXPOSURES = np.linspace(0.01, 1.0, 8)
+SHUFFLED = EXPOSURES[[3, 7, 0, 5, 2, 6, 1, 4]]
+
+
+def test_the_black_level_drifts_at_each_frames_readout_as_its_truth_says():
+    """Frame means of the drifting sensor minus the same seed's steady one: the truth's offset at
+    each frame's readout (its exposure's end), the noise unchanged; a warm-up's rate its derivative."""
+    p = SensorParams(rows=16, cols=24).without_defects()
+    frames = []
+    for q in (p.replace(**WARMUP, offset_drift_dn_per_s=0.01), p):
+        b = make_sim_bench(q, 3)
+        b.registers.set("exposure", 2.0)
+        b.registers.set("test_mode", 1)
+        frames.append(list(b.frames.grab(6)))
+    sensor = make_sim_bench(p.replace(**WARMUP, offset_drift_dn_per_s=0.01), 3).info["sensor"]
+    d = np.array([a.data.mean() - b.data.mean() for a, b in zip(*frames)])
+    want = np.array([sensor.offset_drift_dn(f.timestamp + 2.0) for f in frames[0]])
+    assert np.abs(d - want).max() < 0.05 and want[-1] > 0.3
+    q = p.replace(**WARMUP)
+    assert rate_dn_per_s(q, 10.0) == pytest.approx((offset_dn(q, 10.001) - offset_dn(q, 9.999)) / 0.002, rel=1e-5)
+    assert offset_dn(p, 50.0) == 0.0
+    with pytest.raises(InputError, match="offset_warmup_tau_s"):
+        p.replace(offset_warmup_tau_s=0.0)
+
+
+def _system(tmp: Path, params: dict) -> Path:
+    text = (ROOT / "protocols" / "sim_sensor.xml").read_text()
+    for k, v in (("rows", 32), ("cols", 48)):
+        text = text.replace(f'name="{k}" type="int" value="{480 if k == "rows" else 640}"',
+                            f'name="{k}" type="int" value="{v}"')
+    text = text.replace('rows="480" cols="640"', 'rows="32" cols="48"')
+    text = text.replace("</simulator>", "".join(f'<param name="{k}" type="float" value="{v}"/>'
+                                                for k, v in params.items()) + "</simulator>")
+    p = tmp / "sim_drift.xml"
+    p.write_text(text)
+    return p
+
+
+def _sweep(tmp: Path, params: dict, exposures) -> tuple:
+    """A dark sweep at 40 C on the 32x48 simulator: (the dark_current results, its stages, the truth
+    DN/s: G x the mean pixel dark current, hot pixels included as the mean measures them)."""
+    scan = tmp / "dark_drift.xml"
+    scan.write_text(f"""<?xml version="1.0"?>
+<scan name="dark_drift" version="1">
+  <system href="{_system(tmp, params)}"/>
+  <settings><set quantity="temperature" value="40"/><set quantity="analog_gain" value="1"/></settings>
+  <frames>16</frames>
+  <stages><sweep name="dark" scene="dark">
+    <axis quantity="exposure"><values>{" ".join(f"{x:.6g}" for x in exposures)}</values></axis></sweep></stages>
+  <analyses><analysis name="dark_current"/></analyses>
+  <output pdf="false" csv="false" hdf5="false"/>
+</scan>
+""")
+    s = load_scan(scan)
+    bench = build_bench(s.system, seed=1)
+    out = Runner(s, bench=bench).run()
+    assert out.status == "done", out.message
+    t = bench.info["sensor"].truth(exposure_s=1.0, temperature_c=40.0)
+    return out.scan_results["dark_current"], out.stages, t["G"] * float(t["maps"]["dark_e_per_s"].mean())
+
+
+def _without_times(stages) -> object:
+    """The fit as it was before the frames' times were used (the levels and their frames' scatter)."""
+    lv = [s["views"]["full"]["level"] for s in stages]
+    return dark_current([s["settings"]["exposure"] for s in stages], [x["mean_dn"] for x in lv], math.nan,
+                        frame_means=[x["frame_means"] for x in lv]).rate_dn_per_s
+
+
+def test_a_warming_offset_in_increasing_order_is_not_ok_and_says_why(tmp_path):
+    res, stages, truth = _sweep(tmp_path, WARMUP, EXPOSURES)
+    before = _without_times(stages)
+    assert before.verdict == "ok" and (before.value - truth) / before.se > 5  # the wrong "ok" it was
+    r = res["rate_dn_per_s"]
+    assert r["verdict"] == "drift not separated" and "shuffled order" in r["drift"] and "reference darks" in r["drift"]
+    assert res["offset_drift_dn_per_s"]["value"] > 5 * res["offset_drift_dn_per_s"]["se"]
+
+
+def test_a_warming_offset_in_shuffled_order_gives_the_dark_current_within_3_se(tmp_path):
+    res, stages, truth = _sweep(tmp_path, WARMUP, SHUFFLED)
+    r = res["rate_dn_per_s"]
+    assert r["verdict"] == "ok" and abs(r["value"] - truth) <= 3 * r["se"], (r, truth)
+    assert "drift x clock time" in r["note"]
+    times = [frame_times(s) for s in stages]  # the frames' readout times span the sweep on the bench's clock
+    assert all(np.all(np.diff(t) > 0) for t in times) and max(max(t) for t in times) > 60
+
+
+def test_without_a_drift_the_figures_are_unchanged(tmp_path):
+    res, stages, truth = _sweep(tmp_path, {}, EXPOSURES)
+    r, before = res["rate_dn_per_s"], _without_times(stages)
+    assert r["verdict"] == "ok" and (r["value"], r["se"]) == (before.value, before.se)
+    assert "the frames show no drift" in r["note"] and abs(r["value"] - truth) <= 3 * r["se"]
