@@ -25,8 +25,8 @@ from ares.sim.drift import offset_dn, rate_dn_per_s
 
 ROOT = Path(__file__).resolve().parents[1]
 WARMUP = {"offset_warmup_dn": 3.0, "offset_warmup_tau_s": 100.0}
-EXPOSURES = np.linspace(0.01, 1.0, 8)
-SHUFFLED = EXPOSURES[[3, 7, 0, 5, 2, 6, 1, 4]]
+INCREASING = '<axis quantity="exposure"><linear start="0.01" stop="1.0" points="8"/></axis>'  # (the shipped scan's)
+SHUFFLED = INCREASING.replace('quantity="exposure"', 'quantity="exposure" order="shuffled"')
 
 
 def test_the_black_level_drifts_at_each_frames_readout_as_its_truth_says():
@@ -63,7 +63,7 @@ def _system(tmp: Path, params: dict) -> Path:
     return p
 
 
-def _sweep(tmp: Path, params: dict, exposures) -> tuple:
+def _sweep(tmp: Path, params: dict, axis: str) -> tuple:
     """A dark sweep at 40 C on the 32x48 simulator: (the dark_current results, its stages, the truth
     DN/s: G x the mean pixel dark current, hot pixels included as the mean measures them)."""
     scan = tmp / "dark_drift.xml"
@@ -73,7 +73,7 @@ def _sweep(tmp: Path, params: dict, exposures) -> tuple:
   <settings><set quantity="temperature" value="40"/><set quantity="analog_gain" value="1"/></settings>
   <frames>16</frames>
   <stages><sweep name="dark" scene="dark">
-    <axis quantity="exposure"><values>{" ".join(f"{x:.6g}" for x in exposures)}</values></axis></sweep></stages>
+    {axis}</sweep></stages>
   <analyses><analysis name="dark_current"/></analyses>
   <output pdf="false" csv="false" hdf5="false"/>
 </scan>
@@ -94,7 +94,7 @@ def _without_times(stages) -> object:
 
 
 def test_a_warming_offset_in_increasing_order_is_not_ok_and_says_why(tmp_path):
-    res, stages, truth = _sweep(tmp_path, WARMUP, EXPOSURES)
+    res, stages, truth = _sweep(tmp_path, WARMUP, INCREASING)
     before = _without_times(stages)
     assert before.verdict == "ok" and (before.value - truth) / before.se > 5  # the wrong "ok" it was
     r = res["rate_dn_per_s"]
@@ -107,12 +107,43 @@ def test_a_warming_offset_in_shuffled_order_gives_the_dark_current_within_3_se(t
     r = res["rate_dn_per_s"]
     assert r["verdict"] == "ok" and abs(r["value"] - truth) <= 3 * r["se"], (r, truth)
     assert "drift x clock time" in r["note"]
+    assert [s["settings"]["exposure"] for s in stages] != sorted(s["settings"]["exposure"] for s in stages)
     times = [frame_times(s) for s in stages]  # the frames' readout times span the sweep on the bench's clock
     assert all(np.all(np.diff(t) > 0) for t in times) and max(max(t) for t in times) > 60
 
 
 def test_without_a_drift_the_figures_are_unchanged(tmp_path):
-    res, stages, truth = _sweep(tmp_path, {}, EXPOSURES)
+    res, stages, truth = _sweep(tmp_path, {}, INCREASING)
     r, before = res["rate_dn_per_s"], _without_times(stages)
     assert r["verdict"] == "ok" and (r["value"], r["se"]) == (before.value, before.se)
     assert "the frames show no drift" in r["note"] and abs(r["value"] - truth) <= 3 * r["se"]
+
+
+def test_a_shuffled_axis_is_a_fixed_order_no_drift_follows_and_is_saved_as_written(tmp_path):
+    """``<axis order="shuffled" seed>``: the same points in a seeded order whose ranks correlate
+    least with their position (straight and curved); it survives save and reload; a seed without
+    it is named with its file and line."""
+    from ares.protocol.scan import Axis
+    from ares.protocol.scan_write import save_scan
+
+    g = np.array(Axis("exposure", "linear", (), 0.01, 1.0, 8, "shuffled", 3).grid())
+    assert sorted(g) == pytest.approx(np.linspace(0.01, 1.0, 8))
+    pos = np.arange(8.0)
+    assert abs(np.corrcoef(g, pos)[0, 1]) < 0.2 and abs(np.corrcoef(g, (pos - 3.5) ** 2)[0, 1]) < 0.2
+    assert tuple(g) == Axis("exposure", "linear", (), 0.01, 1.0, 8, "shuffled", 3).grid()  # (fixed)
+    path = tmp_path / "s.xml"
+    path.write_text(f"""<?xml version="1.0"?>
+<scan name="s" version="1"><system href="{ROOT / 'protocols' / 'sim_sensor.xml'}"/><frames>4</frames>
+<stages><sweep name="dark" scene="dark">
+<axis quantity="exposure" order="shuffled" seed="3"><linear start="0.01" stop="1.0" points="8"/></axis>
+</sweep></stages></scan>""")
+    sc = load_scan(path)
+    assert sc.stages[0].axes[0].grid() == tuple(g)
+    save_scan(sc, tmp_path / "again.xml")
+    assert load_scan(tmp_path / "again.xml").stages[0].axes[0] == sc.stages[0].axes[0]
+    path.write_text(path.read_text().replace('order="shuffled" ', ""))
+    with pytest.raises(InputError, match=r"s\.xml:4: .*seed= orders the points only with order=\"shuffled\""):
+        load_scan(path)
+    path.write_text(path.read_text().replace('seed="3"', 'order="random"'))
+    with pytest.raises(InputError, match=r"s\.xml:4: .*order"):
+        load_scan(path)
