@@ -17,10 +17,13 @@ the clock's order (shuffled). The decision is made on the measured frame-to-fram
 it gives p < ``DRIFT_P``; the levels' residuals about the joint fit are checked against that
 scatter as in ``dark_current._mean_slope``.
 
-Where the exposures follow the clock (their r^2 with the stacks' times >= ``CLOCK_R2``), a kept
-drift term's correction rests on the drift being one straight line over the whole sweep,
-measured only inside the stacks: the rate is then reported, but ``separable`` is False and
-``why`` says what to do (take the exposures in shuffled order -- ``<sweep order="shuffled">``
+A drift the frames show (as a line, or by its curvature alone) is fitted as a parabola in time: a
+warm-up is curved, and a line through it leaves its curvature in the rate wherever the order is
+not random (a 3 DN warm-up bracketed by reference darks: +1.9 SE median with a line, +0.0 with
+the parabola, benchmarks/dark_drift.md). Where the exposures follow the clock (their r^2 on the
+stacks' drift terms >= ``CLOCK_R2``), a kept drift's correction rests on that curve holding over
+the whole sweep, measured only inside the stacks: the rate is then reported, but ``separable`` is False and
+``why`` says what to do (take the exposures in shuffled order -- ``<axis order="shuffled">``
 -- or bracket the sweep with reference darks at one exposure).
 """
 
@@ -63,9 +66,9 @@ class DriftFit:
             return ""
         return (f"the offset drifts ({self.drift:.3g} ± {self.drift_se:.2g} DN/s of clock, F-test p {self.p:.2g}) and "
                 f"the exposures were taken in the clock's order (r^2 {self.follows_clock:.2f}): the drift moves the "
-                f"slope by {self.drift * self.shift_per_drift:+.3g} DN/s, corrected only as far as the drift is one "
-                "straight line measured inside the stacks -- take the exposures in shuffled order "
-                "(<sweep order=\"shuffled\">) or bracket the sweep with reference darks at one exposure")
+                f"slope by about {self.drift * self.shift_per_drift:+.3g} DN/s, corrected only as far as the drift follows "
+                "the curve the frames measure inside the stacks -- take the exposures in shuffled order "
+                "(<axis order=\"shuffled\">) or bracket the sweep with reference darks at one exposure")
 
 
 def _usable(t_exp, frame_means, frame_times):
@@ -83,45 +86,40 @@ def _usable(t_exp, frame_means, frame_times):
     return out
 
 
-def drift_fit(t_exp, frame_means, frame_times) -> DriftFit | None:
-    """The joint fit of every frame's mean (``frame_means[k]``, DN) read out at ``frame_times[k]``
-    (s on the bench's clock) of the levels at exposure ``t_exp[k]`` (s); None where the frames
-    cannot measure a drift (fewer than 3 levels with 2 timed frames, no spread of times inside the
-    stacks, no degrees of freedom left for their scatter)."""
-    lv = _usable(np.asarray(t_exp, float), frame_means, frame_times)
-    n_lv = len(lv)
-    N = sum(y.size for _, y, _ in lv)
-    dof_w = N - n_lv - 1  # the frames' scatter about their stacks' means and the common drift
-    if n_lv < 3 or dof_w < 1:
-        return None
-    t0 = float(np.mean(np.concatenate([tau for _, _, tau in lv])))  # (times about their mean: conditioning)
-    e = np.array([x[0] for x in lv])
-    n = np.array([x[1].size for x in lv], float)
-    ybar = np.array([x[1].mean() for x in lv])
-    tbar = np.array([x[2].mean() for x in lv]) - t0
-    s_tt = sum(float(((tau - tau.mean()) ** 2).sum()) for _, _, tau in lv)
-    s_ty = sum(float(((tau - tau.mean()) * (y - y.mean())).sum()) for _, y, tau in lv)
-    s_yy = sum(float(((y - y.mean()) ** 2).sum()) for _, y, _ in lv)
-    if not s_tt > 0:
-        return None
-    d_w = s_ty / s_tt  # the drift inside the stacks, pooled (the exposure is fixed in each)
-    s2 = max(s_yy - d_w * s_ty, 0.0) / dof_w  # one frame mean's scatter about its stack's trend, DN^2
-    if not s2 > 0:
-        return None
-    # the levels' means and the within-stack drift as independent observations (weights in 1/s2 units):
-    # the same as the least-squares fit on every frame
-    X = np.vstack([np.column_stack([np.ones(n_lv), e, tbar]), [0.0, 0.0, 1.0]])
-    y = np.concatenate([ybar, [d_w]])
-    w = np.concatenate([n, [s_tt]])
-    A = X.T @ (X * w[:, None])
+def _ols(X, y):
+    """(coefficients, (X^T X)^-1, residual sum of squares) of y on X; None if X is singular."""
+    A = X.T @ X
     try:
         cov = np.linalg.inv(A)
     except np.linalg.LinAlgError:
         return None
-    beta = cov @ (X.T @ (w * y))
-    r = (y - X @ beta) * np.sqrt(w)
-    dof_l = n_lv - 2  # (n_lv + 1 observations, 3 parameters)
-    chi2 = float(r @ r) / max(dof_l, 1)
+    if not np.all(np.isfinite(cov)) or np.linalg.cond(A) > 1e12:
+        return None
+    beta = cov @ (X.T @ y)
+    r = y - X @ beta
+    return beta, cov, float(r @ r)
+
+
+def _fit(lv, degree: int, t0: float, ts: float):
+    """The joint fit with a drift polynomial of ``degree`` in clock time, on every frame: (coefficients
+    [offset, rate, drift terms per (ts s)^k], their covariance, dof, how the SEs were decided, F-test
+    probability of the drift terms together, of the highest one alone); None where it cannot be made."""
+    y = np.concatenate([f for _, f, _ in lv])
+    e = np.concatenate([np.full(f.size, x) for x, f, _ in lv])
+    tau = np.concatenate([(t - t0) / ts for _, _, t in lv])
+    drift = np.column_stack([tau ** (k + 1) for k in range(degree)])
+    k_lv, N = len(lv), y.size
+    stage = np.zeros((N, k_lv))
+    stage[np.arange(N), np.repeat(np.arange(k_lv), [f.size for _, f, _ in lv])] = 1.0
+    dof_w = N - k_lv - degree  # the frames' scatter about their stacks' means and the common drift
+    within = _ols(np.column_stack([stage, drift]), y) if dof_w >= 1 else None
+    joint = _ols(np.column_stack([np.ones(N), e, drift]), y)
+    if within is None or joint is None or not within[2] > 0:
+        return None
+    beta, cov, rss = joint
+    s2 = within[2] / dof_w  # one frame mean's scatter about its stack's trend, DN^2
+    dof_l = k_lv - 2  # the levels' means about the joint fit (it is nested in the within fit)
+    chi2 = max(rss - within[2], 0.0) / max(dof_l, 1) / s2
     from ares.analysis.stats.tails import f_sf
 
     p_lv = f_sf(dof_l, dof_w, chi2) if chi2 > 1 and dof_l >= 1 else 1.0
@@ -130,16 +128,51 @@ def drift_fit(t_exp, frame_means, frame_times) -> DriftFit | None:
                                              f"than their frames do (F-test p {p_lv:.2g}): SE from the residuals")
     else:
         scale, dof, how = s2, dof_w, f"SE from the stacks' frame scatter about their trends ({math.sqrt(s2):.2g} DN a frame)"
+    cov = cov * scale
+    b, c = beta[2:], cov[2:, 2:]
+    p_all = f_sf(degree, dof, float(b @ np.linalg.solve(c, b)) / degree)
+    p_top = f_sf(1, dof, float(beta[-1] ** 2 / cov[-1, -1]))
+    return beta, cov, dof, how, p_all, p_top
+
+
+def drift_fit(t_exp, frame_means, frame_times) -> DriftFit | None:
+    """The joint fit of every frame's mean (``frame_means[k]``, DN) read out at ``frame_times[k]``
+    (s on the bench's clock) of the levels at exposure ``t_exp[k]`` (s); None where the frames
+    cannot measure a drift (fewer than 3 levels with 2 timed frames, no spread of times inside the
+    stacks, no degrees of freedom left for their scatter). No drift seen: a line in time (its figures
+    for the note); a drift seen: a parabola; ``drift`` is its rate at the sweep's mean time."""
+    lv = _usable(np.asarray(t_exp, float), frame_means, frame_times)
+    if len(lv) < 3:
+        return None
+    t_all = np.concatenate([t for _, _, t in lv])
+    t0 = float(t_all.mean())  # (times about their mean, in units of their spread: conditioning)
+    ts = float(np.abs(t_all - t0).max())
+    if not ts > 0:
+        return None
+    fit = _fit(lv, 1, t0, ts)
+    if fit is None:
+        return None
+    curved = _fit(lv, 2, t0, ts)
+    # a drift seen (as a line, or by its curvature alone) is fitted as a parabola: a warm-up is curved,
+    # and a straight line through it leaves its curvature in the rate wherever the order is not random
+    degree = 2 if curved is not None and (fit[4] < DRIFT_P or curved[5] < DRIFT_P) else 1
+    beta, cov, dof, how, _, _ = curved if degree == 2 else fit
+    p = min(fit[4], curved[4]) if degree == 2 else fit[4]
     wid = residual_se_widening(dof)
-    se = np.sqrt(np.diag(cov) * scale)
-    drift, drift_se = float(beta[2]), float(se[2])
-    p = f_sf(1, dof, (drift / drift_se) ** 2) if drift_se > 0 else 1.0
-    ww = n / n.sum()
-    ec, tc = e - ww @ e, tbar - ww @ tbar
-    sxx, syy, sxy = float(ww @ (ec * ec)), float(ww @ (tc * tc)), float(ww @ (ec * tc))
-    r2 = sxy * sxy / (sxx * syy) if sxx > 0 and syy > 0 else 1.0
-    shift = sxy / sxx if sxx > 0 else math.nan
-    return DriftFit(float(beta[1]), float(se[1]) * wid, float(beta[0]), float(se[0]) * wid, drift, drift_se * wid,
-                    float(p), bool(p < DRIFT_P), float(r2), float(shift),
-                    f"{how}, x Student's t ({dof} dof: x {wid:.3g}); offset + rate x exposure + drift x clock time "
-                    f"fitted on every frame (drift {drift:.3g} ± {drift_se * wid:.2g} DN/s, F-test p {p:.2g})")
+    drift, drift_se = float(beta[2]) / ts, math.sqrt(cov[2, 2]) / ts
+    # the exposures "follow the clock": r^2 of the levels' exposures on their drift terms' means
+    n = np.array([f.size for _, f, _ in lv], float)
+    e = np.array([x for x, _, _ in lv])
+    terms = np.array([[np.mean(((t - t0) / ts) ** (k + 1)) for k in range(degree)] for _, _, t in lv])
+    wsq = np.sqrt(n)[:, None]
+    ols = _ols(np.column_stack([np.ones(len(lv)), terms]) * wsq, e * wsq[:, 0])
+    ec = e - (n @ e) / n.sum()
+    r2 = 1.0 - ols[2] / float(n @ (ec * ec)) if ols is not None and float(n @ (ec * ec)) > 0 else 1.0
+    tb = terms[:, 0] * ts
+    shift = float(n @ (ec * (tb - (n @ tb) / n.sum())) / (n @ (ec * ec))) if float(n @ (ec * ec)) > 0 else math.nan
+    shape = "a parabola in clock time" if degree == 2 else "a line in clock time"
+    return DriftFit(float(beta[1]), math.sqrt(cov[1, 1]) * wid, float(beta[0]), math.sqrt(cov[0, 0]) * wid, drift,
+                    drift_se * wid, float(p), bool(p < DRIFT_P), float(min(max(r2, 0.0), 1.0)), shift,
+                    f"{how}, x Student's t ({dof} dof: x {wid:.3g}); offset + rate x exposure + drift fitted on "
+                    f"every frame, the drift {shape} ({drift:.3g} ± {drift_se * wid:.2g} DN/s at the sweep's mean "
+                    f"time, F-test p {p:.2g})")
