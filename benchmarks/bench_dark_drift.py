@@ -74,8 +74,8 @@ scattered the levels and the SE from their residuals covered it); the drift fit 
 and shrinks the SE 16x. Bracketed by two reference darks the increasing sweep is "ok" and right
 (+0.0 SE median, 0 wrong ok), with the SE 8x smaller than before. What stays: a drift below the
 frames' detection limit (F-test p < 0.01 on their scatter: here ~0.008 DN/s, 2.6 x its SE of 0.003)
-in increasing order -- linear 0.005 DN/s moves the rate by ~6 SE and is seen on 23 % of the seeds
-only (wrong ok 72 %, 93 % before); the rate's note gives that limit in DN/s of slope for every
+in increasing order -- linear 0.005 DN/s moves the rate by ~6 SE and is seen on 20 % of the seeds
+only (wrong ok 75 %, 93 % before); the rate's note gives that limit in DN/s of slope for every
 increasing sweep ("a drift of 2 SE would move the slope by ... unseen"). Shuffling removes it,
 bracketing brings it to 0 - 5 % wrong ok. (A 3 DN warm-up also trips the runner's stack-trend
 check on 1 of 40 seeds in two of the orders: "not settled".)"""

@@ -14,8 +14,10 @@ within-stack slopes, pooled); between the stacks the levels' means measure offse
 exposure + drift * their time, which separates the two where the exposures were not taken in
 the clock's order (shuffled). The decision is made on the measured frame-to-frame scatter
 (the stacks' frame means about their own trends): the drift term is kept where an F-test on
-it gives p < ``DRIFT_P``; the levels' residuals about the joint fit are checked against that
-scatter as in ``dark_current._mean_slope``.
+it gives p < ``DRIFT_P`` -- in the joint fit, or on the stacks' own trends alone (a curved drift
+scatters the levels about the joint fit and widens its SEs, not those; the smaller p of the two,
+doubled); the levels' residuals
+about the joint fit are checked against that scatter as in ``dark_current._mean_slope``.
 
 A drift the frames show (as a line, or by its curvature alone) is fitted as a parabola in time: a
 warm-up is curved, and a line through it leaves its curvature in the rate wherever the order is
@@ -132,7 +134,11 @@ def _fit(lv, degree: int, t0: float, ts: float):
     b, c = beta[2:], cov[2:, 2:]
     p_all = f_sf(degree, dof, float(b @ np.linalg.solve(c, b)) / degree)
     p_top = f_sf(1, dof, float(beta[-1] ** 2 / cov[-1, -1]))
-    return beta, cov, dof, how, p_all, p_top
+    # the stacks' own trends alone (exposure fixed in each; a curved drift scattering the levels about the
+    # joint fit widens its SEs, not these): the drift terms against the frames' scatter
+    bw, cw = within[0][k_lv:], within[1][k_lv:, k_lv:] * s2
+    p_within = f_sf(degree, dof_w, float(bw @ np.linalg.solve(cw, bw)) / degree)
+    return beta, cov, dof, how, min(1.0, 2 * min(p_all, p_within)), p_top  # (two tests: Bonferroni)
 
 
 def drift_fit(t_exp, frame_means, frame_times) -> DriftFit | None:
