@@ -191,3 +191,23 @@ def test_over_many_sweeps_shuffled_covers_the_truth_and_increasing_is_never_ok()
         d = dark_current(t, m, 0.28, frame_means=fm, frame_times=ft).drift
         seen += d.kept and not d.separable
     assert miss <= 0.03 * n and seen == n
+
+
+def test_a_real_benchs_frame_times_come_from_its_time_stamps():
+    """Without the simulator's clock position: the device's time stamps (exposure start) + the
+    exposure, else the host's arrival times; neither: no times (the drift is not fitted)."""
+
+    class Run:
+        def __init__(self, arrays):
+            self.a = arrays
+
+        def arrays(self, index, names=None):
+            return {k: v for k, v in self.a.items() if names is None or k in names}
+
+    st = {"index": 3, "settings": {"exposure": 0.5}, "views": {"full": {"level": {"frame_means": [1.0, 2.0, 3.0]}}}}
+    host, dev = np.array([10.0, 10.6, 11.2]), np.array([100.0, 100.5, 101.0])
+    assert frame_times(st, Run({"frame_timestamp": host, "frame_device_timestamp": dev})) == [100.5, 101.0, 101.5]
+    assert frame_times(st, Run({"frame_timestamp": host})) == list(host)
+    assert frame_times(st, Run({})) is None and frame_times(st) is None
+    st["bench_position"] = {"flat": {"clock_s": 4.0}, "end": {"clock_s": 5.5}}  # the simulator's: its clock
+    assert frame_times(st, Run({"frame_timestamp": host})) == [4.5, 5.0, 5.5]

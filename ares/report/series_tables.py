@@ -19,7 +19,7 @@ def dark_series(run) -> dict[float | None, dict[str, np.ndarray]]:
         lv = st["views"]["full"]["level"]
         t = st["settings"].get("temperature")
         out.setdefault(t, []).append((float(st["settings"]["exposure"]), lv["mean_dn"], _nan(lv.get("var_dn2")),
-                                      _nan(lv.get("spatial_var_dn2")), lv.get("frame_means"), frame_times(st)))
+                                      _nan(lv.get("spatial_var_dn2")), lv.get("frame_means"), frame_times(st, run)))
     res = {}
     for t, rows in out.items():
         rows = sorted(rows, key=lambda r: r[:4])

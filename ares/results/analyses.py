@@ -225,7 +225,7 @@ def dark_current(run) -> dict:
         exp = [s["settings"].get("exposure", math.nan) for s in sts]
         lv = [s["views"]["full"]["level"] for s in sts]
         dc = fit(exp, [x["mean_dn"] for x in lv], k if k is not None else math.nan, [x["var_dn2"] for x in lv],
-                 frame_means=[x.get("frame_means") for x in lv], frame_times=[frame_times(s) for s in sts])
+                 frame_means=[x.get("frame_means") for x in lv], frame_times=[frame_times(s, run) for s in sts])
         ds = dsnu_vs_exposure(exp, [math.sqrt(max(x["spatial_var_dn2"] or 0.0, 0.0)) for x in lv], k)
         e_s = (dc.rate_e_per_s, dc.rate_from_variance_e_per_s, ds.dsnu_e_per_s)
         if k is None:  # beside every DN/s figure: why there is no e-/s one

@@ -1,22 +1,39 @@
 """The dark current's verdict where the offset's drift on the bench's clock could not be separated from
 it (``ares.analysis.ptc.dark_drift``): each frame's readout time from a stage's ``bench_position``, the
 rate's JSON marked "drift not separated" with why and what to do, and the doubling temperature fitted
-through such a rate marked so too. Imports nothing of ARES."""
+through such a rate marked so too. Imports nothing of ARES (a run's arrays through its ``arrays``)."""
 
 from __future__ import annotations
 
+import math
 
-def frame_times(stage: dict) -> list | None:
-    """Each frame's readout time (s on the bench's clock) of a stage's stack, from its
-    ``bench_position``: the stack's frames fill [its start, the stage's end] evenly, each read out
-    at the end of its slot (the simulator's clock advances by each frame's exposure; a frame's
-    time stamp is its exposure's start). None where the stage has no clock position."""
+
+def frame_times(stage: dict, run=None) -> list | None:
+    """Each frame's readout time (s) of a stage's stack, on one clock for the whole run:
+
+    * the simulator's: from the stage's ``bench_position`` -- the stack's frames fill [its start,
+      the stage's end] evenly, each read out at the end of its slot (the simulator's clock advances
+      by each frame's exposure; its time stamp is the exposure's start);
+    * a real bench's (``run`` given, its results.h5): the device's time stamps (exposure start:
+      ares40 header, GenICam) + the exposure, else the host's arrival times (the frame read out).
+
+    None where the stage has neither."""
+    n = len(stage["views"]["full"]["level"].get("frame_means") or [])
     pos = stage.get("bench_position") or {}
     a, b = (pos.get("flat") or {}).get("clock_s"), (pos.get("end") or {}).get("clock_s")
-    n = len(stage["views"]["full"]["level"].get("frame_means") or [])
-    if a is None or b is None or n < 1 or not b > a:
+    if a is not None and b is not None and n >= 1 and b > a:
+        return [a + (i + 1) * (b - a) / n for i in range(n)]
+    arrays = getattr(run, "arrays", None)
+    if arrays is None or n < 2:
         return None
-    return [a + (i + 1) * (b - a) / n for i in range(n)]
+    got = arrays(stage["index"], names=("frame_device_timestamp", "frame_timestamp"))
+    exposure = stage["settings"].get("exposure")
+    dev, host = got.get("frame_device_timestamp"), got.get("frame_timestamp")
+    if dev is not None and len(dev) == n and exposure is not None and all(map(math.isfinite, dev)):
+        return [float(t) + float(exposure) for t in dev]
+    if host is not None and len(host) == n:
+        return [float(t) for t in host]
+    return None
 
 
 DRIFT_VERDICT = "drift not separated"
