@@ -26,7 +26,10 @@ def frame_times(stage: dict, run=None) -> list | None:
     arrays = getattr(run, "arrays", None)
     if arrays is None or n < 2:
         return None
-    got = arrays(stage["index"], names=("frame_device_timestamp", "frame_timestamp"))
+    try:
+        got = arrays(stage["index"], names=("frame_device_timestamp", "frame_timestamp"))
+    except OSError:  # results.h5 unreadable: no times (the rate as without them), never a failed analysis
+        return None
     exposure = stage["settings"].get("exposure")
     dev, host = got.get("frame_device_timestamp"), got.get("frame_timestamp")
     if dev is not None and len(dev) == n and exposure is not None and all(map(math.isfinite, dev)):
