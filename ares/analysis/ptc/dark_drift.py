@@ -19,8 +19,7 @@ scatters the levels about the joint fit and widens its SEs, not those; the small
 doubled); the levels' residuals
 about the joint fit are checked against that scatter as in ``dark_current._mean_slope``.
 
-A drift the frames show (as a line, or by its curvature alone) is fitted as a parabola in time: a
-warm-up is curved, and a line through it leaves its curvature in the rate wherever the order is
+A drift the frames show is fitted as a parabola in time: a warm-up is curved, and a line through it leaves its curvature in the rate wherever the order is
 not random (a 3 DN warm-up bracketed by reference darks: +1.9 SE median with a line, +0.0 with
 the parabola, benchmarks/dark_drift.md). Where the exposures follow the clock (their r^2 on the
 stacks' drift terms >= ``CLOCK_R2``), a kept drift's correction rests on that curve holding over
@@ -105,7 +104,7 @@ def _ols(X, y):
 def _fit(lv, degree: int, t0: float, ts: float):
     """The joint fit with a drift polynomial of ``degree`` in clock time, on every frame: (coefficients
     [offset, rate, drift terms per (ts s)^k], their covariance, dof, how the SEs were decided, F-test
-    probability of the drift terms together, of the highest one alone); None where it cannot be made."""
+    probability of the drift terms); None where it cannot be made."""
     y = np.concatenate([f for _, f, _ in lv])
     e = np.concatenate([np.full(f.size, x) for x, f, _ in lv])
     tau = np.concatenate([(t - t0) / ts for _, _, t in lv])
@@ -133,12 +132,11 @@ def _fit(lv, degree: int, t0: float, ts: float):
     cov = cov * scale
     b, c = beta[2:], cov[2:, 2:]
     p_all = f_sf(degree, dof, float(b @ np.linalg.solve(c, b)) / degree)
-    p_top = f_sf(1, dof, float(beta[-1] ** 2 / cov[-1, -1]))
     # the stacks' own trends alone (exposure fixed in each; a curved drift scattering the levels about the
     # joint fit widens its SEs, not these): the drift terms against the frames' scatter
     bw, cw = within[0][k_lv:], within[1][k_lv:, k_lv:] * s2
     p_within = f_sf(degree, dof_w, float(bw @ np.linalg.solve(cw, bw)) / degree)
-    return beta, cov, dof, how, min(1.0, 2 * min(p_all, p_within)), p_top  # (two tests: Bonferroni)
+    return beta, cov, dof, how, min(1.0, 2 * min(p_all, p_within))  # (two tests, one decision: Bonferroni)
 
 
 def drift_fit(t_exp, frame_means, frame_times) -> DriftFit | None:
@@ -158,12 +156,12 @@ def drift_fit(t_exp, frame_means, frame_times) -> DriftFit | None:
     fit = _fit(lv, 1, t0, ts)
     if fit is None:
         return None
-    curved = _fit(lv, 2, t0, ts)
-    # a drift seen (as a line, or by its curvature alone) is fitted as a parabola: a warm-up is curved,
-    # and a straight line through it leaves its curvature in the rate wherever the order is not random
-    degree = 2 if curved is not None and (fit[4] < DRIFT_P or curved[5] < DRIFT_P) else 1
-    beta, cov, dof, how, _, _ = curved if degree == 2 else fit
-    p = min(fit[4], curved[4]) if degree == 2 else fit[4]
+    p = fit[4]  # the drift seen or not: the line's test (joint and within-stack, one decision)
+    curved = _fit(lv, 2, t0, ts) if p < DRIFT_P else None
+    # a drift seen is fitted as a parabola: a warm-up is curved, and a straight line through it leaves its
+    # curvature in the rate wherever the order is not random
+    degree = 2 if curved is not None else 1
+    beta, cov, dof, how, _ = curved if degree == 2 else fit
     wid = residual_se_widening(dof)
     drift, drift_se = float(beta[2]) / ts, math.sqrt(cov[2, 2]) / ts
     # the exposures "follow the clock": r^2 of the levels' exposures on their drift terms' means
