@@ -17,7 +17,8 @@ import pytest
 from ares.analysis.ptc.dark_current import dark_current
 from ares.errors import InputError
 from ares.protocol import load_scan
-from ares.results.dark_drift import frame_times
+from ares.analysis.stats.estimate import format_dict
+from ares.results.dark_drift import frame_times, inherit
 from ares.rig.factory import build_bench
 from ares.scan import Runner
 from ares.sim import SensorParams, make_sim_bench
@@ -26,6 +27,7 @@ from ares.sim.drift import offset_dn, rate_dn_per_s
 ROOT = Path(__file__).resolve().parents[1]
 WARMUP = {"offset_warmup_dn": 3.0, "offset_warmup_tau_s": 100.0}
 INCREASING = '<axis quantity="exposure"><linear start="0.01" stop="1.0" points="8"/></axis>'  # (the shipped scan's)
+TEMPERATURE_KEYS = ("doubling_temperature_c", "rate_at_ref_dn_per_s", "rate_at_ref_e_per_s")
 SHUFFLED = INCREASING.replace('quantity="exposure"', 'quantity="exposure" order="shuffled"')
 
 
@@ -99,6 +101,9 @@ def test_a_warming_offset_in_increasing_order_is_not_ok_and_says_why(tmp_path):
     assert before.verdict == "ok" and (before.value - truth) / before.se > 5  # the wrong "ok" it was
     r = res["rate_dn_per_s"]
     assert r["verdict"] == "drift not separated" and "shuffled order" in r["drift"] and "reference darks" in r["drift"]
+    assert format_dict(r).endswith("not ok: drift not separated")  # (as the terminal and the window show it)
+    t = inherit({k: {"value": 1.0, "se": 0.1, "verdict": "ok"} for k in TEMPERATURE_KEYS}, [(40.0, r), (60.0, {})])
+    assert all(v["verdict"] == "drift not separated" and "40 C" in v["drift"] for v in t.values())
     assert res["offset_drift_dn_per_s"]["value"] > 3 * res["offset_drift_dn_per_s"]["se"]
 
 
