@@ -156,7 +156,8 @@ def dark_current(exposure_s, dark_mean_dn, gain_dn_per_e: Estimate | float, dark
         rv = in_range(rv, 0.0, what="dark current from the variance")
     else:
         rv = Estimate.na("dark variances not given", "e-/s")
-    return DarkCurrent(rate_dn, rate_e, rv, Estimate(icpt, icpt_se, "DN", "dark mean at t = 0"), drift)
+    at = " at the sweep's mean time on the bench's clock (the offset drifts)" if drift is not None and drift.kept else ""
+    return DarkCurrent(rate_dn, rate_e, rv, Estimate(icpt, icpt_se, "DN", "dark mean at t = 0" + at), drift)
 
 
 def _no_drift(d: DriftFit) -> str:
