@@ -487,3 +487,22 @@ def test_a_failing_panel_computation_is_logged_and_the_run_s_end_still_comes(mon
     assert not s._jobs and s.panels["MEAN SIGNAL"].stats.n == 0
     assert "statistics could not be computed" in caplog.text and "a bug" in caplog.text
     pool.shutdown()
+
+
+def test_sweep_model_shows_a_shuffled_axis_in_order():
+    """An axis taken in shuffled order (``<axis order="shuffled">``): the curve and the map run in
+    increasing value, not in the order the stages were taken."""
+    from ares.gui.models.sweep import SweepModel, SweepPoint
+
+    m = SweepModel()
+    for i, e in enumerate((0.5, 0.1, 1.0, 0.3)):
+        m.add(SweepPoint(1 + i, "dark", (i,), {"exposure": e}, {"mean (DN)": 64 + 2 * e}))
+    x, y = m.curve()
+    assert x.tolist() == [0.1, 0.3, 0.5, 1.0] and y.tolist() == [64.2, 64.6, 65.0, 66.0]
+    m = SweepModel()
+    for i, a in enumerate((2.0, 1.0)):
+        for j, b in enumerate((-0.2, -0.8, -0.5)):
+            m.add(SweepPoint(10 + 3 * i + j, "bias", (i, j), {"reg:sf_bias": a, "reg:tx_low": b}, {"n": 10 * a + b}))
+    (_, v1), (_, v2) = m.axes()
+    assert v1.tolist() == [1.0, 2.0] and v2.tolist() == [-0.8, -0.5, -0.2]
+    assert np.allclose(m.grid(), 10 * v1[:, None] + v2[None, :])

@@ -40,6 +40,7 @@ def scan_to_tree(sc: Scan) -> etree._ElementTree:
             _set_el(el, "set", x.key, x.value)
         for a in s.axes:
             ax = _set_el(el, "axis", a.key)
+            _set(ax, order=None if a.order == "given" else a.order, seed=None if a.order == "given" else a.seed)
             if a.kind == "values":
                 etree.SubElement(ax, "values").text = " ".join(repr(float(v)) for v in a.values)
             else:

@@ -50,6 +50,7 @@ def _table(fig, y: float, rows, title: str = "", n: int = 30) -> float:
 ANALYSIS_LABELS = {
     "rate_e_per_s": "dark current", "rate_dn_per_s": "dark current", "offset_dn": "dark offset at t = 0",
     "rate_from_variance_e_per_s": "dark current from dark variance", "dsnu_dn_per_s": "DSNU growth",
+    "offset_drift_dn_per_s": "dark offset drift with clock time",
     "dsnu_e_per_s": "DSNU growth", "doubling_temperature_c": "dark current doubling temperature",
     "rate_at_ref_dn_per_s": "dark current at the reference temperature",
     "rate_at_ref_e_per_s": "dark current at the reference temperature", "pixel_noise_e": "pixel noise (gain split)",

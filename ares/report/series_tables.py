@@ -10,6 +10,8 @@ from ares.analysis.stats.estimate import Estimate
 def dark_series(run) -> dict[float | None, dict[str, np.ndarray]]:
     """Dark stages grouped by temperature (None when not set): exposure, mean, temporal
     and spatial variance, sorted by exposure."""
+    from ares.results.dark_drift import frame_times
+
     out: dict = {}
     for st in run.stages:
         if st.get("scene") != "dark" or "exposure" not in st["settings"]:
@@ -17,13 +19,13 @@ def dark_series(run) -> dict[float | None, dict[str, np.ndarray]]:
         lv = st["views"]["full"]["level"]
         t = st["settings"].get("temperature")
         out.setdefault(t, []).append((float(st["settings"]["exposure"]), lv["mean_dn"], _nan(lv.get("var_dn2")),
-                                      _nan(lv.get("spatial_var_dn2")), lv.get("frame_means")))
+                                      _nan(lv.get("spatial_var_dn2")), lv.get("frame_means"), frame_times(st, run)))
     res = {}
     for t, rows in out.items():
         rows = sorted(rows, key=lambda r: r[:4])
         a = np.array([r[:4] for r in rows], float)
         res[t] = {"exposure_s": a[:, 0], "mean_dn": a[:, 1], "var_dn2": a[:, 2], "spatial_var_dn2": a[:, 3],
-                  "frame_means": [r[4] for r in rows]}
+                  "frame_means": [r[4] for r in rows], "frame_times": [r[5] for r in rows]}
     return res
 
 
@@ -32,19 +34,21 @@ def dark_current_figures(run, gain: Estimate | None) -> dict:
     (the runner's definition: slope of the dark mean vs exposure, >= 6 exposures), in DN/s
     and -- with a gain -- e-/s. Used when the run has no dark_current analysis result."""
     from ares.analysis.ptc.dark_current import MIN_EXPOSURES, dark_current
+    from ares.results.dark_drift import drift_verdict
 
     kf = {}
     for t, s in dark_series(run).items():
         if np.unique(s["exposure_s"]).size < MIN_EXPOSURES:
             continue
         dc = dark_current(s["exposure_s"], s["mean_dn"], gain if gain is not None else math.nan, s["var_dn2"],
-                          frame_means=s["frame_means"])
+                          frame_means=s["frame_means"], frame_times=s["frame_times"])
         at = "" if t is None else f" at {t:g} C"
         key = "dark_current" + ("" if t is None else f"@{t:g}C")
-        kf[key + "_dn_per_s"] = _entry("dark current" + at, dc.rate_dn_per_s, "computed by the report from dark stages")
+        kf[key + "_dn_per_s"] = drift_verdict(_entry("dark current" + at, dc.rate_dn_per_s,
+                                                     "computed by the report from dark stages"), dc.drift)
         if dc.rate_e_per_s.available:
-            kf[key + "_e_per_s"] = _entry("dark current" + at, dc.rate_e_per_s,
-                                          "computed by the report from dark stages")
+            kf[key + "_e_per_s"] = drift_verdict(_entry("dark current" + at, dc.rate_e_per_s,
+                                                        "computed by the report from dark stages"), dc.drift)
     return kf
 
 

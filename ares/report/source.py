@@ -102,15 +102,15 @@ class Run:
         except Exception:  # noqa: BLE001 -- a label without its unit, never a failed report
             return units
 
-    def arrays(self, index: int) -> dict[str, np.ndarray]:
-        """Arrays of stage ``index`` from results.h5 ({} when absent)."""
+    def arrays(self, index: int, names=None) -> dict[str, np.ndarray]:
+        """Arrays of stage ``index`` from results.h5 ({} when absent); ``names``: only those."""
         if not self.has_h5:
             return {}
         import h5py
 
         with h5py.File(self.dir / "results.h5", "r") as f:
             g = f.get(f"stages/{index:04d}")
-            return {} if g is None else {k: g[k][()] for k in g}
+            return {} if g is None else {k: g[k][()] for k in g if names is None or k in names}
 
     def has_array(self, index: int, name: str) -> bool:
         """Whether stage ``index`` stored the array ``name`` (without reading it)."""

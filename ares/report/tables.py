@@ -416,6 +416,8 @@ def compute_key_figures(run, groups: list[PtcGroup] | None = None) -> dict:
             if aname == "dark_current" and "." not in key and a.get("temperature_c") is not None:
                 label += f" at {a['temperature_c']:g} °C"  # a dark current is only meaningful at its temperature
             kf[f"{aname}.{key}"] = _entry(label, est(e), f"scan_results.json: {aname}")
+            if e.get("verdict") and e["verdict"] != kf[f"{aname}.{key}"]["verdict"]:  # a verdict an Estimate does
+                kf[f"{aname}.{key}"]["verdict"] = e["verdict"]  # not hold ("drift not separated", "precision not enough")
         if aname == "defects" and isinstance(a.get("counts"), dict) and a["counts"].get("total") is not None:
             kf.update(defect_count_figures(a))
     dec = run.analyses.get("decomposition")

@@ -214,6 +214,7 @@ def _dark_groups(run) -> dict:
 @register_scan_analysis("dark_current")
 def dark_current(run) -> dict:
     from ares.analysis.ptc.dark_current import dark_current as fit, dsnu_vs_exposure
+    from ares.results.dark_drift import drift_verdict as _drift_verdict, frame_times
 
     groups = _dark_groups(run)
     if not groups:
@@ -225,16 +226,21 @@ def dark_current(run) -> dict:
         exp = [s["settings"].get("exposure", math.nan) for s in sts]
         lv = [s["views"]["full"]["level"] for s in sts]
         dc = fit(exp, [x["mean_dn"] for x in lv], k if k is not None else math.nan, [x["var_dn2"] for x in lv],
-                 frame_means=[x.get("frame_means") for x in lv])
+                 frame_means=[x.get("frame_means") for x in lv], frame_times=[frame_times(s, run) for s in sts])
         ds = dsnu_vs_exposure(exp, [math.sqrt(max(x["spatial_var_dn2"] or 0.0, 0.0)) for x in lv], k)
         e_s = (dc.rate_e_per_s, dc.rate_from_variance_e_per_s, ds.dsnu_e_per_s)
         if k is None:  # beside every DN/s figure: why there is no e-/s one
             e_s = tuple(Estimate.na(NO_GAIN, "e-/s") if x.note in ("gain not available", "gain not given") else x
                         for x in e_s)
         per_t["default" if t is None else f"{t:g}C"] = {
-            "temperature_c": t, "rate_dn_per_s": _e(dc.rate_dn_per_s), "rate_e_per_s": _e(e_s[0]),
+            "temperature_c": t, "rate_dn_per_s": _drift_verdict(_e(dc.rate_dn_per_s), dc.drift),
+            "rate_e_per_s": _drift_verdict(_e(e_s[0]), dc.drift),
             "rate_from_variance_e_per_s": _e(e_s[1]), "offset_dn": _e(dc.offset_dn),
             "dsnu_dn_per_s": _e(ds.dsnu_dn_per_s), "dsnu_e_per_s": _e(e_s[2])}
+        if dc.drift is not None and dc.drift.kept:  # the offset's drift the frames show (one not seen: the note)
+            per_t["default" if t is None else f"{t:g}C"]["offset_drift_dn_per_s"] = _e(Estimate(
+                dc.drift.drift, dc.drift.drift_se, "DN/s", f"drift of the dark mean with clock time (F-test p "
+                f"{dc.drift.p:.2g}), fitted beside the rate"))
     if len(per_t) == 1:
         out.update(next(iter(per_t.values())))
     else:
@@ -260,9 +266,12 @@ def temperature(run) -> dict:
     k, _ = dark_gain(run)  # the doubling temperature is the same in DN/s and e-/s (K is constant)
     ref_e = _div(ref_dn, k, "e-/s", f"{ref.note} / K") if k is not None and ref.available else \
         Estimate.na(NO_GAIN if ref.available else ref.note, "e-/s")
-    return {"doubling_temperature_c": _e(fit.doubling_c), "rate_at_ref_dn_per_s": _e(ref_dn),
-            "rate_at_ref_e_per_s": _e(ref_e), "gain_from": dc.get("gain_from"), "ref_c": fit.ref_c,
-            "temperatures_c": T}
+    out = {"doubling_temperature_c": _e(fit.doubling_c), "rate_at_ref_dn_per_s": _e(ref_dn),
+           "rate_at_ref_e_per_s": _e(ref_e), "gain_from": dc.get("gain_from"), "ref_c": fit.ref_c,
+           "temperatures_c": T}
+    from ares.results.dark_drift import inherit
+
+    return inherit(out, rows)
 
 
 @register_scan_analysis("gain_split")

@@ -28,15 +28,15 @@ class RunRecord:
         """``run.json``'s status; ``interrupted`` for a ``running`` run whose process is gone."""
         return effective_status(self.meta)[0]
 
-    def arrays(self, index: int) -> dict:
-        """Arrays of stage ``index`` from results.h5 (empty if none)."""
+    def arrays(self, index: int, names=None) -> dict:
+        """Arrays of stage ``index`` from results.h5 (empty if none); ``names``: only those."""
         import h5py
 
         if self.dir is None or not (self.dir / "results.h5").exists():
             return {}
         with h5py.File(self.dir / "results.h5", "r") as f:
             g = f.get(f"stages/{index:04d}")
-            return {} if g is None else {k: g[k][()] for k in g}
+            return {} if g is None else {k: g[k][()] for k in g if names is None or k in names}
 
 
 def set_reports_state(run_dir, state: str, **extra) -> None:

@@ -9,6 +9,9 @@ exposure, analog_gain, black_level, test_mode, streaming, sf_bias and tx_low:
   ``2**(-(V - V0) / 0.25)`` (a deeper transfer-gate low level suppresses dark current
   and holds back more charge), V0 = default.
 
+With ``offset_warmup_dn`` / ``offset_drift_dn_per_s`` set (``ares.sim.drift``) each frame carries
+the black level's drift at its readout (its exposure's end) on the bench's clock.
+
 Fault injection (for scan tests): ``faults={"disconnect_after_frames": N}`` raises
 ``DeviceGone`` when frame N+1 is requested; with ``"reconnect_after_polls": M`` the
 device comes back at the M-th ``reconnect()`` (a suspender waiting for it); without it
@@ -27,6 +30,7 @@ from ares.errors import DeviceGone, FrameError, InputError, ValueOutOfRange
 from ares.hardware.interfaces import Bench, Frame
 from ares.hardware.registers import RegisterFile
 from ares.sim import cost
+from ares.sim.drift import drifts
 from ares.sim.params import SensorParams
 from ares.sim.ranges import TEMPERATURE_C
 from ares.sim.regmap import SIM_REGISTER_MAP
@@ -202,6 +206,7 @@ class SimFrameSource:
         lag = int(faults.get("pipeline_lag_frames", 0))
         self._pipeline = Pipeline(lag) if lag > 0 else None
         self.compute_seconds = 0.0  # wall seconds spent making frames (the time remaining weighs stages by it)
+        self._drifts = drifts(sensor.params)  # the black level moves on the bench's clock (ares.sim.drift)
         self._sf0 = SIM_REGISTER_MAP.field("sf_bias").to_physical(SIM_REGISTER_MAP.field("sf_bias").default)
         self._tx0 = SIM_REGISTER_MAP.field("tx_low").to_physical(SIM_REGISTER_MAP.field("tx_low").default)
 
@@ -311,7 +316,9 @@ class SimFrameSource:
             if mode == 2:
                 data = self.sensor.render_ramp(k)
             else:
-                data = self.sensor.render(k, dark=(mode == 1), shot_noise=self.sensor.params.shot_noise, **fs)
+                drift = self.sensor.offset_drift_dn(start + fs["exposure_s"]) if self._drifts else 0.0  # at readout
+                data = self.sensor.render(k, dark=(mode == 1), shot_noise=self.sensor.params.shot_noise,
+                                          offset_dn=drift, **fs)
             self.compute_seconds += time.perf_counter() - t0
             for frame in data:
                 if self.faults.get("frame_delay_ms"):

@@ -51,7 +51,7 @@ _NON_NEGATIVE = (
     "dark_activation_ev", "dark_activation_sigma_ev", "hot_activation_ev", "xray_events_per_frame", "xray_spread_px",
 )
 _POSITIVE = ("full_well_e", "conversion_gain_uv_per_e", "adc_lsb_uv", "qe", "dark_doubling_c", "mono_slew_nm_s",
-             "mono_accel_nm_s2")
+             "mono_accel_nm_s2", "offset_warmup_tau_s")
 _PPM = ("hot_rate_ppm", "warm_rate_ppm", "rts_rate_ppm", "dead_rate_ppm", "stuck_rate_ppm", "noisy_rate_ppm")
 
 
@@ -80,6 +80,11 @@ class SensorParams:
     col_temporal_dn: float = 0.3  # Ct: per column and frame
     row_temporal_dn: float = 0.4  # Rt: per row and frame
     frame_global_dn: float = 0.2  # whole-frame offset per frame (flicker, clamp drift)
+
+    # --- offset drift on the bench's clock (ares.sim.drift; all 0: none) ---------------------
+    offset_warmup_dn: float = 0.0  # the black level's change from power-up (bench clock 0) to the warm die, DN
+    offset_warmup_tau_s: float = 300.0  # ... approached with this time constant (the die's thermal one), s
+    offset_drift_dn_per_s: float = 0.0  # a slow linear drift on top (the chamber's regulation, the clamp), DN/s
 
     # --- offset fixed-pattern noise ------------------------------------------------------
     col_fpn_dn: float = 1.0  # Cs: column offset FPN sigma

@@ -101,7 +101,7 @@ class SimSensor:
 
     def render(self, n: int, *, exposure_s=0.01, photon_flux=0.0, temperature_c=25.0, analog_gain=1.0,
                black_level_dn=64, dark=False, shot_noise="auto", start_frame=None, read_noise_scale=1.0,
-               dark_current_scale=1.0, lag_scale=1.0) -> np.ndarray:
+               dark_current_scale=1.0, lag_scale=1.0, offset_dn=0.0) -> np.ndarray:
         """``n`` frames (uint16, shape (n, rows, cols)).
 
         exposure_s: integration time; photon_flux: photons/pixel/s at the sensor, a number
@@ -110,7 +110,9 @@ class SimSensor:
         shot_noise: "auto" (exact Poisson only where it is distinguishable), "exact",
         "gaussian"; start_frame: frame index of the first frame (default: continue);
         read_noise_scale / dark_current_scale / lag_scale: bias-dependent factors (the
-        register bench derives them from sf_bias and tx_low).
+        register bench derives them from sf_bias and tx_low); offset_dn: a whole-frame offset (DN at
+        the ADC input) on these frames -- the black level's drift at their readout (``ares.sim.drift``,
+        the bench gives it by its clock).
         """
         _check_n(n)
         kw = dict(exposure_s=exposure_s, temperature_c=temperature_c, analog_gain=analog_gain,
@@ -133,7 +135,7 @@ class SimSensor:
         out = np.empty((n, *self.shape), np.uint16)
         for i in range(n):
             rng = noise.frame_rng(self.seed, self.frame_index)
-            self._frame(sc, plan, rng, out[i])
+            self._frame(sc, plan, rng, out[i], float(offset_dn))
             self.frame_index += 1
         return out
 
@@ -153,6 +155,13 @@ class SimSensor:
         if isinstance(start_frame, bool) or not isinstance(start_frame, (int, np.integer)) or start_frame < 0:
             raise InputError(f"simulator: start_frame must be a non-negative integer, not {start_frame!r}")
         self.frame_index = int(start_frame)
+
+    def offset_drift_dn(self, t_s: float) -> float:
+        """The black level's drift (DN at the ADC input) at bench time ``t_s`` (``ares.sim.drift``): a
+        frame read out then carries it on top of ``truth()['o']``."""
+        from ares.sim.drift import offset_dn
+
+        return offset_dn(self.params, t_s)
 
     def truth(self, **kw) -> dict:
         """Ground truth at an operating point (same keywords as ``render``); see ``ares.sim.truth``."""
@@ -246,7 +255,8 @@ class SimSensor:
                         pgr=fp.pixel_gain * fp.response, cgrg=_F32(G) * fp.col_gain[None, :] * fp.row_gain[:, None])
         return plan
 
-    def _frame(self, sc: Scene, plan: dict, rng: np.random.Generator, out: np.ndarray) -> np.ndarray:
+    def _frame(self, sc: Scene, plan: dict, rng: np.random.Generator, out: np.ndarray,
+               offset_dn: float = 0.0) -> np.ndarray:
         p, fp = self.params, self.patterns
         shape = self.shape
         fastz = plan["gauss_fast"]
@@ -276,6 +286,8 @@ class SimSensor:
         if p.frame_global_dn > 0:
             g = _F32(p.frame_global_dn * rng.standard_normal())
             row = np.full(shape[0], g, _F32) if row is None else row + g
+        if offset_dn:  # the drifting black level (after the frame's own draws: the same noise with or without it)
+            row = np.full(shape[0], _F32(offset_dn), _F32) if row is None else row + _F32(offset_dn)
         col = p.col_temporal_dn * noise.normal(rng, (shape[1],), fastz) if p.col_temporal_dn > 0 else None
         rts = fp.defects.index["rts"]
         bump = None

@@ -23,6 +23,7 @@ import numpy as np
 from ares.analysis.stats.estimate import Estimate
 from ares.analysis.stats.median import n_distinct
 from ares.analysis.stats.physical import in_range
+from ares.analysis.ptc.dark_drift import CLOCK_R2, DriftFit, drift_fit
 from ares.analysis.ptc.fit import line_fit, residual_se_widening, wls_line
 
 MIN_EXPOSURES = 6
@@ -35,6 +36,7 @@ class DarkCurrent:
     rate_e_per_s: Estimate
     rate_from_variance_e_per_s: Estimate
     offset_dn: Estimate  # dark mean at t = 0
+    drift: DriftFit | None = None  # the offset's drift on the bench's clock, where the frames were timed (dark_drift)
 
 
 def _div(e: Estimate, k: Estimate | float, unit: str, note: str) -> Estimate:
@@ -106,20 +108,26 @@ def _mean_slope(t, m, frame_means) -> tuple[float, float, float, float, str]:
 
 
 def dark_current(exposure_s, dark_mean_dn, gain_dn_per_e: Estimate | float, dark_var_dn2=None,
-                 min_exposures: int = MIN_EXPOSURES, frame_means=None) -> DarkCurrent:
+                 min_exposures: int = MIN_EXPOSURES, frame_means=None, frame_times=None) -> DarkCurrent:
     """``frame_means``: each level's frame means (DN), as a run records them: the SEs are
     then decided on the measured scatter (``_mean_slope``), the variance slope's SE carries
     Student's t; without them, EMVA 1288 4.0 Section 7.1 as written (the regression's
-    one-sigma errors)."""
+    one-sigma errors). ``frame_times``: with them, each frame's readout time on the bench's
+    clock (s): the offset's drift is fitted beside the rate (``dark_drift.drift_fit``) and kept
+    where the frames show it; ``DarkCurrent.drift`` says whether the order separated the two."""
     t = np.asarray(exposure_s, float)
     m = np.asarray(dark_mean_dn, float)
     distinct = n_distinct(t)
     if distinct < min_exposures:
         na = Estimate.na(f"needs >= {min_exposures} distinct exposure times, got {distinct}", "e-/s")
         return DarkCurrent(Estimate.na(na.note, "DN/s"), na, na, Estimate.na(na.note, "DN"))
-    if frame_means is not None:
+    drift = drift_fit(t, frame_means, frame_times) if frame_means is not None and frame_times is not None else None
+    if drift is not None and drift.kept:
+        slope, slope_se, icpt, icpt_se = drift.slope, drift.slope_se, drift.intercept, drift.intercept_se
+        how = "; " + drift.how
+    elif frame_means is not None:
         slope, slope_se, icpt, icpt_se, how = _mean_slope(t, m, frame_means)
-        how = "; " + how
+        how = "; " + how + (_no_drift(drift) if drift is not None else "")
     else:
         lf = line_fit(t, m)
         slope, slope_se, icpt, icpt_se, how = lf.slope, lf.slope_se, lf.intercept, lf.intercept_se, ""
@@ -148,7 +156,18 @@ def dark_current(exposure_s, dark_mean_dn, gain_dn_per_e: Estimate | float, dark
         rv = in_range(rv, 0.0, what="dark current from the variance")
     else:
         rv = Estimate.na("dark variances not given", "e-/s")
-    return DarkCurrent(rate_dn, rate_e, rv, Estimate(icpt, icpt_se, "DN", "dark mean at t = 0"))
+    at = " at the sweep's mean time on the bench's clock (the offset drifts)" if drift is not None and drift.kept else ""
+    return DarkCurrent(rate_dn, rate_e, rv, Estimate(icpt, icpt_se, "DN", "dark mean at t = 0" + at), drift)
+
+
+def _no_drift(d: DriftFit) -> str:
+    """What the frames' times said where they show no drift: in a sweep that follows the clock, what
+    a drift they cannot see (2 of its SEs) would do to the slope."""
+    s = f"; the frames show no drift ({d.drift:.2g} ± {d.drift_se:.2g} DN/s of clock, F-test p {d.p:.2g})"
+    if d.follows_clock >= CLOCK_R2:
+        s += (f"; the exposures follow the clock: a drift of 2 SE would move the slope by "
+              f"{2 * d.drift_se * d.shift_per_drift:.2g} DN/s unseen (shuffle the exposures to exclude it)")
+    return s
 
 
 def with_upper_limit(key: str, e: Estimate) -> dict[str, Estimate]:

@@ -126,7 +126,11 @@ def format_dict(d, with_unit: bool = True, with_reason: bool = False) -> str:
     """The same text for the JSON form of an estimate (``Estimate.to_dict``)."""
     if not isinstance(d, dict):
         return "n/a"
-    return Estimate.from_dict(d).text(with_unit, with_reason)
+    text = Estimate.from_dict(d).text(with_unit, with_reason)
+    v = d.get("verdict")  # a verdict an Estimate does not hold ("drift not separated"): never shown as if "ok"
+    if v and v not in (VERDICT_OK, VERDICT_NA, VERDICT_UPPER, VERDICT_LOWER) and d.get("value") is not None:
+        text += f" -- not ok: {v}"
+    return text
 
 
 # The relative gain spreads of the 13-component model (variances of G·Cg, G·Rg, G·Pg over G):

@@ -114,7 +114,11 @@ class SweepModel(Observable):
         return len(pts[0].coords) if pts else 0
 
     def axes(self) -> list[tuple[str, np.ndarray]]:
-        """(setting name, value at each grid index) per axis of the latest group."""
+        """(setting name, value at each grid index) per axis of the latest group, in increasing value
+        where the values are distinct (an axis taken in shuffled order is shown in order: ``_order``)."""
+        return [(name, values[_order(values)]) for name, values in self._axes()]
+
+    def _axes(self) -> list[tuple[str, np.ndarray]]:
         pts = self.group_points()
         out = []
         for k in range(self.ndim):
@@ -129,12 +133,14 @@ class SweepModel(Observable):
         return out
 
     def curve(self) -> tuple[np.ndarray, np.ndarray]:
-        """1-D sweep: (axis values, quantity) in stage order."""
+        """1-D sweep: (axis values, quantity) in increasing value where the values are distinct (an axis
+        taken in shuffled order), else in stage order (a sweep up and down again)."""
         pts = [p for p in self.group_points() if self.quantity in self.values(p)]
-        (_, values), = self.axes() or [("", np.zeros(0))]
+        (_, values), = self._axes() or [("", np.zeros(0))]
         x = np.array([values[p.coords[0]] for p in pts], dtype=float)
         y = np.array([self.values(p)[self.quantity] for p in pts], dtype=float)
-        return x, y
+        o = _order(x)
+        return x[o], y[o]
 
     def grid(self) -> np.ndarray:
         """2-D sweep: array [index 1, index 2] of the quantity (nan where not yet run)."""
@@ -147,4 +153,14 @@ class SweepModel(Observable):
             v = self.values(p).get(self.quantity)
             if v is not None and math.isfinite(v):
                 g[p.coords] = v
-        return g
+        (_, v1), (_, v2) = self._axes()
+        return g[np.ix_(_order(v1), _order(v2))]  # (rows and columns as ``axes`` gives their values)
+
+
+def _order(values: np.ndarray) -> np.ndarray:
+    """Indices putting an axis's values in increasing order where they are finite and distinct, else
+    as they are."""
+    v = np.asarray(values, float)
+    if v.size > 1 and np.all(np.isfinite(v)) and np.unique(v).size == v.size:
+        return np.argsort(v, kind="stable")
+    return np.arange(v.size)
