@@ -41,7 +41,8 @@ def dark_page(run, series: dict):
         ax2.plot(s["exposure_s"], s["var_dn2"], "o", color=f"C{k}", label=None if fit else lab or "temporal")
         ax3.plot(s["exposure_s"], s["spatial_var_dn2"], "s", mfc="none", color=f"C{k}", label=lab or "spatial")
         if fit:  # the analysis's own slopes and SEs (K = 1: DN/s and DN^2/s), as the table beside them
-            d = dark_current(s["exposure_s"], s["mean_dn"], 1.0, s["var_dn2"], frame_means=s.get("frame_means"))
+            d = dark_current(s["exposure_s"], s["mean_dn"], 1.0, s["var_dn2"], frame_means=s.get("frame_means"),
+                             frame_times=s.get("frame_times"))
             lf = line_fit(s["exposure_s"], s["mean_dn"])
             lv = line_fit(s["exposure_s"], s["var_dn2"])
             m_txt = (page_tables.fmt_value(d.rate_dn_per_s.value, d.rate_dn_per_s.se, 'DN/s')
@@ -76,7 +77,8 @@ def temperature_page(run, series: dict):
     T, r, rse = [], [], []
     for t, s in sorted((kv for kv in series.items() if kv[0] is not None), key=lambda kv: kv[0]):
         # the analysis's own dark current per temperature (DN/s: K = 1), its SE on the frames' scatter
-        e = dark_current(s["exposure_s"], s["mean_dn"], 1.0, frame_means=s.get("frame_means")).rate_dn_per_s
+        e = dark_current(s["exposure_s"], s["mean_dn"], 1.0, frame_means=s.get("frame_means"),
+                         frame_times=s.get("frame_times")).rate_dn_per_s
         if e.available:
             T.append(t), r.append(e.value), rse.append(e.se)
     T, r, rse = map(np.array, (T, r, rse))
