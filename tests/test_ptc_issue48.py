@@ -395,6 +395,20 @@ def test_a_turnoff_located_tighter_at_low_scatter_keeps_its_charge_wide(tmp_path
         assert d["saturation_capacity_e"]["verdict"] == "not available", (i, d["saturation_capacity_e"])
 
 
+@pytest.mark.parametrize("i", [0, 249, 1110])
+def test_the_fall_model_s_evidence_locates_a_level_its_profile_left(tmp_path, i):
+    """Curves at 2.9-3.5 % noise (30-97 levels; a clip, a dip) whose turnoff the window picks
+    right but whose level before it (3.3-5.4 % lower) the "before the one picked" rule kept:
+    the fall model's profile lets the first level past a turn sit on the curve at no cost
+    (the turn just before it, any rate), so it could not tell them apart ("not available").
+    Its marginal cost -- the turn's place and the rate averaged over their priors
+    (``changepoint.fall_cost``) -- does, where the levels scatter <= 4 %: "ok" and within 3 %
+    of truth; the saturation capacity keeps the wider interval."""
+    c = case(i)
+    d, j = run_case(c, tmp_path)
+    assert d["turnoff_dn"]["verdict"] == "ok" and j["turnoff"], (d["turnoff_dn"], c.truth["turnoff_dn"])
+
+
 def test_t_quantile_closed_forms():
     """``fit.t_quantile`` against Student's t closed forms: 1 dof is Cauchy, tan(pi (p - 1/2));
     2 dof, (2p - 1) / sqrt(2 p (1 - p)); many dof, the normal's 3 SE."""
