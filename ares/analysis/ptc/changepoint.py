@@ -41,9 +41,14 @@ _FALL_F = np.array([0.0, 0.01, 0.03, 0.1, 0.2, 0.3, 0.5])  # the floor it falls 
 # next, so that a level barely past the turn (as good as on the curve) never excludes the
 # level before it
 _FALL_U = np.array([0.0, 0.25, 0.5, 0.75, 0.9, 0.99])
+# the prior of the marginal cost (``fall_cost(marginal=True)``): the turn's place uniform between
+# the levels (each grid point weighted by its share of the interval, as the window's model takes
+# the depth uniform), the rate uniform over its (logarithmic) grid
+_FALL_W = (np.diff(np.concatenate([[0.0], (_FALL_U[1:] + _FALL_U[:-1]) / 2, [1.0]]))[None, :]
+           / _FALL_R.size)
 
 
-def fall_cost(z, wild, xs, vb, sb, curve_at) -> np.ndarray:
+def fall_cost(z, wild, xs, vb, sb, curve_at, marginal: bool = False):
     """-2 log likelihood (up to a constant) of each change point t (-1 .. m, as in
     ``locate``, and m: the departure itself on the curve) under one global model: the levels up to t on the curve fitted below the
     window (residuals ``z`` in SE), every level after it -- the window's and up to
@@ -52,7 +57,15 @@ def fall_cost(z, wild, xs, vb, sb, curve_at) -> np.ndarray:
     turns: v = P(xc) max(1 - r (x - xc) / xc, f), xc between level t and the next, the
     rate r and the floor f fitted (a profile over grids), each level beyond costing at
     most ``FALL_CAP``. Unlike the window's two models it uses the shape of the whole fall,
-    as an oracle that knew the fall's parameters would (benchmarks/ptc_corpus.md)."""
+    as an oracle that knew the fall's parameters would (benchmarks/ptc_corpus.md).
+
+    With ``marginal``: (that cost, the cost with the turn's place and the rate averaged over
+    their priors -- uniform between the levels, uniform over the rate's logarithmic grid --
+    not profiled; the floor still profiled). The profile lets the first level beyond the
+    turn sit on the curve at no cost (the turn just before it, any rate), so that a level
+    before the true last one is never told from it by the first level past it; averaged, a
+    turn that fits only at the end of its interval with a finely chosen rate pays for it
+    (the Occam factor of a Bayesian evidence)."""
     z = np.asarray(z, float)
     m = z.size - 1
     on = np.where(wild, 0.0, z * z)
@@ -62,6 +75,7 @@ def fall_cost(z, wild, xs, vb, sb, curve_at) -> np.ndarray:
     keep = np.ones(xb.size, bool)
     keep[: wild.size] = ~np.asarray(wild, bool)
     cost = np.full(m + 2, np.inf)
+    marg = cost.copy()
     for t in range(-1, min(m + 1, xb.size - 1)):
         j0 = t + 1  # first level beyond (position in xb)
         x0 = float(xs[t + 1])
@@ -73,8 +87,11 @@ def fall_cost(z, wild, xs, vb, sb, curve_at) -> np.ndarray:
         d = np.maximum(xj[None, :] - xc[:, None], 0.0) / xc[:, None]  # (nu, nb)
         g = np.maximum(1.0 - _FALL_R[:, None, None] * d[None], _FALL_F[:, None, None, None])  # (nf, nr, nu, nb)
         r2 = np.minimum(((vj - g * pc[None, None, :, None]) / sj) ** 2, FALL_CAP).sum(-1)
-        cost[t + 1] = c_on[t + 1] + float(r2.min())
-    return cost
+        prof = r2.min(axis=0)  # (nr, nu): the floor profiled out
+        b = float(prof.min())
+        cost[t + 1] = c_on[t + 1] + b
+        marg[t + 1] = c_on[t + 1] + b - 2.0 * math.log(float(np.sum(_FALL_W * np.exp(-(prof - b) / 2))))
+    return (cost, marg) if marginal else cost
 
 
 def locate(z, wild, xs, fall=None, plausible: float = PLAUSIBLE,
