@@ -307,8 +307,17 @@ def lag_cycle(fb: list, fd: list, settle: int = LAG_SETTLE):
                       np.array(fd[settle:])[:, None, None])
     est = r.lag_pct
     if est.available and not math.isfinite(est.se) and len(fd) > settle + 1:
-        se = 100 * float(np.std(fd[settle:], ddof=1)) / r.bright_signal_dn
-        est = Estimate(est.value, se, "%", "frame means; SE from the scatter of the settled dark frame means")
+        # the lag is the first dark frame's mean less the mean of the m settled ones: its error
+        # is one frame mean's scatter x sqrt(1 + 1/m), that scatter measured on m - 1 degrees of
+        # freedom, so Student's t (issue 48: at 4 frames, 1 dof, the bare scatter gave lags up
+        # to 93 SE from the simulator's truth, "ok"; benchmarks/truth_z.md)
+        from ares.analysis.ptc.fit import residual_se_widening
+
+        m = len(fd) - settle
+        w = residual_se_widening(m - 1)
+        se = 100 * float(np.std(fd[settle:], ddof=1)) * math.sqrt(1 + 1 / m) * w / r.bright_signal_dn
+        est = Estimate(est.value, se, "%", f"frame means; SE from the scatter of the {m} settled dark frame means "
+                                           f"({m - 1} dof, x Student's t {w:.3g}) for the first dark frame less their mean")
     return est, r.bright_signal_dn
 
 
