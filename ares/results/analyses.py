@@ -269,20 +269,21 @@ def gain_split(run) -> dict:
     from ares.analysis.ptc.gain_split import split_noise
 
     groups = _ptc_groups(run)
-    ks, vs, ses, gains = [], [], [], []
+    ks, kses, vs, ses, gains = [], [], [], [], []
     for g, sts in groups.items():
         k = _run_gain(run, g)
         if k is None:
             continue
         d = sts[0]["views"]["full"]["dark_level"]
         ks.append(k.value)
+        kses.append(k.se)
         vs.append(d["var_dn2"])
         se = math.sqrt(2.0 / (d["n_pixels"] * max(d["n_frames"] - 1, 1))) * abs(d["var_dn2"])
         comp = sts[0]["views"]["full"].get("components", {})  # Rt, Ct: sampled by rows/cols only
         extra = [comp.get(c, {}).get("se") for c in ("Rt", "Ct")]
         ses.append(math.hypot(se, *[x for x in extra if x is not None and math.isfinite(x)]))
         gains.append(g)
-    r = split_noise(ks, vs, ses)
+    r = split_noise(ks, vs, ses, gain_se=kses)
     return {"analog_gains": gains, "gain_dn_per_e": ks, "pixel_noise_e": _e(r.pixel_noise_e),
             "chain_noise_dn": _e(r.chain_noise_dn), "crossover_gain_dn_per_e": _e(r.crossover_gain_dn_per_e),
             "chi2_red": r.chi2_red}
