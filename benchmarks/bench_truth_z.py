@@ -150,7 +150,7 @@ def fig_lag(scan, bench, res, stages):
     by = {s["name"]: s for s in stages}
     if "cycles" not in res["lag"]:
         return [("lag (every cycle) [%]", {"value": None, "se": None, "verdict": "not available"}, math.nan)]
-    return [(f"lag {name} [%]", c["lag_pct"], 100 * _truth(scan, bench, by[name]["settings"])["lag_fraction"])
+    return [("lag (every cycle) [%]", c["lag_pct"], 100 * _truth(scan, bench, by[name]["settings"])["lag_fraction"])
             for name, c in res["lag"]["cycles"].items()]
 
 
@@ -235,6 +235,8 @@ def fig_emva_4(scan, bench, res, stages):
     out = [("K [DN/e-]", v["K"], k), ("QE [%]", v["QE"], 60.0),
            ("sigma_d [e-]", v["sigma_d"], math.sqrt(_emva_dark_var(_truth(scan, bench, stages[0]["settings"]),
                                                                    shape, 2)) / k)]
+    if isinstance(res.get("ptc"), dict) and "gain_dn_per_e" in res["ptc"]:  # the scan's own photon transfer
+        out.append(("K, ptc analysis of the same levels [DN/e-]", res["ptc"]["gain_dn_per_e"], k))
     for key in ("mu_I", "mu_I_mean", "mu_I_var"):
         if key in v:
             out.append((f"{key} [e-/s]", v[key], float(td["maps"]["dark_e_per_s"].mean())))
@@ -286,8 +288,11 @@ def z_of(r: dict) -> float | None:
 
 
 def _own_frames(scan: str) -> str:
+    """The scan's <frames>; "" when a stage sets its own (then --frames N is not the default)."""
     from ares.protocol import load_scan
 
+    if 'frames="' in (ROOT / "scans" / f"{scan}.xml").read_text():
+        return ""
     return str(load_scan(ROOT / "scans" / f"{scan}.xml").frames)
 
 
@@ -299,10 +304,10 @@ def table(rows: list[dict]) -> list[str]:
         if f == "default":
             if any(str(x["frames"]) == own[r["scan"]] for x in rows if x["scan"] == r["scan"]):
                 continue  # (the same runs as the numbered frame count's)
-            f = f"{own[r['scan']]} (default)"
+            f = f"{own[r['scan']] or 'stages own'} (default)"
         groups.setdefault((r["scan"], r["figure"], f), []).append(r)
     order = list(FIGURES) + sorted({r["scan"] for r in rows} - set(FIGURES))
-    fr_key = lambda f: int(f.split()[0]) if f.split()[0].isdigit() else 0  # noqa: E731
+    fr_key = lambda f: int(f.split()[0]) if f.split()[0].isdigit() else 10**6  # noqa: E731
     lines = ["| scan | figure | frames | n | ok | n/a | z mean | z SD | max abs z | wrong ok (ok, abs z > 3) |",
              "|---|---|---:|---:|---:|---:|---:|---:|---:|---:|"]
     for key in sorted(groups, key=lambda k: (order.index(k[0]), k[1], fr_key(k[2]))):
@@ -334,12 +339,10 @@ def main() -> int:
     if not a.table_only:
         with rows_path.open("a") as fh:
             for name in a.scans.split(","):
-                from ares.protocol import load_scan
-
-                own = load_scan(ROOT / "scans" / f"{name}.xml").frames
+                own = _own_frames(name)
                 for f in a.frames.split(","):
                     frames = None if f == "default" else int(f)
-                    if f == "default" and str(own) in a.frames.split(","):
+                    if f == "default" and own in a.frames.split(","):
                         continue  # (the default is one of the frame counts already run)
                     for sd in range(a.first_seed, a.first_seed + a.seeds):
                         try:
