@@ -15,7 +15,7 @@ Each run's rows (scan, frames, seed, figure, value, SE, truth, verdict) are appe
 ``--rows`` (default ``benchmarks/truth_z_rows.jsonl``, not kept in git) so that runs can be
 added scan by scan; the table is rebuilt from all rows and written to ``truth_z.md`` (the
 part of that file from its "## Before and after" heading on is kept: hand-written rows of
-the fixes this study led to).
+the fixes this study led to). With another ``--rows`` file the table is only printed.
 """
 
 from __future__ import annotations
@@ -23,6 +23,7 @@ from __future__ import annotations
 import argparse
 import json
 import math
+import re
 import sys
 import tempfile
 import time
@@ -291,7 +292,7 @@ def _own_frames(scan: str) -> str:
     """The scan's <frames>; "" when a stage sets its own (then --frames N is not the default)."""
     from ares.protocol import load_scan
 
-    if 'frames="' in (ROOT / "scans" / f"{scan}.xml").read_text():
+    if re.search(r'\s(dark_)?frames="', (ROOT / "scans" / f"{scan}.xml").read_text()):
         return ""
     return str(load_scan(ROOT / "scans" / f"{scan}.xml").frames)
 
@@ -370,7 +371,11 @@ def main() -> int:
             "(issue 48). n/a: the figure not available (its verdict not ok); SD over the \"ok\" ones. "
             "Accuracy figures: the machine's load does not change them." + (" " + a.note if a.note else ""),
             ""]
-    return publish("truth_z", head + table(rows) + ["", KEEP + kept.rstrip("\n")])
+    lines = head + table(rows) + ["", KEEP + kept.rstrip("\n")]
+    if rows_path.resolve() != (HERE / "truth_z_rows.jsonl").resolve():  # a side study: printed, truth_z.md kept
+        print("\n".join(lines))
+        return 0
+    return publish("truth_z", lines)
 
 
 if __name__ == "__main__":
