@@ -362,6 +362,10 @@ def main() -> int:
 
     md = HERE / "truth_z.md"
     kept = md.read_text().split(KEEP, 1)[1] if md.exists() and KEEP in md.read_text() else "\n"
+    fixed = "Accuracy figures: the machine's load does not change them."
+    if not a.note and md.exists():  # the measured state's sentence stays until a new one is given
+        line = next((ln for ln in md.read_text().splitlines() if fixed in ln), "")
+        a.note = line.split(fixed, 1)[1].strip() if line else ""
     head = ["# Never a wrong \"ok\": z = (value - truth) / SE of every figure with a simulator truth",
             "",
             "`benchmarks/bench_truth_z.py`: the shipped scans through the real Runner on the simulated bench "
@@ -369,7 +373,7 @@ def main() -> int:
             "as the truth tests take them (`tests/test_scan_truth.py`). A figure whose SE is right gives z of "
             "mean ~0 and SD ~1; \"wrong ok\" counts figures reported \"ok\" more than 3 SE from their truth "
             "(issue 48). n/a: the figure not available (its verdict not ok); SD over the \"ok\" ones. "
-            "Accuracy figures: the machine's load does not change them." + (" " + a.note if a.note else ""),
+            + fixed + (" " + a.note if a.note else ""),
             ""]
     lines = head + table(rows) + ["", KEEP + kept.rstrip("\n")]
     if rows_path.resolve() != (HERE / "truth_z_rows.jsonl").resolve():  # a side study: printed, truth_z.md kept
