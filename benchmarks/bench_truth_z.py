@@ -256,11 +256,31 @@ def fig_fe55(scan, bench, res, stages):
     return out
 
 
+def fig_dark_temperature(scan, bench, res, stages):
+    """Per temperature the dark current from the mean in DN/s (the scan measures no K) against
+    the dark map's mean rate x G; the median per-pixel activation energy against the median of
+    the simulator's E_a map (sim_lowlight.xml: a per-pixel Arrhenius law)."""
+    from test_scan_truth import _truth
+
+    out = []
+    for key, v in (res["dark_current"].get("by_temperature") or {}).items():
+        st = [s for s in stages if s["settings"].get("temperature") == v.get("temperature_c")]
+        if st:
+            t = _truth(scan, bench, st[-1]["settings"])
+            out.append(("dark current, mean, every temperature [DN/s]", v["rate_dn_per_s"],
+                        float(t["maps"]["dark_e_per_s"].mean()) * t["G"]))
+    px = res["dark_temperature"]["pixels"]
+    t = _truth(scan, bench, stages[0]["settings"])
+    out.append(("median activation energy [eV]", px["median_activation_ev"],
+                float(np.median(t["lowlight"]["arrhenius"]["activation_ev"]))))
+    return out
+
+
 FIGURES = {
     "photon_transfer": fig_photon_transfer, "ptc_exposure": fig_ptc_exposure, "dark_current": fig_dark_current,
     "temperature": fig_temperature, "gain": fig_gain, "adc_linearity": fig_adc_linearity, "lag": fig_lag,
     "bias_sweep_2d": fig_bias_sweep_2d, "photon_counting": fig_photon_counting, "spectral_qe": fig_spectral_qe,
-    "mtf": fig_mtf, "emva_4": fig_emva_4, "fe55": fig_fe55,
+    "mtf": fig_mtf, "emva_4": fig_emva_4, "fe55": fig_fe55, "dark_temperature": fig_dark_temperature,
 }
 
 
