@@ -11,6 +11,10 @@ gives z of mean ~0 and SD ~1; an SD well above 1 is an SE smaller than the figur
     python benchmarks/bench_truth_z.py [--scans dark_current,lag] [--frames 2,4,16,default]
                                        [--seeds 8] [--rows FILE.jsonl] [--table-only]
 
+The whole sweep (every scan, 8 seeds) takes about an hour on a shared 2-core machine (most of
+it photon_transfer, gain and emva_4 at 16 frames); ``--scans`` runs a part, ``--first-seed``
+adds seeds to a cell.
+
 Each run's rows (scan, frames, seed, figure, value, SE, truth, verdict) are appended to
 ``--rows`` (default ``benchmarks/truth_z_rows.jsonl``, not kept in git) so that runs can be
 added scan by scan; the table is rebuilt from all rows and written to ``truth_z.md`` (the
@@ -281,6 +285,7 @@ FIGURES = {
     "temperature": fig_temperature, "gain": fig_gain, "adc_linearity": fig_adc_linearity, "lag": fig_lag,
     "bias_sweep_2d": fig_bias_sweep_2d, "photon_counting": fig_photon_counting, "spectral_qe": fig_spectral_qe,
     "mtf": fig_mtf, "emva_4": fig_emva_4, "fe55": fig_fe55, "dark_temperature": fig_dark_temperature,
+    "photon_transfer_precision": fig_photon_transfer,
 }
 
 
@@ -309,10 +314,11 @@ def z_of(r: dict) -> float | None:
 
 
 def _own_frames(scan: str) -> str:
-    """The scan's <frames>; "" when a stage sets its own (then --frames N is not the default)."""
+    """The scan's <frames>; "" when a stage sets its own or precision targets set them (then
+    --frames N is not the default)."""
     from ares.protocol import load_scan
 
-    if re.search(r'\s(dark_)?frames="', (ROOT / "scans" / f"{scan}.xml").read_text()):
+    if re.search(r'\s(dark_)?frames="|<precision', (ROOT / "scans" / f"{scan}.xml").read_text()):
         return ""
     return str(load_scan(ROOT / "scans" / f"{scan}.xml").frames)
 
