@@ -279,20 +279,21 @@ def gain_split(run) -> dict:
     from ares.analysis.ptc.gain_split import split_noise
 
     groups = _ptc_groups(run)
-    ks, vs, ses, gains = [], [], [], []
+    ks, kses, vs, ses, gains = [], [], [], [], []
     for g, sts in groups.items():
         k = _run_gain(run, g)
         if k is None:
             continue
         d = sts[0]["views"]["full"]["dark_level"]
         ks.append(k.value)
+        kses.append(k.se)
         vs.append(d["var_dn2"])
         se = math.sqrt(2.0 / (d["n_pixels"] * max(d["n_frames"] - 1, 1))) * abs(d["var_dn2"])
         comp = sts[0]["views"]["full"].get("components", {})  # Rt, Ct: sampled by rows/cols only
         extra = [comp.get(c, {}).get("se") for c in ("Rt", "Ct")]
         ses.append(math.hypot(se, *[x for x in extra if x is not None and math.isfinite(x)]))
         gains.append(g)
-    r = split_noise(ks, vs, ses)
+    r = split_noise(ks, vs, ses, gain_se=kses)
     return {"analog_gains": gains, "gain_dn_per_e": ks, "pixel_noise_e": _e(r.pixel_noise_e),
             "chain_noise_dn": _e(r.chain_noise_dn), "crossover_gain_dn_per_e": _e(r.crossover_gain_dn_per_e),
             "chi2_red": r.chi2_red}
@@ -317,8 +318,17 @@ def lag_cycle(fb: list, fd: list, settle: int = LAG_SETTLE):
                       np.array(fd[settle:])[:, None, None])
     est = r.lag_pct
     if est.available and not math.isfinite(est.se) and len(fd) > settle + 1:
-        se = 100 * float(np.std(fd[settle:], ddof=1)) / r.bright_signal_dn
-        est = Estimate(est.value, se, "%", "frame means; SE from the scatter of the settled dark frame means")
+        # the lag is the first dark frame's mean less the mean of the m settled ones: its error
+        # is one frame mean's scatter x sqrt(1 + 1/m), that scatter measured on m - 1 degrees of
+        # freedom, so Student's t (issue 48: at 4 frames, 1 dof, the bare scatter gave lags up
+        # to 93 SE from the simulator's truth, "ok"; benchmarks/truth_z.md)
+        from ares.analysis.ptc.fit import residual_se_widening
+
+        m = len(fd) - settle
+        w = residual_se_widening(m - 1)
+        se = 100 * float(np.std(fd[settle:], ddof=1)) * math.sqrt(1 + 1 / m) * w / r.bright_signal_dn
+        est = Estimate(est.value, se, "%", f"frame means; SE from the scatter of the {m} settled dark frame means "
+                                           f"({m - 1} dof, x Student's t {w:.3g}) for the first dark frame less their mean")
     # (signed: a clamp recovering after the bright frames undershoots -- the first dark frame's residual
     # may be below the settled dark; one not resolved from 0 is a limit, never "ok")
     est = resolved(est, "image lag")

@@ -66,7 +66,8 @@ def dark_temperature_from_maps(temps, rates, ses, unit: str, at_c: float = 0.0, 
         frame_rate, frame_se = frame_rates
     frame = A.frame_fit(temps, frame_rate, frame_se, ref_c=at_c, unit=unit)
     fit = A.pixel_fit(temps, rates, ses)
-    summ = A.summarize(fit, at_c)
+    fe = frame["activation_ev"]  # on the frame means' scatter: the error all pixels' E_a share
+    summ = A.summarize(fit, at_c, fe.se if frame_se is not None and fe.available and math.isfinite(fe.se) else 0.0)
     summ["pixels_left_out"] = int(fit.valid.size - fit.valid.sum())  # a rate <= 0 (or not finite) at some temperature
     out = {"temperatures_c": [float(t) for t in temps], "unit": unit, "ref_c": at_c,
            "frame": {"rates": [float(r) for r in frame_rate],

@@ -2,7 +2,8 @@
 bright signal (both above the settled dark level).
 
 ``lag = (mu_first_dark - mu_dark) / (mu_bright - mu_dark)``. Its SE comes from the
-scatter over repeated bright->dark cycles when there are at least 3, otherwise from the
+scatter over repeated bright->dark cycles when there are at least 3 (with Student's t for
+their n - 1 degrees of freedom), otherwise from the
 pixel scatter of the first dark frame (which ignores frame-global temporal noise --
 stated in the note).
 """
@@ -15,6 +16,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from ares.analysis.stats.estimate import Estimate
+from ares.analysis.ptc.fit import residual_se_widening
 
 
 @dataclass(frozen=True)
@@ -39,9 +41,10 @@ def image_lag(bright: np.ndarray, first_dark: np.ndarray, dark: np.ndarray) -> L
         return LagResult(Estimate.na("no bright signal above dark", "%"), sig, fd.shape[0])
     per = (fd.reshape(fd.shape[0], -1).mean(axis=1) - mu_d) / sig
     val = 100 * float(per.mean())
-    if fd.shape[0] >= 3:
-        se = 100 * float(per.std(ddof=1)) / math.sqrt(per.size)
-        note = f"mean over {per.size} bright->dark cycles"
+    if fd.shape[0] >= 3:  # the cycles' scatter on n - 1 dof: Student's t (issue 48)
+        w = residual_se_widening(per.size - 1)
+        se = 100 * float(per.std(ddof=1)) / math.sqrt(per.size) * w
+        note = f"mean over {per.size} bright->dark cycles; SE from their scatter x Student's t ({per.size - 1} dof: x {w:.3g})"
     else:
         dark_img = d.reshape(-1, *fd.shape[1:]).mean(axis=0) if d.ndim == 3 else d
         diff = fd - dark_img

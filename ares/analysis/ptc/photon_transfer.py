@@ -341,8 +341,15 @@ def _gain_estimates(fit: list[PtcLevel], fit_note: str, errors_source: str):
     k_org = est(origin_fit(S, V, Vse), f"EMVA 1288 origin fit, {fit_note}")
     ast = gm.astier
     if ast is not None and math.isfinite(ast.gain_e_per_dn) and ast.gain_e_per_dn > 0:
-        k_ast = Estimate(1 / ast.gain_e_per_dn, ast.gain_se / ast.gain_e_per_dn**2, "DN/e-",
-                         f"Astier 2019 exponential, a00 = {ast.a00:.3g} 1/e-, {fit_note}")
+        # its SE is scaled by the residuals wherever they exceed the errors (``astier_fit``):
+        # then it is the residual scatter of n - 3 degrees of freedom and carries Student's t,
+        # as the line's does (issue 48: the dark_current scan's 8-level gain sweep at 2 frames
+        # gave K 3.2 of those SEs from its truth, "ok", at chi2/dof 3 on 5 dof)
+        w = residual_se_widening(ast.n - 3) if ast.chi2_red > 1 else 1.0
+        k_ast = Estimate(1 / ast.gain_e_per_dn, w * ast.gain_se / ast.gain_e_per_dn**2, "DN/e-",
+                         f"Astier 2019 exponential, a00 = {ast.a00:.3g} 1/e-, {fit_note}" + (
+                             f"; SE = the residual scatter's (chi2/dof {ast.chi2_red:.3g}) x {w:.3g}, Student's t for "
+                             f"{ast.n - 3} degrees of freedom" if w > 1 else ""))
     else:
         k_ast = Estimate.na("Astier fit needs >= 5 levels", "DN/e-")
     chosen = k_ast if gm.chosen == "astier" and k_ast.available else k_wls
