@@ -55,10 +55,12 @@ def test_ptc_cell(case, frames, defects, report):
             assert not e.available and "saturation not reached" in e.note
     else:
         assert r.saturation.reached, r.saturation.reason
-        assert fw.available and abs(fw.value - p.full_well_e) <= 3 * fw.se + 0.01 * p.full_well_e, fw
+        # within its error, or -- K known to worse than 1.5 % (few frames) -- not available, saying so
+        assert (fw.available and abs(fw.value - p.full_well_e) <= 3 * fw.se + 0.01 * p.full_well_e
+                or not fw.available and "system gain K is known only to" in fw.note), fw
         lo, hi = r.saturation.low_dn / k.value, r.saturation.high_dn / k.value
         assert lo <= p.full_well_e * 1.01 and p.full_well_e <= hi * 1.01
-        assert r.dynamic_range_db.available
+        assert r.dynamic_range_db.available or not fw.available
     rn = r.read_noise_e
     assert rn.available and rn.note
     if not defects:  # all dark temporal noise, input-referred (noisy/RTS pixels add to it otherwise)

@@ -18,13 +18,11 @@ bracket, and a run that never saturates gets no full well and no dynamic range.
 Every decision (the turnoff, the gain model's residual tests) uses errors that describe the
 levels' own scatter (``turnoff.decision_errors``: the counts' errors unless the measured
 scatter disagrees, and the result says which). The headline gain is the Astier 2019 fit
-wherever >= 5 levels determine it (``choose_gain_model``: the line is its a00 = 0 case;
-never a line over a bent range), and the EMVA 1288 4.0 Linear Eq. 51 local-slope check
-says whether the linear model holds. ``sanity`` marks figures no sensor gives (a full
-well below 20x the read noise, a turnoff below 5 % of the brightest signal, an SE above
-the value) not available, with the reason.
-Definitions (all labelled in the result): ``K`` in DN/e- (EMVA), its inverse in e-/DN,
-conversion gain in uV/e- = K * LSB_uV / analog gain; read noise EMVA 4.0 Eqs. 53-54.
+wherever >= 5 levels determine it (``choose_gain_model``: the line is its a00 = 0 case), the
+line only where Astier's K is not measured and its curvature not significant; the EMVA 1288
+4.0 Linear Eq. 51 check says whether the linear model holds. ``sanity`` marks figures no
+sensor gives not available, with the reason. Units: ``K`` DN/e- (EMVA), its inverse e-/DN,
+conversion gain uV/e- = K * LSB_uV / analog gain; read noise EMVA 4.0 Eqs. 53-54.
 """
 
 from __future__ import annotations
@@ -341,10 +339,8 @@ def _gain_estimates(fit: list[PtcLevel], fit_note: str, errors_source: str):
     k_org = est(origin_fit(S, V, Vse), f"EMVA 1288 origin fit, {fit_note}")
     ast = gm.astier
     if ast is not None and math.isfinite(ast.gain_e_per_dn) and ast.gain_e_per_dn > 0:
-        # its SE is scaled by the residuals wherever they exceed the errors (``astier_fit``):
-        # then it is the residual scatter of n - 3 degrees of freedom and carries Student's t,
-        # as the line's does (issue 48: the dark_current scan's 8-level gain sweep at 2 frames
-        # gave K 3.2 of those SEs from its truth, "ok", at chi2/dof 3 on 5 dof)
+        # its SE, scaled by the residuals where they exceed the errors (``astier_fit``), is their scatter on
+        # n - 3 dof: Student's t, as the line's (issue 48: 8 levels at 2 frames, K 3.2 SE off, "ok")
         w = residual_se_widening(ast.n - 3) if ast.chi2_red > 1 else 1.0
         k_ast = Estimate(1 / ast.gain_e_per_dn, w * ast.gain_se / ast.gain_e_per_dn**2, "DN/e-",
                          f"Astier 2019 exponential, a00 = {ast.a00:.3g} 1/e-, {fit_note}" + (
@@ -354,6 +350,14 @@ def _gain_estimates(fit: list[PtcLevel], fit_note: str, errors_source: str):
         k_ast = Estimate.na("Astier fit needs >= 5 levels", "DN/e-")
     chosen = k_ast if gm.chosen == "astier" and k_ast.available else k_wls
     reason = gm.reason
+    if (chosen is k_ast and not 3 * k_ast.se < k_ast.value and not gm.f_p < 0.05 and k_wls.available
+            and 3 * k_wls.se < k_wls.value):
+        # by evidence: on few levels Astier's extra parameter (its residual SE with t for n - 3 dof) can cost
+        # K its measurement where its curvature is not significant: the line then states K (corpus: 12-14 levels)
+        chosen = k_wls
+        reason = (f"line: the Astier fit's K {k_ast.text()} is not measured by these {gm.line.n} levels (3 SE exceed "
+                  f"it) and its curvature is not significant (F-test p {gm.f_p:.2g}): the line, one parameter fewer, "
+                  "is the headline")
     # by physics and evidence (issue 48): where the curvature term is significant the
     # Astier fit is the headline (a straight line over a bent range is biased), its SE
     # scaled by its own excess scatter if it has any. Where it is not and the line fails
