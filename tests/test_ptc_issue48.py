@@ -441,3 +441,18 @@ def test_a_k_astier_cannot_measure_on_few_levels_comes_from_the_line(tmp_path, i
     res, j = run_case(c, tmp_path)
     k = res["gain_dn_per_e"]
     assert k["verdict"] == "ok" and j["gain"] and "one parameter fewer" in k["note"], (k, j)
+
+
+def test_a_line_its_residuals_do_not_follow_gives_no_k(tmp_path):
+    """Corpus seed 3 curve 1140 (a clip at 9 % noise, 337 levels, no departure found): the unweighted
+    line through the levels, plateau included, gave K 0.085 ± 0.010 DN/e- "ok" against 0.209 -- an
+    absurd "ok". Its residuals run in long stretches of one sign (a runs test, no errors needed):
+    K is "not available", saying so. White residuals are not flagged (false-alarm rate ~ RUNS_P)."""
+    from ares.analysis.ptc.fit import RUNS_P, runs_p
+
+    res, j = run_case(case(1140, 3), tmp_path)
+    k = res["gain_dn_per_e"]
+    assert k["verdict"] == "not available" and "runs test" in k["note"] and not j["absurd"], k
+    rng = np.random.default_rng(48)
+    p = np.array([runs_p(rng.standard_normal(60)) for _ in range(2000)])
+    assert np.mean(p < RUNS_P) <= 0.004 and runs_p(np.r_[np.ones(30), -np.ones(30)]) < 1e-9

@@ -456,3 +456,24 @@ def max_relative_deviation(x, y, y_se) -> tuple[float, float, np.ndarray]:
     dev = 100.0 * (y - (a * x + b)) / (a * x + b)
     k = int(np.argmax(np.abs(dev)))
     return float(abs(dev[k])), deviation_se(x, y, y_se, k), dev
+
+
+RUNS_P = 1e-3  # a line whose residuals' signs run this improbably long does not follow the levels
+
+
+def runs_p(residuals) -> float:
+    """Wald-Wolfowitz runs test on the signs of ``residuals`` in their order: the one-sided
+    probability of as few runs as seen or fewer if the signs were in random order (normal
+    approximation). Needs no errors: a curve the fitted model does not follow (a plateau, a
+    turnover, a bend) leaves long runs of one sign. 1.0 where it cannot tell (< 2 of a sign)."""
+    r = np.asarray(residuals, float)
+    r = r[np.isfinite(r) & (r != 0)]
+    pos = r > 0
+    n1, n2 = int(pos.sum()), int((~pos).sum())
+    n = n1 + n2
+    if n1 < 2 or n2 < 2:
+        return 1.0
+    runs = 1 + int(np.count_nonzero(pos[1:] != pos[:-1]))
+    mean = 2.0 * n1 * n2 / n + 1
+    var = 2.0 * n1 * n2 * (2.0 * n1 * n2 - n) / (n * n * (n - 1))
+    return 0.5 * math.erfc(-((runs - mean) / math.sqrt(var)) / math.sqrt(2)) if var > 0 else 1.0

@@ -36,10 +36,9 @@ import numpy as np
 
 from ares.analysis.stats.estimate import Estimate
 from ares.analysis.ptc.levels import LevelStats
-from ares.analysis.ptc.fit import (AstierFit, GainModel, LineFit, LocalSlopeCheck, choose_gain_model, line_fit,
-                                   residual_se_widening,
-                                   local_slope_check, local_slope_check_text, max_relative_deviation,
-                                   origin_fit)
+from ares.analysis.ptc.fit import (RUNS_P, AstierFit, GainModel, LineFit, LocalSlopeCheck, choose_gain_model, line_fit,
+                                   local_slope_check, local_slope_check_text, max_relative_deviation, origin_fit,
+                                   residual_se_widening, runs_p)
 from ares.analysis.ptc.noise_figures import loglog_slopes, noise_model, read_noise, sensitivity_threshold
 from ares.analysis.ptc.saturation import SaturationBracket, saturation_bracket
 from ares.analysis.ptc.turnoff import DecisionErrors, decision_errors, lsst_pivot, ptc_turnoff_found
@@ -352,29 +351,30 @@ def _gain_estimates(fit: list[PtcLevel], fit_note: str, errors_source: str):
     reason = gm.reason
     if (chosen is k_ast and not 3 * k_ast.se < k_ast.value and not gm.f_p < 0.05 and k_wls.available
             and 3 * k_wls.se < k_wls.value):
-        # by evidence: on few levels Astier's extra parameter (its residual SE with t for n - 3 dof) can cost
-        # K its measurement where its curvature is not significant: the line then states K (corpus: 12-14 levels)
+        # by evidence: on few levels Astier's extra parameter (residual SE, t for n - 3 dof) can cost K its measurement
         chosen = k_wls
-        reason = (f"line: the Astier fit's K {k_ast.text()} is not measured by these {gm.line.n} levels (3 SE exceed "
-                  f"it) and its curvature is not significant (F-test p {gm.f_p:.2g}): the line, one parameter fewer, "
-                  "is the headline")
-    # by physics and evidence (issue 48): where the curvature term is significant the
-    # Astier fit is the headline (a straight line over a bent range is biased), its SE
-    # scaled by its own excess scatter if it has any. Where it is not and the line fails
-    # its residual check against errors that describe the scatter, or where no errors are
-    # known at all, the headline is the unweighted line with offset -- the form of EMVA
-    # 1288 4.0 Linear Section 6.6 Eq. 50 -- with its SE from the scatter itself
+        reason = (f"line: the Astier fit's K {k_ast.text()} is not measured by these {gm.line.n} levels (3 SE exceed it) "
+                  f"and its curvature is not significant (F-test p {gm.f_p:.2g}): the line, one parameter fewer, is the headline")
+    # by physics and evidence (issue 48): where the curvature term is significant the Astier fit is the
+    # headline (a line over a bent range is biased). Where it is not and the line fails its residual check
+    # against errors that describe the scatter, or no errors are known, the unweighted line with offset
+    # (EMVA 1288 4.0 Linear Eq. 50), its SE the scatter's -- unless its residuals' signs say it does not
+    # follow the levels (``fit.runs_p``: a plateau among them, corpus seed 3 curve 1140, K 59 % low "ok")
     line_fails = gm.line_p < HEADLINE_P_MIN
     if no_errors or (line_fails and chosen is not k_ast):
         lf = line_fit(S, V)
         k_ols = (est(lf, f"unweighted line of V vs S (SE from the residual scatter), {fit_note}", True)
                  if math.isfinite(lf.slope) and lf.slope > 3 * lf.slope_se else k_wls)
-        chosen = k_ols
+        runs = runs_p((V - (lf.slope * S + lf.intercept))[np.argsort(S)]) if k_ols.available else 1.0
+        chosen = k_ols if not runs < RUNS_P else Estimate.na(  # (a rule that needs no errors: issue 48)
+            f"the unweighted line's K {k_ols.text()} does not follow the levels fitted: its residuals run in long "
+            f"stretches of one sign (Wald-Wolfowitz runs test p {runs:.1g}): a turnover or plateau no departure "
+            "showed, or a bend no model here fits, lies among them", "DN/e-")
         reason = ("unweighted line: no variance errors are known and the levels are too few to measure their "
                   "scatter (the form of EMVA 1288 4.0 Eq. 50)" if no_errors else
                   f"unweighted line: the weighted line fails its own residual check (chi2/dof {gm.line.chi2_red:.3g}, "
                   f"p {gm.line_p:.2g}) and " + ("the Astier curvature term does not explain the residuals" if gm.astier
-                                               is not None else f"{gm.line.n} levels are too few for a curvature term")
+                                               is not None else gm.reason.removeprefix("linear: "))
                   + ", so the slope is not weighted (the form of EMVA 1288 4.0 Eq. 50)")
     elif chosen is k_ast and not gm.astier_p >= HEADLINE_P_MIN:
         reason += f"; its own residuals exceed the errors (chi2/dof {ast.chi2_red:.3g}): SE scaled by them"
