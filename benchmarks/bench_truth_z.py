@@ -43,20 +43,9 @@ sys.path.insert(0, str(_CODE / "tests"))
 sys.path.insert(0, str(_CODE))
 ROOT = HERE.parent
 
+from bench_ptc_sim import _Tmp  # noqa: E402  (pytest's tmp_path_factory stand-in for test_scan_truth._run)
+
 KEEP = "## Before and after"
-
-
-class _Tmp:
-    """The ``mktemp`` of pytest's tmp_path_factory, for ``test_scan_truth._run``."""
-
-    def __init__(self, root: Path):
-        self.root, self.n = root, 0
-
-    def mktemp(self, name: str) -> Path:
-        self.n += 1
-        p = self.root / f"{name}{self.n}"
-        p.mkdir()
-        return p
 
 
 def _est(d) -> dict:
@@ -68,14 +57,10 @@ def _est(d) -> dict:
 
 # ----------------------------------------------------------------------- the figures per scan
 def fig_photon_transfer(scan, bench, res, stages):
-    from test_scan_truth import _emva_dark_var, _full_well_e, _ptc_k, _truth
+    from test_scan_truth import _emva_dark_var, _full_well_e, main_job_truth
 
     p = res["ptc"]
-    mid = next(s for s in stages if s["name"] == res["decomposition"]["stage"])
-    t = _truth(scan, bench, mid["settings"])
-    shape = bench.info["sensor"].shape
-    F = mid["views"]["full"]["dark_level"]["n_frames"]
-    k = _ptc_k(t, mid["views"]["full"]["level"]["n_frames"])
+    t, shape, F, k = main_job_truth(scan, bench, res, stages)
     real = t["realized"]
     out = [("K [DN/e-]", p["gain_dn_per_e"], k),
            ("read noise [DN]", p["read_noise_dn"], math.sqrt(_emva_dark_var(t, shape, F) + 1 / 12)),

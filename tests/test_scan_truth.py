@@ -181,14 +181,19 @@ def pt(tmp_path_factory):
     return _run("photon_transfer", tmp_path_factory)
 
 
+def main_job_truth(scan, bench, res, stages):
+    """(truth at the decomposition's stage, sensor shape, its dark frames, the PTC truth of K)
+    of a photon_transfer run (also ``benchmarks/bench_truth_z.py``)."""
+    mid = next(s for s in stages if s["name"] == res["decomposition"]["stage"])
+    t = _truth(scan, bench, mid["settings"])
+    return (t, bench.info["sensor"].shape, mid["views"]["full"]["dark_level"]["n_frames"],
+            _ptc_k(t, mid["views"]["full"]["level"]["n_frames"]))
+
+
 def test_photon_transfer_gain_read_noise_full_well(pt):
     scan, bench, res, stages = pt
     p = res["ptc"]
-    mid = next(s for s in stages if s["name"] == res["decomposition"]["stage"])
-    t = _truth(scan, bench, mid["settings"])
-    shape = bench.info["sensor"].shape
-    F = mid["views"]["full"]["dark_level"]["n_frames"]
-    k = _ptc_k(t, mid["views"]["full"]["level"]["n_frames"])
+    t, shape, F, k = main_job_truth(scan, bench, res, stages)
     check("photon_transfer K [DN/e-]", k, p["gain_dn_per_e"], rel=0.003)
     rn_dn = math.sqrt(_emva_dark_var(t, shape, F) + 1 / 12)
     check("photon_transfer read noise [DN]", rn_dn, p["read_noise_dn"], rel=0.01)
