@@ -127,7 +127,12 @@ def dark_current(exposure_s, dark_mean_dn, gain_dn_per_e: Estimate | float, dark
         how = "; " + drift.how
     elif frame_means is not None:
         slope, slope_se, icpt, icpt_se, how = _mean_slope(t, m, frame_means)
-        how = "; " + how + (_no_drift(drift) if drift is not None else "")
+        how = "; " + how + (_no_drift(drift, slope_se) if drift is not None else "")
+        if drift is not None and math.isfinite(drift.shift_per_drift):
+            # a drift below the frames' detection limit still moves the slope by drift x shift (a test
+            # passed is not a drift excluded): its measured uncertainty is in the SE -- nothing where the
+            # order does not follow the clock (shift ~ 0), a drift-limited SE in increasing order
+            slope_se = math.hypot(slope_se, drift.drift_se * drift.shift_per_drift)
     else:
         lf = line_fit(t, m)
         slope, slope_se, icpt, icpt_se, how = lf.slope, lf.slope_se, lf.intercept, lf.intercept_se, ""
@@ -160,13 +165,16 @@ def dark_current(exposure_s, dark_mean_dn, gain_dn_per_e: Estimate | float, dark
     return DarkCurrent(rate_dn, rate_e, rv, Estimate(icpt, icpt_se, "DN", "dark mean at t = 0" + at), drift)
 
 
-def _no_drift(d: DriftFit) -> str:
-    """What the frames' times said where they show no drift: in a sweep that follows the clock, what
-    a drift they cannot see (2 of its SEs) would do to the slope."""
+def _no_drift(d: DriftFit, slope_se: float) -> str:
+    """What the frames' times said where they show no drift, and what a drift they cannot exclude
+    adds to the slope's SE (``slope_se``: the SE without it)."""
     s = f"; the frames show no drift ({d.drift:.2g} ± {d.drift_se:.2g} DN/s of clock, F-test p {d.p:.2g})"
-    if d.follows_clock >= CLOCK_R2:
-        s += (f"; the exposures follow the clock: a drift of 2 SE would move the slope by "
-              f"{2 * d.drift_se * d.shift_per_drift:.2g} DN/s unseen (shuffle the exposures to exclude it)")
+    add = abs(d.drift_se * d.shift_per_drift) if math.isfinite(d.shift_per_drift) else 0.0
+    if add > 0.1 * slope_se:
+        s += (f"; a drift that small still moves the slope by {d.shift_per_drift:.3g} s per s of exposure"
+              + (" (the exposures follow the clock)" if d.follows_clock >= CLOCK_R2 else "")
+              + f": the SE holds its ± {add:.2g} DN/s (shuffle the exposures or bracket them with reference "
+              "darks to shrink it)")
     return s
 
 
