@@ -197,7 +197,13 @@ def test_components_are_shown_with_verdicts():
     assert component_text("Pg", {"value": 1e-4, "se": 2e-7, "unit": "1"}) == "1.0000 ± 0.0010 % rms"
     assert component_text("Ps", {"value": 0.07845, "se": 0.00027, "unit": "DN^2"}) == "0.07845 ± 0.00027 DN^2"
     t = component_text("frame_global", {"value": -0.01, "se": 0.02, "unit": "DN^2"})
-    assert t.startswith("< 0.03 DN^2") and "est. -0.01" in t  # an upper limit: the estimate is consistent with 0
+    assert t.startswith("< 0.05 DN^2") and "est. -0.01" in t  # an upper limit (value + 3 SE, as in_range makes it)
+    # a variance whose SE exceeds it is not resolved from 0: an upper limit too, never "± ..." (issue 48:
+    # the main job at 2 frames showed frame_global 0.0008 ± 0.0010 DN^2); a gain spread's likewise
+    t = component_text("frame_global", {"value": 0.0008, "se": 0.0010, "unit": "DN^2", "verdict": "ok"})
+    assert t.startswith("< 0.0038 DN^2") and "not resolved from 0" in t
+    assert component_text("Cg", {"value": 4e-6, "se": 1e-5, "unit": "1"}).startswith("< 0.58 % rms")
+    assert component_text("Cg", {"value": 4e-5, "se": None, "unit": "1", "verdict": "upper limit"}) == "< 0.63 % rms"
     assert component_text("Rt", {"value": -0.5, "se": 0.02, "unit": "DN^2"}).startswith("n/a (negative variance")
     assert component_text("G", {"value": None, "se": None, "unit": "DN/e-", "note": "no shot noise"}) == \
         "n/a (no shot noise)"

@@ -194,5 +194,10 @@ def in_electrons(components: dict[str, Estimate], gain_dn_per_e: float) -> dict[
         else:
             out[k] = e
             continue
-        out[k] = Estimate(e.value / f, e.se / f, unit, e.note) if e.available else Estimate.na(e.note, unit)
+        if not e.available:
+            out[k] = Estimate.na(e.note, unit)
+        elif e.bound:  # a limit stays a limit
+            out[k] = Estimate.limit(e.value / f, e.bound, unit, e.note)
+        else:
+            out[k] = Estimate(e.value / f, e.se / f, unit, e.note)
     return out

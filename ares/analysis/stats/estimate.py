@@ -144,26 +144,40 @@ def pct_rms(relative_variance: float) -> float:
     return 100 * math.sqrt(v) if v >= 0 else math.nan
 
 
+LIMIT_NSIGMA = 3.0  # a limit is the value + 3 SE (``stats.physical.NSIGMA``: one rule on every surface)
+
+
 def component_display(c: str, d: dict) -> tuple[str, str]:
     """(value ± SE, unit) of a component's JSON form as every surface shows it: gain
-    spreads (relative variances) as % rms with the SE propagated; a variance estimated
-    below 0 as an upper limit when within 2 SE of 0, else "the model does not fit"; the
-    rest as value ± SE with the SE's digits (``format_value``)."""
+    spreads (relative variances) as % rms with the SE propagated; a variance (or gain
+    spread) is a figure whose truth may be 0, so one estimated below 0 within 3 SE of it,
+    or one whose SE exceeds it, is an upper limit (value + 3 SE), one further below 0 "the
+    model does not fit" (as ``stats.physical.in_range`` and ``resolved`` judge them); a
+    limit already judged is shown as one; the rest as value ± SE with the SE's digits
+    (``format_value``)."""
     v, se = d.get("value"), d.get("se")
     finite_se = se is not None and math.isfinite(se)
     if v is None or not math.isfinite(v):
         return "n/a" + (f" ({d['note']})" if d.get("note") else ""), d.get("unit", "")
-    if c in GAIN_SPREADS:
-        if v <= 0:
-            ub = 100 * math.sqrt(max(v, 0.0) + 2 * se) if finite_se else math.nan
-            return (f"< {ub:.2g} (variance ≤ 0)" if math.isfinite(ub) else "n/a (negative variance)"), "% rms"
-        r = pct_rms(v)
-        return format_value(r, 100 * se / (2 * math.sqrt(v)) if finite_se else None), "% rms"
     unit = d.get("unit", "")
-    if v < 0 and unit.endswith("^2"):  # a variance estimated below 0: a bound or a misfit
-        if finite_se and v + 2 * se >= 0:
-            return f"< {format_value(v + 2 * se)} (est. {v:.2g})", unit
-        return f"n/a (negative variance {v:.3g} ± {se:.2g} {unit}: the model does not fit)", unit
+    spread = c in GAIN_SPREADS
+    if spread or unit.endswith("^2"):
+        show_unit = "% rms" if spread else unit
+
+        def lim(x: float) -> str:
+            return f"< {100 * math.sqrt(max(x, 0.0)):.2g}" if spread else f"< {format_value(x)}"
+
+        if d.get("verdict") == VERDICT_UPPER:
+            return lim(v), show_unit
+        if v < 0:
+            if finite_se and v + LIMIT_NSIGMA * se >= 0:
+                return f"{lim(v + LIMIT_NSIGMA * se)} (est. {v:.2g}, below 0)", show_unit
+            what = "a gain spread's relative variance" if spread else "negative variance"
+            return f"n/a ({what} {v:.3g} ± {se:.2g} {unit}: the model does not fit)".replace(" 1:", ":"), show_unit
+        if finite_se and se > v:
+            return f"{lim(v + LIMIT_NSIGMA * se)} (est. {v:.2g}, not resolved from 0)", show_unit
+        if spread:
+            return format_value(pct_rms(v), 100 * se / (2 * math.sqrt(v)) if finite_se and v > 0 else None), show_unit
     return format_value(v, se), unit
 
 
@@ -172,7 +186,7 @@ def component_text(c: str, d: dict) -> str:
     text, unit = component_display(c, d)
     if text.startswith("n/a") or not unit:
         return text
-    if text.startswith("<") and "(" in text:  # "< 0.23 (variance ≤ 0)" -> "< 0.23 % rms (variance ≤ 0)"
+    if text.startswith("<") and "(" in text:  # "< 0.23 (est. ...)" -> "< 0.23 % rms (est. ...)"
         head, _, tail = text.partition(" (")
         return f"{head} {unit} ({tail}"
     return f"{text} {unit}"

@@ -62,9 +62,11 @@ VARIANCE_COMPONENTS = ("Cs", "Ct", "Rs", "Rt", "Ps", "Pt", "frame_global")
 
 
 def variances_in_range(components: dict[str, Estimate]) -> dict[str, Estimate]:
-    """The variance components of a decomposition (DN^2) judged against >= 0."""
-    return {k: in_range(e, minimum=0.0, what=f"variance {k}") if k in VARIANCE_COMPONENTS else e
-            for k, e in components.items()}
+    """The variance components of a decomposition (DN^2) judged against >= 0 -- and, being
+    figures whose truth may be 0 (a frame-global or row-temporal term a sensor need not have),
+    one whose SE exceeds it is an upper limit (``resolved``), never "ok"."""
+    return {k: resolved(in_range(e, minimum=0.0, what=f"variance {k}"), f"variance {k}") if k in VARIANCE_COMPONENTS
+            else e for k, e in components.items()}
 
 
 def snr_in_range(snr: Estimate, charge: float, what: str = "SNR", of: str = "the full well",
