@@ -165,7 +165,7 @@ def component_display(c: str, d: dict) -> tuple[str, str]:
         show_unit = "% rms" if spread else unit
 
         def lim(x: float) -> str:
-            return f"< {100 * math.sqrt(max(x, 0.0)):.2g}" if spread else f"< {format_value(x)}"
+            return f"< {100 * math.sqrt(max(x, 0.0)):.2g}" if spread else f"< {format_value(x, sig=2)}"
 
         if d.get("verdict") == VERDICT_UPPER:
             return lim(v), show_unit
