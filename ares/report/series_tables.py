@@ -56,30 +56,17 @@ ADC_COLUMNS = ("channel", "code", "dnl_lsb", "dnl_se_lsb", "transition", "inl_ls
 
 
 def adc_curves(run, d: dict) -> dict:
-    """Channel -> ``InlDnl`` of the ``adc_linearity`` analysis ``d``: the code-density test
-    on its ramp stages' code histograms in results.h5, as the runner computed its extremes."""
-    from ares.analysis.ptc.adc import code_density
+    """Channel -> ``InlDnl`` of the ``adc_linearity`` analysis ``d``: the code-density test on
+    its ramp stages' code histograms in results.h5, as the runner computed its extremes (with
+    the scatter SEs of their sub-histograms, or the counting SEs of a run that has none)."""
+    from ares.results.adc import ramp_curves
 
-    hists: dict = {}
-    for st in run.stages:
-        if st["name"] in (d.get("stages") or []):
-            for k, a in run.arrays(st["index"]).items():
-                if k.startswith("hist_"):
-                    hists[k[5:]] = hists.get(k[5:], 0) + np.asarray(a)
-    out = {}
-    for ch in (d.get("channels") or {}):
-        h = hists.get(ch)
-        if h is None:
-            continue
-        try:
-            out[ch] = code_density(np.repeat(np.arange(h.size), h.astype(np.int64)), h.size - 1)
-        except ValueError:
-            pass
-    return out
+    chans = d.get("channels") or {}
+    return {ch: r for ch, r in ramp_curves(run, d.get("stages") or []).items() if ch in chans}
 
 
 def adc_rows(run) -> list[dict]:
-    """The INL/DNL curves per channel with their counting SEs (adc_inl_dnl.csv)."""
+    """The INL/DNL curves per channel with their SEs (adc_inl_dnl.csv; ``InlDnl.se_note``)."""
     d = run.analyses.get("adc_linearity")
     if not isinstance(d, dict) or not d.get("channels"):
         return []
