@@ -135,9 +135,11 @@ class Adc:
         size = shape[0] * shape[1]
         span = self.max_code + 2.0
         k = np.arange(size, dtype=np.float64)
+        step = span / size
         out = np.empty((n, *shape), np.uint16)
         for i in range(n):
-            x = -1.0 + span * (k - 0.5 + 2.0 * rng.random()) / size  # (the mean phase half a sample, as ever)
+            x = -1.0 + step * (k - 0.5 + 2.0 * rng.random())  # the mean phase half a sample, as with one
+            x[0], x[-1] = min(x[0], -1.0), max(x[-1], span - 1.0)  # both end codes whatever the phase
             if noise_lsb:  # the input's (or the ADC's transition) noise, LSB rms (benchmarks/adc_se.md)
                 x += noise_lsb * rng.standard_normal(size)
             out[i] = self.quantize(x).reshape(shape)
