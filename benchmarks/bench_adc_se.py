@@ -135,7 +135,7 @@ def main() -> int:
               "K - 1 dof and one count's resolution keep it on the safe side: SD of z 0.3-0.8, 1.2 in the "
               "noisiest case). The extreme of many codes within their noise of each other (the DNL of an "
               "ADC with a bow only, whose true DNL max is 0.0004 LSB; noisy codes) is biased away from 0: "
-              "uncorrected its z has means up to +/-1.6 and reaches 4.7; less its selection bias (the "
+              "uncorrected its z has means up to +/-1.6 and reaches 4.8; less its selection bias (the "
               "expected excess of the extreme of the curve plus its own noise, 200 draws) the means stay "
               "within +/-0.35. Where the bias-corrected extreme is not resolved from 0 it is reported as a "
               "limit (value + 3 SE for a max), and every limit held the truth. Fast version in the suite: "
