@@ -65,3 +65,4 @@ def test_adc_scan_reports_extremes_with_se_and_exports_the_curves(tmp_path):
         assert min(float(x["inl_lsb"]) for x in mine) == pytest.approx(r.at_extremes()["inl_min"][0])
     with h5py.File(out / "report.h5", "r") as h:
         assert h["adc_inl_dnl/inl_lsb"].attrs["unit"] == "LSB" and h["adc_inl_dnl/inl_lsb"].size == len(rows)
+        assert json.loads(h["adc_inl_dnl"].attrs["se_note"]) == {ch: r.se_note() for ch, r in curves.items()}

@@ -117,3 +117,18 @@ def test_the_analysis_uses_the_sub_histograms_and_reads_a_run_without_them():
     assert "6 independent sub-histograms" in new["inl_max_lsb"]["note"]
     assert "one histogram only" in old["inl_max_lsb"]["note"]
     assert new["inl_max_lsb"]["verdict"] == "ok"  # the 0.5 LSB bow, resolved by the ramp's own scatter
+
+
+def test_a_report_of_an_old_run_judges_its_recorded_extremes_again():
+    """The PDF table of a run recorded before the sub-histograms: its "ok" extremes with SEs far
+    above their values (INL max 0.50 +- 0.92 LSB) are shown as the analysis judges them now."""
+    from ares.report.series_tables import adc_channels_now
+    from ares.results.adc import ramp_curves
+
+    _, g = ramp(4, frames=6, dnl=0.0)  # the shipped sensor's ADC: a 0.5 LSB bow only
+    run = _Run({"hist_full": g.sum(axis=0)})
+    old = {"stages": ["ramp"], "channels": {"full": {"inl_max_lsb": {"value": 0.5, "se": 0.92, "unit": "LSB",
+                                                                     "verdict": "ok"}, "samples": 1}}}
+    chans, again = adc_channels_now(old, ramp_curves(run, ["ramp"]))
+    assert again == ["full"] and chans["full"]["inl_max_lsb"]["verdict"] == "upper limit"
+    assert chans["full"]["samples"] == 1

@@ -112,6 +112,7 @@ def adc_page(run, d: dict):
     else:
         fig.text(0.08, y, "no code histograms in results.h5: curves not available", fontsize=9, va="top")
         y -= 0.03
-    rows = analysis_rows(d.get("channels") or {})
-    _table(fig, y, rows, "per channel (scan_results.json)", n=16)
+    chans, again = series_tables.adc_channels_now(d, curves)
+    _table(fig, y, analysis_rows(chans), "per channel (scan_results.json" + (
+        "; the extremes judged again from results.h5: no sub-histograms, counting SE)" if again else ")"), n=16)
     return fig

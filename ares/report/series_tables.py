@@ -65,6 +65,26 @@ def adc_curves(run, d: dict) -> dict:
     return {ch: r for ch, r in ramp_curves(run, d.get("stages") or []).items() if ch in chans}
 
 
+def adc_channels_now(d: dict, curves: dict) -> tuple[dict, list[str]]:
+    """The ``adc_linearity`` analysis ``d``'s channels for a report table, and the channels
+    judged again: a run written before the sub-histograms recorded counting-SE extremes "ok"
+    with SEs far above their values; those are shown as the analysis judges them now (its
+    curves ``curves``, ``adc_curves``: limits, the counting SE said so)."""
+    chans = dict(d.get("channels") or {})
+    again = [ch for ch, r in curves.items() if not r.scatter and ch in chans]
+    for ch in again:
+        chans[ch] = {**chans[ch], **{f"{k}_lsb": e.to_dict() for k, e in curves[ch].extremes().items()}}
+    return chans, again
+
+
+def adc_se_notes(run) -> dict[str, str]:
+    """Channel -> how the SEs of its INL/DNL curves were made (``InlDnl.se_note``)."""
+    d = run.analyses.get("adc_linearity")
+    if not isinstance(d, dict) or not d.get("channels"):
+        return {}
+    return {ch: r.se_note() for ch, r in adc_curves(run, d).items()}
+
+
 def adc_rows(run) -> list[dict]:
     """The INL/DNL curves per channel with their SEs (adc_inl_dnl.csv; ``InlDnl.se_note``)."""
     d = run.analyses.get("adc_linearity")

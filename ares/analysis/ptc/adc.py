@@ -139,11 +139,11 @@ class InlDnl:
                 note = f"{self.se_note()}; the extreme of the curve {v:.4g} less its selection bias {b:.2g} LSB"
             else:
                 val, note = v, f"{self.se_note()}; the extreme of the curve (its selection bias not corrected)"
-            if not (math.isfinite(se) and se <= sign * val):
+            if not (math.isfinite(se) and 0 < se <= sign * val):  # (an SE of 0: an endpoint's INL, 0 by the fit)
                 lim = sign * max(sign * val, 0.0) + sign * NSIGMA * se
                 out[key] = Estimate.limit(lim, "upper" if sign > 0 else "lower", "LSB",
                                           f"{key[:3].upper()} {key[4:]} {val:.3g} ± {se:.2g} LSB: not resolved "
-                                          f"from 0 (its SE is larger than the value): only {'an upper' if sign > 0 else 'a lower'}"
+                                          f"from 0 (its SE is not below its distance from 0): only {'an upper' if sign > 0 else 'a lower'}"
                                           f" limit ({'value + ' if sign > 0 else 'value - '}{NSIGMA:g} SE). {note}")
             else:
                 out[key] = Estimate(val, se, "LSB", note)
