@@ -42,13 +42,26 @@ CASES = [
     (10, 1.5, 0.2, (64, 128), 16, 0.5),
     (10, 1.0, 0.1, (64, 128), 16, 2.0),  # noise-dominated codes
     (10, 1.0, 0.2, (128, 256), 4, 0.3),  # 4 frames: 3 dof
+    (10, 0.5, 0.2, (64, 128), 16, "in step"),  # a ramp in step with the sampling: every frame the same
 ]
+
+
+class _InStep:
+    """The same phase every frame (``Adc.ramp``'s rng): a ramp synchronous with the sampling."""
+
+    def __init__(self, rng):
+        self.phase = rng.random()
+
+    def random(self):
+        return self.phase
 
 
 def groups_of(adc: Adc, frames: int, shape, rng, noise: float) -> np.ndarray:
     """(channel, group, code) histograms of ``frames`` ramp frames."""
     k = min(frames, GROUPS)
     g = np.zeros((2, k, adc.max_code + 1), np.int64)
+    if noise == "in step":
+        rng, noise = _InStep(rng), 0.0
     for i in range(frames):
         f = adc.ramp(1, shape, rng, noise_lsb=noise)[0]
         for ch in range(2):
@@ -98,7 +111,7 @@ def main() -> int:
              "as the value (the analysis until now). **after**: `from_histogram(groups=...)`: the delete-one-group "
              "jackknife over the sub-histograms with one count's resolution, x Student's t for K - 1 dof, the "
              "extreme less its selection bias (the bias in quadrature in the SE).", "",
-             "| bits | INL bow | DNL sd | frame | frames | noise LSB | extreme | before: SE / observed error rms "
+             "| bits | INL bow | DNL sd | frame | frames | input noise, LSB | extreme | before: SE / observed error rms "
              "| before: max \\|z\\| | scatter SE, bias not corrected: mean z | max \\|z\\| | after: SE / error rms | after: mean z | SD z | max \\|z\\| | within 3 SE "
              "| limits (hold truth) |",
              "|---:|---:|---:|---|---:|---:|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|---|"]
@@ -120,7 +133,7 @@ def main() -> int:
             all_limits += len(lim)
             all_held += held
             ratio = (np.mean([x["se"] for x in ok]) / np.sqrt(np.mean(err ** 2))) if ok else float("nan")
-            lines.append(f"| {bits} | {inl:g} | {dnl:g} | {shape[0]}x{shape[1]} | {frames} | {noise:g} | {key} "
+            lines.append(f"| {bits} | {inl:g} | {dnl:g} | {shape[0]}x{shape[1]} | {frames} | {noise} | {key} "
                          f"| {se_b.mean() / np.sqrt(np.mean(err_b ** 2)):.1f} | {np.abs(err_b / se_b).max():.2f} "
                          f"| {z_raw.mean():+.2f} | {np.abs(z_raw).max():.1f} "
                          f"| {ratio:.2f} " + stats(z) + f" {len(lim)} ({held}) |")
@@ -138,7 +151,9 @@ def main() -> int:
               "uncorrected its z has means up to +/-1.6 and reaches 4.8; less its selection bias (the "
               "expected excess of the extreme of the curve plus its own noise, 200 draws) the means stay "
               "within +/-0.35. Where the bias-corrected extreme is not resolved from 0 it is reported as a "
-              "limit (value + 3 SE for a max), and every limit held the truth. Fast version in the suite: "
+              "limit (value + 3 SE for a max), and every limit held the truth. A ramp in step with the sampling "
+              "(\"in step\": every frame the same, its sub-histograms identical) is known only to one sample of "
+              "a frame's count: so its SE (one count of the total would be 16x smaller). Fast version in the suite: "
               "`tests/test_adc_scatter_se.py`."]
     return publish("adc_se", lines)
 

@@ -19,13 +19,23 @@ TRUTH = {"inl_max": lambda i, d: i.max(), "inl_min": lambda i, d: i.min(),
          "dnl_max": lambda i, d: np.nanmax(d), "dnl_min": lambda i, d: np.nanmin(d)}
 
 
-def ramp(seed: int, frames: int = 16, noise: float = 0.0, dnl: float = 0.2):
+class _InStep:
+    """A ramp in step with the sampling: the same phase every frame (``Adc.ramp``'s rng)."""
+
+    def __init__(self, seed):
+        self.phase = np.random.default_rng(seed).random()
+
+    def random(self):
+        return self.phase
+
+
+def ramp(seed: int, frames: int = 16, noise: float = 0.0, dnl: float = 0.2, in_step: bool = False):
     """A 10-bit ADC (bow 0.5 LSB, random code widths) and the (group, code) histograms of
     channel 0 of a 64x128 ramp (4 samples per code and channel a frame)."""
     adc = Adc(SensorParams(rows=64, cols=128, adc_bits=10, adc_inl_lsb=0.5, adc_dnl_lsb=dnl),
               np.random.default_rng(100 + seed))
     g = np.zeros((min(frames, 16), adc.max_code + 1), np.int64)
-    rng = np.random.default_rng(seed)
+    rng = _InStep(seed) if in_step else np.random.default_rng(seed)
     for i in range(frames):
         f = adc.ramp(1, (64, 128), rng, noise_lsb=noise)[0][:, 0::2]
         g[i % g.shape[0]] += np.bincount(f.ravel(), minlength=adc.max_code + 1)
@@ -65,6 +75,18 @@ def test_extremes_cover_the_truth_over_seeds(noise):
     assert zs.size >= 12 and np.abs(zs).max() < 3
     # the SE is the error's size: within a factor 3 of its rms either way
     assert 1 / 3 < np.mean(ses) / np.sqrt(np.mean(np.square(errs))) < 3
+
+
+def test_a_ramp_in_step_with_the_sampling_is_known_to_one_sample_a_frame():
+    """Every frame the same (a synchronous ramp): the sub-histograms agree, their scatter is 0
+    and averaging resolves nothing; the SE is one sample of a frame's count (the error of such a
+    ramp), not of the total (16x smaller: its extremes up to ~15 SE off)."""
+    adc, g = ramp(2, in_step=True)
+    r = from_histogram(g.sum(axis=0), groups=g)
+    assert "not dithered" in r.se_note()
+    for key, truth in TRUTH.items():
+        e, t = r.extremes()[key], truth(adc.inl_lsb(), adc.dnl_lsb())
+        assert ((t <= e.value) if e.bound == "upper" else (t >= e.value)) if e.bound else abs(e.value - t) < 3 * e.se
 
 
 def test_an_extreme_of_noise_is_corrected_for_its_selection_bias():

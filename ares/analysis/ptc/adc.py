@@ -23,8 +23,12 @@ An Introduction to the Bootstrap, 1993, ch. 11; the random-groups variance of Wo
 Introduction to Variance Estimation, 2nd ed. 2007, ch. 2 and 4), which measures the data's
 own scatter whatever its model (deterministic ramp, input noise, a sine). It has K - 1
 degrees of freedom, so it carries Student's t (``ptc.fit.residual_se_widening``: 3 SE cover
-what 3 normal SEs do). With one histogram only (old run directories, a histogram given) the
-counting SE is used, and ``se_note`` says so.
+what 3 normal SEs do). A count is an integer: one sample of the total count is kept in
+quadrature as its resolution, and where all sub-histograms are the same (a ramp in step with
+the sampling: averaging frames resolves nothing) one sample of a sub-histogram's. With one
+histogram only (old run directories, a histogram given) the counting SE is used, and
+``se_note`` says so. The extreme of many codes is biased away from 0 by their noise: it is
+reported less that selection bias (``InlDnl.extremes``).
 """
 from __future__ import annotations
 
@@ -57,6 +61,10 @@ class InlDnl:
 
     def se_note(self) -> str:
         """How the SEs were made, one phrase."""
+        if self.scatter and not self.scatter["dithered"]:
+            return (f"the {self.groups} sub-histograms are all the same (a ramp in step with the sampling, not "
+                    f"dithered: averaging resolves nothing): SE one sample of a sub-histogram's count, "
+                    f"x Student's t for {self.groups - 1} dof (x {self.widening():.3g})")
         if self.scatter:
             return (f"SE from the scatter of {self.groups} independent sub-histograms (delete-one-group jackknife) "
                     f"with one count's resolution, x Student's t for {self.groups - 1} dof (x {self.widening():.3g})")
@@ -252,11 +260,14 @@ def from_histogram(hist: np.ndarray, input_density: str = "uniform", trim: int =
             dnl, inl = _curves(_density_widths(h - g, input_density), lo, hi, max_code)
             # a count is an integer: where every group agrees the scatter says 0, so one sample of
             # the code's count (DNL) and of the mean count per code (INL) is kept as the
-            # resolution (JCGM 100:2008 F.2.2.1)
+            # resolution (JCGM 100:2008 F.2.2.1). Sub-histograms all the same are a ramp in step
+            # with the sampling (not dithered): averaging them resolves nothing, one sample of
+            # each group's count is the resolution
             mean = float(h[lo:hi + 1].mean())
+            res = float(k) if np.all(g == g[:1]) else 1.0
             scatter = {"dnl": _jackknife_se(dnl), "inl": _jackknife_se(inl),
-                       "floor_dnl": np.where(h > 0, (r.dnl + 1.0) / np.maximum(h, 1.0), 1.0 / mean),
-                       "floor_inl": 1.0 / mean,
+                       "floor_dnl": res * np.where(h > 0, (r.dnl + 1.0) / np.maximum(h, 1.0), 1.0 / mean),
+                       "floor_inl": res / mean, "dithered": res == 1.0,
                        **{n: float(_jackknife_se(v)) for n, v in _extremes(dnl, inl).items()}}
     return replace(r, per_code=per_code, groups=k, scatter=scatter)
 
