@@ -30,6 +30,7 @@ histogram only (old run directories, a histogram given) the counting SE is used,
 ``se_note`` says so. The extreme of many codes is biased away from 0 by their noise: it is
 reported less that selection bias (``InlDnl.extremes``).
 """
+
 from __future__ import annotations
 
 import math
