@@ -180,4 +180,6 @@ ARRAY_UNITS.update({f"dark_{k}": ARRAY_UNITS[k] for k in ("frame_counter", "fram
 def array_unit(name: str) -> str:
     if name.startswith("link_"):  # a stage's link statistics (ares.hardware.link_stats)
         return "bytes" if name.endswith("_bytes") else "1 (count during the stage)"
+    if name.startswith("histgroups_"):  # an ADC ramp's sub-histograms (ares.results.adc)
+        return "counts per code (one row per sub-histogram: frame i in row i mod rows)"
     return "counts per code" if name.startswith("hist_") else ARRAY_UNITS.get(name, "")

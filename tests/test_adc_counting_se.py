@@ -1,6 +1,8 @@
 """INL/DNL with standard errors (issue 38: the ADC page gave bare extremes and the curves
-were not exported). The code-density test's counting SE against a Monte Carlo of an ideal
-ADC, and the curves in adc_inl_dnl.csv / report.h5 with the extremes the JSON states."""
+were not exported). The code-density test's counting SE (the fallback for one histogram)
+against a Monte Carlo of an ideal ADC fed i.i.d. uniform samples, and the curves in
+adc_inl_dnl.csv / report.h5 with the extremes the JSON states (their SEs from the ramp's
+sub-histograms: tests/test_adc_scatter_se.py)."""
 
 from __future__ import annotations
 
@@ -43,12 +45,24 @@ def test_adc_scan_reports_extremes_with_se_and_exports_the_curves(tmp_path):
     res = json.loads((out / "scan_results.json").read_text())["analyses"]["adc_linearity"]
     with open(out / "adc_inl_dnl.csv", newline="") as fh:
         rows = list(csv.DictReader(fh))
+    from ares.rundir.record import load_run
+    from ares.results.adc import ramp_curves
+
+    curves = ramp_curves(load_run(out))
     for ch, c in res["channels"].items():
         mine = [r for r in rows if r["channel"] == ch]
         assert mine, ch
-        for key in ("dnl_max_lsb", "inl_min_lsb"):
-            assert c[key]["se"] is not None and c[key]["se"] > 0 and c[key]["verdict"] == "ok"
-        assert max(float(r["dnl_lsb"]) for r in mine) == pytest.approx(c["dnl_max_lsb"]["value"])
-        assert min(float(r["inl_lsb"]) for r in mine) == pytest.approx(c["inl_min_lsb"]["value"])
+        r = curves[ch]
+        assert r.groups == 3 == c["sub_histograms"]  # --frames 3: the ramp's sub-histograms
+        ext = r.extremes()
+        for key in ("dnl_max", "inl_max", "dnl_min", "inl_min"):
+            assert c[f"{key}_lsb"] == ext[key].to_dict()  # what the CSV's curves give, as the JSON states it
+            assert "3 independent sub-histograms" in ext[key].note and "selection bias" in ext[key].note
+        # the INL bow (0.5 LSB) is resolved; every extreme "ok" has its SE below its value
+        assert c["inl_max_lsb"]["verdict"] == "ok" and 0 < c["inl_max_lsb"]["se"] < c["inl_max_lsb"]["value"]
+        assert max(float(x["dnl_lsb"]) for x in mine) == pytest.approx(r.at_extremes()["dnl_max"][0])
+        assert [float(x["dnl_se_lsb"]) for x in mine] == pytest.approx(r.dnl_se()[r.first:r.last])
+        assert min(float(x["inl_lsb"]) for x in mine) == pytest.approx(r.at_extremes()["inl_min"][0])
     with h5py.File(out / "report.h5", "r") as h:
         assert h["adc_inl_dnl/inl_lsb"].attrs["unit"] == "LSB" and h["adc_inl_dnl/inl_lsb"].size == len(rows)
+        assert json.loads(h["adc_inl_dnl"].attrs["se_note"]) == {ch: r.se_note() for ch, r in curves.items()}

@@ -92,15 +92,19 @@ def adc_page(run, d: dict):
         ax2 = fig.add_axes([0.11, 0.35, 0.83, 0.25], sharex=ax1)
         for k, (ch, r) in enumerate(curves.items()):
             ax1.plot(r.codes, r.dnl, lw=0.6, label=ch, color=f"C{k}")
+            se = r.dnl_se()  # 1-SE bands, as adc_inl_dnl.csv gives every code's SE (InlDnl.se_note)
+            ax1.fill_between(r.codes, r.dnl - se, r.dnl + se, color=f"C{k}", alpha=0.15, lw=0)
             t = np.arange(1, r.inl.size + 1)
             ax2.plot(t, r.inl, lw=0.8, label=ch, color=f"C{k}")
-            se = r.inl_se()  # the counting statistics' 1-SE band (adc_inl_dnl.csv has every code's SE)
+            se = r.inl_se()
             ax2.fill_between(t, r.inl - se, r.inl + se, color=f"C{k}", alpha=0.15, lw=0)
         ax1.set_ylabel("DNL (LSB)")
         ax1.set_title("differential non-linearity")
         ax2.set_ylabel("INL (LSB)")
         ax2.set_xlabel("code")
-        ax2.set_title("integral non-linearity (endpoint fit; band: 1 SE of the counts)")
+        how = ("the sub-histograms' scatter" if all(r.scatter for r in curves.values())
+               else "counting statistics: no sub-histograms")
+        ax2.set_title(f"integral non-linearity (endpoint fit; band: 1 SE, {how})")
         for a in (ax1, ax2):
             a.grid(alpha=0.3)
             a.legend()
@@ -108,6 +112,7 @@ def adc_page(run, d: dict):
     else:
         fig.text(0.08, y, "no code histograms in results.h5: curves not available", fontsize=9, va="top")
         y -= 0.03
-    rows = analysis_rows(d.get("channels") or {})
-    _table(fig, y, rows, "per channel (scan_results.json)", n=16)
+    chans, again = series_tables.adc_channels_now(d, curves)
+    _table(fig, y, analysis_rows(chans), "per channel (scan_results.json" + (
+        "; the extremes judged again from results.h5: no sub-histograms, counting SE)" if again else ")"), n=16)
     return fig

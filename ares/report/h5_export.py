@@ -70,7 +70,8 @@ def write_h5(run, path: str | Path, groups=None, kf=None) -> Path:
                tables.LEVEL_COLUMNS)
         adc = series_tables.adc_rows(run)
         if adc:
-            _table(f.create_group("adc_inl_dnl"), adc, series_tables.ADC_COLUMNS)
+            _table(g := f.create_group("adc_inl_dnl"), adc, series_tables.ADC_COLUMNS)
+            g.attrs["se_note"] = json.dumps(series_tables.adc_se_notes(run))  # channel -> how the SEs were made
         sq = run.analyses.get("spectral_qe")
         if isinstance(sq, dict) and "points" in sq:  # QE(lambda): the same rows as spectral_qe.csv
             from ares.report.spectral_qe_page import SPECTRAL_COLUMNS, spectral_csv_rows

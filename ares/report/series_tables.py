@@ -56,30 +56,37 @@ ADC_COLUMNS = ("channel", "code", "dnl_lsb", "dnl_se_lsb", "transition", "inl_ls
 
 
 def adc_curves(run, d: dict) -> dict:
-    """Channel -> ``InlDnl`` of the ``adc_linearity`` analysis ``d``: the code-density test
-    on its ramp stages' code histograms in results.h5, as the runner computed its extremes."""
-    from ares.analysis.ptc.adc import code_density
+    """Channel -> ``InlDnl`` of the ``adc_linearity`` analysis ``d``: the code-density test on
+    its ramp stages' code histograms in results.h5, as the runner computed its extremes (with
+    the scatter SEs of their sub-histograms, or the counting SEs of a run that has none)."""
+    from ares.results.adc import ramp_curves
 
-    hists: dict = {}
-    for st in run.stages:
-        if st["name"] in (d.get("stages") or []):
-            for k, a in run.arrays(st["index"]).items():
-                if k.startswith("hist_"):
-                    hists[k[5:]] = hists.get(k[5:], 0) + np.asarray(a)
-    out = {}
-    for ch in (d.get("channels") or {}):
-        h = hists.get(ch)
-        if h is None:
-            continue
-        try:
-            out[ch] = code_density(np.repeat(np.arange(h.size), h.astype(np.int64)), h.size - 1)
-        except ValueError:
-            pass
-    return out
+    chans = d.get("channels") or {}
+    return {ch: r for ch, r in ramp_curves(run, d.get("stages") or []).items() if ch in chans}
+
+
+def adc_channels_now(d: dict, curves: dict) -> tuple[dict, list[str]]:
+    """The ``adc_linearity`` analysis ``d``'s channels for a report table, and the channels
+    judged again: a run written before the sub-histograms recorded counting-SE extremes "ok"
+    with SEs far above their values; those are shown as the analysis judges them now (its
+    curves ``curves``, ``adc_curves``: limits, the counting SE said so)."""
+    chans = dict(d.get("channels") or {})
+    again = [ch for ch, r in curves.items() if not r.scatter and ch in chans]
+    for ch in again:
+        chans[ch] = {**chans[ch], **{f"{k}_lsb": e.to_dict() for k, e in curves[ch].extremes().items()}}
+    return chans, again
+
+
+def adc_se_notes(run) -> dict[str, str]:
+    """Channel -> how the SEs of its INL/DNL curves were made (``InlDnl.se_note``)."""
+    d = run.analyses.get("adc_linearity")
+    if not isinstance(d, dict) or not d.get("channels"):
+        return {}
+    return {ch: r.se_note() for ch, r in adc_curves(run, d).items()}
 
 
 def adc_rows(run) -> list[dict]:
-    """The INL/DNL curves per channel with their counting SEs (adc_inl_dnl.csv)."""
+    """The INL/DNL curves per channel with their SEs (adc_inl_dnl.csv; ``InlDnl.se_note``)."""
     d = run.analyses.get("adc_linearity")
     if not isinstance(d, dict) or not d.get("channels"):
         return []

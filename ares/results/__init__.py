@@ -4,4 +4,4 @@ Imports ``rundir``, ``rig``, ``protocol``, ``sim``, ``hardware``, ``analysis``; 
 or ``scan``."""
 
 # every built-in analysis registers itself on import (``registry.register_scan_analysis``)
-from ares.results import analyses, emva1288, emva4, lowlight, mtf, photon_counting, spectral_qe  # noqa: E402,F401
+from ares.results import adc, analyses, emva1288, emva4, lowlight, mtf, photon_counting, spectral_qe  # noqa: E402,F401

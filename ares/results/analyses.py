@@ -445,37 +445,6 @@ def _locations(res) -> dict:
             "bad_column_x": [int(c["x"]) for c in res.bad_columns], "bad_row_y": [int(r["y"]) for r in res.bad_rows]}
 
 
-@register_scan_analysis("adc_linearity")
-def adc_linearity(run) -> dict:
-    """INL/DNL per ADC channel by the code-density test on ramp stages (test_mode 2),
-    else on every dark/flat stage's histogram together (approximate: not a uniform input)."""
-    import numpy as np
-
-    from ares.analysis.ptc.adc import code_density
-
-    ramps = [s for s in run.stages if s["settings"].get("reg:test_mode") == 2]
-    if not ramps:
-        return {"status": "not available", "note": "needs a ramp stage (test_mode 2)"}
-    hists: dict = {}
-    for st in ramps:
-        for k, a in run.arrays(st["index"]).items():
-            if k.startswith("hist_"):
-                hists[k[5:]] = hists.get(k[5:], 0) + a
-    if not hists:
-        return {"status": "not available", "note": "needs the run directory's results.h5 (code histograms)"}
-    chans = [k for k in hists if k.startswith("adc")] or ["full"]
-    out = {"stages": [s["name"] for s in ramps], "channels": {}}
-    for ch in chans:
-        h = np.asarray(hists[ch])
-        r = code_density(np.repeat(np.arange(h.size), h), h.size - 1)
-        ext = r.at_extremes()  # each with its counting SE (Poisson counts per code)
-        note = f"code density, {r.per_code:.0f} samples per code; SE from the counting statistics"
-        out["channels"][ch] = {
-            **{f"{k}_lsb": Estimate(v, se, "LSB", note).to_dict() for k, (v, se) in ext.items()},
-            "missing_codes": int(r.missing_codes.size), "codes": [r.first, r.last], "samples": r.samples}
-    return out
-
-
 def check_defect_thresholds(scan) -> None:
     """Refuse unknown or malformed ``<defects>`` thresholds before any hardware is touched
     (the same parser the analysis uses, so what validates is what runs)."""

@@ -22,7 +22,8 @@ Layout (all paths relative to the run directory)::
                         arrays_sha256 (each array of NNNN.h5) and h5_bytes (``ares.rundir.check``)
     stages/NNNN.h5      HDF5 arrays of the stage: mean, variance (per-pixel temporal, DN^2),
                         frame_means, dark_mean (matched dark), hist_<view> (code histograms,
-                        adc_linearity and photon_counting scans only), defect_mask (uint8, 1 = excluded from the
+                        adc_linearity and photon_counting scans only; an ADC ramp stage's
+                        also as histgroups_<view>, one row per sub-histogram), defect_mask (uint8, 1 = excluded from the
                         masked figures; on the stage the mask was built from or first used
                         with, see ares.scan.defect_mask); chunked, gzip; per frame:
                         frame_counter (the device's counter, else the source's count),

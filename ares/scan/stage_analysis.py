@@ -51,10 +51,13 @@ def batch_for(shape) -> int:
     return max(2, min(16, BATCH_BYTES // (2 * shape[0] * shape[1])))
 
 
+RAMP_GROUPS = 16  # sub-histograms an ADC ramp stage keeps (frame i in i mod 16): 15 dof for its SEs
+
+
 class StackSet:
     """One accumulator per view, plus clip counters."""
 
-    def __init__(self, shape, views_: dict, max_code: int, histograms: bool = False, mask=None):
+    def __init__(self, shape, views_: dict, max_code: int, histograms: bool = False, mask=None, groups: int = 0):
         self.views = views_
         # the full view over the good pixels of a defect mask too (ares.scan.defect_mask)
         self.kept = None  # a KeptFrames (ares.scan.kept): the frames of the stage a mask is built from
@@ -63,6 +66,10 @@ class StackSet:
         self.max_code = max_code
         self.hist = {k: np.zeros(max_code + 1, np.int64) for k in views_
                      if k == "full" or k.startswith(("adc", "cfa_"))} if histograms else {}
+        # the ADC ramp's histograms again as ``groups`` sub-histograms, frame i in group i mod
+        # groups: the INL/DNL SEs come from their scatter (ares.analysis.ptc.adc.from_histogram)
+        self.hist_groups = {k: np.zeros((groups, max_code + 1), np.int64) for k in self.hist} if groups >= 2 else {}
+        self._added = 0  # frames added (the group of the next one)
         dummy = np.empty(shape, dtype=np.uint8)
         self.acc = {k: StackAccumulator(dummy[s].shape, batch=batch_for(dummy[s].shape)) for k, s in views_.items()}
         for acc in self.acc.values():  # clip counts in the accumulators' pass over each pixel
@@ -93,7 +100,12 @@ class StackSet:
             d = data[s]
             self.acc[k].add(d)  # (its clip counts too)
             if k in self.hist:
-                self.hist[k] += np.bincount(d.ravel(), minlength=self.max_code + 1)[: self.max_code + 1]
+                h = np.bincount(d.ravel(), minlength=self.max_code + 1)[: self.max_code + 1]
+                self.hist[k] += h
+                if k in self.hist_groups:
+                    g = self.hist_groups[k]
+                    g[self._added % g.shape[0]] += h
+        self._added += 1
         if m is not None and not m.riding:
             m.add(data)
         if self.kept is not None:
@@ -248,6 +260,8 @@ def analyze_stage(stage, flat: StackSet, dark: StackSet | None) -> tuple[dict, d
                       rts_series=flat.series.series.astype(np.float32))
     for k, h in flat.hist.items():
         arrays[f"hist_{k}"] = h  # code histogram (only when the scan asks for adc_linearity)
+    for k, g in flat.hist_groups.items():  # an ADC ramp's: the same as sub-histograms (the groups frames reached)
+        arrays[f"histgroups_{k}"] = g[: min(g.shape[0], flat.n_frames)]
     for prefix, stack in (("", flat), ("dark_", dark)):
         arrays.update(frame_meta_arrays(stack, prefix) if stack is not None else {})
     return res, arrays

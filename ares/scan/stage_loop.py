@@ -20,7 +20,7 @@ from ares.scan.defect_mask import mask_from_dark, scan_thresholds
 from ares.scan.preflight import KEEP_FOR_MASK_BYTES
 from ares.results.spectral_readings import photodiode_readings, spectral_readings
 from ares.results.registry import check_limits, limits_verdict, scan_level_results
-from ares.scan.stage_analysis import StackSet, analyze_stage
+from ares.scan.stage_analysis import RAMP_GROUPS, StackSet, analyze_stage
 from ares.rundir.record import RunRecord
 from ares.scan.stages import Stage
 from ares.scan.kept import KeptFrames
@@ -287,8 +287,9 @@ class StageLoop:
         shape = tuple(src.shape)
         mask = getattr(self, "_mask", None)
         pending = getattr(self, "_pending", None) is not None  # a provisional mask: keep the frames too
+        ramp = not dark and "adc_linearity" in self.scan.analyses and st.settings.get("reg:test_mode") == 2
         ss = StackSet(shape, vw, max_code, histograms=bool({"adc_linearity", "photon_counting"} & set(self.scan.analyses)),
-                      mask=mask.mask if mask is not None else None)
+                      mask=mask.mask if mask is not None else None, groups=RAMP_GROUPS if ramp else 0)
         if pending or (mask is None and not dark and st.scene == "dark"):
             # the stage a defect mask will be built from, or a stage to mask again when a flat
             # completes it (ares.scan.mask_complete): keep its frames

@@ -125,16 +125,22 @@ class Adc:
             codes += xd >= self._tpad[base + m]
         return codes
 
-    def ramp(self, n: int, shape: tuple[int, int], rng: np.random.Generator) -> np.ndarray:
+    def ramp(self, n: int, shape: tuple[int, int], rng: np.random.Generator, noise_lsb: float = 0.0) -> np.ndarray:
         """ADC test input (test_mode 2): a linear ramp from -1 to max+1 LSB across each
         frame (row-major), with a random sub-step phase per frame, converted by the
         ADC alone (no pixel, no channel offsets). Code histograms over frames give the
-        code widths, i.e. the DNL."""
+        code widths, i.e. the DNL. The phase spans two samples, the period of the two
+        column channels, so each channel's own sample grid is uniformly phased too (a
+        one-sample phase left a channel's histogram biased by up to a quarter of its step)."""
         size = shape[0] * shape[1]
         span = self.max_code + 2.0
         k = np.arange(size, dtype=np.float64)
+        step = span / size
         out = np.empty((n, *shape), np.uint16)
         for i in range(n):
-            x = -1.0 + span * (k + rng.random()) / size
+            x = -1.0 + step * (k - 0.5 + 2.0 * rng.random())  # the mean phase half a sample, as with one
+            x[0], x[-1] = min(x[0], -1.0), max(x[-1], span - 1.0)  # both end codes whatever the phase
+            if noise_lsb:  # the input's (or the ADC's transition) noise, LSB rms (benchmarks/adc_se.md)
+                x += noise_lsb * rng.standard_normal(size)
             out[i] = self.quantize(x).reshape(shape)
         return out
