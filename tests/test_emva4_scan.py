@@ -69,6 +69,29 @@ def test_datasheet_pdf_follows_section_10_2(run_dir):
     assert any("Summary Sheet for Operation Point 1" in p for p in report)  # also in the run's report
 
 
+def test_every_key_figure_is_in_the_report_pdf(run_dir):
+    """The 88 key figures of this run do not fit the title page: the rest are on "Key figures
+    (continued)" pages, each figure's label, value and whole note (wrapped, not cut)."""
+    import re
+
+    from ares.report import key_figure_pages, key_figures
+
+    from pypdf import PdfReader
+
+    pages = []
+    for p in PdfReader(run_dir / "report.pdf").pages:  # the title page and its continuations
+        pages.append(re.sub(r"\s+", " ", p.extract_text()))
+        if len(pages) > 1 and not pages[-1].startswith("Key figures (continued)"):
+            break
+    assert len(pages) >= 4 and "more key figure(s) on the next page(s)" in pages[0]
+    text = " ".join(pages[:-1])
+    rows = key_figure_pages.rows_of(key_figures(run_dir))
+    assert len(rows) == sum(1 for _ in open(run_dir / "key_figures.csv")) - 1
+    for r in rows:
+        for cell in r:
+            assert re.sub(r"\s+", " ", cell) in text, cell
+
+
 def test_values_match_truth_and_carry_their_verdicts(run_dir):
     res = json.loads((run_dir / "scan_results.json").read_text())["analyses"]["emva4"]
     assert res["release"] == "EMVA 1288 Release 4.0 Linear"
