@@ -61,7 +61,7 @@ def _limit_cells(q: str, screens: list[dict], outcome: dict) -> tuple[str, str, 
 def pages(db, lot_id: int, which: list[int]):
     """The certificate pages (matplotlib figures) of the lot's items ``which``."""
     from ares import __version__
-    from ares.analysis.stats.estimate import format_value
+    from ares.report.page_tables import fmt_value
     from ares.batch import db as rdb
     from ares.report.plots import new_page, text_table
 
@@ -91,9 +91,10 @@ def pages(db, lot_id: int, which: list[int]):
         rowsf = []
         for q, f in sorted(figs.get(i, {}).items()):
             st, dy, v = _limit_cells(q, screens, r)
-            val = format_value(f["value"], f["se"]) if f["value"] is not None else "not available"
+            val = fmt_value(f["value"], f["se"], f["unit"] or "", "", f.get("exact", "")) \
+                if f["value"] is not None else "not available"  # (an SE of 0: "exact: ...")
             se = "" if f["value"] is None else ("SE not available" if f["se"] is None else "")
-            rowsf.append([q, f"{val} {f['unit'] or ''}".strip() + (f" ({se})" if se else ""), st, dy, v])
+            rowsf.append([q, val + (f" ({se})" if se else ""), st, dy, v])
         head = ["quantity", "value ± SE, unit", "limit", "dynamic limit", "outcome"]
         w, mc = [0.3, 0.26, 0.16, 0.18, 0.1], [44, 40, 24, 28, 16]
         rowsf = rowsf or [["no figures", "", "", "", ""]]

@@ -24,7 +24,8 @@ CONTINUED_TITLE = "Key figures (continued)"
 
 def rows_of(kf: dict) -> list[list[str]]:
     """[label, value ± SE (or its verdict), definition / note] per key figure, in report order."""
-    return [[v["label"], page_tables.fmt_value(v["value"], v["se"], v["unit"], v.get("verdict", "")),
+    return [[v["label"], page_tables.fmt_value(v["value"], v["se"], v["unit"], v.get("verdict", ""),
+                                               v.get("exact", "")),
              v.get("note") or ""]
             for v in kf.values()] or EMPTY
 
