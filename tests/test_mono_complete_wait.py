@@ -30,7 +30,6 @@ SCAN = """<?xml version="1.0" encoding="UTF-8"?>
     <set quantity="light" value="1000000"/></settings>
   <frames>2</frames>
   <stages>
-    <stage name="at550" scene="flat"><set quantity="wavelength" value="550"/></stage>
     <stage name="at700" scene="flat"><set quantity="wavelength" value="700"/></stage>
   </stages>
   <output pdf="false"/>
