@@ -226,5 +226,6 @@ def test_a_given_gain_is_exact_with_its_reason_not_an_invented_se():
     assert note_text(d) == exact_text(EXACT_GAIN)
     assert out["poisson_ratio"].value == pytest.approx(1.0) and out["poisson_ratio"].se > 0
     # an SE of 0 that came without its reason still gets a verdict, never a bare number
-    assert Estimate(3.0, 0.0, "DN").text() == "3 DN (exact: declared, not measured)"
+    e = Estimate(3.0, 0.0, "DN")
+    assert e.text() == "3 DN (exact: declared, not measured)" and Estimate.from_dict(e.to_dict()) == e
     assert Estimate.limit(3.0, "lower", "photons", "x").to_dict().get("exact") is None

@@ -97,7 +97,8 @@ class Estimate:
         se = d.get("se")
         bound = {VERDICT_UPPER: "upper", VERDICT_LOWER: "lower"}.get(d.get("verdict", ""), "")
         return cls(math.nan if v is None else float(v), math.nan if se is None else float(se),
-                   d.get("unit", ""), d.get("note", ""), bound, d.get("exact", ""))
+                   d.get("unit", ""), d.get("note", ""), bound,
+                   "" if d.get("exact") == EXACT_DEFAULT else d.get("exact", ""))  # (round trip: the same Estimate)
 
     def text(self, with_unit: bool = True, with_reason: bool = False, with_exact: bool = True) -> str:
         """``12002 ± 3.6 e-``; ``< 0.40 e-`` (upper limit); ``15320 photons (exact: declared
