@@ -52,7 +52,7 @@ def _cell(r: dict, q: str) -> str:
     v = f.get("value")
     if v is None:
         return "not measured" if r.get("status") != "error" else "-"
-    return fmt_value(v, f.get("se"), f.get("unit") or "", "", f.get("exact", ""))  # SE 0: "(exact: ...)"
+    return fmt_value(v, f.get("se"), f.get("unit") or "", f.get("verdict") or "", f.get("exact", ""))  # "< x", "(exact: ...)"
 
 
 def _wrap(s: str, width: int) -> list[str]:

@@ -15,7 +15,7 @@ from matplotlib.figure import Figure
 from ares.analysis.emva.sheet import SYMBOLS
 from ares.analysis.emva.graphs import spectrum_peaks
 from ares.analysis.stats.estimate import note_text
-from ares.report.plots import A4, row_lines, table_head_lines, text_table
+from ares.report.plots import A4, row_lines, table_lines_between, text_table
 
 LINEAR = "EMVA 1288 Release 4.0 Linear"
 GENERAL = "EMVA 1288 Release 4.0 General"
@@ -431,7 +431,7 @@ def values_page(sheet, values: dict, title: str, page: str, rel: str = LINEAR) -
     data = [[k, e.text(with_unit=False, with_exact=False) if e.available else value_text(e), e.unit,
              note_text(e.to_dict())] for k, e in values.items()]
     size, chars = 7 if len(data) <= 45 else 6, [18, 24, 12, 72]
-    room = (0.9 - 0.05) / (size * 1.45 / 72 / A4[1]) - table_head_lines(False)  # lines down to the footer
+    room = table_lines_between(0.9, 0.05, size, False)  # lines down to the footer
     text_table(fig, (0.06, 0.9, 0.88), ["quantity", "value", "unit", "definition"], data, [1.1, 1.6, 0.8, 4.1],
                fontsize=size, max_chars=chars, wrap=sum(row_lines(r, chars) for r in data) <= room)  # whole if it fits
     return fig

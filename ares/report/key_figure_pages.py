@@ -30,23 +30,11 @@ def rows_of(kf: dict) -> list[list[str]]:
             for v in kf.values()] or EMPTY
 
 
-def _line() -> float:
-    return FONTSIZE * 1.45 / 72 / plots.A4[1]
-
-
 def split(rows: list[list[str]], first_top: float) -> list[list[list[str]]]:
-    """``rows`` in page-sized chunks: the first below ``first_top`` on the title page, the
-    rest from ``TOP`` on continuation pages; a row (with its wrapped lines) is never split."""
-    chunks: list[list[list[str]]] = [[]]
-    room = (first_top - BOTTOM) / _line() - plots.table_head_lines(True)
-    for row in rows:
-        n = plots.row_lines(row, MAX_CHARS)
-        if n > room and chunks[-1]:
-            chunks.append([])
-            room = (TOP - BOTTOM) / _line() - plots.table_head_lines(False)
-        chunks[-1].append(row)
-        room -= n
-    return chunks
+    """``rows`` in page-sized chunks: the first below ``first_top`` on the title page (under its
+    "Key figures" title), the rest from ``TOP`` on continuation pages; a row is never split."""
+    return plots.paginate(rows, MAX_CHARS, plots.table_lines_between(first_top, BOTTOM, FONTSIZE, True),
+                          plots.table_lines_between(TOP, BOTTOM, FONTSIZE, False))
 
 
 def draw(fig, top: float, rows: list[list[str]], title: str, more: int) -> float:

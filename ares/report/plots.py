@@ -70,6 +70,26 @@ def row_lines(row, max_chars: list[int] | None) -> int:
     return max((len(cell_lines(c, max_chars[j] if max_chars else None)) for j, c in enumerate(row)), default=1)
 
 
+def paginate(rows: list, max_chars: list[int] | None, first: float, then: float) -> list[list]:
+    """``rows`` of a wrapped ``text_table`` in page-sized chunks: ``first`` lines of room on the
+    first page, ``then`` on each further one; a row (with its wrapped lines) is never split."""
+    chunks: list[list] = [[]]
+    room = first
+    for row in rows:
+        n = row_lines(row, max_chars)
+        if n > room and chunks[-1]:
+            chunks.append([])
+            room = then
+        chunks[-1].append(row)
+        room -= n
+    return chunks
+
+
+def table_lines_between(top: float, bottom: float, fontsize: float, title: bool) -> float:
+    """The rows' lines a ``text_table`` (wrapped) has room for from ``top`` down to ``bottom`` on an A4 page."""
+    return (top - bottom) / (fontsize * 1.45 / 72 / A4[1]) - table_head_lines(title)
+
+
 def table_head_lines(title: bool) -> float:
     """The lines ``text_table`` takes above its first row (title, header, rule)."""
     return (1.5 if title else 0.0) + 1.2
