@@ -41,7 +41,7 @@ def draw(fig, top: float, rows: list[list[str]], title: str, more: int) -> float
     """The table on ``fig`` from ``top``; ``more``: key figures on the pages that follow.
     Returns the y below its last row."""
     y = text_table(fig, (0.06, top, 0.9), HEADER, rows, WIDTHS, fontsize=FONTSIZE, title=title,
-               max_chars=MAX_CHARS, wrap=True)
+                   max_chars=MAX_CHARS, wrap=True)
     if more:
         fig.text(0.06, 0.03, f"{more} more key figure(s) on the next page(s), \"{CONTINUED_TITLE}\" "
                  "(all of them also in key_figures.csv)", fontsize=8)
