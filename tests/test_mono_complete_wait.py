@@ -83,7 +83,7 @@ def test_a_monochromator_that_never_answers_fails_in_its_timeout(tmp_path, stall
         with pytest.raises(HardwareError) as e:
             m.settle()
         assert str(e.value) == SILENT
-        assert stalled == [0.2]  # the complete command's timeout_s, not the instrument's 2 s, and once
+        assert stalled == [pytest.approx(0.2)]  # the complete command's timeout_s, not the instrument's 2 s, once
         assert m.port.instrument.log[-2:] == ["GOWAVE 632.80", "*OPC?"] and m.timeouts == 1
     finally:
         bench.close()
@@ -95,7 +95,7 @@ def test_the_stage_fails_with_one_sentence_naming_the_device(tmp_path, stalled, 
     err = capsys.readouterr().err
     assert err.startswith(f"ares run: {SILENT} (during stage 0") and "Traceback" not in err
     assert len(err.strip().splitlines()) == 1
-    assert stalled and all(t == 0.2 for t in stalled)
+    assert stalled and all(t == pytest.approx(0.2) for t in stalled)
 
 
 @pytest.mark.parametrize("timeout_s", ["0.2", "30"])
