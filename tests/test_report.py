@@ -337,6 +337,9 @@ def test_every_key_figure_is_in_the_pdf_whole(runs, tmp_path):
     chunks = report_pdf.key_figure_chunks(run, kf)
     rows = key_figure_pages.rows_of(kf)
     assert [r for c in chunks for r in c] == rows  # every row once, in order
+    from ares.report.plots import paginate  # a title page with no room left: every row on the next pages
+
+    assert [len(c) for c in paginate(rows[:3], key_figure_pages.MAX_CHARS, 0.5, 60)] == [0, 3]
     drawn = []
     for i in kpages:  # drawn: each table ends above the footer
         texts = pages[i][1]().texts

@@ -72,12 +72,13 @@ def row_lines(row, max_chars: list[int] | None) -> int:
 
 def paginate(rows: list, max_chars: list[int] | None, first: float, then: float) -> list[list]:
     """``rows`` of a wrapped ``text_table`` in page-sized chunks: ``first`` lines of room on the
-    first page, ``then`` on each further one; a row (with its wrapped lines) is never split."""
+    first page, ``then`` on each further one; a row (with its wrapped lines) is never split (the
+    first page may get none when its room is short; a row longer than a whole page has one)."""
     chunks: list[list] = [[]]
     room = first
     for row in rows:
         n = row_lines(row, max_chars)
-        if n > room and chunks[-1]:
+        if n > room and (chunks[-1] or room < then):
             chunks.append([])
             room = then
         chunks[-1].append(row)
