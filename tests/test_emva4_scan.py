@@ -35,6 +35,12 @@ def run_dir(tmp_path_factory):
     return out
 
 
+@pytest.fixture(scope="module")
+def report_pages(run_dir):
+    """report.pdf's text per page, read once for the tests below."""
+    return page_texts(run_dir / "report.pdf")
+
+
 def test_one_name_one_value_on_every_surface(run_dir):
     """Issue 52 on emva_4.xml: the headline figures under one name and one value on the
     terminal, the window, key_figures.csv and the PDF; the full well said to be where the ADC
@@ -48,7 +54,7 @@ def test_one_name_one_value_on_every_surface(run_dir):
     if ptc["saturation_capacity_e"]["value"] == ptc["turnoff_e"]["value"]:
         assert "are one point" in text
 
-def test_datasheet_pdf_follows_section_10_2(run_dir):
+def test_datasheet_pdf_follows_section_10_2(run_dir, report_pages):
     pages = page_texts(run_dir / "emva_datasheet.pdf")
     first = pages[0]
     for text in ("EMVA 1288", "Summary Sheet for Operation Point 1", "measurement date:", "Photon transfer",
@@ -65,8 +71,76 @@ def test_datasheet_pdf_follows_section_10_2(run_dir):
     assert "Summary Sheet (Release 4.0 General)" in general[0]
     assert all("Release 4.0 General ·" in p and "Release 4.0 Linear" not in p for p in general)
     assert "General 6.6 - 6.8" in " ".join(general)
-    report = page_texts(run_dir / "report.pdf")
+    report = report_pages
     assert any("Summary Sheet for Operation Point 1" in p for p in report)  # also in the run's report
+
+
+def test_every_key_figure_is_in_the_report_pdf(run_dir, report_pages):
+    """The 88 key figures of this run do not fit the title page: the rest are on "Key figures
+    (continued)" pages, each figure's label, value and whole note (wrapped, not cut)."""
+    import re
+
+    from ares.report import key_figure_pages, key_figures
+
+    n = 1 + next(i for i, p in enumerate(report_pages[1:]) if not p.startswith("Key figures (continued)"))
+    assert n >= 4 and "more key figure(s) on the next page(s)" in report_pages[0]
+    text = " ".join(report_pages[:n])
+    rows = key_figure_pages.rows_of(key_figures(run_dir))
+    assert len(rows) == sum(1 for _ in open(run_dir / "key_figures.csv")) - 1
+    for r in rows:
+        for cell in r:
+            assert re.sub(r"\s+", " ", cell) in text, cell
+
+
+def test_exact_figures_state_their_verdict_on_every_surface(run_dir, report_pages):
+    """µp.sat is the photons declared for the saturation step (the scan's light x exposure),
+    not measured: SE exactly 0, and beside it on every surface "(exact: declared photons)",
+    one wording (``exact_text``), no invented SE. Every figure of the run with SE 0 says why."""
+    import h5py
+
+    from ares.analysis.stats.estimate import EXACT_PHOTONS, exact_text
+    from ares.gui.runner_adapter import summarize
+    from ares.report import key_figures
+
+    res = json.loads((run_dir / "scan_results.json").read_text())["analyses"]
+    mu = res["emva4"]["values"]["mu_p_sat"]
+    with open(run_dir / "summary.csv", newline="") as f:  # truth: the photons the scan declared per stage
+        declared = {float(r["light_photons_per_pixel_per_s"]) * float(r["exposure_s"]) for r in csv.DictReader(f)
+                    if r["light_photons_per_pixel_per_s"] and r["exposure_s"]}
+    assert any(math.isclose(mu["value"], p, rel_tol=1e-9) for p in declared)
+    assert mu["se"] == 0 and mu["verdict"] == "ok" and mu["exact"] == EXACT_PHOTONS
+    zero = []
+
+    def walk(x, path):
+        if isinstance(x, dict) and "value" in x and "unit" in x:
+            if x.get("se") == 0:
+                zero.append((path, x))
+        elif isinstance(x, dict):
+            for k, v in x.items():
+                walk(v, f"{path}.{k}" if path else k)
+
+    walk(res, "")
+    assert {p for p, _ in zero} >= {"emva4.values.mu_p_sat", "emva4.general.values.mu_p_sat"}
+    word = f"({exact_text(EXACT_PHOTONS)})"
+    gui = summarize(res)["results"]
+    kf = key_figures(run_dir)
+    with open(run_dir / "key_figures.csv", newline="") as f:
+        kcsv = {r["name"]: r for r in csv.DictReader(f)}
+    with open(run_dir / "emva_datasheet.csv", newline="") as f:
+        dcsv = {(r["release"], r["quantity"]): r for r in csv.DictReader(f)}
+    with h5py.File(run_dir / "report.h5") as f:
+        h5 = {n.decode(): t.decode() for n, t in zip(f["key_figures/name"][:], f["key_figures/note"][:])}
+    for path, d in zero:  # every SE of exactly 0: its reason, on the terminal, the window, CSV, HDF5, PDF
+        assert d.get("exact"), path
+        text = f"{d['value']:.7g} {d['unit']} ({exact_text(d['exact'])})"
+        assert text in TERMINAL["text"], (path, text)
+        assert any(v == text for k, v in gui.items() if k.endswith(path.split(".", 1)[1])), path
+        assert kf[path]["exact"] == d["exact"] and kcsv[path]["note"].startswith(exact_text(d["exact"])), path
+        assert h5[path].startswith(exact_text(d["exact"])), path
+    assert dcsv[("EMVA 1288 Release 4.0 Linear", "mu_p_sat")]["definition"].startswith(exact_text(EXACT_PHOTONS))
+    report = " ".join(report_pages)
+    assert report.count(word) >= 3  # the key-figure rows (Linear, General) and the General summary sheet
+    assert f"{mu['value']:.7g} photons {word}" in report
 
 
 def test_values_match_truth_and_carry_their_verdicts(run_dir):

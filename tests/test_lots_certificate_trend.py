@@ -80,3 +80,28 @@ def test_certificate_per_sensor_has_identity_figures_limits_bin_and_traceability
     assert "5 certificate(s), 5 page(s)" in capsys.readouterr().out
     assert "Certificate of performance: S4" in pdf_text(all_pdf)
     assert main(["lots", "certificate", "L1", "nobody", "--db", path]) == 2
+
+
+def test_certificate_holds_every_figure_whole_with_its_verdict(tmp_path):
+    """A sensor with more figures than a page: none dropped or cut (wrapped, continued), a
+    limit shown as one ("> 76.6", not "76.6 (SE not available)"), an exact value (SE 0) with
+    its verdict, and the key figures end above the traceability table."""
+    from ares.batch import certificate
+    from ares.analysis.stats.estimate import exact_text
+
+    figs = {f"quantity_{k:02d}": _fig(1.0 + k, 0.01, "DN") for k in range(70)}
+    figs["mu_p_sat"] = _fig(15320.0, 0.0, "photons")
+    figs["DR"] = dict(_fig(76.6, None, ""), verdict="lower limit")
+    j = judge([{"item": "/l/die0", "status": "done", "kind": "run", "hash": "0" * 64, "sensor": "S0",
+                "figures": figs}], [])
+    path = str(tmp_path / "r.sqlite")
+    with rdb.connect(path) as db:
+        rdb.append_lot(db, "L1", j)
+        fig, *more = certificate.pages(db, 1, [0])
+    assert more  # continued
+    texts = [(t.get_position()[1], t.get_text()) for t in fig.texts]
+    trace = next(y for y, s in texts if s == "Traceability")
+    assert min(y for y, s in texts if s.startswith("quantity_")) > trace
+    text = " ".join(t.get_text() for f in (fig, *more) for t in f.texts)  # (wrapped cells: their lines in order)
+    assert all(f"quantity_{k:02d}" in text for k in range(70))
+    assert f"15320 photons ({exact_text()})" in text and "> 76.6" in text and "76.6 (SE not" not in text

@@ -207,3 +207,31 @@ def test_components_are_shown_with_verdicts():
     assert component_text("Rt", {"value": -0.5, "se": 0.02, "unit": "DN^2"}).startswith("n/a (negative variance")
     assert component_text("G", {"value": None, "se": None, "unit": "DN/e-", "note": "no shot noise"}) == \
         "n/a (no shot noise)"
+    # only a limit known (a variance below 0 within 3 SE): never a plain number
+    assert component_text("Ct", {"value": 0.01239, "se": None, "unit": "DN^2", "verdict": "upper limit"}) == \
+        "< 0.012 DN^2"
+
+
+def test_a_given_gain_is_exact_with_its_reason_not_an_invented_se():
+    """G given (``ares analyze --gain``): SE exactly 0 because it is declared; shown with its
+    verdict, the one wording of ``exact_text``, on the JSON and every text surface."""
+    from ares.analysis.noise.flat import shot_noise_estimates
+    from ares.analysis.stats.estimate import EXACT_GAIN, exact_text, format_dict, note_text
+    from ares.report.page_tables import fmt_value
+    from ares.report.tables import component_text
+
+    S, dpt = 1000.0, 500.0  # 2000 e- at 0.5 DN/e-: delta / q = 1
+    out = shot_noise_estimates(S, 0.01, dpt, 25.0, gain=0.5)
+    g = out["G"]
+    assert g.is_exact and g.se == 0 and g.verdict == "ok"
+    d = g.to_dict()
+    assert d["exact"] == EXACT_GAIN and Estimate.from_dict(d) == g
+    word = f"({exact_text(EXACT_GAIN)})"
+    assert g.text() == format_dict(d) == component_text("G", d) == fmt_value(0.5, 0.0, "DN/e-", "ok", EXACT_GAIN) \
+        == f"0.5 DN/e- {word}"
+    assert note_text(d) == exact_text(EXACT_GAIN)
+    assert out["poisson_ratio"].value == pytest.approx(1.0) and out["poisson_ratio"].se > 0
+    # an SE of 0 that came without its reason still gets a verdict, never a bare number
+    e = Estimate(3.0, 0.0, "DN")
+    assert e.text() == "3 DN (exact: declared, not measured)" and Estimate.from_dict(e.to_dict()) == e
+    assert Estimate.limit(3.0, "lower", "photons", "x").to_dict().get("exact") is None

@@ -231,7 +231,8 @@ def test_key_figures_api(runs):
 def test_pdf_pages_and_key_figures_as_text(runs, ptc_pdf):
     run = read_run(runs / "ptc")
     path, titles = ptc_pdf
-    assert titles[:3] == ["title", "ptc x1", "snr x1"] and "components" in titles and titles[-1] == "stages"
+    body = [t for t in titles if not t.startswith("key figures")]  # (continuation pages of the title's table)
+    assert body[:3] == ["title", "ptc x1", "snr x1"] and "components" in titles and titles[-1] == "stages"
     assert any(t.startswith("maps") for t in titles)
     assert _pages(path) == len(titles)
     text = _pdf_text(path)
@@ -316,6 +317,40 @@ def test_emva_attribution(runs, tmp_path):
     with PdfPages(d / "r.pdf") as pdf:  # the title page is enough (the footer of every page repeats it)
         pdf.savefig(report_pdf.title_page(run, tables.compute_key_figures(run)))
     assert "(C) 2011 Basler AG, CC BY-SA 3.0" in _pdf_text(d / "r.pdf")
+
+
+def test_every_key_figure_is_in_the_pdf_whole(runs, tmp_path):
+    """More key figures than the title page holds go on "Key figures (continued)" pages,
+    none dropped; a long note wraps within its column (its verdict at its end is never
+    cut) and no row is drawn into the footer."""
+    from ares.report import key_figure_pages
+
+    run = read_run(runs / "ptc")
+    kf = dict(tables.compute_key_figures(run))
+    verdict = "so this figure is NOT ok for the datasheet"
+    for k in range(90):  # long, short and empty notes; the last words of each are its verdict
+        note = ("sentence %d of a long note, " % k) * (k % 7) + (f"{verdict} (row {k})" if k % 3 else "")
+        kf[f"extra{k}"] = {"label": f"extra figure {k}", "value": 1.0 + k, "se": 0.01, "unit": "DN", "note": note}
+    pages = report_pdf.page_plan(run, kf=kf)
+    kpages = [i for i, (t, _) in enumerate(pages) if t == "title" or t.startswith("key figures")]
+    assert kpages == list(range(len(kpages))) and len(kpages) >= 3  # in order, right after the title page
+    chunks = report_pdf.key_figure_chunks(run, kf)
+    rows = key_figure_pages.rows_of(kf)
+    assert [r for c in chunks for r in c] == rows  # every row once, in order
+    from ares.report.plots import paginate  # a title page with no room left: every row on the next pages
+
+    assert [len(c) for c in paginate(rows[:3], key_figure_pages.MAX_CHARS, 0.5, 60)] == [0, 3]
+    drawn = []
+    for i in kpages:  # drawn: each table ends above the footer
+        texts = pages[i][1]().texts
+        assert min(t.get_position()[1] for t in texts if t.get_text() in sum(chunks[i], [])) > 0.04
+        drawn.append(" ".join(t.get_text() for t in texts))
+    assert all(t.startswith("Key figures (continued)") for t in drawn[1:])
+    text = " ".join(drawn)
+    for r in rows:  # every cell whole: its wrapped lines are its words in order
+        for cell in r:
+            assert re.sub(r"\s+", " ", cell) in text, cell
+    assert f"{len(rows) - len(chunks[0])} more key figure(s) on the next page(s)" in drawn[0]
 
 
 # ------------------------------------------------------------------ partial / bad runs

@@ -14,7 +14,7 @@ import hashlib
 from pathlib import Path
 
 
-PER_PAGE = 48  # key figures on the first page (below them: the traceability)
+TRACE_TOP = 0.22  # the traceability table's top at the lowest (the key figures end above it)
 
 
 def select(cols: list[str], rows: list[tuple], ref: str | None) -> list[int]:
@@ -61,9 +61,9 @@ def _limit_cells(q: str, screens: list[dict], outcome: dict) -> tuple[str, str, 
 def pages(db, lot_id: int, which: list[int]):
     """The certificate pages (matplotlib figures) of the lot's items ``which``."""
     from ares import __version__
-    from ares.analysis.stats.estimate import format_value
+    from ares.report.page_tables import fmt_value
     from ares.batch import db as rdb
-    from ares.report.plots import new_page, text_table
+    from ares.report.plots import new_page, paginate, table_lines_between, text_table
 
     info = rdb.lot_info(db, lot_id)
     cols, rows = rdb.item_rows(db, lot_id)
@@ -91,26 +91,31 @@ def pages(db, lot_id: int, which: list[int]):
         rowsf = []
         for q, f in sorted(figs.get(i, {}).items()):
             st, dy, v = _limit_cells(q, screens, r)
-            val = format_value(f["value"], f["se"]) if f["value"] is not None else "not available"
-            se = "" if f["value"] is None else ("SE not available" if f["se"] is None else "")
-            rowsf.append([q, f"{val} {f['unit'] or ''}".strip() + (f" ({se})" if se else ""), st, dy, v])
+            limit = f.get("verdict") in ("upper limit", "lower limit")  # "< x" / "> x": a limit has no SE
+            val = fmt_value(f["value"], f["se"], f["unit"] or "", f.get("verdict") or "", f.get("exact", "")) \
+                if f["value"] is not None else "not available"  # (an SE of 0: "exact: ...")
+            se = "" if f["value"] is None or limit else ("SE not available" if f["se"] is None else "")
+            rowsf.append([q, val + (f" ({se})" if se else ""), st, dy, v])
         head = ["quantity", "value ± SE, unit", "limit", "dynamic limit", "outcome"]
-        w, mc = [0.3, 0.26, 0.16, 0.18, 0.1], [44, 40, 24, 28, 16]
+        w, mc = [0.3, 0.26, 0.16, 0.18, 0.1], [44, 34, 24, 28, 16]  # (34: the monospace value column's width)
         rowsf = rowsf or [["no figures", "", "", "", ""]]
-        y = text_table(fig, (0.06, y - 0.02, 0.88), head, rowsf[:PER_PAGE], w, fontsize=6.5,
-                       title=f"Key figures ({len(rowsf)})", max_chars=mc)
+        # every figure, each cell whole (wrapped): as many as fit above the traceability, the rest continued
+        chunks = paginate(rowsf, mc, table_lines_between(y - 0.02, TRACE_TOP + 0.02, 6.5, True),
+                          table_lines_between(0.92, 0.04, 6.5, False))
+        y = text_table(fig, (0.06, y - 0.02, 0.88), head, chunks[0], w, fontsize=6.5,
+                       title=f"Key figures ({len(rowsf)})", max_chars=mc, wrap=True)
         more = []
-        for k in range(PER_PAGE, len(rowsf), 2 * PER_PAGE):  # (a sensor with very many figures: continued)
+        for chunk in chunks[1:]:  # (a sensor with many figures: continued)
             cont = new_page(f"Certificate of performance: {r['serial'] or Path(r['item']).name} (continued)",
                             f"lot {info['name']} (#{lot_id}), item {i + 1} of {len(rows)}")
-            text_table(cont, (0.06, 0.92, 0.88), head, rowsf[k:k + 2 * PER_PAGE], w, fontsize=6.5, max_chars=mc)
+            text_table(cont, (0.06, 0.92, 0.88), head, chunk, w, fontsize=6.5, max_chars=mc, wrap=True)
             more.append(cont)
         trace = [["item measured", r["started"] or "-"], ["item ARES version", r["ares_version"] or "-"],
                  ["content hash (SHA-256)", r["content_hash"] or "-"],
                  ["run manifest (SHA-256)", _manifest_sha(r["run_dir"])],
                  ["lot written", f"{info['created']} by ARES {info['ares_version']}"],
                  ["certificate", f"{today} by ARES {__version__}"]]
-        text_table(fig, (0.06, max(y - 0.02, 0.22), 0.88), ["traceability", ""], trace, [0.26, 0.74], fontsize=7,
+        text_table(fig, (0.06, max(y - 0.02, TRACE_TOP), 0.88), ["traceability", ""], trace, [0.26, 0.74], fontsize=7,
                    title="Traceability", max_chars=[26, 100])
         out += [fig, *more]
     return out

@@ -94,7 +94,8 @@ def _figures_of_run(path: Path) -> tuple[dict, str]:
         raise RunDamaged(manifest.sentence(run.dir, found) + f"; `ares report {run.dir}` writes the reports anew")
     kf = tables.compute_key_figures(run)
     return ({k: {"label": v["label"], "value": v["value"], "se": v["se"], "unit": v["unit"],
-                 "verdict": v.get("verdict", ""), "note": v["note"]} for k, v in kf.items()}, run.status)
+                 "verdict": v.get("verdict", ""), "note": v["note"], **({"exact": v["exact"]} if v.get("exact") else {})}
+            for k, v in kf.items()}, run.status)
 
 
 def _figures_of_descriptor(path: Path) -> tuple[dict, str]:

@@ -45,14 +45,14 @@ def _stats(j) -> list[list[str]]:
 
 
 def _cell(r: dict, q: str) -> str:
-    from ares.analysis.stats.estimate import format_value
     from ares.batch.lot_report import find
+    from ares.report.page_tables import fmt_value
 
     f = find(r.get("figures") or {}, q) or {}
     v = f.get("value")
     if v is None:
         return "not measured" if r.get("status") != "error" else "-"
-    return f"{format_value(v, f.get('se'))} {f.get('unit', '')}".strip()
+    return fmt_value(v, f.get("se"), f.get("unit") or "", f.get("verdict") or "", f.get("exact", ""))  # "< x", "(exact: ...)"
 
 
 def _wrap(s: str, width: int) -> list[str]:

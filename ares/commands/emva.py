@@ -166,10 +166,11 @@ RELEASES = ("4.0-linear", "4.0-general", "3.1", "3.0")
 
 def _value_lines(values: dict, symbols: dict | None = None) -> list[str]:
     sw = max([15] + [len((symbols or {}).get(k, k)) + 1 for k in values])  # a long symbol shifted the values
-    lines = [f"{'quantity':<20}{'symbol':<{sw}}{'value':>26}  {'unit':<10} definition / reason"]
+    vals = {k: e.text(with_unit=False) if e.available else "n/a" for k, e in values.items()}
+    vw = max([26] + [len(v) for v in vals.values()])  # an exact value's verdict widens the column, never shifts a row
+    lines = [f"{'quantity':<20}{'symbol':<{sw}}{'value':>{vw}}  {'unit':<10} definition / reason"]
     for k, e in values.items():
-        val = e.text(with_unit=False) if e.available else "n/a"
-        lines.append(f"{k:<20}{(symbols or {}).get(k, k):<{sw}}{val:>26}  {e.unit:<10} {e.note}")
+        lines.append(f"{k:<20}{(symbols or {}).get(k, k):<{sw}}{vals[k]:>{vw}}  {e.unit:<10} {e.note}")
     return lines
 
 

@@ -123,8 +123,10 @@ class SerialInstrument:
             flush = getattr(self.port, "reset_input_buffer", None)
             if flush is not None:  # a late reply to an earlier command must not answer this one
                 flush()
-            self.port.write((command + p.terminator).encode("ascii"))
+            # the reply's time counts from the command: an emulator that holds the bench's clock
+            # until it answers (*OPC? while the grating moves) is timed as a blocking query is
             deadline = self._clock() + timeout
+            self.port.write((command + p.terminator).encode("ascii"))
             echoed = not p.echo
             while True:
                 left = deadline - self._clock()

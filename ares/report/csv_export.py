@@ -15,6 +15,7 @@ import io
 import math
 from pathlib import Path
 
+from ares.analysis.stats.estimate import note_text
 from ares.report import tables
 from ares.rundir.summary import summary_rows
 from ares.report import series_tables
@@ -47,7 +48,8 @@ def _write(path: Path, text: str) -> Path:
 
 
 def key_figure_rows(kf: dict) -> list[dict]:
-    return [dict(name=k, **v) for k, v in kf.items()]
+    """key_figures.csv / report.h5 rows; an exact figure's note starts with its verdict (``note_text``)."""
+    return [dict(name=k, **{**v, "note": note_text(v)}) for k, v in kf.items()]
 
 
 def write_csv(run, out_dir: str | Path, groups=None, kf=None) -> list[Path]:
@@ -116,5 +118,5 @@ def _emva_csv(run, out: Path) -> list[Path]:
         for k, v in vals.items():
             rows.append({"release": rel, "quantity": k, "symbol": v.get("symbol", k), "value": v.get("value"),
                          "se": v.get("se"), "unit": v.get("unit", ""), "verdict": v.get("verdict", ""),
-                         "definition": v.get("note", "")})
+                         "definition": note_text(v)})
     return [_write(out / "emva_datasheet.csv", to_csv(rows, EMVA_COLUMNS))]

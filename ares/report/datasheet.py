@@ -26,6 +26,7 @@ import matplotlib
 from matplotlib.figure import Figure
 
 from ares.analysis.emva.sheet import SYMBOLS
+from ares.analysis.stats.estimate import exact_text, note_text
 from ares.report import datasheet_pages as dp
 from ares.report.datasheet_pages import GENERAL, LINEAR, given, value_text
 from ares.report.plots import A4, RC
@@ -46,12 +47,12 @@ def rows(sheet, general=None) -> list[dict]:
     for k, e in sheet.values.items():
         d = e.to_dict()
         out.append({"release": sheet.release, "quantity": k, "symbol": SYMBOLS.get(k, k), "value": d["value"],
-                    "se": d["se"], "unit": e.unit, "verdict": d["verdict"], "definition": e.note})
+                    "se": d["se"], "unit": e.unit, "verdict": d["verdict"], "definition": note_text(d)})
     if general is not None:
         for k, e in general.values.items():
             d = e.to_dict()
             out.append({"release": "EMVA 1288 Release 4.0 General", "quantity": k, "symbol": k, "value": d["value"],
-                        "se": d["se"], "unit": e.unit, "verdict": d["verdict"], "definition": e.note})
+                        "se": d["se"], "unit": e.unit, "verdict": d["verdict"], "definition": note_text(d)})
     return out
 
 
@@ -79,7 +80,7 @@ def values_csv(release: str, values: dict, shown: dict) -> str:
         e = values[k]
         d = e.to_dict()
         out.append({"release": release, "quantity": k, "symbol": k, "value": d["value"], "se": d["se"],
-                    "unit": e.unit, "verdict": d["verdict"], "definition": e.note})
+                    "unit": e.unit, "verdict": d["verdict"], "definition": note_text(d)})
     return _csv(out)
 
 
@@ -136,15 +137,26 @@ def _table_column(fig: Figure, groups, values: dict, y: float) -> float:
             if e is None:
                 continue
             fig.text(0.645, y, SYMBOLS.get(k, k)[:16], fontsize=7.0, va="top")
-            fig.text(0.95, y, cell(e), fontsize=7.0, va="top", ha="right", family="monospace")
-            y -= 0.013
+            y = _value_cell(fig, y, e, 7.0, 0.013)
         y -= 0.004
     return y
 
 
-def cell(e) -> str:
-    """A summary-sheet value: the figure with its unit, or why there is none."""
-    return value_text(e) + (f" {e.unit}" if e.available and e.unit else "")
+def _value_cell(fig: Figure, y: float, e, size: float, step: float) -> float:
+    """A summary-sheet value right-aligned at ``y`` (never cut -- R_d's unit was: a long one in a
+    smaller font), an exact value's verdict on the line below; the y of the next row."""
+    txt = cell(e, with_exact=False)
+    fig.text(0.95, y, txt, fontsize=size if len(txt) <= 26 else size * 26 / len(txt), va="top", ha="right",
+             family="monospace")
+    if e.available and e.is_exact:
+        y -= step * 0.9
+        fig.text(0.95, y, f"({exact_text(e.exact)})", fontsize=size - 0.8, va="top", ha="right", color="0.25")
+    return y - step
+
+
+def cell(e, with_exact: bool = True) -> str:
+    """A summary-sheet value: the figure with its unit (and an exact one's verdict), or why there is none."""
+    return e.text(with_exact=with_exact) if e.available else value_text(e)
 
 
 def _snr_height(top: float) -> float:
@@ -191,10 +203,7 @@ def general_summary_page(sheet, general) -> Figure:
     y -= 0.0155
     for k, e in values.items():
         fig.text(0.645, y, k[:18], fontsize=6.6, va="top")
-        txt = cell(e)  # never cut (R_d's unit was): a long value in a smaller font
-        fig.text(0.95, y, txt, fontsize=6.6 if len(txt) <= 26 else 6.6 * 26 / len(txt), va="top", ha="right",
-                 family="monospace")
-        y -= 0.0118
+        y = _value_cell(fig, y, e, 6.6, 0.0118)
         if y < 0.06:
             break
     fig.text(0.64, y - 0.004, "General model: K, η and values in electrons are not defined (General Section 6.7).",

@@ -14,7 +14,8 @@ from matplotlib.figure import Figure
 
 from ares.analysis.emva.sheet import SYMBOLS
 from ares.analysis.emva.graphs import spectrum_peaks
-from ares.report.plots import A4, text_table
+from ares.analysis.stats.estimate import note_text
+from ares.report.plots import A4, row_lines, table_lines_between, text_table
 
 LINEAR = "EMVA 1288 Release 4.0 Linear"
 GENERAL = "EMVA 1288 Release 4.0 General"
@@ -426,7 +427,11 @@ def values_page(sheet, values: dict, title: str, page: str, rel: str = LINEAR) -
     out (R, µp.min, the stacks' temporal noise ...) are on the datasheet too, as in its CSV."""
     fig = Figure(figsize=A4)
     _header(fig, sheet, title, page, rel)
-    data = [[k, value_text(e), e.unit, e.note] for k, e in values.items()]
+    # an exact value's verdict leads its definition, as in the CSV (the value column would cut it)
+    data = [[k, e.text(with_unit=False, with_exact=False) if e.available else value_text(e), e.unit,
+             note_text(e.to_dict())] for k, e in values.items()]
+    size, chars = 7 if len(data) <= 45 else 6, [18, 24, 12, 72]
+    room = table_lines_between(0.9, 0.05, size, False)  # lines down to the footer
     text_table(fig, (0.06, 0.9, 0.88), ["quantity", "value", "unit", "definition"], data, [1.1, 1.6, 0.8, 4.1],
-               fontsize=7 if len(data) <= 45 else 6, max_chars=[18, 24, 12, 72])
+               fontsize=size, max_chars=chars, wrap=sum(row_lines(r, chars) for r in data) <= room)  # whole if it fits
     return fig

@@ -24,7 +24,8 @@ def analysis_rows(a: dict, prefix: str = "", skip_na: bool = False) -> list[list
         elif isinstance(v, dict) and "value" in v and "unit" in v:
             if skip_na and v.get("value") is None:
                 continue
-            rows.append([key, fmt_value(v.get("value"), v.get("se"), v.get("unit", ""), v.get("verdict", "")),
+            rows.append([key, fmt_value(v.get("value"), v.get("se"), v.get("unit", ""), v.get("verdict", ""),
+                                        v.get("exact", "")),
                          v.get("note", "")])
         elif isinstance(v, dict) and k == "settings":
             rows.append([key, ", ".join(f"{a_.removeprefix('reg:')}={b}" for a_, b in v.items()), ""])
@@ -80,12 +81,15 @@ def analysis_label(aname: str, key: str) -> str:
     return base + (f" ({' '.join(where)})" if where else "")
 
 
-def fmt_value(v, se=None, unit: str = "", verdict: str = "") -> str:
+def fmt_value(v, se=None, unit: str = "", verdict: str = "", exact: str = "") -> str:
     """``value ± se unit`` with the digits the SE supports (``ares.analysis.stats.estimate``); a
-    limit (``verdict`` "upper limit"/"lower limit") as ``< x``/``> x``, as every other surface."""
+    limit (``verdict`` "upper limit"/"lower limit") as ``< x``/``> x``; an SE of exactly 0 with
+    its verdict, ``x unit (exact: why)`` (``exact``: the why) -- as every other surface."""
     if v is None or (isinstance(v, float) and not math.isfinite(v)):
         return "n/a"
     bound = {"upper limit": "upper", "lower limit": "lower"}.get(verdict, "")
     if bound:
         return Estimate(float(v), math.nan, unit, "", bound).text()
+    if se is not None and se == 0:
+        return Estimate(float(v), 0.0, unit, "", "", exact).text()
     return format_value(v, se) + (f" {unit}" if unit else "")

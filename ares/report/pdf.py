@@ -19,20 +19,25 @@ import matplotlib
 import numpy as np
 
 from ares.hardware import link_stats
-from ares.report import page_tables, plots, scan_kinds, tables
+from ares.report import key_figure_pages, page_tables, plots, scan_kinds, tables
 from ares.report.plots import new_page, text_table
 
 
-def _kf_rows(kf: dict) -> list[list[str]]:
-    return [[v["label"], page_tables.fmt_value(v["value"], v["se"], v["unit"], v.get("verdict", "")),
-             v.get("note") or ""]
-            for v in kf.values()]
-
-
-def title_page(run, kf: dict) -> "plots.Figure":
+def title_page(run, kf: dict, chunks: list | None = None) -> "plots.Figure":
+    """The title page: the run's identity and state, then the key figures that fit (the
+    first of ``chunks``, ``key_figure_pages.split``; the rest go on continuation pages)."""
     m = run.meta
     fig = new_page(f"ARES report: {m.get('scan_name', '?')}", f"system {m.get('system_name', '?')}  ·  "
                    f"run directory {run.dir.resolve().name}")
+    y = _title_head(fig, run)
+    chunks = key_figure_pages.split(key_figure_pages.rows_of(kf), y) if chunks is None else chunks
+    key_figure_pages.draw(fig, y, chunks[0], "Key figures", sum(len(c) for c in chunks[1:]))
+    return fig
+
+
+def _title_head(fig, run) -> float:
+    """Everything above the key figures drawn on ``fig``; the y below it."""
+    m = run.meta
     v = m.get("versions") or {}
     lines = [
         ("scan", f"{m.get('scan_name')}  ({m.get('scan_file')})"),
@@ -91,14 +96,12 @@ def title_page(run, kf: dict) -> "plots.Figure":
         fig.text(0.06, y, plots.clip("analyses without results: " + "; ".join(na), 140), fontsize=8, va="top",
                  color="0.35")
         y -= 0.02
-    y -= 0.01
-    rows = _kf_rows(kf) or [["(no key figures: the run holds no photon-transfer or analysis results)", "", ""]]
-    per_page = int((y - 0.05) / (8 * 1.45 / 72 / plots.A4[1])) - 3
-    text_table(fig, (0.06, y, 0.9), ["key figure", "value ± SE", "definition / note"], rows[:per_page],
-               [0.34, 0.22, 0.44], fontsize=8, title="Key figures", max_chars=[42, 26, 54])
-    if len(rows) > per_page:
-        fig.text(0.06, 0.03, f"{len(rows) - per_page} more key figure(s) in key_figures.csv", fontsize=8)
-    return fig
+    return y - 0.01
+
+
+def key_figure_chunks(run, kf: dict) -> list:
+    """The key-figure rows per page (title page first), from the room the title page leaves."""
+    return key_figure_pages.split(key_figure_pages.rows_of(kf), _title_head(plots.Figure(figsize=plots.A4), run))
 
 
 def ptc_page(g: tables.PtcGroup, rows: list[dict]):
@@ -335,7 +338,11 @@ def page_plan(run, groups=None, kf=None, emva=None) -> list[tuple[str, object]]:
     the same run draws the same page under the same number (``ares.report.pdf_parts``)."""
     groups = tables.ptc_groups(run) if groups is None else groups
     kf = tables.compute_key_figures(run, groups) if kf is None else kf
-    pages = [("title", partial(title_page, run, kf))]
+    chunks = key_figure_chunks(run, kf)
+    pages = [("title", partial(title_page, run, kf, chunks))]
+    for k in range(1, len(chunks)):  # every key figure in the PDF: those the title page has no room for
+        pages.append((f"key figures {k + 1}", partial(key_figure_pages.continuation_page, chunks[k], k + 1,
+                                                      len(chunks), sum(len(c) for c in chunks[k + 1:]))))
     ptc_ok = [g for g in groups if g.result is not None and g.is_curve]
     for g in ptc_ok:
         rows = tables.ptc_rows([g])

@@ -9,6 +9,7 @@ from __future__ import annotations
 from ares import labels
 
 import math
+import textwrap
 
 import matplotlib.lines
 import matplotlib.patches
@@ -58,10 +59,50 @@ def clip(s: str, n: int) -> str:
     return s if len(s) <= n else s[: n - 1] + "…"
 
 
+def cell_lines(cell, n: int | None) -> list[str]:
+    """A table cell wrapped to ``n`` characters a line (never cut: a note's verdict is in its end)."""
+    text = str(cell)
+    return (textwrap.wrap(text, n, break_on_hyphens=False) or [""]) if n else [text]
+
+
+def row_lines(row, max_chars: list[int] | None) -> int:
+    """The lines a wrapped table row takes."""
+    return max((len(cell_lines(c, max_chars[j] if max_chars else None)) for j, c in enumerate(row)), default=1)
+
+
+def paginate(rows: list, max_chars: list[int] | None, first: float, then: float) -> list[list]:
+    """``rows`` of a wrapped ``text_table`` in page-sized chunks: ``first`` lines of room on the
+    first page, ``then`` on each further one; a row (with its wrapped lines) is never split (the
+    first page may get none when its room is short; a row longer than a whole page has one)."""
+    chunks: list[list] = [[]]
+    room = first
+    for row in rows:
+        n = row_lines(row, max_chars)
+        if n > room and (chunks[-1] or room < then):
+            chunks.append([])
+            room = then
+        chunks[-1].append(row)
+        room -= n
+    return chunks
+
+
+def table_lines_between(top: float, bottom: float, fontsize: float, title: bool) -> float:
+    """The rows' lines a ``text_table`` (wrapped) has room for from ``top`` down to ``bottom`` on an A4 page."""
+    return (top - bottom) / (fontsize * 1.45 / 72 / A4[1]) - table_head_lines(title)
+
+
+def table_head_lines(title: bool) -> float:
+    """The lines ``text_table`` takes above its first row (title, header, rule)."""
+    return (1.5 if title else 0.0) + 1.2
+
+
 def text_table(fig: Figure, rect, header: list[str], rows: list[list[str]], widths: list[float],
-               fontsize: float = 8, title: str = "", max_chars: list[int] | None = None) -> float:
+               fontsize: float = 8, title: str = "", max_chars: list[int] | None = None,
+               wrap: bool = False) -> float:
     """Draw a table as aligned text in ``rect`` (figure fraction: left, top, width);
-    returns the y (figure fraction) below the last row."""
+    returns the y (figure fraction) below the last row. Cells longer than ``max_chars``
+    are cut with "…", or with ``wrap`` continued on the lines below (the row's shading
+    spans them)."""
     left, top, width = rect
     line = fontsize * 1.45 / 72 / fig.get_figheight()
     y = top
@@ -75,13 +116,19 @@ def text_table(fig: Figure, rect, header: list[str], rows: list[list[str]], widt
     fig.add_artist(matplotlib.lines.Line2D([left, left + width], [y, y], color="0.5", lw=0.6))
     y -= line * 0.3
     for k, row in enumerate(rows):
+        n = row_lines(row, max_chars) if wrap else 1
         if k % 2:
-            fig.add_artist(matplotlib.patches.Rectangle((left, y - line * 0.95), width, line, color="0.94",
+            fig.add_artist(matplotlib.patches.Rectangle((left, y - line * (n - 0.05)), width, line * n, color="0.94",
                                                         zorder=-1, transform=fig.transFigure))
         for j, (x, cell) in enumerate(zip(xs, row)):
+            mono = "monospace" if j and j < 2 else None
+            if wrap:
+                for i, part in enumerate(cell_lines(cell, max_chars[j] if max_chars else None)):
+                    fig.text(x, y - i * line, part, fontsize=fontsize, va="top", family=mono)
+                continue
             txt = clip(cell, max_chars[j]) if max_chars else str(cell)
-            fig.text(x, y, txt, fontsize=fontsize, va="top", family="monospace" if j and j < 2 else None)
-        y -= line
+            fig.text(x, y, txt, fontsize=fontsize, va="top", family=mono)
+        y -= line * n
     return y
 
 

@@ -105,6 +105,9 @@ def _nan(x) -> float:
 
 
 def _entry(label: str, e: Estimate, source: str) -> dict:
-    return {"label": label, "value": e.value if e.available else None,
-            "se": e.se if math.isfinite(e.se) else None, "unit": e.unit, "note": e.note, "source": source,
-            "verdict": e.verdict}
+    d = {"label": label, "value": e.value if e.available else None,
+         "se": e.se if math.isfinite(e.se) else None, "unit": e.unit, "note": e.note, "source": source,
+         "verdict": e.verdict}
+    if e.is_exact:  # SE 0: declared, not measured -- said beside the value on every surface
+        d["exact"] = e.to_dict()["exact"]
+    return d

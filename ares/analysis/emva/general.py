@@ -33,7 +33,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from ares.analysis.emva.linear import saturation_index
-from ares.analysis.stats.estimate import Estimate
+from ares.analysis.stats.estimate import EXACT_PHOTONS, Estimate
 from ares.analysis.stats.splines import BSpline, bspline_fit, intervals_for
 from ares.analysis.stats.physical import snr_db, snr_in_range
 from ares.analysis.ptc.levels import LevelStats
@@ -188,7 +188,7 @@ def emva_general(bright: list[LevelStats], dark: list[LevelStats], photons, mean
     else:
         psat = float(up[isat])
         v["mu_p_sat"] = (Estimate.limit(psat, "lower", "photons", "photons at mu_y.sat; lower limit") if bound else
-                         Estimate(psat, 0.0, "photons", "photons at mu_y.sat (histogram criterion)"))
+                         Estimate.declared(psat, "photons", EXACT_PHOTONS, "photons at mu_y.sat (histogram criterion)"))
         mn = v["mu_p_min"]
         if mn.available and psat > 0 and mn.value > 0:
             dr = psat / mn.value

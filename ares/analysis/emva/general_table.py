@@ -27,7 +27,7 @@ import math
 import numpy as np
 
 from ares.analysis.emva.sanity import judge
-from ares.analysis.stats.estimate import Estimate
+from ares.analysis.stats.estimate import EXACT_PHOTONS_AREA, Estimate
 
 # Table 2 of the General document: (key, printed symbol, unit)
 GENERAL_TABLE2 = (
@@ -58,6 +58,8 @@ def _per_area(e: Estimate, area: float | None, unit: str) -> Estimate:
     if not e.available:
         return Estimate.na(e.note, unit)
     note = f"{e.note}; / pixel area ({area:g} µm²)"
+    if e.is_exact:  # declared photons over the declared pixel area: exact too
+        return Estimate.declared(e.value / area, unit, EXACT_PHOTONS_AREA, note)
     return Estimate.limit(e.value / area, e.bound, unit, note) if e.bound else \
         Estimate(e.value / area, e.se / area, unit, note)
 

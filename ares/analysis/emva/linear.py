@@ -36,7 +36,7 @@ from typing import Sequence
 
 import numpy as np
 
-from ares.analysis.stats.estimate import Estimate
+from ares.analysis.stats.estimate import EXACT_PHOTONS, Estimate
 from ares.analysis.ptc.levels import LevelStats
 from ares.analysis.stats.physical import snr_db, snr_in_range
 from ares.analysis.ptc.fit import LocalSlopeCheck
@@ -248,8 +248,9 @@ def emva4_linear(bright: Sequence[LevelStats], dark: Sequence[LevelStats], photo
             v[k] = Estimate.na(why, u)
     else:
         eta_rel = v["QE"].se / v["QE"].value
-        v["mu_p_sat"] = est(p_sat, 0.0, "photons", "photons at the saturation step (EMVA 1288 4.0 Linear "
-                                                   "Section 6.6)")
+        note = "photons at the saturation step (EMVA 1288 4.0 Linear Section 6.6)"
+        v["mu_p_sat"] = est(p_sat, 0.0, "photons", note) if bound else \
+            Estimate.declared(p_sat, "photons", EXACT_PHOTONS, note)  # not measured here: no SE to state
         mu_e_sat = eta * p_sat
         v["mu_e_sat"] = est(mu_e_sat, eta_rel, "e-", "eta mu_p.sat (Eq. 24)")
         snr = math.sqrt(mu_e_sat)

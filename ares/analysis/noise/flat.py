@@ -50,7 +50,7 @@ import numpy as np
 from ares.analysis.noise.accumulate import StackAccumulator
 from ares.analysis.noise.anova import AnovaTable, anova_table
 from ares.analysis.spatial.nonuniformity import kernel_1d, smooth, white_gains
-from ares.analysis.stats.estimate import Estimate
+from ares.analysis.stats.estimate import EXACT_GAIN, Estimate
 
 __all__ = ["decompose_flat", "gain_na", "highpass_emva", "GAIN_NAMES", "two_way"]
 
@@ -233,7 +233,7 @@ def shot_noise_estimates(S: float, var_S: float, dpt: float, var_dpt: float, gai
         out["delta"] = Estimate(dpt / G**2, se_q, "e-^2")
     else:
         G = float(gain)
-        out["G"] = Estimate(G, 0.0, "DN/e-", "given")
+        out["G"] = Estimate.declared(G, "DN/e-", EXACT_GAIN)
         out["q"] = Estimate(S / G, math.sqrt(var_S) / abs(G), "e-")
         out["delta"] = Estimate(dpt / (G * G), math.sqrt(var_dpt) / (G * G), "e-^2")
         ratio = dpt / (G * S)

@@ -8,7 +8,11 @@ CSV, PDF, GUI):
   saturation not reached, the model does not fit ...). It is reported as *not available*
   with ``reason``, never as a number and never as 0;
 - ``Estimate.bound(value, "upper"|"lower", reason)``: only a limit is known (e.g. EMVA 1288
-  4.0 Linear Eq. 54, read noise below the quantization floor).
+  4.0 Linear Eq. 54, read noise below the quantization floor);
+- ``Estimate.declared(value, unit, why, note)``: an exact value, SE 0, because it is declared,
+  not measured (the photons of a step, a gain the user gives). It is shown with its verdict
+  "(exact: why)" (``exact_text``, the one wording) where another figure shows "± SE"; its
+  uncertainty (a photon calibration's) is not this evaluation's to state, so none is invented.
 
 ``format_value`` is the one place that decides how many digits a figure gets: the SE is
 rounded to two significant digits and the value to the SE's last digit (ISO GUM 7.2.6), so
@@ -24,6 +28,15 @@ VERDICT_OK = "ok"
 VERDICT_NA = "not available"
 VERDICT_UPPER = "upper limit"
 VERDICT_LOWER = "lower limit"
+EXACT_DEFAULT = "declared, not measured"  # an SE of exactly 0 that came without its reason
+EXACT_PHOTONS = "declared photons"  # a step's photons: the bench's or the data set's, not this evaluation's
+EXACT_PHOTONS_AREA = "declared photons and pixel area"
+EXACT_GAIN = "gain given, not measured"
+
+
+def exact_text(why: str = "") -> str:
+    """The verdict shown beside a figure whose SE is exactly 0 (every surface: this wording)."""
+    return f"exact: {why or EXACT_DEFAULT}"
 
 
 @dataclass(frozen=True)
@@ -33,6 +46,7 @@ class Estimate:
     unit: str = ""
     note: str = ""
     bound: str = ""  # "" (an estimate), "upper" or "lower" (only a limit is known)
+    exact: str = ""  # why the SE is exactly 0 ("declared photons"): see ``declared``
 
     @classmethod
     def na(cls, reason: str, unit: str = "") -> "Estimate":
@@ -43,6 +57,16 @@ class Estimate:
         if which not in ("upper", "lower"):
             raise ValueError(f"a limit is 'upper' or 'lower', not {which!r}")
         return cls(float(value), math.nan, unit, reason, which)
+
+    @classmethod
+    def declared(cls, value: float, unit: str, why: str, note: str = "") -> "Estimate":
+        """An exact value (SE 0): declared, not measured; ``why`` in a few words ("declared photons")."""
+        return cls(float(value), 0.0, unit, note, "", why)
+
+    @property
+    def is_exact(self) -> bool:
+        """SE exactly 0 on an available estimate (declared, or derived from declared values only)."""
+        return self.available and self.se == 0 and not self.bound
 
     @property
     def available(self) -> bool:
@@ -63,6 +87,8 @@ class Estimate:
         }
         if self.note:
             d["note"] = self.note
+        if self.is_exact:
+            d["exact"] = self.exact or EXACT_DEFAULT
         return d
 
     @classmethod
@@ -71,12 +97,18 @@ class Estimate:
         se = d.get("se")
         bound = {VERDICT_UPPER: "upper", VERDICT_LOWER: "lower"}.get(d.get("verdict", ""), "")
         return cls(math.nan if v is None else float(v), math.nan if se is None else float(se),
-                   d.get("unit", ""), d.get("note", ""), bound)
+                   d.get("unit", ""), d.get("note", ""), bound,
+                   "" if d.get("exact") == EXACT_DEFAULT else d.get("exact", ""))  # (round trip: the same Estimate)
 
-    def text(self, with_unit: bool = True, with_reason: bool = False) -> str:
-        """``12002 ± 3.6 e-``; ``< 0.40 e-`` (upper limit); ``n/a`` (+ the reason)."""
+    def text(self, with_unit: bool = True, with_reason: bool = False, with_exact: bool = True) -> str:
+        """``12002 ± 3.6 e-``; ``< 0.40 e-`` (upper limit); ``15320 photons (exact: declared
+        photons)`` (SE 0; ``with_exact=False``: a layout that states the verdict on its own line
+        or column); ``n/a`` (+ the reason)."""
         if not self.available:
             return "n/a" + (f" ({self.note})" if with_reason and self.note else "")
+        if self.is_exact:  # all its digits (a declared count is not rounded), then its verdict
+            return format_value(self.value, None, EXACT_DIGITS) + (f" {self.unit}" if with_unit and self.unit else "") \
+                + (f" ({exact_text(self.exact)})" if with_exact else "")
         s = format_value(self.value, self.se)
         if self.bound:
             s = ("< " if self.bound == "upper" else "> ") + s
@@ -87,11 +119,16 @@ class Estimate:
             if not self.available:
                 return "n/a"
             s = format(self.value, spec)
+            if self.is_exact:
+                return f"{s} ({exact_text(self.exact)})"
             return s + (" ± " + format(self.se, spec) if math.isfinite(self.se) else "")
         return self.text(with_unit=False)
 
     def __str__(self) -> str:
         return self.text()
+
+
+EXACT_DIGITS = 7  # an exact value's significant digits (a declared photon count up to 10^7 in full)
 
 
 def _decimals_for(se: float) -> int:
@@ -120,6 +157,14 @@ def format_value(value, se=None, sig: int = 4) -> str:
     scale = 10.0 ** exp
     d = max(_decimals_for(se / scale), 0)
     return f"({value / scale:.{d}f} ± {se / scale:.{d}f})e{exp:+03d}"
+
+
+def note_text(d: dict) -> str:
+    """A table's note/definition column (CSV, HDF5) for the JSON form of an estimate: an
+    exact figure's verdict first (its value column holds the number, its SE column 0)."""
+    note = d.get("note") or ""
+    return f"{exact_text(d['exact'])}; {note}" if d.get("exact") and note else \
+        exact_text(d["exact"]) if d.get("exact") else note
 
 
 def format_dict(d, with_unit: bool = True, with_reason: bool = False) -> str:
@@ -161,14 +206,15 @@ def component_display(c: str, d: dict) -> tuple[str, str]:
         return "n/a" + (f" ({d['note']})" if d.get("note") else ""), d.get("unit", "")
     unit = d.get("unit", "")
     spread = c in GAIN_SPREADS
+    limit = {VERDICT_UPPER: "<", VERDICT_LOWER: ">"}.get(d.get("verdict", ""))
     if spread or unit.endswith("^2"):
         show_unit = "% rms" if spread else unit
 
-        def lim(x: float) -> str:
-            return f"< {100 * math.sqrt(max(x, 0.0)):.2g}" if spread else f"< {format_value(x, sig=2)}"
+        def lim(x: float, sign: str = "<") -> str:
+            return f"{sign} {100 * math.sqrt(max(x, 0.0)):.2g}" if spread else f"{sign} {format_value(x, sig=2)}"
 
-        if d.get("verdict") == VERDICT_UPPER:
-            return lim(v), show_unit
+        if limit:  # only a limit is known: never shown as a plain value
+            return lim(v, limit), show_unit
         if v < 0:
             if finite_se and v + LIMIT_NSIGMA * se >= 0:
                 return f"{lim(v + LIMIT_NSIGMA * se)} (est. {v:.2g}, below 0)", show_unit
@@ -178,6 +224,10 @@ def component_display(c: str, d: dict) -> tuple[str, str]:
             return f"{lim(v + LIMIT_NSIGMA * se)} (est. {v:.2g}, not resolved from 0)", show_unit
         if spread:
             return format_value(pct_rms(v), 100 * se / (2 * math.sqrt(v)) if finite_se and v > 0 else None), show_unit
+    elif limit:
+        return f"{limit} {format_value(v)}", unit
+    if se is not None and se == 0:  # exact (a gain given, not measured): its verdict, no invented SE
+        return f"{format_value(v, None, EXACT_DIGITS)} ({exact_text(d.get('exact', ''))})", unit
     return format_value(v, se), unit
 
 
@@ -186,7 +236,7 @@ def component_text(c: str, d: dict) -> str:
     text, unit = component_display(c, d)
     if text.startswith("n/a") or not unit:
         return text
-    if text.startswith("<") and "(" in text:  # "< 0.23 (est. ...)" -> "< 0.23 % rms (est. ...)"
+    if (text.startswith(("<", ">")) or "(exact: " in text) and " (" in text:  # "< 0.23 (est. ...)" -> "< 0.23 % rms (est. ...)"
         head, _, tail = text.partition(" (")
         return f"{head} {unit} ({tail}"
     return f"{text} {unit}"
