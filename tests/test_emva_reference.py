@@ -167,3 +167,38 @@ def test_the_command_runs_without_numba_and_gives_the_kernels_figures(analysis):
     r = subprocess.run([sys.executable, "-c", code, str(DESC)], capture_output=True, text=True, timeout=600)
     assert r.returncode == 0, r.stderr
     assert r.stdout.strip().splitlines()[-1] == "[]"  # numba's load, numpy.ma's and scipy's imports cost more than they save
+
+
+def test_every_release_3_figure_comes_with_its_se_or_its_reason(analysis):
+    """Release 3.0's PRNU1288 and LE_min/LE_max were "ok" with no SE (a bare number); each now has
+    its SE (the spatial variance's sampling; the extreme level's mean's temporal noise) or a
+    verdict that says why not (issue 48)."""
+    import math
+
+    for k, e in analysis.emva.values.items():
+        if e.verdict == "ok":
+            assert math.isfinite(e.se) and (e.se > 0 or e.is_exact), (k, e)
+    le = analysis.emva.values["LE_min"]
+    assert le.se < 0.05 * abs(le.value)  # (300 000 pixels: the level means are known to ~1e-5)
+
+
+def test_a_linearity_extreme_not_resolved_from_0_is_only_a_limit():
+    """A perfectly linear sensor on few pixels: the extremes' deviations are noise, their SE larger
+    than themselves -- a limit, never "ok"."""
+    import numpy as np
+
+    from ares.analysis.emva.release3 import TemporalData, emva1288_results
+
+    rng = np.random.default_rng(48)
+    t = np.linspace(0.001, 0.05, 40)
+    u_p = 2e5 * t
+    y = 0.3 * 0.5 * u_p  # K 0.3 DN/e-, QE 50 %
+    var = 0.3 * y + 9.0
+    var[-3:] = var[-4] * np.array([0.6, 0.2, 0.05])  # saturation
+    npx = 16
+    u_y = 100 + y + rng.normal(0, np.sqrt(var / (2 * npx)))
+    td = TemporalData(t, u_p, u_y, var, np.full(t.size, 100.0), np.full(t.size, 9.0), npx)
+    v = emva1288_results(td).values
+    for k in ("LE_min", "LE_max"):
+        assert v[k].verdict != "ok" or v[k].se < abs(v[k].value), (k, v[k])
+    assert any(v[k].bound for k in ("LE_min", "LE_max")), (v["LE_min"], v["LE_max"])

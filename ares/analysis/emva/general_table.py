@@ -83,7 +83,7 @@ def photon_count_mismatch(stack_bright, stack_dark, curve) -> str:
 
 def _nonuniformity(v: dict, res, stack_dark, stack_bright) -> None:
     """DSNU1288 (Eq. 58) and PRNU1288 (Eq. 59) with their parts, in photons."""
-    from ares.analysis.spatial.nonuniformity import PARTS, _std_estimate
+    from ares.analysis.spatial.nonuniformity import PARTS, std_estimate
 
     rd = v.get("R_d", Estimate.na("no characteristic curve"))
     keys = [("DSNU1288" + s.replace(".", "_"), "photons") for _, s in PARTS] + \
@@ -101,10 +101,10 @@ def _nonuniformity(v: dict, res, stack_dark, stack_bright) -> None:
         ds, hp = stack_dark.split("none"), f"without the high-pass ({exc})"
     r, r_rel = rd.value, rd.se / rd.value
     s2, se2 = ds.get("total")  # General Section 8.3: DSNU1288 in photons and also in DN
-    v["DSNU1288_DN"] = _std_estimate(s2, se2, 1.0, 0.0, "DN", f"s_y.dark (General Section 8.3), {hp}")
+    v["DSNU1288_DN"] = std_estimate(s2, se2, 1.0, 0.0, "DN", f"s_y.dark (General Section 8.3), {hp}")
     for part, suffix in PARTS:
         s2, se2 = ds.get(part)
-        v["DSNU1288" + suffix.replace(".", "_")] = _std_estimate(
+        v["DSNU1288" + suffix.replace(".", "_")] = std_estimate(
             s2, se2, 1.0 / r, r_rel, "photons", f"s_y.dark{suffix} / R_d (EMVA 1288 4.0 General Eqs. 56, 58), {hp}")
     mu_p50 = float(stack_bright.photons) if stack_bright is not None else math.nan
     if stack_bright is None or not mu_p50 > 0 or res.curve is None:
@@ -130,7 +130,7 @@ def _nonuniformity(v: dict, res, stack_dark, stack_bright) -> None:
         d, dse = ds.get(part)
         s2p = b / slope**2 - d / r**2  # s2_p.50 - s2_p.dark (Eq. 59)
         se2p = math.hypot(bse / slope**2, dse / r**2)
-        e = _std_estimate(s2p, se2p, 100.0 / mu_p50, 0.0, "%",
+        e = std_estimate(s2p, se2p, 100.0 / mu_p50, 0.0, "%",
                           f"sqrt(s2_p.50{suffix} - s2_p.dark{suffix}) / mu_p.50 (General Eqs. 55, 56, 59), {hp}")
         if e.available and not e.bound:  # the slopes' errors (a common scale of each variance)
             e = Estimate(e.value, math.hypot(e.se, e.value * math.hypot(b / slope**2 * slope_rel, d / r**2 * r_rel)

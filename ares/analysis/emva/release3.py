@@ -39,7 +39,8 @@ from ares.analysis.emva.sanity import judge
 from ares.analysis.stats.estimate import Estimate
 from ares.analysis.ptc.levels import SpatialStats, pair_stats, spatial_stats
 from ares.analysis.stats.median import n_distinct
-from ares.analysis.stats.physical import snr_db, snr_in_range
+from ares.analysis.spatial.nonuniformity import std_estimate
+from ares.analysis.stats.physical import resolved, snr_db, snr_in_range
 from ares.analysis.ptc.fit import line_fit, origin_fit
 from ares.analysis.ptc.saturation import index_max_variance
 
@@ -206,9 +207,11 @@ def emva1288_results(temporal: TemporalData, spatial_bright: SpatialStats | None
 
     if spatial_dark is not None:
         s2yd = spatial_dark.s2_spatial
+        # (its SE: the spatial variance's Gaussian sampling over the pixels, as Release 4.0's
+        # (``spatial.nonuniformity``), with K's; a variance not above 2 SE is an upper limit)
         vals["DSNU1288"] = (na(why_k, "e-") if why_k else
-                            Estimate(math.sqrt(s2yd) / K, math.sqrt(s2yd) / K * K_se / K, "e-",
-                                     "sqrt(s2_y.dark spatial)/K, stack average, temporal/L removed")
+                            std_estimate(s2yd, _spatial_se(spatial_dark), 1.0 / K, K_se / K, "e-",
+                                          "sqrt(s2_y.dark spatial)/K, stack average, temporal/L removed")
                             if s2yd >= 0 else na("negative dark spatial variance", "e-"))
         extra["DSNU1288_DN"] = Estimate(math.sqrt(max(s2yd, 0)), math.nan, "DN", "")
     else:
@@ -216,19 +219,27 @@ def emva1288_results(temporal: TemporalData, spatial_bright: SpatialStats | None
     if spatial_bright is not None and spatial_dark is not None:
         d2 = spatial_bright.s2_spatial - spatial_dark.s2_spatial
         sig = spatial_bright.mean - spatial_dark.mean
-        vals["PRNU1288"] = (Estimate(100 * math.sqrt(d2) / sig, math.nan, "%",
-                                     "sqrt(s2_y - s2_y.dark)/(mu_y - mu_y.dark), no high-pass (3.0)")
+        vals["PRNU1288"] = (std_estimate(d2, math.hypot(_spatial_se(spatial_bright), _spatial_se(spatial_dark)),
+                                          100.0 / sig, 0.0, "%",
+                                          "sqrt(s2_y - s2_y.dark)/(mu_y - mu_y.dark), no high-pass (3.0)")
                             if d2 > 0 and sig > 0 else na("no spatial signal variance above dark", "%"))
     else:
         vals["PRNU1288"] = na("no bright and dark stacks", "%")
 
     dev, window, why_le = _linearity(td.u_p, Y, isat)
-    # (no SE: a signed extreme near 0 has an SE above its value, which the sanity rule turns into
-    # "not available", and the reference implementation's published LE_min/LE_max would be lost;
-    # the Release 4.0 LE and ARES's linearity error carry theirs)
-    for key, pick in (("LE_min", np.min), ("LE_max", np.max)):
-        vals[key] = na(why_le, "%") if why_le else Estimate(float(pick(dev[window])), math.nan, "%",
-                                                             "5-95 % of saturation")
+    # each extreme's SE: its level's deviation from the line through its mean's temporal noise (the
+    # pair's mean over the pixels, bright and dark); one not resolved from 0 is only a limit
+    # (``resolved``), never "ok" -- a signed figure whose truth may be 0
+    y_se = 100 * np.sqrt((td.s2_y + td.s2_ydark) / (2.0 * max(td.n_pixels, 1))) / np.where(Y != 0, np.abs(Y), np.inf)
+    for key, pick in (("LE_min", np.argmin), ("LE_max", np.argmax)):
+        if why_le:
+            vals[key] = na(why_le, "%")
+            continue
+        j = window.start + int(pick(dev[window]))
+        se = float(y_se[j]) if td.n_pixels else math.nan
+        vals[key] = resolved(Estimate(float(dev[j]), se, "%", "5-95 % of saturation" + (
+            "; SE: that level's mean's temporal noise" if td.n_pixels else "; no SE: the pixel count is not given")),
+            key)
     sat = vals.get("u_e_sat")
     tmax = float(np.max(td.texp_s)) if np.size(td.texp_s) else None
     vals, extra = (judge(vals, saturation=sat, longest_exposure_s=tmax),
@@ -261,6 +272,11 @@ def _linearity(u_p: np.ndarray, Y: np.ndarray, isat: int) -> tuple[np.ndarray, s
     if not (np.all(Y_ > 0) and np.all(np.isfinite(dev[lo:hi + 1]))):
         return nan, slice(0, 0), "no line through the photon counts fits the levels (photon counts zero or all equal)"
     return dev, slice(lo, hi + 1), ""
+
+
+def _spatial_se(sp: SpatialStats) -> float:
+    """Gaussian sampling SE of a stack average's spatial variance over its pixels (DN^2)."""
+    return math.sqrt(2.0 / max(sp.n_pixels - 1, 1)) * max(sp.s2_measured, 0.0)
 
 
 def spatial_from_stacks(bright: np.ndarray, dark: np.ndarray) -> tuple[SpatialStats, SpatialStats]:

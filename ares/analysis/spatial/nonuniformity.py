@@ -402,7 +402,7 @@ def _solve(cav: float, rav: float, s2_meas: float, M: int, N: int, L: int, mean:
 PARTS = (("total", ""), ("col", ".col"), ("row", ".row"), ("pix", ".pix"))
 
 
-def _std_estimate(s2: float, se2: float, scale: float, scale_rel_se: float, unit: str, note: str) -> Estimate:
+def std_estimate(s2: float, se2: float, scale: float, scale_rel_se: float, unit: str, note: str) -> Estimate:
     """sqrt(s2) * scale with its SE; an upper limit when s2 is not above 2 SE."""
     if not math.isfinite(s2):
         return Estimate.na("spatial variance not available", unit)
@@ -418,10 +418,10 @@ def dsnu(dark: Split, K: float, K_se: float) -> dict[str, Estimate]:
     out = {}
     for part, suffix in PARTS:
         s2, se2 = dark.get(part)
-        out["DSNU1288" + suffix.replace(".", "_")] = _std_estimate(
+        out["DSNU1288" + suffix.replace(".", "_")] = std_estimate(
             s2, se2, 1.0 / K, K_se / K, "e-", f"s_y.dark{suffix} / K (EMVA 1288 4.0 Linear Eq. 66)")
     s2, se2 = dark.get("total")
-    out["DSNU1288_DN"] = _std_estimate(s2, se2, 1.0, 0.0, "DN", "s_y.dark (Eq. 66 x K)")
+    out["DSNU1288_DN"] = std_estimate(s2, se2, 1.0, 0.0, "DN", "s_y.dark (Eq. 66 x K)")
     return out
 
 
@@ -436,7 +436,7 @@ def prnu(bright: Split, dark: Split) -> dict[str, Estimate]:
         if sig <= 0:
             out[key] = Estimate.na("the bright stack is not above the dark stack", "%")
             continue
-        out[key] = _std_estimate(b - d, math.hypot(bse, dse), 100.0 / sig, 0.0, "%",
+        out[key] = std_estimate(b - d, math.hypot(bse, dse), 100.0 / sig, 0.0, "%",
                                  f"sqrt(s2_y.50{suffix} - s2_y.dark{suffix}) / (mu_y.50 - mu_y.dark) (Eq. 67)")
     return out
 
