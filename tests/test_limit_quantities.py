@@ -67,3 +67,32 @@ def test_what_validates_is_what_matches(results, q, ok):
     assert (unknown_limit(q, analyses) is None) == ok
     if ok:  # a name the validator accepts finds its value in the results
         assert any(names_quantity(k, q) for k in flatten(results))
+
+
+def test_a_figure_known_only_as_a_limit_passes_a_limit_only_where_it_proves_it():
+    """An upper limit "< 0.3" proves "<= 0.5" but not ">= 0.1" (the value may be 0); a lower limit
+    "> 2" proves ">= 1" but not "<= 5": never a wrong pass (the value compared as if measured)."""
+    from types import SimpleNamespace
+
+    from ares.protocol.scan import Limit
+    from ares.results.registry import check_limits
+
+    res = {"lag": {"lag_pct": {"value": 0.3, "se": None, "unit": "%", "verdict": "upper limit"}},
+           "ptc": {"full_well_e": {"value": 2.0, "se": None, "unit": "e-", "verdict": "lower limit"}}}
+
+    def fails(*lims):
+        return check_limits(SimpleNamespace(limits=list(lims)), res)
+
+    assert fails(Limit("lag_pct", max=0.5), Limit("full_well_e", min=1.0)) == []
+    f = fails(Limit("lag_pct", min=0.1, max=0.5))
+    assert len(f) == 1 and "only an upper limit" in f[0] and "< 0.3" in f[0]
+    f = fails(Limit("full_well_e", max=5.0))
+    assert len(f) == 1 and "only a lower limit" in f[0]
+    f = fails(Limit("lag_pct", max=0.2))
+    assert len(f) == 1 and "< 0.3 is not <= 0.2" in f[0]
+    # a lot's item likewise (the same rule: results.registry.limit_passes)
+    from ares.batch.lot_report import judge
+
+    j = judge([{"item": "a", "status": "done", "figures": {"lag_pct": res["lag"]["lag_pct"]}}],
+              [Limit("lag_pct", min=0.1, max=0.5)])
+    assert j.results[0]["passed"] is False

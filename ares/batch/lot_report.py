@@ -50,6 +50,8 @@ def judge(results: list[dict], limits, meta: dict[str, dict] | None = None) -> J
     """Each item against each limit: "pass", "FAIL", or "not tested" (the item has no such
     quantity); an item that could not be analysed fails every limit. Yield per limit is
     passed / every item of the lot (errored ones included: the denominator is the lot)."""
+    from ares.results.registry import limit_passes
+
     meta = meta or {}
     quantities: list[str] = []
     for r in results:
@@ -69,8 +71,7 @@ def judge(results: list[dict], limits, meta: dict[str, dict] | None = None) -> J
                 r["checks"][limit_text(lim)] = False
                 continue
             f = find(r.get("figures") or {}, lim.quantity)
-            v = None if f is None else f.get("value")
-            good = None if v is None else bool(lim.check(float(v)))
+            good = None if f is None else limit_passes(lim, f)  # (a figure known only as a limit: where it proves it)
             r["checks"][limit_text(lim)] = good
             y[0] += int(bool(good))
             ok &= good is not False

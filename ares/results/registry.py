@@ -7,6 +7,8 @@ from __future__ import annotations
 import math
 from typing import Callable
 
+from ares.analysis.stats.estimate import VERDICT_LOWER, VERDICT_UPPER
+
 
 
 
@@ -117,18 +119,41 @@ def limits_verdict(status: str, n_limits: int, fails) -> dict:
     return {"state": state, "text": text, "n_limits": n_limits}
 
 
+def limit_passes(lim, leaf) -> bool | None:
+    """Does the figure ``leaf`` (an estimate dict or a bare number) meet the limit ``lim``? None
+    when it has no value; a figure known only as a limit passes only where the limit proves it
+    (an upper limit below the maximum with no minimum set, a lower one above the minimum with
+    no maximum set): never a wrong pass by comparing a limit as if it were measured."""
+    v = leaf.get("value") if isinstance(leaf, dict) else leaf
+    if v is None:
+        return None
+    bound = limit_side(leaf)
+    if not lim.check(float(v)):
+        return False
+    return not ((bound == "upper" and lim.min is not None) or (bound == "lower" and lim.max is not None))
+
+
+def limit_side(leaf) -> str:
+    """"upper" or "lower" where an estimate dict is only a limit, else ""."""
+    return {VERDICT_UPPER: "upper", VERDICT_LOWER: "lower"}.get(leaf.get("verdict", ""), "") if isinstance(leaf, dict) else ""
+
+
 def check_limits(scan, results: dict) -> list[str]:
     """One sentence per failed limit; a quantity no analysis produced fails too."""
-    flat = flatten(results)
     fails = []
     for lim in scan.limits:
-        hits = [v for k, v in flat.items() if names_quantity(k, lim.quantity)]
+        hits = [leaf for k, leaf in leaves(results) if names_quantity(k, lim.quantity)]
         if not hits:
             fails.append(f"limit on '{lim.quantity}': no analysis produced this quantity")
             continue
-        v = hits[0]
+        leaf = hits[0]
+        v, bound = (leaf["value"] if isinstance(leaf, dict) else leaf), limit_side(hits[0])
         if v is None or not lim.check(float(v)):
-            fails.append(f"{lim.quantity} = {'n/a' if v is None else format(float(v), '.4g')} is not {lim.bounds()}")
+            shown = "n/a" if v is None else {"upper": "< ", "lower": "> "}.get(bound, "") + format(float(v), ".4g")
+            fails.append(f"{lim.quantity} = {shown} is not {lim.bounds()}")
+        elif not limit_passes(lim, leaf):  # only a limit is known: inside the range, the value may not be
+            fails.append(f"{lim.quantity}: only {'an upper' if bound == 'upper' else 'a lower'} limit is known "
+                         f"({'<' if bound == 'upper' else '>'} {float(v):.4g}), which cannot show it is {lim.bounds()}")
     return fails
 
 
