@@ -230,7 +230,33 @@ def fig_emva_4(scan, bench, res, stages):
     for key in ("mu_I", "mu_I_mean", "mu_I_var"):
         if key in v:
             out.append((f"{key} [e-/s]", v[key], float(td["maps"]["dark_e_per_s"].mean())))
-    return out
+    return out + _emva_spatial(scan, bench, v, sp["settings"], k)
+
+
+def _emva_spatial(scan, bench, v: dict, settings: dict, k: float) -> list:
+    """DSNU1288 and PRNU1288 with their .col/.row/.pix parts (EMVA 1288 4.0 Linear Section 8,
+    Eqs. 66, 67): the text's own split (``nonuniformity.split``: the 4.0 high-pass, Eqs. 35 -
+    44) of the sensor's expected dark and 50 % images (``ares.sim.expected``: the mean of
+    infinitely many frames, so no temporal noise to remove), every pixel in (the text masks
+    none); DSNU in e- with the PTC truth of K."""
+    from ares.analysis.spatial.nonuniformity import split
+    from ares.scan.apply import apply_settings
+    from ares.sim.expected import expected_codes
+
+    apply_settings(bench, scan.system, settings)
+    s = bench.frames.settings()
+    for key in ("test_mode", "streaming", "photon_flux"):
+        s.pop(key)
+    sensor = bench.info["sensor"]
+    d = split(expected_codes(sensor, photon_flux=0.0, **s), 0.0, 1, "4.0")
+    b = split(expected_codes(sensor, photon_flux=settings.get("light", 0.0), **s), 0.0, 1, "4.0")
+    out = [("DSNU1288 [DN]", v.get("DSNU1288_DN"), math.sqrt(d.total))]
+    for part, suffix in (("total", ""), ("col", "_col"), ("row", "_row"), ("pix", "_pix")):
+        out.append((f"DSNU1288{suffix} [e-]", v.get("DSNU1288" + suffix), math.sqrt(max(d.get(part)[0], 0.0)) / k))
+        out.append((f"PRNU1288{suffix} [%]", v.get("PRNU1288" + suffix),
+                    100 * math.sqrt(max(b.get(part)[0] - d.get(part)[0], 0.0)) / (b.mean - d.mean)))
+    return [(n, e if e is not None else {"value": None, "se": None, "verdict": "not available"}, t)
+            for n, e, t in out]
 
 
 def fig_fe55(scan, bench, res, stages):
@@ -265,12 +291,85 @@ def fig_dark_temperature(scan, bench, res, stages):
     return out
 
 
+def _rtn_pixel_var(t: dict, sensor, frames: int) -> np.ndarray:
+    """Per pixel the temporal variance (DN^2) a ``frames``-frame dark stack holds about its own
+    mean, line terms apart: read noise (x the noisy pixels' factor), chain noise, dark shot noise
+    of the pixel's own dark charge (hot pixels too), the ADC's quantization (code widths from its
+    DNL at the dark level: sum w^3 / 12 sum w) and the RTS traps' telegraph, p (1 - p) A^2 with
+    rho = 1 - P_up - P_down between frames (the ddof-1 variance of a correlated series shrinks by
+    1 - 2 sum_k (F - k) rho^k / (F (F - 1)))."""
+    fp = sensor.patterns
+    G = t["G"]
+    dark = t["maps"]["dark_e_per_s"].astype(np.float64) * t["scene"]["exposure_s"]
+    var = (G * t["read_noise_e"] * fp.read_noise_factor.astype(np.float64)) ** 2 + sensor.params.chain_noise_dn ** 2
+    var = var + G * G * dark
+    dnl = np.asarray(t["adc"]["dnl_lsb"], float)
+    c = int(round(t["o"]))
+    w = 1 + np.nan_to_num(dnl[max(c - 8, 0):c + 8])
+    var = var + float(np.sum(w**3) / (12 * np.sum(w)))
+    idx = fp.defects.index["rts"]
+    if len(idx):
+        pu, pd = fp.rts_p_up.astype(np.float64), fp.rts_p_down.astype(np.float64)
+        pi = pu / (pu + pd)
+        rho = 1 - pu - pd
+        k = np.arange(1, frames)
+        shrink = 1 - 2 / (frames * (frames - 1)) * np.array([np.sum((frames - k) * r**k) for r in rho])
+        amp = G * fp.defects.rts_amplitude_e.astype(np.float64)
+        var.ravel()[idx] += amp**2 * pi * (1 - pi) * shrink
+    return var.ravel()
+
+
+def fig_rtn(scan, bench, res, stages):
+    """RTN (scans/rtn.xml, sim_lowlight.xml): the fraction of RTS pixels (the simulator's, all
+    above 3x the noise), the rms temporal noise with and without the pixels called RTN and the
+    increase (per-pixel variances, ``_rtn_pixel_var``), the median amplitude (of every RTS
+    pixel); and per RTS pixel found, its amplitude and both dwell times (frames) against the
+    trap's -- the scan's own analysis on its kept raw frames (``ares rtn``'s per-pixel table)."""
+    import h5py
+    from test_scan_truth import RUN_DIRS, _truth
+
+    from ares.analysis.lowlight import rtn as R
+
+    r = res["rtn"]
+    st = next(s for s in stages if s["name"] == r["stage"])
+    t = _truth(scan, bench, st["settings"])
+    sensor = bench.info["sensor"]
+    n = r["pixels"]
+    var = _rtn_pixel_var(t, sensor, r["frames"])
+    called = np.zeros(n, bool)
+    cols = sensor.shape[1]
+    called[np.asarray(r.get("map", {}).get("rows", []), int) * cols + np.asarray(r.get("map", {}).get("cols", []), int)] = True
+    idx = sensor.patterns.defects.index["rts"]
+    amp = t["lowlight"]["rts_amplitude_dn"]
+    out = [("RTN fraction", r["rtn_fraction"], len(idx) / n),
+           ("temporal noise [DN]", r["temporal_noise_dn"], math.sqrt(var.mean())),
+           ("temporal noise without RTN [DN]", r["temporal_noise_without_rtn_dn"], math.sqrt(var[~called].mean())),
+           ("temporal noise increase [%]", r["temporal_noise_increase_pct"],
+            100 * (math.sqrt(var.mean() / var[~called].mean()) - 1)),
+           ("median amplitude [DN]", r["median_amplitude_dn"], float(np.median(amp)))]
+    with h5py.File(RUN_DIRS["rtn"] / "frames" / f"{st['index']:04d}.h5", "r") as f:
+        px, _ = R.analyse_stack(f["frames"][()])
+    where = {int(i): k for k, i in enumerate(px.index)}
+    ll = t["lowlight"]
+    for j, i in enumerate(idx):
+        k = where.get(int(i))
+        if k is None:
+            continue
+        for name, v, se, tr in (("amplitude, every RTS pixel found [DN]", px.amplitude_dn, px.amplitude_se_dn, amp),
+                                ("dwell low, every RTS pixel found [frames]", px.dwell_low_frames, px.dwell_low_se,
+                                 ll["rts_dwell_low_frames"]),
+                                ("dwell high, every RTS pixel found [frames]", px.dwell_high_frames, px.dwell_high_se,
+                                 ll["rts_dwell_high_frames"])):
+            out.append((name, {"value": float(v[k]), "se": float(se[k]), "verdict": "ok"}, float(tr[j])))
+    return out
+
+
 FIGURES = {
     "photon_transfer": fig_photon_transfer, "ptc_exposure": fig_ptc_exposure, "dark_current": fig_dark_current,
     "temperature": fig_temperature, "gain": fig_gain, "adc_linearity": fig_adc_linearity, "lag": fig_lag,
     "bias_sweep_2d": fig_bias_sweep_2d, "photon_counting": fig_photon_counting, "spectral_qe": fig_spectral_qe,
     "mtf": fig_mtf, "emva_4": fig_emva_4, "fe55": fig_fe55, "dark_temperature": fig_dark_temperature,
-    "photon_transfer_precision": fig_photon_transfer,
+    "photon_transfer_precision": fig_photon_transfer, "rtn": fig_rtn,
 }
 
 
