@@ -102,6 +102,11 @@ def test_a_mask_too_short_for_the_noisy_test_makes_the_masked_ps_a_bound(run):
     assert dec["components"]["Cs"]["verdict"] == "ok"  # (a few pixels a line: the line FPN stays an estimate)
     figs = nonuniformity(dec["components"], dec["components_unmasked"], None, st["name"], "", st.get("scene"))
     assert figs["dsnu_dn"].verdict == "upper limit", figs["dsnu_dn"]
+    from ares.rundir.summary import summary_row
+
+    rows = [summary_row(s, scan.system.setting_units()) for s in stages]  # summary.csv says it beside the number
+    rows = [r for r in rows if r.get("Ps_masked_dn2") is not None]
+    assert rows and all(r["Ps_masked_verdict"] == "upper limit" for r in rows)
 
 
 def test_stages_are_committed_as_they_end_and_rewritten_when_the_mask_completes(run):
