@@ -45,6 +45,7 @@ from ares.analysis.lowlight.rtn_dwell import (continuous_dwell_s, dwell_frames_n
 from ares.analysis.stats.estimate import Estimate
 
 Z_SCREEN = 5.0
+LINE_VAR_ALL, LINE_VAR_EVERY = 64, 8  # frames whose line medians' noise ``Screen`` measures
 BIC_MARGIN = 10.0
 EM_ITER = 60
 
@@ -131,17 +132,22 @@ class Screen:
     """Pass 2: per-pixel variance and lag-1 autocorrelation of the line-free residual."""
 
     def __init__(self, mean: np.ndarray):
-        self.free = LineFree(mean, spread=True)
+        self.free = LineFree(mean)
         self.s2 = np.zeros(self.free.mean.shape)
-        self.s_line = 0.0
+        self.s_line, self.n_line = 0.0, 0
         self.s11 = np.zeros(self.free.mean.shape)
         self.prev = None
         self.n = 0
 
     def add(self, frame) -> None:
+        # the medians' noise is a property of the noise level, not of the frame: measured on
+        # every frame of the first LINE_VAR_ALL, then every LINE_VAR_EVERY-th (it doubled the pass)
+        self.free.spread = self.n < LINE_VAR_ALL or self.n % LINE_VAR_EVERY == 0
         d = self.free(frame)
         self.s2 += d * d
-        self.s_line += self.free.line_var
+        if self.free.spread:
+            self.s_line += self.free.line_var
+            self.n_line += 1
         if self.prev is not None:
             self.s11 += d * self.prev
         self.prev = d
@@ -151,7 +157,7 @@ class Screen:
     def variance(self) -> np.ndarray:
         """Per pixel the temporal variance about its mean, line terms apart: the residual's,
         less what the row and column medians added (``LineFree.line_var``)."""
-        return np.maximum(self.s2 / max(self.n - 1, 1) - self.s_line / max(self.n, 1), 0.0)
+        return np.maximum(self.s2 / max(self.n - 1, 1) - self.s_line / max(self.n_line, 1), 0.0)
 
     @property
     def rho1(self) -> np.ndarray:
