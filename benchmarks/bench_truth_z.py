@@ -5,7 +5,10 @@ more than 3 SE from their truth.
 
 The truths are the ones the truth tests use (``tests/test_scan_truth.py``: ``_ptc_k``,
 ``_emva_dark_var``, ``_full_well_e``, ...; the other scans' from ``SimSensor.truth()`` and the
-scan's sensor parameters, as their tests take them). A figure whose SE covers its truth
+scan's sensor parameters, as their tests take them); rtn's per pixel (``_rtn_pixel_var``, the
+traps' amplitudes and dwells: ``--frames`` of 100 and more, e.g. ``--frames 500,default``);
+emva_4's DSNU1288/PRNU1288 from the text's own split of the sensor's expected images
+(``ares.sim.expected``). A figure whose SE covers its truth
 gives z of mean ~0 and SD ~1; an SD well above 1 is an SE smaller than the figure's scatter.
 
     python benchmarks/bench_truth_z.py [--scans dark_current,lag] [--frames 2,4,16,default]
@@ -292,12 +295,10 @@ def fig_dark_temperature(scan, bench, res, stages):
 
 
 def _rtn_pixel_var(t: dict, sensor, frames: int) -> np.ndarray:
-    """Per pixel the temporal variance (DN^2) a ``frames``-frame dark stack holds about its own
-    mean, line terms apart: read noise (x the noisy pixels' factor), chain noise, dark shot noise
-    of the pixel's own dark charge (hot pixels too), the ADC's quantization (code widths from its
-    DNL at the dark level: sum w^3 / 12 sum w) and the RTS traps' telegraph, p (1 - p) A^2 with
-    rho = 1 - P_up - P_down between frames (the ddof-1 variance of a correlated series shrinks by
-    1 - 2 sum_k (F - k) rho^k / (F (F - 1)))."""
+    """Per pixel the temporal variance (DN^2) of a ``frames``-frame dark stack about its mean,
+    line terms apart: read (x the noisy factor), chain, dark shot noise (hot pixels too), the ADC's
+    quantization (code widths w from its DNL: sum w^3 / 12 sum w), the traps' p (1 - p) A^2 x
+    (1 - 2 sum_k (F - k) rho^k / (F (F - 1))), rho = 1 - P_up - P_down (a correlated series)."""
     fp = sensor.patterns
     G = t["G"]
     dark = t["maps"]["dark_e_per_s"].astype(np.float64) * t["scene"]["exposure_s"]
@@ -320,17 +321,19 @@ def _rtn_pixel_var(t: dict, sensor, frames: int) -> np.ndarray:
 
 
 def fig_rtn(scan, bench, res, stages):
-    """RTN (scans/rtn.xml, sim_lowlight.xml): the fraction of RTS pixels (the simulator's, all
-    above 3x the noise), the rms temporal noise with and without the pixels called RTN and the
-    increase (per-pixel variances, ``_rtn_pixel_var``), the median amplitude (of every RTS
-    pixel); and per RTS pixel found, its amplitude and both dwell times (frames) against the
-    trap's -- the scan's own analysis on its kept raw frames (``ares rtn``'s per-pixel table)."""
+    """RTN (scans/rtn.xml): the fraction of RTS pixels (the simulator's, all above 3x the noise),
+    the rms temporal noise with and without the pixels called RTN and the increase
+    (``_rtn_pixel_var``), the median amplitude (of every RTS pixel); per RTS pixel found, its
+    amplitude and dwells against the trap's (the scan's analysis on its raw frames: ``ares rtn``)."""
     import h5py
     from test_scan_truth import RUN_DIRS, _truth
 
     from ares.analysis.lowlight import rtn as R
 
     r = res["rtn"]
+    if "stage" not in r:  # fewer frames than RTN needs (RTN_MIN_FRAMES): said, not a failed run
+        na = {"value": None, "se": None, "verdict": "not available", "note": r.get("note", "")}
+        return [(f, na, math.nan) for f in ("RTN fraction", "temporal noise [DN]", "median amplitude [DN]")]
     st = next(s for s in stages if s["name"] == r["stage"])
     t = _truth(scan, bench, st["settings"])
     sensor = bench.info["sensor"]
