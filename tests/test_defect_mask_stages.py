@@ -107,6 +107,13 @@ def test_a_mask_too_short_for_the_noisy_test_makes_the_masked_ps_a_bound(run):
     rows = [summary_row(s, scan.system.setting_units()) for s in stages]  # summary.csv says it beside the number
     rows = [r for r in rows if r.get("Ps_masked_dn2") is not None]
     assert rows and all(r["Ps_masked_verdict"] == "upper limit" for r in rows)
+    import io
+
+    from ares.commands.run_summary import print_headline
+
+    buf = io.StringIO()  # the terminal's summary says why
+    print_headline(res, buf)
+    assert "mask incomplete, noisy: needs >= " in buf.getvalue(), buf.getvalue()
 
 
 def test_stages_are_committed_as_they_end_and_rewritten_when_the_mask_completes(run):
