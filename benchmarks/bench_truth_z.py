@@ -49,6 +49,7 @@ ROOT = HERE.parent
 from bench_ptc_sim import _Tmp  # noqa: E402  (pytest's tmp_path_factory stand-in for test_scan_truth._run)
 
 KEEP = "## Before and after"
+_LAST = [""]  # the scan run_one ran last (its run directory: test_scan_truth.RUN_DIRS)
 
 
 def _est(d) -> dict:
@@ -60,14 +61,15 @@ def _est(d) -> dict:
 
 # ----------------------------------------------------------------------- the figures per scan
 def fig_photon_transfer(scan, bench, res, stages):
-    from test_scan_truth import _emva_dark_var, _full_well_e, main_job_truth
+    from test_scan_truth import RUN_DIRS, _emva_dark_var, _full_well_e, main_job_truth, ptc_good_pixels
 
     p = res["ptc"]
     t, shape, F, k = main_job_truth(scan, bench, res, stages)
     real = t["realized"]
+    good = ptc_good_pixels(res, stages, RUN_DIRS[_LAST[0]])  # the defect pixels' noise where the PTC kept them
     out = [("K [DN/e-]", p["gain_dn_per_e"], k),
-           ("read noise [DN]", p["read_noise_dn"], math.sqrt(_emva_dark_var(t, shape, F) + 1 / 12)),
-           ("read noise [e-]", p["read_noise_e"], math.sqrt(_emva_dark_var(t, shape, F)) / t["G"]),
+           ("read noise [DN]", p["read_noise_dn"], math.sqrt(_emva_dark_var(t, shape, F, good) + 1 / 12)),
+           ("read noise [e-]", p["read_noise_e"], math.sqrt(_emva_dark_var(t, shape, F, good)) / t["G"]),
            ("full well [e-]", p["full_well_e"], _full_well_e(t, k))]
     d = res["decomposition"]
     for c in ("Ps", "Cs", "Rs"):
@@ -237,11 +239,9 @@ def fig_emva_4(scan, bench, res, stages):
 
 
 def _emva_spatial(scan, bench, v: dict, settings: dict, k: float) -> list:
-    """DSNU1288 and PRNU1288 with their .col/.row/.pix parts (EMVA 1288 4.0 Linear Section 8,
-    Eqs. 66, 67): the text's own split (``nonuniformity.split``: the 4.0 high-pass, Eqs. 35 -
-    44) of the sensor's expected dark and 50 % images (``ares.sim.expected``: the mean of
-    infinitely many frames, so no temporal noise to remove), every pixel in (the text masks
-    none); DSNU in e- with the PTC truth of K."""
+    """DSNU1288, PRNU1288 and parts (EMVA 1288 4.0 Linear Section 8, Eqs. 66, 67): the text's split
+    (``nonuniformity.split``: the 4.0 high-pass, Eqs. 35 - 44) of the sensor's expected dark and
+    50 % images (``ares.sim.expected``: no temporal noise), every pixel in; DSNU in e- by K's truth."""
     from ares.analysis.spatial.nonuniformity import split
     from ares.scan.apply import apply_settings
     from ares.sim.expected import expected_codes
@@ -258,8 +258,7 @@ def _emva_spatial(scan, bench, v: dict, settings: dict, k: float) -> list:
         out.append((f"DSNU1288{suffix} [e-]", v.get("DSNU1288" + suffix), math.sqrt(max(d.get(part)[0], 0.0)) / k))
         out.append((f"PRNU1288{suffix} [%]", v.get("PRNU1288" + suffix),
                     100 * math.sqrt(max(b.get(part)[0] - d.get(part)[0], 0.0)) / (b.mean - d.mean)))
-    return [(n, e if e is not None else {"value": None, "se": None, "verdict": "not available"}, t)
-            for n, e, t in out]
+    return [(n, e if e is not None else {"value": None, "se": None, "verdict": "not available"}, t) for n, e, t in out]
 
 
 def fig_fe55(scan, bench, res, stages):
@@ -383,6 +382,7 @@ def run_one(scan_name: str, frames, seed: int) -> list[dict]:
     with tempfile.TemporaryDirectory() as d:
         t0 = time.perf_counter()
         scan, bench, res, stages = _run(scan_name, _Tmp(Path(d)), frames=frames, seed=seed)
+        _LAST[0] = scan_name
         rows = []
         for fig, est, truth in FIGURES[scan_name](scan, bench, res, stages):
             e = _est(est)
