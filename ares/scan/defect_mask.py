@@ -78,12 +78,12 @@ UNSEEN_CLASSES = ("noisy",)
 
 def bound_incomplete(components: dict, mask: DefectMask) -> dict:
     """The masked components (their JSON form) of a stage whose mask could not test
-    ``mask.unseen`` (too few frames in the stack it came from): the pixel FPN Ps becomes an upper limit (value + 2 SE)
-    with the sentence why -- the pixels left in raise it (a slow trap's level over the stack
-    is a fixed offset there; a noisy pixel's mean scatters by its own variance), and how
-    much is not measured (bench: photon_transfer at 16 frames, 3 of 24 "ok" Ps beyond 3 SE
-    of the defect-free truth, benchmarks/truth_z.md). Ps without the defects is still in
-    the value, and the SE it had in the note."""
+    ``mask.unseen`` (too few frames in the stack it came from): the pixel FPN Ps becomes an
+    upper limit, the estimate + 2 SE, with the sentence why and the estimate in its note. The
+    pixels left in raise Ps by an amount no stack this short measures (a slow trap's level over
+    the stack is a fixed offset there; a noisy pixel widens the estimate's scatter): bench,
+    photon_transfer at 16 frames, 3 of 24 "ok" Ps beyond 3 SE of the defect-free truth, and
+    every bound holding it (benchmarks/truth_z.md)."""
     ps = components.get("Ps")
     if not mask.unseen or not isinstance(ps, dict) or ps.get("verdict") != "ok" or ps.get("se") is None:
         return components
