@@ -5,7 +5,10 @@ more than 3 SE from their truth.
 
 The truths are the ones the truth tests use (``tests/test_scan_truth.py``: ``_ptc_k``,
 ``_emva_dark_var``, ``_full_well_e``, ...; the other scans' from ``SimSensor.truth()`` and the
-scan's sensor parameters, as their tests take them). A figure whose SE covers its truth
+scan's sensor parameters, as their tests take them); rtn's per pixel (``_rtn_pixel_var``, the
+traps' amplitudes and dwells: ``--frames`` of 100 and more, e.g. ``--frames 500,default``);
+emva_4's DSNU1288/PRNU1288 from the text's own split of the sensor's expected images
+(``ares.sim.expected``). A figure whose SE covers its truth
 gives z of mean ~0 and SD ~1; an SD well above 1 is an SE smaller than the figure's scatter.
 
     python benchmarks/bench_truth_z.py [--scans dark_current,lag] [--frames 2,4,16,default]
@@ -46,6 +49,7 @@ ROOT = HERE.parent
 from bench_ptc_sim import _Tmp  # noqa: E402  (pytest's tmp_path_factory stand-in for test_scan_truth._run)
 
 KEEP = "## Before and after"
+_LAST = [""]  # the scan run_one ran last (its run directory: test_scan_truth.RUN_DIRS)
 
 
 def _est(d) -> dict:
@@ -57,14 +61,15 @@ def _est(d) -> dict:
 
 # ----------------------------------------------------------------------- the figures per scan
 def fig_photon_transfer(scan, bench, res, stages):
-    from test_scan_truth import _emva_dark_var, _full_well_e, main_job_truth
+    from test_scan_truth import RUN_DIRS, _emva_dark_var, _full_well_e, main_job_truth, ptc_good_pixels
 
     p = res["ptc"]
     t, shape, F, k = main_job_truth(scan, bench, res, stages)
     real = t["realized"]
+    good = ptc_good_pixels(res, stages, RUN_DIRS[_LAST[0]])  # the defect pixels' noise where the PTC kept them
     out = [("K [DN/e-]", p["gain_dn_per_e"], k),
-           ("read noise [DN]", p["read_noise_dn"], math.sqrt(_emva_dark_var(t, shape, F) + 1 / 12)),
-           ("read noise [e-]", p["read_noise_e"], math.sqrt(_emva_dark_var(t, shape, F)) / t["G"]),
+           ("read noise [DN]", p["read_noise_dn"], math.sqrt(_emva_dark_var(t, shape, F, good) + 1 / 12)),
+           ("read noise [e-]", p["read_noise_e"], math.sqrt(_emva_dark_var(t, shape, F, good)) / t["G"]),
            ("full well [e-]", p["full_well_e"], _full_well_e(t, k))]
     d = res["decomposition"]
     for c in ("Ps", "Cs", "Rs"):
@@ -230,7 +235,30 @@ def fig_emva_4(scan, bench, res, stages):
     for key in ("mu_I", "mu_I_mean", "mu_I_var"):
         if key in v:
             out.append((f"{key} [e-/s]", v[key], float(td["maps"]["dark_e_per_s"].mean())))
-    return out
+    return out + _emva_spatial(scan, bench, v, sp["settings"], k)
+
+
+def _emva_spatial(scan, bench, v: dict, settings: dict, k: float) -> list:
+    """DSNU1288, PRNU1288 and parts (EMVA 1288 4.0 Linear Section 8, Eqs. 66, 67): the text's split
+    (``nonuniformity.split``: the 4.0 high-pass, Eqs. 35 - 44) of the sensor's expected dark and
+    50 % images (``ares.sim.expected``: no temporal noise), every pixel in; DSNU in e- by K's truth."""
+    from ares.analysis.spatial.nonuniformity import split
+    from ares.scan.apply import apply_settings
+    from ares.sim.expected import expected_codes
+
+    apply_settings(bench, scan.system, settings)
+    s = bench.frames.settings()
+    for key in ("test_mode", "streaming", "photon_flux"):
+        s.pop(key)
+    sensor = bench.info["sensor"]
+    d = split(expected_codes(sensor, photon_flux=0.0, **s), 0.0, 1, "4.0")
+    b = split(expected_codes(sensor, photon_flux=settings.get("light", 0.0), **s), 0.0, 1, "4.0")
+    out = [("DSNU1288 [DN]", v.get("DSNU1288_DN"), math.sqrt(d.total))]
+    for part, suffix in (("total", ""), ("col", "_col"), ("row", "_row"), ("pix", "_pix")):
+        out.append((f"DSNU1288{suffix} [e-]", v.get("DSNU1288" + suffix), math.sqrt(max(d.get(part)[0], 0.0)) / k))
+        out.append((f"PRNU1288{suffix} [%]", v.get("PRNU1288" + suffix),
+                    100 * math.sqrt(max(b.get(part)[0] - d.get(part)[0], 0.0)) / (b.mean - d.mean)))
+    return [(n, e if e is not None else {"value": None, "se": None, "verdict": "not available"}, t) for n, e, t in out]
 
 
 def fig_fe55(scan, bench, res, stages):
@@ -265,12 +293,85 @@ def fig_dark_temperature(scan, bench, res, stages):
     return out
 
 
+def _rtn_pixel_var(t: dict, sensor, frames: int) -> np.ndarray:
+    """Per pixel the temporal variance (DN^2) of a ``frames``-frame dark stack about its mean,
+    line terms apart: read (x the noisy factor), chain, dark shot noise (hot pixels too), the ADC's
+    quantization (code widths w from its DNL: sum w^3 / 12 sum w), the traps' p (1 - p) A^2 x
+    (1 - 2 sum_k (F - k) rho^k / (F (F - 1))), rho = 1 - P_up - P_down (a correlated series)."""
+    fp = sensor.patterns
+    G = t["G"]
+    dark = t["maps"]["dark_e_per_s"].astype(np.float64) * t["scene"]["exposure_s"]
+    var = (G * t["read_noise_e"] * fp.read_noise_factor.astype(np.float64)) ** 2 + sensor.params.chain_noise_dn ** 2
+    var = var + G * G * dark
+    dnl = np.asarray(t["adc"]["dnl_lsb"], float)
+    c = int(round(t["o"]))
+    w = 1 + np.nan_to_num(dnl[max(c - 8, 0):c + 8])
+    var = var + float(np.sum(w**3) / (12 * np.sum(w)))
+    idx = fp.defects.index["rts"]
+    if len(idx):
+        pu, pd = fp.rts_p_up.astype(np.float64), fp.rts_p_down.astype(np.float64)
+        pi = pu / (pu + pd)
+        rho = 1 - pu - pd
+        k = np.arange(1, frames)
+        shrink = 1 - 2 / (frames * (frames - 1)) * np.array([np.sum((frames - k) * r**k) for r in rho])
+        amp = G * fp.defects.rts_amplitude_e.astype(np.float64)
+        var.ravel()[idx] += amp**2 * pi * (1 - pi) * shrink
+    return var.ravel()
+
+
+def fig_rtn(scan, bench, res, stages):
+    """RTN (scans/rtn.xml): the fraction of RTS pixels (the simulator's, all above 3x the noise),
+    the rms temporal noise with and without the pixels called RTN and the increase
+    (``_rtn_pixel_var``), the median amplitude (of every RTS pixel); per RTS pixel found, its
+    amplitude and dwells against the trap's (the scan's analysis on its raw frames: ``ares rtn``)."""
+    import h5py
+    from test_scan_truth import RUN_DIRS, _truth
+
+    from ares.analysis.lowlight import rtn as R
+
+    r = res["rtn"]
+    if "stage" not in r:  # fewer frames than RTN needs (RTN_MIN_FRAMES): said, not a failed run
+        na = {"value": None, "se": None, "verdict": "not available", "note": r.get("note", "")}
+        return [(f, na, math.nan) for f in ("RTN fraction", "temporal noise [DN]", "median amplitude [DN]")]
+    st = next(s for s in stages if s["name"] == r["stage"])
+    t = _truth(scan, bench, st["settings"])
+    sensor = bench.info["sensor"]
+    n = r["pixels"]
+    var = _rtn_pixel_var(t, sensor, r["frames"])
+    called = np.zeros(n, bool)
+    cols = sensor.shape[1]
+    called[np.asarray(r.get("map", {}).get("rows", []), int) * cols + np.asarray(r.get("map", {}).get("cols", []), int)] = True
+    idx = sensor.patterns.defects.index["rts"]
+    amp = t["lowlight"]["rts_amplitude_dn"]
+    out = [("RTN fraction", r["rtn_fraction"], len(idx) / n),
+           ("temporal noise [DN]", r["temporal_noise_dn"], math.sqrt(var.mean())),
+           ("temporal noise without RTN [DN]", r["temporal_noise_without_rtn_dn"], math.sqrt(var[~called].mean())),
+           ("temporal noise increase [%]", r["temporal_noise_increase_pct"],
+            100 * (math.sqrt(var.mean() / var[~called].mean()) - 1)),
+           ("median amplitude [DN]", r["median_amplitude_dn"], float(np.median(amp)))]
+    with h5py.File(RUN_DIRS["rtn"] / "frames" / f"{st['index']:04d}.h5", "r") as f:
+        px, _ = R.analyse_stack(f["frames"][()])
+    where = {int(i): k for k, i in enumerate(px.index)}
+    ll = t["lowlight"]
+    for j, i in enumerate(idx):
+        k = where.get(int(i))
+        if k is None:
+            continue
+        for name, v, se, tr in (("amplitude, every RTS pixel found [DN]", px.amplitude_dn, px.amplitude_se_dn, amp),
+                                ("dwell low, every RTS pixel found [frames]", px.dwell_low_frames, px.dwell_low_se,
+                                 ll["rts_dwell_low_frames"]),
+                                ("dwell high, every RTS pixel found [frames]", px.dwell_high_frames, px.dwell_high_se,
+                                 ll["rts_dwell_high_frames"])):
+            out.append((name, {"value": float(v[k]), "se": float(se[k]), "verdict": "ok"}, float(tr[j])))
+    return out
+
+
 FIGURES = {
     "photon_transfer": fig_photon_transfer, "ptc_exposure": fig_ptc_exposure, "dark_current": fig_dark_current,
     "temperature": fig_temperature, "gain": fig_gain, "adc_linearity": fig_adc_linearity, "lag": fig_lag,
     "bias_sweep_2d": fig_bias_sweep_2d, "photon_counting": fig_photon_counting, "spectral_qe": fig_spectral_qe,
     "mtf": fig_mtf, "emva_4": fig_emva_4, "fe55": fig_fe55, "dark_temperature": fig_dark_temperature,
-    "photon_transfer_precision": fig_photon_transfer,
+    "photon_transfer_precision": fig_photon_transfer, "rtn": fig_rtn,
 }
 
 
@@ -281,6 +382,7 @@ def run_one(scan_name: str, frames, seed: int) -> list[dict]:
     with tempfile.TemporaryDirectory() as d:
         t0 = time.perf_counter()
         scan, bench, res, stages = _run(scan_name, _Tmp(Path(d)), frames=frames, seed=seed)
+        _LAST[0] = scan_name
         rows = []
         for fig, est, truth in FIGURES[scan_name](scan, bench, res, stages):
             e = _est(est)

@@ -79,6 +79,43 @@ def test_prnu_masked_within_3_se_of_the_truth(run):
     assert math.isfinite(pg["se"]) and pg["se"] > 0
 
 
+def test_a_mask_too_short_for_the_noisy_test_makes_the_masked_ps_a_bound(run):
+    """At 8 dark frames the noisy test cannot run (it needs >= 19): noisy pixels and slow
+    telegraph traps stay unmasked and read as pixel FPN of the stack (photon_transfer at 16
+    frames: 3 of 24 masked Ps "ok" beyond 3 SE, benchmarks/truth_z.md). The mask says so, the
+    masked Ps is an upper limit that holds the defect-free truth, and so is the DSNU made
+    from it."""
+    from ares.report.headline import nonuniformity
+
+    scan, bench, rd, res, stages, events = run
+    dec = res["decomposition"]
+    assert "noisy" in dec["mask_incomplete"] and "needs >= " in dec["mask_incomplete"]["noisy"]
+    ps = dec["components"]["Ps"]
+    assert ps["verdict"] == "upper limit" and "defect mask incomplete" in ps["note"], ps
+    st = next(s for s in stages if s["name"] == dec["stage"])
+    apply_settings(bench, scan.system, st["settings"])
+    s = bench.frames.settings()
+    for k in ("test_mode", "streaming", "photon_flux"):
+        s.pop(k)
+    truth = bench.info["sensor"].truth(photon_flux=st["settings"].get("light", 0.0), **s)["realized"]["Ps"]
+    assert truth <= ps["value"], (ps, truth)
+    assert dec["components"]["Cs"]["verdict"] == "ok"  # (a few pixels a line: the line FPN stays an estimate)
+    figs = nonuniformity(dec["components"], dec["components_unmasked"], None, st["name"], "", st.get("scene"))
+    assert figs["dsnu_dn"].verdict == "upper limit", figs["dsnu_dn"]
+    from ares.rundir.summary import summary_row
+
+    rows = [summary_row(s, scan.system.setting_units()) for s in stages]  # summary.csv says it beside the number
+    rows = [r for r in rows if r.get("Ps_masked_dn2") is not None]
+    assert rows and all(r["Ps_masked_verdict"] == "upper limit" for r in rows)
+    import io
+
+    from ares.commands.run_summary import print_headline
+
+    buf = io.StringIO()  # the terminal's summary says why
+    print_headline(res, buf)
+    assert "mask incomplete, noisy: needs >= " in buf.getvalue(), buf.getvalue()
+
+
 def test_stages_are_committed_as_they_end_and_rewritten_when_the_mask_completes(run):
     """No stage waits for the flat (a crash loses at most the stage in flight): each
     StageFinished comes before the stage after next starts (one stage in the committer),

@@ -85,32 +85,57 @@ def _truth(scan, bench, settings: dict) -> dict:
     return bench.info["sensor"].truth(photon_flux=settings.get("light", 0.0), **s)
 
 
-def _defect_var_e2(t: dict, frames: int, shape) -> float:
+def _defect_var_e2(t: dict, frames: int, shape, good=None) -> float:
     """Mean extra pixel temporal variance (e-^2 over all pixels) of the defect pixels the
     clean truth leaves out: noisy pixels ((f^2 - 1) read^2), RTS telegraph noise (A^2/4,
     as a stack of ``frames`` correlated frames sees it: rho = 1 - 2 p_switch per frame)
-    and the hot/warm pixels' dark shot noise."""
+    and the hot/warm pixels' dark shot noise. ``good`` (bool map): the mean over those
+    pixels only -- the ones a defect-masked level statistic holds (``ptc_good_pixels``)."""
     d = t["defects"]
     n = shape[0] * shape[1]
     f = d["properties"]["noisy_factor"]
-    noisy = len(d["noisy"][0]) * (f * f - 1) * t["read_noise_e"] ** 2
     amp = np.asarray(d["properties"]["rts_amplitude_e"], float)
     rho = 1 - 2 * SensorParams().rts_switch_prob  # sim_sensor.xml keeps the default
     F = frames
     shrink = 1 - 2 / (F * (F - 1)) * sum((F - k) * rho**k for k in range(1, F))
+    if good is not None:
+        g = np.asarray(good, bool)
+        v = np.zeros(shape)
+        v[d["noisy"]] += (f * f - 1) * t["read_noise_e"] ** 2
+        v[d["rts"]] += amp**2 / 4 * shrink
+        hot = float(t["maps"]["dark_e_per_s"][g].mean()) * t["scene"]["exposure_s"] - t["dark_charge_e"]
+        return float(v[g].mean()) + max(hot, 0.0)
+    noisy = len(d["noisy"][0]) * (f * f - 1) * t["read_noise_e"] ** 2
     rts = float(np.sum(amp**2 / 4)) * shrink
     hot = float(t["maps"]["dark_e_per_s"].mean()) * t["scene"]["exposure_s"] - t["dark_charge_e"]
     return (noisy + rts) / n + max(hot, 0.0)
 
 
-def _emva_dark_var(t: dict, shape, frames: int | None = None) -> float:
+def _emva_dark_var(t: dict, shape, frames: int | None = None, good=None) -> float:
     """Expected stack temporal variance of a dark level (frame means removed), DN^2;
-    with ``frames``, the defect pixels' temporal noise included."""
+    with ``frames``, the defect pixels' temporal noise included (over the ``good`` pixels
+    only, when given)."""
     R, C = shape
     v = t["realized"]["Pt"] * (1 - 1 / (R * C)) + t["Ct"] * (1 - 1 / C) + t["Rt"] * (1 - 1 / R)
     if frames is not None:
-        v += t["G"] ** 2 * _defect_var_e2(t, frames, shape)
+        v += t["G"] ** 2 * _defect_var_e2(t, frames, shape, good)
     return v
+
+
+def ptc_good_pixels(res: dict, stages: list, run_dir: Path):
+    """The pixels a run's PTC read its level statistics from: None when every pixel, else
+    the run's defect mask inverted (the last one its stage files hold: a flat may complete
+    it). The read noise's truth averages the defect pixels' temporal noise over these."""
+    import h5py
+
+    if not (res.get("ptc") or {}).get("defect_pixels_excluded"):
+        return None
+    for st in reversed(stages):
+        if st.get("defect_mask"):
+            with h5py.File(run_dir / "stages" / f"{st['index']:04d}.h5") as f:
+                if "defect_mask" in f:
+                    return ~f["defect_mask"][()].astype(bool)
+    return None
 
 
 def _ptc_k(t: dict, frames: int) -> float:
@@ -195,9 +220,11 @@ def test_photon_transfer_gain_read_noise_full_well(pt):
     p = res["ptc"]
     t, shape, F, k = main_job_truth(scan, bench, res, stages)
     check("photon_transfer K [DN/e-]", k, p["gain_dn_per_e"], rel=0.003)
-    rn_dn = math.sqrt(_emva_dark_var(t, shape, F) + 1 / 12)
+    good = ptc_good_pixels(res, stages, RUN_DIRS["photon_transfer"])  # the masked levels' pixels
+    assert good is not None and (~good).sum() == res["decomposition"]["masked_pixels"]
+    rn_dn = math.sqrt(_emva_dark_var(t, shape, F, good) + 1 / 12)
     check("photon_transfer read noise [DN]", rn_dn, p["read_noise_dn"], rel=0.01)
-    check("photon_transfer read noise [e-]", math.sqrt(_emva_dark_var(t, shape, F)) / t["G"], p["read_noise_e"],
+    check("photon_transfer read noise [e-]", math.sqrt(_emva_dark_var(t, shape, F, good)) / t["G"], p["read_noise_e"],
           rel=0.01)
     check("photon_transfer full well [e-]", _full_well_e(t, k), p["full_well_e"], rel=0.02)
     # EMVA 4.0 saturation capacity: the last unclipped level, inside the bracket below the charge

@@ -104,6 +104,8 @@ def print_headline(res: dict, out) -> None:
             out.write(f"  {d['masked_pixels']} {labels.MASKED_PIXELS} (mask from {src}"
                       f"{': ' + classes if classes else ''}; the defect analysis classifies on its own); "
                       f"with them: Ps {u.get('Ps', float('nan')):.4g} DN^2, Pt {u.get('Pt', float('nan')):.4g} DN^2\n")
+            for cls, why in (d.get("mask_incomplete") or {}).items():  # Ps an upper limit (defect_mask.bound_incomplete)
+                out.write(f"  mask incomplete, {cls}: {why}; the masked Ps is an upper limit\n")
         elif d.get("mask_note"):
             out.write(f"  {d['mask_note']}\n")
         from ares.report.tables import component_label, component_text

@@ -13,7 +13,7 @@ from __future__ import annotations
 import math
 
 from ares import labels
-from ares.analysis.stats.estimate import Estimate
+from ares.analysis.stats.estimate import VERDICT_UPPER, Estimate
 
 NO_MASK = "no defect mask in this scan"
 
@@ -33,6 +33,12 @@ def _dsnu(ps: dict | None, gain: Estimate | None, which: str, stage: str) -> tup
         why = f"pixel offset FPN variance not above 0 at stage {stage}"
         return Estimate.na(why, "e-"), Estimate.na(why, "DN")
     dn = Estimate(math.sqrt(v), se / (2 * math.sqrt(v)), "DN", f"sqrt(Ps) at stage {stage} ({which})")
+    if ps.get("verdict") == VERDICT_UPPER:  # Ps a bound (a mask too short to see every defect): so is DSNU
+        note = f"sqrt(Ps) at stage {stage} ({which}); {ps.get('note', '')}"
+        dn = Estimate.limit(math.sqrt(v), "upper", "DN", note)
+        if gain is None or not gain.available:
+            return Estimate.na("no gain measured to turn DN into e-", "e-"), dn
+        return Estimate.limit(dn.value / gain.value, "upper", "e-", note.replace("sqrt(Ps)", "sqrt(Ps) / K", 1)), dn
     if gain is None or not gain.available:
         return Estimate.na("no gain measured to turn DN into e-", "e-"), dn
     d = dn.value / gain.value

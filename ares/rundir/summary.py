@@ -33,6 +33,8 @@ def summary_row(result: dict, units: dict[str, str]) -> dict:
             unit = e.get("unit", "")
             row[with_unit(f"{k}_masked", unit)] = e.get("value")
             row[with_unit(f"{k}_masked_se", unit)] = e.get("se")
+            if e.get("verdict", "ok") != "ok":  # a bound (a mask too short for every class): said beside it
+                row[f"{k}_masked_verdict"] = e["verdict"]
     return row
 
 

@@ -58,7 +58,7 @@ def _mask_of(runner, completed: list[dict]):
         with h5py.File(path, "r") as f:
             if "defect_mask" in f:
                 return DefectMask(f["defect_mask"][()].astype(bool), summ["mask_source"],
-                                  dict(summ.get("mask_classes") or {}))
+                                  dict(summ.get("mask_classes") or {}), unseen=dict(summ.get("mask_incomplete") or {}))
     raise InputError(f"{runner.out_dir}: the stages used a defect mask that is not in their HDF5 files "
                      "(hdf5=\"false\"?); the run cannot be resumed with the same figures")
 

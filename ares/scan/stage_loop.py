@@ -16,7 +16,7 @@ from ares.hardware import link_stats
 from ares.hardware.waits import Interrupted
 from ares.scan import events as ev
 from ares.scan.apply import apply_settings
-from ares.scan.defect_mask import mask_from_dark, scan_thresholds
+from ares.scan.defect_mask import bound_incomplete, mask_from_dark, scan_thresholds
 from ares.scan.preflight import KEEP_FOR_MASK_BYTES
 from ares.results.spectral_readings import photodiode_readings, spectral_readings
 from ares.results.registry import check_limits, limits_verdict, scan_level_results
@@ -270,6 +270,9 @@ class StageLoop:
         arrays.update(link_stats.arrays(extra.get("link")))
         if mask is not None:
             result["defect_mask"] = mask.summary()
+            full = result["views"].get("full", {})
+            if "components_masked" in full:
+                full["components_masked"] = bound_incomplete(full["components_masked"], mask)
             if new_mask or not completed:  # the mask itself, once, with the stage it came from
                 arrays["defect_mask"] = mask.mask.astype(np.uint8)
         return result, arrays
