@@ -79,7 +79,8 @@ UNSEEN_CLASSES = ("noisy",)
 def bound_incomplete(components: dict, mask: DefectMask) -> dict:
     """The masked components (their JSON form) of a stage whose mask could not test
     ``mask.unseen`` (too few frames in the stack it came from): the pixel FPN Ps becomes an
-    upper limit, the estimate + 2 SE, with the sentence why and the estimate in its note. The
+    upper limit, the estimate + 3 SE (``stats.physical.NSIGMA``: one limit rule), with the
+    sentence why and the estimate in its note. The
     pixels left in raise Ps by an amount no stack this short measures (a slow trap's level over
     the stack is a fixed offset there; a noisy pixel widens the estimate's scatter): bench,
     photon_transfer at 16 frames, 3 of 24 "ok" Ps beyond 3 SE of the defect-free truth, and
@@ -88,13 +89,14 @@ def bound_incomplete(components: dict, mask: DefectMask) -> dict:
     if not mask.unseen or not isinstance(ps, dict) or ps.get("verdict") != "ok" or ps.get("se") is None:
         return components
     from ares.analysis.stats.estimate import Estimate
+    from ares.analysis.stats.physical import NSIGMA
 
     why = "; ".join(f"{c}: {w}" for c, w in mask.unseen.items())
     out = dict(components)
     out["Ps"] = Estimate.limit(
-        ps["value"] + 2 * ps["se"], "upper", ps.get("unit", "DN^2"),
+        ps["value"] + NSIGMA * ps["se"], "upper", ps.get("unit", "DN^2"),
         f"defect mask incomplete ({why}): noisy and slow telegraph (RTS) pixels below detection may "
-        f"remain and raise the pixel FPN; {ps['value']:.4g} +- {ps['se']:.2g} over the good pixels, + 2 SE").to_dict()
+        f"remain and raise the pixel FPN; {ps['value']:.4g} +- {ps['se']:.2g} over the good pixels, + {NSIGMA:g} SE").to_dict()
     return out
 
 
