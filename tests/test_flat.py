@@ -130,7 +130,7 @@ def test_given_gain_poisson_check():
     pats = make_patterns(rng)
     f, d = accs(rng, pats, TRUTH["q"])
     res = decompose_flat(f, d, gain=TRUTH["G"], illumination="none")
-    assert res["G"].note == "given"
+    assert res["G"].is_exact and res["G"].se == 0  # given, not measured: exact, with its verdict
     pr = res["poisson_ratio"]
     assert abs(pr.value - 1) < 4 * pr.se
     assert abs(res["q"].value / TRUTH["q"] - 1) < 0.02

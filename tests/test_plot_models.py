@@ -506,3 +506,11 @@ def test_sweep_model_shows_a_shuffled_axis_in_order():
     (_, v1), (_, v2) = m.axes()
     assert v1.tolist() == [1.0, 2.0] and v2.tolist() == [-0.8, -0.5, -0.2]
     assert np.allclose(m.grid(), 10 * v1[:, None] + v2[None, :])
+
+
+def test_auto_range_of_a_spread_no_histogram_resolves():
+    """Found by the property test above: two values a subnormal apart gave a window no 8-bin
+    histogram can split (numpy: "Too many bins for data range")."""
+    m = StatsPanelModel("x")
+    m.set_values(np.array([5e-324, 0.0]))
+    assert m.counts.sum() == 2 and m.range[0] <= 0.0 and m.range[1] >= 5e-324

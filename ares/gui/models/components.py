@@ -27,6 +27,7 @@ class ComponentRow:
     se: float
     unit: str
     note: str = ""
+    verdict: str = ""  # (a limit is shown as one: "< x")
 
     @property
     def text(self) -> str:
@@ -39,7 +40,8 @@ class ComponentRow:
 
     def _shown(self) -> tuple[str, str]:
         d = {"value": self.value if math.isfinite(self.value) else None,
-             "se": self.se if math.isfinite(self.se) else None, "unit": self.unit, "note": self.note}
+             "se": self.se if math.isfinite(self.se) else None, "unit": self.unit, "note": self.note,
+             "verdict": self.verdict}
         return component_display(self.symbol, d)
 
 
@@ -84,5 +86,5 @@ class ComponentsModel(Observable):
         for k in order:
             d = comps[k] if isinstance(comps[k], dict) else {"value": comps[k]}
             out.append(ComponentRow(k, DESCRIPTIONS.get(k, ""), _num(d.get("value")), _num(d.get("se")),
-                                    str(d.get("unit", "")), str(d.get("note", ""))))
+                                    str(d.get("unit", "")), str(d.get("note", "")), str(d.get("verdict", ""))))
         return out

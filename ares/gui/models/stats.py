@@ -66,7 +66,8 @@ def auto_range(values: np.ndarray, mode: str) -> tuple[float, float]:
     else:
         span = hi - lo
         frm, to = lo - PEAK_MARGIN * span, hi + PEAK_MARGIN * span
-    if not to > frm:  # constant data: a unit-wide window around it
+    if not (to - frm) > 1024 * float(np.spacing(max(abs(frm), abs(to)))):
+        # constant data (or a spread no float histogram resolves: [5e-324, 0]): a unit-wide window
         frm, to = frm - 0.5, to + 0.5
     return frm, to
 
