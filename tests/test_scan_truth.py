@@ -59,16 +59,14 @@ def _run(name, tmp_path_factory, frames=None, clean=False, seed=SEED):
     return scan, bench, res, stages
 
 
-EXACT = ("artefact_ev",)  # constants of the scan's own set points (k T at its mean 1/kT): exact
-
-
 def _bare_ok(x, path: str = "") -> list[str]:
     """Every figure of a run's results reported "ok" with no SE (a number without its verdict's
-    evidence), but the exact constants ``EXACT``."""
+    evidence); an exact one (SE 0) says why (``Estimate.declared``: its "exact" reason)."""
     if isinstance(x, dict):
         if "verdict" in x and "value" in x:
-            bare = x["verdict"] == "ok" and x.get("se") is None and x["value"] is not None
-            return [path] if bare and not path.endswith(EXACT) else []
+            bare = x["verdict"] == "ok" and x["value"] is not None and (
+                x.get("se") is None or (x.get("se") == 0 and not x.get("exact")))
+            return [path] if bare else []
         return [p for k, v in x.items() for p in _bare_ok(v, f"{path}.{k}")]
     if isinstance(x, list):
         return [p for i, v in enumerate(x) for p in _bare_ok(v, f"{path}[{i}]")]

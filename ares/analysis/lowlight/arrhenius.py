@@ -208,7 +208,8 @@ def meyer_neldel(fit: PixelArrhenius, min_pixels: int = 10, blocks: int = 20) ->
     cov = fit.cov.ravel()
     ok = np.isfinite(ea) & np.isfinite(la) & np.isfinite(cov) & (se < 0.25 * np.abs(ea))
     tmean = 1.0 / (K_B_EV * float(np.mean(_x(fit.temperatures_c))))
-    artefact = Estimate(K_B_EV * tmean, math.nan, "eV", "k T at the scan's mean 1/kT: the E_MN the fit errors alone give")
+    artefact = Estimate.declared(K_B_EV * tmean, "eV", "k T of the set temperatures",
+                                 "k T at the scan's mean 1/kT: the E_MN the fit errors alone give")
     base = {"artefact_ev": artefact, "t_mean_k": tmean}
     if ok.sum() < max(min_pixels, 2 * blocks) or np.ptp(ea[ok]) == 0:
         na = f"needs >= {max(min_pixels, 2 * blocks)} pixels with E_a measured to 25 %, got {int(ok.sum())}"
