@@ -20,7 +20,6 @@ import pytest
 from ares.sim.from_system import sim_params
 from ares.protocol import load_scan
 from ares.scan import Runner
-from ares.scan.apply import apply_settings
 from ares.sim import make_sim_bench
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -66,12 +65,10 @@ def test_every_stage_uses_the_one_mask_with_the_dead_pixels(run):
 def test_prnu_masked_within_3_se_of_the_truth(run):
     scan, bench, rd, res, stages, events = run
     dec = res["decomposition"]
+    from test_scan_truth import _truth
+
     st = next(s for s in stages if s["name"] == dec["stage"])
-    apply_settings(bench, scan.system, st["settings"])
-    s = bench.frames.settings()
-    for k in ("test_mode", "streaming", "photon_flux"):
-        s.pop(k)
-    want = bench.info["sensor"].truth(photon_flux=st["settings"].get("light", 0.0), **s)["realized"]["Pg"]
+    want = _truth(scan, bench, st["settings"])["realized"]["Pg"]
     pg, raw = dec["components"]["Pg"], dec["components_unmasked"]["Pg"]
     assert abs(pg["value"] - want) <= 3 * pg["se"], (pg, want)
     # the dead pixels matter: with them the same figure is far off (the test can fail)
@@ -92,12 +89,10 @@ def test_a_mask_too_short_for_the_noisy_test_makes_the_masked_ps_a_bound(run):
     assert "noisy" in dec["mask_incomplete"] and "needs >= " in dec["mask_incomplete"]["noisy"]
     ps = dec["components"]["Ps"]
     assert ps["verdict"] == "upper limit" and "defect mask incomplete" in ps["note"], ps
+    from test_scan_truth import _truth
+
     st = next(s for s in stages if s["name"] == dec["stage"])
-    apply_settings(bench, scan.system, st["settings"])
-    s = bench.frames.settings()
-    for k in ("test_mode", "streaming", "photon_flux"):
-        s.pop(k)
-    truth = bench.info["sensor"].truth(photon_flux=st["settings"].get("light", 0.0), **s)["realized"]["Ps"]
+    truth = _truth(scan, bench, st["settings"])["realized"]["Ps"]
     assert truth <= ps["value"], (ps, truth)
     assert dec["components"]["Cs"]["verdict"] == "ok"  # (a few pixels a line: the line FPN stays an estimate)
     figs = nonuniformity(dec["components"], dec["components_unmasked"], None, st["name"], "", st.get("scene"))
