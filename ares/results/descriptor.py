@@ -178,6 +178,7 @@ def with_pair_variance(an: EmvaAnalysis, pair_variance: str) -> EmvaAnalysis:
 def release31(res, stack_b, stack_d) -> dict:
     """Release 3.1 = the 3.0 set with DSNU1288/PRNU1288 from 5x5-box high-passed stacks,
     the spatial standard deviation divided by 0.96 (Linear 4.0 Appendix C.5, Eqs. 84 - 86)."""
+    from ares.analysis.spatial.nonuniformity import std_estimate
     from ares.analysis.stats.estimate import Estimate
 
     K = res.values["K"]
@@ -197,11 +198,15 @@ def release31(res, stack_b, stack_d) -> dict:
         out["PRNU1288"] = Estimate.na(str(exc), "%")
         return out
     sig = float(stack_b.mean_image.mean() - stack_d.mean_image.mean())
-    out["DSNU1288"] = (Estimate(math.sqrt(d2) / K.value, math.sqrt(d2) / K.value * K.se / K.value, "e-",
-                                "s_y.dark after the 5x5 high-pass / 0.96, / K (Release 3.1, Appendix C.5)")
+
+    def se(st):  # the spatial variance's Gaussian sampling over the pixels (as Release 3.0's, 4.0's)
+        return math.sqrt(2.0 / max(st.mean_image.size - 1, 1)) * max(st.highpassed_var("3.1") / 0.96**2, 0.0)
+
+    out["DSNU1288"] = (std_estimate(d2, se(stack_d), 1.0 / K.value, K.se / K.value, "e-",
+                                    "s_y.dark after the 5x5 high-pass / 0.96, / K (Release 3.1, Appendix C.5)")
                        if d2 > 0 else Estimate.na("no dark spatial variance above the temporal residual", "e-"))
-    out["PRNU1288"] = (Estimate(100 * math.sqrt(b2 - d2) / sig, math.nan, "%",
-                                "sqrt(s2_y.50 - s2_y.dark) after the 5x5 high-pass / 0.96, / (mu_y.50 - mu_y.dark) "
-                                "(Release 3.1)")
+    out["PRNU1288"] = (std_estimate(b2 - d2, math.hypot(se(stack_b), se(stack_d)), 100.0 / sig, 0.0, "%",
+                                    "sqrt(s2_y.50 - s2_y.dark) after the 5x5 high-pass / 0.96, / (mu_y.50 - mu_y.dark) "
+                                    "(Release 3.1)")
                        if b2 > d2 and sig > 0 else Estimate.na("no spatial signal variance above dark", "%"))
     return out
