@@ -167,7 +167,8 @@ def _ramp(table):
         se = (float(nxt[0]) - r.turnoff) / 3**0.5 if nxt.size else float("nan")
         to = (Estimate(r.turnoff, se, "DN", r.note + "; SE: spacing to the next level / sqrt(3)") if r.reached
               else Estimate.limit(r.turnoff, "lower", "DN", r.note))
-        mx = (Estimate(r.max_signal, float("nan"), "DN", "median of the levels within 1 % of the brightest")
+        mx = (Estimate(r.max_signal, r.max_signal_se, "DN", "median of the levels within 1 % of the brightest; SE: "
+                       "their own scatter (1.2533 SD / sqrt(n), Student's t), one level: the 1 % window / sqrt(3)")
               if r.reached else Estimate.limit(r.max_signal, "lower", "DN", r.note))
     d["linearity_turnoff_dn"] = to.to_dict()
     d["max_signal_dn"] = mx.to_dict()

@@ -36,6 +36,7 @@ import numpy as np
 
 from ares.analysis.stats.scatter import Scatter, local_residuals, measured_scatter
 from ares.analysis.stats.median import fast_median
+from ares.analysis.ptc.fit import residual_se_widening
 from ares.analysis.ptc.changepoint import (FALL_LEVELS, FALL_PLAUSIBLE, PLAUSIBLE, ROLL_EVIDENCE, fall_cost, locate,
                                             rolloff_evidence)
 
@@ -441,6 +442,7 @@ class RampTurnoff:
     reached: bool  # a level beyond the turnoff deviates (else the turnoff is the brightest level)
     slope: float
     note: str
+    max_signal_se: float = math.nan  # the plateau levels' own scatter (median's SE); 1 level: the 1 % window / sqrt(3)
 
 
 def ramp_turnoff(x, y, min_signal: float = 1000.0, tol: float = 0.01, mask=None) -> RampTurnoff:
@@ -486,9 +488,13 @@ def ramp_turnoff(x, y, min_signal: float = 1000.0, tol: float = 0.01, mask=None)
     reached = bool(y[last] < ymax and (x[fin] > x[last]).any())
     top = fin & (y > (1 - tol) * ymax)
     mx = float(fast_median(y[top])) if reached else float(y[last])
+    nt = int(top.sum())
+    # its SE: the plateau's own scatter (median of nt levels, Student's t); one or two: the window / sqrt(3)
+    mx_se = (1.2533 * float(np.std(y[top], ddof=1)) / math.sqrt(nt) * residual_se_widening(nt - 1) if nt >= 3
+             else tol * ymax / math.sqrt(3))
     note = (f"linearity turnoff (LSST cp_pipe cpLinearitySolve rule): last level before the first two deviating "
             f"> {100 * tol:g} % from a line through the origin fitted above {floor:g}; maximum signal: median of "
             f"the levels within {100 * tol:g} % of the brightest")
     if not reached:
         note = "no level deviates beyond the turnoff: the ramp does not reach saturation (a lower limit)"
-    return RampTurnoff(last, float(y[last]), mx, reached, slope, note)
+    return RampTurnoff(last, float(y[last]), mx, reached, slope, note, mx_se)
