@@ -128,8 +128,10 @@ def check_surfaces(name: str, run: Path, terminal: str) -> None:
 
     # every available key figure is in the PDF with the same digits and unit
     for r in kf:
+        note = r.get("note") or ""  # (an exact figure's reason opens its note: "exact: why; ...")
         e = Estimate(_num(r["value"]), _num(r["se"]), r["unit"],
-                     bound={"upper limit": "upper", "lower limit": "lower"}.get(r["verdict"], ""))
+                     bound={"upper limit": "upper", "lower limit": "lower"}.get(r["verdict"], ""),
+                     exact=note.removeprefix("exact: ").split("; ")[0] if note.startswith("exact: ") else "")
         if e.available:
             assert _squash(e.text()) in pdf, f"{name}: key figure {r['name']} = {e.text()} not in the PDF"
 

@@ -20,6 +20,7 @@ from __future__ import annotations
 import math
 
 from ares.analysis.stats.estimate import Estimate
+from ares.analysis.stats.physical import resolved
 
 ESTIMATORS = {
     "line": "ARES's weighted line (WLS, each level weighted by 1/se(V)^2)",
@@ -43,8 +44,10 @@ def k_statement(head: Estimate, estimator: str | None, why: str, eq50: Estimate,
     diff = head.value - eq50.value
     se = math.hypot(head.se, eq50.se) if math.isfinite(head.se) and math.isfinite(eq50.se) else math.nan
     z = abs(diff) / se if se > 0 else math.nan
-    out["difference"] = Estimate(diff, se, head.unit, "headline - Eq. 50 (SE: both SEs combined, their "
-                                                      "correlation through the shared levels ignored)").to_dict()
+    # (a difference whose SE exceeds it is not resolved from 0: only its limit, never "ok" -- ``resolved``)
+    out["difference"] = resolved(Estimate(diff, se, head.unit, "headline - Eq. 50 (SE: both SEs combined, their "
+                                                               "correlation through the shared levels ignored)"),
+                                 "the headline K minus the Eq. 50 K").to_dict()
     out["z"] = z if math.isfinite(z) else None
     if math.isfinite(z) and z > 2:
         cause = ("they weight the same levels differently, and the curve is not a line within its errors"
