@@ -105,3 +105,34 @@ def test_certificate_holds_every_figure_whole_with_its_verdict(tmp_path):
     text = " ".join(t.get_text() for f in (fig, *more) for t in f.texts)  # (wrapped cells: their lines in order)
     assert all(f"quantity_{k:02d}" in text for k in range(70))
     assert f"15320 photons ({exact_text()})" in text and "> 76.6" in text and "76.6 (SE not" not in text
+
+
+def test_lot_tables_carry_an_exact_figures_why_and_a_limit_as_one(tmp_path):
+    """A declared figure (SE 0, "exact": why) is "exact: why" in lot.csv's verdict column, in the
+    database and on the certificate and the lot PDF's cell -- not "ok" with a bare SE 0; a limit
+    is "> x" there (its verdict column "lower limit")."""
+    import csv as _csv
+    import io
+
+    from ares.analysis.stats.estimate import EXACT_PHOTONS, exact_text
+    from ares.batch import certificate
+    from ares.batch.lot_pdf import _cell
+    from ares.batch.lot_report import to_csv
+
+    figs = {"mu_p_sat": dict(_fig(15320.0, 0.0, "photons"), verdict="ok", exact=EXACT_PHOTONS),
+            "DR": dict(_fig(76.6, None, ""), verdict="lower limit")}
+    j = judge([{"item": "/l/die0", "status": "done", "kind": "run", "hash": "0" * 64, "sensor": "S0",
+                "figures": figs}], [])
+    row = next(_csv.DictReader(io.StringIO(to_csv(j, "L1"))))
+    assert row["mu_p_sat_verdict"] == exact_text(EXACT_PHOTONS) and row["mu_p_sat_se"] == "0.0"
+    assert row["DR_verdict"] == "lower limit"
+    assert _cell(j.results[0], "mu_p_sat") == f"15320 photons ({exact_text(EXACT_PHOTONS)})"
+    assert _cell(j.results[0], "DR") == "> 76.6"
+    path = str(tmp_path / "r.sqlite")
+    with rdb.connect(path) as db:
+        rdb.append_lot(db, "L1", j)
+        back = rdb.figures(db, 1)[0]
+        fig, *_ = certificate.pages(db, 1, [0])
+    assert back["mu_p_sat"]["verdict"] == exact_text(EXACT_PHOTONS)
+    text = " ".join(t.get_text() for t in fig.texts)
+    assert f"15320 photons ({exact_text(EXACT_PHOTONS)})" in text and "> 76.6" in text

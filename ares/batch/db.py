@@ -52,7 +52,7 @@ def append_lot(db: Db, name: str, judged) -> int:
     """Append a judged lot (``lot_report.judge``) in one transaction under the write lock;
     its ``lot_id`` (one more than the highest: the lock makes that safe for many writers)."""
     from ares import __version__
-    from ares.batch.lot_report import rows
+    from ares.batch.lot_report import figure_verdict, rows
 
     data, _ = rows(judged, name)
     created = datetime.datetime.now(datetime.timezone.utc).isoformat(timespec="seconds")
@@ -63,7 +63,7 @@ def append_lot(db: Db, name: str, judged) -> int:
     for i, r in enumerate(judged.results):
         for q, f in (r.get("figures") or {}).items():
             figs.append({"idx": i, "quantity": q, "value": _num(f.get("value")), "se": _num(f.get("se")),
-                         "unit": f.get("unit") or "", "verdict": f.get("verdict") or ""})
+                         "unit": f.get("unit") or "", "verdict": figure_verdict(f)})
         for k in judged.yields:
             checks.append({"idx": i, "limit_text": k, "outcome": data[i].get(k) or ""})
     screen_cols = [c.name for c in t.screens.c if c.name != "lot_id"]
@@ -171,12 +171,16 @@ def bins(db: Db, lot_id: int) -> dict[int, dict]:
 
 
 def figures(db: Db, lot_id: int) -> dict[int, dict[str, dict]]:
-    """{item index: {quantity: {value, se, unit, verdict}}} of a lot."""
+    """{item index: {quantity: {value, se, unit, verdict}}} of a lot (a declared figure's
+    verdict "exact: why" gives its "exact": why back, as its JSON form has it)."""
+    from ares.analysis.stats.estimate import exact_why
+
     out: dict[int, dict[str, dict]] = {}
     for i, q, v, s, u, vd in _rows(db, sa.select(t.figures.c.idx, t.figures.c.quantity, t.figures.c.value,
                                                  t.figures.c.se, t.figures.c.unit, t.figures.c.verdict)
                                    .where(t.figures.c.lot_id == lot_id)):
-        out.setdefault(i, {})[q] = {"value": v, "se": s, "unit": u, "verdict": vd}
+        out.setdefault(i, {})[q] = {"value": v, "se": s, "unit": u, "verdict": vd,
+                                    **({"exact": exact_why(vd)} if exact_why(vd) else {})}
     return out
 
 

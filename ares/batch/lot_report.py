@@ -42,6 +42,16 @@ def find(figures: dict, quantity: str) -> dict | None:
     return next((v for k, v in figures.items() if names_quantity(k, quantity)), None)
 
 
+def figure_verdict(f: dict) -> str:
+    """A figure's verdict column (lot.csv, lot.h5, the database): a declared figure's "exact:
+    why" (its SE 0 says no more), else its verdict ("ok", "upper limit", ...)."""
+    from ares.analysis.stats.estimate import exact_text
+
+    if f.get("exact") or (f.get("se") == 0 and f.get("value") is not None and f.get("verdict") in ("", "ok", None)):
+        return exact_text(f.get("exact", ""))
+    return f.get("verdict") or ""
+
+
 NO_LIMITS = "no limits set"
 NOT_TESTED = "not tested"
 
@@ -108,7 +118,7 @@ def rows(j: Judged, lot: str = "") -> tuple[list[dict], list[str]]:
             row[q] = f.get("value")
             row[f"{q}_se"] = f.get("se")
             row[f"{q}_unit"] = f.get("unit", "")
-            row[f"{q}_verdict"] = f.get("verdict", "") if f else "not measured"
+            row[f"{q}_verdict"] = figure_verdict(f) if f else "not measured"
         for k, v in r.get("checks", {}).items():
             row[k] = NOT_TESTED if v is None else ("pass" if v else "FAIL")
         out.append(row)

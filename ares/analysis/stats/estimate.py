@@ -32,11 +32,18 @@ EXACT_DEFAULT = "declared, not measured"  # an SE of exactly 0 that came without
 EXACT_PHOTONS = "declared photons"  # a step's photons: the bench's or the data set's, not this evaluation's
 EXACT_PHOTONS_AREA = "declared photons and pixel area"
 EXACT_GAIN = "gain given, not measured"
+EXACT_PREFIX = "exact: "
 
 
 def exact_text(why: str = "") -> str:
     """The verdict shown beside a figure whose SE is exactly 0 (every surface: this wording)."""
-    return f"exact: {why or EXACT_DEFAULT}"
+    return f"{EXACT_PREFIX}{why or EXACT_DEFAULT}"
+
+
+def exact_why(verdict: str) -> str:
+    """The why of a verdict column written by ``exact_text`` ("" for any other verdict): a
+    table that keeps only the verdict (lot.csv, the results database) gives it back."""
+    return verdict[len(EXACT_PREFIX):] if (verdict or "").startswith(EXACT_PREFIX) else ""
 
 
 @dataclass(frozen=True)
