@@ -286,8 +286,17 @@ def test_lag_and_defect_pages(runs, tmp_path, ptc_pdf):
     sr = json.loads((runs / "ptc" / "scan_results.json").read_text())["analyses"]
     path, titles = ptc_pdf
     assert "defects" in titles
-    assert key_figures(runs / "ptc")["defects.total"]["value"] == sr["defects"]["counts"]["total"]
+    kf = key_figures(runs / "ptc")
+    assert kf["defects.total"]["value"] == sr["defects"]["counts"]["total"]
     assert "defect counts" in _pdf_text(path)
+    # a count is exact by nature: an integer with its unit and the one wording, never a blank SE
+    from ares.analysis.stats.estimate import EXACT_COUNT, exact_text
+
+    total = sr["defects"]["counts"]["total"]
+    assert kf["defects.total"]["se"] == 0 and kf["defects.total"]["exact"] == EXACT_COUNT
+    assert f"{total} pixels ({exact_text(EXACT_COUNT)})" in " ".join(_pdf_text(path).split())
+    assert all(v.get("exact") == EXACT_COUNT for k, v in kf.items()
+               if k.startswith("defects.") and v["value"] is not None or k == "decomposition.masked_pixels")
     # the defect map: every counted pixel of each class at its place, the criteria below
     d = sr["defects"]
     rows, cols = d["shape"]
@@ -450,3 +459,26 @@ def test_two_axis_sweep_maps_have_axis_units(tmp_path):
     text = _pdf_text(tmp_path / "b.pdf")
     assert "2-D sweep 'bias': sf_bias x tx_low" in text
     assert "sf_bias (V)" in text and "tx_low (V)" in text
+
+
+def test_defect_counts_are_exact_counts_or_a_lower_limit_with_units():
+    """A defect count is exact (SE 0, "exact: counted", its unit); a class found incomplete
+    (rate classes under a short exposure) is a lower limit "> n", and so is the total; the
+    terminal prints each count with its unit."""
+    import io
+
+    from ares.analysis.stats.estimate import EXACT_COUNT
+    from ares.commands.run_summary import _print_estimates
+    from ares.report.tables import defect_count_figures
+
+    a = {"counts": {"hot": 3, "dead": 2, "bad_columns": 1, "total": 5},
+         "detection": {"hot": "incomplete: finds only dark rates >= 10 e-/s"}}
+    kf = defect_count_figures(a)
+    assert kf["defects.dead"]["exact"] == EXACT_COUNT and kf["defects.dead"]["se"] == 0
+    assert kf["defects.bad_columns"]["unit"] == "columns"
+    assert kf["defects.hot"]["verdict"] == "lower limit" and "exact" not in kf["defects.hot"]
+    assert kf["defects.total"]["verdict"] == "lower limit"
+    assert page_tables.fmt_value(3, None, "pixels", "lower limit") == "> 3 pixels"
+    out = io.StringIO()
+    _print_estimates({"counts": a["counts"]}, out, "  ")
+    assert "hot 3 pixels, dead 2 pixels, bad_columns 1 columns, total 5 pixels" in out.getvalue()

@@ -59,7 +59,7 @@ def print_summary(outcome, scan, seconds: float, out=None, resumed: int = 0) -> 
     out.write(limits_verdict(outcome.status, len(scan.limits), outcome.limit_failures)["text"] + "\n")
 
 
-from ares.labels import ANALYSIS_TITLES  # noqa: E402
+from ares.labels import ANALYSIS_TITLES, defect_count_unit  # noqa: E402
 from ares.labels import analysis_title  # noqa: E402,F401
 
 
@@ -153,7 +153,8 @@ def _print_estimates(d: dict, out, indent: str, depth: int = 0, path: str = "") 
         elif isinstance(v, (int, str)) and not isinstance(v, bool) and k in ("counts", "dark_stage"):
             out.write(f"{indent}{k:<26} {v}\n")
         elif k == "counts" and isinstance(v, dict):
-            out.write(f"{indent}{'defective pixels':<26} " + ", ".join(f"{a}={b}" for a, b in v.items() if b) + "\n")
+            out.write(f"{indent}{'defective pixels':<26} " + ", ".join(  # counts, each with its unit
+                f"{a} {b} {defect_count_unit(a)}" for a, b in v.items() if b) + "\n")
         elif k == "unavailable" and isinstance(v, dict):
             for a, why in v.items():
                 out.write(f"{indent}{a + ': n/a':<26} {why}\n")

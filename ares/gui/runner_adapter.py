@@ -12,7 +12,7 @@ import time
 from pathlib import Path
 
 from ares import labels
-from ares.analysis.stats.estimate import GAIN_SPREADS, format_dict, pct_rms
+from ares.analysis.stats.estimate import GAIN_SPREADS, Estimate, format_dict, pct_rms
 from ares.errors import AresError
 
 from ares.gui import events as G
@@ -67,8 +67,8 @@ def summarize(scan_results: dict, thresholds: tuple = ()) -> dict:
     d = scan_results.get("decomposition")
     if isinstance(d, dict) and d.get("masked_pixels") is not None:
         classes = ", ".join(f"{k} {v}" for k, v in (d.get("mask_classes") or {}).items())
-        out["results"][labels.MASKED_PIXELS] = f"{d['masked_pixels']} (mask from {d.get('mask_source')}" + (
-            f": {classes}" if classes else "") + ")"
+        out["results"][labels.MASKED_PIXELS] = Estimate.count(d["masked_pixels"], "pixels").text() + (
+            f"; mask from {d.get('mask_source')}") + (f": {classes}" if classes else "")  # (as the report's figure)
     defects = scan_results.get("defects")
     if isinstance(defects, dict):
         counts = defects.get("counts")
