@@ -143,6 +143,10 @@ def _print_estimates(d: dict, out, indent: str, depth: int = 0, path: str = "") 
     (the MTF's stages -> stage -> channels -> channel -> its option beside the standard)."""
     for k, v in d.items():
         if isinstance(v, dict) and "value" in v and "unit" in v:
+            if path in ("emva4.values", "emva4.general.values"):  # the standard's symbols, as every surface
+                from ares.analysis.emva.sheet import symbol
+
+                k = symbol(k, path == "emva4.general.values")
             out.write(f"{indent}{k:<26} {_num(v)}\n")
         elif isinstance(v, dict) and depth < 5 and any(isinstance(x, dict) for x in v.values()):
             label = (f"option esf_half_width={v['esf_half_width']:g} px (not the standard)"

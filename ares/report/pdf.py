@@ -77,12 +77,7 @@ def _title_head(fig, run) -> float:
     for note in run.notes:
         fig.text(0.06, y, note, fontsize=8.5, va="top", color="C3")
         y -= 0.018
-    stmt = k_statement_of(run)
-    if stmt:
-        for line in textwrap.wrap(stmt, 118)[:6]:
-            fig.text(0.06, y, line, fontsize=8, va="top", color="0.15")
-            y -= 0.016
-        y -= 0.004
+    # (the headline K's statement beside Eq. 50, k_statement_of, is the K key figure's note: once, beside K)
     lim = run.limits
     if run.scan_results is not None or lim["state"] == "not checked":
         color = {"failed": "C3", "passed": "C2"}.get(lim["state"], "0.35")  # green only for limits checked and passed
