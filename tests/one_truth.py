@@ -22,7 +22,7 @@ import h5py
 import numpy as np
 
 from ares import labels
-from ares.analysis.stats.estimate import Estimate, component_text, format_dict
+from ares.analysis.stats.estimate import Estimate, component_text, exact_why, format_dict
 from pdftext import page_texts
 
 
@@ -128,8 +128,9 @@ def check_surfaces(name: str, run: Path, terminal: str) -> None:
 
     # every available key figure is in the PDF with the same digits and unit
     for r in kf:
-        e = Estimate(_num(r["value"]), _num(r["se"]), r["unit"],
-                     bound={"upper limit": "upper", "lower limit": "lower"}.get(r["verdict"], ""))
+        why = exact_why(r["note"].split(";")[0]) if _num(r["se"]) == 0 else ""  # (an exact figure's note leads
+        e = Estimate(_num(r["value"]), _num(r["se"]), r["unit"],  # with its verdict: note_text)
+                     bound={"upper limit": "upper", "lower limit": "lower"}.get(r["verdict"], ""), exact=why)
         if e.available:
             assert _squash(e.text()) in pdf, f"{name}: key figure {r['name']} = {e.text()} not in the PDF"
 
