@@ -288,13 +288,14 @@ def test_lag_and_defect_pages(runs, tmp_path, ptc_pdf):
     assert "defects" in titles
     kf = key_figures(runs / "ptc")
     assert kf["defects.total"]["value"] == sr["defects"]["counts"]["total"]
-    assert "defect counts" in _pdf_text(path)
+    text = _pdf_text(path)  # (read once for the checks below)
+    assert "defect counts" in text
     # a count is exact by nature: an integer with its unit and the one wording, never a blank SE
     from ares.analysis.stats.estimate import EXACT_COUNT, exact_text
 
     total = sr["defects"]["counts"]["total"]
     assert kf["defects.total"]["se"] == 0 and kf["defects.total"]["exact"] == EXACT_COUNT
-    assert f"{total} pixels ({exact_text(EXACT_COUNT)})" in " ".join(_pdf_text(path).split())
+    assert f"{total} pixels ({exact_text(EXACT_COUNT)})" in " ".join(text.split())
     assert all(v.get("exact") == EXACT_COUNT for k, v in kf.items()
                if k.startswith("defects.") and v["value"] is not None or k == "decomposition.masked_pixels")
     # the defect map: every counted pixel of each class at its place, the criteria below
@@ -304,7 +305,6 @@ def test_lag_and_defect_pages(runs, tmp_path, ptc_pdf):
     for cls, pts in d["locations"].items():
         assert len(pts) == d["counts"][cls]
         assert all(0 <= x < d["shape"][1] and 0 <= y < d["shape"][0] for x, y in pts)
-    text = _pdf_text(path)
     assert "Defect map" in text and "detection limits" in text
 
 
