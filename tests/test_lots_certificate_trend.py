@@ -136,3 +136,20 @@ def test_lot_tables_carry_an_exact_figures_why_and_a_limit_as_one(tmp_path):
     assert back["mu_p_sat"]["verdict"] == exact_text(EXACT_PHOTONS)
     text = " ".join(t.get_text() for t in fig.texts)
     assert f"15320 photons ({exact_text(EXACT_PHOTONS)})" in text and "> 76.6" in text
+
+
+def test_lot_statistics_find_every_key_and_keep_limits_apart():
+    """A figure keyed by its path (``emva4.values.K``: its canonical form names another key) is
+    found for the lot's statistics; a figure known only as a limit is not a value of the
+    median/IQR/min/max (counted in its own column)."""
+    from ares.batch.lot_pdf import _stats
+    from ares.batch.lot_report import find
+
+    res = [{"item": f"/l/d{i}", "status": "done", "kind": "run", "hash": f"{i:064x}",
+            "figures": {"emva4.values.K": _fig(0.40 + 0.01 * i, 1e-4, "DN/e-"),
+                        "dsnu_e": dict(_fig(9.0, None, "e-"), verdict="upper limit") if i == 2 else
+                        _fig(1.0 + i, 0.01, "e-")}} for i in range(3)]
+    assert find(res[0]["figures"], "emva4.values.K")["value"] == 0.40
+    rows = {r[0]: r for r in _stats(judge(res, []))}
+    assert rows["emva4.values.K"][1:3] == ["3", "0.41"]
+    assert rows["dsnu_e"][1:3] == ["2", "1.5"] and rows["dsnu_e"][5] == "2" and rows["dsnu_e"][7] == "1"

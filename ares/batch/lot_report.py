@@ -36,6 +36,8 @@ def find(figures: dict, quantity: str) -> dict | None:
     from ares.batch.vocabulary import canonical
     from ares.results.registry import names_quantity
 
+    if quantity in figures:  # a figure's own key (``emva4.values.K``, whose canonical form names another)
+        return figures[quantity]
     quantity = canonical(quantity)
     if quantity in figures:
         return figures[quantity]
