@@ -153,3 +153,15 @@ def test_lot_statistics_find_every_key_and_keep_limits_apart():
     rows = {r[0]: r for r in _stats(judge(res, []))}
     assert rows["emva4.values.K"][1:3] == ["3", "0.41"]
     assert rows["dsnu_e"][1:3] == ["2", "1.5"] and rows["dsnu_e"][5] == "2" and rows["dsnu_e"][7] == "1"
+
+
+def test_database_statistics_leave_limits_out(tmp_path):
+    """``lots compare``'s medians and ``lots trend``'s values are of measured figures: one known
+    only as a limit is not among them."""
+    res = [{"item": f"/l/d{i}", "status": "done", "kind": "run", "hash": f"{i:064x}",
+            "figures": {"dsnu_e": dict(_fig(9.0, None, "e-"), verdict="upper limit") if i == 2 else
+                        _fig(1.0 + i, 0.01, "e-")}} for i in range(3)]
+    with rdb.connect(str(tmp_path / "r.sqlite")) as db:
+        lot = rdb.append_lot(db, "L1", judge(res, []))
+        assert rdb.quantity_stats(db, lot)["dsnu_e"][:2] == (2, 1.5)
+        assert sorted(rdb.values(db, lot, "dsnu_e")) == [1.0, 2.0]

@@ -197,19 +197,26 @@ def unit_of(db: Db, quantity: str) -> str:
     return r[0][0] if r else ""
 
 
+def _measured():
+    """A figure with a value that is not only a limit (a limit is not a value of a median)."""
+    v = t.figures.c.verdict
+    return sa.and_(t.figures.c.value.is_not(None), sa.or_(v.is_(None), v.not_in(("upper limit", "lower limit"))))
+
+
 def values(db: Db, lot_id: int, quantity: str) -> list[float]:
-    """Every item's value of ``quantity`` in a lot (items without it left out)."""
+    """Every item's measured value of ``quantity`` in a lot (items without it, or with only a
+    limit of it, left out)."""
     return [float(v) for (v,) in _rows(db, sa.select(t.figures.c.value).where(
-        t.figures.c.lot_id == lot_id, t.figures.c.quantity == quantity, t.figures.c.value.is_not(None)))]
+        t.figures.c.lot_id == lot_id, t.figures.c.quantity == quantity, _measured()))]
 
 
 def quantity_stats(db: Db, lot_id: int) -> dict[str, tuple[int, float | None, float | None]]:
-    """Quantity -> (items measured, median, IQR) in a lot (computed here: portable SQL)."""
+    """Quantity -> (items measured, median, IQR) in a lot (computed here: portable SQL; limits left out)."""
     import numpy as np
 
     vals: dict[str, list[float]] = {}
     for q, v in _rows(db, sa.select(t.figures.c.quantity, t.figures.c.value)
-                      .where(t.figures.c.lot_id == lot_id, t.figures.c.value.is_not(None))):
+                      .where(t.figures.c.lot_id == lot_id, _measured())):
         vals.setdefault(q, []).append(float(v))
     out = {}
     for q, vs in sorted(vals.items()):
