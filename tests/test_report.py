@@ -482,3 +482,24 @@ def test_defect_counts_are_exact_counts_or_a_lower_limit_with_units():
     out = io.StringIO()
     _print_estimates({"counts": a["counts"]}, out, "  ")
     assert "hot 3 pixels, dead 2 pixels, bad_columns 1 columns, total 5 pixels" in out.getvalue()
+
+
+def test_component_tables_show_every_value_whole(runs):
+    """The components page: each component's value with its verdict ("< x", "not resolved from 0")
+    whole in its cell (wrapped, never cut with "…"), in every table of the page."""
+    from ares.report import pdf
+    from ares.report.plots import new_page
+    from ares.report.tables import component_text, mid_stage
+
+    run = read_run(runs / "ptc")
+    mid = mid_stage(run)
+    full = mid["views"]["full"]
+    for part in ("components", "flat_anova"):
+        fig = new_page("t", "")
+        pdf._component_table(fig, 0.92, mid, part, "t")
+        joined = " ".join(t.get_text() for t in fig.texts)
+        comps = (full.get("components_masked") if part == "components" and full.get("components_masked")
+                 else full.get(part)) or {}
+        assert comps, part
+        for c, e in comps.items():
+            assert component_text(c, e) in joined, (part, c, component_text(c, e))

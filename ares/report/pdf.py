@@ -161,15 +161,20 @@ def _component_table(fig, y: float, stage: dict, part: str, title: str, edge: bo
         rows = [r[:-1] for r in rows]
         if masked:
             return text_table(fig, (0.06, y, 0.9), ["component", "defects excluded", "all pixels", "meaning"],
-                              rows, [0.12, 0.23, 0.23, 0.42], fontsize=8, title=title, max_chars=[12, 26, 26, 50])
+                              rows, [0.12, 0.23, 0.23, 0.42], fontsize=8, title=title, max_chars=[12, 25, 25, 50],
+                              wrap=True)
         return text_table(fig, (0.06, y, 0.9), ["component", "value ± SE", "meaning"], rows,
-                          [0.14, 0.3, 0.56], fontsize=8.5, title=title, max_chars=[14, 30, 64])
+                          [0.14, 0.3, 0.56], fontsize=8.5, title=title, max_chars=[14, 30, 64], wrap=True)
+    # (every value whole, wrapped: its verdict -- "not resolved", "< x" -- is never cut; the value columns
+    # hold as many monospace characters as their width, one spare; a note, in full in components.csv and
+    # the key figures, in at most three lines, so that the page keeps its three tables)
+    rows = [r[:-1] + [plots.clip(r[-1], 3 * (20 if masked else 30) - 6)] for r in rows]
     if masked:
         return text_table(fig, (0.06, y, 0.9), ["component", "defects excluded", "all pixels", "meaning", "note"],
                           rows, [0.12, 0.21, 0.21, 0.3, 0.16], fontsize=8, title=title,
-                          max_chars=[12, 24, 24, 40, 20])
+                          max_chars=[12, 22, 22, 40, 20], wrap=True)
     return text_table(fig, (0.06, y, 0.9), ["component", "value ± SE", "meaning", "note"], rows,
-                      [0.14, 0.28, 0.34, 0.24], fontsize=8.5, title=title, max_chars=[14, 30, 40, 30])
+                      [0.14, 0.28, 0.34, 0.24], fontsize=8.5, title=title, max_chars=[14, 27, 40, 30], wrap=True)
 
 
 def components_page(run, mid: dict | None, dark: dict | None):
