@@ -503,3 +503,14 @@ def test_component_tables_show_every_value_whole(runs):
         assert comps, part
         for c, e in comps.items():
             assert component_text(c, e) in joined, (part, c, component_text(c, e))
+
+
+def test_per_view_table_keeps_a_limits_verdict():
+    """The per-view table shows a component known only as a limit as "< x" (the masked Ps of an
+    incomplete defect mask), never the bound as a measured number; values without their SE."""
+    from ares.report import pdf
+
+    assert pdf._view_cell("Ps", {"value": 0.08286, "se": None, "unit": "DN^2", "verdict": "upper limit"}) == "< 0.083"
+    assert pdf._view_cell("Ct", {"value": 0.0056, "se": 0.0099, "unit": "DN^2", "verdict": "ok"}) == "< 0.035"
+    assert pdf._view_cell("Pt", {"value": 0.8265, "se": 0.0021, "unit": "DN^2", "verdict": "ok"}) == "0.8265"
+    assert pdf._view_cell("Pt", {"value": None, "se": None, "unit": "DN^2", "verdict": "not available"}) == "n/a"

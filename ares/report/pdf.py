@@ -205,11 +205,10 @@ def _num(x) -> str:
 
 
 def _view_cell(c: str, d: dict) -> str:
-    """A component's value in the per-view table: gain spreads in % rms, as on every other
-    surface (their SEs are in components.csv with the rest)."""
-    if c in tables.GAIN_SPREADS:
-        return tables.component_display(c, d)[0].split(" ± ")[0]
-    return _num(d.get("value"))
+    """A component's value in the per-view table as every other surface judges it (gain spreads
+    in % rms; a limit "< x", not its bound as if measured; "n/a"), without its SE and reason
+    (components.csv and the components page hold them)."""
+    return tables.component_display(c, d)[0].split(" (")[0].split(" ± ")[0]
 
 
 def views_page(stage: dict):
