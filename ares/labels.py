@@ -100,6 +100,12 @@ MASK_POLICY = ("defect pixels are left out when the scan has a dark and a flat s
 # thresholds).
 MASKED_PIXELS = "defect pixels masked out of the decomposition"
 DEFECTIVE_PIXELS = "defective pixels (defect analysis)"
+DEFECT_COUNT_UNITS = {"bad_columns": "columns", "bad_rows": "rows", "clusters": "clusters"}  # else "pixels"
+
+
+def defect_count_unit(cls: str) -> str:
+    """The unit of a defect class's count (every surface: a count with its unit)."""
+    return DEFECT_COUNT_UNITS.get(cls, "pixels")
 
 
 def component_label(c: str, part: str = "components") -> str:

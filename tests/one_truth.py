@@ -22,7 +22,7 @@ import h5py
 import numpy as np
 
 from ares import labels
-from ares.analysis.stats.estimate import Estimate, component_text, format_dict
+from ares.analysis.stats.estimate import Estimate, component_text, exact_why, format_dict
 from pdftext import page_texts
 
 
@@ -128,10 +128,9 @@ def check_surfaces(name: str, run: Path, terminal: str) -> None:
 
     # every available key figure is in the PDF with the same digits and unit
     for r in kf:
-        note = r.get("note") or ""  # (an exact figure's reason opens its note: "exact: why; ...")
-        e = Estimate(_num(r["value"]), _num(r["se"]), r["unit"],
-                     bound={"upper limit": "upper", "lower limit": "lower"}.get(r["verdict"], ""),
-                     exact=note.removeprefix("exact: ").split("; ")[0] if note.startswith("exact: ") else "")
+        why = exact_why(r["note"].split(";")[0]) if _num(r["se"]) == 0 else ""  # (an exact figure's note leads
+        e = Estimate(_num(r["value"]), _num(r["se"]), r["unit"],  # with its verdict: note_text)
+                     bound={"upper limit": "upper", "lower limit": "lower"}.get(r["verdict"], ""), exact=why)
         if e.available:
             assert _squash(e.text()) in pdf, f"{name}: key figure {r['name']} = {e.text()} not in the PDF"
 
@@ -155,7 +154,8 @@ def check_surfaces(name: str, run: Path, terminal: str) -> None:
     if stmt:
         assert "headline K" in terminal and stmt in terminal, name
         assert by_name["gain_dn_per_e"]["note"] == stmt, name
-        assert _squash(stmt) in _squash(page_texts(run / "report.pdf")[0]), f"{name}: K statement not on page 1"
+        assert _squash(page_texts(run / "report.pdf")[0]).count(_squash(stmt)) == 1, \
+            f"{name}: K statement not on page 1 once (the K key figure's note)"
         sheet = _squash(" ".join(page_texts(run / "emva_datasheet.pdf")))
         assert _squash(stmt) in sheet, f"{name}: K statement not on the datasheet"
     for key, label in labels.PTC_FIGURES:

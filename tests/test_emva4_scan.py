@@ -101,6 +101,7 @@ def test_exact_figures_state_their_verdict_on_every_surface(run_dir, report_page
     from ares.analysis.stats.estimate import EXACT_PHOTONS, exact_text
     from ares.gui.runner_adapter import summarize
     from ares.report import key_figures
+    from ares.report.page_tables import analysis_label
 
     res = json.loads((run_dir / "scan_results.json").read_text())["analyses"]
     mu = res["emva4"]["values"]["mu_p_sat"]
@@ -134,7 +135,8 @@ def test_exact_figures_state_their_verdict_on_every_surface(run_dir, report_page
         assert d.get("exact"), path
         text = f"{d['value']:.7g} {d['unit']} ({exact_text(d['exact'])})"
         assert text in TERMINAL["text"], (path, text)
-        assert any(v == text for k, v in gui.items() if k.endswith(path.split(".", 1)[1])), path
+        a, rest = path.split(".", 1)  # the window names an EMVA figure by its symbol, as the key figures
+        assert gui.get(analysis_label(a, rest) if a == "emva4" else f"{a}: {rest}") == text, path
         assert kf[path]["exact"] == d["exact"] and kcsv[path]["note"].startswith(exact_text(d["exact"])), path
         assert h5[path].startswith(exact_text(d["exact"])), path
     assert dcsv[("EMVA 1288 Release 4.0 Linear", "mu_p_sat")]["definition"].startswith(exact_text(EXACT_PHOTONS))
@@ -175,3 +177,46 @@ def test_csv_has_the_standard_names_and_units(run_dir):
         assert by[k]["value"] and by[k]["verdict"] == "ok", k
     assert by["sigma_d"]["symbol"] == "σd"
     assert any(r["release"].endswith("4.0 General") for r in rows)
+
+
+def test_general_figures_have_one_name_on_every_surface(run_dir, report_pages):
+    """Every figure of the General Table 2 under its symbol (µp.sat.area, SNRp.max), never its
+    key (mu_p_sat_area): on the terminal, key_figures.csv, the window, emva_datasheet.csv, the
+    report and both datasheets."""
+    from ares.analysis.emva.general_table import GENERAL_TABLE2
+    from ares.gui.runner_adapter import summarize
+
+    res = json.loads((run_dir / "scan_results.json").read_text())["analyses"]
+    gen = res["emva4"]["general"]["values"]
+    sym = {k: s for k, s, _ in GENERAL_TABLE2 if k in gen}
+    assert len(sym) == len(GENERAL_TABLE2)
+    with open(run_dir / "key_figures.csv", newline="") as f:
+        kcsv = {r["name"]: r["label"] for r in csv.DictReader(f)}
+    with open(run_dir / "emva_datasheet.csv", newline="") as f:
+        dcsv = {r["quantity"]: r["symbol"] for r in csv.DictReader(f) if r["release"].endswith("General")}
+    gui = summarize(res)["results"]
+    term = TERMINAL["text"].split("4.0 General):", 1)[1]
+    for k, s in sym.items():
+        if f"emva4.general.values.{k}" in kcsv:
+            assert kcsv[f"emva4.general.values.{k}"] == f"EMVA 1288 4.0 General {s}", k
+        assert dcsv[k] == s and f"EMVA 1288 4.0 General {s}" in gui, k
+        assert f"\n      {s} " in term, k
+    # keys that are not their own symbol (SNR_max and sigma_d are also written in definitions,
+    # "20 log10 SNR_max", and in the photon-transfer label "read noise sigma_d")
+    raw = [k for k in sym if "_" in k and not k.endswith("_db") and k not in ("SNR_max", "sigma_d")]
+    for name, pages in (("report", report_pages), ("datasheet", page_texts(run_dir / "emva_datasheet.pdf")),
+                        ("general", page_texts(run_dir / "emva_datasheet_general.pdf"))):
+        text = " ".join(pages)
+        assert not [k for k in raw if k in text], (name, [k for k in raw if k in text])
+
+
+def test_k_statement_once_on_page_one_beside_k(run_dir, report_pages):
+    """The sentence naming the headline K beside Eq. 50's is on the title page once: as the K
+    key figure's note, beside its value (not again in the header block above the table)."""
+    from one_truth import _squash
+
+    from ares.report import key_figures
+
+    stmt = json.loads((run_dir / "scan_results.json").read_text())["analyses"]["ptc"]["gain_headline"]["statement"]
+    assert key_figures(run_dir)["gain_dn_per_e"]["note"] == stmt
+    assert _squash(report_pages[0]).count(_squash(stmt)) == 1

@@ -4,6 +4,7 @@ the same levels redrawn with those SEs (closed-form truth: the spread of max |de
 
 from __future__ import annotations
 
+import pytest
 import numpy as np
 
 from ares.analysis.ptc.fit import max_relative_deviation
@@ -48,3 +49,28 @@ def test_ptc_result_carries_the_se(tmp_path):
     le = r.linearity_error_pct
     assert le.available and np.isfinite(le.se) and le.se > 0, le
     assert "SE: each level's signal SE (temporal noise / sqrt(N))" in le.note
+
+
+def test_a_linearity_error_within_its_noise_is_the_one_limit_rule():
+    """A linearity error smaller than its SE is an upper limit at value + 3 SE (``stats.physical.
+    NSIGMA``, the one rule every other limit follows), and its note says + 3 SE."""
+    import re
+
+    from ares.analysis.ptc.levels import LevelStats
+    from ares.analysis.ptc.photon_transfer import analyze_ptc
+    from ares.analysis.stats.physical import NSIGMA
+
+    k, n_pix, n_fr = 0.25, 64, 2  # few pixels and frames: the SE is large against a perfect line
+    t = np.linspace(0.001, 0.03, 16)
+    q = 15000.0 / 0.03 * t
+    dark = [LevelStats(100.0, 4.0, n_pix, n_fr) for _ in t]
+    bright = []
+    for e in q:
+        clip = 1.0 if e > 10000.0 else 0.0
+        s = k * min(e, 10000.0)
+        bright.append(LevelStats(100.0 + s, 4.0 + (k * s if not clip else 0.0), n_pix, n_fr, frac_at_max=clip))
+    le = analyze_ptc(bright, dark, exposure_s=t).linearity_error_pct
+    assert le.verdict == "upper limit", le
+    v, se = (float(x) for x in re.match(r"([0-9.e+-]+) ± ([0-9.e+-]+) %", le.note).groups())
+    assert f"value + {NSIGMA:g} SE" in le.note
+    assert le.value == pytest.approx(v + NSIGMA * se, rel=0.05)

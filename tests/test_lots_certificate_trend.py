@@ -105,3 +105,63 @@ def test_certificate_holds_every_figure_whole_with_its_verdict(tmp_path):
     text = " ".join(t.get_text() for f in (fig, *more) for t in f.texts)  # (wrapped cells: their lines in order)
     assert all(f"quantity_{k:02d}" in text for k in range(70))
     assert f"15320 photons ({exact_text()})" in text and "> 76.6" in text and "76.6 (SE not" not in text
+
+
+def test_lot_tables_carry_an_exact_figures_why_and_a_limit_as_one(tmp_path):
+    """A declared figure (SE 0, "exact": why) is "exact: why" in lot.csv's verdict column, in the
+    database and on the certificate and the lot PDF's cell -- not "ok" with a bare SE 0; a limit
+    is "> x" there (its verdict column "lower limit")."""
+    import csv as _csv
+    import io
+
+    from ares.analysis.stats.estimate import EXACT_PHOTONS, exact_text
+    from ares.batch import certificate
+    from ares.batch.lot_pdf import _cell
+    from ares.batch.lot_report import to_csv
+
+    figs = {"mu_p_sat": dict(_fig(15320.0, 0.0, "photons"), verdict="ok", exact=EXACT_PHOTONS),
+            "DR": dict(_fig(76.6, None, ""), verdict="lower limit")}
+    j = judge([{"item": "/l/die0", "status": "done", "kind": "run", "hash": "0" * 64, "sensor": "S0",
+                "figures": figs}], [])
+    row = next(_csv.DictReader(io.StringIO(to_csv(j, "L1"))))
+    assert row["mu_p_sat_verdict"] == exact_text(EXACT_PHOTONS) and row["mu_p_sat_se"] == "0.0"
+    assert row["DR_verdict"] == "lower limit"
+    assert _cell(j.results[0], "mu_p_sat") == f"15320 photons ({exact_text(EXACT_PHOTONS)})"
+    assert _cell(j.results[0], "DR") == "> 76.6"
+    path = str(tmp_path / "r.sqlite")
+    with rdb.connect(path) as db:
+        rdb.append_lot(db, "L1", j)
+        back = rdb.figures(db, 1)[0]
+        fig, *_ = certificate.pages(db, 1, [0])
+    assert back["mu_p_sat"]["verdict"] == exact_text(EXACT_PHOTONS)
+    text = " ".join(t.get_text() for t in fig.texts)
+    assert f"15320 photons ({exact_text(EXACT_PHOTONS)})" in text and "> 76.6" in text
+
+
+def test_lot_statistics_find_every_key_and_keep_limits_apart():
+    """A figure keyed by its path (``emva4.values.K``: its canonical form names another key) is
+    found for the lot's statistics; a figure known only as a limit is not a value of the
+    median/IQR/min/max (counted in its own column)."""
+    from ares.batch.lot_pdf import _stats
+    from ares.batch.lot_report import find
+
+    res = [{"item": f"/l/d{i}", "status": "done", "kind": "run", "hash": f"{i:064x}",
+            "figures": {"emva4.values.K": _fig(0.40 + 0.01 * i, 1e-4, "DN/e-"),
+                        "dsnu_e": dict(_fig(9.0, None, "e-"), verdict="upper limit") if i == 2 else
+                        _fig(1.0 + i, 0.01, "e-")}} for i in range(3)]
+    assert find(res[0]["figures"], "emva4.values.K")["value"] == 0.40
+    rows = {r[0]: r for r in _stats(judge(res, []))}
+    assert rows["emva4.values.K"][1:3] == ["3", "0.41"]
+    assert rows["dsnu_e"][1:3] == ["2", "1.5"] and rows["dsnu_e"][5] == "2" and rows["dsnu_e"][7] == "1"
+
+
+def test_database_statistics_leave_limits_out(tmp_path):
+    """``lots compare``'s medians and ``lots trend``'s values are of measured figures: one known
+    only as a limit is not among them."""
+    res = [{"item": f"/l/d{i}", "status": "done", "kind": "run", "hash": f"{i:064x}",
+            "figures": {"dsnu_e": dict(_fig(9.0, None, "e-"), verdict="upper limit") if i == 2 else
+                        _fig(1.0 + i, 0.01, "e-")}} for i in range(3)]
+    with rdb.connect(str(tmp_path / "r.sqlite")) as db:
+        lot = rdb.append_lot(db, "L1", judge(res, []))
+        assert rdb.quantity_stats(db, lot)["dsnu_e"][:2] == (2, 1.5)
+        assert sorted(rdb.values(db, lot, "dsnu_e")) == [1.0, 2.0]

@@ -286,8 +286,18 @@ def test_lag_and_defect_pages(runs, tmp_path, ptc_pdf):
     sr = json.loads((runs / "ptc" / "scan_results.json").read_text())["analyses"]
     path, titles = ptc_pdf
     assert "defects" in titles
-    assert key_figures(runs / "ptc")["defects.total"]["value"] == sr["defects"]["counts"]["total"]
-    assert "defect counts" in _pdf_text(path)
+    kf = key_figures(runs / "ptc")
+    assert kf["defects.total"]["value"] == sr["defects"]["counts"]["total"]
+    text = _pdf_text(path)  # (read once for the checks below)
+    assert "defect counts" in text
+    # a count is exact by nature: an integer with its unit and the one wording, never a blank SE
+    from ares.analysis.stats.estimate import EXACT_COUNT, exact_text
+
+    total = sr["defects"]["counts"]["total"]
+    assert kf["defects.total"]["se"] == 0 and kf["defects.total"]["exact"] == EXACT_COUNT
+    assert f"{total} pixels ({exact_text(EXACT_COUNT)})" in " ".join(text.split())
+    assert all(v.get("exact") == EXACT_COUNT for k, v in kf.items()
+               if k.startswith("defects.") and v["value"] is not None or k == "decomposition.masked_pixels")
     # the defect map: every counted pixel of each class at its place, the criteria below
     d = sr["defects"]
     rows, cols = d["shape"]
@@ -295,7 +305,6 @@ def test_lag_and_defect_pages(runs, tmp_path, ptc_pdf):
     for cls, pts in d["locations"].items():
         assert len(pts) == d["counts"][cls]
         assert all(0 <= x < d["shape"][1] and 0 <= y < d["shape"][0] for x, y in pts)
-    text = _pdf_text(path)
     assert "Defect map" in text and "detection limits" in text
 
 
@@ -450,3 +459,58 @@ def test_two_axis_sweep_maps_have_axis_units(tmp_path):
     text = _pdf_text(tmp_path / "b.pdf")
     assert "2-D sweep 'bias': sf_bias x tx_low" in text
     assert "sf_bias (V)" in text and "tx_low (V)" in text
+
+
+def test_defect_counts_are_exact_counts_or_a_lower_limit_with_units():
+    """A defect count is exact (SE 0, "exact: counted", its unit); a class found incomplete
+    (rate classes under a short exposure) is a lower limit "> n", and so is the total; the
+    terminal prints each count with its unit."""
+    import io
+
+    from ares.analysis.stats.estimate import EXACT_COUNT
+    from ares.commands.run_summary import _print_estimates
+    from ares.report.tables import defect_count_figures
+
+    a = {"counts": {"hot": 3, "dead": 2, "bad_columns": 1, "total": 5},
+         "detection": {"hot": "incomplete: finds only dark rates >= 10 e-/s"}}
+    kf = defect_count_figures(a)
+    assert kf["defects.dead"]["exact"] == EXACT_COUNT and kf["defects.dead"]["se"] == 0
+    assert kf["defects.bad_columns"]["unit"] == "columns"
+    assert kf["defects.hot"]["verdict"] == "lower limit" and "exact" not in kf["defects.hot"]
+    assert kf["defects.total"]["verdict"] == "lower limit"
+    assert page_tables.fmt_value(3, None, "pixels", "lower limit") == "> 3 pixels"
+    out = io.StringIO()
+    _print_estimates({"counts": a["counts"]}, out, "  ")
+    assert "hot 3 pixels, dead 2 pixels, bad_columns 1 columns, total 5 pixels" in out.getvalue()
+
+
+def test_component_tables_show_every_value_whole(runs):
+    """The components page: each component's value with its verdict ("< x", "not resolved from 0")
+    whole in its cell (wrapped, never cut with "…"), in every table of the page."""
+    from ares.report import pdf
+    from ares.report.plots import new_page
+    from ares.report.tables import component_text, mid_stage
+
+    run = read_run(runs / "ptc")
+    mid = mid_stage(run)
+    full = mid["views"]["full"]
+    for part in ("components", "flat_anova"):
+        fig = new_page("t", "")
+        pdf._component_table(fig, 0.92, mid, part, "t")
+        joined = " ".join(t.get_text() for t in fig.texts)
+        comps = (full.get("components_masked") if part == "components" and full.get("components_masked")
+                 else full.get(part)) or {}
+        assert comps, part
+        for c, e in comps.items():
+            assert component_text(c, e) in joined, (part, c, component_text(c, e))
+
+
+def test_per_view_table_keeps_a_limits_verdict():
+    """The per-view table shows a component known only as a limit as "< x" (the masked Ps of an
+    incomplete defect mask), never the bound as a measured number; values without their SE."""
+    from ares.report import pdf
+
+    assert pdf._view_cell("Ps", {"value": 0.08286, "se": None, "unit": "DN^2", "verdict": "upper limit"}) == "< 0.083"
+    assert pdf._view_cell("Ct", {"value": 0.0056, "se": 0.0099, "unit": "DN^2", "verdict": "ok"}) == "< 0.035"
+    assert pdf._view_cell("Pt", {"value": 0.8265, "se": 0.0021, "unit": "DN^2", "verdict": "ok"}) == "0.8265"
+    assert pdf._view_cell("Pt", {"value": None, "se": None, "unit": "DN^2", "verdict": "not available"}) == "n/a"

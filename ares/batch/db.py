@@ -52,7 +52,7 @@ def append_lot(db: Db, name: str, judged) -> int:
     """Append a judged lot (``lot_report.judge``) in one transaction under the write lock;
     its ``lot_id`` (one more than the highest: the lock makes that safe for many writers)."""
     from ares import __version__
-    from ares.batch.lot_report import rows
+    from ares.batch.lot_report import figure_verdict, rows
 
     data, _ = rows(judged, name)
     created = datetime.datetime.now(datetime.timezone.utc).isoformat(timespec="seconds")
@@ -63,7 +63,7 @@ def append_lot(db: Db, name: str, judged) -> int:
     for i, r in enumerate(judged.results):
         for q, f in (r.get("figures") or {}).items():
             figs.append({"idx": i, "quantity": q, "value": _num(f.get("value")), "se": _num(f.get("se")),
-                         "unit": f.get("unit") or "", "verdict": f.get("verdict") or ""})
+                         "unit": f.get("unit") or "", "verdict": figure_verdict(f)})
         for k in judged.yields:
             checks.append({"idx": i, "limit_text": k, "outcome": data[i].get(k) or ""})
     screen_cols = [c.name for c in t.screens.c if c.name != "lot_id"]
@@ -171,12 +171,16 @@ def bins(db: Db, lot_id: int) -> dict[int, dict]:
 
 
 def figures(db: Db, lot_id: int) -> dict[int, dict[str, dict]]:
-    """{item index: {quantity: {value, se, unit, verdict}}} of a lot."""
+    """{item index: {quantity: {value, se, unit, verdict}}} of a lot (a declared figure's
+    verdict "exact: why" gives its "exact": why back, as its JSON form has it)."""
+    from ares.analysis.stats.estimate import exact_why
+
     out: dict[int, dict[str, dict]] = {}
     for i, q, v, s, u, vd in _rows(db, sa.select(t.figures.c.idx, t.figures.c.quantity, t.figures.c.value,
                                                  t.figures.c.se, t.figures.c.unit, t.figures.c.verdict)
                                    .where(t.figures.c.lot_id == lot_id)):
-        out.setdefault(i, {})[q] = {"value": v, "se": s, "unit": u, "verdict": vd}
+        out.setdefault(i, {})[q] = {"value": v, "se": s, "unit": u, "verdict": vd,
+                                    **({"exact": exact_why(vd)} if exact_why(vd) else {})}
     return out
 
 
@@ -193,19 +197,26 @@ def unit_of(db: Db, quantity: str) -> str:
     return r[0][0] if r else ""
 
 
+def _measured():
+    """A figure with a value that is not only a limit (a limit is not a value of a median)."""
+    v = t.figures.c.verdict
+    return sa.and_(t.figures.c.value.is_not(None), sa.or_(v.is_(None), v.not_in(("upper limit", "lower limit"))))
+
+
 def values(db: Db, lot_id: int, quantity: str) -> list[float]:
-    """Every item's value of ``quantity`` in a lot (items without it left out)."""
+    """Every item's measured value of ``quantity`` in a lot (items without it, or with only a
+    limit of it, left out)."""
     return [float(v) for (v,) in _rows(db, sa.select(t.figures.c.value).where(
-        t.figures.c.lot_id == lot_id, t.figures.c.quantity == quantity, t.figures.c.value.is_not(None)))]
+        t.figures.c.lot_id == lot_id, t.figures.c.quantity == quantity, _measured()))]
 
 
 def quantity_stats(db: Db, lot_id: int) -> dict[str, tuple[int, float | None, float | None]]:
-    """Quantity -> (items measured, median, IQR) in a lot (computed here: portable SQL)."""
+    """Quantity -> (items measured, median, IQR) in a lot (computed here: portable SQL; limits left out)."""
     import numpy as np
 
     vals: dict[str, list[float]] = {}
     for q, v in _rows(db, sa.select(t.figures.c.quantity, t.figures.c.value)
-                      .where(t.figures.c.lot_id == lot_id, t.figures.c.value.is_not(None))):
+                      .where(t.figures.c.lot_id == lot_id, _measured())):
         vals.setdefault(q, []).append(float(v))
     out = {}
     for q, vs in sorted(vals.items()):

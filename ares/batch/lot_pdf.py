@@ -25,22 +25,26 @@ def bin_of(r: dict) -> str:
 
 
 def _stats(j) -> list[list[str]]:
-    """Every quantity: items measured, median, IQR, min, max, unit."""
+    """Every quantity: items measured, median, IQR, min, max, unit, items known only as a
+    limit (a limit is not a value: it stays out of the median and the spread)."""
     import numpy as np
 
     from ares.batch.lot_report import find
+    from ares.results.registry import limit_side
 
     rows = []
     for q in j.quantities:
         fs = [find(r.get("figures") or {}, q) or {} for r in j.results]
-        v = np.array([float(f["value"]) for f in fs if f.get("value") is not None
-                      and math.isfinite(float(f["value"]))])
+        have = [f for f in fs if f.get("value") is not None and math.isfinite(float(f["value"]))]
+        v = np.array([float(f["value"]) for f in have if not limit_side(f)])
+        n_lim = str(len(have) - v.size)
         unit = next((f.get("unit") for f in fs if f.get("unit")), "")
         if v.size:
             p25, p50, p75 = np.percentile(v, [25, 50, 75])
-            rows.append([q, str(v.size), f"{p50:.5g}", f"{p75 - p25:.3g}", f"{v.min():.5g}", f"{v.max():.5g}", unit])
+            rows.append([q, str(v.size), f"{p50:.5g}", f"{p75 - p25:.3g}", f"{v.min():.5g}", f"{v.max():.5g}", unit,
+                         n_lim])
         else:
-            rows.append([q, "0", "-", "-", "-", "-", unit])
+            rows.append([q, "0", "-", "-", "-", "-", unit, n_lim])
     return rows
 
 
@@ -108,9 +112,10 @@ def _stats_pages(j):
     pages = []
     for p in range(0, len(rows), per):
         fig = new_page(f"Every quantity over the lot ({p // per + 1}/{math.ceil(len(rows) / per)})",
-                       f"{len(rows)} quantities of {len(j.results)} item(s); every value in lot.csv / lot.h5")
-        text_table(fig, (0.04, 0.92, 0.92), ["quantity", "items", "median", "IQR", "min", "max", "unit"],
-                   rows[p:p + per], [0.36, 0.07, 0.12, 0.1, 0.12, 0.12, 0.11], fontsize=6.5)
+                       f"{len(rows)} quantities of {len(j.results)} item(s), all in lot.csv / lot.h5; "
+                       "a limit is not a value: counted under 'limits'")
+        text_table(fig, (0.04, 0.92, 0.92), ["quantity", "items", "median", "IQR", "min", "max", "unit", "limits"],
+                   rows[p:p + per], [0.34, 0.06, 0.12, 0.1, 0.12, 0.12, 0.08, 0.06], fontsize=6.5)
         pages.append(fig)
     return pages
 
@@ -184,6 +189,7 @@ def _distributions(j):
     from ares.batch.lot_report import find, limit_text
     from ares.batch.vocabulary import canonical
     from ares.report.plots import new_page
+    from ares.results.registry import limit_side
 
     lines: dict[str, list[tuple[float, str]]] = {}
     for lim in j.limits:
@@ -198,7 +204,8 @@ def _distributions(j):
     qs += [q for q in j.quantities if q not in qs]
     plots = []
     for q in qs:
-        vals = [(find(r.get("figures") or {}, q) or {}).get("value") for r in j.results]
+        fs = [find(r.get("figures") or {}, q) or {} for r in j.results]
+        vals = [f.get("value") for f in fs if not limit_side(f)]  # (a limit is not a value: as the table)
         vals = [float(v) for v in vals if v is not None and math.isfinite(float(v))]
         if vals:
             plots.append((q, vals))

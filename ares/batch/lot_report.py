@@ -36,10 +36,22 @@ def find(figures: dict, quantity: str) -> dict | None:
     from ares.batch.vocabulary import canonical
     from ares.results.registry import names_quantity
 
+    if quantity in figures:  # a figure's own key (``emva4.values.K``, whose canonical form names another)
+        return figures[quantity]
     quantity = canonical(quantity)
     if quantity in figures:
         return figures[quantity]
     return next((v for k, v in figures.items() if names_quantity(k, quantity)), None)
+
+
+def figure_verdict(f: dict) -> str:
+    """A figure's verdict column (lot.csv, lot.h5, the database): a declared figure's "exact:
+    why" (its SE 0 says no more), else its verdict ("ok", "upper limit", ...)."""
+    from ares.analysis.stats.estimate import exact_text
+
+    if f.get("exact") or (f.get("se") == 0 and f.get("value") is not None and f.get("verdict") in ("", "ok", None)):
+        return exact_text(f.get("exact", ""))
+    return f.get("verdict") or ""
 
 
 NO_LIMITS = "no limits set"
@@ -108,7 +120,7 @@ def rows(j: Judged, lot: str = "") -> tuple[list[dict], list[str]]:
             row[q] = f.get("value")
             row[f"{q}_se"] = f.get("se")
             row[f"{q}_unit"] = f.get("unit", "")
-            row[f"{q}_verdict"] = f.get("verdict", "") if f else "not measured"
+            row[f"{q}_verdict"] = figure_verdict(f) if f else "not measured"
         for k, v in r.get("checks", {}).items():
             row[k] = NOT_TESTED if v is None else ("pass" if v else "FAIL")
         out.append(row)

@@ -59,7 +59,7 @@ def print_summary(outcome, scan, seconds: float, out=None, resumed: int = 0) -> 
     out.write(limits_verdict(outcome.status, len(scan.limits), outcome.limit_failures)["text"] + "\n")
 
 
-from ares.labels import ANALYSIS_TITLES  # noqa: E402
+from ares.labels import ANALYSIS_TITLES, defect_count_unit  # noqa: E402
 from ares.labels import analysis_title  # noqa: E402,F401
 
 
@@ -143,6 +143,10 @@ def _print_estimates(d: dict, out, indent: str, depth: int = 0, path: str = "") 
     (the MTF's stages -> stage -> channels -> channel -> its option beside the standard)."""
     for k, v in d.items():
         if isinstance(v, dict) and "value" in v and "unit" in v:
+            if path in ("emva4.values", "emva4.general.values"):  # the standard's symbols, as every surface
+                from ares.analysis.emva.sheet import symbol
+
+                k = symbol(k, path == "emva4.general.values")
             out.write(f"{indent}{k:<26} {_num(v)}\n")
         elif isinstance(v, dict) and depth < 5 and any(isinstance(x, dict) for x in v.values()):
             label = (f"option esf_half_width={v['esf_half_width']:g} px (not the standard)"
@@ -153,7 +157,8 @@ def _print_estimates(d: dict, out, indent: str, depth: int = 0, path: str = "") 
         elif isinstance(v, (int, str)) and not isinstance(v, bool) and k in ("counts", "dark_stage"):
             out.write(f"{indent}{k:<26} {v}\n")
         elif k == "counts" and isinstance(v, dict):
-            out.write(f"{indent}{'defective pixels':<26} " + ", ".join(f"{a}={b}" for a, b in v.items() if b) + "\n")
+            out.write(f"{indent}{'defective pixels':<26} " + ", ".join(  # counts, each with its unit
+                f"{a} {b} {defect_count_unit(a)}" for a, b in v.items() if b) + "\n")
         elif k == "unavailable" and isinstance(v, dict):
             for a, why in v.items():
                 out.write(f"{indent}{a + ': n/a':<26} {why}\n")

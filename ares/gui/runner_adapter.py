@@ -12,7 +12,7 @@ import time
 from pathlib import Path
 
 from ares import labels
-from ares.analysis.stats.estimate import GAIN_SPREADS, format_dict, pct_rms
+from ares.analysis.stats.estimate import GAIN_SPREADS, Estimate, format_dict, pct_rms
 from ares.errors import AresError
 
 from ares.gui import events as G
@@ -55,6 +55,7 @@ def summarize(scan_results: dict, thresholds: tuple = ()) -> dict:
         if "note" in ptc and "gain_dn_per_e" not in ptc:
             out["results"]["PTC"] = str(ptc["note"])
     from ares.report.headline import full_well_note, headline, same_point
+    from ares.report.page_tables import analysis_label
 
     for key, name, d in headline(scan_results):  # the terminal's figures, its order and wording
         text = _fmt(d)
@@ -67,8 +68,8 @@ def summarize(scan_results: dict, thresholds: tuple = ()) -> dict:
     d = scan_results.get("decomposition")
     if isinstance(d, dict) and d.get("masked_pixels") is not None:
         classes = ", ".join(f"{k} {v}" for k, v in (d.get("mask_classes") or {}).items())
-        out["results"][labels.MASKED_PIXELS] = f"{d['masked_pixels']} (mask from {d.get('mask_source')}" + (
-            f": {classes}" if classes else "") + ")"
+        out["results"][labels.MASKED_PIXELS] = Estimate.count(d["masked_pixels"], "pixels").text() + (
+            f"; mask from {d.get('mask_source')}") + (f": {classes}" if classes else "")  # (as the report's figure)
     defects = scan_results.get("defects")
     if isinstance(defects, dict):
         counts = defects.get("counts")
@@ -105,7 +106,10 @@ def summarize(scan_results: dict, thresholds: tuple = ()) -> dict:
             out["results"][name] = f"{r['status']}" + (f" ({r['note']})" if r.get("note") else "")
             continue
         for key, e in estimates(r):  # every estimate the result holds, as the terminal prints it
-            out["results"][f"{name}: {key}"] = _fmt(e)
+            label = analysis_label(name, key) if name == "emva4" else f"{name}: {key}"  # (the standard's symbols)
+            if label in out["results"]:  # one symbol in two units (DR, DR in dB): the second says its unit
+                label += f" ({e.get('unit') or 'ratio'})"
+            out["results"][label] = _fmt(e)
     return out
 
 

@@ -112,11 +112,14 @@ def _emva_csv(run, out: Path) -> list[Path]:
     a = run.analyses.get("emva4")
     if not isinstance(a, dict) or "values" not in a:
         return []
+    from ares.analysis.emva.sheet import symbol
+
     rows = []
-    for rel, vals in ((a.get("release", ""), a["values"]),
-                      ((a.get("general") or {}).get("release", ""), (a.get("general") or {}).get("values") or {})):
-        for k, v in vals.items():
-            rows.append({"release": rel, "quantity": k, "symbol": v.get("symbol", k), "value": v.get("value"),
+    for rel, vals, general in ((a.get("release", ""), a["values"], False),
+                               ((a.get("general") or {}).get("release", ""), (a.get("general") or {}).get("values") or {},
+                                True)):
+        for k, v in vals.items():  # (each under its table's symbol: the General one's own, µp.sat.area)
+            rows.append({"release": rel, "quantity": k, "symbol": v.get("symbol") or symbol(k, general), "value": v.get("value"),
                          "se": v.get("se"), "unit": v.get("unit", ""), "verdict": v.get("verdict", ""),
                          "definition": note_text(v)})
     return [_write(out / "emva_datasheet.csv", to_csv(rows, EMVA_COLUMNS))]

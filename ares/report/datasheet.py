@@ -25,7 +25,7 @@ from pathlib import Path
 import matplotlib
 from matplotlib.figure import Figure
 
-from ares.analysis.emva.sheet import SYMBOLS
+from ares.analysis.emva.sheet import SYMBOLS, symbol
 from ares.analysis.stats.estimate import exact_text, note_text
 from ares.report import datasheet_pages as dp
 from ares.report.datasheet_pages import GENERAL, LINEAR, given, value_text
@@ -51,7 +51,7 @@ def rows(sheet, general=None) -> list[dict]:
     if general is not None:
         for k, e in general.values.items():
             d = e.to_dict()
-            out.append({"release": "EMVA 1288 Release 4.0 General", "quantity": k, "symbol": k, "value": d["value"],
+            out.append({"release": "EMVA 1288 Release 4.0 General", "quantity": k, "symbol": symbol(k, True), "value": d["value"],
                         "se": d["se"], "unit": e.unit, "verdict": d["verdict"], "definition": note_text(d)})
     return out
 
@@ -202,7 +202,7 @@ def general_summary_page(sheet, general) -> Figure:
     fig.text(0.64, y, "Release 4.0 General, Table 2", fontsize=7.5, weight="bold", va="top")
     y -= 0.0155
     for k, e in values.items():
-        fig.text(0.645, y, k[:18], fontsize=6.6, va="top")
+        fig.text(0.645, y, symbol(k, True)[:18], fontsize=6.6, va="top")
         y = _value_cell(fig, y, e, 6.6, 0.0118)
         if y < 0.06:
             break
@@ -268,7 +268,7 @@ def notes_page(sheet, general=None, rel: str = LINEAR) -> Figure:
              f"Data: {given(sheet.meta, 'source')}"]
     if rel == GENERAL and general is not None:
         lines += [f"Saturation: {general.saturation}"] + [f"Note: {n}" for n in general.notes]
-        na = [f"  {k}: {e.text()} — {e.note}" for k, e in general.values.items() if not e.available or e.bound]
+        na = [f"  {symbol(k, True)}: {e.text()} — {e.note}" for k, e in general.values.items() if not e.available or e.bound]
         lines += (["Values that are not available, limits, or cannot be measured:"] + na) if na else []
     else:
         lines += [f"Saturation: {sheet.photon_transfer.saturation}"] + [f"Note: {n}" for n in sheet.notes]

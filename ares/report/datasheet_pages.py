@@ -12,7 +12,7 @@ import math
 import numpy as np
 from matplotlib.figure import Figure
 
-from ares.analysis.emva.sheet import SYMBOLS
+from ares.analysis.emva.sheet import SYMBOLS, symbol
 from ares.analysis.emva.graphs import spectrum_peaks
 from ares.analysis.stats.estimate import note_text
 from ares.report.plots import A4, row_lines, table_lines_between, text_table
@@ -419,16 +419,17 @@ def general_pages(sheet, general, rel: str = GENERAL) -> list[Figure]:
     general_snr_axes(fig.add_axes([0.1, 0.38, 0.8, 0.22]), g)
     stability_axes(fig.add_axes([0.1, 0.08, 0.8, 0.22]), g.signal, g.sigma_y, g.mean_diff)
     return [fig, values_page(sheet, g.values, "Release 4.0 General: every value with its definition",
-                             "general values", rel)]
+                             "general values", rel, general=True)]
 
 
-def values_page(sheet, values: dict, title: str, page: str, rel: str = LINEAR) -> Figure:
+def values_page(sheet, values: dict, title: str, page: str, rel: str = LINEAR, general: bool = False) -> Figure:
     """Every value of a release with its definition: the figures the summary sheet leaves
-    out (R, µp.min, the stacks' temporal noise ...) are on the datasheet too, as in its CSV."""
+    out (R, µp.min, the stacks' temporal noise ...) are on the datasheet too, as in its CSV;
+    each under its symbol (``general``: the General table's), as on every other surface."""
     fig = Figure(figsize=A4)
     _header(fig, sheet, title, page, rel)
     # an exact value's verdict leads its definition, as in the CSV (the value column would cut it)
-    data = [[k, e.text(with_unit=False, with_exact=False) if e.available else value_text(e), e.unit,
+    data = [[symbol(k, general), e.text(with_unit=False, with_exact=False) if e.available else value_text(e), e.unit,
              note_text(e.to_dict())] for k, e in values.items()]
     size, chars = 7 if len(data) <= 45 else 6, [18, 24, 12, 72]
     room = table_lines_between(0.9, 0.05, size, False)  # lines down to the footer

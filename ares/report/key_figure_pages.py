@@ -14,7 +14,7 @@ from ares.report.plots import new_page, text_table
 
 HEADER = ["key figure", "value ± SE", "definition / note"]
 WIDTHS = [0.34, 0.22, 0.44]
-MAX_CHARS = [42, 26, 54]
+MAX_CHARS = [42, 23, 54]  # (23: the monospace value column at 8 pt holds 24 characters; one spare before the next)
 FONTSIZE = 8
 TOP = 0.92  # a continuation page's table starts below its page title
 BOTTOM = 0.05  # above the footer (and the title page's "continued" line)

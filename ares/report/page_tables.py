@@ -72,9 +72,10 @@ def analysis_label(aname: str, key: str) -> str:
     parts = key.split(".")
     where = [p for p in parts[:-1] if p not in _PATH_NOISE]
     if aname == "emva4":
-        from ares.analysis.emva.sheet import SYMBOLS
+        from ares.analysis.emva.sheet import symbol
 
-        return f"EMVA 1288 4.0 {'General ' if where[:1] == ['general'] else ''}{SYMBOLS.get(parts[-1], parts[-1])}"
+        general = where[:1] == ["general"]
+        return f"EMVA 1288 4.0 {'General ' if general else ''}{symbol(parts[-1], general)}"
     if aname == "emva1288":  # the older release's figures, named as such beside the 4.0 ones
         return f"EMVA 1288 3.0 {parts[-1]}" + (f" ({' '.join(where)})" if where else "")
     base = ANALYSIS_LABELS.get(parts[-1], f"{aname}: {parts[-1]}")

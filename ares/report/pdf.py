@@ -77,12 +77,7 @@ def _title_head(fig, run) -> float:
     for note in run.notes:
         fig.text(0.06, y, note, fontsize=8.5, va="top", color="C3")
         y -= 0.018
-    stmt = k_statement_of(run)
-    if stmt:
-        for line in textwrap.wrap(stmt, 118)[:6]:
-            fig.text(0.06, y, line, fontsize=8, va="top", color="0.15")
-            y -= 0.016
-        y -= 0.004
+    # (the headline K's statement beside Eq. 50, k_statement_of, is the K key figure's note: once, beside K)
     lim = run.limits
     if run.scan_results is not None or lim["state"] == "not checked":
         color = {"failed": "C3", "passed": "C2"}.get(lim["state"], "0.35")  # green only for limits checked and passed
@@ -166,15 +161,20 @@ def _component_table(fig, y: float, stage: dict, part: str, title: str, edge: bo
         rows = [r[:-1] for r in rows]
         if masked:
             return text_table(fig, (0.06, y, 0.9), ["component", "defects excluded", "all pixels", "meaning"],
-                              rows, [0.12, 0.23, 0.23, 0.42], fontsize=8, title=title, max_chars=[12, 26, 26, 50])
+                              rows, [0.12, 0.23, 0.23, 0.42], fontsize=8, title=title, max_chars=[12, 25, 25, 50],
+                              wrap=True)
         return text_table(fig, (0.06, y, 0.9), ["component", "value ± SE", "meaning"], rows,
-                          [0.14, 0.3, 0.56], fontsize=8.5, title=title, max_chars=[14, 30, 64])
+                          [0.14, 0.3, 0.56], fontsize=8.5, title=title, max_chars=[14, 30, 64], wrap=True)
+    # (every value whole, wrapped: its verdict -- "not resolved", "< x" -- is never cut; the value columns
+    # hold as many monospace characters as their width, one spare; a note, in full in components.csv and
+    # the key figures, in at most three lines, so that the page keeps its three tables)
+    rows = [r[:-1] + [plots.clip(r[-1], 3 * (20 if masked else 30) - 6)] for r in rows]
     if masked:
         return text_table(fig, (0.06, y, 0.9), ["component", "defects excluded", "all pixels", "meaning", "note"],
                           rows, [0.12, 0.21, 0.21, 0.3, 0.16], fontsize=8, title=title,
-                          max_chars=[12, 24, 24, 40, 20])
+                          max_chars=[12, 22, 22, 40, 20], wrap=True)
     return text_table(fig, (0.06, y, 0.9), ["component", "value ± SE", "meaning", "note"], rows,
-                      [0.14, 0.28, 0.34, 0.24], fontsize=8.5, title=title, max_chars=[14, 30, 40, 30])
+                      [0.14, 0.28, 0.34, 0.24], fontsize=8.5, title=title, max_chars=[14, 27, 40, 30], wrap=True)
 
 
 def components_page(run, mid: dict | None, dark: dict | None):
@@ -205,11 +205,10 @@ def _num(x) -> str:
 
 
 def _view_cell(c: str, d: dict) -> str:
-    """A component's value in the per-view table: gain spreads in % rms, as on every other
-    surface (their SEs are in components.csv with the rest)."""
-    if c in tables.GAIN_SPREADS:
-        return tables.component_display(c, d)[0].split(" ± ")[0]
-    return _num(d.get("value"))
+    """A component's value in the per-view table as every other surface judges it (gain spreads
+    in % rms; a limit "< x", not its bound as if measured; "n/a"), without its SE and reason
+    (components.csv and the components page hold them)."""
+    return tables.component_display(c, d)[0].split(" (")[0].split(" ± ")[0]
 
 
 def views_page(stage: dict):

@@ -424,7 +424,7 @@ def compute_key_figures(run, groups: list[PtcGroup] | None = None) -> dict:
     if isinstance(dec, dict) and dec.get("masked_pixels") is not None:
         classes = ", ".join(f"{k} {v}" for k, v in (dec.get("mask_classes") or {}).items())
         kf["decomposition.masked_pixels"] = _entry(
-            labels.MASKED_PIXELS, Estimate(float(dec["masked_pixels"]), math.nan, "pixels",
+            labels.MASKED_PIXELS, Estimate.count(dec["masked_pixels"], "pixels",
                                            f"mask from {dec.get('mask_source')}" + (f": {classes}" if classes else "")
                                            + "; not the defect analysis's classes"),
             "scan_results.json: decomposition")
@@ -436,15 +436,22 @@ def defect_count_figures(a: dict) -> dict:
     reason (key figures, hence key_figures.csv and report.h5)."""
     out = {}
     why = a.get("unavailable") if isinstance(a.get("unavailable"), dict) else {}
+    part = {c: w for c, w in (a.get("detection") or {}).items() if str(w).startswith("incomplete")}
+
+    def count(n, unit: str, note: str, partial: str) -> Estimate:  # a count found incomplete: a lower limit
+        return Estimate.limit(n, "lower", unit, f"{note}; at least {n}, {partial}") if partial else \
+            Estimate.count(n, unit, note)
+
     for cls, n in a["counts"].items():
         if cls == "total":
             continue
-        unit = {"bad_columns": "columns", "bad_rows": "rows", "clusters": "clusters"}.get(cls, "pixels")
-        e = (Estimate(float(n), math.nan, unit, f"class {cls}") if n is not None else
+        unit = labels.defect_count_unit(cls)
+        e = (count(n, unit, f"class {cls}", part.get(cls, "")) if n is not None else
              Estimate.na(why.get(cls) or "not tested by this scan", unit))
         out[f"defects.{cls}"] = _entry(f"{labels.DEFECTIVE_PIXELS}: {cls}", e, "scan_results.json: defects")
-    out["defects.total"] = _entry(labels.DEFECTIVE_PIXELS, Estimate(float(a["counts"]["total"]), math.nan, "pixels",
-                                                                    "all classes (see the defects page)"),
+    out["defects.total"] = _entry(labels.DEFECTIVE_PIXELS, count(a["counts"]["total"], "pixels",
+                                                                 "all classes (see the defects page)",
+                                                                 "; ".join(f"{c} {w}" for c, w in part.items())),
                                   "scan_results.json: defects")
     return out
 

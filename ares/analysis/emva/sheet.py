@@ -43,6 +43,16 @@ EXTRA = (("R", "R", "DN/photon"), ("mu_p_min", "µp.min", "photons"), ("mu_p_sat
 SYMBOLS = {k: s for k, s, _ in TABLE2 + EXTRA}
 
 
+def symbol(key: str, general: bool = False) -> str:
+    """A Table 2 key's printed symbol, the one name of the figure on every surface (terminal,
+    key_figures.csv, PDF, datasheet, window); ``general``: the General document's Table 2
+    (``µp.sat.area``, ``SNRp.max``), its other figures as the Linear sheet names them."""
+    from ares.analysis.emva.general_table import GENERAL_TABLE2
+
+    own = {k: s for k, s, _ in GENERAL_TABLE2} if general else {}
+    return own.get(key) or SYMBOLS.get(key, key)
+
+
 def _stack_sigma(st: "StackImage", note: str) -> Estimate:
     """Eq. 65's temporal noise of a stack with its SE: the mean of N pixels' variances over L
     frames has N (L - 1) degrees of freedom (white noise: the variance's relative SE is

@@ -34,7 +34,7 @@ from typing import Sequence
 
 import numpy as np
 
-from ares.analysis.stats.estimate import Estimate
+from ares.analysis.stats.estimate import LIMIT_NSIGMA, Estimate
 from ares.analysis.ptc.levels import LevelStats
 from ares.analysis.ptc.fit import (RUNS_P, AstierFit, GainModel, LineFit, LocalSlopeCheck, choose_gain_model, line_fit,
                                    local_slope_check, local_slope_check_text, max_relative_deviation, origin_fit,
@@ -476,8 +476,8 @@ def analyze_ptc(bright: Sequence[LevelStats], dark: Sequence[LevelStats], *, exp
                 note += " (SE not available: the levels' pixel and frame counts or frame means are not given)"
             le = Estimate(le_v, le_se, "%", note)
             if math.isfinite(le_se) and le_se > le_v:  # within the noise: how linear the data show it to be
-                le = Estimate.limit(le_v + 2 * le_se, "upper", "%", f"{le_v:.3g} ± {le_se:.2g} %, within the "
-                                    f"levels' noise: below the value + 2 SE; {note}")
+                le = Estimate.limit(le_v + LIMIT_NSIGMA * le_se, "upper", "%", f"{le_v:.3g} ± {le_se:.2g} %, within "
+                                    f"the levels' noise: below the value + {LIMIT_NSIGMA:g} SE; {note}")  # (one rule)
         else:
             le = Estimate.na(f"{len(sel)} levels within 5-95 % of saturation (needs 3)", "%")
 

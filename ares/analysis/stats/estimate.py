@@ -12,7 +12,8 @@ CSV, PDF, GUI):
 - ``Estimate.declared(value, unit, why, note)``: an exact value, SE 0, because it is declared,
   not measured (the photons of a step, a gain the user gives). It is shown with its verdict
   "(exact: why)" (``exact_text``, the one wording) where another figure shows "± SE"; its
-  uncertainty (a photon calibration's) is not this evaluation's to state, so none is invented.
+  uncertainty (a photon calibration's) is not this evaluation's to state, so none is invented;
+  ``Estimate.count(n, unit)`` the same for a count ("exact: counted": exact by nature).
 
 ``format_value`` is the one place that decides how many digits a figure gets: the SE is
 rounded to two significant digits and the value to the SE's last digit (ISO GUM 7.2.6), so
@@ -32,11 +33,19 @@ EXACT_DEFAULT = "declared, not measured"  # an SE of exactly 0 that came without
 EXACT_PHOTONS = "declared photons"  # a step's photons: the bench's or the data set's, not this evaluation's
 EXACT_PHOTONS_AREA = "declared photons and pixel area"
 EXACT_GAIN = "gain given, not measured"
+EXACT_COUNT = "counted"  # a count of pixels (columns, rows, ...): exact by nature, no SE to state
+EXACT_PREFIX = "exact: "
 
 
 def exact_text(why: str = "") -> str:
     """The verdict shown beside a figure whose SE is exactly 0 (every surface: this wording)."""
-    return f"exact: {why or EXACT_DEFAULT}"
+    return f"{EXACT_PREFIX}{why or EXACT_DEFAULT}"
+
+
+def exact_why(verdict: str) -> str:
+    """The why of a verdict column written by ``exact_text`` ("" for any other verdict): a
+    table that keeps only the verdict (lot.csv, the results database) gives it back."""
+    return verdict[len(EXACT_PREFIX):] if (verdict or "").startswith(EXACT_PREFIX) else ""
 
 
 @dataclass(frozen=True)
@@ -62,6 +71,11 @@ class Estimate:
     def declared(cls, value: float, unit: str, why: str, note: str = "") -> "Estimate":
         """An exact value (SE 0): declared, not measured; ``why`` in a few words ("declared photons")."""
         return cls(float(value), 0.0, unit, note, "", why)
+
+    @classmethod
+    def count(cls, n: int, unit: str, note: str = "") -> "Estimate":
+        """A count (defect pixels, masked pixels): exact, SE 0, shown "8 pixels (exact: counted)"."""
+        return cls(float(int(n)), 0.0, unit, note, "", EXACT_COUNT)
 
     @property
     def is_exact(self) -> bool:
