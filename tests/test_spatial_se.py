@@ -13,7 +13,7 @@ import pytest
 
 from ares.analysis.emva.release3 import _spatial_se
 from ares.analysis.ptc.levels import spatial_stats, stack_moments
-from ares.analysis.spatial.nonuniformity import split
+from ares.analysis.spatial.nonuniformity import dsnu, split
 from ares.analysis.spatial.pattern_se import part_variance
 
 M, N, L, SEEDS, SIGMA = 64, 96, 16, 40, 3.0  # residual temporal variance 9/16: 1/16 of the pixel pattern's
@@ -72,6 +72,14 @@ def test_row_temporal_noise_the_text_takes_for_a_pattern_is_in_its_se():
         assert np.max(np.abs(text[p])) < 4.0, (p, np.max(np.abs(text[p])))
         assert 0.7 < _rms(ext[p]) < 1.35, (p, _rms(ext[p]))
     assert np.mean(text["row"]) > 0.5  # the bias is there, and held by the SE
+    # ... as the figure shows it: DSNU1288.row keeps the text's value, its SE the bias, said so
+    r = np.random.default_rng(1)
+    frames = _pattern() + r.normal(0, SIGMA, (L, M, N)) + r.normal(0, 2.0, (L, M, 1))
+    st, avg, line, _ = stack_moments(list(frames))
+    sp = split(avg, line.pixel, L, "4.0", line.rows, line.cols, temporal_var_text=st.s2_temporal)
+    e = dsnu(sp, 1.0, 0.0)["DSNU1288_row"]
+    assert e.value == pytest.approx(math.sqrt(sp.row)) and "SE holds" in e.note
+    assert e.se == pytest.approx(math.hypot(sp.se_row, sp.bias_of("row")) / (2 * math.sqrt(sp.row)))
 
 
 def test_release3_stack_variance_se():

@@ -13,7 +13,7 @@
   and the solution Eq. 43. ``Split.extended`` holds ARES's option ``rowcol_corrected``
   (beyond the text, shown beside the text's values, never instead of them): after the
   high-pass, a white pattern keeps only part of its variance: ``g2`` of the pixel and
-  temporal parts (the 2-D white-noise gain, 1 - 8e-5 for the 4.0 filter) and ``g1`` of a
+  temporal parts (the 2-D white-noise gain, 0.9885 for the 4.0 filter) and ``g1`` of a
   column or row pattern (the 1-D gain, ~0.89: the filter also removes the long-wavelength
   share of a white column pattern), and row- or column-correlated temporal noise, when
   measured, is not taken for a pattern; Eq. 42 is solved with these gains and terms (the
