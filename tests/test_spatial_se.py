@@ -103,3 +103,15 @@ def test_part_variance_is_the_noncentral_chi_square_variance():
         v = t / n * rng.noncentral_chisquare(dof, n * v_p / t, 40_000)
         assert part_variance(v_p + t * dof / n, t, n, dof) == pytest.approx(float(np.var(v)), rel=0.03)
     assert split(_pattern(), 0.0, L, "4.0").se_total == 0.0
+
+
+def test_a_limit_holds_what_the_text_over_subtracted():
+    """A variance driven below 0 by the text's over-subtraction (Eq. 57's frame offsets in
+    sigma^2: bias < 0) is an upper limit on the pattern's s2 - bias, not on s2: the bound
+    sqrt(max(s2 - bias, 0) + 2 SE) (the reference CCD's DSNU1288: -0.00213 +- 0.00058 DN^2,
+    bias -0.0027). A positive bias (noise taken for a pattern) leaves the bound on s2."""
+    from ares.analysis.spatial.nonuniformity import std_estimate
+
+    e = std_estimate(-0.002, 0.0006, 1.0, 0.0, "DN", "", -0.003)
+    assert e.bound == "upper" and e.value == pytest.approx(math.sqrt(0.001 + 0.0012))
+    assert std_estimate(-0.002, 0.0006, 1.0, 0.0, "DN", "", 0.003).value == pytest.approx(math.sqrt(0.0012))

@@ -415,9 +415,11 @@ def std_estimate(s2: float, se2: float, scale: float, scale_rel_se: float, unit:
     is kept as the text writes it, and the SE holds it in quadrature, said in the note."""
     if not math.isfinite(s2):
         return Estimate.na("spatial variance not available", unit)
-    if s2 <= 2 * se2:
-        return Estimate.limit(math.sqrt(max(s2, 0.0) + 2 * se2) * scale, "upper", unit,
-                              note + f"; variance {s2:.3g} +- {se2:.2g} DN^2 is not above 2 SE")
+    if s2 <= 2 * se2:  # (a text's over-subtraction, bias2 < 0, raises the bound: it must hold the pattern's)
+        return Estimate.limit(math.sqrt(max(s2 - min(bias2, 0.0), 0.0) + 2 * se2) * scale, "upper", unit,
+                              note + f"; variance {s2:.3g} +- {se2:.2g} DN^2 is not above 2 SE" +
+                              (f" (bias {bias2:+.2g} DN^2 of the text's Eqs. 36, 39 - 41 in the bound)"
+                               if bias2 < -0.1 * se2 else ""))
     s = math.sqrt(s2)
     if abs(bias2) > 0.1 * se2:
         note += (f"; SE holds {bias2:+.2g} DN^2 the temporal noise left in the average adds beyond what the text's "
