@@ -371,7 +371,7 @@ def split(img: np.ndarray, temporal_var: float, L: int, release: str = "4.0", ro
     rav = float(np.dot(row_means, row_means)) / M * f2
     g1, g2 = white_gains(release)
     # the SEs' noise (both solves): what the measured temporal variances say is left in the average
-    noise = (w, max(tr, 0.0), max(tc, 0.0), max(L - 1, 1) * x.size, g1, g2)
+    noise = (max(w, 0.0), max(tr, 0.0), max(tc, 0.0), max(L - 1, 1) * x.size, g1, g2)
     text = _solve(cav, rav, s2_meas, M, N, L, mean, 1.0, 1.0,
                   (temporal_var if temporal_var_text is None else temporal_var_text) / L, 0.0, 0.0, noise)
     ext = _solve(cav, rav, s2_meas, M, N, L, mean, g1, g2, w, tr, tc, noise)
