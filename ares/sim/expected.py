@@ -19,10 +19,21 @@ import numpy as np
 from scipy.special import ndtr
 
 
-def _mean_code(x: np.ndarray, s: np.ndarray, levels: np.ndarray) -> np.ndarray:
+def _mean_code(x: np.ndarray, s: np.ndarray, levels: np.ndarray, ideal: bool = False) -> np.ndarray:
     """sum_k Phi((x - T_k) / s) for each pixel: the levels below x - 9 s counted whole, the ones
-    within +-9 s summed (a level farther off adds less than 1e-19)."""
+    within +-9 s summed (a level farther off adds less than 1e-19). ``ideal``: the levels are
+    k - 1/2 (an ideal ADC); there a pixel with s >= 1 whose +-9 s lies inside the levels has
+    mean code x (E[round(x + s Z)] = x + a periodic term of amplitude exp(-2 pi^2 s^2) / pi
+    < 1e-9 DN, Poisson summation), so only the others are summed (a bright image's +-9 s
+    spans hundreds of levels: seconds a frame)."""
     s = np.maximum(s, 1e-9)
+    if ideal and x.size:
+        inside = (s >= 1.0) & (x - 9 * s > levels[0]) & (x + 9 * s < levels[-1])
+        if inside.any():
+            out = np.array(x, np.float64)
+            rest = ~inside
+            out[rest] = _mean_code(x[rest], s[rest], levels)
+            return out
     lo = np.searchsorted(levels, x - 9 * s, side="right")
     hi = np.searchsorted(levels, x + 9 * s, side="right")
     out = lo.astype(np.float64)
@@ -61,9 +72,10 @@ def expected_codes(sensor, **kw) -> np.ndarray:
     x *= adc.gain_col
     var = var * adc.gain_col.astype(np.float64) ** 2
     x += adc.offset_col + sc.black_level_dn
-    levels = adc.thresholds if adc.thresholds is not None else np.arange(1, adc.max_code + 1) - 0.5
+    ideal = adc.thresholds is None
+    levels = adc.thresholds if not ideal else np.arange(1, adc.max_code + 1) - 0.5
     s = np.sqrt(var)
-    out = _mean_code(x, s, levels)
+    out = _mean_code(x, s, levels, ideal)
     rts = fp.defects.index["rts"]
     if len(rts):
         pu, pd = fp.rts_p_up.astype(np.float64), fp.rts_p_down.astype(np.float64)

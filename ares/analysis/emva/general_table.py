@@ -101,11 +101,13 @@ def _nonuniformity(v: dict, res, stack_dark, stack_bright) -> None:
         ds, hp = stack_dark.split("none"), f"without the high-pass ({exc})"
     r, r_rel = rd.value, rd.se / rd.value
     s2, se2 = ds.get("total")  # General Section 8.3: DSNU1288 in photons and also in DN
-    v["DSNU1288_DN"] = std_estimate(s2, se2, 1.0, 0.0, "DN", f"s_y.dark (General Section 8.3), {hp}")
+    v["DSNU1288_DN"] = std_estimate(s2, se2, 1.0, 0.0, "DN", f"s_y.dark (General Section 8.3), {hp}",
+                                    ds.bias_of("total"))
     for part, suffix in PARTS:
         s2, se2 = ds.get(part)
         v["DSNU1288" + suffix.replace(".", "_")] = std_estimate(
-            s2, se2, 1.0 / r, r_rel, "photons", f"s_y.dark{suffix} / R_d (EMVA 1288 4.0 General Eqs. 56, 58), {hp}")
+            s2, se2, 1.0 / r, r_rel, "photons", f"s_y.dark{suffix} / R_d (EMVA 1288 4.0 General Eqs. 56, 58), {hp}",
+            ds.bias_of(part))
     mu_p50 = float(stack_bright.photons) if stack_bright is not None else math.nan
     if stack_bright is None or not mu_p50 > 0 or res.curve is None:
         why = "no bright stack (averaged images at ~50 % saturation) with its photons" if stack_bright is None or \
@@ -131,7 +133,8 @@ def _nonuniformity(v: dict, res, stack_dark, stack_bright) -> None:
         s2p = b / slope**2 - d / r**2  # s2_p.50 - s2_p.dark (Eq. 59)
         se2p = math.hypot(bse / slope**2, dse / r**2)
         e = std_estimate(s2p, se2p, 100.0 / mu_p50, 0.0, "%",
-                          f"sqrt(s2_p.50{suffix} - s2_p.dark{suffix}) / mu_p.50 (General Eqs. 55, 56, 59), {hp}")
+                          f"sqrt(s2_p.50{suffix} - s2_p.dark{suffix}) / mu_p.50 (General Eqs. 55, 56, 59), {hp}",
+                          bs.bias_of(part) / slope**2 - ds.bias_of(part) / r**2)
         if e.available and not e.bound:  # the slopes' errors (a common scale of each variance)
             e = Estimate(e.value, math.hypot(e.se, e.value * math.hypot(b / slope**2 * slope_rel, d / r**2 * r_rel)
                                              / max(s2p, 1e-300)), e.unit, e.note)

@@ -40,6 +40,7 @@ from ares.analysis.stats.estimate import Estimate
 from ares.analysis.ptc.levels import SpatialStats, pair_stats, spatial_stats
 from ares.analysis.stats.median import n_distinct
 from ares.analysis.spatial.nonuniformity import std_estimate
+from ares.analysis.spatial.pattern_se import stack_variance_se
 from ares.analysis.stats.physical import resolved, snr_db, snr_in_range
 from ares.analysis.ptc.fit import line_fit, origin_fit
 from ares.analysis.ptc.saturation import index_max_variance
@@ -207,7 +208,7 @@ def emva1288_results(temporal: TemporalData, spatial_bright: SpatialStats | None
 
     if spatial_dark is not None:
         s2yd = spatial_dark.s2_spatial
-        # (its SE: the spatial variance's Gaussian sampling over the pixels, as Release 4.0's
+        # (its SE: the temporal noise left in the stack average, as Release 4.0's
         # (``spatial.nonuniformity``), with K's; a variance not above 2 SE is an upper limit)
         vals["DSNU1288"] = (na(why_k, "e-") if why_k else
                             std_estimate(s2yd, _spatial_se(spatial_dark), 1.0 / K, K_se / K, "e-",
@@ -275,8 +276,14 @@ def _linearity(u_p: np.ndarray, Y: np.ndarray, isat: int) -> tuple[np.ndarray, s
 
 
 def _spatial_se(sp: SpatialStats) -> float:
-    """Gaussian sampling SE of a stack average's spatial variance over its pixels (DN^2)."""
-    return math.sqrt(2.0 / max(sp.n_pixels - 1, 1)) * max(sp.s2_measured, 0.0)
+    """SE (DN^2) of a stack average's spatial variance with s2_temporal / L removed, as a
+    measurement of THIS sensor's pattern: the temporal noise t = s2_temporal / L left in the
+    average over its n pixels -- var = 4 t s2_spatial / n (the pattern x noise cross term)
+    + 2 t^2 / n (the noise's own chi-square) + 2 t^2 / (n (L - 1)) (the subtracted t is
+    measured too): ``spatial.pattern_se.stack_variance_se``, Release 4.0's
+    ``measurement_se`` without the high-pass and the split. Not the population's sampling spread sqrt(2 / n) s2 (another sensor of the
+    same pattern statistics), which is what this returned before: 5 - 20x larger."""
+    return stack_variance_se(sp.s2_spatial, sp.s2_temporal, sp.n_frames, sp.n_pixels)
 
 
 def spatial_from_stacks(bright: np.ndarray, dark: np.ndarray) -> tuple[SpatialStats, SpatialStats]:

@@ -147,7 +147,8 @@ def pair_step(a: np.ndarray, b: np.ndarray, max_code: int | None):
     the images: (Release 3.0 ``LevelStats``, Release 4.0 ``LevelStats`` (Eq. 18), the
     averaged image's spatial variances (``emva_spatial.Split``: Eq. 32 with the 4.0
     high-pass; unfiltered when the image is smaller than the filter), mu[0] - mu[1])."""
-    from ares.analysis.spatial.nonuniformity import split, temporal_parts
+    from ares.analysis.spatial.nonuniformity import split
+    from ares.analysis.spatial.pattern_se import temporal_parts
 
     pm = pair_moments(a, b, max_code)
     del a, b  # (the caller may hold no other reference: the high-pass below needs neither)

@@ -13,15 +13,15 @@
   and the solution Eq. 43. ``Split.extended`` holds ARES's option ``rowcol_corrected``
   (beyond the text, shown beside the text's values, never instead of them): after the
   high-pass, a white pattern keeps only part of its variance: ``g2`` of the pixel and
-  temporal parts (the 2-D white-noise gain, 1 - 8e-5 for the 4.0 filter) and ``g1`` of a
+  temporal parts (the 2-D white-noise gain, 0.9885 for the 4.0 filter) and ``g1`` of a
   column or row pattern (the 1-D gain, ~0.89: the filter also removes the long-wavelength
   share of a white column pattern), and row- or column-correlated temporal noise, when
   measured, is not taken for a pattern; Eq. 42 is solved with these gains and terms (the
   principle of Appendix C.5, Eq. 86, which divides the 3.1 result by 0.96).
 * ``nonuniformity``: DSNU1288 (Eq. 66) and PRNU1288 (Eq. 67) and their .row/.col/.pix
-  parts (Section 8.3), each with its standard error (Gaussian sampling of a variance from
-  the number of columns, rows or pixels behind it) or an upper limit when the variance is
-  not above twice its SE.
+  parts (Section 8.3), each with its SE -- the measurement error of THIS sensor's pattern
+  from the temporal noise left in the averages (``pattern_se``), not the population's
+  sampling spread -- or an upper limit when the variance is not above twice its SE.
 
 Pure numpy (and, where numba is loaded, ``highpass_kernel``: the same exact integer sums
 in one streaming pass; ``ares.jit``): no I/O.
@@ -36,6 +36,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from ares.analysis.spatial.pattern_se import measurement_se, temporal_parts
 from ares.analysis.stats.estimate import Estimate
 
 HIGHPASS_BORDER = {"4.0": 9, "3.1": 2, "none": 0}
@@ -276,7 +277,11 @@ def white_gains(release: str) -> tuple[float, float]:
 
 @dataclass(frozen=True)
 class Split:
-    """Spatial variances of one (averaged) image, DN^2, and their SEs (Eqs. 37 - 44)."""
+    """Spatial variances of one (averaged) image, DN^2, and their SEs (Eqs. 37 - 44): the
+    measurement error of this sensor's pattern from the temporal noise left in the average
+    (``pattern_se``); ``bias`` what that noise adds beyond what the solve removed (the
+    text's white-noise assumption, when row/column temporal variances are measured), which
+    the figures' SE holds in quadrature (``std_estimate``)."""
 
     total: float
     col: float
@@ -291,22 +296,14 @@ class Split:
     cols: int
     L: int
     extended: "Split | None" = None  # ARES option rowcol_corrected (filter gains, row/column temporal noise)
+    bias: tuple[float, float, float, float] = (0.0, 0.0, 0.0, 0.0)  # (total, col, row, pix)
 
     def get(self, part: str) -> tuple[float, float]:
+        """(variance, its measurement SE)."""
         return getattr(self, part), getattr(self, "se_" + part)
 
-
-def temporal_parts(temporal_var: float, rows: int, cols: int, row_var: float | None = None,
-                   col_var: float | None = None) -> tuple[float, float, float]:
-    """(white pixel, row, column) temporal variances per image from the pixel temporal
-    variance and, when measured, the temporal variances of the row and column means (each
-    with the frame-global offset removed). Without them the temporal noise is taken as white
-    (the assumption behind Eqs. 39 - 41): row_var = var / N, col_var = var / M."""
-    t = float(temporal_var) if math.isfinite(temporal_var) else 0.0
-    if row_var is None or col_var is None or not (math.isfinite(row_var) and math.isfinite(col_var)):
-        return t, 0.0, 0.0
-    w = (t - row_var - col_var) / (1.0 - 1.0 / cols - 1.0 / rows)
-    return w, row_var - w / cols, col_var - w / rows
+    def bias_of(self, part: str) -> float:
+        return self.bias[("total", "col", "row", "pix").index(part)]
 
 
 BLOCK_PIXELS = 1 << 17  # ``split`` high-passes an image a block of rows (about this many pixels) at a time
@@ -372,45 +369,62 @@ def split(img: np.ndarray, temporal_var: float, L: int, release: str = "4.0", ro
     cav = float(np.dot(col_means, col_means)) / N * f2  # Eq. 41 (before the temporal term)
     row_means -= d
     rav = float(np.dot(row_means, row_means)) / M * f2
-    text = _solve(cav, rav, s2_meas, M, N, L, mean, 1.0, 1.0,
-                  (temporal_var if temporal_var_text is None else temporal_var_text) / L, 0.0, 0.0)
     g1, g2 = white_gains(release)
-    ext = _solve(cav, rav, s2_meas, M, N, L, mean, g1, g2, w, tr, tc)
+    # the SEs' noise (both solves): what the measured temporal variances say is left in the average
+    noise = (max(w, 0.0), max(tr, 0.0), max(tc, 0.0), max(L - 1, 1) * x.size, g1, g2)
+    text = _solve(cav, rav, s2_meas, M, N, L, mean, 1.0, 1.0,
+                  (temporal_var if temporal_var_text is None else temporal_var_text) / L, 0.0, 0.0, noise)
+    ext = _solve(cav, rav, s2_meas, M, N, L, mean, g1, g2, w, tr, tc, noise)
     return dataclasses.replace(text, extended=ext)
 
 
 def _solve(cav: float, rav: float, s2_meas: float, M: int, N: int, L: int, mean: float, g1: float, g2: float,
-           w: float, tr: float, tc: float) -> Split:
+           w: float, tr: float, tc: float, noise: "tuple[float, float, float, float, float, float] | None" = None
+           ) -> Split:
     """Eq. 42 for (col, row, pix) from the measured column- and row-mean variances and the
     total (Eqs. 35, 41) with the residual temporal variances of the average (white ``w``,
     row- and column-correlated ``tr``, ``tc``) removed; ``g1``/``g2`` the high-pass gains
     of a 1-D and a 2-D white pattern. With g = 1 and tr = tc = 0: Eqs. 36, 39 - 41 and 43
-    as written."""
+    as written. ``noise``: the temporal noise left in the average (white, row, column), the
+    dof of the subtracted ``w`` and the filter's gains (h1, h2), for the SEs and the bias."""
     A = np.array([[g1, 0.0, g1 / M], [0.0, g1, g1 / N], [g1, g1, g2]])
     b = np.array([cav - g1 * (tc + w / M), rav - g1 * (tr + w / N), s2_meas - g2 * w - g1 * (tr + tc)])
     col, row, pix = np.linalg.solve(A, b)
-    # Gaussian sampling SEs: each average is a variance over N columns, M rows or MN pixels
-    noise = max(pix, 0.0) + w
-    se_col = math.sqrt(2.0 / max(N - 1, 1)) * (max(col, 0.0) + tc + noise / M)
-    se_row = math.sqrt(2.0 / max(M - 1, 1)) * (max(row, 0.0) + tr + noise / N)
-    se_pix = math.sqrt(2.0 / max(M * N - M - N, 1)) * noise
     tot = col + row + pix  # Eq. 37
-    se_tot = math.sqrt(se_col**2 + se_row**2 + se_pix**2)
-    return Split(float(tot), float(col), float(row), float(pix), se_tot, se_col, se_row, se_pix, mean, M, N, L)
+    if noise is None:
+        noise = (w, tr, tc, max(L - 1, 1) * M * N, g1, g2)
+    nw, ntr, ntc, dof, h1, h2 = noise
+    se = measurement_se(A, (g1 / M, g1 / N, g2), w, cav, rav, s2_meas, M, N, nw, ntr, ntc, dof, (h1, h2))
+    # the bias: what that noise adds to each part beyond what the solve removes (Eqs. 39 - 41:
+    # row/column temporal noise; Eq. 57's frame offsets; the high-pass's share of white noise)
+    nb = np.array([h1 * (ntc + nw / M), h1 * (ntr + nw / N), h2 * nw + h1 * (ntr + ntc)])
+    bias = np.linalg.solve(A, nb - (cav - b[0], rav - b[1], s2_meas - b[2]))
+    return Split(float(tot), float(col), float(row), float(pix), *se, mean, M, N, L,
+                 bias=(float(bias.sum()), *(float(x) for x in bias)))
 
 
 PARTS = (("total", ""), ("col", ".col"), ("row", ".row"), ("pix", ".pix"))
 
 
-def std_estimate(s2: float, se2: float, scale: float, scale_rel_se: float, unit: str, note: str) -> Estimate:
-    """sqrt(s2) * scale with its SE; an upper limit when s2 is not above 2 SE."""
+def std_estimate(s2: float, se2: float, scale: float, scale_rel_se: float, unit: str, note: str,
+                 bias2: float = 0.0) -> Estimate:
+    """sqrt(s2) * scale with its SE; an upper limit when s2 is not above 2 SE. ``se2``: the
+    variance's measurement SE (``Split``, ``pattern_se``): whether the data resolve it from
+    0. ``bias2``: what the estimator's own assumptions leave in it, measured (``Split.bias``:
+    Eqs. 39 - 41's white temporal noise against the measured row/column noise) -- the value
+    is kept as the text writes it, and the SE holds it in quadrature, said in the note."""
     if not math.isfinite(s2):
         return Estimate.na("spatial variance not available", unit)
-    if s2 <= 2 * se2:
-        return Estimate.limit(math.sqrt(max(s2, 0.0) + 2 * se2) * scale, "upper", unit,
-                              note + f"; variance {s2:.3g} +- {se2:.2g} DN^2 is not above 2 SE")
+    if s2 <= 2 * se2:  # (a text's over-subtraction, bias2 < 0, raises the bound: it must hold the pattern's)
+        return Estimate.limit(math.sqrt(max(s2 - min(bias2, 0.0), 0.0) + 2 * se2) * scale, "upper", unit,
+                              note + f"; variance {s2:.3g} +- {se2:.2g} DN^2 is not above 2 SE" +
+                              (f" (bias {bias2:+.2g} DN^2 of the text's Eqs. 36, 39 - 41 in the bound)"
+                               if bias2 < -0.1 * se2 else ""))
     s = math.sqrt(s2)
-    return Estimate(s * scale, s * scale * math.hypot(se2 / (2 * s2), scale_rel_se), unit, note)
+    if abs(bias2) > 0.1 * se2:
+        note += (f"; SE holds {bias2:+.2g} DN^2 the temporal noise left in the average adds beyond what the text's "
+                 f"Eqs. 36, 39 - 41 remove (measured; option rowcol_corrected removes it)")
+    return Estimate(s * scale, s * scale * math.hypot(math.hypot(se2, bias2) / (2 * s2), scale_rel_se), unit, note)
 
 
 def dsnu(dark: Split, K: float, K_se: float) -> dict[str, Estimate]:
@@ -419,9 +433,10 @@ def dsnu(dark: Split, K: float, K_se: float) -> dict[str, Estimate]:
     for part, suffix in PARTS:
         s2, se2 = dark.get(part)
         out["DSNU1288" + suffix.replace(".", "_")] = std_estimate(
-            s2, se2, 1.0 / K, K_se / K, "e-", f"s_y.dark{suffix} / K (EMVA 1288 4.0 Linear Eq. 66)")
+            s2, se2, 1.0 / K, K_se / K, "e-", f"s_y.dark{suffix} / K (EMVA 1288 4.0 Linear Eq. 66)",
+            dark.bias_of(part))
     s2, se2 = dark.get("total")
-    out["DSNU1288_DN"] = std_estimate(s2, se2, 1.0, 0.0, "DN", "s_y.dark (Eq. 66 x K)")
+    out["DSNU1288_DN"] = std_estimate(s2, se2, 1.0, 0.0, "DN", "s_y.dark (Eq. 66 x K)", dark.bias_of("total"))
     return out
 
 
@@ -437,7 +452,8 @@ def prnu(bright: Split, dark: Split) -> dict[str, Estimate]:
             out[key] = Estimate.na("the bright stack is not above the dark stack", "%")
             continue
         out[key] = std_estimate(b - d, math.hypot(bse, dse), 100.0 / sig, 0.0, "%",
-                                 f"sqrt(s2_y.50{suffix} - s2_y.dark{suffix}) / (mu_y.50 - mu_y.dark) (Eq. 67)")
+                                 f"sqrt(s2_y.50{suffix} - s2_y.dark{suffix}) / (mu_y.50 - mu_y.dark) (Eq. 67)",
+                                 bright.bias_of(part) - dark.bias_of(part))
     return out
 
 
