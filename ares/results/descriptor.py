@@ -179,6 +179,7 @@ def release31(res, stack_b, stack_d) -> dict:
     """Release 3.1 = the 3.0 set with DSNU1288/PRNU1288 from 5x5-box high-passed stacks,
     the spatial standard deviation divided by 0.96 (Linear 4.0 Appendix C.5, Eqs. 84 - 86)."""
     from ares.analysis.spatial.nonuniformity import std_estimate
+    from ares.analysis.spatial.pattern_se import stack_variance_se
     from ares.analysis.stats.estimate import Estimate
 
     K = res.values["K"]
@@ -199,8 +200,9 @@ def release31(res, stack_b, stack_d) -> dict:
         return out
     sig = float(stack_b.mean_image.mean() - stack_d.mean_image.mean())
 
-    def se(st):  # the spatial variance's Gaussian sampling over the pixels (as Release 3.0's, 4.0's)
-        return math.sqrt(2.0 / max(st.mean_image.size - 1, 1)) * max(st.highpassed_var("3.1") / 0.96**2, 0.0)
+    def se(st):  # the measurement error of this sensor's pattern, as Release 3.0's (the temporal noise left
+        # in the average over its pixels; the 5x5 filter's correlation of neighbours not modelled)
+        return stack_variance_se(s2(st), st.temporal_var, st.L, st.mean_image.size)
 
     out["DSNU1288"] = (std_estimate(d2, se(stack_d), 1.0 / K.value, K.se / K.value, "e-",
                                     "s_y.dark after the 5x5 high-pass / 0.96, / K (Release 3.1, Appendix C.5)")
