@@ -10,8 +10,6 @@ from typing import Callable
 from ares.analysis.stats.estimate import VERDICT_LOWER, VERDICT_UPPER
 
 
-
-
 # ------------------------------------------------------------ scan-level analyses
 
 SCAN_ANALYSES: dict[str, Callable] = {}
@@ -147,7 +145,7 @@ def check_limits(scan, results: dict) -> list[str]:
             fails.append(f"limit on '{lim.quantity}': no analysis produced this quantity")
             continue
         leaf = hits[0]
-        v, bound = (leaf["value"] if isinstance(leaf, dict) else leaf), limit_side(hits[0])
+        v, bound = (leaf["value"] if isinstance(leaf, dict) else leaf), limit_side(leaf)
         if v is None or not lim.check(float(v)):
             shown = "n/a" if v is None else {"upper": "< ", "lower": "> "}.get(bound, "") + format(float(v), ".4g")
             fails.append(f"{lim.quantity} = {shown} is not {lim.bounds()}")
