@@ -61,11 +61,13 @@ def _run(name, tmp_path_factory, frames=None, clean=False, seed=SEED):
 
 def _bare_ok(x, path: str = "") -> list[str]:
     """Every figure of a run's results reported "ok" with no SE (a number without its verdict's
-    evidence); an exact one (SE 0) says why (``Estimate.declared``: its "exact" reason)."""
+    evidence) or with an SE larger than itself (not resolved: a limit at most); an exact one
+    (SE 0) says why (``Estimate.declared``: its "exact" reason)."""
     if isinstance(x, dict):
         if "verdict" in x and "value" in x:
+            se = x.get("se")
             bare = x["verdict"] == "ok" and x["value"] is not None and (
-                x.get("se") is None or (x.get("se") == 0 and not x.get("exact")))
+                se is None or (se == 0 and not x.get("exact")) or se > abs(x["value"]))
             return [path] if bare else []
         return [p for k, v in x.items() for p in _bare_ok(v, f"{path}.{k}")]
     if isinstance(x, list):
