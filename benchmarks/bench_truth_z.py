@@ -110,20 +110,15 @@ def fig_temperature(scan, bench, res, stages):
 
 
 def fig_gain(scan, bench, res, stages):
-    from test_scan_truth import _defect_var_e2, _ptc_k, _truth
+    from test_scan_truth import _ptc_k, _truth, gain_split_truth
 
     out = []
-    R, C = bench.info["sensor"].shape
     for g, r in res["ptc"]["by_analog_gain"].items():
         st = next(s for s in stages if f"x{s['settings']['analog_gain']:g}" == g)
         t = _truth(scan, bench, st["settings"])
         out.append((f"K {g} [DN/e-]", r["gain_dn_per_e"], _ptc_k(t, st["views"]["full"]["level"]["n_frames"])))
     gs = res["gain_split"]
-    t = _truth(scan, bench, stages[0]["settings"])
-    F = stages[0]["views"]["full"]["dark_level"]["n_frames"]
-    pix = math.sqrt(t["read_noise_e"] ** 2 + t["dark_charge_e"] + _defect_var_e2(t, F, (R, C)))
-    chain = math.sqrt(t["Pt"] - t["G"] ** 2 * t["read_noise_e"] ** 2 - t["G"] ** 2 * t["dark_charge_e"]
-                      + t["Ct"] * (1 - 1 / C) + t["Rt"] * (1 - 1 / R))
+    pix, chain = gain_split_truth(scan, bench, stages)
     return out + [("pixel noise [e-]", gs["pixel_noise_e"], pix), ("chain noise [DN]", gs["chain_noise_dn"], chain)]
 
 

@@ -302,20 +302,26 @@ def test_temperature(tmp_path_factory):
     check("doubling temperature [C]", p.dark_doubling_c, res["temperature"]["doubling_temperature_c"], rel=0.05)
 
 
-def test_gain_split(tmp_path_factory):
-    scan, bench, res, stages = _run("gain", tmp_path_factory, frames=4)
-    p = res["ptc"]["by_analog_gain"]
+def gain_split_truth(scan, bench, stages) -> tuple[float, float]:
+    """The gain scan's split truths at its first stage: (pixel noise e-, chain noise DN)."""
     R, C = bench.info["sensor"].shape
-    for g, r in p.items():
-        st = next(s for s in stages if f"x{s['settings']['analog_gain']:g}" == g)
-        t = _truth(scan, bench, st["settings"])
-        check(f"gain {g} K [DN/e-]", _ptc_k(t, st["views"]["full"]["level"]["n_frames"]), r["gain_dn_per_e"], rel=0.003)
-    gs = res["gain_split"]
     t = _truth(scan, bench, stages[0]["settings"])
     F = stages[0]["views"]["full"]["dark_level"]["n_frames"]
     pix = math.sqrt(t["read_noise_e"] ** 2 + t["dark_charge_e"] + _defect_var_e2(t, F, (R, C)))
     chain = math.sqrt(t["Pt"] - t["G"] ** 2 * t["read_noise_e"] ** 2 - t["G"] ** 2 * t["dark_charge_e"]
                       + t["Ct"] * (1 - 1 / C) + t["Rt"] * (1 - 1 / R))
+    return pix, chain
+
+
+def test_gain_split(tmp_path_factory):
+    scan, bench, res, stages = _run("gain", tmp_path_factory, frames=4)
+    p = res["ptc"]["by_analog_gain"]
+    for g, r in p.items():
+        st = next(s for s in stages if f"x{s['settings']['analog_gain']:g}" == g)
+        t = _truth(scan, bench, st["settings"])
+        check(f"gain {g} K [DN/e-]", _ptc_k(t, st["views"]["full"]["level"]["n_frames"]), r["gain_dn_per_e"], rel=0.003)
+    gs = res["gain_split"]
+    pix, chain = gain_split_truth(scan, bench, stages)
     check("pixel noise [e-]", pix, gs["pixel_noise_e"], rel=0.05)
     check("chain noise [DN]", chain, gs["chain_noise_dn"], rel=0.05)
 
