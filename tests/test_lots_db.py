@@ -186,13 +186,13 @@ def test_two_ares_batch_processes_into_one_database_lose_nothing(backend, tmp_pa
                               cwd=tmp_path, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
              for x in "AB"]
     try:
-        deadline = time.monotonic() + 240
+        deadline = time.monotonic() + 900  # (minutes: two interpreters starting on a loaded machine)
         while not all((tmp_path / f"{x}.xml.ready").exists() for x in "AB"):
             assert all(p.poll() is None for p in procs), [p.communicate() for p in procs]
             assert time.monotonic() < deadline
             time.sleep(0.02)
         go.touch()
-        outs = [p.communicate(timeout=120) for p in procs]
+        outs = [p.communicate(timeout=900) for p in procs]
     finally:
         for p in procs:
             if p.poll() is None:
