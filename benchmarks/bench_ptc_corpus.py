@@ -15,7 +15,7 @@ the "ok" ones off by more than 3 % (the wrong "ok"s). ``--seed``: a held-out cor
 same family (0: the one the analysis was developed on). Prints Markdown for
 ``benchmarks/ptc_corpus.md``.
 
-    python benchmarks/bench_ptc_corpus.py [--n 2000] [--seed 0]
+    python benchmarks/bench_ptc_corpus.py [--n 2000] [--seed 0] [--tails gauss|t3|laplace]
     python benchmarks/bench_ptc_corpus.py --not-reached [--gentle] [--n 400] [--seed 0] [--before]
 
 ``--gentle`` (with ``--not-reached``): the same curves turning at 1/1.2-1/1.6 of their top
@@ -40,7 +40,7 @@ ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
 sys.path.insert(0, str(ROOT / "tests"))
 
-from ptc_corpus import _curve_e, case, run_case  # noqa: E402
+from ptc_corpus import TAILS, _curve_e, case, run_case  # noqa: E402
 
 
 def _band(c) -> dict:
@@ -52,12 +52,12 @@ def _band(c) -> dict:
             "noise": noise, "levels": lv, "curvature": "brighter-fatter" if p["a00"] else "none"}
 
 
-def measure(n: int, seed: int = 0) -> dict:
+def measure(n: int, seed: int = 0, tails: str = "gauss") -> dict:
     rows = []
     t0 = time.perf_counter()
     with tempfile.TemporaryDirectory() as d:
         for i in range(n):
-            c = case(i, seed)
+            c = case(i, seed, tails)
             res, j = run_case(c, Path(d))
             sat_d = res["saturation_capacity_e"]
             sat_se_ok = (sat_d["verdict"] == "ok" and abs(sat_d["value"] - c.truth["sat_e"])
@@ -156,6 +156,7 @@ def main() -> None:
     ap.add_argument("--not-reached", action="store_true")
     ap.add_argument("--before", action="store_true")
     ap.add_argument("--gentle", action="store_true")
+    ap.add_argument("--tails", default="gauss", choices=TAILS, help="the per-level noise's distribution")
     ap.add_argument("--list", action="store_true", help="also list the wrong 'ok' turnoffs and saturation capacities")
     a = ap.parse_args()
     if a.not_reached:
@@ -176,13 +177,13 @@ def main() -> None:
                   f"{c['not available']} |")
         print("\n" + "\n".join(f"- {k}" for k in out.get("_lost", {})))
         return
-    m = measure(a.n, a.seed)
+    m = measure(a.n, a.seed, a.tails)
     head = ("| stratum | curves | gain within max(1 %, 3 SE) | 'ok' K off > max(1 %, 3 SE) | turnoff within 3 % | turnoff 'ok' | "
             "within 3 % among 'ok' | 'ok' turnoffs off > 3 % | saturation capacity within 3 % | "
             "saturation capacity 'ok' | within 3 % among 'ok' | 'ok' saturation capacities off > 3 % | "
             "'ok' plateau full wells off > 3 % (hard clip) | absurd 'ok' |")
     sep = "|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|"
-    print(f"{a.n} curves (corpus seed {a.seed}) in {m['seconds']:.0f} s\n")
+    print(f"{a.n} curves (corpus seed {a.seed}, {a.tails} per-level noise) in {m['seconds']:.0f} s\n")
     for key in [None] + [k for k in a.keys.split(",") if k]:
         print(f"**{key or 'all curves'}**\n")
         print(head)

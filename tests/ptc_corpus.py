@@ -133,9 +133,24 @@ def model_e(x, fw: float, a00: float, shape: str, sp: dict) -> tuple[np.ndarray,
     return mu, v
 
 
-def case(i: int, seed: int = 0) -> Case:
+TAILS = ("gauss", "t3", "laplace")
+
+
+def _deviates(rng, n: int, tails: str) -> np.ndarray:
+    """``n`` unit-variance deviates: Gaussian, Student's t with 3 dof (an outlier row now
+    and then: a cosmic ray in a flat pair, a flicker), or Laplace."""
+    if tails == "t3":
+        return rng.standard_t(3, n) / math.sqrt(3.0)
+    if tails == "laplace":
+        return rng.laplace(0.0, 1.0 / math.sqrt(2.0), n)
+    return rng.standard_normal(n)
+
+
+def case(i: int, seed: int = 0, tails: str = "gauss") -> Case:
     """Curve ``i`` of the corpus ``seed`` (0: the corpus the analysis was developed on;
-    any other: a held-out corpus of the same family)."""
+    any other: a held-out corpus of the same family). ``tails``: the per-level noise's
+    distribution (``TAILS``; "gauss" is the corpus the rules were developed on, the
+    heavy-tailed ones a family they were not: the same curves, other deviates)."""
     rng = np.random.default_rng(1_000_003 * (i + 1) if seed == 0 else [seed, i])
     shape = SHAPES[i % len(SHAPES)]
     n = int(round(math.exp(rng.uniform(math.log(8), math.log(400)))))
@@ -168,9 +183,9 @@ def case(i: int, seed: int = 0) -> Case:
     S = K * mu
     V = K * K * v
     rd = K * K * rn * rn
-    scatter = noise * rng.standard_normal(n)
+    scatter = noise * _deviates(rng, n, tails)
     Vb = (V + rd) * (1 + scatter)  # the bright level's variance, measured
-    Sm = S * (1 + 0.2 * noise * rng.standard_normal(n) / math.sqrt(max(frames, 1)))
+    Sm = S * (1 + 0.2 * noise * _deviates(rng, n, tails) / math.sqrt(max(frames, 1)))
     offset = rng.uniform(50, 2000) if dark else 0.0
     header = ["mean", "var"]
     cols = [Sm + offset, Vb]
@@ -199,7 +214,8 @@ def case(i: int, seed: int = 0) -> Case:
     if rng.random() < 0.3:
         rows = [rows[j] for j in rng.permutation(len(rows))]
     params = dict(shape=shape, levels=n, K=K, a00=a00, fw_e=fw, rn_e=rn, noise=noise, frames=frames,
-                  counts=counts, misstate=float(misstate), dark=dark, log_spacing=log_spacing, seed=seed)
+                  counts=counts, misstate=float(misstate), dark=dark, log_spacing=log_spacing, seed=seed,
+                  tails=tails)
     # the levels in illumination order before rows were repeated, dropped or shuffled (the
     # oracle's input: benchmarks/bench_ptc_oracle.py), and the shape's own draws
     levels = dict(x=x, S=Sm, V=Vb, offset=offset, last=last, shape_draws=sp)

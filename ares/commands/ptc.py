@@ -145,11 +145,11 @@ def analyse_table(path: str | Path, columns: list[str] | None = None, pixels: in
 
 def _ramp(table):
     """(None, JSON dict, level names) of a linearity ramp: signal against an illumination
-    axis, no variances -- its linearity turnoff and maximum signal (``turnoff.ramp_turnoff``,
+    axis, no variances -- its linearity turnoff and maximum signal (``ramp.ramp_turnoff``,
     LSST cp_pipe's rule), every figure with its verdict."""
     import numpy as np
 
-    from ares.analysis.ptc.turnoff import ramp_turnoff
+    from ares.analysis.ptc.ramp import ramp_turnoff
     from ares.analysis.stats.estimate import Estimate
 
     axis = next(a for a in ("monitor", "photons", "exposure") if table.get(a) is not None)

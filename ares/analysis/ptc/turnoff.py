@@ -14,15 +14,7 @@
   ``_getInitialGoodPoints``, used when ``doLegacyTurnoffSelection``): in signal order, the
   curve ends before the first run of at least two consecutive variance decreases; its
   ``ptcTurnoff`` is the highest mean kept.
-- ``ramp_turnoff``: a linearity ramp without variances (mean signal against exposure time
-  or monitor-photodiode charge): LSST cp_pipe ``cpLinearitySolve._computeTurnoffAndMax``
-  (after eo_pipe's linearity task) -- a line through the origin with chi-square weights
-  ``1/signal`` over levels above ``min_signal``, relative residuals minus their median;
-  the turnoff is the last level, in illumination order, before the first that deviates by
-  more than 1 % (confirmed by the next one: a single wild level does not end the ramp),
-  and the maximum signal is the median of the levels within 1 % of the brightest.
-  EMVA 1288 4.0 Linear Section 6.6 takes saturation from the histogram (0.2 % of samples
-  at the maximum code), which a ramp of means cannot show; this rule needs no errors.
+- ``ramp_turnoff`` (a linearity ramp without variances) lives in ``ptc.ramp``.
 
 Pure numpy: no I/O.
 """
@@ -36,7 +28,6 @@ import numpy as np
 
 from ares.analysis.stats.scatter import Scatter, local_residuals, measured_scatter
 from ares.analysis.stats.median import fast_median
-from ares.analysis.ptc.fit import residual_se_widening
 from ares.analysis.ptc.changepoint import (FALL_LEVELS, FALL_PLAUSIBLE, PLAUSIBLE, ROLL_EVIDENCE, fall_cost, locate,
                                             rolloff_evidence)
 
@@ -212,10 +203,19 @@ def ptc_turnoff_found(signal, var, var_se, nsigma: float = 4.0, min_levels: int 
     cov = np.where(curved[:, None, None], inv3, np.pad(inv2, ((0, 0), (0, 1), (0, 1))))
     chi = np.where(curved, x3, x2)
     scale = np.sqrt(np.maximum(chi, 1.0))
-    runmax = np.maximum.accumulate(v)
-    new_top = np.concatenate([[True], v[1:] >= runmax[:-1]])
-    top_idx = np.maximum.accumulate(np.where(new_top, np.arange(n), 0))
-    vtop, etop = runmax[i - 1], e[top_idx[i - 1]]
+    # a row above the curve fitted below it by > nsigma SE (a wild row before the turnover: an
+    # outlier of heavy-tailed scatter) is no top that the levels after it fall below (issue 48)
+    a0 = np.stack([np.ones(i.size), x[i], x[i] ** 2], -1)
+    s0 = np.sqrt(np.maximum(np.einsum("mi,mij,mj->m", a0, cov, a0), 0.0)) * scale
+    p0 = np.einsum("mi,mi->m", a0, coef) + np.polyval(ref, x[i])
+    vt = v.copy()
+    vt[i[v[i] - p0 > np.maximum(nsigma * np.hypot(e[i] * scale, s0), flat_floor * np.abs(p0))]] = -np.inf
+    def top(w):  # the highest variance under each level i, and its error
+        runmax = np.maximum.accumulate(w)
+        idx = np.maximum.accumulate(np.where(np.concatenate([[True], w[1:] >= runmax[:-1]]), np.arange(n), 0))
+        return runmax[i - 1], e[idx[i - 1]]
+
+    (vtop, etop), (wtop, wetop) = top(vt), top(v)
     early = i < max(min_levels + 1, n // 4)
     dep = np.zeros((i.size, confirm + 1), bool)
     valid = np.zeros_like(dep)
@@ -231,6 +231,9 @@ def ptc_turnoff_found(signal, var, var_se, nsigma: float = 4.0, min_levels: int 
         # fitted below cannot follow looks the same up to several percent (issue 48)
         below_curve = v[jj] - pred < -np.maximum(nsigma * np.hypot(e[jj] * scale, pse), flat_floor * np.abs(pred))
         below_top = v[jj] < vtop - np.maximum(nsigma * scale * np.hypot(e[jj], etop), rel_floor * vtop)
+        # ... or below a wild row's top where the level itself lies > 1 SE below the curve
+        below_top |= (v[jj] < wtop - np.maximum(nsigma * scale * np.hypot(e[jj], wetop), rel_floor * wtop)) & (
+            v[jj] - pred < -1.0 * np.hypot(e[jj] * scale, pse))
         d = below_curve | below_top
         d &= ~early | (v[jj] < collapse * vtop)
         if k:  # a repeated row (the same signal) is the same level, not a confirmation
@@ -432,69 +435,3 @@ def lsst_pivot(var, min_var: float = 0.0, consecutive: int = 2) -> int:
         if run >= consecutive:
             return j - consecutive + 2  # keep the level the first decrease starts from
     return n
-
-
-@dataclass(frozen=True)
-class RampTurnoff:
-    index: int  # input index of the turnoff level (-1: none)
-    turnoff: float  # signal at the turnoff (the input's unit)
-    max_signal: float
-    reached: bool  # a level beyond the turnoff deviates (else the turnoff is the brightest level)
-    slope: float
-    note: str
-    max_signal_se: float = math.nan  # the plateau levels' own scatter (median's SE); 1 level: the 1 % window / sqrt(3)
-
-
-def ramp_turnoff(x, y, min_signal: float = 1000.0, tol: float = 0.01, mask=None) -> RampTurnoff:
-    """Linearity turnoff and maximum signal of a ramp: signal ``y`` against an illumination
-    ``x`` (exposure time or photodiode charge), in any order (see the module docstring).
-    ``mask``: levels known to be below saturation for the initial line (default: all)."""
-    x = np.asarray(x, float)
-    y = np.asarray(y, float)
-    fin = np.isfinite(x) & np.isfinite(y) & (x > 0) & (y > 0)
-    if fin.sum() < 4:
-        return RampTurnoff(-1, math.nan, math.nan, False, math.nan,
-                           f"{int(fin.sum())} usable levels: a ramp needs >= 4 with positive illumination and signal")
-    floor = min_signal if (y[fin] >= min_signal).sum() >= 4 else 0.0
-    fit = fin & (y >= floor)
-    if mask is not None:
-        fit &= np.asarray(mask, bool)
-    if fit.sum() < 4:
-        fit = fin
-    order = np.flatnonzero(fin)[np.argsort(x[fin], kind="stable")]
-    for _ in range(int(fit.sum())):
-        slope = float(np.sum(x[fit]) / np.sum(x[fit] ** 2 / y[fit]))  # chi2 line through 0, variance = signal
-        r = np.full(y.size, math.nan)
-        r[fin] = (y[fin] - slope * x[fin]) / y[fin]
-        r -= float(fast_median(r[fit]))
-        bad = np.abs(r) >= tol
-        last = -1
-        for k, i in enumerate(order):
-            if y[i] < floor:
-                continue
-            if bad[i] and (k + 1 == order.size or bad[order[k + 1]]):
-                break
-            last = int(i)
-        if last >= 0 and (np.abs(r[fit]) < tol).sum() > 4:
-            break
-        worst = np.flatnonzero(fit)[np.argmax(np.abs(r[fit]))]  # a bad initial line: drop its worst level
-        fit[worst] = False
-        if fit.sum() < 4:
-            break
-    if last < 0:
-        return RampTurnoff(-1, math.nan, math.nan, False, math.nan,
-                           "no line through the origin describes the ramp within 1 %")
-    ymax = float(np.max(y[fin]))
-    reached = bool(y[last] < ymax and (x[fin] > x[last]).any())
-    top = fin & (y > (1 - tol) * ymax)
-    mx = float(fast_median(y[top])) if reached else float(y[last])
-    nt = int(top.sum())
-    # its SE: the plateau's own scatter (median of nt levels, Student's t); one or two: the window / sqrt(3)
-    mx_se = (1.2533 * float(np.std(y[top], ddof=1)) / math.sqrt(nt) * residual_se_widening(nt - 1) if nt >= 3
-             else tol * ymax / math.sqrt(3))
-    note = (f"linearity turnoff (LSST cp_pipe cpLinearitySolve rule): last level before the first two deviating "
-            f"> {100 * tol:g} % from a line through the origin fitted above {floor:g}; maximum signal: median of "
-            f"the levels within {100 * tol:g} % of the brightest")
-    if not reached:
-        note = "no level deviates beyond the turnoff: the ramp does not reach saturation (a lower limit)"
-    return RampTurnoff(last, float(y[last]), mx, reached, slope, note, mx_se)
