@@ -230,7 +230,9 @@ def emva1288_results(temporal: TemporalData, spatial_bright: SpatialStats | None
     dev, window, why_le = _linearity(td.u_p, Y, isat)
     # each extreme's SE: its level's deviation from the line through its mean's temporal noise (the
     # pair's mean over the pixels, bright and dark); one not resolved from 0 is only a limit
-    # (``resolved``), never "ok" -- a signed figure whose truth may be 0
+    # (``resolved``), never "ok". The side is the extreme's, not its sign's: the line makes the
+    # weighted deviations sum to 0 over the window, so the max is >= 0 and the min <= 0 -- a max
+    # not clear of 0 is only below max + 3 SE, a min only above min - 3 SE
     y_se = 100 * np.sqrt((td.s2_y + td.s2_ydark) / (2.0 * max(td.n_pixels, 1))) / np.where(Y != 0, np.abs(Y), np.inf)
     for key, pick in (("LE_min", np.argmin), ("LE_max", np.argmax)):
         if why_le:
@@ -240,7 +242,7 @@ def emva1288_results(temporal: TemporalData, spatial_bright: SpatialStats | None
         se = float(y_se[j]) if td.n_pixels else math.nan
         vals[key] = resolved(Estimate(float(dev[j]), se, "%", "5-95 % of saturation" + (
             "; SE: that level's mean's temporal noise" if td.n_pixels else "; no SE: the pixel count is not given")),
-            key)
+            key, side="upper" if key == "LE_max" else "lower")
     sat = vals.get("u_e_sat")
     tmax = float(np.max(td.texp_s)) if np.size(td.texp_s) else None
     vals, extra = (judge(vals, saturation=sat, longest_exposure_s=tmax),
