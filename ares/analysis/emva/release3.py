@@ -36,7 +36,7 @@ from typing import Sequence
 import numpy as np
 
 from ares.analysis.emva.sanity import judge
-from ares.analysis.stats.estimate import Estimate
+from ares.analysis.stats.estimate import EXACT_PHOTONS, Estimate
 from ares.analysis.ptc.levels import SpatialStats, pair_stats, spatial_stats
 from ares.analysis.stats.median import n_distinct
 from ares.analysis.spatial.nonuniformity import std_estimate
@@ -141,8 +141,9 @@ def emva1288_results(temporal: TemporalData, spatial_bright: SpatialStats | None
         vals["QE"] = na(why_qe, "%")
 
     nexp = n_distinct(td.texp_s)
-    if nexp <= 2:
-        s2d, s2d_se = float(td.s2_ydark[0]), math.nan
+    if nexp <= 2:  # (its SE: a pair variance's own, sqrt(2 / dof) s2 with one dof a pixel -- ``LevelStats.var_se``)
+        s2d = float(td.s2_ydark[0])
+        s2d_se = math.sqrt(2.0 / td.n_pixels) * abs(s2d) if td.n_pixels else math.nan
     else:
         lf = line_fit(td.texp_s, td.s2_ydark)
         s2d, s2d_se = lf.intercept, lf.intercept_se
@@ -158,7 +159,8 @@ def emva1288_results(temporal: TemporalData, spatial_bright: SpatialStats | None
         extra["sigma_d"] = na(why_k, "e-")
 
     u_p_sat = float(td.u_p[isat])
-    extra["u_p_sat"] = Estimate(u_p_sat, math.nan, "p", "photons at the maximum-variance level")
+    extra["u_p_sat"] = Estimate.declared(u_p_sat, "p", EXACT_PHOTONS,
+                                         "photons at the maximum-variance level (the data set's photon count)")
     if not why_k and Y[isat] > 0:
         extra["u_e_sat_signal"] = Estimate(Y[isat] / K, Y[isat] / K * K_se / K, "e-",
                                            "(mu_y.sat - mu_y.dark)/K (alternative definition)")
@@ -214,7 +216,10 @@ def emva1288_results(temporal: TemporalData, spatial_bright: SpatialStats | None
                             std_estimate(s2yd, _spatial_se(spatial_dark), 1.0 / K, K_se / K, "e-",
                                           "sqrt(s2_y.dark spatial)/K, stack average, temporal/L removed")
                             if s2yd >= 0 else na("negative dark spatial variance", "e-"))
-        extra["DSNU1288_DN"] = Estimate(math.sqrt(max(s2yd, 0)), math.nan, "DN", "")
+        # in DN: the spatial std with its own SE (no K in it), as Release 4.0's (``nonuniformity.dsnu``)
+        extra["DSNU1288_DN"] = (std_estimate(s2yd, _spatial_se(spatial_dark), 1.0, 0.0, "DN",
+                                             "sqrt(s2_y.dark spatial), stack average, temporal/L removed")
+                                if s2yd >= 0 else na("negative dark spatial variance", "DN"))
     else:
         vals["DSNU1288"] = na("no dark stack", "e-")
     if spatial_bright is not None and spatial_dark is not None:
