@@ -191,7 +191,7 @@ def test_every_release_3_figure_comes_with_its_se_or_its_reason(analysis):
 def test_release_3_dark_noise_at_one_exposure_has_its_se():
     """With one exposure time (the light varied) sigma_y.dark is the first dark pair's variance,
     no intercept: its SE is that variance's own, sqrt(2 / n) s2 for n pixels -- it was NaN and
-    shown "ok". Truth: the closed form."""
+    shown "ok". Truth: the closed form. Below the quantization floor: only limits."""
     import math
 
     import numpy as np
@@ -206,6 +206,17 @@ def test_release_3_dark_noise_at_one_exposure_has_its_se():
     e = emva1288_results(td).values["sigma_y_dark"]
     assert e.verdict == "ok" and e.value == 3.0
     assert e.se == pytest.approx(9.0 * math.sqrt(2 / n) / (2 * 3.0), rel=1e-12)
+    # a quantization-limited dark (0.1 DN^2 < 0.24): the floor sqrt(0.24) is only an upper limit, and
+    # so are the figures read off it (mu_p.min, mu_e.min, sigma_d below; DR above) -- the value as the
+    # reference writes it (0.4899 DN), never "ok" with the floor's SE
+    import dataclasses
+
+    r = emva1288_results(dataclasses.replace(td, s2_ydark=np.full(30, 0.1)))
+    v, x = r.values, r.extra
+    assert v["sigma_y_dark"].bound == "upper" and v["sigma_y_dark"].value == pytest.approx(math.sqrt(0.24))
+    assert v["DR"].bound == "lower" and x["DR_dB"].bound == "lower"
+    assert x["u_p_min"].bound == x["u_e_min"].bound == x["sigma_d"].bound == "upper"
+    assert x["u_e_min"].value == pytest.approx(math.sqrt(0.24) / v["K"].value + 0.5, rel=1e-12)
 
 
 def test_a_linearity_extreme_not_resolved_from_0_is_only_a_limit():

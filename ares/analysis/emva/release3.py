@@ -147,14 +147,22 @@ def emva1288_results(temporal: TemporalData, spatial_bright: SpatialStats | None
     else:
         lf = line_fit(td.texp_s, td.s2_ydark)
         s2d, s2d_se = lf.intercept, lf.intercept_se
-    note = "intercept of s2_y.dark vs exposure"
-    if not s2d >= 0.24:
-        s2d, note = 0.24, "lower limit 0.24 DN^2 (quantization-dominated)"
+    note = "intercept of s2_y.dark vs exposure" if nexp > 2 else "the first dark pair's variance (one exposure time)"
+    # below 0.24 DN^2 quantization dominates: the reference (and 4.0 Linear Eq. 54) uses 0.24, so
+    # sigma_y.dark -- and every figure read off it -- is only a limit: sigma_y.dark, sigma_d,
+    # mu_p.min, mu_e.min below theirs, DR above its value (never "ok" with the floor's SE)
+    floored = not s2d >= 0.24
+    if floored:
+        why_floor = (f"sigma_y.dark^2 {s2d:.3g} DN^2 is below 0.24 DN^2: quantization dominates, the floor 0.24 DN^2 "
+                     "is used (EMVA 1288 4.0 Linear Eq. 54)")
+        s2d = 0.24
     syd = math.sqrt(s2d)
-    vals["sigma_y_dark"] = Estimate(syd, s2d_se / (2 * syd), "DN", note)
+    vals["sigma_y_dark"] = (Estimate.limit(syd, "upper", "DN", why_floor) if floored else
+                            Estimate(syd, s2d_se / (2 * syd), "DN", note))
     if not why_k:
         sigma_d = math.sqrt(s2d - S2Q) / K
-        extra["sigma_d"] = Estimate(sigma_d, sigma_d * K_se / K, "e-", "sqrt(sigma_y.dark^2 - 1/12)/K")
+        extra["sigma_d"] = (Estimate.limit(sigma_d, "upper", "e-", "sqrt(0.24 - 1/12)/K; " + why_floor) if floored
+                            else Estimate(sigma_d, sigma_d * K_se / K, "e-", "sqrt(sigma_y.dark^2 - 1/12)/K"))
     else:
         extra["sigma_d"] = na(why_k, "e-")
 
@@ -187,6 +195,11 @@ def emva1288_results(temporal: TemporalData, spatial_bright: SpatialStats | None
         DR_se = DR * p_se / u_p_min
         vals["DR"] = Estimate(DR, DR_se, "", "mu_p.sat / mu_p.min" + why_se)
         extra["DR_dB"] = Estimate(20 * math.log10(DR), 20 / math.log(10) * DR_se / DR, "dB", "20 log10 DR")
+        if floored:  # (from sigma_y.dark's upper limit)
+            for key, into, bound in (("u_p_min", extra, "upper"), ("u_e_min", extra, "upper"), ("DR", vals, "lower"),
+                                     ("DR_dB", extra, "lower")):
+                e = into[key]
+                into[key] = Estimate.limit(e.value, bound, e.unit, f"{e.note}; from sigma_y.dark's upper limit")
     else:
         for key, unit, into in (("u_e_sat", "e-", vals), ("SNR_max", "", vals), ("SNR_max_dB", "dB", extra),
                                 ("u_p_min", "p", extra), ("u_e_min", "e-", extra), ("DR", "", vals),
