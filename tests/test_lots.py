@@ -237,3 +237,16 @@ def test_lot_surfaces_name_quantities_by_their_label_and_unit(tmp_path):
         fig, *_ = certificate.pages(db, 1, [1])
     text = " ".join(t.get_text() for t in fig.texts)
     assert "system gain K" in text and "read noise sigma_d (no quant.)" in text and "gain_dn_per_e" not in text
+
+
+def test_wafer_maps_draw_every_die_of_every_wafer():
+    """Each wafer numbers its own dies: two wafers' dies at one (x, y) were drawn one over the
+    other (a failed die hidden under a passing one). Side by side, every die has its own place."""
+    from ares.batch.lot_pdf import _side_by_side
+
+    placed = [{"wafer": w, "x": float(x), "y": float(y)} for w in ("W1", "W2", "W3") for x in range(4) for y in range(3)]
+    at, names = _side_by_side(placed)
+    assert len({at[id(r)] for r in placed}) == len(placed)  # no two dies at one place
+    assert set(names) == {"W1", "W2", "W3"} and names["W2"][0] == 5.0  # (4 columns and a gap of 2)
+    one = [{"wafer": "W1", "x": 1.0, "y": 2.0}]
+    assert _side_by_side(one)[0][id(one[0])] == (1.0, 2.0) and _side_by_side(one)[1] == {}

@@ -106,7 +106,7 @@ def _summary(j, lot_name: str):
         y -= 0.04
     errs = sum(r.get("status") == "error" for r in j.results)
     fig.text(0.06, 0.05, f"Every item is listed in the appendix ({n} item(s)); every error message in full "
-                         f"({errs} error(s)) after it; every quantity's median and spread on the next page(s).",
+                         f"({errs} error(s)) after it;\nevery quantity's median and spread on the next page(s).",
              fontsize=8, va="bottom")
     return fig
 
@@ -129,6 +129,19 @@ def _stats_pages(j):
     return pages
 
 
+def _side_by_side(placed: list[dict]) -> tuple[dict, dict]:
+    """({id(item): (x, y) on the map}, {wafer: where its name goes}): the dies of several wafers
+    share coordinates (each wafer's own), so each wafer is shifted right of the one before
+    (a gap of two dies) -- drawn at their own x they hid one another."""
+    names = sorted({str(r.get("wafer") or "") for r in placed})
+    x0, x1 = min(r["x"] for r in placed), max(r["x"] for r in placed)
+    y1 = max(r["y"] for r in placed)
+    step = (x1 - x0) + 2
+    shift = {w: i * step for i, w in enumerate(names)} if len(names) > 1 else {w: 0 for w in names}
+    at = {id(r): (r["x"] + shift[str(r.get("wafer") or "")], r["y"]) for r in placed}
+    return at, ({w or "(no wafer)": (x0 + shift[w], y1 + 0.6) for w in names} if len(names) > 1 else {})
+
+
 def _wafer_pages(j):
     from matplotlib.figure import Figure
     from matplotlib.lines import Line2D
@@ -140,8 +153,13 @@ def _wafer_pages(j):
     placed = [r for r in j.results if r.get("x") is not None]
     if not placed:
         return []
-    xs = [r["x"] for r in placed]
-    ys = [r["y"] for r in placed]
+    at, wafer_names = _side_by_side(placed)
+    xs = [at[id(r)][0] for r in placed]
+    ys = [at[id(r)][1] for r in placed]
+
+    def wafers(ax):  # each wafer's name over its dies (several wafers: side by side, never one over another)
+        for name, (x, y) in wafer_names.items():
+            ax.text(x, y, name, fontsize=7, ha="left", va="bottom")
     size = max(4.0, min(300.0, 30000.0 / max(len(placed), 1)))
     fig = Figure(figsize=A4)
     fig.text(0.5, 0.97, "Wafer maps: verdict and bin", ha="center", va="top", fontsize=13, weight="bold")
@@ -151,21 +169,28 @@ def _wafer_pages(j):
     ax.legend([Line2D([], [], ls="none", marker="s", color=COLOURS[k]) for k in COLOURS if k in v],
               [f"{k} ({v.count(k)})" for k in COLOURS if k in v], loc="upper left", bbox_to_anchor=(1.0, 1.0),
               fontsize=7)
-    ax.set(xlabel="wafer x", ylabel="wafer y", title="verdict per die", aspect="equal")
+    wafers(ax)
+    ax.set(xlabel="wafer x", ylabel="wafer y", aspect="equal")
+    ax.set_title("verdict per die", pad=14)  # (above the wafers' names)
     bins = [bin_of(r) for r in placed]
     names = sorted(set(bins), key=lambda b: (b == "-", b.zfill(4)))
-    bx = fig.add_axes([0.12, 0.08, 0.76, 0.37])
+    bx = fig.add_axes([0.1, 0.08, 0.6, 0.37])  # (its legend at the right, wrapped: never past the page)
     import matplotlib
 
     cmap = matplotlib.colormaps["tab10"]
     good = {str(sb) for sb, b in j.bins.items() if b.get("pass")}
-    col = {b: ("#2ca02c" if b in good else "#7f7f7f" if b == "-" else cmap((int(b) + 2) % 10)) for b in names}
+    fails = (3, 1, 4, 5, 6, 8, 9, 0)  # tab10 without its green (a passing bin's) and grey (not binned), in bin order
+    failing = [b for b in names if b not in good and b != "-"]
+    col = {b: ("#2ca02c" if b in good else "#7f7f7f" if b == "-" else cmap(fails[failing.index(b) % len(fails)]))
+           for b in names}
     bx.scatter(xs, ys, c=[col[b] for b in bins], s=size, marker="s")
     label = {str(sb): b["name"] for sb, b in j.bins.items()}
     bx.legend([Line2D([], [], ls="none", marker="s", color=col[b]) for b in names],
-              [f"bin {b}: {label.get(b, 'not binned')} ({bins.count(b)})" for b in names],
-              loc="upper left", bbox_to_anchor=(1.0, 1.0), fontsize=6)
-    bx.set(xlabel="wafer x", ylabel="wafer y", title="bin per die (soft bin)", aspect="equal")
+              ["\n".join(_wrap(f"bin {b}: {label.get(b, 'not binned')} ({bins.count(b)})", 34)) for b in names],
+              loc="upper left", bbox_to_anchor=(1.02, 1.0), fontsize=6)
+    wafers(bx)
+    bx.set(xlabel="wafer x", ylabel="wafer y", aspect="equal")
+    bx.set_title("bin per die (soft bin)", pad=14)  # (above the wafers' names)
     pages = [fig]
     for lim in j.limits:
         fig = Figure(figsize=A4)
@@ -176,14 +201,14 @@ def _wafer_pages(j):
         found = [(r, find(r.get("figures") or {}, lim.quantity) or {}) for r in placed]
         val = [(r, f.get("value")) for r, f in found]
         unit = next((f.get("unit") for _, f in found if f.get("unit")), "")
-        good = [(r["x"], r["y"], float(x)) for r, x in val if x is not None and math.isfinite(float(x))]
+        good = [(*at[id(r)], float(x)) for r, x in val if x is not None and math.isfinite(float(x))]
         if good:
             gx, gy, gv = zip(*good)
             sc = ax.scatter(gx, gy, c=gv, s=size, marker="s", cmap="viridis")
             fig.colorbar(sc, ax=ax, label=quantity_heading(canonical(lim.quantity), unit))
-        failed = [(r["x"], r["y"]) for r, _ in val if r.get("status") != "error"
+        failed = [at[id(r)] for r, _ in val if r.get("status") != "error"
                   and r.get("checks", {}).get(limit_text(lim)) is False]
-        err = [(r["x"], r["y"]) for r, x in val if r.get("status") == "error" or x is None]
+        err = [at[id(r)] for r, x in val if r.get("status") == "error" or x is None]
         if failed:
             ax.scatter(*zip(*failed), s=size, marker="s", facecolors="none", edgecolors=COLOURS["FAIL"], lw=1.2,
                        label=f"outside the limit ({len(failed)})")
@@ -192,6 +217,7 @@ def _wafer_pages(j):
                        label=f"error / not measured ({len(err)})")
         if failed or err:
             ax.legend(loc="upper left", bbox_to_anchor=(0, -0.08), fontsize=7)
+        wafers(ax)
         ax.set(xlabel="wafer x", ylabel="wafer y", aspect="equal")
         pages.append(fig)
     return pages
