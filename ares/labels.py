@@ -64,7 +64,14 @@ FIGURES = {
     "prnu_all_pct": ("PRNU (all pixels)", "pixel gain spread rms 100 sqrt(Pg), every pixel"),
     "noise_model.prnu_pct": ("PRNU (total-noise model)", "the PRNU term of the total-noise model fitted to "
                                                          "the curve; illumination non-uniformity included"),
+    "noise_model.sensor_noise_e": ("sensor noise (total-noise model)", "the signal-independent noise term of the "
+                                                                       "total-noise model fitted to the curve, in e-"),
+    "gain_origin_dn_per_e": ("K, EMVA 1288 origin fit", "the photon-transfer slope by the origin fit up to 70 % of "
+                                                        "saturation"),
+    "gain_astier_dn_per_e": ("K, Astier 2019 fit", "the photon-transfer gain of the Astier 2019 exponential model"),
 }
+# a scan with several analog gains: these figures again per gain, "<name> at analog gain <g>"
+BY_ANALOG_GAIN = {"gain_dn_per_e": "system gain K", "read_noise_e": "read noise", "full_well_e": "full well"}
 
 
 # a scan-level analysis whose figures follow one release of a standard: said wherever they are

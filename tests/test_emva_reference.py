@@ -175,12 +175,48 @@ def test_every_release_3_figure_comes_with_its_se_or_its_reason(analysis):
     verdict that says why not (issue 48)."""
     import math
 
-    for k, e in list(analysis.emva.values.items()) + [(f"3.1 {k}", e) for k, e in (analysis.release31 or {}).items()]:
+    for k, e in (list(analysis.emva.values.items()) + [(f"3.1 {k}", e) for k, e in (analysis.release31 or {}).items()]
+                 + [(f"extra {k}", e) for k, e in analysis.emva.extra.items()]):  # (the extras: the 3.x XML's names)
         if e.verdict == "ok":
             assert math.isfinite(e.se) and (e.se > 0 or e.is_exact), (k, e)
+    # DSNU1288 in DN: the dark spatial std with its own SE (no K in it), the e- figure x K in value
+    dn, e_ = analysis.emva.extra["DSNU1288_DN"], analysis.emva.values["DSNU1288"]
+    K = analysis.emva.values["K"].value
+    assert dn.value == pytest.approx(e_.value * K, rel=1e-12) and dn.se < e_.se * K
     assert analysis.release31["PRNU1288"].verdict == "ok"  # (Release 3.1's high-passed figures too)
     le = analysis.emva.values["LE_min"]
     assert le.se < 0.05 * abs(le.value)  # (300 000 pixels: the level means are known to ~1e-5)
+
+
+def test_release_3_dark_noise_at_one_exposure_has_its_se():
+    """With one exposure time (the light varied) sigma_y.dark is the first dark pair's variance,
+    no intercept: its SE is that variance's own, sqrt(2 / n) s2 for n pixels -- it was NaN and
+    shown "ok". Truth: the closed form. Below the quantization floor: only limits."""
+    import math
+
+    import numpy as np
+
+    from ares.analysis.emva.release3 import TemporalData, emva1288_results
+
+    n, u_p = 4096, np.linspace(100, 40000, 30)
+    y = 0.3 * 0.5 * u_p
+    var = 0.3 * y + 9.0
+    var[-3:] = var[-4] * np.array([0.6, 0.2, 0.05])
+    td = TemporalData(np.full(30, 0.01), u_p, 100 + y, var, np.full(30, 100.0), np.full(30, 9.0), n)
+    e = emva1288_results(td).values["sigma_y_dark"]
+    assert e.verdict == "ok" and e.value == 3.0
+    assert e.se == pytest.approx(9.0 * math.sqrt(2 / n) / (2 * 3.0), rel=1e-12)
+    # a quantization-limited dark (0.1 DN^2 < 0.24): the floor sqrt(0.24) is only an upper limit, and
+    # so are the figures read off it (mu_p.min, mu_e.min, sigma_d below; DR above) -- the value as the
+    # reference writes it (0.4899 DN), never "ok" with the floor's SE
+    import dataclasses
+
+    r = emva1288_results(dataclasses.replace(td, s2_ydark=np.full(30, 0.1)))
+    v, x = r.values, r.extra
+    assert v["sigma_y_dark"].bound == "upper" and v["sigma_y_dark"].value == pytest.approx(math.sqrt(0.24))
+    assert v["DR"].bound == "lower" and x["DR_dB"].bound == "lower"
+    assert x["u_p_min"].bound == x["u_e_min"].bound == x["sigma_d"].bound == "upper"
+    assert x["u_e_min"].value == pytest.approx(math.sqrt(0.24) / v["K"].value + 0.5, rel=1e-12)
 
 
 def test_a_linearity_extreme_not_resolved_from_0_is_only_a_limit():

@@ -201,3 +201,52 @@ def test_parquet_export_has_the_rows_of_the_database_and_the_csv(tmp_path):
     for row_csv, row_pq in zip(in_csv[1:], got):
         assert row_csv == ["" if v is None else (repr(v) if isinstance(v, float) else v) for v in row_pq]
     assert sum(v is None for r in got for v in r) > 0  # nulls are exercised, not only full rows
+
+
+def test_lot_surfaces_name_quantities_by_their_label_and_unit(tmp_path):
+    """The lot PDF's tables, its plots, lot_columns.csv, lot.h5 and the certificate call a
+    quantity what every scan surface calls it (``ares.labels``: "system gain K", the EMVA 1288
+    symbol), with its unit -- the machine key only as the lot.csv column it names."""
+    import io
+
+    import h5py
+
+    from ares.batch import certificate
+    from ares.batch.lot_pdf import _stats, _summary
+    from ares.batch.lot_report import columns_csv, write_h5
+    from ares.labels import figure_name
+
+    res = synthetic_lot(40)
+    j = judge(res, [Limit("K", min=0.28, max=0.32)])
+    stats = {r[1]: r for r in _stats(j)}  # lot.csv column -> row
+    assert stats["gain_dn_per_e"][0] == figure_name("gain_dn_per_e") == "system gain K"
+    assert stats["QE"][0] == "EMVA 1288 4.0 η" and stats["QE"][7] == "%"
+    assert stats["read_noise_e"][0] == figure_name("read_noise_e")
+    texts = [t.get_text() for t in _summary(j, "w1").texts]
+    assert "system gain K" in texts and "gain_dn_per_e >= 0.28 and <= 0.32" in texts
+    cols = {r["column"]: r for r in csv.DictReader(io.StringIO(columns_csv(j, "w1")))}
+    assert cols["gain_dn_per_e"]["quantity"] == "system gain K" and cols["gain_dn_per_e"]["unit"] == "DN/e-"
+    assert cols["QE_se"]["quantity"] == "SE of EMVA 1288 4.0 η" and cols["QE_se"]["unit"] == "%"
+    assert set(cols) == set(next(csv.reader(io.StringIO(to_csv(j, "w1")))))  # every lot.csv column, none more
+    write_h5(j, tmp_path / "lot.h5", "w1")
+    with h5py.File(tmp_path / "lot.h5") as f:
+        assert dict(f["items/gain_dn_per_e"].attrs) == {"label": "system gain K", "unit": "DN/e-"}
+    path = str(tmp_path / "r.sqlite")
+    with rdb.connect(path) as db:
+        rdb.append_lot(db, "w1", j)
+        fig, *_ = certificate.pages(db, 1, [1])
+    text = " ".join(t.get_text() for t in fig.texts)
+    assert "system gain K" in text and "read noise sigma_d (no quant.)" in text and "gain_dn_per_e" not in text
+
+
+def test_wafer_maps_draw_every_die_of_every_wafer():
+    """Each wafer numbers its own dies: two wafers' dies at one (x, y) were drawn one over the
+    other (a failed die hidden under a passing one). Side by side, every die has its own place."""
+    from ares.batch.lot_pdf import _side_by_side
+
+    placed = [{"wafer": w, "x": float(x), "y": float(y)} for w in ("W1", "W2", "W3") for x in range(4) for y in range(3)]
+    at, names = _side_by_side(placed)
+    assert len({at[id(r)] for r in placed}) == len(placed)  # no two dies at one place
+    assert set(names) == {"W1", "W2", "W3"} and names["W2"][0] == 5.0  # (4 columns and a gap of 2)
+    one = [{"wafer": "W1", "x": 1.0, "y": 2.0}]
+    assert _side_by_side(one)[0][id(one[0])] == (1.0, 2.0) and _side_by_side(one)[1] == {}

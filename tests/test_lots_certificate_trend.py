@@ -150,7 +150,7 @@ def test_lot_statistics_find_every_key_and_keep_limits_apart():
                         "dsnu_e": dict(_fig(9.0, None, "e-"), verdict="upper limit") if i == 2 else
                         _fig(1.0 + i, 0.01, "e-")}} for i in range(3)]
     assert find(res[0]["figures"], "emva4.values.K")["value"] == 0.40
-    rows = {r[0]: r for r in _stats(judge(res, []))}
+    rows = {r[1]: r[1:] for r in _stats(judge(res, []))}  # (r[0]: the quantity's label, r[1] its lot.csv column)
     assert rows["emva4.values.K"][1:3] == ["3", "0.41"]
     assert rows["dsnu_e"][1:3] == ["2", "1.5"] and rows["dsnu_e"][5] == "2" and rows["dsnu_e"][7] == "1"
 

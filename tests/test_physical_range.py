@@ -226,3 +226,27 @@ def test_a_signed_figure_not_resolved_from_zero_is_a_limit_never_ok():
     assert lo.bound == "lower" and lo.value == pytest.approx(-6.5e-5) and up.verdict != "ok" != lo.verdict
     kept = Estimate(0.05, 0.02, "%")
     assert resolved(kept) is kept and resolved(Estimate.na("x")).verdict == "not available"
+
+
+def test_resolved_takes_its_side_from_the_quantity_not_from_the_sign_of_the_value():
+    """A quantity that cannot be below 0 (a variance, the max of a curve crossing 0) measured
+    slightly negative is an upper limit value + 3 SE, not a lower limit; a max measured below 0
+    by more than its SE is still not "ok" (it cannot be below 0); a signed figure keeps the
+    two-sided meaning (the default)."""
+    from ares.analysis.stats.physical import resolved
+
+    up = resolved(Estimate(-0.1, 0.5, "DN^2"), "variance Ct", side="upper")
+    assert up.bound == "upper" and up.value == pytest.approx(1.4) and up.verdict == "upper limit"
+    signed = resolved(Estimate(-0.1, 0.5, "%"), "image lag")
+    assert signed.bound == "lower" and signed.value == pytest.approx(-1.6)
+    # a max 0.3 below 0 with SE 0.2: "ok" as a signed figure, not as a max (the data only bound it above)
+    neg_max = Estimate(-0.3, 0.2, "%")
+    assert resolved(neg_max) is neg_max
+    assert resolved(neg_max, "LE_max", side="upper").bound == "upper"
+    assert resolved(neg_max, "LE_max", side="upper").value == pytest.approx(0.3)
+    low = resolved(Estimate(0.02, 0.05, "LSB"), "DNL min", side="lower")
+    assert low.bound == "lower" and low.value == pytest.approx(-0.13)
+    clear = Estimate(-0.4, 0.1, "LSB")
+    assert resolved(clear, side="lower") is clear and resolved(Estimate(0.4, 0.1), side="upper").verdict == "ok"
+    with pytest.raises(ValueError):
+        resolved(clear, side="below")

@@ -224,6 +224,15 @@ def test_key_figures_api(runs):
     g = tables.ptc_groups(read_run(runs / "ptc"))[0]
     assert g.result.gain_dn_per_e.value == pytest.approx(sr["gain_dn_per_e"]["value"], rel=1e-6)
     assert g.mismatch() == ""
+    # the lot surfaces (lot PDF, certificate, lot_columns.csv) name a figure from its key alone (the
+    # results database keeps no label): the same label the report gives it, but for what the run's
+    # data add to it (a dark current's temperature, an analog gain)
+    from ares.batch.vocabulary import quantity_label
+
+    for name in ("ptc", "dark", "lag"):
+        for k, f in key_figures(runs / name).items():
+            assert f["label"].startswith(quantity_label(k)), (name, k, f["label"], quantity_label(k))
+            assert f["label"] == quantity_label(k) or " at " in f["label"] or "(analog gain" in f["label"], (k, f["label"])
 
 
 # ------------------------------------------------------------------ PDF

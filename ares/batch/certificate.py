@@ -63,6 +63,7 @@ def pages(db, lot_id: int, which: list[int]):
     from ares import __version__
     from ares.report.page_tables import fmt_value
     from ares.batch import db as rdb
+    from ares.batch.vocabulary import quantity_label
     from ares.report.plots import new_page, paginate, table_lines_between, text_table
 
     info = rdb.lot_info(db, lot_id)
@@ -89,13 +90,13 @@ def pages(db, lot_id: int, which: list[int]):
         y = text_table(fig, (0.06, 0.92, 0.88), ["identity", ""], ident, [0.22, 0.78], fontsize=8,
                        max_chars=[20, 110])
         rowsf = []
-        for q, f in sorted(figs.get(i, {}).items()):
+        for q, f in sorted(figs.get(i, {}).items(), key=lambda qf: quantity_label(qf[0]).lower()):
             st, dy, v = _limit_cells(q, screens, r)
             limit = f.get("verdict") in ("upper limit", "lower limit")  # "< x" / "> x": a limit has no SE
             val = fmt_value(f["value"], f["se"], f["unit"] or "", f.get("verdict") or "", f.get("exact", "")) \
                 if f["value"] is not None else "not available"  # (an SE of 0: "exact: ...")
             se = "" if f["value"] is None or limit else ("SE not available" if f["se"] is None else "")
-            rowsf.append([q, val + (f" ({se})" if se else ""), st, dy, v])
+            rowsf.append([quantity_label(q), val + (f" ({se})" if se else ""), st, dy, v])
         head = ["quantity", "value ± SE, unit", "limit", "dynamic limit", "outcome"]
         w, mc = [0.3, 0.26, 0.16, 0.18, 0.1], [44, 34, 24, 28, 16]  # (34: the monospace value column's width)
         rowsf = rowsf or [["no figures", "", "", "", ""]]

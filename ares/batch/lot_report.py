@@ -137,8 +137,46 @@ def to_csv(j: Judged, lot: str = "") -> str:
     return buf.getvalue()
 
 
+FIXED_MEANING = {
+    "item": "the item's path", "serial": "sensor serial", "lot": "lot name", "wafer": "wafer", "x": "die x on the wafer",
+    "y": "die y on the wafer", "kind": "item kind (run, emva, stack)", "status": "the item's run status",
+    "verdict": "pass / FAIL / error / no limits set", "error": "why the item could not be analysed",
+    "run_dir": "its run directory", "content_hash": "SHA-256 of the item's content",
+    "ares_version": "the ARES version that analysed it", "started": "when the item was measured",
+    "hard_bin": "hard bin", "soft_bin": "soft bin"}
+
+
+def columns_csv(j: Judged, lot: str = "") -> str:
+    """lot_columns.csv: what each column of lot.csv holds -- lot.csv keeps machine keys (its
+    readers, lot.h5 and the database use them), this says, row by row, the label the scan
+    surfaces and the lot PDF give each quantity and its unit (``vocabulary.quantity_label``)."""
+    from ares.batch.vocabulary import quantity_label
+
+    data, cols = rows(j, lot)
+    unit = {q: next((r[f"{q}_unit"] for r in data if r.get(f"{q}_unit")), "") for q in j.quantities}
+    out = []
+    for c in cols:
+        if c in FIXED_MEANING:
+            out.append((c, FIXED_MEANING[c], ""))
+        elif c in j.yields:
+            out.append((c, f"outcome of the limit or screen '{c}': pass / FAIL / {NOT_TESTED}", ""))
+        else:
+            q, what = next(((q, c[len(q):]) for q in j.quantities if c == q or c.startswith(q + "_")
+                            and c[len(q):] in ("_se", "_unit", "_verdict")), (c, ""))
+            label = quantity_label(q)
+            out.append((c, {"": label, "_se": f"SE of {label}", "_unit": f"unit of {label}",
+                            "_verdict": f"verdict of {label}"}[what], unit.get(q, "") if what in ("", "_se") else ""))
+    buf = io.StringIO()
+    w = csv.writer(buf, lineterminator="\n")
+    w.writerow(("column", "quantity", "unit"))
+    w.writerows(out)
+    return buf.getvalue()
+
+
 def write_h5(j: Judged, path: Path, lot_name: str) -> None:
     import h5py
+
+    from ares.batch.vocabulary import quantity_label
 
     data, cols = rows(j, lot_name)
     tmp = path.with_name(path.name + ".tmp")
@@ -149,7 +187,11 @@ def write_h5(j: Judged, path: Path, lot_name: str) -> None:
         for c in cols:
             vals = [r.get(c) for r in data]
             if c in j.quantities or c.endswith("_se") or c in ("x", "y", "hard_bin", "soft_bin"):
-                g.create_dataset(c, data=np.array([np.nan if v is None else float(v) for v in vals], np.float64))
+                ds = g.create_dataset(c, data=np.array([np.nan if v is None else float(v) for v in vals], np.float64))
+                q = c.removesuffix("_se") if c not in j.quantities else c
+                if q in j.quantities:  # what a reader calls it (the lot PDF's, the scan surfaces' label) and its unit
+                    ds.attrs["label"] = ("SE of " if c != q else "") + quantity_label(q)
+                    ds.attrs["unit"] = next((r[f"{q}_unit"] for r in data if r.get(f"{q}_unit")), "")
             else:
                 g.create_dataset(c, data=np.array(["" if v is None else str(v) for v in vals], dtype=object),
                                  dtype=h5py.string_dtype())

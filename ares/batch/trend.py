@@ -67,6 +67,7 @@ def to_csv(rows: list[dict]) -> str:
 def plot(rows: list[dict], limits: dict, quantity: str, unit: str, path: Path) -> None:
     from matplotlib.figure import Figure
 
+    from ares.batch.vocabulary import quantity_heading, quantity_label
     from ares.report.plots import RC
 
     import matplotlib
@@ -87,7 +88,8 @@ def plot(rows: list[dict], limits: dict, quantity: str, unit: str, path: Path) -
                 ax.axhline(b, color="C3", ls="--", lw=1)
             ax.plot([], [], color="C3", ls="--", label=f"control limits (+-{CONTROL_K:g} sigma, moving range)")
         ax.set_xticks(x, [r["lot"] for r in rows], rotation=45, ha="right", fontsize=7)
-        ax.set(ylabel=f"{quantity} [{unit}]" if unit else quantity,
-               title=f"{quantity} per lot ({len(rows)} lot(s))" + (f" -- {limits['note']}" if limits["note"] else ""))
+        ax.set(ylabel=quantity_heading(quantity, unit),
+               title=f"{quantity_label(quantity)} per lot ({len(rows)} lot(s))"
+               + (f" -- {limits['note']}" if limits["note"] else ""))
         ax.legend(fontsize=7)
         fig.savefig(path)

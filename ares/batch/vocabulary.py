@@ -44,3 +44,48 @@ def canonical_figures(figures: dict) -> dict:
             f = {**f, "symbol": k}
         out[c] = f
     return out
+
+
+def quantity_label(key: str) -> str:
+    """What a lot surface (lot PDF, certificate, trend) calls the quantity ``key`` -- the label
+    the scan surfaces give it (``ares.labels``, the report's key figures, the EMVA 1288
+    symbols), from the key alone (the results database keeps no label): a photon-transfer
+    figure its ``labels.FIGURES`` name, a noise component its symbol and meaning ("o: offset",
+    as the components table), an EMVA 1288 4.0 symbol "EMVA 1288 4.0 <symbol>", an analysis's
+    figure ``page_tables.analysis_label``'s; an unknown key itself."""
+    from ares import labels
+
+    if key in labels.FIGURES:
+        return labels.figure_name(key)
+    if key in labels.COMPONENTS:
+        return f"{key}: {labels.COMPONENTS[key]}"
+    if key == "snr_max_db":
+        return labels.figure_name("snr_max")
+    base, at, rest = key.partition("@")
+    if at and base in labels.BY_ANALOG_GAIN:
+        return f"{labels.BY_ANALOG_GAIN[base]} at analog gain {rest}"
+    if key.startswith("dark_current") and key.endswith(("_dn_per_s", "_e_per_s")) and "." not in key:
+        t = key.removeprefix("dark_current").removesuffix("_dn_per_s").removesuffix("_e_per_s").lstrip("@")
+        return "dark current" + (f" at {t.removesuffix('C')} C" if t else "")
+    head, dot, leaf = key.partition(".")
+    if dot and head == "full_well_e":
+        from ares.report.tables import FULL_WELL_LABELS
+
+        return FULL_WELL_LABELS.get(leaf, f"full well ({leaf})")
+    if dot and head == "defects":
+        return labels.DEFECTIVE_PIXELS + ("" if leaf == "total" else f": {leaf}")
+    if key == "decomposition.masked_pixels":
+        return labels.MASKED_PIXELS
+    if dot:
+        from ares.report.page_tables import analysis_label
+
+        return analysis_label(head, leaf)
+    from ares.analysis.emva.sheet import SYMBOLS
+
+    return f"EMVA 1288 4.0 {SYMBOLS[key]}" if key in SYMBOLS else key
+
+
+def quantity_heading(key: str, unit: str = "") -> str:
+    """``quantity_label`` with its unit, "label [unit]" (a unitless quantity: the label)."""
+    label = quantity_label(key)
+    return f"{label} [{unit}]" if unit and unit != "1" else label

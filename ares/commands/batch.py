@@ -142,6 +142,7 @@ def run(args) -> int:
 
     with writing(out):
         write_atomic(out / "lot.csv", lot_report.to_csv(judged, name).encode())
+        write_atomic(out / "lot_columns.csv", lot_report.columns_csv(judged, name).encode())  # label + unit per column
         lot_report.write_h5(judged, out / "lot.h5", name)
         lot_pdf.write_pdf(judged, out / "lot.pdf", name)
         stdf.write(stdf.from_judged(judged, name), out / "lot.stdf")  # for yield tools
@@ -163,7 +164,7 @@ def run(args) -> int:
         n_err = sum(r.get("status") == "error" for r in results)
         n_cached = sum(bool(r.get("cached")) for r in results)
         print(f"lot {name}: {len(results)} item(s), {n_cached} from the cache, {n_err} failed; "
-              f"report in {out}/lot.csv, lot.h5, lot.pdf, lot.stdf")
+              f"report in {out}/lot.csv (columns: lot_columns.csv), lot.h5, lot.pdf, lot.stdf")
         for k, (a, b) in judged.yields.items():
             print(f"  yield {k}: {a}/{b} ({b} item(s) of the lot, errored ones count as failed)")
         for sb, b in judged.bins.items():

@@ -57,14 +57,19 @@ def _compare(db, a: str, b: str) -> None:
 
     ia, ib = rdb.find_lot(db, a), rdb.find_lot(db, b)
     sa, sb = rdb.quantity_stats(db, ia), rdb.quantity_stats(db, ib)
-    print(f"{'quantity':<28} {'n(' + a + ')':>10} {'median':>12} {'IQR':>10}   {'n(' + b + ')':>10} {'median':>12} "
-          f"{'IQR':>10}")
-    for q in sorted(set(sa) | set(sb)):
+    from ares.batch.vocabulary import quantity_heading
+
+    qs = sorted(set(sa) | set(sb))
+    heads = {q: quantity_heading(q, rdb.unit_of(db, q)) for q in qs}  # the label the scan surfaces give it, its unit
+    w = max([28] + [len(h) + 1 for h in heads.values()])
+    print(f"{'quantity [unit]':<{w}} {'n(' + a + ')':>10} {'median':>12} {'IQR':>10}   {'n(' + b + ')':>10} "
+          f"{'median':>12} {'IQR':>10}   key")
+    for q in qs:
         cells = []
         for s in (sa, sb):
             n, med, iqr = s.get(q, (0, None, None))
             cells.append(f"{n:>10} {'-' if med is None else f'{med:.6g}':>12} {'-' if iqr is None else f'{iqr:.4g}':>10}")
-        print(f"{q:<28} {cells[0]}   {cells[1]}")
+        print(f"{heads[q]:<{w}} {cells[0]}   {cells[1]}   {q}")
 
 
 def _export(db, ref: str, path: str | None, parquet: str | None = None, stdf_path: str | None = None) -> None:
@@ -126,7 +131,7 @@ def _certificate(db, ref: str, item: str | None, out: str | None) -> None:
 def _trend(db, quantity: str, out: str | None, csv_path: str | None) -> None:
     from ares.batch import db as rdb
     from ares.batch import trend
-    from ares.batch.vocabulary import canonical
+    from ares.batch.vocabulary import canonical, quantity_label
     from ares.errors import InputError
     from ares.rundir.files import storage, write_atomic
 
@@ -144,7 +149,7 @@ def _trend(db, quantity: str, out: str | None, csv_path: str | None) -> None:
     flagged = [r["lot"] for r in rows if r["out_of_control"] == "yes"]
     lim = limits["note"] or (f"control limits {limits['low']:.5g} .. {limits['high']:.5g} (centre "
                              f"{limits['centre']:.5g}); outside: {', '.join(flagged) or 'none'}")
-    print(f"{q} over {len(rows)} lot(s): {lim}; plot {plot}, table {table}")
+    print(f"{quantity_label(q)} ({q}) over {len(rows)} lot(s): {lim}; plot {plot}, table {table}")
 
 
 def write_parquet(path: str, cols: list[str], rows: list[tuple], numeric: set[str]) -> None:

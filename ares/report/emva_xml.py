@@ -152,6 +152,7 @@ class Row:
     a: str
     b: str
     why: str = ""
+    within_limit: bool = False  # a FAIL where one file gives only a limit and the other's value lies within it
 
 
 def _show(e: dict | None) -> str:
@@ -193,8 +194,29 @@ def compare(a: dict, b: dict, digits: int = 7) -> list[Row]:
                 continue
             why = (_compare_arrays(ea["data"], eb["data"], digits) if "data" in ea else
                    "" if _same(ea.get("value"), eb.get("value"), digits) else f"differ at {digits} digits")
-            rows.append(Row(s, n, FAIL if why else PASS, _show(ea), _show(eb), why))
+            within = False
+            if why and "data" not in ea:
+                within, why = _limit_why(ea, eb, why)
+            rows.append(Row(s, n, FAIL if why else PASS, _show(ea), _show(eb), why, within))
     return rows
+
+
+def _limit_why(ea: dict, eb: dict, why: str) -> tuple[bool, str]:
+    """(whether the limit holds the other value, the why) for two values that differ where one
+    file gives only a limit (ARES's ``bound``: the figure is not resolved, e.g. a linearity
+    extreme whose SE exceeds it) and the other a point value (the reference writes every figure
+    as its point value): still a FAIL -- the numbers differ --, with whether the limit holds it."""
+    bounds = [(e.get("bound") or "").lower() for e in (ea, eb)]
+    if (bounds[0] in ("upper", "lower")) == (bounds[1] in ("upper", "lower")):
+        return False, why
+    i = 0 if bounds[0] in ("upper", "lower") else 1
+    lim, other = (ea, eb)[i].get("value"), (eb, ea)[i].get("value")
+    if _na(lim) or _na(other):
+        return False, why
+    within = other <= lim if bounds[i] == "upper" else other >= lim
+    return within, (f"{'AB'[i]} is only {'an upper' if bounds[i] == 'upper' else 'a lower'} limit "
+                    f"({'<' if bounds[i] == 'upper' else '>'} {lim:.4g}); {'AB'[1 - i]}'s value {other:.4g} is "
+                    + ("within it" if within else "outside it"))
 
 
 def format_rows(rows: list[Row], name_a: str, name_b: str) -> str:

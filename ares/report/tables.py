@@ -342,8 +342,8 @@ def compute_key_figures(run, groups: list[PtcGroup] | None = None) -> dict:
         kf["conversion_gain_uv_per_e"] = _entry(
             labels.figure_name("conversion_gain_uv_per_e"), pick("conversion_gain_uv_per_e", res and res.conversion_gain_uv_per_e), src)
         if res is not None:
-            kf["gain_origin_dn_per_e"] = _entry("K, EMVA 1288 origin fit", res.gain_origin_dn_per_e, "PTC recomputed")
-            kf["gain_astier_dn_per_e"] = _entry("K, Astier 2019 fit", res.gain_astier_dn_per_e, "PTC recomputed")
+            for key in ("gain_origin_dn_per_e", "gain_astier_dn_per_e"):
+                kf[key] = _entry(labels.figure_name(key), getattr(res, key), "PTC recomputed")
         for key in ("read_noise_e", "read_noise_dn"):  # distinct names: with / without quantization noise
             kf[key] = _entry(labels.PTC_LABELS[key], pick(key, res and getattr(res, key)), src)
         kf["full_well_e"] = _entry(labels.figure_name("full_well_e"), pick("full_well_e", res and res.full_well), src)
@@ -376,9 +376,7 @@ def compute_key_figures(run, groups: list[PtcGroup] | None = None) -> dict:
                                                      if math.isfinite(fwv.se) else math.nan, "",
                                                      "sqrt(saturation capacity)"), "PTC recomputed")
             for k, e in res.noise_model.items():
-                kf[f"noise_model.{k}"] = _entry({"sensor_noise_e": "sensor noise (total-noise model)",
-                                                  "prnu_pct": labels.figure_name("noise_model.prnu_pct")}.get(k, k), e,
-                                                 "PTC recomputed")
+                kf[f"noise_model.{k}"] = _entry(labels.FIGURES.get(f"noise_model.{k}", (k,))[0], e, "PTC recomputed")
         q = pick("qe", res and res.qe)
         if q.available and q.unit in ("", "1"):  # a fraction (run directories before QE was in %)
             q = Estimate(100 * q.value, 100 * q.se, "%", q.note)
@@ -392,8 +390,7 @@ def compute_key_figures(run, groups: list[PtcGroup] | None = None) -> dict:
             if k.startswith(("full_well", "dynamic_range", "snr_max")) and v["value"] is not None:
                 v["note"] = "partial run, saturation may be missing; " + v["note"]
     for name, r in (stored.get("by_analog_gain") or {}).items():
-        for key, lab in (("gain_dn_per_e", "system gain K"), ("read_noise_e", "read noise"),
-                         ("full_well_e", "full well")):
+        for key, lab in labels.BY_ANALOG_GAIN.items():
             if key in r:
                 kf[f"{key}@{name}"] = _entry(f"{lab} at analog gain {name}", est(r[key]), "scan_results.json: ptc")
     if not any(e.get("value") is not None for key, e in _flat_estimates(run.analyses.get("dark_current") or {})

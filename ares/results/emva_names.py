@@ -229,7 +229,8 @@ def release31(an, pixel_area_um2: float | None = None, release: str = "3.1") -> 
                 val[name] = sv.get(name, na("no bright stack"))
         val["DSNU1288"] = r31.get("DSNU1288", v["DSNU1288"])
         ds = val["DSNU1288"]
-        val["DSNU1288_DN"] = _scale(ds, K.value, "DN", "DSNU1288 x K") if K.available else na(K.note)
+        val["DSNU1288_DN"] = (x["DSNU1288_DN"] if release == "3.0" and "DSNU1288_DN" in x else  # (its own SE)
+                              _scale(ds, K.value, "DN", "DSNU1288 x K") if K.available else na(K.note))
         sig = sv["mean"] - sv["mean_dark"] if sb is not None else math.nan
         for part in ("row", "col", "pixel"):
             s2d = sv[f"s_2_y_{part}_dark"]

@@ -36,7 +36,7 @@ from typing import Sequence
 import numpy as np
 
 from ares.analysis.emva.sanity import judge
-from ares.analysis.stats.estimate import Estimate
+from ares.analysis.stats.estimate import EXACT_PHOTONS, Estimate
 from ares.analysis.ptc.levels import SpatialStats, pair_stats, spatial_stats
 from ares.analysis.stats.median import n_distinct
 from ares.analysis.spatial.nonuniformity import std_estimate
@@ -141,24 +141,34 @@ def emva1288_results(temporal: TemporalData, spatial_bright: SpatialStats | None
         vals["QE"] = na(why_qe, "%")
 
     nexp = n_distinct(td.texp_s)
-    if nexp <= 2:
-        s2d, s2d_se = float(td.s2_ydark[0]), math.nan
+    if nexp <= 2:  # (its SE: a pair variance's own, sqrt(2 / dof) s2 with one dof a pixel -- ``LevelStats.var_se``)
+        s2d = float(td.s2_ydark[0])
+        s2d_se = math.sqrt(2.0 / td.n_pixels) * abs(s2d) if td.n_pixels else math.nan
     else:
         lf = line_fit(td.texp_s, td.s2_ydark)
         s2d, s2d_se = lf.intercept, lf.intercept_se
-    note = "intercept of s2_y.dark vs exposure"
-    if not s2d >= 0.24:
-        s2d, note = 0.24, "lower limit 0.24 DN^2 (quantization-dominated)"
+    note = "intercept of s2_y.dark vs exposure" if nexp > 2 else "the first dark pair's variance (one exposure time)"
+    # below 0.24 DN^2 quantization dominates: the reference (and 4.0 Linear Eq. 54) uses 0.24, so
+    # sigma_y.dark -- and every figure read off it -- is only a limit: sigma_y.dark, sigma_d,
+    # mu_p.min, mu_e.min below theirs, DR above its value (never "ok" with the floor's SE)
+    floored = not s2d >= 0.24
+    if floored:
+        why_floor = (f"sigma_y.dark^2 {s2d:.3g} DN^2 is below 0.24 DN^2: quantization dominates, the floor 0.24 DN^2 "
+                     "is used (EMVA 1288 4.0 Linear Eq. 54)")
+        s2d = 0.24
     syd = math.sqrt(s2d)
-    vals["sigma_y_dark"] = Estimate(syd, s2d_se / (2 * syd), "DN", note)
+    vals["sigma_y_dark"] = (Estimate.limit(syd, "upper", "DN", why_floor) if floored else
+                            Estimate(syd, s2d_se / (2 * syd), "DN", note))
     if not why_k:
         sigma_d = math.sqrt(s2d - S2Q) / K
-        extra["sigma_d"] = Estimate(sigma_d, sigma_d * K_se / K, "e-", "sqrt(sigma_y.dark^2 - 1/12)/K")
+        extra["sigma_d"] = (Estimate.limit(sigma_d, "upper", "e-", "sqrt(0.24 - 1/12)/K; " + why_floor) if floored
+                            else Estimate(sigma_d, sigma_d * K_se / K, "e-", "sqrt(sigma_y.dark^2 - 1/12)/K"))
     else:
         extra["sigma_d"] = na(why_k, "e-")
 
     u_p_sat = float(td.u_p[isat])
-    extra["u_p_sat"] = Estimate(u_p_sat, math.nan, "p", "photons at the maximum-variance level")
+    extra["u_p_sat"] = Estimate.declared(u_p_sat, "p", EXACT_PHOTONS,
+                                         "photons at the maximum-variance level (the data set's photon count)")
     if not why_k and Y[isat] > 0:
         extra["u_e_sat_signal"] = Estimate(Y[isat] / K, Y[isat] / K * K_se / K, "e-",
                                            "(mu_y.sat - mu_y.dark)/K (alternative definition)")
@@ -185,6 +195,11 @@ def emva1288_results(temporal: TemporalData, spatial_bright: SpatialStats | None
         DR_se = DR * p_se / u_p_min
         vals["DR"] = Estimate(DR, DR_se, "", "mu_p.sat / mu_p.min" + why_se)
         extra["DR_dB"] = Estimate(20 * math.log10(DR), 20 / math.log(10) * DR_se / DR, "dB", "20 log10 DR")
+        if floored:  # (from sigma_y.dark's upper limit)
+            for key, into, bound in (("u_p_min", extra, "upper"), ("u_e_min", extra, "upper"), ("DR", vals, "lower"),
+                                     ("DR_dB", extra, "lower")):
+                e = into[key]
+                into[key] = Estimate.limit(e.value, bound, e.unit, f"{e.note}; from sigma_y.dark's upper limit")
     else:
         for key, unit, into in (("u_e_sat", "e-", vals), ("SNR_max", "", vals), ("SNR_max_dB", "dB", extra),
                                 ("u_p_min", "p", extra), ("u_e_min", "e-", extra), ("DR", "", vals),
@@ -214,7 +229,10 @@ def emva1288_results(temporal: TemporalData, spatial_bright: SpatialStats | None
                             std_estimate(s2yd, _spatial_se(spatial_dark), 1.0 / K, K_se / K, "e-",
                                           "sqrt(s2_y.dark spatial)/K, stack average, temporal/L removed")
                             if s2yd >= 0 else na("negative dark spatial variance", "e-"))
-        extra["DSNU1288_DN"] = Estimate(math.sqrt(max(s2yd, 0)), math.nan, "DN", "")
+        # in DN: the spatial std with its own SE (no K in it), as Release 4.0's (``nonuniformity.dsnu``)
+        extra["DSNU1288_DN"] = (std_estimate(s2yd, _spatial_se(spatial_dark), 1.0, 0.0, "DN",
+                                             "sqrt(s2_y.dark spatial), stack average, temporal/L removed")
+                                if s2yd >= 0 else na("negative dark spatial variance", "DN"))
     else:
         vals["DSNU1288"] = na("no dark stack", "e-")
     if spatial_bright is not None and spatial_dark is not None:
@@ -230,7 +248,9 @@ def emva1288_results(temporal: TemporalData, spatial_bright: SpatialStats | None
     dev, window, why_le = _linearity(td.u_p, Y, isat)
     # each extreme's SE: its level's deviation from the line through its mean's temporal noise (the
     # pair's mean over the pixels, bright and dark); one not resolved from 0 is only a limit
-    # (``resolved``), never "ok" -- a signed figure whose truth may be 0
+    # (``resolved``), never "ok". The side is the extreme's, not its sign's: the line makes the
+    # weighted deviations sum to 0 over the window, so the max is >= 0 and the min <= 0 -- a max
+    # not clear of 0 is only below max + 3 SE, a min only above min - 3 SE
     y_se = 100 * np.sqrt((td.s2_y + td.s2_ydark) / (2.0 * max(td.n_pixels, 1))) / np.where(Y != 0, np.abs(Y), np.inf)
     for key, pick in (("LE_min", np.argmin), ("LE_max", np.argmax)):
         if why_le:
@@ -240,7 +260,7 @@ def emva1288_results(temporal: TemporalData, spatial_bright: SpatialStats | None
         se = float(y_se[j]) if td.n_pixels else math.nan
         vals[key] = resolved(Estimate(float(dev[j]), se, "%", "5-95 % of saturation" + (
             "; SE: that level's mean's temporal noise" if td.n_pixels else "; no SE: the pixel count is not given")),
-            key)
+            key, side="upper" if key == "LE_max" else "lower")
     sat = vals.get("u_e_sat")
     tmax = float(np.max(td.texp_s)) if np.size(td.texp_s) else None
     vals, extra = (judge(vals, saturation=sat, longest_exposure_s=tmax),

@@ -28,12 +28,13 @@ def decompose_dark_masked(acc, table: MaskedTable | None = None) -> dict[str, Es
     a, b = tab.sum_nr2 / N**2, tab.sum_nc2 / N**2
     cvec = [1 / F, a / F, b / F, 1 / (F * N), a, b, 1 / N]
     v, _ = tab.combo(cvec)
-    out["o"] = Estimate(tab.mean, math.sqrt(max(v, 0.0)), "DN")
     for i, name in enumerate(_THETA):
         e = np.zeros(7)
         e[i] = 1
         val, var = tab.combo(e)
         out[name] = Estimate(val, math.sqrt(var), u)
+    # (never below the pixel temporal noise's share Pt / (F N), as ``anova.decompose_dark``: an SE of 0 is "exact")
+    out["o"] = Estimate(tab.mean, math.sqrt(max(v, out["Pt"].value / (F * N), 0.0)), "DN")
     return {k: out[k] for k in DARK_NAMES}
 
 

@@ -64,8 +64,9 @@ VARIANCE_COMPONENTS = ("Cs", "Ct", "Rs", "Rt", "Ps", "Pt", "frame_global")
 def variances_in_range(components: dict[str, Estimate]) -> dict[str, Estimate]:
     """The variance components of a decomposition (DN^2) judged against >= 0 -- and, being
     figures whose truth may be 0 (a frame-global or row-temporal term a sensor need not have),
-    one whose SE exceeds it is an upper limit (``resolved``), never "ok"."""
-    return {k: resolved(in_range(e, minimum=0.0, what=f"variance {k}"), f"variance {k}") if k in VARIANCE_COMPONENTS
+    one whose SE exceeds it is an upper limit (``resolved``, a variance's side), never "ok"."""
+    return {k: resolved(in_range(e, minimum=0.0, what=f"variance {k}"), f"variance {k}", side="upper")
+            if k in VARIANCE_COMPONENTS
             else e for k, e in components.items()}
 
 
@@ -113,18 +114,35 @@ def sane(e: Estimate, what: str = "", floor: float | None = None, floor_why: str
     return e
 
 
-def resolved(e: Estimate, what: str = "") -> Estimate:
-    """A signed figure whose true value may be 0 (image lag, an INL/DNL extreme, a charge-transfer
-    trend) with an SE larger than its magnitude is not resolved from 0: never "ok" (issue 48),
-    only the limit the data give on the side away from 0 -- value + ``NSIGMA`` SE as an upper
-    limit (value - ``NSIGMA`` SE as a lower limit for a negative value), with the reason. (``sane``
-    makes such a figure not available instead: right for a figure that is never near 0, like a
-    gain; here "consistent with 0, below x" is the measurement.)"""
-    if not e.available or e.bound or not (math.isfinite(e.se) and e.se > abs(e.value)):
+def resolved(e: Estimate, what: str = "", side: str | None = None) -> Estimate:
+    """A figure whose true value may be 0 (image lag, an INL/DNL extreme, a charge-transfer
+    trend, a variance component) with an SE larger than its distance from 0 is not resolved
+    from 0: never "ok" (issue 48), only the limit the data give, with the reason. ``side``
+    says which limit:
+
+    - ``"upper"``: the figure cannot be below 0 (a variance, a maximum of a curve that
+      crosses 0): resolved only when value > SE; else the upper limit value + ``NSIGMA`` SE,
+      whatever the sign of the value (a non-negative quantity measured -0.1 ± 0.5 is < 1.4);
+    - ``"lower"``: the mirror (a minimum of such a curve): resolved only when value < -SE;
+      else the lower limit value - ``NSIGMA`` SE;
+    - ``None`` (default): a signed figure whose truth may be either side of 0: resolved when
+      SE <= |value|; else the limit away from 0 on the value's side -- value + ``NSIGMA`` SE
+      (upper) for a value >= 0, value - ``NSIGMA`` SE (lower) for a negative one.
+
+    (``sane`` makes such a figure not available instead: right for a figure that is never
+    near 0, like a gain; here "consistent with 0, below x" is the measurement.)"""
+    if side not in (None, "upper", "lower"):
+        raise ValueError(f"resolved: side must be None, 'upper' or 'lower', not {side!r}")
+    if not e.available or e.bound or not math.isfinite(e.se):
+        return e
+    away = e.value if side == "upper" else -e.value if side == "lower" else abs(e.value)
+    if e.se <= away:
         return e
     name = what or "the value"
-    why = f"{name} {e.value:.3g} ± {e.se:.2g} {e.unit}".rstrip() + ": not resolved from 0 (its SE is larger than the value)"
-    if e.value >= 0:
+    why = f"{name} {e.value:.3g} ± {e.se:.2g} {e.unit}".rstrip() + ": not resolved from 0 (" + (
+        "its SE is larger than the value)" if side is None else
+        f"it cannot be {'below' if side == 'upper' else 'above'} 0, and its SE is not below its distance from 0)")
+    if side == "upper" or (side is None and e.value >= 0):
         return Estimate.limit(e.value + NSIGMA * e.se, "upper", e.unit, f"{why}: only an upper limit (value + "
                                                                            f"{NSIGMA:g} SE)")
     return Estimate.limit(e.value - NSIGMA * e.se, "lower", e.unit, f"{why}: only a lower limit (value - {NSIGMA:g} SE)")
