@@ -133,22 +133,23 @@ def linearity_error(y: np.ndarray, h: np.ndarray) -> tuple[float, float, np.ndar
 
 def emva4_linear(bright: Sequence[LevelStats], dark: Sequence[LevelStats], photons: Sequence[float],
                  dark_exposure_s: Sequence[float] | None = None, with_gain_term: bool = True) -> Emva4Result:
+    """The Release 4.0 Linear parameter set (see the module docstring). ``bright[i]`` and
+    ``dark[i]`` are level i and its dark at the same exposure; ``photons[i]`` is mu_p.
+    Levels may come in any order: they are sorted by photons. The figures in electrons and
+    photons carry K's uncertainty as the zero-signal gain (``gain_term``; ``with_gain_term``
+    False: Eq. 50's own SE, what the notes compare against)."""
     r = _emva4_linear(bright, dark, photons, dark_exposure_s, with_gain_term)
     gt = r.gain_term
     if gt is not None and gt.widens:  # each figure's note: how much of its SE the gain term is
-        plain = _emva4_linear(bright, dark, photons, dark_exposure_s, False)
+        plain = _emva4_linear(bright, dark, photons, dark_exposure_s, False, checks=False)
         r.values = attribute(r.values, plain.values, gt)
         r.notes.append(gt.sentence)
     return r
 
 
 def _emva4_linear(bright: Sequence[LevelStats], dark: Sequence[LevelStats], photons: Sequence[float],
-                  dark_exposure_s: Sequence[float] | None, with_gain_term: bool) -> Emva4Result:
-    """The Release 4.0 Linear parameter set (see the module docstring). ``bright[i]`` and
-    ``dark[i]`` are level i and its dark at the same exposure; ``photons[i]`` is mu_p.
-    Levels may come in any order: they are sorted by photons. The figures in electrons and
-    photons carry K's uncertainty as the zero-signal gain (``gain_term``; ``with_gain_term``
-    False: Eq. 50's own SE, what the notes compare against)."""
+                  dark_exposure_s: Sequence[float] | None, with_gain_term: bool, checks: bool = True) -> Emva4Result:
+    """``emva4_linear``; ``checks`` False: without the Eq. 51 checks (the SEs without the gain term only)."""
     from ares.analysis.ptc.fit import local_slope_check, local_slope_check_text
 
     order = np.argsort(np.asarray(photons, float), kind="stable")
@@ -196,13 +197,16 @@ def _emva4_linear(bright: Sequence[LevelStats], dark: Sequence[LevelStats], phot
         v["R"] = Estimate(R, R_se, "DN/photon", "slope of mu_y - mu_y.dark vs mu_p through 0 (Eq. 49)")
         eta = R / K
         v["QE"] = Estimate(100 * eta, 100 * eta * math.hypot(R_se / R, K_se_e / K), "%", "eta = R / K (Eq. 52)")
-    if isat is not None:  # Eq. 51 as written: the spline over every level up to saturation
+    if not checks:  # (the figures' SEs without the gain term, for their notes: the checks are not needed)
+        check, floor_check = LocalSlopeCheck(math.nan, None, ""), None
+    elif isat is not None:  # Eq. 51 as written: the spline over every level up to saturation
         upto = np.arange(isat + 1)
         check = local_slope_check_text(mu[upto], var[upto], K, y_sat)
     else:
         check = LocalSlopeCheck(math.nan, None, "Eq. 51 needs the saturation (its B-spline runs from 0 to it): "
                                                 + sat_text)
-    floor_check = local_slope_check(mu[x], var[x], var_se[x], K)  # ARES option eq51_noise_floor
+    if checks:
+        floor_check = local_slope_check(mu[x], var[x], var_se[x], K)  # ARES option eq51_noise_floor
     notes.append(check.note)
     linear = check.holds
 
