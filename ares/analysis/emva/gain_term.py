@@ -12,9 +12,11 @@ on the EMVA reference CCD 5 % below the zero-signal gain of the same levels.
 
 The data cannot show the curve is a line at Eq. 50's precision: the zero-signal slope they
 determine (the Astier 2019 fit of the same levels, ``ptc.fit.astier_fit``, SE widened by
-Student's t as the photon-transfer headline's) has an SE about twice the line's, and a bend
-hidden within it still biases the line by several of the line's SEs (measured: 1 of 5
-simulator seeds at 8 frames has a = 0.2 SE, Eq. 50's K 3.3 SE high). So the figures in
+Student's t as the photon-transfer headline's) has an SE ~1.7x the line's, and a bend hidden
+within it still biases the line by several of the line's SEs (benchmarks/truth_z.md: the
+discrepancy carried only where resolved leaves 2 of 8 DSNU1288 e- wrong "ok" at 8 frames,
+1 of 7 at 4, where it is never resolved; simulator seed 1 at 8 frames: D 0.45 SE, Eq. 50's K
++3.3 SE). So the figures in
 electrons carry, for K, the uncertainty of K as the zero-signal gain: the discrepancy
 D = K_eq50 - K_0 (known from the data) and K_0's own SE, ``hypot(D, se_0)`` (never less than
 Eq. 50's SE). Their values stay as written (the text's K); K itself keeps the line's SE --
