@@ -252,14 +252,18 @@ def evaluate_linear(inp: EmvaInput, highpass_release: str = "4.0") -> EmvaSheet:
     else:
         v["K_inv"] = Estimate.na(K.note, "e-/DN")
     snr = v.get("SNR_max", Estimate.na("", ""))
+
+    def via(base: str) -> str:  # a figure scaled from one whose SE holds the gain term (gain_term) says so
+        return f" (its SE {SYMBOLS[base]}'s, the gain term included)" if "the gain term" in v[base].note else ""
+
     v["SNR_max_inv"] = (Estimate.limit(100 / snr.value, "upper" if snr.bound == "lower" else "lower", "%",
                                        "1 / SNR_max") if snr.bound else
-                        Estimate(100 / snr.value, 100 * snr.se / snr.value**2, "%", "1 / SNR_max")) \
+                        Estimate(100 / snr.value, 100 * snr.se / snr.value**2, "%", "1 / SNR_max" + via("SNR_max"))) \
         if snr.available else Estimate.na(snr.note, "%")
     area = inp.pixel_area_um2
     for key, base in (("mu_e_min_area", "mu_e_min"), ("mu_e_sat_area", "mu_e_sat")):
         e = v.get(base, Estimate.na("", "e-"))
-        v[key] = (_scaled(e, 1 / area, "e-/µm²", f"{SYMBOLS[base]} / pixel area ({area:g} µm²)") if area
+        v[key] = (_scaled(e, 1 / area, "e-/µm²", f"{SYMBOLS[base]} / pixel area ({area:g} µm²)" + via(base)) if area
                   else Estimate.na("pixel size not given", "e-/µm²"))
     # spatial nonuniformity from the stacks (Sections 8.2, 8.3)
     sd, sb = inp.stack_dark, inp.stack_bright
