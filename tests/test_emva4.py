@@ -133,3 +133,34 @@ def test_reference_ccd_release_4_near_the_published_release_3_values(capsys):
     bare = [k for k, e in v.items() if e["verdict"] == "ok" and e.get("se") is None]
     assert not bare, bare
     assert 0 < v["sigma_y_stack_dark"]["se"] < 1e-2 * v["sigma_y_stack_dark"]["value"]
+
+
+def test_figures_in_electrons_carry_eq50_k_as_the_zero_signal_gain():
+    """A photon-transfer curve that bends (Astier 2019 a00 = -1e-6 / e-: brighter-fatter) with
+    a known gain at zero signal: Eq. 50's line over 0 - 70 % of saturation is ~1 % low, ~10 of
+    its own SEs. The figures in electrons and photons keep their values (the text's K), and
+    their SEs now carry K's uncertainty as the zero-signal gain (``emva.gain_term``): sigma_d,
+    QE and DSNU1288 (Eq. 66, the DN figure of a dark stack / K) cover their truths, which
+    Eq. 50's own SE did not; K keeps the regression's SE; a straight curve stays covered."""
+    from ares.analysis.emva.sheet import EmvaInput, StackImage, evaluate_linear
+
+    b, d, tr, up = levels(MU, a00=-1e-6)
+    img = 100 + 2.0 * np.random.default_rng(5).standard_normal((64, 64))  # a dark pattern, 2 DN
+    inp = EmvaInput(up, np.full(up.size, 1e-3), b, d, stack_dark=StackImage(img, 1.0, 100))
+    plain = emva4_linear(b, d, up, with_gain_term=False).values
+    sheet = evaluate_linear(inp)
+    v, gt = sheet.values, sheet.photon_transfer.gain_term
+    assert v["K"].se == plain["K"].se and (v["K"].value - K) / v["K"].se < -5  # Eq. 50 biased, its SE as written
+    assert gt.k0.value == pytest.approx(K, abs=3 * gt.k0.se) and gt.se > 5 * gt.k_se
+    dsnu_true = v["DSNU1288_DN"].value / K  # the same DN figure by the true gain
+    for key, truth in (("sigma_d", READ), ("QE", 100 * ETA)):
+        assert v[key].value == plain[key].value
+        assert not within(plain[key], truth) and within(v[key], truth), key
+        assert "% of its variance the gain term" in v[key].note
+    ds = v["DSNU1288"]
+    assert abs(ds.value - dsnu_true) > 3 * ds.value * plain["K"].se / K and within(ds, dsnu_true)
+    assert "gain term" in ds.note and "gain term" not in v["DSNU1288_DN"].note
+    b, d, tr, up = levels(MU)  # a line: still covered, Eq. 50's K within the zero-signal K's SE of it
+    r = emva4_linear(b, d, up)
+    assert within(r.values["sigma_d"], READ) and within(r.values["QE"], 100 * ETA)
+    assert abs(r.gain_term.diff) < 3 * r.gain_term.diff_se

@@ -57,6 +57,7 @@ EXTENSIONS = {
 def apply_extensions(an: EmvaAnalysis, names) -> None:
     """Add the values of ARES's named options (``EXTENSIONS``) beside the text's, each keyed
     ``<key>.<option>`` and labelled in its note; the text's values are left as they are."""
+    from ares.analysis.emva.gain_term import attribute
     from ares.analysis.spatial.nonuniformity import nonuniformity_rowcol_corrected
 
     sh, pt = an.sheet, an.sheet.photon_transfer
@@ -68,7 +69,9 @@ def apply_extensions(an: EmvaAnalysis, names) -> None:
             ds, bs = sd.split("4.0"), sb.split("4.0") if sb is not None else None
         except ValueError:
             ds, bs = sd.split("none"), sb.split("none") if sb is not None else None
-        extra.update(nonuniformity_rowcol_corrected(ds, bs, K.value, K.se))
+        gt = pt.gain_term  # in e-: K as the zero-signal gain, as the text's DSNU1288 (ares.analysis.emva.gain_term)
+        rc = nonuniformity_rowcol_corrected(ds, bs, K.value, gt.se if gt is not None else K.se)
+        extra.update(attribute(rc, nonuniformity_rowcol_corrected(ds, bs, K.value, K.se), gt) if gt is not None else rc)
     if "eq51_noise_floor" in names and pt.linear_noise_floor is not None:
         sh.notes.append("ARES option eq51_noise_floor (beyond Eq. 51): " + pt.linear_noise_floor.note)
     if "mu_e_sat_fit" in names and pt.mu_e_sat_fit is not None:

@@ -36,6 +36,7 @@ from typing import Sequence
 
 import numpy as np
 
+from ares.analysis.emva.gain_term import GainTerm, attribute, gain_term
 from ares.analysis.stats.estimate import EXACT_PHOTONS, Estimate
 from ares.analysis.ptc.levels import LevelStats
 from ares.analysis.stats.physical import snr_db, snr_in_range
@@ -60,6 +61,7 @@ class Emva4Result:
     linear_check: "LocalSlopeCheck | None" = None  # Eq. 51 as written: mean |K_i - K|/K, P, sentence
     linear_noise_floor: "LocalSlopeCheck | None" = None  # ARES option eq51_noise_floor (beyond the text)
     mu_e_sat_fit: "Estimate | None" = None  # ARES's former (mu_y.sat - mu_y.dark) / K, for comparison only
+    gain_term: "GainTerm | None" = None  # K as the zero-signal gain, in the figures in electrons (gain_term)
 
     def to_json(self) -> dict:
         return {k: v.to_dict() for k, v in self.values.items()}
@@ -130,10 +132,24 @@ def linearity_error(y: np.ndarray, h: np.ndarray) -> tuple[float, float, np.ndar
 
 
 def emva4_linear(bright: Sequence[LevelStats], dark: Sequence[LevelStats], photons: Sequence[float],
-                 dark_exposure_s: Sequence[float] | None = None) -> Emva4Result:
+                 dark_exposure_s: Sequence[float] | None = None, with_gain_term: bool = True) -> Emva4Result:
     """The Release 4.0 Linear parameter set (see the module docstring). ``bright[i]`` and
     ``dark[i]`` are level i and its dark at the same exposure; ``photons[i]`` is mu_p.
-    Levels may come in any order: they are sorted by photons."""
+    Levels may come in any order: they are sorted by photons. The figures in electrons and
+    photons carry K's uncertainty as the zero-signal gain (``gain_term``; ``with_gain_term``
+    False: Eq. 50's own SE, what the notes compare against)."""
+    r = _emva4_linear(bright, dark, photons, dark_exposure_s, with_gain_term)
+    gt = r.gain_term
+    if gt is not None and gt.widens:  # each figure's note: how much of its SE the gain term is
+        plain = _emva4_linear(bright, dark, photons, dark_exposure_s, False, checks=False)
+        r.values = attribute(r.values, plain.values, gt)
+        r.notes.append(gt.sentence)
+    return r
+
+
+def _emva4_linear(bright: Sequence[LevelStats], dark: Sequence[LevelStats], photons: Sequence[float],
+                  dark_exposure_s: Sequence[float] | None, with_gain_term: bool, checks: bool = True) -> Emva4Result:
+    """``emva4_linear``; ``checks`` False: without the Eq. 51 checks (the SEs without the gain term only)."""
     from ares.analysis.ptc.fit import local_slope_check, local_slope_check_text
 
     order = np.argsort(np.asarray(photons, float), kind="stable")
@@ -167,6 +183,9 @@ def emva4_linear(bright: Sequence[LevelStats], dark: Sequence[LevelStats], photo
         return not_available(f"the temporal variance does not rise with the signal (slope {K:.3g} DN/e-)")
     v["K"] = Estimate(K, K_se, "DN/e-", "slope of s2_y - s2_y.dark vs mu_y - mu_y.dark, 0-70 % of saturation "
                                         "(EMVA 1288 4.0 Linear Eq. 50)")
+    var_se = np.hypot([q.var_se for q in b], [q.var_se for q in d])
+    gt = gain_term(mu[x], var[x], var_se[x], [b[i].dof for i in x], v["K"]) if with_gain_term else None
+    K_se_e = gt.se if gt is not None else K_se  # K's SE in the figures in electrons and photons (gain_term)
     R, R_se, _ = _ols(up[lit], mu[lit], through_origin=True) if len(lit) >= 3 else (math.nan, math.nan, 0.0)  # Eq. 49
     why_r = ("" if R > 0 and math.isfinite(R_se) else
              f"needs photon counts > 0 at >= 3 of those levels, has {len(lit)}" if len(lit) < 3 else
@@ -177,15 +196,17 @@ def emva4_linear(bright: Sequence[LevelStats], dark: Sequence[LevelStats], photo
     else:
         v["R"] = Estimate(R, R_se, "DN/photon", "slope of mu_y - mu_y.dark vs mu_p through 0 (Eq. 49)")
         eta = R / K
-        v["QE"] = Estimate(100 * eta, 100 * eta * math.hypot(R_se / R, K_se / K), "%", "eta = R / K (Eq. 52)")
-    var_se = np.hypot([q.var_se for q in b], [q.var_se for q in d])
-    if isat is not None:  # Eq. 51 as written: the spline over every level up to saturation
+        v["QE"] = Estimate(100 * eta, 100 * eta * math.hypot(R_se / R, K_se_e / K), "%", "eta = R / K (Eq. 52)")
+    if not checks:  # (the figures' SEs without the gain term, for their notes: the checks are not needed)
+        check, floor_check = LocalSlopeCheck(math.nan, None, ""), None
+    elif isat is not None:  # Eq. 51 as written: the spline over every level up to saturation
         upto = np.arange(isat + 1)
         check = local_slope_check_text(mu[upto], var[upto], K, y_sat)
     else:
         check = LocalSlopeCheck(math.nan, None, "Eq. 51 needs the saturation (its B-spline runs from 0 to it): "
                                                 + sat_text)
-    floor_check = local_slope_check(mu[x], var[x], var_se[x], K)  # ARES option eq51_noise_floor
+    if checks:
+        floor_check = local_slope_check(mu[x], var[x], var_se[x], K)  # ARES option eq51_noise_floor
     notes.append(check.note)
     linear = check.holds
 
@@ -202,13 +223,13 @@ def emva4_linear(bright: Sequence[LevelStats], dark: Sequence[LevelStats], photo
         v["sigma_d"] = Estimate.limit(0.40 / K, "upper", "e-", "0.40 / K (EMVA 1288 4.0 Linear Eq. 54)")
     else:
         sd = math.sqrt(max(s2d - Q_VAR, 0.0)) / K
-        sd_se = sd * math.hypot(s2d_se / (2 * max(s2d - Q_VAR, 1e-12)), K_se / K)
+        sd_se = sd * math.hypot(s2d_se / (2 * max(s2d - Q_VAR, 1e-12)), K_se_e / K)
         v["sigma_d"] = Estimate(sd, sd_se, "e-", "sqrt(sigma_y.dark^2 - 1/12) / K (Eq. 53)")
     # absolute sensitivity threshold, exact (Eq. 26 in the Eq. 88 form)
     a = sy / K
     root = math.sqrt(a * a + 0.25)
     mu_e_min = root + 0.5
-    a_rel = math.hypot(0.0 if small else v["sigma_y_dark"].se / sy, K_se / K)
+    a_rel = math.hypot(0.0 if small else v["sigma_y_dark"].se / sy, K_se_e / K)
     mu_e_min_se = a * a / root * a_rel
     if small:
         v["mu_e_min"] = Estimate.limit(mu_e_min, "upper", "e-", "sqrt(sigma_y.dark^2/K^2 + 1/4) + 1/2 (Eq. 26)")
@@ -229,7 +250,7 @@ def emva4_linear(bright: Sequence[LevelStats], dark: Sequence[LevelStats], photo
         for k, u in (("mu_y_sat", "DN"), ("mu_p_sat", "photons"), ("mu_e_sat", "e-"), ("SNR_max", ""),
                      ("SNR_max_db", "dB"), ("DR", ""), ("DR_db", "dB"), ("LE", "%")):
             v[k] = Estimate.na(sat_text, u)
-        return Emva4Result(v, isat, fit, le_levels, sat_text, linear, dev, notes, check, floor_check)
+        return Emva4Result(v, isat, fit, le_levels, sat_text, linear, dev, notes, check, floor_check, gain_term=gt)
     n_b = b[isat]
     y_se = math.sqrt(max(n_b.var, 0.0) / max(n_b.n_pixels * n_b.n_frames, 1))
 
@@ -239,7 +260,7 @@ def emva4_linear(bright: Sequence[LevelStats], dark: Sequence[LevelStats], photo
             if bound else e
 
     v["mu_y_sat"] = est(y_sat, y_se / y_sat, "DN", "mu_y.sat - mu_y.dark by the histogram criterion (Section 6.6)")
-    e_fit = est(y_sat / K, math.hypot(y_se / y_sat, K_se / K), "e-", "(mu_y.sat - mu_y.dark) / K (ARES before "
+    e_fit = est(y_sat / K, math.hypot(y_se / y_sat, K_se_e / K), "e-", "(mu_y.sat - mu_y.dark) / K (ARES before "
                                                                     "issue 35; not the text)")
     p_sat = float(up[isat])  # the photons measured at the saturation step (Section 6.6)
     if why_r or not p_sat > 0:
@@ -283,4 +304,4 @@ def emva4_linear(bright: Sequence[LevelStats], dark: Sequence[LevelStats], photo
         dev[li] = dv
         v["LE"] = Estimate(le, le_se, "%", "mean |deviation| from the 1/y^2-weighted line, 5-95 % of saturation "
                                            "(Eqs. 59-63)")
-    return Emva4Result(v, isat, fit, le_levels, sat_text, linear, dev, notes, check, floor_check, e_fit)
+    return Emva4Result(v, isat, fit, le_levels, sat_text, linear, dev, notes, check, floor_check, e_fit, gt)

@@ -17,6 +17,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from ares.analysis.emva import graphs
+from ares.analysis.emva.gain_term import GainTerm, attribute
 from ares.analysis.emva.linear import Emva4Result, emva4_linear
 from ares.analysis.spatial.nonuniformity import Split, dsnu, prnu, snr_model, snr_total_model, split
 from ares.analysis.emva.sanity import judge
@@ -192,6 +193,25 @@ def dark_current_4(t, mu, s2, K: Estimate, min_exposures: int = 6) -> dict[str, 
     return out
 
 
+def dark_current_rates(rates: dict[str, Estimate], gt: "GainTerm | None") -> dict[str, Estimate]:
+    """The Section 7.1 rates keep the regression's one-sigma error the text prescribes (with
+    Eq. 50's K's own SE); where K as the zero-signal gain is less certain (``gain_term``), each
+    rate's note says how large that term is against its SE (mu_I.mean ~ 1/K, mu_I.var ~ 1/K^2)."""
+    if gt is None or not gt.widens:
+        return rates
+    out = dict(rates)
+    for key, power in (("mu_I_mean", 1), ("mu_I_var", 2)):
+        e = rates.get(key)
+        if e is None or not e.available or e.bound or not (math.isfinite(e.se) and e.se > 0):
+            continue
+        extra = abs(e.value) * power * math.sqrt(gt.se ** 2 - gt.k_se ** 2) / abs(gt.k0.value + gt.diff)  # (K_0 + D = Eq. 50 K)
+        out[key] = Estimate(e.value, e.se, e.unit, f"{e.note}; not in this SE (Section 7.1: the regression's one "
+                                                   f"sigma): K as the zero-signal gain would add {extra:.2g} {e.unit} "
+                                                   f"({extra / e.se:.2g} SE) in quadrature (ares.analysis.emva.gain_term)",
+                            e.bound, e.exact)
+    return out
+
+
 def _stack_graphs(sd: StackImage, sb: StackImage | None, hp: str, v: dict) -> dict:
     g: dict = {}
     dark_hp = sd.highpassed(hp)
@@ -232,14 +252,18 @@ def evaluate_linear(inp: EmvaInput, highpass_release: str = "4.0") -> EmvaSheet:
     else:
         v["K_inv"] = Estimate.na(K.note, "e-/DN")
     snr = v.get("SNR_max", Estimate.na("", ""))
+
+    def via(base: str) -> str:  # a figure scaled from one whose SE holds the gain term (gain_term) says so
+        return f" (its SE {SYMBOLS[base]}'s, the gain term included)" if "the gain term" in v[base].note else ""
+
     v["SNR_max_inv"] = (Estimate.limit(100 / snr.value, "upper" if snr.bound == "lower" else "lower", "%",
                                        "1 / SNR_max") if snr.bound else
-                        Estimate(100 / snr.value, 100 * snr.se / snr.value**2, "%", "1 / SNR_max")) \
+                        Estimate(100 / snr.value, 100 * snr.se / snr.value**2, "%", "1 / SNR_max" + via("SNR_max"))) \
         if snr.available else Estimate.na(snr.note, "%")
     area = inp.pixel_area_um2
     for key, base in (("mu_e_min_area", "mu_e_min"), ("mu_e_sat_area", "mu_e_sat")):
         e = v.get(base, Estimate.na("", "e-"))
-        v[key] = (_scaled(e, 1 / area, "e-/µm²", f"{SYMBOLS[base]} / pixel area ({area:g} µm²)") if area
+        v[key] = (_scaled(e, 1 / area, "e-/µm²", f"{SYMBOLS[base]} / pixel area ({area:g} µm²)" + via(base)) if area
                   else Estimate.na("pixel size not given", "e-/µm²"))
     # spatial nonuniformity from the stacks (Sections 8.2, 8.3)
     sd, sb = inp.stack_dark, inp.stack_bright
@@ -249,9 +273,11 @@ def evaluate_linear(inp: EmvaInput, highpass_release: str = "4.0") -> EmvaSheet:
         except ValueError as exc:  # smaller than the filter: the variances without it, said
             notes.append(f"{exc}: DSNU1288/PRNU1288 are computed without the high-pass of Section 8.1")
             highpass_release = "none"
+    gt = pt.gain_term
     if sd is not None and K.available:
         dsplit = sd.split(highpass_release)
-        v.update(dsnu(dsplit, K.value, K.se))
+        ds = dsnu(dsplit, K.value, gt.se if gt is not None else K.se)  # in e-: K as the zero-signal gain
+        v.update(attribute(ds, dsnu(dsplit, K.value, K.se), gt) if gt is not None else ds)
         v["sigma_y_stack_dark"] = _stack_sigma(sd, "temporal noise of the dark stack (Eq. 65)")
         if sb is not None:
             bsplit = sb.split(highpass_release)
@@ -276,7 +302,7 @@ def evaluate_linear(inp: EmvaInput, highpass_release: str = "4.0") -> EmvaSheet:
         t = np.asarray(inp.exposure_s, float)
         mu = np.array([d.mean for d in inp.dark])
         s2 = np.array([d.var for d in inp.dark])
-    v.update(dark_current_4(t, mu, s2, K))
+    v.update(dark_current_rates(dark_current_4(t, mu, s2, K), gt))
     v = judge(v, saturation=v.get("mu_e_sat"), longest_exposure_s=float(np.max(t)) if np.size(t) else None)
     curves = _curves(inp, pt, v, t, mu, s2)
     if sd is not None and "DSNU1288_DN" in v:
