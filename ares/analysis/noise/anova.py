@@ -18,9 +18,20 @@ Rt = (MS_FR - MS_E)/C, ..., fg = (MS_F - MS_FR - MS_FC + MS_E)/(R C)). Negative 
 are reported as they come (clipping would bias them); ``sigma_view`` gives clipped
 square roots for display.
 
-Standard errors (Satterthwaite): under normality MS_k ~ E[MS_k] chi2(df_k)/df_k,
-independent, so var(sum a_k MS_k) = sum a_k^2 2 E[MS_k]^2/df_k; E[MS_k]^2 is estimated
-without bias by MS_k^2 df_k/(df_k + 2).
+Standard errors: the mean squares are independent, var(sum a_k MS_k) = sum a_k^2
+var(MS_k). A temporal one (F, FR, FC, E) under normality is E[MS_k] chi2(df_k)/df_k:
+var 2 E[MS_k]^2/df_k, E[MS_k]^2 estimated without bias by MS_k^2 df_k/(df_k + 2)
+(Satterthwaite). A spatial one (R, C, RC) is taken given THIS sensor's pattern -- the
+figures are a measurement of this sensor, as the EMVA non-uniformity's
+(``spatial.pattern_se``), not the spread another sensor of the same pattern statistics
+would show (sqrt(2 / df) times the mean square: 3 - 20x larger for Cs, Rs; truth_z.md):
+MS_k / df_k-scaled is a non-central chi-square in the noise its means hold
+(``pattern_se.part_variance``: var (4 n p + 2 n^2) / df_k, n the noise's share of E[MS_k],
+p = MS_k - n the pattern's). The row and column means' noise is the temporal one and the
+pixel pattern's share (R: Pt + C Rt + F Ps, C: Pt + R Ct + F Ps): a pixel pattern's row
+means are a row pattern no design tells apart, removed as their expectation F Ps, so
+their realisation is an error of Rs and Cs against the sensor's row and column patterns;
+RC's is Pt (the pixel pattern held fixed).
 
 Every sum of squares is an exact function of the accumulator's per-pixel sums and sums
 of squares, per-(frame,row) and per-(frame,column) sums (one pass, any frame count).
@@ -28,12 +39,14 @@ of squares, per-(frame,row) and per-(frame,column) sums (one pass, any frame cou
 
 from __future__ import annotations
 
+import dataclasses
 import math
 from dataclasses import dataclass
 
 import numpy as np
 
 from ares.analysis.noise.accumulate import StackAccumulator
+from ares.analysis.spatial.pattern_se import part_variance
 from ares.analysis.stats.estimate import Estimate
 
 __all__ = ["AnovaTable", "anova_table", "decompose_dark", "sigma_view", "in_electrons", "DARK_NAMES"]
@@ -102,12 +115,39 @@ def _table(acc) -> AnovaTable:
     return AnovaTable(F, R, C, m, ss, df)
 
 
+# the temporal mean squares beside MS_E whose excess is noise in a spatial mean square's means
+_NOISE_OF = {"R": ("FR", "RC"), "C": ("FC", "RC"), "RC": ()}
+
+
+def ms_variance(tab: AnovaTable, k: str) -> float:
+    """var(MS_k): a temporal mean square's chi-square (Satterthwaite); a spatial one's given the
+    sensor's pattern, in the noise of its means (module docstring)."""
+    ms, df = tab.ms[k], tab.df[k]
+    if k not in _NOISE_OF:
+        return 2.0 * ms**2 / (df + 2)
+    e = tab.ms["E"]
+    noise = e + sum(max(tab.ms[j] - e, 0.0) for j in _NOISE_OF[k])
+    return part_variance(ms, noise, df, df)
+
+
+def with_pixel_split(ps: Estimate, rows: int, cols: int) -> Estimate:
+    """Ps with the error its row and column means make against the sensor's whole pixel
+    pattern: the design gives them to Rs and Cs and removes their expectation, so their
+    realisation (a chi-square in rows - 1 and cols - 1 dof, Ps / cols and Ps / rows a mean)
+    is off by var 2 (rows + cols - 2) Ps^2 / (rows cols)^2 -- as large as the temporal error
+    where the pixel pattern outweighs the noise."""
+    if not (ps.available and math.isfinite(ps.se)):
+        return ps
+    split = 2.0 * (rows + cols - 2) * max(ps.value, 0.0) ** 2 / (rows * cols) ** 2
+    return dataclasses.replace(ps, se=math.sqrt(ps.se**2 + split))
+
+
 def _combo(tab: AnovaTable, coef: dict, scale: float, unit: str, need: str) -> Estimate:
     ms = tab.ms
     if any(tab.df[k] <= 0 for k in coef):
         return Estimate.na(need, unit)
     val = sum(a * ms[k] for k, a in coef.items()) / scale
-    var = sum(a * a * 2.0 * ms[k] ** 2 / (tab.df[k] + 2) for k, a in coef.items()) / scale**2
+    var = sum(a * a * ms_variance(tab, k) for k, a in coef.items()) / scale**2
     return Estimate(float(val), float(math.sqrt(var)), unit)
 
 
@@ -156,6 +196,7 @@ def decompose_dark(acc: StackAccumulator, table: AnovaTable | None = None) -> di
     for name, (coef, scale, needs) in specs.items():
         msg = _need(tab, *needs)
         out[name] = Estimate.na(msg, u) if msg else _combo(tab, coef, scale, u, msg)
+    out["Ps"] = with_pixel_split(out["Ps"], R, C)
     # With a single frame the spatial parts are still separable (two-way, temporal
     # included) but not unbiased for the fixed pattern alone: reported n/a above.
     return {k: out[k] for k in DARK_NAMES}

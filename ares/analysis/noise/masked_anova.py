@@ -12,6 +12,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from ares.analysis.spatial.pattern_se import part_variance
 from ares.errors import InputError
 
 _THETA = ("frame_global", "Rt", "Ct", "Pt", "Rs", "Cs", "Ps")
@@ -108,13 +109,29 @@ class MaskedTable:
         ms = np.array([self.ms[k] for k in _MS_KEYS])
         return Ki @ ms, Ki
 
+    def ms_variances(self) -> np.ndarray:
+        """var(MS_k) in ``_MS_KEYS`` order, as ``anova.ms_variance``: a temporal mean square's
+        chi-square (Satterthwaite); a spatial one's given the sensor's pattern
+        (``pattern_se.part_variance``), its noise E[MS_k] with the patterns held fixed set to 0
+        (R, C: Rs and Cs -- the pixel pattern's share in the means is noise to them; RC: Ps too)."""
+        th, _ = self.estimates()
+        th = np.maximum(th, 0.0)
+        ms = np.array([self.ms[k] for k in _MS_KEYS])
+        df = np.array([self.df[k] for k in _MS_KEYS], float)
+        out = 2 * ms * ms / (df + 2)
+        for k, fixed in (("R", ("Rs", "Cs")), ("C", ("Rs", "Cs")), ("RC", ("Rs", "Cs", "Ps"))):
+            i = _MS_KEYS.index(k)
+            t = th.copy()
+            t[[_THETA.index(f) for f in fixed]] = 0.0
+            out[i] = part_variance(ms[i], float(self.K[i] @ t), df[i], df[i])
+        return out
+
     def combo(self, coef_theta) -> tuple[float, float]:
-        """Value and Satterthwaite variance of sum coef*theta."""
+        """Value and variance of sum coef*theta (``ms_variances``)."""
         th, Ki = self.estimates()
         a = np.asarray(coef_theta, float) @ Ki  # coefficients on the MS
         ms = np.array([self.ms[k] for k in _MS_KEYS])
-        df = np.array([self.df[k] for k in _MS_KEYS], float)
-        return float(a @ ms), float(((a * a) * 2 * ms * ms / (df + 2)).sum())
+        return float(a @ ms), float(((a * a) * self.ms_variances()).sum())
 
 
 def masked_table(acc) -> MaskedTable:

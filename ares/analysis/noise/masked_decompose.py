@@ -6,7 +6,7 @@ import math
 import numpy as np
 from ares.errors import InputError
 from ares.analysis.noise import flat as _flat
-from ares.analysis.noise.anova import DARK_NAMES
+from ares.analysis.noise.anova import DARK_NAMES, with_pixel_split
 from ares.analysis.stats.estimate import Estimate
 from ares.analysis.spatial.nonuniformity import smooth
 from ares.analysis.noise.masked_anova import _THETA, MaskedTable, henderson_two_way
@@ -34,6 +34,7 @@ def decompose_dark_masked(acc, table: MaskedTable | None = None) -> dict[str, Es
         e[i] = 1
         val, var = tab.combo(e)
         out[name] = Estimate(val, math.sqrt(var), u)
+    out["Ps"] = with_pixel_split(out["Ps"], tab.R, tab.C)
     return {k: out[k] for k in DARK_NAMES}
 
 
