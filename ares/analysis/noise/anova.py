@@ -49,7 +49,8 @@ from ares.analysis.noise.accumulate import StackAccumulator
 from ares.analysis.spatial.pattern_se import part_variance
 from ares.analysis.stats.estimate import Estimate
 
-__all__ = ["AnovaTable", "anova_table", "decompose_dark", "sigma_view", "in_electrons", "DARK_NAMES"]
+__all__ = ["AnovaTable", "anova_table", "decompose_dark", "sigma_view", "in_electrons", "DARK_NAMES",
+           "ms_variance", "realisation_var", "with_realisation"]
 
 DARK_NAMES = ("o", "Cs", "Ct", "Rs", "Rt", "Ps", "Pt", "frame_global")
 _EFFECTS = ("F", "R", "C", "FR", "FC", "RC", "E")
@@ -130,16 +131,22 @@ def ms_variance(tab: AnovaTable, k: str) -> float:
     return part_variance(ms, noise, df, df)
 
 
-def with_pixel_split(ps: Estimate, rows: int, cols: int) -> Estimate:
-    """Ps with the error its row and column means make against the sensor's whole pixel
-    pattern: the design gives them to Rs and Cs and removes their expectation, so their
-    realisation (a chi-square in rows - 1 and cols - 1 dof, Ps / cols and Ps / rows a mean)
-    is off by var 2 (rows + cols - 2) Ps^2 / (rows cols)^2 -- as large as the temporal error
-    where the pixel pattern outweighs the noise."""
-    if not (ps.available and math.isfinite(ps.se)):
-        return ps
-    split = 2.0 * (rows + cols - 2) * max(ps.value, 0.0) ** 2 / (rows * cols) ** 2
-    return dataclasses.replace(ps, se=math.sqrt(ps.se**2 + split))
+def realisation_var(v: float, dof_est: float, dof_truth: float) -> float:
+    """The error a pattern variance's estimator makes against the sensor's whole pattern when it
+    sees only part of it: the pixel pattern's row and column means (the design gives them to Rs
+    and Cs, their expectation removed), a high-pass's low frequencies and dropped border. For a
+    white pattern the whole pattern's sample variance (dof_truth) is sufficient, so an unbiased
+    quadratic estimator of dof_est effective dof is off from it by var 2 v^2 (1 / dof_est -
+    1 / dof_truth) -- for Ps 2 (R + C - 2) Ps^2 / (R C)^2, as large as the temporal error where
+    the pixel pattern outweighs the noise. v below 0: 0."""
+    return 2.0 * max(v, 0.0) ** 2 * max(1.0 / dof_est - 1.0 / dof_truth, 0.0) if dof_est > 0 else math.inf
+
+
+def with_realisation(e: Estimate, dof_est: float, dof_truth: float) -> Estimate:
+    """``e`` with ``realisation_var`` in its SE."""
+    if not (e.available and math.isfinite(e.se)):
+        return e
+    return dataclasses.replace(e, se=math.sqrt(e.se**2 + realisation_var(e.value, dof_est, dof_truth)))
 
 
 def _combo(tab: AnovaTable, coef: dict, scale: float, unit: str, need: str) -> Estimate:
@@ -196,7 +203,7 @@ def decompose_dark(acc: StackAccumulator, table: AnovaTable | None = None) -> di
     for name, (coef, scale, needs) in specs.items():
         msg = _need(tab, *needs)
         out[name] = Estimate.na(msg, u) if msg else _combo(tab, coef, scale, u, msg)
-    out["Ps"] = with_pixel_split(out["Ps"], R, C)
+    out["Ps"] = with_realisation(out["Ps"], (R - 1) * (C - 1), R * C - 1)  # its row and column means
     # With a single frame the spatial parts are still separable (two-way, temporal
     # included) but not unbiased for the fixed pattern alone: reported n/a above.
     return {k: out[k] for k in DARK_NAMES}

@@ -51,12 +51,15 @@ def _k_two_way(N, Rp, Cp, kr, kc):
     ], np.float64)
 
 
-def henderson_two_way(img: np.ndarray, good: np.ndarray, ddof=(0, 0, 0)) -> dict:
+def henderson_two_way(img: np.ndarray, good: np.ndarray, ddof=(0, 0, 0), noise=None) -> dict:
     """Unbiased row / column / residual variances of one image on the good cells.
 
     Returns {"row", "col", "res": (value, variance)} (Henderson method I, variances of the
     estimates by Satterthwaite). ``ddof`` = degrees of freedom used up by a fitted
     surface in the row, column and residual terms (approximate, as ``flat.two_way``).
+    ``noise`` = the image's temporal (row, column, pixel) variances: the variances are then
+    the image's pattern held (``anova.ms_variance``): a row or column mean square's noise its
+    temporal share and the residual's (pattern included), the residual's its temporal one.
     """
     nr, nc, N, Rp, Cp, kr, kc = _layout(good)
     ss = np.array(_spatial_forms(img, good))
@@ -73,6 +76,11 @@ def henderson_two_way(img: np.ndarray, good: np.ndarray, ddof=(0, 0, 0)) -> dict
     Ki = np.linalg.inv(Km)
     th = Ki @ ms
     vms = 2 * ms * ms / (df + 2)
+    if noise is not None:
+        tr, tc, tp = (max(float(x), 0.0) for x in noise)
+        res = max(float(th[2]), tp)  # the residual's variance, pixel pattern and temporal
+        for i, n in enumerate((Km[0] @ (tr, tc, res), Km[1] @ (tr, tc, res), Km[2] @ (tr, tc, tp))):
+            vms[i] = part_variance(ms[i], float(n), df[i], df[i])
     var = (Ki * Ki) @ vms
     return {k: (float(th[i]), float(var[i])) for i, k in enumerate(("row", "col", "res"))}
 
