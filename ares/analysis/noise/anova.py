@@ -24,7 +24,7 @@ var 2 E[MS_k]^2/df_k, E[MS_k]^2 estimated without bias by MS_k^2 df_k/(df_k + 2)
 (Satterthwaite). A spatial one (R, C, RC) is taken given THIS sensor's pattern -- the
 figures are a measurement of this sensor, as the EMVA non-uniformity's
 (``spatial.pattern_se``), not the spread another sensor of the same pattern statistics
-would show (sqrt(2 / df) times the mean square: 3 - 20x larger for Cs, Rs; truth_z.md):
+would show (sqrt(2 / df) times the mean square: up to 16x larger on the main job; truth_z.md):
 MS_k / df_k-scaled is a non-central chi-square in the noise its means hold
 (``pattern_se.part_variance``: var (4 n p + 2 n^2) / df_k, n the noise's share of E[MS_k],
 p = MS_k - n the pattern's). The row and column means' noise is the temporal one and the
