@@ -75,7 +75,8 @@ def _read_noise_with_line_terms(r, stages: list, components: str = "components",
     its white part Pt's chi-square on n_pixels (F - 1) dof with those of Rt and Ct -- not
     the whole variance's as if white, which counts the row and column parts twice."""
     dn, e = r.read_noise_dn, r.read_noise_e
-    comp = stages[0]["views"]["full"].get(components, {}) if stages else {}
+    full = stages[0]["views"]["full"] if stages else {}
+    comp = full.get(components) or full.get("components", {})  # (an older run: no masked components)
     extra = [comp.get(k, {}).get("se") for k in ("Rt", "Ct")]
     extra = [x for x in extra if x is not None and math.isfinite(x)]
     if not extra or not dn.available or not math.isfinite(dn.se) or r.read_noise_is_upper_limit:
