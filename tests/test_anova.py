@@ -27,17 +27,23 @@ REGIMES = {
 }
 
 
-def draw(rng, p, F=F, R=R, C=C, o=100.0):
-    """One stack of the exact random-effects model (float64, frames x rows x cols)."""
+def draw(rng, p, F=F, R=R, C=C, o=100.0, realized=None):
+    """One stack of the exact random-effects model (float64, frames x rows x cols);
+    ``realized`` (a dict) receives this draw's pattern variances (ddof=1: Rs over the rows,
+    Cs over the columns, Ps over every pixel), as the simulator's truth gives them."""
     s = {k: math.sqrt(v) for k, v in p.items()}
     x = rng.standard_normal((F, R, C)) * s["Pt"]
     x += o
     x += (rng.standard_normal(F) * s["frame_global"])[:, None, None]
-    x += (rng.standard_normal(R) * s["Rs"])[None, :, None]
-    x += (rng.standard_normal(C) * s["Cs"])[None, None, :]
+    rs, cs = rng.standard_normal(R) * s["Rs"], rng.standard_normal(C) * s["Cs"]
+    x += rs[None, :, None]
+    x += cs[None, None, :]
     x += (rng.standard_normal((F, R)) * s["Rt"])[:, :, None]
     x += (rng.standard_normal((F, C)) * s["Ct"])[:, None, :]
-    x += (rng.standard_normal((R, C)) * s["Ps"])[None, :, :]
+    ps = rng.standard_normal((R, C)) * s["Ps"]
+    x += ps[None, :, :]
+    if realized is not None:
+        realized.update(Rs=float(rs.var(ddof=1)), Cs=float(cs.var(ddof=1)), Ps=float(ps.var(ddof=1)))
     return x
 
 
@@ -72,8 +78,12 @@ def test_unbiased_and_se(regime, report):
     est = {k: [] for k in DARK_NAMES}
     se = {k: [] for k in DARK_NAMES}
     nv = {k: [] for k in ("Rt", "Ct", "Pt", "Rs", "Cs", "Ps")}
+    real = {k: [] for k in ("Rs", "Cs", "Ps")}  # this draw's pattern variances
     for _ in range(NREP):
-        x = draw(rng, p)
+        one: dict = {}
+        x = draw(rng, p, realized=one)
+        for k in real:
+            real[k].append(one[k])
         acc = StackAccumulator((R, C))
         acc.add_batch(x)
         d = decompose_dark(acc)
@@ -92,7 +102,9 @@ def test_unbiased_and_se(regime, report):
         sd = e.std(ddof=1)
         sem = sd / math.sqrt(NREP)
         z = (e.mean() - p[k]) / sem
-        ratio = math.sqrt(np.mean(s**2)) / sd
+        # a pattern's SE is its measurement error, this sensor's pattern held (anova.py): against
+        # the draw's own pattern variance; a temporal one's against the parameter
+        ratio = math.sqrt(np.mean(s**2)) / (np.std(e - np.array(real[k]), ddof=1) if k in real else sd)
         nmean = f"{np.mean(nv[k]):9.4f} {np.mean(nv[k]) / p[k] - 1:+10.0%}" if k in nv else ""
         report.append(f"  {k:13s} {p[k]:8.4f} {e.mean():9.4f} {z:8.2f} {ratio:8.3f} {nmean}")
         assert abs(z) < 3, (regime, k, e.mean(), p[k], sem)

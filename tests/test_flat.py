@@ -17,17 +17,20 @@ DARK = dict(o=100.0, Pt=2.0, Rt=0.1, Ct=0.05, fg=0.1, Ps=1.0, Rs=0.2, Cs=0.3)
 TRUTH = dict(G=0.5, q=2000.0, Cg=0.004**2, Rg=0.003**2, Pg=0.01**2)  # PRNU dominated
 
 
-def make_patterns(rng, R=R, C=C, grad=0.0):
+def make_patterns(rng, R=R, C=C, grad=0.0, realized=None):
+    """(dark patterns, gain map, illumination); ``realized`` (a dict) receives the drawn gain
+    patterns' variances (ddof=1), as the simulator's truth gives them."""
     dk = dict(
         Rs=rng.standard_normal(R) * math.sqrt(DARK["Rs"]),
         Cs=rng.standard_normal(C) * math.sqrt(DARK["Cs"]),
         Ps=rng.standard_normal((R, C)) * math.sqrt(DARK["Ps"]),
     )
-    gain = (
-        (1 + rng.standard_normal(C) * math.sqrt(TRUTH["Cg"]))[None, :]
-        * (1 + rng.standard_normal(R) * math.sqrt(TRUTH["Rg"]))[:, None]
-        * (1 + rng.standard_normal((R, C)) * math.sqrt(TRUTH["Pg"]))
-    )
+    cg = 1 + rng.standard_normal(C) * math.sqrt(TRUTH["Cg"])
+    rg = 1 + rng.standard_normal(R) * math.sqrt(TRUTH["Rg"])
+    pg = 1 + rng.standard_normal((R, C)) * math.sqrt(TRUTH["Pg"])
+    gain = cg[None, :] * rg[:, None] * pg
+    if realized is not None:
+        realized.update(Cg=float(cg.var(ddof=1)), Rg=float(rg.var(ddof=1)), Pg=float(pg.var(ddof=1)))
     yy, xx = np.meshgrid(np.linspace(-1, 1, R), np.linspace(-1, 1, C), indexing="ij")
     illum = 1 + grad * (0.6 * xx + 0.4 * yy - 0.5 * xx * xx)
     return dk, gain, illum
@@ -67,8 +70,12 @@ def test_gain_components_unbiased(mode, grad, report):
     est = {k: [] for k in keys}
     se = {k: [] for k in keys}
     naive_g = []
+    real = {k: [] for k in ("Cg", "Rg", "Pg")}  # each draw's own gain patterns
     for _ in range(NREP):
-        pats = make_patterns(rng, grad=grad)
+        one: dict = {}
+        pats = make_patterns(rng, grad=grad, realized=one)
+        for k in real:
+            real[k].append(one[k])
         f, d = accs(rng, pats, TRUTH["q"])
         res = decompose_flat(f, d, illumination=mode)
         for k in keys:
@@ -85,7 +92,8 @@ def test_gain_components_unbiased(mode, grad, report):
         e, s = np.array(est[k]), np.array(se[k])
         sd = e.std(ddof=1)
         z = (e.mean() - truth[k]) / (sd / math.sqrt(NREP))
-        ratio = math.sqrt(np.mean(s**2)) / sd
+        # a gain pattern's SE is its measurement error, the draw's pattern held (anova.py)
+        ratio = math.sqrt(np.mean(s**2)) / (np.std(e - np.array(real[k]), ddof=1) if k in real else sd)
         report.append(f"  {k:6s} {truth[k]:11.4g} {e.mean():11.4g} {z:8.2f} {ratio:8.3f}")
         tol_z = 3.0
         if k in ("q", "delta") and mode == "surface":
@@ -175,19 +183,22 @@ def test_highpass_mode_unbiased_with_gradient(report):
     n = 100
     est = {k: [] for k in ("Cg", "Rg", "Pg")}
     se = {k: [] for k in est}
+    real = {k: [] for k in est}
     for _ in range(n):
-        pats = make_patterns(rng, R=72, C=80, grad=0.1)
+        one: dict = {}
+        pats = make_patterns(rng, R=72, C=80, grad=0.1, realized=one)
         f, d = accs(rng, pats, TRUTH["q"])
         res = decompose_flat(f, d, illumination="highpass")
         for k in est:
             est[k].append(res[k].value)
             se[k].append(res[k].se)
+            real[k].append(one[k])
     report.append(f"\n[flat MC] illumination=highpass gradient=0.1: F={F} R=72 C=80, {n} replicates")
     for k in est:
         e, s = np.array(est[k]), np.array(se[k])
         sd = e.std(ddof=1)
         z = (e.mean() - TRUTH[k]) / (sd / math.sqrt(n))
-        ratio = math.sqrt(np.mean(s**2)) / sd
+        ratio = math.sqrt(np.mean(s**2)) / np.std(e - np.array(real[k]), ddof=1)  # the draw's pattern held
         report.append(f"  {k:6s} {TRUTH[k]:11.4g} {e.mean():11.4g} {z:8.2f} {ratio:8.3f}")
         assert abs(z) < 3.5, (k, z)  # approximate mode: kernel factors assume white effects
         assert abs(ratio - 1) < 0.2, (k, ratio)

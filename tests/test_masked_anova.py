@@ -20,12 +20,17 @@ from ares.errors import InputError
 TRUTH = dict(Cs=4.0, Ct=2.25, Rs=1.0, Rt=1.0, Ps=4.0, Pt=9.0, frame_global=4.0)
 
 
-def _cube(rng, F, R, C, level=1000.0, truth=TRUTH):
+def _cube(rng, F, R, C, level=1000.0, truth=TRUTH, parts=None):
+    """A stack of the random-effects model; ``parts`` (a dict) receives its Rs, Cs, Ps maps."""
     sd = {k: math.sqrt(v) for k, v in truth.items()}
-    return (level + rng.normal(0, sd["Pt"], (F, R, C)) + rng.normal(0, sd["Rs"], (1, R, 1))
-            + rng.normal(0, sd["Cs"], (1, 1, C)) + rng.normal(0, sd["Rt"], (F, R, 1))
-            + rng.normal(0, sd["Ct"], (F, 1, C)) + rng.normal(0, sd["frame_global"], (F, 1, 1))
-            + rng.normal(0, sd["Ps"], (1, R, C)))
+    rs, cs = rng.normal(0, sd["Rs"], (1, R, 1)), rng.normal(0, sd["Cs"], (1, 1, C))
+    x = (level + rng.normal(0, sd["Pt"], (F, R, C)) + rs
+         + cs + rng.normal(0, sd["Rt"], (F, R, 1))
+         + rng.normal(0, sd["Ct"], (F, 1, C)) + rng.normal(0, sd["frame_global"], (F, 1, 1)))
+    ps = rng.normal(0, sd["Ps"], (1, R, C))
+    if parts is not None:
+        parts.update(Rs=rs.ravel(), Cs=cs.ravel(), Ps=ps[0])
+    return x + ps
 
 
 def _macc(x, mask):
@@ -105,8 +110,14 @@ def test_monte_carlo_heavy_irregular_mask():
     mask[:, 7] = True
     est = {k: [] for k in TRUTH}
     se = {k: [] for k in TRUTH}
+    real = {k: [] for k in ("Rs", "Cs", "Ps")}  # the draw's patterns over the rows, columns, pixels with good cells
+    good = ~mask
     for _ in range(n):
-        d = decompose_dark(_macc(_cube(rng, F, R, C), mask))
+        parts: dict = {}
+        d = decompose_dark(_macc(_cube(rng, F, R, C, parts=parts), mask))
+        real["Rs"].append(parts["Rs"][good.any(axis=1)].var(ddof=1))
+        real["Cs"].append(parts["Cs"][good.any(axis=0)].var(ddof=1))
+        real["Ps"].append(parts["Ps"][good].var(ddof=1))
         for k in TRUTH:
             est[k].append(d[k].value)
             se[k].append(d[k].se)
@@ -114,7 +125,10 @@ def test_monte_carlo_heavy_irregular_mask():
         e = np.array(est[k])
         sem = e.std(ddof=1) / math.sqrt(n)
         assert abs(e.mean() - t) < 3 * sem, (k, e.mean(), t, sem)
-        ratio = math.sqrt(np.mean(np.square(se[k]))) / e.std(ddof=1)
+        # a pattern's SE is its measurement error, this sensor's pattern held (anova.py): against the
+        # draw's own pattern variance; a temporal one's against the parameter
+        err = e - np.array(real[k]) if k in real else e
+        ratio = math.sqrt(np.mean(np.square(se[k]))) / err.std(ddof=1)
         assert 0.8 < ratio < 1.25, (k, ratio)
 
 

@@ -66,18 +66,26 @@ def signal_se(stage: dict) -> float:
     return math.sqrt(sum((x - m) ** 2 for x in fm) / (len(fm) - 1) / len(fm))
 
 
-def _read_noise_with_line_terms(r, stages: list):
+def _read_noise_with_line_terms(r, stages: list, components: str = "components", dark=None):
     """Read noise with an honest SE: the stack variance's sqrt(2/dof) counts every pixel
     as independent, but its row and column temporal parts (Rt, Ct) are sampled by only
-    rows x frames and cols x frames draws; add the dark ANOVA's SEs of Rt and Ct."""
+    rows x frames and cols x frames draws: the dark ANOVA's (``components``: the view the
+    levels were read from, masked or not) SEs of Rt and Ct are added. From one dark level
+    (``dark``: the matched dark every level reuses) the variance's SE is the ANOVA's whole:
+    its white part Pt's chi-square on n_pixels (F - 1) dof with those of Rt and Ct -- not
+    the whole variance's as if white, which counts the row and column parts twice."""
     dn, e = r.read_noise_dn, r.read_noise_e
-    comp = stages[0]["views"]["full"].get("components", {}) if stages else {}
+    full = stages[0]["views"]["full"] if stages else {}
+    comp = full.get(components) or full.get("components", {})  # (an older run: no masked components)
     extra = [comp.get(k, {}).get("se") for k in ("Rt", "Ct")]
     extra = [x for x in extra if x is not None and math.isfinite(x)]
     if not extra or not dn.available or not math.isfinite(dn.se) or r.read_noise_is_upper_limit:
         return dn, e
     s2 = dn.value**2
     s2_se = math.hypot(2 * dn.value * dn.se, *extra)
+    pt = comp.get("Pt", {}).get("value")
+    if dark is not None and len(extra) == 2 and pt is not None and math.isfinite(pt) and dark.dof > 0:
+        s2_se = math.hypot(math.sqrt(2.0 / dark.dof) * max(pt, 0.0), *extra)
     dn2 = Estimate(dn.value, s2_se / (2 * dn.value), dn.unit, dn.note + "; SE incl. the Rt, Ct sampling")
     k = r.gain_dn_per_e
     if not e.available or not k.available:
@@ -104,7 +112,9 @@ def ptc_one(run, stages: list, analog_gain: float) -> dict:
     r = analyze_ptc(bright, dark, exposure_s=exp if all(math.isfinite(e) for e in exp) else None,
                     photons=photons, adc_lsb_uv=_adc_lsb_uv(run.system), analog_gain=analog_gain,
                     signal_se=[signal_se(s) for s in stages])
-    rn_dn, rn_e = _read_noise_with_line_terms(r, stages)
+    one = {(d.mean, d.var, d.n_pixels, d.n_frames) for d in dark}  # (as read_noise counts them)
+    rn_dn, rn_e = _read_noise_with_line_terms(r, stages, "components_masked" if masked else "components",
+                                              dark[0] if len(one) == 1 else None)
     out = {"analog_gain": analog_gain, "levels": len(stages),
            "defect_pixels_excluded": stages[0]["views"]["full"].get("masked_pixels", 0) if masked else 0}
     out.update(r.to_dict([s["name"] for s in stages]))

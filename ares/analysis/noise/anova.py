@@ -18,9 +18,20 @@ Rt = (MS_FR - MS_E)/C, ..., fg = (MS_F - MS_FR - MS_FC + MS_E)/(R C)). Negative 
 are reported as they come (clipping would bias them); ``sigma_view`` gives clipped
 square roots for display.
 
-Standard errors (Satterthwaite): under normality MS_k ~ E[MS_k] chi2(df_k)/df_k,
-independent, so var(sum a_k MS_k) = sum a_k^2 2 E[MS_k]^2/df_k; E[MS_k]^2 is estimated
-without bias by MS_k^2 df_k/(df_k + 2).
+Standard errors: the mean squares are independent, var(sum a_k MS_k) = sum a_k^2
+var(MS_k). A temporal one (F, FR, FC, E) under normality is E[MS_k] chi2(df_k)/df_k:
+var 2 E[MS_k]^2/df_k, E[MS_k]^2 estimated without bias by MS_k^2 df_k/(df_k + 2)
+(Satterthwaite). A spatial one (R, C, RC) is taken given THIS sensor's pattern -- the
+figures are a measurement of this sensor, as the EMVA non-uniformity's
+(``spatial.pattern_se``), not the spread another sensor of the same pattern statistics
+would show (sqrt(2 / df) times the mean square: up to 16x larger on the main job; truth_z.md):
+MS_k / df_k-scaled is a non-central chi-square in the noise its means hold
+(``pattern_se.part_variance``: var (4 n p + 2 n^2) / df_k, n the noise's share of E[MS_k],
+p = MS_k - n the pattern's). The row and column means' noise is the temporal one and the
+pixel pattern's share (R: Pt + C Rt + F Ps, C: Pt + R Ct + F Ps): a pixel pattern's row
+means are a row pattern no design tells apart, removed as their expectation F Ps, so
+their realisation is an error of Rs and Cs against the sensor's row and column patterns;
+RC's is Pt (the pixel pattern held fixed).
 
 Every sum of squares is an exact function of the accumulator's per-pixel sums and sums
 of squares, per-(frame,row) and per-(frame,column) sums (one pass, any frame count).
@@ -28,15 +39,18 @@ of squares, per-(frame,row) and per-(frame,column) sums (one pass, any frame cou
 
 from __future__ import annotations
 
+import dataclasses
 import math
 from dataclasses import dataclass
 
 import numpy as np
 
 from ares.analysis.noise.accumulate import StackAccumulator
+from ares.analysis.spatial.pattern_se import part_variance
 from ares.analysis.stats.estimate import Estimate
 
-__all__ = ["AnovaTable", "anova_table", "decompose_dark", "sigma_view", "in_electrons", "DARK_NAMES"]
+__all__ = ["AnovaTable", "anova_table", "decompose_dark", "sigma_view", "in_electrons", "DARK_NAMES",
+           "ms_variance", "realisation_var", "with_realisation"]
 
 DARK_NAMES = ("o", "Cs", "Ct", "Rs", "Rt", "Ps", "Pt", "frame_global")
 _EFFECTS = ("F", "R", "C", "FR", "FC", "RC", "E")
@@ -102,12 +116,45 @@ def _table(acc) -> AnovaTable:
     return AnovaTable(F, R, C, m, ss, df)
 
 
+# the temporal mean squares beside MS_E whose excess is noise in a spatial mean square's means
+_NOISE_OF = {"R": ("FR", "RC"), "C": ("FC", "RC"), "RC": ()}
+
+
+def ms_variance(tab: AnovaTable, k: str) -> float:
+    """var(MS_k): a temporal mean square's chi-square (Satterthwaite); a spatial one's given the
+    sensor's pattern, in the noise of its means (module docstring)."""
+    ms, df = tab.ms[k], tab.df[k]
+    if k not in _NOISE_OF:
+        return 2.0 * ms**2 / (df + 2)
+    e = tab.ms["E"]
+    noise = e + sum(max(tab.ms[j] - e, 0.0) for j in _NOISE_OF[k])
+    return part_variance(ms, noise, df, df)
+
+
+def realisation_var(v: float, dof_est: float, dof_truth: float) -> float:
+    """The error a pattern variance's estimator makes against the sensor's whole pattern when it
+    sees only part of it: the pixel pattern's row and column means (the design gives them to Rs
+    and Cs, their expectation removed), a high-pass's low frequencies and dropped border. For a
+    white pattern the whole pattern's sample variance (dof_truth) is sufficient, so an unbiased
+    quadratic estimator of dof_est effective dof is off from it by var 2 v^2 (1 / dof_est -
+    1 / dof_truth) -- for Ps 2 (R + C - 2) Ps^2 / (R C)^2, as large as the temporal error where
+    the pixel pattern outweighs the noise. v below 0: 0."""
+    return 2.0 * max(v, 0.0) ** 2 * max(1.0 / dof_est - 1.0 / dof_truth, 0.0) if dof_est > 0 else math.inf
+
+
+def with_realisation(e: Estimate, dof_est: float, dof_truth: float) -> Estimate:
+    """``e`` with ``realisation_var`` in its SE."""
+    if not (e.available and math.isfinite(e.se)):
+        return e
+    return dataclasses.replace(e, se=math.sqrt(e.se**2 + realisation_var(e.value, dof_est, dof_truth)))
+
+
 def _combo(tab: AnovaTable, coef: dict, scale: float, unit: str, need: str) -> Estimate:
     ms = tab.ms
     if any(tab.df[k] <= 0 for k in coef):
         return Estimate.na(need, unit)
     val = sum(a * ms[k] for k, a in coef.items()) / scale
-    var = sum(a * a * 2.0 * ms[k] ** 2 / (tab.df[k] + 2) for k, a in coef.items()) / scale**2
+    var = sum(a * a * ms_variance(tab, k) for k, a in coef.items()) / scale**2
     return Estimate(float(val), float(math.sqrt(var)), unit)
 
 
@@ -161,6 +208,7 @@ def decompose_dark(acc: StackAccumulator, table: AnovaTable | None = None) -> di
     for name, (coef, scale, needs) in specs.items():
         msg = _need(tab, *needs)
         out[name] = Estimate.na(msg, u) if msg else _combo(tab, coef, scale, u, msg)
+    out["Ps"] = with_realisation(out["Ps"], (R - 1) * (C - 1), R * C - 1)  # its row and column means
     # With a single frame the spatial parts are still separable (two-way, temporal
     # included) but not unbiased for the fixed pattern alone: reported n/a above.
     return {k: out[k] for k in DARK_NAMES}

@@ -48,7 +48,8 @@ import math
 import numpy as np
 
 from ares.analysis.noise.accumulate import StackAccumulator
-from ares.analysis.noise.anova import AnovaTable, anova_table
+from ares.analysis.noise.anova import AnovaTable, anova_table, realisation_var
+from ares.analysis.spatial.pattern_se import part_variance
 from ares.analysis.spatial.nonuniformity import kernel_1d, smooth, white_gains
 from ares.analysis.stats.estimate import EXACT_GAIN, Estimate
 
@@ -114,6 +115,12 @@ def two_way(img: np.ndarray, ddof_rows: int = 0, ddof_cols: int = 0, ddof_res: i
 
 def _v(ms, df):  # unbiased estimate of var(MS) for MS ~ E chi2(df)/df
     return 2.0 * ms * ms / (df + 2) if df > 0 else math.inf
+
+
+def _vp(ms, noise, df):
+    """var(MS) given the sensor's gain pattern, ``noise`` the share of E[MS] its means' noise
+    makes (``anova.ms_variance``: the measurement error of this sensor's pattern)."""
+    return part_variance(ms, max(noise, 0.0), df, df) if df > 0 else math.inf
 
 
 def _fit_surface(d: np.ndarray, order: int, good: np.ndarray | None = None):
@@ -262,6 +269,21 @@ def _lin(terms, scale=1.0):
     return val, var
 
 
+def _highpass_vars(v_r, v_c, p_tot, dfr, dfc, dfe, k1, Rv, Cv, tr, tc, tp, whole):
+    """(Rg, var, Cg, var, var Pg) of the high-passed map's parts (the temporal parts' own
+    errors not in), the patterns held: the filtered row means hold the row pattern, the
+    temporal tr and the pixel part's share p_tot / Cv (its noise), the pixel part p_tot the
+    pixel pattern and tp; dof the filtered field's effective ones (shared by the masked form).
+    ``whole`` = (rows, cols, pixels) of the map before the filter: what the filter and its
+    border leave out of each pattern (``realisation_var``) is an error against the whole."""
+    rg, cg, pg = v_r / k1 - p_tot / Cv - tr, v_c / k1 - p_tot / Rv - tc, p_tot - tp
+    R, C, N = whole
+    var_rg = _vp(v_r / k1, max(tr, 0.0) + p_tot / Cv, dfr) + realisation_var(rg, dfr, R - 1)
+    var_cg = _vp(v_c / k1, max(tc, 0.0) + p_tot / Rv, dfc) + realisation_var(cg, dfc, C - 1)
+    var_pg = _vp(p_tot, tp, dfe) + realisation_var(pg, dfe, N - 1)
+    return rg, var_rg, cg, var_cg, var_pg
+
+
 def _nonuniformity(flat_acc, dark_acc, tf, td, S, var_S, mode, order):
     R, C = flat_acc.shape
     names = ("Cg", "Rg", "Pg")
@@ -285,12 +307,14 @@ def _nonuniformity(flat_acc, dark_acc, tf, td, S, var_S, mode, order):
         tp, vtp = _lin(pix)
         tr, vtr = _lin(row)
         tc, vtc = _lin(col)
+        # the patterns held (anova.py): a row or column mean's noise is the temporal one and the
+        # pixel pattern's share (ms_e); the pixel part's the temporal tp
         pg = ms_e - tp
-        var_pg = _v(ms_e, dfe) + vtp
+        var_pg = _vp(ms_e, tp, dfe) + vtp + realisation_var(pg, dfe, R * C - 1)  # its row and column means
         rg = (ms_r - ms_e) / C - tr
-        var_rg = (_v(ms_r, dfr) + _v(ms_e, dfe)) / C**2 + vtr
+        var_rg = (_vp(ms_r, ms_e + C * max(tr, 0.0), dfr) + _vp(ms_e, tp, dfe)) / C**2 + vtr
         cg = (ms_c - ms_e) / R - tc
-        var_cg = (_v(ms_c, dfc) + _v(ms_e, dfe)) / R**2 + vtc
+        var_cg = (_vp(ms_c, ms_e + R * max(tc, 0.0), dfc) + _vp(ms_e, tp, dfe)) / R**2 + vtc
     else:  # highpass
         if min(R, C) <= 2 * _RAD + 2:
             return {k: Estimate.na(f"region too small for the EMVA high-pass (needs > {2 * _RAD + 2} rows and columns)", "1") for k in names}
@@ -312,14 +336,9 @@ def _nonuniformity(flat_acc, dark_acc, tf, td, S, var_S, mode, order):
         p_tot = v_rc / (k2 - k1 / Cv - k1 / Rv)
         dfe = Rv * Cv / s2
         pg = p_tot - tp
-        var_pg = 2 * p_tot**2 / dfe + vtp
-        r_tot = v_r / k1 - p_tot / Cv
-        c_tot = v_c / k1 - p_tot / Rv
         dfr, dfc = Rv / s1, Cv / s1
-        rg = r_tot - tr
-        var_rg = 2 * (v_r / k1) ** 2 / dfr + vtr
-        cg = c_tot - tc
-        var_cg = 2 * (v_c / k1) ** 2 / dfc + vtc
+        rg, var_rg, cg, var_cg, var_pg = _highpass_vars(v_r, v_c, p_tot, dfr, dfc, dfe, k1, Rv, Cv, tr, tc, tp, (R, C, R * C))
+        var_rg, var_cg, var_pg = var_rg + vtr, var_cg + vtc, var_pg + vtp
     s2_ = norm
     if not s2_ > 0:  # (a flat-field surface or high-pass residue of zero: nothing to normalise by)
         return {k: Estimate.na("no signal above dark to normalise the gain non-uniformity by", "1") for k in names}

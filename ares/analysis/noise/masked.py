@@ -35,9 +35,10 @@ and offset are a common constant): the same forms give F*SS_R, F*SS_C, F*SS_RC
 (df R'-1, C'-1, N-R'-C'+1).
 
 The 7 expected mean squares are a linear map K of (fg, Rt, Ct, Pt, Rs, Cs, Ps);
-``theta = K^-1 MS`` is unbiased. Standard errors as in ``anova.py`` (Satterthwaite,
-MS_k ~ E[MS_k] chi2(df_k)/df_k treated as independent, E[MS]^2 ~ MS^2 df/(df+2)) with
-these reduced degrees of freedom; close to exact for a sparse scattered mask.
+``theta = K^-1 MS`` is unbiased. Standard errors as in ``anova.py`` (the mean squares
+treated as independent; a temporal one's chi-square, Satterthwaite, a spatial one's given
+the sensor's pattern, its noise from K: ``MaskedTable.ms_variances``) with these reduced
+degrees of freedom; close to exact for a sparse scattered mask.
 
 Streaming: ``MaskedStackAccumulator(shape, mask)`` keeps per-pixel sums and sums of
 squares, per-row and per-column sums of squares over frames of the good-pixel row/column

@@ -12,6 +12,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from ares.analysis.spatial.pattern_se import part_variance
 from ares.errors import InputError
 
 _THETA = ("frame_global", "Rt", "Ct", "Pt", "Rs", "Cs", "Ps")
@@ -50,12 +51,15 @@ def _k_two_way(N, Rp, Cp, kr, kc):
     ], np.float64)
 
 
-def henderson_two_way(img: np.ndarray, good: np.ndarray, ddof=(0, 0, 0)) -> dict:
+def henderson_two_way(img: np.ndarray, good: np.ndarray, ddof=(0, 0, 0), noise=None) -> dict:
     """Unbiased row / column / residual variances of one image on the good cells.
 
     Returns {"row", "col", "res": (value, variance)} (Henderson method I, variances of the
     estimates by Satterthwaite). ``ddof`` = degrees of freedom used up by a fitted
     surface in the row, column and residual terms (approximate, as ``flat.two_way``).
+    ``noise`` = the image's temporal (row, column, pixel) variances: the variances are then
+    the image's pattern held (``anova.ms_variance``): a row or column mean square's noise its
+    temporal share and the residual's (pattern included), the residual's its temporal one.
     """
     nr, nc, N, Rp, Cp, kr, kc = _layout(good)
     ss = np.array(_spatial_forms(img, good))
@@ -72,6 +76,11 @@ def henderson_two_way(img: np.ndarray, good: np.ndarray, ddof=(0, 0, 0)) -> dict
     Ki = np.linalg.inv(Km)
     th = Ki @ ms
     vms = 2 * ms * ms / (df + 2)
+    if noise is not None:
+        tr, tc, tp = (max(float(x), 0.0) for x in noise)
+        res = max(float(th[2]), tp)  # the residual's variance, pixel pattern and temporal
+        for i, n in enumerate((Km[0] @ (tr, tc, res), Km[1] @ (tr, tc, res), Km[2] @ (tr, tc, tp))):
+            vms[i] = part_variance(ms[i], float(n), df[i], df[i])
     var = (Ki * Ki) @ vms
     return {k: (float(th[i]), float(var[i])) for i, k in enumerate(("row", "col", "res"))}
 
@@ -108,13 +117,29 @@ class MaskedTable:
         ms = np.array([self.ms[k] for k in _MS_KEYS])
         return Ki @ ms, Ki
 
+    def ms_variances(self) -> np.ndarray:
+        """var(MS_k) in ``_MS_KEYS`` order, as ``anova.ms_variance``: a temporal mean square's
+        chi-square (Satterthwaite); a spatial one's given the sensor's pattern
+        (``pattern_se.part_variance``), its noise E[MS_k] with the patterns held fixed set to 0
+        (R, C: Rs and Cs -- the pixel pattern's share in the means is noise to them; RC: Ps too)."""
+        th, _ = self.estimates()
+        th = np.maximum(th, 0.0)
+        ms = np.array([self.ms[k] for k in _MS_KEYS])
+        df = np.array([self.df[k] for k in _MS_KEYS], float)
+        out = 2 * ms * ms / (df + 2)
+        for k, fixed in (("R", ("Rs", "Cs")), ("C", ("Rs", "Cs")), ("RC", ("Rs", "Cs", "Ps"))):
+            i = _MS_KEYS.index(k)
+            t = th.copy()
+            t[[_THETA.index(f) for f in fixed]] = 0.0
+            out[i] = part_variance(ms[i], float(self.K[i] @ t), df[i], df[i])
+        return out
+
     def combo(self, coef_theta) -> tuple[float, float]:
-        """Value and Satterthwaite variance of sum coef*theta."""
+        """Value and variance of sum coef*theta (``ms_variances``)."""
         th, Ki = self.estimates()
         a = np.asarray(coef_theta, float) @ Ki  # coefficients on the MS
         ms = np.array([self.ms[k] for k in _MS_KEYS])
-        df = np.array([self.df[k] for k in _MS_KEYS], float)
-        return float(a @ ms), float(((a * a) * 2 * ms * ms / (df + 2)).sum())
+        return float(a @ ms), float(((a * a) * self.ms_variances()).sum())
 
 
 def masked_table(acc) -> MaskedTable:

@@ -6,7 +6,7 @@ import math
 import numpy as np
 from ares.errors import InputError
 from ares.analysis.noise import flat as _flat
-from ares.analysis.noise.anova import DARK_NAMES
+from ares.analysis.noise.anova import DARK_NAMES, realisation_var, with_realisation
 from ares.analysis.stats.estimate import Estimate
 from ares.analysis.spatial.nonuniformity import smooth
 from ares.analysis.noise.masked_anova import _THETA, MaskedTable, henderson_two_way
@@ -35,6 +35,7 @@ def decompose_dark_masked(acc, table: MaskedTable | None = None) -> dict[str, Es
         out[name] = Estimate(val, math.sqrt(var), u)
     # (never below the pixel temporal noise's share Pt / (F N), as ``anova.decompose_dark``: an SE of 0 is "exact")
     out["o"] = Estimate(tab.mean, math.sqrt(max(v, out["Pt"].value / (F * N), 0.0)), "DN")
+    out["Ps"] = with_realisation(out["Ps"], tab.df["RC"], N - 1)  # its row and column means
     return {k: out[k] for k in DARK_NAMES}
 
 
@@ -119,9 +120,10 @@ def _nonuniformity(flat_acc, dark_acc, tf, td, S, var_S, mode, order):
             d = d - fit
             norm = float(np.mean(fit[good] ** 2))
             ddof = (nr_, nc_, nm_)
-        h = henderson_two_way(d, good, ddof)
+        h = henderson_two_way(d, good, ddof, noise=(tr, tc, tp))  # the gain pattern held
         (rv, vr), (cv, vc), (pv, vp) = h["row"], h["col"], h["res"]
-        pg, var_pg = pv - tp, vp + vtp
+        n_good, rp, cp = int(good.sum()), int(good.any(axis=1).sum()), int(good.any(axis=0).sum())
+        pg, var_pg = pv - tp, vp + vtp + realisation_var(pv - tp, n_good - rp - cp + 1 - ddof[2], n_good - 1)
         rg, var_rg = rv - tr, vr + vtr
         cg, var_cg = cv - tc, vc + vtc
     else:
@@ -159,13 +161,9 @@ def _nonuniformity(flat_acc, dark_acc, tf, td, S, var_S, mode, order):
         p_tot = v_rc / (k2 - k1 / Cv - k1 / Rv)
         dfe = g.sum() / s2
         pg = p_tot - tp
-        var_pg = 2 * p_tot**2 / dfe + vtp
-        r_tot = v_r / k1 - p_tot / Cv
-        c_tot = v_c / k1 - p_tot / Rv
-        rg = r_tot - tr
-        var_rg = 2 * (v_r / k1) ** 2 / (Rv / s1) + vtr
-        cg = c_tot - tc
-        var_cg = 2 * (v_c / k1) ** 2 / (Cv / s1) + vtc
+        rg, var_rg, cg, var_cg, var_pg = _flat._highpass_vars(v_r, v_c, p_tot, Rv / s1, Cv / s1, dfe, k1, Rv, Cv,
+                                                              tr, tc, tp, (R, C, int(good.sum())))
+        var_rg, var_cg, var_pg = var_rg + vtr, var_cg + vtc, var_pg + vtp
     out = {}
     for k, val, var in (("Cg", cg, var_cg), ("Rg", rg, var_rg), ("Pg", pg, var_pg)):
         rel = val / norm

@@ -26,10 +26,12 @@ QUANT_FLOOR_DN = 0.49  # DN, the sigma_y.dark set in its place (Eq. 54: sigma_d 
 def read_noise(dark: Sequence[LevelStats], exposure_s: Sequence[float] | None,
                gain: Estimate) -> tuple[Estimate, Estimate, bool]:
     """sigma_y.dark (DN, intercept at t=0 when >= 3 exposures) and read noise in e-."""
-    # the same dark level may serve several bright levels: count each once
-    seen: dict[int, int] = {}
+    # the same dark level may serve several bright levels: count each once -- by its numbers,
+    # not its identity (a run's stages each carry their own copy of a reused matched dark: 25
+    # copies counted 25 times made the weighted mean's SE 5x too small)
+    seen: dict[tuple, int] = {}
     for i, d in enumerate(dark):
-        seen.setdefault(id(d), i)
+        seen.setdefault((d.mean, d.var, d.n_pixels, d.n_frames), i)
     keep = sorted(seen.values())
     dark = [dark[i] for i in keep]
     v = np.array([d.var for d in dark], float)
