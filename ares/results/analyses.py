@@ -11,7 +11,7 @@ import math
 import warnings
 
 from ares.analysis.stats.estimate import Estimate
-from ares.analysis.stats.physical import resolved
+from ares.analysis.stats.physical import resolved, variances_in_range
 from ares.results.registry import register_scan_analysis
 
 
@@ -161,11 +161,15 @@ def decomposition(run) -> dict:
     if st is None:
         return {"status": "not available", "note": "no stages"}
     full = st["views"]["full"]
-    out = {"stage": st["name"], "scene": st.get("scene"), "settings": st["settings"], "components": full["components"]}
+    def judged(comps: dict) -> dict:  # a variance not resolved from 0 is its upper limit, as every surface shows it
+        return {k: e.to_dict() for k, e in variances_in_range({k: Estimate.from_dict(d) for k, d in comps.items()}).items()}
+
+    out = {"stage": st["name"], "scene": st.get("scene"), "settings": st["settings"],
+           "components": judged(full["components"])}
     if "components_masked" in full:
         # the headline components exclude the defect pixels (ares.scan.defect_mask); the
         # unmasked ones stay beside them
-        out.update(components=full["components_masked"], components_unmasked=full["components"],
+        out.update(components=judged(full["components_masked"]), components_unmasked=judged(full["components"]),
                    **{k: v for k, v in (st.get("defect_mask") or {}).items()})
     elif st.get("defect_mask"):
         out["mask_note"] = "no masked figures for this stage (its dark was taken before the defect mask)"
