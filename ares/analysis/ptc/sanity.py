@@ -37,7 +37,7 @@ TURNOFF_MIN_FRACTION = 0.05
 PRECISION = 0.03  # a headline turnoff or charge capacity is "ok" only when located to 3 %
 PRECISION_SE = 2.0  # ... by its identification, and by K to PRECISION_SE standard errors (K's SE <= 1.5 %)
 # (K's SE taken from its own line's residual scatter on few levels already carries Student's t:
-# ``photon_transfer._gain_estimates``, ``fit.residual_se_widening``)
+# ``headline.gain_estimates``, ``fit.residual_se_widening``)
 
 
 def _interval(br, charge: bool = False) -> tuple[float, float]:

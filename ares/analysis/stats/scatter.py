@@ -13,7 +13,8 @@ claimed errors:
   only the noise (and a sharp corner such as a turnoff, a few points) is left.
 - ``measured_scatter``: the robust (MAD) scale of those residuals in units of the claimed
   errors -- ``ratio`` 1 when the errors describe the data -- with its own SE, and the
-  verdict whether the two disagree (``disagree``) beyond that SE.
+  verdict whether the two disagree (``disagree``) beyond that SE; ``local_z``: each point's
+  residual in units of its claimed error (an outlier row is one far out: ``ptc.headline``).
 
 Linear in the number of points (vectorised 3x3 solves). Pure numpy: no I/O.
 """
@@ -62,6 +63,15 @@ def local_residuals(x, y) -> tuple[np.ndarray, np.ndarray]:
     return y - pred, 1.0 + np.einsum("ij,ij->i", w, w)
 
 
+def local_z(x, y, e) -> np.ndarray:
+    """Each point's ``local_residuals`` residual in units of its claimed error -- the point's
+    own and its neighbours' (the local fit's noise, weights ~ equal). ``x`` sorted, >= 5 points."""
+    e = np.asarray(e, float)
+    r, f = local_residuals(x, y)
+    nb = _neighbours(e.size)
+    return r / np.sqrt(e * e + (f - 1.0) * np.mean(e[nb] ** 2, axis=1))
+
+
 @dataclass(frozen=True)
 class Scatter:
     """Measured scatter in units of the claimed errors."""
@@ -93,12 +103,7 @@ def measured_scatter(x, y, y_err, tolerance: float = 1.5, nsigma: float = 3.0) -
         return Scatter(math.nan, math.nan, n, False, f"{n} points: too few to measure their scatter "
                                                      f"(needs >= {MIN_POINTS})")
     o = np.argsort(x, kind="stable")
-    x, y, e = x[o], y[o], e[o]
-    r, f = local_residuals(x, y)
-    nb = _neighbours(n)
-    # the claimed error of a residual: the point's own and its neighbours' (weights ~ equal)
-    scale = np.sqrt(e * e + (f - 1.0) * np.mean(e[nb] ** 2, axis=1))
-    z = r / scale
+    z = local_z(x[o], y[o], e[o])
     med = float(fast_median(z))
     ratio = MAD_TO_SIGMA * float(fast_median(np.abs(z - med)))
     se = 1.17 * ratio / math.sqrt(n)
