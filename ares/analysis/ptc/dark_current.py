@@ -22,7 +22,7 @@ import numpy as np
 
 from ares.analysis.stats.estimate import Estimate
 from ares.analysis.stats.median import n_distinct
-from ares.analysis.stats.physical import in_range
+from ares.analysis.stats.physical import in_range, resolved
 from ares.analysis.ptc.dark_drift import CLOCK_R2, DriftFit, drift_fit
 from ares.analysis.ptc.fit import line_fit, residual_se_widening, wls_line
 
@@ -45,6 +45,8 @@ def _div(e: Estimate, k: Estimate | float, unit: str, note: str) -> Estimate:
     if not e.available or not math.isfinite(kv) or kv == 0:
         return Estimate.na("gain not available" if e.available else e.note, unit)
     v = e.value / kv
+    if e.bound:  # a limit stays a limit (K's own SE is small beside the 3 SE that made it)
+        return Estimate.limit(v, e.bound, unit, f"{note}: {e.note}")
     return Estimate(v, math.hypot(e.se / kv, v * kse / kv), unit, note)
 
 
@@ -210,12 +212,17 @@ def dsnu_vs_exposure(exposure_s, sigma_spatial_dn, gain_dn_per_e: Estimate | flo
     r = s2 * w - Aw @ coef
     dof = max(t.size - 2, 1)
     cov = np.linalg.inv(Aw.T @ Aw) * float(r @ r) / dof
-    se = np.sqrt(np.diag(cov))
+    se = np.sqrt(np.diag(cov)) * residual_se_widening(dof)  # the residual scatter's: Student's t
     a2, d2 = coef
 
     def root(v, sev, unit, note):
-        if v <= 0:
-            return Estimate.na(f"fitted square {v:.3g} <= 0", unit)
+        """The root of a fitted square; a square not resolved from 0 (SE above it) gives only the
+        upper limit sqrt(square + 3 SE) (``physical.resolved``; issue 48: DSNU 0.16 ± 0.67 DN/s was "ok")."""
+        sq = resolved(Estimate(v, sev, f"({unit})^2", note), f"the fitted square of the {note.split(':')[0]}",
+                      side="upper")
+        if sq.bound:
+            return (Estimate.limit(math.sqrt(sq.value), "upper", unit, sq.note) if sq.value > 0 else
+                    Estimate.na(f"fitted square {v:.3g} ± {sev:.2g} <= 0 even at 3 SE", unit))
         return Estimate(math.sqrt(v), sev / (2 * math.sqrt(v)), unit, note)
 
     a = root(a2, se[0], "DN", "offset FPN (t = 0)")
