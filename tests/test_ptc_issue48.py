@@ -165,13 +165,14 @@ def test_a_wild_row_before_the_turnover_is_no_top_to_fall_below(frac):
     assert S[n - 1] == pytest.approx(S[S <= 8000].max(), rel=0.03)
 
 
-@pytest.mark.parametrize("i", [85, 830, 1343])
-def test_heavy_tailed_scatter_gives_no_absurd_or_wrong_ok(tmp_path, i):
+@pytest.mark.parametrize("i, seed", [(85, 0), (830, 0), (1343, 0), (1866, 1)])
+def test_heavy_tailed_scatter_gives_no_absurd_or_wrong_ok(tmp_path, i, seed):
     """Corpus curves with Student's t (3 dof) per-level noise, a family the rules were not
-    developed on (``ptc_corpus.case(tails="t3")``): each gave an "ok" turnoff 2-14x below the
-    truth (a wild row before the turnover taken for the top of the curve); now "ok" and
-    within 3 % (benchmarks/ptc_corpus.md, "Heavy-tailed scatter")."""
-    c = case(i, tails="t3")
+    developed on (``ptc_corpus.case(tails="t3")``): each gave an "ok" turnoff 1.5-14x below
+    the truth (a wild row before the turnover -- 9 SE but only 8.6 % high on seed 1 curve 1866
+    -- taken for the top of the curve); now "ok" and within 3 % (benchmarks/ptc_corpus.md,
+    "Heavy-tailed scatter")."""
+    c = case(i, seed, tails="t3")
     d, j = run_case(c, tmp_path)
     assert not j["absurd"], j["absurd"]
     assert d["turnoff_dn"]["verdict"] != "ok" or j["turnoff"], (d["turnoff_dn"], c.truth["turnoff_dn"])

@@ -209,7 +209,7 @@ def ptc_turnoff_found(signal, var, var_se, nsigma: float = 4.0, min_levels: int 
     s0 = np.sqrt(np.maximum(np.einsum("mi,mij,mj->m", a0, cov, a0), 0.0)) * scale
     p0 = np.einsum("mi,mi->m", a0, coef) + np.polyval(ref, x[i])
     vt = v.copy()
-    vt[i[v[i] - p0 > np.maximum(nsigma * np.hypot(e[i] * scale, s0), flat_floor * np.abs(p0))]] = -np.inf
+    vt[i[v[i] - p0 > nsigma * np.hypot(e[i] * scale, s0)]] = -np.inf
     def top(w):  # the highest variance under each level i, and its error
         runmax = np.maximum.accumulate(w)
         idx = np.maximum.accumulate(np.where(np.concatenate([[True], w[1:] >= runmax[:-1]]), np.arange(n), 0))
