@@ -14,6 +14,7 @@ import math
 import numpy as np
 
 from ares.analysis.stats.estimate import Estimate
+from ares.analysis.stats.median import fast_median
 from ares.analysis.ptc.fit import (RUNS_P, LineFit, choose_gain_model, line_fit, origin_fit, residual_se_widening,
                                    runs_p)
 from ares.analysis.ptc.saturation import PtcLevel
@@ -138,7 +139,7 @@ def drop_outliers(fit: list[PtcLevel]) -> tuple[list[PtcLevel], list[PtcLevel]]:
         if not (np.all(np.isfinite(E)) and np.all(E > 0)):
             break
         z = local_z(S, V, E)
-        ratio = max(MAD_TO_SIGMA * float(np.median(np.abs(z - np.median(z)))), 1.0)
+        ratio = max(MAD_TO_SIGMA * float(fast_median(np.abs(z - fast_median(z)))), 1.0)
         if not np.max(np.abs(z)) > OUTLIER_SE * ratio:
             break
         # a wild row drags its neighbours' local curves too: of the five levels farthest out, the
