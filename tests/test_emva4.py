@@ -135,6 +135,24 @@ def test_reference_ccd_release_4_near_the_published_release_3_values(capsys):
     assert 0 < v["sigma_y_stack_dark"]["se"] < 1e-2 * v["sigma_y_stack_dark"]["value"]
 
 
+def test_release3_figures_in_electrons_carry_its_k_as_the_zero_signal_gain():
+    """The same bending curve under Release 3.0's definitions: its K (an origin fit up to 70 %
+    of saturation) is low by more of its SEs than Eq. 50's; QE and sigma_d keep their values
+    and their SEs now cover the truth (one rule, ``emva.gain_term``), the note names the K."""
+    from ares.analysis.emva.release3 import TemporalData, _emva1288_results, emva1288_results
+
+    b, d, tr, up = levels(MU, a00=-1e-6)
+    td = TemporalData(np.arange(1.0, MU.size + 1), up, np.array([x.mean for x in b]), np.array([x.var for x in b]),
+                      np.array([x.mean for x in d]), np.array([x.var for x in d]), b[0].n_pixels)
+    r = emva1288_results(td)
+    plain = _emva1288_results(td, None, None, None, False)[0]
+    assert (r.values["K"].value - K) / r.values["K"].se < -5 and r.values["K"].se == plain.values["K"].se
+    for v, p, key, truth in ((r.values, plain.values, "QE", 100 * ETA), (r.extra, plain.extra, "sigma_d", READ)):
+        assert v[key].value == p[key].value
+        assert not within(p[key], truth) and within(v[key], truth), (key, v[key], p[key])
+        assert "origin-fit K (Release 3.0) - zero-signal K" in v[key].note
+
+
 def test_figures_in_electrons_carry_eq50_k_as_the_zero_signal_gain():
     """A photon-transfer curve that bends (Astier 2019 a00 = -1e-6 / e-: brighter-fatter) with
     a known gain at zero signal: Eq. 50's line over 0 - 70 % of saturation is ~1 % low, ~10 of

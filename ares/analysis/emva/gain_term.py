@@ -46,6 +46,7 @@ class GainTerm:
     se: float  # the SE of Eq. 50's K as the zero-signal gain: max(K's, hypot(diff, K_0's SE)); K's without K_0
     k_se: float  # Eq. 50's own SE (the regression's)
     sentence: str
+    name: str = "Eq. 50's K"  # the K the figures are divided by (Release 3.x: the origin fit's)
 
     @property
     def widens(self) -> bool:
@@ -56,9 +57,9 @@ class GainTerm:
         return 1.0 - (self.k_se / self.se) ** 2 if self.se > 0 else 0.0
 
 
-def gain_term(mu, var, var_se, dof, K: Estimate) -> GainTerm:
+def gain_term(mu, var, var_se, dof, K: Estimate, name: str = "Eq. 50's K") -> GainTerm:
     """The zero-signal K of the levels Eq. 50 fitted (``mu``, ``var``: dark-subtracted signal
-    and temporal variance, ``var_se`` their variance SEs) and Eq. 50's K's uncertainty as
+    and temporal variance, ``var_se`` their variance SEs) and Eq. 50's K's (``name``) uncertainty as
     that gain (module docstring)."""
     from ares.analysis.ptc.fit import astier_fit, residual_se_widening
 
@@ -68,21 +69,21 @@ def gain_term(mu, var, var_se, dof, K: Estimate) -> GainTerm:
     if not (math.isfinite(g) and g > 0 and math.isfinite(af.gain_se)):
         why = (f"the zero-signal gain is not determined by these {mu.size} levels (the Astier 2019 fit needs >= 4 "
                "and did not converge)")
-        return GainTerm(Estimate.na(why, "DN/e-"), math.nan, math.nan, K.se, K.se, why + ": no gain term")
+        return GainTerm(Estimate.na(why, "DN/e-"), math.nan, math.nan, K.se, K.se, why + ": no gain term", name)
     w = residual_se_widening(af.n - 3) if af.chi2_red > 1 else 1.0
     k0 = Estimate(1 / g, w * af.gain_se / g ** 2, "DN/e-", f"Astier 2019 fit of the same {af.n} levels, a00 = "
                                                           f"{af.a00:.3g} ± {af.a00_se:.2g} 1/e-")
     if not k0.value > 3 * k0.se:  # (as the headline: a zero-signal K 3 SE do not bound is not measured)
         why = f"the zero-signal gain of these {af.n} levels, {k0.text()}, is not measured (3 SE exceed it)"
-        return GainTerm(Estimate.na(why, "DN/e-"), math.nan, math.nan, K.se, K.se, why + ": no gain term")
+        return GainTerm(Estimate.na(why, "DN/e-"), math.nan, math.nan, K.se, K.se, why + ": no gain term", name)
     diff = K.value - k0.value
     diff_se = math.hypot(K.se, k0.se)
     se = max(K.se, math.hypot(diff, k0.se))
-    sentence = (f"Eq. 50's K {K.text()} as the gain at zero signal: the same levels' zero-signal K is {k0.text()} "
+    sentence = (f"{name} {K.text()} as the gain at zero signal: the same levels' zero-signal K is {k0.text()} "
                 f"(Astier 2019), a difference of {Estimate(diff, diff_se, 'DN/e-').text()} "
                 f"({abs(diff) / diff_se:.2g} SE); the figures in electrons and photons carry K's uncertainty as that "
-                f"gain, hypot(difference, its SE) = {se:.2g} DN/e- ({se / K.se:.2g}x Eq. 50's SE)")
-    return GainTerm(k0, diff, diff_se, se, K.se, sentence)
+                f"gain, hypot(difference, its SE) = {se:.2g} DN/e- ({se / K.se:.2g}x its own SE)")
+    return GainTerm(k0, diff, diff_se, se, K.se, sentence, name)
 
 
 def attribute(widened: dict[str, Estimate], plain: dict[str, Estimate], term: GainTerm) -> dict[str, Estimate]:
@@ -98,7 +99,7 @@ def attribute(widened: dict[str, Estimate], plain: dict[str, Estimate], term: Ga
             continue
         share = 1.0 - (p.se / e.se) ** 2
         note = (f"{e.note}; SE {e.se:.2g} {e.unit}".rstrip() + f", {100 * share:.0f} % of its variance the gain "
-                f"term (without it {p.se:.2g}): K as the zero-signal gain, hypot(Eq. 50 K - zero-signal K "
+                f"term (without it {p.se:.2g}): K as the zero-signal gain, hypot({term.name} - zero-signal K "
                 f"{term.diff:+.2g}, its SE {term.k0.se:.2g}) DN/e- (ares.analysis.emva.gain_term)")
         out[k] = Estimate(e.value, e.se, e.unit, note, e.bound, e.exact)
     return out

@@ -35,6 +35,7 @@ from typing import Sequence
 
 import numpy as np
 
+from ares.analysis.emva.gain_term import GainTerm, attribute, gain_term
 from ares.analysis.emva.sanity import judge
 from ares.analysis.stats.estimate import EXACT_PHOTONS, Estimate
 from ares.analysis.ptc.levels import SpatialStats, pair_stats, spatial_stats
@@ -105,7 +106,23 @@ def emva1288_results(temporal: TemporalData, spatial_bright: SpatialStats | None
     """The Release 3.0 set as the reference implementation computes it. Each figure whose
     preconditions fail (no two levels with signal up to 70 % of saturation, a gain or a
     responsivity that does not rise, photon counts all zero, no level in the linearity
-    window) is "not available" with the reason, never a number from a failed fit."""
+    window) is "not available" with the reason, never a number from a failed fit. The
+    figures in electrons and photons carry K's uncertainty as the zero-signal gain, as 4.0's
+    (``gain_term``; the dark current keeps the regression's SE, as 4.0's Section 7.1 does);
+    each widened figure's note says how much of its SE that is, K's note the comparison."""
+    r, gt = _emva1288_results(temporal, spatial_bright, spatial_dark, index_u_ysat, True)
+    if gt is not None and gt.widens:
+        plain, _ = _emva1288_results(temporal, spatial_bright, spatial_dark, index_u_ysat, False)
+        r.values = attribute(r.values, plain.values, gt)
+        r.extra = attribute(r.extra, plain.extra, gt)
+        k = r.values["K"]
+        r.values["K"] = Estimate(k.value, k.se, k.unit, f"{k.note}; {gt.sentence}")
+    return r
+
+
+def _emva1288_results(temporal: TemporalData, spatial_bright: SpatialStats | None,
+                      spatial_dark: SpatialStats | None, index_u_ysat: int | None,
+                      with_gain_term: bool) -> tuple[Emva1288Result, "GainTerm | None"]:
     td = temporal
     Y = td.u_y - td.u_ydark
     V = td.s2_y - td.s2_ydark
@@ -115,7 +132,7 @@ def emva1288_results(temporal: TemporalData, spatial_bright: SpatialStats | None
     vals: dict[str, Estimate] = {}
     extra: dict[str, Estimate] = {}
     na = Estimate.na
-    K = R = math.nan
+    K = R = K_se = math.nan
     if not (Y[isat] > 0 and imax >= 1):
         why_k = why_r = (f"no two levels with signal above dark up to 70 % of saturation (signal at saturation "
                          f"{Y[isat]:.3g} DN)")
@@ -128,14 +145,20 @@ def emva1288_results(temporal: TemporalData, spatial_bright: SpatialStats | None
                  "the data set gives no photon counts (all 0)" if not np.any(td.u_p[sl] > 0) else
                  f"the signal does not rise with the photon counts (responsivity {R:.3g} DN/photon)")
     why_qe = why_k or why_r
+    gt = None
     if not why_k:
         vals["K"] = Estimate(K, K_se, "DN/e-", "origin fit of s2_y-s2_y.dark vs mu_y-mu_y.dark up to 70 % sat")
+        if with_gain_term and td.n_pixels:  # (each pair variance's SE: sqrt(2 / n) s2, n pixels)
+            n = np.full(imax + 1, float(td.n_pixels))
+            gt = gain_term(Y[sl], V[sl], np.sqrt(2.0 / n) * np.hypot(td.s2_y[sl], td.s2_ydark[sl]), n, vals["K"],
+                           "the origin-fit K (Release 3.0)")
     else:
         vals["K"] = na(why_k, "DN/e-")
+    K_se_e = gt.se if gt is not None else K_se  # K's SE in the figures in electrons and photons
     extra["R"] = Estimate(R, R_se, "DN/p", "responsivity, origin fit") if not why_r else na(why_r, "DN/p")
     if not why_qe:
         QE = R / K
-        QE_se = QE * math.hypot(R_se / R, K_se / K)
+        QE_se = QE * math.hypot(R_se / R, K_se_e / K)
         vals["QE"] = Estimate(100 * QE, 100 * QE_se, "%", "R/K")
     else:
         vals["QE"] = na(why_qe, "%")
@@ -162,7 +185,7 @@ def emva1288_results(temporal: TemporalData, spatial_bright: SpatialStats | None
     if not why_k:
         sigma_d = math.sqrt(s2d - S2Q) / K
         extra["sigma_d"] = (Estimate.limit(sigma_d, "upper", "e-", "sqrt(0.24 - 1/12)/K; " + why_floor) if floored
-                            else Estimate(sigma_d, sigma_d * K_se / K, "e-", "sqrt(sigma_y.dark^2 - 1/12)/K"))
+                            else Estimate(sigma_d, sigma_d * K_se_e / K, "e-", "sqrt(sigma_y.dark^2 - 1/12)/K"))
     else:
         extra["sigma_d"] = na(why_k, "e-")
 
@@ -170,7 +193,7 @@ def emva1288_results(temporal: TemporalData, spatial_bright: SpatialStats | None
     extra["u_p_sat"] = Estimate.declared(u_p_sat, "p", EXACT_PHOTONS,
                                          "photons at the maximum-variance level (the data set's photon count)")
     if not why_k and Y[isat] > 0:
-        extra["u_e_sat_signal"] = Estimate(Y[isat] / K, Y[isat] / K * K_se / K, "e-",
+        extra["u_e_sat_signal"] = Estimate(Y[isat] / K, Y[isat] / K * K_se_e / K, "e-",
                                            "(mu_y.sat - mu_y.dark)/K (alternative definition)")
     else:
         extra["u_e_sat_signal"] = na(why_k or "no signal at saturation", "e-")
@@ -186,11 +209,11 @@ def emva1288_results(temporal: TemporalData, spatial_bright: SpatialStats | None
         # SEs (issue 52): sigma_y.dark's, K's and R's, first order and independent; mu_p.sat is the
         # level's given photon count (no SE); sigma_y.dark's SE is 0 where two exposures cannot give it
         syd_se = vals["sigma_y_dark"].se if math.isfinite(vals["sigma_y_dark"].se) else 0.0
-        p_se = math.hypot(syd_se / R, K_se / (2 * R), u_p_min * R_se / R)
+        p_se = math.hypot(syd_se / R, K_se_e / (2 * R), u_p_min * R_se / R)
         why_se = "" if math.isfinite(vals["sigma_y_dark"].se) else "; SE without sigma_y.dark's (not measured)"
         extra["u_p_min"] = Estimate(u_p_min, p_se, "p", "(sigma_y.dark/K + 1/2)/QE" + why_se)
         u_e_min = QE * u_p_min  # = sigma_y.dark/K + 1/2
-        extra["u_e_min"] = Estimate(u_e_min, math.hypot(syd_se / K, syd / K * K_se / K), "e-", "QE * mu_p.min" + why_se)
+        extra["u_e_min"] = Estimate(u_e_min, math.hypot(syd_se / K, syd / K * K_se_e / K), "e-", "QE * mu_p.min" + why_se)
         DR = u_p_sat / u_p_min
         DR_se = DR * p_se / u_p_min
         vals["DR"] = Estimate(DR, DR_se, "", "mu_p.sat / mu_p.min" + why_se)
@@ -226,7 +249,7 @@ def emva1288_results(temporal: TemporalData, spatial_bright: SpatialStats | None
         # (its SE: the temporal noise left in the stack average, as Release 4.0's
         # (``spatial.nonuniformity``), with K's; a variance not above 2 SE is an upper limit)
         vals["DSNU1288"] = (na(why_k, "e-") if why_k else
-                            std_estimate(s2yd, _spatial_se(spatial_dark), 1.0 / K, K_se / K, "e-",
+                            std_estimate(s2yd, _spatial_se(spatial_dark), 1.0 / K, K_se_e / K, "e-",
                                           "sqrt(s2_y.dark spatial)/K, stack average, temporal/L removed")
                             if s2yd >= 0 else na("negative dark spatial variance", "e-"))
         # in DN: the spatial std with its own SE (no K in it), as Release 4.0's (``nonuniformity.dsnu``)
@@ -265,7 +288,7 @@ def emva1288_results(temporal: TemporalData, spatial_bright: SpatialStats | None
     tmax = float(np.max(td.texp_s)) if np.size(td.texp_s) else None
     vals, extra = (judge(vals, saturation=sat, longest_exposure_s=tmax),
                    judge(extra, saturation=sat, longest_exposure_s=tmax))
-    return Emva1288Result(vals, isat, imax, dev, td, extra)
+    return Emva1288Result(vals, isat, imax, dev, td, extra), gt
 
 
 def _linearity(u_p: np.ndarray, Y: np.ndarray, isat: int) -> tuple[np.ndarray, slice, str]:
