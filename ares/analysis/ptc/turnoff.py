@@ -249,6 +249,10 @@ def ptc_turnoff_found(signal, var, var_se, nsigma: float = 4.0, min_levels: int 
     hits = dep[:, 1:].sum(1)
     stop = dep[:, 0] & ((n_after == 0) | dep[:, 1] | (2 * hits >= n_after))
     first = np.flatnonzero(stop)
+    fell = np.flatnonzero(dep[:, 0] & (v[i] < collapse * vtop))
+    if not first.size and fell.size:  # the variance collapsed and came back (a second hump, 2 frames): the
+        k = int(i[fell[0]])  # curve is fitted no further; it may have ended anywhere past its first quarter
+        return TurnoffFound(k, k, max(min_levels, n // 4) - 1, n - 1)  # (a hump rising on: corpus curve 760)
     if not first.size:
         # no departure confirmed: "saturation not reached" is a lower limit only when the top
         # levels are consistent with one smooth curve; where a kink fits them significantly
