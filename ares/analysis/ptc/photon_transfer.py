@@ -8,8 +8,9 @@ in signal order whatever the input order; every level gets a status:
 - ``"fit"``: used by the gain fits (at most ``fit_fraction`` of saturation);
 - ``"valid"``: on the curve above the fit range (used for SNR and the noise model);
 - ``"excluded"``: non-finite, no significant signal, clipped (EMVA 1288 4.0 Section 6.6
-  histogram criterion), collapsed, non-monotonic or beyond the PTC turnoff -- with the
-  reason stated; excluded levels are never fitted.
+  histogram criterion), collapsed, non-monotonic, beyond the PTC turnoff, or a wild row among
+  the fitted levels (``headline.drop_outliers``) -- with the reason stated; excluded levels
+  are never fitted.
 
 Saturation is *bracketed* (``ares.analysis.ptc.saturation``): it lies between the last level
 on the curve and the first clipped one. Every full-well definition is checked against the
