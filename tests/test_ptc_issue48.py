@@ -547,3 +547,25 @@ def test_no_gaussian_row_is_an_outlier():
         lv = [PtcLevel(i, float(s), float(v), 0.01 * s, 1e4, float(v), 0.0, 0.0, decision_se=0.01 * s)
               for i, (s, v) in enumerate(zip(S, V))]
         assert not drop_outliers(lv)[1]
+
+
+def test_outliers_at_most_a_tenth_of_the_fitted_levels():
+    """One wild row among 10 fitted levels is dropped (before, the cap undid the drop it had just
+    allowed: one is a tenth of 10); three among 10 are more than a tenth: a shape, none dropped."""
+    from ares.analysis.ptc.headline import drop_outliers
+    from ares.analysis.ptc.saturation import PtcLevel
+
+    S = np.linspace(400, 28000, 10)
+    V = 0.5 * S * (1 + 0.02 * np.random.default_rng(3).standard_normal(S.size))
+
+    def lv(v):
+        return [PtcLevel(i, float(s), float(x), 0.01 * s, 1e4, float(x), 0.0, 0.0, decision_se=0.01 * s)
+                for i, (s, x) in enumerate(zip(S, v))]
+
+    one = V.copy()
+    one[5] *= 2.0
+    kept, dropped = drop_outliers(lv(one))
+    assert [d.index for d in dropped] == [5] and len(kept) == 9
+    three = one.copy()
+    three[[2, 8]] *= 2.0
+    assert not drop_outliers(lv(three))[1]

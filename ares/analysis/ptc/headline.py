@@ -131,30 +131,27 @@ def drop_outliers(fit: list[PtcLevel]) -> tuple[list[PtcLevel], list[PtcLevel]]:
     kept = sorted(fit, key=lambda lv: lv.signal)
     dropped: list[PtcLevel] = []
     while len(kept) >= OUTLIER_MIN_LEVELS:
-        if len(dropped) >= OUTLIER_MAX_FRACTION * len(fit):  # not a few wild rows: a shape (a plateau among
-            return fit, []  # the fitted levels, a bend): left to the fits' own residual checks
         S = np.array([lv.signal for lv in kept])
         V = np.array([lv.variance for lv in kept])
         E = np.array([lv.decision_se for lv in kept])
         if not (np.all(np.isfinite(E)) and np.all(E > 0)):
             break
         z = local_z(S, V, E)
-        ratio = max(MAD_TO_SIGMA * float(fast_median(np.abs(z - fast_median(z)))), 1.0)
-        if not np.max(np.abs(z)) > OUTLIER_SE * ratio:
+        if not np.max(np.abs(z)) > OUTLIER_SE:
             break
         # a wild row drags its neighbours' local curves too: of the five levels farthest out, the
-        # one whose removal leaves the others closest to their curves
-        cand = np.argsort(-np.abs(z))[:5]
-        keep = np.ones(S.size, bool)
-
-        def left(c: int) -> float:
-            keep[:] = True
-            keep[c] = False
-            return float(np.max(np.abs(local_z(S[keep], V[keep], E[keep]))))
-
-        j = int(min(cand, key=left))
-        if not abs(z[j]) > OUTLIER_SE * ratio:
+        # one whose removal leaves the others closest to their curves; the measured scatter (MAD)
+        # taken without it, which on a sparse curve its neighbours' dragged residuals would inflate
+        rest = {}
+        for c in np.argsort(-np.abs(z))[:5]:
+            m = np.arange(S.size) != c
+            rest[int(c)] = local_z(S[m], V[m], E[m])
+        j = min(rest, key=lambda c: float(np.max(np.abs(rest[c]))))
+        zj = rest[j]
+        if not abs(z[j]) > OUTLIER_SE * max(MAD_TO_SIGMA * float(fast_median(np.abs(zj - fast_median(zj)))), 1.0):
             break
+        if len(dropped) + 1 > OUTLIER_MAX_FRACTION * len(fit):  # not a few wild rows: a shape (a plateau among
+            return fit, []  # the fitted levels, a bend): left to the fits' own residual checks
         lv = kept.pop(j)
         dropped.append(dataclasses.replace(lv, status="excluded", reason=(
             f"outlier row: its variance {lv.variance:.4g} DN^2 lies {abs(z[j]):.3g} SE off the curve through its "
